@@ -1,0 +1,28 @@
+# Small helpers shared by all folders.
+
+# Adds every immediate subfolder of DIR that has a CMakeLists.txt, in name order, so a new
+# service or library is one new folder and nothing else to edit.
+function(fieldline_add_subdirectories dir)
+  file(GLOB children RELATIVE ${PROJECT_SOURCE_DIR}/${dir} ${PROJECT_SOURCE_DIR}/${dir}/*)
+  list(SORT children)
+  foreach(child ${children})
+    if(EXISTS ${PROJECT_SOURCE_DIR}/${dir}/${child}/CMakeLists.txt)
+      add_subdirectory(${PROJECT_SOURCE_DIR}/${dir}/${child} ${PROJECT_BINARY_DIR}/${dir}/${child})
+    endif()
+  endforeach()
+endfunction()
+
+# fieldline_test(NAME SOURCES a.cpp b.cpp LIBS lib1 lib2 [LABELS unit])
+# A GoogleTest executable whose cases are registered with CTest one by one.
+function(fieldline_test name)
+  cmake_parse_arguments(ARG "" "" "SOURCES;LIBS;LABELS" ${ARGN})
+  add_executable(${name} ${ARG_SOURCES})
+  target_link_libraries(${name} PRIVATE ${ARG_LIBS} GTest::gtest GTest::gtest_main fieldline_root)
+  if(NOT ARG_LABELS)
+    set(ARG_LABELS unit)
+  endif()
+  gtest_discover_tests(${name}
+    WORKING_DIRECTORY ${PROJECT_SOURCE_DIR}
+    PROPERTIES LABELS "${ARG_LABELS}" ENVIRONMENT "FIELDLINE_ROOT=${PROJECT_SOURCE_DIR}"
+    DISCOVERY_TIMEOUT 60)
+endfunction()

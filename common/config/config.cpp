@@ -1,0 +1,267 @@
+#include "common/config/config.hpp"
+
+#include <cmath>
+#include <cstdint>
+#include <cstdlib>
+#include <filesystem>
+#include <iostream>
+#include <sstream>
+#include <type_traits>
+
+#ifndef FIELDLINE_SOURCE_DIR
+#define FIELDLINE_SOURCE_DIR "."
+#endif
+
+namespace fieldline::config {
+namespace {
+
+template <typename T>
+std::string typeName() {
+  if constexpr (std::is_same_v<T, bool>) return "a boolean";
+  if constexpr (std::is_integral_v<T>) return "an integer";
+  if constexpr (std::is_floating_point_v<T>) return "a number";
+  if constexpr (std::is_same_v<T, std::string>) return "a string";
+  return "a value";
+}
+
+template <typename T>
+std::string show(const T& v) {
+  std::ostringstream s;
+  s << v;
+  return s.str();
+}
+
+}  // namespace
+
+Node::Node(YAML::Node node, std::string file, std::string path)
+    : node_(std::move(node)),
+      file_(std::move(file)),
+      path_(std::move(path)),
+      used_(std::make_shared<std::set<std::string>>()) {}
+
+Node Node::loadFile(const std::string& path) {
+  if (!std::filesystem::exists(path)) throw Error(path + ": file not found");
+  try {
+    return Node(YAML::LoadFile(path), path, "");
+  } catch (const YAML::ParserException& e) {
+    throw Error(path + ":" + std::to_string(e.mark.line + 1) + ": YAML syntax error: " + e.msg);
+  } catch (const YAML::Exception& e) {
+    throw Error(path + ": cannot read: " + e.what());
+  }
+}
+
+Node Node::loadString(const std::string& text, const std::string& name) {
+  try {
+    return Node(YAML::Load(text), name, "");
+  } catch (const YAML::ParserException& e) {
+    throw Error(name + ":" + std::to_string(e.mark.line + 1) + ": YAML syntax error: " + e.msg);
+  }
+}
+
+int Node::line() const {
+  const auto mark = node_.Mark();
+  return mark.is_null() ? 0 : mark.line + 1;
+}
+
+std::string Node::keyPath(const std::string& key) const {
+  if (key.empty()) return path_.empty() ? "<root>" : path_;
+  if (path_.empty()) return key;
+  return path_ + "." + key;
+}
+
+std::string Node::location(const std::string& key) const {
+  int ln = line();
+  if (!key.empty() && node_.IsMap()) {
+    // Point at the key itself when it exists.
+    for (auto it = node_.begin(); it != node_.end(); ++it) {
+      if (it->first.Scalar() == key && !it->first.Mark().is_null()) ln = it->first.Mark().line + 1;
+    }
+  }
+  return file_ + ":" + std::to_string(ln) + ": " + keyPath(key);
+}
+
+void Node::fail(const std::string& key, const std::string& what) const {
+  throw Error(location(key) + ": " + what);
+}
+
+YAML::Node Node::lookup(const std::string& key) const {
+  if (!node_.IsMap()) fail("", "expected a map with key '" + key + "'");
+  used_->insert(key);
+  return node_[key];
+}
+
+bool Node::has(const std::string& key) const {
+  return node_.IsMap() && node_[key].IsDefined() && !node_[key].IsNull();
+}
+
+template <typename T>
+T Node::convert(const YAML::Node& value, const std::string& key) const {
+  if (!value.IsScalar()) fail(key, "expected " + typeName<T>());
+  T out{};
+  try {
+    out = value.as<T>();
+  } catch (const YAML::Exception&) {
+    fail(key, "expected " + typeName<T>() + ", got '" + value.Scalar() + "'");
+  }
+  if constexpr (std::is_floating_point_v<T>) {
+    if (!std::isfinite(out)) fail(key, "must be a finite number, got '" + value.Scalar() + "'");
+  }
+  return out;
+}
+
+template <typename T>
+T Node::get(const std::string& key) const {
+  const YAML::Node v = lookup(key);
+  if (!v.IsDefined() || v.IsNull()) fail(key, "missing required key");
+  return convert<T>(v, key);
+}
+
+template <typename T>
+T Node::get(const std::string& key, T min, T max) const {
+  const T v = get<T>(key);
+  if (!(v >= min && v <= max)) {
+    fail(key, "value " + show(v) + " out of range [" + show(min) + ", " + show(max) + "]");
+  }
+  return v;
+}
+
+template <typename T>
+T Node::getOr(const std::string& key, T fallback) const {
+  if (!node_.IsMap() && node_.IsDefined() && !node_.IsNull()) fail("", "expected a map");
+  used_->insert(key);
+  if (!has(key)) return fallback;
+  return convert<T>(node_[key], key);
+}
+
+template <typename T>
+T Node::getOr(const std::string& key, T fallback, T min, T max) const {
+  const T v = getOr<T>(key, fallback);
+  if (!(v >= min && v <= max)) {
+    fail(key, "value " + show(v) + " out of range [" + show(min) + ", " + show(max) + "]");
+  }
+  return v;
+}
+
+template <typename T>
+std::vector<T> Node::getList(const std::string& key, std::optional<std::size_t> length) const {
+  const YAML::Node v = lookup(key);
+  if (!v.IsDefined() || v.IsNull()) fail(key, "missing required key");
+  if (!v.IsSequence()) fail(key, "expected a list");
+  if (length && v.size() != *length) {
+    fail(key, "expected " + std::to_string(*length) + " elements, got " + std::to_string(v.size()));
+  }
+  std::vector<T> out;
+  out.reserve(v.size());
+  for (std::size_t i = 0; i < v.size(); ++i) {
+    out.push_back(convert<T>(v[i], key + "[" + std::to_string(i) + "]"));
+  }
+  return out;
+}
+
+template <typename T>
+T Node::as() const {
+  return convert<T>(node_, "");
+}
+
+std::string Node::getChoice(const std::string& key, const std::vector<std::string>& choices) const {
+  const auto v = get<std::string>(key);
+  for (const auto& c : choices) {
+    if (c == v) return v;
+  }
+  std::string list;
+  for (const auto& c : choices) list += (list.empty() ? "" : ", ") + c;
+  fail(key, "'" + v + "' is not one of: " + list);
+}
+
+Node Node::child(const std::string& key) const {
+  const YAML::Node v = lookup(key);
+  if (!v.IsDefined() || v.IsNull()) fail(key, "missing required section");
+  if (!v.IsMap()) fail(key, "expected a map");
+  return Node(v, file_, keyPath(key));
+}
+
+std::optional<Node> Node::childIf(const std::string& key) const {
+  if (!has(key)) {
+    used_->insert(key);
+    return std::nullopt;
+  }
+  return child(key);
+}
+
+std::vector<Node> Node::children(const std::string& key) const {
+  const YAML::Node v = lookup(key);
+  if (!v.IsDefined() || v.IsNull()) fail(key, "missing required list");
+  if (!v.IsSequence()) fail(key, "expected a list");
+  std::vector<Node> out;
+  for (std::size_t i = 0; i < v.size(); ++i) {
+    out.push_back(Node(v[i], file_, keyPath(key) + "[" + std::to_string(i) + "]"));
+  }
+  return out;
+}
+
+std::vector<std::string> Node::keys() const {
+  std::vector<std::string> out;
+  if (!node_.IsMap()) return out;
+  for (auto it = node_.begin(); it != node_.end(); ++it) out.push_back(it->first.Scalar());
+  return out;
+}
+
+void Node::rejectUnknownKeys() const {
+  if (!node_.IsMap()) return;
+  for (auto it = node_.begin(); it != node_.end(); ++it) {
+    const std::string k = it->first.Scalar();
+    if (used_->count(k)) continue;
+    std::string known;
+    for (const auto& u : *used_) known += (known.empty() ? "" : ", ") + u;
+    fail(k, "unknown key (expected one of: " + known + ")");
+  }
+}
+
+#define FIELDLINE_CONFIG_INSTANTIATE(T)                                                      \
+  template T Node::get<T>(const std::string&) const;                                         \
+  template T Node::getOr<T>(const std::string&, T) const;                                    \
+  template std::vector<T> Node::getList<T>(const std::string&, std::optional<std::size_t>) \
+      const;                                                                                 \
+  template T Node::as<T>() const;
+#define FIELDLINE_CONFIG_INSTANTIATE_RANGE(T)                    \
+  template T Node::get<T>(const std::string&, T, T) const; \
+  template T Node::getOr<T>(const std::string&, T, T, T) const;
+
+FIELDLINE_CONFIG_INSTANTIATE(bool)
+FIELDLINE_CONFIG_INSTANTIATE(int)
+FIELDLINE_CONFIG_INSTANTIATE(std::int64_t)
+FIELDLINE_CONFIG_INSTANTIATE(std::uint32_t)
+FIELDLINE_CONFIG_INSTANTIATE(double)
+FIELDLINE_CONFIG_INSTANTIATE(float)
+FIELDLINE_CONFIG_INSTANTIATE(std::string)
+FIELDLINE_CONFIG_INSTANTIATE_RANGE(int)
+FIELDLINE_CONFIG_INSTANTIATE_RANGE(std::int64_t)
+FIELDLINE_CONFIG_INSTANTIATE_RANGE(std::uint32_t)
+FIELDLINE_CONFIG_INSTANTIATE_RANGE(double)
+FIELDLINE_CONFIG_INSTANTIATE_RANGE(float)
+
+void runOrExit(const std::function<void()>& body) {
+  try {
+    body();
+  } catch (const Error& e) {
+    std::cerr << "config error: " << e.what() << "\n";
+    std::exit(2);
+  } catch (const YAML::Exception& e) {
+    std::cerr << "config error: " << e.what() << "\n";
+    std::exit(2);
+  }
+}
+
+std::string projectRoot() {
+  if (const char* env = std::getenv("FIELDLINE_ROOT"); env && *env) return env;
+  return FIELDLINE_SOURCE_DIR;
+}
+
+std::string resolvePreset(const std::string& category, const std::string& nameOrPath) {
+  const bool isPath = nameOrPath.find('/') != std::string::npos ||
+                      (nameOrPath.size() > 5 && nameOrPath.ends_with(".yaml"));
+  if (isPath) return nameOrPath;
+  return projectRoot() + "/config/" + category + "/" + nameOrPath + ".yaml";
+}
+
+}  // namespace fieldline::config
