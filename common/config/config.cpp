@@ -169,7 +169,8 @@ std::string Node::getChoice(const std::string& key, const std::vector<std::strin
     if (c == v) return v;
   }
   std::string list;
-  for (const auto& c : choices) list += (list.empty() ? "" : ", ") + c;
+  for (const auto& c : choices)
+    list += (list.empty() ? "" : ", ") + c;
   fail(key, "'" + v + "' is not one of: " + list);
 }
 
@@ -202,7 +203,8 @@ std::vector<Node> Node::children(const std::string& key) const {
 std::vector<std::string> Node::keys() const {
   std::vector<std::string> out;
   if (!node_.IsMap()) return out;
-  for (auto it = node_.begin(); it != node_.end(); ++it) out.push_back(it->first.Scalar());
+  for (auto it = node_.begin(); it != node_.end(); ++it)
+    out.push_back(it->first.Scalar());
   return out;
 }
 
@@ -212,18 +214,18 @@ void Node::rejectUnknownKeys() const {
     const std::string k = it->first.Scalar();
     if (used_->count(k)) continue;
     std::string known;
-    for (const auto& u : *used_) known += (known.empty() ? "" : ", ") + u;
+    for (const auto& u : *used_)
+      known += (known.empty() ? "" : ", ") + u;
     fail(k, "unknown key (expected one of: " + known + ")");
   }
 }
 
-#define FIELDLINE_CONFIG_INSTANTIATE(T)                                                      \
-  template T Node::get<T>(const std::string&) const;                                         \
-  template T Node::getOr<T>(const std::string&, T) const;                                    \
-  template std::vector<T> Node::getList<T>(const std::string&, std::optional<std::size_t>) \
-      const;                                                                                 \
+#define FIELDLINE_CONFIG_INSTANTIATE(T)                                                           \
+  template T Node::get<T>(const std::string&) const;                                              \
+  template T Node::getOr<T>(const std::string&, T) const;                                         \
+  template std::vector<T> Node::getList<T>(const std::string&, std::optional<std::size_t>) const; \
   template T Node::as<T>() const;
-#define FIELDLINE_CONFIG_INSTANTIATE_RANGE(T)                    \
+#define FIELDLINE_CONFIG_INSTANTIATE_RANGE(T)              \
   template T Node::get<T>(const std::string&, T, T) const; \
   template T Node::getOr<T>(const std::string&, T, T, T) const;
 

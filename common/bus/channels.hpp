@@ -1,0 +1,55 @@
+// The one table of channel names. A process never spells a channel name anywhere else: it
+// subscribes and publishes through these constants, which also fix the message type.
+#pragma once
+
+#include <array>
+#include <string_view>
+
+#include <fieldline/ball_observation_t.hpp>
+#include <fieldline/ball_state_t.hpp>
+#include <fieldline/field_features_t.hpp>
+#include <fieldline/image_t.hpp>
+#include <fieldline/line_contours_t.hpp>
+#include <fieldline/motion_command_t.hpp>
+#include <fieldline/obstacle_observations_t.hpp>
+#include <fieldline/odometry_t.hpp>
+#include <fieldline/robot_state_t.hpp>
+#include <fieldline/service_status_t.hpp>
+#include <fieldline/team_state_t.hpp>
+#include <fieldline/world_state_t.hpp>
+
+namespace fieldline::bus {
+
+// A channel name bound to its message type.
+template <typename Msg>
+struct Channel {
+  using Message = Msg;
+  std::string_view name;
+};
+
+namespace channels {
+// Robot bus (one per robot).
+inline constexpr Channel<image_t> kCameraImage{"CAMERA_IMAGE"};
+inline constexpr Channel<line_contours_t> kVisionLines{"VISION_LINES"};
+inline constexpr Channel<ball_observation_t> kVisionBall{"VISION_BALL"};
+inline constexpr Channel<obstacle_observations_t> kVisionObstacles{"VISION_OBSTACLES"};
+inline constexpr Channel<field_features_t> kFieldFeatures{"FIELD_FEATURES"};
+inline constexpr Channel<odometry_t> kOdometry{"ODOMETRY"};
+inline constexpr Channel<motion_command_t> kMotionCommand{"MOTION_COMMAND"};
+inline constexpr Channel<robot_state_t> kRobotState{"ROBOT_STATE"};
+inline constexpr Channel<ball_state_t> kBallState{"BALL_STATE"};
+inline constexpr Channel<team_state_t> kTeamState{"TEAM_STATE"};
+// Every bus, from every process.
+inline constexpr Channel<service_status_t> kServiceStatus{"SERVICE_STATUS"};
+// Simulator bus only: ground truth.
+inline constexpr Channel<world_state_t> kSimWorld{"SIM_WORLD"};
+}  // namespace channels
+
+// Every channel name, for tools that list or record them.
+inline constexpr std::array<std::string_view, 12> kAllChannelNames{
+    channels::kCameraImage.name,     channels::kVisionLines.name,   channels::kVisionBall.name,
+    channels::kVisionObstacles.name, channels::kFieldFeatures.name, channels::kOdometry.name,
+    channels::kMotionCommand.name,   channels::kRobotState.name,    channels::kBallState.name,
+    channels::kTeamState.name,       channels::kServiceStatus.name, channels::kSimWorld.name};
+
+}  // namespace fieldline::bus

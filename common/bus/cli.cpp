@@ -1,0 +1,48 @@
+#include "common/bus/cli.hpp"
+
+#include <iostream>
+
+#include <spdlog/spdlog.h>
+
+#include "common/bus/node.hpp"
+#include "common/config/config.hpp"
+
+namespace fieldline::bus {
+
+void CommonOptions::addTo(CLI::App& app) {
+  app.add_option("--robot", robot, "Robot number 1..6 (0: team-wide process)")
+      ->check(CLI::Range(0, 99))
+      ->capture_default_str();
+  app.add_option("--bus-url", bus_url,
+                 "LCM URL of this process's bus (default: robot N's bus, "
+                 "udpm://239.255.76.67:<7667+N>?ttl=0...)");
+  app.add_option("--sim-bus-url", sim_bus_url,
+                 "LCM URL of the simulator's bus (default udpm://239.255.76.67:7667?ttl=0...)");
+  app.add_option("--log-level", log_level, "trace, debug, info, warn or error")
+      ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error"}))
+      ->capture_default_str();
+}
+
+void CommonOptions::resolve(const std::string& process) {
+  if (bus_url.empty()) bus_url = robot > 0 ? robotBusUrl(robot) : simBusUrl();
+  if (sim_bus_url.empty()) sim_bus_url = simBusUrl();
+  spdlog::set_level(spdlog::level::from_str(log_level));
+  spdlog::set_pattern("%H:%M:%S.%e %^%l%$ " + process + "[" + std::to_string(robot) + "] %v");
+}
+
+int runMain(const std::string& process, const std::function<int()>& body) {
+  try {
+    return body();
+  } catch (const config::Error& e) {
+    std::cerr << process << ": config error: " << e.what() << "\n";
+    return 2;
+  } catch (const BusError& e) {
+    std::cerr << process << ": bus error: " << e.what() << "\n";
+    return 3;
+  } catch (const std::exception& e) {
+    std::cerr << process << ": error: " << e.what() << "\n";
+    return 1;
+  }
+}
+
+}  // namespace fieldline::bus

@@ -1,0 +1,32 @@
+// What every process's main() shares: the common command-line options and the error handling
+// around the body (bus and config errors end the process with a clear message and exit code).
+#pragma once
+
+#include <functional>
+#include <string>
+
+#include <CLI/CLI.hpp>
+
+namespace fieldline::bus {
+
+struct CommonOptions {
+  // 1..6; 0 for processes that serve the whole team (the simulator).
+  int robot = 1;
+  // Primary bus; empty means robotBusUrl(robot) (simBusUrl() for robot 0).
+  std::string bus_url;
+  // The simulator's bus; empty means simBusUrl().
+  std::string sim_bus_url;
+  // trace, debug, info, warn, error.
+  std::string log_level = "info";
+
+  // Adds --robot, --bus-url, --sim-bus-url and --log-level to `app`.
+  void addTo(CLI::App& app);
+  // Fills the defaults and configures logging; call after parsing.
+  void resolve(const std::string& process);
+};
+
+// Runs `body` and turns the project's exceptions into messages on stderr and exit codes:
+// 2 for configuration errors, 3 for bus errors, 1 for anything else.
+int runMain(const std::string& process, const std::function<int()>& body);
+
+}  // namespace fieldline::bus

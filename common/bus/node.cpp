@@ -1,0 +1,260 @@
+#include "common/bus/node.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <csignal>
+
+#include <poll.h>
+#include <spdlog/spdlog.h>
+#include <lcm/lcm-cpp.hpp>
+
+namespace fieldline::bus {
+namespace {
+
+std::atomic<bool> g_stop_signal{false};
+
+extern "C" void onStopSignal(int) {
+  g_stop_signal = true;
+}
+
+std::string remedyFor(const std::string& url) {
+  if (url.rfind("udpm://", 0) == 0 || url.empty()) {
+    return "LCM bus '" + url +
+           "' is not usable: LCM needs a multicast route covering 224.0.0.0/4. Run scripts/setup, "
+           "or as root: ip link set lo multicast on; ip route replace 224.0.0.0/4 dev lo "
+           "(without root: unshare -rn and the same commands inside the namespace).";
+  }
+  return "LCM bus '" + url + "' could not be opened (check the URL's provider and options).";
+}
+
+}  // namespace
+
+void installStopSignals() {
+  struct sigaction sa {};
+  sa.sa_handler = onStopSignal;
+  sigemptyset(&sa.sa_mask);
+  sigaction(SIGINT, &sa, nullptr);
+  sigaction(SIGTERM, &sa, nullptr);
+}
+
+bool stopSignalReceived() {
+  return g_stop_signal.load();
+}
+
+// ---------------------------------------------------------------------------------------------
+struct Connection::Impl {
+  lcm::LCM lcm;
+  explicit Impl(const std::string& url) : lcm(url) {}
+};
+
+Connection::Connection(std::string url)
+    : url_(std::move(url)), impl_(std::make_unique<Impl>(url_)) {}
+Connection::~Connection() = default;
+
+std::shared_ptr<Connection> Connection::open(const std::string& url) {
+  std::shared_ptr<Connection> c(new Connection(url));
+  if (!c->impl_->lcm.good()) throw BusError(remedyFor(url));
+  return c;
+}
+
+// ---------------------------------------------------------------------------------------------
+struct Node::Subscription {
+  Node* node;
+  std::string channel;
+  RawHandler handler;
+};
+
+namespace {
+void dispatchRaw(const lcm::ReceiveBuffer* rbuf, const std::string&, void* context) {
+  auto* sub = static_cast<Node::Subscription*>(context);
+  sub->handler(rbuf->data, static_cast<int>(rbuf->data_size));
+}
+}  // namespace
+
+Node::Node(NodeOptions options, const Clock& clock)
+    : Node(options, clock,
+           Connection::open(!options.url.empty()   ? options.url
+                            : options.robot_id > 0 ? robotBusUrl(options.robot_id)
+                                                   : simBusUrl())) {}
+
+Node::Node(NodeOptions options, const Clock& clock, std::shared_ptr<Connection> primary)
+    : options_(std::move(options)),
+      clock_(clock),
+      status_(options_.process, options_.robot_id, clock.now()),
+      next_status_(clock.now() + options_.status_period_us) {
+  if (options_.url.empty()) options_.url = primary->url();
+  buses_.push_back(std::move(primary));
+}
+
+Node::~Node() = default;
+
+BusId Node::addBus(const std::string& url) {
+  return addBus(Connection::open(url));
+}
+
+BusId Node::addBus(std::shared_ptr<Connection> connection) {
+  buses_.push_back(std::move(connection));
+  return static_cast<BusId>(buses_.size() - 1);
+}
+
+const std::string& Node::url(BusId bus) const {
+  return buses_.at(static_cast<std::size_t>(bus))->url();
+}
+
+Connection& Node::connection(BusId bus) {
+  if (bus < 0 || static_cast<std::size_t>(bus) >= buses_.size()) {
+    throw std::out_of_range("no bus with id " + std::to_string(bus));
+  }
+  return *buses_[static_cast<std::size_t>(bus)];
+}
+
+void Node::subscribeRaw(const std::string& channel, BusId bus, RawHandler handler) {
+  auto sub = std::make_unique<Subscription>(Subscription{this, channel, std::move(handler)});
+  auto* s = connection(bus).impl_->lcm.subscribeFunction(channel, &dispatchRaw,
+                                                         static_cast<void*>(sub.get()));
+  // Big messages (images) come in bursts; let a slow handler fall behind a little, not forever.
+  if (s) s->setQueueCapacity(60);
+  subscriptions_.push_back(std::move(sub));
+}
+
+void Node::stampHeader(const std::string& channel, header_t& header) {
+  auto it = std::find_if(next_seq_.begin(), next_seq_.end(),
+                         [&](const auto& p) { return p.first == channel; });
+  if (it == next_seq_.end()) {
+    next_seq_.emplace_back(channel, 0);
+    it = next_seq_.end() - 1;
+  }
+  header.seq = it->second++;
+  header.robot_id = static_cast<std::int8_t>(options_.robot_id);
+  header.utime_published = clock_.now();
+}
+
+bool Node::publishRaw(const std::string& channel, const header_t& header, BusId bus) {
+  const int rc = connection(bus).impl_->lcm.publish(channel, encode_buffer_.data(),
+                                                    static_cast<unsigned>(encode_buffer_.size()));
+  if (rc != 0) {
+    reportError("publish", channel + ": LCM publish failed (" + std::to_string(rc) + ")");
+    return false;
+  }
+  status_.onPublished(channel, header.utime, header.utime_published);
+  return true;
+}
+
+bool Node::acceptHeader(const std::string& channel, const header_t& header) {
+  const Utime now = clock_.now();
+  if (header.utime > now + options_.future_tolerance_us) {
+    reject(channel, "future_utime",
+           "utime " + std::to_string(header.utime) + " is " +
+               std::to_string((header.utime - now) / 1000) + " ms in the future");
+    return false;
+  }
+  status_.onReceived(channel, header.robot_id, header.seq, header.utime, header.utime_published);
+  return true;
+}
+
+void Node::reject(const std::string& channel, const std::string& kind, const std::string& text) {
+  status_.onRejected(channel);
+  reportError(kind, channel + ": " + text);
+}
+
+void Node::reportError(const std::string& kind, const std::string& text) {
+  status_.onError(kind, text, clock_.now());
+  // Log the first few of each kind, then every 100th, so a flood stays readable.
+  auto it = std::find_if(logged_errors_.begin(), logged_errors_.end(),
+                         [&](const auto& p) { return p.first == kind; });
+  if (it == logged_errors_.end()) {
+    logged_errors_.emplace_back(kind, 0);
+    it = logged_errors_.end() - 1;
+  }
+  const std::int64_t n = ++it->second;
+  if (n <= 5 || n % 100 == 0) {
+    spdlog::warn("[{}] {} (#{} of this kind): {}", options_.process, kind, n, text);
+  }
+}
+
+void Node::setMetric(const std::string& name, double value) {
+  status_.setMetric(name, value);
+}
+
+void Node::timed(const std::function<void()>& fn) {
+  // Processing time is a measurement of this machine, not part of the time model: steady clock.
+  const auto start = std::chrono::steady_clock::now();
+  fn();
+  const auto end = std::chrono::steady_clock::now();
+  status_.onProcessing(std::chrono::duration<double, std::milli>(end - start).count());
+}
+
+void Node::every(Utime period_us, std::function<void()> fn) {
+  if (period_us <= 0) throw std::invalid_argument("timer period must be positive");
+  timers_.push_back(Timer{clock_.now() + period_us, period_us, std::move(fn)});
+}
+
+void Node::at(Utime when, std::function<void()> fn) {
+  timers_.push_back(Timer{when, 0, std::move(fn)});
+}
+
+void Node::fireTimers() {
+  const Utime now = clock_.now();
+  // Index loop: a timer callback may add timers.
+  for (std::size_t i = 0; i < timers_.size(); ++i) {
+    if (timers_[i].next > now) continue;
+    auto fn = timers_[i].fn;
+    if (timers_[i].period > 0) {
+      timers_[i].next += timers_[i].period;
+      // Far behind (e.g. a stalled process): skip missed ticks instead of firing a burst.
+      if (timers_[i].next <= now) timers_[i].next = now + timers_[i].period;
+    } else {
+      timers_[i].period = -1;  // fired one-shot, removed below
+    }
+    timed(fn);
+  }
+  std::erase_if(timers_, [](const Timer& t) { return t.period < 0; });
+  if (options_.status_period_us > 0 && now >= next_status_) {
+    publishStatus();
+    next_status_ = now + options_.status_period_us;
+  }
+}
+
+void Node::publishStatus() {
+  service_status_t s = status_.takeStatus(clock_.now());
+  publish(channels::kServiceStatus, s);
+}
+
+int Node::spinOnce(int timeout_ms) {
+  std::vector<pollfd> fds;
+  fds.reserve(buses_.size());
+  for (const auto& b : buses_)
+    fds.push_back(pollfd{b->impl_->lcm.getFileno(), POLLIN, 0});
+  int handled = 0;
+  const int ready = ::poll(fds.data(), fds.size(), std::max(0, timeout_ms));
+  if (ready > 0) {
+    for (std::size_t i = 0; i < fds.size(); ++i) {
+      if (fds[i].revents & POLLIN) {
+        // Drain what is queued on this bus without blocking.
+        while (buses_[i]->impl_->lcm.handleTimeout(0) > 0)
+          ++handled;
+      }
+    }
+  }
+  fireTimers();
+  return handled;
+}
+
+bool Node::stopRequested() const {
+  return stop_requested_ || stopSignalReceived();
+}
+
+int Node::run() {
+  installStopSignals();
+  while (!stopRequested()) {
+    Utime next = options_.status_period_us > 0 ? next_status_ : clock_.now() + 100'000;
+    for (const auto& t : timers_)
+      next = std::min(next, t.next);
+    const Utime wait_us = std::clamp<Utime>(next - clock_.now(), 0, 100'000);
+    spinOnce(static_cast<int>((wait_us + 999) / 1000));
+  }
+  spdlog::info("[{}] stopping", options_.process);
+  return 0;
+}
+
+}  // namespace fieldline::bus

@@ -1,0 +1,191 @@
+// The node base: the only code in the project that talks to LCM.
+//
+//   SystemClock clock;
+//   bus::Node node({.process = "fusion", .robot_id = 3, .url = bus::robotBusUrl(3)}, clock);
+//   node.subscribe(bus::channels::kOdometry, [&](const odometry_t& m) { ... });
+//   node.every(20 * kMicrosPerMilli, [&] { node.publish(bus::channels::kRobotState, state); });
+//   node.run();  // until SIGINT/SIGTERM or requestStop()
+//
+// Every received message is decoded, validated (bus/validate.hpp), checked against the clock
+// (no utime from the future) and counted before the handler sees it; a bad one is counted with
+// its reason and dropped. publish() fills header.utime_published, seq and robot_id; the caller
+// sets header.utime, the physical time of what the message describes. SERVICE_STATUS goes out
+// once per second on the primary bus.
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "common/bus/channels.hpp"
+#include "common/bus/status.hpp"
+#include "common/bus/urls.hpp"
+#include "common/bus/validate.hpp"
+#include "common/time/clock.hpp"
+
+namespace fieldline::bus {
+
+// The bus could not be opened (e.g. no multicast route). what() says what to run.
+class BusError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+// One LCM connection; several nodes in one process may share it (memq:// tests).
+class Connection {
+ public:
+  // Opens `url` and checks it works; throws BusError with a remedy otherwise.
+  static std::shared_ptr<Connection> open(const std::string& url);
+  ~Connection();
+  Connection(const Connection&) = delete;
+  Connection& operator=(const Connection&) = delete;
+  const std::string& url() const { return url_; }
+
+ private:
+  friend class Node;
+  struct Impl;
+  explicit Connection(std::string url);
+  std::string url_;
+  std::unique_ptr<Impl> impl_;
+};
+
+struct NodeOptions {
+  // Process name shown in SERVICE_STATUS and logs, e.g. "camera".
+  std::string process;
+  // 1..6 on a robot, 0 for the simulator and tools.
+  int robot_id = 0;
+  // Primary bus; empty means robotBusUrl(robot_id) (simBusUrl() for robot 0).
+  std::string url;
+  // Received messages with utime beyond now + this are rejected as from the future.
+  Utime future_tolerance_us = 500'000;
+  // Period of SERVICE_STATUS; 0 disables it.
+  Utime status_period_us = kMicrosPerSecond;
+};
+
+using BusId = int;
+inline constexpr BusId kPrimaryBus = 0;
+
+class Node {
+ public:
+  Node(NodeOptions options, const Clock& clock);
+  // Uses an existing connection as the primary bus (in-process tests over memq://).
+  Node(NodeOptions options, const Clock& clock, std::shared_ptr<Connection> primary);
+  ~Node();
+  Node(const Node&) = delete;
+  Node& operator=(const Node&) = delete;
+
+  // Opens a further bus (e.g. the simulator's) and returns its id for subscribe/publish.
+  BusId addBus(const std::string& url);
+  BusId addBus(std::shared_ptr<Connection> connection);
+
+  template <typename Msg>
+  void subscribe(Channel<Msg> channel, std::function<void(const Msg&)> handler,
+                 BusId bus = kPrimaryBus) {
+    const std::string name(channel.name);
+    subscribeRaw(name, bus,
+                 [this, name, handler = std::move(handler), msg = Msg{}](const void* data,
+                                                                         int size) mutable {
+                   if (msg.decode(data, 0, size) != size) {
+                     reject(name, "decode",
+                            "undecodable message of " + std::to_string(size) + " bytes");
+                     return;
+                   }
+                   if (auto problem = validate(msg)) {
+                     reject(name, "invalid", *problem);
+                     return;
+                   }
+                   if (!acceptHeader(name, msg.header)) return;
+                   timed([&] { handler(msg); });
+                 });
+  }
+
+  // Publishes `msg` (its header.utime set by the caller) after filling the rest of the header.
+  // An invalid message (NaN, bad sizes) is counted as an error and not sent; returns false then.
+  template <typename Msg>
+  bool publish(Channel<Msg> channel, Msg& msg, BusId bus = kPrimaryBus) {
+    const std::string name(channel.name);
+    stampHeader(name, msg.header);
+    if (auto problem = validate(msg)) {
+      reportError("invalid_output", name + ": " + *problem);
+      return false;
+    }
+    const int size = msg.getEncodedSize();
+    encode_buffer_.resize(static_cast<std::size_t>(size));
+    if (msg.encode(encode_buffer_.data(), 0, size) != size) {
+      reportError("encode", name + ": encoding failed");
+      return false;
+    }
+    return publishRaw(name, msg.header, bus);
+  }
+
+  // Calls `fn` every `period_us` of clock time (first call one period from now).
+  void every(Utime period_us, std::function<void()> fn);
+  // Calls `fn` once, at clock time `when`.
+  void at(Utime when, std::function<void()> fn);
+
+  // Waits up to timeout_ms for traffic, handles what arrived, fires due timers and status.
+  // Returns the number of messages handled.
+  int spinOnce(int timeout_ms);
+  // Spins until requestStop() or SIGINT/SIGTERM. Returns 0.
+  int run();
+  void requestStop() { stop_requested_ = true; }
+  bool stopRequested() const;
+
+  // Counts an error of `kind` (e.g. "serial_crc") with a message; logs it (rate-limited).
+  void reportError(const std::string& kind, const std::string& text);
+  // A process-specific number for SERVICE_STATUS, its unit in its name ("render_ms").
+  void setMetric(const std::string& name, double value);
+
+  const Clock& clock() const { return clock_; }
+  Utime now() const { return clock_.now(); }
+  int robotId() const { return options_.robot_id; }
+  const NodeOptions& options() const { return options_; }
+  const std::string& url(BusId bus = kPrimaryBus) const;
+  StatusCollector& status() { return status_; }
+  // Publishes SERVICE_STATUS now (also done automatically every status period).
+  void publishStatus();
+
+  // Implementation detail, public only for the LCM callback trampoline.
+  struct Subscription;
+
+ private:
+  using RawHandler = std::function<void(const void* data, int size)>;
+  struct Timer {
+    Utime next;
+    Utime period;  // 0: one-shot
+    std::function<void()> fn;
+  };
+
+  void subscribeRaw(const std::string& channel, BusId bus, RawHandler handler);
+  bool publishRaw(const std::string& channel, const header_t& header, BusId bus);
+  void stampHeader(const std::string& channel, header_t& header);
+  bool acceptHeader(const std::string& channel, const header_t& header);
+  void reject(const std::string& channel, const std::string& kind, const std::string& text);
+  void timed(const std::function<void()>& fn);
+  void fireTimers();
+  Connection& connection(BusId bus);
+
+  NodeOptions options_;
+  const Clock& clock_;
+  std::vector<std::shared_ptr<Connection>> buses_;
+  std::vector<std::unique_ptr<Subscription>> subscriptions_;
+  std::vector<Timer> timers_;
+  std::vector<std::pair<std::string, std::int64_t>> next_seq_;
+  std::vector<std::uint8_t> encode_buffer_;
+  StatusCollector status_;
+  Utime next_status_;
+  std::atomic<bool> stop_requested_{false};
+  std::vector<std::pair<std::string, std::int64_t>> logged_errors_;
+};
+
+// Installs SIGINT/SIGTERM handlers that make every Node::run() return (idempotent).
+void installStopSignals();
+// True once SIGINT or SIGTERM arrived.
+bool stopSignalReceived();
+
+}  // namespace fieldline::bus

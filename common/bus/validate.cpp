@@ -1,0 +1,245 @@
+#include "common/bus/validate.hpp"
+
+#include <cmath>
+#include <initializer_list>
+#include <utility>
+#include <vector>
+
+#include <fmt/format.h>
+
+namespace fieldline::bus {
+namespace {
+
+using Problem = std::optional<std::string>;
+
+// First non-finite value among named scalars.
+Problem finite(std::initializer_list<std::pair<const char*, double>> values) {
+  for (const auto& [name, v] : values) {
+    if (!std::isfinite(v)) return fmt::format("{} is not finite ({})", name, v);
+  }
+  return {};
+}
+
+template <typename T>
+Problem finiteArray(const char* name, const std::vector<T>& values) {
+  for (std::size_t i = 0; i < values.size(); ++i) {
+    if (!std::isfinite(static_cast<double>(values[i]))) {
+      return fmt::format("{}[{}] is not finite ({})", name, i, static_cast<double>(values[i]));
+    }
+  }
+  return {};
+}
+
+template <typename T, std::size_t N>
+Problem finiteArray(const char* name, const T (&values)[N]) {
+  for (std::size_t i = 0; i < N; ++i) {
+    if (!std::isfinite(static_cast<double>(values[i]))) {
+      return fmt::format("{}[{}] is not finite ({})", name, i, static_cast<double>(values[i]));
+    }
+  }
+  return {};
+}
+
+// Runs checks in order and returns the first problem.
+template <typename... Checks>
+Problem firstOf(Checks&&... checks) {
+  Problem p;
+  ((p ? void() : void(p = checks())), ...);
+  return p;
+}
+
+Problem inRange(const char* name, double v, double lo, double hi) {
+  if (v < lo || v > hi) return fmt::format("{} = {} outside [{}, {}]", name, v, lo, hi);
+  return {};
+}
+
+}  // namespace
+
+std::optional<std::string> validate(const header_t& h) {
+  if (h.utime <= 0) return fmt::format("header.utime = {} is not a time", h.utime);
+  if (h.seq < 0) return fmt::format("header.seq = {} is negative", h.seq);
+  if (h.robot_id < 0 || h.robot_id > 99) return fmt::format("header.robot_id = {}", h.robot_id);
+  return {};
+}
+
+std::optional<std::string> validate(const image_t& m) {
+  if (auto p = validate(m.header)) return p;
+  if (m.width <= 0 || m.height <= 0 || m.width > 8192 || m.height > 8192) {
+    return fmt::format("image size {}x{} is not plausible", m.width, m.height);
+  }
+  int bytes_per_pixel = 0;
+  switch (m.format) {
+    case image_t::FORMAT_YUYV:
+      bytes_per_pixel = 2;
+      break;
+    case image_t::FORMAT_BGR:
+      bytes_per_pixel = 3;
+      break;
+    case image_t::FORMAT_GRAY:
+      bytes_per_pixel = 1;
+      break;
+    default:
+      return fmt::format("unknown image format {}", m.format);
+  }
+  if (m.format == image_t::FORMAT_YUYV && m.width % 2 != 0) return "YUYV image with odd width";
+  if (m.stride < m.width * bytes_per_pixel) {
+    return fmt::format("stride {} < width {} * {} bytes", m.stride, m.width, bytes_per_pixel);
+  }
+  if (static_cast<std::int64_t>(m.size) != static_cast<std::int64_t>(m.stride) * m.height) {
+    return fmt::format("size {} != stride {} * height {}", m.size, m.stride, m.height);
+  }
+  return {};
+}
+
+std::optional<std::string> validate(const line_contours_t& m) {
+  if (auto p = validate(m.header)) return p;
+  return firstOf([&] { return finiteArray("u", m.u); }, [&] { return finiteArray("v", m.v); },
+                 [&] { return finiteArray("x", m.x); }, [&] { return finiteArray("y", m.y); },
+                 [&]() -> Problem {
+                   for (int i = 0; i < m.num_sequences; ++i) {
+                     const int s = m.sequence_start[i], e = m.sequence_end[i];
+                     if (s < 0 || e < s || e > m.num_points) {
+                       return fmt::format("sequence {} [{}, {}) outside {} points", i, s, e,
+                                          m.num_points);
+                     }
+                   }
+                   return {};
+                 },
+                 [&] { return inRange("touched_fraction", m.touched_fraction, 0, 1); },
+                 [&] { return inRange("overlap_fraction", m.overlap_fraction, 0, 1); });
+}
+
+std::optional<std::string> validate(const ball_observation_t& m) {
+  if (auto p = validate(m.header)) return p;
+  return firstOf(
+      [&] {
+        return finite({{"u", m.u},
+                       {"v", m.v},
+                       {"x", m.x},
+                       {"y", m.y},
+                       {"sigma_radial", m.sigma_radial},
+                       {"sigma_tangential", m.sigma_tangential},
+                       {"confidence", m.confidence}});
+      },
+      [&] { return inRange("confidence", m.confidence, 0, 1); });
+}
+
+std::optional<std::string> validate(const obstacle_observations_t& m) {
+  if (auto p = validate(m.header)) return p;
+  return firstOf([&] { return finiteArray("bearing", m.bearing); },
+                 [&] { return finiteArray("distance", m.distance); },
+                 [&] { return finiteArray("angular_width", m.angular_width); },
+                 [&] { return finiteArray("width", m.width); },
+                 [&] { return finiteArray("x", m.x); }, [&] { return finiteArray("y", m.y); });
+}
+
+std::optional<std::string> validate(const field_features_t& m) {
+  if (auto p = validate(m.header)) return p;
+  return firstOf([&] { return finiteArray("feature_x", m.feature_x); },
+                 [&] { return finiteArray("feature_y", m.feature_y); },
+                 [&] { return finiteArray("feature_phi", m.feature_phi); },
+                 [&] { return finiteArray("quality", m.quality); },
+                 [&] { return finiteArray("pose_x", m.pose_x); },
+                 [&] { return finiteArray("pose_y", m.pose_y); },
+                 [&] { return finiteArray("pose_phi", m.pose_phi); },
+                 [&] { return finiteArray("sigma_xy", m.sigma_xy); },
+                 [&] { return finiteArray("sigma_phi", m.sigma_phi); },
+                 [&]() -> Problem {
+                   for (int i = 0; i < m.num_hypotheses; ++i) {
+                     const int f = m.hypothesis_feature[i];
+                     if (f < 0 || f >= m.num_features) {
+                       return fmt::format("hypothesis {} names feature {} of {}", i, f,
+                                          m.num_features);
+                     }
+                   }
+                   return {};
+                 });
+}
+
+std::optional<std::string> validate(const odometry_t& m) {
+  if (auto p = validate(m.header)) return p;
+  return finite({{"dx", m.dx},
+                 {"dy", m.dy},
+                 {"dphi", m.dphi},
+                 {"vx", m.vx},
+                 {"vy", m.vy},
+                 {"omega", m.omega}});
+}
+
+std::optional<std::string> validate(const motion_command_t& m) {
+  if (auto p = validate(m.header)) return p;
+  return firstOf(
+      [&] {
+        return finite({{"vx", m.vx}, {"vy", m.vy}, {"omega", m.omega}});
+      },
+      [&] { return inRange("vx", m.vx, -1, 1); }, [&] { return inRange("vy", m.vy, -1, 1); },
+      [&] { return inRange("omega", m.omega, -1, 1); });
+}
+
+std::optional<std::string> validate(const robot_state_t& m) {
+  if (auto p = validate(m.header)) return p;
+  return firstOf(
+      [&] {
+        return finite({{"x", m.x},
+                       {"y", m.y},
+                       {"phi", m.phi},
+                       {"vx", m.vx},
+                       {"vy", m.vy},
+                       {"omega", m.omega}});
+      },
+      [&] { return finiteArray("covariance", m.covariance); });
+}
+
+std::optional<std::string> validate(const ball_state_t& m) {
+  if (auto p = validate(m.header)) return p;
+  return firstOf(
+      [&] {
+        return finite({{"x", m.x}, {"y", m.y}, {"vx", m.vx}, {"vy", m.vy}});
+      },
+      [&] { return finiteArray("covariance", m.covariance); });
+}
+
+std::optional<std::string> validate(const team_state_t& m) {
+  if (auto p = validate(m.header)) return p;
+  return firstOf([&] { return finiteArray("robot_x", m.robot_x); },
+                 [&] { return finiteArray("robot_y", m.robot_y); },
+                 [&] { return finiteArray("robot_phi", m.robot_phi); },
+                 [&] { return finiteArray("robot_sigma_xy", m.robot_sigma_xy); },
+                 [&] { return finiteArray("ball_x", m.ball_x); },
+                 [&] { return finiteArray("ball_y", m.ball_y); },
+                 [&] {
+                   return finite({{"team_ball_x", m.team_ball_x},
+                                  {"team_ball_y", m.team_ball_y},
+                                  {"team_ball_vx", m.team_ball_vx},
+                                  {"team_ball_vy", m.team_ball_vy}});
+                 },
+                 [&] { return finiteArray("team_ball_covariance", m.team_ball_covariance); });
+}
+
+std::optional<std::string> validate(const service_status_t& m) {
+  if (auto p = validate(m.header)) return p;
+  if (m.process.empty()) return "process name is empty";
+  return firstOf([&] { return finiteArray("rate_hz", m.rate_hz); },
+                 [&] { return finiteArray("metric_value", m.metric_value); });
+}
+
+std::optional<std::string> validate(const world_state_t& m) {
+  if (auto p = validate(m.header)) return p;
+  return firstOf([&] { return finiteArray("robot_x", m.robot_x); },
+                 [&] { return finiteArray("robot_y", m.robot_y); },
+                 [&] { return finiteArray("robot_phi", m.robot_phi); },
+                 [&] { return finiteArray("robot_vx", m.robot_vx); },
+                 [&] { return finiteArray("robot_vy", m.robot_vy); },
+                 [&] { return finiteArray("robot_omega", m.robot_omega); },
+                 [&] { return finiteArray("opponent_x", m.opponent_x); },
+                 [&] { return finiteArray("opponent_y", m.opponent_y); },
+                 [&] { return finiteArray("opponent_phi", m.opponent_phi); },
+                 [&] {
+                   return finite({{"ball_x", m.ball_x},
+                                  {"ball_y", m.ball_y},
+                                  {"ball_vx", m.ball_vx},
+                                  {"ball_vy", m.ball_vy}});
+                 });
+}
+
+}  // namespace fieldline::bus

@@ -1,0 +1,80 @@
+#include "common/robot/robot_params.hpp"
+
+#include <cmath>
+#include <numbers>
+
+namespace fieldline::robot {
+namespace {
+
+std::array<double, kWheelCount> perWheel(const config::Node& n, const std::string& key, double limit) {
+  const auto values = n.getList<double>(key, kWheelCount);
+  std::array<double, kWheelCount> out{};
+  for (int i = 0; i < kWheelCount; ++i) {
+    if (std::abs(values[i]) > limit) {
+      n.fail(key, "element " + std::to_string(i) + " outside [-" + std::to_string(limit) + ", " +
+                      std::to_string(limit) + "]");
+    }
+    out[i] = values[i];
+  }
+  return out;
+}
+
+}  // namespace
+
+WheelSet RobotParams::trueWheels() const {
+  WheelSet out = wheels;
+  for (int i = 0; i < kWheelCount; ++i) {
+    out[i].radius *= 1.0 + simulation.wheel_radius_error[i];
+    out[i].angle += simulation.wheel_angle_error[i];
+  }
+  return out;
+}
+
+RobotParams loadRobotParams(const config::Node& root) {
+  RobotParams p;
+  p.name = root.get<std::string>("name");
+  p.mass = root.get<double>("mass", 0.5, 100.0);
+  p.radius = root.get<double>("radius", 0.05, 1.0);
+  p.max_speed = root.get<double>("max_speed", 0.1, 10.0);
+  p.max_omega = root.get<double>("max_omega", 0.1, 50.0);
+  p.controller_latency = root.get<double>("controller_latency", 0.0, 0.5);
+  p.odometry_rate = root.get<double>("odometry_rate", 1.0, 1000.0);
+  p.watchdog_timeout = root.get<double>("watchdog_timeout", 0.01, 5.0);
+
+  const auto wheels = root.children("wheels");
+  if (wheels.size() != kWheelCount) root.fail("wheels", "expected exactly 3 wheels");
+  for (int i = 0; i < kWheelCount; ++i) {
+    const auto& w = wheels[i];
+    p.wheels[i].angle = w.get<double>("angle", -2.0 * std::numbers::pi, 2.0 * std::numbers::pi);
+    p.wheels[i].distance = w.get<double>("distance", 0.01, 1.0);
+    p.wheels[i].radius = w.get<double>("radius", 0.005, 0.5);
+    w.rejectUnknownKeys();
+  }
+
+  const auto enc = root.child("encoder");
+  p.pulses_per_motor_revolution = enc.get<int>("pulses_per_motor_revolution", 1, 100000);
+  p.gear_ratio = enc.get<int>("gear_ratio", 1, 1000);
+  enc.rejectUnknownKeys();
+
+  const auto motor = root.child("motor");
+  p.motor.max_wheel_speed = motor.get<double>("max_wheel_speed", 0.1, 20.0);
+  p.motor.time_constant = motor.get<double>("time_constant", 0.001, 10.0);
+  motor.rejectUnknownKeys();
+
+  const auto sim = root.child("simulation");
+  p.simulation.wheel_radius_error = perWheel(sim, "wheel_radius_error", 0.2);
+  p.simulation.wheel_angle_error = perWheel(sim, "wheel_angle_error", 0.2);
+  p.simulation.slip_noise = sim.get<double>("slip_noise", 0.0, 1.0);
+  p.simulation.rotation_noise = sim.get<double>("rotation_noise", 0.0, 1.0);
+  p.simulation.collision_rotation_noise = sim.get<double>("collision_rotation_noise", 0.0, 20.0);
+  sim.rejectUnknownKeys();
+
+  root.rejectUnknownKeys();
+  return p;
+}
+
+RobotParams loadRobotPreset(const std::string& name_or_path) {
+  return loadRobotParams(config::Node::loadFile(config::resolvePreset("robot", name_or_path)));
+}
+
+}  // namespace fieldline::robot

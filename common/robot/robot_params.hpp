@@ -1,0 +1,81 @@
+// Parameters of an omni-directional robot with three wheels (seed 1.3, 4.4, 4.5, 4.8), loaded
+// from config/robot/<name>.yaml. SI units; angles in the robot frame (x forward, y left).
+#pragma once
+
+#include <array>
+#include <string>
+
+#include "common/config/config.hpp"
+
+namespace fieldline::robot {
+
+inline constexpr int kWheelCount = 3;
+
+// One omni wheel: where it touches the floor and how large it is. The wheel drives along the
+// tangent (-sin angle, cos angle), i.e. counter-clockwise around the robot centre.
+struct WheelGeometry {
+  // Direction of the contact point from the robot centre [rad], robot frame.
+  double angle = 0.0;
+  // Distance of the contact point from the robot centre [m] (L in the seed).
+  double distance = 0.0;
+  // Effective wheel radius [m] (r_e in the seed).
+  double radius = 0.0;
+};
+
+using WheelSet = std::array<WheelGeometry, kWheelCount>;
+
+// The closed-loop motor model of seed eq. 4.45: f = alpha * u - beta * v per wheel.
+struct MotorParams {
+  // Ground speed of a wheel at full command [m/s].
+  double max_wheel_speed = 0.0;
+  // Time constant of the wheel speed response to a command step [s].
+  double time_constant = 0.0;
+};
+
+// How the simulated robot differs from its nominal model: odometry does not know these.
+struct SimulationErrors {
+  // True radius = nominal * (1 + error), per wheel.
+  std::array<double, kWheelCount> wheel_radius_error{};
+  // True contact-point angle = nominal + error [rad], per wheel.
+  std::array<double, kWheelCount> wheel_angle_error{};
+  // Relative white noise on each wheel's contact speed [1/sqrt(s)].
+  double slip_noise = 0.0;
+  // Random rotation rate while driving [rad/s per m/s of speed].
+  double rotation_noise = 0.0;
+  // Random rotation rate while in contact with an obstacle [rad/s].
+  double collision_rotation_noise = 0.0;
+};
+
+struct RobotParams {
+  std::string name;
+  // [kg]
+  double mass = 0.0;
+  // Body radius for collisions [m].
+  double radius = 0.0;
+  // Speeds that normalised commands of 1.0 stand for [m/s], [rad/s].
+  double max_speed = 0.0;
+  double max_omega = 0.0;
+  // Command-to-motor delay of the controller [s].
+  double controller_latency = 0.0;
+  // Odometry sample rate of the controller [Hz].
+  double odometry_rate = 0.0;
+  // Motors stop after this long without a valid command [s].
+  double watchdog_timeout = 0.0;
+  WheelSet wheels{};
+  int pulses_per_motor_revolution = 0;
+  int gear_ratio = 0;
+  MotorParams motor;
+  SimulationErrors simulation;
+
+  // Encoder ticks per wheel revolution (768 on the seed's robot).
+  int ticksPerWheelRevolution() const { return pulses_per_motor_revolution * gear_ratio; }
+  // The wheels as they really are in the simulator (nominal plus systematic errors).
+  WheelSet trueWheels() const;
+};
+
+// Reads a robot file's root map; throws config::Error (file:line: key) on anything wrong.
+RobotParams loadRobotParams(const config::Node& root);
+// Loads config/robot/<name>.yaml (or a path).
+RobotParams loadRobotPreset(const std::string& name_or_path);
+
+}  // namespace fieldline::robot

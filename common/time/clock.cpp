@@ -1,0 +1,12 @@
+#include "common/time/clock.hpp"
+
+#include <chrono>
+
+namespace fieldline {
+
+Utime SystemClock::now() const {
+  using namespace std::chrono;
+  return duration_cast<microseconds>(system_clock::now().time_since_epoch()).count();
+}
+
+}  // namespace fieldline
