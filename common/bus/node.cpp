@@ -140,6 +140,13 @@ bool Node::publishRaw(const std::string& channel, const header_t& header, BusId 
   return true;
 }
 
+bool Node::publishEncoded(std::string_view channel, const void* data, int size, BusId bus) {
+  const int rc =
+      connection(bus).impl_->lcm.publish(std::string(channel), data, static_cast<unsigned>(size));
+  if (rc != 0) reportError("publish", std::string(channel) + ": LCM publish failed");
+  return rc == 0;
+}
+
 bool Node::acceptHeader(const std::string& channel, const header_t& header) {
   const Utime now = clock_.now();
   if (header.utime > now + options_.future_tolerance_us) {

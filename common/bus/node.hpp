@@ -20,6 +20,8 @@
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <string_view>
+#include <type_traits>
 #include <vector>
 
 #include "common/bus/channels.hpp"
@@ -84,7 +86,8 @@ class Node {
   BusId addBus(std::shared_ptr<Connection> connection);
 
   template <typename Msg>
-  void subscribe(Channel<Msg> channel, std::function<void(const Msg&)> handler,
+  void subscribe(Channel<Msg> channel,
+                 std::type_identity_t<std::function<void(const Msg&)>> handler,
                  BusId bus = kPrimaryBus) {
     const std::string name(channel.name);
     subscribeRaw(name, bus,
@@ -122,6 +125,10 @@ class Node {
     }
     return publishRaw(name, msg.header, bus);
   }
+
+  // Publishes already-encoded bytes unchanged (log replay, forwarding, tests of bad input).
+  bool publishEncoded(std::string_view channel, const void* data, int size,
+                      BusId bus = kPrimaryBus);
 
   // Calls `fn` every `period_us` of clock time (first call one period from now).
   void every(Utime period_us, std::function<void()> fn);

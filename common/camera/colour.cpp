@@ -110,7 +110,8 @@ ColourTable loadColourTable(const config::Node& root) {
   for (const std::string& name : colours.keys()) {
     const std::optional<ColourClass> colour = colourFromName(name);
     if (!colour || *colour == ColourClass::kUnknown) {
-      colours.fail(name, "unknown colour class (expected green, white, yellow, blue, orange, black)");
+      colours.fail(name,
+                   "unknown colour class (expected green, white, yellow, blue, orange, black)");
     }
     for (const config::Node& box : colours.children(name)) {
       YuvBox b;

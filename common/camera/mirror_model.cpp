@@ -13,7 +13,9 @@ namespace {
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr double kTwoPi = 2.0 * std::numbers::pi;
 
-bool positiveFinite(double x) { return std::isfinite(x) && x > 0.0; }
+bool positiveFinite(double x) {
+  return std::isfinite(x) && x > 0.0;
+}
 
 void requireTable(bool ok, const std::string& what) {
   if (!ok) throw std::invalid_argument("calibration table: " + what);
@@ -78,9 +80,9 @@ DistanceFunction::SectorBlend DistanceFunction::blend(double bearing) const {
     }
   }
   const std::size_t upper = (lower + 1) % n;
-  const double span = upper == 0 ? kTwoPi - wrapPositive(t.sector_bearings[lower] -
-                                                         t.sector_bearings[0])
-                                 : t.sector_bearings[upper] - t.sector_bearings[lower];
+  const double span = upper == 0
+                          ? kTwoPi - wrapPositive(t.sector_bearings[lower] - t.sector_bearings[0])
+                          : t.sector_bearings[upper] - t.sector_bearings[lower];
   const double into = wrapPositive(bearing - t.sector_bearings[lower]);
   return {lower, upper, std::clamp(into / span, 0.0, 1.0)};
 }
@@ -163,11 +165,12 @@ double DistanceFunction::maxRadius() const {
 DistanceFunction DistanceFunction::scaled(double factor) const {
   if (!positiveFinite(factor)) throw std::invalid_argument("scale factor must be > 0");
   if (const auto* le = std::get_if<LinearExponentialParams>(&params_)) {
-    return DistanceFunction(LinearExponentialParams{le->slope / factor, le->knee_radius * factor,
-                                                    le->growth / factor});
+    return DistanceFunction(
+        LinearExponentialParams{le->slope / factor, le->knee_radius * factor, le->growth / factor});
   }
   CalibrationTableParams t = std::get<CalibrationTableParams>(params_);
-  for (double& r : t.radii) r *= factor;
+  for (double& r : t.radii)
+    r *= factor;
   return DistanceFunction(t);
 }
 
@@ -320,8 +323,8 @@ DistanceFunction loadDistanceFunction(const config::Node& n) {
     const std::vector<config::Node> sectors = n.children("sectors");
     if (sectors.empty()) n.fail("sectors", "at least one sector expected");
     for (const config::Node& s : sectors) {
-      p.sector_bearings.push_back(s.getOr<double>("bearing", 0.0, -std::numbers::pi,
-                                                  std::numbers::pi));
+      p.sector_bearings.push_back(
+          s.getOr<double>("bearing", 0.0, -std::numbers::pi, std::numbers::pi));
       p.distances.push_back(s.getList<double>("distances", p.radii.size()));
       s.rejectUnknownKeys();
     }

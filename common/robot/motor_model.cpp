@@ -31,7 +31,9 @@ Eigen::Vector3d MotorModel::speedsAfter(const Eigen::Vector3d& v0, const Eigen::
 }
 
 namespace {
-double clampUnit(double v) { return std::isfinite(v) ? std::clamp(v, -1.0, 1.0) : 0.0; }
+double clampUnit(double v) {
+  return std::isfinite(v) ? std::clamp(v, -1.0, 1.0) : 0.0;
+}
 }  // namespace
 
 Twist desiredTwist(const NormalizedCommand& command, const RobotParams& params) {

@@ -37,7 +37,8 @@ class OmniKinematics {
   const Eigen::Matrix3d& robotMatrix() const { return m_; }
   // Its exact inverse: (vx, vy, omega) = M^-1 * wheel ground speeds.
   const Eigen::Matrix3d& robotMatrixInverse() const { return m_inv_; }
-  // Seed eq. 4.33: wheel ground speeds = W(phi) * (xdot, ydot, phidot), velocity in the field frame.
+  // Seed eq. 4.33: wheel ground speeds = W(phi) * (xdot, ydot, phidot), velocity in the field
+  // frame.
   Eigen::Matrix3d fieldMatrix(double phi) const;
   // Seed eq. 4.35: W(phi)^-1.
   Eigen::Matrix3d fieldMatrixInverse(double phi) const;

@@ -6,7 +6,8 @@
 namespace fieldline::robot {
 namespace {
 
-std::array<double, kWheelCount> perWheel(const config::Node& n, const std::string& key, double limit) {
+std::array<double, kWheelCount> perWheel(const config::Node& n, const std::string& key,
+                                         double limit) {
   const auto values = n.getList<double>(key, kWheelCount);
   std::array<double, kWheelCount> out{};
   for (int i = 0; i < kWheelCount; ++i) {

@@ -16,7 +16,9 @@ constexpr int kArcTableSize = 4096;
 constexpr double kRandomPlayHorizon = 3600.0;
 
 // Lemniscate of Gerono with half extents a, b in its own frame: (a sin s, b sin 2s).
-Vec2 lemniscate(double a, double b, double s) { return {a * std::sin(s), b * std::sin(2.0 * s)}; }
+Vec2 lemniscate(double a, double b, double s) {
+  return {a * std::sin(s), b * std::sin(2.0 * s)};
+}
 Vec2 lemniscateD1(double a, double b, double s) {
   return {a * std::cos(s), 2.0 * b * std::cos(2.0 * s)};
 }
@@ -41,16 +43,16 @@ Trajectory::Trajectory(const TrajectorySpec& spec, const geometry::Pose2& start)
     for (int i = 1; i <= n; ++i) {
       const double s0 = (i - 1) * ds;
       const double s1 = i * ds;
-      cumulative[i] = cumulative[i - 1] + 0.5 * ds *
-                                              (lemniscateD1(a, b, s0).norm() +
-                                               lemniscateD1(a, b, s1).norm());
+      cumulative[i] = cumulative[i - 1] +
+                      0.5 * ds * (lemniscateD1(a, b, s0).norm() + lemniscateD1(a, b, s1).norm());
     }
     perimeter_ = cumulative[n];
     arc_parameter_.resize(n + 1);
     int j = 0;
     for (int k = 0; k <= n; ++k) {
       const double target = perimeter_ * k / n;
-      while (j < n - 1 && cumulative[j + 1] < target) ++j;
+      while (j < n - 1 && cumulative[j + 1] < target)
+        ++j;
       const double span = cumulative[j + 1] - cumulative[j];
       const double frac = span > 0.0 ? (target - cumulative[j]) / span : 0.0;
       arc_parameter_[k] = (j + std::clamp(frac, 0.0, 1.0)) * ds;
@@ -89,7 +91,8 @@ void Trajectory::buildLegs(const std::vector<Vec2>& points, double speed, bool l
     }
     from = to;
   };
-  for (const auto& p : points) add(p);
+  for (const auto& p : points)
+    add(p);
   if (loop && points.size() > 1) {
     // The loop runs from the first point around and back to it; the approach leg is not repeated.
     const double approach = (points.front() - start_.position()).norm() / speed;

@@ -32,7 +32,8 @@ std::optional<geometry::Movement> WheelOdometry::update(const TickCounts& accumu
     return std::nullopt;
   }
   std::array<std::int64_t, kWheelCount> delta{};
-  for (int i = 0; i < kWheelCount; ++i) delta[i] = tickDelta(accumulated[i], (*last_)[i]);
+  for (int i = 0; i < kWheelCount; ++i)
+    delta[i] = tickDelta(accumulated[i], (*last_)[i]);
   last_ = accumulated;
   const geometry::Movement m = movement(delta);
   pose_ = geometry::applyMovement(pose_, m);

@@ -1,0 +1,244 @@
+#include "services/region_tracking/baselines.hpp"
+
+#include <algorithm>
+#include <numeric>
+#include <stdexcept>
+
+#include <opencv2/imgproc.hpp>
+
+namespace fieldline::region_tracking {
+
+FullFrameClassMap::FullFrameClassMap(const CellGrid& grid, std::span<const std::uint8_t> dontTouch)
+    : grid_(grid), classes_(grid.cellCount(), kNoClass) {
+  if (!dontTouch.empty() && static_cast<int>(dontTouch.size()) != grid.cellCount()) {
+    throw std::invalid_argument("full-frame segmentation: don't-touch mask size mismatch");
+  }
+  for (int y = 0; y < grid.height; ++y) {
+    int x = 0;
+    while (x < grid.width) {
+      auto allowed = [&](int cx) { return dontTouch.empty() || !dontTouch[grid.index(cx, y)]; };
+      while (x < grid.width && !allowed(x)) ++x;
+      const int first = x;
+      while (x < grid.width && allowed(x)) ++x;
+      if (x > first) allowedSpans_.push_back({y, first, x});
+    }
+  }
+}
+
+void FullFrameClassMap::classify(const CellClassifier& classifier) {
+  for (const Span& span : allowedSpans_) {
+    classifier.classifyRow(
+        span.y, span.firstX,
+        std::span<ClassId>(classes_).subspan(grid_.index(span.firstX, span.y),
+                                             span.endX - span.firstX));
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// (a) CMVision-style
+
+CmvisionSegmenter::CmvisionSegmenter(const CellGrid& grid, std::span<const ClassId> trackedClasses,
+                                     std::span<const std::uint8_t> dontTouch)
+    : grid_(grid),
+      classMap_(grid, dontTouch),
+      trackedClasses_(trackedClasses.begin(), trackedClasses.end()),
+      rowStart_(grid.height + 1, 0),
+      boundaryCellsByClass_(trackedClasses.size()),
+      connectivity_(grid) {
+  for (const ClassId c : trackedClasses) {
+    if (c == kNoClass) throw std::invalid_argument("cmvision: class id 255 is reserved");
+    tracked_[c] = true;
+  }
+  runs_.reserve(grid.cellCount() / 2 + grid.height);
+  runRegion_.reserve(runs_.capacity());
+  for (auto& cells : boundaryCellsByClass_) cells.reserve(grid.cellCount() / 2);
+}
+
+int CmvisionSegmenter::findRoot(int run) {
+  int root = run;
+  while (runs_[root].parent != root) root = runs_[root].parent;
+  while (runs_[run].parent != root) {  // path compression
+    const int next = runs_[run].parent;
+    runs_[run].parent = root;
+    run = next;
+  }
+  return root;
+}
+
+void CmvisionSegmenter::unite(int a, int b) {
+  const int rootA = findRoot(a);
+  const int rootB = findRoot(b);
+  // The older run stays root, so roots are the first run of each region in scan order.
+  if (rootA < rootB) {
+    runs_[rootB].parent = rootA;
+  } else if (rootB < rootA) {
+    runs_[rootA].parent = rootB;
+  }
+}
+
+void CmvisionSegmenter::segment(const CellClassifier& classifier) {
+  classMap_.classify(classifier);
+  const std::span<const ClassId> classes = classMap_.classes();
+
+  // Run-length encoding of the tracked classes.
+  runs_.clear();
+  for (int y = 0; y < grid_.height; ++y) {
+    rowStart_[y] = static_cast<int>(runs_.size());
+    const ClassId* row = classes.data() + static_cast<std::size_t>(y) * grid_.width;
+    int x = 0;
+    while (x < grid_.width) {
+      const ClassId c = row[x];
+      const int first = x;
+      while (x < grid_.width && row[x] == c) ++x;
+      if (tracked_[c]) {
+        const int index = static_cast<int>(runs_.size());
+        runs_.push_back({static_cast<std::int16_t>(y), static_cast<std::int16_t>(first),
+                         static_cast<std::int16_t>(x), c, index});
+      }
+    }
+  }
+  rowStart_[grid_.height] = static_cast<int>(runs_.size());
+
+  // Union-find: join runs of the same class that share at least one column with a run of the
+  // row above (4-connectivity).
+  for (int y = 1; y < grid_.height; ++y) {
+    int above = rowStart_[y - 1];
+    const int aboveEnd = rowStart_[y];
+    for (int run = rowStart_[y]; run < rowStart_[y + 1]; ++run) {
+      const Run& current = runs_[run];
+      while (above < aboveEnd && runs_[above].endX <= current.firstX) ++above;
+      for (int a = above; a < aboveEnd && runs_[a].firstX < current.endX; ++a) {
+        if (runs_[a].classId == current.classId) unite(run, a);
+      }
+    }
+  }
+
+  // Regions: one per root, with size and bounding box.
+  regions_.clear();
+  runRegion_.resize(runs_.size());
+  for (int run = 0; run < static_cast<int>(runs_.size()); ++run) {
+    const int root = findRoot(run);
+    const Run& r = runs_[run];
+    if (root == run) {
+      runRegion_[run] = static_cast<int>(regions_.size());
+      regions_.push_back({r.classId, 0, r.firstX, r.y, r.endX - 1, r.y});
+    } else {
+      runRegion_[run] = runRegion_[root];  // roots come first in scan order
+    }
+    Region& region = regions_[runRegion_[run]];
+    region.cells += r.endX - r.firstX;
+    region.minX = std::min<int>(region.minX, r.firstX);
+    region.maxX = std::max<int>(region.maxX, r.endX - 1);
+    region.maxY = r.y;
+  }
+
+  // Boundaries: every side of a tracked cell facing another class (or the grid's edge).
+  for (auto& cells : boundaryCellsByClass_) cells.clear();
+  auto classAt = [&](int x, int y) {
+    return grid_.contains(x, y) ? classes[grid_.index(x, y)] : kNoClass;
+  };
+  for (const Run& r : runs_) {
+    const std::size_t slot =
+        std::find(trackedClasses_.begin(), trackedClasses_.end(), r.classId) -
+        trackedClasses_.begin();
+    for (int x = r.firstX; x < r.endX; ++x) {
+      bool atBoundary = false;
+      for (int side = 0; side < 4; ++side) {
+        if (classAt(x + kSideDx[side], r.y + kSideDy[side]) != r.classId) {
+          connectivity_.addBoundarySide(x, r.y, side);
+          atBoundary = true;
+        }
+      }
+      if (atBoundary) boundaryCellsByClass_[slot].push_back({static_cast<std::int16_t>(x), r.y});
+    }
+  }
+  contours_.clear();
+  for (std::size_t slot = 0; slot < trackedClasses_.size(); ++slot) {
+    connectivity_.extractContours(boundaryCellsByClass_[slot], trackedClasses_[slot], contours_);
+  }
+}
+
+void CmvisionSegmenter::labelCells(std::vector<int>& labels) const {
+  labels.assign(grid_.cellCount(), -1);
+  for (std::size_t run = 0; run < runs_.size(); ++run) {
+    const Run& r = runs_[run];
+    std::fill_n(labels.begin() + grid_.index(r.firstX, r.y), r.endX - r.firstX, runRegion_[run]);
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// (b) OpenCV
+
+OpenCvSegmenter::OpenCvSegmenter(const CellGrid& grid, std::span<const ClassId> trackedClasses,
+                                 std::span<const std::uint8_t> dontTouch)
+    : grid_(grid),
+      classMap_(grid, dontTouch),
+      trackedClasses_(trackedClasses.begin(), trackedClasses.end()),
+      mask_(grid.height, grid.width, CV_8U) {}
+
+void OpenCvSegmenter::segment(const CellClassifier& classifier) {
+  classMap_.classify(classifier);
+  // A Mat header over the class map; no copy.
+  const cv::Mat classes(grid_.height, grid_.width, CV_8U,
+                        const_cast<ClassId*>(classMap_.classes().data()));
+  regions_.clear();
+  contours_.clear();
+  const int half = grid_.cellSize / 2;
+  for (const ClassId c : trackedClasses_) {
+    cv::compare(classes, cv::Scalar(c), mask_, cv::CMP_EQ);
+    const int labels = cv::connectedComponentsWithStats(mask_, labels_, stats_, centroids_, 4, CV_32S);
+    for (int label = 1; label < labels; ++label) {
+      const int* s = stats_.ptr<int>(label);
+      regions_.push_back({c, s[cv::CC_STAT_AREA], s[cv::CC_STAT_LEFT], s[cv::CC_STAT_TOP],
+                          s[cv::CC_STAT_LEFT] + s[cv::CC_STAT_WIDTH] - 1,
+                          s[cv::CC_STAT_TOP] + s[cv::CC_STAT_HEIGHT] - 1});
+    }
+    cv::findContours(mask_, cvContours_, hierarchy_, cv::RETR_CCOMP, cv::CHAIN_APPROX_NONE);
+    for (std::size_t i = 0; i < cvContours_.size(); ++i) {
+      Contour contour;
+      contour.classId = c;
+      contour.outer = hierarchy_[i][3] < 0;  // RETR_CCOMP: holes have a parent
+      contour.begin = static_cast<int>(contours_.points.size());
+      for (const cv::Point& p : cvContours_[i]) {
+        contours_.points.push_back({p.x * grid_.cellSize + half, p.y * grid_.cellSize + half});
+      }
+      contour.end = static_cast<int>(contours_.points.size());
+      const double area = cv::contourArea(cvContours_[i], true);
+      contour.signedCellArea = static_cast<int>(contour.outer ? std::abs(area) : -std::abs(area));
+      contours_.contours.push_back(contour);
+    }
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+
+Agreement compareWithFullSegmentation(std::span<const ClassId> trackerVisited,
+                                      const CmvisionSegmenter& full) {
+  Agreement agreement;
+  std::vector<int> labels;
+  full.labelCells(labels);
+  const std::span<const Region> regions = full.regions();
+  const std::span<const ClassId> classes = full.classMap();
+  std::vector<int> trackedCells(regions.size(), 0);
+  for (std::size_t i = 0; i < trackerVisited.size(); ++i) {
+    const ClassId owner = trackerVisited[i];
+    if (owner == kNoClass) continue;
+    if (classes[i] != owner) {
+      ++agreement.staleCells;
+    } else if (labels[i] >= 0) {
+      ++trackedCells[labels[i]];
+    }
+  }
+  for (std::size_t r = 0; r < regions.size(); ++r) {
+    if (trackedCells[r] == regions[r].cells) {
+      ++agreement.regionsTracked;
+    } else if (trackedCells[r] == 0) {
+      ++agreement.regionsUntracked;
+    } else {
+      ++agreement.regionsPartial;
+    }
+  }
+  return agreement;
+}
+
+}  // namespace fieldline::region_tracking

@@ -1,0 +1,120 @@
+// Full-frame segmentations to measure the tracker against. Both classify every cell of every
+// frame (skipping only don't-touch cells) and return the same kind of output as the tracker:
+// the regions of the tracked classes and their closed boundary contours.
+//   (a) CmvisionSegmenter: CMVision-style, written here: class map, run-length encoding,
+//       union-find over runs of neighbouring rows, boundaries on the connectivity grid.
+//   (b) OpenCvSegmenter: a mask per class, cv::connectedComponentsWithStats, cv::findContours.
+#pragma once
+
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "services/region_tracking/cell_grid.hpp"
+#include "services/region_tracking/contours.hpp"
+
+namespace fieldline::region_tracking {
+
+// A connected region found by a baseline.
+struct Region {
+  ClassId classId = kNoClass;
+  int cells = 0;
+  // Bounding box in cells, inclusive.
+  int minX = 0, minY = 0, maxX = 0, maxY = 0;
+};
+
+// The classified cells of a whole frame, with don't-touch cells left as kNoClass unread.
+class FullFrameClassMap {
+ public:
+  FullFrameClassMap(const CellGrid& grid, std::span<const std::uint8_t> dontTouch);
+  void classify(const CellClassifier& classifier);
+  const CellGrid& grid() const { return grid_; }
+  std::span<const ClassId> classes() const { return classes_; }
+  ClassId at(int x, int y) const { return classes_[grid_.index(x, y)]; }
+
+ private:
+  struct Span {
+    int y, firstX, endX;
+  };
+  CellGrid grid_;
+  std::vector<Span> allowedSpans_;  // maximal runs of touchable cells per row
+  std::vector<ClassId> classes_;
+};
+
+class CmvisionSegmenter {
+ public:
+  CmvisionSegmenter(const CellGrid& grid, std::span<const ClassId> trackedClasses,
+                    std::span<const std::uint8_t> dontTouch = {});
+
+  void segment(const CellClassifier& classifier);
+
+  std::span<const ClassId> classMap() const { return classMap_.classes(); }
+  std::span<const Region> regions() const { return regions_; }
+  const ContourSet& contours() const { return contours_; }
+  // Region index of every cell (-1 for cells of untracked classes); computed on request, for
+  // comparisons outside the timed path.
+  void labelCells(std::vector<int>& labels) const;
+
+ private:
+  struct Run {
+    std::int16_t y, firstX, endX;
+    ClassId classId;
+    int parent;  // union-find parent (a run index); the root's region index after labelling
+  };
+  int findRoot(int run);
+  void unite(int a, int b);
+
+  CellGrid grid_;
+  FullFrameClassMap classMap_;
+  bool tracked_[256] = {};
+  std::vector<ClassId> trackedClasses_;
+  std::vector<Run> runs_;
+  std::vector<int> rowStart_;  // first run of each row, plus one past the last
+  std::vector<int> runRegion_;
+  std::vector<Region> regions_;
+  std::vector<std::vector<Cell>> boundaryCellsByClass_;
+  ConnectivityGrid connectivity_;
+  ContourSet contours_;
+};
+
+class OpenCvSegmenter {
+ public:
+  OpenCvSegmenter(const CellGrid& grid, std::span<const ClassId> trackedClasses,
+                  std::span<const std::uint8_t> dontTouch = {});
+
+  void segment(const CellClassifier& classifier);
+
+  std::span<const ClassId> classMap() const { return classMap_.classes(); }
+  std::span<const Region> regions() const { return regions_; }
+  // Contour points are the centres of the boundary cells, in pixels (OpenCV's convention).
+  const ContourSet& contours() const { return contours_; }
+
+ private:
+  CellGrid grid_;
+  FullFrameClassMap classMap_;
+  std::vector<ClassId> trackedClasses_;
+  cv::Mat mask_, labels_, stats_, centroids_;
+  std::vector<std::vector<cv::Point>> cvContours_;
+  std::vector<cv::Vec4i> hierarchy_;
+  std::vector<Region> regions_;
+  ContourSet contours_;
+};
+
+// How the tracker's regions compare with a full segmentation of the same frame.
+struct Agreement {
+  // Full-segmentation regions of the tracked classes: entirely tracked, partly tracked (a
+  // disagreement), not tracked at all (never seeded or lost).
+  int regionsTracked = 0;
+  int regionsPartial = 0;
+  int regionsUntracked = 0;
+  // Tracked cells whose class in the frame is a different one (a region that jumped away
+  // without overlap, leaving its old cells behind).
+  int staleCells = 0;
+  bool exact() const { return regionsPartial == 0 && staleCells == 0; }
+};
+Agreement compareWithFullSegmentation(std::span<const ClassId> trackerVisited,
+                                      const CmvisionSegmenter& full);
+
+}  // namespace fieldline::region_tracking

@@ -1,0 +1,88 @@
+#include <limits>
+
+#include <gtest/gtest.h>
+
+#include "common/bus/validate.hpp"
+
+namespace fieldline::bus {
+namespace {
+
+constexpr double kNan = std::numeric_limits<double>::quiet_NaN();
+
+image_t goodImage() {
+  image_t m{};
+  m.header.utime = 1;
+  m.width = 4;
+  m.height = 2;
+  m.stride = 8;
+  m.format = image_t::FORMAT_YUYV;
+  m.size = 16;
+  m.data.resize(16);
+  return m;
+}
+
+TEST(Validate, ImageSizes) {
+  image_t m = goodImage();
+  EXPECT_FALSE(validate(m));
+  m.size = 15;
+  EXPECT_TRUE(validate(m));
+  m = goodImage();
+  m.stride = 7;
+  EXPECT_TRUE(validate(m));
+  m = goodImage();
+  m.format = 9;
+  EXPECT_TRUE(validate(m));
+  m = goodImage();
+  m.width = 3;
+  m.stride = 6;
+  m.size = 12;
+  EXPECT_TRUE(validate(m));  // YUYV needs an even width
+}
+
+TEST(Validate, HeaderTimeMustBeSet) {
+  robot_state_t r{};
+  EXPECT_TRUE(validate(r));
+  r.header.utime = 5;
+  EXPECT_FALSE(validate(r));
+}
+
+TEST(Validate, NonFiniteValuesAreNamed) {
+  robot_state_t r{};
+  r.header.utime = 5;
+  r.covariance[4] = kNan;
+  ASSERT_TRUE(validate(r));
+  EXPECT_EQ(*validate(r), "covariance[4] is not finite (nan)");
+  line_contours_t l{};
+  l.header.utime = 5;
+  l.num_points = 2;
+  l.u = {1, 2};
+  l.v = {1, 2};
+  l.x = {1, static_cast<float>(kNan)};
+  l.y = {1, 2};
+  EXPECT_EQ(*validate(l), "x[1] is not finite (nan)");
+}
+
+TEST(Validate, SequencesMustIndexPoints) {
+  line_contours_t l{};
+  l.header.utime = 5;
+  l.num_points = 2;
+  l.u = l.v = l.x = l.y = {0, 0};
+  l.num_sequences = 1;
+  l.sequence_start = {0};
+  l.sequence_end = {3};
+  EXPECT_TRUE(validate(l));
+  l.sequence_end = {2};
+  EXPECT_FALSE(validate(l));
+}
+
+TEST(Validate, FeatureHypothesesReferToFeatures) {
+  field_features_t f{};
+  f.header.utime = 5;
+  f.num_hypotheses = 1;
+  f.hypothesis_feature = {0};
+  f.pose_x = f.pose_y = f.pose_phi = f.sigma_xy = f.sigma_phi = {0};
+  EXPECT_TRUE(validate(f));
+}
+
+}  // namespace
+}  // namespace fieldline::bus
