@@ -190,9 +190,9 @@ class SimRenderer {
   Yuv outside_floor_yuv_;
   std::vector<Box> goal_boxes_;
 
-  std::vector<Yuv> frame_;                     // current sub-frame, one Yuv per pixel
+  std::vector<Yuv> frame_;                                 // current sub-frame, one Yuv per pixel
   std::vector<std::array<std::uint16_t, 3>> accumulator_;  // motion blur sums
-  std::vector<std::int8_t> noise_table_;       // unit Gaussian * 16
+  std::vector<std::int8_t> noise_table_;                   // unit Gaussian * 16
 };
 
 }  // namespace fieldline::camera

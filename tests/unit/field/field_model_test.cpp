@@ -237,8 +237,8 @@ TEST(ArcClosestPoint, WithinBeyondEndsAndAtTheCentre) {
   // Beyond the start (at -10 degrees, outside and inside the radius).
   expectNear(closestPointOnArc(arc, at(-10, 2.5)), arc.startPoint());
   expectNear(closestPointOnArc(arc, at(-10, 0.3)), arc.startPoint());
-  // Behind the centre, nearer the start (at 30 deg) than the end (at 120 deg).
-  expectNear(closestPointOnArc(arc, at(250, 1.0)), arc.startPoint());
+  // Behind the centre at 300 deg: 90 deg from the start (30), 180 deg from the end (120).
+  expectNear(closestPointOnArc(arc, at(300, 1.0)), arc.startPoint());
   // At the centre every arc point is equally close.
   EXPECT_NEAR((closestPointOnArc(arc, Vec2(1, 1)) - Vec2(1, 1)).norm(), 2.0, kTol);
 }

@@ -66,7 +66,7 @@ std::vector<int> windingOf(const ContourSet& set, int width, int height, int cel
       if (p.x != q.x) continue;
       const int x = p.x / cellSize;
       const int row = std::min(p.y, q.y) / cellSize;
-      const int sign = q.y > p.y ? 1 : -1;  // downward edges: the region is to their left
+      const int sign = q.y > p.y ? 1 : -1;  // downward edges are right sides of a region
       for (int cx = 0; cx < x && cx < width; ++cx) winding[row * width + cx] += sign;
     }
   }

@@ -1,0 +1,151 @@
+// The full-frame baselines agree with a plain labelling, and the tracker agrees with baseline
+// (a) once converged.
+#include "services/region_tracking/baselines.hpp"
+
+#include <algorithm>
+#include <map>
+#include <random>
+#include <tuple>
+
+#include <gtest/gtest.h>
+
+#include "services/region_tracking/region_tracker.hpp"
+#include "tests/unit/region_tracking/synthetic_grid.hpp"
+
+namespace fieldline::region_tracking {
+namespace {
+
+using testing::ClassGrid;
+using testing::labelComponents;
+
+const std::vector<ClassId> kClasses = {1, 2};
+
+// A contour as the sorted list of its directed edges: independent of where following started.
+using EdgeList = std::vector<std::tuple<int, int, int, int>>;
+std::multiset<std::tuple<int, bool, EdgeList>> canonical(const ContourSet& set) {
+  std::multiset<std::tuple<int, bool, EdgeList>> out;
+  for (const Contour& c : set.contours) {
+    const auto points = set.pointsOf(c);
+    EdgeList edges;
+    for (std::size_t i = 0; i < points.size(); ++i) {
+      const ContourPoint& q = points[(i + 1) % points.size()];
+      edges.emplace_back(points[i].x, points[i].y, q.x, q.y);
+    }
+    std::sort(edges.begin(), edges.end());
+    out.emplace(c.classId, c.outer, std::move(edges));
+  }
+  return out;
+}
+
+// Region sizes per class, sorted: what both baselines and a plain labelling must agree on.
+std::map<ClassId, std::vector<int>> sizesByClass(std::span<const Region> regions) {
+  std::map<ClassId, std::vector<int>> out;
+  for (const Region& r : regions) out[r.classId].push_back(r.cells);
+  for (auto& [c, sizes] : out) std::sort(sizes.begin(), sizes.end());
+  return out;
+}
+
+TEST(Baselines, RegionsMatchAPlainLabellingAndEachOther) {
+  std::mt19937 rng(17);
+  for (int trial = 0; trial < 40; ++trial) {
+    const ClassGrid g = testing::randomBlobs(64, 48, rng);
+    const CellGrid grid{64, 48, 4};
+    CmvisionSegmenter cmvision(grid, kClasses);
+    OpenCvSegmenter opencv(grid, kClasses);
+    const ClassMapClassifier classifier(g.cells, g.width);
+    cmvision.segment(classifier);
+    opencv.segment(classifier);
+
+    std::map<ClassId, std::vector<int>> expected;
+    for (const ClassId c : kClasses) {
+      std::vector<int> labels;
+      const int n = labelComponents(64, 48, [&](int i) { return g.cells[i] == c; }, labels);
+      std::vector<int> sizes(n, 0);
+      for (const int l : labels) {
+        if (l >= 0) ++sizes[l];
+      }
+      std::sort(sizes.begin(), sizes.end());
+      if (n > 0) expected[c] = sizes;
+    }
+    EXPECT_EQ(sizesByClass(cmvision.regions()), expected) << "trial " << trial;
+    EXPECT_EQ(sizesByClass(opencv.regions()), expected) << "trial " << trial;
+
+    // Bounding boxes hold every cell of their region.
+    std::vector<int> labels;
+    cmvision.labelCells(labels);
+    for (int i = 0; i < 64 * 48; ++i) {
+      if (labels[i] < 0) continue;
+      const Region& r = cmvision.regions()[labels[i]];
+      EXPECT_EQ(r.classId, g.cells[i]);
+      EXPECT_TRUE(r.minX <= i % 64 && i % 64 <= r.maxX && r.minY <= i / 64 && i / 64 <= r.maxY);
+    }
+    // OpenCV's contours: one outer per 8-connected blob at least, points on cell centres.
+    EXPECT_FALSE(opencv.contours().contours.empty());
+    for (const ContourPoint& p : opencv.contours().points) {
+      EXPECT_EQ(p.x % 4, 2);
+      EXPECT_EQ(p.y % 4, 2);
+    }
+  }
+}
+
+TEST(Baselines, DontTouchCellsAreNeitherReadNorSegmented) {
+  ClassGrid g(20, 10, 1);
+  std::vector<std::uint8_t> dontTouch(200, 0);
+  for (int y = 0; y < 10; ++y) dontTouch[y * 20 + 10] = 1;
+  CmvisionSegmenter cmvision(CellGrid{20, 10, 1}, kClasses, dontTouch);
+  cmvision.segment(ClassMapClassifier(g.cells, g.width));
+  EXPECT_EQ(cmvision.regions().size(), 2u);
+  EXPECT_EQ(cmvision.classMap()[10], kNoClass);
+}
+
+TEST(Baselines, ConvergedTrackerEqualsCmvisionRegionsAndContours) {
+  std::mt19937 rng(23);
+  std::uniform_int_distribution<int> shift(-2, 2);
+  for (int trial = 0; trial < 30; ++trial) {
+    ClassGrid g = testing::randomBlobs(64, 48, rng);
+    const CellGrid grid{64, 48, 4};
+    TrackerConfig config;
+    config.cellSize = 4;
+    config.classes = {{1, true, 1000, 1, kNoClass}, {2, true, 1000, 1, kNoClass}};
+    RegionTracker tracker(grid, config);
+    CmvisionSegmenter cmvision(grid, kClasses);
+    for (int frame = 0; frame < 4; ++frame) {
+      const ClassMapClassifier classifier(g.cells, g.width);
+      tracker.track(classifier);
+      cmvision.segment(classifier);
+      const Agreement agreement = compareWithFullSegmentation(tracker.visited(), cmvision);
+      EXPECT_TRUE(agreement.exact()) << "trial " << trial << " frame " << frame;
+      if (frame == 0) {
+        // Everything seeded: identical regions, identical contours.
+        EXPECT_EQ(agreement.regionsUntracked, 0);
+        EXPECT_EQ(canonical(tracker.contours()), canonical(cmvision.contours()));
+      }
+      if (agreement.regionsUntracked == 0) {
+        EXPECT_EQ(canonical(tracker.contours()), canonical(cmvision.contours()));
+      }
+      g = g.shifted(shift(rng), shift(rng), 0);
+    }
+  }
+}
+
+TEST(Baselines, AgreementCountsAJumpedIslandAsStaleCells) {
+  ClassGrid a(30, 20, 1);
+  const CellGrid grid{30, 20, 1};
+  TrackerConfig config;
+  config.cellSize = 1;
+  config.classes = {{1, true, 10, 1, kNoClass}};
+  RegionTracker tracker(grid, config);
+  CmvisionSegmenter cmvision(grid, {kClasses.data(), 1});
+  tracker.track(ClassMapClassifier(a.cells, a.width));
+  ClassGrid b = a;
+  b.fillRect(10, 8, 13, 11, 0);  // appears inside, away from any drop
+  tracker.track(ClassMapClassifier(b.cells, b.width));
+  cmvision.segment(ClassMapClassifier(b.cells, b.width));
+  const Agreement agreement = compareWithFullSegmentation(tracker.visited(), cmvision);
+  EXPECT_EQ(agreement.staleCells, 9);
+  EXPECT_EQ(agreement.regionsTracked, 1);
+  EXPECT_FALSE(agreement.exact());
+}
+
+}  // namespace
+}  // namespace fieldline::region_tracking
