@@ -41,6 +41,18 @@ bool stopSignalReceived() {
   return g_stop_signal.load();
 }
 
+std::optional<header_t> peekHeader(const void* data, int size) {
+  // Encoded LCM: the outer type's 8-byte fingerprint, then the fields; a nested struct carries no
+  // fingerprint of its own, so the header follows directly.
+  constexpr int kFingerprintBytes = 8;
+  header_t h{};
+  if (size < kFingerprintBytes ||
+      h._decodeNoHash(data, kFingerprintBytes, size - kFingerprintBytes) < 0) {
+    return std::nullopt;
+  }
+  return h;
+}
+
 // ---------------------------------------------------------------------------------------------
 struct Connection::Impl {
   lcm::LCM lcm;
@@ -62,12 +74,18 @@ struct Node::Subscription {
   Node* node;
   std::string channel;
   RawHandler handler;
+  // Set instead of handler for subscribeAllRaw: also gets the channel name.
+  std::function<void(const std::string&, const void*, int)> all;
 };
 
 namespace {
-void dispatchRaw(const lcm::ReceiveBuffer* rbuf, const std::string&, void* context) {
+void dispatchRaw(const lcm::ReceiveBuffer* rbuf, const std::string& channel, void* context) {
   auto* sub = static_cast<Node::Subscription*>(context);
-  sub->handler(rbuf->data, static_cast<int>(rbuf->data_size));
+  if (sub->all) {
+    sub->all(channel, rbuf->data, static_cast<int>(rbuf->data_size));
+  } else {
+    sub->handler(rbuf->data, static_cast<int>(rbuf->data_size));
+  }
 }
 }  // namespace
 
@@ -115,6 +133,13 @@ void Node::subscribeRaw(const std::string& channel, BusId bus, RawHandler handle
   // Big messages (images) come in bursts; let a slow handler fall behind a little, not forever.
   if (s) s->setQueueCapacity(60);
   subscriptions_.push_back(std::move(sub));
+}
+
+void Node::subscribeAllRaw(
+    std::function<void(const std::string& channel, const void* data, int size)> handler,
+    BusId bus) {
+  subscribeRaw(".*", bus, nullptr);
+  subscriptions_.back()->all = std::move(handler);
 }
 
 void Node::stampHeader(const std::string& channel, header_t& header) {

@@ -107,6 +107,12 @@ class Node {
                  });
   }
 
+  // Every message on a bus, undecoded, with its channel name (tools that watch any traffic).
+  // Nothing is validated or counted here.
+  void subscribeAllRaw(
+      std::function<void(const std::string& channel, const void* data, int size)> handler,
+      BusId bus = kPrimaryBus);
+
   // Publishes `msg` (its header.utime set by the caller) after filling the rest of the header.
   // An invalid message (NaN, bad sizes) is counted as an error and not sent; returns false then.
   template <typename Msg>
@@ -189,6 +195,9 @@ class Node {
   std::atomic<bool> stop_requested_{false};
   std::vector<std::pair<std::string, std::int64_t>> logged_errors_;
 };
+
+// Reads the header_t every fieldline message starts with, from encoded bytes of any type.
+std::optional<header_t> peekHeader(const void* data, int size);
 
 // Installs SIGINT/SIGTERM handlers that make every Node::run() return (idempotent).
 void installStopSignals();

@@ -260,3 +260,43 @@ TEST(BusErrors, BadProviderIsAClearError) {
 
 }  // namespace
 }  // namespace fieldline::bus
+
+namespace fieldline::bus {
+namespace {
+
+TEST(BusRaw, SubscribeAllSeesEveryChannelAndItsHeader) {
+  SimulatedClock clock{1'800'000'000'000'000};
+  auto memq = Connection::open("memq://");
+  Node sender{{.process = "s", .robot_id = 5, .status_period_us = 0}, clock, memq};
+  Node watcher{{.process = "w", .robot_id = 5, .status_period_us = 0}, clock, memq};
+  std::vector<std::pair<std::string, header_t>> seen;
+  watcher.subscribeAllRaw([&](const std::string& channel, const void* data, int size) {
+    const auto h = peekHeader(data, size);
+    ASSERT_TRUE(h.has_value());
+    seen.emplace_back(channel, *h);
+  });
+  odometry_t o{};
+  o.header.utime = clock.now() - 8000;
+  sender.publish(channels::kOdometry, o);
+  image_t img{};
+  img.header.utime = clock.now() - 60'000;
+  img.width = 2;
+  img.height = 1;
+  img.stride = 4;
+  img.size = 4;
+  img.format = image_t::FORMAT_YUYV;
+  img.data.assign(4, 7);
+  sender.publish(channels::kCameraImage, img);
+  for (int i = 0; i < 3; ++i) watcher.spinOnce(0);
+  ASSERT_EQ(seen.size(), 2u);
+  EXPECT_EQ(seen[0].first, "ODOMETRY");
+  EXPECT_EQ(seen[0].second.utime, o.header.utime);
+  EXPECT_EQ(seen[0].second.utime_published, clock.now());
+  EXPECT_EQ(seen[1].first, "CAMERA_IMAGE");
+  EXPECT_EQ(seen[1].second.robot_id, 5);
+  const std::uint8_t shortBytes[5] = {};
+  EXPECT_FALSE(peekHeader(shortBytes, 5).has_value());
+}
+
+}  // namespace
+}  // namespace fieldline::bus
