@@ -12,6 +12,7 @@ namespace fieldline::bus {
 namespace {
 
 std::atomic<bool> g_stop_signal{false};
+constexpr int kMaxMessagesPerSpin = 200;
 
 extern "C" void onStopSignal(int) {
   g_stop_signal = true;
@@ -32,6 +33,8 @@ std::string remedyFor(const std::string& url) {
 void installStopSignals() {
   struct sigaction sa {};
   sa.sa_handler = onStopSignal;
+  // A second Ctrl-C during a hung shutdown gets the default action.
+  sa.sa_flags = SA_RESETHAND;
   sigemptyset(&sa.sa_mask);
   sigaction(SIGINT, &sa, nullptr);
   sigaction(SIGTERM, &sa, nullptr);
@@ -76,6 +79,8 @@ struct Node::Subscription {
   RawHandler handler;
   // Set instead of handler for subscribeAllRaw: also gets the channel name.
   std::function<void(const std::string&, const void*, int)> all;
+  Connection* connection = nullptr;
+  lcm::Subscription* lcm_subscription = nullptr;
 };
 
 namespace {
@@ -104,7 +109,12 @@ Node::Node(NodeOptions options, const Clock& clock, std::shared_ptr<Connection> 
   buses_.push_back(std::move(primary));
 }
 
-Node::~Node() = default;
+Node::~Node() {
+  // Nodes may share a connection that outlives them: stop its callbacks into this node.
+  for (auto& sub : subscriptions_) {
+    if (sub->lcm_subscription) sub->connection->impl_->lcm.unsubscribe(sub->lcm_subscription);
+  }
+}
 
 BusId Node::addBus(const std::string& url) {
   return addBus(Connection::open(url));
@@ -127,11 +137,15 @@ Connection& Node::connection(BusId bus) {
 }
 
 void Node::subscribeRaw(const std::string& channel, BusId bus, RawHandler handler) {
-  auto sub = std::make_unique<Subscription>(Subscription{this, channel, std::move(handler)});
-  auto* s = connection(bus).impl_->lcm.subscribeFunction(channel, &dispatchRaw,
-                                                         static_cast<void*>(sub.get()));
+  auto sub = std::make_unique<Subscription>();
+  sub->node = this;
+  sub->channel = channel;
+  sub->handler = std::move(handler);
+  sub->connection = &connection(bus);
+  sub->lcm_subscription = sub->connection->impl_->lcm.subscribeFunction(
+      channel, &dispatchRaw, static_cast<void*>(sub.get()));
   // Big messages (images) come in bursts; let a slow handler fall behind a little, not forever.
-  if (s) s->setQueueCapacity(60);
+  if (sub->lcm_subscription) sub->lcm_subscription->setQueueCapacity(60);
   subscriptions_.push_back(std::move(sub));
 }
 
@@ -180,7 +194,10 @@ bool Node::acceptHeader(const std::string& channel, const header_t& header) {
                std::to_string((header.utime - now) / 1000) + " ms in the future");
     return false;
   }
-  status_.onReceived(channel, header.robot_id, header.seq, header.utime, header.utime_published);
+  // Every process publishes SERVICE_STATUS with its own seq: gaps there are not losses.
+  const bool one_publisher = channel != channels::kServiceStatus.name;
+  status_.onReceived(channel, header.robot_id, header.seq, header.utime, header.utime_published,
+                     one_publisher);
   return true;
 }
 
@@ -211,7 +228,12 @@ void Node::setMetric(const std::string& name, double value) {
 void Node::timed(const std::function<void()>& fn) {
   // Processing time is a measurement of this machine, not part of the time model: steady clock.
   const auto start = std::chrono::steady_clock::now();
-  fn();
+  try {
+    fn();
+  } catch (const std::exception& e) {
+    // A handler or timer that throws is a bug, but one bad message must not end the process.
+    reportError("exception", e.what());
+  }
   const auto end = std::chrono::steady_clock::now();
   status_.onProcessing(std::chrono::duration<double, std::milli>(end - start).count());
 }
@@ -262,9 +284,11 @@ int Node::spinOnce(int timeout_ms) {
   if (ready > 0) {
     for (std::size_t i = 0; i < fds.size(); ++i) {
       if (fds[i].revents & POLLIN) {
-        // Drain what is queued on this bus without blocking.
-        while (buses_[i]->impl_->lcm.handleTimeout(0) > 0)
+        // Drain what is queued on this bus, bounded so timers and status still run under a flood.
+        for (int n = 0; n < kMaxMessagesPerSpin && buses_[i]->impl_->lcm.handleTimeout(0) > 0;
+             ++n) {
           ++handled;
+        }
       }
     }
   }

@@ -90,10 +90,12 @@ class Node {
                  std::type_identity_t<std::function<void(const Msg&)>> handler,
                  BusId bus = kPrimaryBus) {
     const std::string name(channel.name);
+    // The message object is reused, so big messages (images) decode without allocating; the
+    // generated decoders are hardened to resize every array (cmake/harden_lcm_decode.py).
     subscribeRaw(name, bus,
                  [this, name, handler = std::move(handler), msg = Msg{}](const void* data,
                                                                          int size) mutable {
-                   if (msg.decode(data, 0, size) != size) {
+                   if (!decodeInto(msg, data, size)) {
                      reject(name, "decode",
                             "undecodable message of " + std::to_string(size) + " bytes");
                      return;
@@ -118,11 +120,13 @@ class Node {
   template <typename Msg>
   bool publish(Channel<Msg> channel, Msg& msg, BusId bus = kPrimaryBus) {
     const std::string name(channel.name);
-    stampHeader(name, msg.header);
+    // Validate before stamping: a refused message must not use up a seq number (receivers would
+    // count it as lost).
     if (auto problem = validate(msg)) {
       reportError("invalid_output", name + ": " + *problem);
       return false;
     }
+    stampHeader(name, msg.header);
     const int size = msg.getEncodedSize();
     encode_buffer_.resize(static_cast<std::size_t>(size));
     if (msg.encode(encode_buffer_.data(), 0, size) != size) {
@@ -175,6 +179,14 @@ class Node {
   };
 
   void subscribeRaw(const std::string& channel, BusId bus, RawHandler handler);
+  template <typename Msg>
+  static bool decodeInto(Msg& msg, const void* data, int size) {
+    try {
+      return msg.decode(data, 0, size) == size;
+    } catch (const std::exception&) {  // e.g. bad_alloc for an absurd array count
+      return false;
+    }
+  }
   bool publishRaw(const std::string& channel, const header_t& header, BusId bus);
   void stampHeader(const std::string& channel, header_t& header);
   bool acceptHeader(const std::string& channel, const header_t& header);

@@ -43,12 +43,12 @@ const ChannelStats* StatusCollector::channel(const std::string& name, Direction 
 }
 
 void StatusCollector::onReceived(const std::string& channel, int sender, std::int64_t seq,
-                                 Utime utime, Utime utime_published) {
+                                 Utime utime, Utime utime_published, bool track_drops) {
   ChannelStats& c = stats(channel, Direction::kIn);
   ++c.total;
   ++c.in_period;
   auto [it, fresh] = c.last_seq_by_sender.try_emplace(sender, seq);
-  if (!fresh) {
+  if (!fresh && track_drops) {
     // A gap means lost messages; a step back means the sender restarted (not a loss).
     if (seq > it->second + 1) c.drops += seq - it->second - 1;
     it->second = seq;

@@ -38,8 +38,9 @@ class StatusCollector {
   StatusCollector(std::string process, int robot_id, Utime start);
 
   // A received message: counts it, tracks seq gaps per sender, records the sender's latency.
+  // `track_drops` is false on channels with several publishers per robot (SERVICE_STATUS).
   void onReceived(const std::string& channel, int sender, std::int64_t seq, Utime utime,
-                  Utime utime_published);
+                  Utime utime_published, bool track_drops = true);
   // A message that was received but not handled (undecodable, invalid, from the future).
   void onRejected(const std::string& channel);
   // A published message.

@@ -40,6 +40,25 @@ Problem finiteArray(const char* name, const T (&values)[N]) {
   return {};
 }
 
+// A count field and the arrays it sizes must agree, or encoding would read past the vectors.
+class Sized {
+ public:
+  Sized(const char* count_name, std::int64_t count) : count_name_(count_name), count_(count) {}
+  template <typename Vec>
+  Sized& operator()(const char* name, const Vec& v) {
+    if (!problem_ && (count_ < 0 || static_cast<std::int64_t>(v.size()) != count_)) {
+      problem_ = fmt::format("{} = {} but {} has {} elements", count_name_, count_, name, v.size());
+    }
+    return *this;
+  }
+  Problem result() const { return problem_; }
+
+ private:
+  const char* count_name_;
+  std::int64_t count_;
+  Problem problem_;
+};
+
 // Runs checks in order and returns the first problem.
 template <typename... Checks>
 Problem firstOf(Checks&&... checks) {
@@ -49,7 +68,7 @@ Problem firstOf(Checks&&... checks) {
 }
 
 Problem inRange(const char* name, double v, double lo, double hi) {
-  if (v < lo || v > hi) return fmt::format("{} = {} outside [{}, {}]", name, v, lo, hi);
+  if (!(v >= lo && v <= hi)) return fmt::format("{} = {} outside [{}, {}]", name, v, lo, hi);
   return {};
 }
 
@@ -88,25 +107,33 @@ std::optional<std::string> validate(const image_t& m) {
   if (static_cast<std::int64_t>(m.size) != static_cast<std::int64_t>(m.stride) * m.height) {
     return fmt::format("size {} != stride {} * height {}", m.size, m.stride, m.height);
   }
-  return {};
+  return Sized("size", m.size)("data", m.data).result();
 }
 
 std::optional<std::string> validate(const line_contours_t& m) {
   if (auto p = validate(m.header)) return p;
-  return firstOf([&] { return finiteArray("u", m.u); }, [&] { return finiteArray("v", m.v); },
-                 [&] { return finiteArray("x", m.x); }, [&] { return finiteArray("y", m.y); },
-                 [&]() -> Problem {
-                   for (int i = 0; i < m.num_sequences; ++i) {
-                     const int s = m.sequence_start[i], e = m.sequence_end[i];
-                     if (s < 0 || e < s || e > m.num_points) {
-                       return fmt::format("sequence {} [{}, {}) outside {} points", i, s, e,
-                                          m.num_points);
-                     }
-                   }
-                   return {};
-                 },
-                 [&] { return inRange("touched_fraction", m.touched_fraction, 0, 1); },
-                 [&] { return inRange("overlap_fraction", m.overlap_fraction, 0, 1); });
+  return firstOf(
+      [&] {
+        return Sized("num_points", m.num_points)("u", m.u)("v", m.v)("x", m.x)("y", m.y).result();
+      },
+      [&] {
+        return Sized("num_sequences", m.num_sequences)("sequence_start", m.sequence_start)(
+                   "sequence_end", m.sequence_end)
+            .result();
+      },
+      [&] { return finiteArray("u", m.u); }, [&] { return finiteArray("v", m.v); },
+      [&] { return finiteArray("x", m.x); }, [&] { return finiteArray("y", m.y); },
+      [&]() -> Problem {
+        for (int i = 0; i < m.num_sequences; ++i) {
+          const int s = m.sequence_start[i], e = m.sequence_end[i];
+          if (s < 0 || e < s || e > m.num_points) {
+            return fmt::format("sequence {} [{}, {}) outside {} points", i, s, e, m.num_points);
+          }
+        }
+        return {};
+      },
+      [&] { return inRange("touched_fraction", m.touched_fraction, 0, 1); },
+      [&] { return inRange("overlap_fraction", m.overlap_fraction, 0, 1); });
 }
 
 std::optional<std::string> validate(const ball_observation_t& m) {
@@ -126,34 +153,61 @@ std::optional<std::string> validate(const ball_observation_t& m) {
 
 std::optional<std::string> validate(const obstacle_observations_t& m) {
   if (auto p = validate(m.header)) return p;
-  return firstOf([&] { return finiteArray("bearing", m.bearing); },
-                 [&] { return finiteArray("distance", m.distance); },
-                 [&] { return finiteArray("angular_width", m.angular_width); },
-                 [&] { return finiteArray("width", m.width); },
-                 [&] { return finiteArray("x", m.x); }, [&] { return finiteArray("y", m.y); });
+  return firstOf(
+      [&] {
+        return Sized("count", m.count)("bearing", m.bearing)("distance", m.distance)(
+                   "angular_width", m.angular_width)("width", m.width)("x", m.x)("y", m.y)
+            .result();
+      },
+      [&] { return finiteArray("bearing", m.bearing); },
+      [&] { return finiteArray("distance", m.distance); },
+      [&] { return finiteArray("angular_width", m.angular_width); },
+      [&] { return finiteArray("width", m.width); }, [&] { return finiteArray("x", m.x); },
+      [&] { return finiteArray("y", m.y); });
 }
 
 std::optional<std::string> validate(const field_features_t& m) {
   if (auto p = validate(m.header)) return p;
-  return firstOf([&] { return finiteArray("feature_x", m.feature_x); },
-                 [&] { return finiteArray("feature_y", m.feature_y); },
-                 [&] { return finiteArray("feature_phi", m.feature_phi); },
-                 [&] { return finiteArray("quality", m.quality); },
-                 [&] { return finiteArray("pose_x", m.pose_x); },
-                 [&] { return finiteArray("pose_y", m.pose_y); },
-                 [&] { return finiteArray("pose_phi", m.pose_phi); },
-                 [&] { return finiteArray("sigma_xy", m.sigma_xy); },
-                 [&] { return finiteArray("sigma_phi", m.sigma_phi); },
-                 [&]() -> Problem {
-                   for (int i = 0; i < m.num_hypotheses; ++i) {
-                     const int f = m.hypothesis_feature[i];
-                     if (f < 0 || f >= m.num_features) {
-                       return fmt::format("hypothesis {} names feature {} of {}", i, f,
-                                          m.num_features);
-                     }
-                   }
-                   return {};
-                 });
+  return firstOf(
+      [&] {
+        return Sized("num_features", m.num_features)("kind", m.kind)("feature_x", m.feature_x)(
+                   "feature_y", m.feature_y)("feature_phi", m.feature_phi)("quality", m.quality)
+            .result();
+      },
+      [&] {
+        return Sized("num_hypotheses", m.num_hypotheses)("hypothesis_feature",
+                                                         m.hypothesis_feature)("pose_x", m.pose_x)(
+                   "pose_y", m.pose_y)("pose_phi", m.pose_phi)("sigma_xy", m.sigma_xy)("sigma_phi",
+                                                                                       m.sigma_phi)
+            .result();
+      },
+      [&]() -> Problem {
+        for (std::size_t i = 0; i < m.kind.size(); ++i) {
+          if (m.kind[i] < field_features_t::KIND_CENTER_CIRCLE ||
+              m.kind[i] > field_features_t::KIND_GOAL) {
+            return fmt::format("kind[{}] = {} is not a KIND_ constant", i, m.kind[i]);
+          }
+        }
+        return {};
+      },
+      [&] { return finiteArray("feature_x", m.feature_x); },
+      [&] { return finiteArray("feature_y", m.feature_y); },
+      [&] { return finiteArray("feature_phi", m.feature_phi); },
+      [&] { return finiteArray("quality", m.quality); },
+      [&] { return finiteArray("pose_x", m.pose_x); },
+      [&] { return finiteArray("pose_y", m.pose_y); },
+      [&] { return finiteArray("pose_phi", m.pose_phi); },
+      [&] { return finiteArray("sigma_xy", m.sigma_xy); },
+      [&] { return finiteArray("sigma_phi", m.sigma_phi); },
+      [&]() -> Problem {
+        for (int i = 0; i < m.num_hypotheses; ++i) {
+          const int f = m.hypothesis_feature[i];
+          if (f < 0 || f >= m.num_features) {
+            return fmt::format("hypothesis {} names feature {} of {}", i, f, m.num_features);
+          }
+        }
+        return {};
+      });
 }
 
 std::optional<std::string> validate(const odometry_t& m) {
@@ -168,12 +222,8 @@ std::optional<std::string> validate(const odometry_t& m) {
 
 std::optional<std::string> validate(const motion_command_t& m) {
   if (auto p = validate(m.header)) return p;
-  return firstOf(
-      [&] {
-        return finite({{"vx", m.vx}, {"vy", m.vy}, {"omega", m.omega}});
-      },
-      [&] { return inRange("vx", m.vx, -1, 1); }, [&] { return inRange("vy", m.vy, -1, 1); },
-      [&] { return inRange("omega", m.omega, -1, 1); });
+  // Values beyond [-1, 1] are legal on the bus: the motor bridge clamps them (and counts it).
+  return finite({{"vx", m.vx}, {"vy", m.vy}, {"omega", m.omega}});
 }
 
 std::optional<std::string> validate(const robot_state_t& m) {
@@ -187,7 +237,11 @@ std::optional<std::string> validate(const robot_state_t& m) {
                        {"vy", m.vy},
                        {"omega", m.omega}});
       },
-      [&] { return finiteArray("covariance", m.covariance); });
+      [&] { return finiteArray("covariance", m.covariance); },
+      [&] {
+        return inRange("status", m.status, robot_state_t::STATUS_UNKNOWN,
+                       robot_state_t::STATUS_ODOMETRY_ONLY);
+      });
 }
 
 std::optional<std::string> validate(const ball_state_t& m) {
@@ -201,7 +255,19 @@ std::optional<std::string> validate(const ball_state_t& m) {
 
 std::optional<std::string> validate(const team_state_t& m) {
   if (auto p = validate(m.header)) return p;
-  return firstOf([&] { return finiteArray("robot_x", m.robot_x); },
+  return firstOf([&] { return inRange("num_robots", m.num_robots, 0, 32); },
+                 [&] {
+                   return Sized("num_robots", m.num_robots)("present", m.present)(
+                              "robot_x", m.robot_x)("robot_y", m.robot_y)("robot_phi", m.robot_phi)(
+                              "robot_sigma_xy", m.robot_sigma_xy)("robot_age_us", m.robot_age_us)(
+                              "ball_valid", m.ball_valid)("ball_x", m.ball_x)("ball_y", m.ball_y)(
+                              "ball_age_us", m.ball_age_us)("clock_offset_us", m.clock_offset_us)(
+                              "round_trip_us", m.round_trip_us)(
+                              "packets_received", m.packets_received)("packets_rejected",
+                                                                      m.packets_rejected)
+                       .result();
+                 },
+                 [&] { return finiteArray("robot_x", m.robot_x); },
                  [&] { return finiteArray("robot_y", m.robot_y); },
                  [&] { return finiteArray("robot_phi", m.robot_phi); },
                  [&] { return finiteArray("robot_sigma_xy", m.robot_sigma_xy); },
@@ -219,27 +285,73 @@ std::optional<std::string> validate(const team_state_t& m) {
 std::optional<std::string> validate(const service_status_t& m) {
   if (auto p = validate(m.header)) return p;
   if (m.process.empty()) return "process name is empty";
-  return firstOf([&] { return finiteArray("rate_hz", m.rate_hz); },
-                 [&] { return finiteArray("metric_value", m.metric_value); });
+  return firstOf(
+      [&] {
+        return Sized("num_channels", m.num_channels)("channel", m.channel)(
+                   "direction", m.direction)("messages_total", m.messages_total)(
+                   "rate_hz", m.rate_hz)("drops_total", m.drops_total)(
+                   "rejected_total", m.rejected_total)("latency_p50_ms", m.latency_p50_ms)(
+                   "latency_p95_ms", m.latency_p95_ms)("latency_max_ms", m.latency_max_ms)
+            .result();
+      },
+      [&] {
+        return Sized("num_errors", m.num_errors)("error_kind", m.error_kind)("error_count",
+                                                                             m.error_count)
+            .result();
+      },
+      [&] {
+        return Sized("num_metrics", m.num_metrics)("metric_name", m.metric_name)("metric_value",
+                                                                                 m.metric_value)
+            .result();
+      },
+      [&] { return finiteArray("rate_hz", m.rate_hz); },
+      [&] { return finiteArray("latency_p50_ms", m.latency_p50_ms); },
+      [&] { return finiteArray("latency_p95_ms", m.latency_p95_ms); },
+      [&] { return finiteArray("latency_max_ms", m.latency_max_ms); },
+      [&] { return finiteArray("metric_value", m.metric_value); });
 }
 
 std::optional<std::string> validate(const world_state_t& m) {
   if (auto p = validate(m.header)) return p;
-  return firstOf([&] { return finiteArray("robot_x", m.robot_x); },
-                 [&] { return finiteArray("robot_y", m.robot_y); },
-                 [&] { return finiteArray("robot_phi", m.robot_phi); },
-                 [&] { return finiteArray("robot_vx", m.robot_vx); },
-                 [&] { return finiteArray("robot_vy", m.robot_vy); },
-                 [&] { return finiteArray("robot_omega", m.robot_omega); },
-                 [&] { return finiteArray("opponent_x", m.opponent_x); },
-                 [&] { return finiteArray("opponent_y", m.opponent_y); },
-                 [&] { return finiteArray("opponent_phi", m.opponent_phi); },
-                 [&] {
-                   return finite({{"ball_x", m.ball_x},
-                                  {"ball_y", m.ball_y},
-                                  {"ball_vx", m.ball_vx},
-                                  {"ball_vy", m.ball_vy}});
-                 });
+  return firstOf(
+      [&] {
+        return Sized("num_robots", m.num_robots)("robot_id", m.robot_id)("robot_x", m.robot_x)(
+                   "robot_y", m.robot_y)("robot_phi", m.robot_phi)("robot_vx", m.robot_vx)(
+                   "robot_vy", m.robot_vy)("robot_omega", m.robot_omega)("robot_kidnaps",
+                                                                         m.robot_kidnaps)
+            .result();
+      },
+      [&] {
+        return Sized("num_opponents", m.num_opponents)("opponent_x", m.opponent_x)(
+                   "opponent_y", m.opponent_y)("opponent_phi", m.opponent_phi)("opponent_radius",
+                                                                               m.opponent_radius)
+            .result();
+      },
+      [&]() -> Problem {
+        for (std::size_t i = 0; i < m.robot_id.size(); ++i) {
+          if (m.robot_id[i] < 1 || m.robot_id[i] > 99) {
+            return fmt::format("robot_id[{}] = {} outside 1..99", i, m.robot_id[i]);
+          }
+        }
+        return {};
+      },
+      [&] { return finiteArray("robot_x", m.robot_x); },
+      [&] { return finiteArray("robot_y", m.robot_y); },
+      [&] { return finiteArray("robot_phi", m.robot_phi); },
+      [&] { return finiteArray("robot_vx", m.robot_vx); },
+      [&] { return finiteArray("robot_vy", m.robot_vy); },
+      [&] { return finiteArray("robot_omega", m.robot_omega); },
+      [&] { return finiteArray("opponent_x", m.opponent_x); },
+      [&] { return finiteArray("opponent_y", m.opponent_y); },
+      [&] { return finiteArray("opponent_phi", m.opponent_phi); },
+      [&] { return finiteArray("opponent_radius", m.opponent_radius); },
+      [&] {
+        return finite({{"ball_x", m.ball_x},
+                       {"ball_y", m.ball_y},
+                       {"ball_vx", m.ball_vx},
+                       {"ball_vy", m.ball_vy},
+                       {"ball_radius", m.ball_radius}});
+      });
 }
 
 }  // namespace fieldline::bus

@@ -33,16 +33,37 @@ std::string show(const T& v) {
 
 }  // namespace
 
-Node::Node(YAML::Node node, std::string file, std::string path)
+struct Node::UsedKeys {
+  std::vector<std::pair<YAML::Node, std::shared_ptr<std::set<std::string>>>> maps;
+  std::shared_ptr<std::set<std::string>> of(const YAML::Node& node) {
+    for (auto& [n, used] : maps) {
+      if (n.is(node)) return used;
+    }
+    maps.emplace_back(node, std::make_shared<std::set<std::string>>());
+    return maps.back().second;
+  }
+};
+
+Node::Node(YAML::Node node, std::string file, std::string path, std::shared_ptr<UsedKeys> registry)
     : node_(std::move(node)),
       file_(std::move(file)),
       path_(std::move(path)),
-      used_(std::make_shared<std::set<std::string>>()) {}
+      registry_(registry ? std::move(registry) : std::make_shared<UsedKeys>()),
+      // Only maps have keys to track; scalars and lists get a private (unused) set.
+      used_(node_.IsMap() ? registry_->of(node_) : std::make_shared<std::set<std::string>>()) {}
+
+Node Node::makeChild(const YAML::Node& node, std::string path) const {
+  return Node(node, file_, std::move(path), registry_);
+}
 
 Node Node::loadFile(const std::string& path) {
   if (!std::filesystem::exists(path)) throw Error(path + ": file not found");
   try {
-    return Node(YAML::LoadFile(path), path, "");
+    Node root(YAML::LoadFile(path), path, "", nullptr);
+    if (!root.node_.IsDefined() || root.node_.IsNull()) throw Error(path + ": file is empty");
+    return root;
+  } catch (const Error&) {
+    throw;
   } catch (const YAML::ParserException& e) {
     throw Error(path + ":" + std::to_string(e.mark.line + 1) + ": YAML syntax error: " + e.msg);
   } catch (const YAML::Exception& e) {
@@ -52,7 +73,7 @@ Node Node::loadFile(const std::string& path) {
 
 Node Node::loadString(const std::string& text, const std::string& name) {
   try {
-    return Node(YAML::Load(text), name, "");
+    return Node(YAML::Load(text), name, "", nullptr);
   } catch (const YAML::ParserException& e) {
     throw Error(name + ":" + std::to_string(e.mark.line + 1) + ": YAML syntax error: " + e.msg);
   }
@@ -129,7 +150,8 @@ template <typename T>
 T Node::getOr(const std::string& key, T fallback) const {
   if (!node_.IsMap() && node_.IsDefined() && !node_.IsNull()) fail("", "expected a map");
   used_->insert(key);
-  if (!has(key)) return fallback;
+  if (!node_.IsMap() || !node_[key].IsDefined()) return fallback;
+  if (node_[key].IsNull()) fail(key, "has no value (remove the key to use the default)");
   return convert<T>(node_[key], key);
 }
 
@@ -153,7 +175,7 @@ std::vector<T> Node::getList(const std::string& key, std::optional<std::size_t> 
   std::vector<T> out;
   out.reserve(v.size());
   for (std::size_t i = 0; i < v.size(); ++i) {
-    out.push_back(convert<T>(v[i], key + "[" + std::to_string(i) + "]"));
+    out.push_back(makeChild(v[i], keyPath(key) + "[" + std::to_string(i) + "]").as<T>());
   }
   return out;
 }
@@ -178,14 +200,13 @@ Node Node::child(const std::string& key) const {
   const YAML::Node v = lookup(key);
   if (!v.IsDefined() || v.IsNull()) fail(key, "missing required section");
   if (!v.IsMap()) fail(key, "expected a map");
-  return Node(v, file_, keyPath(key));
+  return makeChild(v, keyPath(key));
 }
 
 std::optional<Node> Node::childIf(const std::string& key) const {
-  if (!has(key)) {
-    used_->insert(key);
-    return std::nullopt;
-  }
+  used_->insert(key);
+  if (!node_.IsMap() || !node_[key].IsDefined()) return std::nullopt;
+  if (node_[key].IsNull()) fail(key, "has no value (remove the key to use the defaults)");
   return child(key);
 }
 
@@ -195,7 +216,7 @@ std::vector<Node> Node::children(const std::string& key) const {
   if (!v.IsSequence()) fail(key, "expected a list");
   std::vector<Node> out;
   for (std::size_t i = 0; i < v.size(); ++i) {
-    out.push_back(Node(v[i], file_, keyPath(key) + "[" + std::to_string(i) + "]"));
+    out.push_back(makeChild(v[i], keyPath(key) + "[" + std::to_string(i) + "]"));
   }
   return out;
 }
@@ -210,8 +231,14 @@ std::vector<std::string> Node::keys() const {
 
 void Node::rejectUnknownKeys() const {
   if (!node_.IsMap()) return;
+  std::set<std::string> seen;
   for (auto it = node_.begin(); it != node_.end(); ++it) {
     const std::string k = it->first.Scalar();
+    if (!seen.insert(k).second) {
+      // yaml-cpp keeps the first of two equal keys; a silent second value is a trap.
+      throw Error(file_ + ":" + std::to_string(it->first.Mark().line + 1) + ": " + keyPath(k) +
+                  ": duplicate key");
+    }
     if (used_->count(k)) continue;
     std::string known;
     for (const auto& u : *used_)

@@ -86,7 +86,11 @@ class Node {
   const YAML::Node& yaml() const { return node_; }
 
  private:
-  Node(YAML::Node node, std::string file, std::string path);
+  // Keys read so far, per YAML map, shared by every Node that refers to the same map (so reading
+  // a section through two child() calls still counts every key once).
+  struct UsedKeys;
+  Node(YAML::Node node, std::string file, std::string path, std::shared_ptr<UsedKeys> registry);
+  Node makeChild(const YAML::Node& node, std::string path) const;
   YAML::Node lookup(const std::string& key) const;
   std::string keyPath(const std::string& key) const;
   std::string location(const std::string& key) const;
@@ -96,6 +100,7 @@ class Node {
   YAML::Node node_;
   std::string file_;
   std::string path_;
+  std::shared_ptr<UsedKeys> registry_;
   std::shared_ptr<std::set<std::string>> used_;
 };
 

@@ -150,13 +150,14 @@ TEST_F(BusTest, NanIsNeverPublishedNorHandled) {
       << receiver.status().lastError();
 }
 
-TEST_F(BusTest, OutOfRangeCommandIsRejected) {
-  int handled = 0;
-  receiver.subscribe(channels::kMotionCommand, [&](const motion_command_t&) { ++handled; });
+TEST_F(BusTest, OutOfRangeCommandPassesForTheBridgeToClamp) {
+  std::vector<double> got;
+  receiver.subscribe(channels::kMotionCommand,
+                     [&](const motion_command_t& m) { got.push_back(m.vx); });
   auto m = command(clock.now(), 1.5);
-  EXPECT_FALSE(sender.publish(channels::kMotionCommand, m));
+  EXPECT_TRUE(sender.publish(channels::kMotionCommand, m));
   spin();
-  EXPECT_EQ(handled, 0);
+  EXPECT_EQ(got, std::vector<double>{1.5});
 }
 
 TEST_F(BusTest, UtimeFromTheFutureIsRejected) {
@@ -287,7 +288,8 @@ TEST(BusRaw, SubscribeAllSeesEveryChannelAndItsHeader) {
   img.format = image_t::FORMAT_YUYV;
   img.data.assign(4, 7);
   sender.publish(channels::kCameraImage, img);
-  for (int i = 0; i < 3; ++i) watcher.spinOnce(0);
+  for (int i = 0; i < 3; ++i)
+    watcher.spinOnce(0);
   ASSERT_EQ(seen.size(), 2u);
   EXPECT_EQ(seen[0].first, "ODOMETRY");
   EXPECT_EQ(seen[0].second.utime, o.header.utime);
@@ -296,6 +298,145 @@ TEST(BusRaw, SubscribeAllSeesEveryChannelAndItsHeader) {
   EXPECT_EQ(seen[1].second.robot_id, 5);
   const std::uint8_t shortBytes[5] = {};
   EXPECT_FALSE(peekHeader(shortBytes, 5).has_value());
+}
+
+}  // namespace
+}  // namespace fieldline::bus
+
+namespace fieldline::bus {
+namespace {
+
+class HostileInput : public ::testing::Test {
+ protected:
+  SimulatedClock clock{1'800'000'000'000'000};
+  std::shared_ptr<Connection> memq = Connection::open("memq://");
+  Node sender{{.process = "s", .robot_id = 1, .status_period_us = 0}, clock, memq};
+  Node receiver{{.process = "r", .robot_id = 1, .status_period_us = 0}, clock, memq};
+
+  static std::vector<std::uint8_t> encode(const obstacle_observations_t& m) {
+    std::vector<std::uint8_t> buf(static_cast<std::size_t>(m.getEncodedSize()));
+    m.encode(buf.data(), 0, static_cast<int>(buf.size()));
+    return buf;
+  }
+  obstacle_observations_t two() {
+    obstacle_observations_t m{};
+    m.header.utime = clock.now();
+    m.header.utime_published = clock.now();
+    m.count = 2;
+    m.bearing = {0.1f, 0.2f};
+    m.distance = {1, 2};
+    m.angular_width = {0.1f, 0.1f};
+    m.width = {0.4f, 0.4f};
+    m.x = {1, 2};
+    m.y = {0, 0};
+    return m;
+  }
+  // Offset of `count` in the encoding: fingerprint 8 + header 8+8+8+1.
+  static constexpr std::size_t kCountOffset = 8 + 25;
+  static void setCount(std::vector<std::uint8_t>& buf, std::uint32_t count) {
+    for (int i = 0; i < 4; ++i)
+      buf[kCountOffset + i] = static_cast<std::uint8_t>(count >> (24 - 8 * i));
+  }
+};
+
+TEST_F(HostileInput, AbsurdArrayCountsAreRejectedNotFatal) {
+  int handled = 0;
+  receiver.subscribe(channels::kVisionObstacles,
+                     [&](const obstacle_observations_t&) { ++handled; });
+  for (std::uint32_t count : {0xffffffffu, 0x7fffffffu, 0x20000000u, 3u}) {
+    auto buf = encode(two());
+    setCount(buf, count);
+    sender.publishEncoded(channels::kVisionObstacles.name, buf.data(),
+                          static_cast<int>(buf.size()));
+  }
+  for (int i = 0; i < 5; ++i)
+    receiver.spinOnce(0);
+  EXPECT_EQ(handled, 0);
+  EXPECT_EQ(receiver.status().errorCount("decode"), 4);
+}
+
+TEST_F(HostileInput, EmptyArraysDoNotKeepThePreviousMessagesElements) {
+  std::vector<std::size_t> sizes;
+  receiver.subscribe(channels::kVisionObstacles,
+                     [&](const obstacle_observations_t& m) { sizes.push_back(m.bearing.size()); });
+  auto m = two();
+  sender.publish(channels::kVisionObstacles, m);
+  obstacle_observations_t none{};
+  none.header.utime = clock.now();
+  sender.publish(channels::kVisionObstacles, none);
+  for (int i = 0; i < 5; ++i)
+    receiver.spinOnce(0);
+  EXPECT_EQ(sizes, (std::vector<std::size_t>{2, 0}));
+}
+
+TEST_F(HostileInput, CountAndArraySizeMustAgreeToPublish) {
+  auto m = two();
+  m.width.pop_back();
+  EXPECT_FALSE(sender.publish(channels::kVisionObstacles, m));
+  EXPECT_EQ(sender.status().errorCount("invalid_output"), 1);
+  EXPECT_NE(sender.status().lastError().find("count = 2 but width has 1 elements"),
+            std::string::npos)
+      << sender.status().lastError();
+}
+
+TEST_F(HostileInput, RefusedPublishDoesNotUseASeqNumber) {
+  std::vector<std::int64_t> seqs;
+  receiver.subscribe(channels::kVisionObstacles,
+                     [&](const obstacle_observations_t& m) { seqs.push_back(m.header.seq); });
+  auto good = two();
+  auto bad = two();
+  bad.x[0] = std::numeric_limits<float>::quiet_NaN();
+  sender.publish(channels::kVisionObstacles, good);
+  EXPECT_FALSE(sender.publish(channels::kVisionObstacles, bad));
+  sender.publish(channels::kVisionObstacles, good);
+  for (int i = 0; i < 5; ++i)
+    receiver.spinOnce(0);
+  EXPECT_EQ(seqs, (std::vector<std::int64_t>{0, 1}));
+  EXPECT_EQ(receiver.status().channel("VISION_OBSTACLES", Direction::kIn)->drops, 0);
+}
+
+TEST_F(HostileInput, HandlerExceptionIsCountedAndTheNodeGoesOn) {
+  int calls = 0;
+  receiver.subscribe(channels::kVisionObstacles, [&](const obstacle_observations_t&) {
+    if (++calls == 1) throw std::runtime_error("boom");
+  });
+  auto m = two();
+  sender.publish(channels::kVisionObstacles, m);
+  sender.publish(channels::kVisionObstacles, m);
+  for (int i = 0; i < 5; ++i)
+    receiver.spinOnce(0);
+  EXPECT_EQ(calls, 2);
+  EXPECT_EQ(receiver.status().errorCount("exception"), 1);
+}
+
+TEST_F(HostileInput, ANodeDestroyedBeforeItsSharedConnectionIsNotCalled) {
+  int survivor_calls = 0;
+  {
+    Node shortLived{{.process = "short", .robot_id = 1, .status_period_us = 0}, clock, memq};
+    shortLived.subscribe(channels::kVisionObstacles, [&](const obstacle_observations_t&) {});
+  }
+  receiver.subscribe(channels::kVisionObstacles,
+                     [&](const obstacle_observations_t&) { ++survivor_calls; });
+  auto m = two();
+  sender.publish(channels::kVisionObstacles, m);
+  for (int i = 0; i < 5; ++i)
+    receiver.spinOnce(0);
+  EXPECT_EQ(survivor_calls, 1);
+}
+
+TEST_F(HostileInput, SeveralStatusPublishersAreNotCountedAsDrops) {
+  receiver.subscribe(channels::kServiceStatus, [&](const service_status_t&) {});
+  Node a{{.process = "a", .robot_id = 1, .status_period_us = 0}, clock, memq};
+  Node b{{.process = "b", .robot_id = 1, .status_period_us = 0}, clock, memq};
+  for (int i = 0; i < 3; ++i) {
+    a.publishStatus();
+    a.publishStatus();
+    b.publishStatus();
+  }
+  for (int i = 0; i < 5; ++i)
+    receiver.spinOnce(0);
+  EXPECT_EQ(receiver.status().channel("SERVICE_STATUS", Direction::kIn)->total, 9);
+  EXPECT_EQ(receiver.status().channel("SERVICE_STATUS", Direction::kIn)->drops, 0);
 }
 
 }  // namespace

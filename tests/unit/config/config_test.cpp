@@ -4,6 +4,7 @@
 #include <string>
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include "common/config/config.hpp"
 
@@ -45,7 +46,9 @@ Robot loadRobot(const Node& n) {
 class ConfigTest : public ::testing::Test {
  protected:
   std::string write(const std::string& text) {
-    const auto dir = std::filesystem::temp_directory_path() / "fieldline_config_test";
+    // One folder per process: several build trees may run this test at once.
+    const auto dir = std::filesystem::temp_directory_path() /
+                     ("fieldline_config_test_" + std::to_string(::getpid()));
     std::filesystem::create_directories(dir);
     const auto path =
         dir /
@@ -186,6 +189,64 @@ TEST_F(ConfigTest, ListLengthIsChecked) {
 TEST(Preset, ResolvesNamesAndPaths) {
   EXPECT_EQ(resolvePreset("field", "x/y.yaml"), "x/y.yaml");
   EXPECT_EQ(resolvePreset("field", "msl"), projectRoot() + "/config/field/msl.yaml");
+}
+
+}  // namespace
+}  // namespace fieldline::config
+
+namespace fieldline::config {
+namespace {
+
+TEST(ConfigMore, BadListElementNamesItsOwnLine) {
+  const Node n = Node::loadString("a: 1\ngains:\n  - 1.0\n  - 2.0\n  - x\n", "g.yaml");
+  try {
+    n.getList<double>("gains");
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("g.yaml:5: gains[2]: expected a number, got 'x'"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
+TEST(ConfigMore, DuplicateKeyIsAnError) {
+  const Node n = Node::loadString("length: 10\nwidth: 5\nlength: 20\n", "d.yaml");
+  n.get<double>("length");
+  n.get<double>("width");
+  try {
+    n.rejectUnknownKeys();
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()), "d.yaml:3: length: duplicate key");
+  }
+}
+
+TEST(ConfigMore, KeyWithoutValueIsNotSilentlyDefaulted) {
+  const Node n = Node::loadString("noise:\ncamera:\n", "n.yaml");
+  EXPECT_THROW(n.getOr<double>("noise", 0.5), Error);
+  EXPECT_THROW(n.childIf("camera"), Error);
+  EXPECT_DOUBLE_EQ(n.getOr<double>("absent", 0.5), 0.5);
+  EXPECT_FALSE(n.childIf("absent_section").has_value());
+}
+
+TEST(ConfigMore, SectionReadThroughTwoChildCallsCountsAllKeys) {
+  const Node n = Node::loadString("r:\n  a: 1\n  b: 2\n", "r.yaml");
+  n.child("r").get<int>("a");
+  n.child("r").get<int>("b");
+  EXPECT_NO_THROW(n.child("r").rejectUnknownKeys());
+}
+
+TEST(ConfigMore, EmptyFileIsNamed) {
+  const auto path = std::filesystem::temp_directory_path() /
+                    ("fieldline_empty_" + std::to_string(::getpid()) + ".yaml");
+  std::ofstream(path) << "# nothing\n";
+  try {
+    Node::loadFile(path.string());
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()), path.string() + ": file is empty");
+  }
+  std::filesystem::remove(path);
 }
 
 }  // namespace
