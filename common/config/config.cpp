@@ -221,6 +221,12 @@ std::vector<Node> Node::children(const std::string& key) const {
   return out;
 }
 
+bool Node::acceptEmpty(const std::string& key) const {
+  if (!node_.IsMap() || !node_[key].IsDefined() || !node_[key].IsNull()) return false;
+  used_->insert(key);
+  return true;
+}
+
 std::vector<std::string> Node::keys() const {
   std::vector<std::string> out;
   if (!node_.IsMap()) return out;

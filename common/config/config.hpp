@@ -72,6 +72,10 @@ class Node {
   template <typename T>
   T as() const;
 
+  // Accepts `key:` with no value (an empty list or section) by marking it read; returns true
+  // when the key is present and empty.
+  bool acceptEmpty(const std::string& key) const;
+
   // Throws for every key of this map that no get/child call asked for.
   void rejectUnknownKeys() const;
 

@@ -19,13 +19,13 @@ RestartPolicy parseRestart(const std::string& text) {
 
 // Marks an optional key as read when it is absent or null, so rejectUnknownKeys accepts `key:`.
 void acceptEmpty(const config::Node& n, const std::string& key) {
-  (void)n.getOr<std::string>(key, "");
+  n.acceptEmpty(key);
 }
 
 bool validName(const std::string& name) {
   return !name.empty() && std::all_of(name.begin(), name.end(), [](char c) {
-    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') ||
-           c == '_' || c == '-';
+    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' ||
+           c == '-';
   });
 }
 
@@ -131,8 +131,8 @@ ProcessEntry parseProcess(const config::Node& n, const LaunchDefaults& defaults)
   }
   if (n.has("main_channel")) {
     p.main_channel = n.getChoice(
-        "main_channel", std::vector<std::string>(bus::kAllChannelNames.begin(),
-                                                 bus::kAllChannelNames.end()));
+        "main_channel",
+        std::vector<std::string>(bus::kAllChannelNames.begin(), bus::kAllChannelNames.end()));
   }
   acceptEmpty(n, "main_channel");
   n.rejectUnknownKeys();

@@ -1,5 +1,6 @@
 #include "tools/launch/plan.hpp"
 
+#include <algorithm>
 #include <filesystem>
 #include <set>
 
@@ -128,7 +129,8 @@ LaunchPlan planLaunch(const LaunchFile& file, int team_size, const ExecutableLoo
       instance.env = entry.env;
       instance.restart = entry.restart;
       instance.main_channel = entry.main_channel;
-      instance.bus_url = instance.argv[4];
+      instance.bus_url = robot == kSimRobot ? bus::simBusUrl(file.defaults.bus)
+                                            : bus::robotBusUrl(robot, file.defaults.bus);
       plan.instances.push_back(std::move(instance));
     }
   }
