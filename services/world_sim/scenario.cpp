@@ -10,7 +10,9 @@ namespace {
 constexpr double kMaxCoordinate = 50.0;
 
 // An optional list that is absent (or null): mark the key as known for rejectUnknownKeys().
-void markOptional(const config::Node& n, const std::string& key) { n.childIf(key); }
+void markOptional(const config::Node& n, const std::string& key) {
+  n.childIf(key);
+}
 
 geometry::Vec2 readPoint(const config::Node& n) {
   const geometry::Vec2 p(n.get<double>("x", -kMaxCoordinate, kMaxCoordinate),
@@ -42,7 +44,8 @@ robot::TrajectorySpec readTrajectory(const config::Node& n) {
     out = s;
   } else if (type == "waypoints") {
     robot::WaypointSpec s;
-    for (const auto& p : n.children("points")) s.points.push_back(readPoint(p));
+    for (const auto& p : n.children("points"))
+      s.points.push_back(readPoint(p));
     if (s.points.empty()) n.fail("points", "needs at least one point");
     s.speed = n.get<double>("speed", 0.01, 5.0);
     s.loop = n.getOr<bool>("loop", true);

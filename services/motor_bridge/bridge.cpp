@@ -1,0 +1,161 @@
+#include "services/motor_bridge/bridge.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace fieldline::motor_bridge {
+
+namespace proto = protocol;
+
+BridgeConfig loadBridgeConfig(const config::Node& root) {
+  BridgeConfig c;
+  c.device = root.get<std::string>("device");
+  c.baud_rate = static_cast<unsigned>(root.get<int>("baud_rate", 1200, 4000000));
+  c.reconnect_interval = root.get<double>("reconnect_interval", 0.01, 60.0);
+  c.command_rate = root.get<double>("command_rate", 1.0, 1000.0);
+  root.rejectUnknownKeys();
+  return c;
+}
+
+std::string deviceForRobot(const std::string& device, int robot) {
+  std::string out = device;
+  const std::string key = "{robot}";
+  for (auto pos = out.find(key); pos != std::string::npos; pos = out.find(key)) {
+    out.replace(pos, key.size(), std::to_string(robot));
+  }
+  return out;
+}
+
+BridgeCore::BridgeCore(const robot::RobotParams& params)
+    : params_(params),
+      latency_us_(static_cast<Utime>(std::llround(params.controller_latency * 1e6))),
+      odometry_(params) {}
+
+bool BridgeCore::onCommand(const CommandInput& command, Utime now) {
+  if (!std::isfinite(command.vx) || !std::isfinite(command.vy) || !std::isfinite(command.omega)) {
+    count("command_nan");
+    return false;
+  }
+  if (command.deadline < now) {
+    count("command_expired");
+    return false;
+  }
+  const bool out_of_range =
+      std::abs(command.vx) > 1.0 || std::abs(command.vy) > 1.0 || std::abs(command.omega) > 1.0;
+  if (out_of_range) count("command_clamped");
+  current_ = {std::clamp(command.vx, -1.0, 1.0), std::clamp(command.vy, -1.0, 1.0),
+              std::clamp(command.omega, -1.0, 1.0), command.deadline};
+  have_command_ = true;
+  return true;
+}
+
+bool BridgeCore::commandActive(Utime now) const {
+  return have_command_ && now <= current_.deadline;
+}
+
+std::vector<std::uint8_t> BridgeCore::commandFrame(Utime now) {
+  if (have_command_ && now > current_.deadline) {
+    // The source went quiet: stop the robot rather than keep its last wish.
+    have_command_ = false;
+    current_ = {};
+    count("command_timeout");
+  }
+  proto::VelocityCommand cmd;
+  cmd.seq = ++command_seq_;
+  if (have_command_) {
+    cmd.vx_q15 = proto::toQ15(current_.vx);
+    cmd.vy_q15 = proto::toQ15(current_.vy);
+    cmd.omega_q15 = proto::toQ15(current_.omega);
+  }
+  return proto::encode(cmd);
+}
+
+std::vector<std::uint8_t> BridgeCore::stopFrame() {
+  have_command_ = false;
+  current_ = {};
+  proto::VelocityCommand cmd;
+  cmd.seq = ++command_seq_;
+  return proto::encode(cmd);
+}
+
+std::vector<std::uint8_t> BridgeCore::helloFrame() const {
+  std::vector<std::uint8_t> out{proto::kDelimiter};
+  proto::encode(proto::Hello{proto::Role::kHost, 1, 0, 0}, out);
+  return out;
+}
+
+void BridgeCore::onConnected() {
+  decoder_.reset();
+  last_sample_.reset();
+  resync_ = true;
+}
+
+void BridgeCore::onBytes(std::span<const std::uint8_t> bytes, Utime now,
+                         std::vector<OdometryOutput>& out) {
+  messages_.clear();
+  const proto::DecoderStats before = decoder_.stats();
+  decoder_.feed(bytes, messages_);
+  // Count every newly rejected frame under its reason.
+  const proto::DecoderStats& after = decoder_.stats();
+  const auto add = [&](proto::Reject reason, std::uint64_t old_count, std::uint64_t new_count) {
+    if (new_count > old_count)
+      counters_[std::string(proto::rejectName(reason))] += new_count - old_count;
+  };
+  add(proto::Reject::kCobs, before.cobs_errors, after.cobs_errors);
+  add(proto::Reject::kCrc, before.crc_errors, after.crc_errors);
+  add(proto::Reject::kLength, before.length_errors, after.length_errors);
+  add(proto::Reject::kVersion, before.version_errors, after.version_errors);
+  add(proto::Reject::kUnknownType, before.unknown_type_errors, after.unknown_type_errors);
+  add(proto::Reject::kOversize, before.oversize_errors, after.oversize_errors);
+  for (const auto& m : messages_) {
+    if (const auto* hello = std::get_if<proto::Hello>(&m)) {
+      if (hello->role == proto::Role::kController) {
+        controller_hello_ = *hello;
+        if (hello->ticks_per_revolution != params_.ticksPerWheelRevolution()) {
+          count("controller_ticks_mismatch");
+        }
+      }
+      continue;
+    }
+    if (const auto* err = std::get_if<proto::ErrorReport>(&m)) {
+      count("controller_error_" + std::to_string(static_cast<int>(err->code)));
+      continue;
+    }
+    const auto* sample = std::get_if<proto::OdometrySample>(&m);
+    if (!sample) {
+      count("unexpected_message");
+      continue;
+    }
+    OdometryOutput o;
+    o.utime = now - latency_us_;
+    o.ticks = sample->ticks;
+    o.controller_utime = static_cast<std::int64_t>(sample->controller_time_us);
+    if (sample->status & proto::kStatusWatchdog) o.status |= kOdoStatusWatchdog;
+    if (sample->status & proto::kStatusMotorFault) o.status |= kOdoStatusMotorFault;
+    if (sample->status & proto::kStatusReset) resync_ = true;
+    if (resync_ || !last_sample_) {
+      o.status |= kOdoStatusResync;
+      odometry_.reset();
+      odometry_.update(sample->ticks);
+      resync_ = false;
+    } else {
+      const std::uint32_t gap = sample->seq - last_sample_->seq;
+      if (gap != 1) {
+        o.status |= kOdoStatusFramesLost;
+        samples_lost_ += gap - 1;
+      }
+      o.movement = *odometry_.update(sample->ticks);
+      const double dt =
+          static_cast<double>(sample->controller_time_us - last_sample_->controller_time_us) * 1e-6;
+      if (dt > 0.0) {
+        o.vx = o.movement.dx / dt;
+        o.vy = o.movement.dy / dt;
+        o.omega = o.movement.dphi / dt;
+      }
+    }
+    last_sample_ = *sample;
+    out.push_back(o);
+  }
+}
+
+}  // namespace fieldline::motor_bridge

@@ -1,0 +1,113 @@
+// What the motor bridge does between the bus and the serial line, as plain logic on times the
+// caller passes in (the node adds LCM, the clock and the serial link):
+//   - motion commands in: NaN rejected, values clamped to [-1, 1], expired ones ignored; at the
+//     command rate the current command (or zero once it expired) goes out as a frame;
+//   - bytes in: decoded; odometry samples become Odometry outputs stamped with the physical
+//     sampling time (receive time minus the controller latency), with the movement since the
+//     previous sample from the wheel kinematics; malformed frames are counted, never forwarded.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <optional>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "common/config/config.hpp"
+#include "common/robot/robot_params.hpp"
+#include "common/robot/wheel_odometry.hpp"
+#include "common/time/clock.hpp"
+#include "services/motor_bridge/protocol.hpp"
+
+namespace fieldline::motor_bridge {
+
+struct BridgeConfig {
+  // Serial device, e.g. /dev/ttyUSB0; "{robot}" is replaced by the robot number.
+  std::string device;
+  unsigned baud_rate = 115200;
+  // [s]
+  double reconnect_interval = 0.25;
+  // Commands per second sent to the controller (keeps its watchdog fed).
+  double command_rate = 50.0;
+};
+
+// Reads config/robot/motor_bridge.yaml.
+BridgeConfig loadBridgeConfig(const config::Node& root);
+// `device` with "{robot}" replaced.
+std::string deviceForRobot(const std::string& device, int robot);
+
+struct CommandInput {
+  double vx = 0.0;
+  double vy = 0.0;
+  double omega = 0.0;
+  Utime deadline = 0;
+};
+
+// Odometry out of one sample; flags as in odometry_t's STATUS_ constants.
+struct OdometryOutput {
+  // Physical sampling time [µs since the epoch].
+  Utime utime = 0;
+  robot::TickCounts ticks{};
+  std::int64_t controller_utime = 0;
+  // Movement since the previous sample, robot frame at that sample [m, m, rad].
+  geometry::Movement movement;
+  // [m/s, m/s, rad/s] robot frame, from movement / controller time step.
+  double vx = 0.0;
+  double vy = 0.0;
+  double omega = 0.0;
+  std::int32_t status = 0;
+};
+
+inline constexpr std::int32_t kOdoStatusWatchdog = 1;
+inline constexpr std::int32_t kOdoStatusMotorFault = 2;
+inline constexpr std::int32_t kOdoStatusFramesLost = 4;
+inline constexpr std::int32_t kOdoStatusResync = 8;
+
+class BridgeCore {
+ public:
+  explicit BridgeCore(const robot::RobotParams& params);
+
+  // A motion command received at `now`. Returns false (and counts why) when it is not used.
+  bool onCommand(const CommandInput& command, Utime now);
+  // The frame to send at `now`: the current command, or zero when none is valid.
+  std::vector<std::uint8_t> commandFrame(Utime now);
+  // A zero command that also forgets the current one (on shutdown).
+  std::vector<std::uint8_t> stopFrame();
+  // Frames to send after (re)connecting: a delimiter to end any partial frame, and a Hello.
+  std::vector<std::uint8_t> helloFrame() const;
+  // The serial line was (re)opened: forget partial frames and the tick reference.
+  void onConnected();
+  // Bytes received at `now`; appends odometry outputs.
+  void onBytes(std::span<const std::uint8_t> bytes, Utime now, std::vector<OdometryOutput>& out);
+
+  // Rejection and protocol counters, by kind ("command_nan", "command_expired",
+  // "serial_crc", ...), since start.
+  const std::map<std::string, std::uint64_t>& counters() const { return counters_; }
+  const protocol::DecoderStats& decoderStats() const { return decoder_.stats(); }
+  // The controller's Hello, once received.
+  const std::optional<protocol::Hello>& controllerHello() const { return controller_hello_; }
+  std::uint64_t samplesLost() const { return samples_lost_; }
+  bool commandActive(Utime now) const;
+  // The command the controller is being sent, after clamping (zero if none).
+  const CommandInput& currentCommand() const { return current_; }
+
+ private:
+  void count(const std::string& kind) { ++counters_[kind]; }
+
+  robot::RobotParams params_;
+  Utime latency_us_;
+  protocol::Decoder decoder_;
+  std::vector<protocol::Message> messages_;
+  robot::WheelOdometry odometry_;
+  CommandInput current_;
+  bool have_command_ = false;
+  std::uint32_t command_seq_ = 0;
+  std::optional<protocol::OdometrySample> last_sample_;
+  bool resync_ = true;
+  std::uint64_t samples_lost_ = 0;
+  std::optional<protocol::Hello> controller_hello_;
+  std::map<std::string, std::uint64_t> counters_;
+};
+
+}  // namespace fieldline::motor_bridge

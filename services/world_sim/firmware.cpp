@@ -1,0 +1,89 @@
+#include "services/world_sim/firmware.hpp"
+
+#include <cmath>
+
+namespace fieldline::world_sim {
+
+namespace proto = motor_bridge::protocol;
+
+FirmwareEmulator::FirmwareEmulator(const robot::RobotParams& params, std::uint64_t clock_offset_us)
+    : params_(params), clock_offset_us_(clock_offset_us) {
+  messages_.reserve(16);
+}
+
+std::uint64_t FirmwareEmulator::controllerTimeUs(double t) const {
+  return clock_offset_us_ + static_cast<std::uint64_t>(std::llround(std::max(t, 0.0) * 1e6));
+}
+
+void FirmwareEmulator::receive(std::span<const std::uint8_t> bytes, double t,
+                               std::vector<std::uint8_t>& reply) {
+  messages_.clear();
+  const std::uint64_t bad_before = decoder_.stats().badFrames();
+  decoder_.feed(bytes, messages_);
+  for (const auto& m : messages_) {
+    if (const auto* cmd = std::get_if<proto::VelocityCommand>(&m)) {
+      pending_.push_back({t + params_.controller_latency,
+                          {proto::fromQ15(cmd->vx_q15), proto::fromQ15(cmd->vy_q15),
+                           proto::fromQ15(cmd->omega_q15)}});
+      last_command_time_ = t;
+      last_command_seq_ = cmd->seq;
+      ++stats_.commands_accepted;
+    } else if (const auto* hello = std::get_if<proto::Hello>(&m)) {
+      if (hello->role == proto::Role::kHost) {
+        proto::Hello answer;
+        answer.role = proto::Role::kController;
+        answer.firmware_version = kEmulatorFirmwareVersion;
+        answer.ticks_per_revolution = static_cast<std::uint16_t>(params_.ticksPerWheelRevolution());
+        answer.odometry_period_us =
+            static_cast<std::uint32_t>(std::lround(1e6 / params_.odometry_rate));
+        proto::encode(answer, reply);
+        ++stats_.hellos_answered;
+      }
+    }
+    // Odometry and error reports are controller-to-host only; a controller ignores them.
+  }
+  const std::uint64_t bad_now = decoder_.stats().badFrames();
+  if (bad_now > bad_before) {
+    proto::encode(
+        proto::ErrorReport{proto::ErrorCode::kBadFrame, static_cast<std::uint32_t>(bad_now)},
+        reply);
+  }
+}
+
+bool FirmwareEmulator::watchdogStopped(double t) const {
+  return last_command_time_ < 0.0 || t - last_command_time_ > params_.watchdog_timeout;
+}
+
+robot::NormalizedCommand FirmwareEmulator::motorCommand(double t) {
+  while (!pending_.empty() && pending_.front().apply_at <= t) {
+    active_ = pending_.front().command;
+    pending_.pop_front();
+  }
+  const bool stopped = watchdogStopped(t);
+  if (stopped && !was_stopped_) ++stats_.watchdog_stops;
+  was_stopped_ = stopped;
+  if (stopped) {
+    active_ = {};
+    pending_.clear();
+  }
+  return active_;
+}
+
+void FirmwareEmulator::sample(double t, const robot::TickCounts& ticks,
+                              std::vector<std::uint8_t>& out) {
+  proto::OdometrySample s;
+  s.seq = sample_seq_;
+  s.controller_time_us = controllerTimeUs(t);
+  s.ticks = ticks;
+  if (watchdogStopped(t)) s.status |= proto::kStatusWatchdog;
+  if (sample_seq_ == 0) s.status |= proto::kStatusReset;
+  const std::uint64_t bad = decoder_.stats().badFrames();
+  if (bad > bad_frames_reported_) s.status |= proto::kStatusRxErrors;
+  bad_frames_reported_ = bad;
+  s.last_command_seq = last_command_seq_;
+  proto::encode(s, out);
+  ++sample_seq_;
+  ++stats_.samples_sent;
+}
+
+}  // namespace fieldline::world_sim

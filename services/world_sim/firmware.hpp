@@ -1,0 +1,73 @@
+// The motor controller's firmware, emulated: what the microcontroller on the robot does with
+// the bytes of the serial protocol (docs/serial-protocol.md). Plain logic on simulated time; the
+// pseudo-terminal around it is in pseudo_terminal.hpp.
+//
+// It decodes velocity commands, lets each act on the motors `controller_latency` after it
+// arrived, stops the motors when no valid command came for `watchdog_timeout`, answers a host's
+// Hello, and samples the accumulated wheel ticks with its own clock at the odometry rate.
+#pragma once
+
+#include <cstdint>
+#include <deque>
+#include <span>
+#include <vector>
+
+#include "common/robot/motor_model.hpp"
+#include "common/robot/robot_params.hpp"
+#include "common/robot/wheel_odometry.hpp"
+#include "services/motor_bridge/protocol.hpp"
+
+namespace fieldline::world_sim {
+
+inline constexpr std::uint16_t kEmulatorFirmwareVersion = 0x0100;
+
+struct FirmwareStats {
+  std::uint64_t commands_accepted = 0;
+  std::uint64_t samples_sent = 0;
+  std::uint64_t hellos_answered = 0;
+  std::uint64_t watchdog_stops = 0;
+};
+
+class FirmwareEmulator {
+ public:
+  // `clock_offset_us`: the controller clock's reading at simulated time 0 (it has its own clock).
+  FirmwareEmulator(const robot::RobotParams& params, std::uint64_t clock_offset_us);
+
+  // Bytes from the host, arriving at simulated time `t` [s]. Replies (Hello, error reports) are
+  // appended to `reply`.
+  void receive(std::span<const std::uint8_t> bytes, double t, std::vector<std::uint8_t>& reply);
+  // The command the motors act on at `t`: the latest one whose latency has passed, or zero once
+  // the watchdog has expired.
+  robot::NormalizedCommand motorCommand(double t);
+  bool watchdogStopped(double t) const;
+  // Appends the odometry frame for ticks sampled at `t`.
+  void sample(double t, const robot::TickCounts& ticks, std::vector<std::uint8_t>& out);
+  // The serial line was replaced: forget a partial frame.
+  void lineReset() { decoder_.reset(); }
+
+  const FirmwareStats& stats() const { return stats_; }
+  const motor_bridge::protocol::DecoderStats& decoderStats() const { return decoder_.stats(); }
+  std::uint64_t controllerTimeUs(double t) const;
+
+ private:
+  struct Pending {
+    double apply_at = 0.0;
+    robot::NormalizedCommand command;
+  };
+
+  robot::RobotParams params_;
+  std::uint64_t clock_offset_us_;
+  motor_bridge::protocol::Decoder decoder_;
+  std::vector<motor_bridge::protocol::Message> messages_;
+  std::deque<Pending> pending_;
+  robot::NormalizedCommand active_;
+  // Time the last valid command arrived; negative before the first.
+  double last_command_time_ = -1.0;
+  std::uint32_t last_command_seq_ = 0;
+  std::uint32_t sample_seq_ = 0;
+  std::uint64_t bad_frames_reported_ = 0;
+  bool was_stopped_ = true;
+  FirmwareStats stats_;
+};
+
+}  // namespace fieldline::world_sim

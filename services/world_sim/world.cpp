@@ -1,0 +1,255 @@
+#include "services/world_sim/world.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <stdexcept>
+
+namespace fieldline::world_sim {
+namespace {
+
+// The scenario scales the robot's systematic errors and noise (0: an exact robot).
+robot::RobotParams scaledParams(robot::RobotParams p, double scale) {
+  for (auto& e : p.simulation.wheel_radius_error)
+    e *= scale;
+  for (auto& e : p.simulation.wheel_angle_error)
+    e *= scale;
+  p.simulation.slip_noise *= scale;
+  p.simulation.rotation_noise *= scale;
+  p.simulation.collision_rotation_noise *= scale;
+  return p;
+}
+
+// Pushes a moving ball out of a circle moving with `obstacle_velocity` and reflects its
+// relative normal speed. True if they touched.
+bool bounceOffCircle(BallTruth& ball, const geometry::Vec2& centre, double radius,
+                     const geometry::Vec2& obstacle_velocity, double restitution) {
+  const geometry::Vec2 offset = ball.position - centre;
+  const double reach = radius + ball.radius;
+  const double d = offset.norm();
+  if (d >= reach) return false;
+  const geometry::Vec2 normal = d > 1e-9 ? geometry::Vec2(offset / d) : geometry::Vec2(1.0, 0.0);
+  ball.position = centre + normal * reach;
+  geometry::Vec2 relative = ball.velocity - obstacle_velocity;
+  const double vn = relative.dot(normal);
+  if (vn < 0.0) relative -= (1.0 + restitution) * vn * normal;
+  ball.velocity = relative + obstacle_velocity;
+  return true;
+}
+
+}  // namespace
+
+World::World(const Scenario& scenario)
+    : World(scenario, robot::loadRobotPreset(scenario.robot),
+            field::loadFieldPreset(scenario.field)) {}
+
+World::World(const Scenario& scenario, const robot::RobotParams& params,
+             const field::FieldModel& field)
+    : scenario_(scenario),
+      params_(scaledParams(params, scenario.slip_scale)),
+      field_(field),
+      dt_(1.0 / scenario.physics_rate),
+      nominal_(params_.wheels),
+      true_(params_.trueWheels()),
+      motor_(robot::MotorModel::fromParams(params_)),
+      barrier_(field.carpetHalfExtent()),
+      rng_(scenario.seed) {
+  if (scenario.physics_rate < 200.0) throw std::invalid_argument("world: physics below 200 Hz");
+  for (int i = 0; i < robot::kWheelCount; ++i) {
+    radius_scale_[i] = 1.0 + params_.simulation.wheel_radius_error[i];
+  }
+  for (const auto& spec : scenario.robots) {
+    RobotTruth r;
+    r.id = spec.id;
+    r.pose = spec.start;
+    robots_.push_back(r);
+  }
+  previous_poses_.resize(robots_.size());
+  for (const auto& o : scenario.opponents) {
+    opponent_paths_.emplace_back(o.trajectory, o.start);
+    opponents_.push_back({opponent_paths_.back().at(0.0).pose, o.radius});
+  }
+  ball_.position = scenario.ball.start;
+  ball_.radius = scenario.ball.radius;
+  kicks_ = scenario.ball.kicks;
+  std::stable_sort(kicks_.begin(), kicks_.end(),
+                   [](const BallKick& a, const BallKick& b) { return a.time < b.time; });
+  kidnaps_ = scenario.kidnaps;
+  std::stable_sort(kidnaps_.begin(), kidnaps_.end(),
+                   [](const KidnapSpec& a, const KidnapSpec& b) { return a.time < b.time; });
+}
+
+int World::indexOf(int id) const {
+  for (std::size_t i = 0; i < robots_.size(); ++i) {
+    if (robots_[i].id == id) return static_cast<int>(i);
+  }
+  return -1;
+}
+
+void World::setWheelCommands(std::size_t index, const Eigen::Vector3d& commands) {
+  auto& c = robots_.at(index).wheel_commands;
+  for (int i = 0; i < robot::kWheelCount; ++i) {
+    c[i] = std::isfinite(commands[i]) ? std::clamp(commands[i], -1.0, 1.0) : 0.0;
+  }
+}
+
+void World::setCommand(std::size_t index, const robot::NormalizedCommand& command) {
+  setWheelCommands(index, robot::wheelCommands(command, params_, nominal_));
+}
+
+robot::TickCounts World::ticks(std::size_t index) const {
+  const auto& angles = robots_.at(index).wheel_angles;
+  const double per_radian = params_.ticksPerWheelRevolution() / (2.0 * std::numbers::pi);
+  robot::TickCounts out{};
+  for (int i = 0; i < robot::kWheelCount; ++i) {
+    const auto count = static_cast<std::int64_t>(std::floor(angles[i] * per_radian));
+    out[i] = static_cast<std::int32_t>(static_cast<std::uint32_t>(count & 0xffffffffLL));
+  }
+  return out;
+}
+
+void World::kidnap(std::size_t index, const geometry::Pose2& pose) {
+  auto& r = robots_.at(index);
+  r.pose = pose;
+  r.pose.phi = geometry::normalizeAngle(pose.phi);
+  previous_poses_[index] = r.pose;
+  ++r.kidnaps;
+}
+
+void World::applyEvents() {
+  const double t = time();
+  while (next_kick_ < kicks_.size() && kicks_[next_kick_].time <= t) {
+    const auto& k = kicks_[next_kick_++];
+    if (k.position) ball_.position = *k.position;
+    ball_.velocity = k.velocity;
+  }
+  while (next_kidnap_ < kidnaps_.size() && kidnaps_[next_kidnap_].time <= t) {
+    const auto& k = kidnaps_[next_kidnap_++];
+    const int index = indexOf(k.robot);
+    if (index >= 0) kidnap(static_cast<std::size_t>(index), k.pose);
+  }
+}
+
+void World::stepRobot(std::size_t index) {
+  auto& r = robots_[index];
+  const auto& sim = params_.simulation;
+  // Exact integral of the first-order wheel response over the step.
+  const double tau = motor_.timeConstant();
+  const double decay = std::exp(-dt_ / tau);
+  const Eigen::Vector3d target = r.wheel_commands * (motor_.alpha() / motor_.beta());
+  const Eigen::Vector3d travel = target * dt_ + (r.wheel_speeds - target) * tau * (1.0 - decay);
+  r.wheel_speeds = target + (r.wheel_speeds - target) * decay;
+  for (int i = 0; i < robot::kWheelCount; ++i) {
+    r.wheel_angles[i] += travel[i] / params_.wheels[i].radius;
+  }
+
+  // What the floor makes of it: true radii, slip noise per wheel (white, so the error of a
+  // wheel's path grows with the square root of time), then the true geometry.
+  const double noise_scale = sim.slip_noise / std::sqrt(dt_);
+  Eigen::Vector3d contact;
+  for (int i = 0; i < robot::kWheelCount; ++i) {
+    contact[i] = travel[i] * radius_scale_[i] * (1.0 + noise_scale * normal_(rng_));
+  }
+  Eigen::Vector3d body = true_.robotMatrixInverse() * contact;
+  const double speed = std::hypot(body.x(), body.y()) / dt_;
+  body.z() += sim.rotation_noise * speed * std::sqrt(dt_) * normal_(rng_);
+  if (r.in_contact) body.z() += sim.collision_rotation_noise * std::sqrt(dt_) * normal_(rng_);
+  r.pose = geometry::applyMovement(r.pose, robot::arcMovement(body));
+}
+
+void World::resolveCollisions() {
+  const double radius = params_.radius;
+  for (auto& r : robots_) {
+    r.in_contact = false;
+    const double lx = barrier_.x() - radius;
+    const double ly = barrier_.y() - radius;
+    if (std::abs(r.pose.x) > lx || std::abs(r.pose.y) > ly) {
+      r.pose.x = std::clamp(r.pose.x, -lx, lx);
+      r.pose.y = std::clamp(r.pose.y, -ly, ly);
+      r.in_contact = true;
+    }
+    for (const auto& o : opponents_) {
+      const geometry::Vec2 offset = r.pose.position() - o.pose.position();
+      const double reach = radius + o.radius;
+      const double d = offset.norm();
+      if (d < reach) {
+        const geometry::Vec2 n = d > 1e-9 ? geometry::Vec2(offset / d) : geometry::Vec2(1.0, 0.0);
+        const geometry::Vec2 p = o.pose.position() + n * reach;
+        r.pose.x = p.x();
+        r.pose.y = p.y();
+        r.in_contact = true;
+      }
+    }
+  }
+  for (std::size_t i = 0; i < robots_.size(); ++i) {
+    for (std::size_t j = i + 1; j < robots_.size(); ++j) {
+      auto& a = robots_[i];
+      auto& b = robots_[j];
+      const geometry::Vec2 offset = a.pose.position() - b.pose.position();
+      const double d = offset.norm();
+      if (d >= 2.0 * radius) continue;
+      const geometry::Vec2 n = d > 1e-9 ? geometry::Vec2(offset / d) : geometry::Vec2(1.0, 0.0);
+      const geometry::Vec2 push = n * (0.5 * (2.0 * radius - d));
+      a.pose.x += push.x();
+      a.pose.y += push.y();
+      b.pose.x -= push.x();
+      b.pose.y -= push.y();
+      a.in_contact = b.in_contact = true;
+    }
+  }
+}
+
+void World::stepBall() {
+  const double e = scenario_.ball.restitution;
+  ball_.position += ball_.velocity * dt_;
+  const double speed = ball_.velocity.norm();
+  if (speed > 0.0) {
+    const double slower = std::max(0.0, speed - scenario_.ball.rolling_deceleration * dt_);
+    ball_.velocity *= slower / speed;
+  }
+  for (int axis = 0; axis < 2; ++axis) {
+    const double limit = barrier_[axis] - ball_.radius;
+    if (std::abs(ball_.position[axis]) > limit) {
+      ball_.position[axis] = std::copysign(limit, ball_.position[axis]);
+      if (ball_.velocity[axis] * ball_.position[axis] > 0.0) ball_.velocity[axis] *= -e;
+    }
+  }
+  for (auto& r : robots_) {
+    if (bounceOffCircle(ball_, r.pose.position(), params_.radius, r.velocity, e)) {
+      r.in_contact = true;
+    }
+  }
+  for (std::size_t k = 0; k < opponents_.size(); ++k) {
+    const geometry::Vec2 v = opponent_paths_[k].at(time()).velocity;
+    bounceOffCircle(ball_, opponents_[k].pose.position(), opponents_[k].radius, v, e);
+  }
+}
+
+void World::step() {
+  applyEvents();
+  for (std::size_t k = 0; k < opponents_.size(); ++k) {
+    opponents_[k].pose = opponent_paths_[k].at(time() + dt_).pose;
+  }
+  for (std::size_t i = 0; i < robots_.size(); ++i) {
+    previous_poses_[i] = robots_[i].pose;
+    stepRobot(i);
+  }
+  resolveCollisions();
+  for (std::size_t i = 0; i < robots_.size(); ++i) {
+    auto& r = robots_[i];
+    r.pose.phi = geometry::normalizeAngle(r.pose.phi);
+    r.velocity = (r.pose.position() - previous_poses_[i].position()) / dt_;
+    r.omega = geometry::angleDiff(r.pose.phi, previous_poses_[i].phi) / dt_;
+  }
+  stepBall();
+  for (auto& r : robots_)
+    r.contact_steps += r.in_contact ? 1 : 0;
+  ++steps_;
+}
+
+void World::runUntil(double t) {
+  while (time() < t - 1e-12)
+    step();
+}
+
+}  // namespace fieldline::world_sim

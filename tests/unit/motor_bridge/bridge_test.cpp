@@ -1,0 +1,132 @@
+// The bridge's logic: command checks, zero on silence, odometry from the firmware emulator's
+// frames with physical time stamps, and malformed bytes counted but never forwarded.
+#include <cmath>
+#include <limits>
+
+#include <gtest/gtest.h>
+
+#include "services/motor_bridge/bridge.hpp"
+#include "services/world_sim/firmware.hpp"
+
+namespace fieldline::motor_bridge {
+namespace {
+
+namespace proto = protocol;
+constexpr Utime kT0 = 1'700'000'000'000'000;
+
+proto::VelocityCommand decodeCommand(const std::vector<std::uint8_t>& frame) {
+  proto::Decoder d;
+  std::vector<proto::Message> out;
+  d.feed(frame, out);
+  EXPECT_EQ(out.size(), 1u);
+  return std::get<proto::VelocityCommand>(out.at(0));
+}
+
+TEST(Bridge, CommandsAreCheckedClampedAndExpire) {
+  BridgeCore bridge(robot::loadRobotPreset("fu2004"));
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_FALSE(bridge.onCommand({nan, 0.0, 0.0, kT0 + 100'000}, kT0));
+  EXPECT_EQ(bridge.counters().at("command_nan"), 1u);
+  EXPECT_FALSE(bridge.onCommand({0.5, 0.0, 0.0, kT0 - 1}, kT0));
+  EXPECT_EQ(bridge.counters().at("command_expired"), 1u);
+  // Nothing valid yet: zero goes out.
+  EXPECT_EQ(decodeCommand(bridge.commandFrame(kT0)).vx_q15, 0);
+
+  EXPECT_TRUE(bridge.onCommand({1.7, -0.5, 0.25, kT0 + 100'000}, kT0));
+  EXPECT_EQ(bridge.counters().at("command_clamped"), 1u);
+  const auto sent = decodeCommand(bridge.commandFrame(kT0 + 20'000));
+  EXPECT_EQ(sent.vx_q15, 32767);
+  EXPECT_EQ(sent.vy_q15, proto::toQ15(-0.5));
+  EXPECT_EQ(sent.omega_q15, proto::toQ15(0.25));
+  EXPECT_TRUE(bridge.commandActive(kT0 + 100'000));
+  // The source stopped: past the deadline the robot is told to stand still.
+  const auto after = decodeCommand(bridge.commandFrame(kT0 + 100'001));
+  EXPECT_EQ(after.vx_q15, 0);
+  EXPECT_EQ(after.omega_q15, 0);
+  EXPECT_GT(after.seq, sent.seq);
+  EXPECT_EQ(bridge.counters().at("command_timeout"), 1u);
+}
+
+TEST(Bridge, OdometryFromTheEmulatorIsStampedWithThePhysicalTime) {
+  const auto params = robot::loadRobotPreset("fu2004");
+  BridgeCore bridge(params);
+  world_sim::FirmwareEmulator firmware(params, 123'000);
+  std::vector<std::uint8_t> wire;
+  std::vector<OdometryOutput> out;
+
+  // Hello both ways.
+  firmware.receive(bridge.helloFrame(), 0.0, wire);
+  bridge.onBytes(wire, kT0, out);
+  ASSERT_TRUE(bridge.controllerHello().has_value());
+  EXPECT_EQ(bridge.controllerHello()->ticks_per_revolution, 768);
+  EXPECT_TRUE(out.empty());
+
+  wire.clear();
+  firmware.sample(0.02, {0, 0, 0}, wire);
+  bridge.onBytes(wire, kT0 + 20'000, out);
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_EQ(out[0].utime, kT0 + 20'000 - 8'000);  // minus the controller latency
+  EXPECT_TRUE(out[0].status & kOdoStatusResync);
+  EXPECT_TRUE(out[0].status & kOdoStatusWatchdog);  // no command yet
+  EXPECT_EQ(out[0].controller_utime, 123'000 + 20'000);
+
+  // 100 ticks on the side wheels against each other: forward.
+  wire.clear();
+  firmware.sample(0.04, {100, -100, 0}, wire);
+  bridge.onBytes(wire, kT0 + 40'000, out);
+  ASSERT_EQ(out.size(), 2u);
+  robot::WheelOdometry reference(params);
+  const auto expected = reference.movement({100, -100, 0});
+  EXPECT_NEAR(out[1].movement.dx, expected.dx, 1e-12);
+  EXPECT_GT(out[1].movement.dx, 0.0);
+  EXPECT_NEAR(out[1].vx, expected.dx / 0.02, 1e-9);
+  EXPECT_EQ(out[1].status & kOdoStatusResync, 0);
+
+  // A lost sample is flagged, the movement still covers both intervals.
+  wire.clear();
+  firmware.sample(0.06, {200, -200, 0}, wire);
+  wire.clear();
+  firmware.sample(0.08, {300, -300, 0}, wire);
+  bridge.onBytes(wire, kT0 + 80'000, out);
+  ASSERT_EQ(out.size(), 3u);
+  EXPECT_TRUE(out[2].status & kOdoStatusFramesLost);
+  EXPECT_EQ(bridge.samplesLost(), 1u);
+  EXPECT_NEAR(out[2].movement.dx, reference.movement({200, -200, 0}).dx, 1e-12);
+}
+
+TEST(Bridge, MalformedFramesAreCountedNeverForwarded) {
+  const auto params = robot::loadRobotPreset("fu2004");
+  BridgeCore bridge(params);
+  world_sim::FirmwareEmulator firmware(params, 0);
+  std::vector<std::uint8_t> good;
+  firmware.sample(0.02, {1, 2, 3}, good);
+  std::vector<std::uint8_t> wire = good;
+  wire[3] ^= 0x10;                              // a bit flip: fails the CRC
+  wire.insert(wire.end(), {0x33, 0x44, 0x00});  // garbage
+  std::vector<OdometryOutput> out;
+  bridge.onBytes(wire, kT0, out);
+  EXPECT_TRUE(out.empty());
+  EXPECT_EQ(bridge.decoderStats().badFrames(), 2u);
+  EXPECT_EQ(
+      bridge.counters().at("serial_crc") + bridge.counters().at("serial_cobs") +
+          (bridge.counters().count("serial_length") ? bridge.counters().at("serial_length") : 0),
+      2u);
+  // The next intact frame gets through.
+  bridge.onBytes(good, kT0 + 1, out);
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_EQ(out[0].ticks[2], 3);
+}
+
+TEST(Bridge, ConfigAndDeviceNames) {
+  const auto c =
+      loadBridgeConfig(config::Node::loadFile(config::resolvePreset("robot", "motor_bridge")));
+  EXPECT_EQ(deviceForRobot(c.device, 4), "/tmp/fieldline/robot4.tty");
+  EXPECT_DOUBLE_EQ(c.command_rate, 50.0);
+  EXPECT_THROW(
+      loadBridgeConfig(config::Node::loadString("device: x\nbaud_rate: 9600\n"
+                                                "reconnect_interval: 1\ncommand_rate: 0\n")),
+      config::Error);
+}
+
+}  // namespace
+}  // namespace fieldline::motor_bridge

@@ -1,0 +1,54 @@
+// The pilot: no command without a fresh pose, trajectory clock from the first pose, and closed
+// loop against the simulated world it drives the robot along its path.
+#include <gtest/gtest.h>
+
+#include "services/pilot/pilot.hpp"
+#include "services/world_sim/world.hpp"
+
+namespace fieldline::pilot {
+namespace {
+
+constexpr Utime kT0 = 1'700'000'000'000'000;
+
+TEST(Pilot, NeedsAFreshPose) {
+  const auto scenario = world_sim::loadScenarioPreset("default");
+  const auto params = robot::loadRobotPreset("fu2004");
+  EXPECT_THROW(Pilot(scenario, 9, params), std::invalid_argument);
+  Pilot pilot(scenario, 3, params);  // rotates in place at 1 rad/s
+  EXPECT_FALSE(pilot.command(kT0).has_value());
+  pilot.onPose(scenario.robotById(3)->start, kT0);
+  const auto cmd = pilot.command(kT0);
+  ASSERT_TRUE(cmd.has_value());
+  EXPECT_NEAR(cmd->omega, 1.0 / params.max_omega, 1e-12);
+  EXPECT_NEAR(cmd->vx, 0.0, 1e-12);
+  // 0.4 s later without a new pose: silence.
+  EXPECT_FALSE(pilot.command(kT0 + 400'000).has_value());
+  // NaN poses are ignored.
+  pilot.onPose({std::nan(""), 0.0, 0.0}, kT0 + 400'000);
+  EXPECT_FALSE(pilot.command(kT0 + 400'000).has_value());
+}
+
+TEST(Pilot, DrivesTheWorldAlongItsTrajectory) {
+  auto scenario = world_sim::loadScenarioPreset("default");
+  world_sim::World world(scenario);
+  Pilot pilot(scenario, 2, world.robotParams());  // the waypoint tour at 1.2 m/s
+  const int index = world.indexOf(2);
+  double worst = 0.0;
+  for (int sample = 0; sample < 50 * 30; ++sample) {
+    const Utime now = kT0 + static_cast<Utime>(world.time() * 1e6);
+    pilot.onPose(world.robots()[index].pose, now);
+    world.setCommand(static_cast<std::size_t>(index), *pilot.command(now));
+    for (int k = 0; k < 8; ++k)
+      world.step();
+    const auto ref = pilot.reference(kT0 + static_cast<Utime>(world.time() * 1e6));
+    if (world.time() > 2.0) {
+      worst =
+          std::max(worst, (ref->pose.position() - world.robots()[index].pose.position()).norm());
+    }
+  }
+  // Corners of the tour are cut a little; otherwise it stays on the path.
+  EXPECT_LT(worst, 0.35);
+}
+
+}  // namespace
+}  // namespace fieldline::pilot

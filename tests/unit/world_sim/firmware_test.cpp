@@ -1,0 +1,112 @@
+// The firmware emulator: latency, watchdog, odometry frames, Hello; and its pseudo-terminal.
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <filesystem>
+
+#include <gtest/gtest.h>
+
+#include "services/world_sim/firmware.hpp"
+#include "services/world_sim/pseudo_terminal.hpp"
+
+namespace fieldline::world_sim {
+namespace {
+
+namespace proto = motor_bridge::protocol;
+
+std::vector<proto::Message> decode(const std::vector<std::uint8_t>& bytes) {
+  proto::Decoder d;
+  std::vector<proto::Message> out;
+  d.feed(bytes, out);
+  return out;
+}
+
+TEST(Firmware, CommandsActAfterTheLatencyAndTheWatchdogStopsThem) {
+  const auto params = robot::loadRobotPreset("fu2004");
+  FirmwareEmulator fw(params, 5'000'000);
+  std::vector<std::uint8_t> reply;
+  EXPECT_TRUE(fw.watchdogStopped(0.0));
+  fw.receive(proto::encode(proto::VelocityCommand{1, proto::toQ15(0.5), 0, proto::toQ15(-0.25)}),
+             1.0, reply);
+  EXPECT_TRUE(reply.empty());
+  EXPECT_DOUBLE_EQ(fw.motorCommand(1.0 + 0.007).vx, 0.0);  // still on its way (8 ms)
+  const auto active = fw.motorCommand(1.0 + 0.009);
+  EXPECT_NEAR(active.vx, 0.5, 1e-4);
+  EXPECT_NEAR(active.omega, -0.25, 1e-4);
+  EXPECT_NEAR(fw.motorCommand(1.19).vx, 0.5, 1e-4);
+  EXPECT_FALSE(fw.watchdogStopped(1.19));
+  EXPECT_DOUBLE_EQ(fw.motorCommand(1.201).vx, 0.0);  // 200 ms without a command
+  EXPECT_TRUE(fw.watchdogStopped(1.201));
+  EXPECT_EQ(fw.stats().watchdog_stops, 1u);
+}
+
+TEST(Firmware, SamplesCarryTicksClockStatusAndTheLastCommand) {
+  const auto params = robot::loadRobotPreset("fu2004");
+  FirmwareEmulator fw(params, 5'000'000);
+  std::vector<std::uint8_t> out;
+  fw.sample(0.02, {1, -2, 3}, out);
+  std::vector<std::uint8_t> reply;
+  fw.receive(proto::encode(proto::VelocityCommand{42, 0, 0, 0}), 0.03, reply);
+  const std::vector<std::uint8_t> broken{0x05, 0x11, 0x00};
+  fw.receive(broken, 0.031, reply);  // a broken frame: reported
+  fw.sample(0.04, {10, -20, 30}, out);
+  const auto msgs = decode(out);
+  ASSERT_EQ(msgs.size(), 2u);
+  const auto a = std::get<proto::OdometrySample>(msgs[0]);
+  const auto b = std::get<proto::OdometrySample>(msgs[1]);
+  EXPECT_EQ(a.seq, 0u);
+  EXPECT_EQ(b.seq, 1u);
+  EXPECT_EQ(a.controller_time_us, 5'020'000u);
+  EXPECT_EQ(b.ticks, (std::array<std::int32_t, 3>{10, -20, 30}));
+  EXPECT_TRUE(a.status & proto::kStatusReset);
+  EXPECT_TRUE(a.status & proto::kStatusWatchdog);
+  EXPECT_FALSE(b.status & proto::kStatusWatchdog);
+  EXPECT_TRUE(b.status & proto::kStatusRxErrors);
+  EXPECT_EQ(b.last_command_seq, 42u);
+  const auto errors = decode(reply);
+  ASSERT_EQ(errors.size(), 1u);
+  EXPECT_EQ(std::get<proto::ErrorReport>(errors[0]).code, proto::ErrorCode::kBadFrame);
+}
+
+TEST(Firmware, AnswersAHostHello) {
+  FirmwareEmulator fw(robot::loadRobotPreset("fu2004"), 0);
+  std::vector<std::uint8_t> reply;
+  fw.receive(proto::encode(proto::Hello{proto::Role::kHost, 1, 0, 0}), 0.0, reply);
+  const auto msgs = decode(reply);
+  ASSERT_EQ(msgs.size(), 1u);
+  const auto hello = std::get<proto::Hello>(msgs[0]);
+  EXPECT_EQ(hello.role, proto::Role::kController);
+  EXPECT_EQ(hello.ticks_per_revolution, 768);
+  EXPECT_EQ(hello.odometry_period_us, 20000u);
+}
+
+TEST(PseudoTerminal, BytesTravelBothWaysThroughTheLink) {
+  const std::string link = (std::filesystem::temp_directory_path() /
+                            ("fieldline-test-" + std::to_string(getpid())) / "robot1.tty")
+                               .string();
+  std::string slave;
+  {
+    PseudoTerminal pty(link);
+    ASSERT_TRUE(std::filesystem::is_symlink(link));
+    slave = pty.slavePath();
+    const int fd = ::open(link.c_str(), O_RDWR | O_NOCTTY);
+    ASSERT_GE(fd, 0);
+    const std::vector<std::uint8_t> down{0x00, 0x01, 0x0a, 0x0d, 0xff};
+    EXPECT_EQ(pty.write(down), 0u);
+    std::uint8_t buf[16];
+    ASSERT_EQ(::read(fd, buf, sizeof buf), 5);  // raw: no CR/LF translation
+    EXPECT_TRUE(std::equal(down.begin(), down.end(), buf));
+    const std::uint8_t up[3] = {0x0d, 0x00, 0x03};
+    ASSERT_EQ(::write(fd, up, 3), 3);
+    std::vector<std::uint8_t> got;
+    for (int tries = 0; tries < 1000 && got.size() < 3; ++tries)
+      pty.read(got);
+    EXPECT_EQ(got, (std::vector<std::uint8_t>{0x0d, 0x00, 0x03}));
+    ::close(fd);
+  }
+  EXPECT_FALSE(std::filesystem::exists(link));  // the device disappeared
+  std::filesystem::remove_all(std::filesystem::path(link).parent_path());
+}
+
+}  // namespace
+}  // namespace fieldline::world_sim
