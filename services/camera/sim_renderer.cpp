@@ -297,9 +297,10 @@ void SimRenderer::renderFloor(const geometry::Pose2& pose) {
 bool SimRenderer::objectBounds(double centre_bearing, double half_span, double near, double far,
                                double top, std::array<int, 4>& bounds) const {
   const MirrorParams& m = mirror_.params();
-  const double r_in =
-      std::max(m.self_radius, mirror_.params().distance.imageRadius(near, centre_bearing) - 2.0);
-  if (!std::isfinite(r_in) || r_in > m.outer_radius) return false;
+  // The object's foot, 2 px closer for rounding; nothing to draw beyond the distance function.
+  const double r_near = m.distance.imageRadius(near, centre_bearing);
+  if (!std::isfinite(r_near) || r_near - 2.0 > m.outer_radius) return false;
+  const double r_in = std::max(m.self_radius, r_near - 2.0);
   double r_out = m.outer_radius;
   if (top < m.reference_height) {
     const double projected = far * m.reference_height / (m.reference_height - top);

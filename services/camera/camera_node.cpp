@@ -1,0 +1,267 @@
+#include "services/camera/camera_node.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+
+#include <spdlog/spdlog.h>
+
+#include "common/field/field_model.hpp"
+
+namespace fieldline::camera {
+namespace {
+
+constexpr std::size_t kPendingSlots = 16;
+// SIM_WORLD older than this is not rendered from: the simulator stalled or its clock differs.
+constexpr double kMaxWorldAge = 0.5;
+
+double millisSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+      .count();
+}
+
+}  // namespace
+
+std::int8_t imageFormatCode(PixelFormat format) {
+  return format == PixelFormat::kYuyv ? image_t::FORMAT_YUYV : image_t::FORMAT_BGR;
+}
+
+std::int8_t imageSourceCode(SourceKind kind) {
+  switch (kind) {
+    case SourceKind::kSim:
+      return image_t::SOURCE_SIM;
+    case SourceKind::kV4l2:
+      return image_t::SOURCE_V4L2;
+    case SourceKind::kVideo:
+    case SourceKind::kGstreamer:
+      return image_t::SOURCE_VIDEO;
+    case SourceKind::kFolder:
+      return image_t::SOURCE_FOLDER;
+    case SourceKind::kLog:
+      return image_t::SOURCE_LOG;
+  }
+  return image_t::SOURCE_VIDEO;
+}
+
+std::optional<FrameView> viewOfImage(const image_t& image) {
+  if (image.format != image_t::FORMAT_YUYV && image.format != image_t::FORMAT_BGR) {
+    return std::nullopt;
+  }
+  const FrameView view{
+      image.data.data(), image.width, image.height, image.stride,
+      image.format == image_t::FORMAT_YUYV ? PixelFormat::kYuyv : PixelFormat::kBgr};
+  if (!view.valid() || image.data.size() < static_cast<std::size_t>(image.stride) * image.height) {
+    return std::nullopt;
+  }
+  return view;
+}
+
+bool sceneFromWorld(const world_state_t& world, int robot_id, Utime when, double exposure,
+                    SimScene& scene) {
+  const double dt = static_cast<double>(when - world.header.utime) * 1e-6;
+  bool found = false;
+  for (int k = 0; k < world.num_robots; ++k) {
+    if (world.robot_id[k] != robot_id) continue;
+    scene.robot = {world.robot_x[k] + world.robot_vx[k] * dt,
+                   world.robot_y[k] + world.robot_vy[k] * dt,
+                   geometry::normalizeAngle(world.robot_phi[k] + world.robot_omega[k] * dt)};
+    scene.velocity = {world.robot_vx[k], world.robot_vy[k]};
+    scene.omega = world.robot_omega[k];
+    found = true;
+  }
+  if (!found) return false;
+  scene.exposure = exposure;
+  scene.robots.clear();
+  for (int k = 0; k < world.num_robots; ++k) {
+    if (world.robot_id[k] == robot_id) continue;
+    scene.robots.push_back(
+        {{world.robot_x[k] + world.robot_vx[k] * dt, world.robot_y[k] + world.robot_vy[k] * dt},
+         0.25,
+         true});
+  }
+  for (int k = 0; k < world.num_opponents; ++k) {
+    scene.robots.push_back({{world.opponent_x[k], world.opponent_y[k]},
+                            std::clamp(static_cast<double>(world.opponent_radius[k]), 0.05, 1.0),
+                            false});
+  }
+  scene.ball.reset();
+  if (world.ball_radius > 0.0f) {
+    scene.ball = SimBall{{world.ball_x + world.ball_vx * dt, world.ball_y + world.ball_vy * dt},
+                         static_cast<double>(world.ball_radius)};
+  }
+  return true;
+}
+
+// --- SimCameraNode ---
+
+SimCameraNode::SimCameraNode(bus::Node& node, bus::BusId sim_bus, CameraConfig config,
+                             std::string field_preset)
+    : node_(node),
+      config_(std::move(config)),
+      field_preset_(std::move(field_preset)),
+      pending_(kPendingSlots) {
+  if (!field_preset_.empty()) {
+    field_name_ = field_preset_;
+    renderer_ = std::make_unique<SimRenderer>(
+        config_.model.mirror, field::loadFieldPreset(field_preset_), config_.render);
+  }
+  node_.subscribe(
+      bus::channels::kSimWorld, [this](const world_state_t& w) { onWorld(w); }, sim_bus);
+  const auto period =
+      static_cast<Utime>(std::llround(kMicrosPerSecond / config_.pipeline.frame_rate));
+  node_.every(period, [this] { onFrameTick(); });
+  period_start_ = node_.now();
+  node_.every(kMicrosPerSecond, [this] { reportRates(); });
+}
+
+void SimCameraNode::onWorld(const world_state_t& world) {
+  if (field_preset_.empty() && world.field != field_name_) {
+    // First message, or the simulator switched fields: build the floor raster for it.
+    try {
+      renderer_ = std::make_unique<SimRenderer>(
+          config_.model.mirror, field::loadFieldPreset(world.field), config_.render);
+      field_name_ = world.field;
+      spdlog::info("rendering the '{}' field", field_name_);
+      // Building took a while: this state is old now, wait for the next one.
+      return;
+    } catch (const std::exception& e) {
+      node_.reportError("field", "cannot load field '" + world.field + "': " + e.what());
+      return;
+    }
+  }
+  world_ = world;
+}
+
+void SimCameraNode::onFrameTick() {
+  if (!renderer_ || !world_) return;  // waiting for the simulator
+  const Utime exposure_time = node_.now();
+  if (std::abs(static_cast<double>(exposure_time - world_->header.utime)) * 1e-6 > kMaxWorldAge) {
+    node_.reportError("stale_world",
+                      "SIM_WORLD is " +
+                          std::to_string((exposure_time - world_->header.utime) / kMicrosPerMilli) +
+                          " ms away from the exposure time");
+    return;
+  }
+  if (!sceneFromWorld(*world_, node_.robotId(), exposure_time, config_.pipeline.exposure, scene_)) {
+    node_.reportError("no_pose",
+                      "robot " + std::to_string(node_.robotId()) + " is not in SIM_WORLD");
+    return;
+  }
+  const auto slot_it =
+      std::find_if(pending_.begin(), pending_.end(), [](const Pending& p) { return !p.in_flight; });
+  if (slot_it == pending_.end()) {
+    node_.reportError("pipeline_full", "more frames in flight than slots; frame dropped");
+    return;
+  }
+  scene_.frame_number = static_cast<std::uint64_t>(frames_rendered_);
+  const auto start = std::chrono::steady_clock::now();
+  renderer_->render(scene_, frame_buffer_);
+  const double render_ms = millisSince(start);
+  node_.status().onProcessing(render_ms);
+  render_ms_in_period_ += render_ms;
+
+  image_t& img = slot_it->image;
+  img.header.utime = exposure_time;
+  img.width = renderer_->width();
+  img.height = renderer_->height();
+  img.stride = renderer_->stride();
+  img.format = image_t::FORMAT_YUYV;
+  img.source = image_t::SOURCE_SIM;
+  img.frame_number = frames_rendered_++;
+  img.exposure_us = static_cast<std::int32_t>(std::lround(config_.pipeline.exposure * 1e6));
+  img.size = static_cast<std::int32_t>(frame_buffer_.size());
+  img.data.swap(frame_buffer_);  // the slot's old buffer becomes the next render target
+  frame_buffer_.resize(img.data.size());
+  slot_it->in_flight = true;
+  const std::size_t slot = static_cast<std::size_t>(slot_it - pending_.begin());
+  const auto latency = static_cast<Utime>(std::llround(config_.pipeline.latency * 1e6));
+  node_.at(exposure_time + latency, [this, slot] { publishPending(slot); });
+}
+
+void SimCameraNode::publishPending(std::size_t slot) {
+  Pending& p = pending_[slot];
+  if (node_.publish(bus::channels::kCameraImage, p.image)) {
+    ++frames_published_;
+    ++frames_in_period_;
+  }
+  p.in_flight = false;
+}
+
+void SimCameraNode::reportRates() {
+  const Utime now = node_.now();
+  const double seconds = std::max(1e-3, static_cast<double>(now - period_start_) * 1e-6);
+  node_.setMetric("frame_rate_hz", static_cast<double>(frames_in_period_) / seconds);
+  node_.setMetric("render_ms",
+                  frames_in_period_ > 0 ? render_ms_in_period_ / frames_in_period_ : 0.0);
+  frames_in_period_ = 0;
+  render_ms_in_period_ = 0.0;
+  period_start_ = now;
+}
+
+// --- real sources ---
+
+std::int64_t runFrameSource(bus::Node& node, FrameSource& source, const PipelineParams& pipeline,
+                            const FrameSourceOptions& options) {
+  SourceFrame frame;
+  image_t img;
+  std::int64_t published = 0;
+  std::int64_t in_period = 0;
+  double capture_ms_in_period = 0.0;
+  Utime period_start = node.now();
+  std::int64_t reported_errors = 0;
+  const auto latency = static_cast<Utime>(std::llround(pipeline.latency * 1e6));
+  const Utime pace_period =
+      options.pace_fps > 0.0 ? static_cast<Utime>(std::llround(1e6 / options.pace_fps)) : 0;
+  Utime next_due = node.now();
+  while (!node.stopRequested() && (options.max_frames == 0 || published < options.max_frames)) {
+    if (pace_period > 0) {
+      // Handle traffic and timers while waiting for the next frame's turn.
+      for (Utime now = node.now(); now < next_due && !node.stopRequested(); now = node.now()) {
+        node.spinOnce(static_cast<int>(std::max<Utime>(1, (next_due - now) / kMicrosPerMilli)));
+      }
+      next_due = std::max(next_due + pace_period, node.now());
+    } else {
+      node.spinOnce(0);
+    }
+    const auto start = std::chrono::steady_clock::now();
+    const bool got = source.next(frame);
+    const Utime received = node.now();
+    for (; reported_errors < source.errors(); ++reported_errors) {
+      node.reportError("bad_frame", source.lastError());
+    }
+    if (!got) break;
+    const double capture_ms = millisSince(start);
+    node.status().onProcessing(capture_ms);
+    capture_ms_in_period += capture_ms;
+
+    img.header.utime = received - latency;
+    img.width = frame.width;
+    img.height = frame.height;
+    img.stride = frame.stride;
+    img.format = imageFormatCode(frame.format);
+    img.source = imageSourceCode(source.kind());
+    img.frame_number = frame.frame_number;
+    img.exposure_us = static_cast<std::int32_t>(std::lround(pipeline.exposure * 1e6));
+    img.size = static_cast<std::int32_t>(frame.bytes.size());
+    img.data.swap(frame.bytes);
+    if (node.publish(bus::channels::kCameraImage, img)) {
+      ++published;
+      ++in_period;
+    }
+    frame.bytes.swap(img.data);
+
+    if (received - period_start >= kMicrosPerSecond) {
+      const double seconds = static_cast<double>(received - period_start) * 1e-6;
+      node.setMetric("frame_rate_hz", static_cast<double>(in_period) / seconds);
+      node.setMetric("capture_ms", in_period > 0 ? capture_ms_in_period / in_period : 0.0);
+      in_period = 0;
+      capture_ms_in_period = 0.0;
+      period_start = received;
+    }
+  }
+  node.spinOnce(0);
+  return published;
+}
+
+}  // namespace fieldline::camera

@@ -1,0 +1,91 @@
+// The camera process's bus side: turns sources into CAMERA_IMAGE messages.
+//
+//   sim:   SimCameraNode subscribes SIM_WORLD on the simulator's bus, renders its robot's view
+//          at the configured frame rate, stamps utime with the exposure time (the tick) and
+//          publishes each frame `latency` later, as a real camera delivers it.
+//   real:  runFrameSource() reads a FrameSource (camera, video, GStreamer, folder, log) and
+//          publishes every frame at once with utime = receive time - latency.
+// Both publish frames in the layout they have (YUYV from the renderer, BGR or YUYV from real
+// sources) and report frame_rate_hz and render_ms / capture_ms in SERVICE_STATUS.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <fieldline/image_t.hpp>
+#include <fieldline/world_state_t.hpp>
+
+#include "common/bus/node.hpp"
+#include "services/camera/camera_config.hpp"
+#include "services/camera/sim_renderer.hpp"
+#include "services/camera/sources.hpp"
+
+namespace fieldline::camera {
+
+// Fills `scene` with what robot `robot_id` sees in `world` at time `when` (µs): poses
+// extrapolated with the velocities from the state's utime, other own robots as teammates,
+// opponents with their radius, the ball. `scene` keeps its vectors' capacity from frame to frame.
+// Returns false (scene unspecified) if the robot is not in the message.
+bool sceneFromWorld(const world_state_t& world, int robot_id, Utime when, double exposure,
+                    SimScene& scene);
+
+class SimCameraNode {
+ public:
+  // `field_preset` empty: build the renderer for the field SIM_WORLD names (on its first
+  // message). Subscribes SIM_WORLD on `sim_bus` and starts the frame timer on `node`.
+  SimCameraNode(bus::Node& node, bus::BusId sim_bus, CameraConfig config,
+                std::string field_preset = {});
+
+  std::int64_t framesRendered() const { return frames_rendered_; }
+  std::int64_t framesPublished() const { return frames_published_; }
+
+ private:
+  struct Pending {
+    image_t image;
+    bool in_flight = false;
+  };
+
+  void onWorld(const world_state_t& world);
+  void onFrameTick();
+  void publishPending(std::size_t slot);
+  void reportRates();
+
+  bus::Node& node_;
+  CameraConfig config_;
+  std::string field_preset_;
+  std::string field_name_;
+  std::unique_ptr<SimRenderer> renderer_;
+  std::optional<world_state_t> world_;
+  std::vector<Pending> pending_;
+  std::vector<std::uint8_t> frame_buffer_;
+  SimScene scene_;
+  std::int64_t frames_rendered_ = 0;
+  std::int64_t frames_published_ = 0;
+  std::int64_t frames_in_period_ = 0;
+  double render_ms_in_period_ = 0.0;
+  Utime period_start_ = 0;
+};
+
+struct FrameSourceOptions {
+  // Deliver at most this many frames per second (folders, files, logs); 0 = as fast as the
+  // source gives them (cameras pace themselves).
+  double pace_fps = 0.0;
+  // Stop after this many frames (0 = no limit).
+  std::int64_t max_frames = 0;
+};
+
+// Publishes every frame of `source` as CAMERA_IMAGE until it ends or the node is asked to stop.
+// Returns the number of frames published.
+std::int64_t runFrameSource(bus::Node& node, FrameSource& source, const PipelineParams& pipeline,
+                            const FrameSourceOptions& options);
+
+// image_t FORMAT_ and SOURCE_ constants for our enums.
+std::int8_t imageFormatCode(PixelFormat format);
+std::int8_t imageSourceCode(SourceKind kind);
+// A view of a received image (YUYV or BGR); nullopt for other formats.
+std::optional<FrameView> viewOfImage(const image_t& image);
+
+}  // namespace fieldline::camera

@@ -1,0 +1,227 @@
+// The camera node over memq:// with a simulated clock: SIM_WORLD in, CAMERA_IMAGE out with the
+// exposure time as utime and the configured latency; real sources re-stamped on receipt; the
+// LCM log reader.
+#include "services/camera/camera_node.hpp"
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include <gtest/gtest.h>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include "common/bus/node.hpp"
+#include "common/camera/colour.hpp"
+#include "common/geometry/geometry.hpp"
+#include "common/time/clock.hpp"
+#include "services/camera/log_source.hpp"
+
+namespace fieldline::camera {
+namespace {
+
+world_state_t makeWorld(Utime utime) {
+  world_state_t w;
+  w.header.utime = utime;
+  w.field = "msl";
+  w.scenario = "test";
+  w.num_robots = 2;
+  w.robot_id = {2, 5};
+  w.robot_x = {1.0, -3.0};
+  w.robot_y = {0.5, 2.0};
+  w.robot_phi = {0.3, 0.0};
+  w.robot_vx = {0.5, 0.0};
+  w.robot_vy = {0.0, 0.0};
+  w.robot_omega = {0.2, 0.0};
+  w.robot_kidnaps = {0, 0};
+  w.num_opponents = 1;
+  w.opponent_x = {4.0};
+  w.opponent_y = {-2.0};
+  w.opponent_phi = {0.0};
+  w.opponent_radius = {0.3f};
+  w.ball_x = 2.5;
+  w.ball_y = 0.9;
+  w.ball_vx = 0.0;
+  w.ball_vy = 0.0;
+  w.ball_radius = 0.11f;
+  return w;
+}
+
+TEST(SceneFromWorld, ExtrapolatesToTheExposureTime) {
+  const world_state_t w = makeWorld(1'000'000);
+  SimScene scene;
+  ASSERT_TRUE(sceneFromWorld(w, 2, 1'100'000, 0.008, scene));
+  const SimScene* s = &scene;
+  EXPECT_NEAR(s->robot.x, 1.0 + 0.5 * 0.1, 1e-12);
+  EXPECT_NEAR(s->robot.y, 0.5, 1e-12);
+  EXPECT_NEAR(s->robot.phi, 0.3 + 0.2 * 0.1, 1e-12);
+  ASSERT_EQ(s->robots.size(), 2u);  // robot 5 (teammate) and the opponent
+  EXPECT_TRUE(s->robots[0].teammate);
+  EXPECT_FALSE(s->robots[1].teammate);
+  EXPECT_NEAR(s->robots[1].radius, 0.3, 1e-6);
+  ASSERT_TRUE(s->ball);
+  EXPECT_NEAR(s->ball->position.x(), 2.5, 1e-12);
+  EXPECT_FALSE(sceneFromWorld(w, 4, 1'100'000, 0.008, scene));
+}
+
+struct Received {
+  std::vector<image_t> images;
+};
+
+TEST(SimCameraNode, PublishesRenderedFramesAfterTheLatencyStampedWithTheExposure) {
+  SimulatedClock clock;
+  const auto memq = bus::Connection::open("memq://");
+  bus::Node camera_node{{.process = "camera", .robot_id = 2, .status_period_us = 0}, clock, memq};
+  const bus::BusId sim_bus = camera_node.addBus(memq);
+  bus::Node harness{{.process = "harness", .robot_id = 0, .status_period_us = 0}, clock, memq};
+  Received got;
+  harness.subscribe(bus::channels::kCameraImage,
+                    [&](const image_t& m) { got.images.push_back(m); });
+
+  const CameraConfig config = loadCameraConfigPreset("omni_sim");
+  SimCameraNode sim(camera_node, sim_bus, config, "msl");
+  const Utime start = clock.now();
+  for (int step = 0; step < 100; ++step) {  // 500 ms in steps of 5 ms
+    if (step % 2 == 0) {
+      world_state_t w = makeWorld(clock.now());
+      harness.publish(bus::channels::kSimWorld, w);
+    }
+    clock.advance(5 * kMicrosPerMilli);
+    camera_node.spinOnce(0);
+    harness.spinOnce(0);
+  }
+  // Frames exposed at 33, 67, ... ms; those exposed by 440 ms are published by 500 ms.
+  ASSERT_GE(got.images.size(), 12u);
+  ASSERT_LE(got.images.size(), 14u);
+  EXPECT_EQ(sim.framesPublished(), static_cast<std::int64_t>(got.images.size()));
+  const ColourTable colours = loadColourTablePreset(config.model.colour_table);
+  for (std::size_t k = 0; k < got.images.size(); ++k) {
+    const image_t& img = got.images[k];
+    EXPECT_EQ(img.width, 320);
+    EXPECT_EQ(img.height, 240);
+    EXPECT_EQ(img.format, image_t::FORMAT_YUYV);
+    EXPECT_EQ(img.source, image_t::SOURCE_SIM);
+    EXPECT_EQ(img.frame_number, static_cast<std::int64_t>(k));
+    EXPECT_EQ(img.header.robot_id, 2);
+    // Latency: 60 ms, late by at most one 5 ms step of this loop.
+    const Utime latency = img.header.utime_published - img.header.utime;
+    EXPECT_GE(latency, 60 * kMicrosPerMilli);
+    EXPECT_LE(latency, 65 * kMicrosPerMilli);
+    if (k > 0) {
+      EXPECT_NEAR(static_cast<double>(img.header.utime - got.images[k - 1].header.utime), 33333.0,
+                  5000.0);
+    }
+    // The ball appears where robot 2, at its pose at the exposure time, expects it.
+    const double dt = static_cast<double>(img.header.utime - start) * 1e-6;
+    ASSERT_LT(dt, 1.0);
+    SimScene scene;
+    ASSERT_TRUE(sceneFromWorld(makeWorld(img.header.utime), 2, img.header.utime, 0.008, scene));
+    const Vec2 ball = geometry::pointFieldToRobot(scene.robot, scene.ball->position);
+    const Vec2 px = *config.model.mirror.robotPointToImage(Vec3(ball.x(), ball.y(), 0.11));
+    const FrameView view = *viewOfImage(img);
+    EXPECT_EQ(colours.classifyPixel(view, static_cast<int>(std::lround(px.x())),
+                                    static_cast<int>(std::lround(px.y()))),
+              ColourClass::kOrange);
+  }
+}
+
+TEST(SimCameraNode, StaleOrMissingRobotIsCountedNotRendered) {
+  SimulatedClock clock;
+  const auto memq = bus::Connection::open("memq://");
+  bus::Node camera_node{{.process = "camera", .robot_id = 4, .status_period_us = 0}, clock, memq};
+  const bus::BusId sim_bus = camera_node.addBus(memq);
+  bus::Node harness{{.process = "harness", .robot_id = 0, .status_period_us = 0}, clock, memq};
+  SimCameraNode sim(camera_node, sim_bus, loadCameraConfigPreset("omni_sim"), "msl");
+  world_state_t w = makeWorld(clock.now());
+  harness.publish(bus::channels::kSimWorld, w);  // robot 4 is not in it
+  for (int step = 0; step < 20; ++step) {
+    clock.advance(5 * kMicrosPerMilli);
+    camera_node.spinOnce(0);
+  }
+  EXPECT_GT(camera_node.status().errorCount("no_pose"), 0);
+  w = makeWorld(clock.now());
+  w.robot_id = {4, 5};
+  harness.publish(bus::channels::kSimWorld, w);
+  camera_node.spinOnce(0);
+  clock.advance(kMicrosPerSecond);  // the world state is now a second old
+  for (int step = 0; step < 20; ++step) {
+    clock.advance(5 * kMicrosPerMilli);
+    camera_node.spinOnce(0);
+  }
+  EXPECT_GT(camera_node.status().errorCount("stale_world"), 0);
+  EXPECT_EQ(sim.framesRendered(), 0);
+}
+
+TEST(RunFrameSource, StampsReceiveTimeMinusLatencyAndKeepsSizeAndFormat) {
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::temp_directory_path() / "fieldline_camera_node_folder";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  for (int k = 0; k < 3; ++k) {
+    ASSERT_TRUE(cv::imwrite((dir / ("f" + std::to_string(k) + ".png")).string(),
+                            cv::Mat(50 + k, 70, CV_8UC3, cv::Scalar(10 * k, 20, 30))));
+  }
+  SimulatedClock clock;
+  const auto memq = bus::Connection::open("memq://");
+  bus::Node camera_node{{.process = "camera", .robot_id = 1, .status_period_us = 0}, clock, memq};
+  bus::Node harness{{.process = "harness", .robot_id = 1, .status_period_us = 0}, clock, memq};
+  std::vector<image_t> got;
+  harness.subscribe(bus::channels::kCameraImage, [&](const image_t& m) { got.push_back(m); });
+  ImageFolderSource source(dir.string(), false);
+  PipelineParams pipeline;
+  pipeline.latency = 0.1;
+  EXPECT_EQ(runFrameSource(camera_node, source, pipeline, {}), 3);
+  harness.spinOnce(0);
+  ASSERT_EQ(got.size(), 3u);
+  for (int k = 0; k < 3; ++k) {
+    EXPECT_EQ(got[k].header.utime, clock.now() - 100'000);
+    EXPECT_EQ(got[k].width, 70);
+    EXPECT_EQ(got[k].height, 50 + k);
+    EXPECT_EQ(got[k].format, image_t::FORMAT_BGR);
+    EXPECT_EQ(got[k].source, image_t::SOURCE_FOLDER);
+    EXPECT_EQ(got[k].data[0], 10 * k);  // blue of the first pixel
+  }
+  fs::remove_all(dir);
+}
+
+TEST(LogImageSource, ReadsCameraFramesSkipsOtherChannelsAndResyncsAfterDamage) {
+  const std::string path =
+      (std::filesystem::temp_directory_path() / "fieldline_camera_test.lcmlog").string();
+  {
+    std::ofstream out(path, std::ios::binary);
+    for (int k = 0; k < 3; ++k) {
+      image_t img;
+      img.header.utime = 1000 + k;
+      img.width = 4;
+      img.height = 2;
+      img.stride = 8;
+      img.format = image_t::FORMAT_YUYV;
+      img.source = image_t::SOURCE_SIM;
+      img.frame_number = k;
+      img.size = 16;
+      img.data.assign(16, static_cast<std::uint8_t>(50 + k));
+      std::vector<std::uint8_t> bytes(static_cast<std::size_t>(img.getEncodedSize()));
+      img.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
+      appendLogEvent(out, 2 * k, 1000 + k, std::string(bus::channels::kCameraImage.name), bytes);
+      appendLogEvent(out, 2 * k + 1, 1000 + k, std::string(bus::channels::kOdometry.name),
+                     {1, 2, 3});
+      if (k == 0) out.write("garbage", 7);  // a damaged stretch between events
+    }
+  }
+  LogImageSource source(path, std::string(bus::channels::kCameraImage.name), false);
+  SourceFrame frame;
+  for (int k = 0; k < 3; ++k) {
+    ASSERT_TRUE(source.next(frame)) << k;
+    EXPECT_EQ(frame.width, 4);
+    EXPECT_EQ(frame.format, PixelFormat::kYuyv);
+    EXPECT_EQ(frame.bytes[0], 50 + k);
+    EXPECT_EQ(frame.frame_number, k);
+  }
+  EXPECT_FALSE(source.next(frame));
+  EXPECT_EQ(source.errors(), 1);
+  std::filesystem::remove(path);
+}
+
+}  // namespace
+}  // namespace fieldline::camera

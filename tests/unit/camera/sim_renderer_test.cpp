@@ -1,0 +1,308 @@
+#include "services/camera/sim_renderer.hpp"
+
+#include <cmath>
+#include <cstdlib>
+#include <memory>
+#include <numbers>
+
+#include <gtest/gtest.h>
+#include <opencv2/core.hpp>
+
+#include "common/camera/colour.hpp"
+#include "common/camera/image_io.hpp"
+#include "common/config/config.hpp"
+#include "common/field/field_model.hpp"
+#include "common/geometry/geometry.hpp"
+#include "services/camera/camera_config.hpp"
+
+namespace fieldline::camera {
+namespace {
+
+using geometry::Pose2;
+
+// Building the floor raster takes a moment: one renderer per field and noise setting.
+struct RenderSetup {
+  CameraConfig config;
+  field::FieldModel field;
+  ColourTable colours;
+  std::unique_ptr<SimRenderer> renderer;
+
+  RenderSetup(const std::string& field_name, bool noise)
+      : config(loadCameraConfigPreset("omni_sim")),
+        field(field::loadFieldPreset(field_name)),
+        colours(loadColourTablePreset(config.model.colour_table)) {
+    RenderParams params = config.render;
+    if (!noise) {
+      params.noise_luma = 0.0;
+      params.noise_chroma = 0.0;
+    }
+    renderer = std::make_unique<SimRenderer>(config.model.mirror, field, params);
+  }
+};
+
+RenderSetup& mslClean() {
+  static RenderSetup s("msl", false);
+  return s;
+}
+RenderSetup& mslNoisy() {
+  static RenderSetup s("msl", true);
+  return s;
+}
+RenderSetup& fu2004Noisy() {
+  static RenderSetup s("fu2004", true);
+  return s;
+}
+
+ColourClass classAt(const RenderSetup& s, const std::vector<std::uint8_t>& frame,
+                    const Vec2& pixel) {
+  const int u = static_cast<int>(std::lround(pixel.x()));
+  const int v = static_cast<int>(std::lround(pixel.y()));
+  return s.colours.classifyPixel(s.renderer->view(frame), u, v);
+}
+
+// Points on the model's lines (and 20 cm beside them) that the camera at `pose` sees clearly:
+// inside the useful radius and with the line at least 2.5 px wide in the image.
+struct LineSamples {
+  std::vector<Vec2> on_line;
+  std::vector<Vec2> beside;
+};
+
+LineSamples sampleVisibleLines(const RenderSetup& s, const Pose2& pose) {
+  LineSamples out;
+  const MirrorModel& m = s.renderer->mirror();
+  auto visible = [&](const Vec2& field_point, double width) -> std::optional<Vec2> {
+    const std::optional<Vec2> px = m.robotToImage(geometry::pointFieldToRobot(pose, field_point));
+    if (!px || m.zone(*px) != MirrorZone::kUseful) return std::nullopt;
+    const Vec2 mpp = m.metresPerPixel(*px);
+    if (width / std::max(mpp.x(), mpp.y()) < 2.5) return std::nullopt;
+    return px;
+  };
+  const Vec2 half = s.field.carpetHalfExtent();
+  auto addBeside = [&](const Vec2& p, const Vec2& normal, double width) {
+    for (const double side : {-1.0, 1.0}) {
+      const Vec2 q = p + side * (width / 2.0 + 0.2) * normal;
+      if (std::abs(q.x()) > half.x() - 0.1 || std::abs(q.y()) > half.y() - 0.1) continue;
+      if (s.field.distance(q) < 0.15) continue;  // near another line (crossings)
+      bool near_mark = false;
+      for (const Vec2& mark : s.field.penaltyMarks())
+        near_mark |= (q - mark).norm() < 0.3;
+      if (near_mark) continue;
+      if (const auto px = visible(q, width)) out.beside.push_back(*px);
+    }
+  };
+  for (const field::LineSegment& seg : s.field.segments()) {
+    const Vec2 dir = (seg.b - seg.a).normalized();
+    const Vec2 normal(-dir.y(), dir.x());
+    for (double t = 0.0; t <= seg.length(); t += 0.05) {
+      const Vec2 p = seg.a + t * dir;
+      if (const auto px = visible(p, seg.width)) out.on_line.push_back(*px);
+      addBeside(p, normal, seg.width);
+    }
+  }
+  for (const field::LineArc& arc : s.field.arcs()) {
+    for (double t = 0.0; t <= arc.sweep; t += 0.05 / arc.radius) {
+      const Vec2 p = arc.pointAt(arc.start_angle + t);
+      if (const auto px = visible(p, arc.width)) out.on_line.push_back(*px);
+      addBeside(p, (p - arc.centre).normalized(), arc.width);
+    }
+  }
+  return out;
+}
+
+TEST(SimRenderer, LinePointsAreWhiteAndPointsBesideThemGreen) {
+  RenderSetup& s = mslClean();
+  std::vector<std::uint8_t> frame;
+  for (const Pose2& pose : {Pose2{-1.2, 0.7, 0.4}, Pose2{8.0, 2.5, 2.8}, Pose2{-9.5, -5.5, -0.7},
+                            Pose2{3.0, -6.2, 1.57}}) {
+    SimScene scene;
+    scene.robot = pose;
+    s.renderer->render(scene, frame);
+    const LineSamples samples = sampleVisibleLines(s, pose);
+    ASSERT_GT(samples.on_line.size(), 30u) << pose.x << "," << pose.y;
+    ASSERT_GT(samples.beside.size(), 30u) << pose.x << "," << pose.y;
+    for (const Vec2& px : samples.on_line) {
+      EXPECT_EQ(classAt(s, frame, px), ColourClass::kWhite)
+          << "pose " << pose.x << "," << pose.y << " pixel " << px.transpose();
+    }
+    for (const Vec2& px : samples.beside) {
+      EXPECT_EQ(classAt(s, frame, px), ColourClass::kGreen)
+          << "pose " << pose.x << "," << pose.y << " pixel " << px.transpose();
+    }
+  }
+}
+
+TEST(SimRenderer, LinePointsStayWhiteWithSensorNoise) {
+  RenderSetup& s = mslNoisy();
+  const Pose2 pose{-1.2, 0.7, 0.4};
+  SimScene scene;
+  scene.robot = pose;
+  scene.frame_number = 17;
+  std::vector<std::uint8_t> frame;
+  s.renderer->render(scene, frame);
+  const LineSamples samples = sampleVisibleLines(s, pose);
+  int white = 0;
+  for (const Vec2& px : samples.on_line)
+    white += classAt(s, frame, px) == ColourClass::kWhite;
+  int green = 0;
+  for (const Vec2& px : samples.beside)
+    green += classAt(s, frame, px) == ColourClass::kGreen;
+  EXPECT_GE(white, 0.97 * samples.on_line.size());
+  EXPECT_GE(green, 0.97 * samples.beside.size());
+}
+
+TEST(SimRenderer, BallAndRobotAppearWhereTheMirrorModelPredicts) {
+  RenderSetup& s = mslNoisy();
+  SimScene scene;
+  scene.robot = {0.5, 1.0, -0.3};
+  scene.ball = SimBall{geometry::pointRobotToField(scene.robot, Vec2(1.5, 0.4)), 0.11};
+  scene.robots.push_back({geometry::pointRobotToField(scene.robot, Vec2(-1.0, -2.0)), 0.25, false});
+  std::vector<std::uint8_t> frame;
+  s.renderer->render(scene, frame);
+  const MirrorModel& m = s.renderer->mirror();
+  // The ball's centre, 0.11 m up.
+  EXPECT_EQ(classAt(s, frame, *m.robotPointToImage(Vec3(1.5, 0.4, 0.11))), ColourClass::kOrange);
+  // The near side of the robot's body, 0.2 m up, below the marker band.
+  const Vec2 side = Vec2(-1.0, -2.0) * (1.0 - 0.25 / std::hypot(1.0, 2.0));
+  EXPECT_EQ(classAt(s, frame, *m.robotPointToImage(Vec3(side.x(), side.y(), 0.2))),
+            ColourClass::kBlack);
+  // Without them, the same pixels show the floor.
+  SimScene empty = scene;
+  empty.ball.reset();
+  empty.robots.clear();
+  s.renderer->render(empty, frame);
+  EXPECT_EQ(classAt(s, frame, *m.robotPointToImage(Vec3(1.5, 0.4, 0.11))), ColourClass::kGreen);
+}
+
+TEST(SimRenderer, ColouredGoalsForFu2004) {
+  RenderSetup& s = fu2004Noisy();
+  const MirrorModel& m = s.renderer->mirror();
+  std::vector<std::uint8_t> frame;
+  for (const bool opponent : {true, false}) {
+    const field::Goal& goal = s.field.goals()[opponent ? 1 : 0];
+    ASSERT_EQ(goal.colour, opponent ? field::GoalColour::kYellow : field::GoalColour::kBlue);
+    // 3 m in front of the goal mouth, facing it.
+    SimScene scene;
+    const Vec2 at = goal.mouth_centre - 3.0 * goal.outward + Vec2(0.0, 0.4);
+    scene.robot = {at.x(), at.y(), std::atan2(goal.outward.y(), goal.outward.x())};
+    s.renderer->render(scene, frame);
+    // The inside of the back wall, 0.3 m up.
+    const Vec2 back = goal.mouth_centre + goal.depth * goal.outward;
+    const Vec2 in_robot = geometry::pointFieldToRobot(scene.robot, back);
+    const std::optional<Vec2> px = m.robotPointToImage(Vec3(in_robot.x(), in_robot.y(), 0.3));
+    ASSERT_TRUE(px);
+    EXPECT_EQ(classAt(s, frame, *px), opponent ? ColourClass::kYellow : ColourClass::kBlue);
+  }
+}
+
+TEST(SimRenderer, SameFrameNumberSameImageAndNoiseAsConfigured) {
+  RenderSetup& s = mslNoisy();
+  SimScene scene;
+  scene.robot = {2.0, 1.0, 1.0};
+  scene.frame_number = 5;
+  std::vector<std::uint8_t> a, b, c;
+  s.renderer->render(scene, a);
+  s.renderer->render(scene, b);
+  EXPECT_EQ(a, b);
+  scene.frame_number = 6;
+  s.renderer->render(scene, c);
+  EXPECT_NE(a, c);
+  // Outside the mirror the scene is flat black: the difference of two frames there is pure noise
+  // with variance 2 sigma^2 (sigma = 3 levels), as long as nothing clips at 0: use the hall ring.
+  RenderSetup& clean = mslClean();
+  std::vector<std::uint8_t> flat;
+  clean.renderer->render(scene, flat);
+  double sum = 0.0, sum2 = 0.0;
+  int n = 0;
+  const MirrorModel& m = s.renderer->mirror();
+  for (int v = 0; v < m.height(); ++v) {
+    for (int u = 0; u < m.width(); ++u) {
+      const double r = m.radiusOf(Vec2(u, v));
+      if (r < m.params().self_radius * 0.5 || r > m.params().self_radius * 0.5 + 3.0) continue;
+      // Plate pixels: constant colour, no clipping.
+      const double d = a[static_cast<std::size_t>(v) * 640 + 2 * u] -
+                       flat[static_cast<std::size_t>(v) * 640 + 2 * u];
+      sum += d;
+      sum2 += d * d;
+      ++n;
+    }
+  }
+  ASSERT_GT(n, 30);
+  const double mean = sum / n;
+  const double sigma = std::sqrt(sum2 / n - mean * mean);
+  EXPECT_NEAR(mean, 0.0, 1.0);
+  EXPECT_NEAR(sigma, s.config.render.noise_luma, 1.0);
+}
+
+TEST(SimRenderer, MotionBlurSmearsLinesWhenTurning) {
+  CameraConfig config = loadCameraConfigPreset("omni_sim");
+  config.render.noise_luma = config.render.noise_chroma = 0.0;
+  config.render.motion_blur_samples = 5;
+  const field::FieldModel field = field::loadFieldPreset("msl");
+  SimRenderer blurred(config.model.mirror, field, config.render);
+  SimScene scene;
+  scene.robot = {0.0, 0.0, 0.3};  // on the halfway line, inside the centre circle
+  std::vector<std::uint8_t> still, turning;
+  blurred.render(scene, still);
+  scene.exposure = 0.02;
+  scene.omega = 10.0;  // rad/s: 0.2 rad during the exposure, 0.6 m at 3 m
+  blurred.render(scene, turning);
+  // The halfway line 3 m to the side (outside the centre circle): white when still, a grey-green
+  // smear when turning.
+  const std::optional<Vec2> px =
+      blurred.mirror().robotToImage(geometry::pointFieldToRobot(scene.robot, Vec2(0.0, 3.0)));
+  ASSERT_TRUE(px);
+  const std::size_t i = static_cast<std::size_t>(std::lround(px->y())) * 640 +
+                        2 * static_cast<std::size_t>(std::lround(px->x()));
+  EXPECT_GT(still[i], 180);
+  EXPECT_LT(turning[i], still[i] - 30);
+}
+
+// Golden frames: fixed poses rendered with the default noise seed, compared within a tolerance
+// (exact equality is not required across compilers). FIELDLINE_UPDATE_GOLDEN=1 rewrites them.
+struct Golden {
+  const char* name;
+  const char* field;
+  Pose2 pose;
+  bool with_objects;
+};
+
+class GoldenFrames : public ::testing::TestWithParam<Golden> {};
+
+TEST_P(GoldenFrames, MatchCommittedPng) {
+  const Golden g = GetParam();
+  RenderSetup& s = std::string(g.field) == "msl" ? mslClean() : fu2004Noisy();
+  SimScene scene;
+  scene.robot = g.pose;
+  scene.frame_number = 1;
+  if (g.with_objects) {
+    scene.ball = SimBall{geometry::pointRobotToField(g.pose, Vec2(1.2, -0.6)), 0.11};
+    scene.robots.push_back({geometry::pointRobotToField(g.pose, Vec2(2.0, 1.5)), 0.25, true});
+    scene.robots.push_back({geometry::pointRobotToField(g.pose, Vec2(-2.5, -0.5)), 0.25, false});
+  }
+  std::vector<std::uint8_t> frame;
+  s.renderer->render(scene, frame);
+  const cv::Mat image = toBgrImage(s.renderer->view(frame));
+  const std::string path =
+      config::projectRoot() + "/tests/data/golden/camera_" + std::string(g.name) + ".png";
+  const char* update = std::getenv("FIELDLINE_UPDATE_GOLDEN");
+  if (update != nullptr && std::string(update) == "1") writeImage(path, image);
+  const cv::Mat golden = readBgrImage(path);
+  ASSERT_EQ(golden.size(), image.size());
+  cv::Mat diff;
+  cv::absdiff(golden, image, diff);
+  const cv::Scalar mean = cv::mean(diff);
+  EXPECT_LT(mean[0] + mean[1] + mean[2], 3.0);
+  const cv::Mat big = diff.reshape(1) > 24;
+  EXPECT_LT(cv::countNonZero(big), static_cast<int>(0.005 * diff.total()));
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Poses, GoldenFrames,
+    ::testing::Values(Golden{"centre_circle", "msl", Pose2{-0.8, 0.6, 0.5}, false},
+                      Golden{"penalty_area", "msl", Pose2{7.6, 1.2, 0.2}, false},
+                      Golden{"corner", "msl", Pose2{-9.8, 5.8, -0.9}, false},
+                      Golden{"fu2004_objects", "fu2004", Pose2{1.0, -0.5, 0.2}, true}),
+    [](const ::testing::TestParamInfo<Golden>& info) { return std::string(info.param.name); });
+
+}  // namespace
+}  // namespace fieldline::camera
