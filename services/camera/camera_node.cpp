@@ -116,6 +116,13 @@ SimCameraNode::SimCameraNode(bus::Node& node, bus::BusId sim_bus, CameraConfig c
 }
 
 void SimCameraNode::onWorld(const world_state_t& world) {
+  if (!field_preset_.empty() && world.field != field_preset_) {
+    // Rendering another field than the simulator's would feed the robot wrong lines.
+    node_.reportError("field_mismatch", "SIM_WORLD is on field '" + world.field +
+                                            "' but this camera renders '" + field_preset_ + "'");
+    world_.reset();
+    return;
+  }
   if (field_preset_.empty() && world.field != field_name_) {
     // First message, or the simulator switched fields: build the floor raster for it.
     try {

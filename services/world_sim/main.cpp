@@ -179,7 +179,8 @@ int main(int argc, char** argv) {
         for (std::size_t i = 0; i < robots.size(); ++i)
           pull(i, world.time(), outage);
       }
-      while (world.time() < target) {
+      // Step only up to the present: a state is never stamped later than it is published.
+      while (world.time() + world.stepSeconds() <= target) {
         const double t = world.time();
         while (next_outage < outages.size() && outages[next_outage].time <= t) {
           const int index = world.indexOf(outages[next_outage].robot);

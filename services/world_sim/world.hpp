@@ -74,6 +74,8 @@ class World {
   void runUntil(double t);
   // Simulated seconds since the start.
   double time() const { return static_cast<double>(steps_) * dt_; }
+  // Length of one physics step, s.
+  double stepSeconds() const { return dt_; }
   double stepSize() const { return dt_; }
   std::int64_t steps() const { return steps_; }
 

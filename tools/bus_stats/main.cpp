@@ -21,7 +21,7 @@ namespace {
 struct Traffic {
   std::int64_t count = 0;
   std::int64_t bytes = 0;
-  std::int64_t gaps = 0;
+  std::int64_t gaps = 0;                 // "-" for SERVICE_STATUS, which has several publishers
   std::map<int, std::int64_t> last_seq;  // per sender
   std::vector<float> latency_ms;
   Utime first = 0, last = 0;
@@ -79,8 +79,10 @@ int main(int argc, char** argv) {
             t.bytes += size;
             const auto h = bus::peekHeader(data, size);
             if (!h) return;
+            // Every process publishes SERVICE_STATUS with its own seq: gaps there mean nothing.
+            const bool one_publisher = channel != bus::channels::kServiceStatus.name;
             auto [it, fresh] = t.last_seq.try_emplace(h->robot_id, h->seq);
-            if (!fresh) {
+            if (!fresh && one_publisher) {
               if (h->seq > it->second + 1) t.gaps += h->seq - it->second - 1;
               it->second = h->seq;
             }
