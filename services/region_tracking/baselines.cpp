@@ -8,29 +8,41 @@
 
 namespace fieldline::region_tracking {
 
-FullFrameClassMap::FullFrameClassMap(const CellGrid& grid, std::span<const std::uint8_t> dontTouch)
-    : grid_(grid), classes_(grid.cellCount(), kNoClass) {
+FullFrameClassMap::FullFrameClassMap(const CellGrid& grid, std::span<const std::uint8_t> dontTouch,
+                                     FullFramePolicy policy)
+    : grid_(grid), policy_(policy), classes_(grid.cellCount(), kNoClass) {
   if (!dontTouch.empty() && static_cast<int>(dontTouch.size()) != grid.cellCount()) {
     throw std::invalid_argument("full-frame segmentation: don't-touch mask size mismatch");
   }
   for (int y = 0; y < grid.height; ++y) {
+    auto allowed = [&](int x) { return dontTouch.empty() || !dontTouch[grid.index(x, y)]; };
     int x = 0;
     while (x < grid.width) {
-      auto allowed = [&](int cx) { return dontTouch.empty() || !dontTouch[grid.index(cx, y)]; };
-      while (x < grid.width && !allowed(x)) ++x;
       const int first = x;
-      while (x < grid.width && allowed(x)) ++x;
-      if (x > first) allowedSpans_.push_back({y, first, x});
+      const bool allowedRun = allowed(x);
+      while (x < grid.width && allowed(x) == allowedRun)
+        ++x;
+      (allowedRun ? allowedSpans_ : forbiddenSpans_).push_back({y, first, x});
     }
   }
 }
 
 void FullFrameClassMap::classify(const CellClassifier& classifier) {
+  if (policy_ == FullFramePolicy::kClassifyEveryCell) {
+    for (int y = 0; y < grid_.height; ++y) {
+      classifier.classifyRow(y, 0,
+                             std::span<ClassId>(classes_).subspan(grid_.index(0, y), grid_.width));
+    }
+    for (const Span& span : forbiddenSpans_) {
+      std::fill_n(classes_.begin() + grid_.index(span.firstX, span.y), span.endX - span.firstX,
+                  kNoClass);
+    }
+    return;
+  }
   for (const Span& span : allowedSpans_) {
-    classifier.classifyRow(
-        span.y, span.firstX,
-        std::span<ClassId>(classes_).subspan(grid_.index(span.firstX, span.y),
-                                             span.endX - span.firstX));
+    classifier.classifyRow(span.y, span.firstX,
+                           std::span<ClassId>(classes_).subspan(grid_.index(span.firstX, span.y),
+                                                                span.endX - span.firstX));
   }
 }
 
@@ -38,9 +50,10 @@ void FullFrameClassMap::classify(const CellClassifier& classifier) {
 // (a) CMVision-style
 
 CmvisionSegmenter::CmvisionSegmenter(const CellGrid& grid, std::span<const ClassId> trackedClasses,
-                                     std::span<const std::uint8_t> dontTouch)
+                                     std::span<const std::uint8_t> dontTouch,
+                                     FullFramePolicy policy)
     : grid_(grid),
-      classMap_(grid, dontTouch),
+      classMap_(grid, dontTouch, policy),
       trackedClasses_(trackedClasses.begin(), trackedClasses.end()),
       rowStart_(grid.height + 1, 0),
       boundaryCellsByClass_(trackedClasses.size()),
@@ -51,12 +64,14 @@ CmvisionSegmenter::CmvisionSegmenter(const CellGrid& grid, std::span<const Class
   }
   runs_.reserve(grid.cellCount() / 2 + grid.height);
   runRegion_.reserve(runs_.capacity());
-  for (auto& cells : boundaryCellsByClass_) cells.reserve(grid.cellCount() / 2);
+  for (auto& cells : boundaryCellsByClass_)
+    cells.reserve(grid.cellCount() / 2);
 }
 
 int CmvisionSegmenter::findRoot(int run) {
   int root = run;
-  while (runs_[root].parent != root) root = runs_[root].parent;
+  while (runs_[root].parent != root)
+    root = runs_[root].parent;
   while (runs_[run].parent != root) {  // path compression
     const int next = runs_[run].parent;
     runs_[run].parent = root;
@@ -89,7 +104,8 @@ void CmvisionSegmenter::segment(const CellClassifier& classifier) {
     while (x < grid_.width) {
       const ClassId c = row[x];
       const int first = x;
-      while (x < grid_.width && row[x] == c) ++x;
+      while (x < grid_.width && row[x] == c)
+        ++x;
       if (tracked_[c]) {
         const int index = static_cast<int>(runs_.size());
         runs_.push_back({static_cast<std::int16_t>(y), static_cast<std::int16_t>(first),
@@ -106,7 +122,8 @@ void CmvisionSegmenter::segment(const CellClassifier& classifier) {
     const int aboveEnd = rowStart_[y];
     for (int run = rowStart_[y]; run < rowStart_[y + 1]; ++run) {
       const Run& current = runs_[run];
-      while (above < aboveEnd && runs_[above].endX <= current.firstX) ++above;
+      while (above < aboveEnd && runs_[above].endX <= current.firstX)
+        ++above;
       for (int a = above; a < aboveEnd && runs_[a].firstX < current.endX; ++a) {
         if (runs_[a].classId == current.classId) unite(run, a);
       }
@@ -133,14 +150,14 @@ void CmvisionSegmenter::segment(const CellClassifier& classifier) {
   }
 
   // Boundaries: every side of a tracked cell facing another class (or the grid's edge).
-  for (auto& cells : boundaryCellsByClass_) cells.clear();
+  for (auto& cells : boundaryCellsByClass_)
+    cells.clear();
   auto classAt = [&](int x, int y) {
     return grid_.contains(x, y) ? classes[grid_.index(x, y)] : kNoClass;
   };
   for (const Run& r : runs_) {
-    const std::size_t slot =
-        std::find(trackedClasses_.begin(), trackedClasses_.end(), r.classId) -
-        trackedClasses_.begin();
+    const std::size_t slot = std::find(trackedClasses_.begin(), trackedClasses_.end(), r.classId) -
+                             trackedClasses_.begin();
     for (int x = r.firstX; x < r.endX; ++x) {
       bool atBoundary = false;
       for (int side = 0; side < 4; ++side) {
@@ -170,9 +187,9 @@ void CmvisionSegmenter::labelCells(std::vector<int>& labels) const {
 // (b) OpenCV
 
 OpenCvSegmenter::OpenCvSegmenter(const CellGrid& grid, std::span<const ClassId> trackedClasses,
-                                 std::span<const std::uint8_t> dontTouch)
+                                 std::span<const std::uint8_t> dontTouch, FullFramePolicy policy)
     : grid_(grid),
-      classMap_(grid, dontTouch),
+      classMap_(grid, dontTouch, policy),
       trackedClasses_(trackedClasses.begin(), trackedClasses.end()),
       mask_(grid.height, grid.width, CV_8U) {}
 
@@ -186,7 +203,8 @@ void OpenCvSegmenter::segment(const CellClassifier& classifier) {
   const int half = grid_.cellSize / 2;
   for (const ClassId c : trackedClasses_) {
     cv::compare(classes, cv::Scalar(c), mask_, cv::CMP_EQ);
-    const int labels = cv::connectedComponentsWithStats(mask_, labels_, stats_, centroids_, 4, CV_32S);
+    const int labels =
+        cv::connectedComponentsWithStats(mask_, labels_, stats_, centroids_, 4, CV_32S);
     for (int label = 1; label < labels; ++label) {
       const int* s = stats_.ptr<int>(label);
       regions_.push_back({c, s[cv::CC_STAT_AREA], s[cv::CC_STAT_LEFT], s[cv::CC_STAT_TOP],

@@ -1,6 +1,8 @@
 // Full-frame segmentations to measure the tracker against. Both classify every cell of every
-// frame (skipping only don't-touch cells) and return the same kind of output as the tracker:
-// the regions of the tracked classes and their closed boundary contours.
+// frame and return the same kind of output as the tracker: the regions of the tracked classes
+// and their closed boundary contours. Don't-touch cells are left out of the regions; whether
+// they are classified at all is a choice (FullFramePolicy): CMVision classifies every pixel,
+// a baseline that knows the mask can skip them.
 //   (a) CmvisionSegmenter: CMVision-style, written here: class map, run-length encoding,
 //       union-find over runs of neighbouring rows, boundaries on the connectivity grid.
 //   (b) OpenCvSegmenter: a mask per class, cv::connectedComponentsWithStats, cv::findContours.
@@ -25,10 +27,18 @@ struct Region {
   int minX = 0, minY = 0, maxX = 0, maxY = 0;
 };
 
-// The classified cells of a whole frame, with don't-touch cells left as kNoClass unread.
+enum class FullFramePolicy {
+  // Classify every cell, then drop the don't-touch ones from the class map (CMVision).
+  kClassifyEveryCell,
+  // Read only the cells outside the don't-touch mask.
+  kSkipDontTouch,
+};
+
+// The classified cells of a whole frame; don't-touch cells are kNoClass in the map.
 class FullFrameClassMap {
  public:
-  FullFrameClassMap(const CellGrid& grid, std::span<const std::uint8_t> dontTouch);
+  FullFrameClassMap(const CellGrid& grid, std::span<const std::uint8_t> dontTouch,
+                    FullFramePolicy policy);
   void classify(const CellClassifier& classifier);
   const CellGrid& grid() const { return grid_; }
   std::span<const ClassId> classes() const { return classes_; }
@@ -39,14 +49,17 @@ class FullFrameClassMap {
     int y, firstX, endX;
   };
   CellGrid grid_;
+  FullFramePolicy policy_;
   std::vector<Span> allowedSpans_;  // maximal runs of touchable cells per row
+  std::vector<Span> forbiddenSpans_;
   std::vector<ClassId> classes_;
 };
 
 class CmvisionSegmenter {
  public:
   CmvisionSegmenter(const CellGrid& grid, std::span<const ClassId> trackedClasses,
-                    std::span<const std::uint8_t> dontTouch = {});
+                    std::span<const std::uint8_t> dontTouch = {},
+                    FullFramePolicy policy = FullFramePolicy::kClassifyEveryCell);
 
   void segment(const CellClassifier& classifier);
 
@@ -82,7 +95,8 @@ class CmvisionSegmenter {
 class OpenCvSegmenter {
  public:
   OpenCvSegmenter(const CellGrid& grid, std::span<const ClassId> trackedClasses,
-                  std::span<const std::uint8_t> dontTouch = {});
+                  std::span<const std::uint8_t> dontTouch = {},
+                  FullFramePolicy policy = FullFramePolicy::kClassifyEveryCell);
 
   void segment(const CellClassifier& classifier);
 

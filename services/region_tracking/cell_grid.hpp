@@ -48,7 +48,8 @@ class CellClassifier {
   // Cells (firstX .. firstX + out.size() - 1, y), for the full-frame baselines; override when a
   // run of cells can be done faster than one by one.
   virtual void classifyRow(int y, int firstX, std::span<ClassId> out) const {
-    for (std::size_t i = 0; i < out.size(); ++i) out[i] = classify(firstX + static_cast<int>(i), y);
+    for (std::size_t i = 0; i < out.size(); ++i)
+      out[i] = classify(firstX + static_cast<int>(i), y);
   }
 };
 
@@ -56,7 +57,8 @@ class CellClassifier {
 // grids in tests, and for replaying a segmentation.
 class ClassMapClassifier final : public CellClassifier {
  public:
-  ClassMapClassifier(const std::vector<ClassId>& classes, int width) : classes_(classes), width_(width) {}
+  ClassMapClassifier(const std::vector<ClassId>& classes, int width)
+      : classes_(classes), width_(width) {}
   ClassId classify(int x, int y) const override { return classes_[y * width_ + x]; }
   void classifyRow(int y, int firstX, std::span<ClassId> out) const override {
     const ClassId* row = classes_.data() + static_cast<std::size_t>(y) * width_ + firstX;

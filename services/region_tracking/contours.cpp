@@ -12,51 +12,64 @@ constexpr int kStepDy[4] = {0, 1, 0, -1};
 
 ConnectivityGrid::ConnectivityGrid(const CellGrid& grid)
     : grid_(grid),
-      pointsPerRow_(grid.width + 1),
-      bits_(static_cast<std::size_t>(grid.width + 1) * (grid.height + 1), 0) {}
+      layout_(grid),
+      cornerOffset_{0, 1, layout_.width + 1, layout_.width},
+      step_{1, layout_.width, -1, -layout_.width},
+      bits_(layout_.size(), 0) {}
 
 bool ConnectivityGrid::isClear() const {
   return std::all_of(bits_.begin(), bits_.end(), [](std::uint8_t b) { return b == 0; });
 }
 
-void ConnectivityGrid::clear() { std::fill(bits_.begin(), bits_.end(), 0); }
+void ConnectivityGrid::clear() {
+  std::fill(bits_.begin(), bits_.end(), 0);
+}
 
 void ConnectivityGrid::extractContours(std::span<const Cell> cells, ClassId classId,
                                        ContourSet& out) {
-  // Each boundary cell is checked once: a contour through it is followed completely and its
-  // edges removed, so the next edge found on a later cell always starts a new contour.
-  for (const Cell cell : cells) {
-    for (int side = 0; side < 4; ++side) {
-      const int cornerX = cell.x + kCornerDx[side];
-      const int cornerY = cell.y + kCornerDy[side];
-      if (bits_[cornerY * pointsPerRow_ + cornerX] & (1u << side)) {
-        followContour(cornerX, cornerY, side, classId, out);
-      }
-    }
+  for (const Cell cell : cells)
+    extractAround(layout_.index(cell.x, cell.y), classId, out);
+}
+
+void ConnectivityGrid::extractContoursAt(std::span<const std::int32_t> cells, ClassId classId,
+                                         ContourSet& out) {
+  for (const std::int32_t cell : cells)
+    extractAround(cell, classId, out);
+}
+
+// Each boundary cell is checked once: a contour through it is followed completely and its
+// edges removed, so the next edge found on a later cell always starts a new contour.
+void ConnectivityGrid::extractAround(int cell, ClassId classId, ContourSet& out) {
+  for (int side = 0; side < 4; ++side) {
+    const int corner = cell + cornerOffset_[side];
+    if (bits_[corner] & (1u << side)) followContour(corner, side, classId, out);
   }
 }
 
-void ConnectivityGrid::followContour(int startX, int startY, int startDirection, ClassId classId,
+void ConnectivityGrid::followContour(int startCorner, int startDirection, ClassId classId,
                                      ContourSet& out) {
   Contour contour;
   contour.classId = classId;
   contour.begin = static_cast<int>(out.points.size());
   long twiceArea = 0;  // shoelace sum over the edges, in cell units
 
-  int x = startX;
-  int y = startY;
+  // Corner (x, y) has the index of cell (x, y); x and y are carried along with the index.
+  int corner = startCorner;
+  int x = layout_.x(startCorner);
+  int y = layout_.y(startCorner);
   int direction = startDirection;
   while (true) {
-    bits_[y * pointsPerRow_ + x] &= static_cast<std::uint8_t>(~(1u << direction));
+    bits_[corner] &= static_cast<std::uint8_t>(~(1u << direction));
     out.points.push_back({x * grid_.cellSize, y * grid_.cellSize});
     const int nextX = x + kStepDx[direction];
     const int nextY = y + kStepDy[direction];
     twiceArea += static_cast<long>(x) * nextY - static_cast<long>(nextX) * y;
     x = nextX;
     y = nextY;
+    corner += step_[direction];
 
-    std::uint8_t available = bits_[y * pointsPerRow_ + x];
-    const bool atStart = x == startX && y == startY;
+    std::uint8_t available = bits_[corner];
+    const bool atStart = corner == startCorner;
     // Back at the start, the (already removed) first edge counts as available: if the turning
     // rule would take it, the contour is closed.
     if (atStart) available |= static_cast<std::uint8_t>(1u << startDirection);

@@ -21,6 +21,24 @@ struct Cell {
   std::int16_t y;
 };
 
+// Cell (x, y) of a grid stored with a frame of one extra cell on every side, row-major: the
+// neighbours of every real cell exist, so walking from cell to cell needs no bounds checks.
+struct PaddedLayout {
+  int width = 0;   // grid width + 2
+  int height = 0;  // grid height + 2
+
+  explicit PaddedLayout(const CellGrid& grid) : width(grid.width + 2), height(grid.height + 2) {}
+  int size() const { return width * height; }
+  int index(int x, int y) const { return (y + 1) * width + (x + 1); }
+  int x(int index) const { return index % width - 1; }
+  int y(int index) const { return index / width - 1; }
+  // Index offsets to the neighbour on each side: up, right, down, left.
+  int neighbour(int side) const {
+    const int offsets[4] = {-width, 1, width, -1};
+    return offsets[side];
+  }
+};
+
 // Neighbour offsets of the four sides, in the order up, right, down, left.
 inline constexpr int kSideDx[4] = {0, 1, 0, -1};
 inline constexpr int kSideDy[4] = {-1, 0, 1, 0};
@@ -59,15 +77,19 @@ struct ContourSet {
   }
 };
 
+// The corner points are stored with the layout of a cell grid padded by one cell on every
+// side (see PaddedLayout): corner (x, y), the top-left corner of cell (x, y), has the same
+// index as that cell, so the tracker, which walks padded cell indices, finds the corner of a
+// cell side with one addition.
 class ConnectivityGrid {
  public:
   explicit ConnectivityGrid(const CellGrid& grid);
 
   // Marks side `side` (0 up, 1 right, 2 down, 3 left) of cell (x, y) as a region boundary.
-  void addBoundarySide(int x, int y, int side) {
-    const int cornerX = x + kCornerDx[side];
-    const int cornerY = y + kCornerDy[side];
-    bits_[cornerY * pointsPerRow_ + cornerX] |= static_cast<std::uint8_t>(1u << side);
+  void addBoundarySide(int x, int y, int side) { addBoundarySideAt(layout_.index(x, y), side); }
+  // The same for the cell at padded index `cell`.
+  void addBoundarySideAt(int cell, int side) {
+    bits_[cell + cornerOffset_[side]] |= static_cast<std::uint8_t>(1u << side);
   }
 
   // Follows every closed contour that has an edge on a side of one of `cells`, appends it to
@@ -75,6 +97,8 @@ class ConnectivityGrid {
   // ways on, the walk turns right first (toward the region), so regions that only touch at a
   // corner get separate contours, as their cells are not 4-connected.
   void extractContours(std::span<const Cell> cells, ClassId classId, ContourSet& out);
+  // The same for cells given as padded indices.
+  void extractContoursAt(std::span<const std::int32_t> cells, ClassId classId, ContourSet& out);
 
   // True when no edge is left (after all contours have been extracted).
   bool isClear() const;
@@ -82,14 +106,15 @@ class ConnectivityGrid {
   void clear();
 
  private:
-  // Corner at which the edge of side k starts: top-left, top-right, bottom-right, bottom-left.
-  static constexpr int kCornerDx[4] = {0, 1, 1, 0};
-  static constexpr int kCornerDy[4] = {0, 0, 1, 1};
-
-  void followContour(int startX, int startY, int startDirection, ClassId classId, ContourSet& out);
+  void extractAround(int cell, ClassId classId, ContourSet& out);
+  void followContour(int startCorner, int startDirection, ClassId classId, ContourSet& out);
 
   CellGrid grid_;
-  int pointsPerRow_;
+  PaddedLayout layout_;
+  // Index offset from a cell to the corner where the edge of each side starts: top-left,
+  // top-right, bottom-right, bottom-left; and the index step along each edge direction.
+  int cornerOffset_[4];
+  int step_[4];
   std::vector<std::uint8_t> bits_;
 };
 

@@ -8,7 +8,9 @@
 
 namespace fieldline::region_tracking {
 
-TrackerConfig loadTrackerConfig(const config::Node& node) {
+TrackerConfig loadTrackerConfig(
+    const config::Node& node,
+    const std::function<std::optional<ClassId>(const std::string&)>& classByName) {
   TrackerConfig config;
   config.cellSize = node.get<int>("cell_size", 1, 8);
   if (config.cellSize != 1 && config.cellSize != 2 && config.cellSize != 4 &&
@@ -16,15 +18,31 @@ TrackerConfig loadTrackerConfig(const config::Node& node) {
     node.fail("cell_size", "must be 1, 2, 4 or 8");
   }
   config.reinitialisePeriodFrames = node.get<int>("reinitialise_period_frames", 0, 1000000);
+  auto classAt = [&](const config::Node& entry, const std::string& key) {
+    const std::optional<ClassId> id = classByName(entry.get<std::string>(key));
+    if (!id || *id == kNoClass) entry.fail(key, "unknown colour class");
+    return *id;
+  };
   for (const config::Node& entry : node.children("classes")) {
     ClassTracking tracking;
-    tracking.classId = static_cast<ClassId>(entry.get<int>("class_id", 0, kNoClass - 1));
+    tracking.classId = classAt(entry, "class");
     tracking.searchWhenLost = entry.getOr<bool>("search_when_lost", true);
     tracking.maxSeedRegions = entry.getOr<int>("max_seed_regions", 10, 1, 1000);
     tracking.minSeedCells = entry.getOr<int>("min_seed_cells", 4, 1, 1000000);
-    tracking.seedFromBoundaryOf =
-        static_cast<ClassId>(entry.getOr<int>("seed_from_boundary_of", kNoClass, 0, kNoClass));
+    tracking.viewEdgeStride = entry.getOr<int>("view_edge_stride", 0, 0, 64);
+    if (entry.has("seed_from_boundary_of")) {
+      tracking.seedFromBoundaryOf = classAt(entry, "seed_from_boundary_of");
+    }
     entry.rejectUnknownKeys();
+    for (const ClassTracking& earlier : config.classes) {
+      if (earlier.classId == tracking.classId) entry.fail("class", "listed twice");
+    }
+    if (tracking.seedFromBoundaryOf != kNoClass &&
+        std::none_of(config.classes.begin(), config.classes.end(), [&](const ClassTracking& c) {
+          return c.classId == tracking.seedFromBoundaryOf;
+        })) {
+      entry.fail("seed_from_boundary_of", "must name a class listed before this one");
+    }
     config.classes.push_back(tracking);
   }
   node.rejectUnknownKeys();
@@ -34,29 +52,41 @@ TrackerConfig loadTrackerConfig(const config::Node& node) {
 RegionTracker::RegionTracker(const CellGrid& grid, const TrackerConfig& config,
                              std::vector<std::uint8_t> dontTouch)
     : grid_(grid),
+      layout_(grid),
+      neighbour_{layout_.neighbour(0), layout_.neighbour(1), layout_.neighbour(2),
+                 layout_.neighbour(3)},
       config_(config),
-      dontTouch_(std::move(dontTouch)),
-      visited_(grid.cellCount(), kNoClass),
+      visited_(layout_.size(), kBlocked),
       connectivity_(grid),
-      classifiedStamp_(grid.cellCount(), 0),
-      classifiedClass_(grid.cellCount(), kNoClass),
-      scratchMark_(grid.cellCount(), 0) {
+      classifiedStamp_(layout_.size(), 0),
+      classifiedClass_(layout_.size(), kNoClass),
+      scratchMark_(layout_.size(), 0) {
+  classSlot_.fill(-1);
+  seedParent_.fill(kNoClass);
   if (grid.width <= 0 || grid.height <= 0 || grid.width > 32767 || grid.height > 32767) {
     throw std::invalid_argument("region tracker: grid size out of range");
   }
   if (config.cellSize != grid.cellSize) {
     throw std::invalid_argument("region tracker: config cell size differs from the grid's");
   }
-  if (dontTouch_.empty()) dontTouch_.assign(grid.cellCount(), 0);
-  if (static_cast<int>(dontTouch_.size()) != grid.cellCount()) {
+  if (!dontTouch.empty() && static_cast<int>(dontTouch.size()) != grid.cellCount()) {
     throw std::invalid_argument("region tracker: don't-touch mask must have one byte per cell");
   }
+  // V starts as the frame of blocked cells around the grid plus the don't-touch cells.
+  for (int y = 0; y < grid.height; ++y) {
+    for (int x = 0; x < grid.width; ++x) {
+      const bool forbidden = !dontTouch.empty() && dontTouch[grid.index(x, y)];
+      visited_[layout_.index(x, y)] = forbidden ? kBlocked : kNoClass;
+    }
+  }
+  emptyVisited_ = visited_;
+
   for (std::size_t i = 0; i < config.classes.size(); ++i) {
     const ClassTracking& tracking = config.classes[i];
-    if (tracking.classId == kNoClass) {
-      throw std::invalid_argument("region tracker: class id 255 is reserved");
+    if (tracking.classId == kNoClass || tracking.classId == kBlocked) {
+      throw std::invalid_argument("region tracker: class ids 254 and 255 are reserved");
     }
-    if (tracking.maxSeedRegions < 1 || tracking.minSeedCells < 1) {
+    if (tracking.maxSeedRegions < 1 || tracking.minSeedCells < 1 || tracking.viewEdgeStride < 0) {
       throw std::invalid_argument("region tracker: seed limits must be positive");
     }
     for (std::size_t j = 0; j < config.classes.size(); ++j) {
@@ -66,9 +96,9 @@ RegionTracker::RegionTracker(const CellGrid& grid, const TrackerConfig& config,
       }
     }
     if (tracking.seedFromBoundaryOf != kNoClass) {
-      const bool parentEarlier =
-          std::any_of(config.classes.begin(), config.classes.begin() + i,
-                      [&](const ClassTracking& c) { return c.classId == tracking.seedFromBoundaryOf; });
+      const bool parentEarlier = std::any_of(
+          config.classes.begin(), config.classes.begin() + i,
+          [&](const ClassTracking& c) { return c.classId == tracking.seedFromBoundaryOf; });
       if (!parentEarlier) {
         throw std::invalid_argument("region tracker: seed_from_boundary_of of class " +
                                     std::to_string(tracking.classId) +
@@ -77,44 +107,56 @@ RegionTracker::RegionTracker(const CellGrid& grid, const TrackerConfig& config,
     }
     ClassState state;
     state.tracking = tracking;
-    // Reserve the worst case once so no frame ever allocates.
+    // Reserve the worst case once so no frame ever allocates (a cell can be proposed as a
+    // seed from each of its four sides).
     state.growDrops.reserve(grid.cellCount());
     state.shrinkDrops.reserve(grid.cellCount());
+    state.pendingSeeds.reserve(4 * static_cast<std::size_t>(grid.cellCount()));
+    classSlot_[tracking.classId] = static_cast<int>(classes_.size());
+    seedParent_[tracking.classId] = tracking.seedFromBoundaryOf;
     classes_.push_back(std::move(state));
   }
+  for (int y = 0; y < grid.height; ++y) {
+    for (int x = 0; x < grid.width; ++x) {
+      const CellIndex cell = layout_.index(x, y);
+      if (visited_[cell] == kBlocked) continue;
+      for (int side = 0; side < 4; ++side) {
+        if (visited_[cell + neighbour_[side]] == kBlocked) {
+          viewEdge_.push_back(cell);
+          break;
+        }
+      }
+    }
+  }
   scratchQueue_.reserve(grid.cellCount());
+  seedCandidates_.reserve(grid.cellCount());
   contours_.points.reserve(4 * grid.cellCount() / 8 + 64);
 }
 
 RegionTracker::ClassState* RegionTracker::stateOf(ClassId classId) {
-  for (ClassState& state : classes_) {
-    if (state.tracking.classId == classId) return &state;
-  }
-  return nullptr;
+  const int slot = classSlot_[classId];
+  return slot < 0 ? nullptr : &classes_[slot];
 }
 
-std::span<const Cell> RegionTracker::boundaryCells(ClassId classId) const {
-  for (const ClassState& state : classes_) {
-    if (state.tracking.classId == classId) return state.shrinkDrops;
+std::vector<ClassId> RegionTracker::visited() const {
+  std::vector<ClassId> out(grid_.cellCount());
+  for (int y = 0; y < grid_.height; ++y) {
+    for (int x = 0; x < grid_.width; ++x)
+      out[grid_.index(x, y)] = ownerOf(x, y);
   }
-  return {};
+  return out;
 }
 
 int RegionTracker::regionCells(ClassId classId) const {
-  for (const ClassState& state : classes_) {
-    if (state.tracking.classId == classId) return state.cells;
-  }
-  return 0;
+  const int slot = classSlot_[classId];
+  return slot < 0 ? 0 : classes_[slot].cells;
 }
 
-ClassId RegionTracker::classOf(int x, int y) {
-  const int index = grid_.index(x, y);
-  if (classifiedStamp_[index] != stamp_) {
-    classifiedStamp_[index] = stamp_;
-    classifiedClass_[index] = classifier_->classify(x, y);
-    ++stats_.cellsClassified;
-  }
-  return classifiedClass_[index];
+ClassId RegionTracker::classifyNow(CellIndex cell) {
+  classifiedStamp_[cell] = stamp_;
+  classifiedClass_[cell] = classifier_->classify(layout_.x(cell), layout_.y(cell));
+  ++stats_.cellsClassified;
+  return classifiedClass_[cell];
 }
 
 const TrackingStats& RegionTracker::track(const CellClassifier& classifier) {
@@ -132,26 +174,28 @@ const TrackingStats& RegionTracker::track(const CellClassifier& classifier) {
   }
   auto totalCells = [this] {
     int sum = 0;
-    for (const ClassState& state : classes_) sum += state.cells;
+    for (const ClassState& state : classes_)
+      sum += state.cells;
     return sum;
   };
 
   stats_.cellsBefore = totalCells();
-  for (ClassState& state : classes_) shrink(state);
+  for (ClassState& state : classes_)
+    shrink(state);
   stats_.cellsAfterShrink = totalCells();
 
   contours_.clear();
   for (ClassState& state : classes_) {
     seedPending(state);
-    if (state.tracking.seedFromBoundaryOf != kNoClass) {
-      seedFromBoundary(state, *stateOf(state.tracking.seedFromBoundaryOf));
-    }
+    // Lost: nothing carried over and no seed given. (Seeds at the view's edge come after this
+    // check: a sliver entering the view must not stand in for the search.)
     if (state.cells == 0 && state.tracking.searchWhenLost) {
       initialSearch(state);
       ++stats_.initialSearches;
     }
+    if (state.tracking.viewEdgeStride > 0) seedAtViewEdge(state);
     grow(state);
-    connectivity_.extractContours(state.shrinkDrops, state.tracking.classId, contours_);
+    connectivity_.extractContoursAt(state.shrinkDrops, state.tracking.classId, contours_);
   }
   stats_.cellsAfterGrow = totalCells();
 
@@ -169,35 +213,32 @@ const TrackingStats& RegionTracker::track(const CellClassifier& classifier) {
 void RegionTracker::shrink(ClassState& state) {
   const ClassId id = state.tracking.classId;
   // Drops stand on unmarked cells while shrinking, so unmark the boundary drops first.
-  for (const Cell drop : state.shrinkDrops) {
-    visited_[grid_.index(drop.x, drop.y)] = kNoClass;
+  for (const CellIndex drop : state.shrinkDrops) {
+    visited_[drop] = kNoClass;
     --state.cells;
   }
   while (!state.shrinkDrops.empty()) {
-    const Cell drop = state.shrinkDrops.back();
+    const CellIndex drop = state.shrinkDrops.back();
     state.shrinkDrops.pop_back();
     ++stats_.dropsProcessed;
-    if (classOf(drop.x, drop.y) == id) {
+    if (classOf(drop) == id) {
       // Still the region's class: the drop stops here and will seed the growing.
       state.growDrops.push_back(drop);
       continue;
     }
     // The cell left the region: the drop moves into every still-marked neighbour.
-    for (int side = 0; side < 4; ++side) {
-      const int x = drop.x + kSideDx[side];
-      const int y = drop.y + kSideDy[side];
-      if (!grid_.contains(x, y)) continue;
-      ClassId& owner = visited_[grid_.index(x, y)];
-      if (owner == id) {
-        owner = kNoClass;
+    for (const int offset : neighbour_) {
+      const CellIndex next = drop + offset;
+      if (visited_[next] == id) {
+        visited_[next] = kNoClass;
         --state.cells;
-        state.shrinkDrops.push_back({static_cast<std::int16_t>(x), static_cast<std::int16_t>(y)});
+        state.shrinkDrops.push_back(next);
       }
     }
   }
   // The stopped drops belong to the region again.
-  for (const Cell drop : state.growDrops) {
-    visited_[grid_.index(drop.x, drop.y)] = id;
+  for (const CellIndex drop : state.growDrops) {
+    visited_[drop] = id;
     ++state.cells;
   }
 }
@@ -207,63 +248,48 @@ void RegionTracker::shrink(ClassState& state) {
 void RegionTracker::grow(ClassState& state) {
   const ClassId id = state.tracking.classId;
   while (!state.growDrops.empty()) {
-    const Cell drop = state.growDrops.back();
+    const CellIndex drop = state.growDrops.back();
     state.growDrops.pop_back();
     ++stats_.dropsProcessed;
     bool atBoundary = false;
     for (int side = 0; side < 4; ++side) {
-      const int x = drop.x + kSideDx[side];
-      const int y = drop.y + kSideDy[side];
-      bool outside = true;
-      if (!blocked(x, y)) {
-        ClassId& owner = visited_[grid_.index(x, y)];
-        if (owner == id) {
-          outside = false;
-        } else if (owner == kNoClass && classOf(x, y) == id) {
-          owner = id;
-          ++state.cells;
-          state.growDrops.push_back({static_cast<std::int16_t>(x), static_cast<std::int16_t>(y)});
-          outside = false;
+      const CellIndex next = drop + neighbour_[side];
+      const ClassId owner = visited_[next];
+      if (owner == id) continue;  // inside the region
+      if (owner == kNoClass) {
+        const ClassId nextClass = classOf(next);
+        if (nextClass == id) {
+          claim(state, next);
+          continue;
+        }
+        if (seedParent_[nextClass] == id) {
+          // An untracked region of a class seeded from this one's boundary (the ball next to
+          // green): it grows when its class's turn comes.
+          classes_[classSlot_[nextClass]].pendingSeeds.push_back(next);
         }
       }
-      if (outside) {
-        connectivity_.addBoundarySide(drop.x, drop.y, side);
-        atBoundary = true;
-      }
+      // Another class, blocked, or unvisited of another class: a boundary side.
+      connectivity_.addBoundarySideAt(drop, side);
+      atBoundary = true;
     }
     if (atBoundary) state.shrinkDrops.push_back(drop);
   }
 }
 
-void RegionTracker::seedFromBoundary(ClassState& state, const ClassState& parent) {
-  const ClassId id = state.tracking.classId;
-  for (const Cell drop : parent.shrinkDrops) {
-    for (int side = 0; side < 4; ++side) {
-      const int x = drop.x + kSideDx[side];
-      const int y = drop.y + kSideDy[side];
-      if (blocked(x, y)) continue;
-      ClassId& owner = visited_[grid_.index(x, y)];
-      if (owner == kNoClass && classOf(x, y) == id) {
-        owner = id;
-        ++state.cells;
-        state.growDrops.push_back({static_cast<std::int16_t>(x), static_cast<std::int16_t>(y)});
-      }
-    }
-  }
-}
-
 void RegionTracker::seedPending(ClassState& state) {
-  const ClassId id = state.tracking.classId;
-  for (const Cell seed : state.pendingSeeds) {
-    if (blocked(seed.x, seed.y)) continue;
-    ClassId& owner = visited_[grid_.index(seed.x, seed.y)];
-    if (owner == kNoClass && classOf(seed.x, seed.y) == id) {
-      owner = id;
-      ++state.cells;
-      state.growDrops.push_back(seed);
-    }
+  for (const CellIndex seed : state.pendingSeeds) {
+    if (visited_[seed] == kNoClass && classOf(seed) == state.tracking.classId) claim(state, seed);
   }
   state.pendingSeeds.clear();
+}
+
+void RegionTracker::seedAtViewEdge(ClassState& state) {
+  const std::size_t stride = static_cast<std::size_t>(state.tracking.viewEdgeStride);
+  for (std::size_t i = static_cast<std::size_t>(frameCount_) % stride; i < viewEdge_.size();
+       i += stride) {
+    const CellIndex cell = viewEdge_[i];
+    if (visited_[cell] == kNoClass && classOf(cell) == state.tracking.classId) claim(state, cell);
+  }
 }
 
 // Seed 3.1.7: measure every untracked region of the class in the whole frame and seed the
@@ -273,80 +299,62 @@ bool RegionTracker::initialSearch(ClassState& state) {
   seedCandidates_.clear();
   for (int y = 0; y < grid_.height; ++y) {
     for (int x = 0; x < grid_.width; ++x) {
-      const int start = grid_.index(x, y);
-      if (scratchMark_[start] || dontTouch_[start] || visited_[start] != kNoClass ||
-          classOf(x, y) != id) {
-        continue;
-      }
+      const CellIndex start = layout_.index(x, y);
+      if (scratchMark_[start] || visited_[start] != kNoClass || classOf(start) != id) continue;
       // Flood the region on the scratch marks to measure its size.
       int size = 0;
       scratchMark_[start] = 1;
-      scratchQueue_.push_back({static_cast<std::int16_t>(x), static_cast<std::int16_t>(y)});
+      scratchQueue_.push_back(start);
       while (!scratchQueue_.empty()) {
-        const Cell cell = scratchQueue_.back();
+        const CellIndex cell = scratchQueue_.back();
         scratchQueue_.pop_back();
         ++size;
-        for (int side = 0; side < 4; ++side) {
-          const int nx = cell.x + kSideDx[side];
-          const int ny = cell.y + kSideDy[side];
-          if (blocked(nx, ny)) continue;
-          const int index = grid_.index(nx, ny);
-          if (!scratchMark_[index] && visited_[index] == kNoClass && classOf(nx, ny) == id) {
-            scratchMark_[index] = 1;
-            scratchQueue_.push_back(
-                {static_cast<std::int16_t>(nx), static_cast<std::int16_t>(ny)});
+        for (const int offset : neighbour_) {
+          const CellIndex next = cell + offset;
+          if (!scratchMark_[next] && visited_[next] == kNoClass && classOf(next) == id) {
+            scratchMark_[next] = 1;
+            scratchQueue_.push_back(next);
           }
         }
       }
-      if (size >= state.tracking.minSeedCells) {
-        seedCandidates_.push_back(
-            {size, {static_cast<std::int16_t>(x), static_cast<std::int16_t>(y)}});
-      }
+      if (size >= state.tracking.minSeedCells) seedCandidates_.push_back({size, start});
     }
   }
   std::fill(scratchMark_.begin(), scratchMark_.end(), 0);
 
   const auto seeds = std::min<std::size_t>(seedCandidates_.size(), state.tracking.maxSeedRegions);
-  std::partial_sort(seedCandidates_.begin(), seedCandidates_.begin() + seeds,
-                    seedCandidates_.end(),
-                    [](const SeedCandidate& a, const SeedCandidate& b) { return a.cells > b.cells; });
-  for (std::size_t i = 0; i < seeds; ++i) {
-    const Cell seed = seedCandidates_[i].seed;
-    visited_[grid_.index(seed.x, seed.y)] = id;
-    ++state.cells;
-    state.growDrops.push_back(seed);
-  }
+  std::partial_sort(
+      seedCandidates_.begin(), seedCandidates_.begin() + seeds, seedCandidates_.end(),
+      [](const SeedCandidate& a, const SeedCandidate& b) { return a.cells > b.cells; });
+  for (std::size_t i = 0; i < seeds; ++i)
+    claim(state, seedCandidates_[i].seed);
   return seeds > 0;
 }
 
 int RegionTracker::dropRegion(ClassId classId, int x, int y) {
   ClassState* state = stateOf(classId);
-  if (state == nullptr || !grid_.contains(x, y) || visited_[grid_.index(x, y)] != classId) {
-    return 0;
-  }
+  if (state == nullptr || !grid_.contains(x, y)) return 0;
+  const CellIndex start = layout_.index(x, y);
+  if (visited_[start] != classId) return 0;
   // Shrinking without a stopping criterion: unmark the whole connected region.
   int released = 0;
-  visited_[grid_.index(x, y)] = kNoClass;
-  scratchQueue_.push_back({static_cast<std::int16_t>(x), static_cast<std::int16_t>(y)});
+  visited_[start] = kNoClass;
+  scratchQueue_.push_back(start);
   while (!scratchQueue_.empty()) {
-    const Cell cell = scratchQueue_.back();
+    const CellIndex cell = scratchQueue_.back();
     scratchQueue_.pop_back();
     ++released;
-    for (int side = 0; side < 4; ++side) {
-      const int nx = cell.x + kSideDx[side];
-      const int ny = cell.y + kSideDy[side];
-      if (!grid_.contains(nx, ny)) continue;
-      ClassId& owner = visited_[grid_.index(nx, ny)];
-      if (owner == classId) {
-        owner = kNoClass;
-        scratchQueue_.push_back({static_cast<std::int16_t>(nx), static_cast<std::int16_t>(ny)});
+    for (const int offset : neighbour_) {
+      const CellIndex next = cell + offset;
+      if (visited_[next] == classId) {
+        visited_[next] = kNoClass;
+        scratchQueue_.push_back(next);
       }
     }
   }
   state->cells -= released;
   // Its boundary drops must go too, or the next shrink would revive the region.
-  std::erase_if(state->shrinkDrops,
-                [&](const Cell d) { return visited_[grid_.index(d.x, d.y)] != classId; });
+  std::erase_if(state->shrinkDrops, [&](const CellIndex d) { return visited_[d] != classId; });
   return released;
 }
 
@@ -367,11 +375,11 @@ void RegionTracker::addSeed(ClassId classId, int x, int y) {
                                 std::to_string(classId));
   }
   if (!grid_.contains(x, y)) throw std::out_of_range("region tracker: seed outside the grid");
-  state->pendingSeeds.push_back({static_cast<std::int16_t>(x), static_cast<std::int16_t>(y)});
+  state->pendingSeeds.push_back(layout_.index(x, y));
 }
 
 void RegionTracker::reinitialise() {
-  std::fill(visited_.begin(), visited_.end(), kNoClass);
+  visited_ = emptyVisited_;
   for (ClassState& state : classes_) {
     state.growDrops.clear();
     state.shrinkDrops.clear();

@@ -17,9 +17,12 @@
 // class never grows into a cell another class still holds from the previous frame.
 #pragma once
 
+#include <array>
 #include <cstdint>
+#include <functional>
 #include <optional>
 #include <span>
+#include <string>
 #include <vector>
 
 #include "services/region_tracking/cell_grid.hpp"
@@ -45,20 +48,31 @@ struct ClassTracking {
   // the regions of class `seedFromBoundaryOf` become seeds (e.g. the ball next to green). The
   // parent must come earlier in the class list. kNoClass: off.
   ClassId seedFromBoundaryOf = kNoClass;
+  // Extension to the seed: untracked cells of this class on the edge of the view (next to the
+  // don't-touch mask or the grid's border) become seeds, so regions that move into view are
+  // tracked within a few frames instead of at the next re-initialisation. Each frame looks at
+  // every n-th edge cell, starting one further each frame (all of them every n frames);
+  // 0: off.
+  int viewEdgeStride = 0;
 };
 
 struct TrackerConfig {
   // Pixels per cell side: 1, 2, 4 or 8.
   int cellSize = 4;
-  // Classes in processing order; class ids must be distinct and not kNoClass.
+  // Classes in processing order; class ids must be distinct and below 254 (254 and 255 are
+  // reserved).
   std::vector<ClassTracking> classes;
   // Forget everything and search again every this many frames (0: never; the seed uses 300).
   int reinitialisePeriodFrames = 300;
 };
 
-// Reads keys cell_size, reinitialise_period_frames and a list `classes` of maps {class_id,
-// search_when_lost, max_seed_regions, min_seed_cells, seed_from_boundary_of}.
-TrackerConfig loadTrackerConfig(const config::Node& node);
+// Reads keys cell_size, reinitialise_period_frames and a list `classes` of maps {class,
+// search_when_lost, max_seed_regions, min_seed_cells, seed_from_boundary_of, view_edge_stride}
+// (all but class optional, defaults as in ClassTracking); class names are
+// turned into ids by `classByName` (nullopt: "unknown class" error at that key).
+TrackerConfig loadTrackerConfig(
+    const config::Node& node,
+    const std::function<std::optional<ClassId>(const std::string&)>& classByName);
 
 // What one track() call did: the quantities of the seed's table 3.1.
 struct TrackingStats {
@@ -105,41 +119,72 @@ class RegionTracker {
 
   const CellGrid& grid() const { return grid_; }
   const TrackerConfig& config() const { return config_; }
-  // The class owning each cell (kNoClass where no tracked region is), row-major.
-  std::span<const ClassId> visited() const { return visited_; }
+  // The class owning cell (x, y): kNoClass where no tracked region is (and in don't-touch
+  // cells).
+  ClassId ownerOf(int x, int y) const {
+    const ClassId owner = visited_[layout_.index(x, y)];
+    return owner == kBlocked ? kNoClass : owner;
+  }
+  // ownerOf for every cell, row-major (a copy, for comparisons and drawings).
+  std::vector<ClassId> visited() const;
   // Boundaries of all tracked regions after the last track().
   const ContourSet& contours() const { return contours_; }
-  // Boundary cells of a class's regions after the last track().
-  std::span<const Cell> boundaryCells(ClassId classId) const;
   // Cells of a class's regions after the last track().
   int regionCells(ClassId classId) const;
   const TrackingStats& stats() const { return stats_; }
+  // True if the last track() computed the class of cell (x, y): the cells it accessed.
+  bool classifiedInLastFrame(int x, int y) const {
+    return classifiedStamp_[layout_.index(x, y)] == stamp_;
+  }
 
  private:
+  // In V: outside the grid or don't-touch. Never a tracked class.
+  static constexpr ClassId kBlocked = 0xFE;
+  // Cells are padded indices (PaddedLayout): the frame of kBlocked cells around the grid
+  // spares every bounds check when a drop looks at its neighbours.
+  using CellIndex = std::int32_t;
+
   // Per class: the pair of drop queues (used as stacks; order does not matter) and its size.
   struct ClassState {
     ClassTracking tracking;
-    std::vector<Cell> growDrops;    // Q: drops still to spread during grow
-    std::vector<Cell> shrinkDrops;  // Q': boundary drops, the start of the next shrink
-    std::vector<Cell> pendingSeeds;
+    std::vector<CellIndex> growDrops;    // Q: drops still to spread during grow
+    std::vector<CellIndex> shrinkDrops;  // Q': boundary drops, the start of the next shrink
+    std::vector<CellIndex> pendingSeeds;
     int cells = 0;
   };
 
-  ClassId classOf(int x, int y);
-  bool blocked(int x, int y) const { return !grid_.contains(x, y) || dontTouch_[grid_.index(x, y)]; }
+  // The class of a cell in the current frame, computed at most once per frame.
+  ClassId classOf(CellIndex cell) {
+    if (classifiedStamp_[cell] == stamp_) return classifiedClass_[cell];
+    return classifyNow(cell);
+  }
+  ClassId classifyNow(CellIndex cell);
   ClassState* stateOf(ClassId classId);
+  // Marks an unvisited cell as the class's and queues it as a growing drop.
+  void claim(ClassState& state, CellIndex cell) {
+    visited_[cell] = state.tracking.classId;
+    ++state.cells;
+    state.growDrops.push_back(cell);
+  }
 
   void shrink(ClassState& state);
   void grow(ClassState& state);
-  void seedFromBoundary(ClassState& state, const ClassState& parent);
   void seedPending(ClassState& state);
+  void seedAtViewEdge(ClassState& state);
   bool initialSearch(ClassState& state);
 
   CellGrid grid_;
+  PaddedLayout layout_;
+  int neighbour_[4];  // index offsets up, right, down, left
   TrackerConfig config_;
-  std::vector<std::uint8_t> dontTouch_;
-  std::vector<ClassId> visited_;  // V
+  std::vector<ClassId> visited_;       // V, padded
+  std::vector<ClassId> emptyVisited_;  // V with nothing tracked: kBlocked frame and mask only
   std::vector<ClassState> classes_;
+  // Touchable cells with a don't-touch or out-of-grid neighbour: where new content enters.
+  std::vector<CellIndex> viewEdge_;
+  // By class id: index into classes_, and the class whose boundary seeds it (kNoClass: none).
+  std::array<int, 256> classSlot_;
+  std::array<ClassId, 256> seedParent_;
   ConnectivityGrid connectivity_;
   ContourSet contours_;
 
@@ -150,11 +195,11 @@ class RegionTracker {
   std::uint32_t stamp_ = 0;
 
   // Scratch for initial searches and dropRegion, kept to avoid per-frame allocation.
-  std::vector<Cell> scratchQueue_;
+  std::vector<CellIndex> scratchQueue_;
   std::vector<std::uint8_t> scratchMark_;
   struct SeedCandidate {
     int cells;
-    Cell seed;
+    CellIndex seed;
   };
   std::vector<SeedCandidate> seedCandidates_;
 

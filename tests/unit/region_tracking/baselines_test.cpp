@@ -40,8 +40,10 @@ std::multiset<std::tuple<int, bool, EdgeList>> canonical(const ContourSet& set) 
 // Region sizes per class, sorted: what both baselines and a plain labelling must agree on.
 std::map<ClassId, std::vector<int>> sizesByClass(std::span<const Region> regions) {
   std::map<ClassId, std::vector<int>> out;
-  for (const Region& r : regions) out[r.classId].push_back(r.cells);
-  for (auto& [c, sizes] : out) std::sort(sizes.begin(), sizes.end());
+  for (const Region& r : regions)
+    out[r.classId].push_back(r.cells);
+  for (auto& [c, sizes] : out)
+    std::sort(sizes.begin(), sizes.end());
   return out;
 }
 
@@ -59,7 +61,8 @@ TEST(Baselines, RegionsMatchAPlainLabellingAndEachOther) {
     std::map<ClassId, std::vector<int>> expected;
     for (const ClassId c : kClasses) {
       std::vector<int> labels;
-      const int n = labelComponents(64, 48, [&](int i) { return g.cells[i] == c; }, labels);
+      const int n = labelComponents(
+          64, 48, [&](int i) { return g.cells[i] == c; }, labels);
       std::vector<int> sizes(n, 0);
       for (const int l : labels) {
         if (l >= 0) ++sizes[l];
@@ -88,14 +91,37 @@ TEST(Baselines, RegionsMatchAPlainLabellingAndEachOther) {
   }
 }
 
-TEST(Baselines, DontTouchCellsAreNeitherReadNorSegmented) {
+// Counts the cells a full-frame pass reads.
+class CountingClassifier final : public CellClassifier {
+ public:
+  explicit CountingClassifier(const ClassGrid& g) : grid_(g) {}
+  ClassId classify(int x, int y) const override {
+    ++reads;
+    return grid_.at(x, y);
+  }
+  mutable int reads = 0;
+
+ private:
+  const ClassGrid& grid_;
+};
+
+TEST(Baselines, DontTouchCellsAreLeftOutOfTheRegionsAndReadOnlyWhenAsked) {
   ClassGrid g(20, 10, 1);
   std::vector<std::uint8_t> dontTouch(200, 0);
-  for (int y = 0; y < 10; ++y) dontTouch[y * 20 + 10] = 1;
-  CmvisionSegmenter cmvision(CellGrid{20, 10, 1}, kClasses, dontTouch);
-  cmvision.segment(ClassMapClassifier(g.cells, g.width));
-  EXPECT_EQ(cmvision.regions().size(), 2u);
-  EXPECT_EQ(cmvision.classMap()[10], kNoClass);
+  for (int y = 0; y < 10; ++y)
+    dontTouch[y * 20 + 10] = 1;
+  for (const FullFramePolicy policy :
+       {FullFramePolicy::kClassifyEveryCell, FullFramePolicy::kSkipDontTouch}) {
+    CmvisionSegmenter cmvision(CellGrid{20, 10, 1}, kClasses, dontTouch, policy);
+    CountingClassifier classifier(g);
+    cmvision.segment(classifier);
+    EXPECT_EQ(cmvision.regions().size(), 2u);
+    EXPECT_EQ(cmvision.classMap()[10], kNoClass);
+    EXPECT_EQ(classifier.reads, policy == FullFramePolicy::kSkipDontTouch ? 190 : 200);
+    OpenCvSegmenter opencv(CellGrid{20, 10, 1}, kClasses, dontTouch, policy);
+    opencv.segment(classifier);
+    EXPECT_EQ(opencv.regions().size(), 2u);
+  }
 }
 
 TEST(Baselines, ConvergedTrackerEqualsCmvisionRegionsAndContours) {

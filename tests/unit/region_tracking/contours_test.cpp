@@ -67,7 +67,8 @@ std::vector<int> windingOf(const ContourSet& set, int width, int height, int cel
       const int x = p.x / cellSize;
       const int row = std::min(p.y, q.y) / cellSize;
       const int sign = q.y > p.y ? 1 : -1;  // downward edges are right sides of a region
-      for (int cx = 0; cx < x && cx < width; ++cx) winding[row * width + cx] += sign;
+      for (int cx = 0; cx < x && cx < width; ++cx)
+        winding[row * width + cx] += sign;
     }
   }
   return winding;
@@ -93,7 +94,8 @@ TEST(Contours, RegionWithHoleHasOuterAndInnerContour) {
   const ContourSet set = contoursOf(g, 1);
   ASSERT_EQ(set.contours.size(), 2u);
   int outerArea = 0, holeArea = 0;
-  for (const Contour& c : set.contours) (c.outer ? outerArea : holeArea) = c.signedCellArea;
+  for (const Contour& c : set.contours)
+    (c.outer ? outerArea : holeArea) = c.signedCellArea;
   EXPECT_EQ(outerArea, 64);
   EXPECT_EQ(holeArea, -4);
   EXPECT_EQ(set.points.size(), 32u + 8u);
@@ -106,7 +108,8 @@ TEST(Contours, CellsTouchingAtACornerGetSeparateContours) {
   g.at(2, 2) = 1;
   const ContourSet set = contoursOf(g, 1);
   EXPECT_EQ(set.contours.size(), 2u);
-  for (const Contour& c : set.contours) EXPECT_EQ(c.size(), 4);
+  for (const Contour& c : set.contours)
+    EXPECT_EQ(c.size(), 4);
   // And a ring closed only through corners has no hole of its own: each cell is one region.
   ClassGrid ring(5, 5, 0);
   ring.at(2, 1) = ring.at(1, 2) = ring.at(3, 2) = ring.at(2, 3) = 1;
@@ -120,7 +123,8 @@ TEST(Contours, RandomShapesGiveClosedContoursThatSeparateExactlyTheRegion) {
     // Noise is the hardest case: many corner contacts, holes inside holes.
     ClassGrid g = trial % 2 ? testing::randomBlobs(40, 30, rng) : ClassGrid(40, 30, 0);
     if (trial % 2 == 0) {
-      for (auto& cell : g.cells) cell = coin(rng) ? 1 : 0;
+      for (auto& cell : g.cells)
+        cell = coin(rng) ? 1 : 0;
     }
     const int cellSize = trial % 4 == 0 ? 4 : 1;
     const ContourSet set = contoursOf(g, 1, cellSize);
@@ -130,10 +134,11 @@ TEST(Contours, RandomShapesGiveClosedContoursThatSeparateExactlyTheRegion) {
       ASSERT_EQ(winding[i], g.cells[i] == 1 ? 1 : 0) << "trial " << trial << " cell " << i;
     }
     std::vector<int> labels;
-    const int regions =
-        labelComponents(g.width, g.height, [&](int i) { return g.cells[i] == 1; }, labels);
+    const int regions = labelComponents(
+        g.width, g.height, [&](int i) { return g.cells[i] == 1; }, labels);
     int outer = 0;
-    for (const Contour& c : set.contours) outer += c.outer ? 1 : 0;
+    for (const Contour& c : set.contours)
+      outer += c.outer ? 1 : 0;
     EXPECT_EQ(outer, regions) << "trial " << trial;
   }
 }
@@ -155,7 +160,8 @@ TEST(Contours, TrackerBoundariesSeparateItsRegionsAndLeaveTheGridClear) {
         if (contour.classId != c) continue;
         Contour copy = contour;
         copy.begin = static_cast<int>(ofClass.points.size());
-        for (const ContourPoint& p : set.pointsOf(contour)) ofClass.points.push_back(p);
+        for (const ContourPoint& p : set.pointsOf(contour))
+          ofClass.points.push_back(p);
         copy.end = static_cast<int>(ofClass.points.size());
         ofClass.contours.push_back(copy);
       }

@@ -33,7 +33,9 @@ TrackerConfig configFor(std::vector<ClassId> classes, bool searchWhenLost = true
   return config;
 }
 
-CellGrid gridOf(const ClassGrid& g) { return CellGrid{g.width, g.height, 1}; }
+CellGrid gridOf(const ClassGrid& g) {
+  return CellGrid{g.width, g.height, 1};
+}
 
 // The grid's class where the class is one of `classes`, kNoClass elsewhere.
 std::vector<ClassId> trackedPart(const ClassGrid& g, const std::set<ClassId>& classes) {
@@ -45,7 +47,7 @@ std::vector<ClassId> trackedPart(const ClassGrid& g, const std::set<ClassId>& cl
 }
 
 std::vector<ClassId> visitedOf(const RegionTracker& tracker) {
-  return {tracker.visited().begin(), tracker.visited().end()};
+  return tracker.visited();
 }
 
 // What shrink-and-grow must give in frame `b` for regions tracked exactly in frame `a`: for each
@@ -59,7 +61,8 @@ std::vector<ClassId> expectedAfterMove(const ClassGrid& a, const ClassGrid& b,
   overlapCondition = true;
   std::vector<int> labels;
   for (const ClassId c : classes) {
-    const int regions = labelComponents(w, h, [&](int i) { return b.cells[i] == c; }, labels);
+    const int regions = labelComponents(
+        w, h, [&](int i) { return b.cells[i] == c; }, labels);
     std::vector<bool> overlaps(regions, false);
     bool anyOverlap = false;
     for (int i = 0; i < w * h; ++i) {
@@ -70,14 +73,16 @@ std::vector<ClassId> expectedAfterMove(const ClassGrid& a, const ClassGrid& b,
       if (labels[i] >= 0 && (overlaps[labels[i]] || !anyOverlap)) expected[i] = c;
     }
     std::vector<int> holes;
-    const int holeCount = labelComponents(w, h, [&](int i) { return b.cells[i] != c; }, holes);
+    const int holeCount = labelComponents(
+        w, h, [&](int i) { return b.cells[i] != c; }, holes);
     std::vector<bool> holeOk(holeCount, false);
     for (int i = 0; i < w * h; ++i) {
       const int x = i % w, y = i / w;
       const bool border = x == 0 || y == 0 || x == w - 1 || y == h - 1;
       if (holes[i] >= 0 && (a.cells[i] != c || border)) holeOk[holes[i]] = true;
     }
-    for (const bool ok : holeOk) overlapCondition = overlapCondition && ok;
+    for (const bool ok : holeOk)
+      overlapCondition = overlapCondition && ok;
   }
   return expected;
 }
@@ -98,24 +103,25 @@ TEST(RegionTracker, GrowingFromASeedFillsExactlyTheConnectedRegion) {
     RegionTracker tracker(gridOf(g), configFor({1, 2}, /*searchWhenLost=*/false));
     tracker.addSeed(c, seed % g.width, seed / g.width);
     tracker.track(ClassMapClassifier(g.cells, g.width));
+    const std::vector<ClassId> visited = tracker.visited();
 
     std::vector<int> labels;
-    labelComponents(g.width, g.height, [&](int i) { return g.cells[i] == c; }, labels);
+    labelComponents(
+        g.width, g.height, [&](int i) { return g.cells[i] == c; }, labels);
     for (int i = 0; i < g.width * g.height; ++i) {
       const ClassId expected = labels[i] == labels[seed] ? c : kNoClass;
-      ASSERT_EQ(tracker.visited()[i], expected) << "trial " << trial << " cell " << i;
+      ASSERT_EQ(visited[i], expected) << "trial " << trial << " cell " << i;
     }
-    EXPECT_EQ(tracker.regionCells(c),
-              std::count(labels.begin(), labels.end(), labels[seed]));
+    EXPECT_EQ(tracker.regionCells(c), std::count(labels.begin(), labels.end(), labels[seed]));
   }
 }
 
 TEST(RegionTracker, FirstFrameInitialSearchTracksTheLargestRegions) {
   ClassGrid g(40, 30, 0);
-  g.fillRect(1, 1, 11, 11, 1);   // 100 cells
-  g.fillRect(20, 1, 25, 6, 1);   // 25 cells
+  g.fillRect(1, 1, 11, 11, 1);    // 100 cells
+  g.fillRect(20, 1, 25, 6, 1);    // 25 cells
   g.fillRect(30, 20, 32, 22, 1);  // 4 cells
-  g.fillRect(35, 2, 36, 3, 1);   // 1 cell: below the minimum
+  g.fillRect(35, 2, 36, 3, 1);    // 1 cell: below the minimum
   TrackerConfig config = configFor({1});
   config.classes[0].maxSeedRegions = 2;
   config.classes[0].minSeedCells = 2;
@@ -123,7 +129,7 @@ TEST(RegionTracker, FirstFrameInitialSearchTracksTheLargestRegions) {
   const TrackingStats stats = tracker.track(ClassMapClassifier(g.cells, g.width));
   EXPECT_EQ(stats.initialSearches, 1);
   EXPECT_EQ(tracker.regionCells(1), 125);
-  EXPECT_EQ(tracker.visited()[g.width * 20 + 30], kNoClass);
+  EXPECT_EQ(tracker.ownerOf(30, 20), kNoClass);
   EXPECT_DOUBLE_EQ(stats.touchedFraction, 1.0);  // an initial search reads every cell
   EXPECT_EQ(stats.cellsAfterShrink, 0);
   EXPECT_DOUBLE_EQ(stats.overlap, 0.0);
@@ -182,7 +188,8 @@ TEST(RegionTracker, FollowsARandomWalkFrameAfterFrame) {
   auto window = [&](int ox, int oy) {
     ClassGrid g(64, 48, 0);
     for (int y = 0; y < 48; ++y) {
-      for (int x = 0; x < 64; ++x) g.at(x, y) = world.at(ox + x, oy + y);
+      for (int x = 0; x < 64; ++x)
+        g.at(x, y) = world.at(ox + x, oy + y);
     }
     return g;
   };
@@ -197,8 +204,9 @@ TEST(RegionTracker, FollowsARandomWalkFrameAfterFrame) {
     const ClassGrid current = window(ox, oy);
     // The old frame as the tracker holds it (regions that never entered are not tracked).
     ClassGrid held(64, 48, 0);
+    const std::vector<ClassId> visited = tracker.visited();
     for (std::size_t i = 0; i < held.cells.size(); ++i) {
-      held.cells[i] = tracker.visited()[i] == kNoClass ? 0 : tracker.visited()[i];
+      held.cells[i] = visited[i] == kNoClass ? 0 : visited[i];
     }
     bool condition = false;
     const std::vector<ClassId> expected = expectedAfterMove(held, current, {1, 2}, condition);
@@ -223,7 +231,8 @@ TEST(RegionTracker, IslandMovingInsideARegionIsFollowed) {
   EXPECT_EQ(visitedOf(tracker), trackedPart(b, {1, 2}));
   // Class 1: its outer boundary and the island's hole; class 2: the island.
   int outer = 0, holes = 0;
-  for (const Contour& c : tracker.contours().contours) (c.outer ? outer : holes)++;
+  for (const Contour& c : tracker.contours().contours)
+    (c.outer ? outer : holes)++;
   EXPECT_EQ(outer, 2);
   EXPECT_EQ(holes, 1);
 }
@@ -236,7 +245,7 @@ TEST(RegionTracker, IslandJumpingIntoARegionIsTheKnownBlindSpot) {
   ClassGrid b = a;
   b.fillRect(20, 15, 24, 19, 0);  // appears inside without touching the boundary (seed 3.1.5)
   tracker.track(ClassMapClassifier(b.cells, b.width));
-  EXPECT_EQ(tracker.visited()[17 * 50 + 22], 1);  // still held by the region
+  EXPECT_EQ(tracker.ownerOf(22, 17), 1);  // still held by the region
   EXPECT_EQ(tracker.regionCells(1), 40 * 30);
 }
 
@@ -322,7 +331,8 @@ TEST(RegionTracker, NeverTouchesDontTouchCellsAndClassifiesEachCellOncePerFrame)
   a.fillRect(10, 10, 20, 30, 2);
   std::vector<std::uint8_t> dontTouch(60 * 40, 0);
   for (int y = 0; y < 40; ++y) {
-    for (int x = 30; x < 40; ++x) dontTouch[y * 60 + x] = 1;  // a forbidden band cuts class 1
+    for (int x = 30; x < 40; ++x)
+      dontTouch[y * 60 + x] = 1;  // a forbidden band cuts class 1
   }
   RegionTracker tracker(gridOf(a), configFor({1, 2}), dontTouch);
   for (int frame = 0; frame < 5; ++frame) {
@@ -333,7 +343,7 @@ TEST(RegionTracker, NeverTouchesDontTouchCellsAndClassifiesEachCellOncePerFrame)
       EXPECT_LE(classifier.asked()[i], 1) << "cell " << i;
       if (dontTouch[i]) {
         EXPECT_EQ(classifier.asked()[i], 0) << "cell " << i;
-        EXPECT_EQ(tracker.visited()[i], kNoClass);
+        EXPECT_EQ(tracker.ownerOf(i % 60, i / 60), kNoClass);
       }
     }
   }
@@ -354,7 +364,7 @@ TEST(RegionTracker, DroppedRegionStaysDropped) {
     const TrackingStats stats = tracker.track(ClassMapClassifier(a.cells, a.width));
     EXPECT_EQ(stats.initialSearches, 0);
     EXPECT_EQ(tracker.regionCells(1), 15 * 20);
-    EXPECT_EQ(tracker.visited()[5 * 40 + 5], kNoClass);
+    EXPECT_EQ(tracker.ownerOf(5, 5), kNoClass);
   }
   tracker.dropClass(1);
   EXPECT_EQ(tracker.regionCells(1), 0);
@@ -378,7 +388,7 @@ TEST(RegionTracker, ReinitialisesPeriodically) {
 
 TEST(RegionTracker, SeedsFromTheBoundaryOfAParentClass) {
   ClassGrid a(40, 30, 3);
-  a.fillRect(5, 5, 35, 25, 1);   // "green"
+  a.fillRect(5, 5, 35, 25, 1);    // "green"
   a.fillRect(10, 10, 13, 13, 2);  // "ball" inside green
   a.fillRect(36, 2, 39, 5, 2);    // another "ball" off the green: not seeded
   TrackerConfig config = configFor({1, 2});
@@ -388,21 +398,65 @@ TEST(RegionTracker, SeedsFromTheBoundaryOfAParentClass) {
   const TrackingStats stats = tracker.track(ClassMapClassifier(a.cells, a.width));
   EXPECT_EQ(stats.initialSearches, 1);  // green only
   EXPECT_EQ(tracker.regionCells(2), 9);
-  EXPECT_EQ(tracker.visited()[3 * 40 + 37], kNoClass);
+  EXPECT_EQ(tracker.ownerOf(37, 3), kNoClass);
   // The ball jumps without overlap onto green's edge: found again through green's boundary.
   ClassGrid b = a;
   b.fillRect(10, 10, 13, 13, 1);
   b.fillRect(33, 15, 36, 18, 2);
   tracker.track(ClassMapClassifier(b.cells, b.width));
   EXPECT_EQ(tracker.regionCells(2), 9);
-  EXPECT_EQ(tracker.visited()[16 * 40 + 34], 2);
-  EXPECT_EQ(tracker.visited()[11 * 40 + 11], 1);
+  EXPECT_EQ(tracker.ownerOf(34, 16), 2);
+  EXPECT_EQ(tracker.ownerOf(11, 11), 1);
+}
+
+TEST(RegionTracker, SeedsRegionsEnteringAtTheEdgeOfTheView) {
+  ClassGrid a(40, 30, 0);
+  a.fillRect(5, 5, 15, 15, 1);
+  std::vector<std::uint8_t> dontTouch(40 * 30, 0);
+  for (int y = 0; y < 30; ++y)
+    dontTouch[y * 40 + 39] = 1;  // the view ends at column 38
+  TrackerConfig config = configFor({1});
+  config.classes[0].viewEdgeStride = 1;
+  RegionTracker tracker(gridOf(a), config, dontTouch);
+  tracker.track(ClassMapClassifier(a.cells, a.width));
+  ASSERT_EQ(tracker.regionCells(1), 100);
+  // A second region slides in from the right: tracked from its first visible column on.
+  for (int step = 1; step <= 6; ++step) {
+    ClassGrid g = a;
+    g.fillRect(39 - step, 20, 39, 25, 1);
+    const TrackingStats stats = tracker.track(ClassMapClassifier(g.cells, g.width));
+    EXPECT_EQ(stats.initialSearches, 0);
+    EXPECT_EQ(tracker.regionCells(1), 100 + 5 * step) << "step " << step;
+  }
+  // Looking at every third edge cell per frame, a 2-cell-high region at the edge is found
+  // within three frames.
+  config.classes[0].viewEdgeStride = 3;
+  RegionTracker strided(gridOf(a), config, dontTouch);
+  strided.track(ClassMapClassifier(a.cells, a.width));
+  ClassGrid entering = a;
+  entering.fillRect(36, 20, 39, 22, 1);
+  int framesToFind = 0;
+  while (strided.regionCells(1) == 100 && framesToFind < 10) {
+    strided.track(ClassMapClassifier(entering.cells, entering.width));
+    ++framesToFind;
+  }
+  EXPECT_LE(framesToFind, 3);
+  EXPECT_EQ(strided.regionCells(1), 106);
+  // Without the option it stays untracked.
+  config.classes[0].viewEdgeStride = 0;
+  RegionTracker plain(gridOf(a), config, dontTouch);
+  plain.track(ClassMapClassifier(a.cells, a.width));
+  ClassGrid g = a;
+  g.fillRect(35, 20, 39, 25, 1);
+  plain.track(ClassMapClassifier(g.cells, g.width));
+  EXPECT_EQ(plain.regionCells(1), 100);
 }
 
 TEST(RegionTracker, RejectsBadConfiguration) {
   const CellGrid grid{10, 10, 1};
   EXPECT_THROW(RegionTracker(grid, configFor({1, 1})), std::invalid_argument);
   EXPECT_THROW(RegionTracker(grid, configFor({kNoClass})), std::invalid_argument);
+  EXPECT_THROW(RegionTracker(grid, configFor({254})), std::invalid_argument);
   TrackerConfig wrongCell = configFor({1});
   wrongCell.cellSize = 4;
   EXPECT_THROW(RegionTracker(grid, wrongCell), std::invalid_argument);
@@ -419,28 +473,47 @@ TEST(RegionTracker, RejectsBadConfiguration) {
 }
 
 TEST(RegionTracker, LoadsItsConfigFromYaml) {
+  auto byName = [](const std::string& name) -> std::optional<ClassId> {
+    if (name == "green") return 0;
+    if (name == "orange") return 4;
+    return std::nullopt;
+  };
   const auto node = config::Node::loadString(R"(
 cell_size: 4
 reinitialise_period_frames: 300
 classes:
-  - {class_id: 1, max_seed_regions: 10, min_seed_cells: 4}
-  - {class_id: 5, search_when_lost: false, seed_from_boundary_of: 1}
+  - {class: green, max_seed_regions: 10, min_seed_cells: 4}
+  - {class: orange, search_when_lost: false, seed_from_boundary_of: green,
+     view_edge_stride: 3}
 )");
-  const TrackerConfig config = loadTrackerConfig(node);
+  const TrackerConfig config = loadTrackerConfig(node, byName);
   EXPECT_EQ(config.cellSize, 4);
   EXPECT_EQ(config.reinitialisePeriodFrames, 300);
   ASSERT_EQ(config.classes.size(), 2u);
-  EXPECT_EQ(config.classes[1].classId, 5);
+  EXPECT_EQ(config.classes[1].classId, 4);
   EXPECT_FALSE(config.classes[1].searchWhenLost);
-  EXPECT_EQ(config.classes[1].seedFromBoundaryOf, 1);
+  EXPECT_EQ(config.classes[1].seedFromBoundaryOf, 0);
   EXPECT_EQ(config.classes[0].seedFromBoundaryOf, kNoClass);
-  EXPECT_THROW(loadTrackerConfig(config::Node::loadString(
-                   "cell_size: 3\nreinitialise_period_frames: 1\nclasses: []\n")),
-               config::Error);
-  EXPECT_THROW(loadTrackerConfig(config::Node::loadString(
-                   "cell_size: 4\nreinitialise_period_frames: 1\nclasses:\n  - {class_id: 1, "
-                   "colour: 2}\n")),
-               config::Error);
+  EXPECT_EQ(config.classes[0].viewEdgeStride, 0);
+  EXPECT_EQ(config.classes[1].viewEdgeStride, 3);
+  auto fails = [&](const std::string& yaml, const std::string& fragment) {
+    try {
+      loadTrackerConfig(config::Node::loadString(yaml), byName);
+    } catch (const config::Error& e) {
+      EXPECT_NE(std::string(e.what()).find(fragment), std::string::npos) << e.what();
+      return;
+    }
+    ADD_FAILURE() << "accepted: " << yaml;
+  };
+  fails("cell_size: 3\nreinitialise_period_frames: 1\nclasses: []\n", "cell_size");
+  fails("cell_size: 4\nreinitialise_period_frames: 1\nclasses:\n  - {class: green, colour: 2}\n",
+        "colour");
+  fails("cell_size: 4\nreinitialise_period_frames: 1\nclasses:\n  - {class: purple}\n",
+        "unknown colour class");
+  fails(
+      "cell_size: 4\nreinitialise_period_frames: 1\nclasses:\n  - {class: orange, "
+      "seed_from_boundary_of: green}\n",
+      "listed before");
 }
 
 }  // namespace

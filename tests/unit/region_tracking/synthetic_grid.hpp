@@ -23,7 +23,8 @@ struct ClassGrid {
 
   void fillRect(int x0, int y0, int x1, int y1, ClassId c) {
     for (int y = std::max(0, y0); y < std::min(height, y1); ++y) {
-      for (int x = std::max(0, x0); x < std::min(width, x1); ++x) at(x, y) = c;
+      for (int x = std::max(0, x0); x < std::min(width, x1); ++x)
+        at(x, y) = c;
     }
   }
   void fillDisk(double cx, double cy, double r, ClassId c) {

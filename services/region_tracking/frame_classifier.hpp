@@ -1,0 +1,60 @@
+// The homogeneity function on a real frame: the colour class of a block of pixels, read from the
+// raw frame in place through the colour table (no conversion of the frame).
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include "common/camera/colour.hpp"
+#include "common/camera/frame.hpp"
+#include "common/camera/mirror_model.hpp"
+#include "services/region_tracking/cell_grid.hpp"
+
+namespace fieldline::region_tracking {
+
+inline ClassId classIdOf(camera::ColourClass colour) {
+  return static_cast<ClassId>(colour);
+}
+
+// A class that claims a block before the majority vote when at least `minFraction` of its
+// pixels have it. Thin structures need this: a 2 px field line in 4x4 blocks never wins a
+// majority, and the green regions on both sides of it would merge into one.
+struct BlockClaim {
+  camera::ColourClass colour = camera::ColourClass::kWhite;
+  double minFraction = 0.125;
+};
+
+struct BlockClassifierParams {
+  // Tried in order; the first class reaching its fraction wins. Otherwise the most frequent
+  // class of the block (ties to the lower class number).
+  std::vector<BlockClaim> claims = {{camera::ColourClass::kOrange, 0.125},
+                                    {camera::ColourClass::kWhite, 0.125}};
+};
+
+class FrameCellClassifier final : public CellClassifier {
+ public:
+  FrameCellClassifier(const camera::ColourTable& table, int cellSize,
+                      const BlockClassifierParams& params = {});
+
+  // The frame the next classify() calls read; it must outlive them.
+  void setFrame(const camera::FrameView& frame) { frame_ = frame; }
+
+  ClassId classify(int x, int y) const override;
+
+ private:
+  struct Claim {
+    ClassId classId;
+    int minPixels;
+  };
+  const camera::ColourTable& table_;
+  int cellSize_;
+  std::vector<Claim> claims_;
+  camera::FrameView frame_;
+};
+
+// The don't-touch mask of the cell grid: a cell is forbidden unless its four corner pixels all
+// see usable floor (outside the robot's own reflection, inside the useful radius).
+std::vector<std::uint8_t> dontTouchCells(const camera::MirrorModel& mirror, const CellGrid& grid);
+
+}  // namespace fieldline::region_tracking

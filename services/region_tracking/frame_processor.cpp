@@ -1,0 +1,106 @@
+#include "services/region_tracking/frame_processor.hpp"
+
+#include <stdexcept>
+#include <string>
+
+namespace fieldline::region_tracking {
+
+namespace {
+
+using camera::ColourClass;
+
+std::optional<ClassId> classByName(const std::string& name) {
+  const std::optional<ColourClass> colour = camera::colourFromName(name);
+  if (!colour || *colour == ColourClass::kUnknown) return std::nullopt;
+  return classIdOf(*colour);
+}
+
+ColourClass colourAt(const config::Node& node, const std::string& key) {
+  const std::optional<ColourClass> colour = camera::colourFromName(node.get<std::string>(key));
+  if (!colour || *colour == ColourClass::kUnknown) node.fail(key, "unknown colour class");
+  return *colour;
+}
+
+}  // namespace
+
+VisionParams defaultVisionParams() {
+  VisionParams params;
+  params.tracker.cellSize = 4;
+  params.tracker.reinitialisePeriodFrames = 300;
+  const ClassId green = classIdOf(ColourClass::kGreen);
+  params.tracker.classes.push_back({green, true, 10, 4, kNoClass, 4});
+  for (const ColourClass c :
+       {ColourClass::kYellow, ColourClass::kBlue, ColourClass::kOrange, ColourClass::kBlack}) {
+    params.tracker.classes.push_back({classIdOf(c), false, 10, 1, green});
+  }
+  return params;
+}
+
+VisionParams loadVisionParams(const config::Node& node) {
+  VisionParams params;
+  params.tracker = loadTrackerConfig(node.child("tracker"), classByName);
+
+  const config::Node blocks = node.child("blocks");
+  params.blocks.claims.clear();
+  for (const config::Node& claim : blocks.children("claims")) {
+    params.blocks.claims.push_back(
+        {colourAt(claim, "class"), claim.get<double>("min_fraction", 0.0, 1.0)});
+    claim.rejectUnknownKeys();
+  }
+  blocks.rejectUnknownKeys();
+
+  const config::Node lines = node.child("lines");
+  params.lines.lineWidth = lines.get<double>("line_width", 0.01, 1.0);
+  params.lines.widthTolerance = lines.get<double>("width_tolerance", 1.0, 10.0);
+  params.lines.maxTransitionPixels = lines.get<int>("max_transition_pixels", 0, 10);
+  params.lines.sampleSpacing = lines.get<int>("sample_spacing", 1, 64);
+  params.lines.smoothingPasses = lines.get<int>("smoothing_passes", 0, 20);
+  params.lines.tangentHalfSpan = lines.get<int>("tangent_half_span", 1, 20);
+  params.lines.minContourPoints = lines.get<int>("min_contour_points", 4, 100000);
+  params.lines.maxGapSamples = lines.get<int>("max_gap_samples", 0, 20);
+  lines.rejectUnknownKeys();
+
+  const config::Node ball = node.child("ball");
+  params.ball.centreHeight = ball.get<double>("centre_height", 0.0, 0.5);
+  params.ball.minPixels = ball.get<int>("min_pixels", 1, 10000);
+  ball.rejectUnknownKeys();
+
+  const config::Node obstacles = node.child("obstacles");
+  params.obstacles.minCells = obstacles.get<int>("min_cells", 1, 100000);
+  obstacles.rejectUnknownKeys();
+  return params;
+}
+
+FrameProcessor::FrameProcessor(const camera::MirrorModel& mirror, const camera::ColourTable& table,
+                               const VisionParams& params)
+    : mirror_(mirror),
+      grid_(CellGrid::forImage(mirror.width(), mirror.height(), params.tracker.cellSize)),
+      dontTouch_(dontTouchCells(mirror, grid_)),
+      floor_(mirror),
+      classifier_(table, grid_.cellSize, params.blocks),
+      tracker_(grid_, params.tracker, dontTouch_),
+      lines_(table, floor_, params.lines, grid_.cellSize),
+      ball_(table, mirror, params.ball),
+      obstacles_(mirror, params.obstacles) {}
+
+void FrameProcessor::process(const camera::FrameView& frame, bool detectLines, VisionResult& out) {
+  if (!frame.valid()) throw std::invalid_argument("region tracking: invalid frame view");
+  if (frame.width != mirror_.width() || frame.height != mirror_.height()) {
+    throw std::invalid_argument("region tracking: frame is " + std::to_string(frame.width) + "x" +
+                                std::to_string(frame.height) + ", camera model expects " +
+                                std::to_string(mirror_.width()) + "x" +
+                                std::to_string(mirror_.height()));
+  }
+  classifier_.setFrame(frame);
+  out.tracking = tracker_.track(classifier_);
+  out.linesDetected = detectLines;
+  if (detectLines) {
+    lines_.detect(frame, tracker_.contours(), out.lines);
+  } else {
+    out.lines.clear();
+  }
+  out.ball = ball_.detect(frame, tracker_.contours());
+  obstacles_.detect(tracker_.contours(), out.obstacles);
+}
+
+}  // namespace fieldline::region_tracking

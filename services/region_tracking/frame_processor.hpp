@@ -1,0 +1,78 @@
+// The whole vision step of one frame: track the colour regions, extract their boundaries, and
+// run the detectors on them (field lines every n-th frame, ball and obstacles every frame).
+// The region_tracking node wraps this; the benchmark and the PNG tool use it directly.
+#pragma once
+
+#include <memory>
+#include <vector>
+
+#include "common/camera/colour.hpp"
+#include "common/camera/frame.hpp"
+#include "common/camera/mirror_model.hpp"
+#include "common/config/config.hpp"
+#include "services/region_tracking/detectors.hpp"
+#include "services/region_tracking/frame_classifier.hpp"
+#include "services/region_tracking/region_tracker.hpp"
+
+namespace fieldline::region_tracking {
+
+struct VisionParams {
+  TrackerConfig tracker;
+  BlockClassifierParams blocks;
+  LineDetectorParams lines;
+  BallParams ball;
+  ObstacleParams obstacles;
+};
+
+// Green searched for when lost (10 largest regions) and seeded at the edge of the view; goal
+// colours, ball and obstacles seeded from green's boundary every frame; 4x4 cells;
+// re-initialisation every 300 frames (services/region_tracking/vision_default.yaml).
+VisionParams defaultVisionParams();
+
+// Reads a vision preset: sections tracker (see loadTrackerConfig, class names as in
+// camera::colourName), blocks {claims: [{class, min_fraction}]}, lines {line_width,
+// width_tolerance, max_transition_pixels, sample_spacing, smoothing_passes, tangent_half_span,
+// min_contour_points, max_gap_samples}, ball {centre_height, min_pixels}, obstacles {min_cells}.
+// Every key is required in its section except those documented optional in loadTrackerConfig.
+VisionParams loadVisionParams(const config::Node& node);
+
+struct VisionResult {
+  TrackingStats tracking;
+  bool linesDetected = false;
+  LinePoints lines;
+  BallDetection ball;
+  std::vector<Obstacle> obstacles;
+};
+
+class FrameProcessor {
+ public:
+  // `mirror` and `table` must outlive the processor. Frames must have the mirror model's size.
+  FrameProcessor(const camera::MirrorModel& mirror, const camera::ColourTable& table,
+                 const VisionParams& params);
+
+  // Throws std::invalid_argument for an invalid view or a frame of another size.
+  void process(const camera::FrameView& frame, bool detectLines, VisionResult& out);
+
+  const RegionTracker& tracker() const { return tracker_; }
+  RegionTracker& tracker() { return tracker_; }
+  const CellGrid& grid() const { return grid_; }
+  const std::vector<std::uint8_t>& dontTouch() const { return dontTouch_; }
+  const FloorLookup& floor() const { return floor_; }
+  FrameCellClassifier& classifier() { return classifier_; }
+  LineDetector& lineDetector() { return lines_; }
+  const BallDetector& ballDetector() const { return ball_; }
+  const ObstacleDetector& obstacleDetector() const { return obstacles_; }
+
+ private:
+  const camera::MirrorModel& mirror_;
+  CellGrid grid_;
+  std::vector<std::uint8_t> dontTouch_;
+  FloorLookup floor_;
+  FrameCellClassifier classifier_;
+  RegionTracker tracker_;
+  LineDetector lines_;
+  BallDetector ball_;
+  ObstacleDetector obstacles_;
+};
+
+}  // namespace fieldline::region_tracking

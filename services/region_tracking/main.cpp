@@ -1,0 +1,56 @@
+// fieldline-region-tracking: the vision process. Tracks the colour regions of every
+// CAMERA_IMAGE (seed chapter 3) and publishes VISION_BALL and VISION_OBSTACLES for every frame
+// and VISION_LINES every n-th frame, each with the frame's exposure time.
+#include <spdlog/spdlog.h>
+#include <CLI/CLI.hpp>
+
+#include "common/bus/cli.hpp"
+#include "common/bus/node.hpp"
+#include "common/camera/colour.hpp"
+#include "common/camera/mirror_model.hpp"
+#include "common/config/config.hpp"
+#include "services/region_tracking/tracking_node.hpp"
+
+using namespace fieldline;
+
+int main(int argc, char** argv) {
+  CLI::App app{
+      "Region tracking: grow/shrink tracking of the colour regions in each CAMERA_IMAGE, field "
+      "lines along the green boundaries (VISION_LINES), the ball (VISION_BALL) and obstacles "
+      "(VISION_OBSTACLES)."};
+  bus::CommonOptions common;
+  common.addTo(app);
+  std::string camera_preset = "omni_sim";
+  std::string vision_config;
+  int lines_every = 3;
+  app.add_option("--camera", camera_preset, "Camera preset (mirror model and colour table)")
+      ->capture_default_str();
+  app.add_option("--vision-config", vision_config,
+                 "YAML with tracker, blocks, lines, ball and obstacles sections (default: "
+                 "built-in values, see docs/region_tracking.md)");
+  app.add_option("--lines-every", lines_every, "Extract field lines on every n-th frame")
+      ->check(CLI::Range(1, 1000))
+      ->capture_default_str();
+  CLI11_PARSE(app, argc, argv);
+
+  return bus::runMain("region_tracking", [&] {
+    common.resolve("region_tracking");
+    region_tracking::TrackingNodeOptions options;
+    const camera::CameraModel camera = camera::loadCameraPreset(camera_preset);
+    options.mirror = camera.mirror;
+    options.colours = camera::loadColourTablePreset(camera.colour_table);
+    if (!vision_config.empty()) {
+      options.vision = region_tracking::loadVisionParams(config::Node::loadFile(vision_config));
+    }
+    options.linesEveryFrames = lines_every;
+
+    SystemClock clock;
+    bus::installStopSignals();
+    bus::Node node({.process = "region_tracking", .robot_id = common.robot, .url = common.bus_url},
+                   clock);
+    region_tracking::TrackingNode tracking(node, std::move(options));
+    spdlog::info("tracking CAMERA_IMAGE with camera preset {}, lines every {} frames",
+                 camera_preset, lines_every);
+    return node.run();
+  });
+}

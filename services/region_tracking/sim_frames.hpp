@@ -1,0 +1,47 @@
+// Rendered frames for the tests, the benchmark and the PNG tool: a camera preset with its colour
+// table and simulated renderer, and robot motions through the field (translation and rotation
+// at fixed speeds) to render sequences from. Not part of the node: only the simulator renders.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "common/camera/colour.hpp"
+#include "common/camera/mirror_model.hpp"
+#include "common/field/field_model.hpp"
+#include "services/camera/sim_renderer.hpp"
+
+namespace fieldline::region_tracking {
+
+struct SimCamera {
+  camera::MirrorModel mirror;
+  camera::ColourTable table;
+  field::FieldModel field;
+  std::unique_ptr<camera::SimRenderer> renderer;
+  std::vector<std::uint8_t> frame;  // the last rendered YUYV frame
+
+  // Loads config/camera/<cameraPreset>.yaml (image, mirror, colour table, render sections) and
+  // config/field/<fieldPreset>.yaml.
+  static SimCamera load(const std::string& cameraPreset, const std::string& fieldPreset);
+
+  const camera::FrameView render(const camera::SimScene& scene) {
+    renderer->render(scene, frame);
+    return renderer->view(frame);
+  }
+};
+
+struct Motion {
+  // Translation speed, m/s, and rotation speed, rad/s.
+  double speed = 1.0;
+  double omega = 0.0;
+  double frameRate = 30.0;
+};
+
+// `frames` poses of a robot that drives at `motion.speed` around a rounded rectangle inside the
+// field (so it never leaves it) while turning at `motion.omega`. Deterministic for equal input.
+std::vector<geometry::Pose2> motionPoses(const field::FieldModel& field, const Motion& motion,
+                                         int frames);
+
+}  // namespace fieldline::region_tracking

@@ -1,0 +1,62 @@
+// The region_tracking process's bus side: CAMERA_IMAGE in; VISION_BALL and VISION_OBSTACLES for
+// every frame and VISION_LINES every n-th frame out, each stamped with the frame's utime (the
+// exposure time), so fusion can line them up with odometry.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+
+#include <fieldline/ball_observation_t.hpp>
+#include <fieldline/image_t.hpp>
+#include <fieldline/line_contours_t.hpp>
+#include <fieldline/obstacle_observations_t.hpp>
+
+#include "common/bus/node.hpp"
+#include "common/camera/colour.hpp"
+#include "common/camera/mirror_model.hpp"
+#include "services/region_tracking/frame_processor.hpp"
+
+namespace fieldline::region_tracking {
+
+struct TrackingNodeOptions {
+  // The camera's mirror for its configured image size; frames of another size with the same
+  // aspect ratio get a scaled copy.
+  camera::MirrorModel mirror{camera::MirrorParams{}};
+  camera::ColourTable colours;
+  VisionParams vision = defaultVisionParams();
+  // Field lines are extracted on every n-th frame (the seed's 10 Hz at 30 fps).
+  int linesEveryFrames = 3;
+};
+
+class TrackingNode {
+ public:
+  // Subscribes CAMERA_IMAGE on `node`'s primary bus. Throws std::invalid_argument for
+  // linesEveryFrames < 1.
+  TrackingNode(bus::Node& node, TrackingNodeOptions options);
+
+  std::int64_t framesProcessed() const { return frames_processed_; }
+  std::int64_t framesRejected() const { return frames_rejected_; }
+
+ private:
+  void onImage(const image_t& image);
+  bool prepareFor(int width, int height);
+  void publishLines(const image_t& image, const VisionResult& result, std::int32_t processingUs);
+  void publishBall(const image_t& image, const BallDetection& ball);
+  void publishObstacles(const image_t& image, const std::vector<Obstacle>& obstacles);
+
+  bus::Node& node_;
+  TrackingNodeOptions options_;
+  // For the size of the frames currently arriving.
+  std::optional<camera::MirrorModel> mirror_;
+  std::unique_ptr<FrameProcessor> processor_;
+  VisionResult result_;
+  line_contours_t lines_{};
+  ball_observation_t ball_{};
+  obstacle_observations_t obstacles_{};
+  std::int64_t frames_received_ = 0;
+  std::int64_t frames_processed_ = 0;
+  std::int64_t frames_rejected_ = 0;
+};
+
+}  // namespace fieldline::region_tracking

@@ -1,0 +1,252 @@
+// The detectors on frames rendered by the simulated camera at known poses (msl field, omni_sim
+// camera, 4x4 cells): line points on the model's lines, the ball, obstacles.
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "common/config/config.hpp"
+#include "common/geometry/geometry.hpp"
+#include "services/region_tracking/frame_processor.hpp"
+#include "services/region_tracking/sim_frames.hpp"
+
+namespace fieldline::region_tracking {
+namespace {
+
+using camera::Vec2;
+
+class RenderedFrames : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() { sim_ = new SimCamera(SimCamera::load("omni_sim", "msl")); }
+  static void TearDownTestSuite() {
+    delete sim_;
+    sim_ = nullptr;
+  }
+
+  // Tracks `frames` renderings of the scene (noise differs per frame) and returns the last result.
+  VisionResult track(FrameProcessor& processor, camera::SimScene scene, int frames = 3) {
+    VisionResult result;
+    for (int i = 0; i < frames; ++i) {
+      scene.frame_number = static_cast<std::uint64_t>(i);
+      processor.process(sim_->render(scene), true, result);
+    }
+    return result;
+  }
+
+  static SimCamera* sim_;
+};
+SimCamera* RenderedFrames::sim_ = nullptr;
+
+double median(std::vector<double> values) {
+  std::nth_element(values.begin(), values.begin() + values.size() / 2, values.end());
+  return values[values.size() / 2];
+}
+
+double distanceToSegment(const Vec2& p, const Vec2& a, const Vec2& b) {
+  const Vec2 ab = b - a;
+  const double t =
+      ab.squaredNorm() > 0 ? std::clamp((p - a).dot(ab) / ab.squaredNorm(), 0.0, 1.0) : 0.0;
+  return (a + t * ab - p).norm();
+}
+
+TEST_F(RenderedFrames, LinePointsLieOnTheModelLinesAndCoverThemWithin3m) {
+  const std::vector<geometry::Pose2> poses = {
+      {1.0, 0.5, 0.3}, {-2.0, -1.5, 2.0}, {7.5, 0.5, -1.0}, {-6.5, 0.5, 3.0}, {-3.0, 5.0, 0.8}};
+  const std::vector<Vec2> modelSamples = sim_->field.sampleLines(0.02);
+  for (const geometry::Pose2& pose : poses) {
+    FrameProcessor processor(sim_->mirror, sim_->table, defaultVisionParams());
+    camera::SimScene scene;
+    scene.robot = pose;
+    const VisionResult result = track(processor, scene);
+
+    // Accuracy: distance of every point within 3 m to the nearest line centre.
+    std::vector<double> errors;
+    std::vector<Vec2> fieldPoints(result.lines.points.size());
+    for (std::size_t i = 0; i < result.lines.points.size(); ++i) {
+      const LinePoint& q = result.lines.points[i];
+      fieldPoints[i] = geometry::pointRobotToField(pose, Vec2(q.x, q.y));
+      if (Vec2(q.x, q.y).norm() <= 3.0) errors.push_back(sim_->field.distance(fieldPoints[i]));
+    }
+    ASSERT_GE(errors.size(), 20u) << "pose " << pose.x << "," << pose.y;
+    const double medianError = median(errors);
+    EXPECT_LE(medianError, 0.02) << "pose " << pose.x << "," << pose.y;
+
+    // Coverage: visible model line within 3 m that some sequence passes within 10 cm of.
+    int visible = 0, covered = 0;
+    for (const Vec2& sample : modelSamples) {
+      const Vec2 inRobot = geometry::pointFieldToRobot(pose, sample);
+      if (inRobot.norm() > 3.0) continue;
+      const std::optional<Vec2> pixel = sim_->mirror.robotToImage(inRobot);
+      if (!pixel || sim_->mirror.zone(*pixel) != camera::MirrorZone::kUseful) continue;
+      ++visible;
+      bool hit = false;
+      for (const auto& [first, end] : result.lines.sequences) {
+        for (int i = first; i + 1 < end && !hit; ++i) {
+          hit = distanceToSegment(sample, fieldPoints[i], fieldPoints[i + 1]) <= 0.10;
+        }
+        if (hit) break;
+      }
+      covered += hit ? 1 : 0;
+    }
+    ASSERT_GT(visible, 100);
+    const double coverage = static_cast<double>(covered) / visible;
+    EXPECT_GE(coverage, 0.90) << "pose " << pose.x << "," << pose.y;
+    std::printf("pose (%.1f, %.1f, %.1f): %zu points, median error %.4f m, coverage %.3f\n", pose.x,
+                pose.y, pose.phi, result.lines.points.size(), medianError, coverage);
+  }
+}
+
+TEST_F(RenderedFrames, BallIsFoundWithin5cmUpTo4m) {
+  const geometry::Pose2 pose{0.5, -1.0, 0.7};
+  // Ball positions in the robot frame: near, middle, far, in several directions.
+  const std::vector<Vec2> balls = {{0.6, 0.2},   {1.2, -0.8}, {-1.5, 1.0}, {2.0, 1.5},
+                                   {-2.5, -1.0}, {0.5, 3.0},  {3.2, -1.5}, {-3.5, 1.5}};
+  for (const Vec2& ballInRobot : balls) {
+    FrameProcessor processor(sim_->mirror, sim_->table, defaultVisionParams());
+    camera::SimScene scene;
+    scene.robot = pose;
+    scene.ball = camera::SimBall{geometry::pointRobotToField(pose, ballInRobot), 0.11};
+    const VisionResult result = track(processor, scene);
+    ASSERT_TRUE(result.ball.visible) << ballInRobot.transpose();
+    const double error = (Vec2(result.ball.x, result.ball.y) - ballInRobot).norm();
+    EXPECT_LE(error, 0.05) << ballInRobot.transpose();
+    std::printf("ball at %.2f m: error %.3f m, %d px, confidence %.2f\n", ballInRobot.norm(), error,
+                result.ball.pixels, result.ball.confidence);
+  }
+  // No ball, no detection.
+  FrameProcessor processor(sim_->mirror, sim_->table, defaultVisionParams());
+  camera::SimScene empty;
+  empty.robot = pose;
+  EXPECT_FALSE(track(processor, empty).ball.visible);
+}
+
+TEST_F(RenderedFrames, BallKeepsBeingTrackedWhileItRolls) {
+  FrameProcessor processor(sim_->mirror, sim_->table, defaultVisionParams());
+  camera::SimScene scene;
+  scene.robot = {0.0, 0.0, 0.0};
+  VisionResult result;
+  for (int i = 0; i < 30; ++i) {
+    const Vec2 ball(1.0 + 0.05 * i, -0.5 + 0.03 * i);  // 1.7 m/s at 30 Hz
+    scene.ball = camera::SimBall{ball, 0.11};
+    scene.frame_number = static_cast<std::uint64_t>(i);
+    processor.process(sim_->render(scene), i % 3 == 0, result);
+    ASSERT_TRUE(result.ball.visible) << "frame " << i;
+    EXPECT_LE((Vec2(result.ball.x, result.ball.y) - ball).norm(), 0.05) << "frame " << i;
+    EXPECT_EQ(result.linesDetected, i % 3 == 0);
+  }
+}
+
+TEST_F(RenderedFrames, ObstaclesHaveBearingDistanceAndWidth) {
+  const geometry::Pose2 pose{-1.0, 0.5, -0.4};
+  const std::vector<Vec2> obstacles = {{1.5, 0.8}, {-2.0, -1.5}};
+  FrameProcessor processor(sim_->mirror, sim_->table, defaultVisionParams());
+  camera::SimScene scene;
+  scene.robot = pose;
+  for (const Vec2& o : obstacles) {
+    scene.robots.push_back({geometry::pointRobotToField(pose, o), 0.25, false});
+  }
+  const VisionResult result = track(processor, scene);
+  ASSERT_EQ(result.obstacles.size(), obstacles.size());
+  for (const Vec2& truth : obstacles) {
+    const double bearing = std::atan2(truth.y(), truth.x());
+    const auto found =
+        std::min_element(result.obstacles.begin(), result.obstacles.end(),
+                         [&](const Obstacle& a, const Obstacle& b) {
+                           return std::abs(std::remainder(a.bearing - bearing, 2 * M_PI)) <
+                                  std::abs(std::remainder(b.bearing - bearing, 2 * M_PI));
+                         });
+    EXPECT_NEAR(std::remainder(found->bearing - bearing, 2 * M_PI), 0.0, 0.06);
+    EXPECT_NEAR(found->distance, truth.norm() - 0.25, 0.10);
+    EXPECT_NEAR(found->width, 0.5, 0.15);
+  }
+}
+
+TEST(MotionPoses, MoveAtTheGivenSpeedsAndStayInsideTheField) {
+  for (const std::string preset : {"msl", "fu2004"}) {
+    const field::FieldModel field = field::loadFieldPreset(preset);
+    const Motion motion{2.0, 1.5, 30.0};
+    const std::vector<geometry::Pose2> poses = motionPoses(field, motion, 600);
+    ASSERT_EQ(poses.size(), 600u);
+    for (std::size_t i = 1; i < poses.size(); ++i) {
+      const double step = std::hypot(poses[i].x - poses[i - 1].x, poses[i].y - poses[i - 1].y);
+      EXPECT_LE(step, 2.0 / 30.0 + 1e-9) << preset << " " << i;
+      EXPECT_GE(step, 0.9 * 2.0 / 30.0) << preset << " " << i;  // chords of corner arcs
+      EXPECT_NEAR(std::remainder(poses[i].phi - poses[i - 1].phi - 1.5 / 30.0, 2 * M_PI), 0.0,
+                  1e-9);
+      EXPECT_LT(std::abs(poses[i].x), field.length() / 2) << preset;
+      EXPECT_LT(std::abs(poses[i].y), field.width() / 2) << preset;
+    }
+  }
+}
+
+TEST(VisionParams, TheShippedYamlHoldsTheDefaults) {
+  const VisionParams loaded = loadVisionParams(config::Node::loadFile(
+      config::projectRoot() + "/services/region_tracking/vision_default.yaml"));
+  const VisionParams defaults = defaultVisionParams();
+  EXPECT_EQ(loaded.tracker.cellSize, defaults.tracker.cellSize);
+  EXPECT_EQ(loaded.tracker.reinitialisePeriodFrames, defaults.tracker.reinitialisePeriodFrames);
+  ASSERT_EQ(loaded.tracker.classes.size(), defaults.tracker.classes.size());
+  for (std::size_t i = 0; i < loaded.tracker.classes.size(); ++i) {
+    const ClassTracking& a = loaded.tracker.classes[i];
+    const ClassTracking& b = defaults.tracker.classes[i];
+    EXPECT_EQ(a.classId, b.classId);
+    EXPECT_EQ(a.searchWhenLost, b.searchWhenLost);
+    EXPECT_EQ(a.maxSeedRegions, b.maxSeedRegions);
+    EXPECT_EQ(a.minSeedCells, b.minSeedCells);
+    EXPECT_EQ(a.seedFromBoundaryOf, b.seedFromBoundaryOf);
+    EXPECT_EQ(a.viewEdgeStride, b.viewEdgeStride);
+  }
+  ASSERT_EQ(loaded.blocks.claims.size(), defaults.blocks.claims.size());
+  for (std::size_t i = 0; i < loaded.blocks.claims.size(); ++i) {
+    EXPECT_EQ(loaded.blocks.claims[i].colour, defaults.blocks.claims[i].colour);
+    EXPECT_DOUBLE_EQ(loaded.blocks.claims[i].minFraction, defaults.blocks.claims[i].minFraction);
+  }
+  EXPECT_DOUBLE_EQ(loaded.lines.lineWidth, defaults.lines.lineWidth);
+  EXPECT_DOUBLE_EQ(loaded.lines.widthTolerance, defaults.lines.widthTolerance);
+  EXPECT_EQ(loaded.lines.maxTransitionPixels, defaults.lines.maxTransitionPixels);
+  EXPECT_EQ(loaded.lines.sampleSpacing, defaults.lines.sampleSpacing);
+  EXPECT_EQ(loaded.lines.smoothingPasses, defaults.lines.smoothingPasses);
+  EXPECT_EQ(loaded.lines.tangentHalfSpan, defaults.lines.tangentHalfSpan);
+  EXPECT_EQ(loaded.lines.minContourPoints, defaults.lines.minContourPoints);
+  EXPECT_EQ(loaded.lines.maxGapSamples, defaults.lines.maxGapSamples);
+  EXPECT_DOUBLE_EQ(loaded.ball.centreHeight, defaults.ball.centreHeight);
+  EXPECT_EQ(loaded.ball.minPixels, defaults.ball.minPixels);
+  EXPECT_EQ(loaded.obstacles.minCells, defaults.obstacles.minCells);
+}
+
+TEST(VisionParams, RejectsUnknownKeysAndColours) {
+  const std::string good = R"(
+tracker: {cell_size: 4, reinitialise_period_frames: 0, classes: [{class: green}]}
+blocks: {claims: [{class: white, min_fraction: 0.2}]}
+lines: {line_width: 0.05, width_tolerance: 2, max_transition_pixels: 1, sample_spacing: 1,
+        smoothing_passes: 2, tangent_half_span: 2, min_contour_points: 8, max_gap_samples: 0}
+ball: {centre_height: 0.11, min_pixels: 3}
+obstacles: {min_cells: 2}
+)";
+  EXPECT_EQ(loadVisionParams(config::Node::loadString(good)).lines.lineWidth, 0.05);
+  auto broken = [&](const std::string& from, const std::string& to) {
+    std::string text = good;
+    text.replace(text.find(from), from.size(), to);
+    return config::Node::loadString(text);
+  };
+  EXPECT_THROW(loadVisionParams(broken("class: white", "class: pink")), config::Error);
+  EXPECT_THROW(loadVisionParams(broken("min_cells: 2", "min_cells: 2, colour: black")),
+               config::Error);
+  EXPECT_THROW(loadVisionParams(broken("line_width: 0.05", "line_width: -1")), config::Error);
+}
+
+TEST_F(RenderedFrames, RejectsFramesOfTheWrongSize) {
+  FrameProcessor processor(sim_->mirror, sim_->table, defaultVisionParams());
+  std::vector<std::uint8_t> data(64 * 2 * 48, 0);
+  VisionResult result;
+  EXPECT_THROW(
+      processor.process({data.data(), 64, 48, 128, camera::PixelFormat::kYuyv}, true, result),
+      std::invalid_argument);
+  EXPECT_THROW(
+      processor.process({nullptr, 320, 240, 640, camera::PixelFormat::kYuyv}, true, result),
+      std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace fieldline::region_tracking

@@ -1,0 +1,118 @@
+// The region_tracking node over memq:// with a simulated clock: rendered CAMERA_IMAGE frames in,
+// VISION_BALL and VISION_OBSTACLES for every frame and VISION_LINES every third frame out, each
+// with the frame's utime; frames it cannot use are counted and produce nothing.
+#include "services/region_tracking/tracking_node.hpp"
+
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "common/bus/node.hpp"
+#include "common/geometry/geometry.hpp"
+#include "common/time/clock.hpp"
+#include "services/region_tracking/sim_frames.hpp"
+
+namespace fieldline::region_tracking {
+namespace {
+
+TEST(TrackingNode, PublishesBallAndObstaclesEveryFrameAndLinesEveryThird) {
+  SimCamera sim = SimCamera::load("omni_sim", "msl");
+  SimulatedClock clock{1'800'000'000'000'000};
+  auto memq = bus::Connection::open("memq://");
+  bus::Node camera{{.process = "camera", .robot_id = 2, .status_period_us = 0}, clock, memq};
+  bus::Node vision{
+      {.process = "region_tracking", .robot_id = 2, .status_period_us = 0}, clock, memq};
+  bus::Node listener{{.process = "listener", .robot_id = 2, .status_period_us = 0}, clock, memq};
+
+  TrackingNodeOptions options;
+  options.mirror = sim.mirror;
+  options.colours = sim.table;
+  TrackingNode tracking(vision, options);
+
+  std::vector<Utime> ballTimes, obstacleTimes, lineTimes;
+  std::vector<ball_observation_t> balls;
+  line_contours_t lastLines;
+  listener.subscribe(bus::channels::kVisionBall, [&](const ball_observation_t& m) {
+    ballTimes.push_back(m.header.utime);
+    balls.push_back(m);
+  });
+  listener.subscribe(bus::channels::kVisionObstacles, [&](const obstacle_observations_t& m) {
+    obstacleTimes.push_back(m.header.utime);
+  });
+  listener.subscribe(bus::channels::kVisionLines, [&](const line_contours_t& m) {
+    lineTimes.push_back(m.header.utime);
+    lastLines = m;
+  });
+
+  const geometry::Pose2 pose{1.0, 0.5, 0.3};
+  camera::SimScene scene;
+  scene.robot = pose;
+  scene.ball = camera::SimBall{geometry::pointRobotToField(pose, {1.5, 0.5}), 0.11};
+  scene.robots.push_back({geometry::pointRobotToField(pose, {-2.0, 1.0}), 0.25, false});
+  std::vector<Utime> frameTimes;
+  for (int i = 0; i < 7; ++i) {
+    clock.advance(33'333);
+    scene.frame_number = static_cast<std::uint64_t>(i);
+    sim.render(scene);
+    image_t image{};
+    image.header.utime = clock.now() - 60'000;  // exposure time
+    image.width = sim.renderer->width();
+    image.height = sim.renderer->height();
+    image.stride = sim.renderer->stride();
+    image.format = image_t::FORMAT_YUYV;
+    image.source = image_t::SOURCE_SIM;
+    image.frame_number = i;
+    image.size = static_cast<std::int32_t>(sim.frame.size());
+    image.data = sim.frame;
+    frameTimes.push_back(image.header.utime);
+    camera.publish(bus::channels::kCameraImage, image);
+    vision.spinOnce(0);
+    for (int k = 0; k < 3; ++k)
+      listener.spinOnce(0);
+  }
+
+  EXPECT_EQ(tracking.framesProcessed(), 7);
+  EXPECT_EQ(ballTimes, frameTimes);
+  EXPECT_EQ(obstacleTimes, frameTimes);
+  EXPECT_EQ(lineTimes, (std::vector<Utime>{frameTimes[0], frameTimes[3], frameTimes[6]}));
+  ASSERT_FALSE(balls.empty());
+  EXPECT_TRUE(balls.back().visible);
+  EXPECT_NEAR(balls.back().x, 1.5, 0.05);
+  EXPECT_NEAR(balls.back().y, 0.5, 0.05);
+  EXPECT_GT(lastLines.num_points, 50);
+  EXPECT_EQ(lastLines.image_width, 320);
+  EXPECT_GT(lastLines.touched_fraction, 0.0f);
+  EXPECT_LT(lastLines.touched_fraction, 0.3f);
+
+  // A grey image and one of a foreign aspect ratio are refused and counted, nothing published.
+  const std::size_t before = ballTimes.size();
+  image_t grey{};
+  grey.header.utime = clock.now() - 60'000;
+  grey.width = 320;
+  grey.height = 240;
+  grey.stride = 320;
+  grey.format = image_t::FORMAT_GRAY;
+  grey.size = 320 * 240;
+  grey.data.assign(grey.size, 0);
+  camera.publish(bus::channels::kCameraImage, grey);
+  image_t square{};
+  square.header.utime = clock.now() - 60'000;
+  square.width = 200;
+  square.height = 200;
+  square.stride = 400;
+  square.format = image_t::FORMAT_YUYV;
+  square.size = 400 * 200;
+  square.data.assign(square.size, 0);
+  camera.publish(bus::channels::kCameraImage, square);
+  for (int k = 0; k < 3; ++k)
+    vision.spinOnce(0);
+  for (int k = 0; k < 3; ++k)
+    listener.spinOnce(0);
+  EXPECT_EQ(tracking.framesRejected(), 2);
+  EXPECT_EQ(ballTimes.size(), before);
+  EXPECT_EQ(vision.status().errorCount("image_format"), 1);
+  EXPECT_EQ(vision.status().errorCount("frame_size"), 1);
+}
+
+}  // namespace
+}  // namespace fieldline::region_tracking
