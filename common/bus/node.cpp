@@ -156,14 +156,18 @@ void Node::subscribeAllRaw(
   subscriptions_.back()->all = std::move(handler);
 }
 
-void Node::stampHeader(const std::string& channel, header_t& header) {
+std::int64_t& Node::nextSeq(const std::string& channel) {
   auto it = std::find_if(next_seq_.begin(), next_seq_.end(),
                          [&](const auto& p) { return p.first == channel; });
   if (it == next_seq_.end()) {
     next_seq_.emplace_back(channel, 0);
     it = next_seq_.end() - 1;
   }
-  header.seq = it->second++;
+  return it->second;
+}
+
+void Node::stampHeader(const std::string& channel, header_t& header) {
+  header.seq = nextSeq(channel);
   header.robot_id = static_cast<std::int8_t>(options_.robot_id);
   header.utime_published = clock_.now();
 }

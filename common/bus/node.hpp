@@ -120,13 +120,13 @@ class Node {
   template <typename Msg>
   bool publish(Channel<Msg> channel, Msg& msg, BusId bus = kPrimaryBus) {
     const std::string name(channel.name);
-    // Validate before stamping: a refused message must not use up a seq number (receivers would
-    // count it as lost).
+    stampHeader(name, msg.header);
     if (auto problem = validate(msg)) {
       reportError("invalid_output", name + ": " + *problem);
       return false;
     }
-    stampHeader(name, msg.header);
+    // Only a message that goes out uses up its seq number: receivers count gaps as losses.
+    ++nextSeq(name);
     const int size = msg.getEncodedSize();
     encode_buffer_.resize(static_cast<std::size_t>(size));
     if (msg.encode(encode_buffer_.data(), 0, size) != size) {
@@ -188,7 +188,9 @@ class Node {
     }
   }
   bool publishRaw(const std::string& channel, const header_t& header, BusId bus);
+  // Fills seq (without using it up), robot_id and utime_published.
   void stampHeader(const std::string& channel, header_t& header);
+  std::int64_t& nextSeq(const std::string& channel);
   bool acceptHeader(const std::string& channel, const header_t& header);
   void reject(const std::string& channel, const std::string& kind, const std::string& text);
   void timed(const std::function<void()>& fn);
