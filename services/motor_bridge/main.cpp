@@ -3,6 +3,7 @@
 #include <spdlog/spdlog.h>
 #include <CLI/CLI.hpp>
 #include <boost/asio/io_context.hpp>
+#include <cmath>
 
 #include "common/bus/cli.hpp"
 #include "common/bus/node.hpp"
@@ -70,6 +71,8 @@ int main(int argc, char** argv) {
             msg.omega = o.omega;
             msg.status = o.status;
             node.publish(bus::channels::kOdometry, msg);
+            // The robot's speed as its wheels tell it: the status table's headline for this robot.
+            node.setMetric("speed_mps", std::hypot(o.vx, o.vy));
           }
         },
         [&](bool connected) {

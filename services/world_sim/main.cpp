@@ -222,7 +222,9 @@ int main(int argc, char** argv) {
         }
         if (now_sim + 1e-9 >= next_world) {
           next_world += 1.0 / world_rate;
-          publishWorld(now_sim);
+          // When the simulation fell behind (a starved CPU at start-up), states from the catch-up
+          // would be stale on arrival: publish only the ones within a period of the present.
+          if (target - now_sim < 1.0 / world_rate) publishWorld(now_sim);
         }
       }
     }

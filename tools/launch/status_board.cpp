@@ -55,6 +55,7 @@ void fillFromReport(const service_status_t& s, const std::string& preferred, Sta
   for (std::int64_t count : s.error_count)
     row.errors += count;
   if (!s.last_error.empty()) row.last_error = printable(s.last_error);
+  row.note = headlineMetrics(s);
 }
 
 }  // namespace
@@ -146,6 +147,32 @@ std::vector<StatusRow> StatusBoard::rows(const std::vector<ProcessRecord>& proce
   return out;
 }
 
+std::string headlineMetrics(const service_status_t& status) {
+  // Metric name, label, unit, digits: the first ones a process reports make its note.
+  struct Headline {
+    const char* metric;
+    const char* label;
+    const char* unit;
+    int digits;
+  };
+  static constexpr Headline kHeadlines[] = {
+      {"speed_mps", "speed", "m/s", 2},       {"reference_speed_mps", "ref", "m/s", 2},
+      {"render_ms", "render", "ms", 2},       {"capture_ms", "capture", "ms", 2},
+      {"touched_percent", "touched", "%", 1}, {"realtime_factor", "realtime x", "", 2},
+  };
+  std::string note;
+  const std::size_t n = std::min(status.metric_name.size(), status.metric_value.size());
+  for (const Headline& h : kHeadlines) {
+    for (std::size_t i = 0; i < n; ++i) {
+      if (status.metric_name[i] != h.metric) continue;
+      if (!note.empty()) note += ", ";
+      note += fmt::format("{} {:.{}f}{}{}", h.label, status.metric_value[i], h.digits,
+                          *h.unit ? " " : "", h.unit);
+    }
+  }
+  return note;
+}
+
 std::optional<std::size_t> mainOutputChannel(const service_status_t& status,
                                              const std::string& preferred) {
   const std::size_t n =
@@ -164,18 +191,19 @@ std::optional<std::size_t> mainOutputChannel(const service_status_t& status,
 }
 
 std::vector<std::string> renderTable(const std::vector<StatusRow>& rows, int width, bool colour) {
-  const std::vector<std::string> header{"ROBOT",   "PROCESS",  "STATE",    "CHANNEL",
-                                        "RATE/Hz", "LAT50/ms", "LAT95/ms", "PROC95/ms",
-                                        "DROPS",   "ERRORS",   "RESTARTS", "LAST ERROR"};
+  const std::vector<std::string> header{"ROBOT",    "PROCESS",  "STATE",     "CHANNEL", "RATE/Hz",
+                                        "LAT50/ms", "LAT95/ms", "PROC95/ms", "DROPS",   "ERRORS",
+                                        "RESTARTS", "NOTE",     "LAST ERROR"};
   constexpr std::size_t kStateColumn = 2;
   constexpr std::size_t kFirstNumber = 4;
-  constexpr std::size_t kLastColumn = 11;
+  constexpr std::size_t kNoteColumn = 11;
+  constexpr std::size_t kLastColumn = 12;
   std::vector<std::vector<std::string>> cells{header};
   for (const StatusRow& r : rows) {
     cells.push_back({r.robot, r.process, r.state, r.channel.empty() ? "-" : r.channel,
                      number(r.rate_hz), number(r.latency_p50_ms), number(r.latency_p95_ms),
                      number(r.processing_p95_ms), std::to_string(r.drops), std::to_string(r.errors),
-                     std::to_string(r.restarts), r.last_error});
+                     std::to_string(r.restarts), r.note.empty() ? "-" : r.note, r.last_error});
   }
   std::vector<std::size_t> widths(header.size(), 0);
   for (const auto& line : cells) {
@@ -192,9 +220,10 @@ std::vector<std::string> renderTable(const std::vector<StatusRow>& rows, int wid
       if (c == kStateColumn) state_begin = text.size();
       const std::string& cell = cells[i][c];
       const std::size_t pad = c < kLastColumn ? widths[c] - cell.size() : 0;
-      if (c >= kFirstNumber && c < kLastColumn) text.append(pad, ' ');
+      const bool left_aligned = c < kFirstNumber || c == kNoteColumn;
+      if (!left_aligned) text.append(pad, ' ');
       text += cell;
-      if (c < kFirstNumber) text.append(pad, ' ');
+      if (left_aligned) text.append(pad, ' ');
     }
     while (!text.empty() && text.back() == ' ')
       text.pop_back();
@@ -227,6 +256,7 @@ std::string renderCompact(const std::vector<StatusRow>& rows) {
     if (r.restarts > 0) line += fmt::format(" restarts={}", r.restarts);
     if (r.errors > 0) line += fmt::format(" errors={}", r.errors);
     if (r.drops > 0) line += fmt::format(" drops={}", r.drops);
+    if (!r.note.empty()) line += " (" + r.note + ")";
   }
   if (missing > 0) line += fmt::format("{}{} not built", line.empty() ? "" : " | ", missing);
   return line;

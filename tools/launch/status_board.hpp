@@ -40,6 +40,8 @@ struct StatusRow {
   // Errors of every kind, since the process started.
   std::int64_t errors = 0;
   int restarts = 0;
+  // The process's headline metrics from SERVICE_STATUS, e.g. "speed 1.21 m/s".
+  std::string note;
   std::string last_error;
 };
 
@@ -74,6 +76,10 @@ class StatusBoard {
 // output other than SERVICE_STATUS. Returns the index into status.channel, or nothing.
 std::optional<std::size_t> mainOutputChannel(const service_status_t& status,
                                              const std::string& preferred);
+
+// A short text of the metrics a person watching the team cares about (robot speed, render time,
+// touched fraction, ...), from the process-specific metrics of a status report.
+std::string headlineMetrics(const service_status_t& status);
 
 // The table as lines (header first) no wider than `width` characters on screen; with `colour`,
 // the state column carries ANSI colours.

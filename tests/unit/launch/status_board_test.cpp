@@ -173,17 +173,19 @@ std::vector<StatusRow> twoRows() {
 }
 
 TEST(RenderTable, AlignedColumns) {
-  const auto lines = renderTable(twoRows(), 200, false);
+  auto rows = twoRows();
+  rows[0].note = "render 0.41 ms";
+  const auto lines = renderTable(rows, 200, false);
   ASSERT_EQ(lines.size(), 3u);
   EXPECT_EQ(lines[0],
             "ROBOT  PROCESS    STATE    CHANNEL       RATE/Hz  LAT50/ms  LAT95/ms  PROC95/ms  "
-            "DROPS  ERRORS  RESTARTS  LAST ERROR");
+            "DROPS  ERRORS  RESTARTS  NOTE            LAST ERROR");
   EXPECT_EQ(lines[1],
             "r1     camera     ok       CAMERA_IMAGE     30.0      0.25       1.5       12.0      "
-            "0       0         0");
+            "0       0         0  render 0.41 ms");
   EXPECT_EQ(lines[2],
             "sim    world_sim  waiting  -                   -         -         -          -      "
-            "1       4         2  exit code 1 after 0.3 s");
+            "1       4         2  -               exit code 1 after 0.3 s");
 }
 
 TEST(RenderTable, FitsTheWidthAndColoursOnlyTheState) {
@@ -215,6 +217,24 @@ TEST(RenderCompact, OneLine) {
       renderCompact(rows),
       "r1 camera ok 30.0Hz | sim world_sim waiting restarts=2 errors=4 drops=1 | 2 not built");
   EXPECT_EQ(renderCompact({missing}), "1 not built");
+}
+
+}  // namespace
+}  // namespace fieldline::launch
+
+namespace fieldline::launch {
+namespace {
+
+TEST(HeadlineMetrics, PicksTheMetricsAPersonWatches) {
+  service_status_t s{};
+  s.num_metrics = 3;
+  s.metric_name = {"serial_reconnects", "speed_mps", "render_ms"};
+  s.metric_value = {2.0, 1.234, 0.41};
+  EXPECT_EQ(headlineMetrics(s), "speed 1.23 m/s, render 0.41 ms");
+  s.metric_name = {"serial_reconnects"};
+  s.metric_value = {2.0};
+  s.num_metrics = 1;
+  EXPECT_EQ(headlineMetrics(s), "");
 }
 
 }  // namespace
