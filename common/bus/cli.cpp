@@ -1,6 +1,8 @@
 #include "common/bus/cli.hpp"
 
+#include <cmath>
 #include <iostream>
+#include <stdexcept>
 
 #include <spdlog/spdlog.h>
 
@@ -28,6 +30,33 @@ void CommonOptions::resolve(const std::string& process) {
   if (sim_bus_url.empty()) sim_bus_url = simBusUrl();
   spdlog::set_level(spdlog::level::from_str(log_level));
   spdlog::set_pattern("%H:%M:%S.%e %^%l%$ " + process + "[" + std::to_string(robot) + "] %v");
+}
+
+std::vector<double> parseNumberList(const std::string& text, std::size_t count,
+                                    const std::string& what) {
+  std::vector<double> out;
+  std::size_t start = 0;
+  bool ok = true;
+  while (ok) {
+    const std::size_t comma = text.find(',', start);
+    const std::string part = text.substr(start, comma == std::string::npos ? comma : comma - start);
+    std::size_t used = 0;
+    double v = 0.0;
+    try {
+      v = std::stod(part, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    ok = !part.empty() && used == part.size() && std::isfinite(v);
+    if (ok) out.push_back(v);
+    if (comma == std::string::npos) break;
+    start = comma + 1;
+  }
+  if (!ok || out.size() != count) {
+    throw std::invalid_argument(what + " expects " + std::to_string(count) +
+                                " comma-separated numbers, got '" + text + "'");
+  }
+  return out;
 }
 
 int runMain(const std::string& process, const std::function<int()>& body) {

@@ -4,6 +4,7 @@
 
 #include <functional>
 #include <string>
+#include <vector>
 
 #include <CLI/CLI.hpp>
 
@@ -24,6 +25,11 @@ struct CommonOptions {
   // Fills the defaults and configures logging; call after parsing.
   void resolve(const std::string& process);
 };
+
+// Parses "1.0,-0.5,0.2" into exactly `count` finite numbers; throws std::invalid_argument naming
+// `what` (e.g. "--pose") otherwise. For command-line options that take a pose or a point.
+std::vector<double> parseNumberList(const std::string& text, std::size_t count,
+                                    const std::string& what);
 
 // Runs `body` and turns the project's exceptions into messages on stderr and exit codes:
 // 2 for configuration errors, 3 for bus errors, 1 for anything else.

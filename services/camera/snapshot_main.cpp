@@ -29,33 +29,6 @@ namespace bus = fieldline::bus;
 
 namespace {
 
-std::vector<double> parseNumbers(const std::string& text, std::size_t count,
-                                 const std::string& what) {
-  std::vector<double> out;
-  std::size_t start = 0;
-  while (start <= text.size()) {
-    const std::size_t comma = text.find(',', start);
-    const std::string part =
-        text.substr(start, comma == std::string::npos ? std::string::npos : comma - start);
-    std::size_t used = 0;
-    double v = 0.0;
-    try {
-      v = std::stod(part, &used);
-    } catch (const std::exception&) {
-      used = 0;
-    }
-    if (used != part.size() || part.empty()) break;
-    out.push_back(v);
-    if (comma == std::string::npos) break;
-    start = comma + 1;
-  }
-  if (out.size() != count) {
-    throw std::invalid_argument(what + " expects " + std::to_string(count) +
-                                " comma-separated numbers, got '" + text + "'");
-  }
-  return out;
-}
-
 void writeFrame(const camera::FrameView& view, const std::string& out, bool classes,
                 const std::string& colour_table) {
   cv::Mat image = camera::toBgrImage(view);
@@ -98,17 +71,17 @@ int main(int argc, char** argv) {
   return bus::runMain("camera-snapshot", [&]() -> int {
     const camera::CameraConfig config = camera::loadCameraConfigPreset(preset);
     if (!render_pose.empty()) {
-      const std::vector<double> p = parseNumbers(render_pose, 3, "--render");
+      const std::vector<double> p = bus::parseNumberList(render_pose, 3, "--render");
       camera::SimRenderer renderer(config.model.mirror, fieldline::field::loadFieldPreset(field),
                                    config.render);
       camera::SimScene scene;
       scene.robot = {p[0], p[1], p[2]};
       if (!ball.empty()) {
-        const std::vector<double> b = parseNumbers(ball, 2, "--ball");
+        const std::vector<double> b = bus::parseNumberList(ball, 2, "--ball");
         scene.ball = camera::SimBall{{b[0], b[1]}, 0.11};
       }
       for (const std::string& o : obstacles) {
-        const std::vector<double> xy = parseNumbers(o, 2, "--obstacle");
+        const std::vector<double> xy = bus::parseNumberList(o, 2, "--obstacle");
         scene.robots.push_back({{xy[0], xy[1]}, 0.25, false});
       }
       std::vector<std::uint8_t> frame;

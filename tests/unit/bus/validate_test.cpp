@@ -86,3 +86,25 @@ TEST(Validate, FeatureHypothesesReferToFeatures) {
 
 }  // namespace
 }  // namespace fieldline::bus
+
+#include "common/bus/cli.hpp"
+
+namespace fieldline::bus {
+namespace {
+
+TEST(ParseNumberList, ExactCountOfFiniteNumbers) {
+  EXPECT_EQ(parseNumberList("1.0,-0.5,0.2", 3, "--pose"), (std::vector<double>{1.0, -0.5, 0.2}));
+  EXPECT_THROW(parseNumberList("1.0,-0.5", 3, "--pose"), std::invalid_argument);
+  EXPECT_THROW(parseNumberList("1.0,x,0.2", 3, "--pose"), std::invalid_argument);
+  EXPECT_THROW(parseNumberList("1.0,,0.2", 3, "--pose"), std::invalid_argument);
+  EXPECT_THROW(parseNumberList("1,2,nan", 3, "--pose"), std::invalid_argument);
+  EXPECT_THROW(parseNumberList("1,2,3,4", 3, "--pose"), std::invalid_argument);
+  try {
+    parseNumberList("1", 2, "--ball");
+  } catch (const std::invalid_argument& e) {
+    EXPECT_EQ(std::string(e.what()), "--ball expects 2 comma-separated numbers, got '1'");
+  }
+}
+
+}  // namespace
+}  // namespace fieldline::bus
