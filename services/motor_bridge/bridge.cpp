@@ -40,11 +40,18 @@ bool BridgeCore::onCommand(const CommandInput& command, Utime now) {
     count("command_expired");
     return false;
   }
+  CommandInput accepted = command;
+  if (accepted.deadline > now + kMaxCommandLifetimeUs) {
+    // A far deadline would keep the robot driving (and the controller's watchdog fed) long after
+    // its source died: no command lives longer than this here.
+    count("command_deadline_clamped");
+    accepted.deadline = now + kMaxCommandLifetimeUs;
+  }
   const bool out_of_range =
       std::abs(command.vx) > 1.0 || std::abs(command.vy) > 1.0 || std::abs(command.omega) > 1.0;
   if (out_of_range) count("command_clamped");
   current_ = {std::clamp(command.vx, -1.0, 1.0), std::clamp(command.vy, -1.0, 1.0),
-              std::clamp(command.omega, -1.0, 1.0), command.deadline};
+              std::clamp(command.omega, -1.0, 1.0), accepted.deadline};
   have_command_ = true;
   return true;
 }
@@ -107,6 +114,14 @@ void BridgeCore::onBytes(std::span<const std::uint8_t> bytes, Utime now,
   add(proto::Reject::kVersion, before.version_errors, after.version_errors);
   add(proto::Reject::kUnknownType, before.unknown_type_errors, after.unknown_type_errors);
   add(proto::Reject::kOversize, before.oversize_errors, after.oversize_errors);
+  // Samples that arrive together (the bridge was busy) are stamped by their own controller
+  // time relative to the newest one, not all with the receive time.
+  std::uint64_t newest_controller_us = 0;
+  for (const auto& m : messages_) {
+    if (const auto* sample = std::get_if<proto::OdometrySample>(&m)) {
+      newest_controller_us = std::max(newest_controller_us, sample->controller_time_us);
+    }
+  }
   for (const auto& m : messages_) {
     if (const auto* hello = std::get_if<proto::Hello>(&m)) {
       if (hello->role == proto::Role::kController) {
@@ -127,12 +142,29 @@ void BridgeCore::onBytes(std::span<const std::uint8_t> bytes, Utime now,
       continue;
     }
     OdometryOutput o;
-    o.utime = now - latency_us_;
+    const std::uint64_t behind_us = newest_controller_us - sample->controller_time_us;
+    o.utime = now - latency_us_ -
+              (behind_us < kMaxBatchSpanUs ? static_cast<Utime>(behind_us) : Utime{0});
     o.ticks = sample->ticks;
     o.controller_utime = static_cast<std::int64_t>(sample->controller_time_us);
     if (sample->status & proto::kStatusWatchdog) o.status |= kOdoStatusWatchdog;
     if (sample->status & proto::kStatusMotorFault) o.status |= kOdoStatusMotorFault;
+    if (last_sample_ && sample->seq == last_sample_->seq &&
+        sample->controller_time_us == last_sample_->controller_time_us) {
+      count("odometry_duplicate");  // the same frame twice (a replaying line)
+      continue;
+    }
     if (sample->status & proto::kStatusReset) resync_ = true;
+    if (!resync_ && last_sample_) {
+      const std::uint32_t gap = sample->seq - last_sample_->seq;  // wraps like the counter
+      // A controller that restarted without us seeing its reset flag: seq or clock jumped back
+      // (a huge unsigned gap), stood still, or leapt far ahead. Its ticks no longer continue ours.
+      if (gap == 0 || gap > kMaxSampleGap ||
+          sample->controller_time_us <= last_sample_->controller_time_us) {
+        count("odometry_discontinuity");
+        resync_ = true;
+      }
+    }
     if (resync_ || !last_sample_) {
       o.status |= kOdoStatusResync;
       odometry_.reset();
@@ -147,10 +179,18 @@ void BridgeCore::onBytes(std::span<const std::uint8_t> bytes, Utime now,
       o.movement = *odometry_.update(sample->ticks);
       const double dt =
           static_cast<double>(sample->controller_time_us - last_sample_->controller_time_us) * 1e-6;
-      if (dt > 0.0) {
-        o.vx = o.movement.dx / dt;
-        o.vy = o.movement.dy / dt;
-        o.omega = o.movement.dphi / dt;
+      o.vx = o.movement.dx / dt;
+      o.vy = o.movement.dy / dt;
+      o.omega = o.movement.dphi / dt;
+      // Wheels cannot turn faster than the motors allow; ticks that say so are corrupt.
+      if (std::hypot(o.vx, o.vy) > kImplausibleFactor * params_.max_speed ||
+          std::abs(o.omega) > kImplausibleFactor * params_.max_omega) {
+        count("odometry_implausible");
+        o.movement = {};
+        o.vx = o.vy = o.omega = 0.0;
+        o.status |= kOdoStatusResync;
+        odometry_.reset();
+        odometry_.update(sample->ticks);
       }
     }
     last_sample_ = *sample;

@@ -66,6 +66,15 @@ inline constexpr std::int32_t kOdoStatusResync = 8;
 
 class BridgeCore {
  public:
+  // No command drives the robot longer than this after it arrived, whatever its deadline says.
+  static constexpr Utime kMaxCommandLifetimeUs = 500'000;
+  // A seq jump beyond this (1 s of samples at 50 Hz) means the controller restarted: resync.
+  static constexpr std::uint32_t kMaxSampleGap = 50;
+  // Samples of one read spanning more than this are not back-dated (a stalled controller clock).
+  static constexpr std::uint64_t kMaxBatchSpanUs = 1'000'000;
+  // Movement faster than this times the robot's top speed is corrupt, not real.
+  static constexpr double kImplausibleFactor = 2.0;
+
   explicit BridgeCore(const robot::RobotParams& params);
 
   // A motion command received at `now`. Returns false (and counts why) when it is not used.

@@ -107,6 +107,7 @@ int main(int argc, char** argv) {
       }
       node.setMetric("serial_connected", link.connected() ? 1.0 : 0.0);
       node.setMetric("serial_reconnects", static_cast<double>(link.stats().opens));
+      node.setMetric("serial_frames_dropped", static_cast<double>(link.stats().frames_dropped));
       node.setMetric("odometry_samples_lost", static_cast<double>(core.samplesLost()));
       node.setMetric("command_active", core.commandActive(node.now()) ? 1.0 : 0.0);
     });

@@ -115,6 +115,15 @@ bool SerialLink::send(std::span<const std::uint8_t> bytes) {
     stats_.bytes_dropped += bytes.size();
     return false;
   }
+  // A device that stopped taking bytes must not collect a backlog of stale commands that would
+  // all go out (and feed the controller's watchdog) once it recovers: keep only the newest.
+  while (write_queue_.size() > kMaxQueuedFrames) {
+    // The front frame may be in flight; drop the oldest one behind it.
+    auto oldest = write_queue_.begin() + (writing_ ? 1 : 0);
+    stats_.bytes_dropped += oldest->size();
+    ++stats_.frames_dropped;
+    write_queue_.erase(oldest);
+  }
   write_queue_.emplace_back(bytes.begin(), bytes.end());
   if (!writing_) startWrite();
   return true;

@@ -32,12 +32,17 @@ struct SerialLinkStats {
   std::uint64_t disconnects = 0;
   std::uint64_t bytes_in = 0;
   std::uint64_t bytes_out = 0;
-  // Bytes handed to send() while the link was down.
+  // Bytes handed to send() while the link was down, or dropped from a full write queue.
   std::uint64_t bytes_dropped = 0;
+  // Frames dropped from a full write queue (the device stopped taking bytes).
+  std::uint64_t frames_dropped = 0;
 };
 
 class SerialLink {
  public:
+  // Frames waiting to be written at most; older ones are dropped first.
+  static constexpr std::size_t kMaxQueuedFrames = 4;
+
   using BytesHandler = std::function<void(std::span<const std::uint8_t>)>;
   // Called with true after every successful open, false after every loss.
   using StateHandler = std::function<void(bool connected)>;

@@ -50,15 +50,11 @@ int main(int argc, char** argv) {
   common.addTo(app);
   std::string scenario_name = "default";
   std::string pty_dir = "/tmp/fieldline";
-  double speed = 1.0;
   double outage = 1.0;
   double world_rate = 100.0;
   app.add_option("--scenario", scenario_name, "Scenario preset (config/scenarios) or YAML path")
       ->capture_default_str();
   app.add_option("--pty-dir", pty_dir, "Folder of the robots' serial links robot<N>.tty")
-      ->capture_default_str();
-  app.add_option("--speed", speed, "Simulated seconds per wall-clock second")
-      ->check(CLI::Range(0.01, 100.0))
       ->capture_default_str();
   app.add_option("--outage", outage, "Seconds a serial line stays away after SIGUSR1")
       ->check(CLI::Range(0.01, 600.0))
@@ -173,7 +169,9 @@ int main(int argc, char** argv) {
 
     while (!node.stopRequested()) {
       node.spinOnce(1);
-      const double target = (clock.now() - start) * 1e-6 * speed;
+      // Real time only: every process stamps with the system clock, and SIM_WORLD's stamps must
+      // agree with theirs (faster-than-real-time runs go through fieldline-sim-drift, offline).
+      const double target = (clock.now() - start) * 1e-6;
       if (scenario.duration > 0.0 && world.time() >= scenario.duration) break;
       if (g_pull_serial.exchange(false)) {
         for (std::size_t i = 0; i < robots.size(); ++i)
@@ -190,11 +188,17 @@ int main(int argc, char** argv) {
         for (std::size_t i = 0; i < robots.size(); ++i) {
           auto& r = robots[i];
           if (!r.pty && r.reopen_at >= 0.0 && t >= r.reopen_at) {
-            r.pty = std::make_unique<world_sim::PseudoTerminal>(r.link_path);
-            r.firmware->lineReset();
-            r.reopen_at = -1.0;
-            spdlog::info("robot {}: serial line back at {}", world.robots()[i].id,
-                         r.pty->slavePath());
+            try {
+              r.pty = std::make_unique<world_sim::PseudoTerminal>(r.link_path);
+              r.firmware->lineReset();
+              r.reopen_at = -1.0;
+              spdlog::info("robot {}: serial line back at {}", world.robots()[i].id,
+                           r.pty->slavePath());
+            } catch (const std::exception& e) {
+              // The simulation goes on without this robot's line; try again in a second.
+              node.reportError("pty", e.what());
+              r.reopen_at = t + 1.0;
+            }
           }
           if (r.pty) {
             in.clear();

@@ -130,3 +130,88 @@ TEST(Bridge, ConfigAndDeviceNames) {
 
 }  // namespace
 }  // namespace fieldline::motor_bridge
+
+namespace fieldline::motor_bridge {
+namespace {
+
+class BridgeHostile : public ::testing::Test {
+ protected:
+  robot::RobotParams params = robot::loadRobotPreset("fu2004");
+  BridgeCore bridge{params};
+  world_sim::FirmwareEmulator firmware{params, 5'000'000};
+  std::vector<OdometryOutput> out;
+
+  // A sample of the emulator at controller time t (s) with these ticks, received at `now`.
+  void sample(double t, robot::TickCounts ticks, Utime now) {
+    std::vector<std::uint8_t> wire;
+    firmware.sample(t, ticks, wire);
+    bridge.onBytes(wire, now, out);
+  }
+};
+
+TEST_F(BridgeHostile, AFarDeadlineIsCutToTheMaximumLifetime) {
+  EXPECT_TRUE(bridge.onCommand({0.5, 0.0, 0.0, kT0 + 3'600'000'000}, kT0));
+  EXPECT_EQ(bridge.counters().at("command_deadline_clamped"), 1u);
+  EXPECT_TRUE(bridge.commandActive(kT0 + BridgeCore::kMaxCommandLifetimeUs));
+  EXPECT_FALSE(bridge.commandActive(kT0 + BridgeCore::kMaxCommandLifetimeUs + 1));
+  EXPECT_EQ(decodeCommand(bridge.commandFrame(kT0 + 600'000)).vx_q15, 0);
+}
+
+TEST_F(BridgeHostile, ADuplicateSampleIsDropped) {
+  std::vector<std::uint8_t> wire;
+  firmware.sample(0.02, {0, 0, 0}, wire);
+  bridge.onBytes(wire, kT0, out);
+  bridge.onBytes(wire, kT0 + 1000, out);  // the same frame again
+  EXPECT_EQ(out.size(), 1u);
+  EXPECT_EQ(bridge.counters().at("odometry_duplicate"), 1u);
+  EXPECT_EQ(bridge.samplesLost(), 0u);
+}
+
+TEST_F(BridgeHostile, AControllerRestartWithoutItsResetFlagIsAResyncNotAJump) {
+  sample(0.02, {0, 0, 0}, kT0);
+  sample(0.04, {5000, -5000, 0}, kT0 + 20'000);  // fast, but within the motors' reach
+  ASSERT_EQ(out.size(), 2u);
+  // The controller restarted (new emulator: seq and clock start again, ticks from zero) and its
+  // first sample, the one with the reset flag, was lost on the line.
+  world_sim::FirmwareEmulator restarted(params, 0);
+  std::vector<std::uint8_t> lost, wire;
+  restarted.sample(0.02, {0, 0, 0}, lost);
+  restarted.sample(0.04, {10, -10, 0}, wire);
+  bridge.onBytes(wire, kT0 + 60'000, out);
+  ASSERT_EQ(out.size(), 3u);
+  EXPECT_TRUE(out[2].status & kOdoStatusResync);
+  EXPECT_DOUBLE_EQ(out[2].movement.dx, 0.0);
+  EXPECT_DOUBLE_EQ(out[2].movement.dphi, 0.0);
+  EXPECT_EQ(bridge.counters().at("odometry_discontinuity"), 1u);
+  EXPECT_EQ(bridge.samplesLost(), 0u);
+}
+
+TEST_F(BridgeHostile, ImpossibleWheelSpeedsAreNotPublishedAsMovement) {
+  sample(0.02, {0, 0, 0}, kT0);
+  // 100 wheel turns in 20 ms.
+  sample(0.04, {76800, -76800, 0}, kT0 + 20'000);
+  ASSERT_EQ(out.size(), 2u);
+  EXPECT_EQ(bridge.counters().at("odometry_implausible"), 1u);
+  EXPECT_DOUBLE_EQ(out[1].movement.dx, 0.0);
+  EXPECT_TRUE(out[1].status & kOdoStatusResync);
+  // The next sample continues from the new reference.
+  sample(0.06, {76810, -76810, 0}, kT0 + 40'000);
+  ASSERT_EQ(out.size(), 3u);
+  EXPECT_GT(out[2].movement.dx, 0.0);
+  EXPECT_LT(out[2].movement.dx, 0.01);
+}
+
+TEST_F(BridgeHostile, SamplesReadTogetherKeepTheirOwnTimes) {
+  std::vector<std::uint8_t> wire;
+  firmware.sample(0.02, {0, 0, 0}, wire);
+  firmware.sample(0.04, {10, -10, 0}, wire);
+  firmware.sample(0.06, {20, -20, 0}, wire);
+  bridge.onBytes(wire, kT0, out);  // the bridge was busy: three samples in one read
+  ASSERT_EQ(out.size(), 3u);
+  EXPECT_EQ(out[2].utime, kT0 - 8'000);
+  EXPECT_EQ(out[1].utime, kT0 - 8'000 - 20'000);
+  EXPECT_EQ(out[0].utime, kT0 - 8'000 - 40'000);
+}
+
+}  // namespace
+}  // namespace fieldline::motor_bridge
