@@ -16,12 +16,13 @@
 #include <cmath>
 #include <cstdio>
 #include <map>
-#include <numbers>
 #include <string>
 #include <vector>
 
 #include <CLI/CLI.hpp>
+#include <opencv2/core.hpp>
 
+#include "bench/region_tracking/bench_sequence.hpp"
 #include "common/config/config.hpp"
 #include "services/region_tracking/baselines.hpp"
 #include "services/region_tracking/frame_processor.hpp"
@@ -85,21 +86,8 @@ Result run(rt::SimCamera& sim, const Sequence& sequence, int cellSize, int frame
   result.frames = frameCount;
 
   // Render the sequence once.
-  const rt::Motion motion{sequence.speed, sequence.omegaDeg * std::numbers::pi / 180.0, 30.0};
-  const std::vector<fieldline::geometry::Pose2> poses =
-      rt::motionPoses(sim.field, motion, frameCount);
-  camera::SimScene scene;
-  scene.ball = camera::SimBall{{1.5, 1.0}, 0.11};
-  for (const camera::Vec2& p :
-       {camera::Vec2(3, -2), camera::Vec2(-4, 1.5), camera::Vec2(0.5, 3.5), camera::Vec2(-2, -3)}) {
-    scene.robots.push_back({p, 0.25, false});
-  }
-  std::vector<std::vector<std::uint8_t>> frames(frameCount);
-  for (int i = 0; i < frameCount; ++i) {
-    scene.robot = poses[i];
-    scene.frame_number = static_cast<std::uint64_t>(i);
-    sim.renderer->render(scene, frames[i]);
-  }
+  const std::vector<std::vector<std::uint8_t>> frames =
+      rt::bench::renderSequence(sim, sequence.speed, sequence.omegaDeg, frameCount);
   // Each method gets the frame the way the node does: the LCM handler has just decoded (copied)
   // the message, so the frame is in the cache. --cold reads the stored frames directly.
   std::vector<std::uint8_t> delivered(frames[0].size());
@@ -253,6 +241,11 @@ int main(int argc, char** argv) {
       sequences.push_back({cameraPreset, 0.0, omega, "rotation"});
     }
   }
+
+  // One thread, as the comparison is meant: OpenCV would otherwise spread
+  // connectedComponentsWithStats over its worker threads (and its time would depend on what
+  // else runs on the machine).
+  cv::setNumThreads(1);
 
   std::vector<Result> results;
   fieldline::config::runOrExit([&] {

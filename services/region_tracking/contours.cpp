@@ -1,6 +1,7 @@
 #include "services/region_tracking/contours.hpp"
 
 #include <algorithm>
+#include <array>
 
 namespace fieldline::region_tracking {
 
@@ -8,6 +9,26 @@ namespace {
 // Unit step of an edge in direction k: +x, +y, -x, -y.
 constexpr int kStepDx[4] = {1, 0, -1, 0};
 constexpr int kStepDy[4] = {0, 1, 0, -1};
+
+// The turning rule as a table: for the direction just walked and the edges available at the
+// corner reached (4 bits), the next direction: right first, then straight, then left; -1 if
+// none. Spares the branches of trying the turns one after another.
+constexpr std::array<std::array<std::int8_t, 16>, 4> kNextDirection = [] {
+  std::array<std::array<std::int8_t, 16>, 4> table{};
+  for (int direction = 0; direction < 4; ++direction) {
+    for (int available = 0; available < 16; ++available) {
+      table[direction][available] = -1;
+      for (const int turn : {1, 0, 3}) {
+        const int candidate = (direction + turn) & 3;
+        if (available & (1 << candidate)) {
+          table[direction][available] = static_cast<std::int8_t>(candidate);
+          break;
+        }
+      }
+    }
+  }
+  return table;
+}();
 }  // namespace
 
 ConnectivityGrid::ConnectivityGrid(const CellGrid& grid)
@@ -74,14 +95,7 @@ void ConnectivityGrid::followContour(int startCorner, int startDirection, ClassI
     // rule would take it, the contour is closed.
     if (atStart) available |= static_cast<std::uint8_t>(1u << startDirection);
     // Turning rule: right, straight, left. A U-turn never occurs within one class.
-    int next = -1;
-    for (const int turn : {1, 0, 3}) {
-      const int candidate = (direction + turn) & 3;
-      if (available & (1u << candidate)) {
-        next = candidate;
-        break;
-      }
-    }
+    const int next = kNextDirection[direction][available & 0xF];
     if (next < 0 || (atStart && next == startDirection)) break;
     direction = next;
   }

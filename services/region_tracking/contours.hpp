@@ -91,6 +91,12 @@ class ConnectivityGrid {
   void addBoundarySideAt(int cell, int side) {
     bits_[cell + cornerOffset_[side]] |= static_cast<std::uint8_t>(1u << side);
   }
+  // Several sides of one cell at once: bit k of `sides` for side k.
+  void addBoundarySidesAt(int cell, unsigned sides) {
+    for (int side = 0; side < 4; ++side) {
+      if (sides & (1u << side)) addBoundarySideAt(cell, side);
+    }
+  }
 
   // Follows every closed contour that has an edge on a side of one of `cells`, appends it to
   // `out` with class `classId`, and removes its edges from the grid. At a grid point with two

@@ -2,53 +2,98 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
 
 namespace fieldline::region_tracking {
 
 FrameCellClassifier::FrameCellClassifier(const camera::ColourTable& table, int cellSize,
                                          const BlockClassifierParams& params)
     : table_(table), cellSize_(cellSize) {
+  if (cellSize != 1 && cellSize != 2 && cellSize != 4 && cellSize != 8) {
+    throw std::invalid_argument("block classifier: cell size must be 1, 2, 4 or 8 pixels");
+  }
   for (const BlockClaim& claim : params.claims) {
     const int pixels = static_cast<int>(std::ceil(claim.minFraction * cellSize * cellSize));
     claims_.push_back({classIdOf(claim.colour), std::max(1, pixels)});
   }
 }
 
-ClassId FrameCellClassifier::classify(int x, int y) const {
-  if (cellSize_ == 1) return classIdOf(table_.classifyPixel(frame_, x, y));
-  std::array<int, camera::kColourClassCount> votes{};
+// Votes are counted in one 64-bit word, 8 bits per class (a cell has at most 64 pixels): adding
+// to a register instead of an array in memory keeps the count of a mixed cell off the
+// store-to-load path. Two words, for even and odd pixels, halve the dependency chain.
+static_assert(camera::kColourClassCount <= 8, "one byte of the vote word per class");
+
+namespace {
+inline std::uint64_t voteFor(camera::ColourClass c) {
+  return std::uint64_t{1} << (8 * static_cast<unsigned>(c));
+}
+inline int votesOf(std::uint64_t votes, unsigned classId) {
+  return static_cast<int>((votes >> (8 * classId)) & 0xFF);
+}
+}  // namespace
+
+ClassId FrameCellClassifier::decide(std::uint64_t votes, int pixels, ClassId first) const {
+  // Most cells hold one class only: then there is nothing to vote on.
+  if (votes == static_cast<std::uint64_t>(pixels) << (8 * first)) return first;
+  for (const Claim& claim : claims_) {
+    if (votesOf(votes, claim.classId) >= claim.minPixels) return claim.classId;
+  }
+  // The most frequent class; ties go to the lower class number.
+  unsigned best = 0;
+  for (unsigned c = 1; c < camera::kColourClassCount; ++c) {
+    if (votesOf(votes, c) > votesOf(votes, best)) best = c;
+  }
+  return static_cast<ClassId>(best);
+}
+
+template <int kSize>
+ClassId FrameCellClassifier::classifyYuyvBlock(int x, int y) const {
+  // Cells start at even columns (sizes 2, 4, 8): each row of a cell is whole Y0 U Y1 V pairs.
+  const std::uint8_t* row =
+      frame_.data + static_cast<std::ptrdiff_t>(y) * kSize * frame_.stride + 2 * kSize * x;
+  const camera::ColourClass first = table_.classifyYuv(row[0], row[1], row[3]);
+  std::uint64_t evenVotes = 0, oddVotes = 0;
+  for (int v = 0; v < kSize; ++v, row += frame_.stride) {
+    const std::uint8_t* pair = row;
+    for (int k = 0; k < kSize / 2; ++k, pair += 4) {
+      evenVotes += voteFor(table_.classifyYuv(pair[0], pair[1], pair[3]));
+      oddVotes += voteFor(table_.classifyYuv(pair[2], pair[1], pair[3]));
+    }
+  }
+  return decide(evenVotes + oddVotes, kSize * kSize, classIdOf(first));
+}
+
+ClassId FrameCellClassifier::classifyBgrBlock(int x, int y) const {
   const int u0 = x * cellSize_;
   const int v0 = y * cellSize_;
-  // Most cells hold one class only: noticing that spares the claims and the majority search.
-  camera::ColourClass first = camera::ColourClass::kUnknown;
-  bool mixed = false;
-  auto vote = [&](camera::ColourClass c, bool isFirst) {
-    if (isFirst) first = c;
-    mixed |= c != first;
-    ++votes[static_cast<std::size_t>(c)];
-  };
-  if (frame_.format == camera::PixelFormat::kYuyv) {
-    // Cells start at even columns (sizes 2, 4, 8): each row of a cell is whole Y0 U Y1 V pairs.
-    for (int v = v0; v < v0 + cellSize_; ++v) {
-      const std::uint8_t* pair =
-          frame_.data + static_cast<std::ptrdiff_t>(v) * frame_.stride + 2 * u0;
-      for (int k = 0; k < cellSize_ / 2; ++k, pair += 4) {
-        vote(table_.classifyYuv(pair[0], pair[1], pair[3]), v == v0 && k == 0);
-        vote(table_.classifyYuv(pair[2], pair[1], pair[3]), false);
-      }
-    }
-  } else {
-    for (int v = v0; v < v0 + cellSize_; ++v) {
-      for (int u = u0; u < u0 + cellSize_; ++u) {
-        vote(table_.classifyPixel(frame_, u, v), v == v0 && u == u0);
-      }
-    }
+  std::uint64_t votes = 0;
+  for (int v = v0; v < v0 + cellSize_; ++v) {
+    for (int u = u0; u < u0 + cellSize_; ++u)
+      votes += voteFor(table_.classifyPixel(frame_, u, v));
   }
-  if (!mixed) return classIdOf(first);
-  for (const Claim& claim : claims_) {
-    if (votes[claim.classId] >= claim.minPixels) return claim.classId;
+  return decide(votes, cellSize_ * cellSize_, classIdOf(table_.classifyPixel(frame_, u0, v0)));
+}
+
+inline ClassId FrameCellClassifier::classifyBlock(int x, int y) const {
+  if (cellSize_ == 1) return classIdOf(table_.classifyPixel(frame_, x, y));
+  if (frame_.format != camera::PixelFormat::kYuyv) return classifyBgrBlock(x, y);
+  switch (cellSize_) {
+    case 2:
+      return classifyYuyvBlock<2>(x, y);
+    case 4:
+      return classifyYuyvBlock<4>(x, y);
+    default:
+      return classifyYuyvBlock<8>(x, y);
   }
-  return static_cast<ClassId>(std::max_element(votes.begin(), votes.end()) - votes.begin());
+}
+
+ClassId FrameCellClassifier::classify(int x, int y) const {
+  return classifyBlock(x, y);
+}
+
+void FrameCellClassifier::classifyRow(int y, int firstX, std::span<ClassId> out) const {
+  for (std::size_t i = 0; i < out.size(); ++i)
+    out[i] = classifyBlock(firstX + static_cast<int>(i), y);
 }
 
 std::vector<std::uint8_t> dontTouchCells(const camera::MirrorModel& mirror, const CellGrid& grid) {

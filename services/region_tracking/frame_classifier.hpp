@@ -4,6 +4,7 @@
 
 #include <array>
 #include <cstdint>
+#include <span>
 #include <vector>
 
 #include "common/camera/colour.hpp"
@@ -41,12 +42,22 @@ class FrameCellClassifier final : public CellClassifier {
   void setFrame(const camera::FrameView& frame) { frame_ = frame; }
 
   ClassId classify(int x, int y) const override;
+  // The same for a run of cells of one row, without a virtual call per cell (the full-frame
+  // baselines classify whole rows).
+  void classifyRow(int y, int firstX, std::span<ClassId> out) const override;
 
  private:
   struct Claim {
     ClassId classId;
     int minPixels;
   };
+  template <int kSize>
+  ClassId classifyYuyvBlock(int x, int y) const;
+  ClassId classifyBgrBlock(int x, int y) const;
+  // The class of a block from its votes (8 bits per class), its pixel count and the class of
+  // its first pixel.
+  ClassId decide(std::uint64_t votes, int pixels, ClassId first) const;
+  ClassId classifyBlock(int x, int y) const;
   const camera::ColourTable& table_;
   int cellSize_;
   std::vector<Claim> claims_;

@@ -58,8 +58,8 @@ RegionTracker::RegionTracker(const CellGrid& grid, const TrackerConfig& config,
       config_(config),
       visited_(layout_.size(), kBlocked),
       connectivity_(grid),
-      classifiedStamp_(layout_.size(), 0),
-      classifiedClass_(layout_.size(), kNoClass),
+      classified_(layout_.size(), 0),
+      coordinates_(layout_.size(), Cell{-1, -1}),
       scratchMark_(layout_.size(), 0) {
   classSlot_.fill(-1);
   seedParent_.fill(kNoClass);
@@ -80,6 +80,11 @@ RegionTracker::RegionTracker(const CellGrid& grid, const TrackerConfig& config,
     }
   }
   emptyVisited_ = visited_;
+  for (int y = 0; y < grid.height; ++y) {
+    for (int x = 0; x < grid.width; ++x)
+      coordinates_[layout_.index(x, y)] = {static_cast<std::int16_t>(x),
+                                           static_cast<std::int16_t>(y)};
+  }
 
   for (std::size_t i = 0; i < config.classes.size(); ++i) {
     const ClassTracking& tracking = config.classes[i];
@@ -153,18 +158,20 @@ int RegionTracker::regionCells(ClassId classId) const {
 }
 
 ClassId RegionTracker::classifyNow(CellIndex cell) {
-  classifiedStamp_[cell] = stamp_;
-  classifiedClass_[cell] = classifier_->classify(layout_.x(cell), layout_.y(cell));
+  const Cell at = coordinates_[cell];
+  const ClassId classId = classifier_->classify(at.x, at.y);
+  classified_[cell] = (stamp_ << 8) | classId;
   ++stats_.cellsClassified;
-  return classifiedClass_[cell];
+  ++stats_.classifiedBy[static_cast<int>(touchReason_)];
+  return classId;
 }
 
 const TrackingStats& RegionTracker::track(const CellClassifier& classifier) {
   stats_ = TrackingStats{};
   stats_.frame = frameCount_;
   classifier_ = &classifier;
-  if (++stamp_ == 0) {  // wrapped after 2^32 frames: old stamps could look current
-    std::fill(classifiedStamp_.begin(), classifiedStamp_.end(), 0);
+  if (++stamp_ == kStampLimit) {  // wrapped after 2^24 frames: old stamps could look current
+    std::fill(classified_.begin(), classified_.end(), 0);
     stamp_ = 1;
   }
   const int period = config_.reinitialisePeriodFrames;
@@ -180,20 +187,25 @@ const TrackingStats& RegionTracker::track(const CellClassifier& classifier) {
   };
 
   stats_.cellsBefore = totalCells();
+  touchReason_ = TouchReason::kShrink;
   for (ClassState& state : classes_)
     shrink(state);
   stats_.cellsAfterShrink = totalCells();
 
   contours_.clear();
   for (ClassState& state : classes_) {
+    touchReason_ = TouchReason::kSeed;
     seedPending(state);
     // Lost: nothing carried over and no seed given. (Seeds at the view's edge come after this
     // check: a sliver entering the view must not stand in for the search.)
     if (state.cells == 0 && state.tracking.searchWhenLost) {
+      touchReason_ = TouchReason::kInitialSearch;
       initialSearch(state);
       ++stats_.initialSearches;
     }
+    touchReason_ = TouchReason::kViewEdge;
     if (state.tracking.viewEdgeStride > 0) seedAtViewEdge(state);
+    touchReason_ = TouchReason::kGrow;
     grow(state);
     connectivity_.extractContoursAt(state.shrinkDrops, state.tracking.classId, contours_);
   }
@@ -212,68 +224,91 @@ const TrackingStats& RegionTracker::track(const CellClassifier& classifier) {
 // Procedure 2: shrink the regions of one class to their overlap with the new frame.
 void RegionTracker::shrink(ClassState& state) {
   const ClassId id = state.tracking.classId;
+  ClassId* const visited = visited_.data();
+  const int up = neighbour_[0], right = neighbour_[1], down = neighbour_[2], left = neighbour_[3];
+  std::vector<CellIndex>& drops = state.shrinkDrops;
+  std::vector<CellIndex>& stopped = state.growDrops;
   // Drops stand on unmarked cells while shrinking, so unmark the boundary drops first.
-  for (const CellIndex drop : state.shrinkDrops) {
-    visited_[drop] = kNoClass;
-    --state.cells;
-  }
-  while (!state.shrinkDrops.empty()) {
-    const CellIndex drop = state.shrinkDrops.back();
-    state.shrinkDrops.pop_back();
-    ++stats_.dropsProcessed;
+  for (const CellIndex drop : drops)
+    visited[drop] = kNoClass;
+  int cells = state.cells - static_cast<int>(drops.size());
+  int processed = 0;
+  // Every cell is pushed at most once (it is unmarked when pushed), so the reserved capacity of
+  // one entry per cell is never exceeded.
+  auto moveInto = [&](CellIndex next) {
+    if (visited[next] == id) {
+      visited[next] = kNoClass;
+      --cells;
+      drops.push_back(next);
+    }
+  };
+  while (!drops.empty()) {
+    const CellIndex drop = drops.back();
+    drops.pop_back();
+    ++processed;
     if (classOf(drop) == id) {
       // Still the region's class: the drop stops here and will seed the growing.
-      state.growDrops.push_back(drop);
+      stopped.push_back(drop);
       continue;
     }
     // The cell left the region: the drop moves into every still-marked neighbour.
-    for (const int offset : neighbour_) {
-      const CellIndex next = drop + offset;
-      if (visited_[next] == id) {
-        visited_[next] = kNoClass;
-        --state.cells;
-        state.shrinkDrops.push_back(next);
-      }
-    }
+    moveInto(drop + up);
+    moveInto(drop + right);
+    moveInto(drop + down);
+    moveInto(drop + left);
   }
   // The stopped drops belong to the region again.
-  for (const CellIndex drop : state.growDrops) {
-    visited_[drop] = id;
-    ++state.cells;
-  }
+  for (const CellIndex drop : stopped)
+    visited[drop] = id;
+  state.cells = cells + static_cast<int>(stopped.size());
+  stats_.dropsProcessed += processed;
 }
 
 // Procedure 1: grow the regions of one class from their drops to their full extent, collecting
 // the boundary drops for the next shrink and the boundary sides for contour extraction.
 void RegionTracker::grow(ClassState& state) {
   const ClassId id = state.tracking.classId;
-  while (!state.growDrops.empty()) {
-    const CellIndex drop = state.growDrops.back();
-    state.growDrops.pop_back();
-    ++stats_.dropsProcessed;
-    bool atBoundary = false;
-    for (int side = 0; side < 4; ++side) {
-      const CellIndex next = drop + neighbour_[side];
-      const ClassId owner = visited_[next];
-      if (owner == id) continue;  // inside the region
-      if (owner == kNoClass) {
-        const ClassId nextClass = classOf(next);
-        if (nextClass == id) {
-          claim(state, next);
-          continue;
-        }
-        if (seedParent_[nextClass] == id) {
-          // An untracked region of a class seeded from this one's boundary (the ball next to
-          // green): it grows when its class's turn comes.
-          classes_[classSlot_[nextClass]].pendingSeeds.push_back(next);
-        }
+  ClassId* const visited = visited_.data();
+  const ClassId* const seedParent = seedParent_.data();
+  std::vector<CellIndex>& drops = state.growDrops;
+  std::vector<CellIndex>& boundary = state.shrinkDrops;
+  int cells = state.cells;
+  int processed = 0;
+  // Looks at the neighbour on one side; true if that side is on the region's boundary.
+  auto spreadTo = [&](CellIndex next) {
+    const ClassId owner = visited[next];
+    if (owner == id) return false;  // inside the region
+    if (owner == kNoClass) {
+      const ClassId nextClass = classOf(next);
+      if (nextClass == id) {
+        visited[next] = id;
+        ++cells;
+        drops.push_back(next);
+        return false;
       }
-      // Another class, blocked, or unvisited of another class: a boundary side.
-      connectivity_.addBoundarySideAt(drop, side);
-      atBoundary = true;
+      if (seedParent[nextClass] == id) {
+        // An untracked region of a class seeded from this one's boundary (the ball next to
+        // green): it grows when its class's turn comes.
+        classes_[classSlot_[nextClass]].pendingSeeds.push_back(next);
+      }
     }
-    if (atBoundary) state.shrinkDrops.push_back(drop);
+    // Another class, blocked, or unvisited of another class: a boundary side.
+    return true;
+  };
+  const int up = neighbour_[0], right = neighbour_[1], down = neighbour_[2], left = neighbour_[3];
+  while (!drops.empty()) {
+    const CellIndex drop = drops.back();
+    drops.pop_back();
+    ++processed;
+    const unsigned sides = (spreadTo(drop + up) ? 1u : 0u) | (spreadTo(drop + right) ? 2u : 0u) |
+                           (spreadTo(drop + down) ? 4u : 0u) | (spreadTo(drop + left) ? 8u : 0u);
+    if (sides != 0) {
+      connectivity_.addBoundarySidesAt(drop, sides);
+      boundary.push_back(drop);
+    }
   }
+  state.cells = cells;
+  stats_.dropsProcessed += processed;
 }
 
 void RegionTracker::seedPending(ClassState& state) {

@@ -74,11 +74,24 @@ TrackerConfig loadTrackerConfig(
     const config::Node& node,
     const std::function<std::optional<ClassId>(const std::string&)>& classByName);
 
+// Why a cell was classified (each cell is classified at most once per frame, for the first
+// reason that needs it).
+enum class TouchReason : std::uint8_t {
+  kShrink,         // a shrinking drop checks whether its cell still has the class
+  kGrow,           // a growing drop looks at an unvisited neighbour
+  kSeed,           // seeds handed in or found next to a parent class's boundary
+  kViewEdge,       // seeding at the edge of the view
+  kInitialSearch,  // the whole-frame search of a lost class
+};
+inline constexpr int kTouchReasonCount = 5;
+
 // What one track() call did: the quantities of the seed's table 3.1.
 struct TrackingStats {
   std::int64_t frame = 0;
   // Distinct cells whose class was computed in this frame (each at most once).
   int cellsClassified = 0;
+  // cellsClassified split by TouchReason.
+  std::array<int, kTouchReasonCount> classifiedBy{};
   // cellsClassified / cells in the grid: the fraction of the image accessed.
   double touchedFraction = 0.0;
   // Drops taken from the queues by shrink and grow together.
@@ -134,7 +147,7 @@ class RegionTracker {
   const TrackingStats& stats() const { return stats_; }
   // True if the last track() computed the class of cell (x, y): the cells it accessed.
   bool classifiedInLastFrame(int x, int y) const {
-    return classifiedStamp_[layout_.index(x, y)] == stamp_;
+    return (classified_[layout_.index(x, y)] >> 8) == stamp_;
   }
 
  private:
@@ -155,7 +168,8 @@ class RegionTracker {
 
   // The class of a cell in the current frame, computed at most once per frame.
   ClassId classOf(CellIndex cell) {
-    if (classifiedStamp_[cell] == stamp_) return classifiedClass_[cell];
+    const std::uint32_t entry = classified_[cell];
+    if ((entry >> 8) == stamp_) return static_cast<ClassId>(entry & 0xFF);
     return classifyNow(cell);
   }
   ClassId classifyNow(CellIndex cell);
@@ -188,11 +202,16 @@ class RegionTracker {
   ConnectivityGrid connectivity_;
   ContourSet contours_;
 
-  // Per-frame cache of classifications: a cell's class is valid while its stamp is the frame's.
+  // Per-frame cache of classifications, one word per cell: the frame's stamp (24 bits) and the
+  // class (low 8 bits); valid while the stamp is the frame's. One load answers both questions.
   const CellClassifier* classifier_ = nullptr;
-  std::vector<std::uint32_t> classifiedStamp_;
-  std::vector<ClassId> classifiedClass_;
+  TouchReason touchReason_ = TouchReason::kShrink;
+  std::vector<std::uint32_t> classified_;
   std::uint32_t stamp_ = 0;
+  static constexpr std::uint32_t kStampLimit = 1u << 24;
+  // Grid coordinates of every padded index (the classifier takes x, y; dividing by the padded
+  // width for every classification costs more than the lookup).
+  std::vector<Cell> coordinates_;
 
   // Scratch for initial searches and dropRegion, kept to avoid per-frame allocation.
   std::vector<CellIndex> scratchQueue_;

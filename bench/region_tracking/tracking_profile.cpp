@@ -1,0 +1,260 @@
+// fieldline-profile-tracking: where the region tracker's work goes on one rendered sequence.
+//
+// Runs one method over the sequence (for `valgrind --tool=callgrind`, which counts instructions
+// and so is repeatable on a shared machine) and, for the tracker, breaks the cells it classifies
+// per frame down by why they were classified (TouchReason) and by what they are: green cells on
+// a tracked region's boundary, cells of other classes, cells next to the don't-touch mask.
+//
+//   fieldline-profile-tracking                      # breakdown, default sequence
+//   valgrind --tool=callgrind --toggle-collect="*RegionTracker::track*"
+//       fieldline-profile-tracking --method tracker --no-breakdown   (one command line)
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+#include <opencv2/core.hpp>
+
+#include "bench/region_tracking/bench_sequence.hpp"
+#include "common/config/config.hpp"
+#include "services/region_tracking/baselines.hpp"
+#include "services/region_tracking/frame_processor.hpp"
+
+namespace rt = fieldline::region_tracking;
+namespace camera = fieldline::camera;
+
+namespace {
+
+constexpr std::array<const char*, rt::kTouchReasonCount> kReasonNames = {
+    "shrink", "grow", "seed (parent boundary)", "view edge", "initial search"};
+
+struct Breakdown {
+  std::array<double, rt::kTouchReasonCount> byReason{};
+  double touched = 0;
+  // What the touched cells are in this frame.
+  double greenOwned = 0;      // green, in a tracked green region at the end of the frame
+  double greenUntracked = 0;  // green but not tracked
+  double white = 0;
+  double otherTracked = 0;  // another tracked class (goal, ball, obstacle colours)
+  double other = 0;         // unknown / untracked classes
+  double nextToMask = 0;    // touched cells with a don't-touch (or out-of-grid) neighbour
+  // The least any exact shrink-and-grow classifies in a frame where nothing moved: the cells of
+  // the tracked regions with a neighbour outside their region (shrink re-checks them) and the
+  // touchable cells outside next to a region (grow must see they did not join it).
+  double boundaryBand = 0;
+  double boundaryBandAtMask = 0;  // the part of the band next to the don't-touch mask
+  double touchableCells = 0;
+  double cells = 0;
+  double dropsProcessed = 0;
+};
+
+void addBreakdown(const rt::FrameProcessor& processor, rt::FrameCellClassifier& classifier,
+                  Breakdown& b) {
+  const rt::RegionTracker& tracker = processor.tracker();
+  const rt::CellGrid& grid = processor.grid();
+  const std::vector<std::uint8_t>& mask = processor.dontTouch();
+  const rt::ClassId green = rt::classIdOf(camera::ColourClass::kGreen);
+  const rt::ClassId white = rt::classIdOf(camera::ColourClass::kWhite);
+  const rt::TrackingStats& stats = tracker.stats();
+  for (int r = 0; r < rt::kTouchReasonCount; ++r)
+    b.byReason[r] += stats.classifiedBy[r];
+  b.touched += stats.cellsClassified;
+  b.dropsProcessed += stats.dropsProcessed;
+  std::array<bool, 256> tracked{};
+  for (const rt::ClassTracking& t : tracker.config().classes)
+    tracked[t.classId] = true;
+  auto blocked = [&](int x, int y) { return !grid.contains(x, y) || mask[grid.index(x, y)]; };
+  for (int y = 0; y < grid.height; ++y) {
+    for (int x = 0; x < grid.width; ++x) {
+      if (!mask[grid.index(x, y)]) ++b.touchableCells;
+      ++b.cells;
+      const bool atMask =
+          blocked(x - 1, y) || blocked(x + 1, y) || blocked(x, y - 1) || blocked(x, y + 1);
+      if (!mask[grid.index(x, y)]) {
+        const rt::ClassId self = tracker.ownerOf(x, y);
+        bool band = false;
+        const int dx[4] = {0, 1, 0, -1}, dy[4] = {-1, 0, 1, 0};
+        for (int side = 0; side < 4 && !band; ++side) {
+          const int nx = x + dx[side], ny = y + dy[side];
+          const rt::ClassId other = blocked(nx, ny) ? rt::kNoClass : tracker.ownerOf(nx, ny);
+          // A region cell next to anything else, or an outside cell next to a region.
+          band = self != rt::kNoClass ? other != self || blocked(nx, ny) : other != rt::kNoClass;
+        }
+        if (band) {
+          ++b.boundaryBand;
+          if (atMask) ++b.boundaryBandAtMask;
+        }
+      }
+      if (!tracker.classifiedInLastFrame(x, y)) continue;
+      const rt::ClassId c = classifier.classify(x, y);
+      const rt::ClassId owner = tracker.ownerOf(x, y);
+      if (c == green) {
+        (owner == green ? b.greenOwned : b.greenUntracked) += 1;
+      } else if (c == white) {
+        ++b.white;
+      } else if (tracked[c]) {
+        ++b.otherTracked;
+      } else {
+        ++b.other;
+      }
+      if (atMask) ++b.nextToMask;
+    }
+  }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"Profile the region tracker (or a baseline) on one rendered sequence."};
+  std::string cameraPreset = "omni_sim";
+  std::string field = "msl";
+  std::string method = "tracker";
+  double speed = 1.0, omegaDeg = 90.0;
+  int frames = 240, repeat = 1;
+  bool noBreakdown = false;
+  app.add_option("--camera", cameraPreset, "camera preset")->capture_default_str();
+  app.add_option("--field", field, "field preset")->capture_default_str();
+  app.add_option("--speed", speed, "m/s")->check(CLI::Range(0.0, 5.0))->capture_default_str();
+  app.add_option("--omega", omegaDeg, "deg/s")
+      ->check(CLI::Range(0.0, 1000.0))
+      ->capture_default_str();
+  app.add_option("--frames", frames, "frames (30 Hz)")
+      ->check(CLI::Range(2, 3000))
+      ->capture_default_str();
+  app.add_option("--repeat", repeat, "runs over the sequence")
+      ->check(CLI::Range(1, 100))
+      ->capture_default_str();
+  app.add_option("--method", method, "tracker, whole (tracker + line points), cmvision, opencv")
+      ->check(CLI::IsMember({"tracker", "whole", "cmvision", "opencv"}))
+      ->capture_default_str();
+  app.add_flag("--no-breakdown", noBreakdown, "skip the per-cell analysis (for callgrind)");
+  CLI11_PARSE(app, argc, argv);
+
+  cv::setNumThreads(1);  // one thread, as in fieldline-bench-tracking
+  fieldline::config::runOrExit([&] {
+    rt::SimCamera sim = rt::SimCamera::load(cameraPreset, field);
+    const std::vector<std::vector<std::uint8_t>> sequence =
+        rt::bench::renderSequence(sim, speed, omegaDeg, frames);
+    const rt::VisionParams params = rt::defaultVisionParams();
+    std::vector<rt::ClassId> classes;
+    for (const rt::ClassTracking& c : params.tracker.classes)
+      classes.push_back(c.classId);
+    std::vector<std::uint8_t> delivered(sequence[0].size());
+
+    rt::FrameProcessor processor(sim.mirror, sim.table, params);
+    rt::CmvisionSegmenter cmvision(processor.grid(), classes, processor.dontTouch());
+    rt::OpenCvSegmenter opencv(processor.grid(), classes, processor.dontTouch());
+    rt::LinePoints lines;
+    Breakdown breakdown;
+    int measured = 0;
+    for (int run = 0; run < repeat; ++run) {
+      for (int i = 0; i < frames; ++i) {
+        std::copy(sequence[i].begin(), sequence[i].end(), delivered.begin());
+        const camera::FrameView frame = sim.renderer->view(delivered);
+        processor.classifier().setFrame(frame);
+        if (method == "cmvision") {
+          cmvision.segment(processor.classifier());
+          continue;
+        }
+        if (method == "opencv") {
+          opencv.segment(processor.classifier());
+          continue;
+        }
+        processor.tracker().track(processor.classifier());
+        if (method == "whole")
+          processor.lineDetector().detect(frame, processor.tracker().contours(), lines);
+        if (noBreakdown || i == 0) continue;
+        addBreakdown(processor, processor.classifier(), breakdown);
+        ++measured;
+      }
+    }
+    if (noBreakdown || measured == 0) return;
+    const double n = measured;
+    const double cells = breakdown.cells / n;
+    auto row = [&](const char* name, double total) {
+      std::printf("| %s | %.1f | %.2f %% |\n", name, total / n, 100.0 * total / n / cells);
+    };
+    std::printf(
+        "%s, %.1f m/s %.0f deg/s, %d frames, %.0f cells (%.0f touchable): cells "
+        "classified per frame (mean over frames 1..%d)\n\n",
+        cameraPreset.c_str(), speed, omegaDeg, frames, cells, breakdown.touchableCells / n,
+        frames - 1);
+    std::printf("| reason | cells | of the image |\n|---|---|---|\n");
+    for (int r = 0; r < rt::kTouchReasonCount; ++r)
+      row(kReasonNames[r], breakdown.byReason[r]);
+    row("**all**", breakdown.touched);
+    std::printf("\n| touched cell is | cells | of the image |\n|---|---|---|\n");
+    row("green, tracked", breakdown.greenOwned);
+    row("green, untracked", breakdown.greenUntracked);
+    row("white", breakdown.white);
+    row("another tracked class", breakdown.otherTracked);
+    row("other (unknown, untracked class)", breakdown.other);
+    row("(next to the don't-touch mask)", breakdown.nextToMask);
+    std::printf("\n| boundary band of the final regions | cells | of the image |\n|---|---|---|\n");
+    row("band (a still frame classifies exactly these)", breakdown.boundaryBand);
+    row("(next to the don't-touch mask)", breakdown.boundaryBandAtMask);
+    std::printf("\ndrops processed per frame: %.0f\n", breakdown.dropsProcessed / n);
+
+    // The bound on the ratio: the tracker must at least classify the cells it touches, (a) must
+    // at least classify every cell. Timed here in one process, frame by frame, medians.
+    using Clock = std::chrono::steady_clock;
+    auto micro = [](Clock::duration d) {
+      return std::chrono::duration<double, std::micro>(d).count();
+    };
+    auto median = [](std::vector<double> v) {
+      std::sort(v.begin(), v.end());
+      return v[v.size() / 2];
+    };
+    rt::FrameProcessor timed(sim.mirror, sim.table, params);
+    rt::FrameCellClassifier& classifier = timed.classifier();
+    const rt::CellGrid& grid = timed.grid();
+    std::vector<rt::Cell> touchedCells;
+    std::vector<rt::ClassId> rowClasses(grid.width);
+    std::vector<double> trackTimes, touchedTimes, allTimes;
+    volatile unsigned sink = 0;
+    for (int i = 0; i < frames; ++i) {
+      std::copy(sequence[i].begin(), sequence[i].end(), delivered.begin());
+      classifier.setFrame(sim.renderer->view(delivered));
+      const Clock::time_point t0 = Clock::now();
+      timed.tracker().track(classifier);
+      const Clock::time_point t1 = Clock::now();
+      touchedCells.clear();
+      for (int y = 0; y < grid.height; ++y) {
+        for (int x = 0; x < grid.width; ++x) {
+          if (timed.tracker().classifiedInLastFrame(x, y)) {
+            touchedCells.push_back({static_cast<std::int16_t>(x), static_cast<std::int16_t>(y)});
+          }
+        }
+      }
+      // Same frame, freshly delivered again so both start from the same cache state.
+      std::copy(sequence[i].begin(), sequence[i].end(), delivered.begin());
+      const Clock::time_point t2 = Clock::now();
+      unsigned acc = 0;
+      for (const rt::Cell c : touchedCells)
+        acc += classifier.classify(c.x, c.y);
+      const Clock::time_point t3 = Clock::now();
+      std::copy(sequence[i].begin(), sequence[i].end(), delivered.begin());
+      const Clock::time_point t4 = Clock::now();
+      for (int y = 0; y < grid.height; ++y) {
+        classifier.classifyRow(y, 0, rowClasses);
+        acc += rowClasses[0];
+      }
+      const Clock::time_point t5 = Clock::now();
+      sink = sink + acc;
+      if (i == 0) continue;
+      trackTimes.push_back(micro(t1 - t0));
+      touchedTimes.push_back(micro(t3 - t2));
+      allTimes.push_back(micro(t5 - t4));
+    }
+    std::printf("\n| per frame, median | us |\n|---|---|\n");
+    std::printf("| tracker (track: segmentation + boundaries) | %.1f |\n", median(trackTimes));
+    std::printf("| classifying only the cells the tracker touched (raster order) | %.1f |\n",
+                median(touchedTimes));
+    std::printf("| classifying every cell (what (a) and (b) must do at least) | %.1f |\n",
+                median(allTimes));
+  });
+  return 0;
+}
