@@ -96,7 +96,9 @@ service_status_t StatusCollector::takeStatus(Utime now) {
   s.pid = static_cast<std::int32_t>(::getpid());
   s.uptime_us = now - start_;
   s.period_us = std::max<Utime>(1, now - period_start_);
-  s.state = errors_in_period_ > 0 ? service_status_t::STATE_WARN : service_status_t::STATE_OK;
+  s.state = fault_                  ? service_status_t::STATE_ERROR
+            : errors_in_period_ > 0 ? service_status_t::STATE_WARN
+                                    : service_status_t::STATE_OK;
   const double period_s = static_cast<double>(s.period_us) / 1e6;
 
   s.num_channels = static_cast<std::int32_t>(channels_.size());

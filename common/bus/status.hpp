@@ -48,6 +48,9 @@ class StatusCollector {
   void onProcessing(double ms);
   void onError(const std::string& kind, const std::string& text, Utime when);
   void setMetric(const std::string& name, double value);
+  // While set, the process reports STATE_ERROR: it cannot do its job (a device is missing).
+  void setFault(bool fault) { fault_ = fault; }
+  bool fault() const { return fault_; }
 
   // Fills a status message for the period ending at `now` and starts a new period.
   service_status_t takeStatus(Utime now);
@@ -70,6 +73,7 @@ class StatusCollector {
   Utime last_error_utime_ = 0;
   std::map<std::string, double> metrics_;
   std::int64_t errors_in_period_ = 0;
+  bool fault_ = false;
 };
 
 }  // namespace fieldline::bus

@@ -350,7 +350,8 @@ std::optional<std::string> validate(const world_state_t& m) {
                        {"ball_y", m.ball_y},
                        {"ball_vx", m.ball_vx},
                        {"ball_vy", m.ball_vy},
-                       {"ball_radius", m.ball_radius}});
+                       {"ball_radius", m.ball_radius},
+                       {"robot_radius", m.robot_radius}});
       });
 }
 

@@ -55,6 +55,12 @@ RobotParams loadRobotParams(const config::Node& root) {
   const auto enc = root.child("encoder");
   p.pulses_per_motor_revolution = enc.get<int>("pulses_per_motor_revolution", 1, 100000);
   p.gear_ratio = enc.get<int>("gear_ratio", 1, 1000);
+  // The serial protocol's Hello carries ticks per wheel turn in 16 bits.
+  if (p.ticksPerWheelRevolution() > 65535) {
+    enc.fail("gear_ratio", "pulses_per_motor_revolution * gear_ratio = " +
+                               std::to_string(p.ticksPerWheelRevolution()) +
+                               " ticks per wheel turn exceeds 65535 (the serial protocol's limit)");
+  }
   enc.rejectUnknownKeys();
 
   const auto motor = root.child("motor");

@@ -10,6 +10,11 @@
 #include "common/field/field_model.hpp"
 
 namespace fieldline::camera {
+
+namespace {
+// Footprint of a teammate when SIM_WORLD does not say (older logs), metres.
+constexpr double kDefaultRobotRadius = 0.25;
+}  // namespace
 namespace {
 
 constexpr std::size_t kPendingSlots = 16;
@@ -77,7 +82,7 @@ bool sceneFromWorld(const world_state_t& world, int robot_id, Utime when, double
     if (world.robot_id[k] == robot_id) continue;
     scene.robots.push_back(
         {{world.robot_x[k] + world.robot_vx[k] * dt, world.robot_y[k] + world.robot_vy[k] * dt},
-         0.25,
+         world.robot_radius > 0.0f ? static_cast<double>(world.robot_radius) : kDefaultRobotRadius,
          true});
   }
   for (int k = 0; k < world.num_opponents; ++k) {

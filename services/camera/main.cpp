@@ -23,6 +23,42 @@
 namespace camera = fieldline::camera;
 namespace bus = fieldline::bus;
 
+namespace {
+
+// Seconds between attempts to (re)open a live camera.
+constexpr double kReopenIntervalS = 1.0;
+
+int runLiveSource(bus::Node& node, camera::SourceKind kind, const camera::VideoCaptureOptions& vc,
+                  const camera::CameraConfig& config, const camera::FrameSourceOptions& options) {
+  bus::installStopSignals();
+  while (!node.stopRequested()) {
+    try {
+      auto source = camera::openVideoCapture(kind, vc);
+      spdlog::info("publishing {} (latency {} ms)", source->describe(),
+                   config.pipeline.latency * 1e3);
+      node.status().setFault(false);
+      const std::int64_t frames = camera::runFrameSource(node, *source, config.pipeline, options);
+      node.status().setFault(true);
+      if (node.stopRequested() || (options.max_frames > 0 && frames >= options.max_frames)) break;
+      node.reportError(
+          "camera_lost",
+          vc.spec + " stopped delivering frames" +
+              (source->lastError().empty() ? std::string() : ": " + source->lastError()));
+    } catch (const std::runtime_error& e) {
+      node.status().setFault(true);
+      node.reportError("camera_open", e.what());
+    }
+    // Keep status and timers alive while waiting to retry.
+    const fieldline::Utime retry_at =
+        node.now() + static_cast<fieldline::Utime>(kReopenIntervalS * 1e6);
+    while (!node.stopRequested() && node.now() < retry_at)
+      node.spinOnce(50);
+  }
+  return 0;
+}
+
+}  // namespace
+
 int main(int argc, char** argv) {
   CLI::App app{"Camera of one robot: publishes CAMERA_IMAGE (simulated or real source)"};
   bus::CommonOptions common;
@@ -99,9 +135,14 @@ int main(int argc, char** argv) {
       const camera::SourceKind kind = source_name == "v4l2"    ? camera::SourceKind::kV4l2
                                       : source_name == "video" ? camera::SourceKind::kVideo
                                                                : camera::SourceKind::kGstreamer;
+      if (kind != camera::SourceKind::kVideo) {
+        // A live camera that is missing or unplugged comes back: report it (SERVICE_STATUS keeps
+        // flowing) and reopen it, as the motor bridge does with its serial line.
+        return runLiveSource(node, kind, vc, config, options);
+      }
       source = camera::openVideoCapture(kind, vc);
-      // Files play at the configured rate; cameras and pipelines deliver at their own.
-      if (kind == camera::SourceKind::kVideo) options.pace_fps = config.pipeline.frame_rate;
+      // Files play at the configured rate.
+      options.pace_fps = config.pipeline.frame_rate;
     }
     spdlog::info("publishing {} (latency {} ms)", source->describe(),
                  config.pipeline.latency * 1e3);

@@ -106,6 +106,8 @@ int main(int argc, char** argv) {
         published_errors = total;
       }
       node.setMetric("serial_connected", link.connected() ? 1.0 : 0.0);
+      // Without its serial line the bridge cannot do its job: the status says error.
+      node.status().setFault(!link.connected());
       node.setMetric("serial_reconnects", static_cast<double>(link.stats().opens));
       node.setMetric("serial_frames_dropped", static_cast<double>(link.stats().frames_dropped));
       node.setMetric("odometry_samples_lost", static_cast<double>(core.samplesLost()));

@@ -24,6 +24,7 @@ Pilot::Pilot(const world_sim::Scenario& scenario, int robot_id, const robot::Rob
 
 void Pilot::onPose(const geometry::Pose2& pose, Utime utime) {
   if (!geometry::isFinite(pose)) return;
+  if (pose_ && utime <= pose_utime_) return;  // late or repeated: keep the newer pose
   if (!start_) start_ = utime;
   pose_ = pose;
   pose_utime_ = utime;

@@ -107,6 +107,7 @@ int main(int argc, char** argv) {
     world_state_t msg{};
     msg.field = world.field().name();
     msg.scenario = scenario.name;
+    msg.robot_radius = static_cast<float>(params.radius);
 
     auto publishWorld = [&](double t) {
       const auto& rs = world.robots();

@@ -43,3 +43,21 @@ TEST(StatusCollector, DropsAreTrackedPerSender) {
 
 }  // namespace
 }  // namespace fieldline::bus
+
+namespace fieldline::bus {
+namespace {
+
+TEST(StatusCollector, StateFollowsErrorsAndFaults) {
+  StatusCollector c("p", 1, 0);
+  EXPECT_EQ(c.takeStatus(1'000'000).state, service_status_t::STATE_OK);
+  c.onError("decode", "x", 1'500'000);
+  EXPECT_EQ(c.takeStatus(2'000'000).state, service_status_t::STATE_WARN);
+  EXPECT_EQ(c.takeStatus(3'000'000).state, service_status_t::STATE_OK);  // a new period
+  c.setFault(true);
+  EXPECT_EQ(c.takeStatus(4'000'000).state, service_status_t::STATE_ERROR);
+  c.setFault(false);
+  EXPECT_EQ(c.takeStatus(5'000'000).state, service_status_t::STATE_OK);
+}
+
+}  // namespace
+}  // namespace fieldline::bus
