@@ -13,6 +13,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "common/bus/cli.hpp"
 #include "common/config/config.hpp"
 #include "services/region_tracking/frame_processor.hpp"
 #include "services/region_tracking/sim_frames.hpp"
@@ -21,27 +22,6 @@ namespace rt = fieldline::region_tracking;
 namespace camera = fieldline::camera;
 
 namespace {
-
-std::vector<double> parseNumbers(const std::string& text, std::size_t count,
-                                 const std::string& what) {
-  std::vector<double> values;
-  std::size_t start = 0;
-  while (start <= text.size()) {
-    const std::size_t comma = text.find(',', start);
-    const std::string part =
-        text.substr(start, comma == std::string::npos ? std::string::npos : comma - start);
-    std::size_t used = 0;
-    const double value = std::stod(part, &used);
-    if (used != part.size() || !std::isfinite(value)) throw std::invalid_argument(what);
-    values.push_back(value);
-    if (comma == std::string::npos) break;
-    start = comma + 1;
-  }
-  if (values.size() != count) {
-    throw std::invalid_argument(what + ": expected " + std::to_string(count) + " numbers");
-  }
-  return values;
-}
 
 cv::Scalar toScalar(camera::Bgr c) {
   return {double(c.b), double(c.g), double(c.r)};
@@ -76,20 +56,19 @@ int main(int argc, char** argv) {
   app.add_flag("--touched", touched, "mark the cells the tracker classified in the last frame");
   CLI11_PARSE(app, argc, argv);
 
-  int status = 0;
-  fieldline::config::runOrExit([&] {
+  return fieldline::bus::runMain("tracking_png", [&]() -> int {
     rt::SimCamera sim = rt::SimCamera::load(cameraPreset, fieldPreset);
     const rt::VisionParams params = rt::defaultVisionParams();
     rt::FrameProcessor processor(sim.mirror, sim.table, params);
 
-    const std::vector<double> p = parseNumbers(pose, 3, "--pose");
+    const std::vector<double> p = fieldline::bus::parseNumberList(pose, 3, "--pose");
     camera::SimScene scene;
     if (!ball.empty()) {
-      const std::vector<double> b = parseNumbers(ball, 2, "--ball");
+      const std::vector<double> b = fieldline::bus::parseNumberList(ball, 2, "--ball");
       scene.ball = camera::SimBall{{b[0], b[1]}, 0.11};
     }
     for (const std::string& r : robots) {
-      const std::vector<double> xy = parseNumbers(r, 2, "--robot");
+      const std::vector<double> xy = fieldline::bus::parseNumberList(r, 2, "--robot");
       scene.robots.push_back({{xy[0], xy[1]}, 0.25, false});
     }
     // Drive backwards from the pose so the last frame is at --pose, tracked from earlier ones.
@@ -179,6 +158,6 @@ int main(int argc, char** argv) {
                                             std::to_string(result.ball.y) + " (robot frame)"
                                       : std::string("not seen"))
               << ", obstacles " << result.obstacles.size() << "\n";
+    return 0;
   });
-  return status;
 }
