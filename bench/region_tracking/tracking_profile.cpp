@@ -29,7 +29,7 @@ namespace camera = fieldline::camera;
 namespace {
 
 constexpr std::array<const char*, rt::kTouchReasonCount> kReasonNames = {
-    "shrink", "grow", "seed (parent boundary)", "view edge", "initial search"};
+    "shrink", "grow", "seed (parent boundary)", "view edge", "initial search", "inside parent"};
 
 struct Breakdown {
   std::array<double, rt::kTouchReasonCount> byReason{};

@@ -28,10 +28,22 @@ VisionParams defaultVisionParams() {
   params.tracker.cellSize = 4;
   params.tracker.reinitialisePeriodFrames = 300;
   const ClassId green = classIdOf(ColourClass::kGreen);
-  params.tracker.classes.push_back({green, true, 10, 4, kNoClass, 4});
+  params.tracker.classes.push_back({.classId = green,
+                                    .searchWhenLost = true,
+                                    .maxSeedRegions = 10,
+                                    .minSeedCells = 4,
+                                    .seedFromBoundaryOf = kNoClass,
+                                    .viewEdgeStride = 4});
   for (const ColourClass c :
        {ColourClass::kYellow, ColourClass::kBlue, ColourClass::kOrange, ColourClass::kBlack}) {
-    params.tracker.classes.push_back({classIdOf(c), false, 10, 1, green});
+    // The ball is small and fast: when it is lost, look for it inside green too.
+    params.tracker.classes.push_back(
+        {.classId = classIdOf(c),
+         .searchWhenLost = false,
+         .maxSeedRegions = 10,
+         .minSeedCells = 1,
+         .seedFromBoundaryOf = green,
+         .searchInsideParentStride = c == ColourClass::kOrange ? 4 : 0});
   }
   return params;
 }

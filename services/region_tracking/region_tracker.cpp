@@ -30,6 +30,7 @@ TrackerConfig loadTrackerConfig(
     tracking.maxSeedRegions = entry.getOr<int>("max_seed_regions", 10, 1, 1000);
     tracking.minSeedCells = entry.getOr<int>("min_seed_cells", 4, 1, 1000000);
     tracking.viewEdgeStride = entry.getOr<int>("view_edge_stride", 0, 0, 64);
+    tracking.searchInsideParentStride = entry.getOr<int>("search_inside_parent_stride", 0, 0, 16);
     if (entry.has("seed_from_boundary_of")) {
       tracking.seedFromBoundaryOf = classAt(entry, "seed_from_boundary_of");
     }
@@ -91,8 +92,14 @@ RegionTracker::RegionTracker(const CellGrid& grid, const TrackerConfig& config,
     if (tracking.classId == kNoClass || tracking.classId == kBlocked) {
       throw std::invalid_argument("region tracker: class ids 254 and 255 are reserved");
     }
-    if (tracking.maxSeedRegions < 1 || tracking.minSeedCells < 1 || tracking.viewEdgeStride < 0) {
+    if (tracking.maxSeedRegions < 1 || tracking.minSeedCells < 1 || tracking.viewEdgeStride < 0 ||
+        tracking.searchInsideParentStride < 0) {
       throw std::invalid_argument("region tracker: seed limits must be positive");
+    }
+    if (tracking.searchInsideParentStride > 0 && tracking.seedFromBoundaryOf == kNoClass) {
+      throw std::invalid_argument("region tracker: search_inside_parent_stride of class " +
+                                  std::to_string(tracking.classId) +
+                                  " needs seed_from_boundary_of");
     }
     for (std::size_t j = 0; j < config.classes.size(); ++j) {
       if (j != i && config.classes[j].classId == tracking.classId) {
@@ -114,8 +121,8 @@ RegionTracker::RegionTracker(const CellGrid& grid, const TrackerConfig& config,
     state.tracking = tracking;
     // Reserve the worst case once so no frame ever allocates (a cell can be proposed as a
     // seed from each of its four sides).
-    state.growDrops.reserve(grid.cellCount());
-    state.shrinkDrops.reserve(grid.cellCount());
+    state.workDrops.reserve(grid.cellCount());
+    state.boundaryDrops.reserve(grid.cellCount());
     state.pendingSeeds.reserve(4 * static_cast<std::size_t>(grid.cellCount()));
     classSlot_[tracking.classId] = static_cast<int>(classes_.size());
     seedParent_[tracking.classId] = tracking.seedFromBoundaryOf;
@@ -187,6 +194,13 @@ const TrackingStats& RegionTracker::track(const CellClassifier& classifier) {
   };
 
   stats_.cellsBefore = totalCells();
+  touchReason_ = TouchReason::kInsideParent;
+  for (const ClassState& state : classes_) {
+    const int stride = state.tracking.searchInsideParentStride;
+    if (state.cells == 0 && stride > 0 && state.framesLost <= 2 * stride * stride) {
+      searchInsideParent(state);
+    }
+  }
   touchReason_ = TouchReason::kShrink;
   for (ClassState& state : classes_)
     shrink(state);
@@ -207,9 +221,16 @@ const TrackingStats& RegionTracker::track(const CellClassifier& classifier) {
     if (state.tracking.viewEdgeStride > 0) seedAtViewEdge(state);
     touchReason_ = TouchReason::kGrow;
     grow(state);
-    connectivity_.extractContoursAt(state.shrinkDrops, state.tracking.classId, contours_);
+    connectivity_.extractContoursAt(state.boundaryDrops, state.tracking.classId, contours_);
   }
   stats_.cellsAfterGrow = totalCells();
+  for (ClassState& state : classes_) {
+    if (state.cells > 0) {
+      state.framesLost = 0;
+    } else if (state.framesLost < kNeverSeen) {
+      ++state.framesLost;
+    }
+  }
 
   stats_.touchedFraction = static_cast<double>(stats_.cellsClassified) / grid_.cellCount();
   stats_.overlap = stats_.cellsAfterGrow > 0
@@ -226,8 +247,8 @@ void RegionTracker::shrink(ClassState& state) {
   const ClassId id = state.tracking.classId;
   ClassId* const visited = visited_.data();
   const int up = neighbour_[0], right = neighbour_[1], down = neighbour_[2], left = neighbour_[3];
-  std::vector<CellIndex>& drops = state.shrinkDrops;
-  std::vector<CellIndex>& stopped = state.growDrops;
+  std::vector<CellIndex>& drops = state.boundaryDrops;
+  std::vector<CellIndex>& stopped = state.workDrops;
   // Drops stand on unmarked cells while shrinking, so unmark the boundary drops first.
   for (const CellIndex drop : drops)
     visited[drop] = kNoClass;
@@ -242,6 +263,9 @@ void RegionTracker::shrink(ClassState& state) {
       drops.push_back(next);
     }
   };
+  // Shrinking starts only at the boundary: a change deep inside a region that touches no
+  // boundary drop (a ball jumping into green) is not seen here (seed 3.1.5); see
+  // searchInsideParent for the remedy used for small, fast classes.
   while (!drops.empty()) {
     const CellIndex drop = drops.back();
     drops.pop_back();
@@ -270,8 +294,8 @@ void RegionTracker::grow(ClassState& state) {
   const ClassId id = state.tracking.classId;
   ClassId* const visited = visited_.data();
   const ClassId* const seedParent = seedParent_.data();
-  std::vector<CellIndex>& drops = state.growDrops;
-  std::vector<CellIndex>& boundary = state.shrinkDrops;
+  std::vector<CellIndex>& drops = state.workDrops;
+  std::vector<CellIndex>& boundary = state.boundaryDrops;
   int cells = state.cells;
   int processed = 0;
   // Looks at the neighbour on one side; true if that side is on the region's boundary.
@@ -327,9 +351,33 @@ void RegionTracker::seedAtViewEdge(ClassState& state) {
   }
 }
 
+// Against the blind spot: the lost class `child` may sit inside its parent's regions, on cells
+// the parent still claims from earlier frames. Check a sparse, rotating subset of the parent's
+// interior cells; a stale one becomes a boundary drop of the parent, so the coming shrink carves
+// the island out and the parent's grow seeds `child` from the island's new boundary.
+void RegionTracker::searchInsideParent(const ClassState& child) {
+  ClassState* parent = stateOf(child.tracking.seedFromBoundaryOf);
+  if (parent == nullptr || parent->cells == 0) return;
+  const ClassId parentId = parent->tracking.classId;
+  const int stride = child.tracking.searchInsideParentStride;
+  const int phase = static_cast<int>(frameCount_ % (stride * stride));
+  for (int y = phase / stride; y < grid_.height; y += stride) {
+    for (int x = phase % stride; x < grid_.width; x += stride) {
+      const CellIndex cell = layout_.index(x, y);
+      if (visited_[cell] != parentId) continue;
+      // A cell on the region's edge is a boundary drop already: shrink checks it anyway (and a
+      // cell must not be a drop twice).
+      bool interior = true;
+      for (const int offset : neighbour_)
+        interior = interior && visited_[cell + offset] == parentId;
+      if (interior && classOf(cell) != parentId) parent->boundaryDrops.push_back(cell);
+    }
+  }
+}
+
 // Seed 3.1.7: measure every untracked region of the class in the whole frame and seed the
 // largest ones with one drop each.
-bool RegionTracker::initialSearch(ClassState& state) {
+void RegionTracker::initialSearch(ClassState& state) {
   const ClassId id = state.tracking.classId;
   seedCandidates_.clear();
   for (int y = 0; y < grid_.height; ++y) {
@@ -363,7 +411,6 @@ bool RegionTracker::initialSearch(ClassState& state) {
       [](const SeedCandidate& a, const SeedCandidate& b) { return a.cells > b.cells; });
   for (std::size_t i = 0; i < seeds; ++i)
     claim(state, seedCandidates_[i].seed);
-  return seeds > 0;
 }
 
 int RegionTracker::dropRegion(ClassId classId, int x, int y) {
@@ -389,7 +436,7 @@ int RegionTracker::dropRegion(ClassId classId, int x, int y) {
   }
   state->cells -= released;
   // Its boundary drops must go too, or the next shrink would revive the region.
-  std::erase_if(state->shrinkDrops, [&](const CellIndex d) { return visited_[d] != classId; });
+  std::erase_if(state->boundaryDrops, [&](const CellIndex d) { return visited_[d] != classId; });
   return released;
 }
 
@@ -397,8 +444,8 @@ void RegionTracker::dropClass(ClassId classId) {
   ClassState* state = stateOf(classId);
   if (state == nullptr) return;
   std::replace(visited_.begin(), visited_.end(), classId, kNoClass);
-  state->growDrops.clear();
-  state->shrinkDrops.clear();
+  state->workDrops.clear();
+  state->boundaryDrops.clear();
   state->pendingSeeds.clear();
   state->cells = 0;
 }
@@ -416,8 +463,8 @@ void RegionTracker::addSeed(ClassId classId, int x, int y) {
 void RegionTracker::reinitialise() {
   visited_ = emptyVisited_;
   for (ClassState& state : classes_) {
-    state.growDrops.clear();
-    state.shrinkDrops.clear();
+    state.workDrops.clear();
+    state.boundaryDrops.clear();
     state.cells = 0;
   }
 }

@@ -54,6 +54,15 @@ struct ClassTracking {
   // every n-th edge cell, starting one further each frame (all of them every n frames);
   // 0: off.
   int viewEdgeStride = 0;
+  // Extension to the seed, against its blind spot (3.1.5): shrinking starts only at boundary
+  // drops, so a small region that jumps (a fast ball) lands inside its parent's region, whose
+  // stale cells are never looked at again, and is lost until the next re-initialisation. For
+  // 2*n*n frames after this class lost its last region, every n-th cell of the parent's region
+  // interiors (a rotating pattern, all of them every n*n frames) is checked; a cell that lost
+  // the parent's class is handed to the parent's shrink, which carves the stale island out, and
+  // the class is seeded from its boundary again. (A class that has been away longer left the
+  // view: it comes back across a boundary.) Needs seedFromBoundaryOf; 0: off.
+  int searchInsideParentStride = 0;
 };
 
 struct TrackerConfig {
@@ -67,7 +76,8 @@ struct TrackerConfig {
 };
 
 // Reads keys cell_size, reinitialise_period_frames and a list `classes` of maps {class,
-// search_when_lost, max_seed_regions, min_seed_cells, seed_from_boundary_of, view_edge_stride}
+// search_when_lost, max_seed_regions, min_seed_cells, seed_from_boundary_of, view_edge_stride,
+// search_inside_parent_stride}
 // (all but class optional, defaults as in ClassTracking); class names are
 // turned into ids by `classByName` (nullopt: "unknown class" error at that key).
 TrackerConfig loadTrackerConfig(
@@ -82,8 +92,9 @@ enum class TouchReason : std::uint8_t {
   kSeed,           // seeds handed in or found next to a parent class's boundary
   kViewEdge,       // seeding at the edge of the view
   kInitialSearch,  // the whole-frame search of a lost class
+  kInsideParent,   // the sparse check of a parent's interior for a lost class
 };
-inline constexpr int kTouchReasonCount = 5;
+inline constexpr int kTouchReasonCount = 6;
 
 // What one track() call did: the quantities of the seed's table 3.1.
 struct TrackingStats {
@@ -147,7 +158,8 @@ class RegionTracker {
   const TrackingStats& stats() const { return stats_; }
   // True if the last track() computed the class of cell (x, y): the cells it accessed.
   bool classifiedInLastFrame(int x, int y) const {
-    return (classified_[layout_.index(x, y)] >> 8) == stamp_;
+    // Stamps start at 1 with the first frame: before it, no cell was classified.
+    return frameCount_ > 0 && (classified_[layout_.index(x, y)] >> 8) == stamp_;
   }
 
  private:
@@ -160,11 +172,18 @@ class RegionTracker {
   // Per class: the pair of drop queues (used as stacks; order does not matter) and its size.
   struct ClassState {
     ClassTracking tracking;
-    std::vector<CellIndex> growDrops;    // Q: drops still to spread during grow
-    std::vector<CellIndex> shrinkDrops;  // Q': boundary drops, the start of the next shrink
+    // Kept from frame to frame: the boundary cells of the regions. Filled by grow, emptied by the
+    // next shrink, which starts from them.
+    std::vector<CellIndex> boundaryDrops;
+    // Within one frame: the drops still to spread. Filled by shrink (the drops that stopped) and
+    // by seeding, emptied by grow.
+    std::vector<CellIndex> workDrops;
     std::vector<CellIndex> pendingSeeds;
     int cells = 0;
+    // Frames since the class last had a region (a large number before it was ever seen).
+    int framesLost = kNeverSeen;
   };
+  static constexpr int kNeverSeen = 1 << 30;
 
   // The class of a cell in the current frame, computed at most once per frame.
   ClassId classOf(CellIndex cell) {
@@ -178,14 +197,15 @@ class RegionTracker {
   void claim(ClassState& state, CellIndex cell) {
     visited_[cell] = state.tracking.classId;
     ++state.cells;
-    state.growDrops.push_back(cell);
+    state.workDrops.push_back(cell);
   }
 
   void shrink(ClassState& state);
   void grow(ClassState& state);
   void seedPending(ClassState& state);
   void seedAtViewEdge(ClassState& state);
-  bool initialSearch(ClassState& state);
+  void initialSearch(ClassState& state);
+  void searchInsideParent(const ClassState& child);
 
   CellGrid grid_;
   PaddedLayout layout_;

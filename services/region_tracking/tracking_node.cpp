@@ -17,21 +17,24 @@ TrackingNode::TrackingNode(bus::Node& node, TrackingNodeOptions options)
 bool TrackingNode::prepareFor(int width, int height) {
   if (processor_ && mirror_->width() == width && mirror_->height() == height) return true;
   // A frame of a foreign size is refused without disturbing the tracking of the usual frames.
-  std::optional<camera::MirrorModel> scaled;
+  // Everything for the new size is built aside and swapped in only when it all worked.
+  std::unique_ptr<camera::MirrorModel> mirror;
+  std::unique_ptr<FrameProcessor> processor;
   try {
-    scaled.emplace(options_.mirror.scaledTo(width, height));
+    mirror = std::make_unique<camera::MirrorModel>(options_.mirror.scaledTo(width, height));
+    processor = std::make_unique<FrameProcessor>(*mirror, options_.colours, options_.vision);
   } catch (const std::invalid_argument& e) {
-    node_.reportError("frame_size", e.what());
+    node_.reportError("frame_size",
+                      std::to_string(width) + "x" + std::to_string(height) + ": " + e.what());
     return false;
   }
-  processor_.reset();
-  mirror_ = std::move(scaled);
-  processor_ = std::make_unique<FrameProcessor>(*mirror_, options_.colours, options_.vision);
+  processor_ = std::move(processor);
+  mirror_ = std::move(mirror);
   return true;
 }
 
 void TrackingNode::onImage(const image_t& image) {
-  const std::int64_t frame = frames_received_++;
+  ++frames_received_;
   camera::PixelFormat format;
   if (image.format == image_t::FORMAT_YUYV) {
     format = camera::PixelFormat::kYuyv;
@@ -50,7 +53,8 @@ void TrackingNode::onImage(const image_t& image) {
     return;
   }
 
-  const bool detectLines = frame % options_.linesEveryFrames == 0;
+  // Every n-th processed frame: a rejected frame does not shift the cadence.
+  const bool detectLines = frames_processed_ % options_.linesEveryFrames == 0;
   // Processing time is a measurement of this computer, not of the world: steady_clock.
   const auto start = std::chrono::steady_clock::now();
   processor_->process(view, detectLines, result_);

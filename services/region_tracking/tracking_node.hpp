@@ -48,7 +48,8 @@ class TrackingNode {
   bus::Node& node_;
   TrackingNodeOptions options_;
   // For the size of the frames currently arriving.
-  std::optional<camera::MirrorModel> mirror_;
+  // Owned by pointer: the processor keeps a reference to it.
+  std::unique_ptr<camera::MirrorModel> mirror_;
   std::unique_ptr<FrameProcessor> processor_;
   VisionResult result_;
   line_contours_t lines_{};

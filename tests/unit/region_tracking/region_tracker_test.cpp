@@ -409,6 +409,56 @@ TEST(RegionTracker, SeedsFromTheBoundaryOfAParentClass) {
   EXPECT_EQ(tracker.ownerOf(11, 11), 1);
 }
 
+TEST(RegionTracker, ABallLostInsideGreenIsFoundByTheInteriorCheck) {
+  ClassGrid a(80, 60, 3);
+  a.fillRect(2, 2, 78, 58, 1);    // "green"
+  a.fillRect(20, 20, 23, 23, 2);  // a 3x3 "ball" inside green
+  TrackerConfig config = configFor({1, 2});
+  config.classes[1].searchWhenLost = false;
+  config.classes[1].seedFromBoundaryOf = 1;
+  config.classes[1].searchInsideParentStride = 4;
+  RegionTracker tracker(gridOf(a), config);
+  tracker.track(ClassMapClassifier(a.cells, a.width));
+  ASSERT_EQ(tracker.regionCells(2), 9);
+  // The ball jumps far inside green (the blind spot): lost at first, green holds its cells.
+  ClassGrid b = a;
+  b.fillRect(20, 20, 23, 23, 1);
+  b.fillRect(50, 40, 53, 43, 2);
+  const ClassMapClassifier jumped(b.cells, b.width);
+  tracker.track(jumped);
+  EXPECT_EQ(tracker.regionCells(2), 0);
+  // Within one full rotation of the pattern (16 frames) it is carved out of green and tracked;
+  // the interior check runs only while the ball is lost.
+  int frames = 1;
+  while (tracker.regionCells(2) == 0 && frames < 16) {
+    tracker.track(jumped);
+    ++frames;
+  }
+  EXPECT_EQ(tracker.regionCells(2), 9) << "after " << frames << " frames";
+  EXPECT_EQ(visitedOf(tracker), trackedPart(b, {1, 2}));
+  const TrackingStats tracked = tracker.track(jumped);
+  EXPECT_EQ(tracked.classifiedBy[static_cast<int>(TouchReason::kInsideParent)], 0);
+
+  // The ball leaves the view: the check runs for 2 * 4 * 4 frames, then stops costing anything.
+  ClassGrid gone = b;
+  gone.fillRect(50, 40, 53, 43, 1);
+  const ClassMapClassifier empty(gone.cells, gone.width);
+  int checking = 0;
+  for (int i = 0; i < 40; ++i) {
+    const TrackingStats s = tracker.track(empty);
+    if (s.classifiedBy[static_cast<int>(TouchReason::kInsideParent)] > 0) ++checking;
+  }
+  EXPECT_GE(checking, 30);
+  EXPECT_LE(checking, 33);
+  EXPECT_EQ(tracker.track(empty).classifiedBy[static_cast<int>(TouchReason::kInsideParent)], 0);
+}
+
+TEST(RegionTracker, InteriorCheckNeedsAParentClass) {
+  TrackerConfig config = configFor({1, 2});
+  config.classes[1].searchInsideParentStride = 4;
+  EXPECT_THROW(RegionTracker(CellGrid{10, 10, 1}, config), std::invalid_argument);
+}
+
 TEST(RegionTracker, SeedsRegionsEnteringAtTheEdgeOfTheView) {
   ClassGrid a(40, 30, 0);
   a.fillRect(5, 5, 15, 15, 1);

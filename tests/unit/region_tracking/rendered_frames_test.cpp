@@ -196,6 +196,7 @@ TEST(VisionParams, TheShippedYamlHoldsTheDefaults) {
     EXPECT_EQ(a.minSeedCells, b.minSeedCells);
     EXPECT_EQ(a.seedFromBoundaryOf, b.seedFromBoundaryOf);
     EXPECT_EQ(a.viewEdgeStride, b.viewEdgeStride);
+    EXPECT_EQ(a.searchInsideParentStride, b.searchInsideParentStride);
   }
   ASSERT_EQ(loaded.blocks.claims.size(), defaults.blocks.claims.size());
   for (std::size_t i = 0; i < loaded.blocks.claims.size(); ++i) {

@@ -104,14 +104,48 @@ TEST(TrackingNode, PublishesBallAndObstaclesEveryFrameAndLinesEveryThird) {
   square.size = 400 * 200;
   square.data.assign(square.size, 0);
   camera.publish(bus::channels::kCameraImage, square);
+  // The right aspect ratio but smaller than one cell: refused too, tracking state kept.
+  image_t tiny{};
+  tiny.header.utime = clock.now() - 60'000;
+  tiny.width = 4;
+  tiny.height = 2;
+  tiny.stride = 8;
+  tiny.format = image_t::FORMAT_YUYV;
+  tiny.size = 16;
+  tiny.data.assign(tiny.size, 0);
+  camera.publish(bus::channels::kCameraImage, tiny);
   for (int k = 0; k < 3; ++k)
     vision.spinOnce(0);
   for (int k = 0; k < 3; ++k)
     listener.spinOnce(0);
-  EXPECT_EQ(tracking.framesRejected(), 2);
+  EXPECT_EQ(tracking.framesRejected(), 3);
   EXPECT_EQ(ballTimes.size(), before);
   EXPECT_EQ(vision.status().errorCount("image_format"), 1);
-  EXPECT_EQ(vision.status().errorCount("frame_size"), 1);
+  EXPECT_EQ(vision.status().errorCount("frame_size"), 2);
+  EXPECT_EQ(vision.status().errorCount("exception"), 0);
+
+  // Good frames go on; the lines cadence counts processed frames only (7 processed so far: the
+  // 10th processed frame has lines), and tracking continued without a new initial search.
+  const std::size_t linesBefore = lineTimes.size();
+  for (int i = 7; i < 10; ++i) {
+    clock.advance(33'333);
+    sim.render(scene);
+    image_t image{};
+    image.header.utime = clock.now() - 60'000;
+    image.width = sim.renderer->width();
+    image.height = sim.renderer->height();
+    image.stride = sim.renderer->stride();
+    image.format = image_t::FORMAT_YUYV;
+    image.size = static_cast<std::int32_t>(sim.frame.size());
+    image.data = sim.frame;
+    camera.publish(bus::channels::kCameraImage, image);
+    vision.spinOnce(0);
+    for (int k = 0; k < 3; ++k)
+      listener.spinOnce(0);
+  }
+  EXPECT_EQ(tracking.framesProcessed(), 10);
+  EXPECT_EQ(lineTimes.size(), linesBefore + 1);
+  EXPECT_EQ(lastLines.initial_searches, 0);
 }
 
 }  // namespace
