@@ -8,6 +8,10 @@
 //   fieldline-profile-tracking                      # breakdown, default sequence
 //   valgrind --tool=callgrind --toggle-collect="*RegionTracker::track*"
 //       fieldline-profile-tracking --method tracker --no-breakdown   (one command line)
+//   valgrind --tool=callgrind --toggle-collect="*LineDetector::detect*"
+//       fieldline-profile-tracking --method whole --no-breakdown     (the line detector)
+//   perf stat fieldline-profile-tracking --method whole --no-breakdown --line-repeat 400
+//       (the detector run 400 times per frame, so that it dominates the counters)
 #include <algorithm>
 #include <array>
 #include <chrono>
@@ -113,7 +117,7 @@ int main(int argc, char** argv) {
   std::string field = "msl";
   std::string method = "tracker";
   double speed = 1.0, omegaDeg = 90.0;
-  int frames = 240, repeat = 1;
+  int frames = 240, repeat = 1, lineRepeat = 1;
   bool noBreakdown = false;
   app.add_option("--camera", cameraPreset, "camera preset")->capture_default_str();
   app.add_option("--field", field, "field preset")->capture_default_str();
@@ -129,6 +133,10 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--method", method, "tracker, whole (tracker + line points), cmvision, opencv")
       ->check(CLI::IsMember({"tracker", "whole", "cmvision", "opencv"}))
+      ->capture_default_str();
+  app.add_option("--line-repeat", lineRepeat,
+                 "with --method whole: line detector runs per frame (to profile it alone)")
+      ->check(CLI::Range(1, 1000))
       ->capture_default_str();
   app.add_flag("--no-breakdown", noBreakdown, "skip the per-cell analysis (for callgrind)");
   CLI11_PARSE(app, argc, argv);
@@ -164,8 +172,10 @@ int main(int argc, char** argv) {
           continue;
         }
         processor.tracker().track(processor.classifier());
-        if (method == "whole")
-          processor.lineDetector().detect(frame, processor.tracker().contours(), lines);
+        if (method == "whole") {
+          for (int k = 0; k < lineRepeat; ++k)
+            processor.lineDetector().detect(frame, processor.tracker().contours(), lines);
+        }
         if (noBreakdown || i == 0) continue;
         addBreakdown(processor, processor.classifier(), breakdown);
         ++measured;
@@ -213,7 +223,8 @@ int main(int argc, char** argv) {
     const rt::CellGrid& grid = timed.grid();
     std::vector<rt::Cell> touchedCells;
     std::vector<rt::ClassId> rowClasses(grid.width);
-    std::vector<double> trackTimes, touchedTimes, allTimes;
+    std::vector<double> trackTimes, touchedTimes, allTimes, lineTimes, lineAgainTimes;
+    rt::LinePoints timedLines;
     volatile unsigned sink = 0;
     for (int i = 0; i < frames; ++i) {
       std::copy(sequence[i].begin(), sequence[i].end(), delivered.begin());
@@ -221,6 +232,12 @@ int main(int argc, char** argv) {
       const Clock::time_point t0 = Clock::now();
       timed.tracker().track(classifier);
       const Clock::time_point t1 = Clock::now();
+      timed.lineDetector().detect(sim.renderer->view(delivered), timed.tracker().contours(),
+                                  timedLines);
+      const Clock::time_point tLines = Clock::now();
+      timed.lineDetector().detect(sim.renderer->view(delivered), timed.tracker().contours(),
+                                  timedLines);
+      const Clock::time_point tLinesAgain = Clock::now();
       touchedCells.clear();
       for (int y = 0; y < grid.height; ++y) {
         for (int x = 0; x < grid.width; ++x) {
@@ -246,11 +263,17 @@ int main(int argc, char** argv) {
       sink = sink + acc;
       if (i == 0) continue;
       trackTimes.push_back(micro(t1 - t0));
+      lineTimes.push_back(micro(tLines - t1));
+      lineAgainTimes.push_back(micro(tLinesAgain - tLines));
       touchedTimes.push_back(micro(t3 - t2));
       allTimes.push_back(micro(t5 - t4));
     }
     std::printf("\n| per frame, median | us |\n|---|---|\n");
     std::printf("| tracker (track: segmentation + boundaries) | %.1f |\n", median(trackTimes));
+    std::printf("| line points on the tracker's boundaries (right after track) | %.1f |\n",
+                median(lineTimes));
+    std::printf("| the same again (frame and tables now cached) | %.1f |\n",
+                median(lineAgainTimes));
     std::printf("| classifying only the cells the tracker touched (raster order) | %.1f |\n",
                 median(touchedTimes));
     std::printf("| classifying every cell (what (a) and (b) must do at least) | %.1f |\n",

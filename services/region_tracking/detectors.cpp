@@ -1,10 +1,12 @@
 #include "services/region_tracking/detectors.hpp"
 
 #include <algorithm>
-#include <climits>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <numbers>
+#include <numeric>
+#include <stdexcept>
 
 namespace fieldline::region_tracking {
 
@@ -27,9 +29,8 @@ inline int nearestPixel(float coordinate) {
 FloorLookup::FloorLookup(const camera::MirrorModel& mirror)
     : width_(mirror.width()),
       height_(mirror.height()),
-      x_(static_cast<std::size_t>(width_) * height_, kNaN),
-      y_(x_.size(), kNaN),
-      finestMetresPerPixel_(x_.size(), kNaN) {
+      floor_(static_cast<std::size_t>(width_) * height_, FloorXY{kNaN, kNaN}),
+      finestMetresPerPixel_(floor_.size(), kNaN) {
   for (int v = 0; v < height_; ++v) {
     for (int u = 0; u < width_; ++u) {
       if (mirror.dontTouch(u, v)) continue;
@@ -37,8 +38,7 @@ FloorLookup::FloorLookup(const camera::MirrorModel& mirror)
       const std::optional<camera::Vec2> floor = mirror.imageToRobot(pixel);
       if (!floor) continue;
       const std::size_t i = static_cast<std::size_t>(v) * width_ + u;
-      x_[i] = static_cast<float>(floor->x());
-      y_[i] = static_cast<float>(floor->y());
+      floor_[i] = {static_cast<float>(floor->x()), static_cast<float>(floor->y())};
       const camera::Vec2 mpp = mirror.metresPerPixel(pixel);
       finestMetresPerPixel_[i] = static_cast<float>(std::min(mpp.x(), mpp.y()));
     }
@@ -56,170 +56,362 @@ std::optional<camera::Vec2> FloorLookup::floorPoint(double u, double v) const {
   const double weights[4] = {(1 - fu) * (1 - fv), fu * (1 - fv), (1 - fu) * fv, fu * fv};
   double x = 0, y = 0;
   for (int k = 0; k < 4; ++k) {
-    x += weights[k] * x_[corners[k]];
-    y += weights[k] * y_[corners[k]];
+    x += weights[k] * floor_[corners[k]].x;
+    y += weights[k] * floor_[corners[k]].y;
   }
   if (!std::isfinite(x) || !std::isfinite(y)) return std::nullopt;
   return camera::Vec2(x, y);
+}
+
+bool FloorLookup::floorPoint(float u, float v, float& x, float& y) const {
+  if (!(u >= 0.0f && v >= 0.0f)) return false;  // also NaN
+  const int u0 = static_cast<int>(u);
+  const int v0 = static_cast<int>(v);
+  if (u0 + 1 >= width_ || v0 + 1 >= height_) return false;
+  const float fu = u - static_cast<float>(u0);
+  const float fv = v - static_cast<float>(v0);
+  const FloorXY* top = &floor_[static_cast<std::size_t>(v0) * width_ + u0];
+  const FloorXY* bottom = top + width_;
+  const float topX = top[0].x + fu * (top[1].x - top[0].x);
+  const float topY = top[0].y + fu * (top[1].y - top[0].y);
+  const float bottomX = bottom[0].x + fu * (bottom[1].x - bottom[0].x);
+  const float bottomY = bottom[0].y + fu * (bottom[1].y - bottom[0].y);
+  x = topX + fv * (bottomX - topX);
+  y = topY + fv * (bottomY - topY);
+  return std::isfinite(x) && std::isfinite(y);  // a NaN corner spoils the sum
 }
 
 // ---------------------------------------------------------------------------------------------
 
 LineDetector::LineDetector(const camera::ColourTable& table, const FloorLookup& floor,
                            const LineDetectorParams& params, int cellSize)
-    : table_(table), floor_(floor), params_(params), cellSize_(cellSize) {}
+    : table_(table),
+      floor_(floor),
+      params_(params),
+      cellSize_(cellSize),
+      usableWordsPerRow_((floor.width() + 63) / 64),
+      usable_(static_cast<std::size_t>(usableWordsPerRow_) * floor.height(), 0),
+      runBlocksPerRow_((floor.width() >> kRunBlockShift) + 1),
+      maxRunByBlock_(
+          static_cast<std::size_t>(runBlocksPerRow_) * ((floor.height() >> kRunBlockShift) + 1), 0),
+      // Half a cell inside the boundary (at least 2 px): the field pixels before the line.
+      firstStep_(-std::max(2, cellSize / 2)) {
+  if (params_.sampleSpacing < 1 || params_.tangentHalfSpan < 1 || params_.smoothingPasses < 0 ||
+      params_.maxTransitionPixels < 0 || cellSize < 1) {
+    throw std::invalid_argument("line detector: invalid parameters");
+  }
+  // The longest white run a line can give at a pixel: its width at the pixel's finest floor
+  // resolution, with tolerance, + 2 px; capped so that walks fit the 8-bit steps (~110 px).
+  const int runCap = 127 - cellSize_ - 2 * params_.maxTransitionPixels - 1;
+  if (runCap < 3 || firstStep_ < -127) {
+    throw std::invalid_argument("line detector: cells or transitions too large");
+  }
+  int longestRun = 0;
+  for (int v = 0; v < floor.height(); ++v) {
+    for (int u = 0; u < floor.width(); ++u) {
+      const float metresPerPixel = floor.finestMetresPerPixel(u, v);
+      if (!std::isfinite(metresPerPixel) || metresPerPixel <= 0.0f) continue;
+      usable_[static_cast<std::size_t>(v) * usableWordsPerRow_ + (u >> 6)] |= std::uint64_t{1}
+                                                                              << (u & 63);
+      const double run = params_.widthTolerance * params_.lineWidth / metresPerPixel + 2;
+      const int capped = static_cast<int>(std::min(run, static_cast<double>(runCap)));
+      std::uint8_t& block =
+          maxRunByBlock_[static_cast<std::size_t>(v >> kRunBlockShift) * runBlocksPerRow_ +
+                         (u >> kRunBlockShift)];
+      block = static_cast<std::uint8_t>(std::max<int>(block, capped));
+      longestRun = std::max(longestRun, capped);
+    }
+  }
+  lastStep_ = cellSize_ + longestRun + 2 * params_.maxTransitionPixels + 1;
 
+  // The walks: nearest pixel to t * normal for t = firstStep_..lastStep_, repeats dropped.
+  const int span = lastStep_ - firstStep_ + 1;
+  walkCapacity_ = span;
+  walks_.assign(static_cast<std::size_t>(kDirections) * span, Step{0, 0});
+  walkCountUpTo_.assign(static_cast<std::size_t>(kDirections) * span, 0);
+  for (int d = 0; d < kDirections; ++d) {
+    // The middle of the direction's bin on the "diamond" |u| + |v| = 1 (see directionOf).
+    const double p = (d + 0.5) * 4.0 / kDirections;
+    const int quadrant = static_cast<int>(p);
+    const double r = p - quadrant;
+    double nu = 1 - r, nv = r;
+    for (int q = 0; q < quadrant; ++q) {
+      const double turned = -nv;  // 90 degrees, +u towards +v
+      nv = nu;
+      nu = turned;
+    }
+    const double norm = std::hypot(nu, nv);
+    nu /= norm;
+    nv /= norm;
+    Step* walk = &walks_[static_cast<std::size_t>(d) * span];
+    std::uint8_t* countUpTo = &walkCountUpTo_[static_cast<std::size_t>(d) * span];
+    int count = 0;
+    for (int t = firstStep_; t <= lastStep_; ++t) {
+      const Step step{static_cast<std::int8_t>(std::floor(t * nu + 0.5)),
+                      static_cast<std::int8_t>(std::floor(t * nv + 0.5))};
+      if (count == 0 || step.du != walk[count - 1].du || step.dv != walk[count - 1].dv) {
+        walk[count++] = step;
+      }
+      countUpTo[t - firstStep_] = static_cast<std::uint8_t>(count);
+    }
+  }
+
+  // smoothingPasses passes of 0.25/0.5/0.25 are one binomial kernel.
+  smoothingKernel_.assign(1, 1.0f);
+  for (int pass = 0; pass < params_.smoothingPasses; ++pass) {
+    std::vector<float> wider(smoothingKernel_.size() + 2, 0.0f);
+    for (std::size_t j = 0; j < smoothingKernel_.size(); ++j) {
+      wider[j] += 0.25f * smoothingKernel_[j];
+      wider[j + 1] += 0.5f * smoothingKernel_[j];
+      wider[j + 2] += 0.25f * smoothingKernel_[j];
+    }
+    smoothingKernel_.swap(wider);
+  }
+  pad_ = params_.smoothingPasses + params_.tangentHalfSpan;
+}
+
+// Bins of equal length on the diamond |u| + |v| = 1, counter-clockwise from +u: no atan2, and
+// no bin is wider than 2 * 360 / kDirections degrees.
+int LineDetector::directionOf(float normalU, float normalV) {
+  const float sum = std::abs(normalU) + std::abs(normalV);
+  float p;
+  if (normalV >= 0.0f) {
+    p = normalU >= 0.0f ? normalV / sum : 1.0f - normalU / sum;
+  } else {
+    p = normalU < 0.0f ? 2.0f - normalV / sum : 3.0f + normalU / sum;
+  }
+  return std::min(static_cast<int>(p * (kDirections / 4)), kDirections - 1);
+}
+
+template <camera::PixelFormat kFormat>
 bool LineDetector::scan(const camera::FrameView& frame, float originU, float originV, float normalU,
                         float normalV, float& lineU, float& lineV) {
   const int ou = nearestPixel(originU);
   const int ov = nearestPixel(originV);
   if (!frame.contains(ou, ov)) return false;
-  const float metresPerPixel = floor_.finestMetresPerPixel(ou, ov);
-  if (!std::isfinite(metresPerPixel)) return false;
+  if (!usable(ou, ov)) return false;
+  const int maxRun = maxRunAt(ou, ov);
+  const int direction = directionOf(normalU, normalV);
+  const Step* walk = &walks_[static_cast<std::size_t>(direction) * walkCapacity_];
+  const std::uint8_t* countUpTo =
+      &walkCountUpTo_[static_cast<std::size_t>(direction) * walkCapacity_];
   // Boundaries along the edge of the view face unusable pixels: nothing to find there.
-  const int pu = nearestPixel(originU + normalU * (cellSize_ + 1));
-  const int pv = nearestPixel(originV + normalV * (cellSize_ + 1));
-  if (!frame.contains(pu, pv) || !std::isfinite(floor_.finestMetresPerPixel(pu, pv))) {
+  const Step probe = walk[countUpTo[cellSize_ + 1 - firstStep_] - 1];
+  if (!frame.contains(ou + probe.du, ov + probe.dv) || !usable(ou + probe.du, ov + probe.dv)) {
     return false;
   }
-  const int maxRun =
-      static_cast<int>(params_.widthTolerance * params_.lineWidth / metresPerPixel) + 2;
-  const int start = -cellSize_;
   const int stop = cellSize_ + maxRun + 2 * params_.maxTransitionPixels + 1;
+  int count = countUpTo[stop - firstStep_];
+  // The walk is a straight line: inside the frame if both ends are; else cut it where it
+  // leaves (running into the cut is a miss, as running past `stop`).
+  const auto inside = [&](const Step s) { return frame.contains(ou + s.du, ov + s.dv); };
+  if (!inside(walk[0])) return false;
+  if (!inside(walk[count - 1])) {
+    int within = 1;
+    while (within < count && inside(walk[within]))
+      ++within;
+    count = within;
+  }
 
   // Walk the normal pixel by pixel looking for: field ... [transition] line-run [transition]
-  // field. Each sample keeps its position along the normal (the pixel centre projected on it)
-  // and its brightness, for the sub-pixel edges below.
-  samples_.clear();
+  // field, keeping each pixel's brightness for the sub-pixel edges.
+  constexpr int kBytesPerPixel = kFormat == camera::PixelFormat::kYuyv ? 2 : 3;
+  const std::uint8_t* origin =
+      frame.data + static_cast<std::ptrdiff_t>(ov) * frame.stride + ou * kBytesPerPixel;
+  const std::ptrdiff_t stride = frame.stride;
+  const camera::ColourClass fieldColour = params_.fieldColour;
+  const camera::ColourClass lineColour = params_.lineColour;
+  const int maxTransition = params_.maxTransitionPixels;
+  // On the stack, so that storing a brightness cannot alias the colour table's pointer (which
+  // would be reloaded for every pixel). Walks have at most 255 steps (8-bit offsets).
+  std::array<std::uint8_t, kMaxWalk> luma;
   bool sawField = false;
   int lastField = -1, runStart = -1, runEnd = -1, transition = 0;
-  int previousU = INT32_MIN, previousV = INT32_MIN;
-  for (int t = start; t <= stop; ++t) {
-    const int u = nearestPixel(originU + normalU * t);
-    const int v = nearestPixel(originV + normalV * t);
-    if (u == previousU && v == previousV) continue;
-    previousU = u;
-    previousV = v;
-    if (!frame.contains(u, v)) return false;
-    const camera::Yuv yuv = camera::readYuv(frame, u, v);
-    ++pixelsRead_;
+  int index = 0;
+  bool found = false;
+  for (; index < count; ++index) {
+    const Step step = walk[index];
+    const std::uint8_t* pixel = origin + step.dv * stride + step.du * kBytesPerPixel;
+    camera::Yuv yuv;
+    if constexpr (kFormat == camera::PixelFormat::kYuyv) {
+      // Y at 2u; the pair's U and V at 1 and 3 from its even pixel.
+      const std::uint8_t* pair = pixel - (((ou + step.du) & 1) << 1);
+      yuv = {pixel[0], pair[1], pair[3]};
+    } else {
+      yuv = camera::yuvFromBgr({pixel[0], pixel[1], pixel[2]});
+    }
+    luma[index] = yuv.y;
     const camera::ColourClass c = table_.classifyYuv(yuv);
-    const int index = static_cast<int>(samples_.size());
-    samples_.push_back({(u - originU) * normalU + (v - originV) * normalV, yuv.y});
-    const bool field = c == params_.fieldColour;
-    const bool line = c == params_.lineColour;
+    const bool field = c == fieldColour;
+    const bool line = c == lineColour;
     if (runStart < 0) {  // before the line
       if (field) {
         sawField = true;
         lastField = index;
         transition = 0;
       } else if (line) {
-        if (!sawField) return false;
+        if (!sawField) break;
         runStart = runEnd = index;
         transition = 0;
-      } else if (sawField && ++transition > params_.maxTransitionPixels) {
-        return false;
+      } else if (sawField && ++transition > maxTransition) {
+        break;
       }
     } else if (line && runEnd == index - 1) {  // on the line
       runEnd = index;
-      if (runEnd - runStart + 1 > maxRun) return false;
+      if (runEnd - runStart + 1 > maxRun) break;
     } else if (field) {  // back on the field: found
-      const float middle =
-          0.5f * (risingEdge(lastField, runStart, runEnd) + fallingEdge(runStart, runEnd, index));
-      lineU = originU + normalU * middle;
-      lineV = originV + normalV * middle;
-      return true;
-    } else if (line || ++transition > params_.maxTransitionPixels) {
-      return false;
+      found = true;
+      break;
+    } else if (line || ++transition > maxTransition) {
+      break;
     }
   }
-  return false;
+  const int read = std::min(index + 1, count);
+  pixelsRead_ += read;
+  if (!found) return false;
+  // Positions along the exact (unit) normal, only now that there is something to place.
+  const float inverseLength = 1.0f / std::sqrt(normalU * normalU + normalV * normalV);
+  walk_ = walk;
+  walkFractionU_ = originU - static_cast<float>(ou);
+  walkFractionV_ = originV - static_cast<float>(ov);
+  walkNormalU_ = normalU * inverseLength;
+  walkNormalV_ = normalV * inverseLength;
+  const float middle = 0.5f * (risingEdge(luma.data(), lastField, runStart, runEnd) +
+                               fallingEdge(luma.data(), runStart, runEnd, index));
+  lineU = originU + walkNormalU_ * middle;
+  lineV = originV + walkNormalV_ * middle;
+  return true;
 }
 
 // Where the brightness crosses halfway between the field before the line and the line's
 // brightest sample, interpolated between the two samples around the crossing.
-float LineDetector::risingEdge(int field, int runStart, int runEnd) const {
-  std::uint8_t peak = 0;
-  for (int i = runStart; i <= runEnd; ++i)
-    peak = std::max(peak, samples_[i].luma);
-  const float threshold = 0.5f * (static_cast<float>(samples_[field].luma) + peak);
+float LineDetector::risingEdge(const std::uint8_t* luma, int field, int runStart,
+                               int runEnd) const {
+  const std::uint8_t peak = *std::max_element(&luma[runStart], &luma[runEnd] + 1);
+  const float threshold = 0.5f * (static_cast<float>(luma[field]) + peak);
   for (int i = field; i < runStart; ++i) {
-    const Sample& a = samples_[i];
-    const Sample& b = samples_[i + 1];
-    if (a.luma < threshold && b.luma >= threshold) {
-      return a.t + (b.t - a.t) * (threshold - a.luma) / (static_cast<float>(b.luma) - a.luma);
+    const float a = luma[i], b = luma[i + 1];
+    if (a < threshold && b >= threshold) {
+      const float ta = along(i), tb = along(i + 1);
+      return ta + (tb - ta) * (threshold - a) / (b - a);
     }
   }
-  return 0.5f * (samples_[runStart - 1].t + samples_[runStart].t);
+  return 0.5f * (along(runStart - 1) + along(runStart));
 }
 
-float LineDetector::fallingEdge(int runStart, int runEnd, int field) const {
-  std::uint8_t peak = 0;
-  for (int i = runStart; i <= runEnd; ++i)
-    peak = std::max(peak, samples_[i].luma);
-  const float threshold = 0.5f * (static_cast<float>(samples_[field].luma) + peak);
+float LineDetector::fallingEdge(const std::uint8_t* luma, int runStart, int runEnd,
+                                int field) const {
+  const std::uint8_t peak = *std::max_element(&luma[runStart], &luma[runEnd] + 1);
+  const float threshold = 0.5f * (static_cast<float>(luma[field]) + peak);
   for (int i = runEnd; i < field; ++i) {
-    const Sample& a = samples_[i];
-    const Sample& b = samples_[i + 1];
-    if (a.luma >= threshold && b.luma < threshold) {
-      return a.t + (b.t - a.t) * (a.luma - threshold) / (a.luma - static_cast<float>(b.luma));
+    const float a = luma[i], b = luma[i + 1];
+    if (a >= threshold && b < threshold) {
+      const float ta = along(i), tb = along(i + 1);
+      return ta + (tb - ta) * (a - threshold) / (a - b);
     }
   }
-  return 0.5f * (samples_[runEnd].t + samples_[runEnd + 1].t);
+  return 0.5f * (along(runEnd) + along(runEnd + 1));
+}
+
+template <int kTaps>
+void LineDetector::smoothedPoint(int i, float& u, float& v) const {
+  // paddedU_[j] holds corner j - pad_; the kernel is centred on corner i.
+  const int taps = kTaps > 0 ? kTaps : static_cast<int>(smoothingKernel_.size());
+  const int reach = taps / 2;
+  const float* pu = &paddedU_[i + pad_ - reach];
+  const float* pv = &paddedV_[i + pad_ - reach];
+  const float* weight = smoothingKernel_.data();
+  float su = 0, sv = 0;
+  if constexpr (kTaps == 7) {  // symmetric: 4 multiplications instead of 7
+    su = weight[0] * (pu[0] + pu[6]) + weight[1] * (pu[1] + pu[5]) + weight[2] * (pu[2] + pu[4]) +
+         weight[3] * pu[3];
+    sv = weight[0] * (pv[0] + pv[6]) + weight[1] * (pv[1] + pv[5]) + weight[2] * (pv[2] + pv[4]) +
+         weight[3] * pv[3];
+  } else {
+    for (int j = 0; j < taps; ++j) {
+      su += weight[j] * pu[j];
+      sv += weight[j] * pv[j];
+    }
+  }
+  u = su + kCornerToPixel;
+  v = sv + kCornerToPixel;
 }
 
 void LineDetector::detect(const camera::FrameView& frame, const ContourSet& contours,
                           LinePoints& out) {
+  if (frame.width != floor_.width() || frame.height != floor_.height()) {
+    throw std::invalid_argument("line detector: frame size differs from the floor lookup's");
+  }
   out.clear();
   pixelsRead_ = 0;
+  const bool yuyv = frame.format == camera::PixelFormat::kYuyv;
   const ClassId field = classIdOf(params_.fieldColour);
+  const int spacing = params_.sampleSpacing;
+  const int k = params_.tangentHalfSpan;
   for (const Contour& contour : contours.contours) {
     if (contour.classId != field || contour.size() < params_.minContourPoints) continue;
     const int n = contour.size();
-    smoothU_.resize(n);
-    smoothV_.resize(n);
-    tmpU_.resize(n);
-    tmpV_.resize(n);
-    for (int i = 0; i < n; ++i) {
-      const ContourPoint& p = contours.points[contour.begin + i];
-      smoothU_[i] = static_cast<float>(p.x) + kCornerToPixel;
-      smoothV_[i] = static_cast<float>(p.y) + kCornerToPixel;
+    const ContourPoint* corners = &contours.points[contour.begin];
+    // The corners with the kernel's and the tangent's reach wrapped around on both sides.
+    paddedU_.resize(n + 2 * pad_);
+    paddedV_.resize(n + 2 * pad_);
+    for (int j = 0; j < n; ++j) {
+      paddedU_[pad_ + j] = static_cast<float>(corners[j].x);
+      paddedV_[pad_ + j] = static_cast<float>(corners[j].y);
+    }
+    for (int j = 0; j < pad_; ++j) {  // the wrapped ends (the contour may be shorter than pad_)
+      const int before = ((j - pad_) % n + n) % n;
+      paddedU_[j] = static_cast<float>(corners[before].x);
+      paddedV_[j] = static_cast<float>(corners[before].y);
+      paddedU_[pad_ + n + j] = static_cast<float>(corners[j % n].x);
+      paddedV_[pad_ + n + j] = static_cast<float>(corners[j % n].y);
     }
     // The contour is a staircase of cell sides; smoothing turns it into a curve with usable
-    // tangents (the seed smooths before taking differences, section 3.3).
-    for (int pass = 0; pass < params_.smoothingPasses; ++pass) {
-      for (int i = 0; i < n; ++i) {
-        const int prev = i == 0 ? n - 1 : i - 1;
-        const int next = i == n - 1 ? 0 : i + 1;
-        tmpU_[i] = 0.25f * smoothU_[prev] + 0.5f * smoothU_[i] + 0.25f * smoothU_[next];
-        tmpV_[i] = 0.25f * smoothV_[prev] + 0.5f * smoothV_[i] + 0.25f * smoothV_[next];
-      }
-      smoothU_.swap(tmpU_);
-      smoothV_.swap(tmpV_);
+    // tangents (the seed smooths before taking differences, section 3.3). Only the corners
+    // that are sampled or give a sample's tangent are smoothed: every `stride`-th one.
+    const int stride = n % std::gcd(spacing, k) == 0 ? std::gcd(spacing, k) : 1;
+    const int smoothed = n / stride;
+    smoothU_.resize(smoothed);
+    smoothV_.resize(smoothed);
+    if (smoothingKernel_.size() == 7) {
+      for (int j = 0; j < smoothed; ++j)
+        smoothedPoint<7>(j * stride, smoothU_[j], smoothV_[j]);
+    } else {
+      for (int j = 0; j < smoothed; ++j)
+        smoothedPoint<0>(j * stride, smoothU_[j], smoothV_[j]);
     }
 
-    const int samples = n / params_.sampleSpacing;
+    const int samples = n / spacing;
     hits_.assign(samples, Hit{false, {}});
-    const int k = params_.tangentHalfSpan;
+    // Indices among the smoothed corners: no division per sample but at the contour's ends.
+    const int sampleStep = spacing / stride, tangentReach = k / stride;
     for (int s = 0; s < samples; ++s) {
-      const int i = s * params_.sampleSpacing;
-      const int ahead = (i + k) % n;
-      const int behind = (i - k + n) % n;
-      float tu = smoothU_[ahead] - smoothU_[behind];
-      float tv = smoothV_[ahead] - smoothV_[behind];
-      const float length = std::sqrt(tu * tu + tv * tv);
-      if (length < 1e-3f) continue;
-      tu /= length;
-      tv /= length;
-      // The region lies to the right of the walking direction on screen: outward is left.
+      const int centre = s * sampleStep;
+      int ahead = centre + tangentReach, behind = centre - tangentReach;
+      if (ahead >= smoothed) ahead %= smoothed;
+      if (behind < 0) behind = (behind % smoothed + smoothed) % smoothed;
+      const float tu = smoothU_[ahead] - smoothU_[behind];
+      const float tv = smoothV_[ahead] - smoothV_[behind];
+      if (tu * tu + tv * tv < 1e-6f) continue;
+      // The region lies to the right of the walking direction on screen: outward is left. The
+      // walk needs only the normal's direction; scan() normalises it when it finds a line.
       const float normalU = tv;
       const float normalV = -tu;
+      const float originU = smoothU_[centre], originV = smoothV_[centre];
       float lineU = 0, lineV = 0;
-      if (!scan(frame, smoothU_[i], smoothV_[i], normalU, normalV, lineU, lineV)) continue;
-      const std::optional<camera::Vec2> floor = floor_.floorPoint(lineU, lineV);
-      if (!floor) continue;
-      hits_[s] = {true,
-                  {lineU, lineV, static_cast<float>(floor->x()), static_cast<float>(floor->y())}};
+      const bool hit = yuyv ? scan<camera::PixelFormat::kYuyv>(frame, originU, originV, normalU,
+                                                               normalV, lineU, lineV)
+                            : scan<camera::PixelFormat::kBgr>(frame, originU, originV, normalU,
+                                                              normalV, lineU, lineV);
+      if (!hit) continue;
+      hits_[s] = {true, {lineU, lineV, 0.0f, 0.0f}};
+      floor_.prefetch(lineU, lineV);
+    }
+    // The floor points, now that their table entries are on the way (the table is large, and
+    // looking each up right after its scan waited on memory for every point).
+    for (Hit& hit : hits_) {
+      if (hit.found)
+        hit.found = floor_.floorPoint(hit.point.u, hit.point.v, hit.point.x, hit.point.y);
     }
 
     // Group hits into sequences along the contour, starting after a miss so that a sequence

@@ -25,15 +25,33 @@ class FloorLookup {
   // Floor point (m, robot frame) at a sub-pixel image position; nullopt where any of the four
   // surrounding pixels has no usable floor point.
   std::optional<camera::Vec2> floorPoint(double u, double v) const;
+  // The same in single precision for the per-point paths; false where unusable.
+  bool floorPoint(float u, float v, float& x, float& y) const;
+  // Starts loading the table entries floorPoint(u, v) will read (a hint, no effect otherwise).
+  void prefetch(float u, float v) const {
+    if (!(u >= 0.0f && v >= 0.0f)) return;
+    const int u0 = static_cast<int>(u), v0 = static_cast<int>(v);
+    if (u0 + 1 >= width_ || v0 + 1 >= height_) return;
+    const FloorXY* top = &floor_[static_cast<std::size_t>(v0) * width_ + u0];
+    __builtin_prefetch(top);
+    __builtin_prefetch(top + 1);
+    __builtin_prefetch(top + width_);
+    __builtin_prefetch(top + width_ + 1);
+  }
   // Smaller of the radial and tangential floor sizes of the pixel, m (NaN where unusable): a
   // floor length L spans at most L / finestMetresPerPixel pixels there.
   float finestMetresPerPixel(int u, int v) const { return finestMetresPerPixel_[v * width_ + u]; }
+  int width() const { return width_; }
+  int height() const { return height_; }
 
  private:
+  struct FloorXY {
+    float x, y;  // NaN where unusable
+  };
   int width_;
   int height_;
-  std::vector<float> x_;  // NaN where unusable
-  std::vector<float> y_;
+  // x and y side by side: a bilinear lookup touches two cache lines, not four.
+  std::vector<FloorXY> floor_;
   std::vector<float> finestMetresPerPixel_;
 };
 
@@ -84,35 +102,85 @@ class LineDetector {
                const LineDetectorParams& params, int cellSize);
 
   // Searches along the outward normals of every field-coloured contour in `contours` for
-  // field -> line -> field transitions; appends nothing, `out` is cleared first.
+  // field -> line -> field transitions; appends nothing, `out` is cleared first. Throws
+  // std::invalid_argument for a frame of another size than the floor lookup's.
   void detect(const camera::FrameView& frame, const ContourSet& contours, LinePoints& out);
   // Pixels the last detect() read along the normals.
   int pixelsRead() const { return pixelsRead_; }
 
  private:
-  // Scans from `origin` along unit `normal`; on success the line point's image position.
+  // One pixel of a walk along a normal: offset from the pixel nearest the walk's origin.
+  struct Step {
+    std::int8_t du, dv;
+  };
+  // Normals are quantised to this many directions for the precomputed walks (at most 0.9 deg
+  // off); positions along the normal are still measured along the exact normal.
+  static constexpr int kDirections = 256;
+  static int directionOf(float normalU, float normalV);
+  // Steps are 8-bit offsets, so a walk has at most this many pixels.
+  static constexpr int kMaxWalk = 256;
+
+  // Scans from `origin` along `normal` (any length); on success the line point's image position.
+  template <camera::PixelFormat kFormat>
   bool scan(const camera::FrameView& frame, float originU, float originV, float normalU,
             float normalV, float& lineU, float& lineV);
-  float risingEdge(int field, int runStart, int runEnd) const;
-  float fallingEdge(int runStart, int runEnd, int field) const;
+  // Where the brightness crosses halfway between the field sample `field` and the peak of the
+  // line run [runStart, runEnd], along the normal; `luma` holds the walk's brightness.
+  float risingEdge(const std::uint8_t* luma, int field, int runStart, int runEnd) const;
+  float fallingEdge(const std::uint8_t* luma, int runStart, int runEnd, int field) const;
+  // Position along the current normal of step `index` of the current walk (pixel centre
+  // projected on the exact normal).
+  float along(int index) const {
+    const Step step = walk_[index];
+    return (step.du - walkFractionU_) * walkNormalU_ + (step.dv - walkFractionV_) * walkNormalV_;
+  }
+  // Smoothed contour point `i` (0 <= i < contour size) into `u`, `v`; kTaps is the kernel's
+  // size when known at compile time (the default 3 passes), 0 otherwise.
+  template <int kTaps>
+  void smoothedPoint(int i, float& u, float& v) const;
 
   const camera::ColourTable& table_;
   const FloorLookup& floor_;
   LineDetectorParams params_;
   int cellSize_;
-  // Per contour scratch, reused.
-  std::vector<float> smoothU_, smoothV_, tmpU_, tmpV_;
+  // Small tables, so that a scan's look-ups stay in the L1 cache: whether each pixel has a
+  // usable floor point (one bit per pixel), and the longest white run accepted in each block of
+  // 8x8 pixels (the largest over its usable pixels, from their finest m/px).
+  static constexpr int kRunBlockShift = 3;
+  bool usable(int u, int v) const {
+    return (usable_[static_cast<std::size_t>(v) * usableWordsPerRow_ + (u >> 6)] >> (u & 63)) & 1;
+  }
+  int maxRunAt(int u, int v) const {
+    return maxRunByBlock_[static_cast<std::size_t>(v >> kRunBlockShift) * runBlocksPerRow_ +
+                          (u >> kRunBlockShift)];
+  }
+  int usableWordsPerRow_;
+  std::vector<std::uint64_t> usable_;
+  int runBlocksPerRow_;
+  std::vector<std::uint8_t> maxRunByBlock_;
+  // Walks: for every direction the distinct pixels met stepping 1 px along the normal from
+  // t = firstStep_ to lastStep_, and how many of them lie at t or before.
+  int firstStep_;
+  int lastStep_;
+  int walkCapacity_;
+  std::vector<Step> walks_;
+  std::vector<std::uint8_t> walkCountUpTo_;
+  // Binomial kernel equal to smoothingPasses passes of 0.25/0.5/0.25.
+  std::vector<float> smoothingKernel_;
+  // Per contour scratch, reused: the contour's corners with the kernel's reach wrapped around
+  // on both sides, and the smoothed points of every `smoothedStride_`-th corner.
+  int pad_ = 0;
+  std::vector<float> paddedU_, paddedV_;
+  std::vector<float> smoothU_, smoothV_;
+  int smoothedStride_ = 1;
   struct Hit {
     bool found;
     LinePoint point;
   };
   std::vector<Hit> hits_;
-  // Pixels along the current normal: position along it (px) and brightness.
-  struct Sample {
-    float t;
-    std::uint8_t luma;
-  };
-  std::vector<Sample> samples_;
+  // The walk of the current scan, for along().
+  const Step* walk_ = nullptr;
+  float walkFractionU_ = 0, walkFractionV_ = 0, walkNormalU_ = 0, walkNormalV_ = 0;
   int pixelsRead_ = 0;
 };
 

@@ -97,6 +97,58 @@ TEST_F(RenderedFrames, LinePointsLieOnTheModelLinesAndCoverThemWithin3m) {
   }
 }
 
+// The detector reads YUYV and BGR frames through separate code paths: the same scene given as
+// BGR yields line points of the same accuracy, nearly the same number of them, at the same places.
+TEST_F(RenderedFrames, LinePointsFromBgrFramesMatchThoseFromYuyv) {
+  const geometry::Pose2 pose{-2.0, -1.5, 2.0};
+  camera::SimScene scene;
+  scene.robot = pose;
+  FrameProcessor yuyvProcessor(sim_->mirror, sim_->table, defaultVisionParams());
+  FrameProcessor bgrProcessor(sim_->mirror, sim_->table, defaultVisionParams());
+  VisionResult yuyv, bgr;
+  std::vector<std::uint8_t> bgrPixels;
+  for (int i = 0; i < 3; ++i) {
+    scene.frame_number = static_cast<std::uint64_t>(i);
+    const camera::FrameView frame = sim_->render(scene);
+    bgrPixels.resize(static_cast<std::size_t>(frame.width) * frame.height * 3);
+    for (int v = 0; v < frame.height; ++v) {
+      for (int u = 0; u < frame.width; ++u) {
+        const camera::Bgr c = camera::bgrFromYuv(camera::readYuv(frame, u, v));
+        std::uint8_t* out = &bgrPixels[(static_cast<std::size_t>(v) * frame.width + u) * 3];
+        out[0] = c.b;
+        out[1] = c.g;
+        out[2] = c.r;
+      }
+    }
+    yuyvProcessor.process(frame, true, yuyv);
+    bgrProcessor.process(
+        {bgrPixels.data(), frame.width, frame.height, frame.width * 3, camera::PixelFormat::kBgr},
+        true, bgr);
+  }
+  auto errors = [&](const LinePoints& lines) {
+    std::vector<double> result;
+    for (const LinePoint& q : lines.points) {
+      if (Vec2(q.x, q.y).norm() > 3.0) continue;
+      result.push_back(sim_->field.distance(geometry::pointRobotToField(pose, Vec2(q.x, q.y))));
+    }
+    return result;
+  };
+  const std::vector<double> yuyvErrors = errors(yuyv.lines), bgrErrors = errors(bgr.lines);
+  ASSERT_GE(yuyvErrors.size(), 20u);
+  ASSERT_GE(bgrErrors.size(), 20u);
+  EXPECT_LE(median(yuyvErrors), 0.02);
+  EXPECT_LE(median(bgrErrors), 0.02);
+  const double yuyvCount = static_cast<double>(yuyv.lines.points.size());
+  EXPECT_NEAR(static_cast<double>(bgr.lines.points.size()), yuyvCount, 0.1 * yuyvCount);
+  // Every BGR point has a YUYV point within a pixel.
+  for (const LinePoint& q : bgr.lines.points) {
+    double nearest = 1e9;
+    for (const LinePoint& p : yuyv.lines.points)
+      nearest = std::min(nearest, static_cast<double>(std::hypot(p.u - q.u, p.v - q.v)));
+    EXPECT_LE(nearest, 1.0) << q.u << "," << q.v;
+  }
+}
+
 TEST_F(RenderedFrames, BallIsFoundWithin5cmUpTo4m) {
   const geometry::Pose2 pose{0.5, -1.0, 0.7};
   // Ball positions in the robot frame: near, middle, far, in several directions.
