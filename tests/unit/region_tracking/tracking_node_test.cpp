@@ -49,8 +49,8 @@ TEST(TrackingNode, PublishesBallAndObstaclesEveryFrameAndLinesEveryThird) {
   scene.robot = pose;
   scene.ball = camera::SimBall{geometry::pointRobotToField(pose, {1.5, 0.5}), 0.11};
   scene.robots.push_back({geometry::pointRobotToField(pose, {-2.0, 1.0}), 0.25, false});
-  std::vector<Utime> frameTimes;
-  for (int i = 0; i < 7; ++i) {
+  // Renders frame i one period later and publishes it as the camera would.
+  auto publishFrame = [&](int i) {
     clock.advance(33'333);
     scene.frame_number = static_cast<std::uint64_t>(i);
     sim.render(scene);
@@ -64,8 +64,12 @@ TEST(TrackingNode, PublishesBallAndObstaclesEveryFrameAndLinesEveryThird) {
     image.frame_number = i;
     image.size = static_cast<std::int32_t>(sim.frame.size());
     image.data = sim.frame;
-    frameTimes.push_back(image.header.utime);
     camera.publish(bus::channels::kCameraImage, image);
+    return image.header.utime;
+  };
+  std::vector<Utime> frameTimes;
+  for (int i = 0; i < 7; ++i) {
+    frameTimes.push_back(publishFrame(i));
     vision.spinOnce(0);
     for (int k = 0; k < 3; ++k)
       listener.spinOnce(0);
@@ -128,17 +132,7 @@ TEST(TrackingNode, PublishesBallAndObstaclesEveryFrameAndLinesEveryThird) {
   // 10th processed frame has lines), and tracking continued without a new initial search.
   const std::size_t linesBefore = lineTimes.size();
   for (int i = 7; i < 10; ++i) {
-    clock.advance(33'333);
-    sim.render(scene);
-    image_t image{};
-    image.header.utime = clock.now() - 60'000;
-    image.width = sim.renderer->width();
-    image.height = sim.renderer->height();
-    image.stride = sim.renderer->stride();
-    image.format = image_t::FORMAT_YUYV;
-    image.size = static_cast<std::int32_t>(sim.frame.size());
-    image.data = sim.frame;
-    camera.publish(bus::channels::kCameraImage, image);
+    publishFrame(i);
     vision.spinOnce(0);
     for (int k = 0; k < 3; ++k)
       listener.spinOnce(0);
