@@ -90,34 +90,22 @@ TEST(TrackingNode, PublishesBallAndObstaclesEveryFrameAndLinesEveryThird) {
 
   // A grey image and one of a foreign aspect ratio are refused and counted, nothing published.
   const std::size_t before = ballTimes.size();
-  image_t grey{};
-  grey.header.utime = clock.now() - 60'000;
-  grey.width = 320;
-  grey.height = 240;
-  grey.stride = 320;
-  grey.format = image_t::FORMAT_GRAY;
-  grey.size = 320 * 240;
-  grey.data.assign(grey.size, 0);
-  camera.publish(bus::channels::kCameraImage, grey);
-  image_t square{};
-  square.header.utime = clock.now() - 60'000;
-  square.width = 200;
-  square.height = 200;
-  square.stride = 400;
-  square.format = image_t::FORMAT_YUYV;
-  square.size = 400 * 200;
-  square.data.assign(square.size, 0);
-  camera.publish(bus::channels::kCameraImage, square);
+  // A black frame of the given layout, published as the camera would.
+  auto publishBlank = [&](int width, int height, int stride, std::int8_t format) {
+    image_t image{};
+    image.header.utime = clock.now() - 60'000;
+    image.width = width;
+    image.height = height;
+    image.stride = stride;
+    image.format = format;
+    image.size = stride * height;
+    image.data.assign(static_cast<std::size_t>(image.size), 0);
+    camera.publish(bus::channels::kCameraImage, image);
+  };
+  publishBlank(320, 240, 320, image_t::FORMAT_GRAY);
+  publishBlank(200, 200, 400, image_t::FORMAT_YUYV);
   // The right aspect ratio but smaller than one cell: refused too, tracking state kept.
-  image_t tiny{};
-  tiny.header.utime = clock.now() - 60'000;
-  tiny.width = 4;
-  tiny.height = 2;
-  tiny.stride = 8;
-  tiny.format = image_t::FORMAT_YUYV;
-  tiny.size = 16;
-  tiny.data.assign(tiny.size, 0);
-  camera.publish(bus::channels::kCameraImage, tiny);
+  publishBlank(4, 2, 8, image_t::FORMAT_YUYV);
   for (int k = 0; k < 3; ++k)
     vision.spinOnce(0);
   for (int k = 0; k < 3; ++k)
