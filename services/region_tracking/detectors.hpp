@@ -11,6 +11,7 @@
 #include "common/camera/colour.hpp"
 #include "common/camera/frame.hpp"
 #include "common/camera/mirror_model.hpp"
+#include "common/perception/line_points.hpp"
 #include "services/region_tracking/cell_grid.hpp"
 #include "services/region_tracking/contours.hpp"
 #include "services/region_tracking/frame_classifier.hpp"
@@ -55,25 +56,8 @@ class FloorLookup {
   std::vector<float> finestMetresPerPixel_;
 };
 
-struct LinePoint {
-  // Image position, px (sub-pixel).
-  float u = 0;
-  float v = 0;
-  // Floor position in the robot frame, m.
-  float x = 0;
-  float y = 0;
-};
-
-// Line points of one frame, grouped into sequences that follow a contour (seed 4.13.1).
-struct LinePoints {
-  std::vector<LinePoint> points;
-  // [start, end) into points.
-  std::vector<std::pair<int, int>> sequences;
-  void clear() {
-    points.clear();
-    sequences.clear();
-  }
-};
+using perception::LinePoint;
+using perception::LinePoints;
 
 struct LineDetectorParams {
   camera::ColourClass fieldColour = camera::ColourClass::kGreen;
