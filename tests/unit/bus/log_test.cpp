@@ -11,6 +11,7 @@
 #include <vector>
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include "common/bus/log_file.hpp"
 #include "common/bus/node.hpp"
