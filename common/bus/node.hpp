@@ -25,6 +25,7 @@
 #include <vector>
 
 #include "common/bus/channels.hpp"
+#include "common/bus/checked_decode.hpp"
 #include "common/bus/status.hpp"
 #include "common/bus/urls.hpp"
 #include "common/bus/validate.hpp"
@@ -95,13 +96,9 @@ class Node {
     subscribeRaw(name, bus,
                  [this, name, handler = std::move(handler), msg = Msg{}](const void* data,
                                                                          int size) mutable {
-                   if (!decodeInto(msg, data, size)) {
-                     reject(name, "decode",
-                            "undecodable message of " + std::to_string(size) + " bytes");
-                     return;
-                   }
-                   if (auto problem = validate(msg)) {
-                     reject(name, "invalid", *problem);
+                   // The same checks as a log's events get (checked_decode.hpp).
+                   if (auto rejection = decodeChecked(msg, data, size)) {
+                     reject(name, rejection->kind, rejection->text);
                      return;
                    }
                    if (!acceptHeader(name, msg.header)) return;
@@ -179,14 +176,6 @@ class Node {
   };
 
   void subscribeRaw(const std::string& channel, BusId bus, RawHandler handler);
-  template <typename Msg>
-  static bool decodeInto(Msg& msg, const void* data, int size) {
-    try {
-      return msg.decode(data, 0, size) == size;
-    } catch (const std::exception&) {  // e.g. bad_alloc for an absurd array count
-      return false;
-    }
-  }
   bool publishRaw(const std::string& channel, const header_t& header, BusId bus);
   // Fills seq (without using it up), robot_id and utime_published.
   void stampHeader(const std::string& channel, header_t& header);

@@ -8,6 +8,7 @@
 #include <spdlog/spdlog.h>
 
 #include "common/field/field_model.hpp"
+#include "common/msg/image.hpp"
 
 namespace fieldline::camera {
 
@@ -28,10 +29,6 @@ double millisSince(std::chrono::steady_clock::time_point start) {
 
 }  // namespace
 
-std::int8_t imageFormatCode(PixelFormat format) {
-  return format == PixelFormat::kYuyv ? image_t::FORMAT_YUYV : image_t::FORMAT_BGR;
-}
-
 std::int8_t imageSourceCode(SourceKind kind) {
   switch (kind) {
     case SourceKind::kSim:
@@ -47,19 +44,6 @@ std::int8_t imageSourceCode(SourceKind kind) {
       return image_t::SOURCE_LOG;
   }
   return image_t::SOURCE_VIDEO;
-}
-
-std::optional<FrameView> viewOfImage(const image_t& image) {
-  if (image.format != image_t::FORMAT_YUYV && image.format != image_t::FORMAT_BGR) {
-    return std::nullopt;
-  }
-  const FrameView view{
-      image.data.data(), image.width, image.height, image.stride,
-      image.format == image_t::FORMAT_YUYV ? PixelFormat::kYuyv : PixelFormat::kBgr};
-  if (!view.valid() || image.data.size() < static_cast<std::size_t>(image.stride) * image.height) {
-    return std::nullopt;
-  }
-  return view;
 }
 
 bool sceneFromWorld(const world_state_t& world, int robot_id, Utime when, double exposure,
@@ -175,15 +159,13 @@ void SimCameraNode::onFrameTick() {
 
   image_t& img = slot_it->image;
   img.header.utime = exposure_time;
-  img.width = renderer_->width();
-  img.height = renderer_->height();
-  img.stride = renderer_->stride();
-  img.format = image_t::FORMAT_YUYV;
   img.source = image_t::SOURCE_SIM;
   img.frame_number = frames_rendered_++;
   img.exposure_us = static_cast<std::int32_t>(std::lround(config_.pipeline.exposure * 1e6));
-  img.size = static_cast<std::int32_t>(frame_buffer_.size());
   img.data.swap(frame_buffer_);  // the slot's old buffer becomes the next render target
+  msg::toMessage(FrameView{img.data.data(), renderer_->width(), renderer_->height(),
+                           renderer_->stride(), PixelFormat::kYuyv},
+                 img);
   frame_buffer_.resize(img.data.size());
   slot_it->in_flight = true;
   const std::size_t slot = static_cast<std::size_t>(slot_it - pending_.begin());
@@ -248,18 +230,19 @@ std::int64_t runFrameSource(bus::Node& node, FrameSource& source, const Pipeline
     capture_ms_in_period += capture_ms;
 
     img.header.utime = received - latency;
-    img.width = frame.width;
-    img.height = frame.height;
-    img.stride = frame.stride;
-    img.format = imageFormatCode(frame.format);
     img.source = imageSourceCode(source.kind());
     img.frame_number = frame.frame_number;
     img.exposure_us = static_cast<std::int32_t>(std::lround(pipeline.exposure * 1e6));
-    img.size = static_cast<std::int32_t>(frame.bytes.size());
     img.data.swap(frame.bytes);
-    if (node.publish(bus::channels::kCameraImage, img)) {
-      ++published;
-      ++in_period;
+    const FrameView view{img.data.data(), frame.width, frame.height, frame.stride, frame.format};
+    if (!view.valid() || img.data.size() < static_cast<std::size_t>(frame.stride) * frame.height) {
+      node.reportError("bad_frame", "a source delivered a frame with an unusable layout");
+    } else {
+      msg::toMessage(view, img);
+      if (node.publish(bus::channels::kCameraImage, img)) {
+        ++published;
+        ++in_period;
+      }
     }
     frame.bytes.swap(img.data);
 

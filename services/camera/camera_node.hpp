@@ -82,10 +82,7 @@ struct FrameSourceOptions {
 std::int64_t runFrameSource(bus::Node& node, FrameSource& source, const PipelineParams& pipeline,
                             const FrameSourceOptions& options);
 
-// image_t FORMAT_ and SOURCE_ constants for our enums.
-std::int8_t imageFormatCode(PixelFormat format);
+// The image_t SOURCE_ constant for a source (pixels and layout: common/msg/image.hpp).
 std::int8_t imageSourceCode(SourceKind kind);
-// A view of a received image (YUYV or BGR); nullopt for other formats.
-std::optional<FrameView> viewOfImage(const image_t& image);
 
 }  // namespace fieldline::camera

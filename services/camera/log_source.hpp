@@ -1,18 +1,14 @@
 // Replays the CAMERA_IMAGE frames of an LCM log file as a frame source (the frames are
 // re-published with new stamps, like frames from a camera).
 //
-// Reads the LCM log file format directly (each event: sync word 0xEDA1DA01, event number,
-// timestamp, channel and data lengths, all big-endian, then channel name and data), so the
-// camera needs no LCM runtime for it. Events of other channels are skipped; damaged events are
-// counted and the reader resynchronises on the next sync word.
+// The log is read through bus::LogReader, so every frame passes the checks a live CAMERA_IMAGE
+// gets (decode, validate, no utime from the future); damaged stretches of the file and rejected
+// frames are counted in errors() and skipped. Events of other channels are ignored.
 #pragma once
 
 #include <cstdint>
-#include <fstream>
+#include <memory>
 #include <string>
-#include <vector>
-
-#include <fieldline/image_t.hpp>
 
 #include "services/camera/sources.hpp"
 
@@ -20,28 +16,23 @@ namespace fieldline::camera {
 
 class LogImageSource final : public FrameSource {
  public:
-  // Throws std::runtime_error if the file cannot be opened.
-  LogImageSource(const std::string& path, std::string channel, bool loop);
+  // Throws std::runtime_error (bus::LogError) if the file cannot be opened.
+  LogImageSource(const std::string& path, bool loop);
+  ~LogImageSource() override;
   bool next(SourceFrame& out) override;
   SourceKind kind() const override { return SourceKind::kLog; }
   std::string describe() const override;
 
  private:
-  // Reads the next event of our channel into data_; false at the end of the file.
-  bool readEvent();
+  // Turns the reader's new rejections into counted errors.
+  void countRejections();
 
+  struct Impl;
   std::string path_;
-  std::string channel_;
   bool loop_;
-  std::ifstream in_;
-  std::vector<std::uint8_t> data_;
-  std::string event_channel_;
-  image_t image_;
+  std::unique_ptr<Impl> impl_;
+  std::int64_t rejections_counted_ = 0;
   std::int64_t delivered_ = 0;
 };
-
-// Appends one event to an LCM log (tests and tools that write logs without LCM).
-void appendLogEvent(std::ostream& out, std::int64_t event_number, std::int64_t utime,
-                    const std::string& channel, const std::vector<std::uint8_t>& data);
 
 }  // namespace fieldline::camera

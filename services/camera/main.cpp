@@ -121,8 +121,7 @@ int main(int argc, char** argv) {
       source = std::make_unique<camera::ImageFolderSource>(input, loop);
       options.pace_fps = config.pipeline.frame_rate;
     } else if (source_name == "log") {
-      source = std::make_unique<camera::LogImageSource>(
-          input, std::string(bus::channels::kCameraImage.name), loop);
+      source = std::make_unique<camera::LogImageSource>(input, loop);
       options.pace_fps = config.pipeline.frame_rate;
     } else {
       camera::VideoCaptureOptions vc;

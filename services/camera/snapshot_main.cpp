@@ -19,6 +19,7 @@
 #include "common/camera/colour.hpp"
 #include "common/camera/image_io.hpp"
 #include "common/field/field_model.hpp"
+#include "common/msg/image.hpp"
 #include "common/time/clock.hpp"
 #include "services/camera/camera_config.hpp"
 #include "services/camera/camera_node.hpp"
@@ -26,6 +27,7 @@
 
 namespace camera = fieldline::camera;
 namespace bus = fieldline::bus;
+namespace msg = fieldline::msg;
 
 namespace {
 
@@ -111,7 +113,7 @@ int main(int argc, char** argv) {
                    common.bus_url.c_str(), timeout);
       return 1;
     }
-    const std::optional<camera::FrameView> view = camera::viewOfImage(*image);
+    const std::optional<camera::FrameView> view = msg::fromMessage(*image);
     if (!view) {
       std::fprintf(stderr, "camera-snapshot: image format %d cannot be shown\n", image->format);
       return 1;

@@ -4,6 +4,11 @@
 #include <stdexcept>
 #include <string>
 
+#include "common/msg/estimates.hpp"
+#include "common/msg/image.hpp"
+#include "common/msg/line_contours.hpp"
+#include "common/msg/obstacle_observations.hpp"
+
 namespace fieldline::region_tracking {
 
 TrackingNode::TrackingNode(bus::Node& node, TrackingNodeOptions options)
@@ -35,21 +40,16 @@ bool TrackingNode::prepareFor(int width, int height) {
 
 void TrackingNode::onImage(const image_t& image) {
   ++frames_received_;
-  camera::PixelFormat format;
-  if (image.format == image_t::FORMAT_YUYV) {
-    format = camera::PixelFormat::kYuyv;
-  } else if (image.format == image_t::FORMAT_BGR) {
-    format = camera::PixelFormat::kBgr;
-  } else {
+  if (!msg::pixelFormatOf(image.format)) {
     ++frames_rejected_;
     node_.reportError("image_format", "CAMERA_IMAGE format " + std::to_string(image.format) +
                                           " is not YUYV or BGR");
     return;
   }
-  const camera::FrameView view{image.data.data(), image.width, image.height, image.stride, format};
-  if (!view.valid() || !prepareFor(image.width, image.height)) {
+  const std::optional<camera::FrameView> view = msg::fromMessage(image);
+  if (!view || !prepareFor(image.width, image.height)) {
     ++frames_rejected_;
-    if (!view.valid()) node_.reportError("image_layout", "CAMERA_IMAGE with an unusable layout");
+    if (!view) node_.reportError("image_layout", "CAMERA_IMAGE with an unusable layout");
     return;
   }
 
@@ -57,44 +57,26 @@ void TrackingNode::onImage(const image_t& image) {
   const bool detectLines = frames_processed_ % options_.linesEveryFrames == 0;
   // Processing time is a measurement of this computer, not of the world: steady_clock.
   const auto start = std::chrono::steady_clock::now();
-  processor_->process(view, detectLines, result_);
-  const auto processingUs =
+  processor_->process(*view, detectLines, result_);
+  const auto measuredUs =
       static_cast<std::int32_t>(std::chrono::duration_cast<std::chrono::microseconds>(
                                     std::chrono::steady_clock::now() - start)
                                     .count());
+  const std::int32_t processingUs = options_.report_processing_time ? measuredUs : 0;
   ++frames_processed_;
 
   publishBall(image, result_.ball);
   publishObstacles(image, result_.obstacles);
   if (detectLines) publishLines(image, result_, processingUs);
   node_.setMetric("touched_percent", 100.0 * result_.tracking.touchedFraction);
-  node_.setMetric("processing_ms", processingUs / 1000.0);
+  node_.setMetric("processing_ms", measuredUs / 1000.0);
 }
 
 void TrackingNode::publishLines(const image_t& image, const VisionResult& result,
                                 std::int32_t processingUs) {
   line_contours_t& m = lines_;
   m.header.utime = image.header.utime;
-  const auto& points = result.lines.points;
-  m.num_points = static_cast<std::int32_t>(points.size());
-  m.u.resize(points.size());
-  m.v.resize(points.size());
-  m.x.resize(points.size());
-  m.y.resize(points.size());
-  for (std::size_t i = 0; i < points.size(); ++i) {
-    m.u[i] = points[i].u;
-    m.v[i] = points[i].v;
-    m.x[i] = points[i].x;
-    m.y[i] = points[i].y;
-  }
-  const auto& sequences = result.lines.sequences;
-  m.num_sequences = static_cast<std::int32_t>(sequences.size());
-  m.sequence_start.resize(sequences.size());
-  m.sequence_end.resize(sequences.size());
-  for (std::size_t i = 0; i < sequences.size(); ++i) {
-    m.sequence_start[i] = sequences[i].first;
-    m.sequence_end[i] = sequences[i].second;
-  }
+  msg::toMessage(result.lines, m);
   m.image_width = image.width;
   m.image_height = image.height;
   m.cells_touched = result.tracking.cellsClassified;
@@ -106,40 +88,30 @@ void TrackingNode::publishLines(const image_t& image, const VisionResult& result
 }
 
 void TrackingNode::publishBall(const image_t& image, const BallDetection& ball) {
-  ball_observation_t& m = ball_;
-  m.header.utime = image.header.utime;
-  m.visible = ball.visible;
-  m.u = static_cast<float>(ball.visible ? ball.u : 0.0);
-  m.v = static_cast<float>(ball.visible ? ball.v : 0.0);
-  m.x = static_cast<float>(ball.visible ? ball.x : 0.0);
-  m.y = static_cast<float>(ball.visible ? ball.y : 0.0);
-  m.sigma_radial = static_cast<float>(ball.visible ? ball.sigmaRadial : 0.0);
-  m.sigma_tangential = static_cast<float>(ball.visible ? ball.sigmaTangential : 0.0);
-  m.cells = ball.visible ? ball.cells : 0;
-  m.confidence = static_cast<float>(ball.visible ? ball.confidence : 0.0);
-  node_.publish(bus::channels::kVisionBall, m);
+  perception::BallSighting sighting;
+  sighting.utime = image.header.utime;
+  sighting.visible = ball.visible;
+  sighting.u = ball.u;
+  sighting.v = ball.v;
+  sighting.x = ball.x;
+  sighting.y = ball.y;
+  sighting.sigma_radial = ball.sigmaRadial;
+  sighting.sigma_tangential = ball.sigmaTangential;
+  sighting.cells = ball.cells;
+  sighting.confidence = ball.confidence;
+  msg::toMessage(sighting, ball_);
+  node_.publish(bus::channels::kVisionBall, ball_);
 }
 
 void TrackingNode::publishObstacles(const image_t& image, const std::vector<Obstacle>& obstacles) {
-  obstacle_observations_t& m = obstacles_;
-  m.header.utime = image.header.utime;
-  m.count = static_cast<std::int32_t>(obstacles.size());
-  m.bearing.resize(obstacles.size());
-  m.distance.resize(obstacles.size());
-  m.angular_width.resize(obstacles.size());
-  m.width.resize(obstacles.size());
-  m.x.resize(obstacles.size());
-  m.y.resize(obstacles.size());
+  obstacle_sightings_.utime = image.header.utime;
+  obstacle_sightings_.obstacles.resize(obstacles.size());
   for (std::size_t i = 0; i < obstacles.size(); ++i) {
     const Obstacle& o = obstacles[i];
-    m.bearing[i] = static_cast<float>(o.bearing);
-    m.distance[i] = static_cast<float>(o.distance);
-    m.angular_width[i] = static_cast<float>(o.angularWidth);
-    m.width[i] = static_cast<float>(o.width);
-    m.x[i] = static_cast<float>(o.x);
-    m.y[i] = static_cast<float>(o.y);
+    obstacle_sightings_.obstacles[i] = {o.bearing, o.distance, o.angularWidth, o.width, o.x, o.y};
   }
-  node_.publish(bus::channels::kVisionObstacles, m);
+  msg::toMessage(obstacle_sightings_, obstacles_);
+  node_.publish(bus::channels::kVisionObstacles, obstacles_);
 }
 
 }  // namespace fieldline::region_tracking

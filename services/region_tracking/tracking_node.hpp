@@ -15,6 +15,8 @@
 #include "common/bus/node.hpp"
 #include "common/camera/colour.hpp"
 #include "common/camera/mirror_model.hpp"
+#include "common/perception/estimates.hpp"
+#include "common/perception/obstacles.hpp"
 #include "services/region_tracking/frame_processor.hpp"
 
 namespace fieldline::region_tracking {
@@ -27,6 +29,9 @@ struct TrackingNodeOptions {
   VisionParams vision = defaultVisionParams();
   // Field lines are extracted on every n-th frame (the seed's 10 Hz at 30 fps).
   int linesEveryFrames = 3;
+  // VISION_LINES.processing_us is the one output that depends on this machine, not on the
+  // frames: replays that compare outputs byte for byte turn it off (it is then 0).
+  bool report_processing_time = true;
 };
 
 class TrackingNode {
@@ -55,6 +60,7 @@ class TrackingNode {
   line_contours_t lines_{};
   ball_observation_t ball_{};
   obstacle_observations_t obstacles_{};
+  perception::ObstacleSightings obstacle_sightings_;
   std::int64_t frames_received_ = 0;
   std::int64_t frames_processed_ = 0;
   std::int64_t frames_rejected_ = 0;

@@ -12,9 +12,11 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include "common/bus/log_file.hpp"
 #include "common/bus/node.hpp"
 #include "common/camera/colour.hpp"
 #include "common/geometry/geometry.hpp"
+#include "common/msg/image.hpp"
 #include "common/time/clock.hpp"
 #include "services/camera/log_source.hpp"
 
@@ -119,7 +121,7 @@ TEST(SimCameraNode, PublishesRenderedFramesAfterTheLatencyStampedWithTheExposure
     ASSERT_TRUE(sceneFromWorld(makeWorld(img.header.utime), 2, img.header.utime, 0.008, scene));
     const Vec2 ball = geometry::pointFieldToRobot(scene.robot, scene.ball->position);
     const Vec2 px = *config.model.mirror.robotPointToImage(Vec3(ball.x(), ball.y(), 0.11));
-    const FrameView view = *viewOfImage(img);
+    const FrameView view = *msg::fromMessage(img);
     EXPECT_EQ(colours.classifyPixel(view, static_cast<int>(std::lround(px.x())),
                                     static_cast<int>(std::lround(px.y()))),
               ColourClass::kOrange);
@@ -185,12 +187,12 @@ TEST(RunFrameSource, StampsReceiveTimeMinusLatencyAndKeepsSizeAndFormat) {
   fs::remove_all(dir);
 }
 
-TEST(LogImageSource, ReadsCameraFramesSkipsOtherChannelsAndResyncsAfterDamage) {
+TEST(LogImageSource, ReadsValidCameraFramesAndCountsTheRest) {
   const std::string path =
       (std::filesystem::temp_directory_path() / "fieldline_camera_test.lcmlog").string();
   {
-    std::ofstream out(path, std::ios::binary);
-    for (int k = 0; k < 3; ++k) {
+    bus::LogWriter log(path);
+    for (int k = 0; k < 4; ++k) {
       image_t img;
       img.header.utime = 1000 + k;
       img.width = 4;
@@ -201,25 +203,40 @@ TEST(LogImageSource, ReadsCameraFramesSkipsOtherChannelsAndResyncsAfterDamage) {
       img.frame_number = k;
       img.size = 16;
       img.data.assign(16, static_cast<std::uint8_t>(50 + k));
-      std::vector<std::uint8_t> bytes(static_cast<std::size_t>(img.getEncodedSize()));
-      img.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
-      appendLogEvent(out, 2 * k, 1000 + k, std::string(bus::channels::kCameraImage.name), bytes);
-      appendLogEvent(out, 2 * k + 1, 1000 + k, std::string(bus::channels::kOdometry.name),
-                     {1, 2, 3});
-      if (k == 0) out.write("garbage", 7);  // a damaged stretch between events
+      if (k == 2) {
+        // Frame 2 claims three rows of 8 bytes but holds two: invalid, skipped and counted.
+        std::vector<std::uint8_t> bytes(static_cast<std::size_t>(img.getEncodedSize()));
+        img.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
+        // height is the second int32 after the 8-byte fingerprint and the 25-byte header.
+        bytes[8 + 25 + 4 + 3] = 3;
+        log.write(bus::channels::kCameraImage.name, 1000 + k, bytes.data(),
+                  static_cast<int>(bytes.size()));
+      } else {
+        log.write(bus::channels::kCameraImage, 1000 + k, img);
+      }
+      odometry_t odo{};
+      odo.header.utime = 1000 + k;
+      log.write(bus::channels::kOdometry, 1000 + k, odo);
     }
   }
-  LogImageSource source(path, std::string(bus::channels::kCameraImage.name), false);
+  LogImageSource source(path, false);
   SourceFrame frame;
-  for (int k = 0; k < 3; ++k) {
+  for (int k : {0, 1, 3}) {
     ASSERT_TRUE(source.next(frame)) << k;
     EXPECT_EQ(frame.width, 4);
     EXPECT_EQ(frame.format, PixelFormat::kYuyv);
     EXPECT_EQ(frame.bytes[0], 50 + k);
-    EXPECT_EQ(frame.frame_number, k);
   }
+  EXPECT_EQ(frame.frame_number, 2);  // the source's count of delivered frames
   EXPECT_FALSE(source.next(frame));
   EXPECT_EQ(source.errors(), 1);
+  EXPECT_NE(source.lastError().find("invalid"), std::string::npos) << source.lastError();
+
+  // Looping starts again at the first frame.
+  LogImageSource looping(path, true);
+  for (int k = 0; k < 4; ++k)
+    ASSERT_TRUE(looping.next(frame)) << k;
+  EXPECT_EQ(frame.bytes[0], 50);
   std::filesystem::remove(path);
 }
 

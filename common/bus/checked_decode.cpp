@@ -1,0 +1,83 @@
+#include "common/bus/checked_decode.hpp"
+
+#include <tuple>
+
+namespace fieldline::bus {
+namespace {
+
+// Every channel of channels.hpp, to find a name's type at run time.
+constexpr auto kAllChannels =
+    std::make_tuple(channels::kCameraImage, channels::kVisionLines, channels::kVisionBall,
+                    channels::kVisionObstacles, channels::kFieldFeatures, channels::kOdometry,
+                    channels::kMotionCommand, channels::kRobotState, channels::kBallState,
+                    channels::kTeamState, channels::kServiceStatus, channels::kSimWorld);
+
+static_assert(std::tuple_size_v<decltype(kAllChannels)> == kAllChannelNames.size(),
+              "every channel of channels.hpp belongs in kAllChannels");
+
+template <typename Msg>
+std::optional<Rejection> checkAs(const void* data, int size, Utime now, Utime tolerance) {
+  // One decoded object per type and thread, reused: logs are mostly big images.
+  thread_local Msg msg{};
+  if (auto rejection = decodeChecked(msg, data, size)) return rejection;
+  return checkNotFromFuture(msg.header, now, tolerance);
+}
+
+}  // namespace
+
+namespace detail {
+
+std::optional<std::int64_t> fingerprintOf(const void* data, int size) {
+  if (data == nullptr || size < 8) return std::nullopt;
+  const auto* p = static_cast<const std::uint8_t*>(data);
+  std::uint64_t v = 0;
+  for (int i = 0; i < 8; ++i)
+    v = (v << 8) | p[i];
+  return static_cast<std::int64_t>(v);
+}
+
+std::string_view typeWithFingerprint(std::int64_t fingerprint) {
+  std::string_view name;
+  std::apply(
+      [&](const auto&... channel) {
+        ((name.empty() && std::remove_cvref_t<decltype(channel)>::Message::getHash() == fingerprint
+              ? void(name = std::remove_cvref_t<decltype(channel)>::Message::getTypeName())
+              : void()),
+         ...);
+      },
+      kAllChannels);
+  return name;
+}
+
+}  // namespace detail
+
+std::optional<Rejection> checkNotFromFuture(const header_t& header, Utime now, Utime tolerance) {
+  if (header.utime > now + tolerance) {
+    return Rejection{"future_utime", "utime " + std::to_string(header.utime) + " is " +
+                                         std::to_string((header.utime - now) / kMicrosPerMilli) +
+                                         " ms in the future"};
+  }
+  return std::nullopt;
+}
+
+std::optional<Rejection> checkEncoded(std::string_view channel, const void* data, int size,
+                                      Utime now, Utime future_tolerance) {
+  std::optional<Rejection> result;
+  bool known = false;
+  std::apply(
+      [&](const auto&... c) {
+        ((!known && c.name == channel
+              ? void((known = true,
+                      result = checkAs<typename std::remove_cvref_t<decltype(c)>::Message>(
+                          data, size, now, future_tolerance)))
+              : void()),
+         ...);
+      },
+      kAllChannels);
+  if (!known)
+    return Rejection{"unknown_channel",
+                     "no fieldline channel is named '" + std::string(channel) + "'"};
+  return result;
+}
+
+}  // namespace fieldline::bus

@@ -1,0 +1,204 @@
+#include "common/bus/log_file.hpp"
+
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+#include <numeric>
+
+#include <fmt/format.h>
+#include <sys/stat.h>
+#include <lcm/lcm-cpp.hpp>
+
+namespace fieldline::bus {
+namespace {
+
+// LCM's event framing: sync word, event number (8), log time (8), channel length (4), data
+// length (4), all big-endian, then the channel name and the data.
+constexpr std::uint32_t kSyncWord = 0xEDA1DA01u;
+constexpr int kHeaderBytes = 28;
+// LCM itself allows names up to 1000 bytes; ours are short, and a long name is damage.
+constexpr std::int32_t kMaxChannelBytes = 256;
+constexpr std::size_t kRecentRejections = 100;
+
+std::uint64_t bigEndian(const std::uint8_t* p, int bytes) {
+  std::uint64_t v = 0;
+  for (int i = 0; i < bytes; ++i)
+    v = (v << 8) | p[i];
+  return v;
+}
+
+bool printable(std::string_view name) {
+  for (const char c : name) {
+    if (c < 0x21 || c > 0x7e) return false;
+  }
+  return !name.empty();
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+struct LogReader::Impl {
+  lcm::LogFile file;
+  explicit Impl(const std::string& path) : file(path, "r") {}
+  FILE* stream() { return file.getFilePtr(); }
+  std::int64_t size() {
+    struct stat st {};
+    return ::fstat(::fileno(stream()), &st) == 0 ? static_cast<std::int64_t>(st.st_size) : 0;
+  }
+};
+
+LogReader::LogReader(const std::string& path, LogReaderOptions options)
+    : path_(path), options_(options), impl_(std::make_unique<Impl>(path)) {
+  if (!impl_->file.good()) {
+    throw LogError("cannot open LCM log '" + path + "': " + std::strerror(errno));
+  }
+}
+
+LogReader::~LogReader() = default;
+
+void LogReader::rewind() {
+  std::fseek(impl_->stream(), 0, SEEK_SET);
+}
+
+std::int64_t LogReader::rejectedTotal() const {
+  return std::accumulate(rejected_by_kind_.begin(), rejected_by_kind_.end(), std::int64_t{0},
+                         [](std::int64_t sum, const auto& kv) { return sum + kv.second; });
+}
+
+void LogReader::reject(const LogEvent& event, Rejection reason) {
+  ++rejected_by_kind_[reason.kind];
+  recent_.push_back(LogRejection{event.number, event.offset, event.channel, std::move(reason)});
+  if (recent_.size() > kRecentRejections) recent_.pop_front();
+}
+
+void LogReader::damage(std::int64_t offset, std::string kind, std::string text) {
+  ++rejected_by_kind_[kind];
+  recent_.push_back(LogRejection{-1, offset, {}, Rejection{std::move(kind), std::move(text)}});
+  if (recent_.size() > kRecentRejections) recent_.pop_front();
+}
+
+bool LogReader::nextEvent(LogEvent& event) {
+  FILE* f = impl_->stream();
+  while (true) {
+    // Find the next sync word; in an intact log it is the next four bytes.
+    const std::int64_t scan_start = ::ftello(f);
+    std::uint32_t window = 0;
+    std::int64_t scanned = 0;
+    int c = 0;
+    while ((c = std::fgetc(f)) != EOF) {
+      window = (window << 8) | static_cast<std::uint32_t>(c);
+      if (++scanned >= 4 && window == kSyncWord) break;
+    }
+    if (c == EOF) {
+      if (scanned > 0) {
+        damage(scan_start, "damaged", fmt::format("{} bytes after the last event", scanned));
+      }
+      return false;
+    }
+    const std::int64_t start = scan_start + scanned - 4;
+    if (start > scan_start) {
+      damage(scan_start, "damaged",
+             fmt::format("{} bytes between events skipped at offset {}", start - scan_start,
+                         scan_start));
+    }
+    std::uint8_t head[kHeaderBytes - 4];
+    if (std::fread(head, 1, sizeof head, f) != sizeof head) {
+      damage(start, "truncated", fmt::format("the log ends inside an event at offset {}", start));
+      return false;
+    }
+    const auto number = static_cast<std::int64_t>(bigEndian(head, 8));
+    const auto timestamp = static_cast<std::int64_t>(bigEndian(head + 8, 8));
+    const auto channel_bytes = static_cast<std::int32_t>(bigEndian(head + 16, 4));
+    const auto data_bytes = static_cast<std::int32_t>(bigEndian(head + 20, 4));
+    // Lengths are checked here, before LCM allocates and reads what they say.
+    const auto resync = [&] { ::fseeko(f, static_cast<off_t>(start + 1), SEEK_SET); };
+    if (channel_bytes <= 0 || channel_bytes > kMaxChannelBytes || data_bytes < 0 ||
+        data_bytes > options_.max_event_bytes) {
+      damage(start, "damaged",
+             fmt::format("event at offset {} claims a {}-byte channel name and {} bytes of data",
+                         start, channel_bytes, data_bytes));
+      resync();
+      continue;
+    }
+    const std::int64_t end = start + kHeaderBytes + channel_bytes + data_bytes;
+    if (end > impl_->size()) {
+      damage(start, "truncated",
+             fmt::format("event {} at offset {} ends {} bytes beyond the end of the log", number,
+                         start, end - impl_->size()));
+      resync();
+      continue;
+    }
+    ::fseeko(f, static_cast<off_t>(start), SEEK_SET);
+    const lcm::LogEvent* e = impl_->file.readNextEvent();
+    if (e == nullptr || !printable(e->channel) || e->datalen != data_bytes) {
+      // LCM also refuses an event not followed by a sync word or the end of the file: its
+      // length cannot be trusted then.
+      damage(start, "damaged", fmt::format("unreadable event {} at offset {}", number, start));
+      resync();
+      continue;
+    }
+    event.number = number;
+    event.timestamp = timestamp;
+    event.channel = e->channel;
+    const auto* bytes = static_cast<const std::uint8_t*>(e->data);
+    event.data.assign(bytes, bytes + e->datalen);
+    event.offset = start;
+    ++events_read_;
+    return true;
+  }
+}
+
+bool LogReader::accept(const LogEvent& event) {
+  auto rejection =
+      checkEncoded(event.channel, event.data.data(), static_cast<int>(event.data.size()),
+                   event.timestamp, options_.future_tolerance_us);
+  if (!rejection) return true;
+  reject(event, std::move(*rejection));
+  return false;
+}
+
+bool LogReader::nextChecked(LogEvent& event) {
+  while (nextEvent(event)) {
+    if (accept(event)) return true;
+  }
+  return false;
+}
+
+// ---------------------------------------------------------------------------------------------
+struct LogWriter::Impl {
+  lcm::LogFile file;
+  explicit Impl(const std::string& path) : file(path, "w") {}
+};
+
+LogWriter::LogWriter(const std::string& path) : path_(path), impl_(std::make_unique<Impl>(path)) {
+  if (!impl_->file.good()) {
+    throw LogError("cannot create LCM log '" + path + "': " + std::strerror(errno));
+  }
+}
+
+LogWriter::~LogWriter() = default;
+
+void LogWriter::write(std::string_view channel, Utime timestamp, const void* data, int size) {
+  if (channel.empty() || channel.size() > static_cast<std::size_t>(kMaxChannelBytes) || size < 0) {
+    throw LogError(fmt::format("{}: refusing an event on '{}' of {} bytes", path_, channel, size));
+  }
+  lcm::LogEvent event;
+  event.eventnum = events_written_;
+  event.timestamp = timestamp;
+  event.channel = std::string(channel);
+  event.datalen = size;
+  // LCM's API takes a non-const pointer but only reads from it.
+  event.data = const_cast<void*>(data);
+  if (impl_->file.writeEvent(&event) != 0) {
+    throw LogError(fmt::format("{}: write failed: {}", path_, std::strerror(errno)));
+  }
+  ++events_written_;
+}
+
+void LogWriter::flush() {
+  if (std::fflush(impl_->file.getFilePtr()) != 0) {
+    throw LogError(fmt::format("{}: flush failed: {}", path_, std::strerror(errno)));
+  }
+}
+
+}  // namespace fieldline::bus
