@@ -128,11 +128,23 @@ bool LogReader::nextEvent(LogEvent& event) {
       resync();
       continue;
     }
+    // LCM refuses an event that is not followed by the next sync word or the end of the file (its
+    // length cannot be trusted then); checked here first, so it is counted with a reason.
+    if (end < impl_->size()) {
+      std::uint8_t next_sync[4];
+      ::fseeko(f, static_cast<off_t>(end), SEEK_SET);
+      if (std::fread(next_sync, 1, sizeof next_sync, f) != sizeof next_sync ||
+          bigEndian(next_sync, 4) != kSyncWord) {
+        damage(
+            start, "damaged",
+            fmt::format("event {} at offset {} is not followed by another event", number, start));
+        resync();
+        continue;
+      }
+    }
     ::fseeko(f, static_cast<off_t>(start), SEEK_SET);
     const lcm::LogEvent* e = impl_->file.readNextEvent();
     if (e == nullptr || !printable(e->channel) || e->datalen != data_bytes) {
-      // LCM also refuses an event not followed by a sync word or the end of the file: its
-      // length cannot be trusted then.
       damage(start, "damaged", fmt::format("unreadable event {} at offset {}", number, start));
       resync();
       continue;

@@ -34,13 +34,18 @@ int main(int argc, char** argv) {
           std::vector<std::string>(bus::kAllChannelNames.begin(), bus::kAllChannelNames.end())));
   app.add_option("--output,-o", output, "Log file to write (overwritten)")->required();
   app.add_option("--skip", skip, "Valid messages to let pass before recording")
-      ->check(CLI::NonNegativeNumber);
+      ->check(CLI::Range(std::int64_t{0}, std::int64_t{1} << 40));
   app.add_option("--count", count, "Stop after this many recorded messages (0: until stopped)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(CLI::Range(std::int64_t{0}, std::int64_t{1} << 40));
   app.add_option("--timeout", timeout_s, "Give up after this many seconds")
       ->check(CLI::Range(0.1, 86400.0))
       ->capture_default_str();
-  CLI11_PARSE(app, argc, argv);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    // --help is a ParseError too (exit code 0); every real one is a bad argument: 2.
+    return app.exit(e) == 0 ? 0 : 2;
+  }
   common.resolve("log_record");
 
   return bus::runMain("log_record", [&]() -> int {

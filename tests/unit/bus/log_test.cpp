@@ -229,6 +229,9 @@ TEST_F(LogTest, ReplayDeliversInLogTimeOrderUnderTheSimulatedClockAndRecordsOutp
     writer.write(channels::kMotionCommand, kStart + 90'000, command(kStart + 90'000, 0.2));
     // Stamped before its predecessor: delivered, but the clock does not go back.
     writer.write(channels::kOdometry, kStart + 50'000, odometry(kStart + 42'000, 9));
+    // Invalid: rejected by the reader, never reaches a node.
+    writer.write(channels::kOdometry, kStart + 100'000,
+                 odometry(kStart + 100'000, std::numeric_limits<double>::infinity()));
   }
   const std::string out_path = path + ".out";
   SimulatedClock clock{kStart - kMicrosPerSecond};
@@ -256,6 +259,8 @@ TEST_F(LogTest, ReplayDeliversInLogTimeOrderUnderTheSimulatedClockAndRecordsOutp
     EXPECT_EQ(stats.delivered, 6);
     EXPECT_EQ(stats.skipped, 1);  // the log's own MOTION_COMMAND is not fed back
     EXPECT_EQ(stats.out_of_order, 1);
+    EXPECT_EQ(log.rejectedByKind().at("invalid"), 1);
+    EXPECT_EQ(consumer.status().errorCount("invalid"), 0);
     recorded = recorder.recorded();
   }
   ASSERT_EQ(seen.size(), 6u);
