@@ -7,7 +7,7 @@
 #include <numbers>
 #include <vector>
 
-#include "services/region_tracking/sim_frames.hpp"
+#include "tests/support/sim_frames.hpp"
 
 namespace fieldline::region_tracking::bench {
 

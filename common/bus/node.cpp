@@ -104,7 +104,7 @@ Node::Node(NodeOptions options, const Clock& clock, std::shared_ptr<Connection> 
     : options_(std::move(options)),
       clock_(clock),
       status_(options_.process, options_.robot_id, clock.now()),
-      next_status_(clock.now() + options_.status_period_us) {
+      next_status_(clock.monotonicNow() + options_.status_period_us) {
   if (options_.url.empty()) options_.url = primary->url();
   buses_.push_back(std::move(primary));
 }
@@ -244,15 +244,26 @@ void Node::timed(const std::function<void()>& fn) {
 
 void Node::every(Utime period_us, std::function<void()> fn) {
   if (period_us <= 0) throw std::invalid_argument("timer period must be positive");
-  timers_.push_back(Timer{clock_.now() + period_us, period_us, std::move(fn)});
+  timers_.push_back(Timer{clock_.monotonicNow() + period_us, period_us, std::move(fn)});
 }
 
 void Node::at(Utime when, std::function<void()> fn) {
-  timers_.push_back(Timer{when, 0, std::move(fn)});
+  timers_.push_back(Timer{clock_.monotonicNow() + (when - clock_.now()), 0, std::move(fn)});
+}
+
+Node::WatchId Node::watchFd(int fd, std::function<void()> on_ready) {
+  if (fd < 0) throw std::invalid_argument("cannot watch fd " + std::to_string(fd));
+  const WatchId id = next_watch_id_++;
+  watches_.push_back(Watch{id, fd, std::move(on_ready)});
+  return id;
+}
+
+void Node::unwatchFd(WatchId id) {
+  std::erase_if(watches_, [id](const Watch& w) { return w.id == id; });
 }
 
 void Node::fireTimers() {
-  const Utime now = clock_.now();
+  const Utime now = clock_.monotonicNow();
   // Index loop: a timer callback may add timers.
   for (std::size_t i = 0; i < timers_.size(); ++i) {
     if (timers_[i].next > now) continue;
@@ -273,20 +284,36 @@ void Node::fireTimers() {
   }
 }
 
+int Node::msUntilNextTimer(int max_ms) const {
+  const Utime now = clock_.monotonicNow();
+  Utime next = now + static_cast<Utime>(max_ms) * kMicrosPerMilli;
+  if (options_.status_period_us > 0) next = std::min(next, next_status_);
+  for (const auto& t : timers_)
+    next = std::min(next, t.next);
+  // Round up: waking a little late fires the timer; waking early would only spin again.
+  return static_cast<int>(std::max<Utime>(0, next - now + kMicrosPerMilli - 1) / kMicrosPerMilli);
+}
+
 void Node::publishStatus() {
   service_status_t s = status_.takeStatus(clock_.now());
   publish(channels::kServiceStatus, s);
 }
 
 int Node::spinOnce(int timeout_ms) {
+  // Buses first, then the watched fds, each remembered by id: a callback may unwatch any.
   std::vector<pollfd> fds;
-  fds.reserve(buses_.size());
+  std::vector<WatchId> watch_ids;
+  fds.reserve(buses_.size() + watches_.size());
   for (const auto& b : buses_)
     fds.push_back(pollfd{b->impl_->lcm.getFileno(), POLLIN, 0});
+  for (const auto& w : watches_) {
+    fds.push_back(pollfd{w.fd, POLLIN, 0});
+    watch_ids.push_back(w.id);
+  }
   int handled = 0;
   const int ready = ::poll(fds.data(), fds.size(), std::max(0, timeout_ms));
   if (ready > 0) {
-    for (std::size_t i = 0; i < fds.size(); ++i) {
+    for (std::size_t i = 0; i < buses_.size(); ++i) {
       if (fds[i].revents & POLLIN) {
         // Drain what is queued on this bus, bounded so timers and status still run under a flood.
         for (int n = 0; n < kMaxMessagesPerSpin && buses_[i]->impl_->lcm.handleTimeout(0) > 0;
@@ -294,6 +321,21 @@ int Node::spinOnce(int timeout_ms) {
           ++handled;
         }
       }
+    }
+    for (std::size_t k = 0; k < watch_ids.size(); ++k) {
+      const short revents = fds[buses_.size() + k].revents;
+      if (revents == 0) continue;
+      auto it = std::find_if(watches_.begin(), watches_.end(),
+                             [&](const Watch& w) { return w.id == watch_ids[k]; });
+      if (it == watches_.end()) continue;  // unwatched by an earlier callback
+      if (revents & POLLNVAL) {
+        reportError("watch_fd", "fd " + std::to_string(it->fd) + " is not open; no longer watched");
+        watches_.erase(it);
+        continue;
+      }
+      // A copy: the callback may unwatch itself.
+      auto on_ready = it->on_ready;
+      timed(on_ready);
     }
   }
   fireTimers();
@@ -306,12 +348,11 @@ bool Node::stopRequested() const {
 
 int Node::run() {
   installStopSignals();
+  // Signals interrupt poll(); the cap only bounds how late a stop request set by another
+  // thread is noticed.
+  constexpr int kMaxWaitMs = 100;
   while (!stopRequested()) {
-    Utime next = options_.status_period_us > 0 ? next_status_ : clock_.now() + 100'000;
-    for (const auto& t : timers_)
-      next = std::min(next, t.next);
-    const Utime wait_us = std::clamp<Utime>(next - clock_.now(), 0, 100'000);
-    spinOnce(static_cast<int>((wait_us + 999) / 1000));
+    spinOnce(msUntilNextTimer(kMaxWaitMs));
   }
   spdlog::info("[{}] stopping", options_.process);
   return 0;

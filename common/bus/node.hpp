@@ -11,6 +11,16 @@
 // its reason and dropped. publish() fills header.utime_published, seq and robot_id; the caller
 // sets header.utime, the physical time of what the message describes. SERVICE_STATUS goes out
 // once per second on the primary bus.
+//
+// The event loop waits in one poll() on every bus's LCM socket and on the file descriptors
+// given to watchFd() (a serial line, a UDP socket), with the timeout to the next timer, so a
+// node that has nothing to do sleeps. Nothing polls.
+//
+// Time: Clock::now() only stamps (headers, "from the future" checks, status). Timers (every(),
+// at(), the status period) run on Clock::monotonicNow(), which never steps: a step of the
+// system clock (time sync on a robot) neither stalls nor bursts them. A SimulatedClock drives
+// both readings (advance() elapses time, step() moves the wall time alone), so memq:// tests
+// fire timers by advancing the clock.
 #pragma once
 
 #include <atomic>
@@ -137,14 +147,26 @@ class Node {
   bool publishEncoded(std::string_view channel, const void* data, int size,
                       BusId bus = kPrimaryBus);
 
-  // Calls `fn` every `period_us` of clock time (first call one period from now).
+  // Calls `fn` every `period_us` of elapsed (monotonic) time, first one period from now.
   void every(Utime period_us, std::function<void()> fn);
-  // Calls `fn` once, at clock time `when`.
+  // Calls `fn` once, when clock time `when` is reached; the delay is taken when the timer is
+  // set, so a later step of the clock does not move it.
   void at(Utime when, std::function<void()> fn);
 
-  // Waits up to timeout_ms for traffic, handles what arrived, fires due timers and status.
-  // Returns the number of messages handled.
+  using WatchId = int;
+  // Calls `on_ready` whenever `fd` is readable (or reports hang-up or an error: the callback
+  // finds out by reading). The node does not own `fd`; unwatch it before closing it. A watch
+  // whose fd turns out invalid is removed and counted as a "watch_fd" error.
+  WatchId watchFd(int fd, std::function<void()> on_ready);
+  // Stops watching; safe from inside any callback, and for ids already removed.
+  void unwatchFd(WatchId id);
+  std::size_t watchedFdCount() const { return watches_.size(); }
+
+  // Waits up to timeout_ms for traffic on the buses and the watched fds, handles what arrived,
+  // fires due timers and status. Returns the number of messages handled.
   int spinOnce(int timeout_ms);
+  // Milliseconds until the next timer or status is due (0 if one is due now), at most max_ms.
+  int msUntilNextTimer(int max_ms) const;
   // Spins until requestStop() or SIGINT/SIGTERM. Returns 0.
   int run();
   void requestStop() { stop_requested_ = true; }
@@ -170,9 +192,15 @@ class Node {
  private:
   using RawHandler = std::function<void(const void* data, int size)>;
   struct Timer {
+    // Monotonic time of the next call.
     Utime next;
     Utime period;  // 0: one-shot
     std::function<void()> fn;
+  };
+  struct Watch {
+    WatchId id;
+    int fd;
+    std::function<void()> on_ready;
   };
 
   void subscribeRaw(const std::string& channel, BusId bus, RawHandler handler);
@@ -191,9 +219,12 @@ class Node {
   std::vector<std::shared_ptr<Connection>> buses_;
   std::vector<std::unique_ptr<Subscription>> subscriptions_;
   std::vector<Timer> timers_;
+  std::vector<Watch> watches_;
+  WatchId next_watch_id_ = 1;
   std::vector<std::pair<std::string, std::int64_t>> next_seq_;
   std::vector<std::uint8_t> encode_buffer_;
   StatusCollector status_;
+  // Monotonic time of the next SERVICE_STATUS.
   Utime next_status_;
   std::atomic<bool> stop_requested_{false};
   std::vector<std::pair<std::string, std::int64_t>> logged_errors_;

@@ -5,7 +5,7 @@
 
 namespace fieldline::motor_bridge {
 
-namespace proto = protocol;
+namespace proto = serial;
 
 BridgeConfig loadBridgeConfig(const config::Node& root) {
   BridgeConfig c;
@@ -147,8 +147,8 @@ void BridgeCore::onBytes(std::span<const std::uint8_t> bytes, Utime now,
               (behind_us < kMaxBatchSpanUs ? static_cast<Utime>(behind_us) : Utime{0});
     o.ticks = sample->ticks;
     o.controller_utime = static_cast<std::int64_t>(sample->controller_time_us);
-    if (sample->status & proto::kStatusWatchdog) o.status |= kOdoStatusWatchdog;
-    if (sample->status & proto::kStatusMotorFault) o.status |= kOdoStatusMotorFault;
+    if (sample->status & proto::kStatusWatchdog) o.status |= perception::kOdometryWatchdog;
+    if (sample->status & proto::kStatusMotorFault) o.status |= perception::kOdometryMotorFault;
     if (last_sample_ && sample->seq == last_sample_->seq &&
         sample->controller_time_us == last_sample_->controller_time_us) {
       count("odometry_duplicate");  // the same frame twice (a replaying line)
@@ -166,14 +166,14 @@ void BridgeCore::onBytes(std::span<const std::uint8_t> bytes, Utime now,
       }
     }
     if (resync_ || !last_sample_) {
-      o.status |= kOdoStatusResync;
+      o.status |= perception::kOdometryResync;
       odometry_.reset();
       odometry_.update(sample->ticks);
       resync_ = false;
     } else {
       const std::uint32_t gap = sample->seq - last_sample_->seq;
       if (gap != 1) {
-        o.status |= kOdoStatusFramesLost;
+        o.status |= perception::kOdometryFramesLost;
         samples_lost_ += gap - 1;
       }
       o.movement = *odometry_.update(sample->ticks);
@@ -188,7 +188,7 @@ void BridgeCore::onBytes(std::span<const std::uint8_t> bytes, Utime now,
         count("odometry_implausible");
         o.movement = {};
         o.vx = o.vy = o.omega = 0.0;
-        o.status |= kOdoStatusResync;
+        o.status |= perception::kOdometryResync;
         odometry_.reset();
         odometry_.update(sample->ticks);
       }

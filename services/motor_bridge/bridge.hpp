@@ -15,10 +15,11 @@
 #include <vector>
 
 #include "common/config/config.hpp"
+#include "common/perception/body.hpp"
 #include "common/robot/robot_params.hpp"
 #include "common/robot/wheel_odometry.hpp"
+#include "common/serial/protocol.hpp"
 #include "common/time/clock.hpp"
-#include "services/motor_bridge/protocol.hpp"
 
 namespace fieldline::motor_bridge {
 
@@ -44,25 +45,8 @@ struct CommandInput {
   Utime deadline = 0;
 };
 
-// Odometry out of one sample; flags as in odometry_t's STATUS_ constants.
-struct OdometryOutput {
-  // Physical sampling time [µs since the epoch].
-  Utime utime = 0;
-  robot::TickCounts ticks{};
-  std::int64_t controller_utime = 0;
-  // Movement since the previous sample, robot frame at that sample [m, m, rad].
-  geometry::Movement movement;
-  // [m/s, m/s, rad/s] robot frame, from movement / controller time step.
-  double vx = 0.0;
-  double vy = 0.0;
-  double omega = 0.0;
-  std::int32_t status = 0;
-};
-
-inline constexpr std::int32_t kOdoStatusWatchdog = 1;
-inline constexpr std::int32_t kOdoStatusMotorFault = 2;
-inline constexpr std::int32_t kOdoStatusFramesLost = 4;
-inline constexpr std::int32_t kOdoStatusResync = 8;
+// Odometry out of one sample, with the perception::kOdometry* status bits.
+using OdometryOutput = perception::OdometryReading;
 
 class BridgeCore {
  public:
@@ -93,9 +77,9 @@ class BridgeCore {
   // Rejection and protocol counters, by kind ("command_nan", "command_expired",
   // "serial_crc", ...), since start.
   const std::map<std::string, std::uint64_t>& counters() const { return counters_; }
-  const protocol::DecoderStats& decoderStats() const { return decoder_.stats(); }
+  const serial::DecoderStats& decoderStats() const { return decoder_.stats(); }
   // The controller's Hello, once received.
-  const std::optional<protocol::Hello>& controllerHello() const { return controller_hello_; }
+  const std::optional<serial::Hello>& controllerHello() const { return controller_hello_; }
   std::uint64_t samplesLost() const { return samples_lost_; }
   bool commandActive(Utime now) const;
   // The command the controller is being sent, after clamping (zero if none).
@@ -106,16 +90,16 @@ class BridgeCore {
 
   robot::RobotParams params_;
   Utime latency_us_;
-  protocol::Decoder decoder_;
-  std::vector<protocol::Message> messages_;
+  serial::Decoder decoder_;
+  std::vector<serial::Message> messages_;
   robot::WheelOdometry odometry_;
   CommandInput current_;
   bool have_command_ = false;
   std::uint32_t command_seq_ = 0;
-  std::optional<protocol::OdometrySample> last_sample_;
+  std::optional<serial::OdometrySample> last_sample_;
   bool resync_ = true;
   std::uint64_t samples_lost_ = 0;
-  std::optional<protocol::Hello> controller_hello_;
+  std::optional<serial::Hello> controller_hello_;
   std::map<std::string, std::uint64_t> counters_;
 };
 

@@ -1,16 +1,12 @@
 // fieldline-motor-bridge: MOTION_COMMAND from the robot's bus -> velocity frames on the serial
 // line; odometry frames from the controller -> ODOMETRY at 50 Hz. See docs/serial-protocol.md.
-#include <spdlog/spdlog.h>
 #include <CLI/CLI.hpp>
-#include <boost/asio/io_context.hpp>
-#include <cmath>
 
 #include "common/bus/cli.hpp"
 #include "common/bus/node.hpp"
 #include "common/config/config.hpp"
 #include "common/robot/robot_params.hpp"
-#include "services/motor_bridge/bridge.hpp"
-#include "services/motor_bridge/serial_link.hpp"
+#include "services/motor_bridge/bridge_node.hpp"
 
 using namespace fieldline;
 
@@ -37,94 +33,19 @@ int main(int argc, char** argv) {
   return bus::runMain("motor_bridge", [&] {
     common.resolve("motor_bridge");
     const auto params = robot::loadRobotPreset(robot_config);
-    auto link_config = motor_bridge::loadBridgeConfig(
+    auto config = motor_bridge::loadBridgeConfig(
         config::Node::loadFile(config::resolvePreset("robot", bridge_config)));
-    if (!device.empty()) link_config.device = device;
-    link_config.device = motor_bridge::deviceForRobot(link_config.device, common.robot);
+    if (!device.empty()) config.device = device;
+    config.device = motor_bridge::deviceForRobot(config.device, common.robot);
 
     SystemClock clock;
     bus::installStopSignals();
     bus::Node node({.process = "motor_bridge", .robot_id = common.robot, .url = common.bus_url},
                    clock);
-    motor_bridge::BridgeCore core(params);
-    boost::asio::io_context io;
-    std::vector<motor_bridge::OdometryOutput> outputs;
-    std::uint64_t published_errors = 0;
-
-    motor_bridge::SerialLink* link_ptr = nullptr;
-    motor_bridge::SerialLink link(
-        io, {link_config.device, link_config.baud_rate, link_config.reconnect_interval},
-        [&](std::span<const std::uint8_t> bytes) {
-          outputs.clear();
-          core.onBytes(bytes, clock.now(), outputs);
-          for (const auto& o : outputs) {
-            odometry_t msg{};
-            msg.header.utime = o.utime;
-            for (int i = 0; i < 3; ++i)
-              msg.ticks[i] = o.ticks[i];
-            msg.controller_utime = o.controller_utime;
-            msg.dx = o.movement.dx;
-            msg.dy = o.movement.dy;
-            msg.dphi = o.movement.dphi;
-            msg.vx = o.vx;
-            msg.vy = o.vy;
-            msg.omega = o.omega;
-            msg.status = o.status;
-            node.publish(bus::channels::kOdometry, msg);
-            // The robot's speed as its wheels tell it: the status table's headline for this robot.
-            node.setMetric("speed_mps", std::hypot(o.vx, o.vy));
-          }
-        },
-        [&](bool connected) {
-          if (connected) {
-            spdlog::info("serial line {} open", link_config.device);
-            core.onConnected();
-            link_ptr->send(core.helloFrame());
-          } else {
-            node.reportError("serial_disconnect", link_ptr->lastError());
-          }
-        });
-    link_ptr = &link;
-
-    node.subscribe(bus::channels::kMotionCommand, [&](const motion_command_t& m) {
-      if (!core.onCommand({m.vx, m.vy, m.omega, m.deadline_utime}, node.now())) {
-        node.reportError("command_rejected", "command not used (NaN or expired)");
-      }
-    });
-    const auto period = static_cast<Utime>(1e6 / link_config.command_rate);
-    node.every(period, [&] { link.send(core.commandFrame(node.now())); });
-    node.every(kMicrosPerSecond, [&] {
-      // Malformed frames and rejections from the core go into SERVICE_STATUS.
-      std::uint64_t total = 0;
-      for (const auto& [kind, n] : core.counters()) {
-        node.setMetric(kind + "_total", static_cast<double>(n));
-        if (kind.starts_with("serial_")) total += n;
-      }
-      if (total > published_errors) {
-        node.reportError("serial_bad_frames",
-                         std::to_string(total - published_errors) + " malformed frames dropped");
-        published_errors = total;
-      }
-      node.setMetric("serial_connected", link.connected() ? 1.0 : 0.0);
-      // Without its serial line the bridge cannot do its job: the status says error.
-      node.status().setFault(!link.connected());
-      node.setMetric("serial_reconnects", static_cast<double>(link.stats().opens));
-      node.setMetric("serial_frames_dropped", static_cast<double>(link.stats().frames_dropped));
-      node.setMetric("odometry_samples_lost", static_cast<double>(core.samplesLost()));
-      node.setMetric("command_active", core.commandActive(node.now()) ? 1.0 : 0.0);
-    });
-
-    link.start();
-    if (!link.connected()) spdlog::warn("{}; retrying", link.lastError());
-    while (!node.stopRequested()) {
-      node.spinOnce(1);
-      io.poll();
-      if (io.stopped()) io.restart();
-    }
-    // Leave the robot standing, not driving until its watchdog fires.
-    link.send(core.stopFrame());
-    io.poll();
-    link.stop();
-    return 0;
+    motor_bridge::BridgeNode bridge(node, params, config);
+    bridge.start();
+    const int rc = node.run();
+    bridge.stop();
+    return rc;
   });
 }

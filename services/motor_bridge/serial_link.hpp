@@ -58,6 +58,9 @@ class SerialLink {
   // Closes the device and stops retrying.
   void stop();
   bool connected() const { return port_.is_open(); }
+  // The open device's file descriptor, for an event loop to wait on (then run the io_context
+  // when it is readable); -1 while closed. A new one after every reconnect.
+  int nativeHandle() { return port_.is_open() ? port_.native_handle() : -1; }
   // Queues bytes for writing; when the link is down they are dropped and counted (a command
   // is worthless by the time the device returns). Returns false then.
   bool send(std::span<const std::uint8_t> bytes);

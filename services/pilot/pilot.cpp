@@ -5,7 +5,7 @@
 namespace fieldline::pilot {
 namespace {
 
-const world_sim::RobotSpec& robotSpec(const world_sim::Scenario& scenario, int id) {
+const scenario::RobotSpec& robotSpec(const scenario::Scenario& scenario, int id) {
   const auto* spec = scenario.robotById(id);
   if (!spec) {
     throw std::invalid_argument("scenario " + scenario.name + " has no robot " +
@@ -16,7 +16,7 @@ const world_sim::RobotSpec& robotSpec(const world_sim::Scenario& scenario, int i
 
 }  // namespace
 
-Pilot::Pilot(const world_sim::Scenario& scenario, int robot_id, const robot::RobotParams& params,
+Pilot::Pilot(const scenario::Scenario& scenario, int robot_id, const robot::RobotParams& params,
              PilotConfig config)
     : trajectory_(robotSpec(scenario, robot_id).trajectory, robotSpec(scenario, robot_id).start),
       params_(params),

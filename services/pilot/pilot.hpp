@@ -7,8 +7,8 @@
 
 #include "common/geometry/geometry.hpp"
 #include "common/robot/trajectory.hpp"
+#include "common/scenario/scenario.hpp"
 #include "common/time/clock.hpp"
-#include "services/world_sim/scenario.hpp"
 
 namespace fieldline::pilot {
 
@@ -21,7 +21,7 @@ struct PilotConfig {
 class Pilot {
  public:
   // Throws std::invalid_argument when the scenario has no robot `robot_id`.
-  Pilot(const world_sim::Scenario& scenario, int robot_id, const robot::RobotParams& params,
+  Pilot(const scenario::Scenario& scenario, int robot_id, const robot::RobotParams& params,
         PilotConfig config = {});
 
   // The latest pose of the robot, valid at `utime`.

@@ -44,7 +44,7 @@ int main(int argc, char** argv) {
 
   int status = 0;
   config::runOrExit([&] {
-    auto scenario = world_sim::loadScenarioPreset(scenario_name);
+    auto scenario = scenario::loadScenarioPreset(scenario_name);
     if (seed >= 0) scenario.seed = static_cast<std::uint64_t>(seed);
     if (slip_scale >= 0.0) scenario.slip_scale = slip_scale;
     world_sim::World world(scenario);

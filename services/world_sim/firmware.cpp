@@ -4,7 +4,7 @@
 
 namespace fieldline::world_sim {
 
-namespace proto = motor_bridge::protocol;
+namespace proto = serial;
 
 FirmwareEmulator::FirmwareEmulator(const robot::RobotParams& params, std::uint64_t clock_offset_us)
     : params_(params), clock_offset_us_(clock_offset_us) {

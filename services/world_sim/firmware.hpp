@@ -15,7 +15,7 @@
 #include "common/robot/motor_model.hpp"
 #include "common/robot/robot_params.hpp"
 #include "common/robot/wheel_odometry.hpp"
-#include "services/motor_bridge/protocol.hpp"
+#include "common/serial/protocol.hpp"
 
 namespace fieldline::world_sim {
 
@@ -46,7 +46,7 @@ class FirmwareEmulator {
   void lineReset() { decoder_.reset(); }
 
   const FirmwareStats& stats() const { return stats_; }
-  const motor_bridge::protocol::DecoderStats& decoderStats() const { return decoder_.stats(); }
+  const serial::DecoderStats& decoderStats() const { return decoder_.stats(); }
   std::uint64_t controllerTimeUs(double t) const;
 
  private:
@@ -57,8 +57,8 @@ class FirmwareEmulator {
 
   robot::RobotParams params_;
   std::uint64_t clock_offset_us_;
-  motor_bridge::protocol::Decoder decoder_;
-  std::vector<motor_bridge::protocol::Message> messages_;
+  serial::Decoder decoder_;
+  std::vector<serial::Message> messages_;
   std::deque<Pending> pending_;
   robot::NormalizedCommand active_;
   // Time the last valid command arrived; negative before the first.

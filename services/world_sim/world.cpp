@@ -39,11 +39,11 @@ bool bounceOffCircle(BallTruth& ball, const geometry::Vec2& centre, double radiu
 
 }  // namespace
 
-World::World(const Scenario& scenario)
+World::World(const scenario::Scenario& scenario)
     : World(scenario, robot::loadRobotPreset(scenario.robot),
             field::loadFieldPreset(scenario.field)) {}
 
-World::World(const Scenario& scenario, const robot::RobotParams& params,
+World::World(const scenario::Scenario& scenario, const robot::RobotParams& params,
              const field::FieldModel& field)
     : scenario_(scenario),
       params_(scaledParams(params, scenario.slip_scale)),
@@ -72,11 +72,13 @@ World::World(const Scenario& scenario, const robot::RobotParams& params,
   ball_.position = scenario.ball.start;
   ball_.radius = scenario.ball.radius;
   kicks_ = scenario.ball.kicks;
-  std::stable_sort(kicks_.begin(), kicks_.end(),
-                   [](const BallKick& a, const BallKick& b) { return a.time < b.time; });
+  std::stable_sort(
+      kicks_.begin(), kicks_.end(),
+      [](const scenario::BallKick& a, const scenario::BallKick& b) { return a.time < b.time; });
   kidnaps_ = scenario.kidnaps;
-  std::stable_sort(kidnaps_.begin(), kidnaps_.end(),
-                   [](const KidnapSpec& a, const KidnapSpec& b) { return a.time < b.time; });
+  std::stable_sort(
+      kidnaps_.begin(), kidnaps_.end(),
+      [](const scenario::KidnapSpec& a, const scenario::KidnapSpec& b) { return a.time < b.time; });
 }
 
 int World::indexOf(int id) const {

@@ -22,7 +22,7 @@
 #include "common/robot/robot_params.hpp"
 #include "common/robot/trajectory.hpp"
 #include "common/robot/wheel_odometry.hpp"
-#include "services/world_sim/scenario.hpp"
+#include "common/scenario/scenario.hpp"
 
 namespace fieldline::world_sim {
 
@@ -59,8 +59,9 @@ struct BallTruth {
 class World {
  public:
   // Robot parameters and field from the scenario's presets unless given.
-  explicit World(const Scenario& scenario);
-  World(const Scenario& scenario, const robot::RobotParams& params, const field::FieldModel& field);
+  explicit World(const scenario::Scenario& scenario);
+  World(const scenario::Scenario& scenario, const robot::RobotParams& params,
+        const field::FieldModel& field);
 
   // Sets what robot `index`'s motors act on from now: normalised wheel commands in [-1, 1]
   // (non-finite values stop the wheel).
@@ -90,7 +91,7 @@ class World {
   // Lifts robot `index` and puts it down at `pose`; the wheels do not turn.
   void kidnap(std::size_t index, const geometry::Pose2& pose);
 
-  const Scenario& scenario() const { return scenario_; }
+  const scenario::Scenario& scenario() const { return scenario_; }
   const robot::RobotParams& robotParams() const { return params_; }
   const field::FieldModel& field() const { return field_; }
 
@@ -100,7 +101,7 @@ class World {
   void stepBall();
   void applyEvents();
 
-  Scenario scenario_;
+  scenario::Scenario scenario_;
   robot::RobotParams params_;
   field::FieldModel field_;
   double dt_;
@@ -117,8 +118,8 @@ class World {
   BallTruth ball_;
   std::size_t next_kick_ = 0;
   std::size_t next_kidnap_ = 0;
-  std::vector<BallKick> kicks_;
-  std::vector<KidnapSpec> kidnaps_;
+  std::vector<scenario::BallKick> kicks_;
+  std::vector<scenario::KidnapSpec> kidnaps_;
   std::mt19937_64 rng_;
   std::normal_distribution<double> normal_{0.0, 1.0};
 };

@@ -11,7 +11,7 @@
 namespace fieldline::motor_bridge {
 namespace {
 
-namespace proto = protocol;
+namespace proto = serial;
 constexpr Utime kT0 = 1'700'000'000'000'000;
 
 proto::VelocityCommand decodeCommand(const std::vector<std::uint8_t>& frame) {
@@ -66,8 +66,8 @@ TEST(Bridge, OdometryFromTheEmulatorIsStampedWithThePhysicalTime) {
   bridge.onBytes(wire, kT0 + 20'000, out);
   ASSERT_EQ(out.size(), 1u);
   EXPECT_EQ(out[0].utime, kT0 + 20'000 - 8'000);  // minus the controller latency
-  EXPECT_TRUE(out[0].status & kOdoStatusResync);
-  EXPECT_TRUE(out[0].status & kOdoStatusWatchdog);  // no command yet
+  EXPECT_TRUE(out[0].status & perception::kOdometryResync);
+  EXPECT_TRUE(out[0].status & perception::kOdometryWatchdog);  // no command yet
   EXPECT_EQ(out[0].controller_utime, 123'000 + 20'000);
 
   // 100 ticks on the side wheels against each other: forward.
@@ -80,7 +80,7 @@ TEST(Bridge, OdometryFromTheEmulatorIsStampedWithThePhysicalTime) {
   EXPECT_NEAR(out[1].movement.dx, expected.dx, 1e-12);
   EXPECT_GT(out[1].movement.dx, 0.0);
   EXPECT_NEAR(out[1].vx, expected.dx / 0.02, 1e-9);
-  EXPECT_EQ(out[1].status & kOdoStatusResync, 0);
+  EXPECT_EQ(out[1].status & perception::kOdometryResync, 0);
 
   // A lost sample is flagged, the movement still covers both intervals.
   wire.clear();
@@ -89,7 +89,7 @@ TEST(Bridge, OdometryFromTheEmulatorIsStampedWithThePhysicalTime) {
   firmware.sample(0.08, {300, -300, 0}, wire);
   bridge.onBytes(wire, kT0 + 80'000, out);
   ASSERT_EQ(out.size(), 3u);
-  EXPECT_TRUE(out[2].status & kOdoStatusFramesLost);
+  EXPECT_TRUE(out[2].status & perception::kOdometryFramesLost);
   EXPECT_EQ(bridge.samplesLost(), 1u);
   EXPECT_NEAR(out[2].movement.dx, reference.movement({200, -200, 0}).dx, 1e-12);
 }
@@ -179,7 +179,7 @@ TEST_F(BridgeHostile, AControllerRestartWithoutItsResetFlagIsAResyncNotAJump) {
   restarted.sample(0.04, {10, -10, 0}, wire);
   bridge.onBytes(wire, kT0 + 60'000, out);
   ASSERT_EQ(out.size(), 3u);
-  EXPECT_TRUE(out[2].status & kOdoStatusResync);
+  EXPECT_TRUE(out[2].status & perception::kOdometryResync);
   EXPECT_DOUBLE_EQ(out[2].movement.dx, 0.0);
   EXPECT_DOUBLE_EQ(out[2].movement.dphi, 0.0);
   EXPECT_EQ(bridge.counters().at("odometry_discontinuity"), 1u);
@@ -193,7 +193,7 @@ TEST_F(BridgeHostile, ImpossibleWheelSpeedsAreNotPublishedAsMovement) {
   ASSERT_EQ(out.size(), 2u);
   EXPECT_EQ(bridge.counters().at("odometry_implausible"), 1u);
   EXPECT_DOUBLE_EQ(out[1].movement.dx, 0.0);
-  EXPECT_TRUE(out[1].status & kOdoStatusResync);
+  EXPECT_TRUE(out[1].status & perception::kOdometryResync);
   // The next sample continues from the new reference.
   sample(0.06, {76810, -76810, 0}, kT0 + 40'000);
   ASSERT_EQ(out.size(), 3u);

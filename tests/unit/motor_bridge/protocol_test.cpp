@@ -7,9 +7,9 @@
 #include <gtest/gtest.h>
 #include <boost/crc.hpp>
 
-#include "services/motor_bridge/protocol.hpp"
+#include "common/serial/protocol.hpp"
 
-namespace fieldline::motor_bridge::protocol {
+namespace fieldline::serial {
 namespace {
 
 using Bytes = std::vector<std::uint8_t>;
@@ -255,4 +255,4 @@ TEST(ProtocolFuzz, CorruptionNeverYieldsAWrongFrameAndAlwaysResynchronises) {
 }
 
 }  // namespace
-}  // namespace fieldline::motor_bridge::protocol
+}  // namespace fieldline::serial

@@ -11,7 +11,7 @@ namespace {
 constexpr Utime kT0 = 1'700'000'000'000'000;
 
 TEST(Pilot, NeedsAFreshPose) {
-  const auto scenario = world_sim::loadScenarioPreset("default");
+  const auto scenario = scenario::loadScenarioPreset("default");
   const auto params = robot::loadRobotPreset("fu2004");
   EXPECT_THROW(Pilot(scenario, 9, params), std::invalid_argument);
   Pilot pilot(scenario, 3, params);  // rotates in place at 1 rad/s
@@ -29,7 +29,7 @@ TEST(Pilot, NeedsAFreshPose) {
 }
 
 TEST(Pilot, DrivesTheWorldAlongItsTrajectory) {
-  auto scenario = world_sim::loadScenarioPreset("default");
+  auto scenario = scenario::loadScenarioPreset("default");
   world_sim::World world(scenario);
   Pilot pilot(scenario, 2, world.robotParams());  // the waypoint tour at 1.2 m/s
   const int index = world.indexOf(2);

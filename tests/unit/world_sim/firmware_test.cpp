@@ -12,7 +12,7 @@
 namespace fieldline::world_sim {
 namespace {
 
-namespace proto = motor_bridge::protocol;
+namespace proto = serial;
 
 std::vector<proto::Message> decode(const std::vector<std::uint8_t>& bytes) {
   proto::Decoder d;

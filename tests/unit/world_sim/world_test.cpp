@@ -13,6 +13,10 @@
 namespace fieldline::world_sim {
 namespace {
 
+using scenario::loadScenarioPreset;
+using scenario::RobotSpec;
+using scenario::Scenario;
+
 constexpr double kPi = std::numbers::pi;
 
 Scenario oneRobot(const geometry::Pose2& start, double slip_scale) {

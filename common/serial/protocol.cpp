@@ -1,11 +1,11 @@
-#include "services/motor_bridge/protocol.hpp"
+#include "common/serial/protocol.hpp"
 
 #include <algorithm>
 #include <cmath>
 
 #include <boost/crc.hpp>
 
-namespace fieldline::motor_bridge::protocol {
+namespace fieldline::serial {
 namespace {
 
 constexpr std::size_t kHelloBody = 9;
@@ -319,4 +319,4 @@ std::size_t Decoder::feed(std::span<const std::uint8_t> bytes, std::vector<Messa
   return added;
 }
 
-}  // namespace fieldline::motor_bridge::protocol
+}  // namespace fieldline::serial

@@ -1,4 +1,4 @@
-#include "services/region_tracking/sim_frames.hpp"
+#include "tests/support/sim_frames.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -12,7 +12,7 @@
 #include "common/geometry/geometry.hpp"
 #include "common/robot/trajectory.hpp"
 
-namespace fieldline::world_sim {
+namespace fieldline::scenario {
 
 struct RobotSpec {
   // Robot number 1..6.
@@ -91,4 +91,4 @@ Scenario loadScenario(const config::Node& root);
 // Loads config/scenarios/<name>.yaml (or a path).
 Scenario loadScenarioPreset(const std::string& name_or_path);
 
-}  // namespace fieldline::world_sim
+}  // namespace fieldline::scenario

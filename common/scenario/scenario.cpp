@@ -1,10 +1,10 @@
-#include "services/world_sim/scenario.hpp"
+#include "common/scenario/scenario.hpp"
 
 #include <algorithm>
 #include <numbers>
 #include <set>
 
-namespace fieldline::world_sim {
+namespace fieldline::scenario {
 namespace {
 
 constexpr double kMaxCoordinate = 50.0;
@@ -174,4 +174,4 @@ Scenario loadScenarioPreset(const std::string& name_or_path) {
   return loadScenario(config::Node::loadFile(config::resolvePreset("scenarios", name_or_path)));
 }
 
-}  // namespace fieldline::world_sim
+}  // namespace fieldline::scenario

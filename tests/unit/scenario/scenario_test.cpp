@@ -3,9 +3,9 @@
 
 #include <gtest/gtest.h>
 
-#include "services/world_sim/scenario.hpp"
+#include "common/scenario/scenario.hpp"
 
-namespace fieldline::world_sim {
+namespace fieldline::scenario {
 namespace {
 
 TEST(Scenario, ShippedScenariosLoad) {
@@ -68,4 +68,4 @@ TEST(Scenario, MistakesNameFileLineAndKey) {
 }
 
 }  // namespace
-}  // namespace fieldline::world_sim
+}  // namespace fieldline::scenario

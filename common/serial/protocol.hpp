@@ -12,7 +12,7 @@
 #include <variant>
 #include <vector>
 
-namespace fieldline::motor_bridge::protocol {
+namespace fieldline::serial {
 
 // Bumped on any incompatible change of a message layout.
 inline constexpr std::uint8_t kVersion = 1;
@@ -165,4 +165,4 @@ class Decoder {
 // Parses one payload (after COBS decoding). Returns the reason on failure.
 std::variant<Message, Reject> parsePayload(std::span<const std::uint8_t> payload);
 
-}  // namespace fieldline::motor_bridge::protocol
+}  // namespace fieldline::serial

@@ -1,0 +1,53 @@
+// What the robot's body reports and is told, without LCM: ODOMETRY (motor_bridge -> fusion) and
+// MOTION_COMMAND (pilot or behaviour -> motor_bridge). Conversions in common/msg.
+#pragma once
+
+#include <array>
+#include <cstdint>
+
+#include "common/geometry/geometry.hpp"
+
+namespace fieldline::perception {
+
+// Bits of OdometryReading::status; equal odometry_t's STATUS_ constants (checked at compile
+// time in common/msg/odometry.cpp).
+inline constexpr std::int32_t kOdometryWatchdog = 1;
+inline constexpr std::int32_t kOdometryMotorFault = 2;
+inline constexpr std::int32_t kOdometryFramesLost = 4;
+inline constexpr std::int32_t kOdometryResync = 8;
+
+// One odometry sample of the motor controller.
+struct OdometryReading {
+  // Physical sampling time, µs since the epoch on this robot's clock.
+  std::int64_t utime = 0;
+  // Accumulated encoder ticks of the three wheels (wrapping int32).
+  std::array<std::int32_t, 3> ticks{};
+  // The controller's own clock at sampling [µs].
+  std::int64_t controller_utime = 0;
+  // Movement since the previous sample, robot frame at that sample [m, m, rad].
+  geometry::Movement movement;
+  // Velocity in the robot frame [m/s, m/s, rad/s].
+  double vx = 0.0;
+  double vy = 0.0;
+  double omega = 0.0;
+  // kOdometry* bits.
+  std::int32_t status = 0;
+};
+
+// Who sent a motion command; values equal motion_command_t's SOURCE_ constants.
+enum class CommandSource : std::int8_t { kUnknown = 0, kPilot = 1, kBehavior = 2, kManual = 3 };
+
+// A normalised velocity command for the motor bridge.
+struct MotionCommand {
+  // Time the command was decided, µs since the epoch.
+  std::int64_t utime = 0;
+  // Robot frame, normalised to [-1, 1] of the robot's top speeds.
+  double vx = 0.0;
+  double vy = 0.0;
+  double omega = 0.0;
+  // The command is void after this time [µs since the epoch].
+  std::int64_t deadline_utime = 0;
+  CommandSource source = CommandSource::kUnknown;
+};
+
+}  // namespace fieldline::perception

@@ -1,0 +1,114 @@
+#include "services/motor_bridge/bridge_node.hpp"
+
+#include <cmath>
+#include <stdexcept>
+
+#include <spdlog/spdlog.h>
+
+#include "common/msg/motion_command.hpp"
+#include "common/msg/odometry.hpp"
+
+namespace fieldline::motor_bridge {
+
+BridgeNode::BridgeNode(bus::Node& node, const robot::RobotParams& params, BridgeConfig config)
+    : node_(node),
+      config_(std::move(config)),
+      core_(params),
+      link_(
+          io_, {config_.device, config_.baud_rate, config_.reconnect_interval},
+          [this](std::span<const std::uint8_t> bytes) { onBytes(bytes); },
+          [this](bool connected) { onLinkState(connected); }) {
+  if (!(config_.command_rate > 0.0)) throw std::invalid_argument("command_rate must be positive");
+  node_.subscribe(bus::channels::kMotionCommand,
+                  [this](const motion_command_t& m) { onCommand(m); });
+  node_.every(static_cast<Utime>(1e6 / config_.command_rate), [this] { sendCommand(); });
+  node_.every(kMicrosPerSecond, [this] { publishMetrics(); });
+}
+
+BridgeNode::~BridgeNode() {
+  stop();
+}
+
+void BridgeNode::start() {
+  stopped_ = false;
+  link_.start();
+  if (!link_.connected()) spdlog::warn("{}; retrying", link_.lastError());
+}
+
+void BridgeNode::stop() {
+  if (stopped_) return;
+  stopped_ = true;
+  link_.send(core_.stopFrame());
+  pumpIo();
+  if (line_watch_) node_.unwatchFd(*line_watch_);
+  line_watch_.reset();
+  link_.stop();
+}
+
+void BridgeNode::pumpIo() {
+  io_.poll();
+  // poll() stops the context when it runs out of work; the next send or read brings work back.
+  if (io_.stopped()) io_.restart();
+}
+
+void BridgeNode::onBytes(std::span<const std::uint8_t> bytes) {
+  outputs_.clear();
+  core_.onBytes(bytes, node_.now(), outputs_);
+  for (const auto& o : outputs_) {
+    msg::toMessage(o, odometry_);
+    node_.publish(bus::channels::kOdometry, odometry_);
+    // The robot's speed as its wheels tell it: the status table's headline for this robot.
+    node_.setMetric("speed_mps", std::hypot(o.vx, o.vy));
+  }
+}
+
+void BridgeNode::onLinkState(bool connected) {
+  // The old descriptor is closed (or replaced): stop waiting on it in either case.
+  if (line_watch_) node_.unwatchFd(*line_watch_);
+  line_watch_.reset();
+  if (!connected) {
+    node_.reportError("serial_disconnect", link_.lastError());
+    return;
+  }
+  spdlog::info("serial line {} open", config_.device);
+  line_watch_ = node_.watchFd(link_.nativeHandle(), [this] { pumpIo(); });
+  core_.onConnected();
+  link_.send(core_.helloFrame());
+}
+
+void BridgeNode::onCommand(const motion_command_t& m) {
+  const auto command = msg::fromMessage(m);
+  if (!core_.onCommand({command.vx, command.vy, command.omega, command.deadline_utime},
+                       node_.now())) {
+    node_.reportError("command_rejected", "command not used (NaN or expired)");
+  }
+}
+
+void BridgeNode::sendCommand() {
+  link_.send(core_.commandFrame(node_.now()));
+  // Writes the frame, and runs Asio's reconnect timer while the line is down.
+  pumpIo();
+}
+
+void BridgeNode::publishMetrics() {
+  // Malformed frames and rejections from the core go into SERVICE_STATUS.
+  std::uint64_t bad_frames = 0;
+  for (const auto& [kind, n] : core_.counters()) {
+    node_.setMetric(kind + "_total", static_cast<double>(n));
+    if (kind.starts_with("serial_")) bad_frames += n;
+  }
+  if (bad_frames > reported_bad_frames_) {
+    node_.reportError("serial_bad_frames", std::to_string(bad_frames - reported_bad_frames_) +
+                                               " malformed frames dropped");
+    reported_bad_frames_ = bad_frames;
+  }
+  node_.setMetric("serial_connected", link_.connected() ? 1.0 : 0.0);
+  // Without its serial line the bridge cannot do its job: the status says error.
+  node_.status().setFault(!link_.connected());
+  node_.setMetric("serial_reconnects", static_cast<double>(link_.stats().opens));
+  node_.setMetric("serial_frames_dropped", static_cast<double>(link_.stats().frames_dropped));
+  node_.setMetric("odometry_samples_lost", static_cast<double>(core_.samplesLost()));
+  node_.setMetric("command_active", core_.commandActive(node_.now()) ? 1.0 : 0.0);
+}
+
+}  // namespace fieldline::motor_bridge

@@ -1,0 +1,67 @@
+// The motor_bridge process's bus side: MOTION_COMMAND in, velocity frames out on the serial line
+// at the command rate; odometry frames in, ODOMETRY out, stamped with the sampling time.
+//
+// The serial line is a Boost.Asio SerialLink on an io_context this class owns. The bus node's
+// event loop waits on the line's file descriptor next to LCM's and runs the io_context (poll(),
+// never blocking) when the line is readable and after each command is queued; the command timer
+// (50 Hz) also drives Asio's reconnect timer while the line is down. So the process sleeps until
+// bytes, a message or a timer are due: no polling loop.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <span>
+#include <vector>
+
+#include <boost/asio/io_context.hpp>
+#include <fieldline/motion_command_t.hpp>
+#include <fieldline/odometry_t.hpp>
+
+#include "common/bus/node.hpp"
+#include "common/robot/robot_params.hpp"
+#include "services/motor_bridge/bridge.hpp"
+#include "services/motor_bridge/serial_link.hpp"
+
+namespace fieldline::motor_bridge {
+
+class BridgeNode {
+ public:
+  // Subscribes MOTION_COMMAND and sets the timers on `node`; opens the line with start().
+  // Throws std::invalid_argument for a command rate that is not positive.
+  BridgeNode(bus::Node& node, const robot::RobotParams& params, BridgeConfig config);
+  // Sends a stop frame and closes the line (stop()).
+  ~BridgeNode();
+  BridgeNode(const BridgeNode&) = delete;
+  BridgeNode& operator=(const BridgeNode&) = delete;
+
+  // Opens the serial line now or keeps retrying every reconnect_interval.
+  void start();
+  // Leaves the robot standing (a zero command, not driving on until the controller's watchdog
+  // fires) and closes the line.
+  void stop();
+
+  const SerialLink& link() const { return link_; }
+  const BridgeCore& core() const { return core_; }
+
+ private:
+  void onBytes(std::span<const std::uint8_t> bytes);
+  void onLinkState(bool connected);
+  void onCommand(const motion_command_t& m);
+  void sendCommand();
+  void publishMetrics();
+  // Runs what is ready in the io_context without blocking.
+  void pumpIo();
+
+  bus::Node& node_;
+  BridgeConfig config_;
+  BridgeCore core_;
+  boost::asio::io_context io_;
+  SerialLink link_;
+  std::optional<bus::Node::WatchId> line_watch_;
+  std::vector<OdometryOutput> outputs_;
+  odometry_t odometry_{};
+  std::uint64_t reported_bad_frames_ = 0;
+  bool stopped_ = false;
+};
+
+}  // namespace fieldline::motor_bridge

@@ -1,0 +1,57 @@
+// The world_sim process's bus side: steps the world in real time (up to the node's clock, never
+// ahead of it), drives the serial lines (serial_lines.hpp) and publishes SIM_WORLD ground truth
+// on the node's primary bus (the simulator's), stamped with the simulated physical time.
+#pragma once
+
+#include <string>
+
+#include <fieldline/world_state_t.hpp>
+
+#include "common/bus/node.hpp"
+#include "common/perception/world_truth.hpp"
+#include "common/scenario/scenario.hpp"
+#include "services/world_sim/serial_lines.hpp"
+#include "services/world_sim/world.hpp"
+
+namespace fieldline::world_sim {
+
+struct WorldSimNodeOptions {
+  // Folder of the robots' serial links robot<N>.tty.
+  std::string pty_dir = "/tmp/fieldline";
+  // SIM_WORLD messages per simulated second.
+  double world_rate = 100.0;
+};
+
+class WorldSimNode {
+ public:
+  // Simulated time 0 is the node's clock now. Opens the serial lines; sets a timer at the
+  // physics rate. Throws std::runtime_error when a pty cannot be opened, std::invalid_argument
+  // for a world rate that is not positive.
+  WorldSimNode(bus::Node& node, const scenario::Scenario& scenario, WorldSimNodeOptions options);
+
+  // Steps the world up to the node's clock; requests the node's stop at the scenario's end.
+  void update();
+  // Pulls every serial line for `duration` seconds (SIGUSR1 in the process).
+  void pullSerialLines(double duration);
+  bool finished() const;
+
+  const World& world() const { return world_; }
+  const SerialLines& lines() const { return lines_; }
+  // The node's clock at simulated time `t` [s].
+  Utime utimeAt(double t) const;
+
+ private:
+  void publishWorld();
+  void publishMetrics();
+
+  bus::Node& node_;
+  WorldSimNodeOptions options_;
+  World world_;
+  SerialLines lines_;
+  Utime start_;
+  double next_world_ = 0.0;
+  perception::WorldTruth truth_;
+  world_state_t msg_{};
+};
+
+}  // namespace fieldline::world_sim

@@ -1,0 +1,62 @@
+// The body's message conversions (common/msg): odometry_t and motion_command_t round trips,
+// and an unknown command source read as unknown, not cast into the enum.
+#include <gtest/gtest.h>
+
+#include "common/msg/motion_command.hpp"
+#include "common/msg/odometry.hpp"
+
+namespace fieldline::msg {
+namespace {
+
+TEST(OdometryMsg, RoundTripKeepsEveryField) {
+  perception::OdometryReading r;
+  r.utime = 1'800'000'000'123'456;
+  r.ticks = {-5, 2'000'000'000, 7};
+  r.controller_utime = 98'765;
+  r.movement = {0.01, -0.002, 0.03};
+  r.vx = 0.5;
+  r.vy = -0.1;
+  r.omega = 1.5;
+  r.status = perception::kOdometryResync | perception::kOdometryWatchdog;
+  odometry_t m{};
+  toMessage(r, m);
+  EXPECT_EQ(m.header.utime, r.utime);
+  EXPECT_EQ(m.status, static_cast<std::int32_t>(odometry_t::STATUS_RESYNC) |
+                          static_cast<std::int32_t>(odometry_t::STATUS_WATCHDOG));
+  const auto back = fromMessage(m);
+  EXPECT_EQ(back.utime, r.utime);
+  EXPECT_EQ(back.ticks, r.ticks);
+  EXPECT_EQ(back.controller_utime, r.controller_utime);
+  EXPECT_DOUBLE_EQ(back.movement.dx, 0.01);
+  EXPECT_DOUBLE_EQ(back.movement.dy, -0.002);
+  EXPECT_DOUBLE_EQ(back.movement.dphi, 0.03);
+  EXPECT_DOUBLE_EQ(back.vx, 0.5);
+  EXPECT_DOUBLE_EQ(back.vy, -0.1);
+  EXPECT_DOUBLE_EQ(back.omega, 1.5);
+  EXPECT_EQ(back.status, r.status);
+}
+
+TEST(MotionCommandMsg, RoundTripAndUnknownSource) {
+  perception::MotionCommand c;
+  c.utime = 1'800'000'000'000'000;
+  c.vx = -0.25;
+  c.vy = 0.75;
+  c.omega = 0.1;
+  c.deadline_utime = c.utime + 100'000;
+  c.source = perception::CommandSource::kBehavior;
+  motion_command_t m{};
+  toMessage(c, m);
+  EXPECT_EQ(m.source, motion_command_t::SOURCE_BEHAVIOR);
+  const auto back = fromMessage(m);
+  EXPECT_EQ(back.utime, c.utime);
+  EXPECT_DOUBLE_EQ(back.vx, -0.25);
+  EXPECT_DOUBLE_EQ(back.vy, 0.75);
+  EXPECT_DOUBLE_EQ(back.omega, 0.1);
+  EXPECT_EQ(back.deadline_utime, c.deadline_utime);
+  EXPECT_EQ(back.source, perception::CommandSource::kBehavior);
+  m.source = 42;
+  EXPECT_EQ(fromMessage(m).source, perception::CommandSource::kUnknown);
+}
+
+}  // namespace
+}  // namespace fieldline::msg

@@ -1,0 +1,123 @@
+// The world_sim node over memq:// with a simulated clock: the world follows the clock (never
+// ahead of it), SIM_WORLD at the world rate stamped with simulated time, odometry frames on each
+// robot's pseudo-terminal, and the scenario's serial outages (the line goes and comes back).
+#include "services/world_sim/world_sim_node.hpp"
+
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <memory>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "common/msg/world_state.hpp"
+#include "common/serial/protocol.hpp"
+
+namespace fieldline::world_sim {
+namespace {
+
+class WorldSimNodeTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = std::filesystem::temp_directory_path() /
+           ("fieldline-world-sim-node-" + std::to_string(::getpid()));
+    listener_.subscribe(bus::channels::kSimWorld,
+                        [this](const world_state_t& w) { states_.push_back(msg::fromMessage(w)); });
+  }
+  void TearDown() override { std::filesystem::remove_all(dir_); }
+
+  // Moves the clock in 5 ms steps over `seconds`, the simulator and the listener handling
+  // what is due after each.
+  void run(double seconds) {
+    for (int i = 0; i < static_cast<int>(seconds * 200 + 0.5); ++i) {
+      clock_.advance(5'000);
+      sim_node_.spinOnce(0);
+      listener_.spinOnce(0);
+    }
+  }
+
+  std::filesystem::path dir_;
+  SimulatedClock clock_{1'800'000'000'000'000};
+  std::shared_ptr<bus::Connection> memq_ = bus::Connection::open("memq://");
+  bus::Node sim_node_{
+      {.process = "world_sim", .robot_id = 0, .status_period_us = 0}, clock_, memq_};
+  bus::Node listener_{{.process = "listener", .robot_id = 0, .status_period_us = 0}, clock_, memq_};
+  std::vector<perception::WorldTruth> states_;
+};
+
+TEST_F(WorldSimNodeTest, PublishesTheWorldAtItsRateOnSimulatedTime) {
+  const auto scenario = scenario::loadScenarioPreset("default");
+  const Utime start = clock_.now();
+  WorldSimNode sim(sim_node_, scenario, {.pty_dir = dir_.string(), .world_rate = 100.0});
+  run(0.2);
+  // The state after the first step, then 100 Hz over 0.2 s (the last one may still be a step
+  // short of the present).
+  ASSERT_GE(states_.size(), 20u);
+  ASSERT_LE(states_.size(), 21u);
+  EXPECT_LE(sim.world().time(), 0.2 + 1e-9);
+  EXPECT_GE(sim.world().time(), 0.2 - sim.world().stepSeconds() - 1e-9);
+  EXPECT_EQ(states_[0].utime, start + sim.utimeAt(sim.world().stepSeconds()) - sim.utimeAt(0.0));
+  for (std::size_t k = 1; k < states_.size(); ++k) {
+    EXPECT_EQ(states_[k].utime, start + static_cast<Utime>(k) * 10'000) << k;
+    EXPECT_LE(states_[k].utime, clock_.now());
+  }
+  const auto& last = states_.back();
+  EXPECT_EQ(last.scenario, scenario.name);
+  ASSERT_EQ(last.robots.size(), scenario.robots.size());
+  const auto* three = last.robot(3);
+  ASSERT_NE(three, nullptr);
+  // Nobody drives it (no bridge): the robot stands where the scenario put it.
+  EXPECT_NEAR(three->pose.x, scenario.robotById(3)->start.x, 1e-9);
+  EXPECT_GT(last.robot_radius, 0.0);
+}
+
+TEST_F(WorldSimNodeTest, SendsOdometryOnThePtyAndPlaysTheOutages) {
+  auto scenario = scenario::loadScenarioPreset("serial_test");
+  scenario.serial_outages = {{.time = 0.1, .robot = 1, .duration = 0.1}};
+  WorldSimNode sim(sim_node_, scenario, {.pty_dir = dir_.string()});
+  ASSERT_EQ(sim.lines().size(), 1u);
+  const std::string link = sim.lines().linkPath(0);
+
+  // The bridge's side: the link opened as a device.
+  int fd = ::open(link.c_str(), O_RDWR | O_NOCTTY | O_NONBLOCK);
+  ASSERT_GE(fd, 0) << link;
+  run(0.09);
+  std::vector<std::uint8_t> bytes(4096);
+  const ssize_t n = ::read(fd, bytes.data(), bytes.size());
+  ::close(fd);
+  ASSERT_GT(n, 0);
+  bytes.resize(static_cast<std::size_t>(n));
+  serial::Decoder decoder;
+  std::vector<serial::Message> messages;
+  decoder.feed(bytes, messages);
+  int samples = 0;
+  for (const auto& m : messages)
+    samples += std::holds_alternative<serial::OdometrySample>(m) ? 1 : 0;
+  // Sampled at 20, 40, 60, 80 ms, each frame leaving the controller 8 ms later: four by 90 ms
+  // (three when the last physics step falls just short).
+  EXPECT_GE(samples, 3);
+  EXPECT_LE(samples, 4);
+
+  // The outage: the line is gone from 0.1 s to 0.2 s, then a new one is there.
+  run(0.03);
+  EXPECT_FALSE(sim.lines().isOpen(0));
+  EXPECT_FALSE(std::filesystem::exists(link));
+  run(0.1);
+  EXPECT_TRUE(sim.lines().isOpen(0));
+  EXPECT_TRUE(std::filesystem::exists(link));
+}
+
+TEST_F(WorldSimNodeTest, StopsAtTheScenariosEnd) {
+  auto scenario = scenario::loadScenarioPreset("serial_test");
+  scenario.duration = 0.05;
+  WorldSimNode sim(sim_node_, scenario, {.pty_dir = dir_.string()});
+  run(0.1);
+  EXPECT_TRUE(sim.finished());
+  EXPECT_TRUE(sim_node_.stopRequested());
+  EXPECT_NEAR(sim.world().time(), 0.05, sim.world().stepSeconds());
+}
+
+}  // namespace
+}  // namespace fieldline::world_sim
