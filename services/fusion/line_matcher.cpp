@@ -124,6 +124,8 @@ struct LineMatcher::Impl {
     Eigen::Matrix3d information = Eigen::Matrix3d::Zero();
     Eigen::Vector3d gradient = Eigen::Vector3d::Zero();
     double robust_cost = 0.0;
+    // The seed's matching distance summed (outliers at the outlier cost) and the inliers.
+    double seed_sum = 0.0;
     int inliers = 0;
   };
 
@@ -145,6 +147,7 @@ struct LineMatcher::Impl {
     const double outlier = params.outlier_distance_m;
     const double outlier_rho = rho(outlier);
     double h00 = 0, h01 = 0, h02 = 0, h11 = 0, h12 = 0, h22 = 0, b0 = 0, b1 = 0, b2 = 0, cost = 0;
+    double seed_sum = 0;
     int inliers = 0;
     for (const RobotPoint& q : points) {
       // The point's offset from the robot in the field frame, and its field position.
@@ -153,10 +156,12 @@ struct LineMatcher::Impl {
       double d, gx, gy;
       if (!grid.distanceGradient(pose.x + ox, pose.y + oy, d, gx, gy) || d > outlier) {
         cost += outlier_rho;
+        seed_sum += outlier;
         continue;
       }
       ++inliers;
       cost += rho(d);
+      seed_sum += d;
       const double w = weight(d);
       // d(distance)/d(x, y, phi): the gradient, and the gradient along the point's turn.
       const double j2 = gy * ox - gx * oy;
@@ -173,6 +178,7 @@ struct LineMatcher::Impl {
     out.information << h00, h01, h02, h01, h11, h12, h02, h12, h22;
     out.gradient << b0, b1, b2;
     out.robust_cost = cost;
+    out.seed_sum = seed_sum;
     out.inliers = inliers;
     return out;
   }
@@ -180,8 +186,8 @@ struct LineMatcher::Impl {
   // Levenberg-Marquardt on the robust cost; every trial pose is linearized once, which also
   // decides whether it is accepted.
   geometry::Pose2 leastSquares(const std::vector<RobotPoint>& points, geometry::Pose2 pose,
-                               int& iterations) const {
-    Linearization current = linearize(points, pose);
+                               int& iterations, Linearization& current) const {
+    current = linearize(points, pose);
     double lambda = 1e-3;
     iterations = 0;
     while (iterations < params.max_iterations && current.inliers >= 3) {
@@ -196,10 +202,13 @@ struct LineMatcher::Impl {
       const bool small = std::hypot(step.x(), step.y()) < params.converged_step &&
                          std::abs(step.z()) < params.converged_step;
       if (next.robust_cost <= current.robust_cost) {
+        // Converged when the step or the gain is negligible (the interpolated surface is only
+        // piecewise smooth, so the last steps can bounce within a cell).
+        const bool flat = current.robust_cost - next.robust_cost <= 1e-6 * current.robust_cost;
         pose = trial;
         current = std::move(next);
         lambda = std::max(lambda * 0.1, 1e-9);
-        if (small) break;
+        if (small || flat) break;
       } else {
         if (small || lambda > 1e8) break;
         lambda *= 10.0;
@@ -292,16 +301,22 @@ struct LineMatcher::Impl {
       out.cost = params.outlier_distance_m;
       return out;
     }
-    geometry::Pose2 pose = params.method == MatchMethod::kForceField
-                               ? forceField(points, guess, out.iterations)
-                               : leastSquares(points, guess, out.iterations);
+    Linearization at;
+    geometry::Pose2 pose;
+    if (params.method == MatchMethod::kForceField) {
+      pose = forceField(points, guess, out.iterations);
+      at = linearize(points, pose);
+    } else {
+      pose = leastSquares(points, guess, out.iterations, at);
+    }
     pose.phi = geometry::normalizeAngle(pose.phi);
     out.pose = pose;
-    out.cost = seedCost(points, pose, &out.inliers);
+    out.inliers = at.inliers;
+    out.cost = points.empty() ? params.outlier_distance_m
+                              : at.seed_sum / static_cast<double>(points.size());
 
     // Covariance from the Hessian of the same fit at the answer, for both methods: sigma^2 (J^T W
     // J)^-1 with a weak prior in the directions the points do not constrain.
-    const Linearization at = linearize(points, pose);
     const double point_variance = params.point_sigma_m * params.point_sigma_m;
     Eigen::Matrix3d information = at.information / point_variance;
     information(0, 0) += 1.0 / (params.unobservable_sigma_m * params.unobservable_sigma_m);

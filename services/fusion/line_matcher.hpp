@@ -44,7 +44,7 @@ struct MatcherParams {
   int min_inliers = 20;
   // Iteration limit (both methods) and the step below which they stop, m and rad.
   int max_iterations = 60;
-  double converged_step = 1e-4;
+  double converged_step = 5e-4;
   // Least squares: loss and its scale (distance where it turns from quadratic), m.
   RobustLoss loss = RobustLoss::kCauchy;
   double loss_scale_m = 0.15;
@@ -56,7 +56,7 @@ struct MatcherParams {
   // Heavy-ball inertia of the force-field iteration (0: the seed's plain steps): carries part of
   // the last step into the next, so a direction that few points constrain converges in tens of
   // iterations instead of hundreds.
-  double force_inertia = 0.8;
+  double force_inertia = 0.5;
   double force_decay_per_m = 10.0;
   double force_cap_m = 1.5;
   // The covariance's weak prior: what the frame says about a direction it cannot see (along the
