@@ -118,6 +118,37 @@ struct LineMatcher::Impl {
   LineGrid grid;
   std::string source;
   field::Vec2 carpet_half;
+  // Every few nodes of the grid's distances (about 10 cm apart), clipped at the outlier
+  // distance: small enough to stay in cache while the global search scores its lattice.
+  std::vector<float> coarse;
+  double coarse_cell = 0.0;
+  int coarse_cols = 0;
+  int coarse_rows = 0;
+
+  void buildCoarse() {
+    const int stride = std::max(1, static_cast<int>(std::lround(0.1 / grid.cellSize())));
+    coarse_cell = stride * grid.cellSize();
+    coarse_cols = (grid.columns() - 1) / stride + 1;
+    coarse_rows = (grid.rows() - 1) / stride + 1;
+    coarse.resize(static_cast<std::size_t>(coarse_cols) * coarse_rows);
+    for (int j = 0; j < coarse_rows; ++j) {
+      for (int i = 0; i < coarse_cols; ++i) {
+        coarse[static_cast<std::size_t>(j) * coarse_cols + i] =
+            std::min(grid.node(i * stride, j * stride).distance,
+                     static_cast<float>(params.outlier_distance_m));
+      }
+    }
+  }
+  // Nearest coarse node's clipped distance; the outlier distance off the grid.
+  double coarseDistance(double x, double y) const {
+    const double u = (x - grid.originX()) / coarse_cell + 0.5;
+    const double v = (y - grid.originY()) / coarse_cell + 0.5;
+    if (!(u >= 0.0 && v >= 0.0 && u < coarse_cols && v < coarse_rows)) {
+      return params.outlier_distance_m;
+    }
+    return coarse[static_cast<std::size_t>(static_cast<int>(v)) * coarse_cols +
+                  static_cast<int>(u)];
+  }
 
   // Normal equations of the robust fit at one pose (iteratively reweighted: w(d) of the loss).
   struct Linearization {
@@ -352,6 +383,7 @@ LineMatcher::LineMatcher(const field::FieldModel& field, MatcherParams params,
       break;
   }
   impl_->carpet_half = field.carpetHalfExtent();
+  impl_->buildCoarse();
 }
 
 LineMatcher::~LineMatcher() = default;
@@ -406,8 +438,6 @@ std::vector<PoseCorrection> LineMatcher::globalSearch(std::span<const perception
   // Centre the lattice on the field so it is as symmetric as the field.
   const double x0 = -0.5 * (columns - 1) * search.position_step_m;
   const double y0 = -0.5 * (rows - 1) * search.position_step_m;
-  const double outlier = m.params.outlier_distance_m;
-
   using Scored = std::pair<double, geometry::Pose2>;
   auto worse = [](const Scored& a, const Scored& b) { return a.first < b.first; };
   // Max-heap of the best `refined` lattice poses: the worst kept one on top.
@@ -428,8 +458,7 @@ std::vector<PoseCorrection> LineMatcher::globalSearch(std::span<const perception
                                  : std::numeric_limits<double>::infinity();
         double sum = 0.0;
         for (const RobotPoint& q : turned) {
-          double d;
-          sum += m.grid.distance(x + q.x, y + q.y, d) ? std::min(d, outlier) : outlier;
+          sum += m.coarseDistance(x + q.x, y + q.y);
           if (sum >= bound) break;  // cannot enter the kept set any more
         }
         if (sum >= bound) continue;
