@@ -180,6 +180,12 @@ struct LineMatcher::Impl {
     double h00 = 0, h01 = 0, h02 = 0, h11 = 0, h12 = 0, h22 = 0, b0 = 0, b1 = 0, b2 = 0, cost = 0;
     double seed_sum = 0;
     int inliers = 0;
+    // The Cauchy cost sums logs; a product of up to 64 factors (each at most
+    // 1 + (outlier / scale)^2) and one log per 64 points is much cheaper and as exact.
+    const bool cauchy = params.loss == RobustLoss::kCauchy;
+    const double inverse_scale_squared = 1.0 / (params.loss_scale_m * params.loss_scale_m);
+    double cauchy_product = 1.0, cauchy_logs = 0.0;
+    int in_product = 0;
     for (const RobotPoint& q : points) {
       // The point's offset from the robot in the field frame, and its field position.
       const double ox = c * q.x - s * q.y;
@@ -191,9 +197,21 @@ struct LineMatcher::Impl {
         continue;
       }
       ++inliers;
-      cost += rho(d);
       seed_sum += d;
-      const double w = weight(d);
+      double w;
+      if (cauchy) {
+        const double t = 1.0 + d * d * inverse_scale_squared;
+        w = 1.0 / t;
+        cauchy_product *= t;
+        if (++in_product == 64) {
+          cauchy_logs += std::log(cauchy_product);
+          cauchy_product = 1.0;
+          in_product = 0;
+        }
+      } else {
+        w = weight(d);
+        cost += rho(d);
+      }
       // d(distance)/d(x, y, phi): the gradient, and the gradient along the point's turn.
       const double j2 = gy * ox - gx * oy;
       h00 += w * gx * gx;
@@ -208,6 +226,10 @@ struct LineMatcher::Impl {
     }
     out.information << h00, h01, h02, h01, h11, h12, h02, h12, h22;
     out.gradient << b0, b1, b2;
+    if (cauchy) {
+      cost += 0.5 * params.loss_scale_m * params.loss_scale_m *
+              (cauchy_logs + std::log(cauchy_product));
+    }
     out.robust_cost = cost;
     out.seed_sum = seed_sum;
     out.inliers = inliers;
