@@ -78,6 +78,19 @@ class LineGrid {
     gy = (top - bottom) * inv_cell_;
     return true;
   }
+  // Distance and force of the node nearest to (x, y): the seed's cell lookup, a quarter of the
+  // memory reads of the interpolation.
+  bool nearestForce(double x, double y, double& d, double& fx, double& fy) const {
+    const double gx = (x - origin_x_) * inv_cell_ + 0.5;
+    const double gy = (y - origin_y_) * inv_cell_ + 0.5;
+    if (!(gx >= 0.0 && gy >= 0.0 && gx < max_u_ + 1.0 && gy < max_v_ + 1.0)) return false;
+    const Node& n =
+        nodes_[static_cast<std::size_t>(static_cast<int>(gy)) * cols_ + static_cast<int>(gx)];
+    d = n.distance;
+    fx = n.force_x;
+    fy = n.force_y;
+    return true;
+  }
   // Interpolated distance and force at (x, y).
   bool distanceForce(double x, double y, double& d, double& fx, double& fy) const {
     double u, v;

@@ -288,7 +288,7 @@ struct LineMatcher::Impl {
         const double px = pose.x + c * q.x - s * q.y;
         const double py = pose.y + s * q.x + c * q.y;
         double d, fx, fy;
-        if (!grid.distanceForce(px, py, d, fx, fy) || d > outlier) continue;
+        if (!grid.nearestForce(px, py, d, fx, fy) || d > outlier) continue;
         ++n;
         sum_px += px;
         sum_py += py;
