@@ -64,13 +64,12 @@ class LineMatcherTest : public ::testing::TestWithParam<MatchMethod> {
  protected:
   static void SetUpTestSuite() {
     field_ = new field::FieldModel(field::loadFieldPreset("msl"));
-    cache_ = new std::string((std::filesystem::temp_directory_path() /
-                              ("fieldline_matcher_test_" + std::to_string(std::random_device{}())))
-                                 .string());
+    // Shared by the test processes (ctest runs each case in its own): the file name is keyed and
+    // writes are atomic, so the grid is built once.
+    cache_ = new std::string(
+        (std::filesystem::temp_directory_path() / "fieldline_test_grid_cache").string());
   }
   static void TearDownTestSuite() {
-    std::error_code ignored;
-    std::filesystem::remove_all(*cache_, ignored);
     delete field_;
     delete cache_;
   }
