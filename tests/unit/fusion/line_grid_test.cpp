@@ -180,6 +180,21 @@ TEST(LineGrid, GarbageAndForeignCacheFilesAreRebuilt) {
       "another field's grid");
 }
 
+TEST(LineGrid, UnwritableCacheStillGivesTheGrid) {
+  const field::FieldModel field = field::loadFieldPreset("fu2004");
+  TempDir dir;
+  // The cache "directory" is a file: nothing can be written under it.
+  const fs::path blocked = dir.path() / "not_a_directory";
+  std::ofstream(blocked) << "x";
+  GridSource source;
+  std::string problem;
+  const LineGrid grid =
+      loadOrBuildLineGrid(field, coarse(), (blocked / "cache").string(), &source, &problem);
+  EXPECT_EQ(source, GridSource::kBuilt);
+  EXPECT_FALSE(problem.empty());
+  EXPECT_EQ(grid.nodes().size(), LineGrid::build(field, coarse()).nodes().size());
+}
+
 TEST(LineGrid, BadSettingsThrow) {
   const field::FieldModel field = field::loadFieldPreset("fu2004");
   LineGridSettings s = coarse();
