@@ -3,19 +3,20 @@
 //
 // For every sequence (robot translating or rotating at a fixed speed through the msl field, four
 // other robots standing on it, a ball rolling along in view) the frames are rendered first and
-// kept in memory; then each method runs over all of them and every frame is timed:
+// kept in memory; then each method runs over all of them and every frame is timed, in several
+// rounds (a frame's time is its fastest round; see summarise):
 //   tracker   grow/shrink tracking + boundaries            (+ line points: the "whole step")
 //   (a)       CMVision-style: classify all cells, RLE, union-find, boundaries from the runs
 //             (+ the same line points); (a') the same skipping the cells outside the mirror
 //   (b)       OpenCV: histogram, then per class present a mask, connectedComponentsWithStats,
 //             findContours
 // All use the same cells (same size, same block classifier, same don't-touch mask, same classes).
-// The first frame (initial search) is left out of the times. The last line is, for the default
-// sequence (1 m/s, 90 deg/s) at 320x240 (the line before it, prefixed "640x480: ", the same at
-// 640x480),
+// The first frame of each round (initial search) is left out of the times. The last line is, for
+// the default sequence (1 m/s, 90 deg/s) at 320x240 (the line before it, prefixed "640x480: ", the
+// same at 640x480),
 //   ratio_vs_cmvision=X ratio_vs_opencv=Y touched_fraction=Z whole_step_ratio=W
 //   per_touched_cell_vs_baseline=V
-// X, Y: median time of (a), (b) over the tracker's (without lines); Z: cells the tracker
+// X, Y: median frame time of (a), (b) over the tracker's (without lines); Z: cells the tracker
 // classified over all cells; W: (a)+lines over tracker+lines; V: the tracker's median time per
 // cell it classified over (a)'s median time per cell of the grid (scene-independent: how much
 // dearer a tracked cell is than a cell of a full pass).
@@ -317,7 +318,12 @@ int main(int argc, char** argv) {
   app.add_flag("--interleave", interleave,
                "run the methods frame by frame instead of each over the whole sequence in turn "
                "(each method's data then leaves the cache between its frames)");
-  CLI11_PARSE(app, argc, argv);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    // --help prints and exits 0; bad arguments exit 2, as every fieldline executable should.
+    return app.exit(e) == 0 ? 0 : 2;
+  }
 
   std::vector<Sequence> sequences;
   for (const std::string cameraPreset : {"omni_sim", "omni_sim_640"}) {
