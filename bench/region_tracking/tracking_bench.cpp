@@ -1,16 +1,25 @@
 // fieldline-bench-tracking: the region tracker against the two full-frame baselines on the same
 // rendered sequences, in one process on one thread (seed table 3.1 and the comparison after it).
 //
-// For every sequence (robot translating or rotating at a fixed speed through the msl field, with
-// a ball and four other robots standing on it) the frames are rendered first and kept in memory;
-// then each method runs over all of them and every frame is timed:
-//   tracker   grow/shrink tracking + boundaries        (+ line points: the "whole step")
-//   cmvision  baseline (a): classify all cells, RLE, union-find, boundaries (+ the same line
-//   points) opencv    baseline (b): mask per class, connectedComponentsWithStats, findContours
+// For every sequence (robot translating or rotating at a fixed speed through the msl field, four
+// other robots standing on it, a ball rolling along in view) the frames are rendered first and
+// kept in memory; then each method runs over all of them and every frame is timed, in several
+// rounds (a frame's time is its fastest round; see summarise):
+//   tracker   grow/shrink tracking + boundaries            (+ line points: the "whole step")
+//   (a)       CMVision-style: classify all cells, RLE, union-find, boundaries from the runs
+//             (+ the same line points); (a') the same skipping the cells outside the mirror
+//   (b)       OpenCV: histogram, then per class present a mask, connectedComponentsWithStats,
+//             findContours
 // All use the same cells (same size, same block classifier, same don't-touch mask, same classes).
-// The first frame (initial search) is left out of the times. The last line is
-//   ratio_vs_cmvision=X ratio_vs_opencv=Y touched_fraction=Z
-// for 320x240, 4x4 cells, 1 m/s and 90 deg/s (median time ratios; tracker without lines).
+// The first frame of each round (initial search) is left out of the times. The last line is, for
+// the default sequence (1 m/s, 90 deg/s) at 320x240 (the line before it, prefixed "640x480: ", the
+// same at 640x480),
+//   ratio_vs_cmvision=X ratio_vs_opencv=Y touched_fraction=Z whole_step_ratio=W
+//   per_touched_cell_vs_baseline=V
+// X, Y: median frame time of (a), (b) over the tracker's (without lines); Z: cells the tracker
+// classified over all cells; W: (a)+lines over tracker+lines; V: the tracker's median time per
+// cell it classified over (a)'s median time per cell of the grid (scene-independent: how much
+// dearer a tracked cell is than a cell of a full pass).
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -43,11 +52,20 @@ struct Summary {
   double median = 0, p95 = 0;
 };
 
-Summary summarise(std::vector<double> values) {
+// `values` holds one time per frame for each round, round after round. Each frame's time is its
+// fastest round: the work of a frame is the same in every round, so the fastest is the one the
+// shared machine disturbed least. Median and p95 are then taken over the frames.
+Summary summarise(const std::vector<double>& values, int rounds) {
   if (values.empty()) return {};
-  std::sort(values.begin(), values.end());
+  const std::size_t frames = values.size() / rounds;
+  std::vector<double> fastest(values.begin(), values.begin() + frames);
+  for (int r = 1; r < rounds; ++r) {
+    for (std::size_t i = 0; i < frames; ++i)
+      fastest[i] = std::min(fastest[i], values[r * frames + i]);
+  }
+  std::sort(fastest.begin(), fastest.end());
   auto at = [&](double q) {
-    return values[static_cast<std::size_t>(q * (values.size() - 1) + 0.5)];
+    return fastest[static_cast<std::size_t>(q * (fastest.size() - 1) + 0.5)];
   };
   return {at(0.5), at(0.95)};
 }
@@ -65,6 +83,9 @@ struct Result {
   int frames = 0;
   Summary tracker, trackerWhole, cmvision, cmvisionWhole, cmvisionMasked, opencv;
   double touched = 0, touchedWithLines = 0, overlap = 0;
+  double touchedCells = 0;  // mean cells classified per frame
+  int gridCells = 0;
+  int ballFrames = 0;  // frames in which the tracker holds an orange (ball) region
   int initialSearches = 0;
   double linePoints = 0;
   // Agreement with baseline (a) after every tracked frame.
@@ -78,8 +99,13 @@ std::vector<rt::ClassId> trackedClasses(const rt::VisionParams& params) {
   return classes;
 }
 
-Result run(rt::SimCamera& sim, const Sequence& sequence, int cellSize, int frameCount,
-           bool coldFrames) {
+enum class Order {
+  kSequential,   // in a round, each method over all frames before the next
+  kInterleaved,  // in a round, frame by frame, every method on each frame
+};
+
+Result run(rt::SimCamera& sim, const Sequence& sequence, int cellSize, int frameCount, int rounds,
+           bool coldFrames, Order order) {
   Result result;
   result.sequence = sequence;
   result.cellSize = cellSize;
@@ -101,83 +127,134 @@ Result run(rt::SimCamera& sim, const Sequence& sequence, int cellSize, int frame
   params.tracker.cellSize = cellSize;
   const std::vector<rt::ClassId> classes = trackedClasses(params);
 
+  // Each method is one step per frame; all times are wall-clock times of one thread. The
+  // tracker's counts are taken in the first round.
+  int round = 0;
+  const double pixels = static_cast<double>(sim.mirror.width()) * sim.mirror.height();
+  const auto ballClass = static_cast<rt::ClassId>(params.ball.colour);
+
   // Tracker (and line points on its boundaries).
-  {
-    rt::FrameProcessor processor(sim.mirror, sim.table, params);
-    rt::LinePoints lines;
-    std::vector<double> segment, whole;
-    double touched = 0, touchedLines = 0, overlap = 0, points = 0;
-    const double pixels = static_cast<double>(sim.mirror.width()) * sim.mirror.height();
-    for (int i = 0; i < frameCount; ++i) {
-      const camera::FrameView frame = view(i);
-      const Clock::time_point t0 = Clock::now();
-      processor.classifier().setFrame(frame);
-      const rt::TrackingStats& stats = processor.tracker().track(processor.classifier());
-      const Clock::time_point t1 = Clock::now();
-      processor.lineDetector().detect(frame, processor.tracker().contours(), lines);
-      const Clock::time_point t2 = Clock::now();
-      result.initialSearches += stats.initialSearches;
-      if (i == 0) continue;
-      segment.push_back(microseconds(t1 - t0));
-      whole.push_back(microseconds(t2 - t0));
-      touched += stats.touchedFraction;
-      touchedLines +=
-          (stats.cellsClassified * cellSize * cellSize + processor.lineDetector().pixelsRead()) /
-          pixels;
-      overlap += stats.overlap;
-      points += static_cast<double>(lines.points.size());
-    }
-    const int n = frameCount - 1;
-    result.tracker = summarise(segment);
-    result.trackerWhole = summarise(whole);
-    result.touched = touched / n;
-    result.touchedWithLines = touchedLines / n;
-    result.overlap = overlap / n;
-    result.linePoints = points / n;
-  }
+  rt::FrameProcessor tracking(sim.mirror, sim.table, params);
+  rt::LinePoints trackerLines;
+  std::vector<double> trackerSegment, trackerWhole;
+  double touched = 0, touchedLines = 0, overlap = 0, points = 0, cells = 0;
+  auto trackerStep = [&](int i) {
+    const camera::FrameView frame = view(i);
+    const Clock::time_point t0 = Clock::now();
+    tracking.classifier().setFrame(frame);
+    const rt::TrackingStats& stats = tracking.tracker().track(tracking.classifier());
+    const Clock::time_point t1 = Clock::now();
+    tracking.lineDetector().detect(frame, tracking.tracker().contours(), trackerLines);
+    const Clock::time_point t2 = Clock::now();
+    if (round == 0) result.initialSearches += stats.initialSearches;
+    if (i == 0) return;
+    trackerSegment.push_back(microseconds(t1 - t0));
+    trackerWhole.push_back(microseconds(t2 - t0));
+    if (round > 0) return;
+    touched += stats.touchedFraction;
+    cells += stats.cellsClassified;
+    result.ballFrames += tracking.tracker().regionCells(ballClass) > 0 ? 1 : 0;
+    touchedLines +=
+        (stats.cellsClassified * cellSize * cellSize + tracking.lineDetector().pixelsRead()) /
+        pixels;
+    overlap += stats.overlap;
+    points += static_cast<double>(trackerLines.points.size());
+  };
 
   // (a) CMVision-style, with the same line detector on its boundaries: classifying every cell
-  // as CMVision does, and (a') skipping the don't-touch cells.
-  for (const rt::FullFramePolicy policy :
-       {rt::FullFramePolicy::kClassifyEveryCell, rt::FullFramePolicy::kSkipDontTouch}) {
-    rt::FrameProcessor processor(sim.mirror, sim.table, params);  // for grid, mask, detectors
-    rt::CmvisionSegmenter cmvision(processor.grid(), classes, processor.dontTouch(), policy);
+  // as CMVision does; and (a') skipping the don't-touch cells (segmentation only).
+  struct FullFrame {
+    rt::FrameProcessor processor;  // for the classifier and the line detector
+    rt::CmvisionSegmenter cmvision;
     rt::LinePoints lines;
     std::vector<double> segment, whole;
-    for (int i = 0; i < frameCount; ++i) {
-      const camera::FrameView frame = view(i);
-      const Clock::time_point t0 = Clock::now();
-      processor.classifier().setFrame(frame);
-      cmvision.segment(processor.classifier());
-      const Clock::time_point t1 = Clock::now();
-      processor.lineDetector().detect(frame, cmvision.contours(), lines);
-      const Clock::time_point t2 = Clock::now();
-      if (i == 0) continue;
-      segment.push_back(microseconds(t1 - t0));
-      whole.push_back(microseconds(t2 - t0));
+  };
+  FullFrame a{
+      rt::FrameProcessor(sim.mirror, sim.table, params),
+      {tracking.grid(), classes, tracking.dontTouch(), rt::FullFramePolicy::kClassifyEveryCell},
+      {},
+      {},
+      {}};
+  FullFrame aMasked{
+      rt::FrameProcessor(sim.mirror, sim.table, params),
+      {tracking.grid(), classes, tracking.dontTouch(), rt::FullFramePolicy::kSkipDontTouch},
+      {},
+      {},
+      {}};
+  auto cmvisionStep = [&](FullFrame& m, bool withLines, int i) {
+    const camera::FrameView frame = view(i);
+    const Clock::time_point t0 = Clock::now();
+    m.processor.classifier().setFrame(frame);
+    m.cmvision.segment(m.processor.classifier());
+    const Clock::time_point t1 = Clock::now();
+    if (withLines) m.processor.lineDetector().detect(frame, m.cmvision.contours(), m.lines);
+    const Clock::time_point t2 = Clock::now();
+    if (i == 0) return;
+    m.segment.push_back(microseconds(t1 - t0));
+    m.whole.push_back(microseconds(t2 - t0));
+  };
+
+  // (b) OpenCV, classifying every cell, labelling only the classes present.
+  rt::FrameProcessor opencvProcessor(sim.mirror, sim.table, params);
+  rt::OpenCvSegmenter opencv(tracking.grid(), classes, tracking.dontTouch());
+  std::vector<double> opencvSegment;
+  auto opencvStep = [&](int i) {
+    const camera::FrameView frame = view(i);
+    const Clock::time_point t0 = Clock::now();
+    opencvProcessor.classifier().setFrame(frame);
+    opencv.segment(opencvProcessor.classifier());
+    const Clock::time_point t1 = Clock::now();
+    if (i > 0) opencvSegment.push_back(microseconds(t1 - t0));
+  };
+
+  constexpr int kMethods = 4;
+  auto step = [&](int method, int i) {
+    switch (method) {
+      case 0:
+        trackerStep(i);
+        break;
+      case 1:
+        cmvisionStep(a, true, i);
+        break;
+      case 2:
+        cmvisionStep(aMasked, false, i);
+        break;
+      default:
+        opencvStep(i);
+        break;
     }
-    if (policy == rt::FullFramePolicy::kClassifyEveryCell) {
-      result.cmvision = summarise(segment);
-      result.cmvisionWhole = summarise(whole);
+  };
+  // Several rounds over the sequence, the order of the methods rotating from round to round, so
+  // that a slow spell of the shared machine does not hit one method alone. The tracker starts
+  // afresh each round (frame 0 of every round is left out); its output is the same each round.
+  for (round = 0; round < rounds; ++round) {
+    tracking.tracker() = rt::RegionTracker(tracking.grid(), params.tracker, tracking.dontTouch());
+    if (order == Order::kInterleaved) {
+      for (int i = 0; i < frameCount; ++i) {
+        for (int k = 0; k < kMethods; ++k)
+          step((i + k + round) % kMethods, i);
+      }
     } else {
-      result.cmvisionMasked = summarise(segment);
+      for (int k = 0; k < kMethods; ++k) {
+        for (int i = 0; i < frameCount; ++i)
+          step((k + round) % kMethods, i);
+      }
     }
   }
 
-  // (b) OpenCV, classifying every cell.
-  {
-    rt::FrameProcessor processor(sim.mirror, sim.table, params);
-    rt::OpenCvSegmenter opencv(processor.grid(), classes, processor.dontTouch());
-    std::vector<double> segment;
-    for (int i = 0; i < frameCount; ++i) {
-      const Clock::time_point t0 = Clock::now();
-      processor.classifier().setFrame(view(i));
-      opencv.segment(processor.classifier());
-      const Clock::time_point t1 = Clock::now();
-      if (i > 0) segment.push_back(microseconds(t1 - t0));
-    }
-    result.opencv = summarise(segment);
-  }
+  const int n = frameCount - 1;
+  result.tracker = summarise(trackerSegment, rounds);
+  result.trackerWhole = summarise(trackerWhole, rounds);
+  result.touched = touched / n;
+  result.touchedCells = cells / n;
+  result.gridCells = tracking.grid().cellCount();
+  result.touchedWithLines = touchedLines / n;
+  result.overlap = overlap / n;
+  result.linePoints = points / n;
+  result.cmvision = summarise(a.segment, rounds);
+  result.cmvisionWhole = summarise(a.whole, rounds);
+  result.cmvisionMasked = summarise(aMasked.segment, rounds);
+  result.opencv = summarise(opencvSegment, rounds);
 
   // Agreement of the tracker's regions with baseline (a), frame by frame (not timed).
   {
@@ -198,6 +275,12 @@ Result run(rt::SimCamera& sim, const Sequence& sequence, int cellSize, int frame
   return result;
 }
 
+// The tracker's time per cell it classified over (a)'s time per cell of the grid (medians of
+// the times, mean of the touched cells).
+double perTouchedCellVsBaseline(const Result& r) {
+  return (r.tracker.median / r.touchedCells) / (r.cmvision.median / r.gridCells);
+}
+
 std::string motionName(const Sequence& s) {
   char text[64];
   std::snprintf(text, sizeof text, "%.1f m/s %3.0f deg/s", s.speed, s.omegaDeg);
@@ -213,6 +296,8 @@ int main(int argc, char** argv) {
   int cellSize = 4;
   bool quick = false;
   bool cold = false;
+  bool interleave = false;
+  int rounds = 5;
   std::string field = "msl";
   app.add_option("--frames", frames, "frames per sequence (30 Hz)")
       ->check(CLI::Range(10, 3000))
@@ -225,7 +310,20 @@ int main(int argc, char** argv) {
   app.add_flag(
       "--cold", cold,
       "process frames straight from memory (cache-cold) instead of a freshly delivered copy");
-  CLI11_PARSE(app, argc, argv);
+  app.add_option("--rounds", rounds,
+                 "rounds over each sequence, the methods' order rotating; a frame's time is its "
+                 "fastest round")
+      ->check(CLI::Range(1, 20))
+      ->capture_default_str();
+  app.add_flag("--interleave", interleave,
+               "run the methods frame by frame instead of each over the whole sequence in turn "
+               "(each method's data then leaves the cache between its frames)");
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    // --help prints and exits 0; bad arguments exit 2, as every fieldline executable should.
+    return app.exit(e) == 0 ? 0 : 2;
+  }
 
   std::vector<Sequence> sequences;
   for (const std::string cameraPreset : {"omni_sim", "omni_sim_640"}) {
@@ -253,7 +351,8 @@ int main(int argc, char** argv) {
     for (const Sequence& s : sequences) {
       if (!cameras.count(s.camera)) cameras.emplace(s.camera, rt::SimCamera::load(s.camera, field));
       rt::SimCamera& sim = cameras.at(s.camera);
-      results.push_back(run(sim, s, cellSize, frames, cold));
+      results.push_back(run(sim, s, cellSize, frames, rounds, cold,
+                            interleave ? Order::kInterleaved : Order::kSequential));
       const Result& r = results.back();
       std::fprintf(stderr, "done %s %dx%d %s\n", r.sequence.kind.c_str(), sim.mirror.width(),
                    sim.mirror.height(), motionName(r.sequence).c_str());
@@ -262,37 +361,46 @@ int main(int argc, char** argv) {
 
   std::printf(
       "region tracking benchmark: field %s, %d frames per sequence at 30 Hz, %dx%d cells, "
-      "%s frames, times per frame in microseconds (median / p95), frame 0 excluded\n\n",
-      field.c_str(), frames, cellSize, cellSize, cold ? "cache-cold" : "freshly delivered");
+      "%s frames, %d rounds with methods %s; times in microseconds: each frame's fastest round, "
+      "median / p95 over the frames; frame 0 of each round excluded\n\n",
+      field.c_str(), frames, cellSize, cellSize, cold ? "cache-cold" : "freshly delivered", rounds,
+      interleave ? "interleaved frame by frame" : "one after another");
   std::printf(
       "| image | motion | tracker | tracker+lines | cmvision (a) | cmvision+lines | "
       "(a') skip mask | opencv (b) | a/tracker | a'/tracker | b/tracker | whole a/tracker | "
-      "touched | touched+lines | overlap | initial searches | line points | exact frames | "
-      "partial | stale cells | untracked |\n");
+      "touched | touched+lines | per touched cell / (a) per cell | overlap | initial searches | "
+      "line points | ball frames | exact frames | partial | stale cells | untracked |\n");
   std::printf(
-      "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
-  const Result* defaultResult = nullptr;
+      "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---"
+      "|"
+      "\n");
+  const Result* defaultResults[2] = {nullptr, nullptr};  // 640x480, then 320x240
   for (const Result& r : results) {
     const bool small = r.sequence.camera == "omni_sim";
-    if (small && r.sequence.kind == "default") defaultResult = &r;
+    if (r.sequence.kind == "default") defaultResults[small ? 1 : 0] = &r;
     std::printf(
         "| %s | %s | %.0f / %.0f | %.0f / %.0f | %.0f / %.0f | %.0f / %.0f | %.0f / %.0f | "
-        "%.0f / %.0f | %.1f | %.1f | %.1f | %.1f | %.1f %% | %.1f %% | %.0f %% | %d / %d | %.0f | "
-        "%d / %d | %d | %d | %.1f |\n",
+        "%.0f / %.0f | %.1f | %.1f | %.1f | %.1f | %.1f %% | %.1f %% | %.1f | %.0f %% | %d / %d | "
+        "%.0f | %d / %d | %d / %d | %d | %d | %.1f |\n",
         small ? "320x240" : "640x480", motionName(r.sequence).c_str(), r.tracker.median,
         r.tracker.p95, r.trackerWhole.median, r.trackerWhole.p95, r.cmvision.median, r.cmvision.p95,
         r.cmvisionWhole.median, r.cmvisionWhole.p95, r.cmvisionMasked.median, r.cmvisionMasked.p95,
         r.opencv.median, r.opencv.p95, r.cmvision.median / r.tracker.median,
         r.cmvisionMasked.median / r.tracker.median, r.opencv.median / r.tracker.median,
         r.cmvisionWhole.median / r.trackerWhole.median, 100 * r.touched, 100 * r.touchedWithLines,
-        100 * r.overlap, r.initialSearches, r.frames, r.linePoints, r.exactFrames, r.frames,
-        r.partialRegions, r.staleCells, static_cast<double>(r.untrackedRegions) / r.frames);
+        perTouchedCellVsBaseline(r), 100 * r.overlap, r.initialSearches, r.frames, r.linePoints,
+        r.ballFrames, r.frames - 1, r.exactFrames, r.frames, r.partialRegions, r.staleCells,
+        static_cast<double>(r.untrackedRegions) / r.frames);
   }
-  if (defaultResult != nullptr) {
-    const Result& r = *defaultResult;
-    std::printf("\nratio_vs_cmvision=%.2f ratio_vs_opencv=%.2f touched_fraction=%.3f\n",
-                r.cmvision.median / r.tracker.median, r.opencv.median / r.tracker.median,
-                r.touched);
+  std::printf("\n");
+  for (const Result* r : defaultResults) {
+    if (r == nullptr) continue;
+    std::printf(
+        "%sratio_vs_cmvision=%.2f ratio_vs_opencv=%.2f touched_fraction=%.3f "
+        "whole_step_ratio=%.2f per_touched_cell_vs_baseline=%.2f\n",
+        r->sequence.camera == "omni_sim" ? "" : "640x480: ", r->cmvision.median / r->tracker.median,
+        r->opencv.median / r->tracker.median, r->touched,
+        r->cmvisionWhole.median / r->trackerWhole.median, perTouchedCellVsBaseline(*r));
   }
   return 0;
 }

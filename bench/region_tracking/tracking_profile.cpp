@@ -139,7 +139,12 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(1, 1000))
       ->capture_default_str();
   app.add_flag("--no-breakdown", noBreakdown, "skip the per-cell analysis (for callgrind)");
-  CLI11_PARSE(app, argc, argv);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    // --help prints and exits 0; bad arguments exit 2, as every fieldline executable should.
+    return app.exit(e) == 0 ? 0 : 2;
+  }
 
   cv::setNumThreads(1);  // one thread, as in fieldline-bench-tracking
   fieldline::config::runOrExit([&] {

@@ -1,6 +1,7 @@
 #include "services/region_tracking/baselines.hpp"
 
 #include <algorithm>
+#include <array>
 #include <numeric>
 #include <stdexcept>
 
@@ -53,14 +54,19 @@ CmvisionSegmenter::CmvisionSegmenter(const CellGrid& grid, std::span<const Class
                                      std::span<const std::uint8_t> dontTouch,
                                      FullFramePolicy policy)
     : grid_(grid),
+      layout_(grid),
       classMap_(grid, dontTouch, policy),
       trackedClasses_(trackedClasses.begin(), trackedClasses.end()),
+      padded_(layout_.size(), kNoClass),
       rowStart_(grid.height + 1, 0),
       boundaryCellsByClass_(trackedClasses.size()),
       connectivity_(grid) {
-  for (const ClassId c : trackedClasses) {
+  if (trackedClasses.size() > 255) throw std::invalid_argument("cmvision: too many classes");
+  for (std::size_t slot = 0; slot < trackedClasses.size(); ++slot) {
+    const ClassId c = trackedClasses[slot];
     if (c == kNoClass) throw std::invalid_argument("cmvision: class id 255 is reserved");
     tracked_[c] = true;
+    slotOf_[c] = static_cast<std::uint8_t>(slot);
   }
   runs_.reserve(grid.cellCount() / 2 + grid.height);
   runRegion_.reserve(runs_.capacity());
@@ -149,29 +155,40 @@ void CmvisionSegmenter::segment(const CellClassifier& classifier) {
     region.maxY = r.y;
   }
 
-  // Boundaries: every side of a tracked cell facing another class (or the grid's edge).
-  for (auto& cells : boundaryCellsByClass_)
-    cells.clear();
-  auto classAt = [&](int x, int y) {
-    return grid_.contains(x, y) ? classes[grid_.index(x, y)] : kNoClass;
-  };
-  for (const Run& r : runs_) {
-    const std::size_t slot = std::find(trackedClasses_.begin(), trackedClasses_.end(), r.classId) -
-                             trackedClasses_.begin();
-    for (int x = r.firstX; x < r.endX; ++x) {
-      bool atBoundary = false;
-      for (int side = 0; side < 4; ++side) {
-        if (classAt(x + kSideDx[side], r.y + kSideDy[side]) != r.classId) {
-          connectivity_.addBoundarySide(x, r.y, side);
-          atBoundary = true;
-        }
-      }
-      if (atBoundary) boundaryCellsByClass_[slot].push_back({static_cast<std::int16_t>(x), r.y});
-    }
-  }
+  markBoundaries();
   contours_.clear();
   for (std::size_t slot = 0; slot < trackedClasses_.size(); ++slot) {
-    connectivity_.extractContours(boundaryCellsByClass_[slot], trackedClasses_[slot], contours_);
+    connectivity_.extractContoursAt(boundaryCellsByClass_[slot], trackedClasses_[slot], contours_);
+  }
+}
+
+// Every side of a tracked cell facing another class (or the grid's edge) is a boundary side.
+// Runs are maximal, so the left side of a run's first cell and the right side of its last cell
+// always are; inside a run only the rows above and below need comparing. The boundary cells of
+// each class are listed in scan order, as comparing every cell with its four neighbours would
+// list them, so the contours come out identical (same contours, same order, same start points).
+void CmvisionSegmenter::markBoundaries() {
+  for (auto& cells : boundaryCellsByClass_)
+    cells.clear();
+  for (int y = 0; y < grid_.height; ++y) {
+    const ClassId* source = classMap_.classes().data() + static_cast<std::size_t>(y) * grid_.width;
+    std::copy(source, source + grid_.width, padded_.begin() + layout_.index(0, y));
+  }
+  const int stride = layout_.width;
+  for (const Run& r : runs_) {
+    std::vector<std::int32_t>& cells = boundaryCellsByClass_[slotOf_[r.classId]];
+    const int first = layout_.index(r.firstX, r.y);
+    const int last = first + (r.endX - r.firstX) - 1;
+    const ClassId c = r.classId;
+    const ClassId* map = padded_.data();
+    for (int cell = first; cell <= last; ++cell) {
+      const unsigned sides = (map[cell - stride] != c ? 1u : 0u) | (cell == last ? 2u : 0u) |
+                             (map[cell + stride] != c ? 4u : 0u) | (cell == first ? 8u : 0u);
+      if (sides != 0) {
+        connectivity_.addBoundarySidesAt(cell, sides);
+        cells.push_back(cell);
+      }
+    }
   }
 }
 
@@ -187,10 +204,12 @@ void CmvisionSegmenter::labelCells(std::vector<int>& labels) const {
 // (b) OpenCV
 
 OpenCvSegmenter::OpenCvSegmenter(const CellGrid& grid, std::span<const ClassId> trackedClasses,
-                                 std::span<const std::uint8_t> dontTouch, FullFramePolicy policy)
+                                 std::span<const std::uint8_t> dontTouch, FullFramePolicy policy,
+                                 AbsentClasses absent)
     : grid_(grid),
       classMap_(grid, dontTouch, policy),
       trackedClasses_(trackedClasses.begin(), trackedClasses.end()),
+      absent_(absent),
       mask_(grid.height, grid.width, CV_8U) {}
 
 void OpenCvSegmenter::segment(const CellClassifier& classifier) {
@@ -200,8 +219,15 @@ void OpenCvSegmenter::segment(const CellClassifier& classifier) {
                         const_cast<ClassId*>(classMap_.classes().data()));
   regions_.clear();
   contours_.clear();
+  // Which classes the frame has: labelling an empty mask finds nothing, at full cost.
+  std::array<int, 256> histogram{};
+  if (absent_ == AbsentClasses::kSkip) {
+    for (const ClassId c : classMap_.classes())
+      ++histogram[c];
+  }
   const int half = grid_.cellSize / 2;
   for (const ClassId c : trackedClasses_) {
+    if (absent_ == AbsentClasses::kSkip && histogram[c] == 0) continue;
     cv::compare(classes, cv::Scalar(c), mask_, cv::CMP_EQ);
     const int labels =
         cv::connectedComponentsWithStats(mask_, labels_, stats_, centroids_, 4, CV_32S);

@@ -4,8 +4,11 @@
 // they are classified at all is a choice (FullFramePolicy): CMVision classifies every pixel,
 // a baseline that knows the mask can skip them.
 //   (a) CmvisionSegmenter: CMVision-style, written here: class map, run-length encoding,
-//       union-find over runs of neighbouring rows, boundaries on the connectivity grid.
-//   (b) OpenCvSegmenter: a mask per class, cv::connectedComponentsWithStats, cv::findContours.
+//       union-find over runs of neighbouring rows, boundaries on the connectivity grid. The
+//       boundaries are marked from the runs over a class map padded by one cell: a run's two
+//       ends are boundary sides by construction, so only the up and down sides are compared.
+//   (b) OpenCvSegmenter: a histogram of the class map, then for each tracked class present in
+//       the frame a mask, cv::connectedComponentsWithStats, cv::findContours.
 #pragma once
 
 #include <cstdint>
@@ -78,25 +81,39 @@ class CmvisionSegmenter {
   };
   int findRoot(int run);
   void unite(int a, int b);
+  void markBoundaries();
 
   CellGrid grid_;
+  PaddedLayout layout_;
   FullFrameClassMap classMap_;
   bool tracked_[256] = {};
+  std::uint8_t slotOf_[256] = {};  // index into trackedClasses_ by class id
   std::vector<ClassId> trackedClasses_;
+  // The class map with a frame of kNoClass around it (PaddedLayout), so every cell of a run has
+  // an up and a down neighbour to compare with.
+  std::vector<ClassId> padded_;
   std::vector<Run> runs_;
   std::vector<int> rowStart_;  // first run of each row, plus one past the last
   std::vector<int> runRegion_;
   std::vector<Region> regions_;
-  std::vector<std::vector<Cell>> boundaryCellsByClass_;
+  std::vector<std::vector<std::int32_t>> boundaryCellsByClass_;  // padded indices
   ConnectivityGrid connectivity_;
   ContourSet contours_;
+};
+
+// Whether (b) labels a tracked class that has no cell in the frame (an empty mask gives no
+// regions and no contours either way; skipping only saves the work).
+enum class AbsentClasses {
+  kSkip,
+  kLabel,
 };
 
 class OpenCvSegmenter {
  public:
   OpenCvSegmenter(const CellGrid& grid, std::span<const ClassId> trackedClasses,
                   std::span<const std::uint8_t> dontTouch = {},
-                  FullFramePolicy policy = FullFramePolicy::kClassifyEveryCell);
+                  FullFramePolicy policy = FullFramePolicy::kClassifyEveryCell,
+                  AbsentClasses absent = AbsentClasses::kSkip);
 
   void segment(const CellClassifier& classifier);
 
@@ -109,6 +126,7 @@ class OpenCvSegmenter {
   CellGrid grid_;
   FullFrameClassMap classMap_;
   std::vector<ClassId> trackedClasses_;
+  AbsentClasses absent_;
   cv::Mat mask_, labels_, stats_, centroids_;
   std::vector<std::vector<cv::Point>> cvContours_;
   std::vector<cv::Vec4i> hierarchy_;

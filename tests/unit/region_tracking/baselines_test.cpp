@@ -154,6 +154,121 @@ TEST(Baselines, ConvergedTrackerEqualsCmvisionRegionsAndContours) {
   }
 }
 
+// The boundaries as the plain rule defines them: every side of a tracked cell whose neighbour
+// (or the grid's edge) has another class, cells listed per class in scan order, contours
+// followed in that order. Baseline (a) marks them from its runs instead; the output must be
+// the same, contour for contour and point for point.
+ContourSet contoursCellByCell(const CellGrid& grid, std::span<const ClassId> classMap,
+                              std::span<const ClassId> tracked) {
+  ConnectivityGrid connectivity(grid);
+  ContourSet out;
+  for (const ClassId c : tracked) {
+    std::vector<Cell> boundaryCells;
+    for (int y = 0; y < grid.height; ++y) {
+      for (int x = 0; x < grid.width; ++x) {
+        if (classMap[grid.index(x, y)] != c) continue;
+        bool atBoundary = false;
+        for (int side = 0; side < 4; ++side) {
+          const int nx = x + kSideDx[side], ny = y + kSideDy[side];
+          if (!grid.contains(nx, ny) || classMap[grid.index(nx, ny)] != c) {
+            connectivity.addBoundarySide(x, y, side);
+            atBoundary = true;
+          }
+        }
+        if (atBoundary)
+          boundaryCells.push_back({static_cast<std::int16_t>(x), static_cast<std::int16_t>(y)});
+      }
+    }
+    connectivity.extractContours(boundaryCells, c, out);
+  }
+  return out;
+}
+
+void expectIdentical(const ContourSet& actual, const ContourSet& expected, int trial) {
+  ASSERT_EQ(actual.contours.size(), expected.contours.size()) << "trial " << trial;
+  EXPECT_EQ(actual.points, expected.points) << "trial " << trial;
+  for (std::size_t i = 0; i < expected.contours.size(); ++i) {
+    const Contour& a = actual.contours[i];
+    const Contour& e = expected.contours[i];
+    EXPECT_EQ(std::tie(a.classId, a.outer, a.signedCellArea, a.begin, a.end),
+              std::tie(e.classId, e.outer, e.signedCellArea, e.begin, e.end))
+        << "trial " << trial << " contour " << i;
+  }
+}
+
+TEST(Baselines, CmvisionBoundariesFromRunsEqualTheCellByCellRule) {
+  std::mt19937 rng(29);
+  std::bernoulli_distribution noisy(0.3);
+  std::uniform_int_distribution<int> anyClass(0, 3);
+  const std::vector<ClassId> tracked = {2, 1, 3};  // not in id order; class 0 untracked
+  for (int trial = 0; trial < 60; ++trial) {
+    const int width = 40 + trial % 7, height = 30 + trial % 5;
+    ClassGrid g = testing::randomBlobs(width, height, rng);
+    // Salt of single cells (all four classes) in some grids: runs of length one, corners.
+    if (noisy(rng)) {
+      for (ClassId& c : g.cells) {
+        if (noisy(rng)) c = static_cast<ClassId>(anyClass(rng));
+      }
+    }
+    const CellGrid grid{width, height, 4};
+    // A disc-shaped view in every other grid, as the mirror's.
+    std::vector<std::uint8_t> dontTouch;
+    if (trial % 2 == 1) {
+      dontTouch.assign(grid.cellCount(), 0);
+      for (int y = 0; y < height; ++y) {
+        for (int x = 0; x < width; ++x) {
+          const double dx = x - width / 2.0, dy = y - height / 2.0;
+          dontTouch[grid.index(x, y)] = dx * dx + dy * dy > 0.2 * width * width ? 1 : 0;
+        }
+      }
+    }
+    CmvisionSegmenter cmvision(grid, tracked, dontTouch);
+    cmvision.segment(ClassMapClassifier(g.cells, g.width));
+    const ContourSet expected = contoursCellByCell(grid, cmvision.classMap(), tracked);
+    ASSERT_FALSE(expected.contours.empty());
+    expectIdentical(cmvision.contours(), expected, trial);
+    // Segmenting again (reused buffers) gives the same.
+    cmvision.segment(ClassMapClassifier(g.cells, g.width));
+    expectIdentical(cmvision.contours(), expected, trial);
+  }
+}
+
+// Regions and contours of (b) as a list, in output order.
+using OpenCvOutput =
+    std::tuple<std::vector<std::tuple<int, int, int, int, int, int>>,
+               std::vector<std::tuple<int, bool, int, int, int>>, std::vector<std::pair<int, int>>>;
+OpenCvOutput outputOf(const OpenCvSegmenter& s) {
+  OpenCvOutput out;
+  for (const Region& r : s.regions())
+    std::get<0>(out).emplace_back(r.classId, r.cells, r.minX, r.minY, r.maxX, r.maxY);
+  for (const Contour& c : s.contours().contours)
+    std::get<1>(out).emplace_back(c.classId, c.outer, c.signedCellArea, c.begin, c.end);
+  for (const ContourPoint& p : s.contours().points)
+    std::get<2>(out).emplace_back(p.x, p.y);
+  return out;
+}
+
+TEST(Baselines, OpenCvSkippingAbsentClassesGivesTheSameOutput) {
+  std::mt19937 rng(31);
+  // Classes 3 and 4 never occur in randomBlobs; class 2 is removed from some grids.
+  const std::vector<ClassId> tracked = {3, 1, 4, 2};
+  for (int trial = 0; trial < 30; ++trial) {
+    ClassGrid g = testing::randomBlobs(48, 36, rng);
+    if (trial % 3 == 0) std::replace(g.cells.begin(), g.cells.end(), ClassId{2}, ClassId{0});
+    g.fillRect(0, 0, 3, 3, 1);  // class 1 is always present
+    const CellGrid grid{48, 36, 4};
+    OpenCvSegmenter skipping(grid, tracked, {}, FullFramePolicy::kClassifyEveryCell,
+                             AbsentClasses::kSkip);
+    OpenCvSegmenter labelling(grid, tracked, {}, FullFramePolicy::kClassifyEveryCell,
+                              AbsentClasses::kLabel);
+    const ClassMapClassifier classifier(g.cells, g.width);
+    skipping.segment(classifier);
+    labelling.segment(classifier);
+    EXPECT_FALSE(skipping.regions().empty());
+    EXPECT_EQ(outputOf(skipping), outputOf(labelling)) << "trial " << trial;
+  }
+}
+
 TEST(Baselines, AgreementCountsAJumpedIslandAsStaleCells) {
   ClassGrid a(30, 20, 1);
   const CellGrid grid{30, 20, 1};
