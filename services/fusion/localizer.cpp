@@ -158,6 +158,19 @@ void Localizer::addHypothesis(const Hypothesis& h) {
 
 void Localizer::coarseSearch(std::span<const perception::LinePoint> points, Utime utime) {
   ++counters_.searches;
+  if (matcher_.global_search) {
+    for (const PoseCorrection& c : matcher_.global_search(points)) {
+      if (!c.valid) continue;
+      Hypothesis h;
+      h.utime = utime;
+      h.pose = c.pose;
+      h.covariance = c.covariance;
+      h.cost_sum = c.cost;
+      h.frames = 1;
+      addHypothesis(h);
+    }
+    return;
+  }
   // A spread subset of the points keeps the search cheap.
   std::vector<perception::LinePoint> subset;
   const std::size_t stride =

@@ -33,6 +33,9 @@ struct MatcherFunctions {
   std::function<PoseCorrection(std::span<const perception::LinePoint>, const geometry::Pose2&)>
       correct;
   std::function<double(std::span<const perception::LinePoint>, const geometry::Pose2&)> cost;
+  // Optional: poses over the whole field that fit the points, best first (LineMatcher::
+  // globalSearch). Without it the localizer scores its own coarse grid with cost().
+  std::function<std::vector<PoseCorrection>(std::span<const perception::LinePoint>)> global_search;
 };
 
 // Which of two symmetric poses to believe at start-up, when nothing else tells.

@@ -87,6 +87,11 @@ int main(int argc, char** argv) {
         },
         [&](std::span<const perception::LinePoint> p, const geometry::Pose2& g) {
           return matcher.cost(p, g);
+        },
+        [&](std::span<const perception::LinePoint> p) {
+          fusion::GlobalSearchParams search;
+          search.max_results = 8;
+          return matcher.globalSearch(p, search);
         }};
 
     SystemClock clock;
