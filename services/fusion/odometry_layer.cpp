@@ -76,8 +76,12 @@ OdometryLayer::Result OdometryLayer::update(const OdometrySample& sample) {
     return result;
   }
   if (sample.utime < last_->utime) {
-    // Time ran backwards (controller restart, clock step): start over from this sample.
-    last_ = sample;
+    // Stamps jitter with the arrival time: the reference stays, and the next sample's tick
+    // difference covers this one's movement. Time far backwards (controller restart, clock
+    // step) starts over from this sample.
+    if (static_cast<double>(last_->utime - sample.utime) * 1e-6 > noise_.max_interval_s) {
+      last_ = sample;
+    }
     result.rejection = OdometryRejection::kOutOfOrder;
     return result;
   }

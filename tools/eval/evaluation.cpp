@@ -161,6 +161,35 @@ Summary evaluate(const std::vector<TruthSample>& truth, std::vector<StateSample>
   for (const auto& [r, v] : pos_by_robot)
     s.pos_mean_by_robot[r] = mean(v);
 
+  // Start-up and rates per robot.
+  std::map<int, std::pair<Utime, Utime>> span;
+  std::map<int, std::size_t> count;
+  for (const StateSample& st : states) {
+    auto [it, inserted] = span.try_emplace(st.robot, st.utime, st.utime);
+    it->second.first = std::min(it->second.first, st.utime);
+    it->second.second = std::max(it->second.second, st.utime);
+    ++count[st.robot];
+    if (!s.tracking_after_s.count(st.robot)) s.tracking_after_s[st.robot] = -1.0;
+    if (st.status == 2 && s.tracking_after_s[st.robot] < 0)
+      s.tracking_after_s[st.robot] = static_cast<double>(st.utime - it->second.first) * 1e-6;
+  }
+  for (const auto& [r, sp] : span) {
+    const double seconds = static_cast<double>(sp.second - sp.first) * 1e-6;
+    s.robot_state_hz[r] = seconds > 0 ? static_cast<double>(count[r] - 1) / seconds : 0.0;
+  }
+  std::map<int, std::pair<Utime, Utime>> ball_span;
+  std::map<int, std::size_t> ball_count;
+  for (const BallSample& b : balls) {
+    auto [it, inserted] = ball_span.try_emplace(b.robot, b.utime, b.utime);
+    it->second.first = std::min(it->second.first, b.utime);
+    it->second.second = std::max(it->second.second, b.utime);
+    ++ball_count[b.robot];
+  }
+  for (const auto& [r, sp] : ball_span) {
+    const double seconds = static_cast<double>(sp.second - sp.first) * 1e-6;
+    s.ball_state_hz[r] = seconds > 0 ? static_cast<double>(ball_count[r] - 1) / seconds : 0.0;
+  }
+
   std::vector<double> ball_errors;
   for (const BallSample& b : balls) {
     if (!b.valid || static_cast<double>(b.utime - t0) * 1e-6 < options.settle_s) continue;
@@ -208,7 +237,20 @@ std::string summaryJson(const Summary& s, const std::string& source) {
     o << fmt::format("{}\"{}\": {:.5f}", first ? "" : ", ", r, v);
     first = false;
   }
-  o << "}\n}\n";
+  o << "},\n";
+  const auto perRobot = [&](const char* name, const std::map<int, double>& values, bool last) {
+    o << "  \"" << name << "\": {";
+    bool f = true;
+    for (const auto& [r, v] : values) {
+      o << fmt::format("{}\"{}\": {:.3f}", f ? "" : ", ", r, v);
+      f = false;
+    }
+    o << (last ? "}\n" : "},\n");
+  };
+  perRobot("tracking_after_s", s.tracking_after_s, false);
+  perRobot("robot_state_hz", s.robot_state_hz, false);
+  perRobot("ball_state_hz", s.ball_state_hz, true);
+  o << "}\n";
   return o.str();
 }
 

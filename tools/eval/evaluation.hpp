@@ -71,6 +71,11 @@ struct Summary {
   double ball_mean_m = 0;
   double latency_p50_ms = 0, latency_p95_ms = 0;
   std::map<int, double> pos_mean_by_robot;
+  // Per robot: seconds from its first ROBOT_STATE to its first TRACKING (-1: never), and the
+  // ROBOT_STATE and BALL_STATE rates over its run, Hz.
+  std::map<int, double> tracking_after_s;
+  std::map<int, double> robot_state_hz;
+  std::map<int, double> ball_state_hz;
   std::vector<double> recoveries_s;
   std::vector<Matched> matched;
 };

@@ -17,6 +17,7 @@
 #include <sstream>
 #include <thread>
 
+#include <fmt/format.h>
 #include <spdlog/spdlog.h>
 #include <CLI/CLI.hpp>
 
@@ -230,6 +231,18 @@ int main(int argc, char** argv) {
     const geometry::Vec2 half = field.carpetHalfExtent();
     std::ofstream(out_dir + "/summary.json") << eval::summaryJson(summary, source);
     eval::writePlots(summary, out_dir, half.x(), half.y());
+    {
+      std::ofstream csv(out_dir + "/samples.csv");
+      csv << "robot,t_s,x,y,phi,true_x,true_y,true_phi,pos_error_m,heading_error_rad,nees,status,"
+             "recovering,latency_ms\n";
+      for (const eval::Matched& m : summary.matched) {
+        csv << fmt::format(
+            "{},{:.3f},{:.4f},{:.4f},{:.4f},{:.4f},{:.4f},{:.4f},{:.4f},{:.4f},{:.3f},{},{},{:.2f}"
+            "\n",
+            m.robot, m.t, m.x, m.y, m.phi, m.true_x, m.true_y, m.true_phi, m.pos_error,
+            m.heading_error, m.nees, m.status, m.recovering ? 1 : 0, m.latency_ms);
+      }
+    }
     std::fprintf(stderr,
                  "%zu truth samples, %zu robot states (%zu scored), %zu ball states; kidnaps %d "
                  "(unrecovered %d); latency p50 %.1f ms; output in %s\n",

@@ -77,6 +77,16 @@ TEST(OdometryLayer, RefusesJumpsBackwardsTimeAndDuplicates) {
   EXPECT_EQ(r.rejection, OdometryRejection::kJump);
   EXPECT_FALSE(r.step.has_value());
   EXPECT_EQ(layer.update({kStart + 10'000, jump, false}).rejection, OdometryRejection::kOutOfOrder);
+  // A slightly early stamp is refused but its ticks are not lost: the next step covers them.
+  {
+    OdometryLayer l2(p);
+    l2.update({kStart, {0, 0, 0}, false});
+    EXPECT_EQ(l2.update({kStart - 2'000, {10, 10, 10}, false}).rejection,
+              OdometryRejection::kOutOfOrder);
+    const auto next = l2.update({kStart + 20'000, {20, 20, 20}, false});
+    ASSERT_TRUE(next.step.has_value());
+    EXPECT_NEAR(next.step->integrated.z(), l2.stepFor({20, 20, 20}).integrated.z(), 1e-12);
+  }
   EXPECT_EQ(layer.update({kStart + 30'000, jump, true}).rejection, OdometryRejection::kResync);
   // After the resync the reference is the new counter: small steps are movements again.
   const auto ok = layer.update({kStart + 50'000, {100'010, 0, 0}, false});
