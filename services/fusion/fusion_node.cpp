@@ -46,6 +46,7 @@ void FusionNode::onOdometry(const odometry_t& m) {
   for (std::size_t i = 0; i < 3; ++i)
     sample.ticks[i] = m.ticks[i];
   sample.resync = (m.status & odometry_t::STATUS_RESYNC) != 0;
+  sample.controller_utime = m.controller_utime;
   localizer_.addOdometry(sample, node_.now());
 
   // The estimate at this odometry's time, whatever happened to the sample.

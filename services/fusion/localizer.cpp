@@ -288,8 +288,10 @@ Localizer::Hypothesis Localizer::resolveTwin(const Hypothesis& h, const Hypothes
     if (const auto motion = motionBetween(reference_->utime, h.utime)) {
       ref = geometry::applyMovement(ref, *motion);
     }
+    // Mostly position: a robot carried off is often turned as well, rarely moved half a field.
     const auto distance = [&](const geometry::Pose2& p) {
-      return std::hypot(p.x - ref.x, p.y - ref.y) + std::abs(geometry::angleDiff(p.phi, ref.phi));
+      return std::hypot(p.x - ref.x, p.y - ref.y) +
+             0.2 * std::abs(geometry::angleDiff(p.phi, ref.phi));
     };
     ambiguous_ = false;
     return distance(h.pose) <= distance(mirrored.pose) ? h : mirrored;

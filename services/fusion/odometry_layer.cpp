@@ -60,8 +60,24 @@ OdometryStep OdometryLayer::stepFor(
   return step;
 }
 
-OdometryLayer::Result OdometryLayer::update(const OdometrySample& sample) {
+Utime OdometryLayer::stamp(const OdometrySample& sample) {
+  if (sample.controller_utime <= 0) return sample.utime;
+  const std::int64_t offset = sample.utime - sample.controller_utime;
+  // A controller restart (its clock ran backwards) or a step of the host clock: start over.
+  if (!controller_offset_ || sample.controller_utime < last_controller_utime_ ||
+      std::abs(offset - *controller_offset_) > 200'000) {
+    controller_offset_ = offset;
+  } else {
+    controller_offset_ = std::min(*controller_offset_ + noise_.offset_creep_us, offset);
+  }
+  last_controller_utime_ = sample.controller_utime;
+  return sample.controller_utime + *controller_offset_;
+}
+
+OdometryLayer::Result OdometryLayer::update(const OdometrySample& input) {
   Result result;
+  OdometrySample sample = input;
+  sample.utime = stamp(input);
   if (sample.resync) {
     last_ = sample;
     result.rejection = OdometryRejection::kResync;

@@ -3,7 +3,8 @@
 // W(phi)^-1, eq. 4.35), with a covariance that grows with the distance driven and the angle
 // turned. Samples must come in time order; a sample that cannot be trusted (time running
 // backwards, a jump no wheel can make, a controller resync) is refused with its reason and
-// restarts the reference, so a bad sample never becomes a movement.
+// restarts the reference, so a bad sample never becomes a movement. Samples are stamped with the
+// controller's own clock mapped onto the host's (the link's jitter filtered out) when known.
 #pragma once
 
 #include <array>
@@ -33,6 +34,10 @@ struct OdometryNoise {
   double max_interval_s = 0.25;
   // Wheel speeds above this multiple of the robot's top wheel speed are an odometry jump.
   double max_speed_factor = 3.0;
+  // The host stamps (arrival minus latency) jitter with the serial link; the controller's clock
+  // does not. The sample is stamped controller time + the smallest offset seen, which creeps up
+  // by this much per sample so that a slow clock drift is followed, µs.
+  std::int64_t offset_creep_us = 2;
 };
 
 // One odometry sample as the controller sends it (the few fields of odometry_t fusion needs).
@@ -41,6 +46,8 @@ struct OdometrySample {
   robot::TickCounts ticks{};
   // The controller says the counters restarted (odometry_t::STATUS_RESYNC).
   bool resync = false;
+  // The controller's own time of the sample, µs since it started (0: not known).
+  std::int64_t controller_utime = 0;
 };
 
 // The movement between two samples, ready for the filter.
@@ -72,6 +79,8 @@ class OdometryLayer {
     OdometryRejection rejection = OdometryRejection::kNone;
   };
   Result update(const OdometrySample& sample);
+  // The stamp the layer uses for a sample (controller time on the host clock when known).
+  Utime stamp(const OdometrySample& sample);
 
   // The step and its covariance for a tick difference over `dt_s` seconds (tests, tools).
   OdometryStep stepFor(const std::array<std::int64_t, robot::kWheelCount>& tick_delta) const;
@@ -86,6 +95,9 @@ class OdometryLayer {
   robot::WheelOdometry odometry_;
   Eigen::Vector3d radii_;
   std::optional<OdometrySample> last_;
+  // Host time minus controller time, minimum-filtered.
+  std::optional<std::int64_t> controller_offset_;
+  std::int64_t last_controller_utime_ = 0;
 };
 
 }  // namespace fieldline::fusion

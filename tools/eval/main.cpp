@@ -178,7 +178,9 @@ int main(int argc, char** argv) {
     } else {
       const world_sim::Scenario sc = world_sim::loadScenarioPreset(scenario);
       source = "scenario " + sc.name;
-      if (duration <= 0.0) duration = sc.duration > 0.0 ? sc.duration : 30.0;
+      // Stop before the scenario ends: the simulator would start it over (a jump of every
+      // robot that would count as a kidnap).
+      if (duration <= 0.0) duration = sc.duration > 0.0 ? sc.duration - 1.5 : 30.0;
       if (robots == 0)
         for (const auto& r : sc.robots)
           robots = std::max(robots, r.id);
@@ -197,7 +199,7 @@ int main(int argc, char** argv) {
       collector.subscribe(node, bus::kPrimaryBus, buses);
 
       const std::string robots_arg = std::to_string(robots);
-      const std::string duration_arg = std::to_string(duration + 1.0);
+      const std::string duration_arg = std::to_string(duration);
       const pid_t child = fork();
       if (child < 0) throw std::runtime_error("fork failed");
       if (child == 0) {
