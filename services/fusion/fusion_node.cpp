@@ -126,6 +126,7 @@ void FusionNode::updateMetrics() {
   node_.setMetric("hypotheses", static_cast<double>(localizer_.hypothesisCount()));
   node_.setMetric("lost_count", static_cast<double>(localizer_.counters().lost));
   node_.setMetric("replays", static_cast<double>(localizer_.filter().replays()));
+  node_.setMetric("gate_resets", static_cast<double>(localizer_.counters().resets));
 }
 
 }  // namespace fieldline::fusion

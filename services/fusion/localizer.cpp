@@ -115,8 +115,24 @@ void Localizer::trackLines(std::span<const perception::LinePoint> points, Utime 
     if (r.rejection == Rejection::kNone) {
       ++counters_.corrections;
       good = true;
+      gated_in_row_ = 0;
     } else {
       count(std::string("lines_") + toString(r.rejection));
+      // Frames that match the field well but disagree with an overconfident filter (a slip the
+      // odometry did not see): after a few in a row, the frames are right.
+      if (r.rejection == Rejection::kGated && ++gated_in_row_ >= params_.gated_frames_reset) {
+        gated_in_row_ = 0;
+        ++counters_.resets;
+        EkfState s = *guess;
+        s.utime = utime;
+        s.x.head<3>() << c.pose.x, c.pose.y, c.pose.phi;
+        s.p.topLeftCorner<3, 3>() = floored(c.covariance);
+        s.p.topRightCorner<3, 3>().setZero();
+        s.p.bottomLeftCorner<3, 3>().setZero();
+        s.last_correction_utime = utime;
+        filter_.initialize(s);
+        good = true;
+      }
     }
   } else {
     count(c.valid ? "lines_poor_match" : "lines_too_few_points");

@@ -50,6 +50,9 @@ struct LocalizerParams {
   double lost_cost_m = 0.16;
   // Contradicting frames in a row before the robot counts as lost.
   int lost_frames = 3;
+  // Well-matching frames refused by the filter's gate in a row before the filter is reset to
+  // the frame's correction.
+  int gated_frames_reset = 3;
   // Frames a hypothesis must have been tested on before committing to it.
   int commit_frames = 2;
   // The best hypothesis must beat every other (but its twin) by this mean cost, m.
@@ -84,6 +87,7 @@ struct LocalizerCounters {
   std::uint64_t lost = 0;
   std::uint64_t commits = 0;
   std::uint64_t searches = 0;
+  std::uint64_t resets = 0;
 };
 
 class Localizer {
@@ -155,6 +159,7 @@ class Localizer {
   std::optional<Hypothesis> reference_;
   int bad_frames_ = 0;
   int contradictions_ = 0;
+  int gated_in_row_ = 0;
   double last_cost_ = -1.0;
   Utime last_lines_arrival_ = 0;
   LocalizerCounters counters_;

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numbers>
 #include <sstream>
 
@@ -84,6 +85,24 @@ Summary evaluate(const std::vector<TruthSample>& truth, std::vector<StateSample>
   std::vector<double> pos, heading, latency;
   std::map<int, std::vector<double>> pos_by_robot;
   std::size_t nees_in = 0, nees_n = 0;
+  // Scoring of a robot starts settle_s after its first estimate, or at its first TRACKING if
+  // that is later: start-up is measured separately (tracking_after_s).
+  std::map<int, Utime> score_from;
+  for (const StateSample& st : states) {
+    auto [it, inserted] =
+        score_from.try_emplace(st.robot, st.utime + static_cast<Utime>(options.settle_s * 1e6));
+    (void)inserted;
+  }
+  {
+    std::map<int, bool> seen_tracking;
+    for (const StateSample& st : states) {
+      if (st.status != 2 || seen_tracking[st.robot]) continue;
+      seen_tracking[st.robot] = true;
+      score_from[st.robot] = std::max(score_from[st.robot], st.utime);
+    }
+    for (auto& [r, t] : score_from)
+      if (!seen_tracking[r]) t = std::numeric_limits<Utime>::max();
+  }
   int current_robot = -1;
   int last_kidnaps = 0;
   bool recovering = false;
@@ -136,7 +155,7 @@ Summary evaluate(const std::vector<TruthSample>& truth, std::vector<StateSample>
     const Eigen::Vector3d e(st.x - tr.x, st.y - tr.y, geometry::angleDiff(st.phi, tr.phi));
     const Eigen::Matrix3d c = st.covariance;
     m.nees = c.determinant() > 0 ? e.dot(c.inverse() * e) : 1e9;
-    if (m.t >= options.settle_s && !recovering) {
+    if (st.utime >= score_from[st.robot] && !recovering) {
       pos.push_back(m.pos_error);
       heading.push_back(m.heading_error * 180.0 / std::numbers::pi);
       pos_by_robot[st.robot].push_back(m.pos_error);

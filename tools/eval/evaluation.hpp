@@ -42,7 +42,8 @@ struct BallSample {
 };
 
 struct EvalOptions {
-  // Samples in the first seconds after the first state are not scored.
+  // A robot's samples in the first seconds after its first state, and before its first
+  // TRACKING, are not scored (start-up is reported as tracking_after_s).
   double settle_s = 2.0;
   // A kidnapped robot has recovered when it tracks within this of the truth, m.
   double recovered_m = 0.2;
