@@ -71,7 +71,8 @@ bool truthAt(const std::vector<TruthSample>& truth, Utime t, int robot, TruthRob
 }
 
 Summary evaluate(const std::vector<TruthSample>& truth, std::vector<StateSample> states,
-                 std::vector<BallSample> balls, const EvalOptions& options) {
+                 std::vector<BallSample> balls, const EvalOptions& options,
+                 const std::map<int, Utime>& first_lines) {
   Summary s;
   s.states = states.size();
   if (states.empty()) return s;
@@ -192,6 +193,16 @@ Summary evaluate(const std::vector<TruthSample>& truth, std::vector<StateSample>
     if (st.status == 2 && s.tracking_after_s[st.robot] < 0)
       s.tracking_after_s[st.robot] = static_cast<double>(st.utime - it->second.first) * 1e-6;
   }
+  for (const auto& [r, first] : first_lines) {
+    double after = -1.0;
+    for (const StateSample& st : states) {
+      if (st.robot == r && st.status == 2) {
+        after = static_cast<double>(st.utime - first) * 1e-6;
+        break;
+      }
+    }
+    s.tracking_after_vision_s[r] = after;
+  }
   for (const auto& [r, sp] : span) {
     const double seconds = static_cast<double>(sp.second - sp.first) * 1e-6;
     s.robot_state_hz[r] = seconds > 0 ? static_cast<double>(count[r] - 1) / seconds : 0.0;
@@ -267,6 +278,7 @@ std::string summaryJson(const Summary& s, const std::string& source) {
     o << (last ? "}\n" : "},\n");
   };
   perRobot("tracking_after_s", s.tracking_after_s, false);
+  perRobot("tracking_after_vision_s", s.tracking_after_vision_s, false);
   perRobot("robot_state_hz", s.robot_state_hz, false);
   perRobot("ball_state_hz", s.ball_state_hz, true);
   o << "}\n";

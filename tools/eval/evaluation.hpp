@@ -75,6 +75,8 @@ struct Summary {
   // Per robot: seconds from its first ROBOT_STATE to its first TRACKING (-1: never), and the
   // ROBOT_STATE and BALL_STATE rates over its run, Hz.
   std::map<int, double> tracking_after_s;
+  // Seconds from the robot's first VISION_LINES frame to its first TRACKING (-1: never).
+  std::map<int, double> tracking_after_vision_s;
   std::map<int, double> robot_state_hz;
   std::map<int, double> ball_state_hz;
   std::vector<double> recoveries_s;
@@ -85,8 +87,11 @@ struct Summary {
 bool truthAt(const std::vector<TruthSample>& truth, Utime t, int robot, TruthRobot& out,
              double* ball_x = nullptr, double* ball_y = nullptr);
 
+// `first_lines` (optional): per robot, the utime of its first VISION_LINES frame, from which
+// tracking_after_vision_s is measured.
 Summary evaluate(const std::vector<TruthSample>& truth, std::vector<StateSample> states,
-                 std::vector<BallSample> balls, const EvalOptions& options = {});
+                 std::vector<BallSample> balls, const EvalOptions& options = {},
+                 const std::map<int, Utime>& first_lines = {});
 
 // The one line the issue asks for.
 std::string summaryLine(const Summary& s);

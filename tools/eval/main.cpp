@@ -14,6 +14,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <sstream>
 #include <thread>
 
@@ -73,6 +74,7 @@ struct Collector {
   std::vector<eval::TruthSample> truth;
   std::vector<eval::StateSample> states;
   std::vector<eval::BallSample> balls;
+  std::map<int, Utime> first_lines;
 
   void subscribe(bus::Node& node, bus::BusId sim_bus, const std::vector<bus::BusId>& robot_buses) {
     node.subscribe(
@@ -106,6 +108,12 @@ struct Collector {
                 s.covariance(r, c) = m.covariance[3 * r + c];
             s.status = m.status;
             states.push_back(s);
+          },
+          b);
+      node.subscribe(
+          bus::channels::kVisionLines,
+          [this](const line_contours_t& m) {
+            first_lines.try_emplace(m.header.robot_id, m.header.utime);
           },
           b);
       node.subscribe(
@@ -227,8 +235,8 @@ int main(int argc, char** argv) {
       }
     }
 
-    const eval::Summary summary =
-        eval::evaluate(collector.truth, collector.states, collector.balls, options);
+    const eval::Summary summary = eval::evaluate(collector.truth, collector.states, collector.balls,
+                                                 options, collector.first_lines);
     const field::FieldModel field = field::loadFieldPreset(field_name);
     const geometry::Vec2 half = field.carpetHalfExtent();
     std::ofstream(out_dir + "/summary.json") << eval::summaryJson(summary, source);

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Fusion in the simulated team: every robot publishes ROBOT_STATE at 50 Hz and BALL_STATE at
-# 30 Hz, reaches TRACKING within 2 s of its first estimate, and stays on the right half; the
+# 30 Hz, reaches TRACKING within 2 s of its first line frame, and stays on the right half; the
 # launcher stops cleanly. Rates are checked at a margin (a loaded machine lags), not timed.
 set -u
 bin=$1
@@ -12,7 +12,7 @@ unshare -n true 2>/dev/null || ns="unshare -rn"
 $ns bash -c "
   ip link set lo up; ip link set lo multicast on; ip route add 224.0.0.0/4 dev lo
   export FIELDLINE_ROOT='$root'
-  '$bin/fieldline-eval' --scenario default --robots 6 --duration 14 --out '$out' > '$out/eval.txt' 2> '$out/eval.err'
+  '$bin/fieldline-eval' --scenario default --robots 6 --duration 25 --out '$out' > '$out/eval.txt' 2> '$out/eval.err'
   echo \$? > '$out/eval.rc'
 "
 echo "--- eval"; cat "$out/eval.err" "$out/eval.txt"
@@ -33,9 +33,10 @@ for robot in map(str, range(1, 7)):
     bhz = summary["ball_state_hz"].get(robot, 0)
     if bhz < 24:
         failures.append(f"r{robot} BALL_STATE {bhz} Hz, expected 30")
-    after = summary["tracking_after_s"].get(robot, -1)
+    # From the robot's first line frame: a loaded machine may start its cameras late.
+    after = summary["tracking_after_vision_s"].get(robot, -1)
     if not 0 <= after <= 2.0:
-        failures.append(f"r{robot} TRACKING after {after} s, expected within 2 s")
+        failures.append(f"r{robot} TRACKING {after} s after its first VISION_LINES, expected within 2 s")
 if summary["wrong_half"] != 0:
     failures.append(f"{summary['wrong_half']} wrong-half commits")
 log = (out / "launch.log").read_text()
