@@ -159,9 +159,17 @@ std::string headlineMetrics(const service_status_t& status) {
       {"speed_mps", "speed", "m/s", 2},       {"reference_speed_mps", "ref", "m/s", 2},
       {"render_ms", "render", "ms", 2},       {"capture_ms", "capture", "ms", 2},
       {"touched_percent", "touched", "%", 1}, {"realtime_factor", "realtime x", "", 2},
+      {"correction_cm", "corr", "cm", 1},     {"correction_deg", "turn", "deg", 1},
   };
   std::string note;
   const std::size_t n = std::min(status.metric_name.size(), status.metric_value.size());
+  // Fusion: the localization status by name first (robot_state_t's STATUS_ values).
+  for (std::size_t i = 0; i < n; ++i) {
+    if (status.metric_name[i] != "localization_status") continue;
+    static constexpr const char* kNames[] = {"UNKNOWN", "SEARCHING", "TRACKING", "ODOMETRY_ONLY"};
+    const int v = static_cast<int>(status.metric_value[i]);
+    note += v >= 0 && v <= 3 ? kNames[v] : "?";
+  }
   for (const Headline& h : kHeadlines) {
     for (std::size_t i = 0; i < n; ++i) {
       if (status.metric_name[i] != h.metric) continue;

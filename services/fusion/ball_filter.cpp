@@ -1,0 +1,138 @@
+#include "services/fusion/ball_filter.hpp"
+
+#include <cmath>
+
+#include <Eigen/Geometry>
+#include <Eigen/LU>
+
+namespace fieldline::fusion {
+
+const char* toString(BallRejection r) {
+  switch (r) {
+    case BallRejection::kNone:
+      return "none";
+    case BallRejection::kNotVisible:
+      return "ball_not_visible";
+    case BallRejection::kNotFinite:
+      return "ball_not_finite";
+    case BallRejection::kOutOfOrder:
+      return "ball_out_of_order";
+    case BallRejection::kTooFar:
+      return "ball_too_far";
+    case BallRejection::kOutlier:
+      return "ball_outlier";
+  }
+  return "unknown";
+}
+
+BallFilter::BallFilter(BallFilterParams params) : params_(params) {}
+
+void BallFilter::predict(Utime t, Eigen::Vector4d& x, Eigen::Matrix4d& p) const {
+  if (t <= utime_) return;
+  const double dt = static_cast<double>(t - utime_) * 1e-6;
+  // Rolling friction takes a fixed amount of speed per second until the ball stops.
+  const double speed = x.tail<2>().norm();
+  const double ratio =
+      speed > 1e-9 ? std::max(0.0, speed - params_.rolling_deceleration * dt) / speed : 0.0;
+  // Distance covered while decelerating: the mean speed over the interval (or until it stops).
+  const double stop_time =
+      params_.rolling_deceleration > 0 ? speed / params_.rolling_deceleration : dt;
+  const double moving = std::min(dt, stop_time);
+  const double travel = ratio > 0.0 ? dt * 0.5 * (1.0 + ratio) : 0.5 * moving;
+  Eigen::Matrix4d f = Eigen::Matrix4d::Identity();
+  f(0, 2) = f(1, 3) = travel;
+  f(2, 2) = f(3, 3) = ratio;
+  x = f * x;
+  const double q = params_.acceleration_density * params_.acceleration_density;
+  Eigen::Matrix4d qm = Eigen::Matrix4d::Zero();
+  for (int i = 0; i < 2; ++i) {
+    qm(i, i) = q * dt * dt * dt / 3.0;
+    qm(i, i + 2) = qm(i + 2, i) = q * dt * dt / 2.0;
+    qm(i + 2, i + 2) = q * dt;
+  }
+  p = f * p * f.transpose() + qm;
+}
+
+BallRejection BallFilter::update(const perception::BallSighting& s, const EkfState& robot) {
+  if (!s.visible) return BallRejection::kNotVisible;
+  if (!std::isfinite(s.x) || !std::isfinite(s.y) || !std::isfinite(s.sigma_radial) ||
+      !std::isfinite(s.sigma_tangential) || s.sigma_radial <= 0.0 || s.sigma_tangential <= 0.0 ||
+      !robot.x.allFinite()) {
+    return BallRejection::kNotFinite;
+  }
+  if (initialized_ && s.utime < utime_) return BallRejection::kOutOfOrder;
+  const Eigen::Vector2d local(s.x, s.y);
+  const double range = local.norm();
+  if (range > params_.max_range_m) return BallRejection::kTooFar;
+
+  // Field position and its covariance: the sighting's own (radial / tangential) plus the
+  // robot's pose uncertainty carried through the transform.
+  const geometry::Pose2 pose = robot.pose();
+  const Eigen::Vector2d z = geometry::pointRobotToField(pose, local);
+  const double bearing = std::atan2(local.y(), local.x()) + pose.phi;
+  const Eigen::Matrix2d rot = Eigen::Rotation2Dd(bearing).toRotationMatrix();
+  Eigen::Matrix2d r =
+      rot *
+      Eigen::Vector2d(s.sigma_radial * s.sigma_radial, s.sigma_tangential * s.sigma_tangential)
+          .asDiagonal() *
+      rot.transpose();
+  Eigen::Matrix<double, 2, 3> j;
+  j << 1, 0, -(z.y() - pose.y), 0, 1, z.x() - pose.x;
+  r += j * robot.p.topLeftCorner<3, 3>() * j.transpose();
+
+  if (!initialized_) {
+    initialized_ = true;
+    x_ << z, 0.0, 0.0;
+    p_.setZero();
+    p_.topLeftCorner<2, 2>() = r;
+    p_(2, 2) = p_(3, 3) = 4.0;
+    utime_ = s.utime;
+    last_seen_ = s.utime;
+    outliers_in_row_ = 0;
+    return BallRejection::kNone;
+  }
+  Eigen::Vector4d x = x_;
+  Eigen::Matrix4d p = p_;
+  predict(s.utime, x, p);
+  const Eigen::Vector2d y = z - x.head<2>();
+  const Eigen::Matrix2d sm = p.topLeftCorner<2, 2>() + r;
+  const double m2 = y.dot(sm.inverse() * y);
+  if (!(m2 <= params_.gate2)) {
+    if (++outliers_in_row_ >= params_.restart_after_outliers) {
+      initialized_ = false;
+      return update(s, robot);
+    }
+    return BallRejection::kOutlier;
+  }
+  outliers_in_row_ = 0;
+  Eigen::Matrix<double, 2, 4> h = Eigen::Matrix<double, 2, 4>::Zero();
+  h(0, 0) = h(1, 1) = 1.0;
+  const Eigen::Matrix<double, 4, 2> k = p * h.transpose() * sm.inverse();
+  x += k * y;
+  const Eigen::Matrix4d ikh = Eigen::Matrix4d::Identity() - k * h;
+  p = ikh * p * ikh.transpose() + k * r * k.transpose();
+  x_ = x;
+  p_ = 0.5 * (p + p.transpose());
+  utime_ = s.utime;
+  last_seen_ = s.utime;
+  return BallRejection::kNone;
+}
+
+perception::BallEstimate BallFilter::estimate(Utime t) const {
+  perception::BallEstimate e;
+  e.utime = t;
+  if (!initialized_) return e;
+  Eigen::Vector4d x = x_;
+  Eigen::Matrix4d p = p_;
+  predict(t, x, p);
+  e.valid = static_cast<double>(t - last_seen_) * 1e-6 <= params_.max_age_s;
+  e.x = x[0];
+  e.y = x[1];
+  e.vx = x[2];
+  e.vy = x[3];
+  e.covariance = p.topLeftCorner<2, 2>();
+  e.last_seen_utime = last_seen_;
+  return e;
+}
+
+}  // namespace fieldline::fusion

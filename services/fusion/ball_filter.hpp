@@ -1,0 +1,66 @@
+// The ball (seed 4.14's second estimate): each sighting, in the robot frame at the frame's
+// exposure time, is moved into the field frame with the robot's pose at that same time, and a
+// constant-velocity Kalman filter with rolling friction tracks it. Unseen for long enough, the
+// estimate says so (valid = false) instead of extrapolating forever.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+
+#include <Eigen/Core>
+
+#include "common/perception/estimates.hpp"
+#include "common/time/clock.hpp"
+#include "services/fusion/ekf.hpp"
+
+namespace fieldline::fusion {
+
+struct BallFilterParams {
+  // Deceleration of a rolling ball, m/s^2.
+  double rolling_deceleration = 0.4;
+  // Unseen acceleration (kicks, bounces), white-noise density, m/s^1.5.
+  double acceleration_density = 3.0;
+  // The estimate is invalid after this long without a sighting, s.
+  double max_age_s = 1.0;
+  // Squared Mahalanobis distance (2 dof) beyond which a sighting is an outlier.
+  double gate2 = 13.8;
+  // After this many outliers in a row the ball has moved for real (kicked, put back): restart.
+  int restart_after_outliers = 3;
+  // Sightings further than this from the robot are too coarse to use, m.
+  double max_range_m = 9.0;
+};
+
+enum class BallRejection : std::uint8_t {
+  kNone = 0,
+  kNotVisible,
+  kNotFinite,
+  kOutOfOrder,
+  kTooFar,
+  kOutlier,
+};
+const char* toString(BallRejection r);
+
+class BallFilter {
+ public:
+  explicit BallFilter(BallFilterParams params = {});
+
+  // Fuses a visible sighting with the robot's state at the sighting's utime.
+  BallRejection update(const perception::BallSighting& sighting, const EkfState& robot);
+  // The estimate at `t` (moved on with friction); valid only within max_age of the last sighting.
+  perception::BallEstimate estimate(Utime t) const;
+  bool initialized() const { return initialized_; }
+
+ private:
+  // State (x, y, vx, vy) moved to `t`.
+  void predict(Utime t, Eigen::Vector4d& x, Eigen::Matrix4d& p) const;
+
+  BallFilterParams params_;
+  bool initialized_ = false;
+  Utime utime_ = 0;
+  Utime last_seen_ = 0;
+  int outliers_in_row_ = 0;
+  Eigen::Vector4d x_ = Eigen::Vector4d::Zero();
+  Eigen::Matrix4d p_ = Eigen::Matrix4d::Identity();
+};
+
+}  // namespace fieldline::fusion

@@ -1,0 +1,158 @@
+#include "services/fusion/ekf.hpp"
+
+#include <cmath>
+
+#include <Eigen/Cholesky>
+#include <Eigen/LU>
+
+namespace fieldline::fusion {
+namespace {
+
+void symmetrize(Matrix6d& p) {
+  p = 0.5 * (p + p.transpose()).eval();
+}
+
+// Velocity random walk (white acceleration) over dt for a 6-state of pose and velocity.
+Matrix6d accelerationNoise(double dt, const ProcessNoise& n, bool with_position) {
+  Matrix6d q = Matrix6d::Zero();
+  const double qa[3] = {n.linear_acceleration * n.linear_acceleration,
+                        n.linear_acceleration * n.linear_acceleration,
+                        n.angular_acceleration * n.angular_acceleration};
+  for (int i = 0; i < 3; ++i) {
+    q(i + 3, i + 3) = qa[i] * dt;
+    if (with_position) {
+      q(i, i) = qa[i] * dt * dt * dt / 3.0;
+      q(i, i + 3) = q(i + 3, i) = qa[i] * dt * dt / 2.0;
+    }
+  }
+  if (with_position) {
+    q(0, 0) += n.position_density * n.position_density * dt;
+    q(1, 1) += n.position_density * n.position_density * dt;
+    q(2, 2) += n.heading_density * n.heading_density * dt;
+  }
+  return q;
+}
+
+}  // namespace
+
+ProcessNoise ProcessNoise::fromMotorModel(const robot::MotorModel& motor,
+                                          const robot::OmniKinematics& kinematics) {
+  // Each wheel's unseen acceleration spread over +-alpha/m, as a standard deviation of half
+  // that, kept for about one motor time constant.
+  const double wheel_sigma = 0.5 * motor.alpha() / motor.mass();
+  const Eigen::Matrix3d& m_inv = kinematics.robotMatrixInverse();
+  const Eigen::Matrix3d body = m_inv * (wheel_sigma * wheel_sigma) * m_inv.transpose();
+  const double tau = motor.timeConstant();
+  ProcessNoise n;
+  n.linear_acceleration = std::sqrt(0.5 * (body(0, 0) + body(1, 1)) * tau);
+  n.angular_acceleration = std::sqrt(body(2, 2) * tau);
+  return n;
+}
+
+void predictConstantVelocity(EkfState& s, Utime t, const ProcessNoise& noise) {
+  if (t <= s.utime) return;
+  const double dt = static_cast<double>(t - s.utime) * 1e-6;
+  Matrix6d f = Matrix6d::Identity();
+  f(0, 3) = f(1, 4) = f(2, 5) = dt;
+  s.x = (f * s.x).eval();
+  s.x[2] = geometry::normalizeAngle(s.x[2]);
+  s.p = (f * s.p * f.transpose()).eval() + accelerationNoise(dt, noise, true);
+  symmetrize(s.p);
+  s.utime = t;
+}
+
+void predictOdometry(EkfState& s, const OdometryStep& step, const ProcessNoise& noise) {
+  if (s.utime < step.t_start) predictConstantVelocity(s, step.t_start, noise);
+  if (s.utime >= step.t_end || step.t_end <= step.t_start) return;
+  // Only the part of the step after the state's time moves it (a measurement may already have
+  // carried the state into the interval).
+  const double fraction =
+      static_cast<double>(step.t_end - s.utime) / static_cast<double>(step.t_end - step.t_start);
+  const double dt = static_cast<double>(step.t_end - s.utime) * 1e-6;
+  const geometry::Movement m = robot::arcMovement(fraction * step.integrated);
+  const double phi = s.x[2];
+  const double c = std::cos(phi), sn = std::sin(phi);
+
+  Matrix6d f = Matrix6d::Identity();
+  f(0, 2) = -sn * m.dx - c * m.dy;
+  f(1, 2) = c * m.dx - sn * m.dy;
+  Eigen::Matrix<double, 6, 3> g = Eigen::Matrix<double, 6, 3>::Zero();
+  g(0, 0) = c;
+  g(0, 1) = -sn;
+  g(1, 0) = sn;
+  g(1, 1) = c;
+  g(2, 2) = 1.0;
+
+  s.x[0] += c * m.dx - sn * m.dy;
+  s.x[1] += sn * m.dx + c * m.dy;
+  s.x[2] = geometry::normalizeAngle(phi + m.dphi);
+  s.p = (f * s.p * f.transpose()).eval() + fraction * g * step.covariance * g.transpose() +
+        accelerationNoise(dt, noise, false);
+  symmetrize(s.p);
+  s.utime = step.t_end;
+
+  if (!step.has_velocity) return;
+  // The step's mean velocity, in the field frame at the middle of the step's heading change.
+  const double duration = step.duration();
+  const double phi_mid = s.x[2] - 0.5 * step.integrated.z();
+  const Eigen::Vector2d v_body = step.integrated.head<2>() / duration;
+  Eigen::Vector3d z;
+  z.head<2>() = geometry::rotate(v_body, phi_mid);
+  z[2] = step.integrated.z() / duration;
+  Eigen::Matrix3d r = Eigen::Matrix3d::Zero();
+  r.topLeftCorner<2, 2>() = Eigen::Matrix2d::Identity() *
+                            (step.covariance(0, 0) + step.covariance(1, 1)) /
+                            (2.0 * duration * duration);
+  r(2, 2) = step.covariance(2, 2) / (duration * duration);
+  r(0, 0) += noise.odometry_velocity_sigma * noise.odometry_velocity_sigma;
+  r(1, 1) += noise.odometry_velocity_sigma * noise.odometry_velocity_sigma;
+  r(2, 2) += noise.odometry_omega_sigma * noise.odometry_omega_sigma;
+
+  Eigen::Matrix<double, 3, 6> h = Eigen::Matrix<double, 3, 6>::Zero();
+  h.rightCols<3>().setIdentity();
+  const Eigen::Vector3d y = z - s.x.tail<3>();
+  const Eigen::Matrix3d sm = s.p.bottomRightCorner<3, 3>() + r;
+  const Eigen::Matrix<double, 6, 3> k = s.p * h.transpose() * sm.inverse();
+  s.x += k * y;
+  s.x[2] = geometry::normalizeAngle(s.x[2]);
+  const Matrix6d ikh = Matrix6d::Identity() - k * h;
+  s.p = (ikh * s.p * ikh.transpose()).eval() + k * r * k.transpose();
+  symmetrize(s.p);
+}
+
+UpdateResult updatePose(EkfState& s, const PoseMeasurement& z, double gate2) {
+  UpdateResult result;
+  Eigen::Vector3d y(z.pose.x - s.x[0], z.pose.y - s.x[1], geometry::angleDiff(z.pose.phi, s.x[2]));
+  const Eigen::Matrix3d sm = s.p.topLeftCorner<3, 3>() + z.covariance;
+  const Eigen::Matrix3d sm_inv = sm.inverse();
+  result.mahalanobis2 = y.dot(sm_inv * y);
+  if (!std::isfinite(result.mahalanobis2) || (gate2 > 0.0 && result.mahalanobis2 > gate2)) {
+    return result;
+  }
+  Eigen::Matrix<double, 3, 6> h = Eigen::Matrix<double, 3, 6>::Zero();
+  h.leftCols<3>().setIdentity();
+  const Eigen::Matrix<double, 6, 3> k = s.p * h.transpose() * sm_inv;
+  const Vector6d dx = k * y;
+  s.x += dx;
+  s.x[2] = geometry::normalizeAngle(s.x[2]);
+  const Matrix6d ikh = Matrix6d::Identity() - k * h;
+  s.p = (ikh * s.p * ikh.transpose()).eval() + k * z.covariance * k.transpose();
+  symmetrize(s.p);
+  result.accepted = true;
+  result.correction_m = dx.head<2>().norm();
+  result.correction_rad = std::abs(dx[2]);
+  s.last_correction_utime = z.utime;
+  s.last_correction_m = result.correction_m;
+  s.last_correction_rad = result.correction_rad;
+  return result;
+}
+
+bool isPositiveDefinite(const Eigen::Matrix3d& c) {
+  if (!c.allFinite()) return false;
+  const double scale = c.cwiseAbs().maxCoeff();
+  if ((c - c.transpose()).cwiseAbs().maxCoeff() > 1e-9 * std::max(scale, 1e-12)) return false;
+  Eigen::LLT<Eigen::Matrix3d> llt(c);
+  return llt.info() == Eigen::Success && c.diagonal().minCoeff() > 0.0;
+}
+
+}  // namespace fieldline::fusion

@@ -1,0 +1,85 @@
+// The extended Kalman filter of seed 4.5-4.6 on the state (x, y, phi, vx, vy, omega): position
+// and heading in the field frame, velocity in the field frame. Plain functions on a state so the
+// delayed-measurement history (history.hpp) can checkpoint and replay them.
+//
+// Process: between samples the velocity is held (the filter does not see the commands) and the
+// motor model (eq. 4.45-4.47) bounds how fast it can change: its largest acceleration, projected
+// through W(phi)^-1, sets the velocity's process noise. Odometry moves the pose by layer 1's
+// movement (a control input with its own covariance) and measures the velocity. Pose
+// measurements (layers 2 and 3) update with the Joseph form, the heading innovation wrapped,
+// behind a Mahalanobis gate.
+#pragma once
+
+#include <Eigen/Core>
+
+#include "common/geometry/geometry.hpp"
+#include "common/robot/motor_model.hpp"
+#include "common/robot/omni_kinematics.hpp"
+#include "common/time/clock.hpp"
+#include "services/fusion/odometry_layer.hpp"
+
+namespace fieldline::fusion {
+
+using Vector6d = Eigen::Matrix<double, 6, 1>;
+using Matrix6d = Eigen::Matrix<double, 6, 6>;
+
+struct EkfState {
+  Utime utime = 0;
+  // x, y [m], phi [rad] in (-pi, pi], vx, vy [m/s] field frame, omega [rad/s].
+  Vector6d x = Vector6d::Zero();
+  Matrix6d p = Matrix6d::Identity();
+  // Time of the last accepted pose measurement (0: none yet) and the size of its correction.
+  Utime last_correction_utime = 0;
+  double last_correction_m = 0.0;
+  double last_correction_rad = 0.0;
+
+  geometry::Pose2 pose() const { return {x[0], x[1], x[2]}; }
+};
+
+struct ProcessNoise {
+  // Standard deviation of the linear and angular acceleration the filter does not see, m/s^2
+  // and rad/s^2 (white noise density per sqrt(s)).
+  double linear_acceleration = 2.0;
+  double angular_acceleration = 6.0;
+  // Extra position noise while no odometry covers an interval, m/sqrt(s).
+  double position_density = 0.05;
+  double heading_density = 0.05;
+  // Velocity measured from odometry: extra standard deviation, m/s and rad/s.
+  double odometry_velocity_sigma = 0.05;
+  double odometry_omega_sigma = 0.1;
+
+  // Acceleration noise from the motor model: a wheel accelerates at most alpha / m (full
+  // command from standstill, eq. 4.45-4.46); W(phi)^-1 (eq. 4.47) turns that into the body.
+  static ProcessNoise fromMotorModel(const robot::MotorModel& motor,
+                                     const robot::OmniKinematics& kinematics);
+};
+
+// A pose measurement of layer 2 or 3 at its own time.
+struct PoseMeasurement {
+  Utime utime = 0;
+  geometry::Pose2 pose;
+  // Covariance of (x, y, phi).
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Identity();
+};
+
+struct UpdateResult {
+  bool accepted = false;
+  // Squared Mahalanobis distance of the innovation.
+  double mahalanobis2 = 0.0;
+  // Size of the correction applied: position m, heading rad.
+  double correction_m = 0.0;
+  double correction_rad = 0.0;
+};
+
+// Moves the state to `t` with the velocity held (no odometry for the interval).
+void predictConstantVelocity(EkfState& s, Utime t, const ProcessNoise& noise);
+// Moves the state to step.t_end with the part of the odometry step after s.utime (the whole
+// step when the state is at its start; the state is first carried to t_start if it is older).
+void predictOdometry(EkfState& s, const OdometryStep& step, const ProcessNoise& noise);
+// Updates with a pose measurement at s.utime. With gate2 > 0, a measurement whose squared
+// Mahalanobis distance exceeds it is not applied.
+UpdateResult updatePose(EkfState& s, const PoseMeasurement& z, double gate2);
+// True if `c` is symmetric (to rounding) and positive definite.
+bool isPositiveDefinite(const Eigen::Matrix3d& c);
+
+}  // namespace fieldline::fusion

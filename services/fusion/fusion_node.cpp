@@ -1,0 +1,132 @@
+#include "services/fusion/fusion_node.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <stdexcept>
+
+#include "common/msg/estimates.hpp"
+#include "common/msg/field_features.hpp"
+#include "common/msg/line_contours.hpp"
+
+namespace fieldline::fusion {
+namespace {
+
+// Refusals that mean bad input (counted as errors); the rest (a poor match, a gated
+// measurement) are the filter doing its job and show as metrics.
+bool isBadInput(const std::string& reason) {
+  for (const char* kind : {"from_future", "too_old", "not_finite", "not_positive_definite",
+                           "duplicate", "odometry_jump", "odometry_out_of_order"}) {
+    if (reason.find(kind) != std::string::npos) return true;
+  }
+  return false;
+}
+
+}  // namespace
+
+FusionNode::FusionNode(bus::Node& node, FusionNodeOptions options, MatcherFunctions matcher)
+    : node_(node),
+      options_(std::move(options)),
+      localizer_(options_.robot, options_.localizer, std::move(matcher)),
+      ball_(options_.ball) {
+  if (!(options_.ball_rate_hz > 0.0 && options_.ball_rate_hz <= 1000.0)) {
+    throw std::invalid_argument("fusion: ball_rate_hz must be in (0, 1000]");
+  }
+  node_.subscribe(bus::channels::kOdometry, [this](const odometry_t& m) { onOdometry(m); });
+  node_.subscribe(bus::channels::kVisionLines, [this](const line_contours_t& m) { onLines(m); });
+  node_.subscribe(bus::channels::kFieldFeatures,
+                  [this](const field_features_t& m) { onFeatures(m); });
+  node_.subscribe(bus::channels::kVisionBall, [this](const ball_observation_t& m) { onBall(m); });
+  node_.every(static_cast<Utime>(std::llround(1e6 / options_.ball_rate_hz)),
+              [this] { publishBall(); });
+}
+
+void FusionNode::onOdometry(const odometry_t& m) {
+  OdometrySample sample;
+  sample.utime = m.header.utime;
+  for (std::size_t i = 0; i < 3; ++i)
+    sample.ticks[i] = m.ticks[i];
+  sample.resync = (m.status & odometry_t::STATUS_RESYNC) != 0;
+  sample.controller_utime = m.controller_utime;
+  localizer_.addOdometry(sample, node_.now());
+
+  // The estimate at this odometry's time, whatever happened to the sample.
+  perception::RobotEstimate e = localizer_.estimate(node_.now());
+  if (const auto s = localizer_.stateAt(m.header.utime)) {
+    e.pose = s->pose();
+    e.vx = s->x[3];
+    e.vy = s->x[4];
+    e.omega = s->x[5];
+    e.covariance = s->p.topLeftCorner<3, 3>();
+  }
+  e.utime = m.header.utime;
+  msg::toMessage(e, state_msg_);
+  if (node_.publish(bus::channels::kRobotState, state_msg_)) ++robot_states_;
+  reportNewRejections();
+  updateMetrics();
+}
+
+void FusionNode::onLines(const line_contours_t& m) {
+  msg::fromMessage(m, lines_);
+  localizer_.addLines(lines_.points, m.header.utime, node_.now());
+  reportNewRejections();
+  updateMetrics();
+}
+
+void FusionNode::onFeatures(const field_features_t& m) {
+  msg::fromMessage(m, features_);
+  localizer_.addFeatures(features_, m.header.utime, node_.now());
+  reportNewRejections();
+}
+
+void FusionNode::onBall(const ball_observation_t& m) {
+  const perception::BallSighting sighting = msg::fromMessage(m);
+  if (!sighting.visible) return;
+  const auto robot = localizer_.stateAt(sighting.utime);
+  if (!robot) {
+    ++ball_rejections_["ball_no_pose"];
+    return;
+  }
+  const BallRejection r = ball_.update(sighting, *robot);
+  if (r == BallRejection::kNone) return;
+  const std::string kind = toString(r);
+  if (r == BallRejection::kNotFinite || r == BallRejection::kOutOfOrder) {
+    node_.reportError(kind, "VISION_BALL refused: " + kind);
+  } else {
+    ++ball_rejections_[kind];
+  }
+}
+
+void FusionNode::publishBall() {
+  const perception::BallEstimate e = ball_.estimate(node_.now());
+  msg::toMessage(e, ball_msg_);
+  if (node_.publish(bus::channels::kBallState, ball_msg_)) ++ball_states_;
+}
+
+void FusionNode::reportNewRejections() {
+  for (const auto& [reason, n] : localizer_.counters().rejected) {
+    std::uint64_t& seen = reported_[reason];
+    if (n == seen) continue;
+    if (isBadInput(reason)) {
+      for (std::uint64_t i = seen; i < n; ++i)
+        node_.reportError(reason, "input refused: " + reason);
+    } else {
+      node_.setMetric(reason + "_count", static_cast<double>(n));
+    }
+    seen = n;
+  }
+}
+
+void FusionNode::updateMetrics() {
+  node_.setMetric("localization_status",
+                  static_cast<double>(localizer_.estimate(node_.now()).status));
+  node_.setMetric("correction_cm", 100.0 * localizer_.lastCorrectionM());
+  node_.setMetric("correction_deg", localizer_.lastCorrectionRad() * 180.0 / 3.141592653589793);
+  node_.setMetric("match_cost_cm", 100.0 * std::max(0.0, localizer_.lastCost()));
+  node_.setMetric("ambiguous", localizer_.ambiguous() ? 1.0 : 0.0);
+  node_.setMetric("hypotheses", static_cast<double>(localizer_.hypothesisCount()));
+  node_.setMetric("lost_count", static_cast<double>(localizer_.counters().lost));
+  node_.setMetric("replays", static_cast<double>(localizer_.filter().replays()));
+  node_.setMetric("gate_resets", static_cast<double>(localizer_.counters().resets));
+}
+
+}  // namespace fieldline::fusion

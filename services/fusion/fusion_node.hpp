@@ -1,0 +1,64 @@
+// The fusion process's bus side: ODOMETRY, VISION_LINES, FIELD_FEATURES and VISION_BALL in;
+// ROBOT_STATE on every odometry message (stamped with the odometry's utime) and BALL_STATE at a
+// fixed rate out. The algorithms are the Localizer and the BallFilter; the node converts messages,
+// reads time from its clock and reports refused inputs in SERVICE_STATUS.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <string>
+
+#include <fieldline/ball_state_t.hpp>
+#include <fieldline/robot_state_t.hpp>
+
+#include "common/bus/node.hpp"
+#include "common/perception/field_features.hpp"
+#include "common/perception/line_points.hpp"
+#include "common/robot/robot_params.hpp"
+#include "services/fusion/ball_filter.hpp"
+#include "services/fusion/localizer.hpp"
+
+namespace fieldline::fusion {
+
+struct FusionNodeOptions {
+  robot::RobotParams robot;
+  LocalizerParams localizer;
+  BallFilterParams ball;
+  // BALL_STATE messages per second.
+  double ball_rate_hz = 30.0;
+};
+
+class FusionNode {
+ public:
+  // Subscribes on `node`'s primary bus; `matcher` is layer 2 (LineMatcher in the process).
+  FusionNode(bus::Node& node, FusionNodeOptions options, MatcherFunctions matcher);
+
+  const Localizer& localizer() const { return localizer_; }
+  std::int64_t robotStatesPublished() const { return robot_states_; }
+  std::int64_t ballStatesPublished() const { return ball_states_; }
+
+ private:
+  void onOdometry(const odometry_t& m);
+  void onLines(const line_contours_t& m);
+  void onFeatures(const field_features_t& m);
+  void onBall(const ball_observation_t& m);
+  void publishBall();
+  // Reports every refusal the localizer counted since the last call.
+  void reportNewRejections();
+  void updateMetrics();
+
+  bus::Node& node_;
+  FusionNodeOptions options_;
+  Localizer localizer_;
+  BallFilter ball_;
+  perception::LinePoints lines_;
+  perception::FieldFeatures features_;
+  std::map<std::string, std::uint64_t> reported_;
+  std::map<std::string, std::uint64_t> ball_rejections_;
+  robot_state_t state_msg_{};
+  ball_state_t ball_msg_{};
+  std::int64_t robot_states_ = 0;
+  std::int64_t ball_states_ = 0;
+};
+
+}  // namespace fieldline::fusion

@@ -1,0 +1,216 @@
+#include "services/fusion/history.hpp"
+
+#include <algorithm>
+#include <limits>
+
+namespace fieldline::fusion {
+namespace {
+
+constexpr int kOdometryKind = 0;
+// Pose measurements of source s have kind 1 + s: at equal times odometry goes first, then
+// lines, then features.
+int kindOf(MeasurementSource s) {
+  return 1 + static_cast<int>(s);
+}
+
+TimedChannelLimits channelLimits(std::size_t capacity) {
+  TimedChannelLimits limits;
+  limits.capacity = capacity;
+  limits.insert_late = true;
+  // The filter checks age and future itself, against its own newest input.
+  limits.max_age_us = 0;
+  limits.future_tolerance_us = std::numeric_limits<Utime>::max() / 4;
+  return limits;
+}
+
+bool finite(const geometry::Pose2& p) {
+  return geometry::isFinite(p);
+}
+
+}  // namespace
+
+const char* toString(Rejection r) {
+  switch (r) {
+    case Rejection::kNone:
+      return "none";
+    case Rejection::kFromFuture:
+      return "from_future";
+    case Rejection::kTooOld:
+      return "too_old";
+    case Rejection::kNotFinite:
+      return "not_finite";
+    case Rejection::kNotPositiveDefinite:
+      return "covariance_not_positive_definite";
+    case Rejection::kDuplicate:
+      return "duplicate";
+    case Rejection::kGated:
+      return "gated";
+    case Rejection::kNotInitialized:
+      return "not_initialized";
+    case Rejection::kCount:
+      break;
+  }
+  return "unknown";
+}
+
+DelayedFilter::DelayedFilter(FilterParams params)
+    : params_(params),
+      // 50 Hz odometry and up to 30 Hz vision over the window, with room to spare.
+      odometry_(channelLimits(static_cast<std::size_t>(
+          std::max<Utime>(64, 4 * 50 * params.window_us / kMicrosPerSecond)))),
+      measurements_{TimedChannel<PoseMeasurement>(channelLimits(static_cast<std::size_t>(
+                        std::max<Utime>(32, 4 * 30 * params.window_us / kMicrosPerSecond)))),
+                    TimedChannel<PoseMeasurement>(channelLimits(static_cast<std::size_t>(
+                        std::max<Utime>(32, 4 * 30 * params.window_us / kMicrosPerSecond))))} {}
+
+void DelayedFilter::initialize(const EkfState& state) {
+  checkpoints_.clear();
+  checkpoints_.push_back(state);
+  newest_input_ = std::max(newest_input_, state.utime);
+  odometry_.dropBefore(state.utime + 1);
+  for (auto& channel : measurements_)
+    channel.dropBefore(state.utime + 1);
+  replayFrom(state.utime + 1, -1);
+  prune();
+}
+
+Rejection DelayedFilter::checkTime(Utime utime, Utime now) const {
+  if (utime > now + params_.future_tolerance_us) return Rejection::kFromFuture;
+  if (newest_input_ > 0 && utime < newest_input_ - params_.window_us) return Rejection::kTooOld;
+  if (initialized() && utime <= checkpoints_.front().utime) return Rejection::kTooOld;
+  return Rejection::kNone;
+}
+
+Rejection DelayedFilter::addOdometry(const OdometryStep& step, Utime now) {
+  if (!step.integrated.allFinite() || !step.covariance.allFinite() || step.t_end <= step.t_start) {
+    return count(Rejection::kNotFinite);
+  }
+  if (const Rejection r = checkTime(step.t_end, now); r != Rejection::kNone) return count(r);
+  if (odometry_.insert(step.t_end, step, now) != InsertResult::kAccepted) {
+    return count(Rejection::kDuplicate);
+  }
+  newest_input_ = std::max(newest_input_, step.t_end);
+  if (initialized()) replayFrom(step.t_end, -1);
+  prune();
+  return Rejection::kNone;
+}
+
+DelayedFilter::PoseResult DelayedFilter::addPose(MeasurementSource source, const PoseMeasurement& z,
+                                                 Utime now) {
+  PoseResult result;
+  if (!finite(z.pose) || !z.covariance.allFinite()) {
+    result.rejection = count(Rejection::kNotFinite);
+    return result;
+  }
+  if (!isPositiveDefinite(z.covariance)) {
+    result.rejection = count(Rejection::kNotPositiveDefinite);
+    return result;
+  }
+  if (const Rejection r = checkTime(z.utime, now); r != Rejection::kNone) {
+    result.rejection = count(r);
+    return result;
+  }
+  auto& channel = measurements_[static_cast<std::size_t>(source)];
+  if (channel.insert(z.utime, z, now) != InsertResult::kAccepted) {
+    result.rejection = count(Rejection::kDuplicate);
+    return result;
+  }
+  newest_input_ = std::max(newest_input_, z.utime);
+  if (!initialized()) {
+    // Kept: a later initialize() replays it.
+    result.rejection = count(Rejection::kNotInitialized);
+    prune();
+    return result;
+  }
+  const Applied applied = replayFrom(z.utime, kindOf(source));
+  result.update = applied.update;
+  if (!applied.update.accepted) result.rejection = count(Rejection::kGated);
+  prune();
+  return result;
+}
+
+DelayedFilter::Applied DelayedFilter::replayFrom(Utime t, int target_kind) {
+  Applied applied;
+  if (!initialized()) return applied;
+  // The last checkpoint strictly before t: everything at t and after is processed again.
+  auto it = std::lower_bound(checkpoints_.begin(), checkpoints_.end(), t,
+                             [](const EkfState& s, Utime v) { return s.utime < v; });
+  if (it == checkpoints_.begin()) return applied;  // before the base: refused by checkTime
+  --it;
+  if (std::next(it) != checkpoints_.end()) ++replays_;
+  checkpoints_.erase(std::next(it), checkpoints_.end());
+  EkfState state = checkpoints_.back();
+  const Utime t0 = state.utime;
+
+  std::size_t io = odometry_.indexAtOrAfter(t0 + 1);
+  std::array<std::size_t, 2> im{measurements_[0].indexAtOrAfter(t0 + 1),
+                                measurements_[1].indexAtOrAfter(t0 + 1)};
+  for (;;) {
+    // The next input by (utime, kind).
+    int kind = -1;
+    Utime next = std::numeric_limits<Utime>::max();
+    if (io < odometry_.size()) {
+      next = odometry_[io].utime;
+      kind = kOdometryKind;
+    }
+    for (std::size_t m = 0; m < 2; ++m) {
+      if (im[m] < measurements_[m].size() && measurements_[m][im[m]].utime < next) {
+        next = measurements_[m][im[m]].utime;
+        kind = 1 + static_cast<int>(m);
+      }
+    }
+    if (kind < 0) break;
+    if (kind == kOdometryKind) {
+      predictOdometry(state, odometry_[io].value, params_.noise);
+      ++io;
+    } else {
+      const std::size_t m = static_cast<std::size_t>(kind - 1);
+      const PoseMeasurement& z = measurements_[m][im[m]].value;
+      // A refused measurement leaves no trace, not even the split of the odometry interval.
+      EkfState updated = state;
+      predictConstantVelocity(updated, z.utime, params_.noise);
+      const UpdateResult u = updatePose(updated, z, params_.gate2);
+      if (u.accepted) state = updated;
+      if (kind == target_kind && z.utime == t) {
+        applied.found = true;
+        applied.update = u;
+      }
+      ++im[m];
+    }
+    // One checkpoint per instant: inputs at the same time share it (an input that left the
+    // state where it was rewrites an identical state).
+    if (checkpoints_.back().utime == state.utime) {
+      checkpoints_.back() = state;
+    } else {
+      checkpoints_.push_back(state);
+    }
+  }
+  return applied;
+}
+
+void DelayedFilter::prune() {
+  const Utime limit = newest_input_ - params_.window_us;
+  if (initialized()) {
+    while (checkpoints_.size() > 1 && checkpoints_[1].utime <= limit)
+      checkpoints_.pop_front();
+    const Utime base = checkpoints_.front().utime;
+    odometry_.dropBefore(base + 1);
+    for (auto& channel : measurements_)
+      channel.dropBefore(base + 1);
+  } else {
+    odometry_.dropBefore(limit);
+    for (auto& channel : measurements_)
+      channel.dropBefore(limit);
+  }
+}
+
+std::optional<EkfState> DelayedFilter::stateAt(Utime t) const {
+  if (!initialized() || t < checkpoints_.front().utime) return {};
+  auto it = std::upper_bound(checkpoints_.begin(), checkpoints_.end(), t,
+                             [](Utime v, const EkfState& s) { return v < s.utime; });
+  EkfState s = *std::prev(it);
+  predictConstantVelocity(s, t, params_.noise);
+  return s;
+}
+
+}  // namespace fieldline::fusion

@@ -1,0 +1,444 @@
+#include "services/fusion/localizer.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+namespace fieldline::fusion {
+namespace {
+
+using perception::LocalizationStatus;
+
+bool near(const geometry::Pose2& a, const geometry::Pose2& b, double d_m, double d_rad) {
+  return std::hypot(a.x - b.x, a.y - b.y) <= d_m &&
+         std::abs(geometry::angleDiff(a.phi, b.phi)) <= d_rad;
+}
+
+TimedChannelLimits deadReckoningLimits() {
+  TimedChannelLimits limits;
+  // Two seconds of 50 Hz odometry: hypotheses are moved over at most that.
+  limits.capacity = 128;
+  limits.future_tolerance_us = 500'000;
+  return limits;
+}
+
+}  // namespace
+
+geometry::Pose2 symmetricTwin(const geometry::Pose2& p) {
+  return {-p.x, -p.y, geometry::normalizeAngle(p.phi + std::numbers::pi)};
+}
+
+Localizer::Localizer(const robot::RobotParams& robot, LocalizerParams params,
+                     MatcherFunctions matcher)
+    : robot_(robot),
+      params_(params),
+      matcher_(std::move(matcher)),
+      odometry_(robot, params.odometry),
+      filter_(params.filter),
+      dead_reckoning_(deadReckoningLimits()) {}
+
+bool Localizer::addOdometry(const OdometrySample& sample, Utime now) {
+  const OdometryLayer::Result r = odometry_.update(sample);
+  if (r.rejection != OdometryRejection::kNone) count(toString(r.rejection));
+  if (!r.step) {
+    if (r.rejection != OdometryRejection::kNone && r.rejection != OdometryRejection::kDuplicate) {
+      // The dead-reckoning reference restarts: older hypotheses cannot be moved across the break.
+      dead_reckoning_.clear();
+    }
+    if (dead_reckoning_.empty()) dead_reckoning_.insert(sample.utime, odometry_pose_, now);
+    return false;
+  }
+  const OdometryStep& step = *r.step;
+  const geometry::Movement m = robot::arcMovement(step.integrated);
+  const geometry::Pose2 before{odometry_pose_.x(), odometry_pose_.y(), odometry_pose_.z()};
+  const geometry::Pose2 after = geometry::applyMovement(before, m);
+  odometry_pose_ = {after.x, after.y, odometry_pose_.z() + m.dphi};
+  if (step.has_velocity) last_velocity_ = step.integrated / step.duration();
+  dead_reckoning_.insert(step.t_end, odometry_pose_, now);
+
+  const Rejection rejection = filter_.addOdometry(step, now);
+  if (rejection != Rejection::kNone) {
+    count(std::string("odometry_") + toString(rejection));
+    return false;
+  }
+  return true;
+}
+
+std::optional<geometry::Movement> Localizer::motionBetween(Utime t1, Utime t2) const {
+  if (dead_reckoning_.empty()) return {};
+  auto poseAt = [&](Utime t) -> std::optional<Eigen::Vector3d> {
+    if (t >= dead_reckoning_.newest().utime) return dead_reckoning_.newest().value;
+    if (t < dead_reckoning_.oldest().utime) return {};
+    return dead_reckoning_.at(t);
+  };
+  const auto a = poseAt(t1);
+  const auto b = poseAt(t2);
+  if (!a || !b) return {};
+  const geometry::Vec2 d = geometry::rotate((*b - *a).head<2>(), -a->z());
+  return geometry::Movement{d.x(), d.y(), b->z() - a->z()};
+}
+
+Eigen::Matrix3d Localizer::floored(const Eigen::Matrix3d& c) const {
+  Eigen::Matrix3d out = c;
+  out(0, 0) += params_.correction_floor_m * params_.correction_floor_m;
+  out(1, 1) += params_.correction_floor_m * params_.correction_floor_m;
+  out(2, 2) += params_.correction_floor_rad * params_.correction_floor_rad;
+  return out;
+}
+
+void Localizer::addLines(std::span<const perception::LinePoint> points, Utime utime, Utime now) {
+  last_lines_arrival_ = std::max(last_lines_arrival_, now);
+  if (utime > now + params_.filter.future_tolerance_us) {
+    count("lines_from_future");
+    return;
+  }
+  if (mode_ == LocalizationStatus::kTracking) {
+    trackLines(points, utime, now);
+  } else {
+    searchLines(points, utime);
+  }
+}
+
+void Localizer::trackLines(std::span<const perception::LinePoint> points, Utime utime, Utime now) {
+  const auto guess = filter_.stateAt(utime);
+  if (!guess) {
+    count("lines_too_old");
+    return;
+  }
+  const PoseCorrection c = matcher_.correct(points, guess->pose());
+  const double cost_at_estimate = matcher_.cost(points, guess->pose());
+  last_cost_ = cost_at_estimate;
+  bool good = false;
+  if (c.valid && c.cost <= params_.accept_cost_m) {
+    PoseMeasurement z{utime, c.pose, floored(c.covariance)};
+    const auto r = filter_.addPose(MeasurementSource::kLines, z, now);
+    if (r.rejection == Rejection::kNone) {
+      ++counters_.corrections;
+      good = true;
+      gated_in_row_ = 0;
+    } else {
+      count(std::string("lines_") + toString(r.rejection));
+      // Frames that match the field well but disagree with an overconfident filter (a slip the
+      // odometry did not see): after a few in a row, the frames are right.
+      if (r.rejection == Rejection::kGated && ++gated_in_row_ >= params_.gated_frames_reset) {
+        gated_in_row_ = 0;
+        ++counters_.resets;
+        EkfState s = *guess;
+        s.utime = utime;
+        s.x.head<3>() << c.pose.x, c.pose.y, c.pose.phi;
+        s.p.topLeftCorner<3, 3>() = floored(c.covariance);
+        s.p.topRightCorner<3, 3>().setZero();
+        s.p.bottomLeftCorner<3, 3>().setZero();
+        s.last_correction_utime = utime;
+        filter_.initialize(s);
+        good = true;
+      }
+    }
+  } else {
+    count(c.valid ? "lines_poor_match" : "lines_too_few_points");
+  }
+  // Only frames with enough points can contradict: an empty view says nothing.
+  const bool contradicts = c.valid && !good && cost_at_estimate > params_.lost_cost_m;
+  bad_frames_ = contradicts ? bad_frames_ + 1 : (good ? 0 : bad_frames_);
+  if (bad_frames_ >= params_.lost_frames ||
+      (contradicts && contradictions_ >= 2 && bad_frames_ >= 1)) {
+    becomeLost(utime);
+    searchLines(points, utime);
+  }
+}
+
+void Localizer::becomeLost(Utime utime) {
+  ++counters_.lost;
+  mode_ = LocalizationStatus::kSearching;
+  bad_frames_ = 0;
+  contradictions_ = 0;
+  hypotheses_.clear();
+  reference_.reset();
+  if (const auto s = filter_.stateAt(utime)) {
+    Hypothesis ref;
+    ref.utime = utime;
+    ref.pose = s->pose();
+    reference_ = ref;
+  }
+}
+
+void Localizer::addHypothesis(const Hypothesis& h) {
+  for (Hypothesis& other : hypotheses_) {
+    if (near(other.pose, h.pose, 0.4, 0.3)) {
+      if (h.frames > 0 && h.meanCost() < other.meanCost()) other = h;
+      return;
+    }
+  }
+  hypotheses_.push_back(h);
+}
+
+void Localizer::coarseSearch(std::span<const perception::LinePoint> points, Utime utime) {
+  ++counters_.searches;
+  if (matcher_.global_search) {
+    for (const PoseCorrection& c : matcher_.global_search(points)) {
+      if (!c.valid) continue;
+      Hypothesis h;
+      h.utime = utime;
+      h.pose = c.pose;
+      h.covariance = c.covariance;
+      h.cost_sum = c.cost;
+      h.frames = 1;
+      addHypothesis(h);
+    }
+    return;
+  }
+  // A spread subset of the points keeps the search cheap.
+  std::vector<perception::LinePoint> subset;
+  const std::size_t stride =
+      std::max<std::size_t>(1, points.size() / static_cast<std::size_t>(params_.search_points));
+  for (std::size_t i = 0; i < points.size(); i += stride)
+    subset.push_back(points[i]);
+  struct Scored {
+    double cost;
+    geometry::Pose2 pose;
+  };
+  std::vector<Scored> scored;
+  const double step = params_.search_step_m;
+  for (double x = -params_.search_half_length_m; x <= params_.search_half_length_m; x += step) {
+    for (double y = -params_.search_half_width_m; y <= params_.search_half_width_m; y += step) {
+      for (int k = 0; k < params_.search_headings; ++k) {
+        const geometry::Pose2 p{
+            x, y, geometry::normalizeAngle(2.0 * std::numbers::pi * k / params_.search_headings)};
+        scored.push_back({matcher_.cost(subset, p), p});
+      }
+    }
+  }
+  std::sort(scored.begin(), scored.end(),
+            [](const Scored& a, const Scored& b) { return a.cost < b.cost; });
+  // The best distinct cells, refined by the matcher on all points; the best refined ones stay.
+  std::vector<geometry::Pose2> picked;
+  std::vector<Hypothesis> refined;
+  const std::size_t candidates = 3 * params_.max_hypotheses;
+  for (const Scored& s : scored) {
+    if (picked.size() >= candidates) break;
+    bool distinct = true;
+    for (const auto& p : picked)
+      if (near(p, s.pose, 1.2 * step, 2.5 * std::numbers::pi / params_.search_headings))
+        distinct = false;
+    if (!distinct) continue;
+    picked.push_back(s.pose);
+    const PoseCorrection c = matcher_.correct(points, s.pose);
+    if (!c.valid) continue;
+    Hypothesis h;
+    h.utime = utime;
+    h.pose = c.pose;
+    h.covariance = c.covariance;
+    h.cost_sum = c.cost;
+    h.frames = 1;
+    refined.push_back(h);
+  }
+  std::sort(refined.begin(), refined.end(),
+            [](const Hypothesis& a, const Hypothesis& b) { return a.meanCost() < b.meanCost(); });
+  for (std::size_t i = 0; i < refined.size() && i < params_.max_hypotheses; ++i)
+    addHypothesis(refined[i]);
+}
+
+void Localizer::searchLines(std::span<const perception::LinePoint> points, Utime utime) {
+  if (mode_ == LocalizationStatus::kUnknown) mode_ = LocalizationStatus::kSearching;
+  // Test what we have on this frame.
+  for (Hypothesis& h : hypotheses_) {
+    if (h.utime >= utime) continue;  // found on this frame already
+    const auto motion = motionBetween(h.utime, utime);
+    if (!motion) {
+      h.frames = -1;  // cannot be carried to this frame: dropped below
+      continue;
+    }
+    const geometry::Pose2 moved = geometry::applyMovement(h.pose, *motion);
+    const PoseCorrection c = matcher_.correct(points, moved);
+    h.utime = utime;
+    if (c.valid) {
+      h.pose = c.pose;
+      h.covariance = c.covariance;
+      h.cost_sum += c.cost;
+    } else {
+      h.pose = moved;
+      h.cost_sum += matcher_.cost(points, moved);
+    }
+    ++h.frames;
+  }
+  // Tested twice and still a poor fit: not this place.
+  std::erase_if(hypotheses_, [&](const Hypothesis& h) {
+    return h.frames < 0 || (h.frames >= 2 && h.meanCost() > params_.accept_cost_m) ||
+           (h.frames > 0 && h.meanCost() > params_.lost_cost_m);
+  });
+  const bool enough_points = static_cast<int>(points.size()) >= 10;
+  const bool any_good = std::any_of(hypotheses_.begin(), hypotheses_.end(), [&](const auto& h) {
+    return h.frames > 0 && h.meanCost() <= params_.accept_cost_m;
+  });
+  if (!any_good && enough_points) coarseSearch(points, utime);
+  if (hypotheses_.empty()) return;
+
+  std::sort(hypotheses_.begin(), hypotheses_.end(),
+            [](const Hypothesis& a, const Hypothesis& b) { return a.meanCost() < b.meanCost(); });
+  if (hypotheses_.size() > params_.max_hypotheses) hypotheses_.resize(params_.max_hypotheses);
+
+  const Hypothesis& best = hypotheses_.front();
+  if (best.frames < params_.commit_frames || best.meanCost() > params_.accept_cost_m) return;
+  const Hypothesis* twin = nullptr;
+  const geometry::Pose2 twin_pose = symmetricTwin(best.pose);
+  for (std::size_t i = 1; i < hypotheses_.size(); ++i) {
+    const Hypothesis& h = hypotheses_[i];
+    if (near(h.pose, best.pose, 0.5, 0.35)) continue;
+    if (near(h.pose, twin_pose, 0.5, 0.35)) {
+      if (!twin) twin = &h;
+      continue;
+    }
+    // Another place fits about as well: wait for more frames.
+    if (h.frames > 0 && h.meanCost() < best.meanCost() + params_.commit_margin_m) return;
+  }
+  commit(resolveTwin(best, twin));
+}
+
+Localizer::Hypothesis Localizer::resolveTwin(const Hypothesis& h, const Hypothesis* twin) {
+  // The twin fits the lines as well by symmetry, whether or not it is among the hypotheses.
+  Hypothesis mirrored = twin ? *twin : h;
+  if (!twin) mirrored.pose = symmetricTwin(h.pose);
+  if (reference_) {
+    // Continuity: the pose before the loss, carried by odometry to now.
+    geometry::Pose2 ref = reference_->pose;
+    if (const auto motion = motionBetween(reference_->utime, h.utime)) {
+      ref = geometry::applyMovement(ref, *motion);
+    }
+    // Mostly position: a robot carried off is often turned as well, rarely moved half a field.
+    const auto distance = [&](const geometry::Pose2& p) {
+      return std::hypot(p.x - ref.x, p.y - ref.y) +
+             0.2 * std::abs(geometry::angleDiff(p.phi, ref.phi));
+    };
+    ambiguous_ = false;
+    return distance(h.pose) <= distance(mirrored.pose) ? h : mirrored;
+  }
+  ambiguous_ = true;
+  if (params_.start_prior == StartPrior::kNone) return h;
+  // Robots enter the field in their own half (x < 0), facing the opponent goal when on the line.
+  const auto own = [](const geometry::Pose2& p) {
+    return p.x < -0.25 || (p.x <= 0.25 && std::abs(p.phi) < std::numbers::pi / 2);
+  };
+  return own(h.pose) || !own(mirrored.pose) ? h : mirrored;
+}
+
+void Localizer::commit(const Hypothesis& h) {
+  ++counters_.commits;
+  EkfState s;
+  s.utime = h.utime;
+  const geometry::Vec2 v = geometry::rotate(last_velocity_.head<2>(), h.pose.phi);
+  s.x << h.pose.x, h.pose.y, h.pose.phi, v.x(), v.y(), last_velocity_.z();
+  s.p = Matrix6d::Zero();
+  s.p.topLeftCorner<3, 3>() = floored(h.covariance);
+  s.p.bottomRightCorner<3, 3>() = Eigen::Vector3d(0.25, 0.25, 0.5).asDiagonal();
+  s.last_correction_utime = h.utime;
+  filter_.initialize(s);
+  mode_ = LocalizationStatus::kTracking;
+  hypotheses_.clear();
+  bad_frames_ = 0;
+  contradictions_ = 0;
+}
+
+void Localizer::addFeatures(const perception::FieldFeatures& features, Utime utime, Utime now) {
+  if (features.hypotheses.empty()) return;
+  if (utime > now + params_.filter.future_tolerance_us) {
+    count("features_from_future");
+    return;
+  }
+  if (mode_ != LocalizationStatus::kTracking) {
+    for (const perception::PoseHypothesis& ph : features.hypotheses) {
+      if (!geometry::isFinite(ph.pose) || !(ph.sigma_xy > 0) || !(ph.sigma_phi > 0)) {
+        count("features_not_finite");
+        continue;
+      }
+      Hypothesis h;
+      h.utime = utime;
+      h.pose = ph.pose;
+      h.covariance = Eigen::Vector3d(ph.sigma_xy * ph.sigma_xy, ph.sigma_xy * ph.sigma_xy,
+                                     ph.sigma_phi * ph.sigma_phi)
+                         .asDiagonal();
+      addHypothesis(h);
+      Hypothesis t = h;
+      t.pose = symmetricTwin(h.pose);
+      addHypothesis(t);
+    }
+    return;
+  }
+  const auto est = filter_.stateAt(utime);
+  if (!est) {
+    count("features_too_old");
+    return;
+  }
+  const geometry::Pose2 e = est->pose();
+  bool fused = false;
+  bool all_far = true;
+  for (const perception::PoseHypothesis& ph : features.hypotheses) {
+    if (!geometry::isFinite(ph.pose) || !(ph.sigma_xy > 0) || !(ph.sigma_phi > 0)) {
+      count("features_not_finite");
+      continue;
+    }
+    const bool close = near(ph.pose, e, params_.feature_gate_m, params_.feature_gate_rad);
+    if (close && !fused) {
+      PoseMeasurement z;
+      z.utime = utime;
+      z.pose = ph.pose;
+      z.covariance = Eigen::Vector3d(ph.sigma_xy * ph.sigma_xy, ph.sigma_xy * ph.sigma_xy,
+                                     ph.sigma_phi * ph.sigma_phi)
+                         .asDiagonal();
+      const auto r = filter_.addPose(MeasurementSource::kFeatures, z, now);
+      if (r.rejection == Rejection::kNone) {
+        ++counters_.feature_updates;
+        fused = true;
+      } else {
+        count(std::string("features_") + toString(r.rejection));
+      }
+    }
+    const double d = std::min(std::hypot(ph.pose.x - e.x, ph.pose.y - e.y),
+                              std::hypot(-ph.pose.x - e.x, -ph.pose.y - e.y));
+    if (d <= params_.contradict_m || ph.sigma_xy > 0.3) all_far = false;
+  }
+  contradictions_ = (!fused && all_far) ? contradictions_ + 1 : 0;
+}
+
+std::optional<EkfState> Localizer::stateAt(Utime t) const {
+  if (!filter_.initialized()) return {};
+  return filter_.stateAt(t);
+}
+
+double Localizer::lastCorrectionM() const {
+  return filter_.initialized() ? filter_.current().last_correction_m : 0.0;
+}
+double Localizer::lastCorrectionRad() const {
+  return filter_.initialized() ? filter_.current().last_correction_rad : 0.0;
+}
+
+perception::RobotEstimate Localizer::estimate(Utime now) const {
+  perception::RobotEstimate e;
+  e.status = mode_;
+  if (filter_.initialized()) {
+    const EkfState& s = filter_.current();
+    e.utime = s.utime;
+    e.pose = s.pose();
+    e.vx = s.x[3];
+    e.vy = s.x[4];
+    e.omega = s.x[5];
+    e.covariance = s.p.topLeftCorner<3, 3>();
+    e.since_vision_us = s.last_correction_utime > 0 ? s.utime - s.last_correction_utime : 0;
+  } else {
+    e.utime = dead_reckoning_.empty() ? 0 : dead_reckoning_.newest().utime;
+    if (!hypotheses_.empty()) {
+      // The best guess so far, carried to the newest odometry.
+      const Hypothesis& h = hypotheses_.front();
+      e.pose = h.pose;
+      if (const auto motion = motionBetween(h.utime, e.utime))
+        e.pose = geometry::applyMovement(h.pose, *motion);
+    }
+    e.covariance = Eigen::Vector3d(100.0, 100.0, 10.0).asDiagonal();
+  }
+  if (mode_ == LocalizationStatus::kTracking &&
+      (last_lines_arrival_ == 0 || now - last_lines_arrival_ > params_.vision_timeout_us)) {
+    e.status = LocalizationStatus::kOdometryOnly;
+  }
+  return e;
+}
+
+}  // namespace fieldline::fusion

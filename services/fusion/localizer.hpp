@@ -1,0 +1,171 @@
+// Localization on top of the delay-aware filter: layer 1 (odometry) moves it, layer 2 (the line
+// matcher's correction of each frame) corrects it, layer 3 (FIELD_FEATURES hypotheses) is fused
+// when consistent with it. When the robot is lost (start-up, or carried off: the line points no
+// longer fit and confident features contradict the estimate) it keeps several hypotheses, from
+// the features and from a coarse search over the field, tests them against the following frames'
+// line points and commits to one (SEARCHING -> TRACKING). The field's symmetric twin of a pose
+// fits the lines equally well: continuity with the last trusted estimate decides, or a start-up
+// prior, and the result is reported as ambiguous when only the prior decided.
+//
+// Plain library: the matcher comes in as two functions, time as arguments.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <optional>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "common/perception/estimates.hpp"
+#include "common/perception/field_features.hpp"
+#include "common/perception/line_points.hpp"
+#include "common/robot/robot_params.hpp"
+#include "services/fusion/history.hpp"
+#include "services/fusion/line_matcher.hpp"
+#include "services/fusion/odometry_layer.hpp"
+
+namespace fieldline::fusion {
+
+// What the localizer needs of layer 2 (LineMatcher::correct and LineMatcher::cost).
+struct MatcherFunctions {
+  std::function<PoseCorrection(std::span<const perception::LinePoint>, const geometry::Pose2&)>
+      correct;
+  std::function<double(std::span<const perception::LinePoint>, const geometry::Pose2&)> cost;
+  // Optional: poses over the whole field that fit the points, best first (LineMatcher::
+  // globalSearch). Without it the localizer scores its own coarse grid with cost().
+  std::function<std::vector<PoseCorrection>(std::span<const perception::LinePoint>)> global_search;
+};
+
+// Which of two symmetric poses to believe at start-up, when nothing else tells.
+enum class StartPrior { kOwnHalf, kNone };
+
+struct LocalizerParams {
+  FilterParams filter;
+  OdometryNoise odometry;
+  // A frame whose corrected mean matching cost is at most this is a trusted correction, m.
+  double accept_cost_m = 0.10;
+  // A frame whose cost at the estimate is above this contradicts it, m.
+  double lost_cost_m = 0.16;
+  // Contradicting frames in a row before the robot counts as lost.
+  int lost_frames = 3;
+  // Well-matching frames refused by the filter's gate in a row before the filter is reset to
+  // the frame's correction.
+  int gated_frames_reset = 3;
+  // Frames a hypothesis must have been tested on before committing to it.
+  int commit_frames = 2;
+  // The best hypothesis must beat every other (but its twin) by this mean cost, m.
+  double commit_margin_m = 0.02;
+  // Layer 3: a feature hypothesis within these of the estimate is fused, m / rad.
+  double feature_gate_m = 0.6;
+  double feature_gate_rad = 0.4;
+  // A confident feature hypothesis further than this from the estimate (and its twin) contradicts
+  // it, m.
+  double contradict_m = 1.0;
+  // Floors on a correction's standard deviations, m and rad (the matcher's Hessian can be
+  // optimistic).
+  double correction_floor_m = 0.02;
+  double correction_floor_rad = 0.01;
+  // No VISION_LINES for this long: status ODOMETRY_ONLY, µs.
+  Utime vision_timeout_us = 1'000'000;
+  // Coarse search: grid step, m; headings per turn; points used per pose.
+  double search_step_m = 0.5;
+  int search_headings = 24;
+  int search_points = 60;
+  std::size_t max_hypotheses = 10;
+  // Half extents of the area searched (the carpet), m.
+  double search_half_length_m = 10.0;
+  double search_half_width_m = 6.5;
+  StartPrior start_prior = StartPrior::kOwnHalf;
+};
+
+struct LocalizerCounters {
+  std::map<std::string, std::uint64_t> rejected;
+  std::uint64_t corrections = 0;
+  std::uint64_t feature_updates = 0;
+  std::uint64_t lost = 0;
+  std::uint64_t commits = 0;
+  std::uint64_t searches = 0;
+  std::uint64_t resets = 0;
+};
+
+class Localizer {
+ public:
+  Localizer(const robot::RobotParams& robot, LocalizerParams params, MatcherFunctions matcher);
+
+  // Layer 1. Returns false when the sample gave no movement (first, refused).
+  bool addOdometry(const OdometrySample& sample, Utime now);
+  // Layer 2 (and hypothesis testing while lost) on one frame's line points at its utime.
+  void addLines(std::span<const perception::LinePoint> points, Utime utime, Utime now);
+  // Layer 3.
+  void addFeatures(const perception::FieldFeatures& features, Utime utime, Utime now);
+
+  // The estimate at the newest odometry time (what ROBOT_STATE carries); `now` decides
+  // ODOMETRY_ONLY.
+  perception::RobotEstimate estimate(Utime now) const;
+  // The filter's state at `t` (for the ball); empty while no pose is known.
+  std::optional<EkfState> stateAt(Utime t) const;
+
+  perception::LocalizationStatus mode() const { return mode_; }
+  // True while the committed pose was chosen over its twin by the start-up prior only.
+  bool ambiguous() const { return ambiguous_; }
+  // Mean matching cost of the last line frame at the estimate, m (negative: none yet).
+  double lastCost() const { return last_cost_; }
+  double lastCorrectionM() const;
+  double lastCorrectionRad() const;
+  std::size_t hypothesisCount() const { return hypotheses_.size(); }
+  const LocalizerCounters& counters() const { return counters_; }
+  const DelayedFilter& filter() const { return filter_; }
+
+ private:
+  struct Hypothesis {
+    Utime utime = 0;
+    geometry::Pose2 pose;
+    Eigen::Matrix3d covariance = Eigen::Matrix3d::Identity();
+    // Mean cost over the frames it was tested on.
+    double cost_sum = 0.0;
+    int frames = 0;
+    double meanCost() const { return frames > 0 ? cost_sum / frames : 1e9; }
+  };
+
+  void count(const std::string& reason) { ++counters_.rejected[reason]; }
+  // Movement (robot frame at t1) from t1 to t2 by dead reckoning.
+  std::optional<geometry::Movement> motionBetween(Utime t1, Utime t2) const;
+  void trackLines(std::span<const perception::LinePoint> points, Utime utime, Utime now);
+  void searchLines(std::span<const perception::LinePoint> points, Utime utime);
+  void coarseSearch(std::span<const perception::LinePoint> points, Utime utime);
+  void addHypothesis(const Hypothesis& h);
+  void becomeLost(Utime utime);
+  void commit(const Hypothesis& h);
+  // Picks h or its twin: the one nearer the reference pose (continuity) or the start prior.
+  Hypothesis resolveTwin(const Hypothesis& h, const Hypothesis* twin);
+  Eigen::Matrix3d floored(const Eigen::Matrix3d& c) const;
+
+  robot::RobotParams robot_;
+  LocalizerParams params_;
+  MatcherFunctions matcher_;
+  OdometryLayer odometry_;
+  DelayedFilter filter_;
+  // Dead-reckoned (x, y, unwrapped phi) in the odometry frame at each odometry time.
+  TimedChannel<Eigen::Vector3d> dead_reckoning_;
+  Eigen::Vector3d odometry_pose_ = Eigen::Vector3d::Zero();
+  Eigen::Vector3d last_velocity_ = Eigen::Vector3d::Zero();
+
+  perception::LocalizationStatus mode_ = perception::LocalizationStatus::kUnknown;
+  bool ambiguous_ = false;
+  std::vector<Hypothesis> hypotheses_;
+  // The last trusted pose (when tracking was lost), for continuity.
+  std::optional<Hypothesis> reference_;
+  int bad_frames_ = 0;
+  int contradictions_ = 0;
+  int gated_in_row_ = 0;
+  double last_cost_ = -1.0;
+  Utime last_lines_arrival_ = 0;
+  LocalizerCounters counters_;
+};
+
+// The pose the field's point symmetry maps `p` to: (-x, -y, phi + pi).
+geometry::Pose2 symmetricTwin(const geometry::Pose2& p);
+
+}  // namespace fieldline::fusion

@@ -1,0 +1,136 @@
+#include "services/fusion/odometry_layer.hpp"
+
+#include <cmath>
+#include <numbers>
+
+namespace fieldline::fusion {
+
+const char* toString(OdometryRejection r) {
+  switch (r) {
+    case OdometryRejection::kNone:
+      return "none";
+    case OdometryRejection::kOutOfOrder:
+      return "odometry_out_of_order";
+    case OdometryRejection::kDuplicate:
+      return "odometry_duplicate";
+    case OdometryRejection::kJump:
+      return "odometry_jump";
+    case OdometryRejection::kResync:
+      return "odometry_resync";
+    case OdometryRejection::kGap:
+      return "odometry_gap";
+  }
+  return "unknown";
+}
+
+OdometryLayer::OdometryLayer(const robot::RobotParams& params, OdometryNoise noise)
+    : params_(params), noise_(noise), odometry_(params) {
+  for (int i = 0; i < robot::kWheelCount; ++i)
+    radii_[i] = params.wheels[static_cast<std::size_t>(i)].radius;
+}
+
+OdometryStep OdometryLayer::stepFor(
+    const std::array<std::int64_t, robot::kWheelCount>& tick_delta) const {
+  const Eigen::Vector3d rotations = odometry_.wheelRotations(tick_delta);
+  const Eigen::Vector3d ground = rotations.cwiseProduct(radii_);
+  const Eigen::Matrix3d& m_inv = kinematics().robotMatrixInverse();
+
+  OdometryStep step;
+  step.integrated = m_inv * ground;
+
+  // Each wheel's ground travel is uncertain by slip (relative) and by the tick quantisation.
+  const double tick_m = 2.0 * std::numbers::pi / odometry_.ticksPerRevolution();
+  Eigen::Vector3d wheel_var;
+  for (int i = 0; i < robot::kWheelCount; ++i) {
+    const double slip = noise_.wheel_relative_sigma * std::abs(ground[i]);
+    const double quantisation = tick_m * radii_[i] / std::sqrt(12.0);
+    wheel_var[i] = slip * slip + quantisation * quantisation;
+  }
+  step.covariance = m_inv * wheel_var.asDiagonal() * m_inv.transpose();
+
+  // Beyond the wheels: the body slides more the further it goes and the more it turns.
+  const double distance = step.integrated.head<2>().norm();
+  const double turned = std::abs(step.integrated.z());
+  const double s_t = noise_.translation_sigma_per_m * distance;
+  const double s_r =
+      noise_.rotation_sigma_per_rad * turned + noise_.rotation_sigma_per_m * distance;
+  step.covariance(0, 0) += s_t * s_t;
+  step.covariance(1, 1) += s_t * s_t;
+  step.covariance(2, 2) += s_r * s_r;
+  return step;
+}
+
+Utime OdometryLayer::stamp(const OdometrySample& sample) {
+  if (sample.controller_utime <= 0) return sample.utime;
+  const std::int64_t offset = sample.utime - sample.controller_utime;
+  // A controller restart (its clock ran backwards) or a step of the host clock: start over.
+  if (!controller_offset_ || sample.controller_utime < last_controller_utime_ ||
+      std::abs(offset - *controller_offset_) > 200'000) {
+    controller_offset_ = offset;
+  } else {
+    controller_offset_ = std::min(*controller_offset_ + noise_.offset_creep_us, offset);
+  }
+  last_controller_utime_ = sample.controller_utime;
+  return sample.controller_utime + *controller_offset_;
+}
+
+OdometryLayer::Result OdometryLayer::update(const OdometrySample& input) {
+  Result result;
+  OdometrySample sample = input;
+  sample.utime = stamp(input);
+  if (sample.resync) {
+    last_ = sample;
+    result.rejection = OdometryRejection::kResync;
+    return result;
+  }
+  if (!last_) {
+    last_ = sample;
+    return result;
+  }
+  if (sample.utime == last_->utime) {
+    result.rejection = OdometryRejection::kDuplicate;
+    return result;
+  }
+  if (sample.utime < last_->utime) {
+    // Stamps jitter with the arrival time: the reference stays, and the next sample's tick
+    // difference covers this one's movement. Time far backwards (controller restart, clock
+    // step) starts over from this sample.
+    if (static_cast<double>(last_->utime - sample.utime) * 1e-6 > noise_.max_interval_s) {
+      last_ = sample;
+    }
+    result.rejection = OdometryRejection::kOutOfOrder;
+    return result;
+  }
+  std::array<std::int64_t, robot::kWheelCount> delta{};
+  for (int i = 0; i < robot::kWheelCount; ++i) {
+    const auto w = static_cast<std::size_t>(i);
+    delta[w] = robot::tickDelta(sample.ticks[w], last_->ticks[w]);
+  }
+  const double dt = static_cast<double>(sample.utime - last_->utime) * 1e-6;
+  const OdometrySample previous = *last_;
+  last_ = sample;
+
+  OdometryStep step = stepFor(delta);
+  step.t_start = previous.utime;
+  step.t_end = sample.utime;
+
+  // A jump no wheel can make in this time (counter glitch, garbled frame) is not a movement.
+  const double tick_m = 2.0 * std::numbers::pi / odometry_.ticksPerRevolution();
+  const double max_travel =
+      noise_.max_speed_factor * params_.motor.max_wheel_speed * std::max(dt, 0.02);
+  for (int i = 0; i < robot::kWheelCount; ++i) {
+    const auto w = static_cast<std::size_t>(i);
+    if (std::abs(static_cast<double>(delta[w])) * tick_m * radii_[i] > max_travel) {
+      result.rejection = OdometryRejection::kJump;
+      return result;
+    }
+  }
+  if (dt > noise_.max_interval_s) {
+    step.has_velocity = false;
+    result.rejection = OdometryRejection::kGap;
+  }
+  result.step = step;
+  return result;
+}
+
+}  // namespace fieldline::fusion

@@ -1,0 +1,103 @@
+// Layer 1 of the localization (seed 4.8): accumulated wheel ticks -> wheel rotations (eq. 4.62,
+// 4.63) -> the body's movement through the inverse wheel matrix (M^-1, the robot-frame form of
+// W(phi)^-1, eq. 4.35), with a covariance that grows with the distance driven and the angle
+// turned. Samples must come in time order; a sample that cannot be trusted (time running
+// backwards, a jump no wheel can make, a controller resync) is refused with its reason and
+// restarts the reference, so a bad sample never becomes a movement. Samples are stamped with the
+// controller's own clock mapped onto the host's (the link's jitter filtered out) when known.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <optional>
+
+#include <Eigen/Core>
+
+#include "common/geometry/geometry.hpp"
+#include "common/robot/omni_kinematics.hpp"
+#include "common/robot/robot_params.hpp"
+#include "common/robot/wheel_odometry.hpp"
+#include "common/time/clock.hpp"
+
+namespace fieldline::fusion {
+
+struct OdometryNoise {
+  // Standard deviation of a wheel's rotation relative to the rotation (slip), 1.
+  double wheel_relative_sigma = 0.03;
+  // Extra translation noise per metre driven, m/m (floor, carpet seams).
+  double translation_sigma_per_m = 0.02;
+  // Extra heading noise per radian turned and per metre driven, rad/rad and rad/m.
+  double rotation_sigma_per_rad = 0.02;
+  double rotation_sigma_per_m = 0.01;
+  // A sample interval longer than this is a gap: the movement is still used (the ticks
+  // accumulate), but no velocity is derived from it, s.
+  double max_interval_s = 0.25;
+  // Wheel speeds above this multiple of the robot's top wheel speed are an odometry jump.
+  double max_speed_factor = 3.0;
+  // The host stamps (arrival minus latency) jitter with the serial link; the controller's clock
+  // does not. The sample is stamped controller time + the smallest offset seen, which creeps up
+  // by this much per sample so that a slow clock drift is followed, µs.
+  std::int64_t offset_creep_us = 2;
+};
+
+// One odometry sample as the controller sends it (the few fields of odometry_t fusion needs).
+struct OdometrySample {
+  Utime utime = 0;
+  robot::TickCounts ticks{};
+  // The controller says the counters restarted (odometry_t::STATUS_RESYNC).
+  bool resync = false;
+  // The controller's own time of the sample, µs since it started (0: not known).
+  std::int64_t controller_utime = 0;
+};
+
+// The movement between two samples, ready for the filter.
+struct OdometryStep {
+  Utime t_start = 0;
+  Utime t_end = 0;
+  // Body twist integrated over the interval (dx, dy along the body axes at the start, dphi):
+  // the movement is the arc geometry::arcMovement of it (robot::arcMovement).
+  Eigen::Vector3d integrated = Eigen::Vector3d::Zero();
+  // Covariance of `integrated`, m^2 / m*rad / rad^2.
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
+  // False after a gap: the interval is too long to read a velocity from.
+  bool has_velocity = true;
+
+  double duration() const { return static_cast<double>(t_end - t_start) * 1e-6; }
+};
+
+enum class OdometryRejection { kNone, kOutOfOrder, kDuplicate, kJump, kResync, kGap };
+const char* toString(OdometryRejection r);
+
+class OdometryLayer {
+ public:
+  explicit OdometryLayer(const robot::RobotParams& params, OdometryNoise noise = {});
+
+  struct Result {
+    // Set when a movement since the previous sample is available.
+    std::optional<OdometryStep> step;
+    // Why the sample gave no step (kNone for the very first sample: it only sets the reference).
+    OdometryRejection rejection = OdometryRejection::kNone;
+  };
+  Result update(const OdometrySample& sample);
+  // The stamp the layer uses for a sample (controller time on the host clock when known).
+  Utime stamp(const OdometrySample& sample);
+
+  // The step and its covariance for a tick difference over `dt_s` seconds (tests, tools).
+  OdometryStep stepFor(const std::array<std::int64_t, robot::kWheelCount>& tick_delta) const;
+
+  // Forgets the reference; the next sample starts over.
+  void reset() { last_.reset(); }
+  const robot::OmniKinematics& kinematics() const { return odometry_.kinematics(); }
+
+ private:
+  robot::RobotParams params_;
+  OdometryNoise noise_;
+  robot::WheelOdometry odometry_;
+  Eigen::Vector3d radii_;
+  std::optional<OdometrySample> last_;
+  // Host time minus controller time, minimum-filtered.
+  std::optional<std::int64_t> controller_offset_;
+  std::int64_t last_controller_utime_ = 0;
+};
+
+}  // namespace fieldline::fusion

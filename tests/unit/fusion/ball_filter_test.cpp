@@ -1,0 +1,116 @@
+// The ball filter: sightings in the robot frame land in the field frame with the pose at their
+// time, a rolling ball is followed and slows down, bad sightings are refused, and an unseen ball
+// ages out.
+#include "services/fusion/ball_filter.hpp"
+
+#include <cmath>
+#include <random>
+
+#include <gtest/gtest.h>
+
+namespace fieldline::fusion {
+namespace {
+
+constexpr Utime kStart = 1'800'000'000'000'000;
+
+EkfState robotAt(const geometry::Pose2& pose, Utime t) {
+  EkfState s;
+  s.utime = t;
+  s.x << pose.x, pose.y, pose.phi, 0, 0, 0;
+  s.p = Matrix6d::Identity() * 1e-4;
+  return s;
+}
+
+perception::BallSighting sightingOf(const geometry::Vec2& ball_field, const geometry::Pose2& robot,
+                                    Utime t, std::mt19937& rng) {
+  std::normal_distribution<double> noise(0.0, 0.03);
+  const geometry::Vec2 local = geometry::pointFieldToRobot(robot, ball_field);
+  perception::BallSighting s;
+  s.utime = t;
+  s.visible = true;
+  s.x = local.x() + noise(rng);
+  s.y = local.y() + noise(rng);
+  s.sigma_radial = 0.05;
+  s.sigma_tangential = 0.03;
+  return s;
+}
+
+TEST(BallFilter, FollowsARollingBallInTheFieldFrame) {
+  BallFilter filter;
+  std::mt19937 rng(1);
+  const geometry::Pose2 robot{1.0, -2.0, 2.0};
+  geometry::Vec2 ball(2.0, 0.0);
+  geometry::Vec2 v(1.5, -0.5);
+  double err_sum = 0.0;
+  int n = 0;
+  for (int k = 0; k < 60; ++k) {
+    const Utime t = kStart + k * 33'333;
+    EXPECT_EQ(filter.update(sightingOf(ball, robot, t, rng), robotAt(robot, t)),
+              BallRejection::kNone);
+    if (k > 10) {
+      const auto e = filter.estimate(t);
+      err_sum += std::hypot(e.x - ball.x(), e.y - ball.y());
+      ++n;
+    }
+    // Truth: rolling friction 0.4 m/s^2.
+    const double speed = v.norm();
+    const double dt = 0.033333;
+    v *= std::max(0.0, speed - 0.4 * dt) / speed;
+    ball += v * dt;
+  }
+  EXPECT_LT(err_sum / n, 0.05);
+  const auto e = filter.estimate(kStart + 59 * 33'333);
+  EXPECT_TRUE(e.valid);
+  EXPECT_NEAR(std::hypot(e.vx, e.vy), v.norm(), 0.3);
+}
+
+TEST(BallFilter, RefusesBadSightingsAndAgesOut) {
+  BallFilter filter({.max_age_s = 0.5});
+  std::mt19937 rng(2);
+  const geometry::Pose2 robot{0.0, 0.0, 0.0};
+  const geometry::Vec2 ball(1.0, 1.0);
+  EXPECT_EQ(filter.update(sightingOf(ball, robot, kStart, rng), robotAt(robot, kStart)),
+            BallRejection::kNone);
+  auto s = sightingOf(ball, robot, kStart + 30'000, rng);
+  s.visible = false;
+  EXPECT_EQ(filter.update(s, robotAt(robot, kStart)), BallRejection::kNotVisible);
+  s.visible = true;
+  s.x = std::nan("");
+  EXPECT_EQ(filter.update(s, robotAt(robot, kStart)), BallRejection::kNotFinite);
+  s = sightingOf(ball, robot, kStart - 30'000, rng);
+  EXPECT_EQ(filter.update(s, robotAt(robot, kStart)), BallRejection::kOutOfOrder);
+  s = sightingOf({30.0, 0.0}, robot, kStart + 60'000, rng);
+  EXPECT_EQ(filter.update(s, robotAt(robot, kStart)), BallRejection::kTooFar);
+  // One wild sighting is an outlier; the estimate stays put.
+  s = sightingOf({4.0, -3.0}, robot, kStart + 90'000, rng);
+  EXPECT_EQ(filter.update(s, robotAt(robot, kStart)), BallRejection::kOutlier);
+  auto e = filter.estimate(kStart + 90'000);
+  EXPECT_TRUE(e.valid);
+  EXPECT_NEAR(e.x, 1.0, 0.1);
+  EXPECT_NEAR(e.y, 1.0, 0.1);
+  // Unseen for longer than max_age: invalid.
+  e = filter.estimate(kStart + 700'000);
+  EXPECT_FALSE(e.valid);
+  EXPECT_EQ(e.last_seen_utime, kStart);
+}
+
+TEST(BallFilter, RestartsWhenTheBallReallyMoved) {
+  BallFilter filter;
+  std::mt19937 rng(3);
+  const geometry::Pose2 robot{0.0, 0.0, 0.5};
+  for (int k = 0; k < 5; ++k) {
+    const Utime t = kStart + k * 33'333;
+    filter.update(sightingOf({1.0, 0.0}, robot, t, rng), robotAt(robot, t));
+  }
+  // Put down 3 m away: after a few outliers the filter follows.
+  for (int k = 5; k < 12; ++k) {
+    const Utime t = kStart + k * 33'333;
+    filter.update(sightingOf({-2.0, 1.0}, robot, t, rng), robotAt(robot, t));
+  }
+  const auto e = filter.estimate(kStart + 11 * 33'333);
+  EXPECT_NEAR(e.x, -2.0, 0.15);
+  EXPECT_NEAR(e.y, 1.0, 0.15);
+}
+
+}  // namespace
+}  // namespace fieldline::fusion

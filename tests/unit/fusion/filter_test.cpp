@@ -1,0 +1,358 @@
+// The odometry layer and the delay-aware EKF on constructed inputs: late measurements inserted
+// out of order give exactly the in-order state, bad inputs are refused, counted and change
+// nothing, and the filter follows a pose measured with noise.
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <random>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "common/robot/robot_params.hpp"
+#include "services/fusion/history.hpp"
+#include "services/fusion/odometry_layer.hpp"
+
+namespace fieldline::fusion {
+namespace {
+
+constexpr Utime kStart = 1'800'000'000'000'000;
+
+robot::RobotParams params() {
+  return robot::loadRobotPreset("fu2004");
+}
+
+// Ticks for a body twist held over dt, rounded like a real counter.
+robot::TickCounts advanceTicks(const robot::TickCounts& ticks, const robot::OmniKinematics& kin,
+                               const robot::RobotParams& p, const robot::Twist& twist, double dt,
+                               std::array<double, 3>& remainder) {
+  const Eigen::Vector3d wheel = kin.wheelAngularSpeeds(twist) * dt;
+  robot::TickCounts out = ticks;
+  for (std::size_t i = 0; i < 3; ++i) {
+    const double exact =
+        wheel[static_cast<int>(i)] / (2.0 * std::numbers::pi) * p.ticksPerWheelRevolution() +
+        remainder[i];
+    const double whole = std::round(exact);
+    remainder[i] = exact - whole;
+    out[i] =
+        static_cast<std::int32_t>(static_cast<std::uint32_t>(ticks[i]) +
+                                  static_cast<std::uint32_t>(static_cast<std::int64_t>(whole)));
+  }
+  return out;
+}
+
+TEST(OdometryLayer, StraightDriveAndWrappingCounters) {
+  const auto p = params();
+  OdometryLayer layer(p);
+  std::array<double, 3> rem{};
+  // Counters close to the int32 limit wrap during the drive.
+  robot::TickCounts ticks{2'147'483'000, -2'147'483'000, 2'147'483'600};
+  layer.update({kStart, ticks, false});
+  Eigen::Vector3d total = Eigen::Vector3d::Zero();
+  double last_var = 0.0;
+  for (int k = 1; k <= 50; ++k) {
+    ticks = advanceTicks(ticks, layer.kinematics(), p, {1.0, 0.0, 0.0}, 0.02, rem);
+    const auto r = layer.update({kStart + k * 20'000, ticks, false});
+    ASSERT_TRUE(r.step.has_value());
+    EXPECT_EQ(r.rejection, OdometryRejection::kNone);
+    total += r.step->integrated;
+    last_var = r.step->covariance(0, 0);
+  }
+  EXPECT_NEAR(total.x(), 1.0, 0.01);
+  EXPECT_NEAR(total.y(), 0.0, 0.01);
+  EXPECT_NEAR(total.z(), 0.0, 0.01);
+  // Faster driving: a larger step, a larger covariance.
+  const auto still = layer.stepFor({0, 0, 0});
+  EXPECT_GT(last_var, still.covariance(0, 0));
+}
+
+TEST(OdometryLayer, RefusesJumpsBackwardsTimeAndDuplicates) {
+  const auto p = params();
+  OdometryLayer layer(p);
+  robot::TickCounts ticks{0, 0, 0};
+  layer.update({kStart, ticks, false});
+  EXPECT_EQ(layer.update({kStart, ticks, false}).rejection, OdometryRejection::kDuplicate);
+  robot::TickCounts jump{100'000, 0, 0};
+  const auto r = layer.update({kStart + 20'000, jump, false});
+  EXPECT_EQ(r.rejection, OdometryRejection::kJump);
+  EXPECT_FALSE(r.step.has_value());
+  EXPECT_EQ(layer.update({kStart + 10'000, jump, false}).rejection, OdometryRejection::kOutOfOrder);
+  // A slightly early stamp is refused but its ticks are not lost: the next step covers them.
+  {
+    OdometryLayer l2(p);
+    l2.update({kStart, {0, 0, 0}, false});
+    EXPECT_EQ(l2.update({kStart - 2'000, {10, 10, 10}, false}).rejection,
+              OdometryRejection::kOutOfOrder);
+    const auto next = l2.update({kStart + 20'000, {20, 20, 20}, false});
+    ASSERT_TRUE(next.step.has_value());
+    EXPECT_NEAR(next.step->integrated.z(), l2.stepFor({20, 20, 20}).integrated.z(), 1e-12);
+  }
+  EXPECT_EQ(layer.update({kStart + 30'000, jump, true}).rejection, OdometryRejection::kResync);
+  // After the resync the reference is the new counter: small steps are movements again.
+  const auto ok = layer.update({kStart + 50'000, {100'010, 0, 0}, false});
+  ASSERT_TRUE(ok.step.has_value());
+  EXPECT_EQ(ok.rejection, OdometryRejection::kNone);
+}
+
+TEST(OdometryLayer, StampsWithTheControllerClockThroughTheLinkJitter) {
+  const auto p = params();
+  OdometryLayer layer(p);
+  std::mt19937 rng(9);
+  std::uniform_int_distribution<Utime> jitter(0, 12'000);
+  int steps = 0;
+  for (int k = 0; k < 200; ++k) {
+    OdometrySample s;
+    s.controller_utime = 5'000'000 + k * 20'000;
+    // Host stamp: arrival (controller time + 3 ms + jitter) minus the configured latency.
+    s.utime = kStart + k * 20'000 + 3'000 + jitter(rng);
+    s.ticks = {k, k, k};
+    const auto r = layer.update(s);
+    EXPECT_NE(r.rejection, OdometryRejection::kOutOfOrder) << k;
+    if (r.step && k > 50) {
+      ++steps;
+      // Once a small offset is found, every interval is the controller's 20 ms to well under
+      // the link's 12 ms jitter.
+      EXPECT_NEAR(static_cast<double>(r.step->t_end - r.step->t_start), 20'000.0, 600.0) << k;
+      EXPECT_LT(r.step->t_end - (kStart + k * 20'000), 4'000);
+    }
+  }
+  EXPECT_GT(steps, 100);
+}
+
+struct Input {
+  Utime arrival = 0;
+  bool odometry = false;
+  OdometryStep step;
+  MeasurementSource source = MeasurementSource::kLines;
+  PoseMeasurement z;
+};
+
+// A robot turning and accelerating for 3 s: odometry at 50 Hz (8 ms late), line measurements at
+// 10 Hz and feature measurements at 5 Hz, each late by a random 0..150 ms.
+std::vector<Input> makeInputs(std::mt19937& rng) {
+  const auto p = params();
+  OdometryLayer layer(p);
+  std::array<double, 3> rem{};
+  robot::TickCounts ticks{0, 0, 0};
+  layer.update({kStart, ticks, false});
+  std::vector<Input> inputs;
+  std::uniform_int_distribution<Utime> delay(0, 150'000);
+  std::normal_distribution<double> noise(0.0, 0.03);
+  geometry::Pose2 truth{-1.0, 0.5, 0.2};
+  for (int k = 1; k <= 150; ++k) {
+    const double t = k * 0.02;
+    const robot::Twist twist{0.8 + 0.3 * std::sin(t), 0.2 * std::cos(2 * t), 0.6 * std::sin(t)};
+    ticks = advanceTicks(ticks, layer.kinematics(), p, twist, 0.02, rem);
+    const Utime utime = kStart + k * 20'000;
+    const auto r = layer.update({utime, ticks, false});
+    truth = geometry::applyMovement(truth, robot::arcMovement(twist.vector() * 0.02));
+    Input in;
+    in.arrival = utime + 8'000;
+    in.odometry = true;
+    in.step = *r.step;
+    inputs.push_back(in);
+    if (k % 5 == 2 || k % 10 == 7) {
+      Input m;
+      m.source = (k % 5 == 2) ? MeasurementSource::kLines : MeasurementSource::kFeatures;
+      // Between odometry samples, as camera exposures are.
+      m.z.utime = utime - 7'000;
+      m.z.pose = {truth.x + noise(rng), truth.y + noise(rng), truth.phi + noise(rng)};
+      m.z.covariance = Eigen::Vector3d(0.03 * 0.03, 0.05 * 0.05, 0.03 * 0.03).asDiagonal();
+      m.z.covariance(0, 1) = m.z.covariance(1, 0) = 0.0005;
+      m.arrival = m.z.utime + delay(rng);
+      inputs.push_back(m);
+    }
+  }
+  return inputs;
+}
+
+EkfState startState() {
+  EkfState s;
+  s.utime = kStart;
+  s.x << -1.0, 0.5, 0.2, 0.0, 0.0, 0.0;
+  s.p = (Vector6d() << 0.01, 0.01, 0.01, 0.1, 0.1, 0.1).finished().asDiagonal();
+  return s;
+}
+
+void feed(DelayedFilter& f, const Input& in, Utime now) {
+  if (in.odometry) {
+    EXPECT_EQ(f.addOdometry(in.step, now), Rejection::kNone);
+  } else {
+    f.addPose(in.source, in.z, now);
+  }
+}
+
+Utime timeOf(const Input& in) {
+  return in.odometry ? in.step.t_end : in.z.utime;
+}
+
+TEST(DelayedFilter, LateMeasurementsGiveTheInOrderStateExactly) {
+  for (unsigned seed = 1; seed <= 20; ++seed) {
+    std::mt19937 rng(seed);
+    std::vector<Input> inputs = makeInputs(rng);
+
+    // In order of physical time, each input known when it happened.
+    std::vector<Input> by_time = inputs;
+    std::stable_sort(by_time.begin(), by_time.end(),
+                     [](const Input& a, const Input& b) { return timeOf(a) < timeOf(b); });
+    DelayedFilter in_order;
+    in_order.initialize(startState());
+    for (const Input& in : by_time)
+      feed(in_order, in, timeOf(in));
+
+    // In order of arrival: vision 0-150 ms late and shuffled against odometry and itself.
+    std::vector<Input> by_arrival = inputs;
+    std::stable_sort(by_arrival.begin(), by_arrival.end(),
+                     [](const Input& a, const Input& b) { return a.arrival < b.arrival; });
+    DelayedFilter late;
+    late.initialize(startState());
+    for (const Input& in : by_arrival)
+      feed(late, in, in.arrival);
+
+    EXPECT_GT(late.replays(), 0u);
+    const EkfState& a = in_order.current();
+    const EkfState& b = late.current();
+    EXPECT_EQ(a.utime, b.utime);
+    EXPECT_LT((a.x - b.x).cwiseAbs().maxCoeff(), 1e-9) << "seed " << seed;
+    EXPECT_LT((a.p - b.p).cwiseAbs().maxCoeff(), 1e-9) << "seed " << seed;
+    EXPECT_EQ(in_order.rejections(), late.rejections());
+    // And the measurements did their job: the estimate is near the truth it was fed.
+    EXPECT_GT(a.last_correction_utime, 0);
+  }
+}
+
+TEST(DelayedFilter, FollowsNoisyMeasurementsAgainstBiasedStart) {
+  std::mt19937 rng(7);
+  std::vector<Input> inputs = makeInputs(rng);
+  DelayedFilter f;
+  EkfState start = startState();
+  start.x[0] += 0.3;  // 30 cm off
+  start.p.topLeftCorner<3, 3>() = Eigen::Vector3d(0.25, 0.25, 0.05).asDiagonal();
+  f.initialize(start);
+  std::stable_sort(inputs.begin(), inputs.end(),
+                   [](const Input& a, const Input& b) { return a.arrival < b.arrival; });
+  for (const Input& in : inputs)
+    feed(f, in, in.arrival);
+  // The last few measurements are the truth plus 3 cm noise: the estimate sits near them.
+  const Input* last = nullptr;
+  for (const Input& in : inputs)
+    if (!in.odometry && in.source == MeasurementSource::kLines) last = &in;
+  ASSERT_NE(last, nullptr);
+  const auto at = f.stateAt(last->z.utime);
+  ASSERT_TRUE(at.has_value());
+  EXPECT_LT(std::hypot(at->x[0] - last->z.pose.x, at->x[1] - last->z.pose.y), 0.12);
+  EXPECT_EQ(f.rejections()[static_cast<std::size_t>(Rejection::kGated)], 0u);
+}
+
+TEST(DelayedFilter, RefusesBadInputsCountsThemAndChangesNothing) {
+  std::mt19937 rng(3);
+  std::vector<Input> inputs = makeInputs(rng);
+  DelayedFilter f;
+  f.initialize(startState());
+  for (std::size_t i = 0; i < 60; ++i)
+    if (inputs[i].odometry) feed(f, inputs[i], inputs[i].step.t_end + 8'000);
+  const EkfState before = f.current();
+  const Utime now = before.utime + 8'000;
+
+  auto expectUnchanged = [&] {
+    EXPECT_EQ(f.current().utime, before.utime);
+    EXPECT_EQ(f.current().x, before.x);
+    EXPECT_EQ(f.current().p, before.p);
+  };
+  auto count = [&](Rejection r) { return f.rejections()[static_cast<std::size_t>(r)]; };
+
+  PoseMeasurement good;
+  good.utime = before.utime - 50'000;
+  good.pose = before.pose();
+  good.covariance = Eigen::Matrix3d::Identity() * 1e-3;
+
+  PoseMeasurement future = good;
+  future.utime = now + 500'000;
+  EXPECT_EQ(f.addPose(MeasurementSource::kLines, future, now).rejection, Rejection::kFromFuture);
+  PoseMeasurement old = good;
+  old.utime = before.utime - 1'500'000;
+  EXPECT_EQ(f.addPose(MeasurementSource::kLines, old, now).rejection, Rejection::kTooOld);
+  PoseMeasurement nan = good;
+  nan.pose.y = std::nan("");
+  EXPECT_EQ(f.addPose(MeasurementSource::kLines, nan, now).rejection, Rejection::kNotFinite);
+  PoseMeasurement not_pd = good;
+  not_pd.covariance(0, 0) = -1e-3;
+  EXPECT_EQ(f.addPose(MeasurementSource::kLines, not_pd, now).rejection,
+            Rejection::kNotPositiveDefinite);
+  PoseMeasurement asymmetric = good;
+  asymmetric.covariance(0, 1) = 5e-4;
+  EXPECT_EQ(f.addPose(MeasurementSource::kFeatures, asymmetric, now).rejection,
+            Rejection::kNotPositiveDefinite);
+  PoseMeasurement absurd = good;
+  absurd.covariance(2, 2) = std::numeric_limits<double>::infinity();
+  EXPECT_EQ(f.addPose(MeasurementSource::kLines, absurd, now).rejection, Rejection::kNotFinite);
+  OdometryStep bad_step = inputs[0].step;
+  bad_step.integrated.x() = std::nan("");
+  EXPECT_EQ(f.addOdometry(bad_step, now), Rejection::kNotFinite);
+  OdometryStep dup_step = inputs[0].step;
+  dup_step.t_start = before.utime - 20'000;
+  dup_step.t_end = before.utime;
+  EXPECT_EQ(f.addOdometry(dup_step, now), Rejection::kDuplicate);
+  expectUnchanged();
+
+  // Far off with a small covariance: refused by the gate (stored, but without effect).
+  PoseMeasurement far = good;
+  far.pose.x += 3.0;
+  EXPECT_EQ(f.addPose(MeasurementSource::kLines, far, now).rejection, Rejection::kGated);
+  EXPECT_LT((f.current().x - before.x).cwiseAbs().maxCoeff(), 1e-12);
+
+  EXPECT_EQ(count(Rejection::kFromFuture), 1u);
+  EXPECT_EQ(count(Rejection::kTooOld), 1u);
+  EXPECT_EQ(count(Rejection::kNotFinite), 3u);
+  EXPECT_EQ(count(Rejection::kNotPositiveDefinite), 2u);
+  EXPECT_EQ(count(Rejection::kDuplicate), 1u);
+  EXPECT_EQ(count(Rejection::kGated), 1u);
+
+  // A good one still goes in and moves the estimate.
+  PoseMeasurement moved = good;
+  moved.utime = good.utime - 10'000;
+  moved.pose = f.stateAt(moved.utime)->pose();
+  moved.pose.x += 0.05;
+  const auto accepted = f.addPose(MeasurementSource::kLines, moved, now);
+  EXPECT_EQ(accepted.rejection, Rejection::kNone);
+  EXPECT_GT(accepted.update.correction_m, 0.01);
+  EXPECT_GT(f.current().x[0], before.x[0] + 0.01);
+}
+
+TEST(DelayedFilter, AngleWrapsAcrossPi) {
+  DelayedFilter f;
+  EkfState s = startState();
+  s.x[2] = std::numbers::pi - 0.01;
+  f.initialize(s);
+  PoseMeasurement z;
+  z.utime = s.utime + 10'000;
+  z.pose = {s.x[0], s.x[1], -std::numbers::pi + 0.01};
+  z.covariance = Eigen::Matrix3d::Identity() * 1e-4;
+  const auto r = f.addPose(MeasurementSource::kLines, z, z.utime);
+  EXPECT_EQ(r.rejection, Rejection::kNone);
+  // The estimate moved across pi, not the long way round.
+  EXPECT_GT(std::abs(f.current().x[2]), std::numbers::pi - 0.011);
+  EXPECT_LT(r.update.correction_rad, 0.03);
+}
+
+TEST(DelayedFilter, InitializeReplaysStoredOdometry) {
+  std::mt19937 rng(5);
+  std::vector<Input> inputs = makeInputs(rng);
+  DelayedFilter a;
+  DelayedFilter b;
+  a.initialize(startState());
+  for (const Input& in : inputs) {
+    if (!in.odometry) continue;
+    feed(a, in, in.step.t_end);
+    feed(b, in, in.step.t_end);
+  }
+  EXPECT_FALSE(b.initialized());
+  b.initialize(startState());
+  // Only the last second is kept: b starts from startState at kStart but its steps older than
+  // the window were dropped, so compare against a filter that saw the same kept steps.
+  EXPECT_TRUE(b.initialized());
+  EXPECT_EQ(b.current().utime, a.current().utime);
+}
+
+}  // namespace
+}  // namespace fieldline::fusion

@@ -1,0 +1,149 @@
+// The fusion node over memq:// with a simulated clock: odometry in at 50 Hz gives ROBOT_STATE
+// with the odometry's utime for every message, line frames bring it to TRACKING at the true
+// pose, BALL_STATE goes out at 30 Hz with the ball in the field frame, bad input is counted in
+// the status and changes nothing, and ODOMETRY_ONLY is reported when the lines stop.
+#include "services/fusion/fusion_node.hpp"
+
+#include <cmath>
+#include <numbers>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "common/bus/node.hpp"
+#include "common/msg/estimates.hpp"
+#include "common/msg/line_contours.hpp"
+#include "common/time/clock.hpp"
+#include "tests/unit/fusion/test_world.hpp"
+
+namespace fieldline::fusion {
+namespace {
+
+using test_support::TestWorld;
+using test_support::world;
+
+struct Rig {
+  SimulatedClock clock{1'800'000'000'000'000};
+  std::shared_ptr<bus::Connection> memq = bus::Connection::open("memq://");
+  bus::Node sensors{{.process = "sensors", .robot_id = 3, .status_period_us = 0}, clock, memq};
+  bus::Node fusion_bus{{.process = "fusion", .robot_id = 3, .status_period_us = 0}, clock, memq};
+  bus::Node listener{{.process = "listener", .robot_id = 3, .status_period_us = 0}, clock, memq};
+  FusionNode fusion;
+  std::vector<robot_state_t> states;
+  std::vector<ball_state_t> balls;
+  geometry::Pose2 truth{-2.5, 1.0, 0.3};
+  std::int32_t tick = 0;
+  std::mt19937 rng{4};
+
+  static FusionNodeOptions options() {
+    FusionNodeOptions o;
+    o.robot = world().robot;
+    return o;
+  }
+
+  Rig() : fusion(fusion_bus, options(), world().functions()) {
+    listener.subscribe(bus::channels::kRobotState,
+                       [this](const robot_state_t& m) { states.push_back(m); });
+    listener.subscribe(bus::channels::kBallState,
+                       [this](const ball_state_t& m) { balls.push_back(m); });
+  }
+
+  void spin() {
+    for (int k = 0; k < 4; ++k) {
+      fusion_bus.spinOnce(0);
+      listener.spinOnce(0);
+    }
+  }
+
+  // One 20 ms period standing still: odometry (8 ms old), a line frame (80 ms old) every fifth
+  // period, a ball sighting every period when `ball` is set.
+  void period(int i, bool lines, bool ball) {
+    clock.advance(20'000);
+    odometry_t o{};
+    o.header.utime = clock.now() - 8'000;
+    o.ticks[0] = o.ticks[1] = o.ticks[2] = tick;
+    sensors.publish(bus::channels::kOdometry, o);
+    if (lines && i % 5 == 0) {
+      line_contours_t m{};
+      m.header.utime = clock.now() - 80'000;
+      perception::LinePoints points;
+      points.points = world().view(truth, rng);
+      points.sequences.push_back({0, static_cast<int>(points.points.size())});
+      msg::toMessage(points, m);
+      sensors.publish(bus::channels::kVisionLines, m);
+    }
+    if (ball) {
+      perception::BallSighting s;
+      s.utime = clock.now() - 60'000;
+      s.visible = true;
+      const geometry::Vec2 local = geometry::pointFieldToRobot(truth, {-1.0, 2.0});
+      s.x = local.x();
+      s.y = local.y();
+      s.sigma_radial = 0.05;
+      s.sigma_tangential = 0.03;
+      ball_observation_t b{};
+      msg::toMessage(s, b);
+      sensors.publish(bus::channels::kVisionBall, b);
+    }
+    spin();
+  }
+};
+
+TEST(FusionNode, PublishesStateForEveryOdometryAndBallAt30HzAndFindsItself) {
+  Rig rig;
+  for (int i = 0; i < 100; ++i)
+    rig.period(i, true, true);
+  // Every odometry message gave one ROBOT_STATE with its utime.
+  ASSERT_EQ(rig.states.size(), 100u);
+  for (std::size_t i = 1; i < rig.states.size(); ++i)
+    EXPECT_EQ(rig.states[i].header.utime - rig.states[i - 1].header.utime, 20'000);
+  const robot_state_t& last = rig.states.back();
+  EXPECT_EQ(last.status, robot_state_t::STATUS_TRACKING);
+  EXPECT_LT(std::hypot(last.x - rig.truth.x, last.y - rig.truth.y), 0.05);
+  EXPECT_LT(std::abs(geometry::angleDiff(last.phi, rig.truth.phi)), 0.03);
+  // 2 s at 30 Hz.
+  EXPECT_NEAR(static_cast<double>(rig.balls.size()), 60.0, 1.0);
+  const ball_state_t& ball = rig.balls.back();
+  EXPECT_TRUE(ball.valid);
+  EXPECT_NEAR(ball.x, -1.0, 0.1);
+  EXPECT_NEAR(ball.y, 2.0, 0.1);
+}
+
+TEST(FusionNode, BadInputIsCountedAndOdometryOnlyWhenLinesStop) {
+  Rig rig;
+  for (int i = 0; i < 60; ++i)
+    rig.period(i, true, false);
+  ASSERT_EQ(rig.states.back().status, robot_state_t::STATUS_TRACKING);
+  const robot_state_t before = rig.states.back();
+
+  // A line frame from the future and one from long ago: refused and counted.
+  line_contours_t m{};
+  perception::LinePoints points;
+  points.points = world().view(rig.truth, rig.rng);
+  msg::toMessage(points, m);
+  m.header.utime = rig.clock.now() - 3'000'000;
+  rig.sensors.publish(bus::channels::kVisionLines, m);
+  // An odometry jump no wheel can make.
+  odometry_t jump{};
+  jump.header.utime = rig.clock.now() - 4'000;
+  jump.ticks[0] = 500'000;
+  rig.sensors.publish(bus::channels::kOdometry, jump);
+  rig.spin();
+  EXPECT_GE(rig.fusion_bus.status().errorCount("lines_too_old"), 1);
+  EXPECT_GE(rig.fusion_bus.status().errorCount("odometry_jump"), 1);
+  const robot_state_t after = rig.states.back();
+  EXPECT_NEAR(after.x, before.x, 0.01);
+  EXPECT_NEAR(after.y, before.y, 0.01);
+  EXPECT_EQ(after.status, robot_state_t::STATUS_TRACKING);
+
+  // The camera goes silent: odometry only after a second.
+  for (int i = 0; i < 70; ++i)
+    rig.period(i, false, false);
+  EXPECT_EQ(rig.states.back().status, robot_state_t::STATUS_ODOMETRY_ONLY);
+  // No ball ever seen: BALL_STATE says so.
+  ASSERT_FALSE(rig.balls.empty());
+  EXPECT_FALSE(rig.balls.back().valid);
+}
+
+}  // namespace
+}  // namespace fieldline::fusion

@@ -1,0 +1,362 @@
+#include "tools/eval/evaluation.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <sstream>
+
+#include <fmt/format.h>
+#include <Eigen/LU>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "common/geometry/geometry.hpp"
+
+namespace fieldline::eval {
+namespace {
+
+// Chi-square with 3 degrees of freedom: the central 95 % of single-sample NEES values.
+constexpr double kNeesLow = 0.2158;
+constexpr double kNeesHigh = 9.3484;
+
+double percentile(std::vector<double> v, double q) {
+  if (v.empty()) return 0.0;
+  std::sort(v.begin(), v.end());
+  const double pos = q * static_cast<double>(v.size() - 1);
+  const auto i = static_cast<std::size_t>(pos);
+  const double w = pos - static_cast<double>(i);
+  return i + 1 < v.size() ? v[i] * (1 - w) + v[i + 1] * w : v[i];
+}
+
+double mean(const std::vector<double>& v) {
+  if (v.empty()) return 0.0;
+  double s = 0;
+  for (double x : v)
+    s += x;
+  return s / static_cast<double>(v.size());
+}
+
+}  // namespace
+
+bool truthAt(const std::vector<TruthSample>& truth, Utime t, int robot, TruthRobot& out,
+             double* ball_x, double* ball_y) {
+  if (truth.empty() || t < truth.front().utime || t > truth.back().utime) return false;
+  auto it = std::lower_bound(truth.begin(), truth.end(), t,
+                             [](const TruthSample& s, Utime v) { return s.utime < v; });
+  const TruthSample& b = *it;
+  const TruthSample& a = it == truth.begin() ? b : *std::prev(it);
+  const auto ra = a.robots.find(robot);
+  const auto rb = b.robots.find(robot);
+  if (ra == a.robots.end() || rb == b.robots.end()) return false;
+  // A gap in the truth (lost SIM_WORLD messages) longer than 50 ms is not interpolated.
+  if (b.utime - a.utime > 50'000) return false;
+  const double w = b.utime == a.utime
+                       ? 0.0
+                       : static_cast<double>(t - a.utime) / static_cast<double>(b.utime - a.utime);
+  const TruthRobot& p = ra->second;
+  const TruthRobot& q = rb->second;
+  // Across a kidnap the truth jumps: take the nearer sample.
+  if (p.kidnaps != q.kidnaps) {
+    out = w < 0.5 ? p : q;
+  } else {
+    out.x = p.x + (q.x - p.x) * w;
+    out.y = p.y + (q.y - p.y) * w;
+    out.phi = geometry::normalizeAngle(p.phi + geometry::angleDiff(q.phi, p.phi) * w);
+    out.kidnaps = q.kidnaps;
+  }
+  if (ball_x) *ball_x = a.ball_x + (b.ball_x - a.ball_x) * w;
+  if (ball_y) *ball_y = a.ball_y + (b.ball_y - a.ball_y) * w;
+  return true;
+}
+
+Summary evaluate(const std::vector<TruthSample>& truth, std::vector<StateSample> states,
+                 std::vector<BallSample> balls, const EvalOptions& options,
+                 const std::map<int, Utime>& first_lines) {
+  Summary s;
+  s.states = states.size();
+  if (states.empty()) return s;
+  std::sort(states.begin(), states.end(), [](const StateSample& a, const StateSample& b) {
+    return a.robot != b.robot ? a.robot < b.robot : a.utime < b.utime;
+  });
+  Utime t0 = states.front().utime;
+  for (const auto& st : states)
+    t0 = std::min(t0, st.utime);
+
+  std::vector<double> pos, heading, latency;
+  std::map<int, std::vector<double>> pos_by_robot;
+  std::size_t nees_in = 0, nees_n = 0;
+  // Scoring of a robot starts settle_s after its first estimate, or at its first TRACKING if
+  // that is later: start-up is measured separately (tracking_after_s).
+  std::map<int, Utime> score_from;
+  for (const StateSample& st : states) {
+    auto [it, inserted] =
+        score_from.try_emplace(st.robot, st.utime + static_cast<Utime>(options.settle_s * 1e6));
+    (void)inserted;
+  }
+  {
+    std::map<int, bool> seen_tracking;
+    for (const StateSample& st : states) {
+      if (st.status != 2 || seen_tracking[st.robot]) continue;
+      seen_tracking[st.robot] = true;
+      score_from[st.robot] = std::max(score_from[st.robot], st.utime);
+    }
+    for (auto& [r, t] : score_from)
+      if (!seen_tracking[r]) t = std::numeric_limits<Utime>::max();
+  }
+  int current_robot = -1;
+  int last_kidnaps = 0;
+  bool recovering = false;
+  Utime kidnap_time = 0;
+  bool wrong = false;
+  for (const StateSample& st : states) {
+    TruthRobot tr;
+    if (!truthAt(truth, st.utime, st.robot, tr)) continue;
+    if (st.robot != current_robot) {
+      current_robot = st.robot;
+      last_kidnaps = tr.kidnaps;
+      recovering = false;
+      wrong = false;
+    }
+    Matched m;
+    m.robot = st.robot;
+    m.t = static_cast<double>(st.utime - t0) * 1e-6;
+    m.x = st.x;
+    m.y = st.y;
+    m.phi = st.phi;
+    m.true_x = tr.x;
+    m.true_y = tr.y;
+    m.true_phi = tr.phi;
+    m.status = st.status;
+    m.pos_error = std::hypot(st.x - tr.x, st.y - tr.y);
+    m.heading_error = std::abs(geometry::angleDiff(st.phi, tr.phi));
+    m.latency_ms = static_cast<double>(st.published - st.utime) * 1e-3;
+    latency.push_back(m.latency_ms);
+
+    if (tr.kidnaps != last_kidnaps) {
+      last_kidnaps = tr.kidnaps;
+      ++s.kidnaps;
+      if (recovering) ++s.unrecovered;
+      recovering = true;
+      kidnap_time = st.utime;
+    }
+    const bool tracking = st.status == 2;
+    if (recovering && tracking && m.pos_error <= options.recovered_m) {
+      recovering = false;
+      s.recoveries_s.push_back(static_cast<double>(st.utime - kidnap_time) * 1e-6);
+    }
+    m.recovering = recovering;
+
+    // Committed on the symmetric twin: near the mirrored truth, far from the truth.
+    const bool on_twin =
+        tracking && std::hypot(st.x + tr.x, st.y + tr.y) < 0.5 && m.pos_error > 1.0;
+    if (on_twin && !wrong) ++s.wrong_half;
+    wrong = on_twin;
+
+    const Eigen::Vector3d e(st.x - tr.x, st.y - tr.y, geometry::angleDiff(st.phi, tr.phi));
+    const Eigen::Matrix3d c = st.covariance;
+    m.nees = c.determinant() > 0 ? e.dot(c.inverse() * e) : 1e9;
+    if (st.utime >= score_from[st.robot] && !recovering) {
+      pos.push_back(m.pos_error);
+      heading.push_back(m.heading_error * 180.0 / std::numbers::pi);
+      pos_by_robot[st.robot].push_back(m.pos_error);
+      ++nees_n;
+      if (m.nees >= kNeesLow && m.nees <= kNeesHigh) ++nees_in;
+    }
+    s.matched.push_back(m);
+  }
+  if (recovering) ++s.unrecovered;
+  s.scored = pos.size();
+  s.pos_mean_m = mean(pos);
+  s.pos_p99_m = percentile(pos, 0.99);
+  s.pos_max_m = pos.empty() ? 0.0 : *std::max_element(pos.begin(), pos.end());
+  s.heading_mean_deg = mean(heading);
+  s.recovery_median_s = percentile(s.recoveries_s, 0.5);
+  s.recovery_max_s = s.recoveries_s.empty()
+                         ? 0.0
+                         : *std::max_element(s.recoveries_s.begin(), s.recoveries_s.end());
+  s.nees_in_band = nees_n ? static_cast<double>(nees_in) / static_cast<double>(nees_n) : 0.0;
+  s.latency_p50_ms = percentile(latency, 0.5);
+  s.latency_p95_ms = percentile(latency, 0.95);
+  for (const auto& [r, v] : pos_by_robot)
+    s.pos_mean_by_robot[r] = mean(v);
+
+  // Start-up and rates per robot.
+  std::map<int, std::pair<Utime, Utime>> span;
+  std::map<int, std::size_t> count;
+  for (const StateSample& st : states) {
+    auto [it, inserted] = span.try_emplace(st.robot, st.utime, st.utime);
+    it->second.first = std::min(it->second.first, st.utime);
+    it->second.second = std::max(it->second.second, st.utime);
+    ++count[st.robot];
+    if (!s.tracking_after_s.count(st.robot)) s.tracking_after_s[st.robot] = -1.0;
+    if (st.status == 2 && s.tracking_after_s[st.robot] < 0)
+      s.tracking_after_s[st.robot] = static_cast<double>(st.utime - it->second.first) * 1e-6;
+  }
+  for (const auto& [r, first] : first_lines) {
+    double after = -1.0;
+    for (const StateSample& st : states) {
+      if (st.robot == r && st.status == 2) {
+        after = static_cast<double>(st.utime - first) * 1e-6;
+        break;
+      }
+    }
+    s.tracking_after_vision_s[r] = after;
+  }
+  for (const auto& [r, sp] : span) {
+    const double seconds = static_cast<double>(sp.second - sp.first) * 1e-6;
+    s.robot_state_hz[r] = seconds > 0 ? static_cast<double>(count[r] - 1) / seconds : 0.0;
+  }
+  std::map<int, std::pair<Utime, Utime>> ball_span;
+  std::map<int, std::size_t> ball_count;
+  for (const BallSample& b : balls) {
+    auto [it, inserted] = ball_span.try_emplace(b.robot, b.utime, b.utime);
+    it->second.first = std::min(it->second.first, b.utime);
+    it->second.second = std::max(it->second.second, b.utime);
+    ++ball_count[b.robot];
+  }
+  for (const auto& [r, sp] : ball_span) {
+    const double seconds = static_cast<double>(sp.second - sp.first) * 1e-6;
+    s.ball_state_hz[r] = seconds > 0 ? static_cast<double>(ball_count[r] - 1) / seconds : 0.0;
+  }
+
+  std::vector<double> ball_errors;
+  for (const BallSample& b : balls) {
+    if (!b.valid || static_cast<double>(b.utime - t0) * 1e-6 < options.settle_s) continue;
+    TruthRobot tr;
+    double bx = 0, by = 0;
+    if (!truthAt(truth, b.utime, b.robot, tr, &bx, &by)) continue;
+    if (std::hypot(bx - tr.x, by - tr.y) > options.ball_range_m) continue;
+    ball_errors.push_back(std::hypot(b.x - bx, b.y - by));
+  }
+  s.balls_scored = ball_errors.size();
+  s.ball_mean_m = mean(ball_errors);
+  return s;
+}
+
+std::string summaryLine(const Summary& s) {
+  return fmt::format(
+      "pos_mean_m={:.4f} pos_p99_m={:.4f} pos_max_m={:.4f} heading_mean_deg={:.3f} "
+      "recovery_median_s={:.3f} recovery_max_s={:.3f} wrong_half={} nees_in_band={:.3f} "
+      "ball_mean_m={:.4f}",
+      s.pos_mean_m, s.pos_p99_m, s.pos_max_m, s.heading_mean_deg, s.recovery_median_s,
+      s.recovery_max_s, s.wrong_half, s.nees_in_band, s.ball_mean_m);
+}
+
+std::string summaryJson(const Summary& s, const std::string& source) {
+  std::ostringstream o;
+  o << "{\n";
+  o << fmt::format("  \"source\": \"{}\",\n", source);
+  o << fmt::format("  \"states\": {}, \"scored\": {}, \"balls_scored\": {},\n", s.states, s.scored,
+                   s.balls_scored);
+  o << fmt::format(
+      "  \"pos_mean_m\": {:.5f}, \"pos_p99_m\": {:.5f}, \"pos_max_m\": {:.5f}, "
+      "\"heading_mean_deg\": {:.4f},\n",
+      s.pos_mean_m, s.pos_p99_m, s.pos_max_m, s.heading_mean_deg);
+  o << fmt::format(
+      "  \"kidnaps\": {}, \"unrecovered\": {}, \"recovery_median_s\": {:.3f}, "
+      "\"recovery_max_s\": {:.3f},\n",
+      s.kidnaps, s.unrecovered, s.recovery_median_s, s.recovery_max_s);
+  o << fmt::format("  \"wrong_half\": {}, \"nees_in_band\": {:.4f}, \"ball_mean_m\": {:.5f},\n",
+                   s.wrong_half, s.nees_in_band, s.ball_mean_m);
+  o << fmt::format("  \"latency_p50_ms\": {:.2f}, \"latency_p95_ms\": {:.2f},\n", s.latency_p50_ms,
+                   s.latency_p95_ms);
+  o << "  \"pos_mean_by_robot\": {";
+  bool first = true;
+  for (const auto& [r, v] : s.pos_mean_by_robot) {
+    o << fmt::format("{}\"{}\": {:.5f}", first ? "" : ", ", r, v);
+    first = false;
+  }
+  o << "},\n";
+  const auto perRobot = [&](const char* name, const std::map<int, double>& values, bool last) {
+    o << "  \"" << name << "\": {";
+    bool f = true;
+    for (const auto& [r, v] : values) {
+      o << fmt::format("{}\"{}\": {:.3f}", f ? "" : ", ", r, v);
+      f = false;
+    }
+    o << (last ? "}\n" : "},\n");
+  };
+  perRobot("tracking_after_s", s.tracking_after_s, false);
+  perRobot("tracking_after_vision_s", s.tracking_after_vision_s, false);
+  perRobot("robot_state_hz", s.robot_state_hz, false);
+  perRobot("ball_state_hz", s.ball_state_hz, true);
+  o << "}\n";
+  return o.str();
+}
+
+void writePlots(const Summary& s, const std::string& dir, double half_length, double half_width) {
+  const cv::Scalar colours[] = {{0, 0, 220},   {0, 160, 0},   {220, 0, 0},
+                                {0, 160, 220}, {200, 0, 200}, {120, 120, 0}};
+  // Trajectories on the field: truth thin grey, estimate coloured per robot.
+  {
+    const double scale = 50.0;  // px per m
+    const int w = static_cast<int>(2 * half_length * scale) + 40;
+    const int h = static_cast<int>(2 * half_width * scale) + 40;
+    cv::Mat img(h, w, CV_8UC3, cv::Scalar(40, 110, 40));
+    auto px = [&](double x, double y) {
+      return cv::Point(static_cast<int>(w / 2 + x * scale), static_cast<int>(h / 2 - y * scale));
+    };
+    cv::rectangle(img, px(-half_length, half_width), px(half_length, -half_width),
+                  cv::Scalar(255, 255, 255), 1);
+    cv::line(img, px(0, -half_width), px(0, half_width), cv::Scalar(255, 255, 255), 1);
+    for (std::size_t i = 1; i < s.matched.size(); ++i) {
+      const Matched& a = s.matched[i - 1];
+      const Matched& b = s.matched[i];
+      if (a.robot != b.robot) continue;
+      cv::line(img, px(a.true_x, a.true_y), px(b.true_x, b.true_y), cv::Scalar(200, 200, 200), 1);
+    }
+    for (std::size_t i = 1; i < s.matched.size(); ++i) {
+      const Matched& a = s.matched[i - 1];
+      const Matched& b = s.matched[i];
+      if (a.robot != b.robot || std::hypot(a.x - b.x, a.y - b.y) > 0.5) continue;
+      cv::line(img, px(a.x, a.y), px(b.x, b.y), colours[(b.robot - 1 + 6) % 6], 1, cv::LINE_AA);
+    }
+    cv::imwrite(dir + "/trajectories.png", img);
+  }
+  // Position error over time per robot (0..0.3 m).
+  {
+    const int w = 1000, h = 400;
+    cv::Mat img(h, w, CV_8UC3, cv::Scalar(255, 255, 255));
+    double t_max = 1.0;
+    for (const Matched& m : s.matched)
+      t_max = std::max(t_max, m.t);
+    auto px = [&](double t, double e) {
+      return cv::Point(static_cast<int>(40 + t / t_max * (w - 50)),
+                       static_cast<int>(h - 20 - std::min(e, 0.3) / 0.3 * (h - 40)));
+    };
+    for (double e = 0.0; e <= 0.3001; e += 0.05) {
+      cv::line(img, px(0, e), px(t_max, e), cv::Scalar(220, 220, 220), 1);
+      cv::putText(img, fmt::format("{:.2f}", e), cv::Point(2, px(0, e).y + 4),
+                  cv::FONT_HERSHEY_PLAIN, 0.8, cv::Scalar(0, 0, 0));
+    }
+    for (std::size_t i = 1; i < s.matched.size(); ++i) {
+      const Matched& a = s.matched[i - 1];
+      const Matched& b = s.matched[i];
+      if (a.robot != b.robot) continue;
+      cv::line(img, px(a.t, a.pos_error), px(b.t, b.pos_error), colours[(b.robot - 1 + 6) % 6], 1);
+    }
+    cv::putText(img, "position error [m] over time [s], per robot", cv::Point(50, 15),
+                cv::FONT_HERSHEY_PLAIN, 1.0, cv::Scalar(0, 0, 0));
+    cv::imwrite(dir + "/errors.png", img);
+  }
+  // Latency histogram (published - utime of ROBOT_STATE), 0..50 ms in 1 ms bins.
+  {
+    std::vector<int> bins(50, 0);
+    for (const Matched& m : s.matched)
+      ++bins[static_cast<std::size_t>(std::clamp(m.latency_ms, 0.0, 49.0))];
+    const int peak = std::max(1, *std::max_element(bins.begin(), bins.end()));
+    const int w = 520, h = 300;
+    cv::Mat img(h, w, CV_8UC3, cv::Scalar(255, 255, 255));
+    for (int i = 0; i < 50; ++i) {
+      const int bar = bins[static_cast<std::size_t>(i)] * (h - 50) / peak;
+      cv::rectangle(img, cv::Point(10 + i * 10, h - 20 - bar), cv::Point(18 + i * 10, h - 20),
+                    cv::Scalar(180, 80, 0), cv::FILLED);
+    }
+    cv::putText(img, "ROBOT_STATE latency, 0..50 ms (1 ms bins)", cv::Point(10, 15),
+                cv::FONT_HERSHEY_PLAIN, 1.0, cv::Scalar(0, 0, 0));
+    cv::imwrite(dir + "/latency.png", img);
+  }
+}
+
+}  // namespace fieldline::eval

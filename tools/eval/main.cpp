@@ -1,0 +1,269 @@
+// fieldline-eval: how well the team localizes. Runs the simulated team for a scenario (through
+// fieldline-launch, so every process and bus is the real one) or reads a recorded LCM log,
+// matches every ROBOT_STATE and BALL_STATE with SIM_WORLD truth at the same utime, writes
+// summary.json and PNG plots, and ends with the one-line summary.
+//
+// Run it in a private network namespace so nothing else hears the buses, e.g.
+//   unshare -n sh -c 'ip link set lo up; ip link set lo multicast on;
+//                     ip route add 224.0.0.0/4 dev lo; build/bin/fieldline-eval --scenario kidnap'
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <thread>
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+#include <CLI/CLI.hpp>
+
+#include "common/bus/cli.hpp"
+#include "common/bus/node.hpp"
+#include "common/config/config.hpp"
+#include "common/field/field_model.hpp"
+#include "services/world_sim/scenario.hpp"
+#include "tools/eval/evaluation.hpp"
+
+using namespace fieldline;
+
+namespace {
+
+std::string selfDirectory() {
+  std::error_code ec;
+  const auto p = std::filesystem::read_symlink("/proc/self/exe", ec);
+  return ec ? std::string{} : p.parent_path().string();
+}
+
+// The launch file with the scenario given to the simulator and the pilots.
+std::string scenarioLaunchFile(const std::string& launch, const std::string& scenario,
+                               const std::string& out_dir) {
+  std::ifstream in(config::resolvePreset("launch", launch));
+  if (!in) throw std::runtime_error("cannot read launch file " + launch);
+  std::ostringstream text;
+  std::string line;
+  bool in_world_sim = false;
+  bool in_pilot = false;
+  while (std::getline(in, line)) {
+    if (line.find("- name:") != std::string::npos) {
+      in_world_sim = line.find("world_sim") != std::string::npos;
+      in_pilot = line.find("pilot") != std::string::npos;
+    }
+    if (in_pilot && line.find("args:") != std::string::npos) {
+      // args: [a, b] -> args: [a, b, --scenario, NAME]
+      const auto close = line.rfind(']');
+      if (close != std::string::npos) line.insert(close, ", --scenario, " + scenario);
+      in_pilot = false;
+    }
+    text << line << '\n';
+    if (in_world_sim && line.find("executable:") != std::string::npos) {
+      text << "    args: [--scenario, " << scenario << "]\n";
+      in_world_sim = false;
+    }
+  }
+  const std::string path = out_dir + "/launch.yaml";
+  std::ofstream(path) << text.str();
+  return path;
+}
+
+struct Collector {
+  std::vector<eval::TruthSample> truth;
+  std::vector<eval::StateSample> states;
+  std::vector<eval::BallSample> balls;
+  std::map<int, Utime> first_lines;
+
+  void subscribe(bus::Node& node, bus::BusId sim_bus, const std::vector<bus::BusId>& robot_buses) {
+    node.subscribe(
+        bus::channels::kSimWorld,
+        [this](const world_state_t& w) {
+          eval::TruthSample t;
+          t.utime = w.header.utime;
+          for (int i = 0; i < w.num_robots; ++i) {
+            const auto k = static_cast<std::size_t>(i);
+            t.robots[w.robot_id[k]] = {w.robot_x[k], w.robot_y[k], w.robot_phi[k],
+                                       w.robot_kidnaps[k]};
+          }
+          t.ball_x = w.ball_x;
+          t.ball_y = w.ball_y;
+          if (truth.empty() || t.utime > truth.back().utime) truth.push_back(std::move(t));
+        },
+        sim_bus);
+    for (const bus::BusId b : robot_buses) {
+      node.subscribe(
+          bus::channels::kRobotState,
+          [this](const robot_state_t& m) {
+            eval::StateSample s;
+            s.robot = m.header.robot_id;
+            s.utime = m.header.utime;
+            s.published = m.header.utime_published;
+            s.x = m.x;
+            s.y = m.y;
+            s.phi = m.phi;
+            for (int r = 0; r < 3; ++r)
+              for (int c = 0; c < 3; ++c)
+                s.covariance(r, c) = m.covariance[3 * r + c];
+            s.status = m.status;
+            states.push_back(s);
+          },
+          b);
+      node.subscribe(
+          bus::channels::kVisionLines,
+          [this](const line_contours_t& m) {
+            first_lines.try_emplace(m.header.robot_id, m.header.utime);
+          },
+          b);
+      node.subscribe(
+          bus::channels::kBallState,
+          [this](const ball_state_t& m) {
+            balls.push_back({m.header.robot_id, m.header.utime, m.valid != 0, m.x, m.y});
+          },
+          b);
+    }
+  }
+};
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{
+      "Localization evaluation: runs the simulated team for a scenario (or reads a recorded log "
+      "with SIM_WORLD, ROBOT_STATE and BALL_STATE), matches every estimate with the truth at the "
+      "same utime, writes summary.json, trajectories.png, errors.png and latency.png, and prints "
+      "one summary line. Run it inside a private network namespace (see docs/fusion.md)."};
+  std::string scenario = "figure_eight";
+  std::string log;
+  std::string launch = "sim_team";
+  std::string out_dir;
+  std::string field_name;
+  double duration = 0.0;
+  int robots = 0;
+  eval::EvalOptions options;
+  std::string log_level = "warn";
+  app.add_option("--scenario", scenario, "Scenario preset (config/scenarios) or YAML path")
+      ->capture_default_str();
+  app.add_option("--log", log, "Evaluate a recorded LCM log instead of running the team");
+  app.add_option("--duration", duration, "Seconds to run (default: the scenario's, else 30)")
+      ->check(CLI::Range(3.0, 3600.0));
+  app.add_option("--robots", robots, "Team size (default: the scenario's highest robot number)")
+      ->check(CLI::Range(1, 6));
+  app.add_option("--launch", launch, "Launch file to run the team with")->capture_default_str();
+  app.add_option("--out", out_dir, "Output directory (default: eval/<scenario or log name>)");
+  app.add_option("--field", field_name, "Field preset for the plots (default: the scenario's)");
+  app.add_option("--settle", options.settle_s, "Seconds at the start not scored")
+      ->check(CLI::Range(0.0, 60.0))
+      ->capture_default_str();
+  app.add_option("--log-level", log_level, "trace, debug, info, warn, error")
+      ->capture_default_str();
+  CLI11_PARSE(app, argc, argv);
+
+  return bus::runMain("eval", [&]() -> int {
+    spdlog::set_level(spdlog::level::from_str(log_level));
+    SystemClock clock;
+    Collector collector;
+    std::string source;
+    if (!log.empty()) {
+      if (!std::filesystem::exists(log)) throw std::invalid_argument("no such log: " + log);
+      source = log;
+      if (out_dir.empty()) out_dir = "eval/" + std::filesystem::path(log).stem().string();
+      if (field_name.empty()) field_name = "msl";
+      std::filesystem::create_directories(out_dir);
+      bus::Node node({.process = "eval",
+                      .robot_id = 0,
+                      .url = "file://" + std::filesystem::absolute(log).string() + "?speed=0",
+                      .future_tolerance_us = std::numeric_limits<Utime>::max() / 4,
+                      .status_period_us = 0},
+                     clock);
+      collector.subscribe(node, bus::kPrimaryBus, {bus::kPrimaryBus});
+      // The log plays as fast as it can be read; a second without messages is its end.
+      int idle_ms = 0;
+      while (idle_ms < 1000 && !bus::stopSignalReceived()) {
+        idle_ms = node.spinOnce(100) > 0 ? 0 : idle_ms + 100;
+      }
+    } else {
+      const world_sim::Scenario sc = world_sim::loadScenarioPreset(scenario);
+      source = "scenario " + sc.name;
+      // Stop before the scenario ends: the simulator would start it over (a jump of every
+      // robot that would count as a kidnap).
+      if (duration <= 0.0) duration = sc.duration > 0.0 ? sc.duration - 1.5 : 30.0;
+      if (robots == 0)
+        for (const auto& r : sc.robots)
+          robots = std::max(robots, r.id);
+      if (field_name.empty()) field_name = sc.field;
+      if (out_dir.empty()) out_dir = "eval/" + sc.name;
+      std::filesystem::create_directories(out_dir);
+      const std::string launch_file = scenarioLaunchFile(launch, scenario, out_dir);
+      const std::string launcher = selfDirectory() + "/fieldline-launch";
+      const std::string launch_log = out_dir + "/launch.log";
+
+      bus::installStopSignals();
+      bus::Node node({.process = "eval", .robot_id = 0, .status_period_us = 0}, clock);
+      std::vector<bus::BusId> buses;
+      for (int r = 1; r <= robots; ++r)
+        buses.push_back(node.addBus(bus::robotBusUrl(r)));
+      collector.subscribe(node, bus::kPrimaryBus, buses);
+
+      const std::string robots_arg = std::to_string(robots);
+      const std::string duration_arg = std::to_string(duration);
+      const pid_t child = fork();
+      if (child < 0) throw std::runtime_error("fork failed");
+      if (child == 0) {
+        std::FILE* f = std::freopen(launch_log.c_str(), "w", stdout);
+        if (f) dup2(fileno(stdout), STDERR_FILENO);
+        execl(launcher.c_str(), launcher.c_str(), launch_file.c_str(), "--robots",
+              robots_arg.c_str(), "--duration", duration_arg.c_str(), "--no-table",
+              static_cast<char*>(nullptr));
+        _exit(127);
+      }
+      std::fprintf(stderr, "running %s with %d robot(s) for %.0f s (log: %s)\n", sc.name.c_str(),
+                   robots, duration, launch_log.c_str());
+      int status = 0;
+      for (;;) {
+        node.spinOnce(50);
+        const pid_t done = waitpid(child, &status, WNOHANG);
+        if (done == child) break;
+        if (bus::stopSignalReceived()) kill(child, SIGTERM);
+      }
+      for (int i = 0; i < 10; ++i)
+        node.spinOnce(10);
+      if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) {
+        std::fprintf(stderr, "launcher ended with status %d (see %s)\n", status,
+                     launch_log.c_str());
+      }
+    }
+
+    const eval::Summary summary = eval::evaluate(collector.truth, collector.states, collector.balls,
+                                                 options, collector.first_lines);
+    const field::FieldModel field = field::loadFieldPreset(field_name);
+    const geometry::Vec2 half = field.carpetHalfExtent();
+    std::ofstream(out_dir + "/summary.json") << eval::summaryJson(summary, source);
+    eval::writePlots(summary, out_dir, half.x(), half.y());
+    {
+      std::ofstream csv(out_dir + "/samples.csv");
+      csv << "robot,t_s,x,y,phi,true_x,true_y,true_phi,pos_error_m,heading_error_rad,nees,status,"
+             "recovering,latency_ms\n";
+      for (const eval::Matched& m : summary.matched) {
+        csv << fmt::format(
+            "{},{:.3f},{:.4f},{:.4f},{:.4f},{:.4f},{:.4f},{:.4f},{:.4f},{:.4f},{:.3f},{},{},{:.2f}"
+            "\n",
+            m.robot, m.t, m.x, m.y, m.phi, m.true_x, m.true_y, m.true_phi, m.pos_error,
+            m.heading_error, m.nees, m.status, m.recovering ? 1 : 0, m.latency_ms);
+      }
+    }
+    std::fprintf(stderr,
+                 "%zu truth samples, %zu robot states (%zu scored), %zu ball states; kidnaps %d "
+                 "(unrecovered %d); latency p50 %.1f ms; output in %s\n",
+                 collector.truth.size(), summary.states, summary.scored, collector.balls.size(),
+                 summary.kidnaps, summary.unrecovered, summary.latency_p50_ms, out_dir.c_str());
+    if (summary.states == 0 || collector.truth.empty()) {
+      std::fprintf(stderr, "no estimates or no truth to compare\n");
+      std::printf("%s\n", eval::summaryLine(summary).c_str());
+      return 1;
+    }
+    std::printf("%s\n", eval::summaryLine(summary).c_str());
+    return 0;
+  });
+}
