@@ -26,7 +26,7 @@
 #include "common/bus/node.hpp"
 #include "common/config/config.hpp"
 #include "common/field/field_model.hpp"
-#include "services/world_sim/scenario.hpp"
+#include "common/scenario/scenario.hpp"
 #include "tools/eval/evaluation.hpp"
 
 using namespace fieldline;
@@ -184,7 +184,7 @@ int main(int argc, char** argv) {
         idle_ms = node.spinOnce(100) > 0 ? 0 : idle_ms + 100;
       }
     } else {
-      const world_sim::Scenario sc = world_sim::loadScenarioPreset(scenario);
+      const scenario::Scenario sc = scenario::loadScenarioPreset(scenario);
       source = "scenario " + sc.name;
       // Stop before the scenario ends: the simulator would start it over (a jump of every
       // robot that would count as a kidnap).
