@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <map>
 #include <utility>
 #include <vector>
 
@@ -12,8 +11,8 @@ namespace fieldline::teamcomm {
 ClockOffsetEstimator::ClockOffsetEstimator(OffsetOptions options) : options_(options) {}
 
 bool ClockOffsetEstimator::add(const RoundTrip& rt) {
-  const Utime round_trip = (rt.t4_our_receive - rt.t1_our_send) -
-                           (rt.t3_their_send - rt.t2_their_receive);
+  const Utime round_trip =
+      (rt.t4_our_receive - rt.t1_our_send) - (rt.t3_their_send - rt.t2_their_receive);
   // The teammate's hold time and our round trip are both measured on steady-ish clocks; a
   // negative round trip beyond stamping noise means the echo is not ours to trust.
   if (round_trip < -static_cast<Utime>(2 * options_.min_sigma_us) ||
@@ -25,8 +24,7 @@ bool ClockOffsetEstimator::add(const RoundTrip& rt) {
                                static_cast<double>(rt.t3_their_send - rt.t4_our_receive));
   samples_.push_back({rt.t4_our_receive, offset, std::max<Utime>(round_trip, 0)});
   // Samples arrive in our time order; anything that claims otherwise is sorted in.
-  for (std::size_t i = samples_.size() - 1; i > 0 && samples_[i].when < samples_[i - 1].when;
-       --i) {
+  for (std::size_t i = samples_.size() - 1; i > 0 && samples_[i].when < samples_[i - 1].when; --i) {
     std::swap(samples_[i], samples_[i - 1]);
   }
   const Utime newest = samples_.back().when;
@@ -40,26 +38,22 @@ bool ClockOffsetEstimator::add(const RoundTrip& rt) {
 void ClockOffsetEstimator::refit() {
   fitted_ = false;
   if (samples_.empty()) return;
-  // The best (smallest round trip) sample of every bin.
-  std::map<Utime, const Sample*> best;
   Utime min_rt = std::numeric_limits<Utime>::max();
-  for (const Sample& s : samples_) {
-    const Utime bin = s.when / options_.bin_us;
-    auto [it, inserted] = best.try_emplace(bin, &s);
-    if (!inserted && s.round_trip_us < it->second->round_trip_us) it->second = &s;
+  for (const Sample& s : samples_)
     min_rt = std::min(min_rt, s.round_trip_us);
-  }
   min_round_trip_us_ = min_rt;
-  // A sample's offset error grows with how much longer its round trip was than the best.
+  // The minimum round trip wins: a sample's offset error is bounded by how much longer its round
+  // trip was than the best in the window, so its weight falls with that excess. A weighted line
+  // through all of them gives the drift.
   double sw = 0, st = 0, so = 0;
   reference_ = samples_.back().when;
   std::vector<std::pair<double, double>> points;  // (t - reference, offset)
   std::vector<double> weights;
-  for (const auto& [bin, s] : best) {
-    const double excess = 0.5 * static_cast<double>(s->round_trip_us - min_rt);
-    const double sigma2 = options_.min_sigma_us * options_.min_sigma_us + excess * excess;
-    const double w = 1.0 / sigma2;
-    points.emplace_back(static_cast<double>(s->when - reference_), s->offset_us);
+  for (const Sample& s : samples_) {
+    const double sigma =
+        options_.min_sigma_us + 0.5 * static_cast<double>(s.round_trip_us - min_rt);
+    const double w = 1.0 / (sigma * sigma);
+    points.emplace_back(static_cast<double>(s.when - reference_), s.offset_us);
     weights.push_back(w);
     sw += w;
     st += w * points.back().first;

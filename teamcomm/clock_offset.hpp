@@ -2,8 +2,9 @@
 // (NTP-style, B-Human's BNTP): we sent at t1 (our clock), the teammate received at t2 and sent
 // its next packet at t3 (its clock), we received that at t4 (our clock). Then
 //   offset (theirs - ours) = ((t2 - t1) + (t3 - t4)) / 2,  round trip = (t4 - t1) - (t3 - t2),
-// and the offset's error is at most half the round trip. Over a sliding window the sample with
-// the smallest round trip in each bin wins; a weighted line fit through those gives the drift.
+// and the offset's error is at most half the round trip. Over a sliding window the samples with
+// the smallest round trips win (weights fall with the excess over the window's minimum); a
+// weighted line fit through them gives the drift.
 // Plain library: no clock, no I/O.
 #pragma once
 
@@ -24,12 +25,11 @@ struct RoundTrip {
 struct OffsetOptions {
   // Samples older than this (our clock) are forgotten.
   Utime window_us = 20'000'000;
-  // Width of the bins in which the smallest round trip wins.
-  Utime bin_us = 1'000'000;
   // Round trips above this are not clock information but queueing (or bogus).
   Utime max_round_trip_us = 500'000;
-  // Floor of a sample's standard deviation in the fit, µs (stamping noise).
-  double min_sigma_us = 50.0;
+  // Floor of a sample's standard deviation in the fit, µs (stamping noise; also keeps the one
+  // best sample from outweighing the rest of the window).
+  double min_sigma_us = 250.0;
   // Drift is fitted only over at least this much time; shorter histories assume none.
   Utime min_fit_span_us = 3'000'000;
   // Drifts beyond this are implausible for a quartz clock and are clamped, ppm.

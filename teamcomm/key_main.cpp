@@ -30,7 +30,8 @@ int main(int argc, char** argv) {
   try {
     const teamcomm::TeamKey key = teamcomm::generateTeamKey();
     std::ofstream file(out, std::ios::trunc);
-    file << teamcomm::formatTeamKey(key, "fieldline team key (keep it secret; same file on every robot)");
+    file << teamcomm::formatTeamKey(
+        key, "fieldline team key (keep it secret; same file on every robot)");
     file.close();
     if (!file) {
       std::cerr << "cannot write " << out << "\n";

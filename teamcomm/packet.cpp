@@ -29,12 +29,14 @@ class Writer {
   explicit Writer(std::vector<std::uint8_t>& out) : out_(out) {}
   void u8(std::uint8_t v) { out_.push_back(v); }
   void u64(std::uint64_t v) {
-    for (int i = 0; i < 8; ++i) out_.push_back(static_cast<std::uint8_t>(v >> (8 * i)));
+    for (int i = 0; i < 8; ++i)
+      out_.push_back(static_cast<std::uint8_t>(v >> (8 * i)));
   }
   void i64(std::int64_t v) { u64(static_cast<std::uint64_t>(v)); }
   void f32(float v) {
     const auto bits = std::bit_cast<std::uint32_t>(v);
-    for (int i = 0; i < 4; ++i) out_.push_back(static_cast<std::uint8_t>(bits >> (8 * i)));
+    for (int i = 0; i < 4; ++i)
+      out_.push_back(static_cast<std::uint8_t>(bits >> (8 * i)));
   }
 
  private:
@@ -47,13 +49,15 @@ class Reader {
   std::uint8_t u8() { return in_[pos_++]; }
   std::uint64_t u64() {
     std::uint64_t v = 0;
-    for (int i = 0; i < 8; ++i) v |= std::uint64_t{in_[pos_++]} << (8 * i);
+    for (int i = 0; i < 8; ++i)
+      v |= std::uint64_t{in_[pos_++]} << (8 * i);
     return v;
   }
   std::int64_t i64() { return static_cast<std::int64_t>(u64()); }
   float f32() {
     std::uint32_t bits = 0;
-    for (int i = 0; i < 4; ++i) bits |= std::uint32_t{in_[pos_++]} << (8 * i);
+    for (int i = 0; i < 4; ++i)
+      bits |= std::uint32_t{in_[pos_++]} << (8 * i);
     return std::bit_cast<float>(bits);
   }
 
@@ -62,10 +66,18 @@ class Reader {
   std::size_t pos_ = 0;
 };
 
-bool within(float v, double limit) { return std::isfinite(v) && std::fabs(v) <= limit; }
-bool utimeOk(std::int64_t t) { return t >= 0 && t < kMaxUtime; }
-bool varianceOk(float v) { return std::isfinite(v) && v >= 0.0f && v <= kMaxVariance; }
-bool robotOk(std::uint8_t id) { return id >= 1 && id <= kMaxRobots; }
+bool within(float v, double limit) {
+  return std::isfinite(v) && std::fabs(v) <= limit;
+}
+bool utimeOk(std::int64_t t) {
+  return t >= 0 && t < kMaxUtime;
+}
+bool varianceOk(float v) {
+  return std::isfinite(v) && v >= 0.0f && v <= kMaxVariance;
+}
+bool robotOk(std::uint8_t id) {
+  return id >= 1 && id <= kMaxRobots;
+}
 
 bool poseOk(const PacketPose& p) {
   const auto& c = p.covariance;
@@ -118,17 +130,28 @@ void initSodium() {
 
 std::string_view rejectName(Reject r) {
   switch (r) {
-    case Reject::kTruncated: return "truncated";
-    case Reject::kOversized: return "oversized";
-    case Reject::kMagic: return "magic";
-    case Reject::kVersion: return "version";
-    case Reject::kAuth: return "auth";
-    case Reject::kLength: return "length";
-    case Reject::kRange: return "range";
-    case Reject::kTeam: return "team";
-    case Reject::kReplay: return "replay";
-    case Reject::kStale: return "stale";
-    case Reject::kRate: return "rate";
+    case Reject::kTruncated:
+      return "truncated";
+    case Reject::kOversized:
+      return "oversized";
+    case Reject::kMagic:
+      return "magic";
+    case Reject::kVersion:
+      return "version";
+    case Reject::kAuth:
+      return "auth";
+    case Reject::kLength:
+      return "length";
+    case Reject::kRange:
+      return "range";
+    case Reject::kTeam:
+      return "team";
+    case Reject::kReplay:
+      return "replay";
+    case Reject::kStale:
+      return "stale";
+    case Reject::kRate:
+      return "rate";
   }
   return "unknown";
 }
@@ -142,10 +165,11 @@ std::vector<std::uint8_t> encodePacket(const TeamPacket& p, const TeamKey& key) 
   if (!rangesOk(p)) throw std::invalid_argument("team packet out of range");
   initSodium();
   std::vector<std::uint8_t> out;
-  out.reserve(packetSize(p.links.size(), p.pose.has_value(), p.ball.has_value(),
-                         p.obstacles.size()));
+  out.reserve(
+      packetSize(p.links.size(), p.pose.has_value(), p.ball.has_value(), p.obstacles.size()));
   Writer w(out);
-  for (std::uint8_t m : kMagic) w.u8(m);
+  for (std::uint8_t m : kMagic)
+    w.u8(m);
   w.u8(kProtocolVersion);
   w.u8(p.team_id);
   w.u8(p.robot_id);
@@ -162,8 +186,10 @@ std::vector<std::uint8_t> encodePacket(const TeamPacket& p, const TeamKey& key) 
   if (p.pose) {
     const PacketPose& q = *p.pose;
     w.i64(q.utime);
-    for (float v : {q.x, q.y, q.phi, q.vx, q.vy, q.omega}) w.f32(v);
-    for (float v : q.covariance) w.f32(v);
+    for (float v : {q.x, q.y, q.phi, q.vx, q.vy, q.omega})
+      w.f32(v);
+    for (float v : q.covariance)
+      w.f32(v);
     w.u8(q.status);
     w.i64(q.since_vision_us);
   }
@@ -171,11 +197,14 @@ std::vector<std::uint8_t> encodePacket(const TeamPacket& p, const TeamKey& key) 
     const PacketBall& b = *p.ball;
     w.i64(b.utime);
     w.i64(b.last_seen_utime);
-    for (float v : {b.x, b.y, b.vx, b.vy}) w.f32(v);
-    for (float v : b.covariance) w.f32(v);
+    for (float v : {b.x, b.y, b.vx, b.vy})
+      w.f32(v);
+    for (float v : b.covariance)
+      w.f32(v);
   }
   for (const PacketObstacle& o : p.obstacles) {
-    for (float v : {o.x, o.y, o.radius}) w.f32(v);
+    for (float v : {o.x, o.y, o.radius})
+      w.f32(v);
   }
   const std::size_t body = out.size();
   out.resize(body + kMacBytes);
@@ -214,7 +243,8 @@ DecodeResult decodePacket(std::span<const std::uint8_t> bytes, const TeamKey& ke
   }
   Reader r(bytes);
   TeamPacket p;
-  for (int i = 0; i < 5; ++i) r.u8();  // magic and version, checked above
+  for (int i = 0; i < 5; ++i)
+    r.u8();  // magic and version, checked above
   p.team_id = r.u8();
   p.robot_id = r.u8();
   r.u8();  // flags
@@ -231,8 +261,10 @@ DecodeResult decodePacket(std::span<const std::uint8_t> bytes, const TeamKey& ke
   if (flags & kFlagPose) {
     PacketPose& q = p.pose.emplace();
     q.utime = r.i64();
-    for (float* v : {&q.x, &q.y, &q.phi, &q.vx, &q.vy, &q.omega}) *v = r.f32();
-    for (float& v : q.covariance) v = r.f32();
+    for (float* v : {&q.x, &q.y, &q.phi, &q.vx, &q.vy, &q.omega})
+      *v = r.f32();
+    for (float& v : q.covariance)
+      v = r.f32();
     q.status = r.u8();
     q.since_vision_us = r.i64();
   }
@@ -240,12 +272,15 @@ DecodeResult decodePacket(std::span<const std::uint8_t> bytes, const TeamKey& ke
     PacketBall& b = p.ball.emplace();
     b.utime = r.i64();
     b.last_seen_utime = r.i64();
-    for (float* v : {&b.x, &b.y, &b.vx, &b.vy}) *v = r.f32();
-    for (float& v : b.covariance) v = r.f32();
+    for (float* v : {&b.x, &b.y, &b.vx, &b.vy})
+      *v = r.f32();
+    for (float& v : b.covariance)
+      v = r.f32();
   }
   p.obstacles.resize(obstacles);
   for (PacketObstacle& o : p.obstacles) {
-    for (float* v : {&o.x, &o.y, &o.radius}) *v = r.f32();
+    for (float* v : {&o.x, &o.y, &o.radius})
+      *v = r.f32();
   }
   if (!rangesOk(p)) return fail(Reject::kRange);
   return {std::move(p), Reject::kTruncated};

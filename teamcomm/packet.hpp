@@ -37,7 +37,7 @@ struct LinkEcho {
 };
 
 struct PacketPose {
-  std::int64_t utime = 0;  // sender's clock, µs
+  std::int64_t utime = 0;           // sender's clock, µs
   float x = 0, y = 0, phi = 0;      // field frame, m, rad in [-pi, pi]
   float vx = 0, vy = 0, omega = 0;  // m/s, rad/s
   // Upper triangle of the (x, y, phi) covariance: xx, xy, xphi, yy, yphi, phiphi.
@@ -47,10 +47,10 @@ struct PacketPose {
 };
 
 struct PacketBall {
-  std::int64_t utime = 0;            // sender's clock, µs
-  std::int64_t last_seen_utime = 0;  // sender's clock, µs
-  float x = 0, y = 0;                // field frame, m
-  float vx = 0, vy = 0;              // m/s
+  std::int64_t utime = 0;             // sender's clock, µs
+  std::int64_t last_seen_utime = 0;   // sender's clock, µs
+  float x = 0, y = 0;                 // field frame, m
+  float vx = 0, vy = 0;               // m/s
   std::array<float, 3> covariance{};  // xx, xy, yy, m^2
 };
 

@@ -71,7 +71,8 @@ std::string formatTeamKey(const TeamKey& key, const std::string& comment) {
   std::string out;
   std::istringstream lines(comment);
   std::string line;
-  while (std::getline(lines, line)) out += "# " + line + "\n";
+  while (std::getline(lines, line))
+    out += "# " + line + "\n";
   for (std::uint8_t b : key.bytes) {
     out += kHex[b >> 4];
     out += kHex[b & 15];

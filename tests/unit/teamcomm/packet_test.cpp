@@ -17,7 +17,8 @@ namespace {
 
 TeamKey testKey(std::uint8_t seed) {
   TeamKey k;
-  for (std::size_t i = 0; i < k.bytes.size(); ++i) k.bytes[i] = static_cast<std::uint8_t>(seed + 7 * i);
+  for (std::size_t i = 0; i < k.bytes.size(); ++i)
+    k.bytes[i] = static_cast<std::uint8_t>(seed + 7 * i);
   return k;
 }
 
@@ -41,8 +42,8 @@ TeamPacket fullPacket(bool upper) {
   q.vx = s * 20.0f;
   q.vy = -s * 20.0f;
   q.omega = s * 50.0f;
-  q.covariance = {upper ? 1e4f : 0.0f, s * 1e4f, -s * 1e4f, upper ? 1e4f : 0.0f, s * 1e4f,
-                  upper ? 1e4f : 0.0f};
+  q.covariance = {upper ? 1e4f : 0.0f, s * 1e4f, -s * 1e4f,
+                  upper ? 1e4f : 0.0f, s * 1e4f, upper ? 1e4f : 0.0f};
   q.status = upper ? 3 : 0;
   q.since_vision_us = upper ? (std::int64_t{1} << 62) - 1 : 0;
   PacketBall& b = p.ball.emplace();
@@ -149,9 +150,9 @@ TEST(teamcomm_codec, RefusesToEncodeOutOfRangeValues) {
   refuses([](TeamPacket& p) { p.ball->vy = -20.5f; });
   refuses([](TeamPacket& p) { p.obstacles.push_back({0, 0, 0.2f}); });
   refuses([](TeamPacket& p) { p.obstacles[0].radius = 2.5f; });
-  refuses([](TeamPacket& p) { p.links.push_back({p.links[0]}); });       // 6 links, duplicate id
+  refuses([](TeamPacket& p) { p.links.push_back({p.links[0]}); });  // 6 links, duplicate id
   refuses([](TeamPacket& p) { p.links[1].robot_id = p.links[0].robot_id; });
-  refuses([](TeamPacket& p) { p.links[0].robot_id = p.robot_id; });     // echo of itself
+  refuses([](TeamPacket& p) { p.links[0].robot_id = p.robot_id; });  // echo of itself
 }
 
 TEST(teamcomm_codec, RejectsEveryTruncation) {
@@ -191,7 +192,8 @@ TEST(teamcomm_codec, RejectsAWrongKeyAndRandomBytes) {
   const TeamKey key = testKey(6);
   for (int i = 0; i < 20000; ++i) {
     std::vector<std::uint8_t> junk(std::uniform_int_distribution<std::size_t>(0, 1500)(rng));
-    for (auto& b : junk) b = static_cast<std::uint8_t>(rng());
+    for (auto& b : junk)
+      b = static_cast<std::uint8_t>(rng());
     // Half of them with a valid magic and version, so the MAC is what stops them.
     if (i % 2 == 0 && junk.size() >= 5) {
       junk[0] = 'F';
@@ -259,8 +261,7 @@ TEST(teamcomm_gate, RefusesReplaysOldPacketsAndOtherTeams) {
   // From the future.
   EXPECT_EQ(gate.admit(gatePacket(2, 151, kT0 + 400'000), kT0 + 100'000, 0.0), Reject::kStale);
   // With an offset of +0.3 s, a packet stamped 0.3 s ahead of us is fresh.
-  EXPECT_EQ(gate.admit(gatePacket(2, 152, kT0 + 400'000), kT0 + 101'000, 300'000.0),
-            std::nullopt);
+  EXPECT_EQ(gate.admit(gatePacket(2, 152, kT0 + 400'000), kT0 + 101'000, 300'000.0), std::nullopt);
   EXPECT_EQ(gate.admit(gatePacket(3, 1, kT0), kT0 + 1000, std::nullopt), std::nullopt);
   // No offset yet: only a gross clock difference is refused.
   EXPECT_EQ(gate.admit(gatePacket(4, 1, kT0 + 11'000'000), kT0, std::nullopt), Reject::kStale);
