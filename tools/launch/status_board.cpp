@@ -159,6 +159,9 @@ std::string headlineMetrics(const service_status_t& status) {
       {"speed_mps", "speed", "m/s", 2},       {"reference_speed_mps", "ref", "m/s", 2},
       {"render_ms", "render", "ms", 2},       {"capture_ms", "capture", "ms", 2},
       {"touched_percent", "touched", "%", 1}, {"realtime_factor", "realtime x", "", 2},
+      // teamcomm: teammates heard, worst clock offset uncertainty, refused packets.
+      {"teammates_present", "team", "", 0},   {"offset_uncertainty_ms", "offset +-", "ms", 2},
+      {"packets_rejected", "rejected", "", 0},
   };
   std::string note;
   const std::size_t n = std::min(status.metric_name.size(), status.metric_value.size());
