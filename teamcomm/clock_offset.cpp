@@ -20,9 +20,9 @@ bool ClockOffsetEstimator::add(const RoundTrip& rt) {
       rt.t4_our_receive < rt.t1_our_send) {
     return false;
   }
-  const double offset = 0.5 * (static_cast<double>(rt.t2_their_receive - rt.t1_our_send) +
-                               static_cast<double>(rt.t3_their_send - rt.t4_our_receive));
-  samples_.push_back({rt.t4_our_receive, offset, std::max<Utime>(round_trip, 0)});
+  samples_.push_back(
+      {rt.t4_our_receive, rt.t1_our_send, static_cast<double>(rt.t2_their_receive - rt.t1_our_send),
+       static_cast<double>(rt.t3_their_send - rt.t4_our_receive), std::max<Utime>(round_trip, 0)});
   // Samples arrive in our time order; anything that claims otherwise is sorted in.
   for (std::size_t i = samples_.size() - 1; i > 0 && samples_[i].when < samples_[i - 1].when; --i) {
     std::swap(samples_[i], samples_[i - 1]);
@@ -35,45 +35,87 @@ bool ClockOffsetEstimator::add(const RoundTrip& rt) {
   return true;
 }
 
+namespace {
+
+struct Line {
+  double intercept = 0.0;  // at t = 0
+  double slope = 0.0;
+};
+
+// The line below every point that is highest at the points' mean time: the edge of their lower
+// convex hull above that time (the envelope of the smallest delays). Points sorted by t.
+Line lowerEnvelope(const std::vector<std::pair<double, double>>& points, bool fit_slope,
+                   double max_slope) {
+  double t_mean = 0.0;
+  for (const auto& p : points)
+    t_mean += p.first;
+  t_mean /= static_cast<double>(points.size());
+  if (!fit_slope || points.size() < 2) {
+    double lowest = points.front().second;
+    for (const auto& p : points)
+      lowest = std::min(lowest, p.second);
+    return {lowest, 0.0};
+  }
+  std::vector<std::pair<double, double>> hull;
+  for (const auto& p : points) {
+    while (hull.size() >= 2) {
+      const auto& o = hull[hull.size() - 2];
+      const auto& a = hull.back();
+      const double cross =
+          (a.first - o.first) * (p.second - o.second) - (a.second - o.second) * (p.first - o.first);
+      if (cross > 0.0) break;
+      hull.pop_back();
+    }
+    if (!hull.empty() && hull.back().first == p.first) {
+      if (p.second < hull.back().second) hull.back() = p;
+      continue;
+    }
+    hull.push_back(p);
+  }
+  std::size_t i = 0;
+  while (i + 2 < hull.size() && hull[i + 1].first < t_mean)
+    ++i;
+  if (hull.size() < 2) return {hull.front().second, 0.0};
+  const auto& a = hull[i];
+  const auto& b = hull[i + 1];
+  const double slope =
+      std::clamp((b.second - a.second) / (b.first - a.first), -max_slope, max_slope);
+  // Through the lower of the edge's ends after clamping, so the line stays below both.
+  const double intercept = std::min(a.second - slope * a.first, b.second - slope * b.first);
+  return {intercept, slope};
+}
+
+}  // namespace
+
 void ClockOffsetEstimator::refit() {
   fitted_ = false;
   if (samples_.empty()) return;
-  Utime min_rt = std::numeric_limits<Utime>::max();
-  for (const Sample& s : samples_)
-    min_rt = std::min(min_rt, s.round_trip_us);
-  min_round_trip_us_ = min_rt;
-  // The minimum round trip wins: a sample's offset error is bounded by how much longer its round
-  // trip was than the best in the window, so its weight falls with that excess. A weighted line
-  // through all of them gives the drift.
-  double sw = 0, st = 0, so = 0;
+  // Each round trip carries one delay each way: our packet's (t2 - t1 = offset + delay there)
+  // and theirs (t3 - t4 = offset - delay back). The smallest delays each way bound the offset
+  // from above and below; their envelopes over the window, found separately for each direction
+  // (so the best of each need not come in the same round trip), give offset and drift.
   reference_ = samples_.back().when;
-  std::vector<std::pair<double, double>> points;  // (t - reference, offset)
-  std::vector<double> weights;
+  std::vector<std::pair<double, double>> forward, backward;
+  forward.reserve(samples_.size());
+  backward.reserve(samples_.size());
+  Utime min_rt = std::numeric_limits<Utime>::max();
   for (const Sample& s : samples_) {
-    const double sigma =
-        options_.min_sigma_us + 0.5 * static_cast<double>(s.round_trip_us - min_rt);
-    const double w = 1.0 / (sigma * sigma);
-    points.emplace_back(static_cast<double>(s.when - reference_), s.offset_us);
-    weights.push_back(w);
-    sw += w;
-    st += w * points.back().first;
-    so += w * points.back().second;
+    forward.emplace_back(static_cast<double>(s.sent - reference_), s.forward_us);
+    // The upper envelope of the way back, as the lower envelope of its negation.
+    backward.emplace_back(static_cast<double>(s.when - reference_), -s.backward_us);
+    min_rt = std::min(min_rt, s.round_trip_us);
   }
-  const double t_mean = st / sw;
-  const double o_mean = so / sw;
-  double stt = 0, sto = 0;
-  for (std::size_t i = 0; i < points.size(); ++i) {
-    const double dt = points[i].first - t_mean;
-    stt += weights[i] * dt * dt;
-    sto += weights[i] * dt * (points[i].second - o_mean);
-  }
+  std::sort(forward.begin(), forward.end());
+  std::sort(backward.begin(), backward.end());
+  min_round_trip_us_ = min_rt;
   const Utime span = samples_.back().when - samples_.front().when;
-  slope_ = 0.0;
-  if (points.size() >= 3 && span >= options_.min_fit_span_us && stt > 0.0) {
-    const double max_slope = options_.max_drift_ppm * 1e-6;
-    slope_ = std::clamp(sto / stt, -max_slope, max_slope);
-  }
-  intercept_us_ = o_mean - slope_ * t_mean;
+  const bool fit_slope = samples_.size() >= 3 && span >= options_.min_fit_span_us;
+  const double max_slope = options_.max_drift_ppm * 1e-6;
+  const Line up = lowerEnvelope(forward, fit_slope, max_slope);
+  const Line down = lowerEnvelope(backward, fit_slope, max_slope);
+  // offset + minimum delay there, and offset - minimum delay back: equal minimum delays cancel.
+  intercept_us_ = 0.5 * (up.intercept - down.intercept);
+  slope_ = 0.5 * (up.slope - down.slope);
   fitted_ = true;
 }
 

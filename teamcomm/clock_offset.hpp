@@ -2,9 +2,12 @@
 // (NTP-style, B-Human's BNTP): we sent at t1 (our clock), the teammate received at t2 and sent
 // its next packet at t3 (its clock), we received that at t4 (our clock). Then
 //   offset (theirs - ours) = ((t2 - t1) + (t3 - t4)) / 2,  round trip = (t4 - t1) - (t3 - t2),
-// and the offset's error is at most half the round trip. Over a sliding window the samples with
-// the smallest round trips win (weights fall with the excess over the window's minimum); a
-// weighted line fit through them gives the drift.
+// and the offset's error is at most half the round trip. Over a sliding window the smallest delays
+// win: the lower envelope of t2 - t1 (offset plus the delay there) and the upper envelope of
+// t3 - t4 (offset minus the delay back), each a line fitted to the convex hull of its points
+// (so drift is a line fit too), taken separately for each direction so the best packet each way
+// need not fall in the same round trip. Their mean is the offset line, exact when the smallest
+// delays are equal both ways.
 // Plain library: no clock, no I/O.
 #pragma once
 
@@ -27,8 +30,7 @@ struct OffsetOptions {
   Utime window_us = 20'000'000;
   // Round trips above this are not clock information but queueing (or bogus).
   Utime max_round_trip_us = 500'000;
-  // Floor of a sample's standard deviation in the fit, µs (stamping noise; also keeps the one
-  // best sample from outweighing the rest of the window).
+  // Stamping noise, µs: round trips this far below zero are still plausible.
   double min_sigma_us = 250.0;
   // Drift is fitted only over at least this much time; shorter histories assume none.
   Utime min_fit_span_us = 3'000'000;
@@ -63,8 +65,10 @@ class ClockOffsetEstimator {
 
  private:
   struct Sample {
-    Utime when = 0;  // t4, our clock
-    double offset_us = 0.0;
+    Utime when = 0;            // t4, our clock
+    Utime sent = 0;            // t1, our clock
+    double forward_us = 0.0;   // t2 - t1: offset plus the delay to them
+    double backward_us = 0.0;  // t3 - t4: offset minus the delay back
     Utime round_trip_us = 0;
   };
   void refit();

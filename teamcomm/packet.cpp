@@ -148,6 +148,8 @@ std::string_view rejectName(Reject r) {
       return "team";
     case Reject::kReplay:
       return "replay";
+    case Reject::kLate:
+      return "late";
     case Reject::kStale:
       return "stale";
     case Reject::kRate:

@@ -82,11 +82,12 @@ enum class Reject : std::uint8_t {
   kLength,     // counts disagree with the length
   kRange,      // a value outside its documented range (or not finite)
   kTeam,       // another team's packet
-  kReplay,     // sequence number not newer than the last accepted from this sender
+  kReplay,     // sequence number already seen from this sender (or too old to tell)
+  kLate,       // older than the newest accepted from this sender, not seen before: reordered
   kStale,      // send time too old (or too far in the future) for our clock
   kRate,       // sender above its rate limit
 };
-inline constexpr int kRejectKinds = 11;
+inline constexpr int kRejectKinds = 12;
 std::string_view rejectName(Reject r);
 
 struct DecodeResult {

@@ -21,7 +21,13 @@ std::optional<Reject> PacketGate::admit(const TeamPacket& packet, Utime receive_
   } else if (std::abs(age_us) > static_cast<double>(options_.max_clock_difference_us)) {
     return Reject::kStale;
   }
-  if (s.last_sequence && packet.sequence <= *s.last_sequence) return Reject::kReplay;
+  if (s.last_sequence && packet.sequence <= *s.last_sequence) {
+    const std::uint64_t back = *s.last_sequence - packet.sequence;
+    if (back >= 64 || (s.seen & (std::uint64_t{1} << back))) return Reject::kReplay;
+    // Newer news has arrived already; remember this one so a copy counts as a replay.
+    s.seen |= std::uint64_t{1} << back;
+    return Reject::kLate;
+  }
   // Token bucket on our clock; a clock step backwards refills nothing.
   if (s.last_refill == 0) {
     s.tokens = options_.burst;
@@ -36,6 +42,11 @@ std::optional<Reject> PacketGate::admit(const TeamPacket& packet, Utime receive_
   if (s.last_sequence && packet.sequence - *s.last_sequence < 1000) {
     s.lost += static_cast<std::int64_t>(packet.sequence - *s.last_sequence - 1);
   }
+  if (s.last_sequence) {
+    const std::uint64_t ahead = packet.sequence - *s.last_sequence;
+    s.seen = ahead >= 64 ? 0 : s.seen << ahead;
+  }
+  s.seen |= 1;
   s.last_sequence = packet.sequence;
   return std::nullopt;
 }

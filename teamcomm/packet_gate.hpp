@@ -41,6 +41,8 @@ class PacketGate {
  private:
   struct Sender {
     std::optional<std::uint64_t> last_sequence;
+    // Bit k: sequence last_sequence - k was seen (tells a reordered packet from a replay).
+    std::uint64_t seen = 0;
     double tokens = 0.0;
     Utime last_refill = 0;
     std::int64_t lost = 0;

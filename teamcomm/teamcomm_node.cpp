@@ -167,8 +167,12 @@ void TeamcommNode::onDatagram(std::span<const std::uint8_t> bytes, Utime age_us)
   }
   const TeamPacket& p = *decoded.packet;
   if (p.robot_id == node_.robotId()) {
-    // Our own multicast looped back (or a teammate configured with our id: then the sequence
-    // numbers would collide, which the team would see in its link statistics).
+    // Our own multicast looped back is ignored; one of our packets from longer ago (or one we
+    // never sent) is someone replaying it.
+    if (p.sequence >= next_sequence_ || next_sequence_ - p.sequence > 64) {
+      reject(Reject::kReplay, 0, "our own packet " + std::to_string(p.sequence) + " replayed");
+      return;
+    }
     ++counters_.own_echo;
     return;
   }

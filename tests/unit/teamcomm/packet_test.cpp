@@ -254,7 +254,11 @@ TEST(teamcomm_gate, RefusesReplaysOldPacketsAndOtherTeams) {
   PacketGate gate({.team_id = 9});
   EXPECT_EQ(gate.admit(gatePacket(2, 100, kT0), kT0 + 3000, 0.0), std::nullopt);
   EXPECT_EQ(gate.admit(gatePacket(2, 100, kT0), kT0 + 4000, 0.0), Reject::kReplay);
-  EXPECT_EQ(gate.admit(gatePacket(2, 99, kT0 + 10'000), kT0 + 14'000, 0.0), Reject::kReplay);
+  // 99 was never seen: overtaken on the way (late), and a copy of it afterwards is a replay.
+  EXPECT_EQ(gate.admit(gatePacket(2, 99, kT0 + 10'000), kT0 + 14'000, 0.0), Reject::kLate);
+  EXPECT_EQ(gate.admit(gatePacket(2, 99, kT0 + 10'000), kT0 + 15'000, 0.0), Reject::kReplay);
+  // Too far back to tell: a replay.
+  EXPECT_EQ(gate.admit(gatePacket(2, 30, kT0 + 10'000), kT0 + 15'000, 0.0), Reject::kReplay);
   EXPECT_EQ(gate.admit(gatePacket(2, 101, kT0 + 50'000), kT0 + 52'000, 0.0), std::nullopt);
   // A recording of a later packet replayed 2 s later: too old once the offset is known.
   EXPECT_EQ(gate.admit(gatePacket(2, 150, kT0 + 60'000), kT0 + 2'060'000, 0.0), Reject::kStale);
