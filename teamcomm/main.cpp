@@ -44,6 +44,7 @@ int main(int argc, char** argv) {
     common.resolve("teamcomm");
     teamcomm::TeamcommConfig cfg = teamcomm::loadTeamcommConfig(
         config::Node::loadFile(config::resolvePreset("team", team_config)));
+    cfg.node.expect_own_echo = !cfg.udp.group.empty() && cfg.udp.loopback;
     if (port != 0) cfg.udp.port = static_cast<std::uint16_t>(port);
     if (common.robot < 1 || common.robot > teamcomm::kMaxRobots) {
       throw config::Error("--robot must be 1..6 for teamcomm");

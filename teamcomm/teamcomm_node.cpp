@@ -10,6 +10,9 @@
 namespace fieldline::teamcomm {
 namespace {
 
+// Multicast loopback returns our packets within microseconds; allow for a busy machine.
+constexpr Utime kOwnEchoMaxAge_us = 100'000;
+
 float clampf(double v, double limit) {
   if (!std::isfinite(v)) return 0.0f;
   return static_cast<float>(std::clamp(v, -limit, limit));
@@ -167,9 +170,11 @@ void TeamcommNode::onDatagram(std::span<const std::uint8_t> bytes, Utime age_us)
   }
   const TeamPacket& p = *decoded.packet;
   if (p.robot_id == node_.robotId()) {
-    // Our own multicast looped back is ignored; one of our packets from longer ago (or one we
-    // never sent) is someone replaying it.
-    if (p.sequence >= next_sequence_ || next_sequence_ - p.sequence > 64) {
+    // Our own multicast looped back (within moments, on our own clock) is ignored; one of our
+    // packets from longer ago, or one we never sent, is someone replaying it.
+    if (!options_.expect_own_echo || p.sequence >= next_sequence_ ||
+        next_sequence_ - p.sequence > 64 || received - p.send_utime > kOwnEchoMaxAge_us ||
+        received < p.send_utime) {
       reject(Reject::kReplay, 0, "our own packet " + std::to_string(p.sequence) + " replayed");
       return;
     }

@@ -32,6 +32,9 @@ struct TeamcommOptions {
   Utime poll_period_us = 2'000;
   // Our own estimates older than this (since they arrived) are not sent.
   Utime fresh_us = 300'000;
+  // Our own packets come back (multicast loopback): ignore fresh ones. Otherwise any packet
+  // with our robot id is a replay.
+  bool expect_own_echo = true;
   GateOptions gate;
   OffsetOptions offset;
   PictureOptions picture;

@@ -66,6 +66,8 @@ class UdpLink final : public PacketLink {
     const int on = 1;
     // Without them (never seen on Linux) the age is 0 and arrival is stamped when read.
     (void)::setsockopt(fd, SOL_SOCKET, SO_TIMESTAMPNS, &on, sizeof on);
+    // Room for a burst (or a flood) while the node is busy; capped by net.core.rmem_max.
+    socket_.set_option(asio::socket_base::receive_buffer_size(1 << 20), ec);
     socket_.bind(udp::endpoint(udp::v4(), o.port), ec);
     check(("bind to port " + std::to_string(o.port)).c_str());
     if (!o.group.empty()) {

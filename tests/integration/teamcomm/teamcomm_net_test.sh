@@ -77,6 +77,10 @@ sleep 23
 ip netns exec $attacker "$bin/fieldline-team-attack" --sniff 4 --for 4 --rate 100 \
   $(for r in $robots; do echo --target 10.20.0.$r:47600; done) > "$out/attack.json" 2> "$out/attack.log"
 wait $probe_pids $relay_pid
+# Datagrams the kernel dropped for a full receive buffer never reached teamcomm.
+for r in $robots; do
+  ip netns exec ${tag}r$r awk '/^Udp:/ {n++} n==2 && /^Udp:/ {print $6; exit}' /proc/net/snmp > "$out/rcvbuf_errors$r"
+done
 kill -TERM $teamcomm_pids
 wait $teamcomm_pids
 echo "--- relay"; cat "$out/relay.log"
