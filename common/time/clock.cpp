@@ -9,4 +9,9 @@ Utime SystemClock::now() const {
   return duration_cast<microseconds>(system_clock::now().time_since_epoch()).count();
 }
 
+Utime Clock::monotonicNow() const {
+  using namespace std::chrono;
+  return duration_cast<microseconds>(steady_clock::now().time_since_epoch()).count();
+}
+
 }  // namespace fieldline

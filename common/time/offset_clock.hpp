@@ -23,6 +23,8 @@ class OffsetClock final : public Clock {
     return t + offset_us_ +
            static_cast<Utime>(std::llround(drift_ * static_cast<double>(t - reference_us_)));
   }
+  // Elapsed time is the base's: a robot's clock error changes stamps, not how time passes here.
+  Utime monotonicNow() const override { return base_.monotonicNow(); }
   Utime offset_us() const { return offset_us_; }
   double drift_ppm() const { return drift_ * 1e6; }
 
