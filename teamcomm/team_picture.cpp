@@ -69,6 +69,12 @@ void TeamPicture::clear(int robot_id) {
   reports_[static_cast<std::size_t>(robot_id - 1)].reset();
 }
 
+const Report* TeamPicture::report(int robot_id) const {
+  if (robot_id < 1 || robot_id > perception::kTeamSize) return nullptr;
+  const auto& r = reports_[static_cast<std::size_t>(robot_id - 1)];
+  return r ? &*r : nullptr;
+}
+
 perception::TeamState TeamPicture::picture(Utime now, TeamBallResult* team_ball) const {
   perception::TeamState s;
   s.utime = now;

@@ -58,6 +58,8 @@ class TeamPicture {
   void setReport(int robot_id, const Report& report);
   // Forgets a robot (e.g. its clock offset was reset).
   void clear(int robot_id);
+  // The robot's latest report, or null.
+  const Report* report(int robot_id) const;
 
   // Poses, balls and team ball at `now`. Link statistics are left for the caller.
   perception::TeamState picture(Utime now, TeamBallResult* team_ball = nullptr) const;

@@ -216,8 +216,11 @@ void TeamcommNode::onDatagram(std::span<const std::uint8_t> bytes, Utime age_us)
     r.covariance << c[0], c[1], c[2], c[1], c[3], c[4], c[2], c[4], c[5];
     r.status = static_cast<perception::LocalizationStatus>(q.status);
     r.since_vision_us = q.since_vision_us;
+  } else if (const Report* previous = picture_.report(p.robot_id)) {
+    // Heard, but its estimate is not fresh: the last pose it sent, ageing.
+    report.robot = previous->robot;
   } else {
-    // Heard, but without a pose: present with an unknown, very uncertain pose.
+    // Heard, never with a pose: present with an unknown, very uncertain one.
     report.robot.utime = received;
     report.robot.covariance = Eigen::Matrix3d::Identity() * kMaxVariance;
   }

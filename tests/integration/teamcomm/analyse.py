@@ -94,13 +94,14 @@ for r in range(1, 7):
     total_refused += rejected(after) - rejected(before[-1])
     kinds = {k: v for k, v in after["errors"].items() if k.startswith("rejected_")}
     print(f"robot {r}: refused by reason {kinds}")
+    # Up to 32 s: the attack ends at 31 s, and from 34 s the probes stop one by one.
     for s in states[r]:
-        if s["t"] >= at(26.5):
+        if at(26.5) <= s["t"] <= at(32):
             for j in range(1, 7):
                 if j != r and s["present"][j - 1] and abs(s["x"][j - 1] - (j - 4)) > 0.05:
                     failures.append(f"robot {r}: teammate {j} moved to x={s['x'][j - 1]} during the attack")
                     break
-    last = states[r][-1]
+    last = [s for s in states[r] if s["t"] <= at(32)][-1]
     if sum(r_ for r_ in last["rejected"]) == 0:
         failures.append(f"robot {r}: TEAM_STATE.packets_rejected shows nothing")
     if not last["team_ball"][0] or abs(last["team_ball"][1] - 2.0) > 0.1:

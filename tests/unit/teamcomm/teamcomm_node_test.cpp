@@ -143,6 +143,7 @@ struct Robot {
   TeamcommNode team;
   perception::RobotEstimate pose;
   perception::BallEstimate ball;
+  bool publishing = true;
   std::vector<perception::TeamState> states;
 };
 
@@ -168,7 +169,7 @@ struct Team {
       truth.advance(1000);
       ++ms;
       for (auto& r : robots) {
-        if (ms % 20 == 0) r->publishEstimates();
+        if (ms % 20 == 0 && r->publishing) r->publishEstimates();
         r->spin();
       }
       if (each_ms) each_ms();
@@ -285,6 +286,19 @@ TEST(teamcomm_node, ForgedReplayedAndBrokenPacketsChangeNothing) {
   // Counted by reason in SERVICE_STATUS.
   EXPECT_GT(victim.node.status().errorCount("rejected_auth"), 3000);
   EXPECT_EQ(victim.node.status().errorCount("rejected_oversized"), 3000);
+}
+
+TEST(teamcomm_node, ATeammateWhoseFusionStopsKeepsItsLastPoseAgeing) {
+  Team team({{0, 0.0}, {-200'000, 0.0}});
+  team.run(2.0);
+  team.robots[1]->publishing = false;
+  team.run(1.0);
+  const perception::TeammateState& mate = team.robots[0]->states.back().robots[1];
+  // Still heard (its packets carry the round trips), with the last pose it sent, 0.7-1 s old.
+  EXPECT_TRUE(mate.present);
+  EXPECT_NEAR(mate.x, -2.0, 1e-5);
+  EXPECT_GT(mate.robot_age_us, 690'000);
+  EXPECT_FALSE(mate.ball_valid);
 }
 
 TEST(teamcomm_node, APartitionIsReportedAndHealsWithinASecond) {
