@@ -160,6 +160,9 @@ std::string headlineMetrics(const service_status_t& status) {
       {"render_ms", "render", "ms", 2},       {"capture_ms", "capture", "ms", 2},
       {"touched_percent", "touched", "%", 1}, {"realtime_factor", "realtime x", "", 2},
       {"correction_cm", "corr", "cm", 1},     {"correction_deg", "turn", "deg", 1},
+      // teamcomm: teammates heard, worst clock offset uncertainty, refused packets.
+      {"teammates_present", "team", "", 0},   {"offset_uncertainty_ms", "offset +-", "ms", 2},
+      {"packets_rejected", "rejected", "", 0},
   };
   std::string note;
   const std::size_t n = std::min(status.metric_name.size(), status.metric_value.size());

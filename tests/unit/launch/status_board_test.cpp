@@ -237,5 +237,14 @@ TEST(HeadlineMetrics, PicksTheMetricsAPersonWatches) {
   EXPECT_EQ(headlineMetrics(s), "");
 }
 
+TEST(StatusBoard, TeamcommNoteShowsTeammatesOffsetUncertaintyAndRejections) {
+  service_status_t s{};
+  s.num_metrics = 4;
+  s.metric_name = {"team_ball_rejected", "teammates_present", "offset_uncertainty_ms",
+                   "packets_rejected"};
+  s.metric_value = {0.0, 5.0, 1.25, 17.0};
+  EXPECT_EQ(headlineMetrics(s), "team 5, offset +- 1.25 ms, rejected 17");
+}
+
 }  // namespace
 }  // namespace fieldline::launch

@@ -1,0 +1,86 @@
+// A teammate's clock offset and drift from the round trips carried in the team packets
+// (NTP-style, B-Human's BNTP): we sent at t1 (our clock), the teammate received at t2 and sent
+// its next packet at t3 (its clock), we received that at t4 (our clock). Then
+//   offset (theirs - ours) = ((t2 - t1) + (t3 - t4)) / 2,  round trip = (t4 - t1) - (t3 - t2),
+// and the offset's error is at most half the round trip. Over a sliding window the smallest delays
+// win: the lower envelope of t2 - t1 (offset plus the delay there) and the upper envelope of
+// t3 - t4 (offset minus the delay back), each a line fitted to the convex hull of its points
+// (so drift is a line fit too), taken separately for each direction so the best packet each way
+// need not fall in the same round trip. Their mean is the offset line, exact when the smallest
+// delays are equal both ways.
+// Plain library: no clock, no I/O.
+#pragma once
+
+#include <deque>
+#include <optional>
+
+#include "common/time/clock.hpp"
+
+namespace fieldline::teamcomm {
+
+struct RoundTrip {
+  Utime t1_our_send = 0;
+  Utime t2_their_receive = 0;
+  Utime t3_their_send = 0;
+  Utime t4_our_receive = 0;
+};
+
+struct OffsetOptions {
+  // Samples older than this (our clock) are forgotten.
+  Utime window_us = 20'000'000;
+  // Round trips above this are not clock information but queueing (or bogus).
+  Utime max_round_trip_us = 500'000;
+  // Stamping noise, µs: round trips this far below zero are still plausible.
+  double min_sigma_us = 250.0;
+  // Drift is fitted only over at least this much time; shorter histories assume none.
+  Utime min_fit_span_us = 3'000'000;
+  // Drifts beyond this are implausible for a quartz clock and are clamped, ppm.
+  double max_drift_ppm = 500.0;
+};
+
+struct OffsetEstimate {
+  // Their clock minus ours at the time asked for, µs.
+  double offset_us = 0.0;
+  // d(offset)/d(our time), parts per million.
+  double drift_ppm = 0.0;
+  // Smallest round trip in the window, µs.
+  Utime min_round_trip_us = 0;
+  // Bound on the offset's error: half the smallest round trip, µs.
+  double uncertainty_us = 0.0;
+};
+
+class ClockOffsetEstimator {
+ public:
+  explicit ClockOffsetEstimator(OffsetOptions options = {});
+
+  // Adds a round trip; returns false (and ignores it) when it is impossible (negative round trip
+  // beyond the stamping noise) or too long.
+  bool add(const RoundTrip& rt);
+  // The estimate at `now_ours`, or nothing before the first usable round trip.
+  std::optional<OffsetEstimate> estimate(Utime now_ours) const;
+  // A teammate's time converted to ours (and back), using the estimate at that time.
+  std::optional<Utime> toOurs(Utime their_utime) const;
+  std::optional<Utime> toTheirs(Utime our_utime) const;
+  std::size_t samples() const { return samples_.size(); }
+
+ private:
+  struct Sample {
+    Utime when = 0;            // t4, our clock
+    Utime sent = 0;            // t1, our clock
+    double forward_us = 0.0;   // t2 - t1: offset plus the delay to them
+    double backward_us = 0.0;  // t3 - t4: offset minus the delay back
+    Utime round_trip_us = 0;
+  };
+  void refit();
+
+  OffsetOptions options_;
+  std::deque<Sample> samples_;
+  // Line offset(t) = intercept + slope * (t - reference), refitted on every add.
+  bool fitted_ = false;
+  Utime reference_ = 0;
+  double intercept_us_ = 0.0;
+  double slope_ = 0.0;
+  Utime min_round_trip_us_ = 0;
+};
+
+}  // namespace fieldline::teamcomm

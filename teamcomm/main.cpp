@@ -1,0 +1,90 @@
+// fieldline-teamcomm: the team link of one robot. Sends its ROBOT_STATE and BALL_STATE to the
+// teammates in authenticated UDP packets, receives theirs, estimates their clock offsets and
+// publishes the team picture as TEAM_STATE.
+#include <spdlog/spdlog.h>
+
+#include <CLI/CLI.hpp>
+#include <iostream>
+#include <memory>
+
+#include "common/bus/cli.hpp"
+#include "common/bus/node.hpp"
+#include "common/config/config.hpp"
+#include "common/time/offset_clock.hpp"
+#include "teamcomm/team_key.hpp"
+#include "teamcomm/teamcomm_config.hpp"
+#include "teamcomm/teamcomm_node.hpp"
+#include "teamcomm/transport.hpp"
+
+using namespace fieldline;
+
+int main(int argc, char** argv) {
+  CLI::App app{
+      "Team communication: own pose and ball to the teammates over authenticated UDP "
+      "(multicast or unicast peers), theirs back with clock offsets from the packets' round "
+      "trips, and the team picture with a fused team ball as TEAM_STATE at 10 Hz. Protocol: "
+      "docs/team-protocol.md. Clock error of a simulated robot: FIELDLINE_CLOCK_OFFSET_US, "
+      "FIELDLINE_CLOCK_DRIFT_PPM, FIELDLINE_CLOCK_REFERENCE_US."};
+  bus::CommonOptions common;
+  common.addTo(app);
+  std::string team_config = "sim_team";
+  app.add_option("--team-config", team_config,
+                 "Team preset in config/team/ or a YAML path (team id, key file, transport)")
+      ->capture_default_str();
+  int port = 0;
+  app.add_option("--port", port, "Override the UDP port of the team config")
+      ->check(CLI::Range(1, 65535));
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e) == 0 ? 0 : 2;
+  }
+
+  return bus::runMain("teamcomm", [&] {
+    common.resolve("teamcomm");
+    teamcomm::TeamcommConfig cfg = teamcomm::loadTeamcommConfig(
+        config::Node::loadFile(config::resolvePreset("team", team_config)));
+    cfg.node.expect_own_echo = !cfg.udp.group.empty() && cfg.udp.loopback;
+    if (port != 0) cfg.udp.port = static_cast<std::uint16_t>(port);
+    if (common.robot < 1 || common.robot > teamcomm::kMaxRobots) {
+      throw config::Error("--robot must be 1..6 for teamcomm");
+    }
+    try {
+      cfg.node.key = teamcomm::loadConfiguredKey(cfg.key_file);
+    } catch (const teamcomm::KeyError& e) {
+      throw config::Error(std::string("team key: ") + e.what());
+    }
+    SystemClock system_clock;
+    std::unique_ptr<OffsetClock> robot_clock;
+    std::optional<ClockError> clock_error;
+    try {
+      clock_error = clockErrorFromEnvironment();
+    } catch (const std::invalid_argument& e) {
+      throw config::Error(e.what());
+    }
+    if (clock_error) {
+      robot_clock = std::make_unique<OffsetClock>(
+          system_clock, clock_error->offset_us, clock_error->drift_ppm, clock_error->reference_us);
+      spdlog::info("robot clock: offset {} µs, drift {} ppm", clock_error->offset_us,
+                   clock_error->drift_ppm);
+    }
+    const Clock& clock = robot_clock ? static_cast<const Clock&>(*robot_clock) : system_clock;
+
+    std::unique_ptr<teamcomm::PacketLink> link;
+    try {
+      link = teamcomm::openUdpLink(cfg.udp);
+    } catch (const teamcomm::TransportError& e) {
+      // The network is this process's device: without it, it cannot do its job.
+      throw bus::BusError(e.what());
+    }
+    bus::installStopSignals();
+    bus::Node node({.process = "teamcomm", .robot_id = common.robot, .url = common.bus_url}, clock);
+    teamcomm::TeamcommNode team(node, *link, cfg.node);
+    spdlog::info(
+        "team {} robot {}: {} {}:{} at {} Hz", cfg.node.team_id, common.robot,
+        cfg.udp.group.empty() ? "unicast" : "multicast",
+        cfg.udp.group.empty() ? std::to_string(cfg.udp.peers.size()) + " peers" : cfg.udp.group,
+        cfg.udp.port, cfg.node.send_rate_hz);
+    return node.run();
+  });
+}

@@ -1,0 +1,73 @@
+// The team picture: every robot's pose and ball, aged and predicted to now, and a team ball fused
+// from the robots' own ball estimates, covariance-weighted, inside a consistency gate: the
+// largest group of mutually consistent balls wins, so a mislocalized teammate's ball (confidently
+// in the wrong place) is left out rather than averaged in. Plain library: every time is on this
+// robot's clock and comes in as an argument.
+#pragma once
+
+#include <array>
+#include <optional>
+#include <vector>
+
+#include "common/perception/estimates.hpp"
+#include "common/perception/team.hpp"
+#include "common/time/clock.hpp"
+
+namespace fieldline::teamcomm {
+
+struct PictureOptions {
+  // A robot is present while its newest report is at most this old.
+  Utime present_timeout_us = 500'000;
+  // A ball last seen longer ago than this is not used.
+  Utime ball_timeout_us = 1'000'000;
+  // Predictions reach at most this far (beyond it, positions are held).
+  Utime max_prediction_us = 500'000;
+  // Unmodelled acceleration of robots and ball: position uncertainty grows by this times the
+  // prediction time, m/s.
+  double robot_speed_sigma_mps = 0.5;
+  double ball_speed_sigma_mps = 1.0;
+  // Squared Mahalanobis distance within which two balls agree (chi-square, 2 dof, 99 %).
+  double gate_chi2 = 9.21;
+  // Floor of a ball's position variance, m^2 (no estimate is better than 2 cm).
+  double min_ball_variance = 0.0004;
+};
+
+// One robot's report, already converted to our clock.
+struct Report {
+  perception::RobotEstimate robot;
+  perception::BallEstimate ball;
+  // When it arrived (our clock): presence runs on this, not on the sender's stamps.
+  Utime received_utime = 0;
+};
+
+struct TeamBallResult {
+  bool valid = false;
+  Eigen::Vector2d position = Eigen::Vector2d::Zero();
+  Eigen::Vector2d velocity = Eigen::Vector2d::Zero();
+  Eigen::Matrix2d covariance = Eigen::Matrix2d::Zero();
+  // Robot ids (1..6) whose balls were fused, and those whose valid balls the gate left out.
+  std::vector<int> used;
+  std::vector<int> rejected;
+};
+
+class TeamPicture {
+ public:
+  TeamPicture(int own_robot_id, PictureOptions options = {});
+
+  // Our own estimates (from ROBOT_STATE / BALL_STATE) and a teammate's (from a packet).
+  void setReport(int robot_id, const Report& report);
+  // Forgets a robot (e.g. its clock offset was reset).
+  void clear(int robot_id);
+  // The robot's latest report, or null.
+  const Report* report(int robot_id) const;
+
+  // Poses, balls and team ball at `now`. Link statistics are left for the caller.
+  perception::TeamState picture(Utime now, TeamBallResult* team_ball = nullptr) const;
+
+ private:
+  int own_robot_id_;
+  PictureOptions options_;
+  std::array<std::optional<Report>, perception::kTeamSize> reports_{};
+};
+
+}  // namespace fieldline::teamcomm

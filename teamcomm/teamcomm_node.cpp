@@ -1,0 +1,283 @@
+#include "teamcomm/teamcomm_node.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+#include "common/msg/estimates.hpp"
+#include "common/msg/team_state.hpp"
+
+namespace fieldline::teamcomm {
+namespace {
+
+// Multicast loopback returns our packets within microseconds; allow for a busy machine.
+constexpr Utime kOwnEchoMaxAge_us = 100'000;
+
+float clampf(double v, double limit) {
+  if (!std::isfinite(v)) return 0.0f;
+  return static_cast<float>(std::clamp(v, -limit, limit));
+}
+
+// Our estimate in the packet's ranges (fusion's output is validated, but a pose far off the
+// field or a runaway covariance must not stop the team link).
+PacketPose toPacket(const perception::RobotEstimate& e) {
+  PacketPose p;
+  p.utime = std::max<Utime>(0, e.utime);
+  p.x = clampf(e.pose.x, kMaxFieldCoordinate_m);
+  p.y = clampf(e.pose.y, kMaxFieldCoordinate_m);
+  p.phi = clampf(e.pose.phi, 3.14159f);
+  p.vx = clampf(e.vx, kMaxSpeed_mps);
+  p.vy = clampf(e.vy, kMaxSpeed_mps);
+  p.omega = clampf(e.omega, kMaxAngularSpeed_radps);
+  const auto& c = e.covariance;
+  p.covariance = {static_cast<float>(std::clamp(c(0, 0), 0.0, kMaxVariance)),
+                  clampf(c(0, 1), kMaxVariance),
+                  clampf(c(0, 2), kMaxVariance),
+                  static_cast<float>(std::clamp(c(1, 1), 0.0, kMaxVariance)),
+                  clampf(c(1, 2), kMaxVariance),
+                  static_cast<float>(std::clamp(c(2, 2), 0.0, kMaxVariance))};
+  for (float& v : p.covariance) {
+    if (!std::isfinite(v)) v = static_cast<float>(kMaxVariance);
+  }
+  p.status = static_cast<std::uint8_t>(std::clamp<int>(static_cast<int>(e.status), 0, 3));
+  p.since_vision_us = std::max<std::int64_t>(0, e.since_vision_us);
+  return p;
+}
+
+PacketBall toPacket(const perception::BallEstimate& e) {
+  PacketBall b;
+  b.utime = std::max<Utime>(0, e.utime);
+  b.last_seen_utime = std::max<Utime>(0, e.last_seen_utime);
+  b.x = clampf(e.x, kMaxFieldCoordinate_m);
+  b.y = clampf(e.y, kMaxFieldCoordinate_m);
+  b.vx = clampf(e.vx, kMaxSpeed_mps);
+  b.vy = clampf(e.vy, kMaxSpeed_mps);
+  const auto& c = e.covariance;
+  b.covariance = {static_cast<float>(std::clamp(c(0, 0), 0.0, kMaxVariance)),
+                  clampf(c(0, 1), kMaxVariance),
+                  static_cast<float>(std::clamp(c(1, 1), 0.0, kMaxVariance))};
+  for (float& v : b.covariance) {
+    if (!std::isfinite(v)) v = static_cast<float>(kMaxVariance);
+  }
+  return b;
+}
+
+}  // namespace
+
+std::int64_t LinkCounters::rejectedTotal() const {
+  std::int64_t total = 0;
+  for (std::int64_t n : rejected)
+    total += n;
+  return total;
+}
+
+TeamcommNode::TeamcommNode(bus::Node& node, PacketLink& link, TeamcommOptions options)
+    : node_(node),
+      link_(link),
+      options_(std::move(options)),
+      gate_([&] {
+        GateOptions g = options_.gate;
+        g.team_id = options_.team_id;
+        return g;
+      }()),
+      picture_(node.robotId(), options_.picture) {
+  if (options_.send_rate_hz < 1.0 || options_.send_rate_hz > 100.0 ||
+      options_.publish_rate_hz < 1.0 || options_.publish_rate_hz > 100.0 ||
+      options_.poll_period_us < 100) {
+    throw std::invalid_argument("teamcomm: rates or poll period out of range");
+  }
+  for (Teammate& m : mates_)
+    m.offset = ClockOffsetEstimator(options_.offset);
+  // Grows across restarts (the clock moves on faster than we send), so receivers' replay checks
+  // accept a restarted robot at once.
+  next_sequence_ = static_cast<std::uint64_t>(std::max<Utime>(0, node_.now()));
+  node_.subscribe(bus::channels::kRobotState, [this](const robot_state_t& m) {
+    own_robot_ = msg::fromMessage(m);
+    own_robot_received_ = node_.now();
+  });
+  node_.subscribe(bus::channels::kBallState, [this](const ball_state_t& m) {
+    own_ball_ = msg::fromMessage(m);
+    own_ball_received_ = node_.now();
+  });
+  node_.every(static_cast<Utime>(1e6 / options_.send_rate_hz), [this] { sendPacket(); });
+  node_.every(options_.poll_period_us, [this] { pollLink(); });
+  node_.every(static_cast<Utime>(1e6 / options_.publish_rate_hz), [this] { publishTeamState(); });
+}
+
+std::optional<OffsetEstimate> TeamcommNode::offset(int robot_id, Utime now) const {
+  if (robot_id < 1 || robot_id > kMaxRobots || robot_id == node_.robotId()) return std::nullopt;
+  return mates_[static_cast<std::size_t>(robot_id - 1)].offset.estimate(now);
+}
+
+void TeamcommNode::sendPacket() {
+  const Utime now = node_.now();
+  TeamPacket p;
+  p.team_id = options_.team_id;
+  p.robot_id = static_cast<std::uint8_t>(node_.robotId());
+  p.sequence = next_sequence_++;
+  for (int id = 1; id <= kMaxRobots; ++id) {
+    const Teammate& m = mates_[static_cast<std::size_t>(id - 1)];
+    if (id == node_.robotId() || !m.heard ||
+        now - m.last_receive_utime > options_.picture.present_timeout_us) {
+      continue;
+    }
+    p.links.push_back({static_cast<std::uint8_t>(id), m.last_send_utime, m.last_receive_utime});
+  }
+  if (own_robot_ && now - own_robot_received_ <= options_.fresh_us) p.pose = toPacket(*own_robot_);
+  if (own_ball_ && own_ball_->valid && now - own_ball_received_ <= options_.fresh_us) {
+    p.ball = toPacket(*own_ball_);
+  }
+  // Stamped last, as close to the send as we can.
+  p.send_utime = node_.now();
+  std::vector<std::uint8_t> bytes;
+  try {
+    bytes = encodePacket(p, options_.key);
+  } catch (const std::invalid_argument& e) {
+    node_.reportError("encode", e.what());
+    return;
+  }
+  if (link_.send(bytes)) {
+    ++counters_.sent;
+  } else {
+    ++counters_.send_failures;
+    node_.reportError("send", "the team packet could not be sent");
+  }
+}
+
+void TeamcommNode::pollLink() {
+  link_.poll(
+      [this](std::span<const std::uint8_t> bytes, Utime age_us) { onDatagram(bytes, age_us); });
+}
+
+void TeamcommNode::reject(Reject reason, int claimed_robot, const std::string& detail) {
+  ++counters_.rejected[static_cast<std::size_t>(reason)];
+  if (claimed_robot >= 1 && claimed_robot <= kMaxRobots && claimed_robot != node_.robotId()) {
+    ++mates_[static_cast<std::size_t>(claimed_robot - 1)].rejected;
+  }
+  node_.reportError("rejected_" + std::string(rejectName(reason)), detail);
+}
+
+void TeamcommNode::onDatagram(std::span<const std::uint8_t> bytes, Utime age_us) {
+  const Utime received = node_.now() - age_us;
+  // The sender byte, unauthenticated: only for attributing a refusal.
+  const int claimed = bytes.size() > 6 ? bytes[6] : 0;
+  DecodeResult decoded = decodePacket(bytes, options_.key);
+  if (!decoded.packet) {
+    reject(
+        decoded.reason, claimed,
+        std::to_string(bytes.size()) + "-byte datagram claiming robot " + std::to_string(claimed));
+    return;
+  }
+  const TeamPacket& p = *decoded.packet;
+  if (p.robot_id == node_.robotId()) {
+    // Our own multicast looped back (within moments, on our own clock) is ignored; one of our
+    // packets from longer ago, or one we never sent, is someone replaying it.
+    if (!options_.expect_own_echo || p.sequence >= next_sequence_ ||
+        next_sequence_ - p.sequence > 64 || received - p.send_utime > kOwnEchoMaxAge_us ||
+        received < p.send_utime) {
+      reject(Reject::kReplay, 0, "our own packet " + std::to_string(p.sequence) + " replayed");
+      return;
+    }
+    ++counters_.own_echo;
+    return;
+  }
+  Teammate& mate = mates_[static_cast<std::size_t>(p.robot_id - 1)];
+  const auto estimate = mate.offset.estimate(received);
+  const std::optional<double> offset =
+      estimate ? std::optional<double>(estimate->offset_us) : std::nullopt;
+  if (auto refused = gate_.admit(p, received, offset)) {
+    reject(*refused, p.robot_id,
+           "robot " + std::to_string(p.robot_id) + " sequence " + std::to_string(p.sequence));
+    return;
+  }
+  ++counters_.accepted;
+  ++mate.received;
+  // The round trip: our packet (t1, our clock) reached the teammate at t2 (its clock); it sent
+  // this one at t3 (its clock) and we received it at t4.
+  for (const LinkEcho& echo : p.links) {
+    if (echo.robot_id != node_.robotId()) continue;
+    mate.offset.add({echo.their_send_utime, echo.our_receive_utime, p.send_utime, received});
+  }
+  mate.heard = true;
+  mate.last_send_utime = p.send_utime;
+  mate.last_receive_utime = received;
+
+  Report report;
+  report.received_utime = received;
+  if (p.pose) {
+    const PacketPose& q = *p.pose;
+    perception::RobotEstimate& r = report.robot;
+    r.utime = toOurClock(mate, q.utime, p.send_utime, received);
+    r.pose = {q.x, q.y, q.phi};
+    r.vx = q.vx;
+    r.vy = q.vy;
+    r.omega = q.omega;
+    const auto& c = q.covariance;
+    r.covariance << c[0], c[1], c[2], c[1], c[3], c[4], c[2], c[4], c[5];
+    r.status = static_cast<perception::LocalizationStatus>(q.status);
+    r.since_vision_us = q.since_vision_us;
+  } else if (const Report* previous = picture_.report(p.robot_id)) {
+    // Heard, but its estimate is not fresh: the last pose it sent, ageing.
+    report.robot = previous->robot;
+  } else {
+    // Heard, never with a pose: present with an unknown, very uncertain one.
+    report.robot.utime = received;
+    report.robot.covariance = Eigen::Matrix3d::Identity() * kMaxVariance;
+  }
+  if (p.ball) {
+    const PacketBall& b = *p.ball;
+    perception::BallEstimate& e = report.ball;
+    e.valid = true;
+    e.utime = toOurClock(mate, b.utime, p.send_utime, received);
+    e.last_seen_utime = toOurClock(mate, b.last_seen_utime, p.send_utime, received);
+    e.x = b.x;
+    e.y = b.y;
+    e.vx = b.vx;
+    e.vy = b.vy;
+    e.covariance << b.covariance[0], b.covariance[1], b.covariance[1], b.covariance[2];
+  }
+  picture_.setReport(p.robot_id, report);
+}
+
+Utime TeamcommNode::toOurClock(const Teammate& mate, Utime their_utime, Utime their_send_utime,
+                               Utime our_receive_utime) const {
+  if (auto ours = mate.offset.toOurs(their_utime)) return *ours;
+  return our_receive_utime - (their_send_utime - their_utime);
+}
+
+void TeamcommNode::publishTeamState() {
+  const Utime now = node_.now();
+  if (own_robot_ && now - own_robot_received_ <= options_.picture.present_timeout_us) {
+    Report own;
+    own.robot = *own_robot_;
+    if (own_ball_) own.ball = *own_ball_;
+    own.received_utime = own_robot_received_;
+    picture_.setReport(node_.robotId(), own);
+  }
+  TeamBallResult ball;
+  perception::TeamState state = picture_.picture(now, &ball);
+  int present = 0;
+  double worst_uncertainty_ms = 0.0;
+  for (int id = 1; id <= kMaxRobots; ++id) {
+    perception::TeammateState& out = state.robots[static_cast<std::size_t>(id - 1)];
+    if (id == node_.robotId()) continue;
+    const Teammate& m = mates_[static_cast<std::size_t>(id - 1)];
+    out.packets_received = m.received;
+    out.packets_rejected = m.rejected;
+    if (const auto e = m.offset.estimate(now)) {
+      out.clock_offset_us = static_cast<std::int64_t>(std::llround(e->offset_us));
+      out.round_trip_us = e->min_round_trip_us;
+      if (out.present)
+        worst_uncertainty_ms = std::max(worst_uncertainty_ms, e->uncertainty_us / 1e3);
+    }
+    if (out.present) ++present;
+  }
+  msg::toMessage(state, team_state_msg_);
+  node_.publish(bus::channels::kTeamState, team_state_msg_);
+  node_.setMetric("teammates_present", present);
+  node_.setMetric("offset_uncertainty_ms", worst_uncertainty_ms);
+  node_.setMetric("packets_rejected", static_cast<double>(counters_.rejectedTotal()));
+  node_.setMetric("team_ball_rejected", static_cast<double>(ball.rejected.size()));
+}
+
+}  // namespace fieldline::teamcomm

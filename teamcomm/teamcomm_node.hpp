@@ -1,0 +1,100 @@
+// The teamcomm process's bus side: ROBOT_STATE and BALL_STATE in; the team packet out over a
+// PacketLink at the send rate with what is fresh; teammates' packets in (decoded, authenticated,
+// gated, their round trips fed to the clock offset estimators, their estimates converted to our
+// clock); TEAM_STATE out at the publish rate. Refused packets are counted by reason
+// (SERVICE_STATUS errors "rejected_<reason>", TEAM_STATE.packets_rejected per claimed sender).
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <map>
+#include <optional>
+#include <string>
+
+#include "common/bus/node.hpp"
+#include "common/perception/estimates.hpp"
+#include "teamcomm/clock_offset.hpp"
+#include "teamcomm/packet.hpp"
+#include "teamcomm/packet_gate.hpp"
+#include "teamcomm/team_picture.hpp"
+#include "teamcomm/transport.hpp"
+
+namespace fieldline::teamcomm {
+
+struct TeamcommOptions {
+  std::uint8_t team_id = 1;
+  TeamKey key;
+  // Team packets per second (10..30).
+  double send_rate_hz = 20.0;
+  // TEAM_STATE per second.
+  double publish_rate_hz = 10.0;
+  // How often the link is read, µs (until the bus waits on the socket itself).
+  Utime poll_period_us = 2'000;
+  // Our own estimates older than this (since they arrived) are not sent.
+  Utime fresh_us = 300'000;
+  // Our own packets come back (multicast loopback): ignore fresh ones. Otherwise any packet
+  // with our robot id is a replay.
+  bool expect_own_echo = true;
+  GateOptions gate;
+  OffsetOptions offset;
+  PictureOptions picture;
+};
+
+// Counts kept by the node, for tests and the status.
+struct LinkCounters {
+  std::int64_t sent = 0;
+  std::int64_t send_failures = 0;
+  std::int64_t accepted = 0;
+  std::int64_t own_echo = 0;
+  std::array<std::int64_t, kRejectKinds> rejected{};
+  std::int64_t rejectedTotal() const;
+};
+
+class TeamcommNode {
+ public:
+  // Subscribes ROBOT_STATE and BALL_STATE on `node`'s bus and starts the send, poll and publish
+  // timers. `link` must outlive the node.
+  TeamcommNode(bus::Node& node, PacketLink& link, TeamcommOptions options);
+
+  const LinkCounters& counters() const { return counters_; }
+  // The offset estimate of a teammate's clock (theirs minus ours) at `now`.
+  std::optional<OffsetEstimate> offset(int robot_id, Utime now) const;
+  // Reads the link now (the timer does this every poll period).
+  void pollLink();
+
+ private:
+  struct Teammate {
+    ClockOffsetEstimator offset;
+    // The newest accepted packet: its send time (their clock) and arrival (ours).
+    Utime last_send_utime = 0;
+    Utime last_receive_utime = 0;
+    bool heard = false;
+    std::int32_t received = 0;
+    std::int32_t rejected = 0;
+  };
+
+  void sendPacket();
+  void onDatagram(std::span<const std::uint8_t> bytes, Utime age_us);
+  void reject(Reject reason, int claimed_robot, const std::string& detail);
+  void publishTeamState();
+  // A teammate's time on our clock: through its offset when known, else relative to its send
+  // time (which ignores the network delay).
+  Utime toOurClock(const Teammate& mate, Utime their_utime, Utime their_send_utime,
+                   Utime our_receive_utime) const;
+
+  bus::Node& node_;
+  PacketLink& link_;
+  TeamcommOptions options_;
+  PacketGate gate_;
+  TeamPicture picture_;
+  std::array<Teammate, kMaxRobots> mates_;
+  std::optional<perception::RobotEstimate> own_robot_;
+  Utime own_robot_received_ = 0;
+  std::optional<perception::BallEstimate> own_ball_;
+  Utime own_ball_received_ = 0;
+  std::uint64_t next_sequence_ = 0;
+  LinkCounters counters_;
+  team_state_t team_state_msg_{};
+};
+
+}  // namespace fieldline::teamcomm

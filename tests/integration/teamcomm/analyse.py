@@ -1,0 +1,118 @@
+#!/usr/bin/env python3
+"""Checks the team test network's records (see teamcomm_net_test.sh for the timeline)."""
+import json
+import pathlib
+import re
+import sys
+
+out = pathlib.Path(sys.argv[1])
+reference = int(sys.argv[2])
+offsets = [int(v) for v in sys.argv[3].split()]
+drifts = [float(v) for v in sys.argv[4].split()]
+relay_log = (out / "relay.log").read_text()
+start = int(re.search(r"start_us=(\d+)", relay_log).group(1))
+attack = json.loads((out / "attack.json").read_text().strip().splitlines()[-1])
+failures = []
+
+
+def truth(i, j, t):
+    """Robot j's clock minus robot i's (1-based) at system time t, us."""
+    return (offsets[j] - offsets[i]) + (drifts[j] - drifts[i]) * 1e-6 * (t - reference)
+
+
+def p95(values):
+    values = sorted(values)
+    return values[min(len(values) - 1, int(0.95 * len(values)))] if values else float("nan")
+
+
+def at(s):
+    return start + int(s * 1e6)
+
+
+states, statuses = {}, {}
+for r in range(1, 7):
+    lines = [json.loads(l) for l in (out / f"probe{r}.jsonl").read_text().splitlines() if l]
+    states[r] = [l for l in lines if "utime" in l]
+    statuses[r] = [l for l in lines if "status_t" in l]
+    if len(states[r]) < 200:
+        failures.append(f"robot {r}: only {len(states[r])} TEAM_STATE messages")
+
+# 1. Offsets after 10 s of a clean link with asymmetric jitter: within 1 ms (p95).
+errors = []
+for r, recs in states.items():
+    for s in recs:
+        if at(10) <= s["t"] <= at(14):
+            for j in range(1, 7):
+                if j != r:
+                    errors.append(abs(s["offset"][j - 1] - truth(r, j, s["t"])))
+offset_p95 = p95(errors)
+print(f"offset error after 10 s: p95 {offset_p95 / 1e3:.3f} ms, max {max(errors) / 1e3:.3f} ms "
+      f"over {len(errors)} samples")
+if not errors or offset_p95 > 1000:
+    failures.append(f"offset error p95 {offset_p95} us > 1 ms")
+
+# 2. At 30 % loss: TEAM_STATE at 10 Hz, teammates' ages below 250 ms (p95).
+ages = []
+for r, recs in states.items():
+    window = [s for s in recs if at(15) <= s["t"] <= at(21.5)]
+    rate = (len(window) - 1) / ((window[-1]["t"] - window[0]["t"]) / 1e6) if len(window) > 1 else 0
+    if not 9.5 <= rate <= 10.5:
+        failures.append(f"robot {r}: TEAM_STATE at {rate:.2f} Hz under loss")
+    for s in window:
+        if sum(s["present"]) != 6:
+            failures.append(f"robot {r}: a teammate missing under loss at {(s['t'] - start) / 1e6:.1f} s")
+            break
+        ages += [s["age"][j] for j in range(6) if j != r - 1]
+print(f"teammate age at 30 % loss: p95 {p95(ages) / 1e3:.1f} ms, max {max(ages) / 1e3:.1f} ms")
+if not ages or p95(ages) > 250_000:
+    failures.append(f"age p95 {p95(ages)} us >= 250 ms under loss")
+
+# 3. The partition {1,2,3} | {4,5,6} from 22 s is reported, and healed within 1 s of 25 s.
+for r, recs in states.items():
+    side = {1, 2, 3} if r <= 3 else {4, 5, 6}
+    during = [s for s in recs if at(23) <= s["t"] <= at(24.9)]
+    bad = [s for s in during if any(s["present"][j - 1] != (j in side) for j in range(1, 7))]
+    if not during or bad:
+        failures.append(f"robot {r}: partition not reported ({len(bad)} of {len(during)} wrong)")
+    healed = next((s["t"] for s in recs if s["t"] >= at(25) and sum(s["present"]) == 6), None)
+    if healed is None or healed - at(25) > 1_000_000:
+        failures.append(f"robot {r}: not healed within 1 s ({healed and (healed - at(25)) / 1e6} s)")
+    else:
+        print(f"robot {r}: partition healed after {(healed - at(25)) / 1e3:.0f} ms")
+
+# 4. The attack: every forged packet refused and counted by reason; the picture unchanged.
+def rejected(status):
+    return sum(v for k, v in status["errors"].items() if k.startswith("rejected_"))
+
+total_refused = 0
+for r in range(1, 7):
+    before = [s for s in statuses[r] if s["status_t"] < at(26.5)]
+    after = statuses[r][-1]
+    if not before:
+        failures.append(f"robot {r}: no SERVICE_STATUS before the attack")
+        continue
+    total_refused += rejected(after) - rejected(before[-1])
+    kinds = {k: v for k, v in after["errors"].items() if k.startswith("rejected_")}
+    print(f"robot {r}: refused by reason {kinds}")
+    # Up to 32 s: the attack ends at 31 s, and from 34 s the probes stop one by one.
+    for s in states[r]:
+        if at(26.5) <= s["t"] <= at(32):
+            for j in range(1, 7):
+                if j != r and s["present"][j - 1] and abs(s["x"][j - 1] - (j - 4)) > 0.05:
+                    failures.append(f"robot {r}: teammate {j} moved to x={s['x'][j - 1]} during the attack")
+                    break
+    last = [s for s in states[r] if s["t"] <= at(32)][-1]
+    if sum(r_ for r_ in last["rejected"]) == 0:
+        failures.append(f"robot {r}: TEAM_STATE.packets_rejected shows nothing")
+    if not last["team_ball"][0] or abs(last["team_ball"][1] - 2.0) > 0.1:
+        failures.append(f"robot {r}: team ball {last['team_ball']}, expected (2, -1)")
+kernel_drops = sum(int((out / f"rcvbuf_errors{r}").read_text().strip() or 0) for r in range(1, 7))
+print(f"attacker sent {attack['total']}, the robots refused {total_refused}, "
+      f"the kernel dropped {kernel_drops} for full receive buffers")
+if total_refused + kernel_drops != attack["total"]:
+    failures.append(f"attack: sent {attack['total']}, refused {total_refused}")
+
+for f in failures[:30]:
+    print("FAIL:", f)
+print("PASS" if not failures else f"{len(failures)} failures")
+sys.exit(1 if failures else 0)

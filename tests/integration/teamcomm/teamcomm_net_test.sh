@@ -1,0 +1,89 @@
+#!/usr/bin/env bash
+# The team test network: six robots, each in its own network namespace with its own clock offset
+# and drift, joined by veth pairs to a bridge in the relay's namespace; the relay stands in for
+# the access point (delay, asymmetric jitter, loss, duplication, reordering, a partition), and an
+# attacker namespace on the same bridge sniffs and sends forged packets. Each robot runs
+# fieldline-teamcomm and a probe that publishes its ROBOT_STATE/BALL_STATE and records its
+# TEAM_STATE. Timeline (s): 0-14 clean link with jitter; 14-22 30 % loss with duplicates and
+# reordering; 22-25 partition {1,2,3} | {4,5,6}; 25 healed; 27-31 attack; 34 end.
+set -u
+bin=$1
+root=$2
+out=$(mktemp -d)
+tag=tc$$
+relay=${tag}relay
+attacker=${tag}att
+robots="1 2 3 4 5 6"
+cleanup() {
+  for ns in $relay $attacker $(for r in $robots; do echo ${tag}r$r; done); do
+    ip netns pids $ns 2>/dev/null | xargs -r kill 2>/dev/null
+    ip netns del $ns 2>/dev/null
+  done
+  rm -rf "$out"
+}
+trap cleanup EXIT
+
+ip netns add $relay || { echo "cannot create network namespaces (needs root)"; exit 1; }
+ip -n $relay link set lo up
+ip -n $relay link add br0 type bridge
+ip -n $relay link set br0 up
+ip -n $relay addr add 10.20.0.100/24 dev br0
+join() {  # namespace, address
+  ip netns add $1
+  ip link add eth0 netns $1 type veth peer name p_$1 netns $relay
+  ip -n $relay link set p_$1 master br0
+  ip -n $relay link set p_$1 up
+  ip -n $1 link set lo up
+  ip -n $1 link set lo multicast on
+  ip -n $1 route add 224.0.0.0/4 dev lo
+  ip -n $1 addr add $2/24 dev eth0
+  ip -n $1 link set eth0 up
+}
+for r in $robots; do join ${tag}r$r 10.20.0.$r; done
+join $attacker 10.20.0.66
+
+# Clock errors: offsets up to +-0.5 s, drifts up to +-50 ppm.
+offsets=(0 450000 -300000 120000 -500000 250000 -50000)
+drifts=(0 50 -35 20 -50 10 40)
+reference=$(date +%s%6N)
+duration=34
+export FIELDLINE_ROOT="$root"
+for r in $robots; do
+  ns=${tag}r$r
+  ball=""
+  case $r in 1|2|4) ball="--ball 2.0,-1.0";; 5) ball="--ball 4.0,-1.0";; esac
+  ip netns exec $ns env FIELDLINE_CLOCK_OFFSET_US=${offsets[$r]} FIELDLINE_CLOCK_DRIFT_PPM=${drifts[$r]} \
+    FIELDLINE_CLOCK_REFERENCE_US=$reference \
+    "$bin/fieldline-teamcomm" --robot $r --team-config "$root/tests/integration/teamcomm/net_team.yaml" \
+    > "$out/teamcomm$r.log" 2>&1 &
+  teamcomm_pids="${teamcomm_pids:-} $!"
+  ip netns exec $ns env FIELDLINE_CLOCK_OFFSET_US=${offsets[$r]} FIELDLINE_CLOCK_DRIFT_PPM=${drifts[$r]} \
+    FIELDLINE_CLOCK_REFERENCE_US=$reference \
+    "$bin/fieldline-team-probe" --robot $r --pose "$((r - 4)).0,1.5,0.3" $ball --duration $duration \
+    --out "$out/probe$r.jsonl" > "$out/probe$r.log" 2>&1 &
+  probe_pids="${probe_pids:-} $!"
+done
+# Base delays 0.5 ms per hop; jitter exponential per hop, heavier upward for some robots and
+# downward for others, so A->B and B->A differ; one-way delays 1-20 ms.
+ip netns exec $relay "$bin/fieldline-team-relay" \
+  $(for r in $robots; do echo --robot 10.20.0.$r:47600; done) \
+  --up-ms 0.5 --down-ms 0.5 --up-jitter-ms 3,1,2,0.5,2,1.5 --down-jitter-ms 1,2.5,0.5,2,1,2 \
+  --max-delay-ms 20 --monitor 10.20.0.66:47601 --duration $((duration + 1)) \
+  --schedule "14:loss=0.3,duplicate=0.05,reorder=0.1" \
+  --schedule "22:loss=0,duplicate=0,reorder=0,partition=123|456" \
+  --schedule "25:partition=none" > "$out/relay.log" 2>&1 &
+relay_pid=$!
+sleep 23
+ip netns exec $attacker "$bin/fieldline-team-attack" --sniff 4 --for 4 --rate 100 \
+  $(for r in $robots; do echo --target 10.20.0.$r:47600; done) > "$out/attack.json" 2> "$out/attack.log"
+wait $probe_pids $relay_pid
+# Datagrams the kernel dropped for a full receive buffer never reached teamcomm.
+for r in $robots; do
+  ip netns exec ${tag}r$r awk '/^Udp:/ {n++} n==2 && /^Udp:/ {print $6; exit}' /proc/net/snmp > "$out/rcvbuf_errors$r"
+done
+kill -TERM $teamcomm_pids
+wait $teamcomm_pids
+echo "--- relay"; cat "$out/relay.log"
+echo "--- attacker"; cat "$out/attack.json" "$out/attack.log"
+for r in $robots; do tail -n 2 "$out/teamcomm$r.log" | cut -c1-300; done
+python3 "$root/tests/integration/teamcomm/analyse.py" "$out" $reference "${offsets[*]}" "${drifts[*]}"

@@ -1,0 +1,211 @@
+// The team picture: teammates aged and predicted to now, presence, and the team ball's
+// covariance-weighted fusion with its consistency gate.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <array>
+#include <random>
+
+#include "common/msg/team_state.hpp"
+#include "teamcomm/team_picture.hpp"
+
+namespace fieldline::teamcomm {
+namespace {
+
+constexpr Utime kT0 = 1'700'000'000'000'000;
+
+Report report(double x, double y, Utime t, double pose_sigma = 0.05) {
+  Report r;
+  r.robot.utime = t;
+  r.robot.pose = {x, y, 0.5};
+  r.robot.covariance = Eigen::Matrix3d::Identity() * pose_sigma * pose_sigma;
+  r.robot.status = perception::LocalizationStatus::kTracking;
+  r.received_utime = t;
+  return r;
+}
+
+void seeBall(Report& r, double x, double y, double sigma, double vx = 0.0, double vy = 0.0) {
+  r.ball.valid = true;
+  r.ball.utime = r.robot.utime;
+  r.ball.last_seen_utime = r.robot.utime;
+  r.ball.x = x;
+  r.ball.y = y;
+  r.ball.vx = vx;
+  r.ball.vy = vy;
+  r.ball.covariance = Eigen::Matrix2d::Identity() * sigma * sigma;
+}
+
+TEST(teamcomm_picture, AgesAndPredictsTeammatesAndDropsTheSilentOnes) {
+  TeamPicture picture(1);
+  Report mate = report(1.0, -2.0, kT0);
+  mate.robot.vx = 2.0;
+  mate.robot.vy = -1.0;
+  mate.robot.omega = 1.0;
+  picture.setReport(3, mate);
+  const perception::TeamState s = picture.picture(kT0 + 100'000);
+  const perception::TeammateState& r3 = s.robots[2];
+  EXPECT_TRUE(r3.present);
+  EXPECT_EQ(r3.robot_age_us, 100'000);
+  EXPECT_NEAR(r3.x, 1.2, 1e-9);
+  EXPECT_NEAR(r3.y, -2.1, 1e-9);
+  EXPECT_NEAR(r3.phi, 0.6, 1e-9);
+  // sqrt(0.05^2 + (0.5 m/s * 0.1 s)^2)
+  EXPECT_NEAR(r3.sigma_xy, std::sqrt(0.0025 + 0.0025), 1e-6);
+  EXPECT_FALSE(s.robots[1].present);
+  EXPECT_FALSE(r3.ball_valid);
+  EXPECT_FALSE(s.team_ball_valid);
+  // Silent for longer than the timeout: absent.
+  EXPECT_FALSE(picture.picture(kT0 + 600'000).robots[2].present);
+}
+
+TEST(teamcomm_picture, FusesConsistentBallsBetterThanAnyOne) {
+  TeamPicture picture(1);
+  std::mt19937 rng(5);
+  std::normal_distribution<double> noise(0.0, 0.15);
+  double fused_error = 0.0;
+  std::array<double, 4> single_error{};
+  for (int trial = 0; trial < 200; ++trial) {
+    for (int id = 1; id <= 4; ++id) {
+      Report r = report(id, 0.0, kT0);
+      const double bx = 2.0 + noise(rng), by = 1.0 + noise(rng);
+      seeBall(r, bx, by, 0.15);
+      single_error[static_cast<std::size_t>(id - 1)] += std::hypot(bx - 2.0, by - 1.0);
+      picture.setReport(id, r);
+    }
+    TeamBallResult ball;
+    const auto s = picture.picture(kT0, &ball);
+    ASSERT_TRUE(s.team_ball_valid);
+    EXPECT_EQ(ball.used.size(), 4u);
+    fused_error += std::hypot(s.team_ball_x - 2.0, s.team_ball_y - 1.0);
+  }
+  // Four equal robots: the fused error is about half of the best robot's mean error.
+  const double best_single = *std::min_element(single_error.begin(), single_error.end());
+  EXPECT_LT(fused_error, 0.6 * best_single);
+}
+
+TEST(teamcomm_picture, LeavesOutAMislocalizedTeammatesBall) {
+  TeamPicture picture(2);
+  for (int id : {1, 2, 3}) {
+    Report r = report(0.0, id, kT0);
+    seeBall(r, 3.0 + 0.02 * id, -1.0, 0.1);
+    picture.setReport(id, r);
+  }
+  // Robot 5 thinks it is 2 m from where it is, confidently: its ball is 2 m off.
+  Report lost = report(-2.0, 0.0, kT0, 0.02);
+  seeBall(lost, 1.0, -1.0, 0.05);
+  picture.setReport(5, lost);
+  TeamBallResult ball;
+  const auto s = picture.picture(kT0 + 20'000, &ball);
+  ASSERT_TRUE(s.team_ball_valid);
+  EXPECT_EQ(ball.used, (std::vector<int>{1, 2, 3}));
+  EXPECT_EQ(ball.rejected, (std::vector<int>{5}));
+  EXPECT_NEAR(s.team_ball_x, 3.04, 0.01);
+  EXPECT_NEAR(s.team_ball_y, -1.0, 1e-6);
+  // Its own view of its ball is still reported, just not fused.
+  EXPECT_TRUE(s.robots[4].ball_valid);
+  EXPECT_NEAR(s.robots[4].ball_x, 1.0, 1e-9);
+}
+
+TEST(teamcomm_picture, UsesOnlyFreshBallsFromLocalizedRobotsAndPredictsThem) {
+  TeamPicture picture(1);
+  Report searching = report(0.0, 0.0, kT0);
+  searching.robot.status = perception::LocalizationStatus::kSearching;
+  seeBall(searching, 1.0, 1.0, 0.1);
+  picture.setReport(2, searching);
+  Report stale = report(0.0, 0.0, kT0);
+  seeBall(stale, -1.0, 1.0, 0.1);
+  stale.ball.last_seen_utime = kT0 - 1'500'000;
+  picture.setReport(3, stale);
+  EXPECT_FALSE(picture.picture(kT0).team_ball_valid);
+
+  Report rolling = report(0.0, 0.0, kT0);
+  seeBall(rolling, 0.0, 0.0, 0.1, 1.0, -2.0);
+  picture.setReport(4, rolling);
+  const auto s = picture.picture(kT0 + 200'000);
+  ASSERT_TRUE(s.team_ball_valid);
+  EXPECT_NEAR(s.team_ball_x, 0.2, 1e-9);
+  EXPECT_NEAR(s.team_ball_y, -0.4, 1e-9);
+  EXPECT_NEAR(s.team_ball_vx, 1.0, 1e-9);
+  EXPECT_EQ(s.robots[3].ball_age_us, 200'000);
+  // Prediction uncertainty grew: 0.1^2 + 0.05^2 (pose) + (1 m/s * 0.2 s)^2.
+  EXPECT_NEAR(s.team_ball_covariance(0, 0), 0.01 + 0.0025 + 0.04, 1e-9);
+}
+
+TEST(teamcomm_picture, WhenTwoDisagreeTheMoreCertainWins) {
+  TeamPicture picture(1);
+  Report a = report(0.0, 0.0, kT0);
+  seeBall(a, 0.0, 0.0, 0.3);
+  Report b = report(0.0, 0.0, kT0);
+  seeBall(b, 4.0, 0.0, 0.1);
+  picture.setReport(1, a);
+  picture.setReport(2, b);
+  TeamBallResult ball;
+  picture.picture(kT0, &ball);
+  EXPECT_EQ(ball.used, std::vector<int>{2});
+  EXPECT_EQ(ball.rejected, std::vector<int>{1});
+}
+
+TEST(teamcomm_team_state, MessageCarriesEveryField) {
+  perception::TeamState s;
+  s.utime = kT0;
+  for (int i = 0; i < perception::kTeamSize; ++i) {
+    auto& r = s.robots[static_cast<std::size_t>(i)];
+    r.present = i % 2 == 0;
+    r.x = i + 0.1;
+    r.y = -i - 0.2;
+    r.phi = 0.3 * i;
+    r.sigma_xy = 0.01f * static_cast<float>(i);
+    r.robot_age_us = 1000 * i;
+    r.ball_valid = i % 3 == 0;
+    r.ball_x = 0.5 * i;
+    r.ball_y = -0.5 * i;
+    r.ball_age_us = 2000 * i;
+    r.clock_offset_us = -300'000 + i;
+    r.round_trip_us = 4000 + i;
+    r.packets_received = 100 * i;
+    r.packets_rejected = 7 * i;
+  }
+  s.team_ball_valid = true;
+  s.team_ball_x = 1.5;
+  s.team_ball_y = -2.5;
+  s.team_ball_vx = 0.25;
+  s.team_ball_vy = -0.75;
+  s.team_ball_covariance << 0.04, 0.01, 0.01, 0.09;
+  team_state_t m;
+  msg::toMessage(s, m);
+  EXPECT_EQ(m.num_robots, 6);
+  const perception::TeamState back = msg::fromMessage(m);
+  EXPECT_EQ(back.utime, s.utime);
+  for (std::size_t i = 0; i < 6; ++i) {
+    const auto &a = s.robots[i], &b = back.robots[i];
+    EXPECT_EQ(a.present, b.present);
+    EXPECT_EQ(a.x, b.x);
+    EXPECT_EQ(a.y, b.y);
+    EXPECT_EQ(a.phi, b.phi);
+    EXPECT_EQ(a.sigma_xy, b.sigma_xy);
+    EXPECT_EQ(a.robot_age_us, b.robot_age_us);
+    EXPECT_EQ(a.ball_valid, b.ball_valid);
+    EXPECT_EQ(a.ball_x, b.ball_x);
+    EXPECT_EQ(a.ball_y, b.ball_y);
+    EXPECT_EQ(a.ball_age_us, b.ball_age_us);
+    EXPECT_EQ(a.clock_offset_us, b.clock_offset_us);
+    EXPECT_EQ(a.round_trip_us, b.round_trip_us);
+    EXPECT_EQ(a.packets_received, b.packets_received);
+    EXPECT_EQ(a.packets_rejected, b.packets_rejected);
+  }
+  EXPECT_EQ(back.team_ball_valid, true);
+  EXPECT_EQ(back.team_ball_x, 1.5);
+  EXPECT_EQ(back.team_ball_y, -2.5);
+  EXPECT_EQ(back.team_ball_vx, 0.25);
+  EXPECT_EQ(back.team_ball_vy, -0.75);
+  EXPECT_EQ(back.team_ball_covariance, s.team_ball_covariance);
+  // A short message leaves the missing robots absent instead of reading past its arrays.
+  m.num_robots = 2;
+  m.present.resize(2);
+  const perception::TeamState cut = msg::fromMessage(m);
+  EXPECT_TRUE(cut.robots[0].present);
+  EXPECT_FALSE(cut.robots[2].present);
+}
+
+}  // namespace
+}  // namespace fieldline::teamcomm

@@ -1,0 +1,318 @@
+// Several teamcomm nodes in one process: each robot has its own memq:// bus and its own clock
+// (offset and drift from true time), and the team packets travel through an in-memory hub with
+// per-direction delays, loss and an attacker's injections. Time is simulated and stepped.
+#include "teamcomm/teamcomm_node.hpp"
+
+#include <gtest/gtest.h>
+
+#include <deque>
+#include <memory>
+#include <random>
+
+#include "common/bus/node.hpp"
+#include "common/msg/estimates.hpp"
+#include "common/msg/team_state.hpp"
+#include "common/time/offset_clock.hpp"
+
+namespace fieldline::teamcomm {
+namespace {
+
+constexpr Utime kT0 = 1'800'000'000'000'000;
+
+class Hub;
+
+class HubLink final : public PacketLink {
+ public:
+  HubLink(Hub& hub, int robot) : hub_(hub), robot_(robot) {}
+  bool send(std::span<const std::uint8_t> bytes) override;
+  void poll(const std::function<void(std::span<const std::uint8_t>, Utime)>& on_packet) override;
+  void deliver(std::vector<std::uint8_t> bytes, Utime at) {
+    inbox_.push_back({std::move(bytes), at});
+  }
+
+ private:
+  struct Datagram {
+    std::vector<std::uint8_t> bytes;
+    Utime at;
+  };
+  Hub& hub_;
+  int robot_;
+  std::deque<Datagram> inbox_;
+};
+
+// The access point: forwards every datagram to every link (its sender too, like multicast
+// loopback) after a delay of the true clock.
+class Hub {
+ public:
+  explicit Hub(const SimulatedClock& truth) : truth_(truth) {}
+  HubLink& add(int robot) {
+    links_.push_back(std::make_unique<HubLink>(*this, robot));
+    return *links_.back();
+  }
+  void broadcast(int from, std::span<const std::uint8_t> bytes) {
+    if (from > 0) sent_by_.push_back({from, {bytes.begin(), bytes.end()}});
+    for (std::size_t i = 0; i < links_.size(); ++i) {
+      const int to = static_cast<int>(i) + 1;
+      if (to != from && loss > 0.0 && std::uniform_real_distribution<double>()(rng) < loss)
+        continue;
+      // Uplink 1 ms plus an exponential tail, downlink 1-3 ms: asymmetric, 2-22 ms in all.
+      Utime delay = 0;
+      if (to != from) {
+        const double up = 1000.0 + std::exponential_distribution<double>(1.0 / 3000.0)(rng);
+        const double down = std::uniform_real_distribution<double>(1000.0, 3000.0)(rng);
+        delay = static_cast<Utime>(std::min(up, 19'000.0) + down);
+      }
+      links_[i]->deliver({bytes.begin(), bytes.end()}, truth_.now() + delay);
+    }
+  }
+  Utime now() const { return truth_.now(); }
+  // What robot `id` sent, in order (the attacker records it).
+  std::vector<std::pair<int, std::vector<std::uint8_t>>> sent_by_;
+  double loss = 0.0;
+  std::mt19937 rng{3};
+
+ private:
+  const SimulatedClock& truth_;
+  std::vector<std::unique_ptr<HubLink>> links_;
+};
+
+bool HubLink::send(std::span<const std::uint8_t> bytes) {
+  hub_.broadcast(robot_, bytes);
+  return true;
+}
+
+void HubLink::poll(const std::function<void(std::span<const std::uint8_t>, Utime)>& on_packet) {
+  const Utime now = hub_.now();
+  // Datagrams are delivered in arrival order (reordering happens through the delays).
+  std::stable_sort(inbox_.begin(), inbox_.end(),
+                   [](const Datagram& a, const Datagram& b) { return a.at < b.at; });
+  while (!inbox_.empty() && inbox_.front().at <= now) {
+    const Datagram d = std::move(inbox_.front());
+    inbox_.pop_front();
+    on_packet(d.bytes, now - d.at);
+  }
+}
+
+TeamKey devKey() {
+  TeamKey k;
+  for (std::size_t i = 0; i < k.bytes.size(); ++i)
+    k.bytes[i] = static_cast<std::uint8_t>(3 * i + 1);
+  return k;
+}
+
+// One robot: its clock, its bus, a stand-in for fusion, teamcomm, and a TEAM_STATE listener.
+struct Robot {
+  Robot(int id, const SimulatedClock& truth, Hub& hub, Utime offset_us, double drift_ppm)
+      : clock(truth, offset_us, drift_ppm, kT0),
+        bus(bus::Connection::open("memq://")),
+        node({.process = "teamcomm", .robot_id = id}, clock, bus),
+        fusion({.process = "fusion", .robot_id = id, .status_period_us = 0}, clock, bus),
+        listener({.process = "listener", .robot_id = id, .status_period_us = 0}, clock, bus),
+        team(node, hub.add(id), [] {
+          TeamcommOptions o;
+          o.key = devKey();
+          return o;
+        }()) {
+    listener.subscribe(bus::channels::kTeamState,
+                       [this](const team_state_t& m) { states.push_back(msg::fromMessage(m)); });
+  }
+  void publishEstimates() {
+    robot_state_t r{};
+    perception::RobotEstimate e = pose;
+    e.utime = clock.now() - 8'000;
+    msg::toMessage(e, r);
+    fusion.publish(bus::channels::kRobotState, r);
+    ball_state_t b{};
+    perception::BallEstimate be = ball;
+    be.utime = e.utime;
+    be.last_seen_utime = e.utime - 30'000;
+    msg::toMessage(be, b);
+    fusion.publish(bus::channels::kBallState, b);
+  }
+  void spin() {
+    fusion.spinOnce(0);
+    node.spinOnce(0);
+    listener.spinOnce(0);
+  }
+
+  OffsetClock clock;
+  std::shared_ptr<bus::Connection> bus;
+  bus::Node node;
+  bus::Node fusion;
+  bus::Node listener;
+  TeamcommNode team;
+  perception::RobotEstimate pose;
+  perception::BallEstimate ball;
+  bool publishing = true;
+  std::vector<perception::TeamState> states;
+};
+
+struct Team {
+  explicit Team(std::vector<std::pair<Utime, double>> clocks) {
+    for (std::size_t i = 0; i < clocks.size(); ++i) {
+      robots.push_back(std::make_unique<Robot>(static_cast<int>(i) + 1, truth, hub, clocks[i].first,
+                                               clocks[i].second));
+      Robot& r = *robots.back();
+      r.pose.pose = {-3.0 + static_cast<double>(i), 1.0, 0.2};
+      r.pose.covariance = Eigen::Matrix3d::Identity() * 0.01;
+      r.pose.status = perception::LocalizationStatus::kTracking;
+      r.ball.valid = true;
+      r.ball.x = 2.0;
+      r.ball.y = -1.0;
+      r.ball.covariance = Eigen::Matrix2d::Identity() * 0.01;
+    }
+  }
+  // Steps true time in 1 ms steps; fusion publishes at 50 Hz.
+  void run(double seconds, const std::function<void()>& each_ms = {}) {
+    const int steps = static_cast<int>(seconds * 1000);
+    for (int s = 0; s < steps; ++s) {
+      truth.advance(1000);
+      ++ms;
+      for (auto& r : robots) {
+        if (ms % 20 == 0 && r->publishing) r->publishEstimates();
+        r->spin();
+      }
+      if (each_ms) each_ms();
+    }
+  }
+  // Robot j's clock minus robot i's, now.
+  double trueOffset(std::size_t i, std::size_t j) const {
+    return static_cast<double>(robots[j]->clock.now() - robots[i]->clock.now());
+  }
+
+  SimulatedClock truth{kT0};
+  Hub hub{truth};
+  std::vector<std::unique_ptr<Robot>> robots;
+  long ms = 0;
+};
+
+TEST(teamcomm_node, ThreeRobotsShareThePictureAndLearnEachOthersClocks) {
+  Team team({{0, 0.0}, {437'000, 50.0}, {-312'000, -40.0}});
+  // Robot 3 is mislocalized by 2 m and confident: its ball lands 2 m off.
+  team.robots[2]->ball.x = 4.0;
+  team.run(12.0);
+  for (std::size_t i = 0; i < 3; ++i) {
+    Robot& r = *team.robots[i];
+    // TEAM_STATE at 10 Hz.
+    EXPECT_NEAR(static_cast<double>(r.states.size()), 120.0, 2.0) << "robot " << i + 1;
+    const perception::TeamState& s = r.states.back();
+    for (std::size_t j = 0; j < 6; ++j)
+      EXPECT_EQ(s.robots[j].present, j < 3) << i << "," << j;
+    for (std::size_t j = 0; j < 3; ++j) {
+      if (j == i) continue;
+      const auto& mate = s.robots[j];
+      EXPECT_NEAR(mate.x, -3.0 + static_cast<double>(j), 1e-5);
+      EXPECT_LT(mate.robot_age_us, 120'000);
+      EXPECT_GT(mate.packets_received, 200);
+      EXPECT_EQ(mate.packets_rejected, 0);
+      EXPECT_NEAR(static_cast<double>(mate.clock_offset_us), team.trueOffset(i, j), 500.0)
+          << "robot " << i + 1 << " of " << j + 1;
+      EXPECT_GT(mate.round_trip_us, 3000);
+    }
+    // Robot 3's ball is outvoted by robots 1 and 2.
+    ASSERT_TRUE(s.team_ball_valid);
+    EXPECT_NEAR(s.team_ball_x, 2.0, 0.05);
+    EXPECT_NEAR(s.team_ball_y, -1.0, 0.05);
+    EXPECT_GT(r.team.counters().own_echo, 200);
+    EXPECT_EQ(r.team.counters().rejectedTotal(), 0);
+  }
+  // The estimator itself, tighter than TEAM_STATE's integer µs.
+  const auto e = team.robots[0]->team.offset(2, team.robots[0]->clock.now());
+  ASSERT_TRUE(e);
+  EXPECT_NEAR(e->offset_us, team.trueOffset(0, 1), 500.0);
+  EXPECT_NEAR(e->drift_ppm, 50.0, 25.0);
+}
+
+TEST(teamcomm_node, ForgedReplayedAndBrokenPacketsChangeNothing) {
+  Team team({{0, 0.0}, {250'000, 20.0}});
+  team.run(3.0);
+  Robot& victim = *team.robots[0];
+  const perception::TeamState before = victim.states.back();
+  const std::int64_t accepted_before = victim.team.counters().accepted;
+  // What the attacker recorded from robot 2.
+  std::vector<std::vector<std::uint8_t>> recorded;
+  for (const auto& [from, bytes] : team.hub.sent_by_) {
+    if (from == 2) recorded.push_back(bytes);
+  }
+  ASSERT_GT(recorded.size(), 50u);
+
+  TeamPacket forged;
+  forged.team_id = 1;
+  forged.robot_id = 2;
+  forged.sequence = std::numeric_limits<std::uint64_t>::max() - 5;
+  forged.pose = PacketPose{};
+  forged.pose->x = 5.0f;
+  TeamKey wrong = devKey();
+  wrong.bytes[0] ^= 1;
+  std::mt19937 rng(9);
+  int injected = 0;
+  auto inject = [&](std::vector<std::uint8_t> bytes) {
+    team.hub.broadcast(0, bytes);
+    ++injected;
+  };
+  team.run(3.0, [&] {
+    forged.send_utime = victim.clock.now() + 250'000;
+    inject(encodePacket(forged, wrong));                     // wrong key
+    inject(recorded[static_cast<std::size_t>(rng() % 40)]);  // replay
+    auto flipped = recorded.back();
+    flipped[rng() % flipped.size()] ^= static_cast<std::uint8_t>(1u << (rng() % 8));
+    inject(flipped);                                                            // flipped bit
+    inject({recorded.back().begin(), recorded.back().end() - 1 - rng() % 40});  // truncated
+    inject(std::vector<std::uint8_t>(1401 + rng() % 200, 0x42));                // oversized
+    for (int k = 0; k < 20; ++k) {                                              // flood
+      std::vector<std::uint8_t> junk(rng() % 400);
+      for (auto& b : junk)
+        b = static_cast<std::uint8_t>(rng());
+      inject(junk);
+    }
+  });
+  team.run(0.1);  // what is still on its way arrives
+  const LinkCounters& c = victim.team.counters();
+  EXPECT_EQ(c.rejectedTotal(), injected);
+  EXPECT_GT(c.rejected[static_cast<std::size_t>(Reject::kAuth)], 3000);
+  EXPECT_EQ(c.rejected[static_cast<std::size_t>(Reject::kReplay)] +
+                c.rejected[static_cast<std::size_t>(Reject::kStale)],
+            3000);
+  EXPECT_EQ(c.rejected[static_cast<std::size_t>(Reject::kOversized)], 3000);
+  EXPECT_GT(c.rejected[static_cast<std::size_t>(Reject::kTruncated)], 0);
+  // The real robot 2 still gets through, at its own rate.
+  EXPECT_NEAR(static_cast<double>(c.accepted - accepted_before), 62.0, 3.0);
+  const perception::TeamState after = victim.states.back();
+  EXPECT_TRUE(after.robots[1].present);
+  EXPECT_EQ(after.robots[1].x, before.robots[1].x);
+  EXPECT_EQ(after.robots[1].y, before.robots[1].y);
+  EXPECT_GT(after.robots[1].packets_rejected, 3000);
+  EXPECT_NEAR(after.team_ball_x, before.team_ball_x, 1e-9);
+  // Counted by reason in SERVICE_STATUS.
+  EXPECT_GT(victim.node.status().errorCount("rejected_auth"), 3000);
+  EXPECT_EQ(victim.node.status().errorCount("rejected_oversized"), 3000);
+}
+
+TEST(teamcomm_node, ATeammateWhoseFusionStopsKeepsItsLastPoseAgeing) {
+  Team team({{0, 0.0}, {-200'000, 0.0}});
+  team.run(2.0);
+  team.robots[1]->publishing = false;
+  team.run(1.0);
+  const perception::TeammateState& mate = team.robots[0]->states.back().robots[1];
+  // Still heard (its packets carry the round trips), with the last pose it sent, 0.7-1 s old.
+  EXPECT_TRUE(mate.present);
+  EXPECT_NEAR(mate.x, -2.0, 1e-5);
+  EXPECT_GT(mate.robot_age_us, 690'000);
+  EXPECT_FALSE(mate.ball_valid);
+}
+
+TEST(teamcomm_node, APartitionIsReportedAndHealsWithinASecond) {
+  Team team({{0, 0.0}, {100'000, 0.0}});
+  team.run(3.0);
+  EXPECT_TRUE(team.robots[0]->states.back().robots[1].present);
+  team.hub.loss = 1.0;
+  team.run(1.0);
+  EXPECT_FALSE(team.robots[0]->states.back().robots[1].present);
+  team.hub.loss = 0.0;
+  team.run(0.3);
+  EXPECT_TRUE(team.robots[0]->states.back().robots[1].present);
+  EXPECT_TRUE(team.robots[1]->states.back().robots[0].present);
+}
+
+}  // namespace
+}  // namespace fieldline::teamcomm
