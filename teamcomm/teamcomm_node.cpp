@@ -100,7 +100,13 @@ TeamcommNode::TeamcommNode(bus::Node& node, PacketLink& link, TeamcommOptions op
     own_ball_received_ = node_.now();
   });
   node_.every(static_cast<Utime>(1e6 / options_.send_rate_hz), [this] { sendPacket(); });
-  node_.every(options_.poll_period_us, [this] { pollLink(); });
+  // A socket is waited on by the node's event loop; a link without one (the in-process test
+  // hub) is polled.
+  if (const int fd = link_.fileDescriptor(); fd >= 0) {
+    node_.watchFd(fd, [this] { pollLink(); });
+  } else {
+    node_.every(options_.poll_period_us, [this] { pollLink(); });
+  }
   node_.every(static_cast<Utime>(1e6 / options_.publish_rate_hz), [this] { publishTeamState(); });
 }
 
