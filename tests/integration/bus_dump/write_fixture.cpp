@@ -31,11 +31,20 @@ Utime logTime(std::int64_t seq) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  if (argc != 2) {
-    std::fprintf(stderr, "usage: %s OUTPUT.lcmlog\n", argv[0]);
+  const bool probe = argc == 3 && std::string(argv[2]) == "--probe";
+  if (argc != 2 && !probe) {
+    std::fprintf(stderr, "usage: %s OUTPUT.lcmlog [--probe]\n", argv[0]);
     return 2;
   }
   const std::string path = argv[1];
+  if (probe) {
+    // One message with seq 1000, for the live test to see that the dump is listening.
+    bus::LogWriter log(path);
+    motion_command_t command{};
+    command.header = header(1000);
+    log.write(bus::channels::kMotionCommand, logTime(1000), command);
+    return 0;
+  }
   {
     bus::LogWriter log(path);
     namespace ch = bus::channels;
