@@ -40,7 +40,7 @@ class Dumper {
  public:
   explicit Dumper(const Settings& settings) : settings_(settings) {}
 
-  // Prints one checked message; false if it does not decode (counted as rejected).
+  // Prints one checked message; one that does not decode is counted as rejected instead.
   void print(std::string_view channel, std::string_view time_key, Utime time,
              std::optional<std::int64_t> event_number, const void* data, int size) {
     line_.clear();
@@ -183,7 +183,7 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(std::int64_t{1}, std::int64_t{1} << 40));
   auto* duration = app.add_option("--duration", duration_s,
                                   "Stop after this many seconds (bus: wall time; log: log time "
-                                  "from the first dumped event)")
+                                  "from the first event of the chosen channels)")
                        ->check(CLI::Range(1e-6, 1e7));
   app.add_flag("--follow", follow,
                "Bus only: dump until interrupted (a bus dump needs --count, --duration or this)");
