@@ -1,8 +1,9 @@
 // fieldline-team-probe: the observer of tests/integration/team. Listens to SERVICE_STATUS on the
 // simulator's bus and the robots' buses until every expected process's latest report says ok
-// (exit 0) or the timeout passes (exit 1, naming the processes that are not ok and why). Prints
-// one JSON line per process heard: its bus, name, state, seconds until its first ok report, and
-// the channels it publishes (so the test checks the traffic of whatever processes exist).
+// (exit 0, after listening --settle seconds more) or the timeout passes (exit 1, naming the
+// processes that are not ok and why). Prints one JSON line per process heard: its bus, name,
+// state, seconds until its first ok report, and the channels it publishes (so the test checks the
+// traffic of whatever processes exist).
 #include <map>
 #include <set>
 #include <string>
@@ -65,6 +66,7 @@ int main(int argc, char** argv) {
   int robots = 6;
   bool sim = false;
   double timeout_s = 60.0;
+  double settle_s = 2.5;
   std::vector<std::string> expected;
   bus::BusAddress address;
   app.add_option("--robots", robots, "Listen to robots 1..N")
@@ -74,11 +76,20 @@ int main(int argc, char** argv) {
   app.add_option("--timeout", timeout_s, "Seconds to wait at most")
       ->check(CLI::Range(0.1, 3600.0))
       ->capture_default_str();
+  app.add_option("--settle", settle_s,
+                 "Seconds to go on listening once all are ok, to learn every process's outputs")
+      ->check(CLI::Range(0.0, 60.0))
+      ->capture_default_str();
   app.add_option("--expect", expected, "Processes that must report ok, as BUS/PROCESS (r1/camera)")
       ->required();
   app.add_option("--base-port", address.base_port, "Port of the simulator's bus; robot N is base+N")
       ->capture_default_str();
-  CLI11_PARSE(app, argc, argv);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    const int code = app.exit(e);  // prints the help or the problem
+    return code == 0 ? 0 : 2;
+  }
 
   return bus::runMain("team_probe", [&] {
     SystemClock clock;
@@ -128,6 +139,12 @@ int main(int argc, char** argv) {
     while (!notOk().empty() && clock.now() < end && !bus::stopSignalReceived())
       node.spinOnce(50);
     const double waited_s = static_cast<double>(clock.now() - start) / 1e6;
+    // A few more reports, so that every process's list of outputs is complete (a process lists a
+    // channel from its first message on it).
+    const bool all_ok = notOk().empty();
+    const Utime settled = clock.now() + static_cast<Utime>(settle_s * 1e6);
+    while (all_ok && clock.now() < settled && !bus::stopSignalReceived())
+      node.spinOnce(50);
 
     for (const auto& [label, h] : heard) {
       std::string outputs;
@@ -140,7 +157,7 @@ int main(int argc, char** argv) {
           quoted(label.substr(0, slash)), quoted(label.substr(slash + 1)),
           quoted(stateName(h.state)), h.first_ok_s, outputs, quoted(h.last_error));
     }
-    const std::vector<std::string> missing = notOk();
+    const std::vector<std::string> missing = all_ok ? std::vector<std::string>{} : notOk();
     for (const std::string& label : missing) {
       const auto it = heard.find(label);
       fmt::print(stderr, "team_probe: {} is {} after {:.1f} s{}\n", label,
