@@ -12,14 +12,23 @@ function(fieldline_add_subdirectories dir)
   endforeach()
 endfunction()
 
-# fieldline_test(NAME SOURCES a.cpp b.cpp LIBS lib1 lib2 [LABELS unit])
-# A GoogleTest executable whose cases are registered with CTest one by one.
+# fieldline_test(NAME SOURCES a.cpp b.cpp LIBS lib1 lib2 [LABELS unit] [ONE_PROCESS])
+# A GoogleTest executable whose cases are registered with CTest one by one, each run in its own
+# process. ONE_PROCESS registers the executable as a single CTest test (named NAME) that runs all
+# its cases in one process, for cases sharing an expensive suite fixture, such as the simulated
+# camera's floor raster (~0.7 s to build), which would otherwise be rebuilt by every case's process.
 function(fieldline_test name)
-  cmake_parse_arguments(ARG "" "" "SOURCES;LIBS;LABELS" ${ARGN})
+  cmake_parse_arguments(ARG "ONE_PROCESS" "" "SOURCES;LIBS;LABELS" ${ARGN})
   add_executable(${name} ${ARG_SOURCES})
   target_link_libraries(${name} PRIVATE ${ARG_LIBS} GTest::gtest GTest::gtest_main fieldline_root)
   if(NOT ARG_LABELS)
     set(ARG_LABELS unit)
+  endif()
+  if(ARG_ONE_PROCESS)
+    add_test(NAME ${name} COMMAND ${name} WORKING_DIRECTORY ${PROJECT_SOURCE_DIR})
+    set_tests_properties(${name} PROPERTIES LABELS "${ARG_LABELS}"
+      ENVIRONMENT "FIELDLINE_ROOT=${PROJECT_SOURCE_DIR}")
+    return()
   endif()
   gtest_discover_tests(${name}
     WORKING_DIRECTORY ${PROJECT_SOURCE_DIR}
