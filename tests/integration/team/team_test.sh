@@ -5,7 +5,7 @@
 # configured latency, nothing restarts, and the launcher stops everything cleanly (exit code 0).
 #
 # Bounded in time and robust to a loaded machine:
-# - instead of a fixed sleep, fieldline-team-probe waits until every process's SERVICE_STATUS says
+# - instead of a fixed sleep, fieldline-ready-probe waits until every process's SERVICE_STATUS says
 #   ok, at most READY_TIMEOUT_S seconds;
 # - a channel may lose at most 1 % of its messages (seq gaps, rounded up to whole messages) while
 #   bus-stats listens: on a loaded machine a UDP socket buffer can overflow now and then.
@@ -35,7 +35,7 @@ $ns bash -c "
   '$bin/fieldline-launch' sim_team --duration $((READY_TIMEOUT_S + LISTEN_S + 40)) --no-table \
     --status-period 5 > '$out/launch.log' 2>&1 &
   launcher=\$!
-  '$bin/fieldline-team-probe' --robots 6 --sim --timeout $READY_TIMEOUT_S \
+  '$bin/fieldline-ready-probe' --robots 6 --sim --timeout $READY_TIMEOUT_S \
     $(for e in $expect; do printf -- '--expect %s ' "$e"; done) > '$out/probe.jsonl' 2> '$out/probe.log'
   echo \$? > '$out/probe.rc'
   '$bin/fieldline-bus-stats' --robots 6 --sim --duration $LISTEN_S --json > '$out/stats.jsonl'

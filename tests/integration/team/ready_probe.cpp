@@ -1,4 +1,4 @@
-// fieldline-team-probe: the observer of tests/integration/team. Listens to SERVICE_STATUS on the
+// fieldline-ready-probe: the observer of tests/integration/team. Listens to SERVICE_STATUS on the
 // simulator's bus and the robots' buses until every expected process's latest report says ok
 // (exit 0, after listening --settle seconds more) or the timeout passes (exit 1, naming the
 // processes that are not ok and why). Prints one JSON line per process heard: its bus, name,
@@ -91,7 +91,7 @@ int main(int argc, char** argv) {
     return code == 0 ? 0 : 2;
   }
 
-  return bus::runMain("team_probe", [&] {
+  return bus::runMain("ready_probe", [&] {
     SystemClock clock;
     std::vector<std::pair<std::string, std::string>> buses;  // name, url
     if (sim) buses.emplace_back("sim", bus::simBusUrl(address));
@@ -103,7 +103,7 @@ int main(int argc, char** argv) {
     const Utime start = clock.now();
     std::map<std::string, Heard> heard;  // "r1/camera"
     bus::Node node(
-        {.process = "team_probe", .robot_id = 0, .url = buses[0].second, .status_period_us = 0},
+        {.process = "ready_probe", .robot_id = 0, .url = buses[0].second, .status_period_us = 0},
         clock);
     for (std::size_t i = 0; i < buses.size(); ++i) {
       const bus::BusId id = i == 0 ? bus::kPrimaryBus : node.addBus(buses[i].second);
@@ -160,14 +160,14 @@ int main(int argc, char** argv) {
     const std::vector<std::string> missing = all_ok ? std::vector<std::string>{} : notOk();
     for (const std::string& label : missing) {
       const auto it = heard.find(label);
-      fmt::print(stderr, "team_probe: {} is {} after {:.1f} s{}\n", label,
+      fmt::print(stderr, "ready_probe: {} is {} after {:.1f} s{}\n", label,
                  it == heard.end() ? "silent" : stateName(it->second.state), waited_s,
                  it == heard.end() || it->second.last_error.empty()
                      ? ""
                      : " (last error: " + it->second.last_error + ")");
     }
     if (missing.empty())
-      fmt::print(stderr, "team_probe: all {} processes ok after {:.1f} s\n", expected.size(),
+      fmt::print(stderr, "ready_probe: all {} processes ok after {:.1f} s\n", expected.size(),
                  waited_s);
     return missing.empty() ? 0 : 1;
   });
