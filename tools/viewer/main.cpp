@@ -62,7 +62,9 @@ int main(int argc, char** argv) {
   std::string field_preset = "msl";
   double rate_hz = 20.0;
   bus::BusAddress address;
-  std::string log_level = "info";
+  bus::CommonOptions common;
+  common.robot = 0;
+  common.addTo(app);
   app.add_option("--address", web.address, "Address to serve on (0.0.0.0: every interface)")
       ->capture_default_str();
   app.add_option("--port", port, "TCP port to serve on (0: any free one, printed)")
@@ -85,16 +87,13 @@ int main(int argc, char** argv) {
                  "Port of the simulator's bus; robot N's is this + N")
       ->check(CLI::Range(1, 65535 - 6))
       ->capture_default_str();
-  app.add_option("--log-level", log_level, "trace, debug, info, warn or error")
-      ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error"}))
-      ->capture_default_str();
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     // --help is a ParseError too (exit code 0); every real one is a bad argument: 2.
     return app.exit(e) == 0 ? 0 : 2;
   }
-  spdlog::set_level(spdlog::level::from_str(log_level));
+  spdlog::set_level(spdlog::level::from_str(common.log_level));
   spdlog::set_pattern("%H:%M:%S.%e %^%l%$ viewer %v");
   web.port = static_cast<unsigned short>(port);
   web.web_dir = web_dir;
@@ -112,23 +111,29 @@ int main(int argc, char** argv) {
     SystemClock clock;
     bus::installStopSignals();
     // The simulator's bus is the primary one (the viewer's own SERVICE_STATUS goes there); on a
-    // real team the first robot's.
-    const std::string primary_url =
-        no_sim ? bus::robotBusUrl(robots.front(), address) : bus::simBusUrl(address);
+    // real team the first robot's. fieldline-launch passes --bus-url and --sim-bus-url.
+    const std::string sim_url =
+        common.sim_bus_url.empty() ? bus::simBusUrl(address) : common.sim_bus_url;
+    const std::string primary_url = !common.bus_url.empty() ? common.bus_url
+                                    : no_sim ? bus::robotBusUrl(robots.front(), address)
+                                             : sim_url;
     bus::Node node({.process = "viewer", .robot_id = 0, .url = primary_url}, clock);
+    const auto busId = [&](const std::string& url) {
+      return url == primary_url ? bus::kPrimaryBus : node.addBus(url);
+    };
     if (!no_sim) {
       viewer::BusView& sim = team.bus(0);
-      sim.url = primary_url;
+      sim.url = sim_url;
+      const bus::BusId id = busId(sim_url);
       node.subscribe(
           bus::channels::kSimWorld,
-          [&](const world_state_t& m) { team.setSimWorld(m, node.now()); }, bus::kPrimaryBus);
-      keepStatuses(node, bus::kPrimaryBus, sim);
+          [&](const world_state_t& m) { team.setSimWorld(m, node.now()); }, id);
+      keepStatuses(node, id, sim);
     }
     for (int robot : robots) {
       viewer::BusView& view = team.bus(robot);
       view.url = bus::robotBusUrl(robot, address);
-      const bus::BusId id =
-          (no_sim && robot == robots.front()) ? bus::kPrimaryBus : node.addBus(view.url);
+      const bus::BusId id = busId(view.url);
       keepLatest(node, bus::channels::kRobotState, id, view.robot_state);
       keepLatest(node, bus::channels::kBallState, id, view.ball_state);
       keepLatest(node, bus::channels::kTeamState, id, view.team_state);
