@@ -38,8 +38,8 @@ def compare(where, served, published):
         failures.append(f"{where}: header robot_id {served.get('robot_id')!r}, expected 3")
 
 
-def web_socket_message():
-    """One text message from /ws (a minimal RFC 6455 client: handshake, then one frame)."""
+def web_socket_open():
+    """A connected /ws socket after the RFC 6455 handshake, as a buffered reader."""
     sock = socket.create_connection(("127.0.0.1", port), timeout=5)
     key = base64.b64encode(os.urandom(16)).decode()
     sock.sendall((f"GET /ws HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\nUpgrade: websocket\r\n"
@@ -51,6 +51,11 @@ def web_socket_message():
         raise RuntimeError(f"WebSocket upgrade refused: {status!r}")
     while reader.readline() not in (b"\r\n", b""):
         pass
+    return sock, reader
+
+
+def web_socket_read(reader):
+    """The next text message (server frames are unmasked and, here, never fragmented)."""
     first, second = reader.read(2)
     if first & 0x0F != 1:
         raise RuntimeError(f"expected a text frame, got opcode {first & 0x0F}")
@@ -59,9 +64,7 @@ def web_socket_message():
         length = struct.unpack(">H", reader.read(2))[0]
     elif length == 127:
         length = struct.unpack(">Q", reader.read(8))[0]
-    payload = reader.read(length)
-    sock.close()
-    return json.loads(payload)
+    return json.loads(reader.read(length))
 
 
 # The publisher prints its values before it publishes; wait for them and for the viewer.
@@ -92,8 +95,13 @@ for robot in state["robots"]:
 if [r["id"] for r in state["robots"]] != [1, 2, 3, 4, 5, 6]:
     failures.append(f"robots {[r['id'] for r in state['robots']]}, expected 1..6")
 
-pushed = web_socket_message()
-compare("WebSocket", robot_state_of(pushed, 3), published)
+# Ten clients at once, as in issue 14: each gets pushed states, two in a row each.
+clients = [web_socket_open() for _ in range(10)]
+for round_ in range(2):
+    for i, (_, reader) in enumerate(clients):
+        compare(f"WebSocket client {i + 1}", robot_state_of(web_socket_read(reader), 3), published)
+for sock, _ in clients:
+    sock.close()
 
 for method in ("POST", "PUT", "DELETE", "PATCH"):
     status, headers, _ = request(method, "/state.json", body=b"x")
@@ -112,6 +120,7 @@ for path, needle in (("/", b"<canvas"), ("/viewer.js", b"WebSocket"), ("/field.j
 for f in failures:
     print("FAIL:", f)
 if not failures:
-    print(f"ok: robot 3 x={published['x']} served unchanged over state.json and /ws; "
+    print(f"ok: robot 3 x={published['x']} served unchanged over state.json and to 10 /ws "
+          "clients; "
           "POST/PUT/DELETE/PATCH refused with 405")
 sys.exit(1 if failures else 0)
