@@ -181,7 +181,7 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
     WebServer::Impl& server = slot_->server();
     const unsigned version = request.version();
     const bool keep_alive = request.keep_alive();
-    if (request.method() != http::verb::get && request.method() != http::verb::head) {
+    if (request.method() != http::verb::get) {
       ++server.methods_refused;
       sendError(http::status::method_not_allowed, "read-only: only GET is served\n", version,
                 keep_alive);
@@ -226,20 +226,15 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
     response->set(http::field::content_type, type);
     response->set(http::field::cache_control, "no-store");
     response->keep_alive(keep_alive);
-    const std::size_t size = body->size();
     response->body() = std::move(*body);
     response->prepare_payload();
-    if (request.method() == http::verb::head) {
-      response->body().clear();
-      response->content_length(size);
-    }
     send(std::move(response));
   }
 
   void sendError(http::status status, std::string text, unsigned version, bool keep_alive) {
     auto response = std::make_shared<http::response<http::string_body>>(status, version);
     response->set(http::field::content_type, "text/plain; charset=utf-8");
-    if (status == http::status::method_not_allowed) response->set(http::field::allow, "GET, HEAD");
+    if (status == http::status::method_not_allowed) response->set(http::field::allow, "GET");
     response->keep_alive(keep_alive);
     response->body() = std::move(text);
     response->prepare_payload();

@@ -1,6 +1,6 @@
 // The viewer's web side: HTTP for the page, its script, the field and the current state, and a
 // WebSocket (/ws) that pushes the latest state to every client at a fixed rate. Read-only: any
-// method but GET/HEAD gets 405, any other path 404.
+// method but GET gets 405, any other path 404.
 //
 // Runs Boost.Asio on its own thread, so neither slow nor many clients ever block the bus side,
 // which only hands over a new JSON text with publish(). A slow client skips states instead of

@@ -103,7 +103,7 @@ for round_ in range(2):
 for sock, _ in clients:
     sock.close()
 
-for method in ("POST", "PUT", "DELETE", "PATCH"):
+for method in ("POST", "PUT", "DELETE", "PATCH", "HEAD", "OPTIONS"):
     status, headers, _ = request(method, "/state.json", body=b"x")
     if status != 405:
         failures.append(f"{method} /state.json: {status}, expected 405")
@@ -122,5 +122,5 @@ for f in failures:
 if not failures:
     print(f"ok: robot 3 x={published['x']} served unchanged over state.json and to 10 /ws "
           "clients; "
-          "POST/PUT/DELETE/PATCH refused with 405")
+          "POST/PUT/DELETE/PATCH/HEAD/OPTIONS refused with 405")
 sys.exit(1 if failures else 0)

@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # fieldline-viewer in a private network namespace: a ROBOT_STATE published on robot 3's bus is
-# served unchanged in GET /state.json and over the WebSocket (/ws), under robot 3 only; POST, PUT
-# and DELETE get 405; unknown paths 404; the page and its script are served; ten WebSocket clients
-# at once each get the state.
+# served unchanged in GET /state.json and over the WebSocket (/ws), under robot 3 only; ten
+# WebSocket clients at once each get it; POST, PUT, DELETE, PATCH, HEAD and OPTIONS get 405;
+# unknown paths 404; the page, its script and the field are served.
 set -u
 viewer=$1
 publisher=$2
