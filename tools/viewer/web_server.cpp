@@ -1,0 +1,343 @@
+#include "tools/viewer/web_server.hpp"
+
+#include <chrono>
+#include <fstream>
+#include <mutex>
+#include <optional>
+#include <sstream>
+#include <stdexcept>
+#include <thread>
+#include <unordered_set>
+#include <utility>
+
+#include <fmt/format.h>
+#include <boost/asio/io_context.hpp>
+#include <boost/asio/ip/tcp.hpp>
+#include <boost/asio/steady_timer.hpp>
+#include <boost/beast/core.hpp>
+#include <boost/beast/http.hpp>
+#include <boost/beast/websocket.hpp>
+
+namespace fieldline::viewer {
+
+namespace asio = boost::asio;
+namespace beast = boost::beast;
+namespace http = beast::http;
+namespace websocket = beast::websocket;
+using tcp = asio::ip::tcp;
+
+namespace {
+
+// Requests are small (no bodies are accepted); anything bigger is not a browser asking for a page.
+constexpr std::uint32_t kHeaderLimitBytes = 8 * 1024;
+constexpr std::uint64_t kBodyLimitBytes = 1024;
+constexpr std::size_t kWebSocketReadLimitBytes = 1024;
+constexpr auto kHttpIdleTimeout = std::chrono::seconds(30);
+
+class WebSocketSession;
+
+}  // namespace
+
+// Sessions refer to the Impl by plain pointer: it outlives them, because the io_context, which
+// owns every pending handler (and through them every session), is destroyed first.
+struct WebServer::Impl {
+  WebServerOptions options;
+  std::string field_json;
+
+  std::mutex latest_mutex;
+  std::shared_ptr<const std::string> latest = std::make_shared<const std::string>("{}");
+
+  // Touched on the server thread only.
+  std::unordered_set<WebSocketSession*> sockets;
+  std::atomic<int> connections{0};
+  std::atomic<int> web_socket_clients{0};
+  std::atomic<std::int64_t> methods_refused{0};
+  std::atomic<std::int64_t> connections_refused{0};
+
+  // Declared after what the sessions touch, so destroyed before it.
+  asio::io_context io{1};
+  tcp::acceptor acceptor{io};
+  asio::steady_timer push_timer{io};
+  std::thread thread;
+
+  std::shared_ptr<const std::string> snapshot() {
+    std::lock_guard lock(latest_mutex);
+    return latest;
+  }
+  std::optional<std::string> readWebFile(const std::string& name) const {
+    std::ifstream in(options.web_dir / name, std::ios::binary);
+    if (!in) return std::nullopt;
+    std::ostringstream text;
+    text << in.rdbuf();
+    return text.str();
+  }
+  void accept();
+  void schedulePush();
+};
+
+namespace {
+
+// Counts a live connection for as long as the session holding it exists.
+class ConnectionSlot {
+ public:
+  explicit ConnectionSlot(WebServer::Impl& server) : server_(server) { ++server_.connections; }
+  ~ConnectionSlot() { --server_.connections; }
+  ConnectionSlot(const ConnectionSlot&) = delete;
+  ConnectionSlot& operator=(const ConnectionSlot&) = delete;
+  WebServer::Impl& server() const { return server_; }
+
+ private:
+  WebServer::Impl& server_;
+};
+
+class WebSocketSession : public std::enable_shared_from_this<WebSocketSession> {
+ public:
+  WebSocketSession(tcp::socket socket, std::unique_ptr<ConnectionSlot> slot)
+      : ws_(std::move(socket)), slot_(std::move(slot)) {}
+  ~WebSocketSession() {
+    if (registered_) {
+      slot_->server().sockets.erase(this);
+      --slot_->server().web_socket_clients;
+    }
+  }
+
+  void run(http::request<http::string_body> request) {
+    ws_.set_option(websocket::stream_base::timeout::suggested(beast::role_type::server));
+    ws_.read_message_max(kWebSocketReadLimitBytes);
+    ws_.text(true);
+    ws_.async_accept(request, [self = shared_from_this()](beast::error_code ec) {
+      if (ec) return;
+      self->registered_ = true;
+      self->slot_->server().sockets.insert(self.get());
+      ++self->slot_->server().web_socket_clients;
+      self->push(self->slot_->server().snapshot());
+      self->read();
+    });
+  }
+
+  // Sends `state` now, or after the write in flight (replacing any state waiting before it).
+  void push(std::shared_ptr<const std::string> state) {
+    if (writing_) {
+      pending_ = std::move(state);
+      return;
+    }
+    writing_ = true;
+    sending_ = std::move(state);
+    ws_.async_write(asio::buffer(*sending_),
+                    [self = shared_from_this()](beast::error_code ec, std::size_t) {
+                      self->writing_ = false;
+                      self->sending_.reset();
+                      if (ec) return;
+                      if (self->pending_) self->push(std::exchange(self->pending_, nullptr));
+                    });
+  }
+
+ private:
+  // The page sends nothing; reading keeps pings, pongs and the close handshake going and notices
+  // a closed connection.
+  void read() {
+    ws_.async_read(buffer_, [self = shared_from_this()](beast::error_code ec, std::size_t) {
+      if (ec) return;
+      self->buffer_.clear();
+      self->read();
+    });
+  }
+
+  websocket::stream<beast::tcp_stream> ws_;
+  std::unique_ptr<ConnectionSlot> slot_;
+  beast::flat_buffer buffer_;
+  bool registered_ = false;
+  bool writing_ = false;
+  std::shared_ptr<const std::string> sending_;
+  std::shared_ptr<const std::string> pending_;
+};
+
+class HttpSession : public std::enable_shared_from_this<HttpSession> {
+ public:
+  HttpSession(tcp::socket socket, std::unique_ptr<ConnectionSlot> slot)
+      : stream_(std::move(socket)), slot_(std::move(slot)) {}
+
+  void read() {
+    parser_.emplace();
+    parser_->header_limit(kHeaderLimitBytes);
+    parser_->body_limit(kBodyLimitBytes);
+    stream_.expires_after(kHttpIdleTimeout);
+    http::async_read(
+        stream_, buffer_, *parser_, [self = shared_from_this()](beast::error_code ec, std::size_t) {
+          if (ec) {
+            // A request too big to read still gets an answer before the close.
+            if (ec == http::error::body_limit || ec == http::error::header_limit)
+              self->sendError(http::status::payload_too_large, "request too large\n", 11, false);
+            else
+              self->close();
+            return;
+          }
+          self->handle(self->parser_->release());
+        });
+  }
+
+ private:
+  void handle(http::request<http::string_body> request) {
+    WebServer::Impl& server = slot_->server();
+    const unsigned version = request.version();
+    const bool keep_alive = request.keep_alive();
+    if (request.method() != http::verb::get) {
+      ++server.methods_refused;
+      sendError(http::status::method_not_allowed, "read-only: only GET is served\n", version,
+                keep_alive);
+      return;
+    }
+    const std::string target(request.target());
+    if (websocket::is_upgrade(request)) {
+      if (target != "/ws") {
+        sendError(http::status::not_found, "the WebSocket is at /ws\n", version, false);
+        return;
+      }
+      stream_.expires_never();
+      std::make_shared<WebSocketSession>(stream_.release_socket(), std::move(slot_))
+          ->run(std::move(request));
+      return;
+    }
+    std::optional<std::string> body;
+    std::string type;
+    if (target == "/" || target == "/index.html") {
+      body = server.readWebFile("index.html");
+      type = "text/html; charset=utf-8";
+    } else if (target == "/viewer.js") {
+      body = server.readWebFile("viewer.js");
+      type = "text/javascript; charset=utf-8";
+    } else if (target == "/field.json") {
+      body = server.field_json;
+      type = "application/json";
+    } else if (target == "/state.json") {
+      body = *server.snapshot();
+      type = "application/json";
+    } else {
+      sendError(http::status::not_found, "not found\n", version, keep_alive);
+      return;
+    }
+    if (!body) {
+      sendError(http::status::internal_server_error,
+                fmt::format("{} not found under {}\n", target, server.options.web_dir.string()),
+                version, keep_alive);
+      return;
+    }
+    auto response = std::make_shared<http::response<http::string_body>>(http::status::ok, version);
+    response->set(http::field::content_type, type);
+    response->set(http::field::cache_control, "no-store");
+    response->keep_alive(keep_alive);
+    response->body() = std::move(*body);
+    response->prepare_payload();
+    send(std::move(response));
+  }
+
+  void sendError(http::status status, std::string text, unsigned version, bool keep_alive) {
+    auto response = std::make_shared<http::response<http::string_body>>(status, version);
+    response->set(http::field::content_type, "text/plain; charset=utf-8");
+    if (status == http::status::method_not_allowed) response->set(http::field::allow, "GET");
+    response->keep_alive(keep_alive);
+    response->body() = std::move(text);
+    response->prepare_payload();
+    send(std::move(response));
+  }
+
+  void send(std::shared_ptr<http::response<http::string_body>> response) {
+    http::async_write(stream_, *response,
+                      [self = shared_from_this(), response](beast::error_code ec, std::size_t) {
+                        if (ec || response->need_eof()) {
+                          self->close();
+                          return;
+                        }
+                        self->read();
+                      });
+  }
+
+  void close() {
+    beast::error_code ignored;
+    stream_.socket().shutdown(tcp::socket::shutdown_send, ignored);
+  }
+
+  beast::tcp_stream stream_;
+  std::unique_ptr<ConnectionSlot> slot_;
+  beast::flat_buffer buffer_;
+  std::optional<http::request_parser<http::string_body>> parser_;
+};
+
+}  // namespace
+
+void WebServer::Impl::accept() {
+  acceptor.async_accept([self = this](beast::error_code ec, tcp::socket socket) {
+    if (ec == asio::error::operation_aborted) return;
+    if (!ec) {
+      if (self->connections.load() >= self->options.max_connections) {
+        ++self->connections_refused;
+        beast::error_code ignored;
+        socket.close(ignored);
+      } else {
+        std::make_shared<HttpSession>(std::move(socket), std::make_unique<ConnectionSlot>(*self))
+            ->read();
+      }
+    }
+    self->accept();
+  });
+}
+
+void WebServer::Impl::schedulePush() {
+  push_timer.expires_after(std::chrono::duration_cast<asio::steady_timer::duration>(
+      std::chrono::duration<double>(options.push_period_s)));
+  push_timer.async_wait([self = this](beast::error_code ec) {
+    if (ec) return;
+    if (!self->sockets.empty()) {
+      const auto state = self->snapshot();
+      for (WebSocketSession* session : self->sockets)
+        session->push(state);
+    }
+    self->schedulePush();
+  });
+}
+
+WebServer::WebServer(WebServerOptions options, std::string field_json)
+    : impl_(std::make_unique<Impl>()) {
+  impl_->options = std::move(options);
+  impl_->field_json = std::move(field_json);
+  const std::string where = fmt::format("{}:{}", impl_->options.address, impl_->options.port);
+  try {
+    const tcp::endpoint endpoint(asio::ip::make_address(impl_->options.address),
+                                 impl_->options.port);
+    impl_->acceptor.open(endpoint.protocol());
+    impl_->acceptor.set_option(asio::socket_base::reuse_address(true));
+    impl_->acceptor.bind(endpoint);
+    impl_->acceptor.listen(asio::socket_base::max_listen_connections);
+  } catch (const boost::system::system_error& e) {
+    throw std::runtime_error(fmt::format("cannot listen on {}: {}", where, e.what()));
+  }
+  impl_->accept();
+  impl_->schedulePush();
+  impl_->thread = std::thread([impl = impl_.get()] { impl->io.run(); });
+}
+
+WebServer::~WebServer() {
+  impl_->io.stop();
+  if (impl_->thread.joinable()) impl_->thread.join();
+}
+
+void WebServer::publish(std::string state_json) {
+  auto state = std::make_shared<const std::string>(std::move(state_json));
+  std::lock_guard lock(impl_->latest_mutex);
+  impl_->latest = std::move(state);
+}
+
+unsigned short WebServer::port() const {
+  return impl_->acceptor.local_endpoint().port();
+}
+int WebServer::webSocketClients() const {
+  return impl_->web_socket_clients.load();
+}
+std::int64_t WebServer::methodsRefused() const {
+  return impl_->methods_refused.load();
+}
+std::int64_t WebServer::connectionsRefused() const {
+  return impl_->connections_refused.load();
+}
+
+}  // namespace fieldline::viewer

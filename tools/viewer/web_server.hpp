@@ -1,0 +1,56 @@
+// The viewer's web side: HTTP for the page, its script, the field and the current state, and a
+// WebSocket (/ws) that pushes the latest state to every client at a fixed rate. Read-only: any
+// method but GET gets 405, any other path 404.
+//
+// Runs Boost.Asio on its own thread, so neither slow nor many clients ever block the bus side,
+// which only hands over a new JSON text with publish(). A slow client skips states instead of
+// queueing them.
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <filesystem>
+#include <memory>
+#include <string>
+
+namespace fieldline::viewer {
+
+struct WebServerOptions {
+  // Address to listen on; the default keeps the page on this machine.
+  std::string address = "127.0.0.1";
+  // 0 picks a free port (tests); port() tells which.
+  unsigned short port = 8080;
+  // Directory with index.html and viewer.js.
+  std::filesystem::path web_dir;
+  // Period of the WebSocket push, s.
+  double push_period_s = 0.05;
+  // Connections (HTTP and WebSocket) served at once; more are closed at once.
+  int max_connections = 64;
+};
+
+class WebServer {
+ public:
+  // Binds and listens (throws std::runtime_error naming address and port if it cannot) and
+  // starts the server thread.
+  WebServer(WebServerOptions options, std::string field_json);
+  ~WebServer();
+  WebServer(const WebServer&) = delete;
+  WebServer& operator=(const WebServer&) = delete;
+
+  // Hands over the latest state document (from any thread).
+  void publish(std::string state_json);
+
+  unsigned short port() const;
+  // WebSocket clients connected now.
+  int webSocketClients() const;
+  // Requests refused with 405 since start, and connections closed for being over the limit.
+  std::int64_t methodsRefused() const;
+  std::int64_t connectionsRefused() const;
+
+  struct Impl;
+
+ private:
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace fieldline::viewer
