@@ -4,10 +4,13 @@
 // simulated clock.
 #include <cstdint>
 #include <limits>
+#include <optional>
+#include <string>
 #include <vector>
 
 #include <gtest/gtest.h>
 
+#include "common/bus/cli.hpp"
 #include "common/bus/node.hpp"
 
 namespace fieldline::bus {
@@ -242,6 +245,30 @@ TEST_F(HealthBus, AnInputBelowItsRateIsAWarning) {
           << s.state_reason;
     }
   }
+}
+
+}  // namespace
+}  // namespace fieldline::bus
+
+// Finding 8: `--fps 1000` exited 105 (CLI11's code) instead of the documented 2.
+namespace fieldline::bus {
+namespace {
+
+TEST(HealthCli, BadArgumentsExitWithTwoHelpWithZero) {
+  auto parse = [](std::vector<std::string> args) {
+    CLI::App app{"test"};
+    double fps = 30;
+    app.add_option("--fps", fps)->check(CLI::Range(1.0, 120.0));
+    std::vector<char*> argv;
+    for (auto& a : args)
+      argv.push_back(a.data());
+    return parseCommandLine(app, static_cast<int>(argv.size()), argv.data());
+  };
+  EXPECT_EQ(parse({"prog", "--fps", "1000"}), 2);  // out of range: CLI11 says 105
+  EXPECT_EQ(parse({"prog", "--feild"}), 2);        // unknown option
+  EXPECT_EQ(parse({"prog", "--fps", "x"}), 2);
+  EXPECT_EQ(parse({"prog", "--help"}), 0);
+  EXPECT_EQ(parse({"prog", "--fps", "25"}), std::nullopt);
 }
 
 }  // namespace
