@@ -52,4 +52,25 @@ inline constexpr std::array<std::string_view, 12> kAllChannelNames{
     channels::kMotionCommand.name,   channels::kRobotState.name,    channels::kBallState.name,
     channels::kTeamState.name,       channels::kServiceStatus.name, channels::kSimWorld.name};
 
+// The rate each channel is published at in normal operation (docs: the channel table), Hz; 0 for
+// channels without a fixed rate. A process requires its inputs at a fraction of this
+// (Node::requireInput), so a slow machine is not a warning but a dead input is.
+constexpr double nominalRateHz(std::string_view channel) {
+  if (channel == channels::kCameraImage.name) return 30.0;
+  if (channel == channels::kVisionLines.name) return 10.0;
+  if (channel == channels::kVisionBall.name) return 30.0;
+  if (channel == channels::kVisionObstacles.name) return 30.0;
+  if (channel == channels::kFieldFeatures.name) return 10.0;
+  if (channel == channels::kOdometry.name) return 50.0;
+  if (channel == channels::kMotionCommand.name) return 30.0;
+  if (channel == channels::kRobotState.name) return 50.0;
+  if (channel == channels::kBallState.name) return 30.0;
+  if (channel == channels::kTeamState.name) return 10.0;
+  if (channel == channels::kServiceStatus.name) return 1.0;
+  if (channel == channels::kSimWorld.name) return 100.0;
+  return 0.0;
+}
+// The fraction of the nominal rate below which an input counts as failing.
+inline constexpr double kRequiredRateFraction = 0.5;
+
 }  // namespace fieldline::bus

@@ -59,6 +59,17 @@ std::vector<double> parseNumberList(const std::string& text, std::size_t count,
   return out;
 }
 
+std::optional<int> parseCommandLine(CLI::App& app, int argc, char** argv) {
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    // Prints the help or the error; a success code (--help, --version) stays 0.
+    const int cli_code = app.exit(e);
+    return cli_code == 0 ? 0 : 2;
+  }
+  return std::nullopt;
+}
+
 int runMain(const std::string& process, const std::function<int()>& body) {
   try {
     return body();

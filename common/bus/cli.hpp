@@ -3,6 +3,7 @@
 #pragma once
 
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -31,8 +32,17 @@ struct CommonOptions {
 std::vector<double> parseNumberList(const std::string& text, std::size_t count,
                                     const std::string& what);
 
+// Parses the command line. Returns nothing when the program should go on, else the code main()
+// returns: 0 after --help, 2 for bad arguments (CLI11's own codes, e.g. 105, are not ours).
+std::optional<int> parseCommandLine(CLI::App& app, int argc, char** argv);
+
 // Runs `body` and turns the project's exceptions into messages on stderr and exit codes:
 // 2 for configuration errors, 3 for bus errors, 1 for anything else.
 int runMain(const std::string& process, const std::function<int()>& body);
 
 }  // namespace fieldline::bus
+
+// Use instead of CLI11_PARSE in main(): exit code 2 for every kind of bad argument.
+#define FIELDLINE_PARSE(app, argc, argv)                                                     \
+  if (const auto fieldline_parse_exit = ::fieldline::bus::parseCommandLine(app, argc, argv)) \
+  return *fieldline_parse_exit

@@ -3,7 +3,9 @@
 #include <algorithm>
 #include <chrono>
 #include <csignal>
+#include <random>
 
+#include <fmt/format.h>
 #include <poll.h>
 #include <spdlog/spdlog.h>
 #include <lcm/lcm-cpp.hpp>
@@ -107,6 +109,13 @@ Node::Node(NodeOptions options, const Clock& clock, std::shared_ptr<Connection> 
       next_status_(clock.monotonicNow() + options_.status_period_us) {
   if (options_.url.empty()) options_.url = primary->url();
   buses_.push_back(std::move(primary));
+  status_.setRateGrace(options_.input_grace_us);
+  // Random, not the pid: pids repeat across robots and containers. Non-zero, so 0 means "unset".
+  std::random_device entropy;
+  while (publisher_id_ == 0) {
+    publisher_id_ = static_cast<std::int64_t>((static_cast<std::uint64_t>(entropy()) << 32) ^
+                                              static_cast<std::uint64_t>(entropy()));
+  }
 }
 
 Node::~Node() {
@@ -169,6 +178,7 @@ std::int64_t& Node::nextSeq(const std::string& channel) {
 void Node::stampHeader(const std::string& channel, header_t& header) {
   header.seq = nextSeq(channel);
   header.robot_id = static_cast<std::int8_t>(options_.robot_id);
+  header.publisher_id = publisher_id_;
   header.utime_published = clock_.now();
 }
 
@@ -192,16 +202,50 @@ bool Node::publishEncoded(std::string_view channel, const void* data, int size, 
 
 bool Node::acceptHeader(const std::string& channel, const header_t& header) {
   const Utime now = clock_.now();
-  if (header.utime > now + options_.future_tolerance_us) {
+  // Differences of untrusted int64 stamps can overflow: compare in long double.
+  const auto ms = [](long double us) { return static_cast<double>(us / 1000.0L); };
+  const long double utime = static_cast<long double>(header.utime);
+  const long double published = static_cast<long double>(header.utime_published);
+  const long double receiver = static_cast<long double>(now);
+  const auto future = static_cast<long double>(options_.future_tolerance_us);
+  if (utime > receiver + future) {
     reject(channel, "future_utime",
-           "utime " + std::to_string(header.utime) + " is " +
-               std::to_string((header.utime - now) / 1000) + " ms in the future");
+           fmt::format("utime {} is {:.0f} ms in the future", header.utime, ms(utime - receiver)));
     return false;
   }
-  // Every process publishes SERVICE_STATUS with its own seq: gaps there are not losses.
+  if (published > receiver + future) {
+    reject(channel, "future_utime",
+           fmt::format("utime_published {} is {:.0f} ms in the future", header.utime_published,
+                       ms(published - receiver)));
+    return false;
+  }
+  if (published < receiver - static_cast<long double>(options_.max_age_us)) {
+    reject(channel, "stale",
+           fmt::format("utime_published {} is {:.0f} ms old", header.utime_published,
+                       ms(receiver - published)));
+    return false;
+  }
+  if (utime > published + future ||
+      published - utime > static_cast<long double>(options_.max_latency_us)) {
+    reject(channel, "bad_stamps",
+           fmt::format("utime_published - utime = {:.0f} ms is outside [{:.0f}, {:.0f}] ms",
+                       ms(published - utime), -ms(future),
+                       ms(static_cast<long double>(options_.max_latency_us))));
+    return false;
+  }
+  // Every process publishes SERVICE_STATUS: several publishers there are by design.
   const bool one_publisher = channel != channels::kServiceStatus.name;
-  status_.onReceived(channel, header.robot_id, header.seq, header.utime, header.utime_published,
-                     one_publisher);
+  const Received received{.robot_id = header.robot_id,
+                          .publisher_id = header.publisher_id,
+                          .seq = header.seq,
+                          .utime = header.utime,
+                          .utime_published = header.utime_published};
+  if (one_publisher) {
+    status_.onReceived(channel, received, now, true);
+  } else {
+    status_.onReceived(channel, header.robot_id, header.seq, header.utime, header.utime_published,
+                       false);
+  }
   return true;
 }
 

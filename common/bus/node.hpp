@@ -9,8 +9,9 @@
 // Every received message is decoded, validated (bus/validate.hpp), checked against the clock
 // (no utime from the future) and counted before the handler sees it; a bad one is counted with
 // its reason and dropped. publish() fills header.utime_published, seq and robot_id; the caller
-// sets header.utime, the physical time of what the message describes. SERVICE_STATUS goes out
-// once per second on the primary bus.
+// sets header.utime, the physical time of what the message describes. publish() also sets
+// header.publisher_id, a random id of this node, so receivers track seq per publisher.
+// SERVICE_STATUS goes out once per second on the primary bus.
 //
 // The event loop waits in one poll() on every bus's LCM socket and on the file descriptors
 // given to watchFd() (a serial line, a UDP socket), with the timeout to the next timer, so a
@@ -74,8 +75,16 @@ struct NodeOptions {
   int robot_id = 0;
   // Primary bus; empty means robotBusUrl(robot_id) (simBusUrl() for robot 0).
   std::string url;
-  // Received messages with utime beyond now + this are rejected as from the future.
+  // Received messages with utime or utime_published beyond now + this are rejected as from the
+  // future.
   Utime future_tolerance_us = 500'000;
+  // Received messages published longer ago than this (receiver's clock) are rejected as stale:
+  // a log played onto a live bus, a stopped sender's backlog.
+  Utime max_age_us = 10 * kMicrosPerSecond;
+  // Received messages whose utime_published - utime exceeds this are rejected (absurd latency).
+  Utime max_latency_us = 10 * kMicrosPerSecond;
+  // A required input (requireInput) below its rate for longer than this makes the state WARN.
+  Utime input_grace_us = 2 * kMicrosPerSecond;
   // Period of SERVICE_STATUS; 0 disables it.
   Utime status_period_us = kMicrosPerSecond;
 };
@@ -172,6 +181,22 @@ class Node {
   void requestStop() { stop_requested_ = true; }
   bool stopRequested() const;
 
+  // Declares an input this process needs at `min_rate_hz` or more (e.g. CAMERA_IMAGE at 20 Hz):
+  // below it for longer than options().input_grace_us, SERVICE_STATUS says WARN with the reason
+  // ("CAMERA_IMAGE silent 2.1 s"), and ok again once it recovers.
+  template <typename Msg>
+  void requireInput(Channel<Msg> channel, double min_rate_hz) {
+    status_.requireRate(std::string(channel.name), Direction::kIn, min_rate_hz);
+  }
+  // The same for a channel this process publishes from a device's data flow (ODOMETRY from the
+  // motor controller's samples): its state follows the flow, not only the open device.
+  template <typename Msg>
+  void requireOutput(Channel<Msg> channel, double min_rate_hz) {
+    status_.requireRate(std::string(channel.name), Direction::kOut, min_rate_hz);
+  }
+  // The random id this node puts into header.publisher_id (drawn at construction).
+  std::int64_t publisherId() const { return publisher_id_; }
+
   // Counts an error of `kind` (e.g. "serial_crc") with a message; logs it (rate-limited).
   void reportError(const std::string& kind, const std::string& text);
   // A process-specific number for SERVICE_STATUS, its unit in its name ("render_ms").
@@ -216,6 +241,7 @@ class Node {
 
   NodeOptions options_;
   const Clock& clock_;
+  std::int64_t publisher_id_ = 0;
   std::vector<std::shared_ptr<Connection>> buses_;
   std::vector<std::unique_ptr<Subscription>> subscriptions_;
   std::vector<Timer> timers_;

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include <fmt/format.h>
+
 #include <unistd.h>
 
 namespace fieldline::bus {
@@ -44,16 +46,85 @@ const ChannelStats* StatusCollector::channel(const std::string& name, Direction 
 
 void StatusCollector::onReceived(const std::string& channel, int sender, std::int64_t seq,
                                  Utime utime, Utime utime_published, bool track_drops) {
+  Received m{.robot_id = sender, .seq = seq, .utime = utime, .utime_published = utime_published};
+  ChannelStats& c = stats(channel, Direction::kIn);
+  if (!track_drops) {
+    ++c.total;
+    ++c.in_period;
+    c.last_message = utime_published;
+    c.latency_ms.push_back(static_cast<float>(utime_published - utime) / 1000.0f);
+    return;
+  }
+  onReceived(channel, m, utime_published, false);
+}
+
+namespace {
+std::string publisherName(const PublisherTrack& p) {
+  return fmt::format("robot {} publisher {:016x}", p.robot_id,
+                     static_cast<std::uint64_t>(p.publisher_id));
+}
+}  // namespace
+
+void StatusCollector::onReceived(const std::string& channel, const Received& m, Utime now,
+                                 bool single_publisher) {
   ChannelStats& c = stats(channel, Direction::kIn);
   ++c.total;
   ++c.in_period;
-  auto [it, fresh] = c.last_seq_by_sender.try_emplace(sender, seq);
-  if (!fresh && track_drops) {
-    // A gap means lost messages; a step back means the sender restarted (not a loss).
-    if (seq > it->second + 1) c.drops += seq - it->second - 1;
-    it->second = seq;
+  c.last_message = now;
+  c.latency_ms.push_back(static_cast<float>(m.utime_published - m.utime) / 1000.0f);
+
+  auto it = std::find_if(c.publishers.begin(), c.publishers.end(), [&](const PublisherTrack& p) {
+    return p.robot_id == m.robot_id && p.publisher_id == m.publisher_id;
+  });
+  if (it == c.publishers.end()) {
+    if (c.publishers.size() >= kMaxPublishersPerChannel) {
+      // Bounded memory under a flood of forged ids: forget the longest silent one.
+      auto oldest = std::min_element(c.publishers.begin(), c.publishers.end(),
+                                     [](const PublisherTrack& a, const PublisherTrack& b) {
+                                       return a.last_seen < b.last_seen;
+                                     });
+      c.publishers.erase(oldest);
+    }
+    c.publishers.push_back(PublisherTrack{m.robot_id, m.publisher_id, m.seq, now});
+    it = c.publishers.end() - 1;
+  } else {
+    const std::int64_t last = it->last_seq;
+    // Overflow-safe: seq and last are both >= 0 (validated).
+    if (m.seq > last && m.seq - last - 1 > kMaxPlausibleGap) {
+      ++c.resyncs;
+      onError("seq_resync",
+              fmt::format("{}: seq jumped from {} to {} ({}); resynchronised, not counted as drops",
+                          channel, last, m.seq, publisherName(*it)),
+              now);
+    } else if (m.seq > last + 1) {
+      c.drops += m.seq - last - 1;
+    }
+    // A step back: the sender restarted without a publisher id, or a reordered message.
+    it->last_seq = m.seq;
+    it->last_seen = now;
   }
-  c.latency_ms.push_back(static_cast<float>(utime_published - utime) / 1000.0f);
+
+  const auto index = static_cast<std::size_t>(it - c.publishers.begin());
+  if (single_publisher && c.total > 1 && index != c.last_publisher &&
+      c.last_publisher < c.publishers.size()) {
+    c.publisher_switches.push_back(now);
+    std::erase_if(c.publisher_switches, [&](Utime t) { return t + kConflictWindowUs < now; });
+    if (c.publisher_switches.size() >= kConflictSwitches) {
+      const std::string text =
+          fmt::format("{}: two publishers: {} and {}", channel,
+                      publisherName(c.publishers[c.last_publisher]), publisherName(*it));
+      if (c.conflict_seen < 0 || c.conflict_seen + kConflictWindowUs < now) {
+        onError("two_publishers", text, now);
+      }
+      c.conflict_seen = now;
+      c.conflict_text = text;
+    }
+  }
+  c.last_publisher = index;
+}
+
+void StatusCollector::requireRate(const std::string& channel, Direction d, double min_rate_hz) {
+  stats(channel, d).required_rate_hz = min_rate_hz;
 }
 
 void StatusCollector::onRejected(const std::string& channel) {
@@ -96,10 +167,44 @@ service_status_t StatusCollector::takeStatus(Utime now) {
   s.pid = static_cast<std::int32_t>(::getpid());
   s.uptime_us = now - start_;
   s.period_us = std::max<Utime>(1, now - period_start_);
-  s.state = fault_                  ? service_status_t::STATE_ERROR
-            : errors_in_period_ > 0 ? service_status_t::STATE_WARN
-                                    : service_status_t::STATE_OK;
   const double period_s = static_cast<double>(s.period_us) / 1e6;
+  std::string error_reason;
+  std::string warn_reason;
+  auto append = [](std::string& to, const std::string& what) {
+    if (!to.empty()) to += "; ";
+    to += what;
+  };
+  for (auto& c : channels_) {
+    if (c.conflict_seen >= 0 && c.conflict_seen + kConflictWindowUs >= now) {
+      append(error_reason, c.conflict_text);
+    }
+    if (c.required_rate_hz <= 0) continue;
+    const double rate = static_cast<double>(c.in_period) / period_s;
+    if (rate >= c.required_rate_hz) {
+      c.below_since = -1;
+      continue;
+    }
+    if (c.below_since < 0) c.below_since = period_start_;
+    const Utime below_us = now - c.below_since;
+    if (below_us < rate_grace_us_) continue;
+    const Utime silent_since = std::max({c.last_message, start_, c.below_since});
+    if (c.in_period == 0) {
+      append(warn_reason, fmt::format("{} silent {:.1f} s", c.name,
+                                      static_cast<double>(now - silent_since) / 1e6));
+    } else {
+      append(warn_reason, fmt::format("{} at {:.1f} Hz < {:.1f} Hz for {:.1f} s", c.name, rate,
+                                      c.required_rate_hz, static_cast<double>(below_us) / 1e6));
+    }
+  }
+  if (fault_ || !error_reason.empty()) {
+    s.state = service_status_t::STATE_ERROR;
+    s.state_reason = error_reason.empty() ? last_error_ : error_reason;
+  } else if (!warn_reason.empty() || errors_in_period_ > 0) {
+    s.state = service_status_t::STATE_WARN;
+    s.state_reason = warn_reason.empty() ? last_error_ : warn_reason;
+  } else {
+    s.state = service_status_t::STATE_OK;
+  }
 
   s.num_channels = static_cast<std::int32_t>(channels_.size());
   for (auto& c : channels_) {

@@ -16,15 +16,38 @@ namespace fieldline::bus {
 
 enum class Direction : std::int8_t { kIn = 0, kOut = 1 };
 
+// One publisher of a channel as the receiver sees it: a (robot_id, publisher_id) pair.
+struct PublisherTrack {
+  int robot_id = 0;
+  std::int64_t publisher_id = 0;
+  std::int64_t last_seq = 0;
+  // Receiver's clock when its last message arrived.
+  Utime last_seen = 0;
+};
+
 struct ChannelStats {
   std::string name;
   Direction direction = Direction::kIn;
   std::int64_t total = 0;
   std::int64_t in_period = 0;
   std::int64_t drops = 0;
+  // Seq jumps too large to be losses (a forged or corrupted seq): counted once each.
+  std::int64_t resyncs = 0;
   std::int64_t rejected = 0;
   std::vector<float> latency_ms;  // this period's samples
-  std::map<int, std::int64_t> last_seq_by_sender;
+  // Bounded (StatusCollector::kMaxPublishersPerChannel), least recently seen evicted.
+  std::vector<PublisherTrack> publishers;
+  // Receiver's clock at each change of publisher between consecutive messages, recent only.
+  std::vector<Utime> publisher_switches;
+  std::size_t last_publisher = 0;
+  // Receiver's clock when a second concurrent publisher was last detected; -1: never.
+  Utime conflict_seen = -1;
+  std::string conflict_text;
+  // Receiver's clock of the last message; -1: none yet.
+  Utime last_message = -1;
+  // Liveness: the rate this process needs (0: not required) and since when it is below it.
+  double required_rate_hz = 0;
+  Utime below_since = -1;
 };
 
 struct Percentiles {
@@ -33,11 +56,40 @@ struct Percentiles {
 // Percentiles of `samples` (reorders them). Zeros when empty.
 Percentiles percentiles(std::vector<float>& samples);
 
+// What a receiver knows about one received message, for the statistics.
+struct Received {
+  int robot_id = 0;
+  std::int64_t publisher_id = 0;
+  std::int64_t seq = 0;
+  Utime utime = 0;
+  Utime utime_published = 0;
+};
+
 class StatusCollector {
  public:
+  // A seq jump beyond this is a resync (counted once), not that many lost messages: 1000 is
+  // 20 s of a 50 Hz channel.
+  static constexpr std::int64_t kMaxPlausibleGap = 1000;
+  static constexpr std::size_t kMaxPublishersPerChannel = 16;
+  // Publisher changes between consecutive messages within kConflictWindowUs that mean two
+  // processes publish at once (a restart makes one change).
+  static constexpr std::size_t kConflictSwitches = 3;
+  static constexpr Utime kConflictWindowUs = 2 * kMicrosPerSecond;
+
   StatusCollector(std::string process, int robot_id, Utime start);
 
-  // A received message: counts it, tracks seq gaps per sender, records the sender's latency.
+  // A received message at receiver time `now`: counts it, tracks seq gaps per publisher,
+  // records the sender's latency. With `single_publisher`, a second publisher on the channel
+  // at the same time puts the process into STATE_ERROR naming both.
+  void onReceived(const std::string& channel, const Received& message, Utime now,
+                  bool single_publisher);
+  // Declares that the process needs `channel` (an input, or an output for a flow the process
+  // produces from a device) at `min_rate_hz` or more; below it for longer than `grace_us` the
+  // state is STATE_WARN with the reason.
+  void requireRate(const std::string& channel, Direction d, double min_rate_hz);
+  void setRateGrace(Utime grace_us) { rate_grace_us_ = grace_us; }
+
+  // As above for a sender without publisher id, at its own publish time.
   // `track_drops` is false on channels with several publishers per robot (SERVICE_STATUS).
   void onReceived(const std::string& channel, int sender, std::int64_t seq, Utime utime,
                   Utime utime_published, bool track_drops = true);
@@ -74,6 +126,7 @@ class StatusCollector {
   std::map<std::string, double> metrics_;
   std::int64_t errors_in_period_ = 0;
   bool fault_ = false;
+  Utime rate_grace_us_ = 2 * kMicrosPerSecond;
 };
 
 }  // namespace fieldline::bus

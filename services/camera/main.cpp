@@ -94,7 +94,7 @@ int main(int argc, char** argv) {
   app.add_flag("--bgr", bgr, "v4l2: take OpenCV's BGR frames instead of raw YUYV");
   app.add_option("--max-frames", max_frames,
                  "Real sources: stop after this many frames (0: no limit)");
-  CLI11_PARSE(app, argc, argv);
+  FIELDLINE_PARSE(app, argc, argv);
   common.resolve("camera");
 
   return bus::runMain("camera", [&]() -> int {

@@ -67,7 +67,7 @@ int main(int argc, char** argv) {
   app.add_option("--ball", ball, "Offline: ball at field x,y (m)");
   app.add_option("--obstacle", obstacles,
                  "Offline: an opponent robot at field x,y (m); repeatable");
-  CLI11_PARSE(app, argc, argv);
+  FIELDLINE_PARSE(app, argc, argv);
   common.resolve("camera-snapshot");
 
   return bus::runMain("camera-snapshot", [&]() -> int {

@@ -23,6 +23,11 @@ BridgeNode::BridgeNode(bus::Node& node, const robot::RobotParams& params, Bridge
                   [this](const motion_command_t& m) { onCommand(m); });
   node_.every(static_cast<Utime>(1e6 / config_.command_rate), [this] { sendCommand(); });
   node_.every(kMicrosPerSecond, [this] { publishMetrics(); });
+  // An open serial line is not enough: the controller's samples must flow (a reader stealing the
+  // pty's bytes, a stopped simulator).
+  node_.requireOutput(
+      bus::channels::kOdometry,
+      bus::kRequiredRateFraction * bus::nominalRateHz(bus::channels::kOdometry.name));
 }
 
 BridgeNode::~BridgeNode() {

@@ -28,7 +28,7 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--device", device,
                  "Serial device; overrides the config (default /tmp/fieldline/robot<N>.tty)");
-  CLI11_PARSE(app, argc, argv);
+  FIELDLINE_PARSE(app, argc, argv);
 
   return bus::runMain("motor_bridge", [&] {
     common.resolve("motor_bridge");

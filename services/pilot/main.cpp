@@ -37,7 +37,7 @@ int main(int argc, char** argv) {
                  "after that when the pilot goes quiet")
       ->check(CLI::Range(0.01, 5.0))
       ->capture_default_str();
-  CLI11_PARSE(app, argc, argv);
+  FIELDLINE_PARSE(app, argc, argv);
 
   return bus::runMain("pilot", [&] {
     common.resolve("pilot");

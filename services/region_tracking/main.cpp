@@ -31,7 +31,7 @@ int main(int argc, char** argv) {
   app.add_option("--lines-every", lines_every, "Extract field lines on every n-th frame")
       ->check(CLI::Range(1, 1000))
       ->capture_default_str();
-  CLI11_PARSE(app, argc, argv);
+  FIELDLINE_PARSE(app, argc, argv);
 
   return bus::runMain("region_tracking", [&] {
     common.resolve("region_tracking");

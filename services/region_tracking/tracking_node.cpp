@@ -17,6 +17,10 @@ TrackingNode::TrackingNode(bus::Node& node, TrackingNodeOptions options)
     throw std::invalid_argument("region tracking: lines_every_frames must be >= 1");
   }
   node_.subscribe(bus::channels::kCameraImage, [this](const image_t& image) { onImage(image); });
+  // Without images this process does nothing: a dead camera must show in its status.
+  node_.requireInput(
+      bus::channels::kCameraImage,
+      bus::kRequiredRateFraction * bus::nominalRateHz(bus::channels::kCameraImage.name));
 }
 
 bool TrackingNode::prepareFor(int width, int height) {

@@ -43,7 +43,7 @@ int main(int argc, char** argv) {
   app.add_option("--world-rate", options.world_rate, "SIM_WORLD messages per simulated second")
       ->check(CLI::Range(1.0, 1000.0))
       ->capture_default_str();
-  CLI11_PARSE(app, argc, argv);
+  FIELDLINE_PARSE(app, argc, argv);
 
   return bus::runMain("world_sim", [&] {
     common.resolve("world_sim");

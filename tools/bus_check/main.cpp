@@ -19,7 +19,7 @@ int main(int argc, char** argv) {
   int timeout_ms = 2000;
   app.add_option("--timeout-ms", timeout_ms, "How long to wait for the message to come back")
       ->capture_default_str();
-  CLI11_PARSE(app, argc, argv);
+  FIELDLINE_PARSE(app, argc, argv);
   return bus::runMain("bus_check", [&] {
     common.resolve("bus_check");
     SystemClock clock;

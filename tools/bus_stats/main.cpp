@@ -1,6 +1,7 @@
 // fieldline-bus-stats: listens to robot buses (and the simulator's) for a while and prints, per
 // bus and channel, the message rate, size, latency (utime_published - utime) and seq gaps. It
-// decodes only the header every fieldline message starts with, so it needs no knowledge of types.
+// checks each packet's fingerprint against its channel's type and reads the header every
+// fieldline message starts with; foreign packets are counted apart (traffic.hpp).
 #include <algorithm>
 #include <cstdio>
 #include <iostream>
@@ -13,21 +14,9 @@
 
 #include "common/bus/cli.hpp"
 #include "common/bus/node.hpp"
+#include "tools/bus_stats/traffic.hpp"
 
 using namespace fieldline;
-
-namespace {
-
-struct Traffic {
-  std::int64_t count = 0;
-  std::int64_t bytes = 0;
-  std::int64_t gaps = 0;                 // "-" for SERVICE_STATUS, which has several publishers
-  std::map<int, std::int64_t> last_seq;  // per sender
-  std::vector<float> latency_ms;
-  Utime first = 0, last = 0;
-};
-
-}  // namespace
 
 int main(int argc, char** argv) {
   CLI::App app{
@@ -48,7 +37,7 @@ int main(int argc, char** argv) {
   app.add_option("--base-port", address.base_port, "Port of the simulator's bus; robot N is base+N")
       ->capture_default_str();
   app.add_flag("--json", json, "Print JSON lines instead of a table");
-  CLI11_PARSE(app, argc, argv);
+  FIELDLINE_PARSE(app, argc, argv);
 
   return bus::runMain("bus_stats", [&] {
     SystemClock clock;
@@ -65,28 +54,13 @@ int main(int argc, char** argv) {
     if (urls.empty()) throw std::invalid_argument("nothing to listen to (--robots 0 and no --sim)");
     bus::Node node({.process = "bus_stats", .robot_id = 0, .url = urls[0], .status_period_us = 0},
                    clock);
-    std::map<std::pair<std::string, std::string>, Traffic> traffic;
+    bus_stats::TrafficCounter counter;
     for (std::size_t i = 0; i < urls.size(); ++i) {
       const bus::BusId id = i == 0 ? bus::kPrimaryBus : node.addBus(urls[i]);
       const std::string name = names[i];
       node.subscribeAllRaw(
           [&, name](const std::string& channel, const void* data, int size) {
-            Traffic& t = traffic[{name, channel}];
-            const Utime now = clock.now();
-            if (t.count == 0) t.first = now;
-            t.last = now;
-            ++t.count;
-            t.bytes += size;
-            const auto h = bus::peekHeader(data, size);
-            if (!h) return;
-            // Every process publishes SERVICE_STATUS with its own seq: gaps there mean nothing.
-            const bool one_publisher = channel != bus::channels::kServiceStatus.name;
-            auto [it, fresh] = t.last_seq.try_emplace(h->robot_id, h->seq);
-            if (!fresh && one_publisher) {
-              if (h->seq > it->second + 1) t.gaps += h->seq - it->second - 1;
-              it->second = h->seq;
-            }
-            t.latency_ms.push_back(static_cast<float>(h->utime_published - h->utime) / 1000.0f);
+            counter.onPacket(name, channel, data, size, clock.now());
           },
           id);
     }
@@ -96,25 +70,29 @@ int main(int argc, char** argv) {
       node.spinOnce(50);
 
     if (!json) {
-      fmt::print("{:<5} {:<18} {:>7} {:>8} {:>9} {:>9} {:>9} {:>6}\n", "bus", "channel", "count",
-                 "rate_hz", "kB/msg", "lat_p50", "lat_p95", "gaps");
+      fmt::print("{:<5} {:<18} {:>7} {:>8} {:>9} {:>9} {:>9} {:>6} {:>7} {:>7}\n", "bus", "channel",
+                 "count", "rate_hz", "kB/msg", "lat_p50", "lat_p95", "gaps", "badstmp", "foreign");
     }
-    for (auto& [key, t] : traffic) {
+    for (auto& [key, t] : counter.traffic()) {
       const bus::Percentiles p = bus::percentiles(t.latency_ms);
       const double rate = t.count > 1
                               ? static_cast<double>(t.count - 1) * 1e6 /
                                     static_cast<double>(std::max<Utime>(1, t.last - t.first))
                               : 0.0;
-      const double kb = static_cast<double>(t.bytes) / static_cast<double>(t.count) / 1024.0;
+      const double kb = static_cast<double>(t.bytes) /
+                        static_cast<double>(std::max<std::int64_t>(1, t.count)) / 1024.0;
       if (json) {
         fmt::print(
             "{{\"bus\":\"{}\",\"channel\":\"{}\",\"count\":{},\"rate_hz\":{:.2f},\"kb_per_msg\":{:."
             "1f},"
-            "\"latency_p50_ms\":{:.2f},\"latency_p95_ms\":{:.2f},\"gaps\":{}}}\n",
-            key.first, key.second, t.count, rate, kb, p.p50, p.p95, t.gaps);
+            "\"latency_p50_ms\":{:.2f},\"latency_p95_ms\":{:.2f},\"gaps\":{},\"resyncs\":{},"
+            "\"bad_stamps\":{},\"foreign\":{}}}\n",
+            key.first, key.second, t.count, rate, kb, p.p50, p.p95, t.gaps, t.resyncs, t.bad_stamps,
+            t.foreign);
       } else {
-        fmt::print("{:<5} {:<18} {:>7} {:>8.1f} {:>9.1f} {:>9.1f} {:>9.1f} {:>6}\n", key.first,
-                   key.second, t.count, rate, kb, p.p50, p.p95, t.gaps);
+        fmt::print("{:<5} {:<18} {:>7} {:>8.1f} {:>9.1f} {:>9.1f} {:>9.1f} {:>6} {:>7} {:>7}\n",
+                   key.first, key.second, t.count, rate, kb, p.p50, p.p95, t.gaps, t.bad_stamps,
+                   t.foreign);
       }
     }
     return 0;

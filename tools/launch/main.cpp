@@ -361,6 +361,6 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(0.2, 3600.0))
       ->capture_default_str();
   app.footer(kFormatHelp);
-  CLI11_PARSE(app, argc, argv);
+  FIELDLINE_PARSE(app, argc, argv);
   return fieldline::bus::runMain("fieldline-launch", [&] { return runLauncher(options); });
 }

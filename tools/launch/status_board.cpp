@@ -1,5 +1,8 @@
 #include "tools/launch/status_board.hpp"
 
+#include <cmath>
+#include <limits>
+
 #include <algorithm>
 
 #include <fmt/format.h>
@@ -40,22 +43,59 @@ const char* colourOf(Severity s) {
   return "";
 }
 
+// Values beyond these are not measurements (a forged or broken report): shown as "-" and flagged.
+constexpr double kMaxPlausibleRateHz = 10'000.0;
+constexpr double kMinPlausibleLatencyMs = -1'000.0;
+constexpr double kMaxPlausibleLatencyMs = 60'000.0;
+constexpr double kMaxPlausibleProcessingMs = 60'000.0;
+
+// `value` if it lies in [lo, hi], else nothing and a note of what was dropped in `untrusted`.
+std::optional<double> trusted(double value, double lo, double hi, const char* what,
+                              std::string& untrusted) {
+  if (std::isfinite(value) && value >= lo && value <= hi) return value;
+  if (!untrusted.empty()) untrusted += ", ";
+  untrusted += fmt::format("{} {:.3g}", what, value);
+  return std::nullopt;
+}
+
 void fillFromReport(const service_status_t& s, const std::string& preferred, StatusRow& row) {
   if (const auto i = mainOutputChannel(s, preferred)) {
     row.channel = printable(s.channel[*i]);
-    row.rate_hz = s.rate_hz[*i];
-    if (*i < s.latency_p50_ms.size()) row.latency_p50_ms = s.latency_p50_ms[*i];
-    if (*i < s.latency_p95_ms.size()) row.latency_p95_ms = s.latency_p95_ms[*i];
+    row.rate_hz = trusted(s.rate_hz[*i], 0.0, kMaxPlausibleRateHz, "rate_hz", row.untrusted);
+    if (*i < s.latency_p50_ms.size()) {
+      row.latency_p50_ms = trusted(s.latency_p50_ms[*i], kMinPlausibleLatencyMs,
+                                   kMaxPlausibleLatencyMs, "latency_p50_ms", row.untrusted);
+    }
+    if (*i < s.latency_p95_ms.size()) {
+      row.latency_p95_ms = trusted(s.latency_p95_ms[*i], kMinPlausibleLatencyMs,
+                                   kMaxPlausibleLatencyMs, "latency_p95_ms", row.untrusted);
+    }
   }
-  row.processing_p95_ms = s.processing_p95_ms;
+  row.processing_p95_ms = trusted(s.processing_p95_ms, 0.0, kMaxPlausibleProcessingMs,
+                                  "processing_p95_ms", row.untrusted);
   const std::size_t channels = std::min(s.direction.size(), s.drops_total.size());
   for (std::size_t i = 0; i < channels; ++i) {
-    if (s.direction[i] == service_status_t::DIRECTION_IN) row.drops += s.drops_total[i];
+    if (s.direction[i] != service_status_t::DIRECTION_IN) continue;
+    if (s.drops_total[i] < 0 || s.drops_total[i] > std::numeric_limits<std::int64_t>::max() / 2) {
+      trusted(static_cast<double>(s.drops_total[i]), 0.0, 0.0, "drops", row.untrusted);
+      continue;
+    }
+    row.drops += s.drops_total[i];
   }
-  for (std::int64_t count : s.error_count)
+  for (std::int64_t count : s.error_count) {
+    if (count < 0 || count > std::numeric_limits<std::int64_t>::max() / 2) {
+      trusted(static_cast<double>(count), 0.0, 0.0, "error_count", row.untrusted);
+      continue;
+    }
     row.errors += count;
-  if (!s.last_error.empty()) row.last_error = printable(s.last_error);
+  }
+  if (!s.state_reason.empty()) {
+    row.last_error = printable(s.state_reason);
+  } else if (!s.last_error.empty()) {
+    row.last_error = printable(s.last_error);
+  }
   row.note = headlineMetrics(s);
+  if (!row.untrusted.empty()) row.last_error = "untrusted report: " + row.untrusted;
 }
 
 }  // namespace
@@ -128,6 +168,10 @@ std::vector<StatusRow> StatusBoard::rows(const std::vector<ProcessRecord>& proce
           row.severity = Severity::kNotice;
         } else if (secondsBetween(report->received, now) > kStaleAfterS) {
           row.state = "stale";
+          row.severity = Severity::kNotice;
+        } else if (!row.untrusted.empty()) {
+          // A report with impossible numbers is not an "ok" (nor anything else it claims).
+          row.state = "suspect";
           row.severity = Severity::kNotice;
         } else if (report->status.state == service_status_t::STATE_OK) {
           row.state = "ok";

@@ -24,8 +24,9 @@ struct StatusRow {
   // "r1", "sim".
   std::string robot;
   std::string process;
-  // ok, warn, error (the process's own report), starting, stale (its reports stopped), running
-  // (no report yet), waiting (for a restart), stopping, stopped, exited, failed, missing.
+  // ok, warn, error (the process's own report), suspect (a report with impossible numbers),
+  // starting, stale (its reports stopped), running (no report yet), waiting (for a restart),
+  // stopping, stopped, exited, failed, missing.
   std::string state;
   Severity severity = Severity::kIdle;
   // The main output channel and its rate, latency (utime_published - utime) percentiles.
@@ -43,6 +44,9 @@ struct StatusRow {
   // The process's headline metrics from SERVICE_STATUS, e.g. "speed 1.21 m/s".
   std::string note;
   std::string last_error;
+  // Values of the report that are not plausible measurements (rate 1e30 Hz), dropped from the
+  // row; a row with any is shown as `suspect`, whatever the report's state.
+  std::string untrusted;
 };
 
 class StatusBoard {

@@ -54,7 +54,7 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--out", out, "output PNG")->capture_default_str();
   app.add_flag("--touched", touched, "mark the cells the tracker classified in the last frame");
-  CLI11_PARSE(app, argc, argv);
+  FIELDLINE_PARSE(app, argc, argv);
 
   return fieldline::bus::runMain("tracking_png", [&]() -> int {
     rt::SimCamera sim = rt::SimCamera::load(cameraPreset, fieldPreset);

@@ -19,6 +19,7 @@ header_t header(int k) {
   h.utime_published = h.utime + 60'000;
   h.seq = 40 + k;
   h.robot_id = static_cast<std::int8_t>(k % 7);
+  h.publisher_id = 0x5eed0000 + k;
   return h;
 }
 

@@ -19,7 +19,7 @@ int main(int argc, char** argv) {
   app.add_option("--tag", tag, "Any text, so a test can find its own processes");
   app.add_flag("--ignore-sigterm", ignore_sigterm,
                "Ignore SIGTERM (tests the launcher's SIGKILL after the grace period)");
-  CLI11_PARSE(app, argc, argv);
+  FIELDLINE_PARSE(app, argc, argv);
   return bus::runMain("launch_test_node", [&] {
     common.resolve("launch_test_node");
     SystemClock clock;

@@ -331,8 +331,8 @@ class HostileInput : public ::testing::Test {
     m.y = {0, 0};
     return m;
   }
-  // Offset of `count` in the encoding: fingerprint 8 + header 8+8+8+1.
-  static constexpr std::size_t kCountOffset = 8 + 25;
+  // Offset of `count` in the encoding: fingerprint 8 + header 8+8+8+1+8 (publisher_id).
+  static constexpr std::size_t kCountOffset = 8 + 33;
   static void setCount(std::vector<std::uint8_t>& buf, std::uint32_t count) {
     for (int i = 0; i < 4; ++i)
       buf[kCountOffset + i] = static_cast<std::uint8_t>(count >> (24 - 8 * i));

@@ -207,8 +207,8 @@ TEST(LogImageSource, ReadsValidCameraFramesAndCountsTheRest) {
         // Frame 2 claims three rows of 8 bytes but holds two: invalid, skipped and counted.
         std::vector<std::uint8_t> bytes(static_cast<std::size_t>(img.getEncodedSize()));
         img.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
-        // height is the second int32 after the 8-byte fingerprint and the 25-byte header.
-        bytes[8 + 25 + 4 + 3] = 3;
+        // height is the second int32 after the 8-byte fingerprint and the 33-byte header.
+        bytes[8 + 33 + 4 + 3] = 3;
         log.write(bus::channels::kCameraImage.name, 1000 + k, bytes.data(),
                   static_cast<int>(bytes.size()));
       } else {
