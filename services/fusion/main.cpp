@@ -54,7 +54,7 @@ int main(int argc, char** argv) {
   app.add_option("--ball-max-age", ball_max_age, "The ball is invalid after this long unseen, s")
       ->check(CLI::Range(0.05, 60.0))
       ->capture_default_str();
-  CLI11_PARSE(app, argc, argv);
+  FIELDLINE_PARSE(app, argc, argv);
 
   return bus::runMain("fusion", [&] {
     common.resolve("fusion");

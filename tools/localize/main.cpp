@@ -99,7 +99,7 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--png", png, "draw the points at the found pose on the field to this PNG");
   app.add_option("--cache", cache, "directory for the distance grid cache (default: none)");
-  CLI11_PARSE(app, argc, argv);
+  FIELDLINE_PARSE(app, argc, argv);
 
   try {
     const FieldModel field = fieldline::field::loadFieldPreset(field_name);

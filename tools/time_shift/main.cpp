@@ -35,7 +35,7 @@ int main(int argc, char** argv) {
   app.add_option("--max-shift", max_shift_ms, "Largest shift searched, ms")
       ->check(CLI::Range(10.0, 2000.0))
       ->capture_default_str();
-  CLI11_PARSE(app, argc, argv);
+  FIELDLINE_PARSE(app, argc, argv);
 
   return bus::runMain("time_shift", [&]() -> int {
     const double camera_latency = config::Node::loadFile(config::resolvePreset("camera", camera))

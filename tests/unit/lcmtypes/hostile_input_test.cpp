@@ -21,8 +21,8 @@ namespace {
 
 constexpr Utime kNow = 1'800'000'000'000'000;
 // Where a message's own fields start on the wire: the 8-byte fingerprint, then header_t
-// (utime 8 + utime_published 8 + seq 8 + robot_id 1).
-constexpr std::size_t kBody = 8 + 25;
+// (utime 8 + utime_published 8 + seq 8 + robot_id 1 + publisher_id 8).
+constexpr std::size_t kBody = 8 + 33;
 
 // An int32 on the wire that sizes what follows: an array count or a string length (with its NUL).
 struct WireLength {
