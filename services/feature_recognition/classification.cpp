@@ -77,23 +77,80 @@ bool fitArc(const Vec2* p, int n, Arc& out) {
   return std::isfinite(mean);
 }
 
-void classifyPieces(const Contours& contours, const RecognitionParams& params, Classified& out) {
+namespace {
+
+// Index in [1, n-1) of the point furthest from the chord p[0]-p[n-1].
+int furthestFromChord(const Vec2* p, int n) {
+  const Vec2 chord = p[n - 1] - p[0];
+  const double length = std::max(chord.norm(), 1e-9);
+  int best = n / 2;
+  double best_distance = -1.0;
+  for (int i = 1; i + 1 < n; ++i) {
+    const Vec2 d = p[i] - p[0];
+    const double distance = std::abs(chord.x() * d.y() - chord.y() * d.x()) / length;
+    if (distance > best_distance) {
+      best_distance = distance;
+      best = i;
+    }
+  }
+  return best;
+}
+
+bool looksStraight(const Vec2* p, int n, const RecognitionParams& params) {
+  if (n < 3) return false;
+  if (std::abs(pieceTurn(p, n)) > params.curved_angle / 2) return false;
+  const Line line = fitLine(p, n);
+  return line.rms <= params.max_line_rms && line.length() >= params.min_line_length;
+}
+
+}  // namespace
+
+void classifyPieces(Contours& contours, const RecognitionParams& params, Classified& out) {
   out.clear();
+  // Pieces appended while splitting are classified in the same loop.
   for (int k = 0; k < static_cast<int>(contours.pieces.size()); ++k) {
-    const Piece& piece = contours.pieces[k];
+    const Piece piece = contours.pieces[k];
     const Vec2* p = contours.points.data() + piece.begin;
     const int n = piece.size();
     if (n < 3) continue;
     if (std::abs(pieceTurn(p, n)) > params.curved_angle) {
+      // A corner the curvature split missed (too near an end, or rounded): the piece is two
+      // straight legs meeting at its point furthest from the chord, not an arc.
+      const int split = furthestFromChord(p, n);
+      const bool first_straight = looksStraight(p, split, params);
+      const bool second_straight = looksStraight(p + split + 1, n - split - 1, params);
+      if (first_straight || second_straight) {
+        const Vec2 a = p[split] - p[0], b = p[n - 1] - p[split];
+        const double turn = std::abs(std::atan2(a.x() * b.y() - a.y() * b.x(), a.dot(b)));
+        if (turn > params.corner_split_angle) {
+          if (split >= params.min_split_points) {
+            contours.pieces.push_back({piece.begin, piece.begin + split});
+          }
+          if (n - split - 1 >= params.min_split_points) {
+            contours.pieces.push_back({piece.begin + split + 1, piece.end});
+          }
+          continue;
+        }
+      }
       Arc arc;
       if (fitArc(p, n, arc) && arc.relative_deviation <= params.max_arc_relative_deviation) {
         arc.piece = k;
         out.arcs.push_back(arc);
+        continue;
       }
+      // Not an arc either: a noisy straight piece whose ends happened to bend (far away the
+      // points scatter more). It is straight if a line fits it.
+    }
+    Line line = fitLine(p, n);
+    if (line.rms > params.max_line_rms && n >= 2 * params.min_split_points) {
+      // Corners the curvature missed (sparse far points, several lines in one sequence): split
+      // at the point furthest from the chord, as a polyline simplification would.
+      const int split = furthestFromChord(p, n);
+      contours.pieces.push_back({piece.begin, piece.begin + split});
+      contours.pieces.push_back({piece.begin + split + 1, piece.end});
       continue;
     }
     out.straight_pieces.push_back(k);
-    Line line = fitLine(p, n);
     line.piece = k;
     if (line.rms <= params.max_line_rms && line.length() >= params.min_line_length) {
       out.lines.push_back(line);

@@ -82,6 +82,8 @@ double pieceTurn(const Vec2* p, int n);
 // centre, relative_deviation = their standard deviation / mean. False for collinear points.
 bool fitArc(const Vec2* p, int n, Arc& out);
 
-void classifyPieces(const Contours& contours, const RecognitionParams& params, Classified& out);
+// Classifies every piece. A curved piece that is two straight legs meeting at a corner is split
+// there (its halves are appended to contours.pieces and classified in turn).
+void classifyPieces(Contours& contours, const RecognitionParams& params, Classified& out);
 
 }  // namespace fieldline::feature_recognition

@@ -30,9 +30,11 @@ void smoothSequence(const Vec2* p, int n, Vec2* out) {
 
 void turningAngles(const Vec2* p, int n, int w, std::vector<double>& out) {
   out.assign(static_cast<std::size_t>(std::max(n, 0)), 0.0);
-  for (int i = w; i + w < n; ++i) {
-    const Vec2 a = p[i] - p[i - w];
-    const Vec2 b = p[i + w] - p[i];
+  for (int i = 2; i + 2 < n; ++i) {
+    // Near the ends the span shrinks (down to 2) so that corners there are still found.
+    const int span = std::min({w, i, n - 1 - i});
+    const Vec2 a = p[i] - p[i - span];
+    const Vec2 b = p[i + span] - p[i];
     out[i] = std::atan2(a.x() * b.y() - a.y() * b.x(), a.dot(b));
   }
 }

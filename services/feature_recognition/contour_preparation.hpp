@@ -51,8 +51,8 @@ struct InputCheck {
 // One pass of the 0.25/0.5/0.25 filter over p[0..n); the end points are kept. out may not alias p.
 void smoothSequence(const Vec2* p, int n, Vec2* out);
 
-// The signed angle (rad, CCW positive) by which p[i]-p[i-w] turns into p[i+w]-p[i], for every
-// i in [w, n-w); 0 for the first and last w points.
+// The signed angle (rad, CCW positive) by which p[i]-p[i-w] turns into p[i+w]-p[i]; within w of
+// an end the span shrinks to the points available, down to 2; 0 for the first and last 2 points.
 void turningAngles(const Vec2* p, int n, int w, std::vector<double>& out);
 
 // Indices of the maxima of |turn| inside the intervals where |turn| exceeds `threshold`; an

@@ -22,12 +22,17 @@ struct RecognitionParams {
   int split_min_separation = 3;
   // Consecutive points further apart than this split a sequence (a jump over an occlusion), m.
   double split_gap = 0.6;
-  // Pieces with fewer points are dropped.
+  // Pieces with fewer points are dropped; pieces split off during classification may be down to
+  // min_split_points (far lines have few, widely spaced points).
   int min_piece_points = 5;
+  int min_split_points = 3;
 
   // --- classification and arcs ---
   // Curved when first->middle and middle->last differ by more than this, rad.
   double curved_angle = 0.4;
+  // A curved piece whose point furthest from its chord turns it by more than this (rad) and has
+  // a straight leg on one side is split there into two pieces.
+  double corner_split_angle = 0.8;
   // Arcs with a larger relative radius deviation are discarded.
   double max_arc_relative_deviation = 0.3;
   // Straight pieces whose points lie further than this from their fitted line (rms) are

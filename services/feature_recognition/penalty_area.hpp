@@ -31,7 +31,7 @@ struct PenaltyCorner {
 struct PenaltyStructure {
   // Axis and group indices (into LineStructure::groups[axis]) of the three lines.
   int axis = 0;
-  int goal_line = -1;
+  int goal_line = -1;  // -1: not seen (only the two front lines)
   int goal_area_line = -1;
   int penalty_line = -1;
   Vec2 toward_goal = Vec2::UnitX();

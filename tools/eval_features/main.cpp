@@ -215,6 +215,29 @@ int run(const Options& options) {
                 << " pose=" << h.pose.x << "," << h.pose.y << "," << h.pose.phi
                 << " error_m=" << position << " error_deg=" << heading * 180 / kPi << "\n";
     }
+    const auto& structure = recognizer.structure();
+    for (int a = 0; a < 2; ++a) {
+      for (const auto& g : structure.groups[a]) {
+        std::cout << "group axis=" << a << " t=" << g.t << " length=" << g.line.length()
+                  << " rms=" << g.line.rms << " start=" << g.line.start().transpose()
+                  << " end=" << g.line.end().transpose() << "\n";
+      }
+    }
+    const auto& contours = recognizer.contours();
+    for (const auto& piece : contours.pieces) {
+      const Vec2* p = contours.points.data() + piece.begin;
+      const auto line = feature_recognition::fitLine(p, piece.size());
+      std::cout << "piece n=" << piece.size()
+                << " turn=" << feature_recognition::pieceTurn(p, piece.size())
+                << " rms=" << line.rms << " length=" << line.length()
+                << " from=" << p[0].transpose() << " to=" << p[piece.size() - 1].transpose()
+                << "\n";
+    }
+    std::cout << "pieces=" << recognizer.contours().pieces.size()
+              << " lines=" << recognizer.classified().lines.size()
+              << " arcs=" << recognizer.classified().arcs.size()
+              << " penalty=" << recognizer.penaltyFound()
+              << " corners=" << recognizer.penalty().corners.size() << "\n";
     std::cout << "points=" << vision.lines.points.size()
               << " sequences=" << vision.lines.sequences.size()
               << " features=" << features.features.size() << "\n";
