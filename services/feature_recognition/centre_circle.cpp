@@ -163,10 +163,11 @@ void findOrientationLine(const std::vector<Line>& lines, const RecognitionParams
       continue;
     }
     // The halfway line crosses the circle: its points reach inside it, not only past it.
+    // It runs through the circle: on both sides of the centre (a line that merely starts near
+    // the centre is something else).
     const double t_centre = line.along(circle.fit.centre);
-    if (t_centre < line.t_min - circle.fit.radius || t_centre > line.t_max + circle.fit.radius) {
-      continue;
-    }
+    const double reach = params.orientation_line_reach * circle.fit.radius;
+    if (t_centre - line.t_min < reach || line.t_max - t_centre < reach) continue;
     if (!best || line.length() > best->length()) best = &line;
   }
   if (!best) return;

@@ -66,6 +66,28 @@ bool finitePoint(const perception::LinePoint& p) {
   return std::isfinite(p.x) && std::isfinite(p.y);
 }
 
+// Smooths one run without jumps and splits it at its curvature maxima into out.pieces.
+void splitRun(const Vec2* raw, int n, int w, const RecognitionParams& params, Contours& out,
+              std::vector<double>& turn, std::vector<int>& splits) {
+  if (n < params.min_piece_points) return;
+  const int base = static_cast<int>(out.points.size());
+  out.points.resize(base + n);
+  Vec2* smoothed = out.points.data() + base;
+  smoothSequence(raw, n, smoothed);
+  turningAngles(smoothed, n, w, turn);
+  curvatureMaxima(turn, params.split_turn_angle, params.split_min_separation, splits);
+  int piece_start = 0;
+  auto emit = [&](int b, int e) {
+    if (e - b >= params.min_piece_points) out.pieces.push_back({base + b, base + e});
+  };
+  for (int s : splits) {
+    // The corner point itself is rounded by the smoothing: it belongs to neither side.
+    emit(piece_start, s);
+    piece_start = s + 1;
+  }
+  emit(piece_start, n);
+}
+
 }  // namespace
 
 InputCheck prepareContours(const perception::LinePoints& in, const RecognitionParams& params,
@@ -127,35 +149,16 @@ InputCheck prepareContours(const perception::LinePoints& in, const RecognitionPa
     raw.resize(n);
     for (int i = 0; i < n; ++i)
       raw[i] = Vec2(in.points[start + i].x, in.points[start + i].y);
-    const int base = static_cast<int>(out.points.size());
-    out.points.resize(base + n);
-    Vec2* smoothed = out.points.data() + base;
-    smoothSequence(raw.data(), n, smoothed);
-
-    turningAngles(smoothed, n, w, turn);
-    curvatureMaxima(turn, params.split_turn_angle, params.split_min_separation, splits);
-    // Jumps split too; merged with the curvature maxima in index order.
-    for (int i = 1; i < n; ++i) {
-      if ((smoothed[i] - smoothed[i - 1]).squaredNorm() > params.split_gap * params.split_gap) {
-        splits.push_back(-i);  // marks a cut between i-1 and i (no shared point)
+    // Jumps (an occlusion, a gap the tracker bridged) cut the sequence into runs before the
+    // smoothing, which would otherwise pull the two sides of a jump together.
+    int run_start = 0;
+    for (int i = 1; i <= n; ++i) {
+      if (i < n && (raw[i] - raw[i - 1]).squaredNorm() <= params.split_gap * params.split_gap) {
+        continue;
       }
+      splitRun(raw.data() + run_start, i - run_start, w, params, out, turn, splits);
+      run_start = i;
     }
-    std::sort(splits.begin(), splits.end(), [](int a, int b) { return std::abs(a) < std::abs(b); });
-    int piece_start = 0;
-    auto emit = [&](int b, int e) {
-      if (e - b >= params.min_piece_points) out.pieces.push_back({base + b, base + e});
-    };
-    for (int s : splits) {
-      if (s >= 0) {
-        // The corner point itself is rounded by the smoothing: it belongs to neither side.
-        emit(piece_start, s);
-        piece_start = s + 1;
-      } else {
-        emit(piece_start, -s);
-        piece_start = -s;
-      }
-    }
-    emit(piece_start, n);
   }
   return check;
 }

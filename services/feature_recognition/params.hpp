@@ -65,6 +65,8 @@ struct RecognitionParams {
   // min_orientation_line long.
   double orientation_line_distance = 0.3;
   double min_orientation_line = 1.0;
+  // It reaches this fraction of the radius to both sides of the centre.
+  double orientation_line_reach = 0.5;
 
   // --- principal directions, collinear groups ---
   double direction_cluster = 0.3;
@@ -77,6 +79,9 @@ struct RecognitionParams {
   double length_tolerance = 0.5;
   // A corner: the side line's end and the front line's end within this distance, m.
   double corner_distance = 0.3;
+  // Without all three lines, a corner's side line must reach this far from the front line (or
+  // to the goal line if that is nearer), m.
+  double partial_side_line = 1.0;
   // Lines shorter than this cannot tell left from right, m.
   double min_front_line = 0.5;
 

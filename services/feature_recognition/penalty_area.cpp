@@ -39,7 +39,7 @@ void extentAlong(const Line& line, const Vec2& u, double& lo, double& hi) {
 
 // Looks for the corners at the two ends of `front` (a goal-area or penalty-area front line).
 void findCorners(const LineStructure& structure, const PenaltyStructure& area, const Line& front,
-                 double goal_v, bool inner, const RecognitionParams& params,
+                 double goal_v, bool inner, bool partial, const RecognitionParams& params,
                  std::vector<PenaltyCorner>& out) {
   const Vec2 v = area.toward_goal;
   const Vec2 left = leftOf(v);
@@ -56,6 +56,12 @@ void findCorners(const LineStructure& structure, const PenaltyStructure& area, c
     if (std::abs(lo - front_v) > params.corner_distance) continue;
     if (hi - lo < params.min_front_line) continue;
     if (hi > goal_v + params.corner_distance) continue;
+    // With only two of the three lines seen the side line must be seen well too: to the goal
+    // line (inner corners) or over a metre (outer corners).
+    if (partial &&
+        hi < std::min(goal_v, front_v + params.partial_side_line) - params.corner_distance) {
+      continue;
+    }
     Vec2 corner;
     if (!intersect(front, side, corner)) continue;
     const double lateral = corner.dot(left);
@@ -180,8 +186,13 @@ bool checkCandidate(const LineStructure& structure, const field::FieldModel& fie
     extentAlong(side.line, v, a, b);
     if (b > goal_v + params.length_tolerance) return false;
   }
-  if (roles[1] >= 0) findCorners(structure, s, g[roles[1]].line, goal_v, true, params, s.corners);
-  if (roles[2] >= 0) findCorners(structure, s, g[roles[2]].line, goal_v, false, params, s.corners);
+  const bool partial = seen < 3;
+  if (roles[1] >= 0) {
+    findCorners(structure, s, g[roles[1]].line, goal_v, true, partial, params, s.corners);
+  }
+  if (roles[2] >= 0) {
+    findCorners(structure, s, g[roles[2]].line, goal_v, false, partial, params, s.corners);
+  }
   // Without all three lines only the corners' side lines tell where the goal is.
   return seen == 3 || !s.corners.empty();
 }
