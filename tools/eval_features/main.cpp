@@ -381,7 +381,12 @@ int main(int argc, char** argv) {
   app.add_option("--pose", options.pose,
                  "Evaluate one frame at x,y,phi (m, m, rad) and print its hypotheses");
   app.add_option("--dump", options.dump, "With --pose: write the frame's line points as CSV");
-  CLI11_PARSE(app, argc, argv);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    // --help exits 0; bad arguments exit 2.
+    return app.exit(e) == 0 ? 0 : 2;
+  }
   try {
     return run(options);
   } catch (const std::exception& e) {

@@ -175,7 +175,12 @@ int main(int argc, char** argv) {
   app.add_option("--field", field_name, "Field preset (msl, fu2004) or YAML file")
       ->capture_default_str();
   app.add_option("--png", png, "Draw points, features and hypotheses to this PNG");
-  CLI11_PARSE(app, argc, argv);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    // --help exits 0; bad arguments exit 2.
+    return app.exit(e) == 0 ? 0 : 2;
+  }
   try {
     const field::FieldModel field = field::loadFieldPreset(field_name);
     const perception::LinePoints points = feature_recognition::readPointsCsvFile(points_path);

@@ -156,9 +156,11 @@ std::string headlineMetrics(const service_status_t& status) {
     int digits;
   };
   static constexpr Headline kHeadlines[] = {
-      {"speed_mps", "speed", "m/s", 2},       {"reference_speed_mps", "ref", "m/s", 2},
-      {"render_ms", "render", "ms", 2},       {"capture_ms", "capture", "ms", 2},
-      {"touched_percent", "touched", "%", 1}, {"realtime_factor", "realtime x", "", 2},
+      {"speed_mps", "speed", "m/s", 2},           {"reference_speed_mps", "ref", "m/s", 2},
+      {"render_ms", "render", "ms", 2},           {"capture_ms", "capture", "ms", 2},
+      {"touched_percent", "touched", "%", 1},     {"realtime_factor", "realtime x", "", 2},
+      {"circles_per_s", "circles", "/s", 1},      {"corners_per_s", "corners", "/s", 1},
+      {"other_features_per_s", "other", "/s", 1},
   };
   std::string note;
   const std::size_t n = std::min(status.metric_name.size(), status.metric_value.size());
