@@ -272,6 +272,9 @@ int run(const Options& options) {
       if (position > kFalseDistance || heading > kFalseAngle) {
         ++false_hypotheses;
         record.false_hypothesis = true;
+        std::cerr << "false hypothesis: frame " << f << " pose " << pose.x << "," << pose.y << ","
+                  << pose.phi << " kind " << static_cast<int>(features.features[h.feature].kind)
+                  << " error " << position << " m " << heading * 180 / kPi << " deg\n";
         continue;
       }
       position_errors.push_back(position);
