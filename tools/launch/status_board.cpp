@@ -200,13 +200,22 @@ std::string headlineMetrics(const service_status_t& status) {
     int digits;
   };
   static constexpr Headline kHeadlines[] = {
-      {"speed_mps", "speed", "m/s", 2},       {"reference_speed_mps", "ref", "m/s", 2},
-      {"render_ms", "render", "ms", 2},       {"capture_ms", "capture", "ms", 2},
-      {"touched_percent", "touched", "%", 1}, {"realtime_factor", "realtime x", "", 2},
-      {"correction_cm", "corr", "cm", 1},     {"correction_deg", "turn", "deg", 1},
+      {"speed_mps", "speed", "m/s", 2},
+      {"reference_speed_mps", "ref", "m/s", 2},
+      {"render_ms", "render", "ms", 2},
+      {"capture_ms", "capture", "ms", 2},
+      {"touched_percent", "touched", "%", 1},
+      {"realtime_factor", "realtime x", "", 2},
+      {"correction_cm", "corr", "cm", 1},
+      {"correction_deg", "turn", "deg", 1},
       // teamcomm: teammates heard, worst clock offset uncertainty, refused packets.
-      {"teammates_present", "team", "", 0},   {"offset_uncertainty_ms", "offset +-", "ms", 2},
+      {"teammates_present", "team", "", 0},
+      {"offset_uncertainty_ms", "offset +-", "ms", 2},
       {"packets_rejected", "rejected", "", 0},
+      // feature_recognition: features per second by kind.
+      {"circles_per_s", "circles", "/s", 1},
+      {"corners_per_s", "corners", "/s", 1},
+      {"other_features_per_s", "other", "/s", 1},
   };
   std::string note;
   const std::size_t n = std::min(status.metric_name.size(), status.metric_value.size());

@@ -231,6 +231,11 @@ TEST(HeadlineMetrics, PicksTheMetricsAPersonWatches) {
   s.metric_name = {"serial_reconnects", "speed_mps", "render_ms"};
   s.metric_value = {2.0, 1.234, 0.41};
   EXPECT_EQ(headlineMetrics(s), "speed 1.23 m/s, render 0.41 ms");
+  // Feature recognition shows its features per second by kind.
+  s.num_metrics = 4;
+  s.metric_name = {"recognition_ms", "circles_per_s", "corners_per_s", "other_features_per_s"};
+  s.metric_value = {0.05, 10.0, 3.0, 22.0};
+  EXPECT_EQ(headlineMetrics(s), "circles 10.0 /s, corners 3.0 /s, other 22.0 /s");
   s.metric_name = {"serial_reconnects"};
   s.metric_value = {2.0};
   s.num_metrics = 1;

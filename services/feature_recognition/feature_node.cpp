@@ -1,0 +1,68 @@
+#include "services/feature_recognition/feature_node.hpp"
+
+#include <chrono>
+
+#include "common/bus/channels.hpp"
+#include "common/msg/field_features.hpp"
+#include "common/msg/line_contours.hpp"
+
+namespace fieldline::feature_recognition {
+
+namespace {
+constexpr std::int64_t kRateWindowUs = 1'000'000;
+}
+
+FeatureNode::FeatureNode(bus::Node& node, const field::FieldModel& field, RecognitionParams params)
+    : node_(node), recognizer_(field, params) {
+  node_.subscribe(bus::channels::kVisionLines, [this](const line_contours_t& m) { onLines(m); });
+}
+
+void FeatureNode::onLines(const line_contours_t& m) {
+  msg::fromMessage(m, points_);
+  // Processing time is a measurement of this computer: steady_clock.
+  const auto start = std::chrono::steady_clock::now();
+  const InputCheck check = recognizer_.recognize(points_, features_);
+  const double processing_ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  ++frames_processed_;
+  if (check.errors() > 0) {
+    ++frames_with_errors_;
+    node_.reportError(check.too_many_points ? "too_many_points" : "bad_sequences",
+                      "VISION_LINES: " + check.describe());
+  }
+  out_.header.utime = m.header.utime;
+  msg::toMessage(features_, out_);
+  node_.publish(bus::channels::kFieldFeatures, out_);
+  updateRates(m.header.utime, features_);
+  node_.setMetric("recognition_ms", processing_ms);
+}
+
+void FeatureNode::updateRates(std::int64_t utime, const perception::FieldFeatures& features) {
+  Seen seen{utime, 0, 0, 0};
+  for (const auto& f : features.features) {
+    if (f.kind == perception::FeatureKind::kCentreCircle) {
+      ++seen.circles;
+    } else if (f.kind == perception::FeatureKind::kPenaltyCorner) {
+      ++seen.corners;
+    } else {
+      ++seen.others;
+    }
+  }
+  // A jump back in time (a replayed log) restarts the window.
+  if (!recent_.empty() && utime < recent_.back().utime) recent_.clear();
+  recent_.push_back(seen);
+  while (!recent_.empty() && recent_.front().utime <= utime - kRateWindowUs)
+    recent_.pop_front();
+  int circles = 0, corners = 0, others = 0;
+  for (const Seen& s : recent_) {
+    circles += s.circles;
+    corners += s.corners;
+    others += s.others;
+  }
+  // Counts over the last second of exposure time = features per second.
+  node_.setMetric("circles_per_s", circles);
+  node_.setMetric("corners_per_s", corners);
+  node_.setMetric("other_features_per_s", others);
+}
+
+}  // namespace fieldline::feature_recognition

@@ -1,0 +1,69 @@
+#include "services/feature_recognition/junctions.hpp"
+
+#include <cmath>
+
+#include "services/feature_recognition/penalty_area.hpp"
+
+namespace fieldline::feature_recognition {
+
+namespace {
+
+enum class Meets { kNot, kEnds, kThrough };
+
+// How `line` meets the point c on it; `away` is set to the unit vector from c along the line
+// toward its far end when it ends at c.
+Meets howMeets(const Line& line, const Vec2& c, const RecognitionParams& params, Vec2& away) {
+  const double s = line.along(c);
+  const double jd = params.junction_distance;
+  if (s < line.t_min - jd || s > line.t_max + jd) return Meets::kNot;
+  if (s - line.t_min >= params.junction_through && line.t_max - s >= params.junction_through) {
+    return Meets::kThrough;
+  }
+  if (std::abs(s - line.t_min) <= jd) {
+    away = line.direction;
+    return Meets::kEnds;
+  }
+  if (std::abs(s - line.t_max) <= jd) {
+    away = -line.direction;
+    return Meets::kEnds;
+  }
+  return Meets::kNot;
+}
+
+}  // namespace
+
+void findJunctions(const LineStructure& structure, const RecognitionParams& params,
+                   std::vector<Junction>& out) {
+  out.clear();
+  if (!structure.found) return;
+  const auto& g0 = structure.groups[0];
+  const auto& g1 = structure.groups[1];
+  for (int i = 0; i < static_cast<int>(g0.size()); ++i) {
+    for (int j = 0; j < static_cast<int>(g1.size()); ++j) {
+      const Line& a = g0[i].line;
+      const Line& b = g1[j].line;
+      Vec2 c;
+      if (!intersect(a, b, c)) continue;
+      Vec2 away_a, away_b;
+      const Meets ma = howMeets(a, c, params, away_a);
+      const Meets mb = howMeets(b, c, params, away_b);
+      if (ma == Meets::kNot || mb == Meets::kNot) continue;
+      Junction junction;
+      junction.position = c;
+      if (ma == Meets::kEnds && mb == Meets::kEnds) {
+        const Vec2 bisector = away_a + away_b;
+        junction.phi = std::atan2(bisector.y(), bisector.x());
+        junction = {false, c, junction.phi, 0, i, 1, j};
+      } else if (ma == Meets::kEnds && mb == Meets::kThrough) {
+        junction = {true, c, std::atan2(away_a.y(), away_a.x()), 1, j, 0, i};
+      } else if (mb == Meets::kEnds && ma == Meets::kThrough) {
+        junction = {true, c, std::atan2(away_b.y(), away_b.x()), 0, i, 1, j};
+      } else {
+        continue;  // a crossing: no such marking on the field
+      }
+      out.push_back(junction);
+    }
+  }
+}
+
+}  // namespace fieldline::feature_recognition

@@ -1,0 +1,43 @@
+// fieldline-feature-recognition: layer 3 of the localization (seed 4.13). Recognises the centre
+// circle, the penalty-area corners, L-corners, T-junctions and straight lines in every
+// VISION_LINES message and publishes them with the field poses they imply as FIELD_FEATURES,
+// stamped with the same exposure time.
+#include <spdlog/spdlog.h>
+#include <CLI/CLI.hpp>
+
+#include "common/bus/cli.hpp"
+#include "common/bus/node.hpp"
+#include "common/field/field_model.hpp"
+#include "services/feature_recognition/feature_node.hpp"
+
+using namespace fieldline;
+
+int main(int argc, char** argv) {
+  CLI::App app{
+      "Feature recognition: centre circle and penalty-area corners (and L-corners, T-junctions, "
+      "straight lines) in each VISION_LINES message, published with every field pose they "
+      "imply as FIELD_FEATURES."};
+  bus::CommonOptions common;
+  common.addTo(app);
+  std::string field_name = "msl";
+  app.add_option("--field", field_name, "Field preset (msl, fu2004) or YAML file")
+      ->capture_default_str();
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    // --help exits 0; bad arguments exit 2.
+    return app.exit(e) == 0 ? 0 : 2;
+  }
+
+  return bus::runMain("feature_recognition", [&] {
+    common.resolve("feature_recognition");
+    const field::FieldModel field = field::loadFieldPreset(field_name);
+    SystemClock clock;
+    bus::installStopSignals();
+    bus::Node node(
+        {.process = "feature_recognition", .robot_id = common.robot, .url = common.bus_url}, clock);
+    feature_recognition::FeatureNode features(node, field);
+    spdlog::info("recognising features on field {}", field.name());
+    return node.run();
+  });
+}

@@ -1,0 +1,103 @@
+// The constants of feature recognition (seed 4.13), in SI units. Distances that belong to the
+// field (circle radius, area depths and widths) are not here: they come from field::FieldModel.
+#pragma once
+
+namespace fieldline::feature_recognition {
+
+struct RecognitionParams {
+  // --- input ---
+  // Frames with more points are refused as a whole (bounded time per frame).
+  int max_points = 20000;
+  // Sequences with fewer points carry no usable shape.
+  int min_sequence_points = 5;
+
+  // --- contour preparation (seed: smoothing, curvature, splitting) ---
+  // The enclosing points for the curvature are this many indices before and after.
+  int curvature_span = 4;
+  // Split where the tangent turns by more than this between p[i-w]->p[i] and p[i]->p[i+w], rad.
+  // (The seed divides by the distance of the vectors' centres; the point spacing grows with the
+  // distance from the robot, so the turning angle itself is the scale-free test.)
+  double split_turn_angle = 0.5;
+  // Split maxima at least this many indices apart.
+  int split_min_separation = 3;
+  // Consecutive points further apart than this split a sequence (a jump over an occlusion), m.
+  double split_gap = 0.6;
+  // Pieces with fewer points are dropped; pieces split off during classification may be down to
+  // min_split_points (far lines have few, widely spaced points).
+  int min_piece_points = 5;
+  int min_split_points = 3;
+
+  // --- classification and arcs ---
+  // Curved when first->middle and middle->last differ by more than this, rad.
+  double curved_angle = 0.4;
+  // A curved piece whose point furthest from its chord turns it by more than this (rad) and has
+  // a straight leg on one side is split there into two pieces.
+  double corner_split_angle = 0.8;
+  // Arcs with a larger relative radius deviation are discarded.
+  double max_arc_relative_deviation = 0.3;
+  // Straight pieces whose points lie further than this from their fitted line (rms) are
+  // discarded, m.
+  double max_line_rms = 0.06;
+  // Straight pieces shorter than this are not used, m.
+  double min_line_length = 0.25;
+
+  // --- centre circle ---
+  // Arcs are clustered when their radius is within this fraction of the model's radius.
+  double arc_radius_tolerance = 0.4;
+  // Cluster radius relative to the arc's radius.
+  double circle_cluster_radius = 0.6;
+  // A cluster is a circle from this many points.
+  int circle_min_points = 20;
+  // Straight pieces re-classified as circle: centre within this fraction of r from the circle,
+  // direction within this angle of the tangent (rad).
+  double reclassify_distance = 0.5;
+  double reclassify_angle = 0.436332313;  // 25 degrees
+  int landau_iterations = 4;
+  // After the fit, points further than this from the circle are dropped and the fit repeated, m.
+  double circle_inlier_distance = 0.15;
+  // The fitted radius must be within this fraction of the model's radius.
+  double circle_radius_tolerance = 0.12;
+  // Rms distance of the points from the fitted circle at most, m.
+  double circle_max_rms = 0.06;
+  // The points must cover at least this much of the circle's angle, rad.
+  double circle_min_coverage = 1.2;
+  // The orientation line passes within this distance of the centre, m, and is at least
+  // min_orientation_line long.
+  double orientation_line_distance = 0.3;
+  double min_orientation_line = 1.0;
+  // It reaches this fraction of the radius to both sides of the centre.
+  double orientation_line_reach = 0.5;
+
+  // --- principal directions, collinear groups ---
+  double direction_cluster = 0.3;
+  double collinear_cluster = 0.2;
+
+  // --- penalty area ---
+  // Tolerance on the spacings of the goal line, goal-area line and penalty-area line, m.
+  double spacing_tolerance = 0.2;
+  // Tolerance on the lengths of the area lines against the field model, m.
+  double length_tolerance = 0.5;
+  // A corner: the side line's end and the front line's end within this distance, m.
+  double corner_distance = 0.3;
+  // Without all three lines, a corner's side line must reach this far from the front line (or
+  // to the goal line if that is nearer), m.
+  double partial_side_line = 1.0;
+  // Lines shorter than this cannot tell left from right, m.
+  double min_front_line = 0.5;
+
+  // --- junctions and straight lines (beyond the seed) ---
+  // An end closer than this to another line forms a junction, m.
+  double junction_distance = 0.25;
+  // A line continues through a T when it reaches this far on both sides, m.
+  double junction_through = 0.3;
+  // Straight-line constraints from groups at least this long, m.
+  double min_constraint_line = 1.0;
+
+  // --- pose hypotheses ---
+  // Floors on the standard deviations (the fit's own residuals underestimate the calibration's
+  // errors), m and rad.
+  double min_sigma_xy = 0.02;
+  double min_sigma_phi = 0.005;
+};
+
+}  // namespace fieldline::feature_recognition

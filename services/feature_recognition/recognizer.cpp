@@ -1,0 +1,95 @@
+#include "services/feature_recognition/recognizer.hpp"
+
+#include <cmath>
+
+#include "services/feature_recognition/pose_hypotheses.hpp"
+
+namespace fieldline::feature_recognition {
+
+using perception::FeatureKind;
+using perception::FieldFeature;
+
+FeatureRecognizer::FeatureRecognizer(const field::FieldModel& field, RecognitionParams params)
+    : field_(field), params_(params) {}
+
+InputCheck FeatureRecognizer::recognize(const perception::LinePoints& in,
+                                        perception::FieldFeatures& out) {
+  out.clear();
+  circle_.clear();
+  structure_.clear();
+  junctions_.clear();
+  penalty_found_ = false;
+  const InputCheck check = prepareContours(in, params_, contours_);
+  classifyPieces(contours_, params_, classified_);
+  findCircle(contours_, classified_, field_.dimensions().centre_circle_radius, params_, circle_);
+  buildLineStructure(contours_, classified_.lines,
+                     circle_.found ? circle_.pieces : std::vector<int>{}, params_, structure_);
+  if (circle_.found && structure_.found) {
+    // The halfway line is a merged group: its parts on both sides of the circle count together.
+    thread_local std::vector<Line> candidates;
+    candidates.clear();
+    for (const auto& groups : structure_.groups) {
+      for (const LineGroup& g : groups)
+        candidates.push_back(g.line);
+    }
+    findOrientationLine(candidates, params_, circle_);
+  }
+  penalty_found_ = findPenaltyArea(structure_, field_, params_, penalty_);
+  findJunctions(structure_, params_, junctions_);
+
+  // High-level features with their poses.
+  if (circle_.found && circle_.oriented) {
+    const Pose2 local{circle_.fit.centre.x(), circle_.fit.centre.y(),
+                      std::atan2(circle_.line_direction.y(), circle_.line_direction.x())};
+    const int index = static_cast<int>(out.features.size());
+    out.features.push_back({FeatureKind::kCentreCircle, local, qualityMeasure(0, 2)});
+    Line line;
+    line.rms = circle_.line_rms;
+    line.count = circle_.line_count;
+    line.t_max = circle_.line_length;
+    const double sigma_position =
+        circle_.fit.rms / std::sqrt(static_cast<double>(std::max(circle_.fit.count, 1)));
+    addHypotheses(index, local, centreCircleMarks(), sigma_position, lineAngleSigma(line),
+                  params_.min_sigma_xy, params_.min_sigma_phi, out.hypotheses);
+  }
+  if (penalty_found_) {
+    for (const PenaltyCorner& corner : penalty_.corners) {
+      const Pose2 local{corner.position.x(), corner.position.y(),
+                        std::atan2(corner.toward_goal.y(), corner.toward_goal.x())};
+      const int index = static_cast<int>(out.features.size());
+      out.features.push_back({FeatureKind::kPenaltyCorner, local, qualityMeasure(0, 2)});
+      addHypotheses(index, local, penaltyCornerMarks(field_, corner.left, corner.inner),
+                    corner.sigma_xy, corner.sigma_phi, params_.min_sigma_xy, params_.min_sigma_phi,
+                    out.hypotheses);
+    }
+  }
+  // Lower features: no pose of their own (many places on the field look the same).
+  for (const Junction& j : junctions_) {
+    bool explained = false;
+    if (penalty_found_) {
+      for (const PenaltyCorner& corner : penalty_.corners) {
+        if ((corner.position - j.position).norm() < params_.corner_distance) explained = true;
+      }
+    }
+    if (explained) continue;
+    out.features.push_back({j.is_t ? FeatureKind::kTJunction : FeatureKind::kFieldCorner,
+                            {j.position.x(), j.position.y(), j.phi},
+                            qualityMeasure(0, j.is_t ? field_t_junctions_ : field_corners_)});
+  }
+  const double line_quality = qualityMeasure(1, static_cast<int>(field_.segments().size()));
+  for (const auto& groups : structure_.groups) {
+    for (const LineGroup& g : groups) {
+      if (g.line.length() < params_.min_constraint_line) continue;
+      // The foot of the perpendicular from the robot and the line's direction.
+      const Vec2 foot = g.line.centre + g.line.along(Vec2::Zero()) * g.line.direction;
+      out.features.push_back(
+          {FeatureKind::kStraightLine,
+           {foot.x(), foot.y(), std::atan2(g.line.direction.y(), g.line.direction.x())},
+           line_quality});
+    }
+  }
+  rankHypotheses(out);
+  return check;
+}
+
+}  // namespace fieldline::feature_recognition

@@ -1,0 +1,61 @@
+// Feature recognition (seed 4.13, layer 3 of the localization): one frame's line points in, the
+// high-level features (centre circle, the four kinds of penalty-area corner) and lower ones
+// (L-corners, T-junctions, straight lines) out, with every field pose the high-level ones imply.
+// Plain library: no bus, no clock. The stages, in the seed's order, each in its own file:
+//   contour_preparation  smoothing, curvature, splitting
+//   classification       straight or curved, arcs and lines
+//   centre_circle        arc clustering, re-classification, Landau fit, orientation line
+//   line_structure       principal directions, collinear groups in topological order
+//   penalty_area         goal line / goal-area line / penalty-area line and their corners
+//   junctions            L-corners, T-junctions (beyond the seed)
+//   pose_hypotheses      reference marks, symmetric poses, ranking
+// Not thread-safe: one recogniser per thread.
+#pragma once
+
+#include <vector>
+
+#include "common/field/field_model.hpp"
+#include "common/perception/field_features.hpp"
+#include "common/perception/line_points.hpp"
+#include "services/feature_recognition/centre_circle.hpp"
+#include "services/feature_recognition/junctions.hpp"
+#include "services/feature_recognition/penalty_area.hpp"
+
+namespace fieldline::feature_recognition {
+
+class FeatureRecognizer {
+ public:
+  // `field` must outlive the recogniser.
+  explicit FeatureRecognizer(const field::FieldModel& field, RecognitionParams params = {});
+
+  // Recognises the features of one frame into `out` (cleared first). Unsound sequences are
+  // dropped and reported in the returned check; a frame with too many points yields nothing.
+  InputCheck recognize(const perception::LinePoints& in, perception::FieldFeatures& out);
+
+  const RecognitionParams& params() const { return params_; }
+  const field::FieldModel& field() const { return field_; }
+  // The intermediate results of the last frame (for drawings and tests).
+  const Contours& contours() const { return contours_; }
+  const Classified& classified() const { return classified_; }
+  const CentreCircle& circle() const { return circle_; }
+  const LineStructure& structure() const { return structure_; }
+  bool penaltyFound() const { return penalty_found_; }
+  const PenaltyStructure& penalty() const { return penalty_; }
+  const std::vector<Junction>& junctions() const { return junctions_; }
+
+ private:
+  const field::FieldModel& field_;
+  RecognitionParams params_;
+  // Number of L-corners and T-junctions the field's lines form (quantities of those features).
+  int field_corners_ = 12;
+  int field_t_junctions_ = 10;
+  Contours contours_;
+  Classified classified_;
+  CentreCircle circle_;
+  LineStructure structure_;
+  bool penalty_found_ = false;
+  PenaltyStructure penalty_;
+  std::vector<Junction> junctions_;
+};
+
+}  // namespace fieldline::feature_recognition

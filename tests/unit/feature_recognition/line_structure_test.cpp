@@ -1,0 +1,76 @@
+// Stage 4: principal directions and collinear groups in topological order.
+#include "services/feature_recognition/line_structure.hpp"
+
+#include <cmath>
+#include <numbers>
+
+#include <gtest/gtest.h>
+
+#include "tests/unit/feature_recognition/synthetic.hpp"
+
+namespace fieldline::feature_recognition {
+namespace {
+
+TEST(LineStructure, FindsTheDirectionsDespiteOutliersAndGroupsCollinearPieces) {
+  std::mt19937 rng(15);
+  const double angle = 0.4;
+  const Vec2 u(std::cos(angle), std::sin(angle)), w(-u.y(), u.x());
+  // Three parallel lines (one broken in two collinear pieces), one perpendicular line and one
+  // outlier at 45 degrees to both.
+  std::vector<std::vector<Vec2>> runs = {
+      test::polyline({-2 * u + 1.0 * w, 2 * u + 1.0 * w}, 0.1, 0.01, rng),
+      test::polyline({-3 * u + 2.5 * w, -1 * u + 2.5 * w}, 0.1, 0.01, rng),
+      test::polyline({0.5 * u + 2.6 * w, 3 * u + 2.6 * w}, 0.1, 0.01, rng),
+      test::polyline({-1 * u - 1.0 * w, 2 * u - 1.0 * w}, 0.1, 0.01, rng),
+      test::polyline({3 * u - 1 * w, 3 * u + 3 * w}, 0.1, 0.01, rng),
+      test::polyline({-1.0 * (u + w), 1.0 * (u + w)}, 0.1, 0.0, rng)};
+  Contours c;
+  for (const auto& run : runs) {
+    const int begin = static_cast<int>(c.points.size());
+    c.points.insert(c.points.end(), run.begin(), run.end());
+    c.pieces.push_back({begin, static_cast<int>(c.points.size())});
+  }
+  Classified classified;
+  classifyPieces(c, RecognitionParams{}, classified);
+  ASSERT_EQ(classified.lines.size(), 6u);
+  LineStructure s;
+  buildLineStructure(c, classified.lines, {}, RecognitionParams{}, s);
+  ASSERT_TRUE(s.found);
+  // psi0 is the direction of u or of w (mod pi).
+  const double d0 = std::abs(std::remainder(s.psi0 - angle, std::numbers::pi / 2));
+  EXPECT_LT(d0, 0.01);
+  // Lines along u are perpendicular to the axis along w.
+  const int along_u = std::abs(s.axes[0].dot(w)) > 0.99 ? 0 : 1;
+  const auto& groups = s.groups[along_u];
+  ASSERT_EQ(groups.size(), 3u);
+  const double sign = s.axes[along_u].dot(w) > 0 ? 1.0 : -1.0;
+  std::vector<double> offsets;
+  for (const auto& g : groups)
+    offsets.push_back(sign * g.t);
+  // Sorted along the axis; the broken line is one group over both pieces.
+  EXPECT_LT(groups[0].t, groups[1].t);
+  EXPECT_LT(groups[1].t, groups[2].t);
+  std::sort(offsets.begin(), offsets.end());
+  EXPECT_NEAR(offsets[0], -1.0, 0.02);
+  EXPECT_NEAR(offsets[1], 1.0, 0.02);
+  EXPECT_NEAR(offsets[2], 2.55, 0.06);
+  for (const auto& g : groups) {
+    if (g.members.size() == 2) {
+      EXPECT_NEAR(g.line.length(), 6.0, 0.1);
+    }
+  }
+  // The outlier is in no group; the perpendicular line is the other axis's only group.
+  ASSERT_EQ(s.groups[1 - along_u].size(), 1u);
+  EXPECT_NEAR(std::abs(s.groups[1 - along_u][0].t), 3.0, 0.02);
+}
+
+TEST(LineStructure, ExcludedPiecesAndNoLines) {
+  LineStructure s;
+  buildLineStructure(Contours{}, {}, {}, RecognitionParams{}, s);
+  EXPECT_FALSE(s.found);
+  double psi0 = 0.0;
+  EXPECT_FALSE(principalDirection({}, 0.3, psi0));
+}
+
+}  // namespace
+}  // namespace fieldline::feature_recognition
