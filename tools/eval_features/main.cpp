@@ -26,7 +26,7 @@
 #include "services/feature_recognition/points_csv.hpp"
 #include "services/feature_recognition/recognizer.hpp"
 #include "services/region_tracking/frame_processor.hpp"
-#include "services/region_tracking/sim_frames.hpp"
+#include "tests/support/sim_frames.hpp"
 
 namespace {
 
