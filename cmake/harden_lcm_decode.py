@@ -5,11 +5,14 @@ The generated _decodeNoHash() trusts array counts read from the wire:
 - a negative count makes vector::resize throw (out through LCM's C dispatch: the process dies);
 - a huge count allocates gigabytes, then `4 * count` overflows in the bounds check and the decoder
   reads past the buffer;
-- a zero count skips the resize, so a reused message keeps the previous message's elements.
+- a zero count skips the resize, so a reused message keeps the previous message's elements;
+- a string length below 1 (it counts the terminating NUL) makes `len - 1` a huge size for
+  string::assign, or overflows int for INT32_MIN (found by tests/fuzz/fuzz_lcm_decode).
 
 This rewrites every `if(this->N) { this->X.resize(this->N);` and every bare
 `this->X.resize(this->N);` so that the count is checked against the bytes left (every element takes
-at least one byte on the wire) and the vector is always resized, then decoding goes on as before.
+at least one byte on the wire) and the vector is always resized, then decoding goes on as before; and
+every string length check `if(__s_len__ > maxlen - pos)` so that it also rejects lengths below 1.
 Usage: harden_lcm_decode.py HEADER...   (rewrites in place; idempotent)
 """
 import re
@@ -21,12 +24,15 @@ CHECK = "if(this->{n} < 0 || this->{n} > maxlen - pos) return -1;"
 conditional = re.compile(
     r"^(?P<indent>[ \t]*)if\(this->(?P<n>\w+)\) \{\n[ \t]*this->(?P<x>\w+)\.resize\(this->(?P=n)\);\n",
     re.M)
+string_length = re.compile(r"if\((?P<len>__\w+_len__) > maxlen - pos\) return -1;")
 bare = re.compile(r"^(?P<indent>[ \t]*)this->(?P<x>\w+)\.resize\(this->(?P<n>\w+)\);\n", re.M)
 
 for path in sys.argv[1:]:
     text = open(path).read()
     if MARK in text:
         continue
+    text = string_length.sub(
+        lambda m: "if({l} < 1 || {l} > maxlen - pos) return -1;".format(l=m["len"]), text)
     text = conditional.sub(
         lambda m: "{i}{check}\n{i}this->{x}.resize(this->{n});\n{i}if(this->{n}) {{\n".format(
             i=m["indent"], check=CHECK.format(n=m["n"]), x=m["x"], n=m["n"]), text)
