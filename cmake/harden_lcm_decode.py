@@ -12,7 +12,7 @@ The generated _decodeNoHash() trusts array counts read from the wire:
 This rewrites every `if(this->N) { this->X.resize(this->N);` and every bare
 `this->X.resize(this->N);` so that the count is checked against the bytes left (every element takes
 at least one byte on the wire) and the vector is always resized, then decoding goes on as before; and
-every string length check `if(__s_len__ > maxlen - pos)` so that it also rejects lengths below 1.
+every string length check `if(__s_len__ > maxlen - pos)` (`__elem_len` in string arrays) so that it also rejects lengths below 1.
 Usage: harden_lcm_decode.py HEADER...   (rewrites in place; idempotent)
 """
 import re
@@ -24,7 +24,7 @@ CHECK = "if(this->{n} < 0 || this->{n} > maxlen - pos) return -1;"
 conditional = re.compile(
     r"^(?P<indent>[ \t]*)if\(this->(?P<n>\w+)\) \{\n[ \t]*this->(?P<x>\w+)\.resize\(this->(?P=n)\);\n",
     re.M)
-string_length = re.compile(r"if\((?P<len>__\w+_len__) > maxlen - pos\) return -1;")
+string_length = re.compile(r"if\((?P<len>__\w*_len(?:__)?) > maxlen - pos\) return -1;")
 bare = re.compile(r"^(?P<indent>[ \t]*)this->(?P<x>\w+)\.resize\(this->(?P<n>\w+)\);\n", re.M)
 
 for path in sys.argv[1:]:
