@@ -111,6 +111,7 @@ Node::Node(NodeOptions options, const Clock& clock, std::shared_ptr<Connection> 
   buses_.push_back(std::move(primary));
   status_.setRateGrace(options_.input_grace_us);
   // Random, not the pid: pids repeat across robots and containers. Non-zero, so 0 means "unset".
+  publisher_id_ = options_.publisher_id;
   std::random_device entropy;
   while (publisher_id_ == 0) {
     publisher_id_ = static_cast<std::int64_t>((static_cast<std::uint64_t>(entropy()) << 32) ^

@@ -87,6 +87,9 @@ struct NodeOptions {
   Utime input_grace_us = 2 * kMicrosPerSecond;
   // Period of SERVICE_STATUS; 0 disables it.
   Utime status_period_us = kMicrosPerSecond;
+  // header.publisher_id of everything this node sends; 0 draws a random one. Replays set a fixed
+  // id so that two runs give byte-identical output.
+  std::int64_t publisher_id = 0;
 };
 
 using BusId = int;

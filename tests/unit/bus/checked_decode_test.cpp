@@ -13,7 +13,7 @@ namespace {
 constexpr Utime kNow = 2'000'000;
 
 // An encoded SERVICE_STATUS whose `process` string length (the int32 after the 8-byte
-// fingerprint and the 25-byte header) is replaced by `length`, big-endian.
+// fingerprint and the 33-byte header) is replaced by `length`, big-endian.
 std::vector<std::uint8_t> statusWithProcessLength(std::int32_t length) {
   service_status_t m{};
   m.header.utime = 1'000'000;
@@ -21,7 +21,7 @@ std::vector<std::uint8_t> statusWithProcessLength(std::int32_t length) {
   std::vector<std::uint8_t> bytes(m.getEncodedSize());
   m.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
   const auto u = static_cast<std::uint32_t>(length);
-  constexpr std::size_t kLengthOffset = 8 + 25;
+  constexpr std::size_t kLengthOffset = 8 + 33;
   bytes[kLengthOffset] = static_cast<std::uint8_t>(u >> 24);
   bytes[kLengthOffset + 1] = static_cast<std::uint8_t>(u >> 16);
   bytes[kLengthOffset + 2] = static_cast<std::uint8_t>(u >> 8);

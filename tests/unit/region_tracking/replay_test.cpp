@@ -35,7 +35,8 @@ std::string readBytes(const std::string& path) {
 bus::ReplayStats replayOnce(const std::string& out_path, std::int64_t& rejected) {
   SimulatedClock clock{0};
   auto memq = bus::Connection::open("memq://");
-  bus::Node vision({.process = "region_tracking", .robot_id = 1}, clock, memq);
+  // A fixed publisher id: the random default would differ between the two replays.
+  bus::Node vision({.process = "region_tracking", .robot_id = 1, .publisher_id = 7}, clock, memq);
   bus::Node recorder_node({.process = "recorder", .robot_id = 1, .status_period_us = 0}, clock,
                           memq);
   TrackingNodeOptions options;
