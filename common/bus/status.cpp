@@ -104,23 +104,26 @@ void StatusCollector::onReceived(const std::string& channel, const Received& m, 
     it->last_seen = now;
   }
 
-  const auto index = static_cast<std::size_t>(it - c.publishers.begin());
-  if (single_publisher && c.total > 1 && index != c.last_publisher &&
-      c.last_publisher < c.publishers.size()) {
-    c.publisher_switches.push_back(now);
-    std::erase_if(c.publisher_switches, [&](Utime t) { return t + kConflictWindowUs < now; });
-    if (c.publisher_switches.size() >= kConflictSwitches) {
-      const std::string text =
-          fmt::format("{}: two publishers: {} and {}", channel,
-                      publisherName(c.publishers[c.last_publisher]), publisherName(*it));
-      if (c.conflict_seen < 0 || c.conflict_seen + kConflictWindowUs < now) {
-        onError("two_publishers", text, now);
+  auto previous = std::find_if(c.last_publisher_by_robot.begin(), c.last_publisher_by_robot.end(),
+                               [&](const PublisherTrack& p) { return p.robot_id == m.robot_id; });
+  if (previous == c.last_publisher_by_robot.end()) {
+    c.last_publisher_by_robot.push_back(*it);
+  } else {
+    if (single_publisher && previous->publisher_id != it->publisher_id) {
+      c.publisher_switches.push_back(now);
+      std::erase_if(c.publisher_switches, [&](Utime t) { return t + kConflictWindowUs < now; });
+      if (c.publisher_switches.size() >= kConflictSwitches) {
+        const std::string text = fmt::format("{}: two publishers: {} and {}", channel,
+                                             publisherName(*previous), publisherName(*it));
+        if (c.conflict_seen < 0 || c.conflict_seen + kConflictWindowUs < now) {
+          onError("two_publishers", text, now);
+        }
+        c.conflict_seen = now;
+        c.conflict_text = text;
       }
-      c.conflict_seen = now;
-      c.conflict_text = text;
     }
+    *previous = *it;
   }
-  c.last_publisher = index;
 }
 
 void StatusCollector::requireRate(const std::string& channel, Direction d, double min_rate_hz) {

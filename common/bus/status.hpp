@@ -39,7 +39,9 @@ struct ChannelStats {
   std::vector<PublisherTrack> publishers;
   // Receiver's clock at each change of publisher between consecutive messages, recent only.
   std::vector<Utime> publisher_switches;
-  std::size_t last_publisher = 0;
+  // Per robot id, the publisher of its previous message: a channel with one publisher by design
+  // has one per robot (a viewer hears six robots' VISION_LINES, one publisher each).
+  std::vector<PublisherTrack> last_publisher_by_robot;
   // Receiver's clock when a second concurrent publisher was last detected; -1: never.
   Utime conflict_seen = -1;
   std::string conflict_text;
