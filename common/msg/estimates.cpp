@@ -1,5 +1,7 @@
 #include "common/msg/estimates.hpp"
 
+#include "common/msg/row_major.hpp"
+
 namespace fieldline::msg {
 
 using perception::LocalizationStatus;
@@ -16,9 +18,7 @@ perception::RobotEstimate fromMessage(const robot_state_t& m) {
   e.vx = m.vx;
   e.vy = m.vy;
   e.omega = m.omega;
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c)
-      e.covariance(r, c) = m.covariance[3 * r + c];
+  e.covariance = fromRowMajor<3>(m.covariance);
   e.status = static_cast<LocalizationStatus>(m.status);
   e.since_vision_us = m.since_vision_us;
   return e;
@@ -32,9 +32,7 @@ void toMessage(const perception::RobotEstimate& e, robot_state_t& m) {
   m.vx = e.vx;
   m.vy = e.vy;
   m.omega = e.omega;
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c)
-      m.covariance[3 * r + c] = e.covariance(r, c);
+  toRowMajor<3>(e.covariance, m.covariance);
   m.status = static_cast<std::int8_t>(e.status);
   m.since_vision_us = e.since_vision_us;
 }
@@ -47,9 +45,7 @@ perception::BallEstimate fromMessage(const ball_state_t& m) {
   e.y = m.y;
   e.vx = m.vx;
   e.vy = m.vy;
-  for (int r = 0; r < 2; ++r)
-    for (int c = 0; c < 2; ++c)
-      e.covariance(r, c) = m.covariance[2 * r + c];
+  e.covariance = fromRowMajor<2>(m.covariance);
   e.last_seen_utime = m.last_seen_utime;
   return e;
 }
@@ -61,9 +57,7 @@ void toMessage(const perception::BallEstimate& e, ball_state_t& m) {
   m.y = e.y;
   m.vx = e.vx;
   m.vy = e.vy;
-  for (int r = 0; r < 2; ++r)
-    for (int c = 0; c < 2; ++c)
-      m.covariance[2 * r + c] = e.covariance(r, c);
+  toRowMajor<2>(e.covariance, m.covariance);
   m.last_seen_utime = e.last_seen_utime;
 }
 

@@ -1,5 +1,7 @@
 #include "common/msg/team_state.hpp"
 
+#include "common/msg/row_major.hpp"
+
 #include <algorithm>
 
 namespace fieldline::msg {
@@ -35,9 +37,7 @@ perception::TeamState fromMessage(const team_state_t& m) {
   s.team_ball_y = m.team_ball_y;
   s.team_ball_vx = m.team_ball_vx;
   s.team_ball_vy = m.team_ball_vy;
-  for (int r = 0; r < 2; ++r)
-    for (int c = 0; c < 2; ++c)
-      s.team_ball_covariance(r, c) = m.team_ball_covariance[2 * r + c];
+  s.team_ball_covariance = fromRowMajor<2>(m.team_ball_covariance);
   return s;
 }
 
@@ -81,9 +81,7 @@ void toMessage(const perception::TeamState& s, team_state_t& m) {
   m.team_ball_y = s.team_ball_y;
   m.team_ball_vx = s.team_ball_vx;
   m.team_ball_vy = s.team_ball_vy;
-  for (int r = 0; r < 2; ++r)
-    for (int c = 0; c < 2; ++c)
-      m.team_ball_covariance[2 * r + c] = s.team_ball_covariance(r, c);
+  toRowMajor<2>(s.team_ball_covariance, m.team_ball_covariance);
 }
 
 }  // namespace fieldline::msg
