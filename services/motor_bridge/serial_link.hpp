@@ -83,7 +83,11 @@ class SerialLink {
   StateHandler on_state_;
   boost::asio::serial_port port_;
   boost::asio::steady_timer retry_timer_;
-  std::array<std::uint8_t, 512> read_buffer_{};
+  // Room for everything a pty holds (4 KB), so a backlog after a stall of the process is read in
+  // one go: the bridge back-dates the samples of one read by their controller times, and a
+  // backlog split over several reads would stamp all but the last part too late (found by the
+  // kill drill, docs/drills.md).
+  std::array<std::uint8_t, 16384> read_buffer_{};
   std::deque<std::vector<std::uint8_t>> write_queue_;
   bool writing_ = false;
   bool running_ = false;

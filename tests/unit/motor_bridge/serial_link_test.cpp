@@ -101,5 +101,24 @@ TEST_F(SerialLinkTest, CarriesBytesAndReconnectsAfterTheDeviceReturns) {
   link.stop();
 }
 
+// After a stall of the bridge the pty holds a backlog of frames; the link hands it over in one
+// piece, so the bridge can stamp each sample by its controller time relative to the newest.
+TEST_F(SerialLinkTest, ABacklogArrivesInOneRead) {
+  boost::asio::io_context io;
+  std::vector<std::size_t> reads;
+  SerialLink link(
+      io, {link_path_, 115200, 0.02},
+      [&](std::span<const std::uint8_t> b) { reads.push_back(b.size()); }, [](bool) {});
+  auto pty = std::make_unique<world_sim::PseudoTerminal>(link_path_);
+  link.start();
+  ASSERT_TRUE(runUntil(io, [&] { return link.connected(); }));
+  // 0.7 s of 50 Hz odometry frames (about 40 bytes each), written while the link is not read.
+  const Bytes backlog(35 * 40, 0x5a);
+  ASSERT_EQ(pty->write(backlog), 0u);
+  ASSERT_TRUE(runUntil(io, [&] { return !reads.empty(); }));
+  EXPECT_EQ(reads.front(), backlog.size());
+  link.stop();
+}
+
 }  // namespace
 }  // namespace fieldline::motor_bridge
