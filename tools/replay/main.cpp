@@ -46,6 +46,13 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--grid-cache", options.grid_cache,
                  "fusion: distance grid cache directory (default: none, built in memory)");
+  app.add_option("--truth", options.truth_path,
+                 "The simulator's log of the same run (sim.lcm): its SIM_WORLD is merged into "
+                 "--out and --live-out, so fieldline-eval --log can score them")
+      ->check(CLI::ExistingFile);
+  app.add_option("--live-out", options.live_out_path,
+                 "Also write what the live processes published on the run nodes' output channels "
+                 "(with --truth's SIM_WORLD) to this log, to compare with the replay");
   app.add_option("--camera", options.camera, "region_tracking: camera preset")
       ->capture_default_str();
   FIELDLINE_PARSE(app, argc, argv);

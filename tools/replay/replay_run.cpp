@@ -1,6 +1,7 @@
 #include "tools/replay/replay_run.hpp"
 
 #include <algorithm>
+#include <filesystem>
 #include <memory>
 #include <optional>
 #include <set>
@@ -206,8 +207,12 @@ ReplayRunResult runReplay(const ReplayRunOptions& options) {
   });
   std::unique_ptr<bus::LogWriter> writer;
   std::unique_ptr<bus::LogRecorder> recorder;
+  // With a truth log the outputs go to a scratch file first, merged with SIM_WORLD at the end.
+  const std::string replay_path = options.truth_path.empty() || options.out_path.empty()
+                                      ? options.out_path
+                                      : options.out_path + ".outputs";
   if (!options.out_path.empty()) {
-    writer = std::make_unique<bus::LogWriter>(options.out_path);
+    writer = std::make_unique<bus::LogWriter>(replay_path);
     recorder = std::make_unique<bus::LogRecorder>(
         *watcher, *writer, std::vector<std::string_view>(produced.begin(), produced.end()));
   }
@@ -234,7 +239,58 @@ ReplayRunResult runReplay(const ReplayRunOptions& options) {
   if (watcher->status().errorCount("log_write") > 0) {
     throw bus::LogError("writing " + options.out_path + ": " + watcher->status().lastError());
   }
+  const std::vector<std::string> truth_channels{std::string(ch::kSimWorld.name)};
+  if (!options.truth_path.empty() && !options.out_path.empty()) {
+    writer.reset();
+    std::int64_t outputs = 0;
+    for (const auto& [channel, count] : result.out)
+      outputs += count;
+    result.truth_merged =
+        mergeLogs({{replay_path, {}}, {options.truth_path, truth_channels}}, options.out_path) -
+        outputs;
+    std::filesystem::remove(replay_path);
+  }
+  if (!options.live_out_path.empty()) {
+    std::vector<MergeSource> sources{{options.log_path, produced}};
+    if (!options.truth_path.empty()) sources.push_back({options.truth_path, truth_channels});
+    result.live_written = mergeLogs(sources, options.live_out_path);
+  }
   return result;
+}
+
+std::int64_t mergeLogs(const std::vector<MergeSource>& sources, const std::string& out_path) {
+  struct Cursor {
+    std::unique_ptr<bus::LogReader> reader;
+    const std::vector<std::string>* channels;
+    bus::LogEvent event;
+    bool valid = false;
+    void advance() {
+      valid = false;
+      while (reader->nextEvent(event)) {
+        if (!channels->empty() && !contains(*channels, event.channel)) continue;
+        if (!reader->accept(event)) continue;
+        valid = true;
+        return;
+      }
+    }
+  };
+  std::vector<Cursor> cursors;
+  for (const auto& source : sources) {
+    cursors.push_back({std::make_unique<bus::LogReader>(source.path), &source.channels, {}});
+    cursors.back().advance();
+  }
+  bus::LogWriter out(out_path);
+  while (true) {
+    Cursor* first = nullptr;
+    for (auto& c : cursors)
+      if (c.valid && (!first || c.event.timestamp < first->event.timestamp)) first = &c;
+    if (!first) break;
+    out.write(first->event.channel, first->event.timestamp, first->event.data.data(),
+              static_cast<int>(first->event.data.size()));
+    first->advance();
+  }
+  out.flush();
+  return out.eventsWritten();
 }
 
 std::string summaryLine(const ReplayRunResult& result) {
@@ -254,6 +310,8 @@ std::string summaryLine(const ReplayRunResult& result) {
   for (const auto& [kind, n] : result.node_errors)
     refused += n;
   line << " refused " << refused << " out_of_order " << result.out_of_order;
+  if (result.truth_merged > 0) line << " | SIM_WORLD merged " << result.truth_merged;
+  if (result.live_written > 0) line << " | live events " << result.live_written;
   return line.str();
 }
 

@@ -40,6 +40,14 @@ struct ReplayRunOptions {
   std::string start_prior = "own_half";
   // Distance grid cache of the line matcher; empty: built in memory.
   std::string grid_cache;
+  // The simulator's log of the same run (scripts/demo --record's sim.lcm): its SIM_WORLD is
+  // merged into out_path and live_out_path in log-time order, so that fieldline-eval --log can
+  // score each file on its own. Empty: none.
+  std::string truth_path;
+  // Written with what the live processes published on the channels the run nodes produce (the
+  // log's own ROBOT_STATE, FIELD_FEATURES, ...) and the truth: the live run to compare the
+  // replay with. Empty: not written.
+  std::string live_out_path;
 };
 
 struct ReplayRunResult {
@@ -55,6 +63,10 @@ struct ReplayRunResult {
   std::map<std::string, std::int64_t> rejected;
   // Errors the run nodes reported (refused inputs), by "node/kind".
   std::map<std::string, std::int64_t> node_errors;
+  // SIM_WORLD messages merged from the truth log (into each output).
+  std::int64_t truth_merged = 0;
+  // Events written to live_out_path.
+  std::int64_t live_written = 0;
 };
 
 // The channels each runnable node reads and writes.
@@ -67,6 +79,16 @@ std::vector<std::string> parseRunList(const std::string& text);
 // Throws ReplayArgumentError for bad options, bus::LogError for unreadable logs, config errors
 // for bad presets.
 ReplayRunResult runReplay(const ReplayRunOptions& options);
+
+// A source of mergeLogs: a log and the channels taken from it (empty: every channel).
+struct MergeSource {
+  std::string path;
+  std::vector<std::string> channels;
+};
+
+// Writes the checked events of `sources` on their channels into `out_path`, in log-time order
+// (ties: the earlier source first). Returns the events written.
+std::int64_t mergeLogs(const std::vector<MergeSource>& sources, const std::string& out_path);
 
 // One line: "replay robot 1: in ODOMETRY 1500 VISION_LINES 300 ... | out ROBOT_STATE 1500 ...".
 std::string summaryLine(const ReplayRunResult& result);

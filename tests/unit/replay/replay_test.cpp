@@ -141,6 +141,40 @@ TEST(ReplayTool, DamagedLogIsCountedNotFatal) {
   std::filesystem::remove(tempPath("replay_damaged_out"));
 }
 
+TEST(ReplayTool, MergedLogsAreInLogTimeOrderAndComplete) {
+  // The live outputs with --live-out: the log's own ROBOT_STATE, here merged with its ODOMETRY
+  // as a stand-in for a truth log.
+  const std::string merged = tempPath("replay_merged");
+  const std::int64_t written =
+      mergeLogs({{kFixture, {"ROBOT_STATE"}}, {kFixture, {"ODOMETRY"}}}, merged);
+  bus::LogReader log(merged);
+  bus::LogEvent event;
+  std::map<std::string, std::int64_t> counted;
+  Utime last = 0;
+  while (log.nextChecked(event)) {
+    ++counted[event.channel];
+    EXPECT_GE(event.timestamp, last);
+    last = event.timestamp;
+  }
+  EXPECT_EQ(counted.size(), 2u);
+  EXPECT_EQ(counted["ROBOT_STATE"] + counted["ODOMETRY"], written);
+  EXPECT_EQ(counted["ROBOT_STATE"], static_cast<std::int64_t>(robotStates(kFixture).size()));
+
+  // A replay with a "truth" log and live output: both files carry the truth.
+  ReplayRunOptions options;
+  options.log_path = kFixture;
+  options.out_path = tempPath("replay_with_truth");
+  options.live_out_path = tempPath("replay_live_out");
+  options.truth_path = merged;  // its ODOMETRY is not SIM_WORLD: nothing to merge
+  options.run = {"feature_recognition", "fusion"};
+  const ReplayRunResult result = runReplay(options);
+  EXPECT_EQ(result.truth_merged, 0);
+  EXPECT_EQ(robotStates(options.out_path).size(), robotStates(kFixture).size());
+  EXPECT_EQ(robotStates(options.live_out_path), robotStates(kFixture));
+  for (const auto& path : {merged, options.out_path, options.live_out_path})
+    std::filesystem::remove(path);
+}
+
 TEST(ReplayTool, BadArgumentsAreRefused) {
   EXPECT_EQ(parseRunList("feature_recognition,fusion"),
             (std::vector<std::string>{"feature_recognition", "fusion"}));
