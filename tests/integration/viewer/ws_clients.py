@@ -33,31 +33,34 @@ def connect():
 class Client:
     def __init__(self):
         self.sock = connect()
-        self.buffer = b""
+        self.buffer = bytearray()
         self.documents = 0
         self.bytes = 0
 
     def on_readable(self):
-        data = self.sock.recv(1 << 20)
-        self.buffer += data
-        while len(self.buffer) >= 2:  # whole frames out of the buffer
-            length = self.buffer[1] & 0x7F
-            offset = 2
+        self.buffer += self.sock.recv(1 << 20)
+        offset = 0  # whole frames out of the buffer, without copying it per frame
+        while len(self.buffer) - offset >= 2:
+            flags, length = self.buffer[offset], self.buffer[offset + 1] & 0x7F
+            header = 2
             if length == 126:
-                if len(self.buffer) < 4:
-                    return
-                length, offset = struct.unpack(">H", self.buffer[2:4])[0], 4
+                header = 4
             elif length == 127:
-                if len(self.buffer) < 10:
-                    return
-                length, offset = struct.unpack(">Q", self.buffer[2:10])[0], 10
-            if len(self.buffer) < offset + length:
-                return
+                header = 10
+            if len(self.buffer) - offset < header:
+                break
+            if length == 126:
+                length = struct.unpack_from(">H", self.buffer, offset + 2)[0]
+            elif length == 127:
+                length = struct.unpack_from(">Q", self.buffer, offset + 2)[0]
+            if len(self.buffer) - offset < header + length:
+                break
             # Beast fragments long messages: a document ends with a FIN frame.
-            if self.buffer[0] & 0x80:
+            if flags & 0x80:
                 self.documents += 1
             self.bytes += length
-            self.buffer = self.buffer[offset + length:]
+            offset += header + length
+        del self.buffer[:offset]
 
 
 clients = [Client() for _ in range(count)]
