@@ -91,6 +91,28 @@ TEST(ReplayTool, TwoReplaysWriteByteIdenticalOutputs) {
   std::filesystem::remove(second);
 }
 
+TEST(ReplayTool, CameraImagesThroughTheWholeChain) {
+  // The tracker's fixture (15 CAMERA_IMAGE frames, nothing else): region tracking feeds feature
+  // recognition in the same process; the robot id comes from the images.
+  const std::string camera_log = config::projectRoot() + "/tests/data/replay/camera_robot1.lcmlog";
+  const std::string first = tempPath("replay_chain_a");
+  const std::string second = tempPath("replay_chain_b");
+  const std::vector<std::string> chain{"region_tracking", "feature_recognition", "fusion"};
+  const ReplayRunResult a = replayInto(first, camera_log, chain);
+  replayInto(second, camera_log, chain);
+  EXPECT_EQ(a.robot_id, 1);
+  EXPECT_EQ(a.in.at("CAMERA_IMAGE"), 15);
+  EXPECT_EQ(a.out.at("VISION_BALL"), 15);
+  EXPECT_EQ(a.out.at("VISION_LINES"), 5);  // every third frame
+  EXPECT_EQ(a.out.at("FIELD_FEATURES"), 5);
+  EXPECT_EQ(a.out.count("ROBOT_STATE"), 0u);  // no odometry in this log
+  const std::string bytes = readBytes(first);
+  EXPECT_GT(bytes.size(), 5'000u);
+  EXPECT_TRUE(bytes == readBytes(second));
+  std::filesystem::remove(first);
+  std::filesystem::remove(second);
+}
+
 TEST(ReplayTool, ReplayedEstimatesFollowTheLiveOnes) {
   const std::string out = tempPath("replay_live");
   replayInto(out);
