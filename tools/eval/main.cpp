@@ -175,6 +175,8 @@ int main(int argc, char** argv) {
                       .robot_id = 0,
                       .url = "file://" + std::filesystem::absolute(log).string() + "?speed=0",
                       .future_tolerance_us = std::numeric_limits<Utime>::max() / 4,
+                      // A log is read long after it was recorded: its messages are not stale.
+                      .max_age_us = std::numeric_limits<Utime>::max() / 4,
                       .status_period_us = 0},
                      clock);
       collector.subscribe(node, bus::kPrimaryBus, {bus::kPrimaryBus});

@@ -108,6 +108,10 @@ function drawBall(v, x, y, radius, fill, outline) {
   ctx.stroke();
 }
 
+// What the last draw() put on the canvas, per robot: written as JSON into #drawn so that a test
+// (headless chromium --dump-dom) can compare it with what was published.
+let drawn = [];
+
 function drawState(v) {
   const world = state.sim && state.sim.world;
   const radius = world && world.robot_radius > 0 ? world.robot_radius : ROBOT_RADIUS;
@@ -131,6 +135,8 @@ function drawState(v) {
       const k = rs.covariance;
       drawEllipse(v, rs.x, rs.y, k[0], k[1], k[4], colour);
       drawRobot(v, rs.x, rs.y, rs.phi, radius, STATUS_COLOURS[rs.status] || "#888", colour, false);
+      drawn.push({ id: robot.id, x: rs.x, y: rs.y, phi: rs.phi, status: rs.status,
+                   utime: rs.utime, seq: rs.seq });
       ctx.fillStyle = "#000000";
       ctx.font = "bold 12px sans-serif";
       ctx.textAlign = "center";
@@ -168,7 +174,10 @@ function draw() {
   if (!field) return;
   const v = view();
   drawField(v);
+  drawn = [];
   if (state) drawState(v);
+  document.getElementById("drawn").textContent =
+      JSON.stringify({ utime: state ? state.utime : null, robots: drawn });
 }
 
 function cell(row, text, cls) {

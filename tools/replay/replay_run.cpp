@@ -1,0 +1,318 @@
+#include "tools/replay/replay_run.hpp"
+
+#include <algorithm>
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <set>
+#include <sstream>
+
+#include <fieldline/service_status_t.hpp>
+
+#include "common/bus/channels.hpp"
+#include "common/bus/log_file.hpp"
+#include "common/bus/node.hpp"
+#include "common/bus/replay.hpp"
+#include "common/camera/colour.hpp"
+#include "common/camera/mirror_model.hpp"
+#include "common/field/field_model.hpp"
+#include "common/robot/robot_params.hpp"
+#include "common/time/clock.hpp"
+#include "services/feature_recognition/feature_node.hpp"
+#include "services/fusion/fusion_node.hpp"
+#include "services/fusion/line_matcher.hpp"
+#include "services/region_tracking/tracking_node.hpp"
+
+namespace fieldline::replay {
+
+namespace ch = bus::channels;
+
+std::vector<std::string> inputChannels(const std::string& node) {
+  if (node == "region_tracking") return {std::string(ch::kCameraImage.name)};
+  if (node == "feature_recognition") return {std::string(ch::kVisionLines.name)};
+  if (node == "fusion") {
+    return {std::string(ch::kOdometry.name), std::string(ch::kVisionLines.name),
+            std::string(ch::kFieldFeatures.name), std::string(ch::kVisionBall.name)};
+  }
+  throw ReplayArgumentError("unknown node '" + node + "'");
+}
+
+std::vector<std::string> outputChannels(const std::string& node) {
+  if (node == "region_tracking") {
+    return {std::string(ch::kVisionLines.name), std::string(ch::kVisionBall.name),
+            std::string(ch::kVisionObstacles.name)};
+  }
+  if (node == "feature_recognition") return {std::string(ch::kFieldFeatures.name)};
+  if (node == "fusion")
+    return {std::string(ch::kRobotState.name), std::string(ch::kBallState.name)};
+  throw ReplayArgumentError("unknown node '" + node + "'");
+}
+
+std::vector<std::string> parseRunList(const std::string& text) {
+  std::vector<std::string> names;
+  std::stringstream in(text);
+  std::string name;
+  while (std::getline(in, name, ',')) {
+    if (std::find(kRunnableNodes.begin(), kRunnableNodes.end(), name) == kRunnableNodes.end()) {
+      throw ReplayArgumentError("unknown node '" + name +
+                                "' (region_tracking, feature_recognition, fusion)");
+    }
+    if (std::find(names.begin(), names.end(), name) != names.end()) {
+      throw ReplayArgumentError("node '" + name + "' named twice");
+    }
+    names.push_back(name);
+  }
+  if (names.empty()) throw ReplayArgumentError("no node to run");
+  return names;
+}
+
+namespace {
+
+template <typename Msg>
+std::optional<int> firstRobotId(bus::LogReader& log, bus::Channel<Msg> channel) {
+  log.rewind();
+  Msg msg;
+  if (log.next(channel, msg)) return msg.header.robot_id;
+  return std::nullopt;
+}
+
+int detectRobotId(const std::string& path) {
+  // A reader of its own: its rejection counts must not add to the replay's.
+  bus::LogReader log(path);
+  if (auto id = firstRobotId(log, ch::kOdometry)) return *id;
+  if (auto id = firstRobotId(log, ch::kVisionLines)) return *id;
+  if (auto id = firstRobotId(log, ch::kCameraImage)) return *id;
+  throw ReplayArgumentError("no ODOMETRY, VISION_LINES or CAMERA_IMAGE in " + path +
+                            " to take the robot id from; give --robot");
+}
+
+bool contains(const std::vector<std::string>& list, const std::string& item) {
+  return std::find(list.begin(), list.end(), item) != list.end();
+}
+
+// Fixed per node kind: a random id would make two replays differ.
+std::int64_t publisherId(const std::string& node) {
+  const auto it = std::find(kRunnableNodes.begin(), kRunnableNodes.end(), node);
+  return 0x7e9a1a0 + (it - kRunnableNodes.begin());
+}
+
+}  // namespace
+
+ReplayRunResult runReplay(const ReplayRunOptions& options) {
+  if (options.run.empty()) throw ReplayArgumentError("no node to run");
+  for (const auto& name : options.run)
+    inputChannels(name);  // names are known
+  if (options.robot_id < 0 || options.robot_id > 6) {
+    throw ReplayArgumentError("robot id must be 1..6 (0: from the log)");
+  }
+
+  ReplayRunResult result;
+  result.robot_id = options.robot_id != 0 ? options.robot_id : detectRobotId(options.log_path);
+  if (result.robot_id < 1 || result.robot_id > 6) {
+    throw ReplayArgumentError("the log's robot id " + std::to_string(result.robot_id) +
+                              " is not 1..6");
+  }
+
+  // Fed: what some run node reads, unless a run node produces it.
+  std::vector<std::string> produced;
+  std::vector<std::string> fed;
+  for (const auto& name : options.run)
+    for (auto& c : outputChannels(name))
+      if (!contains(produced, c)) produced.push_back(std::move(c));
+  for (const auto& name : options.run)
+    for (auto& c : inputChannels(name))
+      if (!contains(produced, c) && !contains(fed, c)) fed.push_back(std::move(c));
+
+  SimulatedClock clock{0};
+  auto memq = bus::Connection::open("memq://");
+  auto makeNode = [&](const std::string& process) {
+    return std::make_unique<bus::Node>(bus::NodeOptions{.process = process,
+                                                        .robot_id = result.robot_id,
+                                                        .status_period_us = 0,
+                                                        .publisher_id = publisherId(process)},
+                                       clock, memq);
+  };
+
+  // The algorithms' state, created as the processes' main() create it.
+  const field::FieldModel field = field::loadFieldPreset(options.field);
+  std::unique_ptr<fusion::LineMatcher> matcher;
+  std::vector<std::unique_ptr<bus::Node>> nodes;
+  std::vector<std::string> node_names;
+  std::unique_ptr<region_tracking::TrackingNode> tracking;
+  std::unique_ptr<feature_recognition::FeatureNode> features;
+  std::unique_ptr<fusion::FusionNode> fusion_node;
+
+  for (const auto& name : kRunnableNodes) {
+    if (!contains(options.run, name)) continue;
+    nodes.push_back(makeNode(name));
+    node_names.push_back(name);
+    bus::Node& node = *nodes.back();
+    if (name == "region_tracking") {
+      region_tracking::TrackingNodeOptions tracking_options;
+      const camera::CameraModel camera = camera::loadCameraPreset(options.camera);
+      tracking_options.mirror = camera.mirror;
+      tracking_options.colours = camera::loadColourTablePreset(camera.colour_table);
+      // A measurement of this machine, not of the log: it would differ between replays.
+      tracking_options.report_processing_time = false;
+      tracking = std::make_unique<region_tracking::TrackingNode>(node, std::move(tracking_options));
+    } else if (name == "feature_recognition") {
+      features = std::make_unique<feature_recognition::FeatureNode>(node, field);
+    } else {
+      fusion::MatcherParams matcher_params;
+      if (options.matcher == "lsq") {
+        matcher_params.method = fusion::MatchMethod::kRobustLeastSquares;
+      } else if (options.matcher == "force_field") {
+        matcher_params.method = fusion::MatchMethod::kForceField;
+      } else {
+        throw ReplayArgumentError("unknown matcher '" + options.matcher + "'");
+      }
+      if (options.start_prior != "own_half" && options.start_prior != "none") {
+        throw ReplayArgumentError("unknown start prior '" + options.start_prior + "'");
+      }
+      matcher = std::make_unique<fusion::LineMatcher>(field, matcher_params, options.grid_cache);
+      fusion::FusionNodeOptions fusion_options;
+      fusion_options.robot = robot::loadRobotPreset(options.robot_config);
+      fusion_options.localizer.start_prior = options.start_prior == "own_half"
+                                                 ? fusion::StartPrior::kOwnHalf
+                                                 : fusion::StartPrior::kNone;
+      const geometry::Vec2 half = field.carpetHalfExtent();
+      fusion_options.localizer.search_half_length_m = half.x();
+      fusion_options.localizer.search_half_width_m = half.y();
+      const fusion::LineMatcher& m = *matcher;
+      const fusion::MatcherFunctions functions{
+          [&m](std::span<const perception::LinePoint> p, const geometry::Pose2& g) {
+            return m.correct(p, g);
+          },
+          [&m](std::span<const perception::LinePoint> p, const geometry::Pose2& g) {
+            return m.cost(p, g);
+          },
+          [&m](std::span<const perception::LinePoint> p) {
+            fusion::GlobalSearchParams search;
+            search.max_results = 8;
+            return m.globalSearch(p, search);
+          }};
+      fusion_node =
+          std::make_unique<fusion::FusionNode>(node, std::move(fusion_options), functions);
+    }
+  }
+
+  // Counts what crosses memq: fed channels are inputs, produced ones outputs.
+  auto watcher = makeNode("replay_recorder");
+  watcher->subscribeAllRaw([&](const std::string& channel, const void*, int) {
+    if (contains(produced, channel)) {
+      ++result.out[channel];
+    } else if (contains(fed, channel)) {
+      ++result.in[channel];
+    }
+  });
+  std::unique_ptr<bus::LogWriter> writer;
+  std::unique_ptr<bus::LogRecorder> recorder;
+  // With a truth log the outputs go to a scratch file first, merged with SIM_WORLD at the end.
+  const std::string replay_path = options.truth_path.empty() || options.out_path.empty()
+                                      ? options.out_path
+                                      : options.out_path + ".outputs";
+  if (!options.out_path.empty()) {
+    writer = std::make_unique<bus::LogWriter>(replay_path);
+    recorder = std::make_unique<bus::LogRecorder>(
+        *watcher, *writer, std::vector<std::string_view>(produced.begin(), produced.end()));
+  }
+
+  bus::Replay replay(clock, memq, {.channels = fed});
+  for (auto& node : nodes)
+    replay.add(*node);
+  replay.add(*watcher);
+  bus::LogReader log(options.log_path);
+  const bus::ReplayStats stats = replay.run(log);
+  if (writer) writer->flush();
+
+  result.skipped = stats.skipped;
+  result.out_of_order = stats.out_of_order;
+  result.rejected = log.rejectedByKind();
+  for (std::size_t i = 0; i < nodes.size(); ++i) {
+    // Every error kind the node reported (refused inputs, the nodes' own checks).
+    const service_status_t status = nodes[i]->status().takeStatus(clock.now());
+    for (int e = 0; e < status.num_errors; ++e) {
+      const auto k = static_cast<std::size_t>(e);
+      result.node_errors[node_names[i] + "/" + status.error_kind[k]] = status.error_count[k];
+    }
+  }
+  if (watcher->status().errorCount("log_write") > 0) {
+    throw bus::LogError("writing " + options.out_path + ": " + watcher->status().lastError());
+  }
+  const std::vector<std::string> truth_channels{std::string(ch::kSimWorld.name)};
+  if (!options.truth_path.empty() && !options.out_path.empty()) {
+    writer.reset();
+    std::int64_t outputs = 0;
+    for (const auto& [channel, count] : result.out)
+      outputs += count;
+    result.truth_merged =
+        mergeLogs({{replay_path, {}}, {options.truth_path, truth_channels}}, options.out_path) -
+        outputs;
+    std::filesystem::remove(replay_path);
+  }
+  if (!options.live_out_path.empty()) {
+    std::vector<MergeSource> sources{{options.log_path, produced}};
+    if (!options.truth_path.empty()) sources.push_back({options.truth_path, truth_channels});
+    result.live_written = mergeLogs(sources, options.live_out_path);
+  }
+  return result;
+}
+
+std::int64_t mergeLogs(const std::vector<MergeSource>& sources, const std::string& out_path) {
+  struct Cursor {
+    std::unique_ptr<bus::LogReader> reader;
+    const std::vector<std::string>* channels;
+    bus::LogEvent event;
+    bool valid = false;
+    void advance() {
+      valid = false;
+      while (reader->nextEvent(event)) {
+        if (!channels->empty() && !contains(*channels, event.channel)) continue;
+        if (!reader->accept(event)) continue;
+        valid = true;
+        return;
+      }
+    }
+  };
+  std::vector<Cursor> cursors;
+  for (const auto& source : sources) {
+    cursors.push_back({std::make_unique<bus::LogReader>(source.path), &source.channels, {}});
+    cursors.back().advance();
+  }
+  bus::LogWriter out(out_path);
+  while (true) {
+    Cursor* first = nullptr;
+    for (auto& c : cursors)
+      if (c.valid && (!first || c.event.timestamp < first->event.timestamp)) first = &c;
+    if (!first) break;
+    out.write(first->event.channel, first->event.timestamp, first->event.data.data(),
+              static_cast<int>(first->event.data.size()));
+    first->advance();
+  }
+  out.flush();
+  return out.eventsWritten();
+}
+
+std::string summaryLine(const ReplayRunResult& result) {
+  std::ostringstream line;
+  line << "replay robot " << result.robot_id << ": in";
+  for (const auto& [channel, n] : result.in)
+    line << ' ' << channel << ' ' << n;
+  line << " | out";
+  for (const auto& [channel, n] : result.out)
+    line << ' ' << channel << ' ' << n;
+  line << " | skipped " << result.skipped;
+  std::int64_t rejected = 0;
+  for (const auto& [kind, n] : result.rejected)
+    rejected += n;
+  line << " rejected " << rejected;
+  std::int64_t refused = 0;
+  for (const auto& [kind, n] : result.node_errors)
+    refused += n;
+  line << " refused " << refused << " out_of_order " << result.out_of_order;
+  if (result.truth_merged > 0) line << " | SIM_WORLD merged " << result.truth_merged;
+  if (result.live_written > 0) line << " | live events " << result.live_written;
+  return line.str();
+}
+
+}  // namespace fieldline::replay

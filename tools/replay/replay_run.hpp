@@ -1,0 +1,96 @@
+// fieldline-replay's core: a recorded robot-bus log fed through the production nodes of the
+// named algorithms (feature_recognition, fusion, region_tracking) in one process, on memq://
+// under a simulated clock, in log-time order, with fixed publisher ids; what they publish is
+// written to an LCM log. The same log and options give the same output bytes.
+//
+// The log's own messages on channels a run node produces (e.g. the live FIELD_FEATURES when
+// feature_recognition runs) are not fed: the replayed outputs replace them.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace fieldline::replay {
+
+// A node name that is not one of kRunnableNodes, or options that cannot work.
+class ReplayArgumentError : public std::invalid_argument {
+ public:
+  using std::invalid_argument::invalid_argument;
+};
+
+// What --run accepts, in the order the nodes are created.
+inline const std::vector<std::string> kRunnableNodes{"region_tracking", "feature_recognition",
+                                                     "fusion"};
+
+struct ReplayRunOptions {
+  std::string log_path;
+  // Written (truncated) with the run nodes' outputs; empty: nothing is written.
+  std::string out_path;
+  std::vector<std::string> run;
+  // 1..6; 0: the robot id of the first ODOMETRY / VISION_LINES / CAMERA_IMAGE in the log.
+  int robot_id = 0;
+  // As the processes take them (their --help).
+  std::string field = "msl";
+  std::string robot_config = "fu2004";
+  std::string camera = "omni_sim";
+  std::string matcher = "lsq";
+  std::string start_prior = "own_half";
+  // Distance grid cache of the line matcher; empty: built in memory.
+  std::string grid_cache;
+  // The simulator's log of the same run (scripts/demo --record's sim.lcm): its SIM_WORLD is
+  // merged into out_path and live_out_path in log-time order, so that fieldline-eval --log can
+  // score each file on its own. Empty: none.
+  std::string truth_path;
+  // Written with what the live processes published on the channels the run nodes produce (the
+  // log's own ROBOT_STATE, FIELD_FEATURES, ...) and the truth: the live run to compare the
+  // replay with. Empty: not written.
+  std::string live_out_path;
+};
+
+struct ReplayRunResult {
+  int robot_id = 0;
+  // Messages fed from the log, by channel.
+  std::map<std::string, std::int64_t> in;
+  // Messages the run nodes published (and the output log holds), by channel.
+  std::map<std::string, std::int64_t> out;
+  // Log events of channels not fed (the replaced outputs, channels no run node reads).
+  std::int64_t skipped = 0;
+  std::int64_t out_of_order = 0;
+  // Log events refused by the reader's checks, by kind (log_file.hpp).
+  std::map<std::string, std::int64_t> rejected;
+  // Errors the run nodes reported (refused inputs), by "node/kind".
+  std::map<std::string, std::int64_t> node_errors;
+  // SIM_WORLD messages merged from the truth log (into each output).
+  std::int64_t truth_merged = 0;
+  // Events written to live_out_path.
+  std::int64_t live_written = 0;
+};
+
+// The channels each runnable node reads and writes.
+std::vector<std::string> inputChannels(const std::string& node);
+std::vector<std::string> outputChannels(const std::string& node);
+
+// Parses "feature_recognition,fusion"; throws ReplayArgumentError for unknown or repeated names.
+std::vector<std::string> parseRunList(const std::string& text);
+
+// Throws ReplayArgumentError for bad options, bus::LogError for unreadable logs, config errors
+// for bad presets.
+ReplayRunResult runReplay(const ReplayRunOptions& options);
+
+// A source of mergeLogs: a log and the channels taken from it (empty: every channel).
+struct MergeSource {
+  std::string path;
+  std::vector<std::string> channels;
+};
+
+// Writes the checked events of `sources` on their channels into `out_path`, in log-time order
+// (ties: the earlier source first). Returns the events written.
+std::int64_t mergeLogs(const std::vector<MergeSource>& sources, const std::string& out_path);
+
+// One line: "replay robot 1: in ODOMETRY 1500 VISION_LINES 300 ... | out ROBOT_STATE 1500 ...".
+std::string summaryLine(const ReplayRunResult& result);
+
+}  // namespace fieldline::replay
