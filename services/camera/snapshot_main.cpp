@@ -42,12 +42,7 @@ void writeFrame(const camera::FrameView& view, const std::string& out, bool clas
   camera::writeImage(out, image);
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  CLI::App app{"Write a robot's current camera frame (or an offline rendering) to a PNG"};
-  bus::CommonOptions common;
-  common.addTo(app);
+struct Options {
   std::string out;
   std::string preset = "omni_sim";
   std::string render_pose;
@@ -56,73 +51,94 @@ int main(int argc, char** argv) {
   std::vector<std::string> obstacles;
   bool classes = false;
   double timeout = 5.0;
-  app.add_option("--out", out, "PNG file to write")->required();
-  app.add_flag("--classes", classes, "Add the colour classification to the right of the frame");
-  app.add_option("--timeout", timeout, "Seconds to wait for a frame")->capture_default_str();
-  app.add_option("--config", preset, "Camera preset (colour table; offline: mirror and scene)")
-      ->capture_default_str();
-  app.add_option("--render", render_pose,
-                 "Render offline from field pose x,y,phi (m, m, rad) instead of the bus");
-  app.add_option("--field", field, "Offline: field preset")->capture_default_str();
-  app.add_option("--ball", ball, "Offline: ball at field x,y (m)");
-  app.add_option("--obstacle", obstacles,
-                 "Offline: an opponent robot at field x,y (m); repeatable");
+
+  void addTo(CLI::App& app) {
+    app.add_option("--out", out, "PNG file to write")->required();
+    app.add_flag("--classes", classes, "Add the colour classification to the right of the frame");
+    app.add_option("--timeout", timeout, "Seconds to wait for a frame")->capture_default_str();
+    app.add_option("--config", preset, "Camera preset (colour table; offline: mirror and scene)")
+        ->capture_default_str();
+    app.add_option("--render", render_pose,
+                   "Render offline from field pose x,y,phi (m, m, rad) instead of the bus");
+    app.add_option("--field", field, "Offline: field preset")->capture_default_str();
+    app.add_option("--ball", ball, "Offline: ball at field x,y (m)");
+    app.add_option("--obstacle", obstacles,
+                   "Offline: an opponent robot at field x,y (m); repeatable");
+  }
+};
+
+// --render: the scene drawn by the simulator's renderer, no bus.
+int renderOffline(const Options& options, const camera::CameraConfig& config) {
+  const std::vector<double> p = bus::parseNumberList(options.render_pose, 3, "--render");
+  camera::SimRenderer renderer(config.model.mirror,
+                               fieldline::field::loadFieldPreset(options.field), config.render);
+  camera::SimScene scene;
+  scene.robot = {p[0], p[1], p[2]};
+  if (!options.ball.empty()) {
+    const std::vector<double> b = bus::parseNumberList(options.ball, 2, "--ball");
+    scene.ball = camera::SimBall{{b[0], b[1]}, 0.11};
+  }
+  for (const std::string& o : options.obstacles) {
+    const std::vector<double> xy = bus::parseNumberList(o, 2, "--obstacle");
+    scene.robots.push_back({{xy[0], xy[1]}, 0.25, false});
+  }
+  std::vector<std::uint8_t> frame;
+  renderer.render(scene, frame);
+  writeFrame(renderer.view(frame), options.out, options.classes, config.model.colour_table);
+  std::printf("wrote %s (rendered at %.2f, %.2f, %.2f on %s)\n", options.out.c_str(), p[0], p[1],
+              p[2], options.field.c_str());
+  return 0;
+}
+
+// The robot's next CAMERA_IMAGE, waited for at most --timeout seconds.
+int snapshotFromBus(const Options& options, const camera::CameraConfig& config,
+                    const bus::CommonOptions& common) {
+  fieldline::SystemClock clock;
+  bus::Node node({.process = "camera-snapshot",
+                  .robot_id = common.robot,
+                  .url = common.bus_url,
+                  .status_period_us = 0},
+                 clock);
+  std::optional<fieldline::image_t> image;
+  node.subscribe(bus::channels::kCameraImage, [&](const fieldline::image_t& m) {
+    if (!image) image = m;
+  });
+  const fieldline::Utime deadline =
+      clock.now() + static_cast<fieldline::Utime>(options.timeout * fieldline::kMicrosPerSecond);
+  while (!image && clock.now() < deadline && !node.stopRequested())
+    node.spinOnce(100);
+  if (!image) {
+    std::fprintf(stderr, "camera-snapshot: no CAMERA_IMAGE on %s within %.1f s\n",
+                 common.bus_url.c_str(), options.timeout);
+    return 1;
+  }
+  const std::optional<camera::FrameView> view = msg::fromMessage(*image);
+  if (!view) {
+    std::fprintf(stderr, "camera-snapshot: image format %d cannot be shown\n", image->format);
+    return 1;
+  }
+  writeFrame(*view, options.out, options.classes, config.model.colour_table);
+  std::printf("wrote %s: robot %d frame %lld, %dx%d, latency %.1f ms\n", options.out.c_str(),
+              common.robot, static_cast<long long>(image->frame_number), image->width,
+              image->height,
+              static_cast<double>(image->header.utime_published - image->header.utime) / 1e3);
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"Write a robot's current camera frame (or an offline rendering) to a PNG"};
+  bus::CommonOptions common;
+  common.addTo(app);
+  Options options;
+  options.addTo(app);
   FIELDLINE_PARSE(app, argc, argv);
   common.resolve("camera-snapshot");
 
   return bus::runMain("camera-snapshot", [&]() -> int {
-    const camera::CameraConfig config = camera::loadCameraConfigPreset(preset);
-    if (!render_pose.empty()) {
-      const std::vector<double> p = bus::parseNumberList(render_pose, 3, "--render");
-      camera::SimRenderer renderer(config.model.mirror, fieldline::field::loadFieldPreset(field),
-                                   config.render);
-      camera::SimScene scene;
-      scene.robot = {p[0], p[1], p[2]};
-      if (!ball.empty()) {
-        const std::vector<double> b = bus::parseNumberList(ball, 2, "--ball");
-        scene.ball = camera::SimBall{{b[0], b[1]}, 0.11};
-      }
-      for (const std::string& o : obstacles) {
-        const std::vector<double> xy = bus::parseNumberList(o, 2, "--obstacle");
-        scene.robots.push_back({{xy[0], xy[1]}, 0.25, false});
-      }
-      std::vector<std::uint8_t> frame;
-      renderer.render(scene, frame);
-      writeFrame(renderer.view(frame), out, classes, config.model.colour_table);
-      std::printf("wrote %s (rendered at %.2f, %.2f, %.2f on %s)\n", out.c_str(), p[0], p[1], p[2],
-                  field.c_str());
-      return 0;
-    }
-
-    fieldline::SystemClock clock;
-    bus::Node node({.process = "camera-snapshot",
-                    .robot_id = common.robot,
-                    .url = common.bus_url,
-                    .status_period_us = 0},
-                   clock);
-    std::optional<fieldline::image_t> image;
-    node.subscribe(bus::channels::kCameraImage, [&](const fieldline::image_t& m) {
-      if (!image) image = m;
-    });
-    const fieldline::Utime deadline =
-        clock.now() + static_cast<fieldline::Utime>(timeout * fieldline::kMicrosPerSecond);
-    while (!image && clock.now() < deadline && !node.stopRequested())
-      node.spinOnce(100);
-    if (!image) {
-      std::fprintf(stderr, "camera-snapshot: no CAMERA_IMAGE on %s within %.1f s\n",
-                   common.bus_url.c_str(), timeout);
-      return 1;
-    }
-    const std::optional<camera::FrameView> view = msg::fromMessage(*image);
-    if (!view) {
-      std::fprintf(stderr, "camera-snapshot: image format %d cannot be shown\n", image->format);
-      return 1;
-    }
-    writeFrame(*view, out, classes, config.model.colour_table);
-    std::printf("wrote %s: robot %d frame %lld, %dx%d, latency %.1f ms\n", out.c_str(),
-                common.robot, static_cast<long long>(image->frame_number), image->width,
-                image->height,
-                static_cast<double>(image->header.utime_published - image->header.utime) / 1e3);
-    return 0;
+    const camera::CameraConfig config = camera::loadCameraConfigPreset(options.preset);
+    if (!options.render_pose.empty()) return renderOffline(options, config);
+    return snapshotFromBus(options, config, common);
   });
 }

@@ -17,6 +17,81 @@
 
 using namespace fieldline;
 
+namespace {
+
+struct Options {
+  std::vector<std::string> channels;
+  std::string output;
+  std::int64_t skip = 0;
+  std::int64_t count = 0;
+  double timeout_s = 30.0;
+
+  void addTo(CLI::App& app) {
+    app.add_option("--channel", channels, "Channel to record (repeatable; default: all)")
+        ->check(CLI::IsMember(
+            std::vector<std::string>(bus::kAllChannelNames.begin(), bus::kAllChannelNames.end())));
+    app.add_option("--output,-o", output, "Log file to write (overwritten)")->required();
+    app.add_option("--skip", skip, "Valid messages to let pass before recording")
+        ->check(CLI::Range(std::int64_t{0}, std::int64_t{1} << 40));
+    app.add_option("--count", count, "Stop after this many recorded messages (0: until stopped)")
+        ->check(CLI::Range(std::int64_t{0}, std::int64_t{1} << 40));
+    app.add_option("--timeout", timeout_s, "Give up after this many seconds")
+        ->check(CLI::Range(0.1, 86400.0))
+        ->capture_default_str();
+  }
+};
+
+// Records until stopped, --count messages were written or --timeout passed; the exit code.
+int record(const Options& options, const bus::CommonOptions& common) {
+  SystemClock clock;
+  bus::Node node({.process = "log_record",
+                  .robot_id = common.robot,
+                  .url = common.bus_url,
+                  .status_period_us = 0},
+                 clock);
+  bus::LogWriter writer(options.output);
+  const std::vector<std::string>& channels = options.channels;
+  const std::int64_t count = options.count;
+  std::int64_t seen = 0;
+  std::int64_t rejected = 0;
+  node.subscribeAllRaw([&](const std::string& channel, const void* data, int size) {
+    if (!channels.empty() && std::find(channels.begin(), channels.end(), channel) == channels.end())
+      return;
+    if (count > 0 && writer.eventsWritten() >= count) return;
+    if (auto rejection = bus::checkEncoded(channel, data, size, clock.now(),
+                                           node.options().future_tolerance_us)) {
+      ++rejected;
+      std::fprintf(stderr, "log_record: %s: %s (%s)\n", channel.c_str(), rejection->text.c_str(),
+                   rejection->kind.c_str());
+      return;
+    }
+    if (seen++ < options.skip) return;
+    try {
+      writer.write(channel, clock.now(), data, size);
+    } catch (const bus::LogError& e) {
+      node.reportError("log_write", e.what());
+      node.requestStop();
+    }
+  });
+  bus::installStopSignals();
+  const Utime deadline = clock.now() + static_cast<Utime>(options.timeout_s * 1e6);
+  while (!node.stopRequested() && clock.now() < deadline &&
+         (count == 0 || writer.eventsWritten() < count)) {
+    node.spinOnce(50);
+  }
+  writer.flush();
+  fmt::print("{}: {} messages recorded, {} rejected\n", options.output, writer.eventsWritten(),
+             rejected);
+  if (count > 0 && writer.eventsWritten() < count) {
+    fmt::print(stderr, "log_record: only {} of {} messages within {} s\n", writer.eventsWritten(),
+               count, options.timeout_s);
+    return 1;
+  }
+  return node.status().errorCount("log_write") > 0 ? 1 : 0;
+}
+
+}  // namespace
+
 int main(int argc, char** argv) {
   CLI::App app{
       "Records fieldline channels of a robot's bus (or the simulator's) into an LCM log, checking "
@@ -24,22 +99,8 @@ int main(int argc, char** argv) {
       "CAMERA_IMAGE --skip 60 --count 15 --output camera.lcmlog"};
   bus::CommonOptions common;
   common.addTo(app);
-  std::vector<std::string> channels;
-  std::string output;
-  std::int64_t skip = 0;
-  std::int64_t count = 0;
-  double timeout_s = 30.0;
-  app.add_option("--channel", channels, "Channel to record (repeatable; default: all)")
-      ->check(CLI::IsMember(
-          std::vector<std::string>(bus::kAllChannelNames.begin(), bus::kAllChannelNames.end())));
-  app.add_option("--output,-o", output, "Log file to write (overwritten)")->required();
-  app.add_option("--skip", skip, "Valid messages to let pass before recording")
-      ->check(CLI::Range(std::int64_t{0}, std::int64_t{1} << 40));
-  app.add_option("--count", count, "Stop after this many recorded messages (0: until stopped)")
-      ->check(CLI::Range(std::int64_t{0}, std::int64_t{1} << 40));
-  app.add_option("--timeout", timeout_s, "Give up after this many seconds")
-      ->check(CLI::Range(0.1, 86400.0))
-      ->capture_default_str();
+  Options options;
+  options.addTo(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -47,50 +108,5 @@ int main(int argc, char** argv) {
     return app.exit(e) == 0 ? 0 : 2;
   }
   common.resolve("log_record");
-
-  return bus::runMain("log_record", [&]() -> int {
-    SystemClock clock;
-    bus::Node node({.process = "log_record",
-                    .robot_id = common.robot,
-                    .url = common.bus_url,
-                    .status_period_us = 0},
-                   clock);
-    bus::LogWriter writer(output);
-    std::int64_t seen = 0;
-    std::int64_t rejected = 0;
-    node.subscribeAllRaw([&](const std::string& channel, const void* data, int size) {
-      if (!channels.empty() &&
-          std::find(channels.begin(), channels.end(), channel) == channels.end())
-        return;
-      if (count > 0 && writer.eventsWritten() >= count) return;
-      if (auto rejection = bus::checkEncoded(channel, data, size, clock.now(),
-                                             node.options().future_tolerance_us)) {
-        ++rejected;
-        std::fprintf(stderr, "log_record: %s: %s (%s)\n", channel.c_str(), rejection->text.c_str(),
-                     rejection->kind.c_str());
-        return;
-      }
-      if (seen++ < skip) return;
-      try {
-        writer.write(channel, clock.now(), data, size);
-      } catch (const bus::LogError& e) {
-        node.reportError("log_write", e.what());
-        node.requestStop();
-      }
-    });
-    bus::installStopSignals();
-    const Utime deadline = clock.now() + static_cast<Utime>(timeout_s * 1e6);
-    while (!node.stopRequested() && clock.now() < deadline &&
-           (count == 0 || writer.eventsWritten() < count)) {
-      node.spinOnce(50);
-    }
-    writer.flush();
-    fmt::print("{}: {} messages recorded, {} rejected\n", output, writer.eventsWritten(), rejected);
-    if (count > 0 && writer.eventsWritten() < count) {
-      fmt::print(stderr, "log_record: only {} of {} messages within {} s\n", writer.eventsWritten(),
-                 count, timeout_s);
-      return 1;
-    }
-    return node.status().errorCount("log_write") > 0 ? 1 : 0;
-  });
+  return bus::runMain("log_record", [&] { return record(options, common); });
 }
