@@ -98,36 +98,36 @@ TEST(Plan, OrdersBySimulatorThenRobotThenFileOrder) {
 class FindExecutable : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = std::filesystem::temp_directory_path() / ("launch_find_" + std::to_string(::getpid()));
-    std::filesystem::create_directories(dir_ / "bin");
-    std::filesystem::create_directories(dir_ / "path");
-    touch(dir_ / "bin" / "tool", 0755);
-    touch(dir_ / "bin" / "data", 0644);
-    touch(dir_ / "path" / "other", 0755);
-    touch(dir_ / "path" / "tool", 0755);
+    dir = std::filesystem::temp_directory_path() / ("launch_find_" + std::to_string(::getpid()));
+    std::filesystem::create_directories(dir / "bin");
+    std::filesystem::create_directories(dir / "path");
+    touch(dir / "bin" / "tool", 0755);
+    touch(dir / "bin" / "data", 0644);
+    touch(dir / "path" / "other", 0755);
+    touch(dir / "path" / "tool", 0755);
   }
-  void TearDown() override { std::filesystem::remove_all(dir_); }
+  void TearDown() override { std::filesystem::remove_all(dir); }
   static void touch(const std::filesystem::path& p, mode_t mode) {
     std::ofstream(p) << "#!/bin/sh\n";
     ::chmod(p.c_str(), mode);
   }
-  std::filesystem::path dir_;
+  std::filesystem::path dir;
 };
 
 TEST_F(FindExecutable, BinDirFirstThenPath) {
-  const std::string bin = (dir_ / "bin").string();
-  const std::string path = "/nonexistent:" + (dir_ / "path").string();
-  EXPECT_EQ(findExecutable("tool", bin, path.c_str()), (dir_ / "bin" / "tool").string());
-  EXPECT_EQ(findExecutable("other", bin, path.c_str()), (dir_ / "path" / "other").string());
+  const std::string bin = (dir / "bin").string();
+  const std::string path = "/nonexistent:" + (dir / "path").string();
+  EXPECT_EQ(findExecutable("tool", bin, path.c_str()), (dir / "bin" / "tool").string());
+  EXPECT_EQ(findExecutable("other", bin, path.c_str()), (dir / "path" / "other").string());
   EXPECT_EQ(findExecutable("data", bin, path.c_str()), "");  // not executable
   EXPECT_EQ(findExecutable("missing", bin, path.c_str()), "");
   EXPECT_EQ(findExecutable("other", bin, nullptr), "");
 }
 
 TEST_F(FindExecutable, PathsAreTakenAsGiven) {
-  const std::string tool = (dir_ / "path" / "tool").string();
+  const std::string tool = (dir / "path" / "tool").string();
   EXPECT_EQ(findExecutable(tool, "", nullptr), tool);
-  EXPECT_EQ(findExecutable((dir_ / "bin" / "data").string(), "", nullptr), "");
+  EXPECT_EQ(findExecutable((dir / "bin" / "data").string(), "", nullptr), "");
 }
 
 TEST(SelfDirectory, IsWhereTheTestBinaryLives) {

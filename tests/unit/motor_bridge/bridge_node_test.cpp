@@ -24,62 +24,62 @@ namespace {
 class BridgeNodeTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = std::filesystem::temp_directory_path() /
-           ("fieldline-bridge-node-" + std::to_string(::getpid()));
-    config_.device = (dir_ / "robot2.tty").string();
-    config_.reconnect_interval = 0.01;
-    config_.command_rate = 50.0;
-    pty_ = std::make_unique<world_sim::PseudoTerminal>(config_.device);
+    dir = std::filesystem::temp_directory_path() /
+          ("fieldline-bridge-node-" + std::to_string(::getpid()));
+    config.device = (dir / "robot2.tty").string();
+    config.reconnect_interval = 0.01;
+    config.command_rate = 50.0;
+    pty = std::make_unique<world_sim::PseudoTerminal>(config.device);
   }
   void TearDown() override {
-    pty_.reset();
-    std::filesystem::remove_all(dir_);
+    pty.reset();
+    std::filesystem::remove_all(dir);
   }
 
   // Advances the clock by `step_us` per round and spins until `done`; bounded in rounds so a
   // broken bridge fails the test instead of hanging it.
   bool spinUntil(const std::function<bool()>& done, Utime step_us = 0) {
     for (int round = 0; round < 1000 && !done(); ++round) {
-      clock_.advance(step_us);
-      bridge_node_.spinOnce(2);
-      listener_.spinOnce(0);
+      clock.advance(step_us);
+      bridge_node.spinOnce(2);
+      listener.spinOnce(0);
     }
     return done();
   }
   // Decodes what the bridge wrote to the line so far (the controller's side of the pty).
   std::vector<serial::Message> readLine() {
     std::vector<std::uint8_t> bytes;
-    pty_->read(bytes);
+    pty->read(bytes);
     std::vector<serial::Message> out;
-    decoder_.feed(bytes, out);
+    decoder.feed(bytes, out);
     return out;
   }
 
-  std::filesystem::path dir_;
-  BridgeConfig config_;
-  std::unique_ptr<world_sim::PseudoTerminal> pty_;
-  serial::Decoder decoder_;
-  SimulatedClock clock_{1'800'000'000'000'000};
-  std::shared_ptr<bus::Connection> memq_ = bus::Connection::open("memq://");
-  bus::Node bridge_node_{
-      {.process = "motor_bridge", .robot_id = 2, .status_period_us = 0}, clock_, memq_};
-  bus::Node listener_{{.process = "listener", .robot_id = 2, .status_period_us = 0}, clock_, memq_};
-  robot::RobotParams params_ = robot::loadRobotPreset("fu2004");
+  std::filesystem::path dir;
+  BridgeConfig config;
+  std::unique_ptr<world_sim::PseudoTerminal> pty;
+  serial::Decoder decoder;
+  SimulatedClock clock{1'800'000'000'000'000};
+  std::shared_ptr<bus::Connection> memq = bus::Connection::open("memq://");
+  bus::Node bridge_node{
+      {.process = "motor_bridge", .robot_id = 2, .status_period_us = 0}, clock, memq};
+  bus::Node listener{{.process = "listener", .robot_id = 2, .status_period_us = 0}, clock, memq};
+  robot::RobotParams params = robot::loadRobotPreset("fu2004");
 };
 
 TEST_F(BridgeNodeTest, CommandsGoOutOnTheLineAndOdometryComesBackStamped) {
-  BridgeNode bridge(bridge_node_, params_, config_);
+  BridgeNode bridge(bridge_node, params, config);
   bridge.start();
   ASSERT_TRUE(bridge.link().connected());
-  EXPECT_EQ(bridge_node_.watchedFdCount(), 1u);
+  EXPECT_EQ(bridge_node.watchedFdCount(), 1u);
 
   motion_command_t command{};
-  command.header.utime = clock_.now();
+  command.header.utime = clock.now();
   command.vx = 0.5;
   command.omega = -0.25;
-  command.deadline_utime = clock_.now() + 200'000;
+  command.deadline_utime = clock.now() + 200'000;
   command.source = motion_command_t::SOURCE_PILOT;
-  listener_.publish(bus::channels::kMotionCommand, command);
+  listener.publish(bus::channels::kMotionCommand, command);
 
   // The Hello on connecting, then the command at the next tick of the 50 Hz timer.
   std::optional<serial::VelocityCommand> sent;
@@ -101,62 +101,61 @@ TEST_F(BridgeNodeTest, CommandsGoOutOnTheLineAndOdometryComesBackStamped) {
 
   // Two odometry samples from the controller: the second gives a movement and velocity.
   std::vector<odometry_t> odometry;
-  listener_.subscribe(bus::channels::kOdometry,
-                      [&](const odometry_t& m) { odometry.push_back(m); });
-  world_sim::FirmwareEmulator firmware(params_, 5'000'000);
+  listener.subscribe(bus::channels::kOdometry, [&](const odometry_t& m) { odometry.push_back(m); });
+  world_sim::FirmwareEmulator firmware(params, 5'000'000);
   std::vector<std::uint8_t> frame;
   firmware.sample(0.0, {0, 0, 0}, frame);
   firmware.sample(0.02, {100, -100, 0}, frame);
-  pty_->write(frame);
+  pty->write(frame);
   ASSERT_TRUE(spinUntil([&] { return odometry.size() >= 2; }));
-  const Utime latency = static_cast<Utime>(params_.controller_latency * 1e6);
+  const Utime latency = static_cast<Utime>(params.controller_latency * 1e6);
   // The newest is stamped receive time minus the controller latency; the first, when both came
   // in one read, back-dated by the controller's 20 ms between them.
-  EXPECT_EQ(odometry[1].header.utime, clock_.now() - latency);
-  EXPECT_LE(odometry[0].header.utime, clock_.now() - latency);
-  EXPECT_GE(odometry[0].header.utime, clock_.now() - latency - 20'000);
+  EXPECT_EQ(odometry[1].header.utime, clock.now() - latency);
+  EXPECT_LE(odometry[0].header.utime, clock.now() - latency);
+  EXPECT_GE(odometry[0].header.utime, clock.now() - latency - 20'000);
   EXPECT_EQ(odometry[1].ticks[0], 100);
   EXPECT_GT(std::abs(odometry[1].dx) + std::abs(odometry[1].dy) + std::abs(odometry[1].dphi), 0.0);
   EXPECT_EQ(odometry[1].header.robot_id, 2);
 }
 
 TEST_F(BridgeNodeTest, LostLineIsAnErrorAndTheNewLineIsWatched) {
-  BridgeNode bridge(bridge_node_, params_, config_);
+  BridgeNode bridge(bridge_node, params, config);
   bridge.start();
   ASSERT_TRUE(bridge.link().connected());
 
-  pty_.reset();  // the cable is pulled
+  pty.reset();  // the cable is pulled
   ASSERT_TRUE(spinUntil([&] { return !bridge.link().connected(); }, 5'000));
-  EXPECT_EQ(bridge_node_.watchedFdCount(), 0u);
-  EXPECT_EQ(bridge_node_.status().errorCount("serial_disconnect"), 1);
+  EXPECT_EQ(bridge_node.watchedFdCount(), 0u);
+  EXPECT_EQ(bridge_node.status().errorCount("serial_disconnect"), 1);
 
   // Without its line the bridge cannot do its job: the status says so at the next report.
-  clock_.advance(kMicrosPerSecond);
-  bridge_node_.spinOnce(0);
-  EXPECT_TRUE(bridge_node_.status().fault());
+  clock.advance(kMicrosPerSecond);
+  bridge_node.spinOnce(0);
+  EXPECT_TRUE(bridge_node.status().fault());
 
-  pty_ = std::make_unique<world_sim::PseudoTerminal>(config_.device);
+  pty = std::make_unique<world_sim::PseudoTerminal>(config.device);
   ASSERT_TRUE(spinUntil([&] { return bridge.link().connected(); }, 5'000));
-  EXPECT_EQ(bridge_node_.watchedFdCount(), 1u);
+  EXPECT_EQ(bridge_node.watchedFdCount(), 1u);
   EXPECT_GE(bridge.link().stats().opens, 2u);
-  clock_.advance(kMicrosPerSecond);
-  bridge_node_.spinOnce(0);
-  EXPECT_FALSE(bridge_node_.status().fault());
+  clock.advance(kMicrosPerSecond);
+  bridge_node.spinOnce(0);
+  EXPECT_FALSE(bridge_node.status().fault());
 }
 
 TEST_F(BridgeNodeTest, StopLeavesTheRobotStanding) {
-  BridgeNode bridge(bridge_node_, params_, config_);
+  BridgeNode bridge(bridge_node, params, config);
   bridge.start();
   motion_command_t command{};
-  command.header.utime = clock_.now();
+  command.header.utime = clock.now();
   command.vx = 1.0;
-  command.deadline_utime = clock_.now() + 500'000;
-  listener_.publish(bus::channels::kMotionCommand, command);
-  ASSERT_TRUE(spinUntil([&] { return bridge.core().commandActive(clock_.now()); }));
+  command.deadline_utime = clock.now() + 500'000;
+  listener.publish(bus::channels::kMotionCommand, command);
+  ASSERT_TRUE(spinUntil([&] { return bridge.core().commandActive(clock.now()); }));
   readLine();
   bridge.stop();
   EXPECT_FALSE(bridge.link().connected());
-  EXPECT_EQ(bridge_node_.watchedFdCount(), 0u);
+  EXPECT_EQ(bridge_node.watchedFdCount(), 0u);
   std::optional<serial::VelocityCommand> last;
   for (const auto& m : readLine())
     if (const auto* v = std::get_if<serial::VelocityCommand>(&m)) last = *v;

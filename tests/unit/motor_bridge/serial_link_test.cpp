@@ -21,11 +21,10 @@ using Bytes = std::vector<std::uint8_t>;
 class SerialLinkTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ =
-        std::filesystem::temp_directory_path() / ("fieldline-link-" + std::to_string(::getpid()));
-    link_path_ = (dir_ / "robot1.tty").string();
+    dir = std::filesystem::temp_directory_path() / ("fieldline-link-" + std::to_string(::getpid()));
+    link_path = (dir / "robot1.tty").string();
   }
-  void TearDown() override { std::filesystem::remove_all(dir_); }
+  void TearDown() override { std::filesystem::remove_all(dir); }
 
   // Runs the io_context until `done` holds; gives up after many rounds so a broken link fails
   // the test instead of hanging it (the assertion is on `done`, not on time).
@@ -37,8 +36,8 @@ class SerialLinkTest : public ::testing::Test {
     return done();
   }
 
-  std::filesystem::path dir_;
-  std::string link_path_;
+  std::filesystem::path dir;
+  std::string link_path;
 };
 
 TEST_F(SerialLinkTest, CarriesBytesAndReconnectsAfterTheDeviceReturns) {
@@ -47,7 +46,7 @@ TEST_F(SerialLinkTest, CarriesBytesAndReconnectsAfterTheDeviceReturns) {
   int ups = 0;
   int downs = 0;
   SerialLink link(
-      io, {link_path_, 115200, 0.02},
+      io, {link_path, 115200, 0.02},
       [&](std::span<const std::uint8_t> b) { received.insert(received.end(), b.begin(), b.end()); },
       [&](bool up) { (up ? ups : downs)++; });
 
@@ -58,7 +57,7 @@ TEST_F(SerialLinkTest, CarriesBytesAndReconnectsAfterTheDeviceReturns) {
   EXPECT_FALSE(link.send(Bytes{1, 2, 3}));
   EXPECT_EQ(link.stats().bytes_dropped, 3u);
 
-  auto pty = std::make_unique<world_sim::PseudoTerminal>(link_path_);
+  auto pty = std::make_unique<world_sim::PseudoTerminal>(link_path);
   ASSERT_TRUE(runUntil(io, [&] { return link.connected(); }));
   EXPECT_EQ(ups, 1);
 
@@ -84,7 +83,7 @@ TEST_F(SerialLinkTest, CarriesBytesAndReconnectsAfterTheDeviceReturns) {
   EXPECT_EQ(link.stats().disconnects, 1u);
 
   // ... and returns under the same name (a new pty number behind the link): reconnected.
-  pty = std::make_unique<world_sim::PseudoTerminal>(link_path_);
+  pty = std::make_unique<world_sim::PseudoTerminal>(link_path);
   ASSERT_TRUE(runUntil(io, [&] { return link.connected(); }));
   EXPECT_EQ(ups, 2);
   received.clear();
@@ -107,9 +106,9 @@ TEST_F(SerialLinkTest, ABacklogArrivesInOneRead) {
   boost::asio::io_context io;
   std::vector<std::size_t> reads;
   SerialLink link(
-      io, {link_path_, 115200, 0.02},
+      io, {link_path, 115200, 0.02},
       [&](std::span<const std::uint8_t> b) { reads.push_back(b.size()); }, [](bool) {});
-  auto pty = std::make_unique<world_sim::PseudoTerminal>(link_path_);
+  auto pty = std::make_unique<world_sim::PseudoTerminal>(link_path);
   link.start();
   ASSERT_TRUE(runUntil(io, [&] { return link.connected(); }));
   // 0.7 s of 50 Hz odometry frames (about 40 bytes each), written while the link is not read.

@@ -50,7 +50,7 @@ class Hub {
     return *links_.back();
   }
   void broadcast(int from, std::span<const std::uint8_t> bytes) {
-    if (from > 0) sent_by_.push_back({from, {bytes.begin(), bytes.end()}});
+    if (from > 0) sent_by.push_back({from, {bytes.begin(), bytes.end()}});
     for (std::size_t i = 0; i < links_.size(); ++i) {
       const int to = static_cast<int>(i) + 1;
       if (to != from && loss > 0.0 && std::uniform_real_distribution<double>()(rng) < loss)
@@ -67,7 +67,7 @@ class Hub {
   }
   Utime now() const { return truth_.now(); }
   // What robot `id` sent, in order (the attacker records it).
-  std::vector<std::pair<int, std::vector<std::uint8_t>>> sent_by_;
+  std::vector<std::pair<int, std::vector<std::uint8_t>>> sent_by;
   double loss = 0.0;
   std::mt19937 rng{3};
 
@@ -231,7 +231,7 @@ TEST(teamcomm_node, ForgedReplayedAndBrokenPacketsChangeNothing) {
   const std::int64_t accepted_before = victim.team.counters().accepted;
   // What the attacker recorded from robot 2.
   std::vector<std::vector<std::uint8_t>> recorded;
-  for (const auto& [from, bytes] : team.hub.sent_by_) {
+  for (const auto& [from, bytes] : team.hub.sent_by) {
     if (from == 2) recorded.push_back(bytes);
   }
   ASSERT_GT(recorded.size(), 50u);

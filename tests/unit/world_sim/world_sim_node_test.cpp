@@ -21,49 +21,48 @@ namespace {
 class WorldSimNodeTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = std::filesystem::temp_directory_path() /
-           ("fieldline-world-sim-node-" + std::to_string(::getpid()));
-    listener_.subscribe(bus::channels::kSimWorld,
-                        [this](const world_state_t& w) { states_.push_back(msg::fromMessage(w)); });
+    dir = std::filesystem::temp_directory_path() /
+          ("fieldline-world-sim-node-" + std::to_string(::getpid()));
+    listener.subscribe(bus::channels::kSimWorld,
+                       [this](const world_state_t& w) { states.push_back(msg::fromMessage(w)); });
   }
-  void TearDown() override { std::filesystem::remove_all(dir_); }
+  void TearDown() override { std::filesystem::remove_all(dir); }
 
   // Moves the clock in 5 ms steps over `seconds`, the simulator and the listener handling
   // what is due after each.
   void run(double seconds) {
     for (int i = 0; i < static_cast<int>(seconds * 200 + 0.5); ++i) {
-      clock_.advance(5'000);
-      sim_node_.spinOnce(0);
-      listener_.spinOnce(0);
+      clock.advance(5'000);
+      sim_node.spinOnce(0);
+      listener.spinOnce(0);
     }
   }
 
-  std::filesystem::path dir_;
-  SimulatedClock clock_{1'800'000'000'000'000};
-  std::shared_ptr<bus::Connection> memq_ = bus::Connection::open("memq://");
-  bus::Node sim_node_{
-      {.process = "world_sim", .robot_id = 0, .status_period_us = 0}, clock_, memq_};
-  bus::Node listener_{{.process = "listener", .robot_id = 0, .status_period_us = 0}, clock_, memq_};
-  std::vector<perception::WorldTruth> states_;
+  std::filesystem::path dir;
+  SimulatedClock clock{1'800'000'000'000'000};
+  std::shared_ptr<bus::Connection> memq = bus::Connection::open("memq://");
+  bus::Node sim_node{{.process = "world_sim", .robot_id = 0, .status_period_us = 0}, clock, memq};
+  bus::Node listener{{.process = "listener", .robot_id = 0, .status_period_us = 0}, clock, memq};
+  std::vector<perception::WorldTruth> states;
 };
 
 TEST_F(WorldSimNodeTest, PublishesTheWorldAtItsRateOnSimulatedTime) {
   const auto scenario = scenario::loadScenarioPreset("default");
-  const Utime start = clock_.now();
-  WorldSimNode sim(sim_node_, scenario, {.pty_dir = dir_.string(), .world_rate = 100.0});
+  const Utime start = clock.now();
+  WorldSimNode sim(sim_node, scenario, {.pty_dir = dir.string(), .world_rate = 100.0});
   run(0.2);
   // The state after the first step, then 100 Hz over 0.2 s (the last one may still be a step
   // short of the present).
-  ASSERT_GE(states_.size(), 20u);
-  ASSERT_LE(states_.size(), 21u);
+  ASSERT_GE(states.size(), 20u);
+  ASSERT_LE(states.size(), 21u);
   EXPECT_LE(sim.world().time(), 0.2 + 1e-9);
   EXPECT_GE(sim.world().time(), 0.2 - sim.world().stepSeconds() - 1e-9);
-  EXPECT_EQ(states_[0].utime, start + sim.utimeAt(sim.world().stepSeconds()) - sim.utimeAt(0.0));
-  for (std::size_t k = 1; k < states_.size(); ++k) {
-    EXPECT_EQ(states_[k].utime, start + static_cast<Utime>(k) * 10'000) << k;
-    EXPECT_LE(states_[k].utime, clock_.now());
+  EXPECT_EQ(states[0].utime, start + sim.utimeAt(sim.world().stepSeconds()) - sim.utimeAt(0.0));
+  for (std::size_t k = 1; k < states.size(); ++k) {
+    EXPECT_EQ(states[k].utime, start + static_cast<Utime>(k) * 10'000) << k;
+    EXPECT_LE(states[k].utime, clock.now());
   }
-  const auto& last = states_.back();
+  const auto& last = states.back();
   EXPECT_EQ(last.scenario, scenario.name);
   ASSERT_EQ(last.robots.size(), scenario.robots.size());
   const auto* three = last.robot(3);
@@ -76,7 +75,7 @@ TEST_F(WorldSimNodeTest, PublishesTheWorldAtItsRateOnSimulatedTime) {
 TEST_F(WorldSimNodeTest, SendsOdometryOnThePtyAndPlaysTheOutages) {
   auto scenario = scenario::loadScenarioPreset("serial_test");
   scenario.serial_outages = {{.time = 0.1, .robot = 1, .duration = 0.1}};
-  WorldSimNode sim(sim_node_, scenario, {.pty_dir = dir_.string()});
+  WorldSimNode sim(sim_node, scenario, {.pty_dir = dir.string()});
   ASSERT_EQ(sim.lines().size(), 1u);
   const std::string link = sim.lines().linkPath(0);
 
@@ -112,10 +111,10 @@ TEST_F(WorldSimNodeTest, SendsOdometryOnThePtyAndPlaysTheOutages) {
 TEST_F(WorldSimNodeTest, StopsAtTheScenariosEnd) {
   auto scenario = scenario::loadScenarioPreset("serial_test");
   scenario.duration = 0.05;
-  WorldSimNode sim(sim_node_, scenario, {.pty_dir = dir_.string()});
+  WorldSimNode sim(sim_node, scenario, {.pty_dir = dir.string()});
   run(0.1);
   EXPECT_TRUE(sim.finished());
-  EXPECT_TRUE(sim_node_.stopRequested());
+  EXPECT_TRUE(sim_node.stopRequested());
   EXPECT_NEAR(sim.world().time(), 0.05, sim.world().stepSeconds());
 }
 
