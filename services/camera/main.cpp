@@ -74,6 +74,7 @@ int main(int argc, char** argv) {
   bool loop = false;
   bool bgr = false;
   std::int64_t max_frames = 0;
+  std::string raster_cache = camera::defaultCacheDirectory();
   app.add_option("--source", source_name, "Frame source")
       ->check(CLI::IsMember({"sim", "v4l2", "video", "gstreamer", "folder", "log"}))
       ->capture_default_str();
@@ -94,6 +95,9 @@ int main(int argc, char** argv) {
   app.add_flag("--bgr", bgr, "v4l2: take OpenCV's BGR frames instead of raw YUYV");
   app.add_option("--max-frames", max_frames,
                  "Real sources: stop after this many frames (0: no limit)");
+  app.add_option("--raster-cache", raster_cache,
+                 "sim: directory for the floor raster cache (default: $XDG_CACHE_HOME/fieldline "
+                 "or ~/.cache/fieldline; empty string: none)");
   FIELDLINE_PARSE(app, argc, argv);
   common.resolve("camera");
 
@@ -106,7 +110,7 @@ int main(int argc, char** argv) {
 
     if (source_name == "sim") {
       const bus::BusId sim_bus = node.addBus(common.sim_bus_url);
-      camera::SimCameraNode sim(node, sim_bus, config, field);
+      camera::SimCameraNode sim(node, sim_bus, config, field, raster_cache);
       spdlog::info("rendering {}x{} at {} Hz, latency {} ms, from SIM_WORLD on {}",
                    config.model.mirror.width(), config.model.mirror.height(),
                    config.pipeline.frame_rate, config.pipeline.latency * 1e3, common.sim_bus_url);
