@@ -119,6 +119,8 @@ void SimCameraNode::makeRenderer(const std::string& field_name) {
       if (!renderer_->rasterProblem().empty()) {
         spdlog::warn("floor raster of '{}' built, not cached: {}", field_name,
                      renderer_->rasterProblem());
+      } else if (!raster_cache_dir_.empty()) {
+        spdlog::info("floor raster of '{}' built and cached in {}", field_name, raster_cache_dir_);
       }
       break;
   }
