@@ -14,6 +14,7 @@
 
 #include "common/bus/cli.hpp"
 #include "common/bus/node.hpp"
+#include "common/bus/robot_clock.hpp"
 #include "common/time/clock.hpp"
 #include "services/camera/camera_config.hpp"
 #include "services/camera/camera_node.hpp"
@@ -101,7 +102,7 @@ int main(int argc, char** argv) {
     camera::CameraConfig config = camera::loadCameraConfigPreset(preset);
     if (latency >= 0.0) config.pipeline.latency = latency;
     if (fps > 0.0) config.pipeline.frame_rate = fps;
-    fieldline::SystemClock clock;
+    const fieldline::RobotClock clock = fieldline::bus::robotClockFromEnvironment();
     bus::Node node({.process = "camera", .robot_id = common.robot, .url = common.bus_url}, clock);
 
     if (source_name == "sim") {
