@@ -68,6 +68,10 @@ void loadLocalizer(const config::Node& n, LocalizerParams& p) {
   p.search_points = n.getOr<int>("search_points", p.search_points, 5, 10000);
   p.max_hypotheses = static_cast<std::size_t>(
       n.getOr<int>("max_hypotheses", static_cast<int>(p.max_hypotheses), 1, 1000));
+  p.local_search_s = n.getOr<double>("local_search_s", p.local_search_s, 0.0, 10.0);
+  p.local_search_step_rad =
+      n.getOr<double>("local_search_step_rad", p.local_search_step_rad, 0.01, 3.2);
+  p.local_search_steps = n.getOr<int>("local_search_steps", p.local_search_steps, 0, 100);
   if (n.has("start_prior")) {
     p.start_prior = n.getChoice("start_prior", {"own_half", "none"}) == "own_half"
                         ? StartPrior::kOwnHalf

@@ -264,6 +264,30 @@ void Localizer::coarseSearch(std::span<const perception::LinePoint> points, Utim
     addHypothesis(refined[i]);
 }
 
+void Localizer::localSearch(std::span<const perception::LinePoint> points, Utime utime) {
+  if (!reference_ || params_.local_search_s <= 0.0 ||
+      static_cast<double>(utime - reference_->utime) * 1e-6 > params_.local_search_s) {
+    return;
+  }
+  geometry::Pose2 ref = reference_->pose;
+  const auto motion = motionBetween(reference_->utime, utime);
+  if (!motion) return;
+  ref = geometry::applyMovement(ref, *motion);
+  for (int k = -params_.local_search_steps; k <= params_.local_search_steps; ++k) {
+    const geometry::Pose2 guess{
+        ref.x, ref.y, geometry::normalizeAngle(ref.phi + k * params_.local_search_step_rad)};
+    const PoseCorrection c = matcher_.correct(points, guess);
+    if (!c.valid || c.cost > params_.accept_cost_m) continue;
+    Hypothesis h;
+    h.utime = utime;
+    h.pose = c.pose;
+    h.covariance = c.covariance;
+    h.cost_sum = c.cost;
+    h.frames = 1;
+    addHypothesis(h);
+  }
+}
+
 void Localizer::searchLines(std::span<const perception::LinePoint> points, Utime utime) {
   if (mode_ == LocalizationStatus::kUnknown) mode_ = LocalizationStatus::kSearching;
   // Test what we have on this frame.
@@ -293,6 +317,7 @@ void Localizer::searchLines(std::span<const perception::LinePoint> points, Utime
            (h.frames > 0 && h.meanCost() > params_.lost_cost_m);
   });
   const bool enough_points = static_cast<int>(points.size()) >= 10;
+  if (enough_points) localSearch(points, utime);
   const bool any_good = std::any_of(hypotheses_.begin(), hypotheses_.end(), [&](const auto& h) {
     return h.frames > 0 && h.meanCost() <= params_.accept_cost_m;
   });

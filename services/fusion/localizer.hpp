@@ -89,6 +89,13 @@ struct LocalizerParams {
   int search_headings = 24;
   int search_points = 60;
   std::size_t max_hypotheses = 10;
+  // After losing track (a collision twisted the robot, not a kidnap), for this long the pose
+  // before the loss, carried on by odometry, seeds hypotheses at these heading offsets (multiples
+  // of the step up to the count each side): the nearby answer is found in the next frame instead
+  // of waiting for the global search to tell it from look-alike places, s, rad.
+  double local_search_s = 1.0;
+  double local_search_step_rad = 0.35;
+  int local_search_steps = 4;
   // Half extents of the area searched (the carpet), m.
   double search_half_length_m = 10.0;
   double search_half_width_m = 6.5;
@@ -155,6 +162,7 @@ class Localizer {
   void trackLines(std::span<const perception::LinePoint> points, Utime utime, Utime now);
   void searchLines(std::span<const perception::LinePoint> points, Utime utime);
   void coarseSearch(std::span<const perception::LinePoint> points, Utime utime);
+  void localSearch(std::span<const perception::LinePoint> points, Utime utime);
   void addHypothesis(const Hypothesis& h);
   void becomeLost(Utime utime);
   void commit(const Hypothesis& h);
