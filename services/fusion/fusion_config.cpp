@@ -55,6 +55,8 @@ void loadLocalizer(const config::Node& n, LocalizerParams& p) {
   p.accept_cost_m = n.getOr<double>("accept_cost_m", p.accept_cost_m, 0.001, 1.0);
   p.lost_cost_m = n.getOr<double>("lost_cost_m", p.lost_cost_m, 0.001, 1.0);
   p.lost_frames = n.getOr<int>("lost_frames", p.lost_frames, 1, 1000);
+  p.contradict_min_points = static_cast<std::size_t>(
+      n.getOr<int>("contradict_min_points", static_cast<int>(p.contradict_min_points), 1, 100000));
   p.gated_frames_reset = n.getOr<int>("gated_frames_reset", p.gated_frames_reset, 1, 1000);
   p.commit_frames = n.getOr<int>("commit_frames", p.commit_frames, 1, 100);
   p.commit_margin_m = n.getOr<double>("commit_margin_m", p.commit_margin_m, 0.0, 1.0);

@@ -163,8 +163,12 @@ void Localizer::trackLines(std::span<const perception::LinePoint> points, Utime 
   } else {
     count(c.valid ? "lines_poor_match" : "lines_too_few_points");
   }
-  // Only frames with enough points can contradict: an empty view says nothing.
-  const bool contradicts = c.valid && !good && cost_at_estimate > params_.lost_cost_m;
+  // Only frames with enough points can contradict: an empty view says nothing. A frame with
+  // plenty of points that gives no valid correction from the estimate (too few of them near any
+  // line, seen from there: the heading is far off) contradicts it as well.
+  const bool many_points = points.size() >= params_.contradict_min_points;
+  const bool contradicts =
+      (c.valid || many_points) && !good && cost_at_estimate > params_.lost_cost_m;
   bad_frames_ = contradicts ? bad_frames_ + 1 : (good ? 0 : bad_frames_);
   if (bad_frames_ >= params_.lost_frames ||
       (contradicts && contradictions_ >= 2 && bad_frames_ >= 1)) {

@@ -49,7 +49,10 @@ struct LocalizerParams {
   // A frame whose cost at the estimate is above this contradicts it, m.
   double lost_cost_m = 0.16;
   // Contradicting frames in a row before the robot counts as lost.
-  int lost_frames = 3;
+  int lost_frames = 2;
+  // A frame with at least this many points contradicts the estimate (cost above lost_cost_m)
+  // even when it gives no valid correction from it.
+  std::size_t contradict_min_points = 60;
   // Well-matching frames refused by the filter's gate in a row before the filter is reset to
   // the frame's correction.
   int gated_frames_reset = 3;
