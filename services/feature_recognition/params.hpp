@@ -93,6 +93,21 @@ struct RecognitionParams {
   // Straight-line constraints from groups at least this long, m.
   double min_constraint_line = 1.0;
 
+  // --- model check (beyond the seed) ---
+  // The frame's points within model_check_range of the robot are moved into the field by a
+  // hypothesis; a point fits when it lies within tolerance + tolerance_per_m * its range of a
+  // model line (the line points sit on the lines' edges, and far points carry the calibration's
+  // larger errors). A hypothesis needs this share of fitting points.
+  double model_check_tolerance = 0.15;
+  double model_check_tolerance_per_m = 0.02;
+  double model_check_range = 8.0;
+  double model_check_min_share = 0.75;
+  // At most this many points are looked up per hypothesis (evenly thinned beyond).
+  int model_check_max_points = 1000;
+  // Distance grid: node spacing and margin beyond the field's lines, m.
+  double model_check_cell = 0.05;
+  double model_check_margin = 2.0;
+
   // --- pose hypotheses ---
   // Floors on the standard deviations (the fit's own residuals underestimate the calibration's
   // errors), m and rad.

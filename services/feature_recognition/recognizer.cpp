@@ -10,7 +10,19 @@ using perception::FeatureKind;
 using perception::FieldFeature;
 
 FeatureRecognizer::FeatureRecognizer(const field::FieldModel& field, RecognitionParams params)
-    : field_(field), params_(params) {}
+    : field_(field), params_(params), model_check_(field, params) {}
+
+bool FeatureRecognizer::passesModelCheck(FeatureKind kind, const Pose2& local, const Pose2& mark) {
+  // The field is point-symmetric: every reference mark of a feature gives the same fit, so one
+  // is enough.
+  CheckedFeature c;
+  c.kind = kind;
+  c.local = local;
+  c.fit = model_check_.fit(contours_.points, robotPoseFrom(mark, local));
+  c.accepted = model_check_.accepts(c.fit);
+  checked_.push_back(c);
+  return c.accepted;
+}
 
 InputCheck FeatureRecognizer::recognize(const perception::LinePoints& in,
                                         perception::FieldFeatures& out) {
@@ -18,6 +30,7 @@ InputCheck FeatureRecognizer::recognize(const perception::LinePoints& in,
   circle_.clear();
   structure_.clear();
   junctions_.clear();
+  checked_.clear();
   penalty_found_ = false;
   const InputCheck check = prepareContours(in, params_, contours_);
   classifyPieces(contours_, params_, classified_);
@@ -41,26 +54,30 @@ InputCheck FeatureRecognizer::recognize(const perception::LinePoints& in,
   if (circle_.found && circle_.oriented) {
     const Pose2 local{circle_.fit.centre.x(), circle_.fit.centre.y(),
                       std::atan2(circle_.line_direction.y(), circle_.line_direction.x())};
-    const int index = static_cast<int>(out.features.size());
-    out.features.push_back({FeatureKind::kCentreCircle, local, qualityMeasure(0, 2)});
-    Line line;
-    line.rms = circle_.line_rms;
-    line.count = circle_.line_count;
-    line.t_max = circle_.line_length;
-    const double sigma_position =
-        circle_.fit.rms / std::sqrt(static_cast<double>(std::max(circle_.fit.count, 1)));
-    addHypotheses(index, local, centreCircleMarks(), sigma_position, lineAngleSigma(line),
-                  params_.min_sigma_xy, params_.min_sigma_phi, out.hypotheses);
+    const std::vector<Pose2> marks = centreCircleMarks();
+    if (passesModelCheck(FeatureKind::kCentreCircle, local, marks.front())) {
+      const int index = static_cast<int>(out.features.size());
+      out.features.push_back({FeatureKind::kCentreCircle, local, qualityMeasure(0, 2)});
+      Line line;
+      line.rms = circle_.line_rms;
+      line.count = circle_.line_count;
+      line.t_max = circle_.line_length;
+      const double sigma_position =
+          circle_.fit.rms / std::sqrt(static_cast<double>(std::max(circle_.fit.count, 1)));
+      addHypotheses(index, local, marks, sigma_position, lineAngleSigma(line), params_.min_sigma_xy,
+                    params_.min_sigma_phi, out.hypotheses);
+    }
   }
   if (penalty_found_) {
     for (const PenaltyCorner& corner : penalty_.corners) {
       const Pose2 local{corner.position.x(), corner.position.y(),
                         std::atan2(corner.toward_goal.y(), corner.toward_goal.x())};
+      const std::vector<Pose2> marks = penaltyCornerMarks(field_, corner.left, corner.inner);
+      if (!passesModelCheck(FeatureKind::kPenaltyCorner, local, marks.front())) continue;
       const int index = static_cast<int>(out.features.size());
       out.features.push_back({FeatureKind::kPenaltyCorner, local, qualityMeasure(0, 2)});
-      addHypotheses(index, local, penaltyCornerMarks(field_, corner.left, corner.inner),
-                    corner.sigma_xy, corner.sigma_phi, params_.min_sigma_xy, params_.min_sigma_phi,
-                    out.hypotheses);
+      addHypotheses(index, local, marks, corner.sigma_xy, corner.sigma_phi, params_.min_sigma_xy,
+                    params_.min_sigma_phi, out.hypotheses);
     }
   }
   // Lower features: no pose of their own (many places on the field look the same).

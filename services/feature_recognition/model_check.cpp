@@ -1,0 +1,45 @@
+#include "services/feature_recognition/model_check.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+namespace fieldline::feature_recognition {
+
+ModelCheck::ModelCheck(const field::FieldModel& field, const RecognitionParams& params)
+    : grid_(field, params.model_check_cell, params.model_check_margin),
+      tolerance_(params.model_check_tolerance),
+      tolerance_per_m_(params.model_check_tolerance_per_m),
+      range_(params.model_check_range),
+      min_share_(params.model_check_min_share),
+      max_points_(params.model_check_max_points) {
+  if (!(tolerance_ > 0.0) || !(tolerance_per_m_ >= 0.0) || !(range_ > 0.0) ||
+      !(min_share_ >= 0.0 && min_share_ <= 1.0) || max_points_ < 1) {
+    throw std::invalid_argument(
+        "ModelCheck: tolerance and range must be positive, min_share in [0, 1], max_points >= 1");
+  }
+}
+
+ModelFit ModelCheck::fit(const std::vector<geometry::Vec2>& points,
+                         const geometry::Pose2& robot) const {
+  ModelFit out;
+  // Bounded time: at most max_points_ points, spread evenly over the frame.
+  const std::size_t n = points.size();
+  const std::size_t step = std::max<std::size_t>(1, (n + max_points_ - 1) / max_points_);
+  const double c = std::cos(robot.phi), s = std::sin(robot.phi);
+  for (std::size_t i = 0; i < n; i += step) {
+    const geometry::Vec2& p = points[i];
+    const double range = p.norm();
+    if (!(range <= range_)) continue;
+    const geometry::Vec2 q(robot.x + c * p.x() - s * p.y(), robot.y + s * p.x() + c * p.y());
+    ++out.points;
+    if (grid_.distance(q) <= tolerance_ + tolerance_per_m_ * range) ++out.inliers;
+  }
+  return out;
+}
+
+bool ModelCheck::accepts(const ModelFit& fit) const {
+  return fit.share() >= min_share_;
+}
+
+}  // namespace fieldline::feature_recognition
