@@ -108,6 +108,18 @@ struct RecognitionParams {
   double model_check_cell = 0.05;
   double model_check_margin = 2.0;
 
+  // --- identifying L-corners and T-junctions by the model check (beyond the seed) ---
+  // Points within this distance of the junction's own lines are not "other" points, m.
+  double identity_leg_margin = 0.3;
+  // An observed leg matches a model leg within this angle, rad.
+  double identity_angle = 0.2;
+  // The chosen place needs this many other points within the check's range and this share of
+  // them on the model's lines; every rival place (not the chosen one or its point-symmetric
+  // twin) must fit at least identity_margin worse.
+  int identity_min_points = 40;
+  double identity_min_share = 0.85;
+  double identity_margin = 0.25;
+
   // --- pose hypotheses ---
   // Floors on the standard deviations (the fit's own residuals underestimate the calibration's
   // errors), m and rad.

@@ -11,6 +11,8 @@
 //   pose_hypotheses      reference marks, symmetric poses, ranking
 //   model_check          a high-level feature is kept only if the frame's points fit the field
 //                        model at the pose it implies (beyond the seed)
+//   junction_identity    L-corners placed on the field by the model check: penalty corners
+//                        whose area is too sparse for stage 5 (beyond the seed)
 // Not thread-safe: one recogniser per thread.
 #pragma once
 
@@ -20,6 +22,7 @@
 #include "common/perception/field_features.hpp"
 #include "common/perception/line_points.hpp"
 #include "services/feature_recognition/centre_circle.hpp"
+#include "services/feature_recognition/junction_identity.hpp"
 #include "services/feature_recognition/junctions.hpp"
 #include "services/feature_recognition/model_check.hpp"
 #include "services/feature_recognition/penalty_area.hpp"
@@ -60,6 +63,7 @@ class FeatureRecognizer {
   const field::FieldModel& field_;
   RecognitionParams params_;
   ModelCheck model_check_;
+  std::vector<ModelJunction> model_junctions_;
   // Number of L-corners and T-junctions the field's lines form (quantities of those features).
   int field_corners_ = 12;
   int field_t_junctions_ = 10;
@@ -74,7 +78,8 @@ class FeatureRecognizer {
 
   // Runs the model check on the feature at `local` (robot frame) whose first reference mark is
   // `mark`; records the verdict and returns it.
-  bool passesModelCheck(perception::FeatureKind kind, const Pose2& local, const Pose2& mark);
+  bool passesModelCheck(perception::FeatureKind kind, const geometry::Pose2& local,
+                        const geometry::Pose2& mark);
 };
 
 }  // namespace fieldline::feature_recognition

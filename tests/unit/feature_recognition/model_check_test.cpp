@@ -15,6 +15,7 @@ namespace fieldline::feature_recognition {
 namespace {
 
 using geometry::Pose2;
+using geometry::Vec2;
 constexpr double kPi = std::numbers::pi;
 
 std::vector<Vec2> pointsOf(const perception::LinePoints& frame) {
