@@ -12,11 +12,15 @@ ModelCheck::ModelCheck(const field::FieldModel& field, const RecognitionParams& 
       tolerance_per_m_(params.model_check_tolerance_per_m),
       range_(params.model_check_range),
       min_share_(params.model_check_min_share),
-      max_points_(params.model_check_max_points) {
+      max_points_(params.model_check_max_points),
+      min_other_points_(params.model_check_min_other_points),
+      min_other_share_(params.model_check_min_other_share) {
   if (!(tolerance_ > 0.0) || !(tolerance_per_m_ >= 0.0) || !(range_ > 0.0) ||
-      !(min_share_ >= 0.0 && min_share_ <= 1.0) || max_points_ < 1) {
+      !(min_share_ >= 0.0 && min_share_ <= 1.0) || max_points_ < 1 || min_other_points_ < 0 ||
+      !(min_other_share_ >= 0.0 && min_other_share_ <= 1.0)) {
     throw std::invalid_argument(
-        "ModelCheck: tolerance and range must be positive, min_share in [0, 1], max_points >= 1");
+        "ModelCheck: tolerance and range must be positive, shares in [0, 1], max_points >= 1, "
+        "min_other_points >= 0");
   }
 }
 
@@ -40,6 +44,29 @@ ModelFit ModelCheck::fit(const std::vector<geometry::Vec2>& points,
 
 bool ModelCheck::accepts(const ModelFit& fit) const {
   return fit.share() >= min_share_;
+}
+
+bool ModelCheck::accepts(const ModelFit& all, const ModelFit& others) const {
+  return accepts(all) && others.points >= min_other_points_ && others.share() >= min_other_share_;
+}
+
+void pointsAwayFrom(const std::vector<geometry::Vec2>& points,
+                    const std::vector<Segment2>& segments, double margin,
+                    std::vector<geometry::Vec2>& out) {
+  out.clear();
+  for (const geometry::Vec2& p : points) {
+    bool near = false;
+    for (const Segment2& s : segments) {
+      const geometry::Vec2 d = s.b - s.a;
+      const double len2 = d.squaredNorm();
+      const double t = len2 > 0.0 ? std::clamp((p - s.a).dot(d) / len2, 0.0, 1.0) : 0.0;
+      if ((p - (s.a + t * d)).norm() < margin) {
+        near = true;
+        break;
+      }
+    }
+    if (!near) out.push_back(p);
+  }
 }
 
 }  // namespace fieldline::feature_recognition

@@ -22,6 +22,18 @@ struct ModelFit {
   double share() const { return points > 0 ? static_cast<double>(inliers) / points : 0.0; }
 };
 
+// A straight piece of a feature, robot frame.
+struct Segment2 {
+  geometry::Vec2 a = geometry::Vec2::Zero();
+  geometry::Vec2 b = geometry::Vec2::Zero();
+};
+
+// The points further than `margin` from every segment: the frame's "other" points, those a
+// feature does not explain by construction.
+void pointsAwayFrom(const std::vector<geometry::Vec2>& points,
+                    const std::vector<Segment2>& segments, double margin,
+                    std::vector<geometry::Vec2>& out);
+
 class ModelCheck {
  public:
   // Builds the distance grid (a few ms for an msl field). Throws std::invalid_argument for
@@ -32,6 +44,9 @@ class ModelCheck {
   ModelFit fit(const std::vector<geometry::Vec2>& points, const geometry::Pose2& robot) const;
   // True if the fit is good enough to keep the hypothesis.
   bool accepts(const ModelFit& fit) const;
+  // True if the fit of all points and that of the other points (see pointsAwayFrom) are good
+  // enough: the other points must be enough in number and fit as well.
+  bool accepts(const ModelFit& all, const ModelFit& others) const;
 
  private:
   field::DistanceGrid grid_;
@@ -40,6 +55,8 @@ class ModelCheck {
   double range_;
   double min_share_;
   int max_points_;
+  int min_other_points_;
+  double min_other_share_;
 };
 
 }  // namespace fieldline::feature_recognition

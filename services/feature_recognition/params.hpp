@@ -102,6 +102,11 @@ struct RecognitionParams {
   double model_check_tolerance_per_m = 0.02;
   double model_check_range = 8.0;
   double model_check_min_share = 0.75;
+  // A penalty corner's other points (further than identity_leg_margin from its two lines) must be
+  // at least this many and fit with this share: the corner explains its own points whatever
+  // its goal direction, only the rest of the frame tells a flipped corner from the true one.
+  int model_check_min_other_points = 30;
+  double model_check_min_other_share = 0.75;
   // At most this many points are looked up per hypothesis (evenly thinned beyond).
   int model_check_max_points = 1000;
   // Distance grid: node spacing and margin beyond the field's lines, m.

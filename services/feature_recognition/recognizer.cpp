@@ -15,14 +15,22 @@ FeatureRecognizer::FeatureRecognizer(const field::FieldModel& field, Recognition
       model_check_(field, params),
       model_junctions_(modelJunctions(field)) {}
 
-bool FeatureRecognizer::passesModelCheck(FeatureKind kind, const Pose2& local, const Pose2& mark) {
+bool FeatureRecognizer::passesModelCheck(FeatureKind kind, const Pose2& local, const Pose2& mark,
+                                         const std::vector<Segment2>* own) {
   // The field is point-symmetric: every reference mark of a feature gives the same fit, so one
   // is enough.
   CheckedFeature c;
   c.kind = kind;
   c.local = local;
-  c.fit = model_check_.fit(contours_.points, robotPoseFrom(mark, local));
-  c.accepted = model_check_.accepts(c.fit);
+  c.robot = robotPoseFrom(mark, local);
+  c.fit = model_check_.fit(contours_.points, c.robot);
+  if (own == nullptr) {
+    c.accepted = model_check_.accepts(c.fit);
+  } else {
+    pointsAwayFrom(contours_.points, *own, params_.identity_leg_margin, others_);
+    c.others = model_check_.fit(others_, c.robot);
+    c.accepted = model_check_.accepts(c.fit, c.others);
+  }
   checked_.push_back(c);
   return c.accepted;
 }
@@ -58,7 +66,7 @@ InputCheck FeatureRecognizer::recognize(const perception::LinePoints& in,
     const Pose2 local{circle_.fit.centre.x(), circle_.fit.centre.y(),
                       std::atan2(circle_.line_direction.y(), circle_.line_direction.x())};
     const std::vector<Pose2> marks = centreCircleMarks();
-    if (passesModelCheck(FeatureKind::kCentreCircle, local, marks.front())) {
+    if (passesModelCheck(FeatureKind::kCentreCircle, local, marks.front(), nullptr)) {
       const int index = static_cast<int>(out.features.size());
       out.features.push_back({FeatureKind::kCentreCircle, local, qualityMeasure(0, 2)});
       Line line;
@@ -76,10 +84,13 @@ InputCheck FeatureRecognizer::recognize(const perception::LinePoints& in,
   thread_local std::vector<Vec2> corners_seen;
   corners_seen.clear();
   auto addCorner = [&](const Vec2& position, const Vec2& toward_goal, bool left, bool inner,
-                       double sigma_xy, double sigma_phi, bool checked) {
+                       double sigma_xy, double sigma_phi, const std::vector<Segment2>* own) {
     const Pose2 local{position.x(), position.y(), std::atan2(toward_goal.y(), toward_goal.x())};
     const std::vector<Pose2> marks = penaltyCornerMarks(field_, left, inner);
-    if (!checked && !passesModelCheck(FeatureKind::kPenaltyCorner, local, marks.front())) return;
+    if (own != nullptr &&
+        !passesModelCheck(FeatureKind::kPenaltyCorner, local, marks.front(), own)) {
+      return;
+    }
     corners_seen.push_back(position);
     const int index = static_cast<int>(out.features.size());
     out.features.push_back({FeatureKind::kPenaltyCorner, local, qualityMeasure(0, 2)});
@@ -88,8 +99,10 @@ InputCheck FeatureRecognizer::recognize(const perception::LinePoints& in,
   };
   if (penalty_found_) {
     for (const PenaltyCorner& corner : penalty_.corners) {
+      const std::vector<Segment2> own = {{corner.front.start(), corner.front.end()},
+                                         {corner.side.start(), corner.side.end()}};
       addCorner(corner.position, corner.toward_goal, corner.left, corner.inner, corner.sigma_xy,
-                corner.sigma_phi, false);
+                corner.sigma_phi, &own);
     }
   }
   auto explained = [&](const Junction& j) {
@@ -109,15 +122,17 @@ InputCheck FeatureRecognizer::recognize(const perception::LinePoints& in,
     CheckedFeature c;
     c.kind = FeatureKind::kPenaltyCorner;
     c.local = {j.position.x(), j.position.y(), std::atan2(toward_goal.y(), toward_goal.x())};
-    c.fit = identity.fit;
-    c.accepted = identified;
+    c.robot = identity.robot;
+    c.fit = model_check_.fit(contours_.points, identity.robot);
+    c.others = identity.fit;
+    c.accepted = identified && model_check_.accepts(c.fit, c.others);
     checked_.push_back(c);
-    if (!identified) continue;
+    if (!c.accepted) continue;
     const Line& a = structure_.groups[j.bar_axis][j.bar].line;
     const Line& b = structure_.groups[j.stem_axis][j.stem].line;
     const double sigma_phi = std::min(lineAngleSigma(a), lineAngleSigma(b));
     addCorner(j.position, toward_goal, model->left, model->inner,
-              std::hypot(lineOffsetSigma(a), lineOffsetSigma(b)), sigma_phi, true);
+              std::hypot(lineOffsetSigma(a), lineOffsetSigma(b)), sigma_phi, nullptr);
   }
   // Lower features: no pose of their own (many places on the field look the same).
   for (const Junction& j : junctions_) {

@@ -33,7 +33,12 @@ namespace fieldline::feature_recognition {
 struct CheckedFeature {
   perception::FeatureKind kind = perception::FeatureKind::kCentreCircle;
   geometry::Pose2 local;
+  // The robot pose from the feature's first reference mark.
+  geometry::Pose2 robot;
+  // The fit of all points and of the other points (not on the feature's own lines; penalty
+  // corners only).
   ModelFit fit;
+  ModelFit others;
   bool accepted = false;
 };
 
@@ -77,9 +82,11 @@ class FeatureRecognizer {
   std::vector<CheckedFeature> checked_;
 
   // Runs the model check on the feature at `local` (robot frame) whose first reference mark is
-  // `mark`; records the verdict and returns it.
+  // `mark`, with the other points those away from `own` (when given); records the verdict and
+  // returns it.
   bool passesModelCheck(perception::FeatureKind kind, const geometry::Pose2& local,
-                        const geometry::Pose2& mark);
+                        const geometry::Pose2& mark, const std::vector<Segment2>* own);
+  std::vector<Vec2> others_;
 };
 
 }  // namespace fieldline::feature_recognition

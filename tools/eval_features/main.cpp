@@ -70,6 +70,7 @@ struct Options {
   std::string image;
   std::string dump;
   bool progress = false;
+  std::string check_csv;
 };
 
 // The eight penalty-area corners: (inner, left) as seen toward their goal, and the goal.
@@ -363,9 +364,13 @@ int detailFrame(const Options& options, region_tracking::SimCamera& sim,
               << " error_m=" << position << " error_deg=" << heading * 180 / kPi << "\n";
   }
   for (const auto& c : recognizer.checked()) {
+    double position = 0, heading = 0;
+    errorsAgainst(pose, c.robot, position, heading);
     std::cout << "model_check kind=" << static_cast<int>(c.kind) << " local=" << c.local.x << ","
               << c.local.y << "," << c.local.phi << " share=" << c.fit.share()
-              << " points=" << c.fit.points << " accepted=" << c.accepted << "\n";
+              << " points=" << c.fit.points << " others_share=" << c.others.share()
+              << " others=" << c.others.points << " accepted=" << c.accepted
+              << " error_m=" << position << "\n";
   }
   for (const CornerSite& site : cornerSites(sim.field)) {
     const double d = (site.position - pose.position()).norm();
@@ -555,12 +560,26 @@ int run(const Options& options) {
   long false_hypotheses = 0, hypotheses = 0;
   long circle_eligible = 0, circle_found = 0, corner_eligible = 0, corner_found = 0;
   long frames_with_feature = 0;
+  std::ofstream check_csv;
+  if (!options.check_csv.empty()) {
+    check_csv.open(options.check_csv);
+    check_csv << "frame,kind,share,points,others_share,others,accepted,error_m,error_deg\n";
+  }
   for (int f = 0; f < static_cast<int>(path.size()); ++f) {
     const Pose2& pose = path[f];
     visionOf(sim, processor, sceneFor(pose, static_cast<std::uint64_t>(f), options, sim.field),
              vision);
     recognizer.recognize(vision.lines, features);
     const FrameResult r = evaluate(pose, features, sites, circle_radius);
+    if (check_csv.is_open()) {
+      for (const auto& c : recognizer.checked()) {
+        double position = 0, heading = 0;
+        errorsAgainst(pose, c.robot, position, heading);
+        check_csv << f << "," << static_cast<int>(c.kind) << "," << c.fit.share() << ","
+                  << c.fit.points << "," << c.others.share() << "," << c.others.points << ","
+                  << c.accepted << "," << position << "," << heading * 180 / kPi << "\n";
+      }
+    }
     if (r.false_hypotheses > 0) {
       std::cerr << "false hypothesis: frame " << f << " pose " << pose.x << "," << pose.y << ","
                 << pose.phi << " (" << r.false_hypotheses << " of " << r.hypotheses << ")\n";
@@ -683,6 +702,8 @@ int main(int argc, char** argv) {
   app.add_option("--image", options.image,
                  "With --frame or --pose: write the camera image with the line points (PNG)");
   app.add_flag("--progress", options.progress, "Report progress every 1000 frames on stderr");
+  app.add_option("--check-csv", options.check_csv,
+                 "Write every model check (fits, verdict, error of its pose) as CSV");
   app.add_option("--seed", options.seed, "Seed of the clutter placement")->capture_default_str();
   app.add_option("--out", options.out_dir, "Directory for the detection maps and summary.json");
   app.add_option("--min-circle-rate", options.min_circle_rate,
