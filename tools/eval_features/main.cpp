@@ -71,6 +71,7 @@ struct Options {
   std::string dump;
   bool progress = false;
   std::string check_csv;
+  std::string misses_csv;
 };
 
 // The eight penalty-area corners: (inner, left) as seen toward their goal, and the goal.
@@ -285,6 +286,8 @@ struct FrameResult {
   int corner_eligible = 0;
   int corner_found = 0;
   std::vector<double> position_errors, heading_errors;
+  // Corners within 4 m that were not found: (site index, distance).
+  std::vector<std::pair<int, double>> missed_corners;
 };
 
 FrameResult evaluate(const Pose2& pose, const perception::FieldFeatures& features,
@@ -319,9 +322,14 @@ FrameResult evaluate(const Pose2& pose, const perception::FieldFeatures& feature
       r.record.detected[site.inner ? (site.left ? kLeftInner : kRightInner)
                                    : (site.left ? kLeftOuter : kRightOuter)] = true;
     }
-    if ((site.position - pose.position()).norm() <= kViewDistance) {
+    const double distance = (site.position - pose.position()).norm();
+    if (distance <= kViewDistance) {
       ++r.corner_eligible;
-      if (found) ++r.corner_found;
+      if (found) {
+        ++r.corner_found;
+      } else {
+        r.missed_corners.emplace_back(static_cast<int>(&site - sites.data()), distance);
+      }
     }
   }
   return r;
@@ -560,7 +568,11 @@ int run(const Options& options) {
   long false_hypotheses = 0, hypotheses = 0;
   long circle_eligible = 0, circle_found = 0, corner_eligible = 0, corner_found = 0;
   long frames_with_feature = 0;
-  std::ofstream check_csv;
+  std::ofstream check_csv, misses_csv;
+  if (!options.misses_csv.empty()) {
+    misses_csv.open(options.misses_csv);
+    misses_csv << "frame,inner,left,opponent_goal,distance,local_x,local_y,x,y\n";
+  }
   if (!options.check_csv.empty()) {
     check_csv.open(options.check_csv);
     check_csv << "frame,kind,share,points,others_share,others,accepted,error_m,error_deg\n";
@@ -571,6 +583,14 @@ int run(const Options& options) {
              vision);
     recognizer.recognize(vision.lines, features);
     const FrameResult r = evaluate(pose, features, sites, circle_radius);
+    if (misses_csv.is_open()) {
+      for (const auto& [site, distance] : r.missed_corners) {
+        const Vec2 local = geometry::pointFieldToRobot(pose, sites[site].position);
+        misses_csv << f << "," << sites[site].inner << "," << sites[site].left << ","
+                   << sites[site].opponent_goal << "," << distance << "," << local.x() << ","
+                   << local.y() << "," << pose.x << "," << pose.y << "\n";
+      }
+    }
     if (check_csv.is_open()) {
       for (const auto& c : recognizer.checked()) {
         double position = 0, heading = 0;
@@ -702,6 +722,8 @@ int main(int argc, char** argv) {
   app.add_option("--image", options.image,
                  "With --frame or --pose: write the camera image with the line points (PNG)");
   app.add_flag("--progress", options.progress, "Report progress every 1000 frames on stderr");
+  app.add_option("--misses-csv", options.misses_csv,
+                 "Write every penalty corner within 4 m that was not found as CSV");
   app.add_option("--check-csv", options.check_csv,
                  "Write every model check (fits, verdict, error of its pose) as CSV");
   app.add_option("--seed", options.seed, "Seed of the clutter placement")->capture_default_str();
