@@ -9,7 +9,7 @@ struct RecognitionParams {
   // Frames with more points are refused as a whole (bounded time per frame).
   int max_points = 20000;
   // Sequences with fewer points carry no usable shape.
-  int min_sequence_points = 5;
+  int min_sequence_points = 3;
 
   // --- contour preparation (seed: smoothing, curvature, splitting) ---
   // The enclosing points for the curvature are this many indices before and after.
@@ -24,7 +24,7 @@ struct RecognitionParams {
   double split_gap = 0.6;
   // Pieces with fewer points are dropped; pieces split off during classification may be down to
   // min_split_points (far lines have few, widely spaced points).
-  int min_piece_points = 5;
+  int min_piece_points = 3;
   int min_split_points = 3;
 
   // --- classification and arcs ---
@@ -121,9 +121,9 @@ struct RecognitionParams {
   // The chosen place needs this many other points within the check's range and this share of
   // them on the model's lines; every rival place (not the chosen one or its point-symmetric
   // twin) must fit at least identity_margin worse.
-  int identity_min_points = 40;
-  double identity_min_share = 0.85;
-  double identity_margin = 0.25;
+  int identity_min_points = 25;
+  double identity_min_share = 0.8;
+  double identity_margin = 0.2;
 
   // --- pose hypotheses ---
   // Floors on the standard deviations (the fit's own residuals underestimate the calibration's
