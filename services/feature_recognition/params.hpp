@@ -87,7 +87,7 @@ struct RecognitionParams {
 
   // --- junctions and straight lines (beyond the seed) ---
   // An end closer than this to another line forms a junction, m.
-  double junction_distance = 0.25;
+  double junction_distance = 0.4;
   // A line continues through a T when it reaches this far on both sides, m.
   double junction_through = 0.3;
   // Straight-line constraints from groups at least this long, m.
