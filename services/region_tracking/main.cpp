@@ -48,7 +48,7 @@ int main(int argc, char** argv) {
         options.health = region_tracking::loadVisionHealthParams(*health);
       }
     }
-    options.linesEveryFrames = lines_every;
+    options.lines_every_frames = lines_every;
 
     SystemClock clock;
     bus::installStopSignals();

@@ -75,10 +75,10 @@ void VisionHealth::update(const camera::FrameView& frame, const VisionResult& re
   facts.green = counted > 0 ? static_cast<float>(green) / static_cast<float>(counted) : 0.0f;
   facts.orange = counted > 0 ? static_cast<float>(orange) / static_cast<float>(counted) : 0.0f;
   // A periodic re-initialisation is a planned search, not a sign of trouble.
-  facts.searched = result.tracking.initialSearches > 0 && !result.tracking.reinitialised;
+  facts.searched = result.tracking.initial_searches > 0 && !result.tracking.reinitialised;
   next_ = (next_ + 1) % window_.size();
   filled_ = std::min(filled_ + 1, window_.size());
-  if (result.linesDetected) {
+  if (result.lines_detected) {
     line_frames_without_points_ = result.lines.points.empty() ? line_frames_without_points_ + 1 : 0;
   }
 
