@@ -7,6 +7,7 @@
 #include <spdlog/spdlog.h>
 
 #include "common/bus/node.hpp"
+#include "common/bus/robot_clock.hpp"
 #include "common/time/clock.hpp"
 #include "services/camera/camera_config.hpp"
 #include "services/camera/camera_node.hpp"
@@ -95,7 +96,7 @@ int runCamera(const CameraAppOptions& options, const bus::CommonOptions& common)
   CameraConfig config = loadCameraConfigPreset(options.preset);
   if (options.latency >= 0.0) config.pipeline.latency = options.latency;
   if (options.fps > 0.0) config.pipeline.frame_rate = options.fps;
-  SystemClock clock;
+  const RobotClock clock = bus::robotClockFromEnvironment();
   bus::Node node({.process = "camera", .robot_id = common.robot, .url = common.bus_url}, clock);
   if (options.source == "sim") return runSim(node, config, options, common);
 
