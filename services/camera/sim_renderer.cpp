@@ -88,7 +88,7 @@ double Lighting::at(const Vec2& p, const Vec2& carpet_half_extent) const {
 
 SimRenderer::SimRenderer(MirrorModel mirror, const field::FieldModel& field, RenderParams params,
                          const std::string& raster_cache_dir)
-    : mirror_(std::move(mirror)), params_(std::move(params)) {
+    : mirror_(std::move(mirror)), params_(std::move(params)), realism_(params_.realism, mirror_) {
   if (!(params_.floor_resolution >= 0.002 && params_.floor_resolution <= 0.2)) {
     throw std::invalid_argument("renderer: floor_resolution must be in [0.002, 0.2] m");
   }
@@ -582,6 +582,7 @@ void SimRenderer::render(const SimScene& scene, std::vector<std::uint8_t>& yuyv)
                    static_cast<std::uint8_t>((accumulator_[i][2] + samples / 2) / samples)};
     }
   }
+  realism_.apply(frame_, scene.frame_number);
   finish(scene, yuyv);
 }
 
@@ -702,6 +703,9 @@ RenderParams loadRenderParams(const config::Node& n) {
   p.noise_seed = static_cast<std::uint32_t>(noise.get<int>("seed", 0, 1 << 30));
   noise.rejectUnknownKeys();
   p.motion_blur_samples = n.get<int>("motion_blur_samples", 1, 16);
+  if (const std::optional<config::Node> realism = n.childIf("realism")) {
+    p.realism = loadRealismParams(*realism);
+  }
   n.rejectUnknownKeys();
   return p;
 }

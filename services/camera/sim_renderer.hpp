@@ -26,6 +26,7 @@
 #include "common/field/field_model.hpp"
 #include "common/geometry/geometry.hpp"
 #include "services/camera/floor_raster_cache.hpp"
+#include "services/camera/realism.hpp"
 
 namespace fieldline::camera {
 
@@ -84,6 +85,8 @@ struct RenderParams {
   std::uint32_t noise_seed = 1;
   // Poses sampled across the exposure; 1 = no motion blur.
   int motion_blur_samples = 1;
+  // Post-process toward real frames (services/camera/realism.hpp); off by default.
+  RealismParams realism;
 };
 
 // Reads the `render` section of a camera preset; throws config::Error with file:line.
@@ -153,6 +156,8 @@ class SimRenderer {
   }
   const MirrorModel& mirror() const { return mirror_; }
   const RenderParams& params() const { return params_; }
+  // The realism post-process (its knobs can change between frames, e.g. the light factor).
+  RealismFilter& realism() { return realism_; }
 
   // Colour of the floor raster at a field point (finest level, lighting included, no noise).
   Yuv floorColour(const Vec2& field_point) const;
@@ -210,6 +215,7 @@ class SimRenderer {
   std::vector<Yuv> frame_;                                 // current sub-frame, one Yuv per pixel
   std::vector<std::array<std::uint16_t, 3>> accumulator_;  // motion blur sums
   std::vector<std::int8_t> noise_table_;                   // unit Gaussian * 16
+  RealismFilter realism_;
 };
 
 }  // namespace fieldline::camera
