@@ -97,6 +97,18 @@ struct SimRobot {
   double radius = 0.25;
   // True for a teammate (own marker colour), false for an opponent.
   bool teammate = false;
+  // Clutter (evaluation tools): colours that replace the body's and the marker band's, e.g. a
+  // robot with white parts or of another team's colour.
+  std::optional<Bgr> body_colour;
+  std::optional<Bgr> marker_colour;
+};
+
+// Clutter: an axis-aligned box in the field frame, e.g. a white object beyond the border, a
+// person at the side, a flat white patch on the carpet (a few millimetres high).
+struct SimBox {
+  Eigen::Vector3d lo = Eigen::Vector3d::Zero();
+  Eigen::Vector3d hi = Eigen::Vector3d::Zero();
+  Bgr colour{225, 230, 230};
 };
 
 struct SimBall {
@@ -115,6 +127,7 @@ struct SimScene {
   double exposure = 0.008;
   std::vector<SimRobot> robots;
   std::optional<SimBall> ball;
+  std::vector<SimBox> boxes;
   // Seeds the sensor noise together with RenderParams::noise_seed: the same number, the same
   // frame.
   std::uint64_t frame_number = 0;
@@ -155,11 +168,7 @@ class SimRenderer {
   using RasterLevel = FloorRasterLevel;
 
   // A ray-cast object, in the field frame.
-  struct Box {
-    Eigen::Vector3d lo;
-    Eigen::Vector3d hi;
-    Bgr colour;
-  };
+  using Box = SimBox;
 
   void buildPixelTable();
   void buildFloorRaster(const field::FieldModel& field);
