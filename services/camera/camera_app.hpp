@@ -33,9 +33,12 @@ struct CameraAppOptions {
   bool bgr = false;
   // Real sources: stop after this many frames; 0: no limit.
   std::int64_t max_frames = 0;
+  // sim: directory of the floor raster cache (floor_raster_cache.hpp); empty: none. Set to
+  // defaultCacheDirectory() by addTo().
+  std::string raster_cache;
 
-  // Adds --source, --config, --field, --input, --latency, --fps, --width, --height, --loop, --bgr
-  // and --max-frames to `app`.
+  // Adds --source, --config, --field, --input, --latency, --fps, --width, --height, --loop, --bgr,
+  // --max-frames and --raster-cache to `app`.
   void addTo(CLI::App& app);
 };
 
