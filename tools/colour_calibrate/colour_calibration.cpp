@@ -177,15 +177,15 @@ std::vector<PredictedPixel> predictPixels(const camera::MirrorModel& mirror,
           d = std::min(d, (p - m).norm());
         return d;
       }();
-      px.lineCore = px.truth == Expected::kLine && range <= params.max_line_distance &&
-                    closest.distance <= half - params.line_margin_px * footprint;
+      px.line_core = px.truth == Expected::kLine && range <= params.max_line_distance &&
+                     closest.distance <= half - params.line_margin_px * footprint;
       const double carpetMargin =
           params.carpet_margin_px * std::max(mpp.x(), mpp.y()) + params.carpet_margin_m;
-      px.carpetCore = px.truth == Expected::kCarpet && range <= params.max_carpet_distance &&
-                      closest.distance >= half + carpetMargin &&
-                      std::abs(p.x()) <= halfLength - carpetMargin &&
-                      std::abs(p.y()) <= carpet.y() - carpetMargin &&
-                      markDistance > params.mark_radius + carpetMargin;
+      px.carpet_core = px.truth == Expected::kCarpet && range <= params.max_carpet_distance &&
+                       closest.distance >= half + carpetMargin &&
+                       std::abs(p.x()) <= halfLength - carpetMargin &&
+                       std::abs(p.y()) <= carpet.y() - carpetMargin &&
+                       markDistance > params.mark_radius + carpetMargin;
     }
   }
   return out;
@@ -203,8 +203,8 @@ Calibration calibrate(const camera::MirrorModel& mirror, const field::FieldModel
     for (int v = 0; v < mirror.height(); ++v) {
       for (int u = 0; u < mirror.width(); ++u) {
         const PredictedPixel& px = predicted[static_cast<std::size_t>(v) * mirror.width() + u];
-        if (px.carpetCore) green.push_back(camera::readYuv(f.frame, u, v));
-        if (px.lineCore) lineSamples.push_back(camera::readYuv(f.frame, u, v));
+        if (px.carpet_core) green.push_back(camera::readYuv(f.frame, u, v));
+        if (px.line_core) lineSamples.push_back(camera::readYuv(f.frame, u, v));
       }
     }
   }
@@ -299,7 +299,7 @@ Coverage measureCoverage(const camera::MirrorModel& mirror, const field::FieldMo
                          const std::vector<PosedFrame>& frames, const camera::ColourTable& table,
                          const MaskParams& params) {
   Coverage c;
-  long carpetGreen = 0, carpetWhite = 0, lineWhite = 0, lineGreen = 0, offGreen = 0;
+  long carpet_green = 0, carpet_white = 0, line_white = 0, line_green = 0, offGreen = 0;
   for (const PosedFrame& f : frames) {
     checkSize(mirror, f.frame);
     const std::vector<PredictedPixel> predicted = predictPixels(mirror, field, f.pose, params);
@@ -311,28 +311,28 @@ Coverage measureCoverage(const camera::MirrorModel& mirror, const field::FieldMo
         const bool isGreen = k == ColourClass::kGreen;
         const bool isWhite = k == ColourClass::kWhite;
         if (px.truth == Expected::kCarpet) {
-          ++c.carpetPixels;
-          carpetGreen += isGreen;
-          carpetWhite += isWhite;
+          ++c.carpet_pixels;
+          carpet_green += isGreen;
+          carpet_white += isWhite;
         } else if (px.truth == Expected::kLine) {
           const std::optional<Vec2> floor = mirror.imageToRobot(Vec2(u, v));
           if (!floor || floor->norm() > params.max_line_distance) continue;
-          ++c.linePixels;
-          lineWhite += isWhite;
-          lineGreen += isGreen;
+          ++c.line_pixels;
+          line_white += isWhite;
+          line_green += isGreen;
         } else {
-          ++c.offCarpetPixels;
+          ++c.off_carpet_pixels;
           offGreen += isGreen;
         }
       }
     }
   }
   auto share = [](long n, long of) { return of > 0 ? static_cast<double>(n) / of : 0.0; };
-  c.carpetGreen = share(carpetGreen, c.carpetPixels);
-  c.carpetWhite = share(carpetWhite, c.carpetPixels);
-  c.lineWhite = share(lineWhite, c.linePixels);
-  c.lineGreen = share(lineGreen, c.linePixels);
-  c.offCarpetGreen = share(offGreen, c.offCarpetPixels);
+  c.carpet_green = share(carpet_green, c.carpet_pixels);
+  c.carpet_white = share(carpet_white, c.carpet_pixels);
+  c.line_white = share(line_white, c.line_pixels);
+  c.line_green = share(line_green, c.line_pixels);
+  c.off_carpet_green = share(offGreen, c.off_carpet_pixels);
   return c;
 }
 
@@ -412,7 +412,7 @@ LineScore scoreLinePoints(const camera::MirrorModel& mirror, const field::FieldM
     const std::optional<Vec2> px = mirror.robotToImage(r);
     if (!px || mirror.zone(*px) != camera::MirrorZone::kUseful) continue;
     if (mirror.radiusOf(*px) < selfClear) continue;
-    score.visibleLength += params.sample_step;
+    score.visible_length += params.sample_step;
     bool covered = false;
     for (const auto& [from, to] : lines.sequences) {
       for (int i = from; i < to && !covered; ++i) {
@@ -427,9 +427,9 @@ LineScore scoreLinePoints(const camera::MirrorModel& mirror, const field::FieldM
       }
       if (covered) break;
     }
-    if (covered) score.coveredLength += params.sample_step;
+    if (covered) score.covered_length += params.sample_step;
   }
-  score.recall = score.visibleLength > 0 ? score.coveredLength / score.visibleLength : 0.0;
+  score.recall = score.visible_length > 0 ? score.covered_length / score.visible_length : 0.0;
   return score;
 }
 

@@ -37,8 +37,8 @@ enum class Expected : std::uint8_t {
 struct PredictedPixel {
   Expected truth = Expected::kNone;
   // Inside the eroded masks: safe samples for the fit.
-  bool carpetCore = false;
-  bool lineCore = false;
+  bool carpet_core = false;
+  bool line_core = false;
 };
 
 struct MaskParams {
@@ -128,8 +128,8 @@ int percentileOfLuma(const std::vector<camera::Yuv>& samples, double p);
 // How well a table separates what the field model predicts, over frames at known poses.
 struct Coverage {
   // Shares of the predicted pixels of each kind (lines within max_line_distance) by class.
-  double carpetGreen = 0, carpetWhite = 0, lineWhite = 0, lineGreen = 0, offCarpetGreen = 0;
-  long carpetPixels = 0, linePixels = 0, offCarpetPixels = 0;
+  double carpet_green = 0, carpet_white = 0, line_white = 0, line_green = 0, off_carpet_green = 0;
+  long carpet_pixels = 0, line_pixels = 0, off_carpet_pixels = 0;
 };
 Coverage measureCoverage(const camera::MirrorModel& mirror, const field::FieldModel& field,
                          const std::vector<PosedFrame>& frames, const camera::ColourTable& table,
@@ -146,8 +146,8 @@ struct LineScore {
   double precision = 0.0;
   // Model line length (centre lines, m of floor) visible within max_distance, and the part of it
   // a sequence of line points passes within tolerance_px of (in the image).
-  double visibleLength = 0.0;
-  double coveredLength = 0.0;
+  double visible_length = 0.0;
+  double covered_length = 0.0;
   double recall = 0.0;
 };
 

@@ -9,12 +9,12 @@ void ScoreSum::add(const LineScore& s) {
   ++frames;
   points += s.points;
   precise += s.precise;
-  visible += s.visibleLength;
-  covered += s.coveredLength;
+  visible += s.visible_length;
+  covered += s.covered_length;
   // A frame without points has no precision (its recall is 0 if lines were visible).
-  if (s.points > 0) minPrecision = std::min(minPrecision, s.precision);
-  minRecall = std::min(minRecall, s.recall);
-  framesMeeting += s.precision >= 0.9 && s.recall >= 0.85 ? 1 : 0;
+  if (s.points > 0) min_precision = std::min(min_precision, s.precision);
+  min_recall = std::min(min_recall, s.recall);
+  frames_meeting += s.precision >= 0.9 && s.recall >= 0.85 ? 1 : 0;
 }
 
 std::vector<RealismSetting> realismSettings() {
@@ -102,8 +102,8 @@ DriveResult evaluateDrive(region_tracking::SimCamera& sim, const RealismSetting&
                           const camera::ColourTable& table, int frames, double light_from,
                           double light_to) {
   DriveResult result;
-  result.lightFrom = light_from;
-  result.lightTo = light_to;
+  result.light_from = light_from;
+  result.light_to = light_to;
   const std::vector<geometry::Pose2> poses = region_tracking::motionPoses(
       sim.field, region_tracking::Motion{.speed = 1.5, .omega = 0.5}, frames);
   region_tracking::FrameProcessor processor(sim.mirror, table,

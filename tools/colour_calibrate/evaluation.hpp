@@ -28,8 +28,8 @@ struct ScoreSum {
   int frames = 0;
   long points = 0, precise = 0;
   double visible = 0, covered = 0;
-  double minPrecision = 1.0, minRecall = 1.0;
-  int framesMeeting = 0;  // frames with precision >= 0.9 and recall >= 0.85
+  double min_precision = 1.0, min_recall = 1.0;
+  int frames_meeting = 0;  // frames with precision >= 0.9 and recall >= 0.85
 
   void add(const LineScore& s);
   double precision() const { return points > 0 ? double(precise) / double(points) : 0.0; }
@@ -55,7 +55,7 @@ SettingResult evaluateSetting(region_tracking::SimCamera& sim, const RealismSett
 
 struct DriveResult {
   ScoreSum score;
-  double lightFrom = 1.0, lightTo = 1.0;
+  double light_from = 1.0, light_to = 1.0;
 };
 
 // Drives `frames` frames around the field (1.5 m/s, turning 0.5 rad/s) under `setting` with its

@@ -60,9 +60,9 @@ void printCoverage(const cal::Coverage& c) {
   fmt::print(
       "coverage: carpet green {:5.1f} % (white {:4.1f} %) of {} px; lines within {} m white "
       "{:5.1f} % (green {:4.1f} %) of {} px; off the carpet green {:4.1f} % of {} px\n",
-      100 * c.carpetGreen, 100 * c.carpetWhite, c.carpetPixels, cal::MaskParams{}.max_line_distance,
-      100 * c.lineWhite, 100 * c.lineGreen, c.linePixels, 100 * c.offCarpetGreen,
-      c.offCarpetPixels);
+      100 * c.carpet_green, 100 * c.carpet_white, c.carpet_pixels,
+      cal::MaskParams{}.max_line_distance, 100 * c.line_white, 100 * c.line_green, c.line_pixels,
+      100 * c.off_carpet_green, c.off_carpet_pixels);
 }
 
 void printFits(const cal::Calibration& calibration) {
@@ -90,8 +90,8 @@ cv::Mat debugImage(const camera::MirrorModel& mirror, const fieldline::field::Fi
       if (p.truth == cal::Expected::kCarpet) c = {20, 60, 20};
       if (p.truth == cal::Expected::kLine) c = {90, 90, 90};
       if (p.truth == cal::Expected::kOffCarpet) c = {60, 40, 40};
-      if (p.carpetCore) c = {40, 200, 40};
-      if (p.lineCore) c = {255, 255, 255};
+      if (p.carpet_core) c = {40, 200, 40};
+      if (p.line_core) c = {255, 255, 255};
       maskImage.at<cv::Vec3b>(v, u) = c;
     }
   }
@@ -104,8 +104,8 @@ cv::Mat debugImage(const camera::MirrorModel& mirror, const fieldline::field::Fi
 
 int evaluate(const std::string& cameraPreset, const std::string& fieldPreset,
              const std::vector<std::string>& settingNames, const std::vector<std::string>& poses,
-             int frames, int drive, double lightFrom, double lightTo, const cal::FitParams& params,
-             bool shipped) {
+             int frames, int drive, double light_from, double light_to,
+             const cal::FitParams& params, bool shipped) {
   rt::SimCamera sim = rt::SimCamera::load(cameraPreset, fieldPreset);
   std::vector<cal::RealismSetting> settings;
   if (settingNames.empty()) {
@@ -129,9 +129,10 @@ int evaluate(const std::string& cameraPreset, const std::string& fieldPreset,
       fmt::print(
           "{:11s} {:>18s} {:8.1f}% {:8.1f}% {:6.1f}% {:7.0f} {:6.1f}% {:6.1f}% {:6.1f}% {}\n",
           s.name, fmt::format("{:.1f},{:.1f},{:.1f}", pose.x, pose.y, pose.phi),
-          100 * r.coverage.carpetGreen, 100 * r.coverage.lineWhite, 100 * r.coverage.offCarpetGreen,
+          100 * r.coverage.carpet_green, 100 * r.coverage.line_white,
+          100 * r.coverage.off_carpet_green,
           static_cast<double>(r.score.points) / std::max(1, r.score.frames),
-          100 * r.score.precision(), 100 * r.score.recall(), 100 * r.score.minRecall,
+          100 * r.score.precision(), 100 * r.score.recall(), 100 * r.score.min_recall,
           ok ? "" : "BELOW");
     }
   }
@@ -142,17 +143,17 @@ int evaluate(const std::string& cameraPreset, const std::string& fieldPreset,
       const std::vector<Pose2> first =
           rt::motionPoses(sim.field, rt::Motion{.speed = 1.5, .omega = 0.5}, 1);
       cal::RealismSetting start = s;
-      start.realism.light_factor = s.realism.light_factor * std::sqrt(lightFrom * lightTo);
+      start.realism.light_factor = s.realism.light_factor * std::sqrt(light_from * light_to);
       const cal::SettingResult calibrated =
           cal::evaluateSetting(sim, start, first[0], 3, params, shipped);
       const camera::ColourTable table(calibrated.calibration.boxes);
-      const cal::DriveResult d = cal::evaluateDrive(sim, s, table, drive, lightFrom, lightTo);
+      const cal::DriveResult d = cal::evaluateDrive(sim, s, table, drive, light_from, light_to);
       fmt::print(
           "drive {:11s} {} frames, light x{:.2f} -> x{:.2f}: {} line frames, precision {:.1f} % "
           "(min {:.1f} %), recall {:.1f} % (min {:.1f} %), frames meeting both {:.1f} %\n",
-          s.name, drive, lightFrom, lightTo, d.score.frames, 100 * d.score.precision(),
-          100 * d.score.minPrecision, 100 * d.score.recall(), 100 * d.score.minRecall,
-          100.0 * d.score.framesMeeting / std::max(1, d.score.frames));
+          s.name, drive, light_from, light_to, d.score.frames, 100 * d.score.precision(),
+          100 * d.score.min_precision, 100 * d.score.recall(), 100 * d.score.min_recall,
+          100.0 * d.score.frames_meeting / std::max(1, d.score.frames));
     }
   }
   fmt::print("{} setting/pose combinations below precision 90 % or recall 85 %\n", failures);
@@ -170,7 +171,7 @@ int main(int argc, char** argv) {
   std::vector<std::string> inputs, poses, masks, settings;
   bool render = false, doEvaluate = false;
   int frames = 9, drive = 0;
-  double lightFrom = 0.7, lightTo = 1.4;
+  double light_from = 0.7, light_to = 1.4;
   std::vector<double> lightRange{0.65, 1.55};
   bool shipped = false;
   app.add_option("--camera", cameraPreset, "camera preset (image size, mirror, colour table)")
@@ -202,9 +203,9 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--drive", drive, "also drive this many frames with the light changing")
       ->check(CLI::Range(0, 100000));
-  app.add_option("--light-from", lightFrom, "light factor at the drive's start")
+  app.add_option("--light-from", light_from, "light factor at the drive's start")
       ->capture_default_str();
-  app.add_option("--light-to", lightTo, "light factor at the drive's end")->capture_default_str();
+  app.add_option("--light-to", light_to, "light factor at the drive's end")->capture_default_str();
   app.add_option("--light-range", lightRange,
                  "the table holds for the calibration light times LOW..HIGH (1 1: only that light)")
       ->expected(2)
@@ -217,8 +218,8 @@ int main(int argc, char** argv) {
 
   try {
     if (doEvaluate) {
-      return evaluate(cameraPreset, fieldPreset, settings, poses, frames, drive, lightFrom, lightTo,
-                      params, shipped);
+      return evaluate(cameraPreset, fieldPreset, settings, poses, frames, drive, light_from,
+                      light_to, params, shipped);
     }
     rt::SimCamera sim = rt::SimCamera::load(cameraPreset, fieldPreset);
     if (!base.empty()) sim.table = camera::loadColourTablePreset(base);

@@ -28,32 +28,32 @@ TEST(ColourCalibration, PredictedCarpetAndLinePixelsAreGreenAndWhiteInARenderedF
   scene.robot = pose;
   const camera::FrameView view = sim.render(scene);
   const std::vector<PredictedPixel> predicted = predictPixels(sim.mirror, sim.field, pose, {});
-  long carpet = 0, carpetGreen = 0, line = 0, lineWhite = 0;
+  long carpet = 0, carpet_green = 0, line = 0, line_white = 0;
   for (int v = 0; v < view.height; ++v) {
     for (int u = 0; u < view.width; ++u) {
       const PredictedPixel& p = predicted[static_cast<std::size_t>(v) * view.width + u];
       const camera::ColourClass k = sim.table.classifyPixel(view, u, v);
-      if (p.carpetCore) {
+      if (p.carpet_core) {
         ++carpet;
-        carpetGreen += k == camera::ColourClass::kGreen;
+        carpet_green += k == camera::ColourClass::kGreen;
       }
-      if (p.lineCore) {
+      if (p.line_core) {
         ++line;
-        lineWhite += k == camera::ColourClass::kWhite;
+        line_white += k == camera::ColourClass::kWhite;
       }
       // Cores lie inside their truth.
-      if (p.carpetCore) {
+      if (p.carpet_core) {
         EXPECT_EQ(p.truth, Expected::kCarpet);
       }
-      if (p.lineCore) {
+      if (p.line_core) {
         EXPECT_EQ(p.truth, Expected::kLine);
       }
     }
   }
   EXPECT_GT(carpet, 10000);
   EXPECT_GT(line, 100);
-  EXPECT_GT(static_cast<double>(carpetGreen) / carpet, 0.995);
-  EXPECT_GT(static_cast<double>(lineWhite) / line, 0.9);
+  EXPECT_GT(static_cast<double>(carpet_green) / carpet, 0.995);
+  EXPECT_GT(static_cast<double>(line_white) / line, 0.9);
 }
 
 TEST(ColourCalibration, TheWrittenYamlReadsBackAsTheSameTable) {
@@ -95,7 +95,7 @@ TEST(ColourCalibration, LineScoreCountsPointsOffTheLinesAndMissingLength) {
   perception::LinePoints none;
   const LineScore empty = scoreLinePoints(sim.mirror, sim.field, pose, none, {});
   EXPECT_EQ(empty.points, 0);
-  EXPECT_GT(empty.visibleLength, 5.0);
+  EXPECT_GT(empty.visible_length, 5.0);
   EXPECT_EQ(empty.recall, 0.0);
   // A point on the centre circle (radius 2 m around the field centre) seen from the pose, and
   // one in the middle of the carpet.
@@ -122,7 +122,7 @@ TEST(ColourCalibration, EveryRealismSettingGivesPreciseAndCompleteLinePoints) {
       const bool knownShort = setting.name == "blur" && pose.x > 0.0;
       EXPECT_GE(r.score.recall(), knownShort ? 0.70 : 0.85)
           << setting.name << " at " << pose.x << "," << pose.y;
-      EXPECT_GT(r.coverage.carpetGreen, 0.9) << setting.name;
+      EXPECT_GT(r.coverage.carpet_green, 0.9) << setting.name;
     }
   }
 }
@@ -141,7 +141,7 @@ TEST(ColourCalibration, TheSameTableHoldsOnADriveWithTheLightChangingByAFactorOf
   EXPECT_EQ(drive.score.frames, 166);
   EXPECT_GE(drive.score.precision(), 0.9);
   EXPECT_GE(drive.score.recall(), 0.85);
-  EXPECT_GE(drive.score.framesMeeting, drive.score.frames * 95 / 100);
+  EXPECT_GE(drive.score.frames_meeting, drive.score.frames * 95 / 100);
 
   // The table fitted for the calibration light only ({1, 1}) loses the lines as the light
   // changes: the light range is what holds it.
