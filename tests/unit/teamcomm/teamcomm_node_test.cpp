@@ -350,7 +350,7 @@ TEST(teamcomm_node, SendsWhatTheCameraSawInTheFieldFrame) {
   // Robot 2's packets, decoded with the team key: the newest carries both, nearest first.
   std::optional<TeamPacket> last;
   int with_obstacles = 0;
-  for (const auto& [from, bytes] : team.hub.sent_by_) {
+  for (const auto& [from, bytes] : team.hub.sent_by) {
     if (from != 2) continue;
     auto d = decodePacket(bytes, devKey());
     ASSERT_TRUE(d.packet.has_value());
@@ -368,7 +368,7 @@ TEST(teamcomm_node, SendsWhatTheCameraSawInTheFieldFrame) {
   EXPECT_NEAR(last->obstacles[0].y, 1.0 + 1.2 * std::cos(phi), 1e-4);
   EXPECT_FLOAT_EQ(last->obstacles[0].radius, 0.2f);
   // Robot 1 sent none: it saw none.
-  for (const auto& [from, bytes] : team.hub.sent_by_) {
+  for (const auto& [from, bytes] : team.hub.sent_by) {
     if (from == 1) {
       EXPECT_TRUE(decodePacket(bytes, devKey()).packet->obstacles.empty());
     }
