@@ -73,29 +73,29 @@ Summary summarise(const std::vector<double>& values, int rounds) {
 struct Sequence {
   std::string camera;  // preset
   double speed;        // m/s
-  double omegaDeg;     // deg/s
+  double omega_deg;    // deg/s
   std::string kind;    // "translation", "rotation", "default"
 };
 
 struct Result {
   Sequence sequence;
-  int cellSize = 0;
+  int cell_size = 0;
   int frames = 0;
-  Summary tracker, trackerWhole, cmvision, cmvisionWhole, cmvisionMasked, opencv;
-  double touched = 0, touchedWithLines = 0, overlap = 0;
-  double touchedCells = 0;  // mean cells classified per frame
-  int gridCells = 0;
-  int ballFrames = 0;  // frames in which the tracker holds an orange (ball) region
-  int initialSearches = 0;
-  double linePoints = 0;
+  Summary tracker, tracker_whole, cmvision, cmvision_whole, cmvision_masked, opencv;
+  double touched = 0, touched_with_lines = 0, overlap = 0;
+  double touched_cells = 0;  // mean cells classified per frame
+  int grid_cells = 0;
+  int ball_frames = 0;  // frames in which the tracker holds an orange (ball) region
+  int initial_searches = 0;
+  double line_points = 0;
   // Agreement with baseline (a) after every tracked frame.
-  int exactFrames = 0, partialRegions = 0, staleCells = 0, untrackedRegions = 0;
+  int exact_frames = 0, partial_regions = 0, stale_cells = 0, untracked_regions = 0;
 };
 
 std::vector<rt::ClassId> trackedClasses(const rt::VisionParams& params) {
   std::vector<rt::ClassId> classes;
   for (const rt::ClassTracking& c : params.tracker.classes)
-    classes.push_back(c.classId);
+    classes.push_back(c.class_id);
   return classes;
 }
 
@@ -104,16 +104,16 @@ enum class Order {
   kInterleaved,  // in a round, frame by frame, every method on each frame
 };
 
-Result run(rt::SimCamera& sim, const Sequence& sequence, int cellSize, int frameCount, int rounds,
+Result run(rt::SimCamera& sim, const Sequence& sequence, int cell_size, int frameCount, int rounds,
            bool coldFrames, Order order) {
   Result result;
   result.sequence = sequence;
-  result.cellSize = cellSize;
+  result.cell_size = cell_size;
   result.frames = frameCount;
 
   // Render the sequence once.
   const std::vector<std::vector<std::uint8_t>> frames =
-      rt::bench::renderSequence(sim, sequence.speed, sequence.omegaDeg, frameCount);
+      rt::bench::renderSequence(sim, sequence.speed, sequence.omega_deg, frameCount);
   // Each method gets the frame the way the node does: the LCM handler has just decoded (copied)
   // the message, so the frame is in the cache. --cold reads the stored frames directly.
   std::vector<std::uint8_t> delivered(frames[0].size());
@@ -124,7 +124,7 @@ Result run(rt::SimCamera& sim, const Sequence& sequence, int cellSize, int frame
   };
 
   rt::VisionParams params = rt::defaultVisionParams();
-  params.tracker.cellSize = cellSize;
+  params.tracker.cell_size = cell_size;
   const std::vector<rt::ClassId> classes = trackedClasses(params);
 
   // Each method is one step per frame; all times are wall-clock times of one thread. The
@@ -136,7 +136,7 @@ Result run(rt::SimCamera& sim, const Sequence& sequence, int cellSize, int frame
   // Tracker (and line points on its boundaries).
   rt::FrameProcessor tracking(sim.mirror, sim.table, params);
   rt::LinePoints trackerLines;
-  std::vector<double> trackerSegment, trackerWhole;
+  std::vector<double> trackerSegment, tracker_whole;
   double touched = 0, touchedLines = 0, overlap = 0, points = 0, cells = 0;
   auto trackerStep = [&](int i) {
     const camera::FrameView frame = view(i);
@@ -146,16 +146,16 @@ Result run(rt::SimCamera& sim, const Sequence& sequence, int cellSize, int frame
     const Clock::time_point t1 = Clock::now();
     tracking.lineDetector().detect(frame, tracking.tracker().contours(), trackerLines);
     const Clock::time_point t2 = Clock::now();
-    if (round == 0) result.initialSearches += stats.initialSearches;
+    if (round == 0) result.initial_searches += stats.initial_searches;
     if (i == 0) return;
     trackerSegment.push_back(microseconds(t1 - t0));
-    trackerWhole.push_back(microseconds(t2 - t0));
+    tracker_whole.push_back(microseconds(t2 - t0));
     if (round > 0) return;
-    touched += stats.touchedFraction;
-    cells += stats.cellsClassified;
-    result.ballFrames += tracking.tracker().regionCells(ballClass) > 0 ? 1 : 0;
+    touched += stats.touched_fraction;
+    cells += stats.cells_classified;
+    result.ball_frames += tracking.tracker().regionCells(ballClass) > 0 ? 1 : 0;
     touchedLines +=
-        (stats.cellsClassified * cellSize * cellSize + tracking.lineDetector().pixelsRead()) /
+        (stats.cells_classified * cell_size * cell_size + tracking.lineDetector().pixelsRead()) /
         pixels;
     overlap += stats.overlap;
     points += static_cast<double>(trackerLines.points.size());
@@ -244,16 +244,16 @@ Result run(rt::SimCamera& sim, const Sequence& sequence, int cellSize, int frame
 
   const int n = frameCount - 1;
   result.tracker = summarise(trackerSegment, rounds);
-  result.trackerWhole = summarise(trackerWhole, rounds);
+  result.tracker_whole = summarise(tracker_whole, rounds);
   result.touched = touched / n;
-  result.touchedCells = cells / n;
-  result.gridCells = tracking.grid().cellCount();
-  result.touchedWithLines = touchedLines / n;
+  result.touched_cells = cells / n;
+  result.grid_cells = tracking.grid().cellCount();
+  result.touched_with_lines = touchedLines / n;
   result.overlap = overlap / n;
-  result.linePoints = points / n;
+  result.line_points = points / n;
   result.cmvision = summarise(a.segment, rounds);
-  result.cmvisionWhole = summarise(a.whole, rounds);
-  result.cmvisionMasked = summarise(aMasked.segment, rounds);
+  result.cmvision_whole = summarise(a.whole, rounds);
+  result.cmvision_masked = summarise(aMasked.segment, rounds);
   result.opencv = summarise(opencvSegment, rounds);
 
   // Agreement of the tracker's regions with baseline (a), frame by frame (not timed).
@@ -266,10 +266,10 @@ Result run(rt::SimCamera& sim, const Sequence& sequence, int cellSize, int frame
       cmvision.segment(processor.classifier());
       const rt::Agreement agreement =
           rt::compareWithFullSegmentation(processor.tracker().visited(), cmvision);
-      result.exactFrames += agreement.exact() ? 1 : 0;
-      result.partialRegions += agreement.regionsPartial;
-      result.staleCells += agreement.staleCells;
-      result.untrackedRegions += agreement.regionsUntracked;
+      result.exact_frames += agreement.exact() ? 1 : 0;
+      result.partial_regions += agreement.regions_partial;
+      result.stale_cells += agreement.stale_cells;
+      result.untracked_regions += agreement.regions_untracked;
     }
   }
   return result;
@@ -278,93 +278,75 @@ Result run(rt::SimCamera& sim, const Sequence& sequence, int cellSize, int frame
 // The tracker's time per cell it classified over (a)'s time per cell of the grid (medians of
 // the times, mean of the touched cells).
 double perTouchedCellVsBaseline(const Result& r) {
-  return (r.tracker.median / r.touchedCells) / (r.cmvision.median / r.gridCells);
+  return (r.tracker.median / r.touched_cells) / (r.cmvision.median / r.grid_cells);
 }
 
 std::string motionName(const Sequence& s) {
   char text[64];
-  std::snprintf(text, sizeof text, "%.1f m/s %3.0f deg/s", s.speed, s.omegaDeg);
+  std::snprintf(text, sizeof text, "%.1f m/s %3.0f deg/s", s.speed, s.omega_deg);
   return text;
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  CLI::App app{
-      "Region tracker vs full-frame segmentation (CMVision-style, OpenCV) on rendered sequences."};
+struct Options {
   int frames = 240;
-  int cellSize = 4;
+  int cell_size = 4;
   bool quick = false;
   bool cold = false;
   bool interleave = false;
   int rounds = 5;
   std::string field = "msl";
-  app.add_option("--frames", frames, "frames per sequence (30 Hz)")
-      ->check(CLI::Range(10, 3000))
-      ->capture_default_str();
-  app.add_option("--cell-size", cellSize, "pixels per cell side: 1, 2, 4 or 8")
-      ->check(CLI::IsMember({1, 2, 4, 8}))
-      ->capture_default_str();
-  app.add_option("--field", field, "field preset")->capture_default_str();
-  app.add_flag("--quick", quick, "only the default sequence at both resolutions");
-  app.add_flag(
-      "--cold", cold,
-      "process frames straight from memory (cache-cold) instead of a freshly delivered copy");
-  app.add_option("--rounds", rounds,
-                 "rounds over each sequence, the methods' order rotating; a frame's time is its "
-                 "fastest round")
-      ->check(CLI::Range(1, 20))
-      ->capture_default_str();
-  app.add_flag("--interleave", interleave,
-               "run the methods frame by frame instead of each over the whole sequence in turn "
-               "(each method's data then leaves the cache between its frames)");
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    // --help prints and exits 0; bad arguments exit 2, as every fieldline executable should.
-    return app.exit(e) == 0 ? 0 : 2;
-  }
 
+  void addTo(CLI::App& app) {
+    app.add_option("--frames", frames, "frames per sequence (30 Hz)")
+        ->check(CLI::Range(10, 3000))
+        ->capture_default_str();
+    app.add_option("--cell-size", cell_size, "pixels per cell side: 1, 2, 4 or 8")
+        ->check(CLI::IsMember({1, 2, 4, 8}))
+        ->capture_default_str();
+    app.add_option("--field", field, "field preset")->capture_default_str();
+    app.add_flag("--quick", quick, "only the default sequence at both resolutions");
+    app.add_flag(
+        "--cold", cold,
+        "process frames straight from memory (cache-cold) instead of a freshly delivered copy");
+    app.add_option("--rounds", rounds,
+                   "rounds over each sequence, the methods' order rotating; a frame's time is its "
+                   "fastest round")
+        ->check(CLI::Range(1, 20))
+        ->capture_default_str();
+    app.add_flag("--interleave", interleave,
+                 "run the methods frame by frame instead of each over the whole sequence in turn "
+                 "(each method's data then leaves the cache between its frames)");
+  }
+};
+
+// The default sequence at both sizes first; without --quick the translations and rotations.
+std::vector<Sequence> sequencesToRun(bool quick) {
   std::vector<Sequence> sequences;
-  for (const std::string cameraPreset : {"omni_sim", "omni_sim_640"}) {
-    sequences.push_back({cameraPreset, 1.0, 90.0, "default"});
+  for (const std::string camera_preset : {"omni_sim", "omni_sim_640"}) {
+    sequences.push_back({camera_preset, 1.0, 90.0, "default"});
     if (quick) continue;
-    const bool full = cameraPreset == "omni_sim";
+    const bool full = camera_preset == "omni_sim";
     for (const double speed : full ? std::vector<double>{0.0, 0.5, 1.0, 1.5, 2.0, 2.5, 3.0}
                                    : std::vector<double>{0.0, 1.0, 3.0}) {
-      sequences.push_back({cameraPreset, speed, 0.0, "translation"});
+      sequences.push_back({camera_preset, speed, 0.0, "translation"});
     }
     for (const double omega :
          full ? std::vector<double>{50, 100, 200, 300, 400} : std::vector<double>{50, 200, 400}) {
-      sequences.push_back({cameraPreset, 0.0, omega, "rotation"});
+      sequences.push_back({camera_preset, 0.0, omega, "rotation"});
     }
   }
+  return sequences;
+}
 
-  // One thread, as the comparison is meant: OpenCV would otherwise spread
-  // connectedComponentsWithStats over its worker threads (and its time would depend on what
-  // else runs on the machine).
-  cv::setNumThreads(1);
-
-  std::vector<Result> results;
-  fieldline::config::runOrExit([&] {
-    std::map<std::string, rt::SimCamera> cameras;
-    for (const Sequence& s : sequences) {
-      if (!cameras.count(s.camera)) cameras.emplace(s.camera, rt::SimCamera::load(s.camera, field));
-      rt::SimCamera& sim = cameras.at(s.camera);
-      results.push_back(run(sim, s, cellSize, frames, rounds, cold,
-                            interleave ? Order::kInterleaved : Order::kSequential));
-      const Result& r = results.back();
-      std::fprintf(stderr, "done %s %dx%d %s\n", r.sequence.kind.c_str(), sim.mirror.width(),
-                   sim.mirror.height(), motionName(r.sequence).c_str());
-    }
-  });
-
+// The full table, then the summary lines of the default sequences (640x480 first, 320x240 last).
+void printResults(const Options& options, const std::vector<Result>& results) {
   std::printf(
       "region tracking benchmark: field %s, %d frames per sequence at 30 Hz, %dx%d cells, "
       "%s frames, %d rounds with methods %s; times in microseconds: each frame's fastest round, "
       "median / p95 over the frames; frame 0 of each round excluded\n\n",
-      field.c_str(), frames, cellSize, cellSize, cold ? "cache-cold" : "freshly delivered", rounds,
-      interleave ? "interleaved frame by frame" : "one after another");
+      options.field.c_str(), options.frames, options.cell_size, options.cell_size,
+      options.cold ? "cache-cold" : "freshly delivered", options.rounds,
+      options.interleave ? "interleaved frame by frame" : "one after another");
   std::printf(
       "| image | motion | tracker | tracker+lines | cmvision (a) | cmvision+lines | "
       "(a') skip mask | opencv (b) | a/tracker | a'/tracker | b/tracker | whole a/tracker | "
@@ -374,33 +356,71 @@ int main(int argc, char** argv) {
       "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---"
       "|"
       "\n");
-  const Result* defaultResults[2] = {nullptr, nullptr};  // 640x480, then 320x240
+  const Result* default_results[2] = {nullptr, nullptr};  // 640x480, then 320x240
   for (const Result& r : results) {
     const bool small = r.sequence.camera == "omni_sim";
-    if (r.sequence.kind == "default") defaultResults[small ? 1 : 0] = &r;
+    if (r.sequence.kind == "default") default_results[small ? 1 : 0] = &r;
     std::printf(
         "| %s | %s | %.0f / %.0f | %.0f / %.0f | %.0f / %.0f | %.0f / %.0f | %.0f / %.0f | "
         "%.0f / %.0f | %.1f | %.1f | %.1f | %.1f | %.1f %% | %.1f %% | %.1f | %.0f %% | %d / %d | "
         "%.0f | %d / %d | %d / %d | %d | %d | %.1f |\n",
         small ? "320x240" : "640x480", motionName(r.sequence).c_str(), r.tracker.median,
-        r.tracker.p95, r.trackerWhole.median, r.trackerWhole.p95, r.cmvision.median, r.cmvision.p95,
-        r.cmvisionWhole.median, r.cmvisionWhole.p95, r.cmvisionMasked.median, r.cmvisionMasked.p95,
-        r.opencv.median, r.opencv.p95, r.cmvision.median / r.tracker.median,
-        r.cmvisionMasked.median / r.tracker.median, r.opencv.median / r.tracker.median,
-        r.cmvisionWhole.median / r.trackerWhole.median, 100 * r.touched, 100 * r.touchedWithLines,
-        perTouchedCellVsBaseline(r), 100 * r.overlap, r.initialSearches, r.frames, r.linePoints,
-        r.ballFrames, r.frames - 1, r.exactFrames, r.frames, r.partialRegions, r.staleCells,
-        static_cast<double>(r.untrackedRegions) / r.frames);
+        r.tracker.p95, r.tracker_whole.median, r.tracker_whole.p95, r.cmvision.median,
+        r.cmvision.p95, r.cmvision_whole.median, r.cmvision_whole.p95, r.cmvision_masked.median,
+        r.cmvision_masked.p95, r.opencv.median, r.opencv.p95, r.cmvision.median / r.tracker.median,
+        r.cmvision_masked.median / r.tracker.median, r.opencv.median / r.tracker.median,
+        r.cmvision_whole.median / r.tracker_whole.median, 100 * r.touched,
+        100 * r.touched_with_lines, perTouchedCellVsBaseline(r), 100 * r.overlap,
+        r.initial_searches, r.frames, r.line_points, r.ball_frames, r.frames - 1, r.exact_frames,
+        r.frames, r.partial_regions, r.stale_cells,
+        static_cast<double>(r.untracked_regions) / r.frames);
   }
   std::printf("\n");
-  for (const Result* r : defaultResults) {
+  for (const Result* r : default_results) {
     if (r == nullptr) continue;
     std::printf(
         "%sratio_vs_cmvision=%.2f ratio_vs_opencv=%.2f touched_fraction=%.3f "
         "whole_step_ratio=%.2f per_touched_cell_vs_baseline=%.2f\n",
         r->sequence.camera == "omni_sim" ? "" : "640x480: ", r->cmvision.median / r->tracker.median,
         r->opencv.median / r->tracker.median, r->touched,
-        r->cmvisionWhole.median / r->trackerWhole.median, perTouchedCellVsBaseline(*r));
+        r->cmvision_whole.median / r->tracker_whole.median, perTouchedCellVsBaseline(*r));
   }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{
+      "Region tracker vs full-frame segmentation (CMVision-style, OpenCV) on rendered sequences."};
+  Options options;
+  options.addTo(app);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    // --help prints and exits 0; bad arguments exit 2, as every fieldline executable should.
+    return app.exit(e) == 0 ? 0 : 2;
+  }
+  const std::vector<Sequence> sequences = sequencesToRun(options.quick);
+  // One thread, as the comparison is meant: OpenCV would otherwise spread
+  // connectedComponentsWithStats over its worker threads (and its time would depend on what
+  // else runs on the machine).
+  cv::setNumThreads(1);
+
+  std::vector<Result> results;
+  fieldline::config::runOrExit([&] {
+    std::map<std::string, rt::SimCamera> cameras;
+    for (const Sequence& s : sequences) {
+      if (!cameras.count(s.camera)) {
+        cameras.emplace(s.camera, rt::SimCamera::load(s.camera, options.field));
+      }
+      rt::SimCamera& sim = cameras.at(s.camera);
+      results.push_back(run(sim, s, options.cell_size, options.frames, options.rounds, options.cold,
+                            options.interleave ? Order::kInterleaved : Order::kSequential));
+      const Result& r = results.back();
+      std::fprintf(stderr, "done %s %dx%d %s\n", r.sequence.kind.c_str(), sim.mirror.width(),
+                   sim.mirror.height(), motionName(r.sequence).c_str());
+    }
+  });
+  printResults(options, results);
   return 0;
 }

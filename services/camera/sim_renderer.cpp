@@ -86,8 +86,9 @@ double Lighting::at(const Vec2& p, const Vec2& carpet_half_extent) const {
 
 // --- construction ---
 
-SimRenderer::SimRenderer(MirrorModel mirror, const field::FieldModel& field, RenderParams params)
-    : mirror_(std::move(mirror)), params_(std::move(params)) {
+SimRenderer::SimRenderer(MirrorModel mirror, const field::FieldModel& field, RenderParams params,
+                         const std::string& raster_cache_dir)
+    : mirror_(std::move(mirror)), params_(std::move(params)), realism_(params_.realism, mirror_) {
   if (!(params_.floor_resolution >= 0.002 && params_.floor_resolution <= 0.2)) {
     throw std::invalid_argument("renderer: floor_resolution must be in [0.002, 0.2] m");
   }
@@ -99,7 +100,8 @@ SimRenderer::SimRenderer(MirrorModel mirror, const field::FieldModel& field, Ren
   if (mirror_.width() % 2 != 0) throw std::invalid_argument("renderer: YUYV needs an even width");
   carpet_half_ = field.carpetHalfExtent();
   raster_origin_ = -carpet_half_;
-  buildFloorRaster(field);
+  loadOrBuildFloorRaster(field, raster_cache_dir);
+  outside_floor_yuv_ = yuvFromBgr(scaleBgr(params_.outside_floor, params_.lighting.ambient));
   buildGoals(field);
   buildPixelTable();
 
@@ -116,6 +118,8 @@ Yuv SimRenderer::lit(Bgr colour, const Vec2& field_point) const {
   return yuvFromBgr(scaleBgr(colour, params_.lighting.at(field_point, carpet_half_)));
 }
 
+// What this computes from its inputs is cached on disk (floor_raster_cache.hpp): a change here
+// that gives another raster for the same inputs must bump kFloorRasterVersion.
 void SimRenderer::buildFloorRaster(const field::FieldModel& field) {
   RasterLevel base;
   base.cell = params_.floor_resolution;
@@ -205,7 +209,6 @@ void SimRenderer::buildFloorRaster(const field::FieldModel& field) {
     }
     raster_.push_back(std::move(coarse));
   }
-  outside_floor_yuv_ = yuvFromBgr(scaleBgr(params_.outside_floor, params_.lighting.ambient));
 }
 
 void SimRenderer::buildGoals(const field::FieldModel& field) {
@@ -579,6 +582,7 @@ void SimRenderer::render(const SimScene& scene, std::vector<std::uint8_t>& yuyv)
                    static_cast<std::uint8_t>((accumulator_[i][2] + samples / 2) / samples)};
     }
   }
+  realism_.apply(frame_, scene.frame_number);
   finish(scene, yuyv);
 }
 
@@ -699,6 +703,9 @@ RenderParams loadRenderParams(const config::Node& n) {
   p.noise_seed = static_cast<std::uint32_t>(noise.get<int>("seed", 0, 1 << 30));
   noise.rejectUnknownKeys();
   p.motion_blur_samples = n.get<int>("motion_blur_samples", 1, 16);
+  if (const std::optional<config::Node> realism = n.childIf("realism")) {
+    p.realism = loadRealismParams(*realism);
+  }
   n.rejectUnknownKeys();
   return p;
 }

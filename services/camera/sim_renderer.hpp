@@ -17,6 +17,7 @@
 #include <array>
 #include <cstdint>
 #include <optional>
+#include <string>
 #include <vector>
 
 #include "common/camera/frame.hpp"
@@ -24,6 +25,8 @@
 #include "common/config/config.hpp"
 #include "common/field/field_model.hpp"
 #include "common/geometry/geometry.hpp"
+#include "services/camera/floor_raster_cache.hpp"
+#include "services/camera/realism.hpp"
 
 namespace fieldline::camera {
 
@@ -82,6 +85,8 @@ struct RenderParams {
   std::uint32_t noise_seed = 1;
   // Poses sampled across the exposure; 1 = no motion blur.
   int motion_blur_samples = 1;
+  // Post-process toward real frames (services/camera/realism.hpp); off by default.
+  RealismParams realism;
 };
 
 // Reads the `render` section of a camera preset; throws config::Error with file:line.
@@ -134,8 +139,11 @@ struct SimScene {
 class SimRenderer {
  public:
   // Precomputes the pixel table and the floor raster (a fraction of a second for an msl field).
+  // With a `raster_cache_dir`, the raster is read from there when a valid file for exactly these
+  // inputs exists, else built and written there (floor_raster_cache.hpp).
   // Throws std::invalid_argument for unusable parameters.
-  SimRenderer(MirrorModel mirror, const field::FieldModel& field, RenderParams params);
+  SimRenderer(MirrorModel mirror, const field::FieldModel& field, RenderParams params,
+              const std::string& raster_cache_dir = {});
 
   // Renders `scene` into `yuyv` (resized to height * stride on first use; stride = 2 * width).
   void render(const SimScene& scene, std::vector<std::uint8_t>& yuyv);
@@ -148,26 +156,29 @@ class SimRenderer {
   }
   const MirrorModel& mirror() const { return mirror_; }
   const RenderParams& params() const { return params_; }
+  // The realism post-process (its knobs can change between frames, e.g. the light factor).
+  RealismFilter& realism() { return realism_; }
 
   // Colour of the floor raster at a field point (finest level, lighting included, no noise).
   Yuv floorColour(const Vec2& field_point) const;
 
+  // Where the floor raster came from, and why a cache file was not used or not written ("" when
+  // nothing went wrong).
+  RasterSource rasterSource() const { return raster_source_; }
+  const std::string& rasterProblem() const { return raster_problem_; }
+
  private:
   enum class PixelKind : std::uint8_t { kOutside, kSelf, kFloor, kHall };
 
-  struct RasterLevel {
-    double cell = 0.0;
-    double inv_cell = 0.0;
-    int cols = 0;
-    int rows = 0;
-    std::vector<Yuv> cells;
-  };
+  using RasterLevel = FloorRasterLevel;
 
   // A ray-cast object, in the field frame.
   using Box = SimBox;
 
   void buildPixelTable();
   void buildFloorRaster(const field::FieldModel& field);
+  // In floor_raster_cache.cpp: the cached raster, or buildFloorRaster and write the cache.
+  void loadOrBuildFloorRaster(const field::FieldModel& field, const std::string& cache_dir);
   void buildGoals(const field::FieldModel& field);
   void renderOnce(const geometry::Pose2& pose, const SimScene& scene);
   void renderFloor(const geometry::Pose2& pose);
@@ -196,12 +207,15 @@ class SimRenderer {
   std::vector<Yuv> static_layer_;           // outside, self, hall
 
   std::vector<RasterLevel> raster_;
+  RasterSource raster_source_ = RasterSource::kBuilt;
+  std::string raster_problem_;
   Yuv outside_floor_yuv_;
   std::vector<Box> goal_boxes_;
 
   std::vector<Yuv> frame_;                                 // current sub-frame, one Yuv per pixel
   std::vector<std::array<std::uint16_t, 3>> accumulator_;  // motion blur sums
   std::vector<std::int8_t> noise_table_;                   // unit Gaussian * 16
+  RealismFilter realism_;
 };
 
 }  // namespace fieldline::camera

@@ -15,6 +15,8 @@
 //       restart: always             # optional, overrides defaults.restart
 //       env: {KEY: value}           # optional extra environment
 //       main_channel: CAMERA_IMAGE  # optional: the channel whose rate the status table shows
+//   robots:                         # optional: a clock per robot (robot_clocks.hpp)
+//     - {id: 1, clock: {offset_s: 0.31, drift_ppm: -22}}
 #pragma once
 
 #include <map>
@@ -23,6 +25,7 @@
 
 #include "common/bus/urls.hpp"
 #include "common/config/config.hpp"
+#include "tools/launch/robot_clocks.hpp"
 
 namespace fieldline::launch {
 
@@ -75,6 +78,8 @@ struct LaunchFile {
   std::string path;
   LaunchDefaults defaults;
   std::vector<ProcessEntry> processes;
+  // The optional `robots:` section: each robot's clock (tools/launch/robot_clocks.hpp).
+  RobotClocks clocks;
 };
 
 // Reads a parsed launch file; throws config::Error naming file:line and key on any problem.

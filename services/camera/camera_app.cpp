@@ -1,0 +1,145 @@
+#include "services/camera/camera_app.hpp"
+
+#include <memory>
+#include <stdexcept>
+#include <string>
+
+#include <spdlog/spdlog.h>
+
+#include "common/bus/node.hpp"
+#include "common/bus/robot_clock.hpp"
+#include "common/time/clock.hpp"
+#include "services/camera/camera_config.hpp"
+#include "services/camera/camera_node.hpp"
+#include "services/camera/floor_raster_cache.hpp"
+#include "services/camera/log_source.hpp"
+#include "services/camera/sources.hpp"
+
+namespace fieldline::camera {
+
+namespace {
+
+// Seconds between attempts to (re)open a live camera.
+constexpr double kReopenIntervalS = 1.0;
+
+// A live camera that is missing or unplugged comes back: report it (SERVICE_STATUS keeps flowing)
+// and reopen it, as the motor bridge does with its serial line.
+int runLiveSource(bus::Node& node, SourceKind kind, const VideoCaptureOptions& vc,
+                  const CameraConfig& config, const FrameSourceOptions& options) {
+  while (!node.stopRequested()) {
+    try {
+      auto source = openVideoCapture(kind, vc);
+      spdlog::info("publishing {} (latency {} ms)", source->describe(),
+                   config.pipeline.latency * 1e3);
+      node.status().setFault(false);
+      const std::int64_t frames = runFrameSource(node, *source, config.pipeline, options);
+      node.status().setFault(true);
+      if (node.stopRequested() || (options.max_frames > 0 && frames >= options.max_frames)) break;
+      node.reportError(
+          "camera_lost",
+          vc.spec + " stopped delivering frames" +
+              (source->lastError().empty() ? std::string() : ": " + source->lastError()));
+    } catch (const std::runtime_error& e) {
+      node.status().setFault(true);
+      node.reportError("camera_open", e.what());
+    }
+    // Keep status and timers alive while waiting to retry.
+    const Utime retry_at = node.now() + static_cast<Utime>(kReopenIntervalS * 1e6);
+    while (!node.stopRequested() && node.now() < retry_at)
+      node.spinOnce(50);
+  }
+  return 0;
+}
+
+int runSim(bus::Node& node, const CameraConfig& config, const CameraAppOptions& options,
+           const bus::CommonOptions& common) {
+  const bus::BusId sim_bus = node.addBus(common.sim_bus_url);
+  SimCameraNode sim(node, sim_bus, config, options.field, options.raster_cache);
+  spdlog::info("rendering {}x{} at {} Hz, latency {} ms, from SIM_WORLD on {}",
+               config.model.mirror.width(), config.model.mirror.height(),
+               config.pipeline.frame_rate, config.pipeline.latency * 1e3, common.sim_bus_url);
+  return node.run();
+}
+
+SourceKind videoSourceKind(const std::string& name) {
+  if (name == "v4l2") return SourceKind::kV4l2;
+  if (name == "video") return SourceKind::kVideo;
+  if (name == "gstreamer") return SourceKind::kGstreamer;
+  throw std::runtime_error("unknown camera source '" + name + "'");
+}
+
+}  // namespace
+
+void CameraAppOptions::addTo(CLI::App& app) {
+  app.add_option("--source", source, "Frame source")
+      ->check(CLI::IsMember({"sim", "v4l2", "video", "gstreamer", "folder", "log"}))
+      ->capture_default_str();
+  app.add_option("--config", preset, "Camera preset (config/camera/<name>.yaml) or path")
+      ->capture_default_str();
+  app.add_option("--field", field,
+                 "sim: field preset to render (default: the field SIM_WORLD names)");
+  app.add_option("--input", input,
+                 "v4l2 device or index, video file, GStreamer pipeline, image folder or LCM log");
+  app.add_option("--latency", latency, "Exposure-to-delivery latency, s (default: the preset's)")
+      ->check(CLI::Range(0.0, 1.0));
+  app.add_option("--fps", fps,
+                 "Frame rate: v4l2 request, pace of folder/video/log (default: the preset's)")
+      ->check(CLI::Range(0.0, 240.0));
+  app.add_option("--width", width, "v4l2: requested width, px")->check(CLI::Range(0, 8192));
+  app.add_option("--height", height, "v4l2: requested height, px")->check(CLI::Range(0, 8192));
+  app.add_flag("--loop", loop, "folder/video/log: start again at the end");
+  app.add_flag("--bgr", bgr, "v4l2: take OpenCV's BGR frames instead of raw YUYV");
+  app.add_option("--max-frames", max_frames,
+                 "Real sources: stop after this many frames (0: no limit)");
+  raster_cache = defaultCacheDirectory();
+  app.add_option("--raster-cache", raster_cache,
+                 "sim: directory for the floor raster cache (default: $XDG_CACHE_HOME/fieldline "
+                 "or ~/.cache/fieldline; empty string: none)");
+}
+
+int runCamera(const CameraAppOptions& options, const bus::CommonOptions& common) {
+  CameraConfig config = loadCameraConfigPreset(options.preset);
+  if (options.latency >= 0.0) config.pipeline.latency = options.latency;
+  if (options.fps > 0.0) config.pipeline.frame_rate = options.fps;
+  const RobotClock clock = bus::robotClockFromEnvironment();
+  bus::Node node({.process = "camera", .robot_id = common.robot, .url = common.bus_url}, clock);
+  if (options.source == "sim") return runSim(node, config, options, common);
+
+  if (options.input.empty()) {
+    throw std::runtime_error("--source " + options.source + " needs --input");
+  }
+  bus::installStopSignals();
+  std::unique_ptr<FrameSource> source;
+  FrameSourceOptions run_options;
+  run_options.max_frames = options.max_frames;
+  // Folders, files and logs play at the configured rate; live cameras at their own.
+  run_options.pace_fps = config.pipeline.frame_rate;
+  if (options.source == "folder") {
+    source = std::make_unique<ImageFolderSource>(options.input, options.loop);
+  } else if (options.source == "log") {
+    source = std::make_unique<LogImageSource>(options.input, options.loop);
+  } else {
+    VideoCaptureOptions vc;
+    vc.spec = options.input;
+    vc.width = options.width;
+    vc.height = options.height;
+    vc.fps = options.fps;
+    vc.raw_yuyv = !options.bgr;
+    vc.loop = options.loop;
+    const SourceKind kind = videoSourceKind(options.source);
+    if (kind != SourceKind::kVideo) {
+      run_options.pace_fps = 0.0;
+      return runLiveSource(node, kind, vc, config, run_options);
+    }
+    source = openVideoCapture(kind, vc);
+  }
+  spdlog::info("publishing {} (latency {} ms)", source->describe(), config.pipeline.latency * 1e3);
+  const std::int64_t frames = runFrameSource(node, *source, config.pipeline, run_options);
+  spdlog::info("{} frames published, {} unusable", frames, source->errors());
+  if (frames == 0 && !source->lastError().empty()) {
+    throw std::runtime_error("no frame published: " + source->lastError());
+  }
+  return 0;
+}
+
+}  // namespace fieldline::camera
