@@ -82,6 +82,10 @@ struct RecognitionParams {
   // Without all three lines, a corner's side line must reach this far from the front line (or
   // to the goal line if that is nearer), m.
   double partial_side_line = 1.0;
+  // Both lines of a corner (stage 5 or an identified L) need this many points: pieces of 3
+  // points may be used for the structure's lines, but a side line that short can be a fragment
+  // off the true corner by more than half a metre along the front line.
+  int min_corner_line_points = 4;
   // Lines shorter than this cannot tell left from right, m.
   double min_front_line = 0.5;
 

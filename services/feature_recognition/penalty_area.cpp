@@ -43,7 +43,9 @@ void findCorners(const LineStructure& structure, const PenaltyStructure& area, c
                  std::vector<PenaltyCorner>& out) {
   const Vec2 v = area.toward_goal;
   const Vec2 left = leftOf(v);
-  if (front.length() < params.min_front_line) return;
+  if (front.length() < params.min_front_line || front.count < params.min_corner_line_points) {
+    return;
+  }
   double front_lo = 0, front_hi = 0;
   extentAlong(front, left, front_lo, front_hi);
   const double front_v = front.midpoint().dot(v);
@@ -54,7 +56,7 @@ void findCorners(const LineStructure& structure, const PenaltyStructure& area, c
     extentAlong(side, v, lo, hi);
     // The side line starts at the front line and runs toward the goal, not past the goal line.
     if (std::abs(lo - front_v) > params.corner_distance) continue;
-    if (hi - lo < params.min_front_line) continue;
+    if (hi - lo < params.min_front_line || side.count < params.min_corner_line_points) continue;
     if (hi > goal_v + params.corner_distance) continue;
     // With only two of the three lines seen the side line must be seen well too: to the goal
     // line (inner corners) or over a metre (outer corners).

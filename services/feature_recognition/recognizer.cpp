@@ -113,6 +113,10 @@ InputCheck FeatureRecognizer::recognize(const perception::LinePoints& in,
   };
   for (const Junction& j : junctions_) {
     if (j.is_t || explained(j)) continue;
+    if (structure_.groups[j.bar_axis][j.bar].line.count < params_.min_corner_line_points ||
+        structure_.groups[j.stem_axis][j.stem].line.count < params_.min_corner_line_points) {
+      continue;
+    }
     JunctionIdentity identity;
     const bool identified =
         identifyJunction(j, model_junctions_, contours_.points, model_check_, params_, identity);
