@@ -70,6 +70,7 @@ int main(int argc, char** argv) {
     }
     const Clock& clock = robot_clock ? static_cast<const Clock&>(*robot_clock) : system_clock;
 
+    if (common.check_args) return 0;
     std::unique_ptr<teamcomm::PacketLink> link;
     try {
       link = teamcomm::openUdpLink(cfg.udp);

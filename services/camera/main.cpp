@@ -5,8 +5,14 @@
 //   --source gstreamer  a GStreamer pipeline ending in appsink (--input "...")
 //   --source folder     PNG/JPEG/BMP files of a folder in name order (--input dir)
 //   --source log        CAMERA_IMAGE frames of an LCM log (--input file.lcmlog)
-// utime is the exposure time: the render tick for sim, receive time - latency otherwise.
+// utime is the exposure time: the render tick for sim, receive time - latency for cameras and
+// files. A log keeps its recorded exposure times (--keep-stamps, the default; --restamp to
+// stamp like a camera): the process then runs on a clock at the log's time and publishes each
+// frame when its time comes. A log goes onto robot N's replay bus (port base + 100 + N,
+// --replay-bus-url) so it never mixes with the live frames, unless --live-bus is given.
+#include <algorithm>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include <spdlog/spdlog.h>
@@ -14,7 +20,10 @@
 
 #include "common/bus/cli.hpp"
 #include "common/bus/node.hpp"
+#include "common/bus/replay_bus.hpp"
+#include "common/config/config.hpp"
 #include "common/time/clock.hpp"
+#include "common/time/offset_clock.hpp"
 #include "services/camera/camera_config.hpp"
 #include "services/camera/camera_node.hpp"
 #include "services/camera/log_source.hpp"
@@ -74,6 +83,10 @@ int main(int argc, char** argv) {
   bool loop = false;
   bool bgr = false;
   std::int64_t max_frames = 0;
+  bool keep_stamps = true;
+  bool restamp = false;
+  bool live_bus = false;
+  std::string replay_bus_url;
   app.add_option("--source", source_name, "Frame source")
       ->check(CLI::IsMember({"sim", "v4l2", "video", "gstreamer", "folder", "log"}))
       ->capture_default_str();
@@ -94,14 +107,43 @@ int main(int argc, char** argv) {
   app.add_flag("--bgr", bgr, "v4l2: take OpenCV's BGR frames instead of raw YUYV");
   app.add_option("--max-frames", max_frames,
                  "Real sources: stop after this many frames (0: no limit)");
+  auto* keep = app.add_flag("--keep-stamps", keep_stamps,
+                            "log: keep the logged exposure times (the default)");
+  app.add_flag("--restamp", restamp,
+               "log: stamp frames receive time - latency like a camera's, paced by --fps")
+      ->excludes(keep);
+  app.add_flag("--live-bus", live_bus,
+               "log: publish on --bus-url (the live bus) instead of the robot's replay bus");
+  app.add_option("--replay-bus-url", replay_bus_url,
+                 "log: the bus the frames go to (default: robot N's replay bus, "
+                 "udpm://239.255.76.67:<7767+N>?ttl=0...)");
   FIELDLINE_PARSE(app, argc, argv);
   common.resolve("camera");
+  const bool from_log = source_name == "log";
+  if (from_log && !live_bus) {
+    common.bus_url =
+        replay_bus_url.empty() ? bus::replayBusUrl(std::max(1, common.robot)) : replay_bus_url;
+  }
 
   return bus::runMain("camera", [&]() -> int {
     camera::CameraConfig config = camera::loadCameraConfigPreset(preset);
     if (latency >= 0.0) config.pipeline.latency = latency;
     if (fps > 0.0) config.pipeline.frame_rate = fps;
-    fieldline::SystemClock clock;
+    if (source_name != "sim" && input.empty()) {
+      throw fieldline::config::Error("--source " + source_name + " needs --input");
+    }
+    if (common.check_args) return 0;
+    fieldline::SystemClock system_clock;
+    // A log with kept stamps runs at the log's time: its first frame is due now.
+    std::optional<fieldline::OffsetClock> log_clock;
+    if (from_log && !restamp) {
+      if (const auto first = camera::LogImageSource::firstUtime(input)) {
+        const auto latency_us = static_cast<fieldline::Utime>(config.pipeline.latency * 1e6);
+        log_clock.emplace(system_clock, *first + latency_us - system_clock.now(), 0.0, 0);
+      }
+    }
+    const fieldline::Clock& clock =
+        log_clock ? static_cast<const fieldline::Clock&>(*log_clock) : system_clock;
     bus::Node node({.process = "camera", .robot_id = common.robot, .url = common.bus_url}, clock);
 
     if (source_name == "sim") {
@@ -113,7 +155,6 @@ int main(int argc, char** argv) {
       return node.run();
     }
 
-    if (input.empty()) throw std::runtime_error("--source " + source_name + " needs --input");
     std::unique_ptr<camera::FrameSource> source;
     camera::FrameSourceOptions options;
     options.max_frames = max_frames;
@@ -122,7 +163,10 @@ int main(int argc, char** argv) {
       options.pace_fps = config.pipeline.frame_rate;
     } else if (source_name == "log") {
       source = std::make_unique<camera::LogImageSource>(input, loop);
-      options.pace_fps = config.pipeline.frame_rate;
+      options.keep_stamps = !restamp;
+      options.pace_fps = restamp ? config.pipeline.frame_rate : 0.0;
+      spdlog::info("replaying {} onto {}{}", input, common.bus_url,
+                   restamp ? ", restamped" : " with its exposure times");
     } else {
       camera::VideoCaptureOptions vc;
       vc.spec = input;

@@ -32,6 +32,7 @@ int main(int argc, char** argv) {
   return bus::runMain("feature_recognition", [&] {
     common.resolve("feature_recognition");
     const field::FieldModel field = field::loadFieldPreset(field_name);
+    if (common.check_args) return 0;
     SystemClock clock;
     bus::installStopSignals();
     bus::Node node(

@@ -66,6 +66,11 @@ int main(int argc, char** argv) {
       }
     }
     const field::FieldModel field = field::loadFieldPreset(field_preset);
+    if (common.check_args) {
+      // The presets are read; the distance grid (seconds of CPU) is not built.
+      (void)robot::loadRobotPreset(robot_preset);
+      return 0;
+    }
     fusion::MatcherParams matcher_params;
     matcher_params.method = method == "lsq" ? fusion::MatchMethod::kRobustLeastSquares
                                             : fusion::MatchMethod::kForceField;

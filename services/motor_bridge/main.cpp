@@ -38,6 +38,7 @@ int main(int argc, char** argv) {
     if (!device.empty()) config.device = device;
     config.device = motor_bridge::deviceForRobot(config.device, common.robot);
 
+    if (common.check_args) return 0;
     SystemClock clock;
     bus::installStopSignals();
     bus::Node node({.process = "motor_bridge", .robot_id = common.robot, .url = common.bus_url},

@@ -43,6 +43,7 @@ int main(int argc, char** argv) {
     common.resolve("pilot");
     pilot::Pilot pilot(scenario::loadScenarioPreset(scenario_name), common.robot,
                        robot::loadRobotPreset(robot_config));
+    if (common.check_args) return 0;
     SystemClock clock;
     bus::installStopSignals();
     bus::Node node({.process = "pilot", .robot_id = common.robot, .url = common.bus_url}, clock);

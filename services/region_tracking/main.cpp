@@ -44,6 +44,7 @@ int main(int argc, char** argv) {
     }
     options.linesEveryFrames = lines_every;
 
+    if (common.check_args) return 0;
     SystemClock clock;
     bus::installStopSignals();
     bus::Node node({.process = "region_tracking", .robot_id = common.robot, .url = common.bus_url},

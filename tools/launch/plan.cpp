@@ -129,6 +129,7 @@ LaunchPlan planLaunch(const LaunchFile& file, int team_size, const ExecutableLoo
       instance.env = entry.env;
       instance.restart = entry.restart;
       instance.main_channel = entry.main_channel;
+      instance.optional = entry.optional;
       instance.bus_url = robot == kSimRobot ? bus::simBusUrl(file.defaults.bus)
                                             : bus::robotBusUrl(robot, file.defaults.bus);
       plan.instances.push_back(std::move(instance));

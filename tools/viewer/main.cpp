@@ -107,6 +107,7 @@ int main(int argc, char** argv) {
   return bus::runMain("viewer", [&] {
     const field::FieldModel field = field::loadFieldPreset(field_preset);
     viewer::TeamView team(robots);
+    if (common.check_args) return 0;
 
     SystemClock clock;
     bus::installStopSignals();
