@@ -13,10 +13,10 @@
 
 namespace fieldline::region_tracking::bench {
 
-// `frameCount` YUYV frames at 30 Hz, `speed` in m/s, `omegaDeg` in deg/s.
+// `frameCount` YUYV frames at 30 Hz, `speed` in m/s, `omega_deg` in deg/s.
 inline std::vector<std::vector<std::uint8_t>> renderSequence(SimCamera& sim, double speed,
-                                                             double omegaDeg, int frameCount) {
-  const Motion motion{speed, omegaDeg * std::numbers::pi / 180.0, 30.0};
+                                                             double omega_deg, int frameCount) {
+  const Motion motion{speed, omega_deg * std::numbers::pi / 180.0, 30.0};
   const std::vector<geometry::Pose2> poses = motionPoses(sim.field, motion, frameCount);
   camera::SimScene scene;
   constexpr double kBallDistance = 1.2;                        // m from the robot
@@ -28,7 +28,7 @@ inline std::vector<std::vector<std::uint8_t>> renderSequence(SimCamera& sim, dou
   std::vector<std::vector<std::uint8_t>> frames(frameCount);
   for (int i = 0; i < frameCount; ++i) {
     scene.robot = poses[i];
-    const double ballBearing = 0.5 + kBallTurnRate * i / motion.frameRate;  // field frame
+    const double ballBearing = 0.5 + kBallTurnRate * i / motion.frame_rate;  // field frame
     scene.ball = camera::SimBall{{poses[i].x + kBallDistance * std::cos(ballBearing),
                                   poses[i].y + kBallDistance * std::sin(ballBearing)},
                                  0.11};

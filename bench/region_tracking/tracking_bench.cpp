@@ -73,29 +73,29 @@ Summary summarise(const std::vector<double>& values, int rounds) {
 struct Sequence {
   std::string camera;  // preset
   double speed;        // m/s
-  double omegaDeg;     // deg/s
+  double omega_deg;    // deg/s
   std::string kind;    // "translation", "rotation", "default"
 };
 
 struct Result {
   Sequence sequence;
-  int cellSize = 0;
+  int cell_size = 0;
   int frames = 0;
-  Summary tracker, trackerWhole, cmvision, cmvisionWhole, cmvisionMasked, opencv;
-  double touched = 0, touchedWithLines = 0, overlap = 0;
-  double touchedCells = 0;  // mean cells classified per frame
-  int gridCells = 0;
-  int ballFrames = 0;  // frames in which the tracker holds an orange (ball) region
-  int initialSearches = 0;
-  double linePoints = 0;
+  Summary tracker, tracker_whole, cmvision, cmvision_whole, cmvision_masked, opencv;
+  double touched = 0, touched_with_lines = 0, overlap = 0;
+  double touched_cells = 0;  // mean cells classified per frame
+  int grid_cells = 0;
+  int ball_frames = 0;  // frames in which the tracker holds an orange (ball) region
+  int initial_searches = 0;
+  double line_points = 0;
   // Agreement with baseline (a) after every tracked frame.
-  int exactFrames = 0, partialRegions = 0, staleCells = 0, untrackedRegions = 0;
+  int exact_frames = 0, partial_regions = 0, stale_cells = 0, untracked_regions = 0;
 };
 
 std::vector<rt::ClassId> trackedClasses(const rt::VisionParams& params) {
   std::vector<rt::ClassId> classes;
   for (const rt::ClassTracking& c : params.tracker.classes)
-    classes.push_back(c.classId);
+    classes.push_back(c.class_id);
   return classes;
 }
 
@@ -104,16 +104,16 @@ enum class Order {
   kInterleaved,  // in a round, frame by frame, every method on each frame
 };
 
-Result run(rt::SimCamera& sim, const Sequence& sequence, int cellSize, int frameCount, int rounds,
+Result run(rt::SimCamera& sim, const Sequence& sequence, int cell_size, int frameCount, int rounds,
            bool coldFrames, Order order) {
   Result result;
   result.sequence = sequence;
-  result.cellSize = cellSize;
+  result.cell_size = cell_size;
   result.frames = frameCount;
 
   // Render the sequence once.
   const std::vector<std::vector<std::uint8_t>> frames =
-      rt::bench::renderSequence(sim, sequence.speed, sequence.omegaDeg, frameCount);
+      rt::bench::renderSequence(sim, sequence.speed, sequence.omega_deg, frameCount);
   // Each method gets the frame the way the node does: the LCM handler has just decoded (copied)
   // the message, so the frame is in the cache. --cold reads the stored frames directly.
   std::vector<std::uint8_t> delivered(frames[0].size());
@@ -124,7 +124,7 @@ Result run(rt::SimCamera& sim, const Sequence& sequence, int cellSize, int frame
   };
 
   rt::VisionParams params = rt::defaultVisionParams();
-  params.tracker.cellSize = cellSize;
+  params.tracker.cell_size = cell_size;
   const std::vector<rt::ClassId> classes = trackedClasses(params);
 
   // Each method is one step per frame; all times are wall-clock times of one thread. The
@@ -136,7 +136,7 @@ Result run(rt::SimCamera& sim, const Sequence& sequence, int cellSize, int frame
   // Tracker (and line points on its boundaries).
   rt::FrameProcessor tracking(sim.mirror, sim.table, params);
   rt::LinePoints trackerLines;
-  std::vector<double> trackerSegment, trackerWhole;
+  std::vector<double> trackerSegment, tracker_whole;
   double touched = 0, touchedLines = 0, overlap = 0, points = 0, cells = 0;
   auto trackerStep = [&](int i) {
     const camera::FrameView frame = view(i);
@@ -146,16 +146,16 @@ Result run(rt::SimCamera& sim, const Sequence& sequence, int cellSize, int frame
     const Clock::time_point t1 = Clock::now();
     tracking.lineDetector().detect(frame, tracking.tracker().contours(), trackerLines);
     const Clock::time_point t2 = Clock::now();
-    if (round == 0) result.initialSearches += stats.initialSearches;
+    if (round == 0) result.initial_searches += stats.initial_searches;
     if (i == 0) return;
     trackerSegment.push_back(microseconds(t1 - t0));
-    trackerWhole.push_back(microseconds(t2 - t0));
+    tracker_whole.push_back(microseconds(t2 - t0));
     if (round > 0) return;
-    touched += stats.touchedFraction;
-    cells += stats.cellsClassified;
-    result.ballFrames += tracking.tracker().regionCells(ballClass) > 0 ? 1 : 0;
+    touched += stats.touched_fraction;
+    cells += stats.cells_classified;
+    result.ball_frames += tracking.tracker().regionCells(ballClass) > 0 ? 1 : 0;
     touchedLines +=
-        (stats.cellsClassified * cellSize * cellSize + tracking.lineDetector().pixelsRead()) /
+        (stats.cells_classified * cell_size * cell_size + tracking.lineDetector().pixelsRead()) /
         pixels;
     overlap += stats.overlap;
     points += static_cast<double>(trackerLines.points.size());
@@ -244,16 +244,16 @@ Result run(rt::SimCamera& sim, const Sequence& sequence, int cellSize, int frame
 
   const int n = frameCount - 1;
   result.tracker = summarise(trackerSegment, rounds);
-  result.trackerWhole = summarise(trackerWhole, rounds);
+  result.tracker_whole = summarise(tracker_whole, rounds);
   result.touched = touched / n;
-  result.touchedCells = cells / n;
-  result.gridCells = tracking.grid().cellCount();
-  result.touchedWithLines = touchedLines / n;
+  result.touched_cells = cells / n;
+  result.grid_cells = tracking.grid().cellCount();
+  result.touched_with_lines = touchedLines / n;
   result.overlap = overlap / n;
-  result.linePoints = points / n;
+  result.line_points = points / n;
   result.cmvision = summarise(a.segment, rounds);
-  result.cmvisionWhole = summarise(a.whole, rounds);
-  result.cmvisionMasked = summarise(aMasked.segment, rounds);
+  result.cmvision_whole = summarise(a.whole, rounds);
+  result.cmvision_masked = summarise(aMasked.segment, rounds);
   result.opencv = summarise(opencvSegment, rounds);
 
   // Agreement of the tracker's regions with baseline (a), frame by frame (not timed).
@@ -266,10 +266,10 @@ Result run(rt::SimCamera& sim, const Sequence& sequence, int cellSize, int frame
       cmvision.segment(processor.classifier());
       const rt::Agreement agreement =
           rt::compareWithFullSegmentation(processor.tracker().visited(), cmvision);
-      result.exactFrames += agreement.exact() ? 1 : 0;
-      result.partialRegions += agreement.regionsPartial;
-      result.staleCells += agreement.staleCells;
-      result.untrackedRegions += agreement.regionsUntracked;
+      result.exact_frames += agreement.exact() ? 1 : 0;
+      result.partial_regions += agreement.regions_partial;
+      result.stale_cells += agreement.stale_cells;
+      result.untracked_regions += agreement.regions_untracked;
     }
   }
   return result;
@@ -278,12 +278,12 @@ Result run(rt::SimCamera& sim, const Sequence& sequence, int cellSize, int frame
 // The tracker's time per cell it classified over (a)'s time per cell of the grid (medians of
 // the times, mean of the touched cells).
 double perTouchedCellVsBaseline(const Result& r) {
-  return (r.tracker.median / r.touchedCells) / (r.cmvision.median / r.gridCells);
+  return (r.tracker.median / r.touched_cells) / (r.cmvision.median / r.grid_cells);
 }
 
 std::string motionName(const Sequence& s) {
   char text[64];
-  std::snprintf(text, sizeof text, "%.1f m/s %3.0f deg/s", s.speed, s.omegaDeg);
+  std::snprintf(text, sizeof text, "%.1f m/s %3.0f deg/s", s.speed, s.omega_deg);
   return text;
 }
 
@@ -293,7 +293,7 @@ int main(int argc, char** argv) {
   CLI::App app{
       "Region tracker vs full-frame segmentation (CMVision-style, OpenCV) on rendered sequences."};
   int frames = 240;
-  int cellSize = 4;
+  int cell_size = 4;
   bool quick = false;
   bool cold = false;
   bool interleave = false;
@@ -302,7 +302,7 @@ int main(int argc, char** argv) {
   app.add_option("--frames", frames, "frames per sequence (30 Hz)")
       ->check(CLI::Range(10, 3000))
       ->capture_default_str();
-  app.add_option("--cell-size", cellSize, "pixels per cell side: 1, 2, 4 or 8")
+  app.add_option("--cell-size", cell_size, "pixels per cell side: 1, 2, 4 or 8")
       ->check(CLI::IsMember({1, 2, 4, 8}))
       ->capture_default_str();
   app.add_option("--field", field, "field preset")->capture_default_str();
@@ -351,7 +351,7 @@ int main(int argc, char** argv) {
     for (const Sequence& s : sequences) {
       if (!cameras.count(s.camera)) cameras.emplace(s.camera, rt::SimCamera::load(s.camera, field));
       rt::SimCamera& sim = cameras.at(s.camera);
-      results.push_back(run(sim, s, cellSize, frames, rounds, cold,
+      results.push_back(run(sim, s, cell_size, frames, rounds, cold,
                             interleave ? Order::kInterleaved : Order::kSequential));
       const Result& r = results.back();
       std::fprintf(stderr, "done %s %dx%d %s\n", r.sequence.kind.c_str(), sim.mirror.width(),
@@ -363,8 +363,8 @@ int main(int argc, char** argv) {
       "region tracking benchmark: field %s, %d frames per sequence at 30 Hz, %dx%d cells, "
       "%s frames, %d rounds with methods %s; times in microseconds: each frame's fastest round, "
       "median / p95 over the frames; frame 0 of each round excluded\n\n",
-      field.c_str(), frames, cellSize, cellSize, cold ? "cache-cold" : "freshly delivered", rounds,
-      interleave ? "interleaved frame by frame" : "one after another");
+      field.c_str(), frames, cell_size, cell_size, cold ? "cache-cold" : "freshly delivered",
+      rounds, interleave ? "interleaved frame by frame" : "one after another");
   std::printf(
       "| image | motion | tracker | tracker+lines | cmvision (a) | cmvision+lines | "
       "(a') skip mask | opencv (b) | a/tracker | a'/tracker | b/tracker | whole a/tracker | "
@@ -383,14 +383,15 @@ int main(int argc, char** argv) {
         "%.0f / %.0f | %.1f | %.1f | %.1f | %.1f | %.1f %% | %.1f %% | %.1f | %.0f %% | %d / %d | "
         "%.0f | %d / %d | %d / %d | %d | %d | %.1f |\n",
         small ? "320x240" : "640x480", motionName(r.sequence).c_str(), r.tracker.median,
-        r.tracker.p95, r.trackerWhole.median, r.trackerWhole.p95, r.cmvision.median, r.cmvision.p95,
-        r.cmvisionWhole.median, r.cmvisionWhole.p95, r.cmvisionMasked.median, r.cmvisionMasked.p95,
-        r.opencv.median, r.opencv.p95, r.cmvision.median / r.tracker.median,
-        r.cmvisionMasked.median / r.tracker.median, r.opencv.median / r.tracker.median,
-        r.cmvisionWhole.median / r.trackerWhole.median, 100 * r.touched, 100 * r.touchedWithLines,
-        perTouchedCellVsBaseline(r), 100 * r.overlap, r.initialSearches, r.frames, r.linePoints,
-        r.ballFrames, r.frames - 1, r.exactFrames, r.frames, r.partialRegions, r.staleCells,
-        static_cast<double>(r.untrackedRegions) / r.frames);
+        r.tracker.p95, r.tracker_whole.median, r.tracker_whole.p95, r.cmvision.median,
+        r.cmvision.p95, r.cmvision_whole.median, r.cmvision_whole.p95, r.cmvision_masked.median,
+        r.cmvision_masked.p95, r.opencv.median, r.opencv.p95, r.cmvision.median / r.tracker.median,
+        r.cmvision_masked.median / r.tracker.median, r.opencv.median / r.tracker.median,
+        r.cmvision_whole.median / r.tracker_whole.median, 100 * r.touched,
+        100 * r.touched_with_lines, perTouchedCellVsBaseline(r), 100 * r.overlap,
+        r.initial_searches, r.frames, r.line_points, r.ball_frames, r.frames - 1, r.exact_frames,
+        r.frames, r.partial_regions, r.stale_cells,
+        static_cast<double>(r.untracked_regions) / r.frames);
   }
   std::printf("\n");
   for (const Result* r : defaultResults) {
@@ -400,7 +401,7 @@ int main(int argc, char** argv) {
         "whole_step_ratio=%.2f per_touched_cell_vs_baseline=%.2f\n",
         r->sequence.camera == "omni_sim" ? "" : "640x480: ", r->cmvision.median / r->tracker.median,
         r->opencv.median / r->tracker.median, r->touched,
-        r->cmvisionWhole.median / r->trackerWhole.median, perTouchedCellVsBaseline(*r));
+        r->cmvision_whole.median / r->tracker_whole.median, perTouchedCellVsBaseline(*r));
   }
   return 0;
 }

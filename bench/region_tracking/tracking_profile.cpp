@@ -36,23 +36,23 @@ constexpr std::array<const char*, rt::kTouchReasonCount> kReasonNames = {
     "shrink", "grow", "seed (parent boundary)", "view edge", "initial search", "inside parent"};
 
 struct Breakdown {
-  std::array<double, rt::kTouchReasonCount> byReason{};
+  std::array<double, rt::kTouchReasonCount> by_reason{};
   double touched = 0;
   // What the touched cells are in this frame.
-  double greenOwned = 0;      // green, in a tracked green region at the end of the frame
-  double greenUntracked = 0;  // green but not tracked
+  double green_owned = 0;      // green, in a tracked green region at the end of the frame
+  double green_untracked = 0;  // green but not tracked
   double white = 0;
-  double otherTracked = 0;  // another tracked class (goal, ball, obstacle colours)
-  double other = 0;         // unknown / untracked classes
-  double nextToMask = 0;    // touched cells with a don't-touch (or out-of-grid) neighbour
+  double other_tracked = 0;  // another tracked class (goal, ball, obstacle colours)
+  double other = 0;          // unknown / untracked classes
+  double next_to_mask = 0;   // touched cells with a don't-touch (or out-of-grid) neighbour
   // The least any exact shrink-and-grow classifies in a frame where nothing moved: the cells of
   // the tracked regions with a neighbour outside their region (shrink re-checks them) and the
   // touchable cells outside next to a region (grow must see they did not join it).
-  double boundaryBand = 0;
-  double boundaryBandAtMask = 0;  // the part of the band next to the don't-touch mask
-  double touchableCells = 0;
+  double boundary_band = 0;
+  double boundary_band_at_mask = 0;  // the part of the band next to the don't-touch mask
+  double touchable_cells = 0;
   double cells = 0;
-  double dropsProcessed = 0;
+  double drops_processed = 0;
 };
 
 void addBreakdown(const rt::FrameProcessor& processor, rt::FrameCellClassifier& classifier,
@@ -64,16 +64,16 @@ void addBreakdown(const rt::FrameProcessor& processor, rt::FrameCellClassifier& 
   const rt::ClassId white = rt::classIdOf(camera::ColourClass::kWhite);
   const rt::TrackingStats& stats = tracker.stats();
   for (int r = 0; r < rt::kTouchReasonCount; ++r)
-    b.byReason[r] += stats.classifiedBy[r];
-  b.touched += stats.cellsClassified;
-  b.dropsProcessed += stats.dropsProcessed;
+    b.by_reason[r] += stats.classified_by[r];
+  b.touched += stats.cells_classified;
+  b.drops_processed += stats.drops_processed;
   std::array<bool, 256> tracked{};
   for (const rt::ClassTracking& t : tracker.config().classes)
-    tracked[t.classId] = true;
+    tracked[t.class_id] = true;
   auto blocked = [&](int x, int y) { return !grid.contains(x, y) || mask[grid.index(x, y)]; };
   for (int y = 0; y < grid.height; ++y) {
     for (int x = 0; x < grid.width; ++x) {
-      if (!mask[grid.index(x, y)]) ++b.touchableCells;
+      if (!mask[grid.index(x, y)]) ++b.touchable_cells;
       ++b.cells;
       const bool atMask =
           blocked(x - 1, y) || blocked(x + 1, y) || blocked(x, y - 1) || blocked(x, y + 1);
@@ -88,23 +88,23 @@ void addBreakdown(const rt::FrameProcessor& processor, rt::FrameCellClassifier& 
           band = self != rt::kNoClass ? other != self || blocked(nx, ny) : other != rt::kNoClass;
         }
         if (band) {
-          ++b.boundaryBand;
-          if (atMask) ++b.boundaryBandAtMask;
+          ++b.boundary_band;
+          if (atMask) ++b.boundary_band_at_mask;
         }
       }
       if (!tracker.classifiedInLastFrame(x, y)) continue;
       const rt::ClassId c = classifier.classify(x, y);
       const rt::ClassId owner = tracker.ownerOf(x, y);
       if (c == green) {
-        (owner == green ? b.greenOwned : b.greenUntracked) += 1;
+        (owner == green ? b.green_owned : b.green_untracked) += 1;
       } else if (c == white) {
         ++b.white;
       } else if (tracked[c]) {
-        ++b.otherTracked;
+        ++b.other_tracked;
       } else {
         ++b.other;
       }
-      if (atMask) ++b.nextToMask;
+      if (atMask) ++b.next_to_mask;
     }
   }
 }
@@ -116,13 +116,13 @@ int main(int argc, char** argv) {
   std::string cameraPreset = "omni_sim";
   std::string field = "msl";
   std::string method = "tracker";
-  double speed = 1.0, omegaDeg = 90.0;
+  double speed = 1.0, omega_deg = 90.0;
   int frames = 240, repeat = 1, lineRepeat = 1;
   bool noBreakdown = false;
   app.add_option("--camera", cameraPreset, "camera preset")->capture_default_str();
   app.add_option("--field", field, "field preset")->capture_default_str();
   app.add_option("--speed", speed, "m/s")->check(CLI::Range(0.0, 5.0))->capture_default_str();
-  app.add_option("--omega", omegaDeg, "deg/s")
+  app.add_option("--omega", omega_deg, "deg/s")
       ->check(CLI::Range(0.0, 1000.0))
       ->capture_default_str();
   app.add_option("--frames", frames, "frames (30 Hz)")
@@ -150,11 +150,11 @@ int main(int argc, char** argv) {
   fieldline::config::runOrExit([&] {
     rt::SimCamera sim = rt::SimCamera::load(cameraPreset, field);
     const std::vector<std::vector<std::uint8_t>> sequence =
-        rt::bench::renderSequence(sim, speed, omegaDeg, frames);
+        rt::bench::renderSequence(sim, speed, omega_deg, frames);
     const rt::VisionParams params = rt::defaultVisionParams();
     std::vector<rt::ClassId> classes;
     for (const rt::ClassTracking& c : params.tracker.classes)
-      classes.push_back(c.classId);
+      classes.push_back(c.class_id);
     std::vector<std::uint8_t> delivered(sequence[0].size());
 
     rt::FrameProcessor processor(sim.mirror, sim.table, params);
@@ -195,23 +195,23 @@ int main(int argc, char** argv) {
     std::printf(
         "%s, %.1f m/s %.0f deg/s, %d frames, %.0f cells (%.0f touchable): cells "
         "classified per frame (mean over frames 1..%d)\n\n",
-        cameraPreset.c_str(), speed, omegaDeg, frames, cells, breakdown.touchableCells / n,
+        cameraPreset.c_str(), speed, omega_deg, frames, cells, breakdown.touchable_cells / n,
         frames - 1);
     std::printf("| reason | cells | of the image |\n|---|---|---|\n");
     for (int r = 0; r < rt::kTouchReasonCount; ++r)
-      row(kReasonNames[r], breakdown.byReason[r]);
+      row(kReasonNames[r], breakdown.by_reason[r]);
     row("**all**", breakdown.touched);
     std::printf("\n| touched cell is | cells | of the image |\n|---|---|---|\n");
-    row("green, tracked", breakdown.greenOwned);
-    row("green, untracked", breakdown.greenUntracked);
+    row("green, tracked", breakdown.green_owned);
+    row("green, untracked", breakdown.green_untracked);
     row("white", breakdown.white);
-    row("another tracked class", breakdown.otherTracked);
+    row("another tracked class", breakdown.other_tracked);
     row("other (unknown, untracked class)", breakdown.other);
-    row("(next to the don't-touch mask)", breakdown.nextToMask);
+    row("(next to the don't-touch mask)", breakdown.next_to_mask);
     std::printf("\n| boundary band of the final regions | cells | of the image |\n|---|---|---|\n");
-    row("band (a still frame classifies exactly these)", breakdown.boundaryBand);
-    row("(next to the don't-touch mask)", breakdown.boundaryBandAtMask);
-    std::printf("\ndrops processed per frame: %.0f\n", breakdown.dropsProcessed / n);
+    row("band (a still frame classifies exactly these)", breakdown.boundary_band);
+    row("(next to the don't-touch mask)", breakdown.boundary_band_at_mask);
+    std::printf("\ndrops processed per frame: %.0f\n", breakdown.drops_processed / n);
 
     // The bound on the ratio: the tracker must at least classify the cells it touches, (a) must
     // at least classify every cell. Timed here in one process, frame by frame, medians.
@@ -226,7 +226,7 @@ int main(int argc, char** argv) {
     rt::FrameProcessor timed(sim.mirror, sim.table, params);
     rt::FrameCellClassifier& classifier = timed.classifier();
     const rt::CellGrid& grid = timed.grid();
-    std::vector<rt::Cell> touchedCells;
+    std::vector<rt::Cell> touched_cells;
     std::vector<rt::ClassId> rowClasses(grid.width);
     std::vector<double> trackTimes, touchedTimes, allTimes, lineTimes, lineAgainTimes;
     rt::LinePoints timedLines;
@@ -243,11 +243,11 @@ int main(int argc, char** argv) {
       timed.lineDetector().detect(sim.renderer->view(delivered), timed.tracker().contours(),
                                   timedLines);
       const Clock::time_point tLinesAgain = Clock::now();
-      touchedCells.clear();
+      touched_cells.clear();
       for (int y = 0; y < grid.height; ++y) {
         for (int x = 0; x < grid.width; ++x) {
           if (timed.tracker().classifiedInLastFrame(x, y)) {
-            touchedCells.push_back({static_cast<std::int16_t>(x), static_cast<std::int16_t>(y)});
+            touched_cells.push_back({static_cast<std::int16_t>(x), static_cast<std::int16_t>(y)});
           }
         }
       }
@@ -255,7 +255,7 @@ int main(int argc, char** argv) {
       std::copy(sequence[i].begin(), sequence[i].end(), delivered.begin());
       const Clock::time_point t2 = Clock::now();
       unsigned acc = 0;
-      for (const rt::Cell c : touchedCells)
+      for (const rt::Cell c : touched_cells)
         acc += classifier.classify(c.x, c.y);
       const Clock::time_point t3 = Clock::now();
       std::copy(sequence[i].begin(), sequence[i].end(), delivered.begin());

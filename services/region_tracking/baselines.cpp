@@ -23,7 +23,7 @@ FullFrameClassMap::FullFrameClassMap(const CellGrid& grid, std::span<const std::
       const bool allowedRun = allowed(x);
       while (x < grid.width && allowed(x) == allowedRun)
         ++x;
-      (allowedRun ? allowedSpans_ : forbiddenSpans_).push_back({y, first, x});
+      (allowedRun ? allowed_spans_ : forbidden_spans_).push_back({y, first, x});
     }
   }
 }
@@ -34,16 +34,16 @@ void FullFrameClassMap::classify(const CellClassifier& classifier) {
       classifier.classifyRow(y, 0,
                              std::span<ClassId>(classes_).subspan(grid_.index(0, y), grid_.width));
     }
-    for (const Span& span : forbiddenSpans_) {
-      std::fill_n(classes_.begin() + grid_.index(span.firstX, span.y), span.endX - span.firstX,
+    for (const Span& span : forbidden_spans_) {
+      std::fill_n(classes_.begin() + grid_.index(span.first_x, span.y), span.end_x - span.first_x,
                   kNoClass);
     }
     return;
   }
-  for (const Span& span : allowedSpans_) {
-    classifier.classifyRow(span.y, span.firstX,
-                           std::span<ClassId>(classes_).subspan(grid_.index(span.firstX, span.y),
-                                                                span.endX - span.firstX));
+  for (const Span& span : allowed_spans_) {
+    classifier.classifyRow(span.y, span.first_x,
+                           std::span<ClassId>(classes_).subspan(grid_.index(span.first_x, span.y),
+                                                                span.end_x - span.first_x));
   }
 }
 
@@ -55,22 +55,22 @@ CmvisionSegmenter::CmvisionSegmenter(const CellGrid& grid, std::span<const Class
                                      FullFramePolicy policy)
     : grid_(grid),
       layout_(grid),
-      classMap_(grid, dontTouch, policy),
-      trackedClasses_(trackedClasses.begin(), trackedClasses.end()),
+      class_map_(grid, dontTouch, policy),
+      tracked_classes_(trackedClasses.begin(), trackedClasses.end()),
       padded_(layout_.size(), kNoClass),
-      rowStart_(grid.height + 1, 0),
-      boundaryCellsByClass_(trackedClasses.size()),
+      row_start_(grid.height + 1, 0),
+      boundary_cells_by_class_(trackedClasses.size()),
       connectivity_(grid) {
   if (trackedClasses.size() > 255) throw std::invalid_argument("cmvision: too many classes");
   for (std::size_t slot = 0; slot < trackedClasses.size(); ++slot) {
     const ClassId c = trackedClasses[slot];
     if (c == kNoClass) throw std::invalid_argument("cmvision: class id 255 is reserved");
     tracked_[c] = true;
-    slotOf_[c] = static_cast<std::uint8_t>(slot);
+    slot_of_[c] = static_cast<std::uint8_t>(slot);
   }
   runs_.reserve(grid.cellCount() / 2 + grid.height);
-  runRegion_.reserve(runs_.capacity());
-  for (auto& cells : boundaryCellsByClass_)
+  run_region_.reserve(runs_.capacity());
+  for (auto& cells : boundary_cells_by_class_)
     cells.reserve(grid.cellCount() / 2);
 }
 
@@ -98,13 +98,13 @@ void CmvisionSegmenter::unite(int a, int b) {
 }
 
 void CmvisionSegmenter::segment(const CellClassifier& classifier) {
-  classMap_.classify(classifier);
-  const std::span<const ClassId> classes = classMap_.classes();
+  class_map_.classify(classifier);
+  const std::span<const ClassId> classes = class_map_.classes();
 
   // Run-length encoding of the tracked classes.
   runs_.clear();
   for (int y = 0; y < grid_.height; ++y) {
-    rowStart_[y] = static_cast<int>(runs_.size());
+    row_start_[y] = static_cast<int>(runs_.size());
     const ClassId* row = classes.data() + static_cast<std::size_t>(y) * grid_.width;
     int x = 0;
     while (x < grid_.width) {
@@ -119,46 +119,47 @@ void CmvisionSegmenter::segment(const CellClassifier& classifier) {
       }
     }
   }
-  rowStart_[grid_.height] = static_cast<int>(runs_.size());
+  row_start_[grid_.height] = static_cast<int>(runs_.size());
 
   // Union-find: join runs of the same class that share at least one column with a run of the
   // row above (4-connectivity).
   for (int y = 1; y < grid_.height; ++y) {
-    int above = rowStart_[y - 1];
-    const int aboveEnd = rowStart_[y];
-    for (int run = rowStart_[y]; run < rowStart_[y + 1]; ++run) {
+    int above = row_start_[y - 1];
+    const int aboveEnd = row_start_[y];
+    for (int run = row_start_[y]; run < row_start_[y + 1]; ++run) {
       const Run& current = runs_[run];
-      while (above < aboveEnd && runs_[above].endX <= current.firstX)
+      while (above < aboveEnd && runs_[above].end_x <= current.first_x)
         ++above;
-      for (int a = above; a < aboveEnd && runs_[a].firstX < current.endX; ++a) {
-        if (runs_[a].classId == current.classId) unite(run, a);
+      for (int a = above; a < aboveEnd && runs_[a].first_x < current.end_x; ++a) {
+        if (runs_[a].class_id == current.class_id) unite(run, a);
       }
     }
   }
 
   // Regions: one per root, with size and bounding box.
   regions_.clear();
-  runRegion_.resize(runs_.size());
+  run_region_.resize(runs_.size());
   for (int run = 0; run < static_cast<int>(runs_.size()); ++run) {
     const int root = findRoot(run);
     const Run& r = runs_[run];
     if (root == run) {
-      runRegion_[run] = static_cast<int>(regions_.size());
-      regions_.push_back({r.classId, 0, r.firstX, r.y, r.endX - 1, r.y});
+      run_region_[run] = static_cast<int>(regions_.size());
+      regions_.push_back({r.class_id, 0, r.first_x, r.y, r.end_x - 1, r.y});
     } else {
-      runRegion_[run] = runRegion_[root];  // roots come first in scan order
+      run_region_[run] = run_region_[root];  // roots come first in scan order
     }
-    Region& region = regions_[runRegion_[run]];
-    region.cells += r.endX - r.firstX;
-    region.minX = std::min<int>(region.minX, r.firstX);
-    region.maxX = std::max<int>(region.maxX, r.endX - 1);
-    region.maxY = r.y;
+    Region& region = regions_[run_region_[run]];
+    region.cells += r.end_x - r.first_x;
+    region.min_x = std::min<int>(region.min_x, r.first_x);
+    region.max_x = std::max<int>(region.max_x, r.end_x - 1);
+    region.max_y = r.y;
   }
 
   markBoundaries();
   contours_.clear();
-  for (std::size_t slot = 0; slot < trackedClasses_.size(); ++slot) {
-    connectivity_.extractContoursAt(boundaryCellsByClass_[slot], trackedClasses_[slot], contours_);
+  for (std::size_t slot = 0; slot < tracked_classes_.size(); ++slot) {
+    connectivity_.extractContoursAt(boundary_cells_by_class_[slot], tracked_classes_[slot],
+                                    contours_);
   }
 }
 
@@ -168,18 +169,18 @@ void CmvisionSegmenter::segment(const CellClassifier& classifier) {
 // each class are listed in scan order, as comparing every cell with its four neighbours would
 // list them, so the contours come out identical (same contours, same order, same start points).
 void CmvisionSegmenter::markBoundaries() {
-  for (auto& cells : boundaryCellsByClass_)
+  for (auto& cells : boundary_cells_by_class_)
     cells.clear();
   for (int y = 0; y < grid_.height; ++y) {
-    const ClassId* source = classMap_.classes().data() + static_cast<std::size_t>(y) * grid_.width;
+    const ClassId* source = class_map_.classes().data() + static_cast<std::size_t>(y) * grid_.width;
     std::copy(source, source + grid_.width, padded_.begin() + layout_.index(0, y));
   }
   const int stride = layout_.width;
   for (const Run& r : runs_) {
-    std::vector<std::int32_t>& cells = boundaryCellsByClass_[slotOf_[r.classId]];
-    const int first = layout_.index(r.firstX, r.y);
-    const int last = first + (r.endX - r.firstX) - 1;
-    const ClassId c = r.classId;
+    std::vector<std::int32_t>& cells = boundary_cells_by_class_[slot_of_[r.class_id]];
+    const int first = layout_.index(r.first_x, r.y);
+    const int last = first + (r.end_x - r.first_x) - 1;
+    const ClassId c = r.class_id;
     const ClassId* map = padded_.data();
     for (int cell = first; cell <= last; ++cell) {
       const unsigned sides = (map[cell - stride] != c ? 1u : 0u) | (cell == last ? 2u : 0u) |
@@ -196,7 +197,8 @@ void CmvisionSegmenter::labelCells(std::vector<int>& labels) const {
   labels.assign(grid_.cellCount(), -1);
   for (std::size_t run = 0; run < runs_.size(); ++run) {
     const Run& r = runs_[run];
-    std::fill_n(labels.begin() + grid_.index(r.firstX, r.y), r.endX - r.firstX, runRegion_[run]);
+    std::fill_n(labels.begin() + grid_.index(r.first_x, r.y), r.end_x - r.first_x,
+                run_region_[run]);
   }
 }
 
@@ -207,26 +209,26 @@ OpenCvSegmenter::OpenCvSegmenter(const CellGrid& grid, std::span<const ClassId> 
                                  std::span<const std::uint8_t> dontTouch, FullFramePolicy policy,
                                  AbsentClasses absent)
     : grid_(grid),
-      classMap_(grid, dontTouch, policy),
-      trackedClasses_(trackedClasses.begin(), trackedClasses.end()),
+      class_map_(grid, dontTouch, policy),
+      tracked_classes_(trackedClasses.begin(), trackedClasses.end()),
       absent_(absent),
       mask_(grid.height, grid.width, CV_8U) {}
 
 void OpenCvSegmenter::segment(const CellClassifier& classifier) {
-  classMap_.classify(classifier);
+  class_map_.classify(classifier);
   // A Mat header over the class map; no copy.
   const cv::Mat classes(grid_.height, grid_.width, CV_8U,
-                        const_cast<ClassId*>(classMap_.classes().data()));
+                        const_cast<ClassId*>(class_map_.classes().data()));
   regions_.clear();
   contours_.clear();
   // Which classes the frame has: labelling an empty mask finds nothing, at full cost.
   std::array<int, 256> histogram{};
   if (absent_ == AbsentClasses::kSkip) {
-    for (const ClassId c : classMap_.classes())
+    for (const ClassId c : class_map_.classes())
       ++histogram[c];
   }
-  const int half = grid_.cellSize / 2;
-  for (const ClassId c : trackedClasses_) {
+  const int half = grid_.cell_size / 2;
+  for (const ClassId c : tracked_classes_) {
     if (absent_ == AbsentClasses::kSkip && histogram[c] == 0) continue;
     cv::compare(classes, cv::Scalar(c), mask_, cv::CMP_EQ);
     const int labels =
@@ -237,18 +239,18 @@ void OpenCvSegmenter::segment(const CellClassifier& classifier) {
                           s[cv::CC_STAT_LEFT] + s[cv::CC_STAT_WIDTH] - 1,
                           s[cv::CC_STAT_TOP] + s[cv::CC_STAT_HEIGHT] - 1});
     }
-    cv::findContours(mask_, cvContours_, hierarchy_, cv::RETR_CCOMP, cv::CHAIN_APPROX_NONE);
-    for (std::size_t i = 0; i < cvContours_.size(); ++i) {
+    cv::findContours(mask_, cv_contours_, hierarchy_, cv::RETR_CCOMP, cv::CHAIN_APPROX_NONE);
+    for (std::size_t i = 0; i < cv_contours_.size(); ++i) {
       Contour contour;
-      contour.classId = c;
+      contour.class_id = c;
       contour.outer = hierarchy_[i][3] < 0;  // RETR_CCOMP: holes have a parent
       contour.begin = static_cast<int>(contours_.points.size());
-      for (const cv::Point& p : cvContours_[i]) {
-        contours_.points.push_back({p.x * grid_.cellSize + half, p.y * grid_.cellSize + half});
+      for (const cv::Point& p : cv_contours_[i]) {
+        contours_.points.push_back({p.x * grid_.cell_size + half, p.y * grid_.cell_size + half});
       }
       contour.end = static_cast<int>(contours_.points.size());
-      const double area = cv::contourArea(cvContours_[i], true);
-      contour.signedCellArea = static_cast<int>(contour.outer ? std::abs(area) : -std::abs(area));
+      const double area = cv::contourArea(cv_contours_[i], true);
+      contour.signed_cell_area = static_cast<int>(contour.outer ? std::abs(area) : -std::abs(area));
       contours_.contours.push_back(contour);
     }
   }
@@ -268,18 +270,18 @@ Agreement compareWithFullSegmentation(std::span<const ClassId> trackerVisited,
     const ClassId owner = trackerVisited[i];
     if (owner == kNoClass) continue;
     if (classes[i] != owner) {
-      ++agreement.staleCells;
+      ++agreement.stale_cells;
     } else if (labels[i] >= 0) {
       ++trackedCells[labels[i]];
     }
   }
   for (std::size_t r = 0; r < regions.size(); ++r) {
     if (trackedCells[r] == regions[r].cells) {
-      ++agreement.regionsTracked;
+      ++agreement.regions_tracked;
     } else if (trackedCells[r] == 0) {
-      ++agreement.regionsUntracked;
+      ++agreement.regions_untracked;
     } else {
-      ++agreement.regionsPartial;
+      ++agreement.regions_partial;
     }
   }
   return agreement;

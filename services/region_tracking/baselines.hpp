@@ -24,10 +24,10 @@ namespace fieldline::region_tracking {
 
 // A connected region found by a baseline.
 struct Region {
-  ClassId classId = kNoClass;
+  ClassId class_id = kNoClass;
   int cells = 0;
   // Bounding box in cells, inclusive.
-  int minX = 0, minY = 0, maxX = 0, maxY = 0;
+  int min_x = 0, min_y = 0, max_x = 0, max_y = 0;
 };
 
 enum class FullFramePolicy {
@@ -49,12 +49,12 @@ class FullFrameClassMap {
 
  private:
   struct Span {
-    int y, firstX, endX;
+    int y, first_x, end_x;
   };
   CellGrid grid_;
   FullFramePolicy policy_;
-  std::vector<Span> allowedSpans_;  // maximal runs of touchable cells per row
-  std::vector<Span> forbiddenSpans_;
+  std::vector<Span> allowed_spans_;  // maximal runs of touchable cells per row
+  std::vector<Span> forbidden_spans_;
   std::vector<ClassId> classes_;
 };
 
@@ -66,7 +66,7 @@ class CmvisionSegmenter {
 
   void segment(const CellClassifier& classifier);
 
-  std::span<const ClassId> classMap() const { return classMap_.classes(); }
+  std::span<const ClassId> classMap() const { return class_map_.classes(); }
   std::span<const Region> regions() const { return regions_; }
   const ContourSet& contours() const { return contours_; }
   // Region index of every cell (-1 for cells of untracked classes); computed on request, for
@@ -75,8 +75,8 @@ class CmvisionSegmenter {
 
  private:
   struct Run {
-    std::int16_t y, firstX, endX;
-    ClassId classId;
+    std::int16_t y, first_x, end_x;
+    ClassId class_id;
     int parent;  // union-find parent (a run index); the root's region index after labelling
   };
   int findRoot(int run);
@@ -85,18 +85,18 @@ class CmvisionSegmenter {
 
   CellGrid grid_;
   PaddedLayout layout_;
-  FullFrameClassMap classMap_;
+  FullFrameClassMap class_map_;
   bool tracked_[256] = {};
-  std::uint8_t slotOf_[256] = {};  // index into trackedClasses_ by class id
-  std::vector<ClassId> trackedClasses_;
+  std::uint8_t slot_of_[256] = {};  // index into tracked_classes_ by class id
+  std::vector<ClassId> tracked_classes_;
   // The class map with a frame of kNoClass around it (PaddedLayout), so every cell of a run has
   // an up and a down neighbour to compare with.
   std::vector<ClassId> padded_;
   std::vector<Run> runs_;
-  std::vector<int> rowStart_;  // first run of each row, plus one past the last
-  std::vector<int> runRegion_;
+  std::vector<int> row_start_;  // first run of each row, plus one past the last
+  std::vector<int> run_region_;
   std::vector<Region> regions_;
-  std::vector<std::vector<std::int32_t>> boundaryCellsByClass_;  // padded indices
+  std::vector<std::vector<std::int32_t>> boundary_cells_by_class_;  // padded indices
   ConnectivityGrid connectivity_;
   ContourSet contours_;
 };
@@ -117,18 +117,18 @@ class OpenCvSegmenter {
 
   void segment(const CellClassifier& classifier);
 
-  std::span<const ClassId> classMap() const { return classMap_.classes(); }
+  std::span<const ClassId> classMap() const { return class_map_.classes(); }
   std::span<const Region> regions() const { return regions_; }
   // Contour points are the centres of the boundary cells, in pixels (OpenCV's convention).
   const ContourSet& contours() const { return contours_; }
 
  private:
   CellGrid grid_;
-  FullFrameClassMap classMap_;
-  std::vector<ClassId> trackedClasses_;
+  FullFrameClassMap class_map_;
+  std::vector<ClassId> tracked_classes_;
   AbsentClasses absent_;
   cv::Mat mask_, labels_, stats_, centroids_;
-  std::vector<std::vector<cv::Point>> cvContours_;
+  std::vector<std::vector<cv::Point>> cv_contours_;
   std::vector<cv::Vec4i> hierarchy_;
   std::vector<Region> regions_;
   ContourSet contours_;
@@ -138,13 +138,13 @@ class OpenCvSegmenter {
 struct Agreement {
   // Full-segmentation regions of the tracked classes: entirely tracked, partly tracked (a
   // disagreement), not tracked at all (never seeded or lost).
-  int regionsTracked = 0;
-  int regionsPartial = 0;
-  int regionsUntracked = 0;
+  int regions_tracked = 0;
+  int regions_partial = 0;
+  int regions_untracked = 0;
   // Tracked cells whose class in the frame is a different one (a region that jumped away
   // without overlap, leaving its old cells behind).
-  int staleCells = 0;
-  bool exact() const { return regionsPartial == 0 && staleCells == 0; }
+  int stale_cells = 0;
+  bool exact() const { return regions_partial == 0 && stale_cells == 0; }
 };
 Agreement compareWithFullSegmentation(std::span<const ClassId> trackerVisited,
                                       const CmvisionSegmenter& full);

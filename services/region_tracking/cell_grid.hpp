@@ -1,6 +1,6 @@
 // The grid the tracker works on, and the homogeneity function that classifies one of its cells.
 //
-// A cell is a block of cellSize x cellSize pixels (1, 2, 4 or 8). The tracker never converts a
+// A cell is a block of cell_size x cell_size pixels (1, 2, 4 or 8). The tracker never converts a
 // whole frame: it asks a CellClassifier for the colour class of a cell when a drop reaches it.
 // Class ids are small integers chosen by the caller (the camera's colour classes, or anything in
 // a synthetic test); kNoClass is reserved for "nothing / not visited".
@@ -19,23 +19,23 @@ inline constexpr ClassId kNoClass = 0xFF;
 
 // Size of the cell grid and how it maps to pixels.
 struct CellGrid {
-  int width = 0;     // cells per row
-  int height = 0;    // rows of cells
-  int cellSize = 1;  // pixels per cell side
+  int width = 0;      // cells per row
+  int height = 0;     // rows of cells
+  int cell_size = 1;  // pixels per cell side
 
   int cellCount() const { return width * height; }
   bool contains(int x, int y) const { return x >= 0 && y >= 0 && x < width && y < height; }
   int index(int x, int y) const { return y * width + x; }
 
   // The grid covering an image; a partial block at the right or bottom edge is left out.
-  static CellGrid forImage(int imageWidth, int imageHeight, int cellSize) {
-    if (cellSize != 1 && cellSize != 2 && cellSize != 4 && cellSize != 8) {
+  static CellGrid forImage(int imageWidth, int imageHeight, int cell_size) {
+    if (cell_size != 1 && cell_size != 2 && cell_size != 4 && cell_size != 8) {
       throw std::invalid_argument("cell size must be 1, 2, 4 or 8 pixels");
     }
-    if (imageWidth < cellSize || imageHeight < cellSize) {
+    if (imageWidth < cell_size || imageHeight < cell_size) {
       throw std::invalid_argument("image smaller than one cell");
     }
-    return CellGrid{imageWidth / cellSize, imageHeight / cellSize, cellSize};
+    return CellGrid{imageWidth / cell_size, imageHeight / cell_size, cell_size};
   }
 };
 
@@ -45,11 +45,11 @@ class CellClassifier {
  public:
   virtual ~CellClassifier() = default;
   virtual ClassId classify(int x, int y) const = 0;
-  // Cells (firstX .. firstX + out.size() - 1, y), for the full-frame baselines; override when a
+  // Cells (first_x .. first_x + out.size() - 1, y), for the full-frame baselines; override when a
   // run of cells can be done faster than one by one.
-  virtual void classifyRow(int y, int firstX, std::span<ClassId> out) const {
+  virtual void classifyRow(int y, int first_x, std::span<ClassId> out) const {
     for (std::size_t i = 0; i < out.size(); ++i)
-      out[i] = classify(firstX + static_cast<int>(i), y);
+      out[i] = classify(first_x + static_cast<int>(i), y);
   }
 };
 
@@ -60,8 +60,8 @@ class ClassMapClassifier final : public CellClassifier {
   ClassMapClassifier(const std::vector<ClassId>& classes, int width)
       : classes_(classes), width_(width) {}
   ClassId classify(int x, int y) const override { return classes_[y * width_ + x]; }
-  void classifyRow(int y, int firstX, std::span<ClassId> out) const override {
-    const ClassId* row = classes_.data() + static_cast<std::size_t>(y) * width_ + firstX;
+  void classifyRow(int y, int first_x, std::span<ClassId> out) const override {
+    const ClassId* row = classes_.data() + static_cast<std::size_t>(y) * width_ + first_x;
     std::copy(row, row + out.size(), out.begin());
   }
 

@@ -34,7 +34,7 @@ constexpr std::array<std::array<std::int8_t, 16>, 4> kNextDirection = [] {
 ConnectivityGrid::ConnectivityGrid(const CellGrid& grid)
     : grid_(grid),
       layout_(grid),
-      cornerOffset_{0, 1, layout_.width + 1, layout_.width},
+      corner_offset_{0, 1, layout_.width + 1, layout_.width},
       step_{1, layout_.width, -1, -layout_.width},
       bits_(layout_.size(), 0) {}
 
@@ -46,31 +46,31 @@ void ConnectivityGrid::clear() {
   std::fill(bits_.begin(), bits_.end(), 0);
 }
 
-void ConnectivityGrid::extractContours(std::span<const Cell> cells, ClassId classId,
+void ConnectivityGrid::extractContours(std::span<const Cell> cells, ClassId class_id,
                                        ContourSet& out) {
   for (const Cell cell : cells)
-    extractAround(layout_.index(cell.x, cell.y), classId, out);
+    extractAround(layout_.index(cell.x, cell.y), class_id, out);
 }
 
-void ConnectivityGrid::extractContoursAt(std::span<const std::int32_t> cells, ClassId classId,
+void ConnectivityGrid::extractContoursAt(std::span<const std::int32_t> cells, ClassId class_id,
                                          ContourSet& out) {
   for (const std::int32_t cell : cells)
-    extractAround(cell, classId, out);
+    extractAround(cell, class_id, out);
 }
 
 // Each boundary cell is checked once: a contour through it is followed completely and its
 // edges removed, so the next edge found on a later cell always starts a new contour.
-void ConnectivityGrid::extractAround(int cell, ClassId classId, ContourSet& out) {
+void ConnectivityGrid::extractAround(int cell, ClassId class_id, ContourSet& out) {
   for (int side = 0; side < 4; ++side) {
-    const int corner = cell + cornerOffset_[side];
-    if (bits_[corner] & (1u << side)) followContour(corner, side, classId, out);
+    const int corner = cell + corner_offset_[side];
+    if (bits_[corner] & (1u << side)) followContour(corner, side, class_id, out);
   }
 }
 
-void ConnectivityGrid::followContour(int startCorner, int startDirection, ClassId classId,
+void ConnectivityGrid::followContour(int startCorner, int startDirection, ClassId class_id,
                                      ContourSet& out) {
   Contour contour;
-  contour.classId = classId;
+  contour.class_id = class_id;
   contour.begin = static_cast<int>(out.points.size());
   long twiceArea = 0;  // shoelace sum over the edges, in cell units
 
@@ -81,7 +81,7 @@ void ConnectivityGrid::followContour(int startCorner, int startDirection, ClassI
   int direction = startDirection;
   while (true) {
     bits_[corner] &= static_cast<std::uint8_t>(~(1u << direction));
-    out.points.push_back({x * grid_.cellSize, y * grid_.cellSize});
+    out.points.push_back({x * grid_.cell_size, y * grid_.cell_size});
     const int nextX = x + kStepDx[direction];
     const int nextY = y + kStepDy[direction];
     twiceArea += static_cast<long>(x) * nextY - static_cast<long>(nextX) * y;
@@ -101,8 +101,8 @@ void ConnectivityGrid::followContour(int startCorner, int startDirection, ClassI
   }
 
   contour.end = static_cast<int>(out.points.size());
-  contour.signedCellArea = static_cast<int>(twiceArea / 2);
-  contour.outer = contour.signedCellArea > 0;
+  contour.signed_cell_area = static_cast<int>(twiceArea / 2);
+  contour.outer = contour.signed_cell_area > 0;
   out.contours.push_back(contour);
 }
 

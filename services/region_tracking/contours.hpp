@@ -53,11 +53,11 @@ struct ContourPoint {
 // One closed boundary; its points are ContourSet::points[begin, end), the last point connects to
 // the first.
 struct Contour {
-  ClassId classId = kNoClass;
+  ClassId class_id = kNoClass;
   // Outer boundary of a region, or the boundary of a hole inside one.
   bool outer = true;
   // Enclosed area in cells: positive for outer boundaries, negative for holes.
-  int signedCellArea = 0;
+  int signed_cell_area = 0;
   int begin = 0;
   int end = 0;
   int size() const { return end - begin; }
@@ -89,7 +89,7 @@ class ConnectivityGrid {
   void addBoundarySide(int x, int y, int side) { addBoundarySideAt(layout_.index(x, y), side); }
   // The same for the cell at padded index `cell`.
   void addBoundarySideAt(int cell, int side) {
-    bits_[cell + cornerOffset_[side]] |= static_cast<std::uint8_t>(1u << side);
+    bits_[cell + corner_offset_[side]] |= static_cast<std::uint8_t>(1u << side);
   }
   // Several sides of one cell at once: bit k of `sides` for side k.
   void addBoundarySidesAt(int cell, unsigned sides) {
@@ -99,12 +99,12 @@ class ConnectivityGrid {
   }
 
   // Follows every closed contour that has an edge on a side of one of `cells`, appends it to
-  // `out` with class `classId`, and removes its edges from the grid. At a grid point with two
+  // `out` with class `class_id`, and removes its edges from the grid. At a grid point with two
   // ways on, the walk turns right first (toward the region), so regions that only touch at a
   // corner get separate contours, as their cells are not 4-connected.
-  void extractContours(std::span<const Cell> cells, ClassId classId, ContourSet& out);
+  void extractContours(std::span<const Cell> cells, ClassId class_id, ContourSet& out);
   // The same for cells given as padded indices.
-  void extractContoursAt(std::span<const std::int32_t> cells, ClassId classId, ContourSet& out);
+  void extractContoursAt(std::span<const std::int32_t> cells, ClassId class_id, ContourSet& out);
 
   // True when no edge is left (after all contours have been extracted).
   bool isClear() const;
@@ -112,14 +112,14 @@ class ConnectivityGrid {
   void clear();
 
  private:
-  void extractAround(int cell, ClassId classId, ContourSet& out);
-  void followContour(int startCorner, int startDirection, ClassId classId, ContourSet& out);
+  void extractAround(int cell, ClassId class_id, ContourSet& out);
+  void followContour(int startCorner, int startDirection, ClassId class_id, ContourSet& out);
 
   CellGrid grid_;
   PaddedLayout layout_;
   // Index offset from a cell to the corner where the edge of each side starts: top-left,
   // top-right, bottom-right, bottom-left; and the index step along each edge direction.
-  int cornerOffset_[4];
+  int corner_offset_[4];
   int step_[4];
   std::vector<std::uint8_t> bits_;
 };

@@ -30,7 +30,7 @@ FloorLookup::FloorLookup(const camera::MirrorModel& mirror)
     : width_(mirror.width()),
       height_(mirror.height()),
       floor_(static_cast<std::size_t>(width_) * height_, FloorXY{kNaN, kNaN}),
-      finestMetresPerPixel_(floor_.size(), kNaN) {
+      finest_metres_per_pixel_(floor_.size(), kNaN) {
   for (int v = 0; v < height_; ++v) {
     for (int u = 0; u < width_; ++u) {
       if (mirror.dontTouch(u, v)) continue;
@@ -40,7 +40,7 @@ FloorLookup::FloorLookup(const camera::MirrorModel& mirror)
       const std::size_t i = static_cast<std::size_t>(v) * width_ + u;
       floor_[i] = {static_cast<float>(floor->x()), static_cast<float>(floor->y())};
       const camera::Vec2 mpp = mirror.metresPerPixel(pixel);
-      finestMetresPerPixel_[i] = static_cast<float>(std::min(mpp.x(), mpp.y()));
+      finest_metres_per_pixel_[i] = static_cast<float>(std::min(mpp.x(), mpp.y()));
     }
   }
 }
@@ -84,26 +84,27 @@ bool FloorLookup::floorPoint(float u, float v, float& x, float& y) const {
 // ---------------------------------------------------------------------------------------------
 
 LineDetector::LineDetector(const camera::ColourTable& table, const FloorLookup& floor,
-                           const LineDetectorParams& params, int cellSize)
+                           const LineDetectorParams& params, int cell_size)
     : table_(table),
       floor_(floor),
       params_(params),
-      cellSize_(cellSize),
-      usableWordsPerRow_((floor.width() + 63) / 64),
-      usable_(static_cast<std::size_t>(usableWordsPerRow_) * floor.height(), 0),
-      runBlocksPerRow_((floor.width() >> kRunBlockShift) + 1),
-      maxRunByBlock_(
-          static_cast<std::size_t>(runBlocksPerRow_) * ((floor.height() >> kRunBlockShift) + 1), 0),
+      cell_size_(cell_size),
+      usable_words_per_row_((floor.width() + 63) / 64),
+      usable_(static_cast<std::size_t>(usable_words_per_row_) * floor.height(), 0),
+      run_blocks_per_row_((floor.width() >> kRunBlockShift) + 1),
+      max_run_by_block_(
+          static_cast<std::size_t>(run_blocks_per_row_) * ((floor.height() >> kRunBlockShift) + 1),
+          0),
       // Half a cell inside the boundary (at least 2 px): the field pixels before the line.
-      firstStep_(-std::max(2, cellSize / 2)) {
-  if (params_.sampleSpacing < 1 || params_.tangentHalfSpan < 1 || params_.smoothingPasses < 0 ||
-      params_.maxTransitionPixels < 0 || cellSize < 1) {
+      first_step_(-std::max(2, cell_size / 2)) {
+  if (params_.sample_spacing < 1 || params_.tangent_half_span < 1 || params_.smoothing_passes < 0 ||
+      params_.max_transition_pixels < 0 || cell_size < 1) {
     throw std::invalid_argument("line detector: invalid parameters");
   }
   // The longest white run a line can give at a pixel: its width at the pixel's finest floor
   // resolution, with tolerance, + 2 px; capped so that walks fit the 8-bit steps (~110 px).
-  const int runCap = 127 - cellSize_ - 2 * params_.maxTransitionPixels - 1;
-  if (runCap < 3 || firstStep_ < -127) {
+  const int runCap = 127 - cell_size_ - 2 * params_.max_transition_pixels - 1;
+  if (runCap < 3 || first_step_ < -127) {
     throw std::invalid_argument("line detector: cells or transitions too large");
   }
   int longestRun = 0;
@@ -111,24 +112,24 @@ LineDetector::LineDetector(const camera::ColourTable& table, const FloorLookup& 
     for (int u = 0; u < floor.width(); ++u) {
       const float metresPerPixel = floor.finestMetresPerPixel(u, v);
       if (!std::isfinite(metresPerPixel) || metresPerPixel <= 0.0f) continue;
-      usable_[static_cast<std::size_t>(v) * usableWordsPerRow_ + (u >> 6)] |= std::uint64_t{1}
-                                                                              << (u & 63);
-      const double run = params_.widthTolerance * params_.lineWidth / metresPerPixel + 2;
+      usable_[static_cast<std::size_t>(v) * usable_words_per_row_ + (u >> 6)] |= std::uint64_t{1}
+                                                                                 << (u & 63);
+      const double run = params_.width_tolerance * params_.line_width / metresPerPixel + 2;
       const int capped = static_cast<int>(std::min(run, static_cast<double>(runCap)));
       std::uint8_t& block =
-          maxRunByBlock_[static_cast<std::size_t>(v >> kRunBlockShift) * runBlocksPerRow_ +
-                         (u >> kRunBlockShift)];
+          max_run_by_block_[static_cast<std::size_t>(v >> kRunBlockShift) * run_blocks_per_row_ +
+                            (u >> kRunBlockShift)];
       block = static_cast<std::uint8_t>(std::max<int>(block, capped));
       longestRun = std::max(longestRun, capped);
     }
   }
-  lastStep_ = cellSize_ + longestRun + 2 * params_.maxTransitionPixels + 1;
+  last_step_ = cell_size_ + longestRun + 2 * params_.max_transition_pixels + 1;
 
-  // The walks: nearest pixel to t * normal for t = firstStep_..lastStep_, repeats dropped.
-  const int span = lastStep_ - firstStep_ + 1;
-  walkCapacity_ = span;
+  // The walks: nearest pixel to t * normal for t = first_step_..last_step_, repeats dropped.
+  const int span = last_step_ - first_step_ + 1;
+  walk_capacity_ = span;
   walks_.assign(static_cast<std::size_t>(kDirections) * span, Step{0, 0});
-  walkCountUpTo_.assign(static_cast<std::size_t>(kDirections) * span, 0);
+  walk_count_up_to_.assign(static_cast<std::size_t>(kDirections) * span, 0);
   for (int d = 0; d < kDirections; ++d) {
     // The middle of the direction's bin on the "diamond" |u| + |v| = 1 (see directionOf).
     const double p = (d + 0.5) * 4.0 / kDirections;
@@ -144,30 +145,30 @@ LineDetector::LineDetector(const camera::ColourTable& table, const FloorLookup& 
     nu /= norm;
     nv /= norm;
     Step* walk = &walks_[static_cast<std::size_t>(d) * span];
-    std::uint8_t* countUpTo = &walkCountUpTo_[static_cast<std::size_t>(d) * span];
+    std::uint8_t* countUpTo = &walk_count_up_to_[static_cast<std::size_t>(d) * span];
     int count = 0;
-    for (int t = firstStep_; t <= lastStep_; ++t) {
+    for (int t = first_step_; t <= last_step_; ++t) {
       const Step step{static_cast<std::int8_t>(std::floor(t * nu + 0.5)),
                       static_cast<std::int8_t>(std::floor(t * nv + 0.5))};
       if (count == 0 || step.du != walk[count - 1].du || step.dv != walk[count - 1].dv) {
         walk[count++] = step;
       }
-      countUpTo[t - firstStep_] = static_cast<std::uint8_t>(count);
+      countUpTo[t - first_step_] = static_cast<std::uint8_t>(count);
     }
   }
 
-  // smoothingPasses passes of 0.25/0.5/0.25 are one binomial kernel.
-  smoothingKernel_.assign(1, 1.0f);
-  for (int pass = 0; pass < params_.smoothingPasses; ++pass) {
-    std::vector<float> wider(smoothingKernel_.size() + 2, 0.0f);
-    for (std::size_t j = 0; j < smoothingKernel_.size(); ++j) {
-      wider[j] += 0.25f * smoothingKernel_[j];
-      wider[j + 1] += 0.5f * smoothingKernel_[j];
-      wider[j + 2] += 0.25f * smoothingKernel_[j];
+  // smoothing_passes passes of 0.25/0.5/0.25 are one binomial kernel.
+  smoothing_kernel_.assign(1, 1.0f);
+  for (int pass = 0; pass < params_.smoothing_passes; ++pass) {
+    std::vector<float> wider(smoothing_kernel_.size() + 2, 0.0f);
+    for (std::size_t j = 0; j < smoothing_kernel_.size(); ++j) {
+      wider[j] += 0.25f * smoothing_kernel_[j];
+      wider[j + 1] += 0.5f * smoothing_kernel_[j];
+      wider[j + 2] += 0.25f * smoothing_kernel_[j];
     }
-    smoothingKernel_.swap(wider);
+    smoothing_kernel_.swap(wider);
   }
-  pad_ = params_.smoothingPasses + params_.tangentHalfSpan;
+  pad_ = params_.smoothing_passes + params_.tangent_half_span;
 }
 
 // Bins of equal length on the diamond |u| + |v| = 1, counter-clockwise from +u: no atan2, and
@@ -192,16 +193,16 @@ bool LineDetector::scan(const camera::FrameView& frame, float originU, float ori
   if (!usable(ou, ov)) return false;
   const int maxRun = maxRunAt(ou, ov);
   const int direction = directionOf(normalU, normalV);
-  const Step* walk = &walks_[static_cast<std::size_t>(direction) * walkCapacity_];
+  const Step* walk = &walks_[static_cast<std::size_t>(direction) * walk_capacity_];
   const std::uint8_t* countUpTo =
-      &walkCountUpTo_[static_cast<std::size_t>(direction) * walkCapacity_];
+      &walk_count_up_to_[static_cast<std::size_t>(direction) * walk_capacity_];
   // Boundaries along the edge of the view face unusable pixels: nothing to find there.
-  const Step probe = walk[countUpTo[cellSize_ + 1 - firstStep_] - 1];
+  const Step probe = walk[countUpTo[cell_size_ + 1 - first_step_] - 1];
   if (!frame.contains(ou + probe.du, ov + probe.dv) || !usable(ou + probe.du, ov + probe.dv)) {
     return false;
   }
-  const int stop = cellSize_ + maxRun + 2 * params_.maxTransitionPixels + 1;
-  int count = countUpTo[stop - firstStep_];
+  const int stop = cell_size_ + maxRun + 2 * params_.max_transition_pixels + 1;
+  int count = countUpTo[stop - first_step_];
   // The walk is a straight line: inside the frame if both ends are; else cut it where it
   // leaves (running into the cut is a miss, as running past `stop`).
   const auto inside = [&](const Step s) { return frame.contains(ou + s.du, ov + s.dv); };
@@ -219,9 +220,9 @@ bool LineDetector::scan(const camera::FrameView& frame, float originU, float ori
   const std::uint8_t* origin =
       frame.data + static_cast<std::ptrdiff_t>(ov) * frame.stride + ou * kBytesPerPixel;
   const std::ptrdiff_t stride = frame.stride;
-  const camera::ColourClass fieldColour = params_.fieldColour;
-  const camera::ColourClass lineColour = params_.lineColour;
-  const int maxTransition = params_.maxTransitionPixels;
+  const camera::ColourClass field_colour = params_.field_colour;
+  const camera::ColourClass line_colour = params_.line_colour;
+  const int maxTransition = params_.max_transition_pixels;
   // On the stack, so that storing a brightness cannot alias the colour table's pointer (which
   // would be reloaded for every pixel). Walks have at most 255 steps (8-bit offsets).
   std::array<std::uint8_t, kMaxWalk> luma;
@@ -242,8 +243,8 @@ bool LineDetector::scan(const camera::FrameView& frame, float originU, float ori
     }
     luma[index] = yuv.y;
     const camera::ColourClass c = table_.classifyYuv(yuv);
-    const bool field = c == fieldColour;
-    const bool line = c == lineColour;
+    const bool field = c == field_colour;
+    const bool line = c == line_colour;
     if (runStart < 0) {  // before the line
       if (field) {
         sawField = true;
@@ -267,19 +268,19 @@ bool LineDetector::scan(const camera::FrameView& frame, float originU, float ori
     }
   }
   const int read = std::min(index + 1, count);
-  pixelsRead_ += read;
+  pixels_read_ += read;
   if (!found) return false;
   // Positions along the exact (unit) normal, only now that there is something to place.
   const float inverseLength = 1.0f / std::sqrt(normalU * normalU + normalV * normalV);
   walk_ = walk;
-  walkFractionU_ = originU - static_cast<float>(ou);
-  walkFractionV_ = originV - static_cast<float>(ov);
-  walkNormalU_ = normalU * inverseLength;
-  walkNormalV_ = normalV * inverseLength;
+  walk_fraction_u_ = originU - static_cast<float>(ou);
+  walk_fraction_v_ = originV - static_cast<float>(ov);
+  walk_normal_u_ = normalU * inverseLength;
+  walk_normal_v_ = normalV * inverseLength;
   const float middle = 0.5f * (risingEdge(luma.data(), lastField, runStart, runEnd) +
                                fallingEdge(luma.data(), runStart, runEnd, index));
-  lineU = originU + walkNormalU_ * middle;
-  lineV = originV + walkNormalV_ * middle;
+  lineU = originU + walk_normal_u_ * middle;
+  lineV = originV + walk_normal_v_ * middle;
   return true;
 }
 
@@ -315,12 +316,12 @@ float LineDetector::fallingEdge(const std::uint8_t* luma, int runStart, int runE
 
 template <int kTaps>
 void LineDetector::smoothedPoint(int i, float& u, float& v) const {
-  // paddedU_[j] holds corner j - pad_; the kernel is centred on corner i.
-  const int taps = kTaps > 0 ? kTaps : static_cast<int>(smoothingKernel_.size());
+  // padded_u_[j] holds corner j - pad_; the kernel is centred on corner i.
+  const int taps = kTaps > 0 ? kTaps : static_cast<int>(smoothing_kernel_.size());
   const int reach = taps / 2;
-  const float* pu = &paddedU_[i + pad_ - reach];
-  const float* pv = &paddedV_[i + pad_ - reach];
-  const float* weight = smoothingKernel_.data();
+  const float* pu = &padded_u_[i + pad_ - reach];
+  const float* pv = &padded_v_[i + pad_ - reach];
+  const float* weight = smoothing_kernel_.data();
   float su = 0, sv = 0;
   if constexpr (kTaps == 7) {  // symmetric: 4 multiplications instead of 7
     su = weight[0] * (pu[0] + pu[6]) + weight[1] * (pu[1] + pu[5]) + weight[2] * (pu[2] + pu[4]) +
@@ -343,42 +344,42 @@ void LineDetector::detect(const camera::FrameView& frame, const ContourSet& cont
     throw std::invalid_argument("line detector: frame size differs from the floor lookup's");
   }
   out.clear();
-  pixelsRead_ = 0;
+  pixels_read_ = 0;
   const bool yuyv = frame.format == camera::PixelFormat::kYuyv;
-  const ClassId field = classIdOf(params_.fieldColour);
-  const int spacing = params_.sampleSpacing;
-  const int k = params_.tangentHalfSpan;
+  const ClassId field = classIdOf(params_.field_colour);
+  const int spacing = params_.sample_spacing;
+  const int k = params_.tangent_half_span;
   for (const Contour& contour : contours.contours) {
-    if (contour.classId != field || contour.size() < params_.minContourPoints) continue;
+    if (contour.class_id != field || contour.size() < params_.min_contour_points) continue;
     const int n = contour.size();
     const ContourPoint* corners = &contours.points[contour.begin];
     // The corners with the kernel's and the tangent's reach wrapped around on both sides.
-    paddedU_.resize(n + 2 * pad_);
-    paddedV_.resize(n + 2 * pad_);
+    padded_u_.resize(n + 2 * pad_);
+    padded_v_.resize(n + 2 * pad_);
     for (int j = 0; j < n; ++j) {
-      paddedU_[pad_ + j] = static_cast<float>(corners[j].x);
-      paddedV_[pad_ + j] = static_cast<float>(corners[j].y);
+      padded_u_[pad_ + j] = static_cast<float>(corners[j].x);
+      padded_v_[pad_ + j] = static_cast<float>(corners[j].y);
     }
     for (int j = 0; j < pad_; ++j) {  // the wrapped ends (the contour may be shorter than pad_)
       const int before = ((j - pad_) % n + n) % n;
-      paddedU_[j] = static_cast<float>(corners[before].x);
-      paddedV_[j] = static_cast<float>(corners[before].y);
-      paddedU_[pad_ + n + j] = static_cast<float>(corners[j % n].x);
-      paddedV_[pad_ + n + j] = static_cast<float>(corners[j % n].y);
+      padded_u_[j] = static_cast<float>(corners[before].x);
+      padded_v_[j] = static_cast<float>(corners[before].y);
+      padded_u_[pad_ + n + j] = static_cast<float>(corners[j % n].x);
+      padded_v_[pad_ + n + j] = static_cast<float>(corners[j % n].y);
     }
     // The contour is a staircase of cell sides; smoothing turns it into a curve with usable
     // tangents (the seed smooths before taking differences, section 3.3). Only the corners
     // that are sampled or give a sample's tangent are smoothed: every `stride`-th one.
     const int stride = n % std::gcd(spacing, k) == 0 ? std::gcd(spacing, k) : 1;
     const int smoothed = n / stride;
-    smoothU_.resize(smoothed);
-    smoothV_.resize(smoothed);
-    if (smoothingKernel_.size() == 7) {
+    smooth_u_.resize(smoothed);
+    smooth_v_.resize(smoothed);
+    if (smoothing_kernel_.size() == 7) {
       for (int j = 0; j < smoothed; ++j)
-        smoothedPoint<7>(j * stride, smoothU_[j], smoothV_[j]);
+        smoothedPoint<7>(j * stride, smooth_u_[j], smooth_v_[j]);
     } else {
       for (int j = 0; j < smoothed; ++j)
-        smoothedPoint<0>(j * stride, smoothU_[j], smoothV_[j]);
+        smoothedPoint<0>(j * stride, smooth_u_[j], smooth_v_[j]);
     }
 
     const int samples = n / spacing;
@@ -390,14 +391,14 @@ void LineDetector::detect(const camera::FrameView& frame, const ContourSet& cont
       int ahead = centre + tangentReach, behind = centre - tangentReach;
       if (ahead >= smoothed) ahead %= smoothed;
       if (behind < 0) behind = (behind % smoothed + smoothed) % smoothed;
-      const float tu = smoothU_[ahead] - smoothU_[behind];
-      const float tv = smoothV_[ahead] - smoothV_[behind];
+      const float tu = smooth_u_[ahead] - smooth_u_[behind];
+      const float tv = smooth_v_[ahead] - smooth_v_[behind];
       if (tu * tu + tv * tv < 1e-6f) continue;
       // The region lies to the right of the walking direction on screen: outward is left. The
       // walk needs only the normal's direction; scan() normalises it when it finds a line.
       const float normalU = tv;
       const float normalV = -tu;
-      const float originU = smoothU_[centre], originV = smoothV_[centre];
+      const float originU = smooth_u_[centre], originV = smooth_v_[centre];
       float lineU = 0, lineV = 0;
       const bool hit = yuyv ? scan<camera::PixelFormat::kYuyv>(frame, originU, originV, normalU,
                                                                normalV, lineU, lineV)
@@ -438,7 +439,7 @@ void LineDetector::detect(const camera::FrameView& frame, const ContourSet& cont
         if (sequenceStart < 0) sequenceStart = static_cast<int>(out.points.size());
         out.points.push_back(hit.point);
         misses = 0;
-      } else if (sequenceStart >= 0 && ++misses > params_.maxGapSamples) {
+      } else if (sequenceStart >= 0 && ++misses > params_.max_gap_samples) {
         close();
       }
     }
@@ -458,8 +459,8 @@ BallDetection BallDetector::detect(const camera::FrameView& frame,
   const ClassId orange = classIdOf(params_.colour);
   const Contour* best = nullptr;
   for (const Contour& contour : contours.contours) {
-    if (contour.classId == orange && contour.outer &&
-        (best == nullptr || contour.signedCellArea > best->signedCellArea)) {
+    if (contour.class_id == orange && contour.outer &&
+        (best == nullptr || contour.signed_cell_area > best->signed_cell_area)) {
       best = &contour;
     }
   }
@@ -496,7 +497,7 @@ BallDetection BallDetector::detect(const camera::FrameView& frame,
       farRadius = std::max(farRadius, radius);
     }
   }
-  if (pixels < params_.minPixels) return ball;
+  if (pixels < params_.min_pixels) return ball;
   const camera::Vec2 centroid(sumU / pixels, sumV / pixels);
   const double bearing = mirror_.bearingOf(centroid);
   const camera::DistanceFunction& distance = mirror_.params().distance;
@@ -508,7 +509,7 @@ BallDetection BallDetector::detect(const camera::FrameView& frame,
   // Depression angles of the two grazing rays from R; the centre ray lies midway.
   const double centreAngle = 0.5 * (std::atan2(H, nearFloor) + std::atan2(H, farFloor));
   const double centreFloor = H / std::tan(centreAngle);
-  const double lift = (H - params_.centreHeight) / H;
+  const double lift = (H - params_.centre_height) / H;
   const double horizontal = centreFloor * lift;
   const camera::Vec2 direction = camera::Vec2(std::cos(bearing), std::sin(bearing));
   const camera::Vec2 centreXY = direction * horizontal;
@@ -521,14 +522,14 @@ BallDetection BallDetector::detect(const camera::FrameView& frame,
   ball.x = centreXY.x();
   ball.y = centreXY.y();
   ball.pixels = pixels;
-  ball.cells = best->signedCellArea;
+  ball.cells = best->signed_cell_area;
   // Half a pixel of centroid error, scaled to the floor and lifted to the ball's height.
   const camera::Vec2 mpp = mirror_.metresPerPixel(*centrePixel);
-  ball.sigmaRadial = 0.5 * mpp.x() * lift;
-  ball.sigmaTangential = 0.5 * mpp.y() * lift;
+  ball.sigma_radial = 0.5 * mpp.x() * lift;
+  ball.sigma_tangential = 0.5 * mpp.y() * lift;
   // The blob should be about as wide (across the ray) as the ball: a too narrow one is
   // probably a partly hidden ball or an orange speck.
-  const double expectedWidthPx = 2 * params_.centreHeight / lift / mpp.y();
+  const double expectedWidthPx = 2 * params_.centre_height / lift / mpp.y();
   const double radialPx = farRadius - nearRadius + 1;
   ball.confidence = std::clamp(
       pixels / std::max(radialPx * expectedWidthPx * std::numbers::pi / 4, 1.0), 0.0, 1.0);
@@ -544,7 +545,8 @@ void ObstacleDetector::detect(const ContourSet& contours, std::vector<Obstacle>&
   out.clear();
   const ClassId black = classIdOf(params_.colour);
   for (const Contour& contour : contours.contours) {
-    if (contour.classId != black || !contour.outer || contour.signedCellArea < params_.minCells) {
+    if (contour.class_id != black || !contour.outer ||
+        contour.signed_cell_area < params_.min_cells) {
       continue;
     }
     // The foot of an object standing on the floor is its point nearest the image centre;
@@ -575,10 +577,10 @@ void ObstacleDetector::detect(const ContourSet& contours, std::vector<Obstacle>&
     obstacle.distance = foot->norm();
     obstacle.x = foot->x();
     obstacle.y = foot->y();
-    obstacle.angularWidth = maxOffset - minOffset;
+    obstacle.angular_width = maxOffset - minOffset;
     obstacle.bearing =
         std::remainder(firstBearing + 0.5 * (minOffset + maxOffset), 2 * std::numbers::pi);
-    obstacle.width = 2.0 * obstacle.distance * std::tan(0.5 * obstacle.angularWidth);
+    obstacle.width = 2.0 * obstacle.distance * std::tan(0.5 * obstacle.angular_width);
     out.push_back(obstacle);
   }
 }

@@ -41,7 +41,9 @@ class FloorLookup {
   }
   // Smaller of the radial and tangential floor sizes of the pixel, m (NaN where unusable): a
   // floor length L spans at most L / finestMetresPerPixel pixels there.
-  float finestMetresPerPixel(int u, int v) const { return finestMetresPerPixel_[v * width_ + u]; }
+  float finestMetresPerPixel(int u, int v) const {
+    return finest_metres_per_pixel_[v * width_ + u];
+  }
   int width() const { return width_; }
   int height() const { return height_; }
 
@@ -53,44 +55,44 @@ class FloorLookup {
   int height_;
   // x and y side by side: a bilinear lookup touches two cache lines, not four.
   std::vector<FloorXY> floor_;
-  std::vector<float> finestMetresPerPixel_;
+  std::vector<float> finest_metres_per_pixel_;
 };
 
 using perception::LinePoint;
 using perception::LinePoints;
 
 struct LineDetectorParams {
-  camera::ColourClass fieldColour = camera::ColourClass::kGreen;
-  camera::ColourClass lineColour = camera::ColourClass::kWhite;
+  camera::ColourClass field_colour = camera::ColourClass::kGreen;
+  camera::ColourClass line_colour = camera::ColourClass::kWhite;
   // Width of the field lines, m: bounds the length of a white run along a normal.
-  double lineWidth = 0.125;
+  double line_width = 0.125;
   // A white run may be up to this many times the line's expected width in pixels (+ 2 px).
-  double widthTolerance = 2.5;
+  double width_tolerance = 2.5;
   // Pixels of neither class allowed between green and white (blurred edges).
-  int maxTransitionPixels = 2;
+  int max_transition_pixels = 2;
   // The detector runs at every n-th contour corner.
-  int sampleSpacing = 2;
+  int sample_spacing = 2;
   // Passes of 0.25/0.5/0.25 smoothing of the contour before tangents are taken.
-  int smoothingPasses = 3;
+  int smoothing_passes = 3;
   // Tangent from the points this many corners before and after.
-  int tangentHalfSpan = 2;
+  int tangent_half_span = 2;
   // Contours with fewer corners are skipped (noise regions).
-  int minContourPoints = 16;
+  int min_contour_points = 16;
   // Consecutive samples without a detection that still continue a sequence.
-  int maxGapSamples = 1;
+  int max_gap_samples = 1;
 };
 
 class LineDetector {
  public:
   LineDetector(const camera::ColourTable& table, const FloorLookup& floor,
-               const LineDetectorParams& params, int cellSize);
+               const LineDetectorParams& params, int cell_size);
 
   // Searches along the outward normals of every field-coloured contour in `contours` for
   // field -> line -> field transitions; appends nothing, `out` is cleared first. Throws
   // std::invalid_argument for a frame of another size than the floor lookup's.
   void detect(const camera::FrameView& frame, const ContourSet& contours, LinePoints& out);
   // Pixels the last detect() read along the normals.
-  int pixelsRead() const { return pixelsRead_; }
+  int pixelsRead() const { return pixels_read_; }
 
  private:
   // One pixel of a walk along a normal: offset from the pixel nearest the walk's origin.
@@ -116,7 +118,8 @@ class LineDetector {
   // projected on the exact normal).
   float along(int index) const {
     const Step step = walk_[index];
-    return (step.du - walkFractionU_) * walkNormalU_ + (step.dv - walkFractionV_) * walkNormalV_;
+    return (step.du - walk_fraction_u_) * walk_normal_u_ +
+           (step.dv - walk_fraction_v_) * walk_normal_v_;
   }
   // Smoothed contour point `i` (0 <= i < contour size) into `u`, `v`; kTaps is the kernel's
   // size when known at compile time (the default 3 passes), 0 otherwise.
@@ -126,37 +129,38 @@ class LineDetector {
   const camera::ColourTable& table_;
   const FloorLookup& floor_;
   LineDetectorParams params_;
-  int cellSize_;
+  int cell_size_;
   // Small tables, so that a scan's look-ups stay in the L1 cache: whether each pixel has a
   // usable floor point (one bit per pixel), and the longest white run accepted in each block of
   // 8x8 pixels (the largest over its usable pixels, from their finest m/px).
   static constexpr int kRunBlockShift = 3;
   bool usable(int u, int v) const {
-    return (usable_[static_cast<std::size_t>(v) * usableWordsPerRow_ + (u >> 6)] >> (u & 63)) & 1;
+    return (usable_[static_cast<std::size_t>(v) * usable_words_per_row_ + (u >> 6)] >> (u & 63)) &
+           1;
   }
   int maxRunAt(int u, int v) const {
-    return maxRunByBlock_[static_cast<std::size_t>(v >> kRunBlockShift) * runBlocksPerRow_ +
-                          (u >> kRunBlockShift)];
+    return max_run_by_block_[static_cast<std::size_t>(v >> kRunBlockShift) * run_blocks_per_row_ +
+                             (u >> kRunBlockShift)];
   }
-  int usableWordsPerRow_;
+  int usable_words_per_row_;
   std::vector<std::uint64_t> usable_;
-  int runBlocksPerRow_;
-  std::vector<std::uint8_t> maxRunByBlock_;
+  int run_blocks_per_row_;
+  std::vector<std::uint8_t> max_run_by_block_;
   // Walks: for every direction the distinct pixels met stepping 1 px along the normal from
-  // t = firstStep_ to lastStep_, and how many of them lie at t or before.
-  int firstStep_;
-  int lastStep_;
-  int walkCapacity_;
+  // t = first_step_ to last_step_, and how many of them lie at t or before.
+  int first_step_;
+  int last_step_;
+  int walk_capacity_;
   std::vector<Step> walks_;
-  std::vector<std::uint8_t> walkCountUpTo_;
-  // Binomial kernel equal to smoothingPasses passes of 0.25/0.5/0.25.
-  std::vector<float> smoothingKernel_;
+  std::vector<std::uint8_t> walk_count_up_to_;
+  // Binomial kernel equal to smoothing_passes passes of 0.25/0.5/0.25.
+  std::vector<float> smoothing_kernel_;
   // Per contour scratch, reused: the contour's corners with the kernel's reach wrapped around
-  // on both sides, and the smoothed points of every `smoothedStride_`-th corner.
+  // on both sides, and the smoothed points of every `smoothed_stride_`-th corner.
   int pad_ = 0;
-  std::vector<float> paddedU_, paddedV_;
-  std::vector<float> smoothU_, smoothV_;
-  int smoothedStride_ = 1;
+  std::vector<float> padded_u_, padded_v_;
+  std::vector<float> smooth_u_, smooth_v_;
+  int smoothed_stride_ = 1;
   struct Hit {
     bool found;
     LinePoint point;
@@ -164,16 +168,16 @@ class LineDetector {
   std::vector<Hit> hits_;
   // The walk of the current scan, for along().
   const Step* walk_ = nullptr;
-  float walkFractionU_ = 0, walkFractionV_ = 0, walkNormalU_ = 0, walkNormalV_ = 0;
-  int pixelsRead_ = 0;
+  float walk_fraction_u_ = 0, walk_fraction_v_ = 0, walk_normal_u_ = 0, walk_normal_v_ = 0;
+  int pixels_read_ = 0;
 };
 
 struct BallParams {
   camera::ColourClass colour = camera::ColourClass::kOrange;
   // Height of the ball's centre above the floor, m.
-  double centreHeight = 0.11;
+  double centre_height = 0.11;
   // Fewer orange pixels than this is no ball.
-  int minPixels = 2;
+  int min_pixels = 2;
 };
 
 struct BallDetection {
@@ -182,7 +186,7 @@ struct BallDetection {
   double u = 0, v = 0;
   // Floor point under the ball's centre, robot frame, m.
   double x = 0, y = 0;
-  double sigmaRadial = 0, sigmaTangential = 0;
+  double sigma_radial = 0, sigma_tangential = 0;
   int pixels = 0;
   int cells = 0;
   double confidence = 0;
@@ -204,7 +208,7 @@ class BallDetector {
 struct ObstacleParams {
   camera::ColourClass colour = camera::ColourClass::kBlack;
   // Regions smaller than this are ignored, cells.
-  int minCells = 4;
+  int min_cells = 4;
 };
 
 struct Obstacle {
@@ -212,7 +216,7 @@ struct Obstacle {
   double bearing = 0;
   // Distance to the nearest point on the floor, m.
   double distance = 0;
-  double angularWidth = 0;
+  double angular_width = 0;
   // Width across the viewing ray at `distance`, m.
   double width = 0;
   // Nearest floor point, robot frame, m.

@@ -6,14 +6,14 @@
 
 namespace fieldline::region_tracking {
 
-FrameCellClassifier::FrameCellClassifier(const camera::ColourTable& table, int cellSize,
+FrameCellClassifier::FrameCellClassifier(const camera::ColourTable& table, int cell_size,
                                          const BlockClassifierParams& params)
-    : table_(table), cellSize_(cellSize) {
-  if (cellSize != 1 && cellSize != 2 && cellSize != 4 && cellSize != 8) {
+    : table_(table), cell_size_(cell_size) {
+  if (cell_size != 1 && cell_size != 2 && cell_size != 4 && cell_size != 8) {
     throw std::invalid_argument("block classifier: cell size must be 1, 2, 4 or 8 pixels");
   }
   for (const BlockClaim& claim : params.claims) {
-    const int pixels = static_cast<int>(std::ceil(claim.minFraction * cellSize * cellSize));
+    const int pixels = static_cast<int>(std::ceil(claim.min_fraction * cell_size * cell_size));
     claims_.push_back({classIdOf(claim.colour), std::max(1, pixels)});
   }
 }
@@ -27,8 +27,8 @@ namespace {
 inline std::uint64_t voteFor(camera::ColourClass c) {
   return std::uint64_t{1} << (8 * static_cast<unsigned>(c));
 }
-inline int votesOf(std::uint64_t votes, unsigned classId) {
-  return static_cast<int>((votes >> (8 * classId)) & 0xFF);
+inline int votesOf(std::uint64_t votes, unsigned class_id) {
+  return static_cast<int>((votes >> (8 * class_id)) & 0xFF);
 }
 }  // namespace
 
@@ -36,7 +36,7 @@ ClassId FrameCellClassifier::decide(std::uint64_t votes, int pixels, ClassId fir
   // Most cells hold one class only: then there is nothing to vote on.
   if (votes == static_cast<std::uint64_t>(pixels) << (8 * first)) return first;
   for (const Claim& claim : claims_) {
-    if (votesOf(votes, claim.classId) >= claim.minPixels) return claim.classId;
+    if (votesOf(votes, claim.class_id) >= claim.min_pixels) return claim.class_id;
   }
   // The most frequent class; ties go to the lower class number.
   unsigned best = 0;
@@ -64,20 +64,20 @@ ClassId FrameCellClassifier::classifyYuyvBlock(int x, int y) const {
 }
 
 ClassId FrameCellClassifier::classifyBgrBlock(int x, int y) const {
-  const int u0 = x * cellSize_;
-  const int v0 = y * cellSize_;
+  const int u0 = x * cell_size_;
+  const int v0 = y * cell_size_;
   std::uint64_t votes = 0;
-  for (int v = v0; v < v0 + cellSize_; ++v) {
-    for (int u = u0; u < u0 + cellSize_; ++u)
+  for (int v = v0; v < v0 + cell_size_; ++v) {
+    for (int u = u0; u < u0 + cell_size_; ++u)
       votes += voteFor(table_.classifyPixel(frame_, u, v));
   }
-  return decide(votes, cellSize_ * cellSize_, classIdOf(table_.classifyPixel(frame_, u0, v0)));
+  return decide(votes, cell_size_ * cell_size_, classIdOf(table_.classifyPixel(frame_, u0, v0)));
 }
 
 inline ClassId FrameCellClassifier::classifyBlock(int x, int y) const {
-  if (cellSize_ == 1) return classIdOf(table_.classifyPixel(frame_, x, y));
+  if (cell_size_ == 1) return classIdOf(table_.classifyPixel(frame_, x, y));
   if (frame_.format != camera::PixelFormat::kYuyv) return classifyBgrBlock(x, y);
-  switch (cellSize_) {
+  switch (cell_size_) {
     case 2:
       return classifyYuyvBlock<2>(x, y);
     case 4:
@@ -91,18 +91,18 @@ ClassId FrameCellClassifier::classify(int x, int y) const {
   return classifyBlock(x, y);
 }
 
-void FrameCellClassifier::classifyRow(int y, int firstX, std::span<ClassId> out) const {
+void FrameCellClassifier::classifyRow(int y, int first_x, std::span<ClassId> out) const {
   for (std::size_t i = 0; i < out.size(); ++i)
-    out[i] = classifyBlock(firstX + static_cast<int>(i), y);
+    out[i] = classifyBlock(first_x + static_cast<int>(i), y);
 }
 
 std::vector<std::uint8_t> dontTouchCells(const camera::MirrorModel& mirror, const CellGrid& grid) {
   std::vector<std::uint8_t> mask(grid.cellCount(), 0);
-  const int last = grid.cellSize - 1;
+  const int last = grid.cell_size - 1;
   for (int y = 0; y < grid.height; ++y) {
     for (int x = 0; x < grid.width; ++x) {
-      const int u = x * grid.cellSize;
-      const int v = y * grid.cellSize;
+      const int u = x * grid.cell_size;
+      const int v = y * grid.cell_size;
       mask[grid.index(x, y)] = mirror.dontTouch(u, v) || mirror.dontTouch(u + last, v) ||
                                mirror.dontTouch(u, v + last) ||
                                mirror.dontTouch(u + last, v + last);

@@ -18,12 +18,12 @@ inline ClassId classIdOf(camera::ColourClass colour) {
   return static_cast<ClassId>(colour);
 }
 
-// A class that claims a block before the majority vote when at least `minFraction` of its
+// A class that claims a block before the majority vote when at least `min_fraction` of its
 // pixels have it. Thin structures need this: a 2 px field line in 4x4 blocks never wins a
 // majority, and the green regions on both sides of it would merge into one.
 struct BlockClaim {
   camera::ColourClass colour = camera::ColourClass::kWhite;
-  double minFraction = 0.125;
+  double min_fraction = 0.125;
 };
 
 struct BlockClassifierParams {
@@ -35,7 +35,7 @@ struct BlockClassifierParams {
 
 class FrameCellClassifier final : public CellClassifier {
  public:
-  FrameCellClassifier(const camera::ColourTable& table, int cellSize,
+  FrameCellClassifier(const camera::ColourTable& table, int cell_size,
                       const BlockClassifierParams& params = {});
 
   // The frame the next classify() calls read; it must outlive them.
@@ -44,12 +44,12 @@ class FrameCellClassifier final : public CellClassifier {
   ClassId classify(int x, int y) const override;
   // The same for a run of cells of one row, without a virtual call per cell (the full-frame
   // baselines classify whole rows).
-  void classifyRow(int y, int firstX, std::span<ClassId> out) const override;
+  void classifyRow(int y, int first_x, std::span<ClassId> out) const override;
 
  private:
   struct Claim {
-    ClassId classId;
-    int minPixels;
+    ClassId class_id;
+    int min_pixels;
   };
   template <int kSize>
   ClassId classifyYuyvBlock(int x, int y) const;
@@ -59,7 +59,7 @@ class FrameCellClassifier final : public CellClassifier {
   ClassId decide(std::uint64_t votes, int pixels, ClassId first) const;
   ClassId classifyBlock(int x, int y) const;
   const camera::ColourTable& table_;
-  int cellSize_;
+  int cell_size_;
   std::vector<Claim> claims_;
   camera::FrameView frame_;
 };

@@ -25,25 +25,25 @@ ColourClass colourAt(const config::Node& node, const std::string& key) {
 
 VisionParams defaultVisionParams() {
   VisionParams params;
-  params.tracker.cellSize = 4;
-  params.tracker.reinitialisePeriodFrames = 300;
+  params.tracker.cell_size = 4;
+  params.tracker.reinitialise_period_frames = 300;
   const ClassId green = classIdOf(ColourClass::kGreen);
-  params.tracker.classes.push_back({.classId = green,
-                                    .searchWhenLost = true,
-                                    .maxSeedRegions = 10,
-                                    .minSeedCells = 4,
-                                    .seedFromBoundaryOf = kNoClass,
-                                    .viewEdgeStride = 4});
+  params.tracker.classes.push_back({.class_id = green,
+                                    .search_when_lost = true,
+                                    .max_seed_regions = 10,
+                                    .min_seed_cells = 4,
+                                    .seed_from_boundary_of = kNoClass,
+                                    .view_edge_stride = 4});
   for (const ColourClass c :
        {ColourClass::kYellow, ColourClass::kBlue, ColourClass::kOrange, ColourClass::kBlack}) {
     // The ball is small and fast: when it is lost, look for it inside green too.
     params.tracker.classes.push_back(
-        {.classId = classIdOf(c),
-         .searchWhenLost = false,
-         .maxSeedRegions = 10,
-         .minSeedCells = 1,
-         .seedFromBoundaryOf = green,
-         .searchInsideParentStride = c == ColourClass::kOrange ? 4 : 0});
+        {.class_id = classIdOf(c),
+         .search_when_lost = false,
+         .max_seed_regions = 10,
+         .min_seed_cells = 1,
+         .seed_from_boundary_of = green,
+         .search_inside_parent_stride = c == ColourClass::kOrange ? 4 : 0});
   }
   return params;
 }
@@ -62,23 +62,23 @@ VisionParams loadVisionParams(const config::Node& node) {
   blocks.rejectUnknownKeys();
 
   const config::Node lines = node.child("lines");
-  params.lines.lineWidth = lines.get<double>("line_width", 0.01, 1.0);
-  params.lines.widthTolerance = lines.get<double>("width_tolerance", 1.0, 10.0);
-  params.lines.maxTransitionPixels = lines.get<int>("max_transition_pixels", 0, 10);
-  params.lines.sampleSpacing = lines.get<int>("sample_spacing", 1, 64);
-  params.lines.smoothingPasses = lines.get<int>("smoothing_passes", 0, 20);
-  params.lines.tangentHalfSpan = lines.get<int>("tangent_half_span", 1, 20);
-  params.lines.minContourPoints = lines.get<int>("min_contour_points", 4, 100000);
-  params.lines.maxGapSamples = lines.get<int>("max_gap_samples", 0, 20);
+  params.lines.line_width = lines.get<double>("line_width", 0.01, 1.0);
+  params.lines.width_tolerance = lines.get<double>("width_tolerance", 1.0, 10.0);
+  params.lines.max_transition_pixels = lines.get<int>("max_transition_pixels", 0, 10);
+  params.lines.sample_spacing = lines.get<int>("sample_spacing", 1, 64);
+  params.lines.smoothing_passes = lines.get<int>("smoothing_passes", 0, 20);
+  params.lines.tangent_half_span = lines.get<int>("tangent_half_span", 1, 20);
+  params.lines.min_contour_points = lines.get<int>("min_contour_points", 4, 100000);
+  params.lines.max_gap_samples = lines.get<int>("max_gap_samples", 0, 20);
   lines.rejectUnknownKeys();
 
   const config::Node ball = node.child("ball");
-  params.ball.centreHeight = ball.get<double>("centre_height", 0.0, 0.5);
-  params.ball.minPixels = ball.get<int>("min_pixels", 1, 10000);
+  params.ball.centre_height = ball.get<double>("centre_height", 0.0, 0.5);
+  params.ball.min_pixels = ball.get<int>("min_pixels", 1, 10000);
   ball.rejectUnknownKeys();
 
   const config::Node obstacles = node.child("obstacles");
-  params.obstacles.minCells = obstacles.get<int>("min_cells", 1, 100000);
+  params.obstacles.min_cells = obstacles.get<int>("min_cells", 1, 100000);
   obstacles.rejectUnknownKeys();
   return params;
 }
@@ -86,12 +86,12 @@ VisionParams loadVisionParams(const config::Node& node) {
 FrameProcessor::FrameProcessor(const camera::MirrorModel& mirror, const camera::ColourTable& table,
                                const VisionParams& params)
     : mirror_(mirror),
-      grid_(CellGrid::forImage(mirror.width(), mirror.height(), params.tracker.cellSize)),
-      dontTouch_(dontTouchCells(mirror, grid_)),
+      grid_(CellGrid::forImage(mirror.width(), mirror.height(), params.tracker.cell_size)),
+      dont_touch_(dontTouchCells(mirror, grid_)),
       floor_(mirror),
-      classifier_(table, grid_.cellSize, params.blocks),
-      tracker_(grid_, params.tracker, dontTouch_),
-      lines_(table, floor_, params.lines, grid_.cellSize),
+      classifier_(table, grid_.cell_size, params.blocks),
+      tracker_(grid_, params.tracker, dont_touch_),
+      lines_(table, floor_, params.lines, grid_.cell_size),
       ball_(table, mirror, params.ball),
       obstacles_(mirror, params.obstacles) {}
 
@@ -105,7 +105,7 @@ void FrameProcessor::process(const camera::FrameView& frame, bool detectLines, V
   }
   classifier_.setFrame(frame);
   out.tracking = tracker_.track(classifier_);
-  out.linesDetected = detectLines;
+  out.lines_detected = detectLines;
   if (detectLines) {
     lines_.detect(frame, tracker_.contours(), out.lines);
   } else {

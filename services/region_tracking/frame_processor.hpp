@@ -38,7 +38,7 @@ VisionParams loadVisionParams(const config::Node& node);
 
 struct VisionResult {
   TrackingStats tracking;
-  bool linesDetected = false;
+  bool lines_detected = false;
   LinePoints lines;
   BallDetection ball;
   std::vector<Obstacle> obstacles;
@@ -56,7 +56,7 @@ class FrameProcessor {
   const RegionTracker& tracker() const { return tracker_; }
   RegionTracker& tracker() { return tracker_; }
   const CellGrid& grid() const { return grid_; }
-  const std::vector<std::uint8_t>& dontTouch() const { return dontTouch_; }
+  const std::vector<std::uint8_t>& dontTouch() const { return dont_touch_; }
   const FloorLookup& floor() const { return floor_; }
   FrameCellClassifier& classifier() { return classifier_; }
   LineDetector& lineDetector() { return lines_; }
@@ -66,7 +66,7 @@ class FrameProcessor {
  private:
   const camera::MirrorModel& mirror_;
   CellGrid grid_;
-  std::vector<std::uint8_t> dontTouch_;
+  std::vector<std::uint8_t> dont_touch_;
   FloorLookup floor_;
   FrameCellClassifier classifier_;
   RegionTracker tracker_;

@@ -42,7 +42,7 @@ int main(int argc, char** argv) {
     if (!vision_config.empty()) {
       options.vision = region_tracking::loadVisionParams(config::Node::loadFile(vision_config));
     }
-    options.linesEveryFrames = lines_every;
+    options.lines_every_frames = lines_every;
 
     if (common.check_args) return 0;
     SystemClock clock;

@@ -12,12 +12,12 @@ TrackerConfig loadTrackerConfig(
     const config::Node& node,
     const std::function<std::optional<ClassId>(const std::string&)>& classByName) {
   TrackerConfig config;
-  config.cellSize = node.get<int>("cell_size", 1, 8);
-  if (config.cellSize != 1 && config.cellSize != 2 && config.cellSize != 4 &&
-      config.cellSize != 8) {
+  config.cell_size = node.get<int>("cell_size", 1, 8);
+  if (config.cell_size != 1 && config.cell_size != 2 && config.cell_size != 4 &&
+      config.cell_size != 8) {
     node.fail("cell_size", "must be 1, 2, 4 or 8");
   }
-  config.reinitialisePeriodFrames = node.get<int>("reinitialise_period_frames", 0, 1000000);
+  config.reinitialise_period_frames = node.get<int>("reinitialise_period_frames", 0, 1000000);
   auto classAt = [&](const config::Node& entry, const std::string& key) {
     const std::optional<ClassId> id = classByName(entry.get<std::string>(key));
     if (!id || *id == kNoClass) entry.fail(key, "unknown colour class");
@@ -25,22 +25,23 @@ TrackerConfig loadTrackerConfig(
   };
   for (const config::Node& entry : node.children("classes")) {
     ClassTracking tracking;
-    tracking.classId = classAt(entry, "class");
-    tracking.searchWhenLost = entry.getOr<bool>("search_when_lost", true);
-    tracking.maxSeedRegions = entry.getOr<int>("max_seed_regions", 10, 1, 1000);
-    tracking.minSeedCells = entry.getOr<int>("min_seed_cells", 4, 1, 1000000);
-    tracking.viewEdgeStride = entry.getOr<int>("view_edge_stride", 0, 0, 64);
-    tracking.searchInsideParentStride = entry.getOr<int>("search_inside_parent_stride", 0, 0, 16);
+    tracking.class_id = classAt(entry, "class");
+    tracking.search_when_lost = entry.getOr<bool>("search_when_lost", true);
+    tracking.max_seed_regions = entry.getOr<int>("max_seed_regions", 10, 1, 1000);
+    tracking.min_seed_cells = entry.getOr<int>("min_seed_cells", 4, 1, 1000000);
+    tracking.view_edge_stride = entry.getOr<int>("view_edge_stride", 0, 0, 64);
+    tracking.search_inside_parent_stride =
+        entry.getOr<int>("search_inside_parent_stride", 0, 0, 16);
     if (entry.has("seed_from_boundary_of")) {
-      tracking.seedFromBoundaryOf = classAt(entry, "seed_from_boundary_of");
+      tracking.seed_from_boundary_of = classAt(entry, "seed_from_boundary_of");
     }
     entry.rejectUnknownKeys();
     for (const ClassTracking& earlier : config.classes) {
-      if (earlier.classId == tracking.classId) entry.fail("class", "listed twice");
+      if (earlier.class_id == tracking.class_id) entry.fail("class", "listed twice");
     }
-    if (tracking.seedFromBoundaryOf != kNoClass &&
+    if (tracking.seed_from_boundary_of != kNoClass &&
         std::none_of(config.classes.begin(), config.classes.end(), [&](const ClassTracking& c) {
-          return c.classId == tracking.seedFromBoundaryOf;
+          return c.class_id == tracking.seed_from_boundary_of;
         })) {
       entry.fail("seed_from_boundary_of", "must name a class listed before this one");
     }
@@ -61,13 +62,13 @@ RegionTracker::RegionTracker(const CellGrid& grid, const TrackerConfig& config,
       connectivity_(grid),
       classified_(layout_.size(), 0),
       coordinates_(layout_.size(), Cell{-1, -1}),
-      scratchMark_(layout_.size(), 0) {
-  classSlot_.fill(-1);
-  seedParent_.fill(kNoClass);
+      scratch_mark_(layout_.size(), 0) {
+  class_slot_.fill(-1);
+  seed_parent_.fill(kNoClass);
   if (grid.width <= 0 || grid.height <= 0 || grid.width > 32767 || grid.height > 32767) {
     throw std::invalid_argument("region tracker: grid size out of range");
   }
-  if (config.cellSize != grid.cellSize) {
+  if (config.cell_size != grid.cell_size) {
     throw std::invalid_argument("region tracker: config cell size differs from the grid's");
   }
   if (!dontTouch.empty() && static_cast<int>(dontTouch.size()) != grid.cellCount()) {
@@ -80,7 +81,7 @@ RegionTracker::RegionTracker(const CellGrid& grid, const TrackerConfig& config,
       visited_[layout_.index(x, y)] = forbidden ? kBlocked : kNoClass;
     }
   }
-  emptyVisited_ = visited_;
+  empty_visited_ = visited_;
   for (int y = 0; y < grid.height; ++y) {
     for (int x = 0; x < grid.width; ++x)
       coordinates_[layout_.index(x, y)] = {static_cast<std::int16_t>(x),
@@ -89,31 +90,31 @@ RegionTracker::RegionTracker(const CellGrid& grid, const TrackerConfig& config,
 
   for (std::size_t i = 0; i < config.classes.size(); ++i) {
     const ClassTracking& tracking = config.classes[i];
-    if (tracking.classId == kNoClass || tracking.classId == kBlocked) {
+    if (tracking.class_id == kNoClass || tracking.class_id == kBlocked) {
       throw std::invalid_argument("region tracker: class ids 254 and 255 are reserved");
     }
-    if (tracking.maxSeedRegions < 1 || tracking.minSeedCells < 1 || tracking.viewEdgeStride < 0 ||
-        tracking.searchInsideParentStride < 0) {
+    if (tracking.max_seed_regions < 1 || tracking.min_seed_cells < 1 ||
+        tracking.view_edge_stride < 0 || tracking.search_inside_parent_stride < 0) {
       throw std::invalid_argument("region tracker: seed limits must be positive");
     }
-    if (tracking.searchInsideParentStride > 0 && tracking.seedFromBoundaryOf == kNoClass) {
+    if (tracking.search_inside_parent_stride > 0 && tracking.seed_from_boundary_of == kNoClass) {
       throw std::invalid_argument("region tracker: search_inside_parent_stride of class " +
-                                  std::to_string(tracking.classId) +
+                                  std::to_string(tracking.class_id) +
                                   " needs seed_from_boundary_of");
     }
     for (std::size_t j = 0; j < config.classes.size(); ++j) {
-      if (j != i && config.classes[j].classId == tracking.classId) {
-        throw std::invalid_argument("region tracker: class " + std::to_string(tracking.classId) +
+      if (j != i && config.classes[j].class_id == tracking.class_id) {
+        throw std::invalid_argument("region tracker: class " + std::to_string(tracking.class_id) +
                                     " listed twice");
       }
     }
-    if (tracking.seedFromBoundaryOf != kNoClass) {
+    if (tracking.seed_from_boundary_of != kNoClass) {
       const bool parentEarlier = std::any_of(
           config.classes.begin(), config.classes.begin() + i,
-          [&](const ClassTracking& c) { return c.classId == tracking.seedFromBoundaryOf; });
+          [&](const ClassTracking& c) { return c.class_id == tracking.seed_from_boundary_of; });
       if (!parentEarlier) {
         throw std::invalid_argument("region tracker: seed_from_boundary_of of class " +
-                                    std::to_string(tracking.classId) +
+                                    std::to_string(tracking.class_id) +
                                     " must name a class listed before it");
       }
     }
@@ -121,11 +122,11 @@ RegionTracker::RegionTracker(const CellGrid& grid, const TrackerConfig& config,
     state.tracking = tracking;
     // Reserve the worst case once so no frame ever allocates (a cell can be proposed as a
     // seed from each of its four sides).
-    state.workDrops.reserve(grid.cellCount());
-    state.boundaryDrops.reserve(grid.cellCount());
-    state.pendingSeeds.reserve(4 * static_cast<std::size_t>(grid.cellCount()));
-    classSlot_[tracking.classId] = static_cast<int>(classes_.size());
-    seedParent_[tracking.classId] = tracking.seedFromBoundaryOf;
+    state.work_drops.reserve(grid.cellCount());
+    state.boundary_drops.reserve(grid.cellCount());
+    state.pending_seeds.reserve(4 * static_cast<std::size_t>(grid.cellCount()));
+    class_slot_[tracking.class_id] = static_cast<int>(classes_.size());
+    seed_parent_[tracking.class_id] = tracking.seed_from_boundary_of;
     classes_.push_back(std::move(state));
   }
   for (int y = 0; y < grid.height; ++y) {
@@ -134,19 +135,19 @@ RegionTracker::RegionTracker(const CellGrid& grid, const TrackerConfig& config,
       if (visited_[cell] == kBlocked) continue;
       for (int side = 0; side < 4; ++side) {
         if (visited_[cell + neighbour_[side]] == kBlocked) {
-          viewEdge_.push_back(cell);
+          view_edge_.push_back(cell);
           break;
         }
       }
     }
   }
-  scratchQueue_.reserve(grid.cellCount());
-  seedCandidates_.reserve(grid.cellCount());
+  scratch_queue_.reserve(grid.cellCount());
+  seed_candidates_.reserve(grid.cellCount());
   contours_.points.reserve(4 * grid.cellCount() / 8 + 64);
 }
 
-RegionTracker::ClassState* RegionTracker::stateOf(ClassId classId) {
-  const int slot = classSlot_[classId];
+RegionTracker::ClassState* RegionTracker::stateOf(ClassId class_id) {
+  const int slot = class_slot_[class_id];
   return slot < 0 ? nullptr : &classes_[slot];
 }
 
@@ -159,30 +160,30 @@ std::vector<ClassId> RegionTracker::visited() const {
   return out;
 }
 
-int RegionTracker::regionCells(ClassId classId) const {
-  const int slot = classSlot_[classId];
+int RegionTracker::regionCells(ClassId class_id) const {
+  const int slot = class_slot_[class_id];
   return slot < 0 ? 0 : classes_[slot].cells;
 }
 
 ClassId RegionTracker::classifyNow(CellIndex cell) {
   const Cell at = coordinates_[cell];
-  const ClassId classId = classifier_->classify(at.x, at.y);
-  classified_[cell] = (stamp_ << 8) | classId;
-  ++stats_.cellsClassified;
-  ++stats_.classifiedBy[static_cast<int>(touchReason_)];
-  return classId;
+  const ClassId class_id = classifier_->classify(at.x, at.y);
+  classified_[cell] = (stamp_ << 8) | class_id;
+  ++stats_.cells_classified;
+  ++stats_.classified_by[static_cast<int>(touch_reason_)];
+  return class_id;
 }
 
 const TrackingStats& RegionTracker::track(const CellClassifier& classifier) {
   stats_ = TrackingStats{};
-  stats_.frame = frameCount_;
+  stats_.frame = frame_count_;
   classifier_ = &classifier;
   if (++stamp_ == kStampLimit) {  // wrapped after 2^24 frames: old stamps could look current
     std::fill(classified_.begin(), classified_.end(), 0);
     stamp_ = 1;
   }
-  const int period = config_.reinitialisePeriodFrames;
-  if (period > 0 && frameCount_ > 0 && frameCount_ % period == 0) {
+  const int period = config_.reinitialise_period_frames;
+  if (period > 0 && frame_count_ > 0 && frame_count_ % period == 0) {
     reinitialise();
     stats_.reinitialised = true;
   }
@@ -193,62 +194,62 @@ const TrackingStats& RegionTracker::track(const CellClassifier& classifier) {
     return sum;
   };
 
-  stats_.cellsBefore = totalCells();
-  touchReason_ = TouchReason::kInsideParent;
+  stats_.cells_before = totalCells();
+  touch_reason_ = TouchReason::kInsideParent;
   for (const ClassState& state : classes_) {
-    const int stride = state.tracking.searchInsideParentStride;
-    if (state.cells == 0 && stride > 0 && state.framesLost <= 2 * stride * stride) {
+    const int stride = state.tracking.search_inside_parent_stride;
+    if (state.cells == 0 && stride > 0 && state.frames_lost <= 2 * stride * stride) {
       searchInsideParent(state);
     }
   }
-  touchReason_ = TouchReason::kShrink;
+  touch_reason_ = TouchReason::kShrink;
   for (ClassState& state : classes_)
     shrink(state);
-  stats_.cellsAfterShrink = totalCells();
+  stats_.cells_after_shrink = totalCells();
 
   contours_.clear();
   for (ClassState& state : classes_) {
-    touchReason_ = TouchReason::kSeed;
+    touch_reason_ = TouchReason::kSeed;
     seedPending(state);
     // Lost: nothing carried over and no seed given. (Seeds at the view's edge come after this
     // check: a sliver entering the view must not stand in for the search.)
-    if (state.cells == 0 && state.tracking.searchWhenLost) {
-      touchReason_ = TouchReason::kInitialSearch;
+    if (state.cells == 0 && state.tracking.search_when_lost) {
+      touch_reason_ = TouchReason::kInitialSearch;
       initialSearch(state);
-      ++stats_.initialSearches;
+      ++stats_.initial_searches;
     }
-    touchReason_ = TouchReason::kViewEdge;
-    if (state.tracking.viewEdgeStride > 0) seedAtViewEdge(state);
-    touchReason_ = TouchReason::kGrow;
+    touch_reason_ = TouchReason::kViewEdge;
+    if (state.tracking.view_edge_stride > 0) seedAtViewEdge(state);
+    touch_reason_ = TouchReason::kGrow;
     grow(state);
-    connectivity_.extractContoursAt(state.boundaryDrops, state.tracking.classId, contours_);
+    connectivity_.extractContoursAt(state.boundary_drops, state.tracking.class_id, contours_);
   }
-  stats_.cellsAfterGrow = totalCells();
+  stats_.cells_after_grow = totalCells();
   for (ClassState& state : classes_) {
     if (state.cells > 0) {
-      state.framesLost = 0;
-    } else if (state.framesLost < kNeverSeen) {
-      ++state.framesLost;
+      state.frames_lost = 0;
+    } else if (state.frames_lost < kNeverSeen) {
+      ++state.frames_lost;
     }
   }
 
-  stats_.touchedFraction = static_cast<double>(stats_.cellsClassified) / grid_.cellCount();
-  stats_.overlap = stats_.cellsAfterGrow > 0
-                       ? static_cast<double>(stats_.cellsAfterShrink) / stats_.cellsAfterGrow
+  stats_.touched_fraction = static_cast<double>(stats_.cells_classified) / grid_.cellCount();
+  stats_.overlap = stats_.cells_after_grow > 0
+                       ? static_cast<double>(stats_.cells_after_shrink) / stats_.cells_after_grow
                        : 0.0;
   stats_.contours = static_cast<int>(contours_.contours.size());
   classifier_ = nullptr;
-  ++frameCount_;
+  ++frame_count_;
   return stats_;
 }
 
 // Procedure 2: shrink the regions of one class to their overlap with the new frame.
 void RegionTracker::shrink(ClassState& state) {
-  const ClassId id = state.tracking.classId;
+  const ClassId id = state.tracking.class_id;
   ClassId* const visited = visited_.data();
   const int up = neighbour_[0], right = neighbour_[1], down = neighbour_[2], left = neighbour_[3];
-  std::vector<CellIndex>& drops = state.boundaryDrops;
-  std::vector<CellIndex>& stopped = state.workDrops;
+  std::vector<CellIndex>& drops = state.boundary_drops;
+  std::vector<CellIndex>& stopped = state.work_drops;
   // Drops stand on unmarked cells while shrinking, so unmark the boundary drops first.
   for (const CellIndex drop : drops)
     visited[drop] = kNoClass;
@@ -285,17 +286,17 @@ void RegionTracker::shrink(ClassState& state) {
   for (const CellIndex drop : stopped)
     visited[drop] = id;
   state.cells = cells + static_cast<int>(stopped.size());
-  stats_.dropsProcessed += processed;
+  stats_.drops_processed += processed;
 }
 
 // Procedure 1: grow the regions of one class from their drops to their full extent, collecting
 // the boundary drops for the next shrink and the boundary sides for contour extraction.
 void RegionTracker::grow(ClassState& state) {
-  const ClassId id = state.tracking.classId;
+  const ClassId id = state.tracking.class_id;
   ClassId* const visited = visited_.data();
-  const ClassId* const seedParent = seedParent_.data();
-  std::vector<CellIndex>& drops = state.workDrops;
-  std::vector<CellIndex>& boundary = state.boundaryDrops;
+  const ClassId* const seedParent = seed_parent_.data();
+  std::vector<CellIndex>& drops = state.work_drops;
+  std::vector<CellIndex>& boundary = state.boundary_drops;
   int cells = state.cells;
   int processed = 0;
   // Looks at the neighbour on one side; true if that side is on the region's boundary.
@@ -313,7 +314,7 @@ void RegionTracker::grow(ClassState& state) {
       if (seedParent[nextClass] == id) {
         // An untracked region of a class seeded from this one's boundary (the ball next to
         // green): it grows when its class's turn comes.
-        classes_[classSlot_[nextClass]].pendingSeeds.push_back(next);
+        classes_[class_slot_[nextClass]].pending_seeds.push_back(next);
       }
     }
     // Another class, blocked, or unvisited of another class: a boundary side.
@@ -332,22 +333,22 @@ void RegionTracker::grow(ClassState& state) {
     }
   }
   state.cells = cells;
-  stats_.dropsProcessed += processed;
+  stats_.drops_processed += processed;
 }
 
 void RegionTracker::seedPending(ClassState& state) {
-  for (const CellIndex seed : state.pendingSeeds) {
-    if (visited_[seed] == kNoClass && classOf(seed) == state.tracking.classId) claim(state, seed);
+  for (const CellIndex seed : state.pending_seeds) {
+    if (visited_[seed] == kNoClass && classOf(seed) == state.tracking.class_id) claim(state, seed);
   }
-  state.pendingSeeds.clear();
+  state.pending_seeds.clear();
 }
 
 void RegionTracker::seedAtViewEdge(ClassState& state) {
-  const std::size_t stride = static_cast<std::size_t>(state.tracking.viewEdgeStride);
-  for (std::size_t i = static_cast<std::size_t>(frameCount_) % stride; i < viewEdge_.size();
+  const std::size_t stride = static_cast<std::size_t>(state.tracking.view_edge_stride);
+  for (std::size_t i = static_cast<std::size_t>(frame_count_) % stride; i < view_edge_.size();
        i += stride) {
-    const CellIndex cell = viewEdge_[i];
-    if (visited_[cell] == kNoClass && classOf(cell) == state.tracking.classId) claim(state, cell);
+    const CellIndex cell = view_edge_[i];
+    if (visited_[cell] == kNoClass && classOf(cell) == state.tracking.class_id) claim(state, cell);
   }
 }
 
@@ -356,11 +357,11 @@ void RegionTracker::seedAtViewEdge(ClassState& state) {
 // interior cells; a stale one becomes a boundary drop of the parent, so the coming shrink carves
 // the island out and the parent's grow seeds `child` from the island's new boundary.
 void RegionTracker::searchInsideParent(const ClassState& child) {
-  ClassState* parent = stateOf(child.tracking.seedFromBoundaryOf);
+  ClassState* parent = stateOf(child.tracking.seed_from_boundary_of);
   if (parent == nullptr || parent->cells == 0) return;
-  const ClassId parentId = parent->tracking.classId;
-  const int stride = child.tracking.searchInsideParentStride;
-  const int phase = static_cast<int>(frameCount_ % (stride * stride));
+  const ClassId parentId = parent->tracking.class_id;
+  const int stride = child.tracking.search_inside_parent_stride;
+  const int phase = static_cast<int>(frame_count_ % (stride * stride));
   for (int y = phase / stride; y < grid_.height; y += stride) {
     for (int x = phase % stride; x < grid_.width; x += stride) {
       const CellIndex cell = layout_.index(x, y);
@@ -370,7 +371,7 @@ void RegionTracker::searchInsideParent(const ClassState& child) {
       bool interior = true;
       for (const int offset : neighbour_)
         interior = interior && visited_[cell + offset] == parentId;
-      if (interior && classOf(cell) != parentId) parent->boundaryDrops.push_back(cell);
+      if (interior && classOf(cell) != parentId) parent->boundary_drops.push_back(cell);
     }
   }
 }
@@ -378,93 +379,94 @@ void RegionTracker::searchInsideParent(const ClassState& child) {
 // Seed 3.1.7: measure every untracked region of the class in the whole frame and seed the
 // largest ones with one drop each.
 void RegionTracker::initialSearch(ClassState& state) {
-  const ClassId id = state.tracking.classId;
-  seedCandidates_.clear();
+  const ClassId id = state.tracking.class_id;
+  seed_candidates_.clear();
   for (int y = 0; y < grid_.height; ++y) {
     for (int x = 0; x < grid_.width; ++x) {
       const CellIndex start = layout_.index(x, y);
-      if (scratchMark_[start] || visited_[start] != kNoClass || classOf(start) != id) continue;
+      if (scratch_mark_[start] || visited_[start] != kNoClass || classOf(start) != id) continue;
       // Flood the region on the scratch marks to measure its size.
       int size = 0;
-      scratchMark_[start] = 1;
-      scratchQueue_.push_back(start);
-      while (!scratchQueue_.empty()) {
-        const CellIndex cell = scratchQueue_.back();
-        scratchQueue_.pop_back();
+      scratch_mark_[start] = 1;
+      scratch_queue_.push_back(start);
+      while (!scratch_queue_.empty()) {
+        const CellIndex cell = scratch_queue_.back();
+        scratch_queue_.pop_back();
         ++size;
         for (const int offset : neighbour_) {
           const CellIndex next = cell + offset;
-          if (!scratchMark_[next] && visited_[next] == kNoClass && classOf(next) == id) {
-            scratchMark_[next] = 1;
-            scratchQueue_.push_back(next);
+          if (!scratch_mark_[next] && visited_[next] == kNoClass && classOf(next) == id) {
+            scratch_mark_[next] = 1;
+            scratch_queue_.push_back(next);
           }
         }
       }
-      if (size >= state.tracking.minSeedCells) seedCandidates_.push_back({size, start});
+      if (size >= state.tracking.min_seed_cells) seed_candidates_.push_back({size, start});
     }
   }
-  std::fill(scratchMark_.begin(), scratchMark_.end(), 0);
+  std::fill(scratch_mark_.begin(), scratch_mark_.end(), 0);
 
-  const auto seeds = std::min<std::size_t>(seedCandidates_.size(), state.tracking.maxSeedRegions);
+  const auto seeds =
+      std::min<std::size_t>(seed_candidates_.size(), state.tracking.max_seed_regions);
   std::partial_sort(
-      seedCandidates_.begin(), seedCandidates_.begin() + seeds, seedCandidates_.end(),
+      seed_candidates_.begin(), seed_candidates_.begin() + seeds, seed_candidates_.end(),
       [](const SeedCandidate& a, const SeedCandidate& b) { return a.cells > b.cells; });
   for (std::size_t i = 0; i < seeds; ++i)
-    claim(state, seedCandidates_[i].seed);
+    claim(state, seed_candidates_[i].seed);
 }
 
-int RegionTracker::dropRegion(ClassId classId, int x, int y) {
-  ClassState* state = stateOf(classId);
+int RegionTracker::dropRegion(ClassId class_id, int x, int y) {
+  ClassState* state = stateOf(class_id);
   if (state == nullptr || !grid_.contains(x, y)) return 0;
   const CellIndex start = layout_.index(x, y);
-  if (visited_[start] != classId) return 0;
+  if (visited_[start] != class_id) return 0;
   // Shrinking without a stopping criterion: unmark the whole connected region.
   int released = 0;
   visited_[start] = kNoClass;
-  scratchQueue_.push_back(start);
-  while (!scratchQueue_.empty()) {
-    const CellIndex cell = scratchQueue_.back();
-    scratchQueue_.pop_back();
+  scratch_queue_.push_back(start);
+  while (!scratch_queue_.empty()) {
+    const CellIndex cell = scratch_queue_.back();
+    scratch_queue_.pop_back();
     ++released;
     for (const int offset : neighbour_) {
       const CellIndex next = cell + offset;
-      if (visited_[next] == classId) {
+      if (visited_[next] == class_id) {
         visited_[next] = kNoClass;
-        scratchQueue_.push_back(next);
+        scratch_queue_.push_back(next);
       }
     }
   }
   state->cells -= released;
   // Its boundary drops must go too, or the next shrink would revive the region.
-  std::erase_if(state->boundaryDrops, [&](const CellIndex d) { return visited_[d] != classId; });
+  std::erase_if(state->boundary_drops, [&](const CellIndex d) { return visited_[d] != class_id; });
   return released;
 }
 
-void RegionTracker::dropClass(ClassId classId) {
-  ClassState* state = stateOf(classId);
+void RegionTracker::dropClass(ClassId class_id) {
+  ClassState* state = stateOf(class_id);
   if (state == nullptr) return;
-  std::replace(visited_.begin(), visited_.end(), classId, kNoClass);
-  state->workDrops.clear();
-  state->boundaryDrops.clear();
-  state->pendingSeeds.clear();
+  std::replace(visited_.begin(), visited_.end(), class_id, kNoClass);
+  state->work_drops.clear();
+  state->boundary_drops.clear();
+  state->pending_seeds.clear();
   state->cells = 0;
 }
 
-void RegionTracker::addSeed(ClassId classId, int x, int y) {
-  ClassState* state = stateOf(classId);
+void RegionTracker::addSeed(ClassId class_id, int x, int y) {
+  ClassState* state = stateOf(class_id);
   if (state == nullptr) {
     throw std::invalid_argument("region tracker: seed for untracked class " +
-                                std::to_string(classId));
+                                std::to_string(class_id));
   }
   if (!grid_.contains(x, y)) throw std::out_of_range("region tracker: seed outside the grid");
-  state->pendingSeeds.push_back(layout_.index(x, y));
+  state->pending_seeds.push_back(layout_.index(x, y));
 }
 
 void RegionTracker::reinitialise() {
-  visited_ = emptyVisited_;
+  visited_ = empty_visited_;
   for (ClassState& state : classes_) {
-    state.workDrops.clear();
-    state.boundaryDrops.clear();
+    state.work_drops.clear();
+    state.boundary_drops.clear();
     state.cells = 0;
   }
 }

@@ -36,24 +36,24 @@ namespace fieldline::region_tracking {
 
 // How one colour class is tracked.
 struct ClassTracking {
-  ClassId classId = 0;
+  ClassId class_id = 0;
   // When the class has no region left, search the whole frame for its largest regions (seed
   // 3.1.7). Costs a full pass over the frame in every frame the class stays absent.
-  bool searchWhenLost = true;
+  bool search_when_lost = true;
   // At most this many regions are seeded by one initial search (the seed uses 10).
-  int maxSeedRegions = 10;
+  int max_seed_regions = 10;
   // Regions smaller than this (cells) are not seeded by an initial search.
-  int minSeedCells = 4;
+  int min_seed_cells = 4;
   // Extension to the seed: every frame, unvisited cells of this class next to the boundary of
-  // the regions of class `seedFromBoundaryOf` become seeds (e.g. the ball next to green). The
+  // the regions of class `seed_from_boundary_of` become seeds (e.g. the ball next to green). The
   // parent must come earlier in the class list. kNoClass: off.
-  ClassId seedFromBoundaryOf = kNoClass;
+  ClassId seed_from_boundary_of = kNoClass;
   // Extension to the seed: untracked cells of this class on the edge of the view (next to the
   // don't-touch mask or the grid's border) become seeds, so regions that move into view are
   // tracked within a few frames instead of at the next re-initialisation. Each frame looks at
   // every n-th edge cell, starting one further each frame (all of them every n frames);
   // 0: off.
-  int viewEdgeStride = 0;
+  int view_edge_stride = 0;
   // Extension to the seed, against its blind spot (3.1.5): shrinking starts only at boundary
   // drops, so a small region that jumps (a fast ball) lands inside its parent's region, whose
   // stale cells are never looked at again, and is lost until the next re-initialisation. For
@@ -61,18 +61,18 @@ struct ClassTracking {
   // interiors (a rotating pattern, all of them every n*n frames) is checked; a cell that lost
   // the parent's class is handed to the parent's shrink, which carves the stale island out, and
   // the class is seeded from its boundary again. (A class that has been away longer left the
-  // view: it comes back across a boundary.) Needs seedFromBoundaryOf; 0: off.
-  int searchInsideParentStride = 0;
+  // view: it comes back across a boundary.) Needs seed_from_boundary_of; 0: off.
+  int search_inside_parent_stride = 0;
 };
 
 struct TrackerConfig {
   // Pixels per cell side: 1, 2, 4 or 8.
-  int cellSize = 4;
+  int cell_size = 4;
   // Classes in processing order; class ids must be distinct and below 254 (254 and 255 are
   // reserved).
   std::vector<ClassTracking> classes;
   // Forget everything and search again every this many frames (0: never; the seed uses 300).
-  int reinitialisePeriodFrames = 300;
+  int reinitialise_period_frames = 300;
 };
 
 // Reads keys cell_size, reinitialise_period_frames and a list `classes` of maps {class,
@@ -100,23 +100,23 @@ inline constexpr int kTouchReasonCount = 6;
 struct TrackingStats {
   std::int64_t frame = 0;
   // Distinct cells whose class was computed in this frame (each at most once).
-  int cellsClassified = 0;
-  // cellsClassified split by TouchReason.
-  std::array<int, kTouchReasonCount> classifiedBy{};
-  // cellsClassified / cells in the grid: the fraction of the image accessed.
-  double touchedFraction = 0.0;
+  int cells_classified = 0;
+  // cells_classified split by TouchReason.
+  std::array<int, kTouchReasonCount> classified_by{};
+  // cells_classified / cells in the grid: the fraction of the image accessed.
+  double touched_fraction = 0.0;
   // Drops taken from the queues by shrink and grow together.
-  int dropsProcessed = 0;
+  int drops_processed = 0;
   // Cells of all tracked regions at the end of the previous frame, after shrinking to the new
   // frame (the overlap), and after growing.
-  int cellsBefore = 0;
-  int cellsAfterShrink = 0;
-  int cellsAfterGrow = 0;
-  // cellsAfterShrink / cellsAfterGrow: the share of this frame's regions carried over (1 when
+  int cells_before = 0;
+  int cells_after_shrink = 0;
+  int cells_after_grow = 0;
+  // cells_after_shrink / cells_after_grow: the share of this frame's regions carried over (1 when
   // nothing moved, 0 after an initial search).
   double overlap = 0.0;
   // Classes that had to be searched for in the whole frame.
-  int initialSearches = 0;
+  int initial_searches = 0;
   bool reinitialised = false;
   int contours = 0;
 };
@@ -131,13 +131,13 @@ class RegionTracker {
   // Tracks all classes into the frame `classifier` looks at, then extracts the boundaries.
   const TrackingStats& track(const CellClassifier& classifier);
 
-  // Stops tracking the region of `classId` containing cell (x, y) (shrinking without a stopping
+  // Stops tracking the region of `class_id` containing cell (x, y) (shrinking without a stopping
   // criterion). Returns the number of cells released; 0 if the cell is not in such a region.
-  int dropRegion(ClassId classId, int x, int y);
+  int dropRegion(ClassId class_id, int x, int y);
   // Stops tracking every region of a class.
-  void dropClass(ClassId classId);
+  void dropClass(ClassId class_id);
   // Adds a seed cell for a class, grown on the next track() if the cell then has the class.
-  void addSeed(ClassId classId, int x, int y);
+  void addSeed(ClassId class_id, int x, int y);
   // Forgets all regions; the next track() starts from initial searches.
   void reinitialise();
 
@@ -154,12 +154,12 @@ class RegionTracker {
   // Boundaries of all tracked regions after the last track().
   const ContourSet& contours() const { return contours_; }
   // Cells of a class's regions after the last track().
-  int regionCells(ClassId classId) const;
+  int regionCells(ClassId class_id) const;
   const TrackingStats& stats() const { return stats_; }
   // True if the last track() computed the class of cell (x, y): the cells it accessed.
   bool classifiedInLastFrame(int x, int y) const {
     // Stamps start at 1 with the first frame: before it, no cell was classified.
-    return frameCount_ > 0 && (classified_[layout_.index(x, y)] >> 8) == stamp_;
+    return frame_count_ > 0 && (classified_[layout_.index(x, y)] >> 8) == stamp_;
   }
 
  private:
@@ -174,14 +174,14 @@ class RegionTracker {
     ClassTracking tracking;
     // Kept from frame to frame: the boundary cells of the regions. Filled by grow, emptied by the
     // next shrink, which starts from them.
-    std::vector<CellIndex> boundaryDrops;
+    std::vector<CellIndex> boundary_drops;
     // Within one frame: the drops still to spread. Filled by shrink (the drops that stopped) and
     // by seeding, emptied by grow.
-    std::vector<CellIndex> workDrops;
-    std::vector<CellIndex> pendingSeeds;
+    std::vector<CellIndex> work_drops;
+    std::vector<CellIndex> pending_seeds;
     int cells = 0;
     // Frames since the class last had a region (a large number before it was ever seen).
-    int framesLost = kNeverSeen;
+    int frames_lost = kNeverSeen;
   };
   static constexpr int kNeverSeen = 1 << 30;
 
@@ -192,12 +192,12 @@ class RegionTracker {
     return classifyNow(cell);
   }
   ClassId classifyNow(CellIndex cell);
-  ClassState* stateOf(ClassId classId);
+  ClassState* stateOf(ClassId class_id);
   // Marks an unvisited cell as the class's and queues it as a growing drop.
   void claim(ClassState& state, CellIndex cell) {
-    visited_[cell] = state.tracking.classId;
+    visited_[cell] = state.tracking.class_id;
     ++state.cells;
-    state.workDrops.push_back(cell);
+    state.work_drops.push_back(cell);
   }
 
   void shrink(ClassState& state);
@@ -211,21 +211,21 @@ class RegionTracker {
   PaddedLayout layout_;
   int neighbour_[4];  // index offsets up, right, down, left
   TrackerConfig config_;
-  std::vector<ClassId> visited_;       // V, padded
-  std::vector<ClassId> emptyVisited_;  // V with nothing tracked: kBlocked frame and mask only
+  std::vector<ClassId> visited_;        // V, padded
+  std::vector<ClassId> empty_visited_;  // V with nothing tracked: kBlocked frame and mask only
   std::vector<ClassState> classes_;
   // Touchable cells with a don't-touch or out-of-grid neighbour: where new content enters.
-  std::vector<CellIndex> viewEdge_;
+  std::vector<CellIndex> view_edge_;
   // By class id: index into classes_, and the class whose boundary seeds it (kNoClass: none).
-  std::array<int, 256> classSlot_;
-  std::array<ClassId, 256> seedParent_;
+  std::array<int, 256> class_slot_;
+  std::array<ClassId, 256> seed_parent_;
   ConnectivityGrid connectivity_;
   ContourSet contours_;
 
   // Per-frame cache of classifications, one word per cell: the frame's stamp (24 bits) and the
   // class (low 8 bits); valid while the stamp is the frame's. One load answers both questions.
   const CellClassifier* classifier_ = nullptr;
-  TouchReason touchReason_ = TouchReason::kShrink;
+  TouchReason touch_reason_ = TouchReason::kShrink;
   std::vector<std::uint32_t> classified_;
   std::uint32_t stamp_ = 0;
   static constexpr std::uint32_t kStampLimit = 1u << 24;
@@ -234,15 +234,15 @@ class RegionTracker {
   std::vector<Cell> coordinates_;
 
   // Scratch for initial searches and dropRegion, kept to avoid per-frame allocation.
-  std::vector<CellIndex> scratchQueue_;
-  std::vector<std::uint8_t> scratchMark_;
+  std::vector<CellIndex> scratch_queue_;
+  std::vector<std::uint8_t> scratch_mark_;
   struct SeedCandidate {
     int cells;
     CellIndex seed;
   };
-  std::vector<SeedCandidate> seedCandidates_;
+  std::vector<SeedCandidate> seed_candidates_;
 
-  std::int64_t frameCount_ = 0;
+  std::int64_t frame_count_ = 0;
   TrackingStats stats_;
 };
 

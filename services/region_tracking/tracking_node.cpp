@@ -13,7 +13,7 @@ namespace fieldline::region_tracking {
 
 TrackingNode::TrackingNode(bus::Node& node, TrackingNodeOptions options)
     : node_(node), options_(std::move(options)) {
-  if (options_.linesEveryFrames < 1) {
+  if (options_.lines_every_frames < 1) {
     throw std::invalid_argument("region tracking: lines_every_frames must be >= 1");
   }
   node_.subscribe(bus::channels::kCameraImage, [this](const image_t& image) { onImage(image); });
@@ -58,7 +58,7 @@ void TrackingNode::onImage(const image_t& image) {
   }
 
   // Every n-th processed frame: a rejected frame does not shift the cadence.
-  const bool detectLines = frames_processed_ % options_.linesEveryFrames == 0;
+  const bool detectLines = frames_processed_ % options_.lines_every_frames == 0;
   // Processing time is a measurement of this computer, not of the world: steady_clock.
   const auto start = std::chrono::steady_clock::now();
   processor_->process(*view, detectLines, result_);
@@ -72,7 +72,7 @@ void TrackingNode::onImage(const image_t& image) {
   publishBall(image, result_.ball);
   publishObstacles(image, result_.obstacles);
   if (detectLines) publishLines(image, result_, processingUs);
-  node_.setMetric("touched_percent", 100.0 * result_.tracking.touchedFraction);
+  node_.setMetric("touched_percent", 100.0 * result_.tracking.touched_fraction);
   node_.setMetric("processing_ms", measuredUs / 1000.0);
 }
 
@@ -83,10 +83,10 @@ void TrackingNode::publishLines(const image_t& image, const VisionResult& result
   msg::toMessage(result.lines, m);
   m.image_width = image.width;
   m.image_height = image.height;
-  m.cells_touched = result.tracking.cellsClassified;
-  m.touched_fraction = static_cast<float>(result.tracking.touchedFraction);
+  m.cells_touched = result.tracking.cells_classified;
+  m.touched_fraction = static_cast<float>(result.tracking.touched_fraction);
   m.overlap_fraction = static_cast<float>(result.tracking.overlap);
-  m.initial_searches = result.tracking.initialSearches;
+  m.initial_searches = result.tracking.initial_searches;
   m.processing_us = processingUs;
   node_.publish(bus::channels::kVisionLines, m);
 }
@@ -99,8 +99,8 @@ void TrackingNode::publishBall(const image_t& image, const BallDetection& ball) 
   sighting.v = ball.v;
   sighting.x = ball.x;
   sighting.y = ball.y;
-  sighting.sigma_radial = ball.sigmaRadial;
-  sighting.sigma_tangential = ball.sigmaTangential;
+  sighting.sigma_radial = ball.sigma_radial;
+  sighting.sigma_tangential = ball.sigma_tangential;
   sighting.cells = ball.cells;
   sighting.confidence = ball.confidence;
   msg::toMessage(sighting, ball_);
@@ -112,7 +112,7 @@ void TrackingNode::publishObstacles(const image_t& image, const std::vector<Obst
   obstacle_sightings_.obstacles.resize(obstacles.size());
   for (std::size_t i = 0; i < obstacles.size(); ++i) {
     const Obstacle& o = obstacles[i];
-    obstacle_sightings_.obstacles[i] = {o.bearing, o.distance, o.angularWidth, o.width, o.x, o.y};
+    obstacle_sightings_.obstacles[i] = {o.bearing, o.distance, o.angular_width, o.width, o.x, o.y};
   }
   msg::toMessage(obstacle_sightings_, obstacles_);
   node_.publish(bus::channels::kVisionObstacles, obstacles_);

@@ -28,7 +28,7 @@ struct TrackingNodeOptions {
   camera::ColourTable colours;
   VisionParams vision = defaultVisionParams();
   // Field lines are extracted on every n-th frame (the seed's 10 Hz at 30 fps).
-  int linesEveryFrames = 3;
+  int lines_every_frames = 3;
   // VISION_LINES.processing_us is the one output that depends on this machine, not on the
   // frames: replays that compare outputs byte for byte turn it off (it is then 0).
   bool report_processing_time = true;
@@ -37,7 +37,7 @@ struct TrackingNodeOptions {
 class TrackingNode {
  public:
   // Subscribes CAMERA_IMAGE on `node`'s primary bus. Throws std::invalid_argument for
-  // linesEveryFrames < 1.
+  // lines_every_frames < 1.
   TrackingNode(bus::Node& node, TrackingNodeOptions options);
 
   std::int64_t framesProcessed() const { return frames_processed_; }

@@ -54,7 +54,7 @@ std::vector<geometry::Pose2> motionPoses(const field::FieldModel& field, const M
   std::vector<geometry::Pose2> poses;
   poses.reserve(frames);
   for (int i = 0; i < frames; ++i) {
-    const double t = i / motion.frameRate;
+    const double t = i / motion.frame_rate;
     const Eigen::Vector2d p = pointAt(motion.speed * t);
     poses.push_back({p.x(), p.y(), std::remainder(0.3 + motion.omega * t, 2 * std::numbers::pi)});
   }

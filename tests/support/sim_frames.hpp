@@ -36,7 +36,7 @@ struct Motion {
   // Translation speed, m/s, and rotation speed, rad/s.
   double speed = 1.0;
   double omega = 0.0;
-  double frameRate = 30.0;
+  double frame_rate = 30.0;
 };
 
 // `frames` poses of a robot that drives at `motion.speed` around a rounded rectangle inside the

@@ -37,7 +37,7 @@ int main(int argc, char** argv) {
   std::vector<std::string> robots;
   int scale = 3, frames = 1;
   bool touched = false;
-  double speed = 1.0, omegaDeg = 90.0;
+  double speed = 1.0, omega_deg = 90.0;
   app.add_option("--camera", cameraPreset, "camera preset")->capture_default_str();
   app.add_option("--field", fieldPreset, "field preset")->capture_default_str();
   app.add_option("--pose", pose, "robot pose x,y,phi (m, m, rad), field frame")
@@ -48,7 +48,7 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(1, 10000))
       ->capture_default_str();
   app.add_option("--speed", speed, "speed of that drive, m/s")->capture_default_str();
-  app.add_option("--omega", omegaDeg, "rotation of that drive, deg/s")->capture_default_str();
+  app.add_option("--omega", omega_deg, "rotation of that drive, deg/s")->capture_default_str();
   app.add_option("--scale", scale, "output pixels per image pixel")
       ->check(CLI::Range(1, 8))
       ->capture_default_str();
@@ -74,7 +74,7 @@ int main(int argc, char** argv) {
     // Drive backwards from the pose so the last frame is at --pose, tracked from earlier ones.
     rt::VisionResult result;
     camera::FrameView view;
-    const double omega = omegaDeg * M_PI / 180.0;
+    const double omega = omega_deg * M_PI / 180.0;
     for (int i = frames - 1; i >= 0; --i) {
       const double t = i / 30.0;
       scene.robot = {p[0] - speed * t * std::cos(p[2]), p[1] - speed * t * std::sin(p[2]),
@@ -100,7 +100,7 @@ int main(int argc, char** argv) {
       for (int x = 0; x < grid.width; ++x) {
         const rt::ClassId c = processor.tracker().ownerOf(x, y);
         if (c == rt::kNoClass) continue;
-        const int s = grid.cellSize * scale;
+        const int s = grid.cell_size * scale;
         cv::rectangle(tint, {x * s, y * s, s, s},
                       toScalar(camera::displayColour(static_cast<camera::ColourClass>(c))),
                       cv::FILLED);
@@ -111,7 +111,7 @@ int main(int argc, char** argv) {
       for (int y = 0; y < grid.height; ++y) {
         for (int x = 0; x < grid.width; ++x) {
           if (!processor.tracker().classifiedInLastFrame(x, y)) continue;
-          const int s = grid.cellSize * scale;
+          const int s = grid.cell_size * scale;
           cv::rectangle(image, {x * s + 1, y * s + 1, s - 2, s - 2}, cv::Scalar(255, 0, 255), 1);
         }
       }
@@ -147,7 +147,7 @@ int main(int argc, char** argv) {
       cv::drawMarker(image, c, cv::Scalar(255, 0, 255), cv::MARKER_CROSS, 6 * scale, 2);
     }
     const rt::TrackingStats& s = result.tracking;
-    const std::string caption = "touched " + std::to_string(int(100 * s.touchedFraction + 0.5)) +
+    const std::string caption = "touched " + std::to_string(int(100 * s.touched_fraction + 0.5)) +
                                 "%  overlap " + std::to_string(int(100 * s.overlap + 0.5)) +
                                 "%  line points " + std::to_string(result.lines.points.size());
     cv::putText(image, caption, {8, 20}, cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(255, 255, 255),

@@ -32,7 +32,7 @@ std::multiset<std::tuple<int, bool, EdgeList>> canonical(const ContourSet& set) 
       edges.emplace_back(points[i].x, points[i].y, q.x, q.y);
     }
     std::sort(edges.begin(), edges.end());
-    out.emplace(c.classId, c.outer, std::move(edges));
+    out.emplace(c.class_id, c.outer, std::move(edges));
   }
   return out;
 }
@@ -41,7 +41,7 @@ std::multiset<std::tuple<int, bool, EdgeList>> canonical(const ContourSet& set) 
 std::map<ClassId, std::vector<int>> sizesByClass(std::span<const Region> regions) {
   std::map<ClassId, std::vector<int>> out;
   for (const Region& r : regions)
-    out[r.classId].push_back(r.cells);
+    out[r.class_id].push_back(r.cells);
   for (auto& [c, sizes] : out)
     std::sort(sizes.begin(), sizes.end());
   return out;
@@ -79,8 +79,8 @@ TEST(Baselines, RegionsMatchAPlainLabellingAndEachOther) {
     for (int i = 0; i < 64 * 48; ++i) {
       if (labels[i] < 0) continue;
       const Region& r = cmvision.regions()[labels[i]];
-      EXPECT_EQ(r.classId, g.cells[i]);
-      EXPECT_TRUE(r.minX <= i % 64 && i % 64 <= r.maxX && r.minY <= i / 64 && i / 64 <= r.maxY);
+      EXPECT_EQ(r.class_id, g.cells[i]);
+      EXPECT_TRUE(r.min_x <= i % 64 && i % 64 <= r.max_x && r.min_y <= i / 64 && i / 64 <= r.max_y);
     }
     // OpenCV's contours: one outer per 8-connected blob at least, points on cell centres.
     EXPECT_FALSE(opencv.contours().contours.empty());
@@ -131,7 +131,7 @@ TEST(Baselines, ConvergedTrackerEqualsCmvisionRegionsAndContours) {
     ClassGrid g = testing::randomBlobs(64, 48, rng);
     const CellGrid grid{64, 48, 4};
     TrackerConfig config;
-    config.cellSize = 4;
+    config.cell_size = 4;
     config.classes = {{1, true, 1000, 1, kNoClass}, {2, true, 1000, 1, kNoClass}};
     RegionTracker tracker(grid, config);
     CmvisionSegmenter cmvision(grid, kClasses);
@@ -143,10 +143,10 @@ TEST(Baselines, ConvergedTrackerEqualsCmvisionRegionsAndContours) {
       EXPECT_TRUE(agreement.exact()) << "trial " << trial << " frame " << frame;
       if (frame == 0) {
         // Everything seeded: identical regions, identical contours.
-        EXPECT_EQ(agreement.regionsUntracked, 0);
+        EXPECT_EQ(agreement.regions_untracked, 0);
         EXPECT_EQ(canonical(tracker.contours()), canonical(cmvision.contours()));
       }
-      if (agreement.regionsUntracked == 0) {
+      if (agreement.regions_untracked == 0) {
         EXPECT_EQ(canonical(tracker.contours()), canonical(cmvision.contours()));
       }
       g = g.shifted(shift(rng), shift(rng), 0);
@@ -190,8 +190,8 @@ void expectIdentical(const ContourSet& actual, const ContourSet& expected, int t
   for (std::size_t i = 0; i < expected.contours.size(); ++i) {
     const Contour& a = actual.contours[i];
     const Contour& e = expected.contours[i];
-    EXPECT_EQ(std::tie(a.classId, a.outer, a.signedCellArea, a.begin, a.end),
-              std::tie(e.classId, e.outer, e.signedCellArea, e.begin, e.end))
+    EXPECT_EQ(std::tie(a.class_id, a.outer, a.signed_cell_area, a.begin, a.end),
+              std::tie(e.class_id, e.outer, e.signed_cell_area, e.begin, e.end))
         << "trial " << trial << " contour " << i;
   }
 }
@@ -240,9 +240,9 @@ using OpenCvOutput =
 OpenCvOutput outputOf(const OpenCvSegmenter& s) {
   OpenCvOutput out;
   for (const Region& r : s.regions())
-    std::get<0>(out).emplace_back(r.classId, r.cells, r.minX, r.minY, r.maxX, r.maxY);
+    std::get<0>(out).emplace_back(r.class_id, r.cells, r.min_x, r.min_y, r.max_x, r.max_y);
   for (const Contour& c : s.contours().contours)
-    std::get<1>(out).emplace_back(c.classId, c.outer, c.signedCellArea, c.begin, c.end);
+    std::get<1>(out).emplace_back(c.class_id, c.outer, c.signed_cell_area, c.begin, c.end);
   for (const ContourPoint& p : s.contours().points)
     std::get<2>(out).emplace_back(p.x, p.y);
   return out;
@@ -273,7 +273,7 @@ TEST(Baselines, AgreementCountsAJumpedIslandAsStaleCells) {
   ClassGrid a(30, 20, 1);
   const CellGrid grid{30, 20, 1};
   TrackerConfig config;
-  config.cellSize = 1;
+  config.cell_size = 1;
   config.classes = {{1, true, 10, 1, kNoClass}};
   RegionTracker tracker(grid, config);
   CmvisionSegmenter cmvision(grid, {kClasses.data(), 1});
@@ -283,8 +283,8 @@ TEST(Baselines, AgreementCountsAJumpedIslandAsStaleCells) {
   tracker.track(ClassMapClassifier(b.cells, b.width));
   cmvision.segment(ClassMapClassifier(b.cells, b.width));
   const Agreement agreement = compareWithFullSegmentation(tracker.visited(), cmvision);
-  EXPECT_EQ(agreement.staleCells, 9);
-  EXPECT_EQ(agreement.regionsTracked, 1);
+  EXPECT_EQ(agreement.stale_cells, 9);
+  EXPECT_EQ(agreement.regions_tracked, 1);
   EXPECT_FALSE(agreement.exact());
 }
 

@@ -17,8 +17,8 @@ using testing::ClassGrid;
 using testing::labelComponents;
 
 // Adds every boundary side of the cells of class c and extracts the contours.
-ContourSet contoursOf(const ClassGrid& g, ClassId c, int cellSize = 1) {
-  const CellGrid grid{g.width, g.height, cellSize};
+ContourSet contoursOf(const ClassGrid& g, ClassId c, int cell_size = 1) {
+  const CellGrid grid{g.width, g.height, cell_size};
   ConnectivityGrid connectivity(grid);
   std::vector<Cell> boundary;
   for (int y = 0; y < g.height; ++y) {
@@ -42,21 +42,21 @@ ContourSet contoursOf(const ClassGrid& g, ClassId c, int cellSize = 1) {
 }
 
 // Every step between consecutive points (and from the last back to the first) is one cell side.
-void expectClosed(const ContourSet& set, int cellSize) {
+void expectClosed(const ContourSet& set, int cell_size) {
   for (const Contour& contour : set.contours) {
     const auto points = set.pointsOf(contour);
     ASSERT_GE(points.size(), 4u);
     for (std::size_t i = 0; i < points.size(); ++i) {
       const ContourPoint& p = points[i];
       const ContourPoint& q = points[(i + 1) % points.size()];
-      EXPECT_EQ(std::abs(p.x - q.x) + std::abs(p.y - q.y), cellSize);
+      EXPECT_EQ(std::abs(p.x - q.x) + std::abs(p.y - q.y), cell_size);
     }
   }
 }
 
 // Winding number of each cell centre from the vertical edges to its right: 1 inside a region,
 // 0 outside and in holes. This is what "the contours separate the region from the rest" means.
-std::vector<int> windingOf(const ContourSet& set, int width, int height, int cellSize) {
+std::vector<int> windingOf(const ContourSet& set, int width, int height, int cell_size) {
   std::vector<int> winding(width * height, 0);
   for (const Contour& contour : set.contours) {
     const auto points = set.pointsOf(contour);
@@ -64,8 +64,8 @@ std::vector<int> windingOf(const ContourSet& set, int width, int height, int cel
       const ContourPoint& p = points[i];
       const ContourPoint& q = points[(i + 1) % points.size()];
       if (p.x != q.x) continue;
-      const int x = p.x / cellSize;
-      const int row = std::min(p.y, q.y) / cellSize;
+      const int x = p.x / cell_size;
+      const int row = std::min(p.y, q.y) / cell_size;
       const int sign = q.y > p.y ? 1 : -1;  // downward edges are right sides of a region
       for (int cx = 0; cx < x && cx < width; ++cx)
         winding[row * width + cx] += sign;
@@ -81,7 +81,7 @@ TEST(Contours, SingleCellIsAClockwiseSquare) {
   ASSERT_EQ(set.contours.size(), 1u);
   const Contour& c = set.contours[0];
   EXPECT_TRUE(c.outer);
-  EXPECT_EQ(c.signedCellArea, 1);
+  EXPECT_EQ(c.signed_cell_area, 1);
   const std::vector<ContourPoint> expected = {{4, 4}, {8, 4}, {8, 8}, {4, 8}};
   const auto points = set.pointsOf(c);
   EXPECT_EQ(std::vector<ContourPoint>(points.begin(), points.end()), expected);
@@ -95,7 +95,7 @@ TEST(Contours, RegionWithHoleHasOuterAndInnerContour) {
   ASSERT_EQ(set.contours.size(), 2u);
   int outerArea = 0, holeArea = 0;
   for (const Contour& c : set.contours)
-    (c.outer ? outerArea : holeArea) = c.signedCellArea;
+    (c.outer ? outerArea : holeArea) = c.signed_cell_area;
   EXPECT_EQ(outerArea, 64);
   EXPECT_EQ(holeArea, -4);
   EXPECT_EQ(set.points.size(), 32u + 8u);
@@ -126,10 +126,10 @@ TEST(Contours, RandomShapesGiveClosedContoursThatSeparateExactlyTheRegion) {
       for (auto& cell : g.cells)
         cell = coin(rng) ? 1 : 0;
     }
-    const int cellSize = trial % 4 == 0 ? 4 : 1;
-    const ContourSet set = contoursOf(g, 1, cellSize);
-    expectClosed(set, cellSize);
-    const std::vector<int> winding = windingOf(set, g.width, g.height, cellSize);
+    const int cell_size = trial % 4 == 0 ? 4 : 1;
+    const ContourSet set = contoursOf(g, 1, cell_size);
+    expectClosed(set, cell_size);
+    const std::vector<int> winding = windingOf(set, g.width, g.height, cell_size);
     for (int i = 0; i < g.width * g.height; ++i) {
       ASSERT_EQ(winding[i], g.cells[i] == 1 ? 1 : 0) << "trial " << trial << " cell " << i;
     }
@@ -148,7 +148,7 @@ TEST(Contours, TrackerBoundariesSeparateItsRegionsAndLeaveTheGridClear) {
   for (int trial = 0; trial < 30; ++trial) {
     const ClassGrid g = testing::randomBlobs(50, 40, rng);
     TrackerConfig config;
-    config.cellSize = 1;
+    config.cell_size = 1;
     config.classes = {{1, true, 1000, 1, kNoClass}, {2, true, 1000, 1, kNoClass}};
     RegionTracker tracker(CellGrid{50, 40, 1}, config);
     tracker.track(ClassMapClassifier(g.cells, g.width));
@@ -157,7 +157,7 @@ TEST(Contours, TrackerBoundariesSeparateItsRegionsAndLeaveTheGridClear) {
     for (const ClassId c : {ClassId{1}, ClassId{2}}) {
       ContourSet ofClass;
       for (const Contour& contour : set.contours) {
-        if (contour.classId != c) continue;
+        if (contour.class_id != c) continue;
         Contour copy = contour;
         copy.begin = static_cast<int>(ofClass.points.size());
         for (const ContourPoint& p : set.pointsOf(contour))

@@ -67,7 +67,7 @@ ClassId referenceClass(const camera::ColourTable& table, const camera::FrameView
       ++votes[static_cast<std::size_t>(table.classifyPixel(frame, u, v))];
   }
   for (const BlockClaim& claim : params.claims) {
-    const int pixels = std::max(1, static_cast<int>(std::ceil(claim.minFraction * size * size)));
+    const int pixels = std::max(1, static_cast<int>(std::ceil(claim.min_fraction * size * size)));
     if (votes[static_cast<std::size_t>(claim.colour)] >= pixels) return classIdOf(claim.colour);
   }
   int best = 0;

@@ -18,16 +18,16 @@ using testing::ClassGrid;
 using testing::labelComponents;
 using testing::randomBlobs;
 
-TrackerConfig configFor(std::vector<ClassId> classes, bool searchWhenLost = true) {
+TrackerConfig configFor(std::vector<ClassId> classes, bool search_when_lost = true) {
   TrackerConfig config;
-  config.cellSize = 1;
-  config.reinitialisePeriodFrames = 0;
+  config.cell_size = 1;
+  config.reinitialise_period_frames = 0;
   for (const ClassId c : classes) {
     ClassTracking tracking;
-    tracking.classId = c;
-    tracking.searchWhenLost = searchWhenLost;
-    tracking.maxSeedRegions = 100000;  // every region, so a first frame tracks everything
-    tracking.minSeedCells = 1;
+    tracking.class_id = c;
+    tracking.search_when_lost = search_when_lost;
+    tracking.max_seed_regions = 100000;  // every region, so a first frame tracks everything
+    tracking.min_seed_cells = 1;
     config.classes.push_back(tracking);
   }
   return config;
@@ -100,7 +100,7 @@ TEST(RegionTracker, GrowingFromASeedFillsExactlyTheConnectedRegion) {
     const int seed = candidates[rng() % candidates.size()];
     const ClassId c = g.cells[seed];
 
-    RegionTracker tracker(gridOf(g), configFor({1, 2}, /*searchWhenLost=*/false));
+    RegionTracker tracker(gridOf(g), configFor({1, 2}, /*search_when_lost=*/false));
     tracker.addSeed(c, seed % g.width, seed / g.width);
     tracker.track(ClassMapClassifier(g.cells, g.width));
     const std::vector<ClassId> visited = tracker.visited();
@@ -123,15 +123,15 @@ TEST(RegionTracker, FirstFrameInitialSearchTracksTheLargestRegions) {
   g.fillRect(30, 20, 32, 22, 1);  // 4 cells
   g.fillRect(35, 2, 36, 3, 1);    // 1 cell: below the minimum
   TrackerConfig config = configFor({1});
-  config.classes[0].maxSeedRegions = 2;
-  config.classes[0].minSeedCells = 2;
+  config.classes[0].max_seed_regions = 2;
+  config.classes[0].min_seed_cells = 2;
   RegionTracker tracker(gridOf(g), config);
   const TrackingStats stats = tracker.track(ClassMapClassifier(g.cells, g.width));
-  EXPECT_EQ(stats.initialSearches, 1);
+  EXPECT_EQ(stats.initial_searches, 1);
   EXPECT_EQ(tracker.regionCells(1), 125);
   EXPECT_EQ(tracker.ownerOf(30, 20), kNoClass);
-  EXPECT_DOUBLE_EQ(stats.touchedFraction, 1.0);  // an initial search reads every cell
-  EXPECT_EQ(stats.cellsAfterShrink, 0);
+  EXPECT_DOUBLE_EQ(stats.touched_fraction, 1.0);  // an initial search reads every cell
+  EXPECT_EQ(stats.cells_after_shrink, 0);
   EXPECT_DOUBLE_EQ(stats.overlap, 0.0);
 }
 
@@ -141,13 +141,13 @@ TEST(RegionTracker, UnchangedFrameTouchesOnlyTheBoundaryBand) {
   RegionTracker tracker(gridOf(g), configFor({1}));
   tracker.track(ClassMapClassifier(g.cells, g.width));
   const TrackingStats stats = tracker.track(ClassMapClassifier(g.cells, g.width));
-  EXPECT_EQ(stats.initialSearches, 0);
-  EXPECT_EQ(stats.cellsAfterShrink, 60 * 40);
-  EXPECT_EQ(stats.cellsAfterGrow, 60 * 40);
+  EXPECT_EQ(stats.initial_searches, 0);
+  EXPECT_EQ(stats.cells_after_shrink, 60 * 40);
+  EXPECT_EQ(stats.cells_after_grow, 60 * 40);
   EXPECT_DOUBLE_EQ(stats.overlap, 1.0);
   // Shrink reads the 196 boundary cells, grow reads the 200 cells just outside them.
-  EXPECT_EQ(stats.cellsClassified, 196 + 200);
-  EXPECT_EQ(stats.dropsProcessed, 2 * 196);
+  EXPECT_EQ(stats.cells_classified, 196 + 200);
+  EXPECT_EQ(stats.drops_processed, 2 * 196);
 }
 
 // The central property: after a move, shrink-and-grow gives exactly every new region that
@@ -259,7 +259,7 @@ TEST(RegionTracker, RegionSplittingInTwoKeepsBothParts) {
   const TrackingStats stats = tracker.track(ClassMapClassifier(b.cells, b.width));
   EXPECT_EQ(visitedOf(tracker), trackedPart(b, {1}));
   EXPECT_EQ(stats.contours, 2);
-  EXPECT_EQ(stats.initialSearches, 0);
+  EXPECT_EQ(stats.initial_searches, 0);
 }
 
 TEST(RegionTracker, TwoRegionsMergingBecomeOne) {
@@ -291,7 +291,7 @@ TEST(RegionTracker, RegionsLeavingTheImageVanishWithoutSearchWhenNotAsked) {
   for (int step = 0; step < 10; ++step) {
     g = g.shifted(-4, 0, 0);
     const TrackingStats stats = tracker.track(ClassMapClassifier(g.cells, g.width));
-    EXPECT_EQ(stats.initialSearches, 0);
+    EXPECT_EQ(stats.initial_searches, 0);
     EXPECT_EQ(visitedOf(tracker), trackedPart(g, {1, 2})) << "step " << step;
   }
   EXPECT_EQ(tracker.regionCells(1), 0);
@@ -307,7 +307,7 @@ TEST(RegionTracker, LostClassIsSearchedForAgain) {
   ClassGrid b(40, 30, 0);
   b.fillRect(30, 20, 36, 26, 1);  // jumped: no overlap
   const TrackingStats stats = tracker.track(ClassMapClassifier(b.cells, b.width));
-  EXPECT_EQ(stats.initialSearches, 1);
+  EXPECT_EQ(stats.initial_searches, 1);
   EXPECT_EQ(visitedOf(tracker), trackedPart(b, {1}));
 }
 
@@ -362,26 +362,26 @@ TEST(RegionTracker, DroppedRegionStaysDropped) {
   EXPECT_EQ(tracker.dropRegion(1, 0, 0), 0);
   for (int frame = 0; frame < 3; ++frame) {
     const TrackingStats stats = tracker.track(ClassMapClassifier(a.cells, a.width));
-    EXPECT_EQ(stats.initialSearches, 0);
+    EXPECT_EQ(stats.initial_searches, 0);
     EXPECT_EQ(tracker.regionCells(1), 15 * 20);
     EXPECT_EQ(tracker.ownerOf(5, 5), kNoClass);
   }
   tracker.dropClass(1);
   EXPECT_EQ(tracker.regionCells(1), 0);
-  EXPECT_EQ(tracker.track(ClassMapClassifier(a.cells, a.width)).initialSearches, 1);
+  EXPECT_EQ(tracker.track(ClassMapClassifier(a.cells, a.width)).initial_searches, 1);
 }
 
 TEST(RegionTracker, ReinitialisesPeriodically) {
   ClassGrid a(40, 30, 0);
   a.fillRect(2, 2, 12, 12, 1);
   TrackerConfig config = configFor({1});
-  config.reinitialisePeriodFrames = 4;
+  config.reinitialise_period_frames = 4;
   RegionTracker tracker(gridOf(a), config);
   for (int frame = 0; frame < 9; ++frame) {
     const TrackingStats stats = tracker.track(ClassMapClassifier(a.cells, a.width));
     const bool expected = frame == 4 || frame == 8;
     EXPECT_EQ(stats.reinitialised, expected) << frame;
-    EXPECT_EQ(stats.initialSearches, frame == 0 || expected ? 1 : 0) << frame;
+    EXPECT_EQ(stats.initial_searches, frame == 0 || expected ? 1 : 0) << frame;
     EXPECT_EQ(tracker.regionCells(1), 100);
   }
 }
@@ -392,11 +392,11 @@ TEST(RegionTracker, SeedsFromTheBoundaryOfAParentClass) {
   a.fillRect(10, 10, 13, 13, 2);  // "ball" inside green
   a.fillRect(36, 2, 39, 5, 2);    // another "ball" off the green: not seeded
   TrackerConfig config = configFor({1, 2});
-  config.classes[1].searchWhenLost = false;
-  config.classes[1].seedFromBoundaryOf = 1;
+  config.classes[1].search_when_lost = false;
+  config.classes[1].seed_from_boundary_of = 1;
   RegionTracker tracker(gridOf(a), config);
   const TrackingStats stats = tracker.track(ClassMapClassifier(a.cells, a.width));
-  EXPECT_EQ(stats.initialSearches, 1);  // green only
+  EXPECT_EQ(stats.initial_searches, 1);  // green only
   EXPECT_EQ(tracker.regionCells(2), 9);
   EXPECT_EQ(tracker.ownerOf(37, 3), kNoClass);
   // The ball jumps without overlap onto green's edge: found again through green's boundary.
@@ -414,9 +414,9 @@ TEST(RegionTracker, ABallLostInsideGreenIsFoundByTheInteriorCheck) {
   a.fillRect(2, 2, 78, 58, 1);    // "green"
   a.fillRect(20, 20, 23, 23, 2);  // a 3x3 "ball" inside green
   TrackerConfig config = configFor({1, 2});
-  config.classes[1].searchWhenLost = false;
-  config.classes[1].seedFromBoundaryOf = 1;
-  config.classes[1].searchInsideParentStride = 4;
+  config.classes[1].search_when_lost = false;
+  config.classes[1].seed_from_boundary_of = 1;
+  config.classes[1].search_inside_parent_stride = 4;
   RegionTracker tracker(gridOf(a), config);
   tracker.track(ClassMapClassifier(a.cells, a.width));
   ASSERT_EQ(tracker.regionCells(2), 9);
@@ -437,7 +437,7 @@ TEST(RegionTracker, ABallLostInsideGreenIsFoundByTheInteriorCheck) {
   EXPECT_EQ(tracker.regionCells(2), 9) << "after " << frames << " frames";
   EXPECT_EQ(visitedOf(tracker), trackedPart(b, {1, 2}));
   const TrackingStats tracked = tracker.track(jumped);
-  EXPECT_EQ(tracked.classifiedBy[static_cast<int>(TouchReason::kInsideParent)], 0);
+  EXPECT_EQ(tracked.classified_by[static_cast<int>(TouchReason::kInsideParent)], 0);
 
   // The ball leaves the view: the check runs for 2 * 4 * 4 frames, then stops costing anything.
   ClassGrid gone = b;
@@ -446,16 +446,16 @@ TEST(RegionTracker, ABallLostInsideGreenIsFoundByTheInteriorCheck) {
   int checking = 0;
   for (int i = 0; i < 40; ++i) {
     const TrackingStats s = tracker.track(empty);
-    if (s.classifiedBy[static_cast<int>(TouchReason::kInsideParent)] > 0) ++checking;
+    if (s.classified_by[static_cast<int>(TouchReason::kInsideParent)] > 0) ++checking;
   }
   EXPECT_GE(checking, 30);
   EXPECT_LE(checking, 33);
-  EXPECT_EQ(tracker.track(empty).classifiedBy[static_cast<int>(TouchReason::kInsideParent)], 0);
+  EXPECT_EQ(tracker.track(empty).classified_by[static_cast<int>(TouchReason::kInsideParent)], 0);
 }
 
 TEST(RegionTracker, InteriorCheckNeedsAParentClass) {
   TrackerConfig config = configFor({1, 2});
-  config.classes[1].searchInsideParentStride = 4;
+  config.classes[1].search_inside_parent_stride = 4;
   EXPECT_THROW(RegionTracker(CellGrid{10, 10, 1}, config), std::invalid_argument);
 }
 
@@ -466,7 +466,7 @@ TEST(RegionTracker, SeedsRegionsEnteringAtTheEdgeOfTheView) {
   for (int y = 0; y < 30; ++y)
     dontTouch[y * 40 + 39] = 1;  // the view ends at column 38
   TrackerConfig config = configFor({1});
-  config.classes[0].viewEdgeStride = 1;
+  config.classes[0].view_edge_stride = 1;
   RegionTracker tracker(gridOf(a), config, dontTouch);
   tracker.track(ClassMapClassifier(a.cells, a.width));
   ASSERT_EQ(tracker.regionCells(1), 100);
@@ -475,12 +475,12 @@ TEST(RegionTracker, SeedsRegionsEnteringAtTheEdgeOfTheView) {
     ClassGrid g = a;
     g.fillRect(39 - step, 20, 39, 25, 1);
     const TrackingStats stats = tracker.track(ClassMapClassifier(g.cells, g.width));
-    EXPECT_EQ(stats.initialSearches, 0);
+    EXPECT_EQ(stats.initial_searches, 0);
     EXPECT_EQ(tracker.regionCells(1), 100 + 5 * step) << "step " << step;
   }
   // Looking at every third edge cell per frame, a 2-cell-high region at the edge is found
   // within three frames.
-  config.classes[0].viewEdgeStride = 3;
+  config.classes[0].view_edge_stride = 3;
   RegionTracker strided(gridOf(a), config, dontTouch);
   strided.track(ClassMapClassifier(a.cells, a.width));
   ClassGrid entering = a;
@@ -493,7 +493,7 @@ TEST(RegionTracker, SeedsRegionsEnteringAtTheEdgeOfTheView) {
   EXPECT_LE(framesToFind, 3);
   EXPECT_EQ(strided.regionCells(1), 106);
   // Without the option it stays untracked.
-  config.classes[0].viewEdgeStride = 0;
+  config.classes[0].view_edge_stride = 0;
   RegionTracker plain(gridOf(a), config, dontTouch);
   plain.track(ClassMapClassifier(a.cells, a.width));
   ClassGrid g = a;
@@ -508,10 +508,10 @@ TEST(RegionTracker, RejectsBadConfiguration) {
   EXPECT_THROW(RegionTracker(grid, configFor({kNoClass})), std::invalid_argument);
   EXPECT_THROW(RegionTracker(grid, configFor({254})), std::invalid_argument);
   TrackerConfig wrongCell = configFor({1});
-  wrongCell.cellSize = 4;
+  wrongCell.cell_size = 4;
   EXPECT_THROW(RegionTracker(grid, wrongCell), std::invalid_argument);
   TrackerConfig orphan = configFor({1, 2});
-  orphan.classes[0].seedFromBoundaryOf = 2;  // parent must come first
+  orphan.classes[0].seed_from_boundary_of = 2;  // parent must come first
   EXPECT_THROW(RegionTracker(grid, orphan), std::invalid_argument);
   EXPECT_THROW(RegionTracker(grid, configFor({1}), std::vector<std::uint8_t>(5, 0)),
                std::invalid_argument);
@@ -537,15 +537,15 @@ classes:
      view_edge_stride: 3}
 )");
   const TrackerConfig config = loadTrackerConfig(node, byName);
-  EXPECT_EQ(config.cellSize, 4);
-  EXPECT_EQ(config.reinitialisePeriodFrames, 300);
+  EXPECT_EQ(config.cell_size, 4);
+  EXPECT_EQ(config.reinitialise_period_frames, 300);
   ASSERT_EQ(config.classes.size(), 2u);
-  EXPECT_EQ(config.classes[1].classId, 4);
-  EXPECT_FALSE(config.classes[1].searchWhenLost);
-  EXPECT_EQ(config.classes[1].seedFromBoundaryOf, 0);
-  EXPECT_EQ(config.classes[0].seedFromBoundaryOf, kNoClass);
-  EXPECT_EQ(config.classes[0].viewEdgeStride, 0);
-  EXPECT_EQ(config.classes[1].viewEdgeStride, 3);
+  EXPECT_EQ(config.classes[1].class_id, 4);
+  EXPECT_FALSE(config.classes[1].search_when_lost);
+  EXPECT_EQ(config.classes[1].seed_from_boundary_of, 0);
+  EXPECT_EQ(config.classes[0].seed_from_boundary_of, kNoClass);
+  EXPECT_EQ(config.classes[0].view_edge_stride, 0);
+  EXPECT_EQ(config.classes[1].view_edge_stride, 3);
   auto fails = [&](const std::string& yaml, const std::string& fragment) {
     try {
       loadTrackerConfig(config::Node::loadString(yaml), byName);

@@ -185,7 +185,7 @@ TEST_F(RenderedFrames, BallKeepsBeingTrackedWhileItRolls) {
     processor.process(sim_->render(scene), i % 3 == 0, result);
     ASSERT_TRUE(result.ball.visible) << "frame " << i;
     EXPECT_LE((Vec2(result.ball.x, result.ball.y) - ball).norm(), 0.05) << "frame " << i;
-    EXPECT_EQ(result.linesDetected, i % 3 == 0);
+    EXPECT_EQ(result.lines_detected, i % 3 == 0);
   }
 }
 
@@ -236,36 +236,36 @@ TEST(VisionParams, TheShippedYamlHoldsTheDefaults) {
   const VisionParams loaded = loadVisionParams(config::Node::loadFile(
       config::projectRoot() + "/services/region_tracking/vision_default.yaml"));
   const VisionParams defaults = defaultVisionParams();
-  EXPECT_EQ(loaded.tracker.cellSize, defaults.tracker.cellSize);
-  EXPECT_EQ(loaded.tracker.reinitialisePeriodFrames, defaults.tracker.reinitialisePeriodFrames);
+  EXPECT_EQ(loaded.tracker.cell_size, defaults.tracker.cell_size);
+  EXPECT_EQ(loaded.tracker.reinitialise_period_frames, defaults.tracker.reinitialise_period_frames);
   ASSERT_EQ(loaded.tracker.classes.size(), defaults.tracker.classes.size());
   for (std::size_t i = 0; i < loaded.tracker.classes.size(); ++i) {
     const ClassTracking& a = loaded.tracker.classes[i];
     const ClassTracking& b = defaults.tracker.classes[i];
-    EXPECT_EQ(a.classId, b.classId);
-    EXPECT_EQ(a.searchWhenLost, b.searchWhenLost);
-    EXPECT_EQ(a.maxSeedRegions, b.maxSeedRegions);
-    EXPECT_EQ(a.minSeedCells, b.minSeedCells);
-    EXPECT_EQ(a.seedFromBoundaryOf, b.seedFromBoundaryOf);
-    EXPECT_EQ(a.viewEdgeStride, b.viewEdgeStride);
-    EXPECT_EQ(a.searchInsideParentStride, b.searchInsideParentStride);
+    EXPECT_EQ(a.class_id, b.class_id);
+    EXPECT_EQ(a.search_when_lost, b.search_when_lost);
+    EXPECT_EQ(a.max_seed_regions, b.max_seed_regions);
+    EXPECT_EQ(a.min_seed_cells, b.min_seed_cells);
+    EXPECT_EQ(a.seed_from_boundary_of, b.seed_from_boundary_of);
+    EXPECT_EQ(a.view_edge_stride, b.view_edge_stride);
+    EXPECT_EQ(a.search_inside_parent_stride, b.search_inside_parent_stride);
   }
   ASSERT_EQ(loaded.blocks.claims.size(), defaults.blocks.claims.size());
   for (std::size_t i = 0; i < loaded.blocks.claims.size(); ++i) {
     EXPECT_EQ(loaded.blocks.claims[i].colour, defaults.blocks.claims[i].colour);
-    EXPECT_DOUBLE_EQ(loaded.blocks.claims[i].minFraction, defaults.blocks.claims[i].minFraction);
+    EXPECT_DOUBLE_EQ(loaded.blocks.claims[i].min_fraction, defaults.blocks.claims[i].min_fraction);
   }
-  EXPECT_DOUBLE_EQ(loaded.lines.lineWidth, defaults.lines.lineWidth);
-  EXPECT_DOUBLE_EQ(loaded.lines.widthTolerance, defaults.lines.widthTolerance);
-  EXPECT_EQ(loaded.lines.maxTransitionPixels, defaults.lines.maxTransitionPixels);
-  EXPECT_EQ(loaded.lines.sampleSpacing, defaults.lines.sampleSpacing);
-  EXPECT_EQ(loaded.lines.smoothingPasses, defaults.lines.smoothingPasses);
-  EXPECT_EQ(loaded.lines.tangentHalfSpan, defaults.lines.tangentHalfSpan);
-  EXPECT_EQ(loaded.lines.minContourPoints, defaults.lines.minContourPoints);
-  EXPECT_EQ(loaded.lines.maxGapSamples, defaults.lines.maxGapSamples);
-  EXPECT_DOUBLE_EQ(loaded.ball.centreHeight, defaults.ball.centreHeight);
-  EXPECT_EQ(loaded.ball.minPixels, defaults.ball.minPixels);
-  EXPECT_EQ(loaded.obstacles.minCells, defaults.obstacles.minCells);
+  EXPECT_DOUBLE_EQ(loaded.lines.line_width, defaults.lines.line_width);
+  EXPECT_DOUBLE_EQ(loaded.lines.width_tolerance, defaults.lines.width_tolerance);
+  EXPECT_EQ(loaded.lines.max_transition_pixels, defaults.lines.max_transition_pixels);
+  EXPECT_EQ(loaded.lines.sample_spacing, defaults.lines.sample_spacing);
+  EXPECT_EQ(loaded.lines.smoothing_passes, defaults.lines.smoothing_passes);
+  EXPECT_EQ(loaded.lines.tangent_half_span, defaults.lines.tangent_half_span);
+  EXPECT_EQ(loaded.lines.min_contour_points, defaults.lines.min_contour_points);
+  EXPECT_EQ(loaded.lines.max_gap_samples, defaults.lines.max_gap_samples);
+  EXPECT_DOUBLE_EQ(loaded.ball.centre_height, defaults.ball.centre_height);
+  EXPECT_EQ(loaded.ball.min_pixels, defaults.ball.min_pixels);
+  EXPECT_EQ(loaded.obstacles.min_cells, defaults.obstacles.min_cells);
 }
 
 TEST(VisionParams, RejectsUnknownKeysAndColours) {
@@ -277,7 +277,7 @@ lines: {line_width: 0.05, width_tolerance: 2, max_transition_pixels: 1, sample_s
 ball: {centre_height: 0.11, min_pixels: 3}
 obstacles: {min_cells: 2}
 )";
-  EXPECT_EQ(loadVisionParams(config::Node::loadString(good)).lines.lineWidth, 0.05);
+  EXPECT_EQ(loadVisionParams(config::Node::loadString(good)).lines.line_width, 0.05);
   auto broken = [&](const std::string& from, const std::string& to) {
     std::string text = good;
     text.replace(text.find(from), from.size(), to);
