@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <map>
 #include <memory>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -233,8 +234,19 @@ void Launcher::plan() {
 
 std::vector<std::string> Launcher::preflight() const {
   std::vector<std::string> problems = checkExecutables(file_, plan_, bin_dir_);
-  if (options_.check_args || options_.dry_run) {
+  if (options_.dry_run) {
+    // Every instance: arguments can differ per robot ({robot} in a preset name).
     for (std::string& p : checkArguments(plan_.instances))
+      problems.push_back(std::move(p));
+  } else if (options_.check_args) {
+    // Before a start, one instance per entry (its first robot) catches a typo in the entry's
+    // arguments without delaying the team by a check of every robot.
+    std::vector<LaunchInstance> firsts;
+    std::set<std::string> seen;
+    for (const LaunchInstance& i : plan_.instances) {
+      if (seen.insert(i.name).second) firsts.push_back(i);
+    }
+    for (std::string& p : checkArguments(firsts))
       problems.push_back(std::move(p));
   }
   return problems;

@@ -30,7 +30,8 @@ struct LauncherOptions {
   bool dry_run = false;
   // Seconds between compact status lines.
   double status_period_s = 5;
-  // Run every child once with --check-args before starting (always at --dry-run).
+  // Before starting, run one instance of every entry with --check-args (--dry-run runs every
+  // instance, whatever this says).
   bool check_args = true;
 };
 

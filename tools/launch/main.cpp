@@ -30,8 +30,10 @@ int main(int argc, char** argv) {
   app.add_flag("--dry-run", options.dry_run,
                "Check the launch file and every child's arguments (--check-args), print the "
                "command lines and exit: 0, or 2 with the problems");
-  app.add_flag("--skip-check-args", skip_check_args,
-               "Start without running each child with --check-args first (not with --dry-run)");
+  app.add_flag(
+      "--skip-check-args", skip_check_args,
+      "Start without running one instance of each entry with --check-args first (--dry-run "
+      "always checks every instance)");
   app.add_option("--status-period", options.status_period_s,
                  "Seconds between compact status lines when there is no live table")
       ->check(CLI::Range(0.2, 3600.0))
