@@ -4,7 +4,10 @@
 // keeps its stamps increasing; --restamp gives the camera-like stamps. Log replay goes to a bus
 // of its own (robot N's replay bus) unless --live-bus.
 #include <filesystem>
+#include <string>
 #include <vector>
+
+#include <unistd.h>
 
 #include <gtest/gtest.h>
 
@@ -24,8 +27,9 @@ constexpr Utime kLogStart = 1'600'000'000'000'000;
 constexpr Utime kFramePeriod = 10'000;
 
 std::string writeLog(int frames) {
-  const std::string path =
-      (std::filesystem::temp_directory_path() / "fieldline_health_camera.lcmlog").string();
+  const std::string path = (std::filesystem::temp_directory_path() /
+                            ("fieldline_health_camera_" + std::to_string(::getpid()) + ".lcmlog"))
+                               .string();
   bus::LogWriter log(path);
   for (int k = 0; k < frames; ++k) {
     image_t img;

@@ -9,6 +9,8 @@
 #include <string>
 #include <vector>
 
+#include <unistd.h>
+
 #include <gtest/gtest.h>
 
 #include "tools/launch/preflight.hpp"
@@ -102,7 +104,8 @@ TEST(HealthLaunch, PreflightRunsEveryChildWithCheckArgs) {
 }
 
 TEST(HealthLaunch, AnExecutableTypoIsAnErrorNamingTheClosestBuiltOne) {
-  const auto dir = std::filesystem::temp_directory_path() / "fieldline_health_launch_bin";
+  const auto dir = std::filesystem::temp_directory_path() /
+                   ("fieldline_health_launch_bin_" + std::to_string(::getpid()));
   std::filesystem::create_directories(dir);
   const auto camera = dir / "fieldline-camera";
   std::ofstream(camera) << "#!/bin/sh\nexit 0\n";
