@@ -1,0 +1,175 @@
+#include "services/camera/camera_app.hpp"
+
+#include <algorithm>
+#include <memory>
+#include <optional>
+#include <stdexcept>
+#include <string>
+
+#include <spdlog/spdlog.h>
+
+#include "common/bus/node.hpp"
+#include "common/bus/replay_bus.hpp"
+#include "common/config/config.hpp"
+#include "common/time/clock.hpp"
+#include "common/time/offset_clock.hpp"
+#include "services/camera/camera_config.hpp"
+#include "services/camera/camera_node.hpp"
+#include "services/camera/log_source.hpp"
+#include "services/camera/sources.hpp"
+
+namespace fieldline::camera {
+
+namespace {
+
+// Seconds between attempts to (re)open a live camera.
+constexpr double kReopenIntervalS = 1.0;
+
+// A live camera that is missing or unplugged comes back: report it (SERVICE_STATUS keeps flowing)
+// and reopen it, as the motor bridge does with its serial line.
+int runLiveSource(bus::Node& node, SourceKind kind, const VideoCaptureOptions& vc,
+                  const CameraConfig& config, const FrameSourceOptions& options) {
+  while (!node.stopRequested()) {
+    try {
+      auto source = openVideoCapture(kind, vc);
+      spdlog::info("publishing {} (latency {} ms)", source->describe(),
+                   config.pipeline.latency * 1e3);
+      node.status().setFault(false);
+      const std::int64_t frames = runFrameSource(node, *source, config.pipeline, options);
+      node.status().setFault(true);
+      if (node.stopRequested() || (options.max_frames > 0 && frames >= options.max_frames)) break;
+      node.reportError(
+          "camera_lost",
+          vc.spec + " stopped delivering frames" +
+              (source->lastError().empty() ? std::string() : ": " + source->lastError()));
+    } catch (const std::runtime_error& e) {
+      node.status().setFault(true);
+      node.reportError("camera_open", e.what());
+    }
+    // Keep status and timers alive while waiting to retry.
+    const Utime retry_at = node.now() + static_cast<Utime>(kReopenIntervalS * 1e6);
+    while (!node.stopRequested() && node.now() < retry_at)
+      node.spinOnce(50);
+  }
+  return 0;
+}
+
+int runSim(bus::Node& node, const CameraConfig& config, const CameraAppOptions& options,
+           const bus::CommonOptions& common) {
+  const bus::BusId sim_bus = node.addBus(common.sim_bus_url);
+  SimCameraNode sim(node, sim_bus, config, options.field);
+  spdlog::info("rendering {}x{} at {} Hz, latency {} ms, from SIM_WORLD on {}",
+               config.model.mirror.width(), config.model.mirror.height(),
+               config.pipeline.frame_rate, config.pipeline.latency * 1e3, common.sim_bus_url);
+  return node.run();
+}
+
+SourceKind videoSourceKind(const std::string& name) {
+  if (name == "v4l2") return SourceKind::kV4l2;
+  if (name == "video") return SourceKind::kVideo;
+  if (name == "gstreamer") return SourceKind::kGstreamer;
+  throw std::runtime_error("unknown camera source '" + name + "'");
+}
+
+}  // namespace
+
+void CameraAppOptions::addTo(CLI::App& app) {
+  app.add_option("--source", source, "Frame source")
+      ->check(CLI::IsMember({"sim", "v4l2", "video", "gstreamer", "folder", "log"}))
+      ->capture_default_str();
+  app.add_option("--config", preset, "Camera preset (config/camera/<name>.yaml) or path")
+      ->capture_default_str();
+  app.add_option("--field", field,
+                 "sim: field preset to render (default: the field SIM_WORLD names)");
+  app.add_option("--input", input,
+                 "v4l2 device or index, video file, GStreamer pipeline, image folder or LCM log");
+  app.add_option("--latency", latency, "Exposure-to-delivery latency, s (default: the preset's)")
+      ->check(CLI::Range(0.0, 1.0));
+  app.add_option("--fps", fps,
+                 "Frame rate: v4l2 request, pace of folder/video/log (default: the preset's)")
+      ->check(CLI::Range(0.0, 240.0));
+  app.add_option("--width", width, "v4l2: requested width, px")->check(CLI::Range(0, 8192));
+  app.add_option("--height", height, "v4l2: requested height, px")->check(CLI::Range(0, 8192));
+  app.add_flag("--loop", loop, "folder/video/log: start again at the end");
+  app.add_flag("--bgr", bgr, "v4l2: take OpenCV's BGR frames instead of raw YUYV");
+  app.add_option("--max-frames", max_frames,
+                 "Real sources: stop after this many frames (0: no limit)");
+  auto* keep = app.add_flag("--keep-stamps", keep_stamps,
+                            "log: keep the logged exposure times (the default)");
+  app.add_flag("--restamp", restamp,
+               "log: stamp frames receive time - latency like a camera's, paced by --fps")
+      ->excludes(keep);
+  app.add_flag("--live-bus", live_bus,
+               "log: publish on --bus-url (the live bus) instead of the robot's replay bus");
+  app.add_option("--replay-bus-url", replay_bus_url,
+                 "log: the bus the frames go to (default: robot N's replay bus, "
+                 "udpm://239.255.76.67:<7767+N>?ttl=0...)");
+}
+
+int runCamera(const CameraAppOptions& options, const bus::CommonOptions& common) {
+  CameraConfig config = loadCameraConfigPreset(options.preset);
+  if (options.latency >= 0.0) config.pipeline.latency = options.latency;
+  if (options.fps > 0.0) config.pipeline.frame_rate = options.fps;
+  if (options.source != "sim" && options.input.empty()) {
+    throw config::Error("--source " + options.source + " needs --input");
+  }
+  if (common.check_args) return 0;
+  const bool from_log = options.source == "log";
+  std::string bus_url = common.bus_url;
+  if (from_log && !options.live_bus) {
+    // A replayed log never mixes with the robot's live frames.
+    bus_url = options.replay_bus_url.empty() ? bus::replayBusUrl(std::max(1, common.robot))
+                                             : options.replay_bus_url;
+  }
+  SystemClock system_clock;
+  // A log with kept stamps runs at the log's time: its first frame is due now.
+  std::optional<OffsetClock> log_clock;
+  if (from_log && !options.restamp) {
+    if (const auto first = LogImageSource::firstUtime(options.input)) {
+      const auto latency_us = static_cast<Utime>(config.pipeline.latency * 1e6);
+      log_clock.emplace(system_clock, *first + latency_us - system_clock.now(), 0.0, 0);
+    }
+  }
+  const Clock& clock = log_clock ? static_cast<const Clock&>(*log_clock) : system_clock;
+  bus::Node node({.process = "camera", .robot_id = common.robot, .url = bus_url}, clock);
+  if (options.source == "sim") return runSim(node, config, options, common);
+
+  bus::installStopSignals();
+  std::unique_ptr<FrameSource> source;
+  FrameSourceOptions run_options;
+  run_options.max_frames = options.max_frames;
+  // Folders, files and logs play at the configured rate; live cameras at their own.
+  run_options.pace_fps = config.pipeline.frame_rate;
+  if (options.source == "folder") {
+    source = std::make_unique<ImageFolderSource>(options.input, options.loop);
+  } else if (from_log) {
+    source = std::make_unique<LogImageSource>(options.input, options.loop);
+    run_options.keep_stamps = !options.restamp;
+    if (!options.restamp) run_options.pace_fps = 0.0;
+    spdlog::info("replaying {} onto {}{}", options.input, bus_url,
+                 options.restamp ? ", restamped" : " with its exposure times");
+  } else {
+    VideoCaptureOptions vc;
+    vc.spec = options.input;
+    vc.width = options.width;
+    vc.height = options.height;
+    vc.fps = options.fps;
+    vc.raw_yuyv = !options.bgr;
+    vc.loop = options.loop;
+    const SourceKind kind = videoSourceKind(options.source);
+    if (kind != SourceKind::kVideo) {
+      run_options.pace_fps = 0.0;
+      return runLiveSource(node, kind, vc, config, run_options);
+    }
+    source = openVideoCapture(kind, vc);
+  }
+  spdlog::info("publishing {} (latency {} ms)", source->describe(), config.pipeline.latency * 1e3);
+  const std::int64_t frames = runFrameSource(node, *source, config.pipeline, run_options);
+  spdlog::info("{} frames published, {} unusable", frames, source->errors());
+  if (frames == 0 && !source->lastError().empty()) {
+    throw std::runtime_error("no frame published: " + source->lastError());
+  }
+  return 0;
+}
+
+}  // namespace fieldline::camera
