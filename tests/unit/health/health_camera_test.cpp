@@ -32,7 +32,9 @@ std::string writeLog(int frames) {
                                .string();
   bus::LogWriter log(path);
   for (int k = 0; k < frames; ++k) {
-    image_t img;
+    image_t img{};
+    img.header.robot_id = 1;
+    img.header.seq = k;
     img.header.utime = kLogStart + k * kFramePeriod;
     img.header.utime_published = img.header.utime + 60'000;
     img.width = 4;
