@@ -9,8 +9,8 @@
 
 #include "common/bus/cli.hpp"
 #include "common/bus/node.hpp"
+#include "common/bus/robot_clock.hpp"
 #include "common/config/config.hpp"
-#include "common/time/offset_clock.hpp"
 #include "teamcomm/team_key.hpp"
 #include "teamcomm/teamcomm_config.hpp"
 #include "teamcomm/teamcomm_node.hpp"
@@ -54,21 +54,7 @@ int main(int argc, char** argv) {
     } catch (const teamcomm::KeyError& e) {
       throw config::Error(std::string("team key: ") + e.what());
     }
-    SystemClock system_clock;
-    std::unique_ptr<OffsetClock> robot_clock;
-    std::optional<ClockError> clock_error;
-    try {
-      clock_error = clockErrorFromEnvironment();
-    } catch (const std::invalid_argument& e) {
-      throw config::Error(e.what());
-    }
-    if (clock_error) {
-      robot_clock = std::make_unique<OffsetClock>(
-          system_clock, clock_error->offset_us, clock_error->drift_ppm, clock_error->reference_us);
-      spdlog::info("robot clock: offset {} µs, drift {} ppm", clock_error->offset_us,
-                   clock_error->drift_ppm);
-    }
-    const Clock& clock = robot_clock ? static_cast<const Clock&>(*robot_clock) : system_clock;
+    const RobotClock clock = bus::robotClockFromEnvironment();
 
     if (common.check_args) return 0;
     std::unique_ptr<teamcomm::PacketLink> link;

@@ -5,7 +5,9 @@
 #include <stdexcept>
 
 #include "common/msg/estimates.hpp"
+#include "common/msg/obstacle_observations.hpp"
 #include "common/msg/team_state.hpp"
+#include "teamcomm/field_obstacles.hpp"
 
 namespace fieldline::teamcomm {
 namespace {
@@ -99,6 +101,13 @@ TeamcommNode::TeamcommNode(bus::Node& node, PacketLink& link, TeamcommOptions op
     own_ball_ = msg::fromMessage(m);
     own_ball_received_ = node_.now();
   });
+  // What the camera saw, placed on the field with the newest pose (obstacles without a pose
+  // near the frame's time are not sent).
+  node_.subscribe(bus::channels::kVisionObstacles, [this](const obstacle_observations_t& m) {
+    if (!own_robot_) return;
+    own_obstacles_ = obstaclesInField(msg::toObstacleSightings(m), *own_robot_);
+    own_obstacles_received_ = node_.now();
+  });
   node_.every(static_cast<Utime>(1e6 / options_.send_rate_hz), [this] { sendPacket(); });
   // A socket is waited on by the node's event loop; a link without one (the in-process test
   // hub) is polled.
@@ -132,6 +141,9 @@ void TeamcommNode::sendPacket() {
   if (own_robot_ && now - own_robot_received_ <= options_.fresh_us) p.pose = toPacket(*own_robot_);
   if (own_ball_ && own_ball_->valid && now - own_ball_received_ <= options_.fresh_us) {
     p.ball = toPacket(*own_ball_);
+  }
+  if (!own_obstacles_.empty() && now - own_obstacles_received_ <= options_.fresh_us) {
+    p.obstacles = own_obstacles_;
   }
   // Stamped last, as close to the send as we can.
   p.send_utime = node_.now();

@@ -1,8 +1,9 @@
-// The teamcomm process's bus side: ROBOT_STATE and BALL_STATE in; the team packet out over a
-// PacketLink at the send rate with what is fresh; teammates' packets in (decoded, authenticated,
-// gated, their round trips fed to the clock offset estimators, their estimates converted to our
-// clock); TEAM_STATE out at the publish rate. Refused packets are counted by reason
-// (SERVICE_STATUS errors "rejected_<reason>", TEAM_STATE.packets_rejected per claimed sender).
+// The teamcomm process's bus side: ROBOT_STATE, BALL_STATE and VISION_OBSTACLES in; the team packet
+// out over a PacketLink at the send rate with what is fresh; teammates' packets in (decoded,
+// authenticated, gated, their round trips fed to the clock offset estimators, their estimates
+// converted to our clock); TEAM_STATE out at the publish rate. Refused packets are counted by
+// reason (SERVICE_STATUS errors "rejected_<reason>", TEAM_STATE.packets_rejected per claimed
+// sender).
 #pragma once
 
 #include <array>
@@ -10,6 +11,7 @@
 #include <map>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "common/bus/node.hpp"
 #include "common/perception/estimates.hpp"
@@ -52,8 +54,8 @@ struct LinkCounters {
 
 class TeamcommNode {
  public:
-  // Subscribes ROBOT_STATE and BALL_STATE on `node`'s bus and starts the send, poll and publish
-  // timers. `link` must outlive the node.
+  // Subscribes ROBOT_STATE, BALL_STATE and VISION_OBSTACLES on `node`'s bus and starts the send,
+  // poll and publish timers. `link` must outlive the node.
   TeamcommNode(bus::Node& node, PacketLink& link, TeamcommOptions options);
 
   const LinkCounters& counters() const { return counters_; }
@@ -92,6 +94,9 @@ class TeamcommNode {
   Utime own_robot_received_ = 0;
   std::optional<perception::BallEstimate> own_ball_;
   Utime own_ball_received_ = 0;
+  // The obstacles of the newest VISION_OBSTACLES frame, in the field frame.
+  std::vector<PacketObstacle> own_obstacles_;
+  Utime own_obstacles_received_ = 0;
   std::uint64_t next_sequence_ = 0;
   LinkCounters counters_;
   team_state_t team_state_msg_{};

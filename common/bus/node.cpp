@@ -10,8 +10,16 @@
 #include <spdlog/spdlog.h>
 #include <lcm/lcm-cpp.hpp>
 
+#include "common/time/offset_clock.hpp"
+
 namespace fieldline::bus {
 namespace {
+
+// Messages stamped by another robot (header.robot_id neither 0 nor ours) are on that robot's
+// clock, which may be off ours by up to about a second (the simulated team's robot clocks, a robot
+// without time sync): the future and stale windows widen by this for them. Messages of robot 0
+// (the simulator, tools) are on the true time and are checked against toTruth(clock, now).
+constexpr Utime kOtherClockTolerance_us = 1'500'000;
 
 std::atomic<bool> g_stop_signal{false};
 constexpr int kMaxMessagesPerSpin = 200;
@@ -207,20 +215,26 @@ bool Node::acceptHeader(const std::string& channel, const header_t& header) {
   const auto ms = [](long double us) { return static_cast<double>(us / 1000.0L); };
   const long double utime = static_cast<long double>(header.utime);
   const long double published = static_cast<long double>(header.utime_published);
-  const long double receiver = static_cast<long double>(now);
+  // The sender's clock: the truth for robot 0, ours for our robot, another robot's (off by an
+  // unknown amount) otherwise.
+  const bool true_time = header.robot_id == 0;
+  const bool other_clock = !true_time && header.robot_id != options_.robot_id;
+  const Utime receiver_now = true_time ? toTruth(clock_, now) : now;
+  const long double receiver = static_cast<long double>(receiver_now);
+  const long double slack = other_clock ? static_cast<long double>(kOtherClockTolerance_us) : 0.0L;
   const auto future = static_cast<long double>(options_.future_tolerance_us);
-  if (utime > receiver + future) {
+  if (utime > receiver + future + slack) {
     reject(channel, "future_utime",
            fmt::format("utime {} is {:.0f} ms in the future", header.utime, ms(utime - receiver)));
     return false;
   }
-  if (published > receiver + future) {
+  if (published > receiver + future + slack) {
     reject(channel, "future_utime",
            fmt::format("utime_published {} is {:.0f} ms in the future", header.utime_published,
                        ms(published - receiver)));
     return false;
   }
-  if (published < receiver - static_cast<long double>(options_.max_age_us)) {
+  if (published < receiver - static_cast<long double>(options_.max_age_us) - slack) {
     reject(channel, "stale",
            fmt::format("utime_published {} is {:.0f} ms old", header.utime_published,
                        ms(receiver - published)));
@@ -242,7 +256,7 @@ bool Node::acceptHeader(const std::string& channel, const header_t& header) {
                           .utime = header.utime,
                           .utime_published = header.utime_published};
   if (one_publisher) {
-    status_.onReceived(channel, received, now, true);
+    status_.onReceived(channel, received, receiver_now, true);
   } else {
     status_.onReceived(channel, header.robot_id, header.seq, header.utime, header.utime_published,
                        false);

@@ -10,6 +10,7 @@
 
 #include "common/bus/node.hpp"
 #include "common/bus/replay_bus.hpp"
+#include "common/bus/robot_clock.hpp"
 #include "common/config/config.hpp"
 #include "common/time/clock.hpp"
 #include "common/time/offset_clock.hpp"
@@ -113,7 +114,6 @@ int runCamera(const CameraAppOptions& options, const bus::CommonOptions& common)
   if (options.source != "sim" && options.input.empty()) {
     throw config::Error("--source " + options.source + " needs --input");
   }
-  if (common.check_args) return 0;
   const bool from_log = options.source == "log";
   std::string bus_url = common.bus_url;
   if (from_log && !options.live_bus) {
@@ -121,16 +121,17 @@ int runCamera(const CameraAppOptions& options, const bus::CommonOptions& common)
     bus_url = options.replay_bus_url.empty() ? bus::replayBusUrl(std::max(1, common.robot))
                                              : options.replay_bus_url;
   }
-  SystemClock system_clock;
+  const RobotClock robot_clock = bus::robotClockFromEnvironment();
+  if (common.check_args) return 0;
   // A log with kept stamps runs at the log's time: its first frame is due now.
   std::optional<OffsetClock> log_clock;
   if (from_log && !options.restamp) {
     if (const auto first = LogImageSource::firstUtime(options.input)) {
       const auto latency_us = static_cast<Utime>(config.pipeline.latency * 1e6);
-      log_clock.emplace(system_clock, *first + latency_us - system_clock.now(), 0.0, 0);
+      log_clock.emplace(robot_clock, *first + latency_us - robot_clock.now(), 0.0, 0);
     }
   }
-  const Clock& clock = log_clock ? static_cast<const Clock&>(*log_clock) : system_clock;
+  const Clock& clock = log_clock ? static_cast<const Clock&>(*log_clock) : robot_clock;
   bus::Node node({.process = "camera", .robot_id = common.robot, .url = bus_url}, clock);
   if (options.source == "sim") return runSim(node, config, options, common);
 

@@ -9,6 +9,7 @@
 
 #include "common/field/field_model.hpp"
 #include "common/msg/image.hpp"
+#include "common/time/offset_clock.hpp"
 
 namespace fieldline::camera {
 
@@ -131,15 +132,18 @@ void SimCameraNode::onWorld(const world_state_t& world) {
 
 void SimCameraNode::onFrameTick() {
   if (!renderer_ || !world_) return;  // waiting for the simulator
+  // The frame is stamped on the robot's clock; the simulator's world is on the true time.
   const Utime exposure_time = node_.now();
-  if (std::abs(static_cast<double>(exposure_time - world_->header.utime)) * 1e-6 > kMaxWorldAge) {
-    node_.reportError("stale_world",
-                      "SIM_WORLD is " +
-                          std::to_string((exposure_time - world_->header.utime) / kMicrosPerMilli) +
-                          " ms away from the exposure time");
+  const Utime exposure_truth = toTruth(node_.clock(), exposure_time);
+  if (std::abs(static_cast<double>(exposure_truth - world_->header.utime)) * 1e-6 > kMaxWorldAge) {
+    node_.reportError("stale_world", "SIM_WORLD is " +
+                                         std::to_string((exposure_truth - world_->header.utime) /
+                                                        kMicrosPerMilli) +
+                                         " ms away from the exposure time");
     return;
   }
-  if (!sceneFromWorld(*world_, node_.robotId(), exposure_time, config_.pipeline.exposure, scene_)) {
+  if (!sceneFromWorld(*world_, node_.robotId(), exposure_truth, config_.pipeline.exposure,
+                      scene_)) {
     node_.reportError("no_pose",
                       "robot " + std::to_string(node_.robotId()) + " is not in SIM_WORLD");
     return;

@@ -7,6 +7,7 @@
 
 #include "common/bus/cli.hpp"
 #include "common/bus/node.hpp"
+#include "common/bus/robot_clock.hpp"
 #include "common/field/field_model.hpp"
 #include "services/feature_recognition/feature_node.hpp"
 
@@ -32,8 +33,8 @@ int main(int argc, char** argv) {
   return bus::runMain("feature_recognition", [&] {
     common.resolve("feature_recognition");
     const field::FieldModel field = field::loadFieldPreset(field_name);
+    const RobotClock clock = bus::robotClockFromEnvironment();
     if (common.check_args) return 0;
-    SystemClock clock;
     bus::installStopSignals();
     bus::Node node(
         {.process = "feature_recognition", .robot_id = common.robot, .url = common.bus_url}, clock);

@@ -9,6 +9,7 @@
 
 #include "common/bus/cli.hpp"
 #include "common/bus/node.hpp"
+#include "common/bus/robot_clock.hpp"
 #include "common/field/field_model.hpp"
 #include "common/robot/robot_params.hpp"
 #include "services/fusion/fusion_node.hpp"
@@ -99,7 +100,7 @@ int main(int argc, char** argv) {
           return matcher.globalSearch(p, search);
         }};
 
-    SystemClock clock;
+    const RobotClock clock = bus::robotClockFromEnvironment();
     bus::installStopSignals();
     bus::Node node({.process = "fusion", .robot_id = common.robot, .url = common.bus_url}, clock);
     fusion::FusionNode fusion(node, std::move(options), functions);

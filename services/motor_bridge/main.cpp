@@ -4,6 +4,7 @@
 
 #include "common/bus/cli.hpp"
 #include "common/bus/node.hpp"
+#include "common/bus/robot_clock.hpp"
 #include "common/config/config.hpp"
 #include "common/robot/robot_params.hpp"
 #include "services/motor_bridge/bridge_node.hpp"
@@ -38,8 +39,8 @@ int main(int argc, char** argv) {
     if (!device.empty()) config.device = device;
     config.device = motor_bridge::deviceForRobot(config.device, common.robot);
 
+    const RobotClock clock = bus::robotClockFromEnvironment();
     if (common.check_args) return 0;
-    SystemClock clock;
     bus::installStopSignals();
     bus::Node node({.process = "motor_bridge", .robot_id = common.robot, .url = common.bus_url},
                    clock);

@@ -5,6 +5,7 @@
 
 #include "common/bus/cli.hpp"
 #include "common/bus/node.hpp"
+#include "common/bus/robot_clock.hpp"
 #include "common/robot/robot_params.hpp"
 #include "common/scenario/scenario.hpp"
 #include "services/pilot/pilot_node.hpp"
@@ -43,8 +44,8 @@ int main(int argc, char** argv) {
     common.resolve("pilot");
     pilot::Pilot pilot(scenario::loadScenarioPreset(scenario_name), common.robot,
                        robot::loadRobotPreset(robot_config));
+    const RobotClock clock = bus::robotClockFromEnvironment();
     if (common.check_args) return 0;
-    SystemClock clock;
     bus::installStopSignals();
     bus::Node node({.process = "pilot", .robot_id = common.robot, .url = common.bus_url}, clock);
     options.steer = steer == "truth" ? pilot::SteerBy::kTruth : pilot::SteerBy::kState;

@@ -7,6 +7,7 @@
 #include "common/msg/estimates.hpp"
 #include "common/msg/motion_command.hpp"
 #include "common/msg/world_state.hpp"
+#include "common/time/offset_clock.hpp"
 
 namespace fieldline::pilot {
 
@@ -31,7 +32,10 @@ PilotNode::PilotNode(bus::Node& node, Pilot pilot, PilotNodeOptions options)
 
 void PilotNode::onWorld(const world_state_t& w) {
   const auto truth = msg::fromMessage(w);
-  if (const auto* robot = truth.robot(node_.robotId())) pilot_.onPose(robot->pose, truth.utime);
+  // The truth's time converted to the robot's clock, on which the pilot runs.
+  if (const auto* robot = truth.robot(node_.robotId())) {
+    pilot_.onPose(robot->pose, fromTruth(node_.clock(), truth.utime));
+  }
 }
 
 void PilotNode::onState(const robot_state_t& s) {

@@ -6,6 +6,7 @@
 
 #include "common/bus/cli.hpp"
 #include "common/bus/node.hpp"
+#include "common/bus/robot_clock.hpp"
 #include "common/camera/colour.hpp"
 #include "common/camera/mirror_model.hpp"
 #include "common/config/config.hpp"
@@ -44,8 +45,8 @@ int main(int argc, char** argv) {
     }
     options.lines_every_frames = lines_every;
 
+    const RobotClock clock = bus::robotClockFromEnvironment();
     if (common.check_args) return 0;
-    SystemClock clock;
     bus::installStopSignals();
     bus::Node node({.process = "region_tracking", .robot_id = common.robot, .url = common.bus_url},
                    clock);

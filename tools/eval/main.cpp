@@ -12,6 +12,7 @@
 
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -27,7 +28,10 @@
 #include "common/config/config.hpp"
 #include "common/field/field_model.hpp"
 #include "common/scenario/scenario.hpp"
+#include "common/time/offset_clock.hpp"
 #include "tools/eval/evaluation.hpp"
+#include "tools/eval/team_ball.hpp"
+#include "tools/launch/robot_clocks.hpp"
 
 using namespace fieldline;
 
@@ -75,6 +79,10 @@ struct Collector {
   std::vector<eval::StateSample> states;
   std::vector<eval::BallSample> balls;
   std::map<int, Utime> first_lines;
+  std::vector<eval::TeamSample> teams;
+  // The robots' clocks (launch file): their stamps are converted to the true time.
+  launch::RobotClocks clocks;
+  Utime trueTime(int robot, Utime own) const { return ownToTruth(clocks.of(robot), own); }
 
   void subscribe(bus::Node& node, bus::BusId sim_bus, const std::vector<bus::BusId>& robot_buses) {
     node.subscribe(
@@ -98,8 +106,8 @@ struct Collector {
           [this](const robot_state_t& m) {
             eval::StateSample s;
             s.robot = m.header.robot_id;
-            s.utime = m.header.utime;
-            s.published = m.header.utime_published;
+            s.utime = trueTime(s.robot, m.header.utime);
+            s.published = trueTime(s.robot, m.header.utime_published);
             s.x = m.x;
             s.y = m.y;
             s.phi = m.phi;
@@ -113,16 +121,34 @@ struct Collector {
       node.subscribe(
           bus::channels::kVisionLines,
           [this](const line_contours_t& m) {
-            first_lines.try_emplace(m.header.robot_id, m.header.utime);
+            first_lines.try_emplace(m.header.robot_id, trueTime(m.header.robot_id, m.header.utime));
           },
           b);
       node.subscribe(
           bus::channels::kBallState,
           [this](const ball_state_t& m) {
-            balls.push_back({m.header.robot_id, m.header.utime, m.valid != 0, m.x, m.y});
+            balls.push_back({m.header.robot_id, trueTime(m.header.robot_id, m.header.utime),
+                             m.valid != 0, m.x, m.y});
           },
           b);
+      node.subscribe(
+          bus::channels::kTeamState, [this](const team_state_t& m) { onTeamState(m); }, b);
     }
+  }
+
+  void onTeamState(const team_state_t& m) {
+    eval::TeamSample t;
+    t.robot = m.header.robot_id;
+    t.utime = trueTime(t.robot, m.header.utime);
+    t.team_ball_valid = m.team_ball_valid;
+    t.team_ball_x = m.team_ball_x;
+    t.team_ball_y = m.team_ball_y;
+    const eval::TeamBallOptions defaults;
+    for (int i = 0; i < m.num_robots && i < 6; ++i) {
+      const auto k = static_cast<std::size_t>(i);
+      t.sees[k] = m.ball_valid[k] && m.ball_age_us[k] <= defaults.seen_window_us;
+    }
+    teams.push_back(t);
   }
 };
 
@@ -198,6 +224,11 @@ int main(int argc, char** argv) {
       if (out_dir.empty()) out_dir = "eval/" + sc.name;
       std::filesystem::create_directories(out_dir);
       const std::string launch_file = scenarioLaunchFile(launch, scenario, out_dir);
+      // The robots' clocks count their drift from this time; the launcher takes it from here.
+      const Utime clock_reference = clock.now();
+      setenv(kClockReferenceVariable, std::to_string(clock_reference).c_str(), 1);
+      collector.clocks =
+          launch::parseRobotClocks(config::Node::loadFile(launch_file), clock_reference);
       const std::string launcher = selfDirectory() + "/fieldline-launch";
       const std::string launch_log = out_dir + "/launch.log";
 
@@ -266,6 +297,12 @@ int main(int argc, char** argv) {
       return 1;
     }
     std::printf("%s\n", eval::summaryLine(summary).c_str());
+    if (!collector.teams.empty()) {
+      const eval::TeamBallSummary team_ball =
+          eval::evaluateTeamBall(collector.truth, collector.balls, collector.teams);
+      std::ofstream(out_dir + "/team_ball.json") << eval::teamBallJson(team_ball);
+      std::printf("%s\n", eval::teamBallLine(team_ball).c_str());
+    }
     return 0;
   });
 }

@@ -196,6 +196,7 @@ LaunchFile parseLaunchFile(const config::Node& root) {
     if (!names.insert(p.name).second) entry.fail("name", "'" + p.name + "' is used twice");
     file.processes.push_back(std::move(p));
   }
+  file.clocks = parseRobotClocks(root, clockReferenceNow());
   root.rejectUnknownKeys();
   return file;
 }

@@ -17,6 +17,8 @@
 //       env: {KEY: value}           # optional extra environment
 //       main_channel: CAMERA_IMAGE  # optional: the channel whose rate the status table shows
 //       optional: true              # optional: skip with a warning when not built (else an error)
+//   robots:                         # optional: a clock per robot (robot_clocks.hpp)
+//     - {id: 1, clock: {offset_s: 0.31, drift_ppm: -22}}
 #pragma once
 
 #include <map>
@@ -25,6 +27,7 @@
 
 #include "common/bus/urls.hpp"
 #include "common/config/config.hpp"
+#include "tools/launch/robot_clocks.hpp"
 
 namespace fieldline::launch {
 
@@ -88,6 +91,8 @@ struct LaunchFile {
   std::string path;
   LaunchDefaults defaults;
   std::vector<ProcessEntry> processes;
+  // The optional `robots:` section: each robot's clock (tools/launch/robot_clocks.hpp).
+  RobotClocks clocks;
 };
 
 // Checks a multicast group: a dotted IPv4 address in 224.0.0.0/4. Returns "" when valid, else

@@ -127,6 +127,9 @@ LaunchPlan planLaunch(const LaunchFile& file, int team_size, const ExecutableLoo
       instance.path = lookup(entry.executable);
       instance.argv = buildCommandLine(entry, robot, file.defaults.bus, instance.path);
       instance.env = entry.env;
+      // The robot's clock; an entry's own env wins.
+      for (auto& [key, value] : clockEnvironment(file.clocks.of(robot)))
+        instance.env.try_emplace(key, value);
       instance.restart = entry.restart;
       instance.main_channel = entry.main_channel;
       instance.optional = entry.optional;

@@ -15,6 +15,7 @@ bin=$1
 root=$2
 READY_TIMEOUT_S=${READY_TIMEOUT_S:-60}
 LISTEN_S=5
+TEAM_S=3
 out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT
 export FIELDLINE_ROOT="$root"
@@ -39,6 +40,20 @@ $ns bash -c "
     $(for e in $expect; do printf -- '--expect %s ' "$e"; done) > '$out/probe.jsonl' 2> '$out/probe.log'
   echo \$? > '$out/probe.rc'
   '$bin/fieldline-bus-stats' --robots 6 --sim --duration $LISTEN_S --json > '$out/stats.jsonl'
+  # The demo check: every robot's TEAM_STATE, with all six present; robot 1's drawn to a PNG.
+  if [ -x '$bin/fieldline-teamcomm' ]; then
+    dumps=
+    for r in 1 2 3 4 5 6; do
+      '$bin/fieldline-bus-dump' --robot \$r --channel TEAM_STATE --duration $TEAM_S \
+        > '$out/team_r'\$r.jsonl 2> /dev/null &
+      dumps=\"\$dumps \$!\"
+    done
+    wait \$dumps
+    if [ -x '$bin/fieldline-team-png' ]; then
+      '$bin/fieldline-team-png' --robot 1 --out '$out/team_picture.png' --timeout 10 \
+        > /dev/null 2> '$out/team_png.log'
+    fi
+  fi
   kill -TERM \$launcher
   wait \$launcher
   echo \$? > '$out/launch.rc'
@@ -106,6 +121,30 @@ for bus, channel in sorted(expected):
                         f"(at most {allowed}: {MAX_LOST_SHARE:.0%})")
     if channel.startswith(("CAMERA", "VISION")) and not 59.5 <= r["latency_p50_ms"] < 200:
         failures.append(f"{bus} {channel}: latency {r['latency_p50_ms']} ms")
+# The demo check (issue 11): TEAM_STATE at 10 Hz on every robot's bus, with all six robots present
+# (every robot's processes on its own clock, sim_team.yaml's `robots:`).
+team_expected = any(c == "TEAM_STATE" for _, c in expected)
+for r in range(1, 7) if team_expected else []:
+    r_stats = stats.get((f"r{r}", "TEAM_STATE"))
+    if r_stats is not None and not 9.0 <= r_stats["rate_hz"] <= 11.0:
+        failures.append(f"r{r} TEAM_STATE: {r_stats['rate_hz']} Hz, expected 10")
+    dump = out / f"team_r{r}.jsonl"
+    msgs = [json.loads(l) for l in dump.read_text().splitlines() if l.strip()] if dump.exists() else []
+    msgs = [m.get("message", m) for m in msgs]
+    full = sum(1 for m in msgs if sum(1 for p in m.get("present", []) if p) == 6)
+    print(f"r{r} TEAM_STATE: {len(msgs)} messages in 3 s, "
+          f"{full} with all six present")
+    if len(msgs) < 20:
+        failures.append(f"r{r} TEAM_STATE: {len(msgs)} messages dumped")
+    elif full < 0.95 * len(msgs) or sum(1 for p in msgs[-1]["present"] if p) != 6:
+        failures.append(f"r{r} TEAM_STATE: all six present in only {full} of {len(msgs)}")
+if team_expected and os.environ.get("TEAM_PNG_OUT"):
+    import shutil
+    png = out / "team_picture.png"
+    if png.exists():
+        shutil.copy(png, os.environ["TEAM_PNG_OUT"])
+    else:
+        failures.append("no team picture PNG: " + (out / "team_png.log").read_text()[-300:])
 lost = sum(stats[k]["gaps"] for k in expected if k in stats)
 received = sum(stats[k]["count"] for k in expected if k in stats)
 print(f"checked {len(expected)} channels of {len(processes)} processes: {received} messages, "

@@ -85,6 +85,9 @@ def rejected(status):
     return sum(v for k, v in status["errors"].items() if k.startswith("rejected_"))
 
 total_refused = 0
+# Refusals as `late` of genuine teammates' packets: a loaded machine's relay can still reorder a
+# few after the reordering phase. They are not the attacker's, so they may add to the count.
+total_late = 0
 for r in range(1, 7):
     before = [s for s in statuses[r] if s["status_t"] < at(26.5)]
     after = statuses[r][-1]
@@ -92,6 +95,7 @@ for r in range(1, 7):
         failures.append(f"robot {r}: no SERVICE_STATUS before the attack")
         continue
     total_refused += rejected(after) - rejected(before[-1])
+    total_late += after["errors"].get("rejected_late", 0) - before[-1]["errors"].get("rejected_late", 0)
     kinds = {k: v for k, v in after["errors"].items() if k.startswith("rejected_")}
     print(f"robot {r}: refused by reason {kinds}")
     # Up to 32 s: the attack ends at 31 s, and from 34 s the probes stop one by one.
@@ -109,8 +113,12 @@ for r in range(1, 7):
 kernel_drops = sum(int((out / f"rcvbuf_errors{r}").read_text().strip() or 0) for r in range(1, 7))
 print(f"attacker sent {attack['total']}, the robots refused {total_refused}, "
       f"the kernel dropped {kernel_drops} for full receive buffers")
-if total_refused + kernel_drops != attack["total"]:
-    failures.append(f"attack: sent {attack['total']}, refused {total_refused}")
+extra = total_refused + kernel_drops - attack["total"]
+if extra < 0 or extra > total_late:
+    failures.append(f"attack: sent {attack['total']}, refused {total_refused} "
+                    f"({total_late} of them late teammates' packets)")
+elif extra > 0:
+    print(f"({extra} of the refusals were teammates' packets reordered by the loaded relay: late)")
 
 for f in failures[:30]:
     print("FAIL:", f)

@@ -18,6 +18,7 @@
 #include "common/geometry/geometry.hpp"
 #include "common/msg/image.hpp"
 #include "common/time/clock.hpp"
+#include "common/time/offset_clock.hpp"
 #include "services/camera/log_source.hpp"
 
 namespace fieldline::camera {
@@ -119,6 +120,48 @@ TEST(SimCameraNode, PublishesRenderedFramesAfterTheLatencyStampedWithTheExposure
     ASSERT_LT(dt, 1.0);
     SimScene scene;
     ASSERT_TRUE(sceneFromWorld(makeWorld(img.header.utime), 2, img.header.utime, 0.008, scene));
+    const Vec2 ball = geometry::pointFieldToRobot(scene.robot, scene.ball->position);
+    const Vec2 px = *config.model.mirror.robotPointToImage(Vec3(ball.x(), ball.y(), 0.11));
+    const FrameView view = *msg::fromMessage(img);
+    EXPECT_EQ(colours.classifyPixel(view, static_cast<int>(std::lround(px.x())),
+                                    static_cast<int>(std::lround(px.y()))),
+              ColourClass::kOrange);
+  }
+}
+
+TEST(SimCameraNode, OnARobotClockRendersTheTruthOfTheExposure) {
+  // Robot 2's clock runs 0.7 s behind the simulator's truth (more than the 0.5 s a world state may
+  // be away from the exposure) and 30 ppm fast: frames are stamped
+  // on the robot's clock, and show the world at the true time of their exposure.
+  SimulatedClock truth;
+  OffsetClock robot_clock(truth, -700'000, 30.0, truth.now());
+  const auto memq = bus::Connection::open("memq://");
+  bus::Node camera_node{
+      {.process = "camera", .robot_id = 2, .status_period_us = 0}, robot_clock, memq};
+  const bus::BusId sim_bus = camera_node.addBus(memq);
+  bus::Node harness{{.process = "harness", .robot_id = 0, .status_period_us = 0}, truth, memq};
+  Received got;
+  harness.subscribe(bus::channels::kCameraImage,
+                    [&](const image_t& m) { got.images.push_back(m); });
+  const CameraConfig config = loadCameraConfigPreset("omni_sim");
+  SimCameraNode sim(camera_node, sim_bus, config, "msl");
+  for (int step = 0; step < 100; ++step) {
+    if (step % 2 == 0) {
+      world_state_t w = makeWorld(truth.now());
+      harness.publish(bus::channels::kSimWorld, w);
+    }
+    truth.advance(5 * kMicrosPerMilli);
+    camera_node.spinOnce(0);
+    harness.spinOnce(0);
+  }
+  EXPECT_EQ(camera_node.status().errorCount("stale_world"), 0);
+  ASSERT_GE(got.images.size(), 12u);
+  const ColourTable colours = loadColourTablePreset(config.model.colour_table);
+  for (const image_t& img : got.images) {
+    const Utime exposure_truth = robot_clock.toTruth(img.header.utime);
+    EXPECT_NEAR(static_cast<double>(img.header.utime - exposure_truth), -700'000.0, 100.0);
+    SimScene scene;
+    ASSERT_TRUE(sceneFromWorld(makeWorld(exposure_truth), 2, exposure_truth, 0.008, scene));
     const Vec2 ball = geometry::pointFieldToRobot(scene.robot, scene.ball->position);
     const Vec2 px = *config.model.mirror.robotPointToImage(Vec3(ball.x(), ball.y(), 0.11));
     const FrameView view = *msg::fromMessage(img);

@@ -5,12 +5,14 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <deque>
 #include <memory>
 #include <random>
 
 #include "common/bus/node.hpp"
 #include "common/msg/estimates.hpp"
+#include "common/msg/obstacle_observations.hpp"
 #include "common/msg/team_state.hpp"
 #include "common/time/offset_clock.hpp"
 
@@ -312,6 +314,65 @@ TEST(teamcomm_node, APartitionIsReportedAndHealsWithinASecond) {
   team.run(0.3);
   EXPECT_TRUE(team.robots[0]->states.back().robots[1].present);
   EXPECT_TRUE(team.robots[1]->states.back().robots[0].present);
+}
+
+}  // namespace
+}  // namespace fieldline::teamcomm
+
+namespace fieldline::teamcomm {
+namespace {
+
+TEST(teamcomm_node, SendsWhatTheCameraSawInTheFieldFrame) {
+  Team team({{0, 0.0}, {-150'000, 30.0}});
+  Robot& r = *team.robots[1];  // at (-2, 1), heading 0.2 rad
+  int frames = 0;
+  team.run(2.0, [&] {
+    // VISION_OBSTACLES at 30 Hz: one obstacle 2 m ahead, 0.5 m wide, and one 1 m to the left.
+    if (team.ms % 33 != 0) return;
+    perception::ObstacleSightings seen;
+    seen.utime = r.clock.now() - 60'000;
+    perception::ObstacleSighting ahead;
+    ahead.x = 2.0;
+    ahead.distance = 2.0;
+    ahead.width = 0.5;
+    perception::ObstacleSighting left;
+    left.y = 1.0;
+    left.bearing = 1.5707963;
+    left.distance = 1.0;
+    left.width = 0.4;
+    seen.obstacles = {ahead, left};
+    obstacle_observations_t m{};
+    msg::toMessage(seen, m);
+    r.fusion.publish(bus::channels::kVisionObstacles, m);
+    ++frames;
+  });
+  ASSERT_GT(frames, 50);
+  // Robot 2's packets, decoded with the team key: the newest carries both, nearest first.
+  std::optional<TeamPacket> last;
+  int with_obstacles = 0;
+  for (const auto& [from, bytes] : team.hub.sent_by_) {
+    if (from != 2) continue;
+    auto d = decodePacket(bytes, devKey());
+    ASSERT_TRUE(d.packet.has_value());
+    with_obstacles += d.packet->obstacles.empty() ? 0 : 1;
+    last = d.packet;
+  }
+  ASSERT_TRUE(last.has_value());
+  EXPECT_GT(with_obstacles, 30);
+  ASSERT_EQ(last->obstacles.size(), 2u);
+  const double phi = 0.2;
+  // Centre 2.25 m ahead and 1.2 m to the left of the robot at (-2, 1).
+  EXPECT_NEAR(last->obstacles[1].x, -2.0 + 2.25 * std::cos(phi), 1e-4);
+  EXPECT_NEAR(last->obstacles[1].y, 1.0 + 2.25 * std::sin(phi), 1e-4);
+  EXPECT_NEAR(last->obstacles[0].x, -2.0 - 1.2 * std::sin(phi), 1e-4);
+  EXPECT_NEAR(last->obstacles[0].y, 1.0 + 1.2 * std::cos(phi), 1e-4);
+  EXPECT_FLOAT_EQ(last->obstacles[0].radius, 0.2f);
+  // Robot 1 sent none: it saw none.
+  for (const auto& [from, bytes] : team.hub.sent_by_) {
+    if (from == 1) {
+      EXPECT_TRUE(decodePacket(bytes, devKey()).packet->obstacles.empty());
+    }
+  }
 }
 
 }  // namespace

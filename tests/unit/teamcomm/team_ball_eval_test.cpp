@@ -1,0 +1,83 @@
+// fieldline-eval's team-ball figures (tools/eval/team_ball.hpp) on synthetic samples.
+#include "tools/eval/team_ball.hpp"
+
+#include <gtest/gtest.h>
+
+namespace fieldline::eval {
+namespace {
+
+constexpr Utime kT0 = 1'800'000'000'000'000;
+
+struct Samples {
+  std::vector<TruthSample> truth;
+  std::vector<BallSample> balls;
+  std::vector<TeamSample> teams;
+};
+
+// 20 s: the ball at (1, 0); every robot's own ball off by its own error, at 30 Hz; TEAM_STATE at
+// 10 Hz with the team ball 1 cm off. Robot 1 sees the ball in the first 10 s only; robot 3's team
+// ball is invalid from 15 s on.
+Samples makeSamples() {
+  Samples r;
+  for (Utime t = kT0; t <= kT0 + 20'000'000; t += 10'000) {
+    TruthSample s;
+    s.utime = t;
+    for (int id = 1; id <= 3; ++id)
+      s.robots[id] = {0, 0, 0, 0};
+    s.ball_x = 1.0;
+    r.truth.push_back(s);
+  }
+  const double own_error[] = {0.0, 0.02, 0.05, 0.30};
+  for (Utime t = kT0; t <= kT0 + 20'000'000; t += 33'333) {
+    for (int id = 1; id <= 3; ++id)
+      r.balls.push_back({id, t, true, 1.0 + own_error[id], 0.0});
+  }
+  for (Utime t = kT0; t <= kT0 + 20'000'000; t += 100'000) {
+    for (int id = 1; id <= 3; ++id) {
+      TeamSample s;
+      s.robot = id;
+      s.utime = t + 1000 * id;
+      s.team_ball_valid = !(id == 3 && t >= kT0 + 15'000'000);
+      s.team_ball_x = 1.01;
+      s.sees[0] = t < kT0 + 10'000'000;
+      r.teams.push_back(s);
+    }
+  }
+  return r;
+}
+
+TEST(teamcomm_team_ball_eval, TeamBallAgainstTheBestOwnBallAndValidity) {
+  const Samples r = makeSamples();
+  const TeamBallSummary s = evaluateTeamBall(r.truth, r.balls, r.teams);
+  EXPECT_NEAR(s.team_ball_mean_m, 0.01, 1e-9);
+  EXPECT_EQ(s.best_own_robot, 1);
+  EXPECT_NEAR(s.best_own_ball_mean_m, 0.02, 1e-9);
+  EXPECT_NEAR(s.own_ball_mean_m.at(3), 0.30, 1e-9);
+  // Robot 1 sees the ball from 5 s (the settle time) to 10 s: every robot's team ball is valid
+  // then. After 10 s nobody sees it, so robot 3's invalid team ball from 15 s does not count.
+  EXPECT_GT(s.steps_any_sees, 45u);
+  EXPECT_LT(s.steps_any_sees, 55u);
+  EXPECT_DOUBLE_EQ(s.team_ball_valid_share, 1.0);
+  EXPECT_NEAR(s.sees_share.at(1), 5.0 / 15.0, 0.02);
+  EXPECT_NE(teamBallLine(s).find("team_ball_mean_m=0.0100"), std::string::npos) << teamBallLine(s);
+}
+
+TEST(teamcomm_team_ball_eval, AMissingOrInvalidTeamBallWhileTheBallIsSeenCounts) {
+  Samples r = makeSamples();
+  // Robot 1 sees the ball all the time now: robot 3's invalid team ball from 15 s counts, and so
+  // does robot 2's silence from 12 to 13 s.
+  for (TeamSample& t : r.teams)
+    t.sees[0] = true;
+  std::erase_if(r.teams, [](const TeamSample& t) {
+    return t.robot == 2 && t.utime > kT0 + 12'000'000 && t.utime < kT0 + 13'000'000;
+  });
+  const TeamBallSummary s = evaluateTeamBall(r.truth, r.balls, r.teams);
+  // 150 steps from 5 s to 20 s; invalid: 15-20 s (50) and 9 steps of the silent second (a
+  // TEAM_STATE counts as missing after 200 ms).
+  EXPECT_EQ(s.steps_any_sees, 150u);
+  EXPECT_NEAR(s.team_ball_valid_share, (150.0 - 50.0 - 9.0) / 150.0, 0.01);
+  EXPECT_LT(evaluateTeamBall(r.truth, r.balls, {}).team_ball_mean_m, 0.0);  // nothing to score
+}
+
+}  // namespace
+}  // namespace fieldline::eval

@@ -1,0 +1,67 @@
+// The team ball evaluation: every robot's TEAM_STATE team ball against the simulator's ball, the
+// same for every robot's own BALL_STATE, and how often every robot has a valid team ball while
+// any robot sees the ball (config/scenarios/hidden_ball.yaml hides it from some robots behind
+// opponents). All times on the true clock (the caller converts the robots' stamps).
+#pragma once
+
+#include <array>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "tools/eval/evaluation.hpp"
+
+namespace fieldline::eval {
+
+// One TEAM_STATE of one robot.
+struct TeamSample {
+  int robot = 0;
+  // True time of the message's utime, µs.
+  Utime utime = 0;
+  bool team_ball_valid = false;
+  double team_ball_x = 0, team_ball_y = 0;
+  // Robot r (index r-1) sees the ball: its entry has a valid ball last seen within the window.
+  std::array<bool, 6> sees{};
+};
+
+struct TeamBallOptions {
+  // Samples in the first seconds after the first TEAM_STATE are not scored, s.
+  double settle_s = 5.0;
+  // A robot "sees" the ball when its own ball was last seen at most this long ago, µs.
+  Utime seen_window_us = 300'000;
+  // Step of the validity check over time, µs; a robot's TEAM_STATE older than this and a
+  // TEAM_STATE period counts as missing.
+  Utime step_us = 100'000;
+  // A robot's own ball counts for "best" only with at least this many scored samples.
+  std::size_t min_own_samples = 30;
+};
+
+struct TeamBallSummary {
+  std::size_t team_samples = 0;
+  // Mean distance of the team ball (all robots' TEAM_STATE, valid) from the true ball, m.
+  double team_ball_mean_m = -1;
+  // Per robot: mean error of its own valid BALL_STATE, m, and the number of samples.
+  std::map<int, double> own_ball_mean_m;
+  std::map<int, std::size_t> own_ball_samples;
+  // The robot with the smallest own mean (-1: none had enough samples) and that mean.
+  int best_own_robot = -1;
+  double best_own_ball_mean_m = -1;
+  // Time steps in which some robot sees the ball, and the share of them in which every robot
+  // (that published TEAM_STATE) has a valid team ball.
+  std::size_t steps_any_sees = 0;
+  double team_ball_valid_share = -1;
+  // Per robot: the share of the run's steps in which it saw the ball itself.
+  std::map<int, double> sees_share;
+};
+
+TeamBallSummary evaluateTeamBall(const std::vector<TruthSample>& truth,
+                                 const std::vector<BallSample>& balls,
+                                 std::vector<TeamSample> teams,
+                                 const TeamBallOptions& options = {});
+
+// "team_ball_mean_m=0.0086 best_own_ball_mean_m=0.0141 (robot 2) team_ball_valid_share=1.000"
+std::string teamBallLine(const TeamBallSummary& s);
+// A JSON object with every figure.
+std::string teamBallJson(const TeamBallSummary& s);
+
+}  // namespace fieldline::eval
