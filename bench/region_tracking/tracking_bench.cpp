@@ -287,11 +287,7 @@ std::string motionName(const Sequence& s) {
   return text;
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  CLI::App app{
-      "Region tracker vs full-frame segmentation (CMVision-style, OpenCV) on rendered sequences."};
+struct Options {
   int frames = 240;
   int cell_size = 4;
   bool quick = false;
@@ -299,72 +295,58 @@ int main(int argc, char** argv) {
   bool interleave = false;
   int rounds = 5;
   std::string field = "msl";
-  app.add_option("--frames", frames, "frames per sequence (30 Hz)")
-      ->check(CLI::Range(10, 3000))
-      ->capture_default_str();
-  app.add_option("--cell-size", cell_size, "pixels per cell side: 1, 2, 4 or 8")
-      ->check(CLI::IsMember({1, 2, 4, 8}))
-      ->capture_default_str();
-  app.add_option("--field", field, "field preset")->capture_default_str();
-  app.add_flag("--quick", quick, "only the default sequence at both resolutions");
-  app.add_flag(
-      "--cold", cold,
-      "process frames straight from memory (cache-cold) instead of a freshly delivered copy");
-  app.add_option("--rounds", rounds,
-                 "rounds over each sequence, the methods' order rotating; a frame's time is its "
-                 "fastest round")
-      ->check(CLI::Range(1, 20))
-      ->capture_default_str();
-  app.add_flag("--interleave", interleave,
-               "run the methods frame by frame instead of each over the whole sequence in turn "
-               "(each method's data then leaves the cache between its frames)");
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    // --help prints and exits 0; bad arguments exit 2, as every fieldline executable should.
-    return app.exit(e) == 0 ? 0 : 2;
-  }
 
+  void addTo(CLI::App& app) {
+    app.add_option("--frames", frames, "frames per sequence (30 Hz)")
+        ->check(CLI::Range(10, 3000))
+        ->capture_default_str();
+    app.add_option("--cell-size", cell_size, "pixels per cell side: 1, 2, 4 or 8")
+        ->check(CLI::IsMember({1, 2, 4, 8}))
+        ->capture_default_str();
+    app.add_option("--field", field, "field preset")->capture_default_str();
+    app.add_flag("--quick", quick, "only the default sequence at both resolutions");
+    app.add_flag(
+        "--cold", cold,
+        "process frames straight from memory (cache-cold) instead of a freshly delivered copy");
+    app.add_option("--rounds", rounds,
+                   "rounds over each sequence, the methods' order rotating; a frame's time is its "
+                   "fastest round")
+        ->check(CLI::Range(1, 20))
+        ->capture_default_str();
+    app.add_flag("--interleave", interleave,
+                 "run the methods frame by frame instead of each over the whole sequence in turn "
+                 "(each method's data then leaves the cache between its frames)");
+  }
+};
+
+// The default sequence at both sizes first; without --quick the translations and rotations.
+std::vector<Sequence> sequencesToRun(bool quick) {
   std::vector<Sequence> sequences;
-  for (const std::string cameraPreset : {"omni_sim", "omni_sim_640"}) {
-    sequences.push_back({cameraPreset, 1.0, 90.0, "default"});
+  for (const std::string camera_preset : {"omni_sim", "omni_sim_640"}) {
+    sequences.push_back({camera_preset, 1.0, 90.0, "default"});
     if (quick) continue;
-    const bool full = cameraPreset == "omni_sim";
+    const bool full = camera_preset == "omni_sim";
     for (const double speed : full ? std::vector<double>{0.0, 0.5, 1.0, 1.5, 2.0, 2.5, 3.0}
                                    : std::vector<double>{0.0, 1.0, 3.0}) {
-      sequences.push_back({cameraPreset, speed, 0.0, "translation"});
+      sequences.push_back({camera_preset, speed, 0.0, "translation"});
     }
     for (const double omega :
          full ? std::vector<double>{50, 100, 200, 300, 400} : std::vector<double>{50, 200, 400}) {
-      sequences.push_back({cameraPreset, 0.0, omega, "rotation"});
+      sequences.push_back({camera_preset, 0.0, omega, "rotation"});
     }
   }
+  return sequences;
+}
 
-  // One thread, as the comparison is meant: OpenCV would otherwise spread
-  // connectedComponentsWithStats over its worker threads (and its time would depend on what
-  // else runs on the machine).
-  cv::setNumThreads(1);
-
-  std::vector<Result> results;
-  fieldline::config::runOrExit([&] {
-    std::map<std::string, rt::SimCamera> cameras;
-    for (const Sequence& s : sequences) {
-      if (!cameras.count(s.camera)) cameras.emplace(s.camera, rt::SimCamera::load(s.camera, field));
-      rt::SimCamera& sim = cameras.at(s.camera);
-      results.push_back(run(sim, s, cell_size, frames, rounds, cold,
-                            interleave ? Order::kInterleaved : Order::kSequential));
-      const Result& r = results.back();
-      std::fprintf(stderr, "done %s %dx%d %s\n", r.sequence.kind.c_str(), sim.mirror.width(),
-                   sim.mirror.height(), motionName(r.sequence).c_str());
-    }
-  });
-
+// The full table, then the summary lines of the default sequences (640x480 first, 320x240 last).
+void printResults(const Options& options, const std::vector<Result>& results) {
   std::printf(
       "region tracking benchmark: field %s, %d frames per sequence at 30 Hz, %dx%d cells, "
       "%s frames, %d rounds with methods %s; times in microseconds: each frame's fastest round, "
       "median / p95 over the frames; frame 0 of each round excluded\n\n",
-      field.c_str(), frames, cell_size, cell_size, cold ? "cache-cold" : "freshly delivered",
-      rounds, interleave ? "interleaved frame by frame" : "one after another");
+      options.field.c_str(), options.frames, options.cell_size, options.cell_size,
+      options.cold ? "cache-cold" : "freshly delivered", options.rounds,
+      options.interleave ? "interleaved frame by frame" : "one after another");
   std::printf(
       "| image | motion | tracker | tracker+lines | cmvision (a) | cmvision+lines | "
       "(a') skip mask | opencv (b) | a/tracker | a'/tracker | b/tracker | whole a/tracker | "
@@ -374,10 +356,10 @@ int main(int argc, char** argv) {
       "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---"
       "|"
       "\n");
-  const Result* defaultResults[2] = {nullptr, nullptr};  // 640x480, then 320x240
+  const Result* default_results[2] = {nullptr, nullptr};  // 640x480, then 320x240
   for (const Result& r : results) {
     const bool small = r.sequence.camera == "omni_sim";
-    if (r.sequence.kind == "default") defaultResults[small ? 1 : 0] = &r;
+    if (r.sequence.kind == "default") default_results[small ? 1 : 0] = &r;
     std::printf(
         "| %s | %s | %.0f / %.0f | %.0f / %.0f | %.0f / %.0f | %.0f / %.0f | %.0f / %.0f | "
         "%.0f / %.0f | %.1f | %.1f | %.1f | %.1f | %.1f %% | %.1f %% | %.1f | %.0f %% | %d / %d | "
@@ -394,7 +376,7 @@ int main(int argc, char** argv) {
         static_cast<double>(r.untracked_regions) / r.frames);
   }
   std::printf("\n");
-  for (const Result* r : defaultResults) {
+  for (const Result* r : default_results) {
     if (r == nullptr) continue;
     std::printf(
         "%sratio_vs_cmvision=%.2f ratio_vs_opencv=%.2f touched_fraction=%.3f "
@@ -403,5 +385,42 @@ int main(int argc, char** argv) {
         r->opencv.median / r->tracker.median, r->touched,
         r->cmvision_whole.median / r->tracker_whole.median, perTouchedCellVsBaseline(*r));
   }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{
+      "Region tracker vs full-frame segmentation (CMVision-style, OpenCV) on rendered sequences."};
+  Options options;
+  options.addTo(app);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    // --help prints and exits 0; bad arguments exit 2, as every fieldline executable should.
+    return app.exit(e) == 0 ? 0 : 2;
+  }
+  const std::vector<Sequence> sequences = sequencesToRun(options.quick);
+  // One thread, as the comparison is meant: OpenCV would otherwise spread
+  // connectedComponentsWithStats over its worker threads (and its time would depend on what
+  // else runs on the machine).
+  cv::setNumThreads(1);
+
+  std::vector<Result> results;
+  fieldline::config::runOrExit([&] {
+    std::map<std::string, rt::SimCamera> cameras;
+    for (const Sequence& s : sequences) {
+      if (!cameras.count(s.camera)) {
+        cameras.emplace(s.camera, rt::SimCamera::load(s.camera, options.field));
+      }
+      rt::SimCamera& sim = cameras.at(s.camera);
+      results.push_back(run(sim, s, options.cell_size, options.frames, options.rounds, options.cold,
+                            options.interleave ? Order::kInterleaved : Order::kSequential));
+      const Result& r = results.back();
+      std::fprintf(stderr, "done %s %dx%d %s\n", r.sequence.kind.c_str(), sim.mirror.width(),
+                   sim.mirror.height(), motionName(r.sequence).c_str());
+    }
+  });
+  printResults(options, results);
   return 0;
 }

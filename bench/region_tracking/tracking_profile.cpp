@@ -109,36 +109,188 @@ void addBreakdown(const rt::FrameProcessor& processor, rt::FrameCellClassifier& 
   }
 }
 
+struct Options {
+  std::string camera_preset = "omni_sim";
+  std::string field = "msl";
+  std::string method = "tracker";
+  double speed = 1.0, omega_deg = 90.0;
+  int frames = 240, repeat = 1, line_repeat = 1;
+  bool no_breakdown = false;
+
+  void addTo(CLI::App& app) {
+    app.add_option("--camera", camera_preset, "camera preset")->capture_default_str();
+    app.add_option("--field", field, "field preset")->capture_default_str();
+    app.add_option("--speed", speed, "m/s")->check(CLI::Range(0.0, 5.0))->capture_default_str();
+    app.add_option("--omega", omega_deg, "deg/s")
+        ->check(CLI::Range(0.0, 1000.0))
+        ->capture_default_str();
+    app.add_option("--frames", frames, "frames (30 Hz)")
+        ->check(CLI::Range(2, 3000))
+        ->capture_default_str();
+    app.add_option("--repeat", repeat, "runs over the sequence")
+        ->check(CLI::Range(1, 100))
+        ->capture_default_str();
+    app.add_option("--method", method, "tracker, whole (tracker + line points), cmvision, opencv")
+        ->check(CLI::IsMember({"tracker", "whole", "cmvision", "opencv"}))
+        ->capture_default_str();
+    app.add_option("--line-repeat", line_repeat,
+                   "with --method whole: line detector runs per frame (to profile it alone)")
+        ->check(CLI::Range(1, 1000))
+        ->capture_default_str();
+    app.add_flag("--no-breakdown", no_breakdown, "skip the per-cell analysis (for callgrind)");
+  }
+};
+
+using Sequence = std::vector<std::vector<std::uint8_t>>;
+
+// Runs the chosen method over the sequence (`repeat` times); for the tracker, sums the breakdown
+// of every frame but the first (the initial search). Returns the number of frames summed.
+int runMethod(const Options& options, rt::SimCamera& sim, const Sequence& sequence,
+              Breakdown& breakdown) {
+  const rt::VisionParams params = rt::defaultVisionParams();
+  std::vector<rt::ClassId> classes;
+  for (const rt::ClassTracking& c : params.tracker.classes)
+    classes.push_back(c.class_id);
+  std::vector<std::uint8_t> delivered(sequence[0].size());
+  rt::FrameProcessor processor(sim.mirror, sim.table, params);
+  rt::CmvisionSegmenter cmvision(processor.grid(), classes, processor.dontTouch());
+  rt::OpenCvSegmenter opencv(processor.grid(), classes, processor.dontTouch());
+  rt::LinePoints lines;
+  int measured = 0;
+  for (int run = 0; run < options.repeat; ++run) {
+    for (int i = 0; i < options.frames; ++i) {
+      std::copy(sequence[i].begin(), sequence[i].end(), delivered.begin());
+      const camera::FrameView frame = sim.renderer->view(delivered);
+      processor.classifier().setFrame(frame);
+      if (options.method == "cmvision") {
+        cmvision.segment(processor.classifier());
+        continue;
+      }
+      if (options.method == "opencv") {
+        opencv.segment(processor.classifier());
+        continue;
+      }
+      processor.tracker().track(processor.classifier());
+      if (options.method == "whole") {
+        for (int k = 0; k < options.line_repeat; ++k)
+          processor.lineDetector().detect(frame, processor.tracker().contours(), lines);
+      }
+      if (options.no_breakdown || i == 0) continue;
+      addBreakdown(processor, processor.classifier(), breakdown);
+      ++measured;
+    }
+  }
+  return measured;
+}
+
+void printBreakdown(const Options& options, const Breakdown& breakdown, int measured) {
+  const double n = measured;
+  const double cells = breakdown.cells / n;
+  auto row = [&](const char* name, double total) {
+    std::printf("| %s | %.1f | %.2f %% |\n", name, total / n, 100.0 * total / n / cells);
+  };
+  std::printf(
+      "%s, %.1f m/s %.0f deg/s, %d frames, %.0f cells (%.0f touchable): cells "
+      "classified per frame (mean over frames 1..%d)\n\n",
+      options.camera_preset.c_str(), options.speed, options.omega_deg, options.frames, cells,
+      breakdown.touchable_cells / n, options.frames - 1);
+  std::printf("| reason | cells | of the image |\n|---|---|---|\n");
+  for (int r = 0; r < rt::kTouchReasonCount; ++r)
+    row(kReasonNames[r], breakdown.by_reason[r]);
+  row("**all**", breakdown.touched);
+  std::printf("\n| touched cell is | cells | of the image |\n|---|---|---|\n");
+  row("green, tracked", breakdown.green_owned);
+  row("green, untracked", breakdown.green_untracked);
+  row("white", breakdown.white);
+  row("another tracked class", breakdown.other_tracked);
+  row("other (unknown, untracked class)", breakdown.other);
+  row("(next to the don't-touch mask)", breakdown.next_to_mask);
+  std::printf("\n| boundary band of the final regions | cells | of the image |\n|---|---|---|\n");
+  row("band (a still frame classifies exactly these)", breakdown.boundary_band);
+  row("(next to the don't-touch mask)", breakdown.boundary_band_at_mask);
+  std::printf("\ndrops processed per frame: %.0f\n", breakdown.drops_processed / n);
+}
+
+// The bound on the ratio: the tracker must at least classify the cells it touches, (a) must at
+// least classify every cell. Timed here in one process, frame by frame, medians.
+void printTimes(const Options& options, rt::SimCamera& sim, const Sequence& sequence) {
+  using Clock = std::chrono::steady_clock;
+  auto micro = [](Clock::duration d) {
+    return std::chrono::duration<double, std::micro>(d).count();
+  };
+  auto median = [](std::vector<double> v) {
+    std::sort(v.begin(), v.end());
+    return v[v.size() / 2];
+  };
+  std::vector<std::uint8_t> delivered(sequence[0].size());
+  rt::FrameProcessor timed(sim.mirror, sim.table, rt::defaultVisionParams());
+  rt::FrameCellClassifier& classifier = timed.classifier();
+  const rt::CellGrid& grid = timed.grid();
+  std::vector<rt::Cell> touched_cells;
+  std::vector<rt::ClassId> row_classes(grid.width);
+  std::vector<double> track_times, touched_times, all_times, line_times, line_again_times;
+  rt::LinePoints timed_lines;
+  volatile unsigned sink = 0;
+  for (int i = 0; i < options.frames; ++i) {
+    std::copy(sequence[i].begin(), sequence[i].end(), delivered.begin());
+    classifier.setFrame(sim.renderer->view(delivered));
+    const Clock::time_point t0 = Clock::now();
+    timed.tracker().track(classifier);
+    const Clock::time_point t1 = Clock::now();
+    timed.lineDetector().detect(sim.renderer->view(delivered), timed.tracker().contours(),
+                                timed_lines);
+    const Clock::time_point t_lines = Clock::now();
+    timed.lineDetector().detect(sim.renderer->view(delivered), timed.tracker().contours(),
+                                timed_lines);
+    const Clock::time_point t_lines_again = Clock::now();
+    touched_cells.clear();
+    for (int y = 0; y < grid.height; ++y) {
+      for (int x = 0; x < grid.width; ++x) {
+        if (timed.tracker().classifiedInLastFrame(x, y)) {
+          touched_cells.push_back({static_cast<std::int16_t>(x), static_cast<std::int16_t>(y)});
+        }
+      }
+    }
+    // Same frame, freshly delivered again so both start from the same cache state.
+    std::copy(sequence[i].begin(), sequence[i].end(), delivered.begin());
+    const Clock::time_point t2 = Clock::now();
+    unsigned acc = 0;
+    for (const rt::Cell c : touched_cells)
+      acc += classifier.classify(c.x, c.y);
+    const Clock::time_point t3 = Clock::now();
+    std::copy(sequence[i].begin(), sequence[i].end(), delivered.begin());
+    const Clock::time_point t4 = Clock::now();
+    for (int y = 0; y < grid.height; ++y) {
+      classifier.classifyRow(y, 0, row_classes);
+      acc += row_classes[0];
+    }
+    const Clock::time_point t5 = Clock::now();
+    sink = sink + acc;
+    if (i == 0) continue;
+    track_times.push_back(micro(t1 - t0));
+    line_times.push_back(micro(t_lines - t1));
+    line_again_times.push_back(micro(t_lines_again - t_lines));
+    touched_times.push_back(micro(t3 - t2));
+    all_times.push_back(micro(t5 - t4));
+  }
+  std::printf("\n| per frame, median | us |\n|---|---|\n");
+  std::printf("| tracker (track: segmentation + boundaries) | %.1f |\n", median(track_times));
+  std::printf("| line points on the tracker's boundaries (right after track) | %.1f |\n",
+              median(line_times));
+  std::printf("| the same again (frame and tables now cached) | %.1f |\n",
+              median(line_again_times));
+  std::printf("| classifying only the cells the tracker touched (raster order) | %.1f |\n",
+              median(touched_times));
+  std::printf("| classifying every cell (what (a) and (b) must do at least) | %.1f |\n",
+              median(all_times));
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   CLI::App app{"Profile the region tracker (or a baseline) on one rendered sequence."};
-  std::string cameraPreset = "omni_sim";
-  std::string field = "msl";
-  std::string method = "tracker";
-  double speed = 1.0, omega_deg = 90.0;
-  int frames = 240, repeat = 1, lineRepeat = 1;
-  bool noBreakdown = false;
-  app.add_option("--camera", cameraPreset, "camera preset")->capture_default_str();
-  app.add_option("--field", field, "field preset")->capture_default_str();
-  app.add_option("--speed", speed, "m/s")->check(CLI::Range(0.0, 5.0))->capture_default_str();
-  app.add_option("--omega", omega_deg, "deg/s")
-      ->check(CLI::Range(0.0, 1000.0))
-      ->capture_default_str();
-  app.add_option("--frames", frames, "frames (30 Hz)")
-      ->check(CLI::Range(2, 3000))
-      ->capture_default_str();
-  app.add_option("--repeat", repeat, "runs over the sequence")
-      ->check(CLI::Range(1, 100))
-      ->capture_default_str();
-  app.add_option("--method", method, "tracker, whole (tracker + line points), cmvision, opencv")
-      ->check(CLI::IsMember({"tracker", "whole", "cmvision", "opencv"}))
-      ->capture_default_str();
-  app.add_option("--line-repeat", lineRepeat,
-                 "with --method whole: line detector runs per frame (to profile it alone)")
-      ->check(CLI::Range(1, 1000))
-      ->capture_default_str();
-  app.add_flag("--no-breakdown", noBreakdown, "skip the per-cell analysis (for callgrind)");
+  Options options;
+  options.addTo(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -148,141 +300,14 @@ int main(int argc, char** argv) {
 
   cv::setNumThreads(1);  // one thread, as in fieldline-bench-tracking
   fieldline::config::runOrExit([&] {
-    rt::SimCamera sim = rt::SimCamera::load(cameraPreset, field);
-    const std::vector<std::vector<std::uint8_t>> sequence =
-        rt::bench::renderSequence(sim, speed, omega_deg, frames);
-    const rt::VisionParams params = rt::defaultVisionParams();
-    std::vector<rt::ClassId> classes;
-    for (const rt::ClassTracking& c : params.tracker.classes)
-      classes.push_back(c.class_id);
-    std::vector<std::uint8_t> delivered(sequence[0].size());
-
-    rt::FrameProcessor processor(sim.mirror, sim.table, params);
-    rt::CmvisionSegmenter cmvision(processor.grid(), classes, processor.dontTouch());
-    rt::OpenCvSegmenter opencv(processor.grid(), classes, processor.dontTouch());
-    rt::LinePoints lines;
+    rt::SimCamera sim = rt::SimCamera::load(options.camera_preset, options.field);
+    const Sequence sequence =
+        rt::bench::renderSequence(sim, options.speed, options.omega_deg, options.frames);
     Breakdown breakdown;
-    int measured = 0;
-    for (int run = 0; run < repeat; ++run) {
-      for (int i = 0; i < frames; ++i) {
-        std::copy(sequence[i].begin(), sequence[i].end(), delivered.begin());
-        const camera::FrameView frame = sim.renderer->view(delivered);
-        processor.classifier().setFrame(frame);
-        if (method == "cmvision") {
-          cmvision.segment(processor.classifier());
-          continue;
-        }
-        if (method == "opencv") {
-          opencv.segment(processor.classifier());
-          continue;
-        }
-        processor.tracker().track(processor.classifier());
-        if (method == "whole") {
-          for (int k = 0; k < lineRepeat; ++k)
-            processor.lineDetector().detect(frame, processor.tracker().contours(), lines);
-        }
-        if (noBreakdown || i == 0) continue;
-        addBreakdown(processor, processor.classifier(), breakdown);
-        ++measured;
-      }
-    }
-    if (noBreakdown || measured == 0) return;
-    const double n = measured;
-    const double cells = breakdown.cells / n;
-    auto row = [&](const char* name, double total) {
-      std::printf("| %s | %.1f | %.2f %% |\n", name, total / n, 100.0 * total / n / cells);
-    };
-    std::printf(
-        "%s, %.1f m/s %.0f deg/s, %d frames, %.0f cells (%.0f touchable): cells "
-        "classified per frame (mean over frames 1..%d)\n\n",
-        cameraPreset.c_str(), speed, omega_deg, frames, cells, breakdown.touchable_cells / n,
-        frames - 1);
-    std::printf("| reason | cells | of the image |\n|---|---|---|\n");
-    for (int r = 0; r < rt::kTouchReasonCount; ++r)
-      row(kReasonNames[r], breakdown.by_reason[r]);
-    row("**all**", breakdown.touched);
-    std::printf("\n| touched cell is | cells | of the image |\n|---|---|---|\n");
-    row("green, tracked", breakdown.green_owned);
-    row("green, untracked", breakdown.green_untracked);
-    row("white", breakdown.white);
-    row("another tracked class", breakdown.other_tracked);
-    row("other (unknown, untracked class)", breakdown.other);
-    row("(next to the don't-touch mask)", breakdown.next_to_mask);
-    std::printf("\n| boundary band of the final regions | cells | of the image |\n|---|---|---|\n");
-    row("band (a still frame classifies exactly these)", breakdown.boundary_band);
-    row("(next to the don't-touch mask)", breakdown.boundary_band_at_mask);
-    std::printf("\ndrops processed per frame: %.0f\n", breakdown.drops_processed / n);
-
-    // The bound on the ratio: the tracker must at least classify the cells it touches, (a) must
-    // at least classify every cell. Timed here in one process, frame by frame, medians.
-    using Clock = std::chrono::steady_clock;
-    auto micro = [](Clock::duration d) {
-      return std::chrono::duration<double, std::micro>(d).count();
-    };
-    auto median = [](std::vector<double> v) {
-      std::sort(v.begin(), v.end());
-      return v[v.size() / 2];
-    };
-    rt::FrameProcessor timed(sim.mirror, sim.table, params);
-    rt::FrameCellClassifier& classifier = timed.classifier();
-    const rt::CellGrid& grid = timed.grid();
-    std::vector<rt::Cell> touched_cells;
-    std::vector<rt::ClassId> rowClasses(grid.width);
-    std::vector<double> trackTimes, touchedTimes, allTimes, lineTimes, lineAgainTimes;
-    rt::LinePoints timedLines;
-    volatile unsigned sink = 0;
-    for (int i = 0; i < frames; ++i) {
-      std::copy(sequence[i].begin(), sequence[i].end(), delivered.begin());
-      classifier.setFrame(sim.renderer->view(delivered));
-      const Clock::time_point t0 = Clock::now();
-      timed.tracker().track(classifier);
-      const Clock::time_point t1 = Clock::now();
-      timed.lineDetector().detect(sim.renderer->view(delivered), timed.tracker().contours(),
-                                  timedLines);
-      const Clock::time_point tLines = Clock::now();
-      timed.lineDetector().detect(sim.renderer->view(delivered), timed.tracker().contours(),
-                                  timedLines);
-      const Clock::time_point tLinesAgain = Clock::now();
-      touched_cells.clear();
-      for (int y = 0; y < grid.height; ++y) {
-        for (int x = 0; x < grid.width; ++x) {
-          if (timed.tracker().classifiedInLastFrame(x, y)) {
-            touched_cells.push_back({static_cast<std::int16_t>(x), static_cast<std::int16_t>(y)});
-          }
-        }
-      }
-      // Same frame, freshly delivered again so both start from the same cache state.
-      std::copy(sequence[i].begin(), sequence[i].end(), delivered.begin());
-      const Clock::time_point t2 = Clock::now();
-      unsigned acc = 0;
-      for (const rt::Cell c : touched_cells)
-        acc += classifier.classify(c.x, c.y);
-      const Clock::time_point t3 = Clock::now();
-      std::copy(sequence[i].begin(), sequence[i].end(), delivered.begin());
-      const Clock::time_point t4 = Clock::now();
-      for (int y = 0; y < grid.height; ++y) {
-        classifier.classifyRow(y, 0, rowClasses);
-        acc += rowClasses[0];
-      }
-      const Clock::time_point t5 = Clock::now();
-      sink = sink + acc;
-      if (i == 0) continue;
-      trackTimes.push_back(micro(t1 - t0));
-      lineTimes.push_back(micro(tLines - t1));
-      lineAgainTimes.push_back(micro(tLinesAgain - tLines));
-      touchedTimes.push_back(micro(t3 - t2));
-      allTimes.push_back(micro(t5 - t4));
-    }
-    std::printf("\n| per frame, median | us |\n|---|---|\n");
-    std::printf("| tracker (track: segmentation + boundaries) | %.1f |\n", median(trackTimes));
-    std::printf("| line points on the tracker's boundaries (right after track) | %.1f |\n",
-                median(lineTimes));
-    std::printf("| the same again (frame and tables now cached) | %.1f |\n",
-                median(lineAgainTimes));
-    std::printf("| classifying only the cells the tracker touched (raster order) | %.1f |\n",
-                median(touchedTimes));
-    std::printf("| classifying every cell (what (a) and (b) must do at least) | %.1f |\n",
-                median(allTimes));
+    const int measured = runMethod(options, sim, sequence, breakdown);
+    if (options.no_breakdown || measured == 0) return;
+    printBreakdown(options, breakdown, measured);
+    printTimes(options, sim, sequence);
   });
   return 0;
 }

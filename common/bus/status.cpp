@@ -162,6 +162,14 @@ std::int64_t StatusCollector::errorCount(const std::string& kind) const {
   return it == errors_.end() ? 0 : it->second;
 }
 
+void StatusCollector::setWarning(const std::string& key, const std::string& reason) {
+  if (reason.empty()) {
+    warnings_.erase(key);
+  } else {
+    warnings_[key] = reason;
+  }
+}
+
 service_status_t StatusCollector::takeStatus(Utime now) {
   service_status_t s{};
   s.header.utime = now;
@@ -199,6 +207,8 @@ service_status_t StatusCollector::takeStatus(Utime now) {
                                       c.required_rate_hz, static_cast<double>(below_us) / 1e6));
     }
   }
+  for (const auto& [key, reason] : warnings_)
+    append(warn_reason, reason);
   if (fault_ || !error_reason.empty()) {
     s.state = service_status_t::STATE_ERROR;
     s.state_reason = error_reason.empty() ? last_error_ : error_reason;

@@ -105,6 +105,9 @@ class StatusCollector {
   // While set, the process reports STATE_ERROR: it cannot do its job (a device is missing).
   void setFault(bool fault) { fault_ = fault; }
   bool fault() const { return fault_; }
+  // A process-specific condition named `key` (e.g. "vision"): while `reason` is non-empty the
+  // state is at least STATE_WARN with the reason; an empty reason clears it.
+  void setWarning(const std::string& key, const std::string& reason);
 
   // Fills a status message for the period ending at `now` and starts a new period.
   service_status_t takeStatus(Utime now);
@@ -128,6 +131,7 @@ class StatusCollector {
   std::map<std::string, double> metrics_;
   std::int64_t errors_in_period_ = 0;
   bool fault_ = false;
+  std::map<std::string, std::string> warnings_;
   Utime rate_grace_us_ = 2 * kMicrosPerSecond;
 };
 

@@ -16,6 +16,7 @@
 #include "common/time/offset_clock.hpp"
 #include "services/camera/camera_config.hpp"
 #include "services/camera/camera_node.hpp"
+#include "services/camera/floor_raster_cache.hpp"
 #include "services/camera/log_source.hpp"
 #include "services/camera/sources.hpp"
 
@@ -58,7 +59,7 @@ int runLiveSource(bus::Node& node, SourceKind kind, const VideoCaptureOptions& v
 int runSim(bus::Node& node, const CameraConfig& config, const CameraAppOptions& options,
            const bus::CommonOptions& common) {
   const bus::BusId sim_bus = node.addBus(common.sim_bus_url);
-  SimCameraNode sim(node, sim_bus, config, options.field);
+  SimCameraNode sim(node, sim_bus, config, options.field, options.raster_cache);
   spdlog::info("rendering {}x{} at {} Hz, latency {} ms, from SIM_WORLD on {}",
                config.model.mirror.width(), config.model.mirror.height(),
                config.pipeline.frame_rate, config.pipeline.latency * 1e3, common.sim_bus_url);
@@ -95,6 +96,10 @@ void CameraAppOptions::addTo(CLI::App& app) {
   app.add_flag("--bgr", bgr, "v4l2: take OpenCV's BGR frames instead of raw YUYV");
   app.add_option("--max-frames", max_frames,
                  "Real sources: stop after this many frames (0: no limit)");
+  raster_cache = defaultCacheDirectory();
+  app.add_option("--raster-cache", raster_cache,
+                 "sim: directory for the floor raster cache (default: $XDG_CACHE_HOME/fieldline "
+                 "or ~/.cache/fieldline; empty string: none)");
   auto* keep = app.add_flag("--keep-stamps", keep_stamps,
                             "log: keep the logged exposure times (the default)");
   app.add_flag("--restamp", restamp,

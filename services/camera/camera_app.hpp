@@ -41,9 +41,13 @@ struct CameraAppOptions {
   bool live_bus = false;
   // log: the bus the frames go to; empty: bus::replayBusUrl(robot).
   std::string replay_bus_url;
+  // sim: directory of the floor raster cache (floor_raster_cache.hpp); empty: none. Set to
+  // defaultCacheDirectory() by addTo().
+  std::string raster_cache;
 
   // Adds --source, --config, --field, --input, --latency, --fps, --width, --height, --loop, --bgr,
-  // --max-frames, --keep-stamps, --restamp, --live-bus and --replay-bus-url to `app`.
+  // --max-frames, --raster-cache, --keep-stamps, --restamp, --live-bus and --replay-bus-url to
+  // `app`.
   void addTo(CLI::App& app);
 };
 

@@ -86,15 +86,15 @@ bool sceneFromWorld(const world_state_t& world, int robot_id, Utime when, double
 // --- SimCameraNode ---
 
 SimCameraNode::SimCameraNode(bus::Node& node, bus::BusId sim_bus, CameraConfig config,
-                             std::string field_preset)
+                             std::string field_preset, std::string raster_cache_dir)
     : node_(node),
       config_(std::move(config)),
       field_preset_(std::move(field_preset)),
+      raster_cache_dir_(std::move(raster_cache_dir)),
       pending_(kPendingSlots) {
   if (!field_preset_.empty()) {
     field_name_ = field_preset_;
-    renderer_ = std::make_unique<SimRenderer>(
-        config_.model.mirror, field::loadFieldPreset(field_preset_), config_.render);
+    makeRenderer(field_preset_);
   }
   node_.subscribe(
       bus::channels::kSimWorld, [this](const world_state_t& w) { onWorld(w); }, sim_bus);
@@ -103,6 +103,28 @@ SimCameraNode::SimCameraNode(bus::Node& node, bus::BusId sim_bus, CameraConfig c
   node_.every(period, [this] { onFrameTick(); });
   period_start_ = node_.now();
   node_.every(kMicrosPerSecond, [this] { reportRates(); });
+}
+
+void SimCameraNode::makeRenderer(const std::string& field_name) {
+  renderer_ = std::make_unique<SimRenderer>(
+      config_.model.mirror, field::loadFieldPreset(field_name), config_.render, raster_cache_dir_);
+  switch (renderer_->rasterSource()) {
+    case RasterSource::kLoadedFromCache:
+      spdlog::info("floor raster of '{}' read from the cache in {}", field_name, raster_cache_dir_);
+      break;
+    case RasterSource::kRebuiltBadCache:
+      spdlog::warn("floor raster of '{}' rebuilt: the cache file was not usable ({})", field_name,
+                   renderer_->rasterProblem());
+      break;
+    case RasterSource::kBuilt:
+      if (!renderer_->rasterProblem().empty()) {
+        spdlog::warn("floor raster of '{}' built, not cached: {}", field_name,
+                     renderer_->rasterProblem());
+      } else if (!raster_cache_dir_.empty()) {
+        spdlog::info("floor raster of '{}' built and cached in {}", field_name, raster_cache_dir_);
+      }
+      break;
+  }
 }
 
 void SimCameraNode::onWorld(const world_state_t& world) {
@@ -116,8 +138,7 @@ void SimCameraNode::onWorld(const world_state_t& world) {
   if (field_preset_.empty() && world.field != field_name_) {
     // First message, or the simulator switched fields: build the floor raster for it.
     try {
-      renderer_ = std::make_unique<SimRenderer>(
-          config_.model.mirror, field::loadFieldPreset(world.field), config_.render);
+      makeRenderer(world.field);
       field_name_ = world.field;
       spdlog::info("rendering the '{}' field", field_name_);
       // Building took a while: this state is old now, wait for the next one.

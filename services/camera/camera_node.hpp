@@ -36,8 +36,9 @@ class SimCameraNode {
  public:
   // `field_preset` empty: build the renderer for the field SIM_WORLD names (on its first
   // message). Subscribes SIM_WORLD on `sim_bus` and starts the frame timer on `node`.
+  // `raster_cache_dir`: where the floor raster is cached (empty: built every time).
   SimCameraNode(bus::Node& node, bus::BusId sim_bus, CameraConfig config,
-                std::string field_preset = {});
+                std::string field_preset = {}, std::string raster_cache_dir = {});
 
   std::int64_t framesRendered() const { return frames_rendered_; }
   std::int64_t framesPublished() const { return frames_published_; }
@@ -51,12 +52,15 @@ class SimCameraNode {
   void onWorld(const world_state_t& world);
   void onFrameTick();
   void publishPending(std::size_t slot);
+  // Builds renderer_ for the field (floor raster from the cache when there is a valid one).
+  void makeRenderer(const std::string& field_name);
   void reportRates();
 
   bus::Node& node_;
   CameraConfig config_;
   std::string field_preset_;
   std::string field_name_;
+  std::string raster_cache_dir_;
   std::unique_ptr<SimRenderer> renderer_;
   std::optional<world_state_t> world_;
   std::vector<Pending> pending_;

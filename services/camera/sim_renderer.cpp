@@ -86,8 +86,9 @@ double Lighting::at(const Vec2& p, const Vec2& carpet_half_extent) const {
 
 // --- construction ---
 
-SimRenderer::SimRenderer(MirrorModel mirror, const field::FieldModel& field, RenderParams params)
-    : mirror_(std::move(mirror)), params_(std::move(params)) {
+SimRenderer::SimRenderer(MirrorModel mirror, const field::FieldModel& field, RenderParams params,
+                         const std::string& raster_cache_dir)
+    : mirror_(std::move(mirror)), params_(std::move(params)), realism_(params_.realism, mirror_) {
   if (!(params_.floor_resolution >= 0.002 && params_.floor_resolution <= 0.2)) {
     throw std::invalid_argument("renderer: floor_resolution must be in [0.002, 0.2] m");
   }
@@ -99,7 +100,8 @@ SimRenderer::SimRenderer(MirrorModel mirror, const field::FieldModel& field, Ren
   if (mirror_.width() % 2 != 0) throw std::invalid_argument("renderer: YUYV needs an even width");
   carpet_half_ = field.carpetHalfExtent();
   raster_origin_ = -carpet_half_;
-  buildFloorRaster(field);
+  loadOrBuildFloorRaster(field, raster_cache_dir);
+  outside_floor_yuv_ = yuvFromBgr(scaleBgr(params_.outside_floor, params_.lighting.ambient));
   buildGoals(field);
   buildPixelTable();
 
@@ -116,6 +118,8 @@ Yuv SimRenderer::lit(Bgr colour, const Vec2& field_point) const {
   return yuvFromBgr(scaleBgr(colour, params_.lighting.at(field_point, carpet_half_)));
 }
 
+// What this computes from its inputs is cached on disk (floor_raster_cache.hpp): a change here
+// that gives another raster for the same inputs must bump kFloorRasterVersion.
 void SimRenderer::buildFloorRaster(const field::FieldModel& field) {
   RasterLevel base;
   base.cell = params_.floor_resolution;
@@ -205,7 +209,6 @@ void SimRenderer::buildFloorRaster(const field::FieldModel& field) {
     }
     raster_.push_back(std::move(coarse));
   }
-  outside_floor_yuv_ = yuvFromBgr(scaleBgr(params_.outside_floor, params_.lighting.ambient));
 }
 
 void SimRenderer::buildGoals(const field::FieldModel& field) {
@@ -369,10 +372,12 @@ void SimRenderer::renderRobot(const geometry::Pose2& pose, const SimRobot& robot
   }
   const double H = mirror_.params().reference_height;
   const double top = params_.robot_height;
-  const Yuv body = lit(params_.robot, robot.position);
-  const Yuv top_colour = lit(params_.robot_top, robot.position);
-  const Yuv marker =
-      lit(robot.teammate ? params_.own_marker : params_.opponent_marker, robot.position);
+  const Yuv body = lit(robot.body_colour.value_or(params_.robot), robot.position);
+  const Yuv top_colour = lit(
+      robot.body_colour ? scaleBgr(*robot.body_colour, 1.08) : params_.robot_top, robot.position);
+  const Yuv marker = lit(
+      robot.marker_colour.value_or(robot.teammate ? params_.own_marker : params_.opponent_marker),
+      robot.position);
   const double s_top = top < H ? 1.0 - top / H : -1.0;
   const int w = mirror_.width();
   for (int v = b[1]; v < b[3]; ++v) {
@@ -506,7 +511,7 @@ void SimRenderer::renderOnce(const geometry::Pose2& pose, const SimScene& scene)
   // Painter's order: far objects first, nearer ones drawn over them.
   struct Item {
     double distance;
-    int kind;  // 0 goal box, 1 robot, 2 ball
+    int kind;  // 0 goal box, 1 robot, 2 ball, 3 scene box
     std::size_t index;
   };
   std::array<Item, 64> items{};
@@ -522,6 +527,10 @@ void SimRenderer::renderOnce(const geometry::Pose2& pose, const SimScene& scene)
   if (scene.ball && count < items.size()) {
     items[count++] = {(scene.ball->position - here).norm(), 2, 0};
   }
+  for (std::size_t k = 0; k < scene.boxes.size() && count < items.size(); ++k) {
+    const Vec2 mid = 0.5 * (scene.boxes[k].lo.head<2>() + scene.boxes[k].hi.head<2>());
+    items[count++] = {(mid - here).norm(), 3, k};
+  }
   std::sort(items.begin(), items.begin() + static_cast<std::ptrdiff_t>(count),
             [](const Item& a, const Item& b) { return a.distance > b.distance; });
   for (std::size_t k = 0; k < count; ++k) {
@@ -530,8 +539,10 @@ void SimRenderer::renderOnce(const geometry::Pose2& pose, const SimScene& scene)
       renderBox(pose, goal_boxes_[it.index]);
     } else if (it.kind == 1) {
       renderRobot(pose, scene.robots[it.index]);
-    } else {
+    } else if (it.kind == 2) {
       renderBall(pose, *scene.ball);
+    } else {
+      renderBox(pose, scene.boxes[it.index]);
     }
   }
 }
@@ -540,6 +551,11 @@ void SimRenderer::render(const SimScene& scene, std::vector<std::uint8_t>& yuyv)
   if (!geometry::isFinite(scene.robot) || !scene.velocity.allFinite() ||
       !std::isfinite(scene.omega) || !std::isfinite(scene.exposure)) {
     throw std::invalid_argument("renderer: non-finite robot pose, velocity or exposure");
+  }
+  for (const SimBox& box : scene.boxes) {
+    if (!box.lo.allFinite() || !box.hi.allFinite() || (box.lo.array() > box.hi.array()).any()) {
+      throw std::invalid_argument("renderer: a scene box needs finite corners with lo <= hi");
+    }
   }
   const std::size_t n = static_cast<std::size_t>(width()) * height();
   frame_.resize(n);
@@ -566,6 +582,7 @@ void SimRenderer::render(const SimScene& scene, std::vector<std::uint8_t>& yuyv)
                    static_cast<std::uint8_t>((accumulator_[i][2] + samples / 2) / samples)};
     }
   }
+  realism_.apply(frame_, scene.frame_number);
   finish(scene, yuyv);
 }
 
@@ -686,6 +703,9 @@ RenderParams loadRenderParams(const config::Node& n) {
   p.noise_seed = static_cast<std::uint32_t>(noise.get<int>("seed", 0, 1 << 30));
   noise.rejectUnknownKeys();
   p.motion_blur_samples = n.get<int>("motion_blur_samples", 1, 16);
+  if (const std::optional<config::Node> realism = n.childIf("realism")) {
+    p.realism = loadRealismParams(*realism);
+  }
   n.rejectUnknownKeys();
   return p;
 }

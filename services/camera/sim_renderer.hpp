@@ -17,6 +17,7 @@
 #include <array>
 #include <cstdint>
 #include <optional>
+#include <string>
 #include <vector>
 
 #include "common/camera/frame.hpp"
@@ -24,6 +25,8 @@
 #include "common/config/config.hpp"
 #include "common/field/field_model.hpp"
 #include "common/geometry/geometry.hpp"
+#include "services/camera/floor_raster_cache.hpp"
+#include "services/camera/realism.hpp"
 
 namespace fieldline::camera {
 
@@ -82,6 +85,8 @@ struct RenderParams {
   std::uint32_t noise_seed = 1;
   // Poses sampled across the exposure; 1 = no motion blur.
   int motion_blur_samples = 1;
+  // Post-process toward real frames (services/camera/realism.hpp); off by default.
+  RealismParams realism;
 };
 
 // Reads the `render` section of a camera preset; throws config::Error with file:line.
@@ -95,6 +100,18 @@ struct SimRobot {
   double radius = 0.25;
   // True for a teammate (own marker colour), false for an opponent.
   bool teammate = false;
+  // Clutter (evaluation tools): colours that replace the body's and the marker band's, e.g. a
+  // robot with white parts or of another team's colour.
+  std::optional<Bgr> body_colour;
+  std::optional<Bgr> marker_colour;
+};
+
+// Clutter: an axis-aligned box in the field frame, e.g. a white object beyond the border, a
+// person at the side, a flat white patch on the carpet (a few millimetres high).
+struct SimBox {
+  Eigen::Vector3d lo = Eigen::Vector3d::Zero();
+  Eigen::Vector3d hi = Eigen::Vector3d::Zero();
+  Bgr colour{225, 230, 230};
 };
 
 struct SimBall {
@@ -113,6 +130,7 @@ struct SimScene {
   double exposure = 0.008;
   std::vector<SimRobot> robots;
   std::optional<SimBall> ball;
+  std::vector<SimBox> boxes;
   // Seeds the sensor noise together with RenderParams::noise_seed: the same number, the same
   // frame.
   std::uint64_t frame_number = 0;
@@ -121,8 +139,11 @@ struct SimScene {
 class SimRenderer {
  public:
   // Precomputes the pixel table and the floor raster (a fraction of a second for an msl field).
+  // With a `raster_cache_dir`, the raster is read from there when a valid file for exactly these
+  // inputs exists, else built and written there (floor_raster_cache.hpp).
   // Throws std::invalid_argument for unusable parameters.
-  SimRenderer(MirrorModel mirror, const field::FieldModel& field, RenderParams params);
+  SimRenderer(MirrorModel mirror, const field::FieldModel& field, RenderParams params,
+              const std::string& raster_cache_dir = {});
 
   // Renders `scene` into `yuyv` (resized to height * stride on first use; stride = 2 * width).
   void render(const SimScene& scene, std::vector<std::uint8_t>& yuyv);
@@ -135,30 +156,29 @@ class SimRenderer {
   }
   const MirrorModel& mirror() const { return mirror_; }
   const RenderParams& params() const { return params_; }
+  // The realism post-process (its knobs can change between frames, e.g. the light factor).
+  RealismFilter& realism() { return realism_; }
 
   // Colour of the floor raster at a field point (finest level, lighting included, no noise).
   Yuv floorColour(const Vec2& field_point) const;
 
+  // Where the floor raster came from, and why a cache file was not used or not written ("" when
+  // nothing went wrong).
+  RasterSource rasterSource() const { return raster_source_; }
+  const std::string& rasterProblem() const { return raster_problem_; }
+
  private:
   enum class PixelKind : std::uint8_t { kOutside, kSelf, kFloor, kHall };
 
-  struct RasterLevel {
-    double cell = 0.0;
-    double inv_cell = 0.0;
-    int cols = 0;
-    int rows = 0;
-    std::vector<Yuv> cells;
-  };
+  using RasterLevel = FloorRasterLevel;
 
   // A ray-cast object, in the field frame.
-  struct Box {
-    Eigen::Vector3d lo;
-    Eigen::Vector3d hi;
-    Bgr colour;
-  };
+  using Box = SimBox;
 
   void buildPixelTable();
   void buildFloorRaster(const field::FieldModel& field);
+  // In floor_raster_cache.cpp: the cached raster, or buildFloorRaster and write the cache.
+  void loadOrBuildFloorRaster(const field::FieldModel& field, const std::string& cache_dir);
   void buildGoals(const field::FieldModel& field);
   void renderOnce(const geometry::Pose2& pose, const SimScene& scene);
   void renderFloor(const geometry::Pose2& pose);
@@ -187,12 +207,15 @@ class SimRenderer {
   std::vector<Yuv> static_layer_;           // outside, self, hall
 
   std::vector<RasterLevel> raster_;
+  RasterSource raster_source_ = RasterSource::kBuilt;
+  std::string raster_problem_;
   Yuv outside_floor_yuv_;
   std::vector<Box> goal_boxes_;
 
   std::vector<Yuv> frame_;                                 // current sub-frame, one Yuv per pixel
   std::vector<std::array<std::uint16_t, 3>> accumulator_;  // motion blur sums
   std::vector<std::int8_t> noise_table_;                   // unit Gaussian * 16
+  RealismFilter realism_;
 };
 
 }  // namespace fieldline::camera

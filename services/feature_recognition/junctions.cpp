@@ -1,5 +1,6 @@
 #include "services/feature_recognition/junctions.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include "services/feature_recognition/penalty_area.hpp"
@@ -30,6 +31,12 @@ Meets howMeets(const Line& line, const Vec2& c, const RecognitionParams& params,
   return Meets::kNot;
 }
 
+// How far `line` reaches from c in direction `dir` (a unit vector along it).
+double reach(const Line& line, const Vec2& c, const Vec2& dir) {
+  const double s = line.along(c);
+  return std::max(0.0, dir.dot(line.direction) > 0 ? line.t_max - s : s - line.t_min);
+}
+
 }  // namespace
 
 void findJunctions(const LineStructure& structure, const RecognitionParams& params,
@@ -54,10 +61,21 @@ void findJunctions(const LineStructure& structure, const RecognitionParams& para
         const Vec2 bisector = away_a + away_b;
         junction.phi = std::atan2(bisector.y(), bisector.x());
         junction = {false, c, junction.phi, 0, i, 1, j};
+        junction.leg_count = 2;
+        junction.legs = {away_a, away_b, Vec2::Zero()};
+        junction.leg_lengths = {reach(a, c, away_a), reach(b, c, away_b), 0.0};
       } else if (ma == Meets::kEnds && mb == Meets::kThrough) {
         junction = {true, c, std::atan2(away_a.y(), away_a.x()), 1, j, 0, i};
+        junction.leg_count = 3;
+        junction.legs = {away_a, b.direction, -b.direction};
+        junction.leg_lengths = {reach(a, c, away_a), reach(b, c, b.direction),
+                                reach(b, c, -b.direction)};
       } else if (mb == Meets::kEnds && ma == Meets::kThrough) {
         junction = {true, c, std::atan2(away_b.y(), away_b.x()), 0, i, 1, j};
+        junction.leg_count = 3;
+        junction.legs = {away_b, a.direction, -a.direction};
+        junction.leg_lengths = {reach(b, c, away_b), reach(a, c, a.direction),
+                                reach(a, c, -a.direction)};
       } else {
         continue;  // a crossing: no such marking on the field
       }

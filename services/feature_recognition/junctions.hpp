@@ -5,6 +5,7 @@
 // fixes the pose alone (the field has many of each), so they carry no pose hypothesis here.
 #pragma once
 
+#include <array>
 #include <vector>
 
 #include "services/feature_recognition/line_structure.hpp"
@@ -20,6 +21,11 @@ struct Junction {
   // Groups: for a T, `stem` ends on `bar`; for an L the two arms. (axis, index) pairs.
   int bar_axis = 0, bar = -1;
   int stem_axis = 0, stem = -1;
+  // The line pieces leaving the junction (robot frame): unit directions and seen lengths, m.
+  // L: the two arms; T: the stem, then the bar's two halves.
+  int leg_count = 0;
+  std::array<Vec2, 3> legs{};
+  std::array<double, 3> leg_lengths{};
 };
 
 void findJunctions(const LineStructure& structure, const RecognitionParams& params,

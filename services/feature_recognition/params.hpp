@@ -9,7 +9,7 @@ struct RecognitionParams {
   // Frames with more points are refused as a whole (bounded time per frame).
   int max_points = 20000;
   // Sequences with fewer points carry no usable shape.
-  int min_sequence_points = 5;
+  int min_sequence_points = 3;
 
   // --- contour preparation (seed: smoothing, curvature, splitting) ---
   // The enclosing points for the curvature are this many indices before and after.
@@ -24,7 +24,7 @@ struct RecognitionParams {
   double split_gap = 0.6;
   // Pieces with fewer points are dropped; pieces split off during classification may be down to
   // min_split_points (far lines have few, widely spaced points).
-  int min_piece_points = 5;
+  int min_piece_points = 3;
   int min_split_points = 3;
 
   // --- classification and arcs ---
@@ -87,11 +87,43 @@ struct RecognitionParams {
 
   // --- junctions and straight lines (beyond the seed) ---
   // An end closer than this to another line forms a junction, m.
-  double junction_distance = 0.25;
+  double junction_distance = 0.4;
   // A line continues through a T when it reaches this far on both sides, m.
   double junction_through = 0.3;
   // Straight-line constraints from groups at least this long, m.
   double min_constraint_line = 1.0;
+
+  // --- model check (beyond the seed) ---
+  // The frame's points within model_check_range of the robot are moved into the field by a
+  // hypothesis; a point fits when it lies within tolerance + tolerance_per_m * its range of a
+  // model line (the line points sit on the lines' edges, and far points carry the calibration's
+  // larger errors). A hypothesis needs this share of fitting points.
+  double model_check_tolerance = 0.15;
+  double model_check_tolerance_per_m = 0.02;
+  double model_check_range = 8.0;
+  double model_check_min_share = 0.75;
+  // A penalty corner's other points (further than identity_leg_margin from its two lines) must be
+  // at least this many and fit with this share: the corner explains its own points whatever
+  // its goal direction, only the rest of the frame tells a flipped corner from the true one.
+  int model_check_min_other_points = 30;
+  double model_check_min_other_share = 0.75;
+  // At most this many points are looked up per hypothesis (evenly thinned beyond).
+  int model_check_max_points = 1000;
+  // Distance grid: node spacing and margin beyond the field's lines, m.
+  double model_check_cell = 0.05;
+  double model_check_margin = 2.0;
+
+  // --- identifying L-corners and T-junctions by the model check (beyond the seed) ---
+  // Points within this distance of the junction's own lines are not "other" points, m.
+  double identity_leg_margin = 0.3;
+  // An observed leg matches a model leg within this angle, rad.
+  double identity_angle = 0.2;
+  // The chosen place needs this many other points within the check's range and this share of
+  // them on the model's lines; every rival place (not the chosen one or its point-symmetric
+  // twin) must fit at least identity_margin worse.
+  int identity_min_points = 25;
+  double identity_min_share = 0.8;
+  double identity_margin = 0.2;
 
   // --- pose hypotheses ---
   // Floors on the standard deviations (the fit's own residuals underestimate the calibration's

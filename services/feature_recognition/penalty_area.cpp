@@ -80,6 +80,8 @@ void findCorners(const LineStructure& structure, const PenaltyStructure& area, c
     c.toward_goal = v;
     c.sigma_xy = std::hypot(lineOffsetSigma(front), lineOffsetSigma(side));
     c.sigma_phi = lineAngleSigma(front);
+    c.front = front;
+    c.side = side;
     // One corner per end: the closer side line wins.
     auto same = std::find_if(out.begin(), out.end(), [&](const PenaltyCorner& o) {
       return o.inner == inner && o.left == is_left;

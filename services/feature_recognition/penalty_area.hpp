@@ -26,6 +26,9 @@ struct PenaltyCorner {
   // Standard deviations from the fits' residuals, m and rad (no floor applied).
   double sigma_xy = 0.0;
   double sigma_phi = 0.0;
+  // The front line and the side line that meet at the corner.
+  Line front;
+  Line side;
 };
 
 struct PenaltyStructure {

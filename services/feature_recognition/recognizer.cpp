@@ -10,7 +10,30 @@ using perception::FeatureKind;
 using perception::FieldFeature;
 
 FeatureRecognizer::FeatureRecognizer(const field::FieldModel& field, RecognitionParams params)
-    : field_(field), params_(params) {}
+    : field_(field),
+      params_(params),
+      model_check_(field, params),
+      model_junctions_(modelJunctions(field)) {}
+
+bool FeatureRecognizer::passesModelCheck(FeatureKind kind, const Pose2& local, const Pose2& mark,
+                                         const std::vector<Segment2>* own) {
+  // The field is point-symmetric: every reference mark of a feature gives the same fit, so one
+  // is enough.
+  CheckedFeature c;
+  c.kind = kind;
+  c.local = local;
+  c.robot = robotPoseFrom(mark, local);
+  c.fit = model_check_.fit(contours_.points, c.robot);
+  if (own == nullptr) {
+    c.accepted = model_check_.accepts(c.fit);
+  } else {
+    pointsAwayFrom(contours_.points, *own, params_.identity_leg_margin, others_);
+    c.others = model_check_.fit(others_, c.robot);
+    c.accepted = model_check_.accepts(c.fit, c.others);
+  }
+  checked_.push_back(c);
+  return c.accepted;
+}
 
 InputCheck FeatureRecognizer::recognize(const perception::LinePoints& in,
                                         perception::FieldFeatures& out) {
@@ -18,6 +41,7 @@ InputCheck FeatureRecognizer::recognize(const perception::LinePoints& in,
   circle_.clear();
   structure_.clear();
   junctions_.clear();
+  checked_.clear();
   penalty_found_ = false;
   const InputCheck check = prepareContours(in, params_, contours_);
   classifyPieces(contours_, params_, classified_);
@@ -41,37 +65,78 @@ InputCheck FeatureRecognizer::recognize(const perception::LinePoints& in,
   if (circle_.found && circle_.oriented) {
     const Pose2 local{circle_.fit.centre.x(), circle_.fit.centre.y(),
                       std::atan2(circle_.line_direction.y(), circle_.line_direction.x())};
-    const int index = static_cast<int>(out.features.size());
-    out.features.push_back({FeatureKind::kCentreCircle, local, qualityMeasure(0, 2)});
-    Line line;
-    line.rms = circle_.line_rms;
-    line.count = circle_.line_count;
-    line.t_max = circle_.line_length;
-    const double sigma_position =
-        circle_.fit.rms / std::sqrt(static_cast<double>(std::max(circle_.fit.count, 1)));
-    addHypotheses(index, local, centreCircleMarks(), sigma_position, lineAngleSigma(line),
-                  params_.min_sigma_xy, params_.min_sigma_phi, out.hypotheses);
+    const std::vector<Pose2> marks = centreCircleMarks();
+    if (passesModelCheck(FeatureKind::kCentreCircle, local, marks.front(), nullptr)) {
+      const int index = static_cast<int>(out.features.size());
+      out.features.push_back({FeatureKind::kCentreCircle, local, qualityMeasure(0, 2)});
+      Line line;
+      line.rms = circle_.line_rms;
+      line.count = circle_.line_count;
+      line.t_max = circle_.line_length;
+      const double sigma_position =
+          circle_.fit.rms / std::sqrt(static_cast<double>(std::max(circle_.fit.count, 1)));
+      addHypotheses(index, local, marks, sigma_position, lineAngleSigma(line), params_.min_sigma_xy,
+                    params_.min_sigma_phi, out.hypotheses);
+    }
   }
+  // Penalty corners: from the area's structure (stage 5), then L-corners identified by the
+  // model check (when the structure is too sparse to be seen).
+  thread_local std::vector<Vec2> corners_seen;
+  corners_seen.clear();
+  auto addCorner = [&](const Vec2& position, const Vec2& toward_goal, bool left, bool inner,
+                       double sigma_xy, double sigma_phi, const std::vector<Segment2>* own) {
+    const Pose2 local{position.x(), position.y(), std::atan2(toward_goal.y(), toward_goal.x())};
+    const std::vector<Pose2> marks = penaltyCornerMarks(field_, left, inner);
+    if (own != nullptr &&
+        !passesModelCheck(FeatureKind::kPenaltyCorner, local, marks.front(), own)) {
+      return;
+    }
+    corners_seen.push_back(position);
+    const int index = static_cast<int>(out.features.size());
+    out.features.push_back({FeatureKind::kPenaltyCorner, local, qualityMeasure(0, 2)});
+    addHypotheses(index, local, marks, sigma_xy, sigma_phi, params_.min_sigma_xy,
+                  params_.min_sigma_phi, out.hypotheses);
+  };
   if (penalty_found_) {
     for (const PenaltyCorner& corner : penalty_.corners) {
-      const Pose2 local{corner.position.x(), corner.position.y(),
-                        std::atan2(corner.toward_goal.y(), corner.toward_goal.x())};
-      const int index = static_cast<int>(out.features.size());
-      out.features.push_back({FeatureKind::kPenaltyCorner, local, qualityMeasure(0, 2)});
-      addHypotheses(index, local, penaltyCornerMarks(field_, corner.left, corner.inner),
-                    corner.sigma_xy, corner.sigma_phi, params_.min_sigma_xy, params_.min_sigma_phi,
-                    out.hypotheses);
+      const std::vector<Segment2> own = {{corner.front.start(), corner.front.end()},
+                                         {corner.side.start(), corner.side.end()}};
+      addCorner(corner.position, corner.toward_goal, corner.left, corner.inner, corner.sigma_xy,
+                corner.sigma_phi, &own);
     }
+  }
+  auto explained = [&](const Junction& j) {
+    for (const Vec2& c : corners_seen) {
+      if ((c - j.position).norm() < params_.corner_distance) return true;
+    }
+    return false;
+  };
+  for (const Junction& j : junctions_) {
+    if (j.is_t || explained(j)) continue;
+    JunctionIdentity identity;
+    const bool identified =
+        identifyJunction(j, model_junctions_, contours_.points, model_check_, params_, identity);
+    const ModelJunction* model = identity.model >= 0 ? &model_junctions_[identity.model] : nullptr;
+    if (model == nullptr || !model->penalty_corner) continue;
+    const Vec2 toward_goal = geometry::rotate(model->toward_goal, -identity.robot.phi);
+    CheckedFeature c;
+    c.kind = FeatureKind::kPenaltyCorner;
+    c.local = {j.position.x(), j.position.y(), std::atan2(toward_goal.y(), toward_goal.x())};
+    c.robot = identity.robot;
+    c.fit = model_check_.fit(contours_.points, identity.robot);
+    c.others = identity.fit;
+    c.accepted = identified && model_check_.accepts(c.fit, c.others);
+    checked_.push_back(c);
+    if (!c.accepted) continue;
+    const Line& a = structure_.groups[j.bar_axis][j.bar].line;
+    const Line& b = structure_.groups[j.stem_axis][j.stem].line;
+    const double sigma_phi = std::min(lineAngleSigma(a), lineAngleSigma(b));
+    addCorner(j.position, toward_goal, model->left, model->inner,
+              std::hypot(lineOffsetSigma(a), lineOffsetSigma(b)), sigma_phi, nullptr);
   }
   // Lower features: no pose of their own (many places on the field look the same).
   for (const Junction& j : junctions_) {
-    bool explained = false;
-    if (penalty_found_) {
-      for (const PenaltyCorner& corner : penalty_.corners) {
-        if ((corner.position - j.position).norm() < params_.corner_distance) explained = true;
-      }
-    }
-    if (explained) continue;
+    if (explained(j)) continue;
     out.features.push_back({j.is_t ? FeatureKind::kTJunction : FeatureKind::kFieldCorner,
                             {j.position.x(), j.position.y(), j.phi},
                             qualityMeasure(0, j.is_t ? field_t_junctions_ : field_corners_)});

@@ -9,6 +9,10 @@
 //   penalty_area         goal line / goal-area line / penalty-area line and their corners
 //   junctions            L-corners, T-junctions (beyond the seed)
 //   pose_hypotheses      reference marks, symmetric poses, ranking
+//   model_check          a high-level feature is kept only if the frame's points fit the field
+//                        model at the pose it implies (beyond the seed)
+//   junction_identity    L-corners placed on the field by the model check: penalty corners
+//                        whose area is too sparse for stage 5 (beyond the seed)
 // Not thread-safe: one recogniser per thread.
 #pragma once
 
@@ -18,10 +22,25 @@
 #include "common/perception/field_features.hpp"
 #include "common/perception/line_points.hpp"
 #include "services/feature_recognition/centre_circle.hpp"
+#include "services/feature_recognition/junction_identity.hpp"
 #include "services/feature_recognition/junctions.hpp"
+#include "services/feature_recognition/model_check.hpp"
 #include "services/feature_recognition/penalty_area.hpp"
 
 namespace fieldline::feature_recognition {
+
+// The model check's verdict on one high-level feature of the last frame.
+struct CheckedFeature {
+  perception::FeatureKind kind = perception::FeatureKind::kCentreCircle;
+  geometry::Pose2 local;
+  // The robot pose from the feature's first reference mark.
+  geometry::Pose2 robot;
+  // The fit of all points and of the other points (not on the feature's own lines; penalty
+  // corners only).
+  ModelFit fit;
+  ModelFit others;
+  bool accepted = false;
+};
 
 class FeatureRecognizer {
  public:
@@ -42,10 +61,14 @@ class FeatureRecognizer {
   bool penaltyFound() const { return penalty_found_; }
   const PenaltyStructure& penalty() const { return penalty_; }
   const std::vector<Junction>& junctions() const { return junctions_; }
+  // Every high-level feature found in the last frame with the model check's verdict.
+  const std::vector<CheckedFeature>& checked() const { return checked_; }
 
  private:
   const field::FieldModel& field_;
   RecognitionParams params_;
+  ModelCheck model_check_;
+  std::vector<ModelJunction> model_junctions_;
   // Number of L-corners and T-junctions the field's lines form (quantities of those features).
   int field_corners_ = 12;
   int field_t_junctions_ = 10;
@@ -56,6 +79,14 @@ class FeatureRecognizer {
   bool penalty_found_ = false;
   PenaltyStructure penalty_;
   std::vector<Junction> junctions_;
+  std::vector<CheckedFeature> checked_;
+
+  // Runs the model check on the feature at `local` (robot frame) whose first reference mark is
+  // `mark`, with the other points those away from `own` (when given); records the verdict and
+  // returns it.
+  bool passesModelCheck(perception::FeatureKind kind, const geometry::Pose2& local,
+                        const geometry::Pose2& mark, const std::vector<Segment2>* own);
+  std::vector<Vec2> others_;
 };
 
 }  // namespace fieldline::feature_recognition

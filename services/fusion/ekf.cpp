@@ -120,14 +120,22 @@ void predictOdometry(EkfState& s, const OdometryStep& step, const ProcessNoise& 
   symmetrize(s.p);
 }
 
-UpdateResult updatePose(EkfState& s, const PoseMeasurement& z, double gate2) {
+UpdateResult updatePose(EkfState& s, const PoseMeasurement& z, double gate2,
+                        const SlipModel& slip) {
   UpdateResult result;
   Eigen::Vector3d y(z.pose.x - s.x[0], z.pose.y - s.x[1], geometry::angleDiff(z.pose.phi, s.x[2]));
-  const Eigen::Matrix3d sm = s.p.topLeftCorner<3, 3>() + z.covariance;
-  const Eigen::Matrix3d sm_inv = sm.inverse();
+  Eigen::Matrix3d sm = s.p.topLeftCorner<3, 3>() + z.covariance;
+  Eigen::Matrix3d sm_inv = sm.inverse();
   result.mahalanobis2 = y.dot(sm_inv * y);
-  if (!std::isfinite(result.mahalanobis2) || (gate2 > 0.0 && result.mahalanobis2 > gate2)) {
-    return result;
+  if (!std::isfinite(result.mahalanobis2)) return result;
+  if (gate2 > 0.0 && result.mahalanobis2 > gate2) {
+    const bool within = y.head<2>().norm() <= slip.max_m && std::abs(y[2]) <= slip.max_rad;
+    if (!z.may_reveal_slip || slip.inflation <= 0.0 || !within) return result;
+    // Odometry missed a movement: the pose is as uncertain as the disagreement says.
+    s.p.topLeftCorner<3, 3>() += slip.inflation * y.cwiseAbs2().asDiagonal().toDenseMatrix();
+    sm = s.p.topLeftCorner<3, 3>() + z.covariance;
+    sm_inv = sm.inverse();
+    result.slip = true;
   }
   Eigen::Matrix<double, 3, 6> h = Eigen::Matrix<double, 3, 6>::Zero();
   h.leftCols<3>().setIdentity();

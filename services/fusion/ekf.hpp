@@ -60,6 +60,21 @@ struct PoseMeasurement {
   geometry::Pose2 pose;
   // Covariance of (x, y, phi).
   Eigen::Matrix3d covariance = Eigen::Matrix3d::Identity();
+  // A trusted measurement (a frame that matches the field well): when it disagrees with the
+  // state beyond the gate but within SlipModel's limits, the robot slipped or was pushed (a
+  // collision odometry cannot see), and the state's pose covariance is widened before the update.
+  bool may_reveal_slip = false;
+};
+
+// What a trusted measurement that contradicts the state is taken to mean: the pose moved in a way
+// odometry did not see (wheels spinning against an obstacle, a push, a twist). Within these
+// limits the pose covariance grows by `inflation` times the innovation's square per axis and the
+// measurement is applied; beyond them it is refused by the gate as usual.
+struct SlipModel {
+  double max_m = 0.5;
+  double max_rad = 0.5;
+  // 0: no slip handling.
+  double inflation = 2.0;
 };
 
 struct UpdateResult {
@@ -69,6 +84,8 @@ struct UpdateResult {
   // Size of the correction applied: position m, heading rad.
   double correction_m = 0.0;
   double correction_rad = 0.0;
+  // The gate was passed only after widening the covariance for a slip (SlipModel).
+  bool slip = false;
 };
 
 // Moves the state to `t` with the velocity held (no odometry for the interval).
@@ -78,7 +95,8 @@ void predictConstantVelocity(EkfState& s, Utime t, const ProcessNoise& noise);
 void predictOdometry(EkfState& s, const OdometryStep& step, const ProcessNoise& noise);
 // Updates with a pose measurement at s.utime. With gate2 > 0, a measurement whose squared
 // Mahalanobis distance exceeds it is not applied.
-UpdateResult updatePose(EkfState& s, const PoseMeasurement& z, double gate2);
+UpdateResult updatePose(EkfState& s, const PoseMeasurement& z, double gate2,
+                        const SlipModel& slip = {});
 // True if `c` is symmetric (to rounding) and positive definite.
 bool isPositiveDefinite(const Eigen::Matrix3d& c);
 

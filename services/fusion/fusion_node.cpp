@@ -56,7 +56,7 @@ void FusionNode::onOdometry(const odometry_t& m) {
     e.vx = s->x[3];
     e.vy = s->x[4];
     e.omega = s->x[5];
-    e.covariance = s->p.topLeftCorner<3, 3>();
+    e.covariance = localizer_.reportedCovariance(*s);
   }
   e.utime = m.header.utime;
   msg::toMessage(e, state_msg_);
@@ -127,6 +127,7 @@ void FusionNode::updateMetrics() {
   node_.setMetric("lost_count", static_cast<double>(localizer_.counters().lost));
   node_.setMetric("replays", static_cast<double>(localizer_.filter().replays()));
   node_.setMetric("gate_resets", static_cast<double>(localizer_.counters().resets));
+  node_.setMetric("slips", static_cast<double>(localizer_.counters().slips));
 }
 
 }  // namespace fieldline::fusion

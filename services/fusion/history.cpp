@@ -169,7 +169,7 @@ DelayedFilter::Applied DelayedFilter::replayFrom(Utime t, int target_kind) {
       // A refused measurement leaves no trace, not even the split of the odometry interval.
       EkfState updated = state;
       predictConstantVelocity(updated, z.utime, params_.noise);
-      const UpdateResult u = updatePose(updated, z, params_.gate2);
+      const UpdateResult u = updatePose(updated, z, params_.gate2, params_.slip);
       if (u.accepted) state = updated;
       if (kind == target_kind && z.utime == t) {
         applied.found = true;

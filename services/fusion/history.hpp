@@ -43,6 +43,8 @@ struct FilterParams {
   // Squared Mahalanobis distance beyond which a pose measurement is refused (3 dof; 0: no gate).
   double gate2 = 16.27;
   ProcessNoise noise;
+  // Trusted measurements beyond the gate: a slip odometry did not see (collisions).
+  SlipModel slip;
 };
 
 class DelayedFilter {

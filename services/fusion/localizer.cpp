@@ -86,6 +86,30 @@ Eigen::Matrix3d Localizer::floored(const Eigen::Matrix3d& c) const {
   return out;
 }
 
+Eigen::Matrix3d Localizer::correctionCovariance(const PoseCorrection& c) const {
+  Eigen::Matrix3d out = floored(params_.correction_inflation * c.covariance);
+  const double cost = std::max(0.0, c.cost);
+  const double s_m = params_.correction_cost_gain * cost;
+  const double s_rad = params_.correction_cost_gain_rad * cost;
+  out(0, 0) += s_m * s_m;
+  out(1, 1) += s_m * s_m;
+  out(2, 2) += s_rad * s_rad;
+  return out;
+}
+
+Eigen::Matrix3d Localizer::reportedCovariance(const EkfState& s) const {
+  Eigen::Matrix3d c = s.p.topLeftCorner<3, 3>();
+  const double fm = params_.state_floor_m * params_.state_floor_m;
+  const double fr = params_.state_floor_rad * params_.state_floor_rad;
+  const double st = params_.stamp_sigma_s * params_.stamp_sigma_s;
+  const Eigen::Vector3d v = s.x.tail<3>();
+  c += st * v * v.transpose();
+  c(0, 0) += fm;
+  c(1, 1) += fm;
+  c(2, 2) += fr;
+  return c;
+}
+
 void Localizer::addLines(std::span<const perception::LinePoint> points, Utime utime, Utime now) {
   last_lines_arrival_ = std::max(last_lines_arrival_, now);
   if (utime > now + params_.filter.future_tolerance_us) {
@@ -110,10 +134,12 @@ void Localizer::trackLines(std::span<const perception::LinePoint> points, Utime 
   last_cost_ = cost_at_estimate;
   bool good = false;
   if (c.valid && c.cost <= params_.accept_cost_m) {
-    PoseMeasurement z{utime, c.pose, floored(c.covariance)};
+    PoseMeasurement z{utime, c.pose, correctionCovariance(c)};
+    z.may_reveal_slip = true;
     const auto r = filter_.addPose(MeasurementSource::kLines, z, now);
     if (r.rejection == Rejection::kNone) {
       ++counters_.corrections;
+      if (r.update.slip) ++counters_.slips;
       good = true;
       gated_in_row_ = 0;
     } else {
@@ -126,7 +152,7 @@ void Localizer::trackLines(std::span<const perception::LinePoint> points, Utime 
         EkfState s = *guess;
         s.utime = utime;
         s.x.head<3>() << c.pose.x, c.pose.y, c.pose.phi;
-        s.p.topLeftCorner<3, 3>() = floored(c.covariance);
+        s.p.topLeftCorner<3, 3>() = correctionCovariance(c);
         s.p.topRightCorner<3, 3>().setZero();
         s.p.bottomLeftCorner<3, 3>().setZero();
         s.last_correction_utime = utime;
@@ -137,8 +163,12 @@ void Localizer::trackLines(std::span<const perception::LinePoint> points, Utime 
   } else {
     count(c.valid ? "lines_poor_match" : "lines_too_few_points");
   }
-  // Only frames with enough points can contradict: an empty view says nothing.
-  const bool contradicts = c.valid && !good && cost_at_estimate > params_.lost_cost_m;
+  // Only frames with enough points can contradict: an empty view says nothing. A frame with
+  // plenty of points that gives no valid correction from the estimate (too few of them near any
+  // line, seen from there: the heading is far off) contradicts it as well.
+  const bool many_points = points.size() >= params_.contradict_min_points;
+  const bool contradicts =
+      (c.valid || many_points) && !good && cost_at_estimate > params_.lost_cost_m;
   bad_frames_ = contradicts ? bad_frames_ + 1 : (good ? 0 : bad_frames_);
   if (bad_frames_ >= params_.lost_frames ||
       (contradicts && contradictions_ >= 2 && bad_frames_ >= 1)) {
@@ -238,6 +268,30 @@ void Localizer::coarseSearch(std::span<const perception::LinePoint> points, Utim
     addHypothesis(refined[i]);
 }
 
+void Localizer::localSearch(std::span<const perception::LinePoint> points, Utime utime) {
+  if (!reference_ || params_.local_search_s <= 0.0 ||
+      static_cast<double>(utime - reference_->utime) * 1e-6 > params_.local_search_s) {
+    return;
+  }
+  geometry::Pose2 ref = reference_->pose;
+  const auto motion = motionBetween(reference_->utime, utime);
+  if (!motion) return;
+  ref = geometry::applyMovement(ref, *motion);
+  for (int k = -params_.local_search_steps; k <= params_.local_search_steps; ++k) {
+    const geometry::Pose2 guess{
+        ref.x, ref.y, geometry::normalizeAngle(ref.phi + k * params_.local_search_step_rad)};
+    const PoseCorrection c = matcher_.correct(points, guess);
+    if (!c.valid || c.cost > params_.accept_cost_m) continue;
+    Hypothesis h;
+    h.utime = utime;
+    h.pose = c.pose;
+    h.covariance = c.covariance;
+    h.cost_sum = c.cost;
+    h.frames = 1;
+    addHypothesis(h);
+  }
+}
+
 void Localizer::searchLines(std::span<const perception::LinePoint> points, Utime utime) {
   if (mode_ == LocalizationStatus::kUnknown) mode_ = LocalizationStatus::kSearching;
   // Test what we have on this frame.
@@ -267,6 +321,7 @@ void Localizer::searchLines(std::span<const perception::LinePoint> points, Utime
            (h.frames > 0 && h.meanCost() > params_.lost_cost_m);
   });
   const bool enough_points = static_cast<int>(points.size()) >= 10;
+  if (enough_points) localSearch(points, utime);
   const bool any_good = std::any_of(hypotheses_.begin(), hypotheses_.end(), [&](const auto& h) {
     return h.frames > 0 && h.meanCost() <= params_.accept_cost_m;
   });
@@ -329,6 +384,9 @@ void Localizer::commit(const Hypothesis& h) {
   s.x << h.pose.x, h.pose.y, h.pose.phi, v.x(), v.y(), last_velocity_.z();
   s.p = Matrix6d::Zero();
   s.p.topLeftCorner<3, 3>() = floored(h.covariance);
+  s.p(0, 0) = std::max(s.p(0, 0), params_.commit_sigma_m * params_.commit_sigma_m);
+  s.p(1, 1) = std::max(s.p(1, 1), params_.commit_sigma_m * params_.commit_sigma_m);
+  s.p(2, 2) = std::max(s.p(2, 2), params_.commit_sigma_rad * params_.commit_sigma_rad);
   s.p.bottomRightCorner<3, 3>() = Eigen::Vector3d(0.25, 0.25, 0.5).asDiagonal();
   s.last_correction_utime = h.utime;
   filter_.initialize(s);
@@ -421,7 +479,7 @@ perception::RobotEstimate Localizer::estimate(Utime now) const {
     e.vx = s.x[3];
     e.vy = s.x[4];
     e.omega = s.x[5];
-    e.covariance = s.p.topLeftCorner<3, 3>();
+    e.covariance = reportedCovariance(s);
     e.since_vision_us = s.last_correction_utime > 0 ? s.utime - s.last_correction_utime : 0;
   } else {
     e.utime = dead_reckoning_.empty() ? 0 : dead_reckoning_.newest().utime;

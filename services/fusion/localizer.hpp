@@ -49,7 +49,10 @@ struct LocalizerParams {
   // A frame whose cost at the estimate is above this contradicts it, m.
   double lost_cost_m = 0.16;
   // Contradicting frames in a row before the robot counts as lost.
-  int lost_frames = 3;
+  int lost_frames = 2;
+  // A frame with at least this many points contradicts the estimate (cost above lost_cost_m)
+  // even when it gives no valid correction from it.
+  std::size_t contradict_min_points = 60;
   // Well-matching frames refused by the filter's gate in a row before the filter is reset to
   // the frame's correction.
   int gated_frames_reset = 3;
@@ -63,10 +66,25 @@ struct LocalizerParams {
   // A confident feature hypothesis further than this from the estimate (and its twin) contradicts
   // it, m.
   double contradict_m = 1.0;
-  // Floors on a correction's standard deviations, m and rad (the matcher's Hessian can be
-  // optimistic).
+  // Calibration of a layer-2 correction's covariance (the matcher's Hessian is optimistic where
+  // the points are few, unevenly spread or partly mismatched): the Hessian's covariance times
+  // `correction_inflation`, plus floors, plus standard deviations that grow with the frame's
+  // matching cost (a frame that fits worse is trusted less), m and rad.
   double correction_floor_m = 0.02;
   double correction_floor_rad = 0.01;
+  double correction_inflation = 1.0;
+  // Added position sigma per metre of mean matching cost (1), heading sigma per metre (rad/m).
+  double correction_cost_gain = 0.0;
+  double correction_cost_gain_rad = 0.0;
+  // Uncertainty of a pose committed after global localization (start-up, kidnap): the
+  // hypothesis's covariance floored by these, m and rad.
+  double commit_sigma_m = 0.05;
+  double commit_sigma_rad = 0.03;
+  // The reported covariance (ROBOT_STATE) adds what the filter does not model: floors, and the
+  // odometry stamp's uncertainty times the velocity (a pose at the wrong instant), m, rad, s.
+  double state_floor_m = 0.0;
+  double state_floor_rad = 0.0;
+  double stamp_sigma_s = 0.0;
   // No VISION_LINES for this long: status ODOMETRY_ONLY, µs.
   Utime vision_timeout_us = 1'000'000;
   // Coarse search: grid step, m; headings per turn; points used per pose.
@@ -74,6 +92,13 @@ struct LocalizerParams {
   int search_headings = 24;
   int search_points = 60;
   std::size_t max_hypotheses = 10;
+  // After losing track (a collision twisted the robot, not a kidnap), for this long the pose
+  // before the loss, carried on by odometry, seeds hypotheses at these heading offsets (multiples
+  // of the step up to the count each side): the nearby answer is found in the next frame instead
+  // of waiting for the global search to tell it from look-alike places, s, rad.
+  double local_search_s = 1.0;
+  double local_search_step_rad = 0.35;
+  int local_search_steps = 4;
   // Half extents of the area searched (the carpet), m.
   double search_half_length_m = 10.0;
   double search_half_width_m = 6.5;
@@ -88,6 +113,8 @@ struct LocalizerCounters {
   std::uint64_t commits = 0;
   std::uint64_t searches = 0;
   std::uint64_t resets = 0;
+  // Corrections that revealed a slip or push odometry did not see (SlipModel).
+  std::uint64_t slips = 0;
 };
 
 class Localizer {
@@ -106,6 +133,9 @@ class Localizer {
   perception::RobotEstimate estimate(Utime now) const;
   // The filter's state at `t` (for the ball); empty while no pose is known.
   std::optional<EkfState> stateAt(Utime t) const;
+  // The covariance of (x, y, phi) to report for a state: the filter's plus the floors and the
+  // stamp's uncertainty (LocalizerParams).
+  Eigen::Matrix3d reportedCovariance(const EkfState& s) const;
 
   perception::LocalizationStatus mode() const { return mode_; }
   // True while the committed pose was chosen over its twin by the start-up prior only.
@@ -135,12 +165,15 @@ class Localizer {
   void trackLines(std::span<const perception::LinePoint> points, Utime utime, Utime now);
   void searchLines(std::span<const perception::LinePoint> points, Utime utime);
   void coarseSearch(std::span<const perception::LinePoint> points, Utime utime);
+  void localSearch(std::span<const perception::LinePoint> points, Utime utime);
   void addHypothesis(const Hypothesis& h);
   void becomeLost(Utime utime);
   void commit(const Hypothesis& h);
   // Picks h or its twin: the one nearer the reference pose (continuity) or the start prior.
   Hypothesis resolveTwin(const Hypothesis& h, const Hypothesis* twin);
   Eigen::Matrix3d floored(const Eigen::Matrix3d& c) const;
+  // A layer-2 correction's covariance as the filter takes it (LocalizerParams calibration).
+  Eigen::Matrix3d correctionCovariance(const PoseCorrection& c) const;
 
   robot::RobotParams robot_;
   LocalizerParams params_;

@@ -10,8 +10,10 @@
 #include "common/bus/cli.hpp"
 #include "common/bus/node.hpp"
 #include "common/bus/robot_clock.hpp"
+#include "common/config/config.hpp"
 #include "common/field/field_model.hpp"
 #include "common/robot/robot_params.hpp"
+#include "services/fusion/fusion_config.hpp"
 #include "services/fusion/fusion_node.hpp"
 #include "services/fusion/line_matcher.hpp"
 
@@ -26,6 +28,7 @@ int main(int argc, char** argv) {
   common.addTo(app);
   std::string field_preset = "msl";
   std::string robot_preset = "fu2004";
+  std::string config_name = "default";
   std::string method = "lsq";
   std::string start_prior = "own_half";
   std::string cache_dir;
@@ -35,6 +38,10 @@ int main(int argc, char** argv) {
   app.add_option("--field", field_preset, "Field preset (msl, fu2004) or YAML path")
       ->capture_default_str();
   app.add_option("--robot-config", robot_preset, "Robot preset name or YAML path")
+      ->capture_default_str();
+  app.add_option("--config", config_name,
+                 "Fusion settings: preset name (config/fusion/NAME.yaml) or YAML path; the options "
+                 "below override it where given")
       ->capture_default_str();
   app.add_option("--matcher", method, "Layer 2 method: lsq (robust least squares) or force_field")
       ->check(CLI::IsMember({"lsq", "force_field"}))
@@ -67,26 +74,36 @@ int main(int argc, char** argv) {
       }
     }
     const field::FieldModel field = field::loadFieldPreset(field_preset);
+    fusion::FusionConfig config;
+    config::runOrExit([&] { config = fusion::loadFusionConfigPreset(config_name); });
+    if (app.count("--matcher") > 0) {
+      config.matcher.method = method == "lsq" ? fusion::MatchMethod::kRobustLeastSquares
+                                              : fusion::MatchMethod::kForceField;
+    }
     if (common.check_args) {
       // The presets are read; the distance grid (seconds of CPU) is not built.
       (void)robot::loadRobotPreset(robot_preset);
       return 0;
     }
-    fusion::MatcherParams matcher_params;
-    matcher_params.method = method == "lsq" ? fusion::MatchMethod::kRobustLeastSquares
-                                            : fusion::MatchMethod::kForceField;
-    const fusion::LineMatcher matcher(field, matcher_params, cache_dir);
+    const fusion::LineMatcher matcher(field, config.matcher, cache_dir);
 
     fusion::FusionNodeOptions options;
     options.robot = robot::loadRobotPreset(robot_preset);
-    options.localizer.filter.window_us = static_cast<Utime>(window_s * 1e6);
-    options.localizer.start_prior =
-        start_prior == "own_half" ? fusion::StartPrior::kOwnHalf : fusion::StartPrior::kNone;
+    options.localizer = config.localizer;
+    options.ball = config.ball;
+    options.ball_rate_hz = config.ball_rate_hz;
+    if (app.count("--window") > 0) {
+      options.localizer.filter.window_us = static_cast<Utime>(window_s * 1e6);
+    }
+    if (app.count("--start-prior") > 0) {
+      options.localizer.start_prior =
+          start_prior == "own_half" ? fusion::StartPrior::kOwnHalf : fusion::StartPrior::kNone;
+    }
     const geometry::Vec2 half = field.carpetHalfExtent();
     options.localizer.search_half_length_m = half.x();
     options.localizer.search_half_width_m = half.y();
-    options.ball.max_age_s = ball_max_age;
-    options.ball_rate_hz = ball_rate;
+    if (app.count("--ball-max-age") > 0) options.ball.max_age_s = ball_max_age;
+    if (app.count("--ball-rate") > 0) options.ball_rate_hz = ball_rate;
     const fusion::MatcherFunctions functions{
         [&](std::span<const perception::LinePoint> p, const geometry::Pose2& g) {
           return matcher.correct(p, g);
@@ -104,7 +121,9 @@ int main(int argc, char** argv) {
     bus::installStopSignals();
     bus::Node node({.process = "fusion", .robot_id = common.robot, .url = common.bus_url}, clock);
     fusion::FusionNode fusion(node, std::move(options), functions);
-    spdlog::info("fusing on field {} with the {} matcher", field_preset, method);
+    spdlog::info("fusing on field {} with the {} matcher, settings {}", field_preset,
+                 config.matcher.method == fusion::MatchMethod::kForceField ? "force_field" : "lsq",
+                 config_name);
     return node.run();
   });
 }

@@ -29,8 +29,8 @@ OdometryLayer::OdometryLayer(const robot::RobotParams& params, OdometryNoise noi
     radii_[i] = params.wheels[static_cast<std::size_t>(i)].radius;
 }
 
-OdometryStep OdometryLayer::stepFor(
-    const std::array<std::int64_t, robot::kWheelCount>& tick_delta) const {
+OdometryStep OdometryLayer::stepFor(const std::array<std::int64_t, robot::kWheelCount>& tick_delta,
+                                    double dt_s) const {
   const Eigen::Vector3d rotations = odometry_.wheelRotations(tick_delta);
   const Eigen::Vector3d ground = rotations.cwiseProduct(radii_);
   const Eigen::Matrix3d& m_inv = kinematics().robotMatrixInverse();
@@ -38,13 +38,16 @@ OdometryStep OdometryLayer::stepFor(
   OdometryStep step;
   step.integrated = m_inv * ground;
 
-  // Each wheel's ground travel is uncertain by slip (relative) and by the tick quantisation.
+  // Each wheel's ground travel is uncertain by slip (relative, and white on the contact speed)
+  // and by the tick quantisation.
   const double tick_m = 2.0 * std::numbers::pi / odometry_.ticksPerRevolution();
+  const double per_sqrt_s = dt_s > 0.0 ? 1.0 / std::sqrt(dt_s) : 0.0;
   Eigen::Vector3d wheel_var;
   for (int i = 0; i < robot::kWheelCount; ++i) {
     const double slip = noise_.wheel_relative_sigma * std::abs(ground[i]);
+    const double white = noise_.wheel_slip_density * std::abs(ground[i]) * per_sqrt_s;
     const double quantisation = tick_m * radii_[i] / std::sqrt(12.0);
-    wheel_var[i] = slip * slip + quantisation * quantisation;
+    wheel_var[i] = slip * slip + white * white + quantisation * quantisation;
   }
   step.covariance = m_inv * wheel_var.asDiagonal() * m_inv.transpose();
 
@@ -54,9 +57,10 @@ OdometryStep OdometryLayer::stepFor(
   const double s_t = noise_.translation_sigma_per_m * distance;
   const double s_r =
       noise_.rotation_sigma_per_rad * turned + noise_.rotation_sigma_per_m * distance;
+  const double s_w = noise_.rotation_slip_density * distance * per_sqrt_s;
   step.covariance(0, 0) += s_t * s_t;
   step.covariance(1, 1) += s_t * s_t;
-  step.covariance(2, 2) += s_r * s_r;
+  step.covariance(2, 2) += s_r * s_r + s_w * s_w;
   return step;
 }
 
@@ -110,7 +114,7 @@ OdometryLayer::Result OdometryLayer::update(const OdometrySample& input) {
   const OdometrySample previous = *last_;
   last_ = sample;
 
-  OdometryStep step = stepFor(delta);
+  OdometryStep step = stepFor(delta, dt);
   step.t_start = previous.utime;
   step.t_end = sample.utime;
 

@@ -24,6 +24,12 @@ namespace fieldline::fusion {
 struct OdometryNoise {
   // Standard deviation of a wheel's rotation relative to the rotation (slip), 1.
   double wheel_relative_sigma = 0.03;
+  // Wheel slip as white noise on each wheel's contact speed, relative to that speed, 1/sqrt(s):
+  // a wheel that rolls d metres in dt seconds is off by density * d / sqrt(dt) (one sigma). The
+  // error of a short step is large relative to its length, and averages out over longer ones.
+  double wheel_slip_density = 0.02;
+  // Random rotation rate while driving, rad/s per m/s of speed, as white noise (1/sqrt(s)).
+  double rotation_slip_density = 0.01;
   // Extra translation noise per metre driven, m/m (floor, carpet seams).
   double translation_sigma_per_m = 0.02;
   // Extra heading noise per radian turned and per metre driven, rad/rad and rad/m.
@@ -82,8 +88,10 @@ class OdometryLayer {
   // The stamp the layer uses for a sample (controller time on the host clock when known).
   Utime stamp(const OdometrySample& sample);
 
-  // The step and its covariance for a tick difference over `dt_s` seconds (tests, tools).
-  OdometryStep stepFor(const std::array<std::int64_t, robot::kWheelCount>& tick_delta) const;
+  // The step and its covariance for a tick difference over `dt_s` seconds (tests, tools; the
+  // slip densities need the interval, dt_s <= 0 leaves them out).
+  OdometryStep stepFor(const std::array<std::int64_t, robot::kWheelCount>& tick_delta,
+                       double dt_s = 0.0) const;
 
   // Forgets the reference; the next sample starts over.
   void reset() { last_.reset(); }

@@ -27,7 +27,8 @@ int main(int argc, char** argv) {
   app.add_option("--camera", camera_preset, "Camera preset (mirror model and colour table)")
       ->capture_default_str();
   app.add_option("--vision-config", vision_config,
-                 "YAML with tracker, blocks, lines, ball and obstacles sections (default: "
+                 "YAML with tracker, blocks, lines, ball and obstacles sections and optionally "
+                 "health (default: "
                  "built-in values, see docs/region_tracking.md)");
   app.add_option("--lines-every", lines_every, "Extract field lines on every n-th frame")
       ->check(CLI::Range(1, 1000))
@@ -41,7 +42,12 @@ int main(int argc, char** argv) {
     options.mirror = camera.mirror;
     options.colours = camera::loadColourTablePreset(camera.colour_table);
     if (!vision_config.empty()) {
-      options.vision = region_tracking::loadVisionParams(config::Node::loadFile(vision_config));
+      const config::Node root = config::Node::loadFile(vision_config);
+      options.vision = region_tracking::loadVisionParams(root);
+      // Optional: when the vision counts as blind (docs/calibration.md, vision health).
+      if (const std::optional<config::Node> health = root.childIf("health")) {
+        options.health = region_tracking::loadVisionHealthParams(*health);
+      }
     }
     options.lines_every_frames = lines_every;
 

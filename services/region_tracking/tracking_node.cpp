@@ -29,15 +29,18 @@ bool TrackingNode::prepareFor(int width, int height) {
   // Everything for the new size is built aside and swapped in only when it all worked.
   std::unique_ptr<camera::MirrorModel> mirror;
   std::unique_ptr<FrameProcessor> processor;
+  std::unique_ptr<VisionHealth> health;
   try {
     mirror = std::make_unique<camera::MirrorModel>(options_.mirror.scaledTo(width, height));
     processor = std::make_unique<FrameProcessor>(*mirror, options_.colours, options_.vision);
+    health = std::make_unique<VisionHealth>(*mirror, options_.colours, options_.health);
   } catch (const std::invalid_argument& e) {
     node_.reportError("frame_size",
                       std::to_string(width) + "x" + std::to_string(height) + ": " + e.what());
     return false;
   }
   processor_ = std::move(processor);
+  health_ = std::move(health);
   mirror_ = std::move(mirror);
   return true;
 }
@@ -73,6 +76,10 @@ void TrackingNode::onImage(const image_t& image) {
   publishObstacles(image, result_.obstacles);
   if (detectLines) publishLines(image, result_, processingUs);
   node_.setMetric("touched_percent", 100.0 * result_.tracking.touched_fraction);
+  // Blind or degraded vision is a WARN with its reason, ok again once the frames fit.
+  health_->update(*view, result_);
+  node_.status().setWarning("vision", health_->reason());
+  node_.setMetric("green_percent", 100.0 * health_->greenFraction());
   node_.setMetric("processing_ms", measuredUs / 1000.0);
 }
 

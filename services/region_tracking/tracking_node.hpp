@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <memory>
 #include <optional>
+#include <string>
 
 #include <fieldline/ball_observation_t.hpp>
 #include <fieldline/image_t.hpp>
@@ -18,6 +19,7 @@
 #include "common/perception/estimates.hpp"
 #include "common/perception/obstacles.hpp"
 #include "services/region_tracking/frame_processor.hpp"
+#include "services/region_tracking/vision_health.hpp"
 
 namespace fieldline::region_tracking {
 
@@ -27,6 +29,8 @@ struct TrackingNodeOptions {
   camera::MirrorModel mirror{camera::MirrorParams{}};
   camera::ColourTable colours;
   VisionParams vision = defaultVisionParams();
+  // When the vision counts as blind or degraded (SERVICE_STATUS WARN with the reason).
+  VisionHealthParams health;
   // Field lines are extracted on every n-th frame (the seed's 10 Hz at 30 fps).
   int lines_every_frames = 3;
   // VISION_LINES.processing_us is the one output that depends on this machine, not on the
@@ -42,6 +46,8 @@ class TrackingNode {
 
   std::int64_t framesProcessed() const { return frames_processed_; }
   std::int64_t framesRejected() const { return frames_rejected_; }
+  // Empty while the vision looks healthy (vision_health.hpp), else why it does not.
+  std::string healthReason() const { return health_ ? health_->reason() : std::string(); }
 
  private:
   void onImage(const image_t& image);
@@ -56,6 +62,7 @@ class TrackingNode {
   // Owned by pointer: the processor keeps a reference to it.
   std::unique_ptr<camera::MirrorModel> mirror_;
   std::unique_ptr<FrameProcessor> processor_;
+  std::unique_ptr<VisionHealth> health_;
   VisionResult result_;
   line_contours_t lines_{};
   ball_observation_t ball_{};

@@ -1,5 +1,6 @@
 // Writes seed inputs for the fuzz targets from the real encoders:
-//   fuzz_make_seeds CORPUS_DIR   (writes CORPUS_DIR/fuzz_serial_decoder/, fuzz_lcm_decode/)
+//   fuzz_make_seeds CORPUS_DIR   (writes CORPUS_DIR/fuzz_serial_decoder/, fuzz_lcm_decode/,
+//                                 fuzz_team_packet/)
 #include <cstdint>
 #include <cstdio>
 #include <filesystem>
@@ -9,10 +10,12 @@
 
 #include "common/bus/channels.hpp"
 #include "common/serial/protocol.hpp"
+#include "teamcomm/packet.hpp"
 
 namespace bus = fieldline::bus;
 namespace serial = fieldline::serial;
 namespace fs = std::filesystem;
+namespace team = fieldline::teamcomm;
 
 namespace {
 
@@ -82,5 +85,32 @@ int main(int argc, char** argv) {
   writeLcmSeed(lcm_dir, i++, stamped<fieldline::team_state_t>());
   writeLcmSeed(lcm_dir, i++, stamped<fieldline::service_status_t>());
   writeLcmSeed(lcm_dir, i++, stamped<fieldline::world_state_t>());
+
+  // Team packets as fuzz_team_packet reads them: a flag byte (bit 0: the target puts magic,
+  // version and a valid MAC around the rest), then the packet's body without those.
+  const fs::path team_dir = root / "fuzz_team_packet";
+  fs::create_directories(team_dir);
+  team::TeamKey key;
+  for (std::size_t k = 0; k < key.bytes.size(); ++k)
+    key.bytes[k] = static_cast<std::uint8_t>(k);
+  team::TeamPacket minimal{.team_id = 7, .robot_id = 2, .sequence = 1000, .send_utime = 5'000'000};
+  team::TeamPacket full = minimal;
+  full.links = {{1, 4'000'000, 4'100'000}, {3, 4'500'000, 4'600'000}};
+  full.pose = team::PacketPose{4'900'000, 1.5f,   -2.0f, 0.3f,
+                               0.1f,      0.0f,   0.2f,  {0.01f, 0.0f, 0.0f, 0.01f, 0.0f, 0.002f},
+                               2,         100'000};
+  full.ball = team::PacketBall{4'950'000, 4'950'000, 3.0f, 1.0f, -0.5f, 0.0f, {0.02f, 0.0f, 0.02f}};
+  full.obstacles = {{2.0f, 2.0f, 0.25f}, {-3.0f, 1.0f, 0.25f}};
+  int n = 0;
+  for (const team::TeamPacket& p : {minimal, full}) {
+    const std::vector<std::uint8_t> packet = team::encodePacket(p, key);
+    std::vector<std::uint8_t> signed_body{1};
+    signed_body.insert(signed_body.end(), packet.begin() + 5, packet.end() - team::kMacBytes);
+    write(team_dir / ("seed_body_" + std::to_string(n)), signed_body);
+    std::vector<std::uint8_t> raw{0};
+    raw.insert(raw.end(), packet.begin(), packet.end());
+    write(team_dir / ("seed_raw_" + std::to_string(n)), raw);
+    ++n;
+  }
   return 0;
 }

@@ -6,7 +6,11 @@
 //   frames=N false_hypotheses=F circle_rate=A corner_rate=B pos_median_m=P heading_median_deg=H
 //
 //   fieldline-eval-features --frames 3000 --out build/eval_features
+//   fieldline-eval-features --frames 3000 --frame 318 --image f318.png --dump f318.csv
 //   fieldline-eval-features --pose 1,0.5,0.3 --dump points.csv     (one frame's line points)
+//
+// Every frame is reproducible on its own: its clutter comes from (seed, frame), the sensor noise
+// from the frame number, and the region tracker starts afresh on each frame.
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
@@ -22,6 +26,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "common/camera/image_io.hpp"
 #include "common/geometry/geometry.hpp"
 #include "services/feature_recognition/points_csv.hpp"
 #include "services/feature_recognition/recognizer.hpp"
@@ -48,13 +53,25 @@ struct Options {
   std::string camera = "omni_sim";
   bool clutter = true;
   int opponents = 3;
+  // Clutter knobs (with --no-clutter all are off).
+  double white_robot_share = 0.3;   // opponents with a white body
+  double other_colour_share = 0.3;  // opponents with a marker of a third team's colour
+  int white_objects = 2;            // white boxes beyond the field's border lines
+  int people = 2;                   // people standing beyond the side lines
+  int patches = 2;                  // flat white patches on the carpet within 5 m
+  int orange_objects = 1;           // a ball within 5 m, an orange box beyond the border
   std::uint32_t seed = 1;
   std::string out_dir;
   double min_circle_rate = -1.0;
   double min_corner_rate = -1.0;
-  bool occlusion_series = true;
+  int occlusion_frames = 0;
   std::string pose;
+  int frame = -1;
+  std::string image;
   std::string dump;
+  bool progress = false;
+  std::string check_csv;
+  std::string misses_csv;
 };
 
 // The eight penalty-area corners: (inner, left) as seen toward their goal, and the goal.
@@ -123,19 +140,86 @@ std::vector<Pose2> scanPath(const field::FieldModel& field, int frames) {
   return poses;
 }
 
-// Opponents near the robot (never on it), deterministic per frame.
-std::vector<camera::SimRobot> opponentsAround(const Pose2& robot, int count, std::mt19937& rng,
-                                              const field::FieldModel& field) {
-  std::vector<camera::SimRobot> out;
-  std::uniform_real_distribution<double> distance(1.0, 5.0), bearing(-kPi, kPi);
+// Per-frame random numbers: frame f of seed s is the same whatever frames ran before it.
+std::mt19937 frameRng(std::uint32_t seed, std::uint64_t frame, std::uint32_t stream) {
+  std::seed_seq seq{seed, static_cast<std::uint32_t>(frame),
+                    static_cast<std::uint32_t>(frame >> 32), stream};
+  return std::mt19937(seq);
+}
+
+const camera::Bgr kWhite{225, 230, 230};
+const camera::Bgr kOrange{10, 100, 240};
+// Third-team markers and clothes: red, blue, yellow, dark grey, a light shirt.
+const camera::Bgr kColours[] = {
+    {40, 40, 200}, {200, 90, 30}, {30, 200, 220}, {60, 60, 60}, {200, 205, 205}};
+
+// The robot's scene in frame `frame`: opponents within 1-5 m (some white, some of a third team's
+// colour), white objects beyond the border lines, people beyond the side lines, flat white
+// patches on the carpet and orange objects. Deterministic per (seed, frame).
+camera::SimScene sceneFor(const Pose2& pose, std::uint64_t frame, const Options& o,
+                          const field::FieldModel& field) {
+  camera::SimScene scene;
+  scene.robot = pose;
+  scene.frame_number = frame;
+  if (!o.clutter) return scene;
+  std::mt19937 rng = frameRng(o.seed, frame, 0);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  auto uniform = [&](double lo, double hi) { return lo + (hi - lo) * unit(rng); };
   const Vec2 half = field.carpetHalfExtent();
-  for (int i = 0; i < count; ++i) {
-    const double d = distance(rng), b = bearing(rng);
-    const Vec2 p = robot.position() + d * Vec2(std::cos(b), std::sin(b));
+  const Vec2 lines(field.length() / 2, field.width() / 2);
+  for (int i = 0; i < o.opponents; ++i) {
+    const double d = uniform(1.0, 5.0), b = uniform(-kPi, kPi);
+    const Vec2 p = pose.position() + d * Vec2(std::cos(b), std::sin(b));
+    const double kind = unit(rng);
+    const camera::Bgr colour = kColours[static_cast<int>(unit(rng) * 4.999)];
     if (std::abs(p.x()) > half.x() - 0.3 || std::abs(p.y()) > half.y() - 0.3) continue;
-    out.push_back({p, 0.25, false});
+    camera::SimRobot r{p, 0.25, false, {}, {}};
+    if (kind < o.white_robot_share) {
+      r.body_colour = kWhite;
+    } else if (kind < o.white_robot_share + o.other_colour_share) {
+      r.marker_colour = colour;
+    }
+    scene.robots.push_back(r);
   }
-  return out;
+  // A place beyond the field's lines: 0.4 m beyond a goal or touch line up to 1.5 m beyond the
+  // carpet's edge (in the hall).
+  auto beyondBorder = [&](bool side_only) {
+    const bool along_x = side_only || unit(rng) < 0.6;
+    const double sign = unit(rng) < 0.5 ? -1.0 : 1.0;
+    if (along_x) {
+      return Vec2(uniform(-half.x(), half.x()), sign * uniform(lines.y() + 0.4, half.y() + 1.5));
+    }
+    return Vec2(sign * uniform(lines.x() + 0.4, half.x() + 1.5), uniform(-half.y(), half.y()));
+  };
+  auto box = [](const Vec2& c, double sx, double sy, double h, camera::Bgr colour) {
+    camera::SimBox b;
+    b.lo = Eigen::Vector3d(c.x() - sx / 2, c.y() - sy / 2, 0.0);
+    b.hi = Eigen::Vector3d(c.x() + sx / 2, c.y() + sy / 2, h);
+    b.colour = colour;
+    return b;
+  };
+  for (int i = 0; i < o.white_objects; ++i) {
+    const Vec2 c = beyondBorder(false);
+    const double sx = uniform(0.2, 1.0), sy = uniform(0.2, 1.0), h = uniform(0.2, 1.2);
+    scene.boxes.push_back(box(c, sx, sy, h, kWhite));
+  }
+  for (int i = 0; i < o.people; ++i) {
+    const Vec2 c = beyondBorder(true);
+    const camera::Bgr colour = kColours[static_cast<int>(unit(rng) * 4.999)];
+    scene.boxes.push_back(box(c, 0.45, 0.3, uniform(1.5, 1.9), colour));
+  }
+  for (int i = 0; i < o.patches; ++i) {
+    const double d = uniform(0.8, 5.0), b = uniform(-kPi, kPi);
+    const Vec2 c = pose.position() + d * Vec2(std::cos(b), std::sin(b));
+    scene.boxes.push_back(box(c, uniform(0.05, 0.3), uniform(0.05, 0.3), 0.004, kWhite));
+  }
+  for (int i = 0; i < o.orange_objects; ++i) {
+    const double d = uniform(0.8, 5.0), b = uniform(-kPi, kPi);
+    scene.ball = camera::SimBall{pose.position() + d * Vec2(std::cos(b), std::sin(b)), 0.11};
+    scene.boxes.push_back(
+        box(beyondBorder(false), uniform(0.2, 0.6), uniform(0.2, 0.6), uniform(0.1, 0.8), kOrange));
+  }
+  return scene;
 }
 
 double median(std::vector<double> v) {
@@ -181,6 +265,273 @@ struct MapCanvas {
   }
 };
 
+// The frame's line points from the region tracker, independent of earlier frames: the tracker
+// starts afresh and tracks the frame twice (the first pass finds the regions, the second
+// follows them as in a running camera).
+void visionOf(region_tracking::SimCamera& sim, region_tracking::FrameProcessor& processor,
+              const camera::SimScene& scene, region_tracking::VisionResult& vision) {
+  const camera::FrameView view = sim.render(scene);
+  processor.tracker().reinitialise();
+  processor.process(view, true, vision);
+  processor.process(view, true, vision);
+}
+
+// What one frame showed.
+struct FrameResult {
+  FrameRecord record;
+  int hypotheses = 0;
+  int false_hypotheses = 0;
+  bool circle_eligible = false;
+  bool circle_found = false;
+  int corner_eligible = 0;
+  int corner_found = 0;
+  std::vector<double> position_errors, heading_errors;
+  // Corners within 4 m that were not found: (site index, distance).
+  std::vector<std::pair<int, double>> missed_corners;
+};
+
+FrameResult evaluate(const Pose2& pose, const perception::FieldFeatures& features,
+                     const std::vector<CornerSite>& sites, double circle_radius) {
+  FrameResult r;
+  r.record.position = pose.position();
+  bool correct_circle = false;
+  for (const auto& h : features.hypotheses) {
+    ++r.hypotheses;
+    double position = 0, heading = 0;
+    errorsAgainst(pose, h.pose, position, heading);
+    if (position > kFalseDistance || heading > kFalseAngle) {
+      ++r.false_hypotheses;
+      r.record.false_hypothesis = true;
+      continue;
+    }
+    r.position_errors.push_back(position);
+    r.heading_errors.push_back(heading * 180 / kPi);
+    if (features.features[h.feature].kind == FeatureKind::kCentreCircle) correct_circle = true;
+  }
+  r.record.detected[kCircle] = correct_circle;
+  r.circle_eligible = pose.position().norm() + circle_radius <= kViewDistance;
+  r.circle_found = r.circle_eligible && correct_circle;
+  for (const CornerSite& site : sites) {
+    bool found = false;
+    for (const auto& feature : features.features) {
+      if (feature.kind != FeatureKind::kPenaltyCorner) continue;
+      const Vec2 seen = geometry::pointRobotToField(pose, {feature.local.x, feature.local.y});
+      if ((seen - site.position).norm() <= kFalseDistance) found = true;
+    }
+    if (found) {
+      r.record.detected[site.inner ? (site.left ? kLeftInner : kRightInner)
+                                   : (site.left ? kLeftOuter : kRightOuter)] = true;
+    }
+    const double distance = (site.position - pose.position()).norm();
+    if (distance <= kViewDistance) {
+      ++r.corner_eligible;
+      if (found) {
+        ++r.corner_found;
+      } else {
+        r.missed_corners.emplace_back(static_cast<int>(&site - sites.data()), distance);
+      }
+    }
+  }
+  return r;
+}
+
+// One frame in detail: its hypotheses, the model check's verdicts, the line groups and pieces,
+// the corners within 4 m; optionally the camera image with the line points and the points as CSV.
+int detailFrame(const Options& options, region_tracking::SimCamera& sim,
+                region_tracking::FrameProcessor& processor,
+                feature_recognition::FeatureRecognizer& recognizer, const Pose2& pose,
+                std::uint64_t frame) {
+  region_tracking::VisionResult vision;
+  perception::FieldFeatures features;
+  const camera::SimScene scene = sceneFor(pose, frame, options, sim.field);
+  visionOf(sim, processor, scene, vision);
+  if (!options.dump.empty()) {
+    std::ofstream out(options.dump);
+    feature_recognition::writePointsCsv(out, vision.lines);
+  }
+  if (!options.image.empty()) {
+    cv::Mat image = camera::toBgrImage(sim.renderer->view(sim.frame));
+    for (std::size_t s = 0; s < vision.lines.sequences.size(); ++s) {
+      const auto [begin, end] = vision.lines.sequences[s];
+      const cv::Scalar colour = s % 2 ? cv::Scalar(0, 0, 255) : cv::Scalar(255, 0, 255);
+      for (int i = begin; i < end; ++i) {
+        const auto& p = vision.lines.points[static_cast<std::size_t>(i)];
+        cv::circle(image, {static_cast<int>(p.u), static_cast<int>(p.v)}, 1, colour, -1);
+      }
+    }
+    camera::writeImage(options.image, image);
+  }
+  recognizer.recognize(vision.lines, features);
+  std::cout << "frame=" << frame << " pose=" << pose.x << "," << pose.y << "," << pose.phi
+            << " robots=" << scene.robots.size() << " boxes=" << scene.boxes.size() << "\n";
+  for (const auto& h : features.hypotheses) {
+    double position = 0, heading = 0;
+    errorsAgainst(pose, h.pose, position, heading);
+    std::cout << "hypothesis kind=" << static_cast<int>(features.features[h.feature].kind)
+              << " pose=" << h.pose.x << "," << h.pose.y << "," << h.pose.phi
+              << " error_m=" << position << " error_deg=" << heading * 180 / kPi << "\n";
+  }
+  for (const auto& c : recognizer.checked()) {
+    double position = 0, heading = 0;
+    errorsAgainst(pose, c.robot, position, heading);
+    std::cout << "model_check kind=" << static_cast<int>(c.kind) << " local=" << c.local.x << ","
+              << c.local.y << "," << c.local.phi << " share=" << c.fit.share()
+              << " points=" << c.fit.points << " others_share=" << c.others.share()
+              << " others=" << c.others.points << " accepted=" << c.accepted
+              << " error_m=" << position << "\n";
+  }
+  for (const CornerSite& site : cornerSites(sim.field)) {
+    const double d = (site.position - pose.position()).norm();
+    if (d > kViewDistance) continue;
+    const Vec2 local = geometry::pointFieldToRobot(pose, site.position);
+    std::cout << "corner_within_4m inner=" << site.inner << " left=" << site.left
+              << " opponent_goal=" << site.opponent_goal << " distance=" << d
+              << " local=" << local.transpose() << "\n";
+  }
+  const auto& structure = recognizer.structure();
+  for (int a = 0; a < 2; ++a) {
+    for (const auto& g : structure.groups[a]) {
+      std::cout << "group axis=" << a << " t=" << g.t << " length=" << g.line.length()
+                << " rms=" << g.line.rms << " n=" << g.line.count
+                << " start=" << g.line.start().transpose() << " end=" << g.line.end().transpose()
+                << "\n";
+    }
+  }
+  const auto& contours = recognizer.contours();
+  for (const auto& piece : contours.pieces) {
+    const Vec2* p = contours.points.data() + piece.begin;
+    const auto line = feature_recognition::fitLine(p, piece.size());
+    std::cout << "piece n=" << piece.size()
+              << " turn=" << feature_recognition::pieceTurn(p, piece.size()) << " rms=" << line.rms
+              << " length=" << line.length() << " from=" << p[0].transpose()
+              << " to=" << p[piece.size() - 1].transpose() << "\n";
+  }
+  std::cout << "pieces=" << contours.pieces.size()
+            << " lines=" << recognizer.classified().lines.size()
+            << " arcs=" << recognizer.classified().arcs.size()
+            << " penalty=" << recognizer.penaltyFound()
+            << " corners=" << recognizer.penalty().corners.size()
+            << " points=" << vision.lines.points.size()
+            << " sequences=" << vision.lines.sequences.size()
+            << " features=" << features.features.size() << "\n";
+  return 0;
+}
+
+// Share of the centre circle hidden from the camera by the robots in `scene`: the circle sampled
+// every degree, a sample hidden when the ray from the camera (at the mirror's reference height)
+// to it passes through a robot's cylinder.
+double occludedCircleShare(const camera::SimScene& scene, double radius, double camera_height,
+                           double robot_height) {
+  const int samples = 360;
+  int hidden = 0;
+  const Vec2 p = scene.robot.position();
+  for (int k = 0; k < samples; ++k) {
+    const double a = 2 * kPi * k / samples;
+    const Vec2 q = radius * Vec2(std::cos(a), std::sin(a));
+    const Vec2 d = q - p;
+    bool blocked = false;
+    for (const auto& robot : scene.robots) {
+      // |p + t d - c| = rho for t in [t0, t1]; the ray is below the robot's top for
+      // t >= 1 - robot_height / camera_height.
+      const Vec2 f = p - robot.position;
+      const double A = d.squaredNorm(), B = 2 * f.dot(d),
+                   C = f.squaredNorm() - robot.radius * robot.radius;
+      const double disc = B * B - 4 * A * C;
+      if (disc < 0) continue;
+      const double t0 = (-B - std::sqrt(disc)) / (2 * A), t1 = (-B + std::sqrt(disc)) / (2 * A);
+      const double low = std::max(t0, 1.0 - robot_height / camera_height);
+      if (t1 >= low && low <= 1.0 && t1 >= 0.0) blocked = true;
+    }
+    if (blocked) ++hidden;
+  }
+  return static_cast<double>(hidden) / samples;
+}
+
+// Seed fig. 4.60: the robot within reach of the whole centre circle, 0-10 robots standing on and
+// around the circle; the centre circle detection rate per occluded share (bins of 10 %).
+void occlusionSeries(const Options& options, region_tracking::SimCamera& sim,
+                     region_tracking::FrameProcessor& processor,
+                     feature_recognition::FeatureRecognizer& recognizer) {
+  const double radius = sim.field.dimensions().centre_circle_radius;
+  const double camera_height = sim.mirror.params().reference_height;
+  const double robot_height = sim.renderer->params().robot_height;
+  constexpr int kBins = 10;
+  long frames[kBins] = {}, found[kBins] = {};
+  long false_hypotheses = 0;
+  region_tracking::VisionResult vision;
+  perception::FieldFeatures features;
+  for (int f = 0; f < options.occlusion_frames; ++f) {
+    std::mt19937 rng = frameRng(options.seed, static_cast<std::uint64_t>(f), 1);
+    std::uniform_real_distribution<double> unit(0.0, 1.0);
+    const double reach = std::max(0.0, kViewDistance - radius);
+    const double rr = reach * std::sqrt(unit(rng)), ra = 2 * kPi * unit(rng);
+    camera::SimScene scene;
+    scene.robot = {rr * std::cos(ra), rr * std::sin(ra), 2 * kPi * unit(rng) - kPi};
+    scene.frame_number = 1'000'000'000ULL + static_cast<std::uint64_t>(f);
+    const int obstacles = static_cast<int>(unit(rng) * 11);
+    for (int i = 0; i < obstacles; ++i) {
+      const double a = 2 * kPi * unit(rng);
+      const Vec2 c = (radius + 1.0 * (unit(rng) - 0.5)) * Vec2(std::cos(a), std::sin(a));
+      if ((c - scene.robot.position()).norm() < 0.8) continue;
+      scene.robots.push_back({c, 0.25, false, {}, {}});
+    }
+    const double share = occludedCircleShare(scene, radius, camera_height, robot_height);
+    visionOf(sim, processor, scene, vision);
+    recognizer.recognize(vision.lines, features);
+    bool correct = false;
+    for (const auto& h : features.hypotheses) {
+      double position = 0, heading = 0;
+      errorsAgainst(scene.robot, h.pose, position, heading);
+      if (position > kFalseDistance || heading > kFalseAngle) {
+        ++false_hypotheses;
+      } else if (features.features[h.feature].kind == FeatureKind::kCentreCircle) {
+        correct = true;
+      }
+    }
+    const int bin = std::min(kBins - 1, static_cast<int>(share * kBins));
+    ++frames[bin];
+    if (correct) ++found[bin];
+  }
+  std::ostringstream json;
+  json << "{\n  \"frames\": " << options.occlusion_frames
+       << ",\n  \"false_hypotheses\": " << false_hypotheses << ",\n  \"bins\": [";
+  for (int b = 0; b < kBins; ++b) {
+    json << (b ? ",\n" : "\n") << "    {\"occluded_from\": " << b / double(kBins)
+         << ", \"occluded_to\": " << (b + 1) / double(kBins) << ", \"frames\": " << frames[b]
+         << ", \"circle_found\": " << found[b]
+         << ", \"rate\": " << (frames[b] ? double(found[b]) / frames[b] : 0.0) << "}";
+    std::cout << "occlusion " << b * 10 << "-" << (b + 1) * 10 << "% frames=" << frames[b]
+              << " circle_rate=" << (frames[b] ? double(found[b]) / frames[b] : 0.0) << "\n";
+  }
+  json << "\n  ]\n}\n";
+  std::cout << "occlusion_false_hypotheses=" << false_hypotheses << "\n";
+  if (options.out_dir.empty()) return;
+  std::filesystem::create_directories(options.out_dir);
+  std::ofstream(options.out_dir + "/occlusion.json") << json.str();
+  // Bar chart: rate per bin, the number of frames under each bar.
+  const int w = 560, h = 300, left = 50, bottom = 250, bar = 45;
+  cv::Mat chart(h, w, CV_8UC3, cv::Scalar(255, 255, 255));
+  cv::line(chart, {left, bottom}, {left + kBins * (bar + 5), bottom}, {0, 0, 0});
+  cv::line(chart, {left, bottom}, {left, 30}, {0, 0, 0});
+  for (int b = 0; b < kBins; ++b) {
+    const double rate = frames[b] ? double(found[b]) / frames[b] : 0.0;
+    const int x0 = left + 5 + b * (bar + 5);
+    cv::rectangle(chart, {x0, bottom - static_cast<int>(rate * 200)}, {x0 + bar, bottom},
+                  {200, 120, 40}, -1);
+    cv::putText(chart, std::to_string(b * 10) + "%", {x0 + 8, bottom + 16},
+                cv::FONT_HERSHEY_SIMPLEX, 0.4, {0, 0, 0}, 1, cv::LINE_AA);
+    cv::putText(chart, "n=" + std::to_string(frames[b]), {x0 + 2, bottom + 32},
+                cv::FONT_HERSHEY_SIMPLEX, 0.35, {80, 80, 80}, 1, cv::LINE_AA);
+  }
+  for (int k = 0; k <= 4; ++k) {
+    cv::putText(chart, std::to_string(k * 25) + "%", {8, bottom - k * 50 + 4},
+                cv::FONT_HERSHEY_SIMPLEX, 0.4, {0, 0, 0}, 1, cv::LINE_AA);
+  }
+  cv::putText(chart, "centre circle found vs share of the circle occluded", {left, 20},
+              cv::FONT_HERSHEY_SIMPLEX, 0.5, {0, 0, 0}, 1, cv::LINE_AA);
+  cv::imwrite(options.out_dir + "/occlusion.png", chart);
+}
+
 int run(const Options& options) {
   region_tracking::SimCamera sim = region_tracking::SimCamera::load(options.camera, options.field);
   feature_recognition::FeatureRecognizer recognizer(sim.field);
@@ -189,6 +540,7 @@ int run(const Options& options) {
   region_tracking::VisionResult vision;
   perception::FieldFeatures features;
 
+  const std::vector<Pose2> path = scanPath(sim.field, options.frames);
   if (!options.pose.empty()) {
     Pose2 pose;
     char c1 = 0, c2 = 0;
@@ -197,113 +549,77 @@ int run(const Options& options) {
       std::cerr << "--pose wants x,y,phi (m, m, rad)\n";
       return 2;
     }
-    camera::SimScene scene;
-    scene.robot = pose;
-    for (int i = 0; i < 3; ++i) {
-      scene.frame_number = static_cast<std::uint64_t>(i);
-      processor.process(sim.render(scene), true, vision);
+    return detailFrame(options, sim, processor, recognizer, pose,
+                       static_cast<std::uint64_t>(std::max(options.frame, 0)));
+  }
+  if (options.frame >= 0) {
+    if (options.frame >= static_cast<int>(path.size())) {
+      std::cerr << "--frame must be below --frames\n";
+      return 2;
     }
-    if (!options.dump.empty()) {
-      std::ofstream out(options.dump);
-      feature_recognition::writePointsCsv(out, vision.lines);
-    }
-    recognizer.recognize(vision.lines, features);
-    for (const auto& h : features.hypotheses) {
-      double position = 0, heading = 0;
-      errorsAgainst(pose, h.pose, position, heading);
-      std::cout << "kind=" << static_cast<int>(features.features[h.feature].kind)
-                << " pose=" << h.pose.x << "," << h.pose.y << "," << h.pose.phi
-                << " error_m=" << position << " error_deg=" << heading * 180 / kPi << "\n";
-    }
-    const auto& structure = recognizer.structure();
-    for (int a = 0; a < 2; ++a) {
-      for (const auto& g : structure.groups[a]) {
-        std::cout << "group axis=" << a << " t=" << g.t << " length=" << g.line.length()
-                  << " rms=" << g.line.rms << " start=" << g.line.start().transpose()
-                  << " end=" << g.line.end().transpose() << "\n";
-      }
-    }
-    const auto& contours = recognizer.contours();
-    for (const auto& piece : contours.pieces) {
-      const Vec2* p = contours.points.data() + piece.begin;
-      const auto line = feature_recognition::fitLine(p, piece.size());
-      std::cout << "piece n=" << piece.size()
-                << " turn=" << feature_recognition::pieceTurn(p, piece.size())
-                << " rms=" << line.rms << " length=" << line.length()
-                << " from=" << p[0].transpose() << " to=" << p[piece.size() - 1].transpose()
-                << "\n";
-    }
-    std::cout << "pieces=" << recognizer.contours().pieces.size()
-              << " lines=" << recognizer.classified().lines.size()
-              << " arcs=" << recognizer.classified().arcs.size()
-              << " penalty=" << recognizer.penaltyFound()
-              << " corners=" << recognizer.penalty().corners.size() << "\n";
-    std::cout << "points=" << vision.lines.points.size()
-              << " sequences=" << vision.lines.sequences.size()
-              << " features=" << features.features.size() << "\n";
-    return 0;
+    return detailFrame(options, sim, processor, recognizer, path[options.frame],
+                       static_cast<std::uint64_t>(options.frame));
   }
 
-  const std::vector<Pose2> path = scanPath(sim.field, options.frames);
   const std::vector<CornerSite> sites = cornerSites(sim.field);
   const double circle_radius = sim.field.dimensions().centre_circle_radius;
-  std::mt19937 rng(options.seed);
   std::vector<FrameRecord> records;
   std::vector<double> position_errors, heading_errors;
   long false_hypotheses = 0, hypotheses = 0;
   long circle_eligible = 0, circle_found = 0, corner_eligible = 0, corner_found = 0;
   long frames_with_feature = 0;
+  std::ofstream check_csv, misses_csv;
+  if (!options.misses_csv.empty()) {
+    misses_csv.open(options.misses_csv);
+    misses_csv << "frame,inner,left,opponent_goal,distance,local_x,local_y,x,y\n";
+  }
+  if (!options.check_csv.empty()) {
+    check_csv.open(options.check_csv);
+    check_csv << "frame,kind,share,points,others_share,others,accepted,error_m,error_deg\n";
+  }
   for (int f = 0; f < static_cast<int>(path.size()); ++f) {
     const Pose2& pose = path[f];
-    camera::SimScene scene;
-    scene.robot = pose;
-    scene.frame_number = static_cast<std::uint64_t>(f);
-    if (options.clutter) scene.robots = opponentsAround(pose, options.opponents, rng, sim.field);
-    processor.process(sim.render(scene), true, vision);
+    visionOf(sim, processor, sceneFor(pose, static_cast<std::uint64_t>(f), options, sim.field),
+             vision);
     recognizer.recognize(vision.lines, features);
-
-    FrameRecord record;
-    record.position = pose.position();
-    bool correct_circle = false;
-    for (const auto& h : features.hypotheses) {
-      ++hypotheses;
-      double position = 0, heading = 0;
-      errorsAgainst(pose, h.pose, position, heading);
-      if (position > kFalseDistance || heading > kFalseAngle) {
-        ++false_hypotheses;
-        record.false_hypothesis = true;
-        std::cerr << "false hypothesis: frame " << f << " pose " << pose.x << "," << pose.y << ","
-                  << pose.phi << " kind " << static_cast<int>(features.features[h.feature].kind)
-                  << " error " << position << " m " << heading * 180 / kPi << " deg\n";
-        continue;
-      }
-      position_errors.push_back(position);
-      heading_errors.push_back(heading * 180 / kPi);
-      if (features.features[h.feature].kind == FeatureKind::kCentreCircle) correct_circle = true;
-    }
-    if (!features.hypotheses.empty()) ++frames_with_feature;
-    record.detected[kCircle] = correct_circle;
-    if (pose.position().norm() + circle_radius <= kViewDistance) {
-      ++circle_eligible;
-      if (correct_circle) ++circle_found;
-    }
-    for (const CornerSite& site : sites) {
-      bool found = false;
-      for (const auto& feature : features.features) {
-        if (feature.kind != FeatureKind::kPenaltyCorner) continue;
-        const Vec2 seen = geometry::pointRobotToField(pose, {feature.local.x, feature.local.y});
-        if ((seen - site.position).norm() <= kFalseDistance) found = true;
-      }
-      if (found) {
-        record.detected[site.inner ? (site.left ? kLeftInner : kRightInner)
-                                   : (site.left ? kLeftOuter : kRightOuter)] = true;
-      }
-      if ((site.position - pose.position()).norm() <= kViewDistance) {
-        ++corner_eligible;
-        if (found) ++corner_found;
+    const FrameResult r = evaluate(pose, features, sites, circle_radius);
+    if (misses_csv.is_open()) {
+      for (const auto& [site, distance] : r.missed_corners) {
+        const Vec2 local = geometry::pointFieldToRobot(pose, sites[site].position);
+        misses_csv << f << "," << sites[site].inner << "," << sites[site].left << ","
+                   << sites[site].opponent_goal << "," << distance << "," << local.x() << ","
+                   << local.y() << "," << pose.x << "," << pose.y << "\n";
       }
     }
-    records.push_back(record);
+    if (check_csv.is_open()) {
+      for (const auto& c : recognizer.checked()) {
+        double position = 0, heading = 0;
+        errorsAgainst(pose, c.robot, position, heading);
+        check_csv << f << "," << static_cast<int>(c.kind) << "," << c.fit.share() << ","
+                  << c.fit.points << "," << c.others.share() << "," << c.others.points << ","
+                  << c.accepted << "," << position << "," << heading * 180 / kPi << "\n";
+      }
+    }
+    if (r.false_hypotheses > 0) {
+      std::cerr << "false hypothesis: frame " << f << " pose " << pose.x << "," << pose.y << ","
+                << pose.phi << " (" << r.false_hypotheses << " of " << r.hypotheses << ")\n";
+    }
+    hypotheses += r.hypotheses;
+    false_hypotheses += r.false_hypotheses;
+    if (r.hypotheses > 0) ++frames_with_feature;
+    circle_eligible += r.circle_eligible;
+    circle_found += r.circle_found;
+    corner_eligible += r.corner_eligible;
+    corner_found += r.corner_found;
+    position_errors.insert(position_errors.end(), r.position_errors.begin(),
+                           r.position_errors.end());
+    heading_errors.insert(heading_errors.end(), r.heading_errors.begin(), r.heading_errors.end());
+    records.push_back(r.record);
+    if (options.progress && (f + 1) % 1000 == 0) {
+      std::cerr << "progress: " << f + 1 << "/" << path.size() << " false=" << false_hypotheses
+                << " circle=" << circle_found << "/" << circle_eligible
+                << " corner=" << corner_found << "/" << corner_eligible << std::endl;
+    }
   }
 
   const double circle_rate = circle_eligible ? double(circle_found) / circle_eligible : 0.0;
@@ -335,7 +651,7 @@ int run(const Options& options) {
     std::ofstream json(options.out_dir + "/summary.json");
     json << "{\n  \"frames\": " << records.size() << ",\n  \"field\": \"" << options.field
          << "\",\n  \"clutter\": " << (options.clutter ? "true" : "false")
-         << ",\n  \"hypotheses\": " << hypotheses
+         << ",\n  \"seed\": " << options.seed << ",\n  \"hypotheses\": " << hypotheses
          << ",\n  \"false_hypotheses\": " << false_hypotheses
          << ",\n  \"frames_with_hypotheses\": " << frames_with_feature
          << ",\n  \"circle_eligible_frames\": " << circle_eligible
@@ -345,6 +661,7 @@ int run(const Options& options) {
          << ",\n  \"pos_median_m\": " << pos_median
          << ",\n  \"heading_median_deg\": " << heading_median << "\n}\n";
   }
+  if (options.occlusion_frames > 0) occlusionSeries(options, sim, processor, recognizer);
 
   std::cout << "frames=" << records.size() << " false_hypotheses=" << false_hypotheses
             << " circle_rate=" << circle_rate << " corner_rate=" << corner_rate
@@ -373,6 +690,42 @@ int main(int argc, char** argv) {
   app.add_option("--opponents", options.opponents, "Opponents around the robot per frame")
       ->check(CLI::Range(0, 20))
       ->capture_default_str();
+  app.add_option("--white-robots", options.white_robot_share,
+                 "Share of the opponents with a white body")
+      ->check(CLI::Range(0.0, 1.0))
+      ->capture_default_str();
+  app.add_option("--other-colour-robots", options.other_colour_share,
+                 "Share of the opponents with a third team's marker colour")
+      ->check(CLI::Range(0.0, 1.0))
+      ->capture_default_str();
+  app.add_option("--white-objects", options.white_objects,
+                 "White boxes beyond the border lines per frame")
+      ->check(CLI::Range(0, 10))
+      ->capture_default_str();
+  app.add_option("--people", options.people, "People beyond the side lines per frame")
+      ->check(CLI::Range(0, 10))
+      ->capture_default_str();
+  app.add_option("--patches", options.patches, "White patches on the carpet per frame")
+      ->check(CLI::Range(0, 10))
+      ->capture_default_str();
+  app.add_option("--orange-objects", options.orange_objects,
+                 "Orange objects per frame (a ball near the robot, a box beyond the border)")
+      ->check(CLI::Range(0, 5))
+      ->capture_default_str();
+  app.add_option("--occlusion-frames", options.occlusion_frames,
+                 "Frames of the occlusion series (seed fig. 4.60); 0 = none")
+      ->check(CLI::Range(0, 10'000'000))
+      ->capture_default_str();
+  app.add_option("--frame", options.frame,
+                 "Evaluate only this frame of the --frames path (with its clutter) in detail")
+      ->check(CLI::Range(0, 10'000'000));
+  app.add_option("--image", options.image,
+                 "With --frame or --pose: write the camera image with the line points (PNG)");
+  app.add_flag("--progress", options.progress, "Report progress every 1000 frames on stderr");
+  app.add_option("--misses-csv", options.misses_csv,
+                 "Write every penalty corner within 4 m that was not found as CSV");
+  app.add_option("--check-csv", options.check_csv,
+                 "Write every model check (fits, verdict, error of its pose) as CSV");
   app.add_option("--seed", options.seed, "Seed of the clutter placement")->capture_default_str();
   app.add_option("--out", options.out_dir, "Directory for the detection maps and summary.json");
   app.add_option("--min-circle-rate", options.min_circle_rate,
@@ -383,7 +736,8 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(0.0, 1.0));
   app.add_option("--pose", options.pose,
                  "Evaluate one frame at x,y,phi (m, m, rad) and print its hypotheses");
-  app.add_option("--dump", options.dump, "With --pose: write the frame's line points as CSV");
+  app.add_option("--dump", options.dump,
+                 "With --frame or --pose: write the frame's line points as CSV");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

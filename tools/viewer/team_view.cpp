@@ -14,40 +14,7 @@ double ageSeconds(Utime now, Utime then) {
   return static_cast<double>(now - then) * 1e-6;
 }
 
-// Writes a JSON object member by member, with the commas in the right places.
-class Object {
- public:
-  explicit Object(std::string& out) : out_(out) { out_ += '{'; }
-  ~Object() { out_ += '}'; }
-  Object(const Object&) = delete;
-  Object& operator=(const Object&) = delete;
-
-  std::string& key(std::string_view name) {
-    if (!first_) out_ += ',';
-    first_ = false;
-    appendJsonString(out_, name);
-    out_ += ':';
-    return out_;
-  }
-  void number(std::string_view name, double value) { appendJsonNumber(key(name), value); }
-  void integer(std::string_view name, std::int64_t value) { key(name) += std::to_string(value); }
-  void boolean(std::string_view name, bool value) { key(name) += value ? "true" : "false"; }
-  void string(std::string_view name, std::string_view value) { appendJsonString(key(name), value); }
-  template <typename T>
-  void numbers(std::string_view name, const T* values, std::size_t count) {
-    std::string& out = key(name);
-    out += '[';
-    for (std::size_t i = 0; i < count; ++i) {
-      if (i > 0) out += ',';
-      appendJsonNumber(out, static_cast<double>(values[i]));
-    }
-    out += ']';
-  }
-
- private:
-  std::string& out_;
-  bool first_ = true;
-};
+using Object = JsonObject;
 
 void writeHeader(Object& o, const header_t& h, Utime now, Utime received) {
   o.integer("utime", h.utime);

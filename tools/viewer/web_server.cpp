@@ -6,6 +6,7 @@
 #include <optional>
 #include <sstream>
 #include <stdexcept>
+#include <string_view>
 #include <thread>
 #include <unordered_set>
 #include <utility>
@@ -36,6 +37,21 @@ constexpr auto kHttpIdleTimeout = std::chrono::seconds(30);
 
 class WebSocketSession;
 
+// N of a query "robot=N" (1..99), else 0.
+int cameraRobot(const std::string& query) {
+  constexpr std::string_view kKey = "robot=";
+  if (query.size() <= kKey.size() || query.size() > kKey.size() + 2 ||
+      query.compare(0, kKey.size(), kKey) != 0) {
+    return 0;
+  }
+  int robot = 0;
+  for (std::size_t i = kKey.size(); i < query.size(); ++i) {
+    if (query[i] < '0' || query[i] > '9') return 0;
+    robot = robot * 10 + (query[i] - '0');
+  }
+  return robot;
+}
+
 }  // namespace
 
 // Sessions refer to the Impl by plain pointer: it outlives them, because the io_context, which
@@ -46,6 +62,11 @@ struct WebServer::Impl {
 
   std::mutex latest_mutex;
   std::shared_ptr<const std::string> latest = std::make_shared<const std::string>("{}");
+  int camera_robot = 0;  // whose camera `camera` is (under latest_mutex)
+  std::shared_ptr<const std::string> camera;
+  // The robot of the last /camera.json request and when it came (steady clock ticks).
+  std::atomic<int> camera_wanted{0};
+  std::atomic<std::int64_t> camera_wanted_at{0};
 
   // Touched on the server thread only.
   std::unordered_set<WebSocketSession*> sockets;
@@ -63,6 +84,15 @@ struct WebServer::Impl {
   std::shared_ptr<const std::string> snapshot() {
     std::lock_guard lock(latest_mutex);
     return latest;
+  }
+  // The camera document of `robot`: the latest one when it is that robot's, else one saying
+  // that there is no frame (yet). Notes the request: the bus side encodes this robot's frames.
+  std::string cameraFor(int robot) {
+    camera_wanted_at = std::chrono::steady_clock::now().time_since_epoch().count();
+    camera_wanted = robot;
+    std::lock_guard lock(latest_mutex);
+    if (camera && camera_robot == robot) return *camera;
+    return fmt::format("{{\"robot\":{},\"frame\":null,\"lines\":null,\"ball\":null}}", robot);
   }
   std::optional<std::string> readWebFile(const std::string& name) const {
     std::ifstream in(options.web_dir / name, std::ios::binary);
@@ -187,7 +217,12 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
                 keep_alive);
       return;
     }
-    const std::string target(request.target());
+    std::string target(request.target());
+    std::string query;
+    if (const auto q = target.find('?'); q != std::string::npos) {
+      query = target.substr(q + 1);
+      target.resize(q);
+    }
     if (websocket::is_upgrade(request)) {
       if (target != "/ws") {
         sendError(http::status::not_found, "the WebSocket is at /ws\n", version, false);
@@ -211,6 +246,15 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
       type = "application/json";
     } else if (target == "/state.json") {
       body = *server.snapshot();
+      type = "application/json";
+    } else if (target == "/camera.json") {
+      const int robot = cameraRobot(query);
+      if (robot == 0) {
+        sendError(http::status::bad_request, "camera.json needs ?robot=N (1..99)\n", version,
+                  keep_alive);
+        return;
+      }
+      body = server.cameraFor(robot);
       type = "application/json";
     } else {
       sendError(http::status::not_found, "not found\n", version, keep_alive);
@@ -325,6 +369,21 @@ void WebServer::publish(std::string state_json) {
   auto state = std::make_shared<const std::string>(std::move(state_json));
   std::lock_guard lock(impl_->latest_mutex);
   impl_->latest = std::move(state);
+}
+
+void WebServer::publishCamera(int robot, std::string camera_json) {
+  auto camera = std::make_shared<const std::string>(std::move(camera_json));
+  std::lock_guard lock(impl_->latest_mutex);
+  impl_->camera = std::move(camera);
+  impl_->camera_robot = robot;
+}
+
+int WebServer::cameraWanted(double within_s) const {
+  const int robot = impl_->camera_wanted.load();
+  if (robot == 0) return 0;
+  const std::chrono::steady_clock::duration at(impl_->camera_wanted_at.load());
+  const auto age = std::chrono::steady_clock::now().time_since_epoch() - at;
+  return age <= std::chrono::duration<double>(within_s) ? robot : 0;
 }
 
 unsigned short WebServer::port() const {

@@ -1,6 +1,6 @@
-// The viewer's web side: HTTP for the page, its script, the field and the current state, and a
-// WebSocket (/ws) that pushes the latest state to every client at a fixed rate. Read-only: any
-// method but GET gets 405, any other path 404.
+// The viewer's web side: HTTP for the page, its script, the field and the current state, the
+// camera view (GET /camera.json?robot=N), and a WebSocket (/ws) that pushes the latest state to
+// every client at a fixed rate. Read-only: any method but GET gets 405, any other path 404.
 //
 // Runs Boost.Asio on its own thread, so neither slow nor many clients ever block the bus side,
 // which only hands over a new JSON text with publish(). A slow client skips states instead of
@@ -39,6 +39,11 @@ class WebServer {
 
   // Hands over the latest state document (from any thread).
   void publish(std::string state_json);
+  // Hands over the latest camera document, of robot `robot` (from any thread).
+  void publishCamera(int robot, std::string camera_json);
+  // The robot of the latest GET /camera.json?robot=N if it came within `within_s` seconds, else
+  // 0: a page shows that robot's camera.
+  int cameraWanted(double within_s) const;
 
   unsigned short port() const;
   // WebSocket clients connected now.

@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # Fusion in the simulated team: every robot publishes ROBOT_STATE at 50 Hz and BALL_STATE at
 # 30 Hz, reaches TRACKING within 2 s of its first line frame, and stays on the right half; the
-# launcher stops cleanly. Rates are checked at a margin (a loaded machine lags), not timed.
+# pilots steer with ROBOT_STATE (not the simulator's truth) and the robots really drive their
+# scripts on it, staying localized; the launcher stops cleanly. Rates are checked at a margin (a
+# loaded machine lags), not timed.
 set -u
 bin=$1
 root=$2
@@ -39,6 +41,35 @@ for robot in map(str, range(1, 7)):
         failures.append(f"r{robot} TRACKING {after} s after its first VISION_LINES, expected within 2 s")
 if summary["wrong_half"] != 0:
     failures.append(f"{summary['wrong_half']} wrong-half commits")
+# The pilots steer with their own estimate: the launch file the run used says --steer state.
+launch = (out / "launch.yaml").read_text()
+pilot = launch[launch.index("name: pilot"):]
+pilot = pilot[:pilot.index("- name:", 1)] if "- name:" in pilot[1:] else pilot
+if "--steer, state" not in pilot or "truth" in pilot:
+    failures.append("the pilots do not steer with ROBOT_STATE: " + pilot.strip()[:200])
+# ... and drive on it: the robots with a moving script (1: figure eight, 2: waypoints) covered
+# metres of true path, and every robot's estimate stayed near its truth while they did.
+import csv, math
+path = {}
+last = {}
+errors = {}
+with open(out / "samples.csv") as f:
+    for row in csv.DictReader(f):
+        r = row["robot"]
+        p = (float(row["true_x"]), float(row["true_y"]))
+        if r in last:
+            path[r] = path.get(r, 0.0) + math.dist(p, last[r])
+        last[r] = p
+        if row["status"] == "2":
+            errors.setdefault(r, []).append(float(row["pos_error_m"]))
+for r in ("1", "2"):
+    if path.get(r, 0.0) < 3.0:
+        failures.append(f"r{r} drove {path.get(r, 0.0):.1f} m of its script, expected > 3 m")
+for r, e in sorted(errors.items()):
+    mean = sum(e) / len(e)
+    print(f"r{r}: true path {path.get(r, 0.0):.1f} m, mean error while tracking {100 * mean:.1f} cm")
+    if mean > 0.10:
+        failures.append(f"r{r} mean error {mean:.3f} m while tracking, expected under 0.10 m")
 log = (out / "launch.log").read_text()
 if "restarts=" in log:
     failures.append("a process was restarted")

@@ -3,7 +3,8 @@
 # sim_team.yaml, in a private network namespace): waits until the page has drawn six robots'
 # estimates, then checks that what it drew for robot 3 is a ROBOT_STATE robot 3's fusion
 # published, unchanged, and the last one published before the viewer's state document, within
-# one viewer frame (50 ms at 20 Hz). Skips (exit 77) without chromium.
+# one viewer frame (50 ms at 20 Hz); and that the camera view of robot 1 shows a frame with as
+# many line-point marks as robot 1's VISION_LINES of that frame. Skips (exit 77) without chromium.
 #
 #   browser_test.sh BIN_DIR [SCREENSHOT.png]     # the screenshot: e.g. docs/images/viewer.png
 set -u
@@ -29,10 +30,13 @@ $ns bash -c "
   '$bin/fieldline-bus-dump' --robot 3 --channel ROBOT_STATE --follow > '$out/robot3.jsonl' \
       2> '$out/dump.log' &
   dump=\$!
-  timeout 80 python3 '$here/check_browser.py' '$chromium' 8080 '$out/robot3.jsonl' '$out' \
-      '$screenshot'
+  '$bin/fieldline-bus-dump' --robot 1 --channel VISION_LINES --follow > '$out/lines1.jsonl' \
+      2> '$out/dump_lines.log' &
+  dump_lines=\$!
+  timeout 100 python3 '$here/check_browser.py' '$chromium' 8080 '$out/robot3.jsonl' \
+      '$out/lines1.jsonl' '$out' '$screenshot'
   echo \$? > '$out/check.rc'
-  kill \$dump; kill -TERM \$launcher; wait \$launcher
+  kill \$dump \$dump_lines; kill -TERM \$launcher; wait \$launcher
 "
 rc=$(cat "$out/check.rc" 2>/dev/null || echo 1)
 if [ "$rc" != 0 ]; then

@@ -1,9 +1,12 @@
 #!/usr/bin/env python3
 """Opens the viewer page in headless chromium and reads what the page drew (its #drawn element)
 over the DevTools protocol until six robots are drawn, then compares robot 3's drawn state with the
-ROBOT_STATE messages fieldline-bus-dump heard on robot 3's bus. Optionally saves a screenshot.
+ROBOT_STATE messages fieldline-bus-dump heard on robot 3's bus. Then checks the camera view of
+the selected robot (1): a decoded JPEG of the camera's size, and as many line-point marks as the
+VISION_LINES robot 1's tracker published for that frame (same utime and seq). Optionally saves a
+screenshot.
 
-  check_browser.py CHROMIUM VIEWER_PORT ROBOT3_JSONL WORK_DIR [SCREENSHOT.png]
+  check_browser.py CHROMIUM VIEWER_PORT ROBOT3_JSONL LINES1_JSONL WORK_DIR [SCREENSHOT.png]
 """
 import base64
 import json
@@ -15,8 +18,8 @@ import sys
 import time
 import urllib.request
 
-chromium, port, robot3_path, work_dir = sys.argv[1:5]
-screenshot = sys.argv[5] if len(sys.argv) > 5 else ""
+chromium, port, robot3_path, lines1_path, work_dir = sys.argv[1:6]
+screenshot = sys.argv[6] if len(sys.argv) > 6 else ""
 FRAME_US = 50_000  # the viewer's 20 Hz WebSocket period
 ROBOT = 3
 DEVTOOLS_PORT = 9333
@@ -83,9 +86,9 @@ class DevTools:
         return result["result"].get("value")
 
 
-def published():
+def published(path=robot3_path):
     messages = []
-    with open(robot3_path) as f:
+    with open(path) as f:
         for line in f:
             try:
                 messages.append(json.loads(line))
@@ -137,6 +140,23 @@ try:
     print(f"page: {connection}; robots drawn {ids}, tracking {tracking}")
     if len(ids) != 6:
         sys.exit("FAIL: six robots were not drawn within 60 s")
+    # The camera view of the selected robot (1, the page's default): a frame with line points.
+    camera = None
+    deadline = time.monotonic() + 15
+    while time.monotonic() < deadline:
+        text = devtools.evaluate("document.getElementById('camera-drawn').textContent")
+        camera = json.loads(text) if text else None
+        if camera and camera["marks"] > 0:
+            break
+        time.sleep(0.5)
+    camera_read_at = time.time()
+    # How often the page's camera view changes (it polls every 200 ms): distinct frames in 3 s.
+    camera_frames = set()
+    for _ in range(10):
+        text = devtools.evaluate("document.getElementById('camera-drawn').textContent")
+        if text:
+            camera_frames.add(json.loads(text)["utime"])
+        time.sleep(0.3)
     # The drawn state and the bus dump up to it: read the page first, the dump a little later.
     drawn = json.loads(devtools.evaluate("document.getElementById('drawn').textContent"))
     if screenshot:
@@ -178,6 +198,41 @@ else:
         failures.append(f"the drawn state is {lag / 1000:.1f} ms behind the last published one")
 print(f"robot {ROBOT} drawn at x {mine['x']:.3f} y {mine['y']:.3f} phi {mine['phi']:.3f} "
       f"status {mine['status']}; {len(messages)} ROBOT_STATE heard")
+
+if not camera:
+    failures.append("the camera view drew nothing within 15 s")
+else:
+    print(f"camera view: robot {camera['robot']}, frame utime {camera['utime']}, "
+          f"{camera['image_width']}x{camera['image_height']} decoded from {camera['jpeg_bytes']} "
+          f"bytes of JPEG, {camera['marks']} line-point marks, ball {camera['ball']}")
+    if camera["robot"] != 1:
+        failures.append(f"camera view of robot {camera['robot']}, robot 1 is selected")
+    if not (camera["image_width"] == camera["width"] > 0 and
+            camera["image_height"] == camera["height"] > 0 and camera["jpeg_bytes"] > 0):
+        failures.append(f"camera image not drawn at its size: {camera}")
+    if camera["marks"] == 0:
+        failures.append("no line-point marks on the camera view")
+    if camera["lines_utime"] != camera["utime"]:
+        failures.append("the camera view's lines are not of the frame shown")
+    lines = published(lines1_path)
+    same = [m["message"] for m in lines
+            if m["message"]["header"]["utime"] == camera["lines_utime"]
+            and m["message"]["header"]["seq"] == camera["lines_seq"]]
+    if not same:
+        failures.append(f"no VISION_LINES with utime {camera['lines_utime']} seq "
+                        f"{camera['lines_seq']} was published on robot 1's bus "
+                        f"({len(lines)} heard)")
+    elif same[0]["num_points"] != camera["marks"]:
+        failures.append(f"{camera['marks']} marks drawn, the frame's VISION_LINES has "
+                        f"{same[0]['num_points']} points")
+    else:
+        heard = [m["message"]["header"]["utime"] for m in lines
+                 if m["receive_utime"] <= camera_read_at * 1e6]
+        behind = (max(heard) - camera["utime"]) / 1000 if heard else float("nan")
+        print(f"camera view: marks equal the frame's VISION_LINES num_points "
+              f"({camera['marks']}); the frame shown was {behind:.0f} ms older than the newest "
+              f"VISION_LINES heard when the page was read; {len(camera_frames)} distinct frames "
+              f"drawn in 3 s")
 
 for failure in failures:
     print("FAIL:", failure)

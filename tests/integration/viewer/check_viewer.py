@@ -112,6 +112,19 @@ for method in ("POST", "PUT", "DELETE", "PATCH", "HEAD", "OPTIONS"):
 status, _, _ = request("GET", "/../../etc/passwd")
 if status != 404:
     failures.append(f"GET /../../etc/passwd: {status}, expected 404")
+# The camera view: no camera publishes here, so robot 3's document has no frame yet; a missing or
+# bad robot number is 400, and POST is refused like everywhere.
+status, _, body = request("GET", "/camera.json?robot=3")
+if status != 200 or json.loads(body) != {"robot": 3, "frame": None, "lines": None, "ball": None}:
+    failures.append(f"GET /camera.json?robot=3: {status} {body[:200]!r}")
+for path in ("/camera.json", "/camera.json?robot=", "/camera.json?robot=x", "/camera.json?robot=0",
+             "/camera.json?robot=123", "/camera.json?id=3"):
+    status, _, _ = request("GET", path)
+    if status != 400:
+        failures.append(f"GET {path}: {status}, expected 400")
+status, _, _ = request("POST", "/camera.json?robot=3", body=b"x")
+if status != 405:
+    failures.append(f"POST /camera.json: {status}, expected 405")
 for path, needle in (("/", b"<canvas"), ("/viewer.js", b"WebSocket"), ("/field.json", b"segments")):
     status, _, body = request("GET", path)
     if status != 200 or needle not in body:

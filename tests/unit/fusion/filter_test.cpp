@@ -356,3 +356,79 @@ TEST(DelayedFilter, InitializeReplaysStoredOdometry) {
 
 }  // namespace
 }  // namespace fieldline::fusion
+
+namespace fieldline::fusion {
+namespace {
+
+// Slip (a collision odometry cannot see): a trusted measurement beyond the gate but within the
+// slip limits widens the pose covariance and is applied; the same measurement untrusted, or
+// beyond the limits, is refused by the gate and changes nothing.
+TEST(DelayedFilter, TrustedFrameBeyondTheGateRevealsASlip) {
+  const auto run = [](double offset_m, bool trusted) {
+    DelayedFilter f;
+    EkfState s = startState();
+    s.p.topLeftCorner<3, 3>() = Eigen::Matrix3d::Identity() * 1e-4;
+    f.initialize(s);
+    PoseMeasurement z;
+    z.utime = s.utime + 10'000;
+    z.pose = {s.x[0] + offset_m, s.x[1], s.x[2]};
+    z.covariance = Eigen::Matrix3d::Identity() * 1e-4;
+    z.may_reveal_slip = trusted;
+    const auto r = f.addPose(MeasurementSource::kLines, z, z.utime + 50'000);
+    return std::make_pair(r, f.current());
+  };
+  // 30 cm off against a 1 cm sigma: far beyond the gate.
+  const auto [refused, unchanged] = run(0.3, false);
+  EXPECT_EQ(refused.rejection, Rejection::kGated);
+  EXPECT_GT(refused.update.mahalanobis2, 100.0);
+  EXPECT_NEAR(unchanged.x[0], startState().x[0], 1e-12);
+
+  const auto [slip, moved] = run(0.3, true);
+  EXPECT_EQ(slip.rejection, Rejection::kNone);
+  EXPECT_TRUE(slip.update.slip);
+  // Most of the way to the measurement, which is now the better informed of the two.
+  EXPECT_GT(moved.x[0], startState().x[0] + 0.2);
+  // The covariance after the update is that of the measurement, not the old 1 cm.
+  EXPECT_GT(moved.p(0, 0), 0.5e-4);
+
+  // Beyond slip.max_m (0.5 m): a different place, not a slip.
+  const auto [too_far, kept] = run(0.8, true);
+  EXPECT_EQ(too_far.rejection, Rejection::kGated);
+  EXPECT_NEAR(kept.x[0], startState().x[0], 1e-12);
+
+  // Within the gate nothing changes: no slip is reported.
+  const auto [normal, near_state] = run(0.02, true);
+  EXPECT_EQ(normal.rejection, Rejection::kNone);
+  EXPECT_FALSE(normal.update.slip);
+  (void)near_state;
+}
+
+// The wheel-slip density: a short step is more uncertain relative to its length than a long one
+// (white noise on the contact speed averages out), and the density adds to the per-metre terms.
+TEST(OdometryLayer, SlipDensityGrowsWithTheSquareRootOfTime) {
+  const auto p = params();
+  OdometryNoise only_slip;
+  only_slip.wheel_relative_sigma = 0.0;
+  only_slip.translation_sigma_per_m = 0.0;
+  only_slip.rotation_sigma_per_rad = 0.0;
+  only_slip.rotation_sigma_per_m = 0.0;
+  only_slip.rotation_slip_density = 0.0;
+  OdometryLayer layer(p, only_slip);
+  // The same wheel travel in 20 ms and in 80 ms.
+  const auto fast = layer.stepFor({40, -40, 0}, 0.02);
+  const auto slow = layer.stepFor({40, -40, 0}, 0.08);
+  ASSERT_GT(fast.integrated.head<2>().norm(), 0.01);
+  const double ratio = std::sqrt(fast.covariance(0, 0) + fast.covariance(1, 1)) /
+                       std::sqrt(slow.covariance(0, 0) + slow.covariance(1, 1));
+  // Quantisation is a tiny part: the ratio is close to sqrt(80 / 20) = 2.
+  EXPECT_NEAR(ratio, 2.0, 0.1);
+  // Four 20 ms steps add up to twice the variance of one 80 ms step of the same total travel.
+  const auto long_step = layer.stepFor({160, -160, 0}, 0.08);
+  EXPECT_NEAR(4.0 * fast.covariance(0, 0) / long_step.covariance(0, 0), 1.0, 0.1);
+  // Without the interval, the density drops out.
+  const auto no_dt = layer.stepFor({40, -40, 0});
+  EXPECT_LT(no_dt.covariance(0, 0), 0.01 * fast.covariance(0, 0));
+}
+
+}  // namespace
+}  // namespace fieldline::fusion

@@ -1,5 +1,6 @@
 // fieldline viewer page: draws /field.json once and every state pushed on /ws (see
-// docs/viewer.md for the document). Field frame: x toward the opponent goal (right), y left (up).
+// docs/viewer.md for the document), and the selected robot's camera from /camera.json.
+// Field frame: x toward the opponent goal (right), y left (up).
 "use strict";
 
 const STATUS_NAMES = ["unknown", "searching", "tracking", "odometry only"];
@@ -267,5 +268,76 @@ function connect() {
   };
 }
 
+// --- the camera view: the selected robot's frame with the line points the tracker found in it ---
+
+const cameraCanvas = document.getElementById("camera");
+const cameraCtx = cameraCanvas.getContext("2d");
+const CAMERA_PERIOD_MS = 200;  // the viewer encodes at most 5 frames a second by default
+
+function drawCamera(doc, image) {
+  const f = doc.frame;
+  cameraCanvas.width = f.width;
+  cameraCanvas.height = f.height;
+  cameraCtx.drawImage(image, 0, 0);
+  let marks = 0;
+  const lines = doc.lines;
+  if (lines) {
+    // Each sequence follows one green region's contour: joined, then every point marked.
+    cameraCtx.strokeStyle = "rgba(255,0,0,0.8)";
+    cameraCtx.lineWidth = 1;
+    for (const [start, end] of lines.sequences) {
+      cameraCtx.beginPath();
+      for (let i = start; i < end; ++i) {
+        if (i === start) cameraCtx.moveTo(lines.u[i], lines.v[i]);
+        else cameraCtx.lineTo(lines.u[i], lines.v[i]);
+      }
+      cameraCtx.stroke();
+    }
+    cameraCtx.fillStyle = "#ff00ff";
+    lines.u.forEach((u, i) => { cameraCtx.fillRect(u - 1.5, lines.v[i] - 1.5, 3, 3); ++marks; });
+  }
+  const ball = doc.ball;
+  if (ball && ball.visible) {
+    cameraCtx.strokeStyle = "#00ffff";
+    cameraCtx.lineWidth = 2;
+    cameraCtx.beginPath();
+    cameraCtx.arc(ball.u, ball.v, 6, 0, 2 * Math.PI);
+    cameraCtx.stroke();
+  }
+  document.getElementById("camera-caption").textContent =
+      `camera of robot ${doc.robot}: frame ${f.frame_number}, ` +
+      (lines ? `${lines.num_points} line points` : "no VISION_LINES for this frame") +
+      (ball && ball.visible ? ", ball" : "");
+  document.getElementById("camera-drawn").textContent = JSON.stringify({
+    robot: doc.robot, utime: f.utime, seq: f.seq, width: f.width, height: f.height,
+    image_width: image.naturalWidth, image_height: image.naturalHeight,
+    jpeg_bytes: f.jpeg_bytes, lines_utime: lines ? lines.utime : null,
+    lines_seq: lines ? lines.seq : null, marks, ball: !!(ball && ball.visible),
+  });
+}
+
+// Polls /camera.json for the selected robot (asking is what makes the viewer encode its frames).
+async function pollCamera() {
+  const started = performance.now();
+  const robot = selected;
+  try {
+    const response = await fetch(`/camera.json?robot=${robot}`, { cache: "no-store" });
+    const doc = await response.json();
+    if (doc.frame && doc.robot === selected) {
+      const image = new Image();
+      image.src = "data:image/jpeg;base64," + doc.frame.jpeg;
+      await image.decode();
+      drawCamera(doc, image);
+    } else if (!doc.frame) {
+      document.getElementById("camera-caption").textContent =
+          `camera of robot ${robot}: waiting for a frame`;
+    }
+  } catch (error) {
+    document.getElementById("camera-caption").textContent = `camera: ${error}`;
+  }
+  setTimeout(pollCamera, Math.max(0, CAMERA_PERIOD_MS - (performance.now() - started)));
+}
+
 fetch("/field.json").then((r) => r.json()).then((f) => { field = f; draw(); connect(); });
+pollCamera();
 window.addEventListener("resize", draw);

@@ -1,0 +1,72 @@
+#include "services/feature_recognition/model_check.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+namespace fieldline::feature_recognition {
+
+ModelCheck::ModelCheck(const field::FieldModel& field, const RecognitionParams& params)
+    : grid_(field, params.model_check_cell, params.model_check_margin),
+      tolerance_(params.model_check_tolerance),
+      tolerance_per_m_(params.model_check_tolerance_per_m),
+      range_(params.model_check_range),
+      min_share_(params.model_check_min_share),
+      max_points_(params.model_check_max_points),
+      min_other_points_(params.model_check_min_other_points),
+      min_other_share_(params.model_check_min_other_share) {
+  if (!(tolerance_ > 0.0) || !(tolerance_per_m_ >= 0.0) || !(range_ > 0.0) ||
+      !(min_share_ >= 0.0 && min_share_ <= 1.0) || max_points_ < 1 || min_other_points_ < 0 ||
+      !(min_other_share_ >= 0.0 && min_other_share_ <= 1.0)) {
+    throw std::invalid_argument(
+        "ModelCheck: tolerance and range must be positive, shares in [0, 1], max_points >= 1, "
+        "min_other_points >= 0");
+  }
+}
+
+ModelFit ModelCheck::fit(const std::vector<geometry::Vec2>& points,
+                         const geometry::Pose2& robot) const {
+  ModelFit out;
+  // Bounded time: at most max_points_ points, spread evenly over the frame.
+  const std::size_t n = points.size();
+  const std::size_t step = std::max<std::size_t>(1, (n + max_points_ - 1) / max_points_);
+  const double c = std::cos(robot.phi), s = std::sin(robot.phi);
+  for (std::size_t i = 0; i < n; i += step) {
+    const geometry::Vec2& p = points[i];
+    const double range = p.norm();
+    if (!(range <= range_)) continue;
+    const geometry::Vec2 q(robot.x + c * p.x() - s * p.y(), robot.y + s * p.x() + c * p.y());
+    ++out.points;
+    if (grid_.distance(q) <= tolerance_ + tolerance_per_m_ * range) ++out.inliers;
+  }
+  return out;
+}
+
+bool ModelCheck::accepts(const ModelFit& fit) const {
+  return fit.share() >= min_share_;
+}
+
+bool ModelCheck::accepts(const ModelFit& all, const ModelFit& others) const {
+  return accepts(all) && others.points >= min_other_points_ && others.share() >= min_other_share_;
+}
+
+void pointsAwayFrom(const std::vector<geometry::Vec2>& points,
+                    const std::vector<Segment2>& segments, double margin,
+                    std::vector<geometry::Vec2>& out) {
+  out.clear();
+  for (const geometry::Vec2& p : points) {
+    bool near = false;
+    for (const Segment2& s : segments) {
+      const geometry::Vec2 d = s.b - s.a;
+      const double len2 = d.squaredNorm();
+      const double t = len2 > 0.0 ? std::clamp((p - s.a).dot(d) / len2, 0.0, 1.0) : 0.0;
+      if ((p - (s.a + t * d)).norm() < margin) {
+        near = true;
+        break;
+      }
+    }
+    if (!near) out.push_back(p);
+  }
+}
+
+}  // namespace fieldline::feature_recognition

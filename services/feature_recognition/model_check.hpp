@@ -1,0 +1,62 @@
+// The model check (beyond the seed): a feature's pose hypothesis is kept only if the frame's line
+// points, moved into the field by that pose, lie on the field model's lines. A feature explains
+// its own points by construction; the other lines of the frame (the field's border, the halfway
+// line, the other penalty-area lines) tell a true pose from a mirror image or a structure that
+// merely looks like the feature. Distances come from a precomputed distance grid of the field
+// model, so one check costs one grid lookup per point.
+#pragma once
+
+#include <vector>
+
+#include "common/field/distance_grid.hpp"
+#include "common/field/field_model.hpp"
+#include "common/geometry/geometry.hpp"
+#include "services/feature_recognition/params.hpp"
+
+namespace fieldline::feature_recognition {
+
+struct ModelFit {
+  // Points within the check's range and those of them within the tolerance of a model line.
+  int points = 0;
+  int inliers = 0;
+  double share() const { return points > 0 ? static_cast<double>(inliers) / points : 0.0; }
+};
+
+// A straight piece of a feature, robot frame.
+struct Segment2 {
+  geometry::Vec2 a = geometry::Vec2::Zero();
+  geometry::Vec2 b = geometry::Vec2::Zero();
+};
+
+// The points further than `margin` from every segment: the frame's "other" points, those a
+// feature does not explain by construction.
+void pointsAwayFrom(const std::vector<geometry::Vec2>& points,
+                    const std::vector<Segment2>& segments, double margin,
+                    std::vector<geometry::Vec2>& out);
+
+class ModelCheck {
+ public:
+  // Builds the distance grid (a few ms for an msl field). Throws std::invalid_argument for
+  // unusable parameters.
+  ModelCheck(const field::FieldModel& field, const RecognitionParams& params);
+
+  // How well `points` (robot frame, m) fit the field's lines with the robot at `robot`.
+  ModelFit fit(const std::vector<geometry::Vec2>& points, const geometry::Pose2& robot) const;
+  // True if the fit is good enough to keep the hypothesis.
+  bool accepts(const ModelFit& fit) const;
+  // True if the fit of all points and that of the other points (see pointsAwayFrom) are good
+  // enough: the other points must be enough in number and fit as well.
+  bool accepts(const ModelFit& all, const ModelFit& others) const;
+
+ private:
+  field::DistanceGrid grid_;
+  double tolerance_;
+  double tolerance_per_m_;
+  double range_;
+  double min_share_;
+  int max_points_;
+  int min_other_points_;
+  double min_other_share_;
+};
+
+}  // namespace fieldline::feature_recognition

@@ -1,0 +1,144 @@
+#include "services/fusion/fusion_config.hpp"
+
+#include <cmath>
+
+namespace fieldline::fusion {
+namespace {
+
+Utime micros(double seconds) {
+  return static_cast<Utime>(std::llround(seconds * 1e6));
+}
+double seconds(Utime us) {
+  return static_cast<double>(us) * 1e-6;
+}
+
+void loadFilter(const config::Node& n, FilterParams& p) {
+  p.window_us = micros(n.getOr<double>("window_s", seconds(p.window_us), 0.1, 10.0));
+  p.future_tolerance_us =
+      micros(n.getOr<double>("future_tolerance_s", seconds(p.future_tolerance_us), 0.0, 1.0));
+  p.gate2 = n.getOr<double>("gate_chi2", p.gate2, 0.0, 1e6);
+  n.rejectUnknownKeys();
+}
+
+void loadProcessNoise(const config::Node& n, ProcessNoise& p) {
+  p.linear_acceleration = n.getOr<double>("linear_acceleration", p.linear_acceleration, 0.0, 100.0);
+  p.angular_acceleration =
+      n.getOr<double>("angular_acceleration", p.angular_acceleration, 0.0, 1000.0);
+  p.position_density = n.getOr<double>("position_density", p.position_density, 0.0, 10.0);
+  p.heading_density = n.getOr<double>("heading_density", p.heading_density, 0.0, 10.0);
+  p.odometry_velocity_sigma =
+      n.getOr<double>("odometry_velocity_sigma", p.odometry_velocity_sigma, 0.0, 10.0);
+  p.odometry_omega_sigma =
+      n.getOr<double>("odometry_omega_sigma", p.odometry_omega_sigma, 0.0, 10.0);
+  n.rejectUnknownKeys();
+}
+
+void loadOdometry(const config::Node& n, OdometryNoise& p) {
+  p.wheel_relative_sigma =
+      n.getOr<double>("wheel_relative_sigma", p.wheel_relative_sigma, 0.0, 1.0);
+  p.wheel_slip_density = n.getOr<double>("wheel_slip_density", p.wheel_slip_density, 0.0, 1.0);
+  p.rotation_slip_density =
+      n.getOr<double>("rotation_slip_density", p.rotation_slip_density, 0.0, 10.0);
+  p.translation_sigma_per_m =
+      n.getOr<double>("translation_sigma_per_m", p.translation_sigma_per_m, 0.0, 1.0);
+  p.rotation_sigma_per_rad =
+      n.getOr<double>("rotation_sigma_per_rad", p.rotation_sigma_per_rad, 0.0, 1.0);
+  p.rotation_sigma_per_m =
+      n.getOr<double>("rotation_sigma_per_m", p.rotation_sigma_per_m, 0.0, 1.0);
+  p.max_interval_s = n.getOr<double>("max_interval_s", p.max_interval_s, 0.005, 10.0);
+  p.max_speed_factor = n.getOr<double>("max_speed_factor", p.max_speed_factor, 1.0, 100.0);
+  p.offset_creep_us = n.getOr<std::int64_t>("offset_creep_us", p.offset_creep_us, 0, 100'000);
+  n.rejectUnknownKeys();
+}
+
+void loadLocalizer(const config::Node& n, LocalizerParams& p) {
+  p.accept_cost_m = n.getOr<double>("accept_cost_m", p.accept_cost_m, 0.001, 1.0);
+  p.lost_cost_m = n.getOr<double>("lost_cost_m", p.lost_cost_m, 0.001, 1.0);
+  p.lost_frames = n.getOr<int>("lost_frames", p.lost_frames, 1, 1000);
+  p.contradict_min_points = static_cast<std::size_t>(
+      n.getOr<int>("contradict_min_points", static_cast<int>(p.contradict_min_points), 1, 100000));
+  p.gated_frames_reset = n.getOr<int>("gated_frames_reset", p.gated_frames_reset, 1, 1000);
+  p.commit_frames = n.getOr<int>("commit_frames", p.commit_frames, 1, 100);
+  p.commit_margin_m = n.getOr<double>("commit_margin_m", p.commit_margin_m, 0.0, 1.0);
+  p.feature_gate_m = n.getOr<double>("feature_gate_m", p.feature_gate_m, 0.0, 20.0);
+  p.feature_gate_rad = n.getOr<double>("feature_gate_rad", p.feature_gate_rad, 0.0, 4.0);
+  p.contradict_m = n.getOr<double>("contradict_m", p.contradict_m, 0.0, 30.0);
+  p.vision_timeout_us =
+      micros(n.getOr<double>("vision_timeout_s", seconds(p.vision_timeout_us), 0.05, 60.0));
+  p.search_step_m = n.getOr<double>("search_step_m", p.search_step_m, 0.05, 5.0);
+  p.search_headings = n.getOr<int>("search_headings", p.search_headings, 4, 360);
+  p.search_points = n.getOr<int>("search_points", p.search_points, 5, 10000);
+  p.max_hypotheses = static_cast<std::size_t>(
+      n.getOr<int>("max_hypotheses", static_cast<int>(p.max_hypotheses), 1, 1000));
+  p.local_search_s = n.getOr<double>("local_search_s", p.local_search_s, 0.0, 10.0);
+  p.local_search_step_rad =
+      n.getOr<double>("local_search_step_rad", p.local_search_step_rad, 0.01, 3.2);
+  p.local_search_steps = n.getOr<int>("local_search_steps", p.local_search_steps, 0, 100);
+  if (n.has("start_prior")) {
+    p.start_prior = n.getChoice("start_prior", {"own_half", "none"}) == "own_half"
+                        ? StartPrior::kOwnHalf
+                        : StartPrior::kNone;
+  }
+  n.rejectUnknownKeys();
+  if (p.lost_cost_m < p.accept_cost_m) {
+    n.fail("lost_cost_m", "must be at least accept_cost_m");
+  }
+}
+
+void loadCalibration(const config::Node& n, LocalizerParams& p) {
+  p.correction_floor_m = n.getOr<double>("correction_floor_m", p.correction_floor_m, 0.0, 5.0);
+  p.correction_floor_rad =
+      n.getOr<double>("correction_floor_rad", p.correction_floor_rad, 0.0, 3.0);
+  p.correction_inflation =
+      n.getOr<double>("correction_inflation", p.correction_inflation, 0.01, 1e4);
+  p.correction_cost_gain =
+      n.getOr<double>("correction_cost_gain", p.correction_cost_gain, 0.0, 1e3);
+  p.correction_cost_gain_rad =
+      n.getOr<double>("correction_cost_gain_rad", p.correction_cost_gain_rad, 0.0, 1e3);
+  p.commit_sigma_m = n.getOr<double>("commit_sigma_m", p.commit_sigma_m, 0.0, 10.0);
+  p.commit_sigma_rad = n.getOr<double>("commit_sigma_rad", p.commit_sigma_rad, 0.0, 3.2);
+  p.state_floor_m = n.getOr<double>("state_floor_m", p.state_floor_m, 0.0, 5.0);
+  p.state_floor_rad = n.getOr<double>("state_floor_rad", p.state_floor_rad, 0.0, 3.2);
+  p.stamp_sigma_s = n.getOr<double>("stamp_sigma_s", p.stamp_sigma_s, 0.0, 1.0);
+  SlipModel& slip = p.filter.slip;
+  slip.max_m = n.getOr<double>("slip_max_m", slip.max_m, 0.0, 10.0);
+  slip.max_rad = n.getOr<double>("slip_max_rad", slip.max_rad, 0.0, 3.2);
+  slip.inflation = n.getOr<double>("slip_inflation", slip.inflation, 0.0, 100.0);
+  n.rejectUnknownKeys();
+}
+
+void loadBall(const config::Node& n, FusionConfig& c) {
+  BallFilterParams& p = c.ball;
+  p.rolling_deceleration =
+      n.getOr<double>("rolling_deceleration", p.rolling_deceleration, 0.0, 20.0);
+  p.acceleration_density =
+      n.getOr<double>("acceleration_density", p.acceleration_density, 0.0, 1000.0);
+  p.max_age_s = n.getOr<double>("max_age_s", p.max_age_s, 0.05, 60.0);
+  p.gate2 = n.getOr<double>("gate_chi2", p.gate2, 0.1, 1e6);
+  p.restart_after_outliers =
+      n.getOr<int>("restart_after_outliers", p.restart_after_outliers, 1, 1000);
+  p.max_range_m = n.getOr<double>("max_range_m", p.max_range_m, 0.1, 50.0);
+  c.ball_rate_hz = n.getOr<double>("rate_hz", c.ball_rate_hz, 1.0, 200.0);
+  n.rejectUnknownKeys();
+}
+
+}  // namespace
+
+FusionConfig loadFusionConfig(const config::Node& root) {
+  FusionConfig c;
+  if (const auto n = root.childIf("filter")) loadFilter(*n, c.localizer.filter);
+  if (const auto n = root.childIf("process_noise")) loadProcessNoise(*n, c.localizer.filter.noise);
+  if (const auto n = root.childIf("odometry")) loadOdometry(*n, c.localizer.odometry);
+  if (const auto n = root.childIf("localizer")) loadLocalizer(*n, c.localizer);
+  if (const auto n = root.childIf("calibration")) loadCalibration(*n, c.localizer);
+  if (const auto n = root.childIf("ball")) loadBall(*n, c);
+  if (const auto n = root.childIf("matcher")) c.matcher = loadMatcherParams(*n);
+  root.rejectUnknownKeys();
+  return c;
+}
+
+FusionConfig loadFusionConfigPreset(const std::string& name_or_path) {
+  return loadFusionConfig(config::Node::loadFile(config::resolvePreset("fusion", name_or_path)));
+}
+
+}  // namespace fieldline::fusion

@@ -1,0 +1,71 @@
+// The fusion settings file: the shipped preset loads and says what the code uses, absent keys
+// keep the defaults, and a typo or a value out of range is an error naming file and line.
+#include "services/fusion/fusion_config.hpp"
+
+#include <string>
+
+#include <gtest/gtest.h>
+
+namespace fieldline::fusion {
+namespace {
+
+std::string errorOf(const std::string& text) {
+  try {
+    loadFusionConfig(config::Node::loadString(text, "fusion.yaml"));
+  } catch (const config::Error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(FusionConfig, ThePresetLoads) {
+  const FusionConfig c = loadFusionConfigPreset("default");
+  EXPECT_EQ(c.localizer.filter.window_us, 1'000'000);
+  EXPECT_GT(c.localizer.filter.gate2, 0.0);
+  EXPECT_GT(c.localizer.odometry.wheel_slip_density, 0.0);
+  EXPECT_GT(c.localizer.filter.slip.inflation, 0.0);
+  EXPECT_EQ(c.matcher.method, MatchMethod::kRobustLeastSquares);
+  EXPECT_DOUBLE_EQ(c.ball_rate_hz, 30.0);
+  EXPECT_EQ(c.localizer.start_prior, StartPrior::kOwnHalf);
+}
+
+TEST(FusionConfig, AbsentKeysKeepTheDefaultsAndGivenOnesApply) {
+  const FusionConfig c = loadFusionConfig(config::Node::loadString(
+      "filter:\n  window_s: 0.5\ncalibration:\n  slip_inflation: 0\n  stamp_sigma_s: 0.004\n"
+      "localizer:\n  start_prior: none\nball:\n  max_age_s: 2.5\nmatcher:\n"
+      "  method: force_field\n"));
+  const FusionConfig defaults;
+  EXPECT_EQ(c.localizer.filter.window_us, 500'000);
+  EXPECT_DOUBLE_EQ(c.localizer.filter.slip.inflation, 0.0);
+  EXPECT_DOUBLE_EQ(c.localizer.stamp_sigma_s, 0.004);
+  EXPECT_EQ(c.localizer.start_prior, StartPrior::kNone);
+  EXPECT_DOUBLE_EQ(c.ball.max_age_s, 2.5);
+  EXPECT_EQ(c.matcher.method, MatchMethod::kForceField);
+  EXPECT_DOUBLE_EQ(c.localizer.accept_cost_m, defaults.localizer.accept_cost_m);
+  EXPECT_DOUBLE_EQ(c.localizer.filter.noise.linear_acceleration,
+                   defaults.localizer.filter.noise.linear_acceleration);
+}
+
+TEST(FusionConfig, TyposAndBadValuesNameFileAndLine) {
+  // An unknown key inside a section, on line 3.
+  const std::string typo = errorOf("filter:\n  window_s: 1.0\n  gate_chi: 10\n");
+  EXPECT_NE(typo.find("fusion.yaml:3"), std::string::npos) << typo;
+  EXPECT_NE(typo.find("gate_chi"), std::string::npos) << typo;
+  // An unknown section.
+  EXPECT_NE(errorOf("calibrations:\n  x: 1\n").find("calibrations"), std::string::npos);
+  // Out of range, on line 2.
+  const std::string range = errorOf("odometry:\n  wheel_slip_density: -0.1\n");
+  EXPECT_NE(range.find("fusion.yaml:2"), std::string::npos) << range;
+  // Not a number.
+  EXPECT_NE(errorOf("ball:\n  rate_hz: fast\n"), "");
+  // A choice that is not one.
+  EXPECT_NE(errorOf("localizer:\n  start_prior: left\n"), "");
+  // Inconsistent thresholds.
+  EXPECT_NE(errorOf("localizer:\n  accept_cost_m: 0.2\n  lost_cost_m: 0.1\n").find("lost_cost_m"),
+            std::string::npos);
+  // The matcher's own checks.
+  EXPECT_NE(errorOf("matcher:\n  outlier_distnce_m: 0.4\n"), "");
+}
+
+}  // namespace
+}  // namespace fieldline::fusion

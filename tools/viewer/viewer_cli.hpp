@@ -1,0 +1,32 @@
+// fieldline-viewer's command line: the options of the web server, the bus side and the field.
+#pragma once
+
+#include <optional>
+#include <string>
+
+#include <CLI/CLI.hpp>
+
+#include "common/bus/cli.hpp"
+#include "tools/viewer/viewer_node.hpp"
+#include "tools/viewer/web_server.hpp"
+
+namespace fieldline::viewer {
+
+struct ViewerCommandLine {
+  WebServerOptions web;
+  ViewerOptions viewer;
+  std::string field = "msl";
+  bus::CommonOptions common;
+
+  // `web_dir`: where the page is served from unless --web-dir says otherwise.
+  ViewerCommandLine(CLI::App& app, const std::string& web_dir);
+  // After parsing: fills web and viewer from the options; the problem with them, if any.
+  std::optional<std::string> finish();
+
+ private:
+  std::string web_dir_;
+  int port_ = 8080;
+  bool no_sim_ = false;
+};
+
+}  // namespace fieldline::viewer
