@@ -56,6 +56,7 @@ int main(int argc, char** argv) {
     }
     const RobotClock clock = bus::robotClockFromEnvironment();
 
+    if (common.check_args) return 0;
     std::unique_ptr<teamcomm::PacketLink> link;
     try {
       link = teamcomm::openUdpLink(cfg.udp);

@@ -23,6 +23,9 @@ void CommonOptions::addTo(CLI::App& app) {
   app.add_option("--log-level", log_level, "trace, debug, info, warn or error")
       ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error"}))
       ->capture_default_str();
+  app.add_flag("--check-args", check_args,
+               "Parse the arguments and read the configuration, then exit: 0 when valid, 2 when "
+               "not; starts nothing");
 }
 
 void CommonOptions::resolve(const std::string& process) {

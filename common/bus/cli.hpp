@@ -20,8 +20,12 @@ struct CommonOptions {
   std::string sim_bus_url;
   // trace, debug, info, warn, error.
   std::string log_level = "info";
+  // --check-args: parse the arguments and read the configuration, then exit 0 (2 for a
+  // problem) before opening a bus, a device or a socket. The launcher's preflight runs every
+  // child this way (tools/launch/preflight.hpp).
+  bool check_args = false;
 
-  // Adds --robot, --bus-url, --sim-bus-url and --log-level to `app`.
+  // Adds --robot, --bus-url, --sim-bus-url, --log-level and --check-args to `app`.
   void addTo(CLI::App& app);
   // Fills the defaults and configures logging; call after parsing.
   void resolve(const std::string& process);

@@ -4,6 +4,8 @@
 
 #include <fmt/format.h>
 
+#include "common/bus/replay_bus.hpp"
+
 namespace fieldline::bus {
 namespace {
 std::string udpmUrl(const BusAddress& a, int port) {
@@ -20,6 +22,13 @@ std::string robotBusUrl(int robot_id, const BusAddress& address) {
 
 std::string simBusUrl(const BusAddress& address) {
   return udpmUrl(address, address.base_port);
+}
+
+std::string replayBusUrl(int robot_id, const BusAddress& address) {
+  if (robot_id < 1 || robot_id > 99) {
+    throw std::invalid_argument(fmt::format("robot id {} out of range 1..99", robot_id));
+  }
+  return udpmUrl(address, address.base_port + kReplayPortOffset + robot_id);
 }
 
 }  // namespace fieldline::bus

@@ -7,6 +7,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "common/camera/colour.hpp"
+
 namespace fieldline::camera {
 namespace {
 
@@ -364,6 +366,14 @@ CameraModel loadCameraModel(const config::Node& root) {
     m.fail("", e.what());
   }
   model.colour_table = root.get<std::string>("colour_table");
+  // A preset that does not exist or does not load is this file's error, found when it is read
+  // (not when region tracking first needs the table).
+  try {
+    (void)loadColourTablePreset(model.colour_table);
+  } catch (const config::Error& e) {
+    root.fail("colour_table",
+              "colour table preset '" + model.colour_table + "' does not load: " + e.what());
+  }
   return model;
 }
 

@@ -1,5 +1,6 @@
 #include "common/config/config.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <cstdlib>
@@ -7,6 +8,8 @@
 #include <iostream>
 #include <sstream>
 #include <type_traits>
+
+#include "common/config/closest.hpp"
 
 #ifndef FIELDLINE_SOURCE_DIR
 #define FIELDLINE_SOURCE_DIR "."
@@ -29,6 +32,37 @@ std::string show(const T& v) {
   std::ostringstream s;
   s << v;
   return s.str();
+}
+
+// "file:line: key.path" of `key` in `n` (the location prefix of n.fail's messages).
+std::string locationOf(const Node& n, const std::string& key) {
+  try {
+    n.fail(key, "");
+  } catch (const Error& e) {
+    const std::string text = e.what();
+    return text.substr(0, text.size() - 2);
+  }
+  return key;
+}
+
+// A required `key` is absent. When the map holds a key that nothing has read and that is a
+// likely misspelling of `key` ("executabel"), that one is named as the unknown key it is, with
+// the missing one.
+[[noreturn]] void missingKey(const Node& n, const std::set<std::string>& used,
+                             const std::string& key, const std::string& what) {
+  std::vector<std::string> unread;
+  if (n.yaml().IsMap()) {
+    for (auto it = n.yaml().begin(); it != n.yaml().end(); ++it) {
+      const std::string k = it->first.Scalar();
+      if (!used.count(k)) unread.push_back(k);
+    }
+  }
+  const std::string misspelt = closestMatch(key, unread);
+  if (!misspelt.empty()) {
+    throw Error(locationOf(n, misspelt) + ": unknown key (did you mean " + key + "?); " +
+                locationOf(n, key) + ": " + what);
+  }
+  n.fail(key, what);
 }
 
 }  // namespace
@@ -133,7 +167,7 @@ T Node::convert(const YAML::Node& value, const std::string& key) const {
 template <typename T>
 T Node::get(const std::string& key) const {
   const YAML::Node v = lookup(key);
-  if (!v.IsDefined() || v.IsNull()) fail(key, "missing required key");
+  if (!v.IsDefined() || v.IsNull()) missingKey(*this, *used_, key, "missing required key");
   return convert<T>(v, key);
 }
 
@@ -167,7 +201,7 @@ T Node::getOr(const std::string& key, T fallback, T min, T max) const {
 template <typename T>
 std::vector<T> Node::getList(const std::string& key, std::optional<std::size_t> length) const {
   const YAML::Node v = lookup(key);
-  if (!v.IsDefined() || v.IsNull()) fail(key, "missing required key");
+  if (!v.IsDefined() || v.IsNull()) missingKey(*this, *used_, key, "missing required key");
   if (!v.IsSequence()) fail(key, "expected a list");
   if (length && v.size() != *length) {
     fail(key, "expected " + std::to_string(*length) + " elements, got " + std::to_string(v.size()));
@@ -198,7 +232,7 @@ std::string Node::getChoice(const std::string& key, const std::vector<std::strin
 
 Node Node::child(const std::string& key) const {
   const YAML::Node v = lookup(key);
-  if (!v.IsDefined() || v.IsNull()) fail(key, "missing required section");
+  if (!v.IsDefined() || v.IsNull()) missingKey(*this, *used_, key, "missing required section");
   if (!v.IsMap()) fail(key, "expected a map");
   return makeChild(v, keyPath(key));
 }
@@ -212,7 +246,7 @@ std::optional<Node> Node::childIf(const std::string& key) const {
 
 std::vector<Node> Node::children(const std::string& key) const {
   const YAML::Node v = lookup(key);
-  if (!v.IsDefined() || v.IsNull()) fail(key, "missing required list");
+  if (!v.IsDefined() || v.IsNull()) missingKey(*this, *used_, key, "missing required list");
   if (!v.IsSequence()) fail(key, "expected a list");
   std::vector<Node> out;
   for (std::size_t i = 0; i < v.size(); ++i) {
@@ -249,8 +283,44 @@ void Node::rejectUnknownKeys() const {
     std::string known;
     for (const auto& u : *used_)
       known += (known.empty() ? "" : ", ") + u;
-    fail(k, "unknown key (expected one of: " + known + ")");
+    const std::string meant =
+        closestMatch(k, std::vector<std::string>(used_->begin(), used_->end()));
+    fail(k, "unknown key (" + (meant.empty() ? std::string() : "did you mean " + meant + "? ") +
+                "expected one of: " + known + ")");
   }
+}
+
+std::size_t editDistance(const std::string& a, const std::string& b) {
+  // d[i][j]: distance between the first i characters of a and the first j of b.
+  std::vector<std::vector<std::size_t>> d(a.size() + 1, std::vector<std::size_t>(b.size() + 1));
+  for (std::size_t i = 0; i <= a.size(); ++i)
+    d[i][0] = i;
+  for (std::size_t j = 0; j <= b.size(); ++j)
+    d[0][j] = j;
+  for (std::size_t i = 1; i <= a.size(); ++i) {
+    for (std::size_t j = 1; j <= b.size(); ++j) {
+      const std::size_t cost = a[i - 1] == b[j - 1] ? 0 : 1;
+      d[i][j] = std::min({d[i - 1][j] + 1, d[i][j - 1] + 1, d[i - 1][j - 1] + cost});
+      if (i > 1 && j > 1 && a[i - 1] == b[j - 2] && a[i - 2] == b[j - 1]) {
+        d[i][j] = std::min(d[i][j], d[i - 2][j - 2] + 1);
+      }
+    }
+  }
+  return d[a.size()][b.size()];
+}
+
+std::string closestMatch(const std::string& word, const std::vector<std::string>& candidates) {
+  const std::size_t limit = word.size() <= 4 ? 1 : 2;
+  std::string best;
+  std::size_t best_distance = limit + 1;
+  for (const std::string& c : candidates) {
+    const std::size_t distance = editDistance(word, c);
+    if (c != word && distance < best_distance) {
+      best = c;
+      best_distance = distance;
+    }
+  }
+  return best;
 }
 
 #define FIELDLINE_CONFIG_INSTANTIATE(T)                                                           \

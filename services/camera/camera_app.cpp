@@ -1,14 +1,19 @@
 #include "services/camera/camera_app.hpp"
 
+#include <algorithm>
 #include <memory>
+#include <optional>
 #include <stdexcept>
 #include <string>
 
 #include <spdlog/spdlog.h>
 
 #include "common/bus/node.hpp"
+#include "common/bus/replay_bus.hpp"
 #include "common/bus/robot_clock.hpp"
+#include "common/config/config.hpp"
 #include "common/time/clock.hpp"
+#include "common/time/offset_clock.hpp"
 #include "services/camera/camera_config.hpp"
 #include "services/camera/camera_node.hpp"
 #include "services/camera/floor_raster_cache.hpp"
@@ -95,19 +100,46 @@ void CameraAppOptions::addTo(CLI::App& app) {
   app.add_option("--raster-cache", raster_cache,
                  "sim: directory for the floor raster cache (default: $XDG_CACHE_HOME/fieldline "
                  "or ~/.cache/fieldline; empty string: none)");
+  auto* keep = app.add_flag("--keep-stamps", keep_stamps,
+                            "log: keep the logged exposure times (the default)");
+  app.add_flag("--restamp", restamp,
+               "log: stamp frames receive time - latency like a camera's, paced by --fps")
+      ->excludes(keep);
+  app.add_flag("--live-bus", live_bus,
+               "log: publish on --bus-url (the live bus) instead of the robot's replay bus");
+  app.add_option("--replay-bus-url", replay_bus_url,
+                 "log: the bus the frames go to (default: robot N's replay bus, "
+                 "udpm://239.255.76.67:<7767+N>?ttl=0...)");
 }
 
 int runCamera(const CameraAppOptions& options, const bus::CommonOptions& common) {
   CameraConfig config = loadCameraConfigPreset(options.preset);
   if (options.latency >= 0.0) config.pipeline.latency = options.latency;
   if (options.fps > 0.0) config.pipeline.frame_rate = options.fps;
-  const RobotClock clock = bus::robotClockFromEnvironment();
-  bus::Node node({.process = "camera", .robot_id = common.robot, .url = common.bus_url}, clock);
+  if (options.source != "sim" && options.input.empty()) {
+    throw config::Error("--source " + options.source + " needs --input");
+  }
+  const bool from_log = options.source == "log";
+  std::string bus_url = common.bus_url;
+  if (from_log && !options.live_bus) {
+    // A replayed log never mixes with the robot's live frames.
+    bus_url = options.replay_bus_url.empty() ? bus::replayBusUrl(std::max(1, common.robot))
+                                             : options.replay_bus_url;
+  }
+  const RobotClock robot_clock = bus::robotClockFromEnvironment();
+  if (common.check_args) return 0;
+  // A log with kept stamps runs at the log's time: its first frame is due now.
+  std::optional<OffsetClock> log_clock;
+  if (from_log && !options.restamp) {
+    if (const auto first = LogImageSource::firstUtime(options.input)) {
+      const auto latency_us = static_cast<Utime>(config.pipeline.latency * 1e6);
+      log_clock.emplace(robot_clock, *first + latency_us - robot_clock.now(), 0.0, 0);
+    }
+  }
+  const Clock& clock = log_clock ? static_cast<const Clock&>(*log_clock) : robot_clock;
+  bus::Node node({.process = "camera", .robot_id = common.robot, .url = bus_url}, clock);
   if (options.source == "sim") return runSim(node, config, options, common);
 
-  if (options.input.empty()) {
-    throw std::runtime_error("--source " + options.source + " needs --input");
-  }
   bus::installStopSignals();
   std::unique_ptr<FrameSource> source;
   FrameSourceOptions run_options;
@@ -116,8 +148,12 @@ int runCamera(const CameraAppOptions& options, const bus::CommonOptions& common)
   run_options.pace_fps = config.pipeline.frame_rate;
   if (options.source == "folder") {
     source = std::make_unique<ImageFolderSource>(options.input, options.loop);
-  } else if (options.source == "log") {
+  } else if (from_log) {
     source = std::make_unique<LogImageSource>(options.input, options.loop);
+    run_options.keep_stamps = !options.restamp;
+    if (!options.restamp) run_options.pace_fps = 0.0;
+    spdlog::info("replaying {} onto {}{}", options.input, bus_url,
+                 options.restamp ? ", restamped" : " with its exposure times");
   } else {
     VideoCaptureOptions vc;
     vc.spec = options.input;

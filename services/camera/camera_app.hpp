@@ -33,19 +33,30 @@ struct CameraAppOptions {
   bool bgr = false;
   // Real sources: stop after this many frames; 0: no limit.
   std::int64_t max_frames = 0;
+  // log: keep the logged exposure times (the default): the process runs on a clock at the log's
+  // time and publishes each frame when its time comes. --restamp: receive time - latency at fps.
+  bool keep_stamps = true;
+  bool restamp = false;
+  // log: publish on --bus-url (the live bus) instead of robot N's replay bus.
+  bool live_bus = false;
+  // log: the bus the frames go to; empty: bus::replayBusUrl(robot).
+  std::string replay_bus_url;
   // sim: directory of the floor raster cache (floor_raster_cache.hpp); empty: none. Set to
   // defaultCacheDirectory() by addTo().
   std::string raster_cache;
 
   // Adds --source, --config, --field, --input, --latency, --fps, --width, --height, --loop, --bgr,
-  // --max-frames and --raster-cache to `app`.
+  // --max-frames, --raster-cache, --keep-stamps, --restamp, --live-bus and --replay-bus-url to
+  // `app`.
   void addTo(CLI::App& app);
 };
 
 // Opens the source and publishes its frames until stopped (SIGINT/SIGTERM), the source ends or
-// max_frames were sent. A live camera (v4l2, gstreamer) that fails is reported and reopened every
-// second. Throws std::runtime_error for a source that cannot be used (e.g. no --input), and when a
-// finite source published no frame. Returns the process's exit code.
+// max_frames were sent. With common.check_args, reads the preset and checks the options, then
+// returns 0 before opening a bus or a device (config::Error for a problem: exit code 2). A live
+// camera (v4l2, gstreamer) that fails is reported and reopened every second. Throws
+// std::runtime_error for a source that cannot be used (e.g. no --input), and when a finite source
+// published no frame. Returns the process's exit code.
 int runCamera(const CameraAppOptions& options, const bus::CommonOptions& common);
 
 }  // namespace fieldline::camera

@@ -245,6 +245,14 @@ std::int64_t runFrameSource(bus::Node& node, FrameSource& source, const Pipeline
     }
     const auto start = std::chrono::steady_clock::now();
     const bool got = source.next(frame);
+    if (got && options.keep_stamps && frame.recorded_utime) {
+      // A recorded frame goes out when its time comes on the node's clock (the log's time).
+      const Utime due = *frame.recorded_utime + latency;
+      for (Utime now = node.now(); now < due && !node.stopRequested(); now = node.now()) {
+        node.spinOnce(static_cast<int>(std::clamp<Utime>((due - now) / kMicrosPerMilli, 1, 100)));
+      }
+      if (node.stopRequested()) break;
+    }
     const Utime received = node.now();
     for (; reported_errors < source.errors(); ++reported_errors) {
       node.reportError("bad_frame", source.lastError());
@@ -254,7 +262,8 @@ std::int64_t runFrameSource(bus::Node& node, FrameSource& source, const Pipeline
     node.status().onProcessing(capture_ms);
     capture_ms_in_period += capture_ms;
 
-    img.header.utime = received - latency;
+    img.header.utime =
+        options.keep_stamps && frame.recorded_utime ? *frame.recorded_utime : received - latency;
     img.source = imageSourceCode(source.kind());
     img.frame_number = frame.frame_number;
     img.exposure_us = static_cast<std::int32_t>(std::lround(pipeline.exposure * 1e6));

@@ -79,6 +79,11 @@ struct FrameSourceOptions {
   double pace_fps = 0.0;
   // Stop after this many frames (0 = no limit).
   std::int64_t max_frames = 0;
+  // Frames with a recorded exposure time (LCM logs) keep it as header.utime, and each is
+  // published when the node's clock reaches that time plus the pipeline latency (run the node
+  // on a clock at the log's time: logClock()); pace_fps does not apply to them. False: every
+  // frame is stamped receive time - latency, like a camera's.
+  bool keep_stamps = false;
 };
 
 // Publishes every frame of `source` as CAMERA_IMAGE until it ends or the node is asked to stop.

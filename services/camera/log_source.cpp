@@ -1,5 +1,7 @@
 #include "services/camera/log_source.hpp"
 
+#include <algorithm>
+
 #include <fmt/core.h>
 
 #include "common/bus/log_file.hpp"
@@ -39,6 +41,15 @@ bool LogImageSource::next(SourceFrame& out) {
       if (!loop_ || delivered_ == 0 || rewound) return false;
       impl_->reader.rewind();
       rewound = true;
+      if (first_utime_) {
+        // The next pass follows this one by a frame period, so stamps never go back.
+        const std::int64_t span = last_utime_ - *first_utime_;
+        const std::int64_t period =
+            delivered_in_pass_ > 1 ? span / (delivered_in_pass_ - 1) : 33'333;
+        loop_shift_ += span + std::max<std::int64_t>(1, period);
+      }
+      first_utime_.reset();
+      delivered_in_pass_ = 0;
       continue;
     }
     const image_t& image = impl_->image;
@@ -55,8 +66,21 @@ bool LogImageSource::next(SourceFrame& out) {
     out.format = view->format;
     out.bytes.swap(impl_->image.data);
     out.frame_number = delivered_++;
+    if (!first_utime_) first_utime_ = image.header.utime;
+    last_utime_ = image.header.utime;
+    ++delivered_in_pass_;
+    out.recorded_utime = image.header.utime + loop_shift_;
     return true;
   }
+}
+
+std::optional<std::int64_t> LogImageSource::firstUtime(const std::string& path) {
+  bus::LogReader reader(path);
+  image_t image;
+  while (reader.next(bus::channels::kCameraImage, image)) {
+    if (msg::fromMessage(image)) return image.header.utime;
+  }
+  return std::nullopt;
 }
 
 std::string LogImageSource::describe() const {

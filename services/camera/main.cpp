@@ -5,7 +5,9 @@
 //   --source gstreamer  a GStreamer pipeline ending in appsink (--input "...")
 //   --source folder     PNG/JPEG/BMP files of a folder in name order (--input dir)
 //   --source log        CAMERA_IMAGE frames of an LCM log (--input file.lcmlog)
-// utime is the exposure time: the render tick for sim, receive time - latency otherwise.
+// utime is the exposure time: the render tick for sim, receive time - latency for cameras and
+// files. A log keeps its recorded exposure times (--keep-stamps, the default; --restamp to
+// stamp like a camera) and goes onto robot N's replay bus unless --live-bus (camera_app.hpp).
 #include <CLI/CLI.hpp>
 
 #include "common/bus/cli.hpp"

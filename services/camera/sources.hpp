@@ -9,6 +9,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -26,6 +27,9 @@ struct SourceFrame {
   PixelFormat format = PixelFormat::kBgr;
   // Counter of the source (0, 1, 2, ...): frames it delivered, not counting skipped ones.
   std::int64_t frame_number = 0;
+  // Exposure time the source recorded with the frame, us since the epoch (LCM logs: the
+  // logged header.utime); empty when the source does not know it (cameras, files).
+  std::optional<std::int64_t> recorded_utime;
 
   FrameView view() const { return {bytes.data(), width, height, stride, format}; }
 };

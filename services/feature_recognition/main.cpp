@@ -34,6 +34,7 @@ int main(int argc, char** argv) {
     common.resolve("feature_recognition");
     const field::FieldModel field = field::loadFieldPreset(field_name);
     const RobotClock clock = bus::robotClockFromEnvironment();
+    if (common.check_args) return 0;
     bus::installStopSignals();
     bus::Node node(
         {.process = "feature_recognition", .robot_id = common.robot, .url = common.bus_url}, clock);

@@ -80,6 +80,11 @@ int main(int argc, char** argv) {
       config.matcher.method = method == "lsq" ? fusion::MatchMethod::kRobustLeastSquares
                                               : fusion::MatchMethod::kForceField;
     }
+    if (common.check_args) {
+      // The presets are read; the distance grid (seconds of CPU) is not built.
+      (void)robot::loadRobotPreset(robot_preset);
+      return 0;
+    }
     const fusion::LineMatcher matcher(field, config.matcher, cache_dir);
 
     fusion::FusionNodeOptions options;

@@ -40,6 +40,7 @@ int main(int argc, char** argv) {
     config.device = motor_bridge::deviceForRobot(config.device, common.robot);
 
     const RobotClock clock = bus::robotClockFromEnvironment();
+    if (common.check_args) return 0;
     bus::installStopSignals();
     bus::Node node({.process = "motor_bridge", .robot_id = common.robot, .url = common.bus_url},
                    clock);

@@ -45,6 +45,7 @@ int main(int argc, char** argv) {
     pilot::Pilot pilot(scenario::loadScenarioPreset(scenario_name), common.robot,
                        robot::loadRobotPreset(robot_config));
     const RobotClock clock = bus::robotClockFromEnvironment();
+    if (common.check_args) return 0;
     bus::installStopSignals();
     bus::Node node({.process = "pilot", .robot_id = common.robot, .url = common.bus_url}, clock);
     options.steer = steer == "truth" ? pilot::SteerBy::kTruth : pilot::SteerBy::kState;

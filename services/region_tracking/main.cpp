@@ -52,6 +52,7 @@ int main(int argc, char** argv) {
     options.lines_every_frames = lines_every;
 
     const RobotClock clock = bus::robotClockFromEnvironment();
+    if (common.check_args) return 0;
     bus::installStopSignals();
     bus::Node node({.process = "region_tracking", .robot_id = common.robot, .url = common.bus_url},
                    clock);

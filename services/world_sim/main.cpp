@@ -43,11 +43,23 @@ int main(int argc, char** argv) {
   app.add_option("--world-rate", options.world_rate, "SIM_WORLD messages per simulated second")
       ->check(CLI::Range(1.0, 1000.0))
       ->capture_default_str();
+  app.add_option("--state-file", options.state_file,
+                 "Snapshot of the world, written every 0.1 s and removed at a clean end; a "
+                 "simulator restarted after a crash continues from it (default: "
+                 "<pty-dir>/world_sim.state)");
+  app.add_option("--resume-within", options.resume_within_s,
+                 "Resume only from a snapshot at most this many seconds old, s")
+      ->check(CLI::Range(0.0, 3600.0))
+      ->capture_default_str();
+  app.add_flag("--fresh", options.fresh,
+               "Start the scenario from t = 0 even when a recent snapshot exists");
   FIELDLINE_PARSE(app, argc, argv);
+  if (options.state_file.empty()) options.state_file = options.pty_dir + "/world_sim.state";
 
   return bus::runMain("world_sim", [&] {
     common.resolve("world_sim");
     const auto scenario = scenario::loadScenarioPreset(scenario_name);
+    if (common.check_args) return 0;
     SystemClock clock;
     bus::installStopSignals();
     std::signal(SIGUSR1, onPullSerial);

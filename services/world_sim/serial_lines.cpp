@@ -69,6 +69,13 @@ void SerialLines::exchangeBytes(Line& line, double t) {
   }
 }
 
+void SerialLines::resumeAt(double t) {
+  for (Line& line : lines_)
+    line.next_sample = t;
+  while (next_outage_ < outages_.size() && outages_[next_outage_].time < t)
+    ++next_outage_;
+}
+
 void SerialLines::beforeStep(World& world) {
   const double t = world.time();
   while (next_outage_ < outages_.size() && outages_[next_outage_].time <= t) {

@@ -30,6 +30,10 @@ class SerialLines {
   // Opens a line per robot of `world`; throws std::runtime_error when a pty cannot be opened.
   SerialLines(const World& world, std::string pty_dir);
 
+  // The world continues at simulated time `t` (a resumed snapshot): odometry samples from `t`
+  // on, outages scheduled before `t` are skipped.
+  void resumeAt(double t);
+
   void beforeStep(World& world);
   void afterStep(const World& world);
   // Pulls robot `index`'s line at simulated time `t` for `duration` seconds (no-op while pulled).

@@ -3,7 +3,10 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <sstream>
 #include <stdexcept>
+
+#include "services/world_sim/world_snapshot.hpp"
 
 namespace fieldline::world_sim {
 namespace {
@@ -116,6 +119,58 @@ void World::kidnap(std::size_t index, const geometry::Pose2& pose) {
   r.pose.phi = geometry::normalizeAngle(pose.phi);
   previous_poses_[index] = r.pose;
   ++r.kidnaps;
+}
+
+WorldSnapshot World::snapshot() const {
+  WorldSnapshot s;
+  s.scenario = scenario_.name;
+  s.steps = steps_;
+  s.next_kick = next_kick_;
+  s.next_kidnap = next_kidnap_;
+  s.ball = ball_;
+  s.robots = robots_;
+  std::ostringstream rng;
+  rng << rng_;
+  s.rng = rng.str();
+  return s;
+}
+
+void World::restore(const WorldSnapshot& s) {
+  if (s.scenario != scenario_.name) {
+    throw std::invalid_argument("snapshot of scenario '" + s.scenario + "', not '" +
+                                scenario_.name + "'");
+  }
+  if (s.robots.size() != robots_.size()) {
+    throw std::invalid_argument("snapshot has " + std::to_string(s.robots.size()) +
+                                " robots, the scenario " + std::to_string(robots_.size()));
+  }
+  for (std::size_t i = 0; i < robots_.size(); ++i) {
+    if (s.robots[i].id != robots_[i].id) {
+      throw std::invalid_argument("snapshot robot " + std::to_string(s.robots[i].id) +
+                                  " where the scenario has robot " + std::to_string(robots_[i].id));
+    }
+  }
+  if (s.next_kick > kicks_.size() || s.next_kidnap > kidnaps_.size() || s.steps < 0) {
+    throw std::invalid_argument("snapshot events or time out of range");
+  }
+  std::mt19937_64 rng;
+  std::istringstream rng_text(s.rng);
+  rng_text >> rng;
+  if (rng_text.fail()) throw std::invalid_argument("snapshot: unreadable random engine state");
+  rng_ = rng;
+  normal_.reset();
+  steps_ = s.steps;
+  next_kick_ = s.next_kick;
+  next_kidnap_ = s.next_kidnap;
+  const double radius = ball_.radius;
+  ball_ = s.ball;
+  ball_.radius = radius;
+  for (std::size_t i = 0; i < robots_.size(); ++i) {
+    robots_[i] = s.robots[i];
+    previous_poses_[i] = robots_[i].pose;
+  }
+  for (std::size_t k = 0; k < opponents_.size(); ++k)
+    opponents_[k].pose = opponent_paths_[k].at(time()).pose;
 }
 
 void World::applyEvents() {

@@ -26,6 +26,8 @@
 
 namespace fieldline::world_sim {
 
+struct WorldSnapshot;
+
 struct RobotTruth {
   int id = 1;
   // Field frame.
@@ -90,6 +92,13 @@ class World {
   robot::TickCounts ticks(std::size_t index) const;
   // Lifts robot `index` and puts it down at `pose`; the wheels do not turn.
   void kidnap(std::size_t index, const geometry::Pose2& pose);
+
+  // The state that a later restore() continues from (world_snapshot.hpp); saved_utime is left 0.
+  WorldSnapshot snapshot() const;
+  // Continues from `snapshot` (taken of the same scenario): time, robots, ball, opponents,
+  // pending events, the random engine. Throws std::invalid_argument when it does not fit this
+  // world (another scenario, other robots, events out of range).
+  void restore(const WorldSnapshot& snapshot);
 
   const scenario::Scenario& scenario() const { return scenario_; }
   const robot::RobotParams& robotParams() const { return params_; }

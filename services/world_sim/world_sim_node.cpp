@@ -2,9 +2,14 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
+#include <optional>
 #include <stdexcept>
 
+#include <spdlog/spdlog.h>
+
 #include "common/msg/world_state.hpp"
+#include "services/world_sim/world_snapshot.hpp"
 
 namespace fieldline::world_sim {
 
@@ -16,12 +21,70 @@ WorldSimNode::WorldSimNode(bus::Node& node, const scenario::Scenario& scenario,
       lines_(world_, options_.pty_dir),
       start_(node.now()) {
   if (!(options_.world_rate > 0.0)) throw std::invalid_argument("world rate must be positive");
+  if (!options_.state_file.empty() && !options_.fresh) resumeFromStateFile();
   truth_.field = world_.field().name();
   truth_.scenario = scenario.name;
   truth_.robot_radius = world_.robotParams().radius;
   const auto step_us = std::max<Utime>(1, std::llround(world_.stepSeconds() * 1e6));
   node_.every(step_us, [this] { update(); });
   node_.every(kMicrosPerSecond, [this] { publishMetrics(); });
+  if (!options_.state_file.empty()) {
+    const auto period_us =
+        std::max<Utime>(1000, std::llround(options_.snapshot_period_s * kMicrosPerSecond));
+    node_.every(period_us, [this] { writeSnapshot(); });
+  }
+}
+
+WorldSimNode::~WorldSimNode() {
+  if (options_.state_file.empty()) return;
+  std::error_code ec;
+  std::filesystem::remove(options_.state_file, ec);
+  std::filesystem::remove(options_.state_file + ".tmp", ec);
+}
+
+void WorldSimNode::resumeFromStateFile() {
+  std::optional<WorldSnapshot> snapshot;
+  try {
+    snapshot = readSnapshotFile(options_.state_file);
+  } catch (const std::runtime_error& e) {
+    spdlog::warn("starting the scenario afresh: {}", e.what());
+    return;
+  }
+  if (!snapshot) return;
+  const double age_s = static_cast<double>(node_.now() - snapshot->saved_utime) * 1e-6;
+  if (age_s > options_.resume_within_s || age_s < -1.0) {
+    spdlog::info(
+        "starting the scenario afresh: the snapshot in {} is {:.1f} s old (resumed "
+        "within {:.1f} s)",
+        options_.state_file, age_s, options_.resume_within_s);
+    return;
+  }
+  try {
+    world_.restore(*snapshot);
+  } catch (const std::invalid_argument& e) {
+    spdlog::warn("starting the scenario afresh: {}: {}", options_.state_file, e.what());
+    return;
+  }
+  lines_.resumeAt(world_.time());
+  // The simulated time goes on from the snapshot's: the time the simulator was away is skipped.
+  start_ = node_.now() - static_cast<Utime>(std::llround(world_.time() * 1e6));
+  next_world_ = world_.time();
+  resumed_ = true;
+  spdlog::info(
+      "resumed the world from {} at simulated time {:.2f} s ({:.2f} s after it was "
+      "written)",
+      options_.state_file, world_.time(), age_s);
+  node_.setMetric("resumed_at_s", world_.time());
+}
+
+void WorldSimNode::writeSnapshot() {
+  WorldSnapshot s = world_.snapshot();
+  s.saved_utime = node_.now();
+  try {
+    writeSnapshotFile(options_.state_file, s);
+  } catch (const std::runtime_error& e) {
+    node_.reportError("state_file", e.what());
+  }
 }
 
 Utime WorldSimNode::utimeAt(double t) const {

@@ -20,14 +20,33 @@ struct WorldSimNodeOptions {
   std::string pty_dir = "/tmp/fieldline";
   // SIM_WORLD messages per simulated second.
   double world_rate = 100.0;
+  // Snapshot of the world written every snapshot_period_s (world_snapshot.hpp) and removed at
+  // a clean end; a restart after a crash continues from it. Empty: none.
+  std::string state_file;
+  double snapshot_period_s = 0.1;
+  // A snapshot older than this (by the node's clock) is not resumed: the scenario starts over.
+  double resume_within_s = 5.0;
+  // Start the scenario from t = 0 whatever the state file holds.
+  bool fresh = false;
 };
 
 class WorldSimNode {
  public:
-  // Simulated time 0 is the node's clock now. Opens the serial lines; sets a timer at the
-  // physics rate. Throws std::runtime_error when a pty cannot be opened, std::invalid_argument
-  // for a world rate that is not positive.
+  // Simulated time 0 is the node's clock now, or, when options.state_file holds a recent
+  // snapshot of this scenario, the world continues from it (its simulated time goes on from
+  // the snapshot's, the node's clock now). Opens the serial lines; sets a timer at the physics
+  // rate. Throws std::runtime_error when a pty cannot be opened, std::invalid_argument for a
+  // world rate that is not positive.
   WorldSimNode(bus::Node& node, const scenario::Scenario& scenario, WorldSimNodeOptions options);
+  // A clean end: removes the state file, so the next start is a fresh scenario.
+  ~WorldSimNode();
+  WorldSimNode(const WorldSimNode&) = delete;
+  WorldSimNode& operator=(const WorldSimNode&) = delete;
+
+  // Whether the world was resumed from a snapshot, and at which simulated time.
+  bool resumed() const { return resumed_; }
+  // Writes the state file now (also done by a timer).
+  void writeSnapshot();
 
   // Steps the world up to the node's clock; requests the node's stop at the scenario's end.
   void update();
@@ -43,6 +62,7 @@ class WorldSimNode {
  private:
   void publishWorld();
   void publishMetrics();
+  void resumeFromStateFile();
 
   bus::Node& node_;
   WorldSimNodeOptions options_;
@@ -50,6 +70,7 @@ class WorldSimNode {
   SerialLines lines_;
   Utime start_;
   double next_world_ = 0.0;
+  bool resumed_ = false;
   perception::WorldTruth truth_;
   world_state_t msg_{};
 };

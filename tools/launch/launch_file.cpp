@@ -1,8 +1,12 @@
 #include "tools/launch/launch_file.hpp"
 
 #include <algorithm>
+#include <cstdint>
 #include <optional>
 #include <set>
+
+#include <arpa/inet.h>
+#include <netinet/in.h>
 
 #include "common/bus/channels.hpp"
 
@@ -17,9 +21,11 @@ RestartPolicy parseRestart(const std::string& text) {
   return RestartPolicy::kOnFailure;
 }
 
-// Marks an optional key as read when it is absent or null, so rejectUnknownKeys accepts `key:`.
+// Marks an optional key read only under a condition as valid, so rejectUnknownKeys accepts
+// `key:` with no value and lists the key among the expected ones.
 void acceptEmpty(const config::Node& n, const std::string& key) {
-  n.acceptEmpty(key);
+  // An absent key is read as absent, which marks it known too.
+  if (!n.acceptEmpty(key) && !n.has(key)) (void)n.getOr<std::string>(key, "");
 }
 
 bool validName(const std::string& name) {
@@ -82,10 +88,20 @@ BackoffParams parseBackoff(const config::Node& n) {
   return b;
 }
 
+CrashLoopParams parseCrashLoop(const config::Node& n) {
+  CrashLoopParams c;
+  c.restarts = n.getOr<int>("restarts", c.restarts, 1, 1000);
+  c.window_s = n.getOr<double>("window_s", c.window_s, 0.1, 86400.0);
+  n.rejectUnknownKeys();
+  return c;
+}
+
 bus::BusAddress parseBus(const config::Node& n) {
   bus::BusAddress a;
   a.group = n.getOr<std::string>("group", a.group);
-  if (a.group.empty()) n.fail("group", "must not be empty");
+  if (const std::string problem = checkMulticastGroup(a.group); !problem.empty()) {
+    n.fail("group", problem);
+  }
   a.base_port = n.getOr<int>("base_port", a.base_port, 1024, 65535 - kMaxRobot);
   a.ttl = n.getOr<int>("ttl", a.ttl, 0, 255);
   a.recv_buf_size = n.getOr<int>("recv_buf_size", a.recv_buf_size, 65536, 1 << 30);
@@ -100,6 +116,7 @@ LaunchDefaults parseDefaults(const config::Node& n) {
   acceptEmpty(n, "restart");
   d.stop_grace_s = n.getOr<double>("stop_grace_s", d.stop_grace_s, 0.0, 600.0);
   if (auto b = n.childIf("backoff")) d.backoff = parseBackoff(*b);
+  if (auto c = n.childIf("crash_loop")) d.crash_loop = parseCrashLoop(*c);
   if (auto b = n.childIf("bus")) d.bus = parseBus(*b);
   n.rejectUnknownKeys();
   return d;
@@ -135,11 +152,25 @@ ProcessEntry parseProcess(const config::Node& n, const LaunchDefaults& defaults)
         std::vector<std::string>(bus::kAllChannelNames.begin(), bus::kAllChannelNames.end()));
   }
   acceptEmpty(n, "main_channel");
+  p.optional = n.getOr<bool>("optional", false);
   n.rejectUnknownKeys();
   return p;
 }
 
 }  // namespace
+
+std::string checkMulticastGroup(const std::string& group) {
+  in_addr address{};
+  if (group.empty()) return "must not be empty";
+  if (::inet_pton(AF_INET, group.c_str(), &address) != 1) {
+    return "'" + group + "' is not an IPv4 address (four numbers 0..255, e.g. 239.255.76.67)";
+  }
+  const std::uint32_t host = ntohl(address.s_addr);
+  if ((host >> 28) != 0xe) {
+    return "'" + group + "' is not a multicast group (224.0.0.0 to 239.255.255.255)";
+  }
+  return "";
+}
 
 std::string toString(RestartPolicy policy) {
   switch (policy) {

@@ -6,6 +6,7 @@
 //     restart: on-failure           # always | on-failure | never
 //     stop_grace_s: 3.0             # SIGTERM, then SIGKILL after this long
 //     backoff: {initial_s: 0.5, max_s: 10.0, stable_s: 60.0}
+//     crash_loop: {restarts: 5, window_s: 30.0}   # this many ends within window_s: failed
 //     bus: {group: 239.255.76.67, base_port: 7667, ttl: 0, recv_buf_size: 4194304}
 //   processes:
 //     - name: camera                # unique, [A-Za-z0-9_-]
@@ -15,6 +16,7 @@
 //       restart: always             # optional, overrides defaults.restart
 //       env: {KEY: value}           # optional extra environment
 //       main_channel: CAMERA_IMAGE  # optional: the channel whose rate the status table shows
+//       optional: true              # optional: skip with a warning when not built (else an error)
 //   robots:                         # optional: a clock per robot (robot_clocks.hpp)
 //     - {id: 1, clock: {offset_s: 0.31, drift_ppm: -22}}
 #pragma once
@@ -47,6 +49,13 @@ struct BackoffParams {
   double stable_s = 60.0;
 };
 
+// A process that ends `restarts` times within `window_s` seconds is crash-looping: it is not
+// restarted again, shows as failed and makes the launcher's exit code non-zero.
+struct CrashLoopParams {
+  int restarts = 5;
+  double window_s = 30.0;
+};
+
 struct LaunchDefaults {
   // Team size: `robots: all` expands to 1..robots (the --robots option overrides it).
   int robots = 6;
@@ -54,6 +63,7 @@ struct LaunchDefaults {
   // Time between SIGTERM and SIGKILL when stopping, s.
   double stop_grace_s = 3.0;
   BackoffParams backoff;
+  CrashLoopParams crash_loop;
   bus::BusAddress bus;
 };
 
@@ -70,6 +80,9 @@ struct ProcessEntry {
   std::map<std::string, std::string> env;
   // Channel whose rate and latency the status table shows; empty: the busiest output.
   std::string main_channel;
+  // `optional: true`: an executable that is not built is skipped with a warning instead of
+  // being an error (a name that is not found is a typo until said otherwise).
+  bool optional = false;
   // Line of the entry in the launch file, for messages.
   int line = 0;
 };
@@ -81,6 +94,10 @@ struct LaunchFile {
   // The optional `robots:` section: each robot's clock (tools/launch/robot_clocks.hpp).
   RobotClocks clocks;
 };
+
+// Checks a multicast group: a dotted IPv4 address in 224.0.0.0/4. Returns "" when valid, else
+// what is wrong ("'239.255.76.999' is not an IPv4 address").
+std::string checkMulticastGroup(const std::string& group);
 
 // Reads a parsed launch file; throws config::Error naming file:line and key on any problem.
 LaunchFile parseLaunchFile(const config::Node& root);

@@ -132,6 +132,7 @@ LaunchPlan planLaunch(const LaunchFile& file, int team_size, const ExecutableLoo
         instance.env.try_emplace(key, value);
       instance.restart = entry.restart;
       instance.main_channel = entry.main_channel;
+      instance.optional = entry.optional;
       instance.bus_url = robot == kSimRobot ? bus::simBusUrl(file.defaults.bus)
                                             : bus::robotBusUrl(robot, file.defaults.bus);
       plan.instances.push_back(std::move(instance));

@@ -30,6 +30,8 @@ struct LaunchInstance {
   std::string main_channel;
   // The bus the process publishes SERVICE_STATUS on.
   std::string bus_url;
+  // Its entry says `optional: true`: skipped with a warning when not built.
+  bool optional = false;
 
   // "r3 camera", "sim world_sim": the prefix of the process's output lines.
   std::string label() const;

@@ -285,6 +285,22 @@ void Supervisor::onEnded(ProcessRecord& record, const ExitStatus& status) {
     return;
   }
   if (!status.success()) record.last_error = what;
+  // Crash loop: this end and the ones before it within the window.
+  record.recent_ends.push_back(now);
+  const auto window = std::chrono::duration_cast<SteadyClock::duration>(
+      std::chrono::duration<double>(options_.crash_loop.window_s));
+  while (!record.recent_ends.empty() && now - record.recent_ends.front() > window)
+    record.recent_ends.pop_front();
+  const bool looping = static_cast<int>(record.recent_ends.size()) >= options_.crash_loop.restarts;
+  if (looping && shouldRestart(record.instance.restart, status)) {
+    record.crash_loop = true;
+    record.state = ProcessState::kFailed;
+    record.last_error = fmt::format("crash loop: ended {} times within {:.0f} s, last: {}",
+                                    record.recent_ends.size(), options_.crash_loop.window_s, what);
+    on_event_(fmt::format("{} FAILED: {}; not restarted again", record.instance.label(),
+                          record.last_error));
+    return;
+  }
   if (shouldRestart(record.instance.restart, status)) {
     const double delay = record.backoff.delayAfterExit(ran_s);
     record.state = ProcessState::kWaiting;

@@ -13,6 +13,7 @@
 #pragma once
 
 #include <chrono>
+#include <deque>
 #include <functional>
 #include <optional>
 #include <string>
@@ -74,6 +75,10 @@ struct ProcessRecord {
   SteadyClock::time_point started{};
   SteadyClock::time_point restart_at{};
   RestartBackoff backoff;
+  // When it ended within the crash-loop window (not counting stops by the supervisor).
+  std::deque<SteadyClock::time_point> recent_ends;
+  // It ended crash_loop.restarts times within crash_loop.window_s and is not restarted again.
+  bool crash_loop = false;
   // Read end of the pipe carrying the process's stdout and stderr; -1 when closed.
   int output_fd = -1;
   // Output received after the last newline.
@@ -84,6 +89,8 @@ struct SupervisorOptions {
   BackoffParams backoff;
   // Time between SIGTERM and SIGKILL when stopping, s.
   double stop_grace_s = 3.0;
+  // When a process counts as crash-looping (then: kFailed, not restarted).
+  CrashLoopParams crash_loop;
 };
 
 class Supervisor {
@@ -113,7 +120,8 @@ class Supervisor {
   bool stopping() const { return stopping_; }
   // Nothing is running and nothing will be restarted.
   bool finished() const;
-  // Some process ended on its own with a failure and was not restarted.
+  // Some process ended on its own with a failure and was not restarted, or crash-looped; stays
+  // true after a stop.
   bool anyFailed() const;
   int runningCount() const;
   const std::vector<ProcessRecord>& processes() const { return records_; }

@@ -24,6 +24,7 @@ int main(int argc, char** argv) {
 
   return bus::runMain("viewer", [&] {
     const field::FieldModel field = field::loadFieldPreset(cli.field);
+    if (cli.common.check_args) return 0;
     SystemClock clock;
     bus::installStopSignals();
     const std::string primary = viewer::viewerPrimaryUrl(cli.viewer);

@@ -22,6 +22,7 @@ int main(int argc, char** argv) {
   FIELDLINE_PARSE(app, argc, argv);
   return bus::runMain("launch_test_node", [&] {
     common.resolve("launch_test_node");
+    if (common.check_args) return 0;
     SystemClock clock;
     bus::Node node({.process = "test_node", .robot_id = common.robot, .url = common.bus_url},
                    clock);

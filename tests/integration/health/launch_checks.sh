@@ -1,0 +1,112 @@
+#!/usr/bin/env bash
+# Issue 13 findings 6, 7 and 8 end to end, inside a private network namespace (every wait
+# bounded):
+#  1. `bus.group: 239.255.76.999` fails --dry-run (exit 2, the key named) instead of every
+#     process exiting 3 at run time;
+#  2. a typo in a child's args (--feild) fails --dry-run: the child was run with --check-args;
+#  3. a typo in `executable:` is an error with the closest built name, not a warning;
+#  4. the shipped launch files pass --dry-run: every fieldline executable they start accepts
+#     --check-args with their arguments;
+#  5. a child that crash-loops (started with --skip-check-args) is FAILED and the launcher exits 1
+#     even though --duration ended the run (it used to exit 0 and restart forever);
+#  6. `fieldline-camera --fps 1000` exits 2, and a camera preset naming a colour table that does
+#     not exist fails its --check-args with exit 2.
+# Usage: launch_checks.sh BUILD/bin SOURCE_ROOT
+set -euo pipefail
+bin=$1
+root=$2
+export FIELDLINE_ROOT="$root"
+
+if [[ -z "${FIELDLINE_HEALTH_NETNS:-}" ]]; then
+  export FIELDLINE_HEALTH_NETNS=1
+  if unshare -n true 2>/dev/null; then
+    exec unshare -n bash "$0" "$@"
+  elif unshare -rn true 2>/dev/null; then
+    exec unshare -rn bash "$0" "$@"
+  fi
+  echo "FAIL: cannot create a network namespace"
+  exit 1
+fi
+ip link set lo up
+ip link set lo multicast on
+ip route add 224.0.0.0/4 dev lo
+
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+log=""
+fail() {
+  echo "FAIL: $*"
+  [[ -n "$log" ]] && { echo "----- $log -----"; cat "$log"; }
+  exit 1
+}
+# expect_rc CODE LOG COMMAND...: runs COMMAND (bounded by timeout) with its output in LOG.
+expect_rc() {
+  local want=$1
+  log=$2
+  shift 2
+  local rc=0
+  timeout 300 "$@" >"$log" 2>&1 || rc=$?
+  [[ $rc -eq $want ]] || fail "exit code $rc, expected $want: $*"
+}
+has() { grep -qE -- "$1" "$log" || fail "no line matching '$1' in $log"; }
+
+team() {  # team FILE EXTRA-DEFAULTS ARGS EXECUTABLE
+  cat >"$1" <<YAML
+defaults:
+  robots: 2
+  restart: always
+  backoff: {initial_s: 0.05, max_s: 0.2, stable_s: 60}
+  crash_loop: {restarts: 4, window_s: 30}
+$2
+processes:
+  - name: node
+    executable: ${4:-fieldline-launch-test-node}
+    robots: all
+    args: $3
+YAML
+}
+
+echo "== 1. a multicast group that is not one fails --dry-run"
+team "$work/group.yaml" "  bus: {group: 239.255.76.999}" "[--tag, x]"
+expect_rc 2 "$work/group.log" "$bin/fieldline-launch" "$work/group.yaml" --dry-run
+has "group.yaml:6: defaults.bus.group: '239\.255\.76\.999' is not an IPv4 address"
+
+echo "== 2. a typo in a child's arguments fails --dry-run"
+team "$work/args.yaml" "" "[--feild, msl]"
+expect_rc 2 "$work/args.log" "$bin/fieldline-launch" "$work/args.yaml" --dry-run
+has "error: r1 node: arguments rejected \(exit code 2\): .*--feild"
+has "error: r2 node: arguments rejected"
+has "2 problem\(s\) in .*args\.yaml: nothing would start"
+echo "   ... and the same file does not start either"
+expect_rc 2 "$work/args_run.log" "$bin/fieldline-launch" "$work/args.yaml" --duration 5 --no-table
+has "nothing started"
+grep -q "started r1 node" "$log" && fail "a child was started"
+
+echo "== 3. a typo in executable: is an error naming the closest built one"
+team "$work/exe.yaml" "" "[]" fieldline-launch-test-nod
+expect_rc 2 "$work/exe.log" "$bin/fieldline-launch" "$work/exe.yaml" --dry-run
+has "exe\.yaml:[0-9]+: process node: executable fieldline-launch-test-nod not found .*\(did you mean fieldline-launch-test-node\?\)"
+
+echo "== 4. the shipped launch files pass --dry-run (every child answers --check-args)"
+expect_rc 0 "$work/sim_team.log" "$bin/fieldline-launch" sim_team --dry-run
+has "fieldline-teamcomm --robot 6 "
+expect_rc 0 "$work/real_robot.log" "$bin/fieldline-launch" "$root/config/launch/real_robot.yaml" --dry-run
+
+echo "== 5. a crash loop is FAILED and makes the exit code 1, also with --duration"
+team "$work/loop.yaml" "" "[--feild, msl]"
+expect_rc 1 "$work/loop.log" "$bin/fieldline-launch" "$work/loop.yaml" --skip-check-args \
+  --duration 60 --no-table --status-period 1
+has "r1 node FAILED: crash loop: ended 4 times within 30 s, last: exit code 2"
+has "final: .*r1 node failed"
+has "done: a process failed"
+
+echo "== 6. exit code 2 for bad arguments; colour table presets checked on read"
+expect_rc 2 "$work/fps.log" "$bin/fieldline-camera" --fps 1000 --check-args
+sed 's/^colour_table: colours_sim$/colour_table: colours_nope/' "$root/config/camera/omni_sim.yaml" \
+  >"$work/nope_camera.yaml"
+grep -q "colours_nope" "$work/nope_camera.yaml" || fail "omni_sim.yaml has no colour_table line"
+expect_rc 2 "$work/nope.log" "$bin/fieldline-camera" --config "$work/nope_camera.yaml" --check-args
+has "colour_table: colour table preset 'colours_nope' does not load"
+expect_rc 0 "$work/ok.log" "$bin/fieldline-camera" --check-args
+
+echo "PASS"

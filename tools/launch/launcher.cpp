@@ -1,0 +1,389 @@
+#include "tools/launch/launcher.hpp"
+
+#include <algorithm>
+#include <atomic>
+#include <csignal>
+#include <cstdio>
+#include <map>
+#include <memory>
+#include <set>
+#include <string>
+#include <vector>
+
+#include <sys/ioctl.h>
+#include <unistd.h>
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include "common/bus/node.hpp"
+#include "common/config/config.hpp"
+#include "tools/launch/preflight.hpp"
+#include "tools/launch/status_board.hpp"
+#include "tools/launch/supervisor.hpp"
+
+namespace fieldline::launch {
+namespace {
+
+constexpr const char* kFormatHelp = R"(
+LAUNCH FILE (YAML; a preset name like `sim_team` means config/launch/sim_team.yaml)
+
+  defaults:                      # optional, every key optional
+    robots: 6                    # team size: `robots: all` means 1..6 (--robots overrides)
+    restart: on-failure          # always | on-failure | never
+    stop_grace_s: 3.0            # SIGTERM, then SIGKILL after this many seconds
+    backoff: {initial_s: 0.5, max_s: 10.0, stable_s: 60.0}
+    crash_loop: {restarts: 5, window_s: 30.0}   # ends within window_s: failed, not restarted
+    bus: {group: 239.255.76.67, base_port: 7667, ttl: 0, recv_buf_size: 4194304}
+  processes:
+    - name: world_sim            # unique; letters, digits, _ and -
+      executable: fieldline-world-sim
+      robots: sim                # sim (= 0, one team-wide process) | all | N | [1, 3]
+      restart: always
+    - name: camera
+      executable: fieldline-camera   # looked up next to fieldline-launch, then in PATH
+      robots: all
+      args: [--source, sim, --config, camera_r{robot}]   # {robot} -> robot number
+      env: {OMP_NUM_THREADS: "1"}
+      main_channel: CAMERA_IMAGE # channel shown in the status table (default: busiest output)
+      optional: true             # skip with a warning when not built (default: an error)
+
+Every process gets `--robot N --bus-url URL --sim-bus-url URL` before its args: robot N's bus is
+udpm://GROUP:<base_port+N>, the simulator's udpm://GROUP:<base_port>. Output lines are prefixed
+`[rN name]` (`[sim name]`).
+
+CHECKS (before anything starts, and all that --dry-run does): the multicast group and ports; every
+executable exists (a name not found is an error with the closest built name, unless the entry says
+`optional: true`); every child accepts its command line, run once with --check-args (parses its
+arguments and configuration, exits 0 or 2, starts nothing). Any problem: exit code 2.
+
+A crashed process is restarted after 0.5 s, 1 s, 2 s ... up to 10 s; a run longer than
+stable_s resets the delay. A process that ends crash_loop.restarts times within window_s is
+crash-looping: not restarted again, `failed` in the table, and the launcher's exit code is 1 (also
+after --duration or Ctrl-C). Ctrl-C or SIGTERM stops everything (a second Ctrl-C kills at once).
+
+STATUS TABLE (from SERVICE_STATUS on every bus): robot, process, state (ok/warn/error as the
+process reports; starting, stale, waiting for restart, failed, missing...), main output channel
+with its rate, latency p50/p95 (utime_published - utime), processing p95, input drops, errors,
+restarts, last error. Redrawn every second on a terminal; otherwise (or with --no-table) a
+compact status line every --status-period seconds.
+
+EXAMPLES
+  fieldline-launch                          # the simulated team, config/launch/sim_team.yaml
+  fieldline-launch sim_team --robots 2 --duration 10 --no-table
+  fieldline-launch config/launch/real_robot.yaml --dry-run
+)";
+
+std::atomic<int> g_stop_signals{0};
+
+void onLauncherStopSignal(int) {
+  g_stop_signals.fetch_add(1);
+}
+
+void installSignals() {
+  struct sigaction sa {};
+  sa.sa_handler = onLauncherStopSignal;
+  sigemptyset(&sa.sa_mask);
+  // No SA_RESTART: poll() returns at once so the stop begins without delay.
+  sigaction(SIGINT, &sa, nullptr);
+  sigaction(SIGTERM, &sa, nullptr);
+  sigaction(SIGHUP, &sa, nullptr);
+  // Writing to a closed pipe (launcher | head) must not kill the launcher before it stops
+  // its children.
+  std::signal(SIGPIPE, SIG_IGN);
+}
+
+int terminalWidth() {
+  winsize ws{};
+  if (::ioctl(STDOUT_FILENO, TIOCGWINSZ, &ws) == 0 && ws.ws_col > 0) return ws.ws_col;
+  return 120;
+}
+
+int terminalHeight() {
+  winsize ws{};
+  if (::ioctl(STDOUT_FILENO, TIOCGWINSZ, &ws) == 0 && ws.ws_row > 0) return ws.ws_row;
+  return 40;
+}
+
+// Everything the launcher prints goes through here, so the live table stays below the log.
+class Console {
+ public:
+  explicit Console(bool live_table) : live_table_(live_table) {}
+
+  void line(const std::string& text) { pending_.push_back(text); }
+
+  // Prints pending lines; in table mode erases the table first and draws `table` after them.
+  void flush(const std::vector<std::string>* table) {
+    if (pending_.empty() && table == nullptr) return;
+    std::string out;
+    if (live_table_ && drawn_lines_ > 0) {
+      // Back to the table's first line, then erase to the end of the screen.
+      out += fmt::format("\x1b[{}F\x1b[J", drawn_lines_);
+      drawn_lines_ = 0;
+    }
+    for (const std::string& l : pending_) {
+      out += l;
+      out += '\n';
+    }
+    pending_.clear();
+    if (live_table_) {
+      if (table != nullptr) last_table_ = *table;
+      for (const std::string& l : last_table_) {
+        out += l;
+        out += '\n';
+      }
+      drawn_lines_ = static_cast<int>(last_table_.size());
+    }
+    std::fwrite(out.data(), 1, out.size(), stdout);
+    std::fflush(stdout);
+  }
+
+  bool hasPending() const { return !pending_.empty(); }
+
+ private:
+  bool live_table_;
+  std::vector<std::string> pending_;
+  std::vector<std::string> last_table_;
+  int drawn_lines_ = 0;
+};
+
+// Table lines fitted to the terminal: rows that do not fit are summarised in one line.
+std::vector<std::string> fittedTable(const std::vector<StatusRow>& rows) {
+  std::vector<std::string> lines = renderTable(rows, terminalWidth() - 1, true);
+  const std::size_t max_lines = static_cast<std::size_t>(std::max(4, terminalHeight() / 2));
+  if (lines.size() > max_lines) {
+    const std::size_t hidden = lines.size() - (max_lines - 1);
+    lines.resize(max_lines - 1);
+    lines.push_back(fmt::format("... {} more processes (enlarge the terminal)", hidden));
+  }
+  return lines;
+}
+
+// Warns once per executable that is not built, naming the robots it was meant for.
+void warnMissing(const std::vector<LaunchInstance>& instances, const std::string& bin_dir,
+                 Console& console) {
+  std::map<std::string, std::vector<std::string>> missing;
+  for (const LaunchInstance& i : instances) {
+    if (i.path.empty()) missing[i.executable].push_back(i.label());
+  }
+  for (const auto& [executable, labels] : missing) {
+    std::string who;
+    for (const std::string& l : labels)
+      who += (who.empty() ? "" : ", ") + l;
+    console.line(
+        fmt::format("[launch] warning: {} is not built (looked in {} and PATH): skipping {}",
+                    executable, bin_dir, who));
+  }
+}
+
+// The status feed: a node listening to SERVICE_STATUS on every bus the team uses.
+std::unique_ptr<bus::Node> openStatusFeed(const std::vector<LaunchInstance>& instances,
+                                          const Clock& clock, StatusBoard& board,
+                                          Console& console) {
+  std::map<int, std::string> buses;
+  for (const LaunchInstance& i : instances) {
+    if (!i.path.empty()) buses.emplace(i.robot, i.bus_url);
+  }
+  if (buses.empty()) return nullptr;
+  try {
+    auto node = std::make_unique<bus::Node>(bus::NodeOptions{.process = "launch",
+                                                             .robot_id = 0,
+                                                             .url = buses.begin()->second,
+                                                             .status_period_us = 0},
+                                            clock);
+    for (const auto& [robot, url] : buses) {
+      const bus::BusId id = url == buses.begin()->second ? bus::kPrimaryBus : node->addBus(url);
+      node->subscribe(
+          bus::channels::kServiceStatus,
+          [&board, robot = robot](const service_status_t& s) {
+            board.onStatus(robot, s, SteadyClock::now());
+          },
+          id);
+    }
+    return node;
+  } catch (const bus::BusError& e) {
+    console.line(fmt::format("[launch] warning: no status table: {}", e.what()));
+    return nullptr;
+  }
+}
+
+}  // namespace
+
+const char* launchFileHelp() {
+  return kFormatHelp;
+}
+
+Launcher::Launcher(LauncherOptions options) : options_(std::move(options)) {}
+
+void Launcher::addPlanHook(PlanHook hook) {
+  hooks_.push_back(std::move(hook));
+}
+
+void Launcher::plan() {
+  path_ = config::resolvePreset("launch", options_.launch_file);
+  file_ = loadLaunchFile(path_);
+  team_size_ = options_.robots.value_or(file_.defaults.robots);
+  bin_dir_ = selfDirectory();
+  const char* search_path = std::getenv("PATH");
+  plan_ = planLaunch(file_, team_size_, [&](const std::string& executable) {
+    return findExecutable(executable, bin_dir_, search_path);
+  });
+  for (const PlanHook& hook : hooks_)
+    hook(file_, plan_);
+}
+
+std::vector<std::string> Launcher::preflight() const {
+  std::vector<std::string> problems = checkExecutables(file_, plan_, bin_dir_);
+  if (options_.dry_run) {
+    // Every instance: arguments can differ per robot ({robot} in a preset name).
+    for (std::string& p : checkArguments(plan_.instances))
+      problems.push_back(std::move(p));
+  } else if (options_.check_args) {
+    // Before a start, one instance per entry (its first robot) catches a typo in the entry's
+    // arguments without delaying the team by a check of every robot.
+    std::vector<LaunchInstance> firsts;
+    std::set<std::string> seen;
+    for (const LaunchInstance& i : plan_.instances) {
+      if (seen.insert(i.name).second) firsts.push_back(i);
+    }
+    for (std::string& p : checkArguments(firsts))
+      problems.push_back(std::move(p));
+  }
+  return problems;
+}
+
+int Launcher::printDryRun(const std::vector<std::string>& problems) const {
+  for (const std::string& note : plan_.notes)
+    std::printf("# %s\n", note.c_str());
+  for (const LaunchInstance& i : plan_.instances) {
+    std::string env;
+    for (const auto& [k, v] : i.env)
+      env += commandText({k + "=" + v}) + " ";
+    // Skipped instances are shown commented out, so the output stays a runnable script.
+    std::printf("# [%s] restart %s%s\n%s%s\n", i.label().c_str(), toString(i.restart).c_str(),
+                i.path.empty() ? ", NOT BUILT: skipped" : "", i.path.empty() ? "# " : "",
+                (env + commandText(i.argv)).c_str());
+  }
+  std::fflush(stdout);
+  for (const std::string& p : problems)
+    std::fprintf(stderr, "fieldline-launch: error: %s\n", p.c_str());
+  if (!problems.empty()) {
+    std::fprintf(stderr, "fieldline-launch: %zu problem(s) in %s: nothing would start\n",
+                 problems.size(), path_.c_str());
+    return kExitBadLaunch;
+  }
+  return 0;
+}
+
+int Launcher::run() {
+  plan();
+  const std::vector<std::string> problems = preflight();
+  if (options_.dry_run) return printDryRun(problems);
+  if (!problems.empty()) {
+    for (const std::string& p : problems)
+      std::fprintf(stderr, "[launch] error: %s\n", p.c_str());
+    std::fprintf(stderr, "[launch] %zu problem(s) in %s: nothing started (see --dry-run)\n",
+                 problems.size(), path_.c_str());
+    return kExitBadLaunch;
+  }
+  return supervise();
+}
+
+int Launcher::supervise() {
+  const bool live_table = !options_.no_table && ::isatty(STDOUT_FILENO) != 0 &&
+                          std::string(std::getenv("TERM") ? std::getenv("TERM") : "") != "dumb";
+  Console console(live_table);
+  console.line(fmt::format("[launch] {}: {} processes for {} robots", path_, plan_.instances.size(),
+                           team_size_));
+  for (const std::string& note : plan_.notes)
+    console.line("[launch] " + note);
+  warnMissing(plan_.instances, bin_dir_, console);
+  const bool runnable = std::any_of(plan_.instances.begin(), plan_.instances.end(),
+                                    [](const LaunchInstance& i) { return !i.path.empty(); });
+  if (!runnable) {
+    console.line("[launch] warning: nothing to run: none of the listed executables is built");
+    console.flush(nullptr);
+    return 0;
+  }
+
+  installSignals();
+  // The bus layer logs through spdlog; keep its lines in the launcher's format.
+  spdlog::set_pattern("[launch] %l: %v");
+  spdlog::set_level(spdlog::level::warn);
+  SystemClock clock;
+  StatusBoard board;
+  std::unique_ptr<bus::Node> feed = openStatusFeed(plan_.instances, clock, board, console);
+
+  const bool colour = live_table;
+  Supervisor supervisor(
+      plan_.instances,
+      SupervisorOptions{.backoff = file_.defaults.backoff,
+                        .stop_grace_s = file_.defaults.stop_grace_s,
+                        .crash_loop = file_.defaults.crash_loop},
+      [&](const ProcessRecord& r, std::string_view text) {
+        const std::string prefix = "[" + r.instance.label() + "]";
+        console.line(colour ? fmt::format("\x1b[36m{}\x1b[0m {}", prefix, text)
+                            : fmt::format("{} {}", prefix, text));
+      },
+      [&](const std::string& event) { console.line("[launch] " + event); });
+  supervisor.startAll();
+
+  const auto started = SteadyClock::now();
+  auto next_report = started;
+  int signals_handled = 0;
+  while (!supervisor.finished()) {
+    const int signals = g_stop_signals.load();
+    if (signals > signals_handled) {
+      signals_handled = signals;
+      if (!supervisor.stopping()) {
+        console.line("[launch] stopping: SIGTERM to every process (Ctrl-C again to kill)");
+        supervisor.requestStop();
+      } else {
+        console.line("[launch] killing every process");
+        supervisor.killAll();
+      }
+    }
+    const auto now = SteadyClock::now();
+    if (options_.duration_s > 0 && !supervisor.stopping() &&
+        now - started >= std::chrono::duration<double>(options_.duration_s)) {
+      console.line(fmt::format("[launch] {:.1f} s are over: stopping", options_.duration_s));
+      supervisor.requestStop();
+    }
+    supervisor.poll(50);
+    if (feed) feed->spinOnce(0);
+
+    // The live table is redrawn every second, and with fresh contents whenever log lines push
+    // it down anyway.
+    if (SteadyClock::now() >= next_report || (live_table && console.hasPending())) {
+      const auto rows = board.rows(supervisor.processes(), supervisor.stopping(), now);
+      if (live_table) {
+        const auto table = fittedTable(rows);
+        console.flush(&table);
+        if (SteadyClock::now() >= next_report) next_report = now + std::chrono::seconds(1);
+      } else {
+        console.line("[launch] status: " + renderCompact(rows));
+        next_report =
+            now + std::chrono::duration_cast<SteadyClock::duration>(
+                      std::chrono::duration<double>(std::max(0.2, options_.status_period_s)));
+      }
+    }
+    console.flush(nullptr);
+  }
+  const auto rows = board.rows(supervisor.processes(), false, SteadyClock::now());
+  // A crash loop or a failure that was not restarted is a failed run, also when the run was
+  // ended by --duration or a signal.
+  const bool failed = supervisor.anyFailed();
+  if (live_table) {
+    console.line(failed ? "[launch] done: a process failed" : "[launch] done");
+    // The final table stays on screen, below the last log line.
+    const auto table = fittedTable(rows);
+    console.flush(&table);
+  } else {
+    console.line("[launch] final: " + renderCompact(rows));
+    console.line(failed ? "[launch] done: a process failed" : "[launch] done");
+    console.flush(nullptr);
+  }
+  return failed ? kExitProcessFailed : 0;
+}
+
+}  // namespace fieldline::launch
