@@ -67,24 +67,24 @@ class HealthWorldNode : public ::testing::Test {
     std::unique_ptr<WorldSimNode> sim;
   };
   void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("fieldline-health-world-" + std::to_string(::getpid()));
-    fs::create_directories(dir_);
+    tmp_dir = fs::temp_directory_path() / ("fieldline-health-world-" + std::to_string(::getpid()));
+    fs::create_directories(tmp_dir);
   }
-  void TearDown() override { fs::remove_all(dir_); }
+  void TearDown() override { fs::remove_all(tmp_dir); }
 
   Sim start(const std::string& pty, WorldSimNodeOptions options = {}) {
-    options.pty_dir = (dir_ / pty).string();
+    options.pty_dir = (tmp_dir / pty).string();
     options.state_file = state();
     Sim s;
     s.node = std::make_unique<bus::Node>(
-        bus::NodeOptions{.process = "world_sim", .robot_id = 0, .status_period_us = 0}, clock_,
-        memq_);
-    s.sim = std::make_unique<WorldSimNode>(*s.node, scenario_, options);
+        bus::NodeOptions{.process = "world_sim", .robot_id = 0, .status_period_us = 0}, sim_clock,
+        memq);
+    s.sim = std::make_unique<WorldSimNode>(*s.node, world_scenario, options);
     return s;
   }
   void run(Sim& s, double seconds) {
     for (int i = 0; i < static_cast<int>(seconds * 200 + 0.5); ++i) {
-      clock_.advance(5'000);
+      sim_clock.advance(5'000);
       s.node->spinOnce(0);
     }
   }
@@ -96,12 +96,12 @@ class HealthWorldNode : public ::testing::Test {
     EXPECT_FALSE(fs::exists(state())) << "a clean end keeps the state file";
     fs::rename(state() + ".kept", state());
   }
-  std::string state() const { return (dir_ / "world_sim.state").string(); }
+  std::string state() const { return (tmp_dir / "world_sim.state").string(); }
 
-  fs::path dir_;
-  scenario::Scenario scenario_ = scenario::loadScenarioPreset("default");
-  SimulatedClock clock_{1'800'000'000'000'000};
-  std::shared_ptr<bus::Connection> memq_ = bus::Connection::open("memq://");
+  fs::path tmp_dir;
+  scenario::Scenario world_scenario = scenario::loadScenarioPreset("default");
+  SimulatedClock sim_clock{1'800'000'000'000'000};
+  std::shared_ptr<bus::Connection> memq = bus::Connection::open("memq://");
 };
 
 TEST_F(HealthWorldNode, ARestartAfterACrashContinuesTheWorld) {
@@ -112,7 +112,7 @@ TEST_F(HealthWorldNode, ARestartAfterACrashContinuesTheWorld) {
   const double t = first.sim->world().time();
   crash(first);
 
-  clock_.advance(300'000);  // the launcher's restart
+  sim_clock.advance(300'000);  // the launcher's restart
   Sim second = start("b");
   EXPECT_TRUE(second.sim->resumed());
   EXPECT_NEAR(second.sim->world().time(), t, 1e-9);  // before: 0
@@ -126,7 +126,7 @@ TEST_F(HealthWorldNode, OldForeignOrUnwantedSnapshotsStartAfresh) {
   Sim first = start("a");
   run(first, 1.0);
   crash(first);
-  clock_.advance(6'000'000);  // longer than resume_within_s (5 s)
+  sim_clock.advance(6'000'000);  // longer than resume_within_s (5 s)
   Sim late = start("b");
   EXPECT_FALSE(late.sim->resumed());
   EXPECT_DOUBLE_EQ(late.sim->world().time(), 0.0);
@@ -136,7 +136,7 @@ TEST_F(HealthWorldNode, OldForeignOrUnwantedSnapshotsStartAfresh) {
   EXPECT_FALSE(fresh.sim->resumed());
   crash(fresh);
 
-  scenario_.name = "renamed";
+  world_scenario.name = "renamed";
   Sim other = start("d");
   EXPECT_FALSE(other.sim->resumed());
 }
