@@ -135,19 +135,32 @@ void Localizer::trackLines(std::span<const perception::LinePoint> points, Utime 
   bool good = false;
   if (c.valid && c.cost <= params_.accept_cost_m) {
     PoseMeasurement z{utime, c.pose, correctionCovariance(c)};
-    z.may_reveal_slip = true;
+    const Eigen::Vector3d offset(c.pose.x - guess->pose().x, c.pose.y - guess->pose().y,
+                                 geometry::normalizeAngle(c.pose.phi - guess->pose().phi));
+    z.may_reveal_slip =
+        gated_offset_ &&
+        (offset.head<2>() - gated_offset_->head<2>()).norm() <= params_.slip_confirm_m &&
+        std::abs(geometry::normalizeAngle(offset[2] - (*gated_offset_)[2])) <=
+            params_.slip_confirm_rad;
     const auto r = filter_.addPose(MeasurementSource::kLines, z, now);
     if (r.rejection == Rejection::kNone) {
       ++counters_.corrections;
       if (r.update.slip) ++counters_.slips;
       good = true;
       gated_in_row_ = 0;
+      gated_offset_.reset();
     } else {
       count(std::string("lines_") + toString(r.rejection));
+      if (r.rejection == Rejection::kGated) {
+        gated_offset_ = offset;
+      } else {
+        gated_offset_.reset();
+      }
       // Frames that match the field well but disagree with an overconfident filter (a slip the
       // odometry did not see): after a few in a row, the frames are right.
       if (r.rejection == Rejection::kGated && ++gated_in_row_ >= params_.gated_frames_reset) {
         gated_in_row_ = 0;
+        gated_offset_.reset();
         ++counters_.resets;
         EkfState s = *guess;
         s.utime = utime;
@@ -162,6 +175,7 @@ void Localizer::trackLines(std::span<const perception::LinePoint> points, Utime 
     }
   } else {
     count(c.valid ? "lines_poor_match" : "lines_too_few_points");
+    gated_offset_.reset();
   }
   // Only frames with enough points can contradict: an empty view says nothing. A frame with
   // plenty of points that gives no valid correction from the estimate (too few of them near any

@@ -56,6 +56,11 @@ struct LocalizerParams {
   // Well-matching frames refused by the filter's gate in a row before the filter is reset to
   // the frame's correction.
   int gated_frames_reset = 3;
+  // A gated frame is taken as a slip (SlipModel) only when the frame before it was gated with
+  // the same disagreement, within these: one frame alone may be an aliased match along a line
+  // (the kill drill saw a single 25 cm one applied), two that agree are the robot's motion. m, rad.
+  double slip_confirm_m = 0.10;
+  double slip_confirm_rad = 0.10;
   // Frames a hypothesis must have been tested on before committing to it.
   int commit_frames = 2;
   // The best hypothesis must beat every other (but its twin) by this mean cost, m.
@@ -193,6 +198,9 @@ class Localizer {
   int bad_frames_ = 0;
   int contradictions_ = 0;
   int gated_in_row_ = 0;
+  // Disagreement (frame correction - estimate) of the previous line frame when the gate refused
+  // it; empty after an accepted or unmatched frame.
+  std::optional<Eigen::Vector3d> gated_offset_;
   double last_cost_ = -1.0;
   Utime last_lines_arrival_ = 0;
   LocalizerCounters counters_;
