@@ -137,11 +137,12 @@ void Localizer::trackLines(std::span<const perception::LinePoint> points, Utime 
     PoseMeasurement z{utime, c.pose, correctionCovariance(c)};
     const Eigen::Vector3d offset(c.pose.x - guess->pose().x, c.pose.y - guess->pose().y,
                                  geometry::normalizeAngle(c.pose.phi - guess->pose().phi));
-    z.may_reveal_slip =
+    const bool confirmed =
         gated_offset_ &&
         (offset.head<2>() - gated_offset_->head<2>()).norm() <= params_.slip_confirm_m &&
         std::abs(geometry::normalizeAngle(offset[2] - (*gated_offset_)[2])) <=
             params_.slip_confirm_rad;
+    z.may_reveal_slip = confirmed || std::abs(offset[2]) >= params_.slip_single_frame_rad;
     const auto r = filter_.addPose(MeasurementSource::kLines, z, now);
     if (r.rejection == Rejection::kNone) {
       ++counters_.corrections;

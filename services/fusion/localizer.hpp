@@ -56,11 +56,15 @@ struct LocalizerParams {
   // Well-matching frames refused by the filter's gate in a row before the filter is reset to
   // the frame's correction.
   int gated_frames_reset = 3;
-  // A gated frame is taken as a slip (SlipModel) only when the frame before it was gated with
-  // the same disagreement, within these: one frame alone may be an aliased match along a line
-  // (the kill drill saw a single 25 cm one applied), two that agree are the robot's motion. m, rad.
-  double slip_confirm_m = 0.10;
-  double slip_confirm_rad = 0.10;
+  // A gated frame is taken as a slip (SlipModel) only when the frame before it was gated too,
+  // with a disagreement within these of its own: one frame alone may be an aliased match along a
+  // line (the kill drill saw a single 25 cm one applied). A collision keeps twisting the robot
+  // between frames (up to 0.5 rad per frame), so the default tolerance is wide. m, rad.
+  double slip_confirm_m = 1.0;
+  double slip_confirm_rad = 1.2;
+  // A single gated frame is taken as a slip at once when its heading disagrees by at least this:
+  // collisions twist the robot (up to 2 rad in 0.4 s), aliased matches along a line shift it. rad.
+  double slip_single_frame_rad = 0.15;
   // Frames a hypothesis must have been tested on before committing to it.
   int commit_frames = 2;
   // The best hypothesis must beat every other (but its twin) by this mean cost, m.
