@@ -21,9 +21,9 @@ namespace {
 
 std::unique_ptr<camera::SimRenderer> makeRenderer(const std::string& preset, int blur_samples) {
   camera::CameraConfig config = camera::loadCameraConfigPreset(preset);
-  config.render.motion_blur_samples = blur_samples;
+  config.render->motion_blur_samples = blur_samples;
   const fieldline::field::FieldModel field = fieldline::field::loadFieldPreset("msl");
-  return std::make_unique<camera::SimRenderer>(config.model.mirror, field, config.render);
+  return std::make_unique<camera::SimRenderer>(config.model.mirror, field, *config.render);
 }
 
 // A robot driving a circle through the penalty area; frames differ in pose and noise.

@@ -192,6 +192,9 @@ MirrorModel::MirrorModel(MirrorParams params)
   if (!positiveFinite(p.reference_height)) {
     throw std::invalid_argument("mirror: reference_height must be > 0");
   }
+  if (!p.axis_offset.allFinite() || p.axis_offset.norm() > 1.0) {
+    throw std::invalid_argument("mirror: axis_offset must be finite and within 1 m");
+  }
   if (p.distance.maxRadius() < p.useful_radius) {
     throw std::invalid_argument("mirror: the distance function ends before useful_radius");
   }
@@ -230,6 +233,17 @@ std::vector<std::uint8_t> MirrorModel::dontTouchMask() const {
 }
 
 std::optional<Vec2> MirrorModel::imageToRobot(const Vec2& pixel) const {
+  const std::optional<Vec2> in_axis = imageToAxis(pixel);
+  if (!in_axis) return std::nullopt;
+  return axisToRobot(*in_axis);
+}
+
+std::optional<Vec2> MirrorModel::robotToImage(const Vec2& floor_point) const {
+  if (!floor_point.allFinite()) return std::nullopt;
+  return axisToImage(robotToAxis(floor_point));
+}
+
+std::optional<Vec2> MirrorModel::imageToAxis(const Vec2& pixel) const {
   if (!pixel.allFinite()) return std::nullopt;
   const double r = radiusOf(pixel);
   if (r < params_.self_radius || r > params_.outer_radius) return std::nullopt;
@@ -239,7 +253,7 @@ std::optional<Vec2> MirrorModel::imageToRobot(const Vec2& pixel) const {
   return Vec2(d * std::cos(bearing), d * std::sin(bearing));
 }
 
-std::optional<Vec2> MirrorModel::robotToImage(const Vec2& floor_point) const {
+std::optional<Vec2> MirrorModel::axisToImage(const Vec2& floor_point) const {
   if (!floor_point.allFinite()) return std::nullopt;
   const double bearing = std::atan2(floor_point.y(), floor_point.x());
   const double r = params_.distance.imageRadius(floor_point.norm(), bearing);
@@ -252,14 +266,15 @@ std::optional<Vec2> MirrorModel::robotToImage(const Vec2& floor_point) const {
 std::optional<Vec2> MirrorModel::robotPointToImage(const Vec3& point) const {
   if (!point.allFinite() || point.z() >= params_.reference_height) return std::nullopt;
   const double scale = params_.reference_height / (params_.reference_height - point.z());
-  return robotToImage(point.head<2>() * scale);
+  return axisToImage(robotToAxis(point.head<2>()) * scale);
 }
 
 std::optional<Vec3> MirrorModel::imageToRobotAtHeight(const Vec2& pixel, double height) const {
   if (!std::isfinite(height) || height >= params_.reference_height) return std::nullopt;
-  const std::optional<Vec2> floor = imageToRobot(pixel);
+  const std::optional<Vec2> floor = imageToAxis(pixel);
   if (!floor) return std::nullopt;
-  const Vec2 xy = *floor * ((params_.reference_height - height) / params_.reference_height);
+  const Vec2 xy =
+      axisToRobot(*floor * ((params_.reference_height - height) / params_.reference_height));
   return Vec3(xy.x(), xy.y(), height);
 }
 
@@ -356,6 +371,10 @@ CameraModel loadCameraModel(const config::Node& root) {
   p.useful_radius = m.get<double>("useful_radius", 1.0, diagonal);
   p.self_radius = m.get<double>("self_radius", 0.0, diagonal);
   p.reference_height = m.get<double>("reference_height", 0.05, 5.0);
+  if (m.has("axis_offset")) {
+    const std::vector<double> offset = m.getList<double>("axis_offset", 2);
+    p.axis_offset = Vec2(offset[0], offset[1]);
+  }
   p.distance = loadDistanceFunction(m.child("distance_function"));
   m.rejectUnknownKeys();
 

@@ -6,8 +6,14 @@
 // Frames (docs/camera.md has a figure):
 //   image:  column u to the right, row v down, origin at the top-left pixel, integer
 //           coordinates at pixel centres.
-//   robot:  origin on the floor under the mirror centre, x forward (heading), y left, metres.
-//   bearing of a robot point: atan2(y, x), counter-clockwise from the heading.
+//   robot:  origin on the floor under the robot's centre, x forward (heading), y left, metres.
+//   axis:   the robot frame moved to the floor point under the mirror axis (same orientation).
+//           On a real robot the mirror axis is 3-12 cm away from the robot's centre:
+//           MirrorParams::axis_offset is where the axis stands in the robot frame (default 0, then
+//           the two frames coincide). The mirror sees the floor from its axis, so image radius and
+//           image angle belong to the axis frame; every robot-frame mapping below adds or removes
+//           the offset.
+//   bearing of an axis-frame point: atan2(y, x), counter-clockwise from the heading.
 // A pixel at offset (du, dv) = pixel - C has image radius r = |(du, dv)| and image angle
 // a = atan2(dv, du) (from +u toward +v). The robot's heading appears at a = heading_angle (the
 // camera is mounted so that the image diagonal points forward); the convex mirror reverses the
@@ -125,6 +131,9 @@ struct MirrorParams {
   double self_radius = 14.0;
   // Height of the reference point R for 3-D points (seed 4.9.5), m.
   double reference_height = 0.6;
+  // Where the mirror axis meets the floor, in the robot frame (m): the offset between the mirror
+  // axis and the robot's centre. Zero puts the axis at the robot's centre.
+  Vec2 axis_offset{0.0, 0.0};
   DistanceFunction distance{LinearExponentialParams{}};
 };
 
@@ -151,11 +160,19 @@ class MirrorModel {
   int width() const { return params_.width; }
   int height() const { return params_.height; }
 
-  // Image radius and robot bearing of a pixel.
+  // Image radius and bearing around the mirror axis (axis frame) of a pixel.
   double radiusOf(const Vec2& pixel) const { return (pixel - params_.centre).norm(); }
   double bearingOf(const Vec2& pixel) const;
-  // Image direction (unit vector, px) in which robot bearing `bearing` appears.
+  // Image direction (unit vector, px) in which axis-frame bearing `bearing` appears.
   Vec2 imageDirection(double bearing) const;
+
+  // Axis frame <-> robot frame (a shift by axis_offset).
+  Vec2 axisToRobot(const Vec2& in_axis) const { return in_axis + params_.axis_offset; }
+  Vec2 robotToAxis(const Vec2& in_robot) const { return in_robot - params_.axis_offset; }
+  // The floor point (axis frame, m) seen at `pixel`, and back; same rules as imageToRobot and
+  // robotToImage.
+  std::optional<Vec2> imageToAxis(const Vec2& pixel) const;
+  std::optional<Vec2> axisToImage(const Vec2& floor_point_in_axis) const;
 
   MirrorZone zone(const Vec2& pixel) const;
   // True for pixels the vision must not use (the seed's "don't touch" mask): the robot's own
@@ -172,7 +189,8 @@ class MirrorModel {
   // (radius < self_radius).
   std::optional<Vec2> robotToImage(const Vec2& floor_point) const;
   // A 3-D point (robot frame, z up from the floor, m) to its pixel; nullopt also for points at or
-  // above the reference height (their ray never meets the floor).
+  // above the reference height (their ray never meets the floor). The ray runs from R on the
+  // mirror axis, so the point is projected about the axis, not the robot's centre.
   std::optional<Vec2> robotPointToImage(const Vec3& point) const;
   // The point at height `height` (m, below the reference height) seen at `pixel`: e.g. the ball's
   // centre, 0.11 m up.

@@ -116,6 +116,8 @@ int runCamera(const CameraAppOptions& options, const bus::CommonOptions& common)
   CameraConfig config = loadCameraConfigPreset(options.preset);
   if (options.latency >= 0.0) config.pipeline.latency = options.latency;
   if (options.fps > 0.0) config.pipeline.frame_rate = options.fps;
+  // Fail at start, not when the first world state arrives.
+  if (options.source == "sim") (void)renderParamsOf(config, "the simulated camera (--source sim)");
   if (options.source != "sim" && options.input.empty()) {
     throw config::Error("--source " + options.source + " needs --input");
   }

@@ -107,7 +107,8 @@ SimCameraNode::SimCameraNode(bus::Node& node, bus::BusId sim_bus, CameraConfig c
 
 void SimCameraNode::makeRenderer(const std::string& field_name) {
   renderer_ = std::make_unique<SimRenderer>(
-      config_.model.mirror, field::loadFieldPreset(field_name), config_.render, raster_cache_dir_);
+      config_.model.mirror, field::loadFieldPreset(field_name),
+      renderParamsOf(config_, "the simulated camera (--source sim)"), raster_cache_dir_);
   switch (renderer_->rasterSource()) {
     case RasterSource::kLoadedFromCache:
       spdlog::info("floor raster of '{}' read from the cache in {}", field_name, raster_cache_dir_);

@@ -271,7 +271,8 @@ void SimRenderer::buildPixelTable() {
         static_layer_[i] = yuvFromBgr(rim ? scaleBgr(params_.self, 2.5) : params_.self);
         continue;
       }
-      const std::optional<Vec2> floor = mirror_.imageToRobot(px);
+      // Floor points in the axis frame: the scene is drawn from the mirror axis' pose.
+      const std::optional<Vec2> floor = mirror_.imageToAxis(px);
       if (!floor) continue;
       floor_x_[i] = static_cast<float>(floor->x());
       floor_y_[i] = static_cast<float>(floor->y());
@@ -504,7 +505,11 @@ void SimRenderer::renderBox(const geometry::Pose2& pose, const Box& box) {
   }
 }
 
-void SimRenderer::renderOnce(const geometry::Pose2& pose, const SimScene& scene) {
+void SimRenderer::renderOnce(const geometry::Pose2& robot_pose, const SimScene& scene) {
+  // The mirror sees from its axis: every ray below starts there, not at the robot's centre.
+  const Vec2 offset = mirror_.params().axis_offset;
+  const geometry::Pose2 pose =
+      geometry::poseRobotToField(robot_pose, geometry::Pose2{offset.x(), offset.y(), 0.0});
   std::copy(static_layer_.begin(), static_layer_.end(), frame_.begin());
   renderFloor(pose);
 

@@ -180,7 +180,9 @@ class SimRenderer {
   // In floor_raster_cache.cpp: the cached raster, or buildFloorRaster and write the cache.
   void loadOrBuildFloorRaster(const field::FieldModel& field, const std::string& cache_dir);
   void buildGoals(const field::FieldModel& field);
-  void renderOnce(const geometry::Pose2& pose, const SimScene& scene);
+  // Renders the scene seen by a robot at `robot_pose`; the helpers below take the mirror axis'
+  // pose (the robot pose moved by the mirror's axis_offset).
+  void renderOnce(const geometry::Pose2& robot_pose, const SimScene& scene);
   void renderFloor(const geometry::Pose2& pose);
   void renderRobot(const geometry::Pose2& pose, const SimRobot& robot);
   void renderBall(const geometry::Pose2& pose, const SimBall& ball);
@@ -198,7 +200,7 @@ class SimRenderer {
   Vec2 carpet_half_;
   Vec2 raster_origin_;
 
-  // Per pixel (row-major): kind, floor point in the robot frame, mip level.
+  // Per pixel (row-major): kind, floor point in the mirror's axis frame, mip level.
   std::vector<PixelKind> kind_;
   std::vector<float> floor_x_;
   std::vector<float> floor_y_;

@@ -71,7 +71,8 @@ struct Options {
 int renderOffline(const Options& options, const camera::CameraConfig& config) {
   const std::vector<double> p = bus::parseNumberList(options.render_pose, 3, "--render");
   camera::SimRenderer renderer(config.model.mirror,
-                               fieldline::field::loadFieldPreset(options.field), config.render);
+                               fieldline::field::loadFieldPreset(options.field),
+                               camera::renderParamsOf(config, "--render"));
   camera::SimScene scene;
   scene.robot = {p[0], p[1], p[2]};
   if (!options.ball.empty()) {

@@ -511,9 +511,10 @@ BallDetection BallDetector::detect(const camera::FrameView& frame,
   const double centreFloor = H / std::tan(centreAngle);
   const double lift = (H - params_.centre_height) / H;
   const double horizontal = centreFloor * lift;
+  // All of this is about the mirror axis (its rays start there): move to the robot frame last.
   const camera::Vec2 direction = camera::Vec2(std::cos(bearing), std::sin(bearing));
-  const camera::Vec2 centreXY = direction * horizontal;
-  const std::optional<camera::Vec2> centrePixel = mirror_.robotToImage(direction * centreFloor);
+  const camera::Vec2 centreXY = mirror_.axisToRobot(direction * horizontal);
+  const std::optional<camera::Vec2> centrePixel = mirror_.axisToImage(direction * centreFloor);
   if (!centrePixel) return ball;
 
   ball.visible = true;

@@ -26,7 +26,7 @@ struct CacheSetup {
   fs::path dir;
 
   CacheSetup() {
-    params = config.render;
+    params = *config.render;
     params.floor_resolution = 0.02;
     dir = fs::temp_directory_path() /
           ("fieldline_raster_cache_test_" + std::to_string(::getpid()) + "_" +

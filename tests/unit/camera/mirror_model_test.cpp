@@ -214,5 +214,63 @@ TEST(MirrorModel, PresetErrorsNameFileAndKey) {
   }
 }
 
+// The mirror axis 6 cm ahead and 4 cm right of the robot's centre: every robot-frame mapping
+// moves by that offset, image radius and bearing stay about the axis.
+TEST(MirrorModel, AxisOffsetMovesEveryRobotFrameMapping) {
+  MirrorParams p = simMirror().params();
+  const MirrorModel centred(p);
+  p.axis_offset = Vec2(0.06, -0.04);
+  const MirrorModel m(p);
+  for (const Vec2& px : {Vec2(200.0, 100.0), Vec2(120.0, 150.0), Vec2(250.0, 60.0)}) {
+    const Vec2 robot = *m.imageToRobot(px);
+    EXPECT_LT((robot - (*centred.imageToRobot(px) + p.axis_offset)).norm(), 1e-12);
+    EXPECT_LT((*m.imageToAxis(px) - *centred.imageToRobot(px)).norm(), 1e-12);
+    EXPECT_LT((*m.robotToImage(robot) - px).norm(), 1e-9);
+  }
+  // A floor point 0.30 m ahead of the axis is where the centred mirror sees 0.30 m ahead.
+  const Vec2 centrePx = *m.robotToImage(Vec2(0.30, 0.0) + p.axis_offset);
+  EXPECT_LT((centrePx - *centred.robotToImage(Vec2(0.30, 0.0))).norm(), 1e-9);
+  // 3-D points project about the axis: the ball 2 m ahead of the axis at 0.11 m is imaged where
+  // the floor 2 * H / (H - 0.11) m ahead of the axis is.
+  const double H = p.reference_height;
+  const Vec2 ball = *m.robotPointToImage(Vec3(2.06, -0.04, 0.11));
+  EXPECT_LT((ball - *centred.robotToImage(Vec2(2.0 * H / (H - 0.11), 0.0))).norm(), 1e-9);
+  const Vec3 back = *m.imageToRobotAtHeight(ball, 0.11);
+  EXPECT_NEAR(back.x(), 2.06, 1e-9);
+  EXPECT_NEAR(back.y(), -0.04, 1e-9);
+  // Scaling keeps the offset (metres).
+  EXPECT_EQ(m.scaledTo(640, 480).params().axis_offset, p.axis_offset);
+  p.axis_offset = Vec2(2.0, 0.0);
+  EXPECT_THROW(MirrorModel{p}, std::invalid_argument);
+}
+
+TEST(MirrorModel, AxisOffsetIsReadFromThePresetAndOptional) {
+  const std::string yaml =
+      "image: {width: 320, height: 240}\n"
+      "colour_table: colours_sim\n"
+      "mirror:\n"
+      "  centre: [159.5, 119.5]\n"
+      "  heading_angle: 0.0\n"
+      "  mirrored: true\n"
+      "  outer_radius: 150.0\n"
+      "  useful_radius: 135.0\n"
+      "  self_radius: 14.0\n"
+      "  reference_height: 0.6\n"
+      "  axis_offset: [0.05, 0.03]\n"
+      "  distance_function: {type: linear_exponential, slope: 0.02, knee_radius: 60, growth: "
+      "0.03}\n";
+  const CameraModel model = loadCameraModel(config::Node::loadString(yaml, "offset.yaml"));
+  EXPECT_EQ(model.mirror.params().axis_offset, Vec2(0.05, 0.03));
+  EXPECT_EQ(simMirror().params().axis_offset, Vec2::Zero());
+  std::string far = yaml;
+  far.replace(far.find("[0.05, 0.03]"), 12, "[1.50, 0.00]");
+  try {
+    (void)loadCameraModel(config::Node::loadString(far, "far.yaml"));
+    FAIL() << "expected a config error";
+  } catch (const config::Error& e) {
+    EXPECT_NE(std::string(e.what()).find("axis_offset"), std::string::npos) << e.what();
+  }
+}
+
 }  // namespace
 }  // namespace fieldline::camera

@@ -187,10 +187,10 @@ TEST(Realism, BadValuesAndUnknownKeysAreRefused) {
 
 TEST(Realism, TheRendererAppliesItsRealismSectionAndFollowsTheLightFactor) {
   CameraConfig config = loadCameraConfigPreset("omni_sim");
-  config.render.noise_luma = 0.0;
-  config.render.noise_chroma = 0.0;
+  config.render->noise_luma = 0.0;
+  config.render->noise_chroma = 0.0;
   const field::FieldModel field = field::loadFieldPreset("msl");
-  SimRenderer renderer(config.model.mirror, field, config.render);
+  SimRenderer renderer(config.model.mirror, field, *config.render);
   SimScene scene;
   scene.robot = {1.0, 0.5, 0.3};
   std::vector<std::uint8_t> plain, dim;

@@ -31,7 +31,7 @@ struct RenderSetup {
       : config(loadCameraConfigPreset("omni_sim")),
         field(field::loadFieldPreset(field_name)),
         colours(loadColourTablePreset(config.model.colour_table)) {
-    RenderParams params = config.render;
+    RenderParams params = *config.render;
     if (!noise) {
       params.noise_luma = 0.0;
       params.noise_chroma = 0.0;
@@ -230,15 +230,15 @@ TEST(SimRenderer, SameFrameNumberSameImageAndNoiseAsConfigured) {
   const double mean = sum / n;
   const double sigma = std::sqrt(sum2 / n - mean * mean);
   EXPECT_NEAR(mean, 0.0, 1.0);
-  EXPECT_NEAR(sigma, s.config.render.noise_luma, 1.0);
+  EXPECT_NEAR(sigma, s.config.render->noise_luma, 1.0);
 }
 
 TEST(SimRenderer, MotionBlurSmearsLinesWhenTurning) {
   CameraConfig config = loadCameraConfigPreset("omni_sim");
-  config.render.noise_luma = config.render.noise_chroma = 0.0;
-  config.render.motion_blur_samples = 5;
+  config.render->noise_luma = config.render->noise_chroma = 0.0;
+  config.render->motion_blur_samples = 5;
   const field::FieldModel field = field::loadFieldPreset("msl");
-  SimRenderer blurred(config.model.mirror, field, config.render);
+  SimRenderer blurred(config.model.mirror, field, *config.render);
   SimScene scene;
   scene.robot = {0.0, 0.0, 0.3};  // on the halfway line, inside the centre circle
   std::vector<std::uint8_t> still, turning;

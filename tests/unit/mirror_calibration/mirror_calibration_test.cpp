@@ -1,0 +1,259 @@
+// The stages of the mirror calibration (tools/mirror_calibrate/mirror_calibration.hpp) on
+// synthetic data whose answer is known.
+#include "tools/mirror_calibrate/mirror_calibration.hpp"
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <numbers>
+#include <random>
+
+#include <gtest/gtest.h>
+
+#include "common/config/config.hpp"
+#include "services/camera/camera_config.hpp"
+
+namespace fieldline::calibration {
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+
+camera::MirrorParams simParams() {
+  return camera::loadCameraPreset("omni_sim").mirror.params();
+}
+
+// Bright anti-aliased circles of 2 px width on a dark image.
+GreyImage circles(int w, int h, const Vec2& centre, const std::vector<double>& radii) {
+  GreyImage g{w, h, std::vector<std::uint8_t>(static_cast<std::size_t>(w) * h, 60)};
+  for (int v = 0; v < h; ++v) {
+    for (int u = 0; u < w; ++u) {
+      double sum = 0.0;
+      for (int j = 0; j < 4; ++j) {
+        for (int i = 0; i < 4; ++i) {
+          const double r = (Vec2(u - 0.375 + 0.25 * i, v - 0.375 + 0.25 * j) - centre).norm();
+          double l = 60.0;
+          for (double rr : radii)
+            if (std::abs(r - rr) <= 1.0) l = 220.0;
+          sum += l;
+        }
+      }
+      g.pixels[static_cast<std::size_t>(v) * w + u] = static_cast<std::uint8_t>(sum / 16.0);
+    }
+  }
+  return g;
+}
+
+// Ring points as a given mirror images them (exact, no image).
+std::vector<RingPoint> exactPoints(const camera::MirrorModel& m,
+                                   const std::vector<double>& distances, int perRing) {
+  std::vector<RingPoint> pts;
+  for (std::size_t k = 0; k < distances.size(); ++k) {
+    for (int i = 0; i < perRing; ++i) {
+      const double a = 2.0 * kPi * i / perRing;
+      const std::optional<Vec2> px =
+          m.robotToImage(distances[k] * Vec2(std::cos(a), std::sin(a)));
+      if (px) pts.push_back({*px, static_cast<int>(k)});
+    }
+  }
+  return pts;
+}
+
+TEST(MonotoneCurve, ThroughTheKnotsMonotoneAndLinearBeyond) {
+  const MonotoneCurve c({0.0, 1.0, 2.0, 4.0}, {0.0, 1.0, 1.0, 5.0});
+  EXPECT_DOUBLE_EQ(c(1.0), 1.0);
+  EXPECT_DOUBLE_EQ(c(4.0), 5.0);
+  // Flat between equal knots (no overshoot), increasing elsewhere.
+  EXPECT_NEAR(c(1.5), 1.0, 1e-12);
+  double last = c(-0.5);
+  for (double x = -0.5; x <= 5.0; x += 0.01) {
+    EXPECT_GE(c(x), last - 1e-12);
+    last = c(x);
+  }
+  EXPECT_NEAR(c(6.0) - c(5.0), c(5.0) - c(4.0), 1e-12);  // straight beyond the last knot
+  EXPECT_NEAR(c(-1.0) - c(-2.0), c(0.0) - c(-1.0), 1e-12);
+  // On a smooth curve the cubic is close between the knots: x^2 from knots 1 apart.
+  const MonotoneCurve square({0.0, 1.0, 2.0, 3.0, 4.0}, {0.0, 1.0, 4.0, 9.0, 16.0});
+  EXPECT_NEAR(square(2.5), 6.25, 0.01);
+  EXPECT_THROW(MonotoneCurve({0.0, 0.0}, {0.0, 1.0}), std::invalid_argument);
+  EXPECT_THROW(MonotoneCurve({0.0, 1.0}, {1.0, 0.0}), std::invalid_argument);
+}
+
+TEST(RingPeaks, SubPixelRadiiOfCirclesAndTheirTracing) {
+  const Vec2 centre(101.3, 98.6);
+  const std::vector<double> radii{30.0, 45.5, 58.0, 68.0, 75.5};
+  const GreyImage g = circles(200, 200, centre, radii);
+  RingSearchParams p;
+  p.min_radius = 15.0;
+  p.max_radius = 90.0;
+  // Searched from a guess 2 px off: the peaks still lie on the circles.
+  const std::vector<RingPeak> peaks = findRingPeaks(g, centre + Vec2(1.5, -1.2), p);
+  ASSERT_GT(peaks.size(), 5u * 300u);
+  int onCircle = 0;
+  for (const RingPeak& k : peaks) {
+    const double r = (k.pixel - centre).norm();
+    for (double rr : radii)
+      if (std::abs(r - rr) < 0.25) ++onCircle;
+  }
+  EXPECT_GT(onCircle, static_cast<int>(peaks.size() * 95 / 100));
+  const std::vector<TracedRing> rings = traceRings(peaks, p.rays, centre + Vec2(1.5, -1.2));
+  ASSERT_EQ(rings.size(), radii.size());
+  for (std::size_t k = 0; k < radii.size(); ++k) {
+    EXPECT_NEAR(rings[k].radius, radii[k], 0.15);
+    EXPECT_LT((rings[k].centre - centre).norm(), 0.15);
+  }
+  RingSearchParams bad = p;
+  bad.rays = 2;
+  EXPECT_THROW((void)findRingPeaks(g, centre, bad), std::invalid_argument);
+}
+
+TEST(RingMatch, FindsWhichRingIsWhichDistance) {
+  const camera::MirrorModel m(simParams());
+  const std::vector<double> all{1.0, 1.5, 2.0, 2.5, 3.0, 4.0, 5.0, 6.0};
+  std::vector<double> radii;
+  for (double d : all)
+    radii.push_back(m.params().distance.imageRadius(d, 0.0));
+  // All visible.
+  RingMatch r = matchRings(radii, all);
+  EXPECT_EQ(r.first_ring, 0);
+  EXPECT_EQ(r.first_distance, 0);
+  EXPECT_EQ(r.count, 8);
+  // The innermost two hidden (under the robot): the rest are 2 m and beyond.
+  r = matchRings(std::vector<double>(radii.begin() + 2, radii.end()), all);
+  EXPECT_EQ(r.first_distance, 2);
+  EXPECT_EQ(r.count, 6);
+  // The outermost two not resolved.
+  r = matchRings(std::vector<double>(radii.begin(), radii.end() - 2), all);
+  EXPECT_EQ(r.first_distance, 0);
+  EXPECT_LT(r.misfit, 0.01);
+  EXPECT_THROW((void)matchRings({10.0, 20.0, 30.0}, all), std::invalid_argument);
+}
+
+TEST(RingGeometry, DistanceAlongARayFromAnOffsetAxis) {
+  EXPECT_DOUBLE_EQ(axisDistanceToRing(2.0, 0.3, Vec2::Zero()), 2.0);
+  // Axis 0.1 m ahead: the ring is 1.9 m ahead of it and 2.1 m behind it.
+  EXPECT_NEAR(axisDistanceToRing(2.0, 0.0, Vec2(0.1, 0.0)), 1.9, 1e-12);
+  EXPECT_NEAR(axisDistanceToRing(2.0, kPi, Vec2(0.1, 0.0)), 2.1, 1e-12);
+  EXPECT_NEAR(axisDistanceToRing(2.0, kPi / 2, Vec2(0.1, 0.0)), std::sqrt(4.0 - 0.01), 1e-12);
+  const camera::MirrorParams p = simParams();
+  const Vec2 px = p.centre + 40.0 * camera::MirrorModel(p).imageDirection(0.7);
+  EXPECT_NEAR(axisBearing(px, p.centre, p.heading_angle, p.mirrored), 0.7, 1e-12);
+}
+
+TEST(RingFit, RecoversCentreOffsetAndRadiiFromExactPoints) {
+  camera::MirrorParams truth = simParams();
+  truth.centre += Vec2(2.2, -1.7);
+  truth.axis_offset = Vec2(0.07, -0.05);
+  const camera::MirrorModel m(truth);
+  const std::vector<double> d{1.0, 1.5, 2.0, 2.5, 3.0, 4.0, 5.0};
+  std::vector<RingPoint> pts = exactPoints(m, d, 180);
+  // A few wild points: the fit drops them.
+  std::mt19937 rng(3);
+  for (int i = 0; i < 40; ++i)
+    pts[static_cast<std::size_t>(rng() % pts.size())].pixel += Vec2(6.0, -5.0);
+  std::vector<double> start;
+  for (double x : d)
+    start.push_back(simParams().distance.imageRadius(x, 0.0) + 1.5);
+  const RingFit fit = fitRings(pts, d, truth, simParams().centre, start, {});
+  // Not exact: the cubic between the rings is not the true mirror law (linear, then exponential
+  // from 1.2 m), and the offset moves ring points up to 7 cm off the rings' distances.
+  EXPECT_LT((fit.centre - truth.centre).norm(), 0.1);
+  EXPECT_LT((fit.axis_offset - truth.axis_offset).norm(), 0.005);
+  for (std::size_t k = 0; k < d.size(); ++k)
+    EXPECT_NEAR(fit.radii[k], truth.distance.imageRadius(d[k], 0.0), 0.1);
+  EXPECT_GE(fit.outliers, 35);
+  EXPECT_LT(fit.rms_px, 0.15);
+  // Without fitting the offset the centre absorbs part of it and the rms grows.
+  RingFitParams noOffset;
+  noOffset.fit_offset = false;
+  const RingFit plain = fitRings(pts, d, truth, simParams().centre, start, noOffset);
+  EXPECT_EQ(plain.axis_offset, Vec2::Zero());
+  EXPECT_GT(plain.rms_px, 5 * fit.rms_px);
+  EXPECT_THROW((void)fitRings(pts, d, truth, truth.centre, {1.0, 2.0}, {}), std::invalid_argument);
+}
+
+TEST(SectorTable, FollowsAMirrorThatIsNotRound) {
+  // An elliptic mirror: 4 % longer toward the sides than ahead and behind (a centre shift cannot
+  // absorb that).
+  camera::MirrorParams truth = simParams();
+  camera::CalibrationTableParams t;
+  for (double r = 2.0; r <= 140.0; r += 2.0)
+    t.radii.push_back(r);
+  t.sector_bearings = {-kPi / 2, 0.0, kPi / 2, kPi};
+  for (double stretch : {1.04, 0.96, 1.04, 0.96}) {
+    std::vector<double> d;
+    for (double r : t.radii)
+      d.push_back(stretch * simParams().distance.floorDistance(r, 0.0));
+    t.distances.push_back(d);
+  }
+  truth.distance = camera::DistanceFunction(t);
+  const camera::MirrorModel m(truth);
+  const std::vector<double> d{1.0, 1.5, 2.0, 2.5, 3.0, 4.0, 5.0};
+  const std::vector<RingPoint> pts = exactPoints(m, d, 360);
+  std::vector<double> start;
+  for (double x : d)
+    start.push_back(simParams().distance.imageRadius(x, 0.0));
+  RingFitParams noOffset;
+  noOffset.fit_offset = false;
+  const RingFit fit = fitRings(pts, d, truth, truth.centre, start, noOffset);
+  const SectorTable round = sectorTable(fit, pts, truth, 1, 2.0);
+  const SectorTable eight = sectorTable(fit, pts, truth, 8, 2.0);
+  ASSERT_EQ(eight.residuals.size(), 8u);
+  EXPECT_GT(round.total.max_percent, 2.0);
+  EXPECT_LT(eight.total.rms_percent, 0.8);
+  EXPECT_LT(eight.total.max_percent, 2.0);
+  for (const SectorResidual& r : eight.residuals) {
+    EXPECT_GT(r.points, 100);
+    EXPECT_EQ(r.rings, 7);
+  }
+  EXPECT_NO_THROW(camera::DistanceFunction{eight.table});
+}
+
+TEST(MirrorCalibrationFiles, DistancesFromAConfAndAList) {
+  const std::filesystem::path conf =
+      std::filesystem::temp_directory_path() / "fieldline_rings_test.conf";
+  {
+    std::ofstream f(conf);
+    f << "[Dist]\n\tdist0 = 0\n\tdist1 = 1000\n\tdist2 = 1500\n\tdist3 = 2000\n[!Dist]\n";
+  }
+  EXPECT_EQ(parseDistances(conf.string()), (std::vector<double>{1.0, 1.5, 2.0}));
+  std::filesystem::remove(conf);
+  EXPECT_EQ(parseDistances("2,1,1.5"), (std::vector<double>{1.0, 1.5, 2.0}));
+  EXPECT_THROW((void)parseDistances("1,x"), std::invalid_argument);
+  EXPECT_THROW((void)parseDistances("1,-2"), std::invalid_argument);
+  EXPECT_THROW((void)parseDistances("1,1"), std::invalid_argument);
+}
+
+TEST(MirrorCalibrationFiles, WrittenPresetLoadsWithoutARenderSection) {
+  camera::MirrorParams p = simParams();
+  p.axis_offset = Vec2(0.05, -0.02);
+  camera::CalibrationTableParams t;
+  t.radii = {20.0, 60.0, 140.0};
+  t.sector_bearings = {0.0, kPi};
+  t.distances = {{0.4, 1.2, 6.0}, {0.41, 1.25, 6.2}};
+  p.distance = camera::DistanceFunction(t);
+  const std::string yaml = cameraYaml(p, "colours_sim", 30.0, 0.008, 0.06, "test\nsecond line");
+  const std::filesystem::path file =
+      std::filesystem::temp_directory_path() / "fieldline_mirror_written.yaml";
+  {
+    std::ofstream f(file);
+    f << yaml;
+  }
+  const camera::CameraConfig c = camera::loadCameraConfigPreset(file.string());
+  std::filesystem::remove(file);
+  EXPECT_FALSE(c.render.has_value());
+  const camera::MirrorParams& q = c.model.mirror.params();
+  EXPECT_LT((q.axis_offset - p.axis_offset).norm(), 1e-9);
+  EXPECT_LT((q.centre - p.centre).norm(), 1e-3);
+  EXPECT_NEAR(q.distance.floorDistance(100.0, kPi), p.distance.floorDistance(100.0, kPi), 1e-4);
+  // Rendering needs the section: a clear error names the file and what is missing.
+  try {
+    (void)camera::renderParamsOf(c, "the simulated camera");
+    FAIL() << "expected a config error";
+  } catch (const config::Error& e) {
+    EXPECT_NE(std::string(e.what()).find("render"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("fieldline_mirror_written.yaml"), std::string::npos);
+  }
+}
+
+}  // namespace
+}  // namespace fieldline::calibration
