@@ -57,14 +57,13 @@ GreyImage greyFromMat(const cv::Mat& bgr) {
 // Ring points (by ring, outliers red), the fitted rings and the centre | radius vs distance per
 // sector with the ring knots.
 cv::Mat debugImage(const GreyImage& image, const RingCalibration& c) {
-  cv::Mat grey(image.height, image.width, CV_8UC1,
-               const_cast<std::uint8_t*>(image.pixels.data()));
+  cv::Mat grey(image.height, image.width, CV_8UC1, const_cast<std::uint8_t*>(image.pixels.data()));
   cv::Mat left;
   cv::cvtColor(grey, left, cv::COLOR_GRAY2BGR);
   const int scale = image.width < 400 ? 2 : 1;
   cv::resize(left, left, cv::Size(), scale, scale, cv::INTER_NEAREST);
-  const cv::Scalar palette[] = {{255, 80, 0},   {0, 200, 0},   {0, 200, 255}, {255, 0, 255},
-                                {255, 255, 0},  {0, 128, 255}, {128, 255, 0}, {255, 128, 128},
+  const cv::Scalar palette[] = {{255, 80, 0},    {0, 200, 0},   {0, 200, 255}, {255, 0, 255},
+                                {255, 255, 0},   {0, 128, 255}, {128, 255, 0}, {255, 128, 128},
                                 {128, 128, 255}, {0, 255, 128}};
   auto px = [scale](const Vec2& p) {
     return cv::Point(static_cast<int>(std::lround((p.x() + 0.5) * scale - 0.5)),
@@ -87,8 +86,8 @@ cv::Mat debugImage(const GreyImage& image, const RingCalibration& c) {
     const double lb = 0.35 * static_cast<double>(k) - 0.5;
     const Vec2 label =
         c.fit.centre + c.fit.ringRadius(static_cast<int>(k), lb) * mirror.imageDirection(lb);
-    cv::putText(left, fmt::format("{:g}", c.distances[k]), px(label), cv::FONT_HERSHEY_PLAIN,
-                0.8, cv::Scalar(0, 255, 255), 1);
+    cv::putText(left, fmt::format("{:g}", c.distances[k]), px(label), cv::FONT_HERSHEY_PLAIN, 0.8,
+                cv::Scalar(0, 255, 255), 1);
   }
   cv::drawMarker(left, px(c.fit.centre), cv::Scalar(0, 0, 255), cv::MARKER_CROSS, 12, 1);
   // Right: radius (x) against distance (y), one curve per sector, knots as dots.
@@ -112,8 +111,8 @@ cv::Mat debugImage(const GreyImage& image, const RingCalibration& c) {
     cv::putText(right, fmt::format("{:g}", r), plot(r, 0) + cv::Point(-8, 14),
                 cv::FONT_HERSHEY_PLAIN, 0.8, cv::Scalar(0, 0, 0));
   }
-  cv::putText(right, "image radius (px)", cv::Point(w / 2 - 60, h - 4), cv::FONT_HERSHEY_PLAIN,
-              0.9, cv::Scalar(0, 0, 0));
+  cv::putText(right, "image radius (px)", cv::Point(w / 2 - 60, h - 4), cv::FONT_HERSHEY_PLAIN, 0.9,
+              cv::Scalar(0, 0, 0));
   const auto& t = c.table.table;
   for (std::size_t s = 0; s < t.sector_bearings.size(); ++s) {
     for (std::size_t i = 1; i < t.radii.size(); ++i) {
@@ -136,10 +135,11 @@ void printReport(const RingCalibration& c) {
   fmt::print(" px)\nmatched: ring {}.. = distance {}.. ({} rings, cubic misfit {:.2f} %)\n",
              c.match.first_ring + 1, c.match.first_distance + 1, c.match.count,
              100 * c.match.misfit);
-  fmt::print("centre ({:.2f}, {:.2f}) px, axis offset ({:.3f}, {:.3f}) m, rms {:.2f} px over {} "
-             "points ({} outliers)\n",
-             c.fit.centre.x(), c.fit.centre.y(), c.fit.axis_offset.x(), c.fit.axis_offset.y(),
-             c.fit.rms_px, c.fit.inliers, c.fit.outliers);
+  fmt::print(
+      "centre ({:.2f}, {:.2f}) px, axis offset ({:.3f}, {:.3f}) m, rms {:.2f} px over {} "
+      "points ({} outliers)\n",
+      c.fit.centre.x(), c.fit.centre.y(), c.fit.axis_offset.x(), c.fit.axis_offset.y(),
+      c.fit.rms_px, c.fit.inliers, c.fit.outliers);
   fmt::print("ring radii (px):");
   for (std::size_t k = 0; k < c.distances.size(); ++k)
     fmt::print(" {:g} m {:.2f}", c.distances[k], c.fit.radii[k]);
@@ -167,7 +167,8 @@ void MirrorCalibrateOptions::addTo(CLI::App& app) {
                  "`distN = <mm>` lines (default for --render-rings: the rendered carpet's)");
   app.add_option("--camera", camera, "Base camera preset (name or path)")->capture_default_str();
   app.add_option("--min-radius", min_radius, "Search rings from this radius, px (0: self_radius)");
-  app.add_option("--max-radius", max_radius, "Search rings up to this radius, px (0: outer_radius)");
+  app.add_option("--max-radius", max_radius,
+                 "Search rings up to this radius, px (0: outer_radius)");
   app.add_option("--min-contrast", min_contrast, "Grey levels a ring stands above the floor")
       ->capture_default_str();
   app.add_option("--sectors", sectors, "Bearing sectors of the table")->capture_default_str();
@@ -235,9 +236,10 @@ int runMirrorCalibrate(const MirrorCalibrateOptions& o) {
   const camera::MirrorModel fitted(c.mirror);
   if (truth) {
     const MirrorError e = compareMirrors(*truth, fitted, 5.0);
-    fmt::print("against the rendered truth: centre {:.2f} px, axis offset {:.1f} cm, distance "
-               "function up to 5 m {:.2f} %, floor points up to 5 m {:.1f} cm\n",
-               e.centre_px, 100 * e.offset_m, e.distance_percent, 100 * e.floor_point_m);
+    fmt::print(
+        "against the rendered truth: centre {:.2f} px, axis offset {:.1f} cm, distance "
+        "function up to 5 m {:.2f} %, floor points up to 5 m {:.1f} cm\n",
+        e.centre_px, 100 * e.offset_m, e.distance_percent, 100 * e.floor_point_m);
   }
   if (!o.debug_png.empty()) {
     camera::writeImage(o.debug_png, debugImage(image, c));

@@ -68,8 +68,8 @@ MirrorError compareMirrors(const camera::MirrorModel& truth, const camera::Mirro
       const double dt = t.distance.floorDistance(r, b);
       const double df = f.distance.floorDistance(r, b);
       if (!std::isfinite(dt) || dt > up_to) continue;
-      e.distance_percent = std::max(
-          e.distance_percent, std::isfinite(df) ? 100.0 * std::abs(df - dt) / dt : 1e9);
+      e.distance_percent =
+          std::max(e.distance_percent, std::isfinite(df) ? 100.0 * std::abs(df - dt) / dt : 1e9);
       const camera::Vec2 px = t.centre + r * truth.imageDirection(b);
       if (truth.zone(px) == camera::MirrorZone::kOutside) continue;
       const std::optional<camera::Vec2> a = truth.imageToRobot(px);

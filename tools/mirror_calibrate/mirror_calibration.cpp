@@ -11,8 +11,8 @@
 #include <sstream>
 #include <stdexcept>
 
-#include <Eigen/Dense>
 #include <fmt/core.h>
+#include <Eigen/Dense>
 
 namespace fieldline::calibration {
 namespace {
@@ -191,7 +191,9 @@ std::vector<RingPeak> findRingPeaks(const GreyImage& image, const Vec2& centre,
     }
     // Light smoothing (binomial over one pixel) against sensor noise.
     for (int i = 0; i < len; ++i) {
-      const auto at = [&](int k) { return raw[static_cast<std::size_t>(std::clamp(k, 0, len - 1))]; };
+      const auto at = [&](int k) {
+        return raw[static_cast<std::size_t>(std::clamp(k, 0, len - 1))];
+      };
       p[static_cast<std::size_t>(i)] =
           (at(i - 2) + 4 * at(i - 1) + 6 * at(i) + 4 * at(i + 1) + at(i + 2)) / 16.0;
     }
@@ -203,7 +205,8 @@ std::vector<RingPeak> findRingPeaks(const GreyImage& image, const Vec2& centre,
       // A local maximum (the first sample of a plateau).
       if (!(v > p[static_cast<std::size_t>(i - 1)])) continue;
       int j = i;
-      while (j + 1 < len && p[static_cast<std::size_t>(j + 1)] == v) ++j;
+      while (j + 1 < len && p[static_cast<std::size_t>(j + 1)] == v)
+        ++j;
       if (j + 1 >= len || !(p[static_cast<std::size_t>(j + 1)] < v)) continue;
       const int mid = (i + j) / 2;
       double left = std::numeric_limits<double>::infinity();
@@ -219,8 +222,10 @@ std::vector<RingPeak> findRingPeaks(const GreyImage& image, const Vec2& centre,
       const double half = base + 0.5 * contrast;
       int lo = i;
       int hi = j;
-      while (lo - 1 >= 0 && p[static_cast<std::size_t>(lo - 1)] > half) --lo;
-      while (hi + 1 < len && p[static_cast<std::size_t>(hi + 1)] > half) ++hi;
+      while (lo - 1 >= 0 && p[static_cast<std::size_t>(lo - 1)] > half)
+        --lo;
+      while (hi + 1 < len && p[static_cast<std::size_t>(hi + 1)] > half)
+        ++hi;
       if (lo <= lastEnd) continue;  // the same ridge as the previous maximum
       lastEnd = hi;
       double sw = 0.0;
@@ -240,8 +245,8 @@ std::vector<RingPeak> findRingPeaks(const GreyImage& image, const Vec2& centre,
 
 // --- stage 2: rings, traced outward ---
 
-std::vector<TracedRing> traceRings(const std::vector<RingPeak>& peaks, int rays,
-                                   const Vec2& centre, double min_share, double gap) {
+std::vector<TracedRing> traceRings(const std::vector<RingPeak>& peaks, int rays, const Vec2& centre,
+                                   double min_share, double gap) {
   std::vector<std::vector<const RingPeak*>> byRay(static_cast<std::size_t>(rays));
   for (const RingPeak& p : peaks) {
     if (p.ray >= 0 && p.ray < rays) byRay[static_cast<std::size_t>(p.ray)].push_back(&p);
@@ -358,8 +363,8 @@ double RingFit::radiusAt(double distance) const {
 }
 
 double RingFit::ringRadius(int ring, double bearing) const {
-  return radiusAt(axisDistanceToRing(distances[static_cast<std::size_t>(ring)], bearing,
-                                     axis_offset));
+  return radiusAt(
+      axisDistanceToRing(distances[static_cast<std::size_t>(ring)], bearing, axis_offset));
 }
 
 namespace {
@@ -417,8 +422,7 @@ using ResidualFn = std::function<bool(const Eigen::VectorXd&, Eigen::VectorXd&)>
 // steps[k] for parameter k; 0 holds it fixed). A step that makes `f` fail (an invalid state) is
 // treated as a worse one.
 Eigen::VectorXd levenbergMarquardt(Eigen::VectorXd x, const ResidualFn& f,
-                                   const std::vector<double>& steps, double huber,
-                                   int iterations) {
+                                   const std::vector<double>& steps, double huber, int iterations) {
   const Eigen::Index np = x.size();
   double lambda = 1e-3;
   Eigen::VectorXd r;
@@ -574,8 +578,8 @@ SectorTable sectorTable(const RingFit& fit, const std::vector<RingPoint>& points
     return best;
   };
   // Per sector and ring: radii moved to the sector's bearing with the global fit.
-  std::vector<std::vector<std::vector<double>>> moved(
-      static_cast<std::size_t>(sectors), std::vector<std::vector<double>>(nr));
+  std::vector<std::vector<std::vector<double>>> moved(static_cast<std::size_t>(sectors),
+                                                      std::vector<std::vector<double>>(nr));
   std::vector<double> bearingOfPoint(points.size(), 0.0);
   for (std::size_t i = 0; i < points.size(); ++i) {
     const double b = axisBearing(points[i].pixel, fit.centre, base.heading_angle, base.mirrored);
@@ -639,8 +643,8 @@ SectorTable sectorTable(const RingFit& fit, const std::vector<RingPoint>& points
     if (!fit.inlier.empty() && !fit.inlier[i]) continue;
     const double b = bearingOfPoint[i];
     const double rad = (points[i].pixel - fit.centre).norm();
-    const double t = axisDistanceToRing(fit.distances[static_cast<std::size_t>(points[i].ring)],
-                                        b, fit.axis_offset);
+    const double t = axisDistanceToRing(fit.distances[static_cast<std::size_t>(points[i].ring)], b,
+                                        fit.axis_offset);
     const double dist = table.floorDistance(rad, b);
     const double rr = table.imageRadius(t, b);
     if (!std::isfinite(dist) || !std::isfinite(rr)) continue;
@@ -666,7 +670,8 @@ SectorTable sectorTable(const RingFit& fit, const std::vector<RingPoint>& points
     return r;
   };
   for (int s = 0; s < sectors; ++s) {
-    out.residuals.push_back(summary(acc[static_cast<std::size_t>(s)], bearings[static_cast<std::size_t>(s)]));
+    out.residuals.push_back(
+        summary(acc[static_cast<std::size_t>(s)], bearings[static_cast<std::size_t>(s)]));
   }
   out.total = summary(acc.back(), 0.0);
   return out;
@@ -678,9 +683,9 @@ RingCalibration calibrateFromRings(const GreyImage& image, const std::vector<dou
                                    const camera::MirrorParams& base,
                                    const RingCalibrationParams& params) {
   if (image.width != base.width || image.height != base.height) {
-    throw std::invalid_argument(fmt::format(
-        "mirror calibration: the image is {}x{} but the camera config says {}x{}", image.width,
-        image.height, base.width, base.height));
+    throw std::invalid_argument(
+        fmt::format("mirror calibration: the image is {}x{} but the camera config says {}x{}",
+                    image.width, image.height, base.width, base.height));
   }
   RingCalibration out;
   const int rays = params.search.rays;
@@ -707,7 +712,8 @@ RingCalibration calibrateFromRings(const GreyImage& image, const std::vector<dou
     for (const Vec2& p : t.pixels)
       out.points.push_back({p, k});
   }
-  const Vec2 start = traced[static_cast<std::size_t>(out.match.first_ring + out.match.count - 1)].centre;
+  const Vec2 start =
+      traced[static_cast<std::size_t>(out.match.first_ring + out.match.count - 1)].centre;
   out.fit = fitRings(out.points, out.distances, base, start, radii, params.fit);
   // Rounds: search again around the fitted centre; assign each peak to the predicted ring
   // nearest to it (within 0.4 of the gap to the neighbours); fit again.
@@ -728,8 +734,12 @@ RingCalibration calibrateFromRings(const GreyImage& image, const std::vector<dou
         if (dk < bestDist) {
           bestDist = dk;
           best = k;
-          const double lo = k > 0 ? pred[static_cast<std::size_t>(k)] - pred[static_cast<std::size_t>(k - 1)] : 1e9;
-          const double hi = k + 1 < n ? pred[static_cast<std::size_t>(k + 1)] - pred[static_cast<std::size_t>(k)] : 1e9;
+          const double lo =
+              k > 0 ? pred[static_cast<std::size_t>(k)] - pred[static_cast<std::size_t>(k - 1)]
+                    : 1e9;
+          const double hi =
+              k + 1 < n ? pred[static_cast<std::size_t>(k + 1)] - pred[static_cast<std::size_t>(k)]
+                        : 1e9;
           gate = 0.4 * std::min({lo, hi, 10.0});
         }
       }
@@ -800,14 +810,14 @@ Vec2 fieldPointOf(const Vec2& pixel, const geometry::Pose2& pose, const Vec2& ce
 }  // namespace
 
 LineCalibration calibrateFromLines(const std::vector<PosedImage>& frames,
-                                   const field::FieldModel& field,
-                                   const camera::MirrorParams& base, const LineFitParams& params) {
+                                   const field::FieldModel& field, const camera::MirrorParams& base,
+                                   const LineFitParams& params) {
   if (frames.empty()) throw std::invalid_argument("line calibration: no frames");
   for (const PosedImage& f : frames) {
     if (f.image.width != base.width || f.image.height != base.height) {
-      throw std::invalid_argument(fmt::format(
-          "line calibration: a frame is {}x{} but the camera config says {}x{}", f.image.width,
-          f.image.height, base.width, base.height));
+      throw std::invalid_argument(
+          fmt::format("line calibration: a frame is {}x{} but the camera config says {}x{}",
+                      f.image.width, f.image.height, base.width, base.height));
     }
   }
   if (params.sectors < 1 || params.gates_px.empty()) {
@@ -957,7 +967,8 @@ LineCalibration calibrateFromLines(const std::vector<PosedImage>& frames,
     return true;
   };
   if (ns > 1) {
-    xs = levenbergMarquardt(xs, perSector, std::vector<double>(static_cast<std::size_t>(xs.size()), 1e-4),
+    xs = levenbergMarquardt(xs, perSector,
+                            std::vector<double>(static_cast<std::size_t>(xs.size()), 1e-4),
                             params.huber_px, params.iterations);
   }
   // The table: common radii up to the smallest outermost knot over the sectors.
@@ -1018,7 +1029,8 @@ LineCalibration calibrateFromLines(const std::vector<PosedImage>& frames,
                               a.n ? 100.0 * std::sqrt(a.m2 / a.n) : kNaN};
   };
   for (int s = 0; s < ns; ++s)
-    out.residuals.push_back(summary(acc[static_cast<std::size_t>(s)], bearings[static_cast<std::size_t>(s)]));
+    out.residuals.push_back(
+        summary(acc[static_cast<std::size_t>(s)], bearings[static_cast<std::size_t>(s)]));
   out.total = summary(acc.back(), 0.0);
   return out;
 }

@@ -94,8 +94,8 @@ struct TracedRing {
   double radius = 0.0;
   std::vector<Vec2> pixels;  // its peaks, outliers dropped
 };
-std::vector<TracedRing> traceRings(const std::vector<RingPeak>& peaks, int rays,
-                                   const Vec2& centre, double min_share = 0.3, double gap = 1.0);
+std::vector<TracedRing> traceRings(const std::vector<RingPeak>& peaks, int rays, const Vec2& centre,
+                                   double min_share = 0.3, double gap = 1.0);
 
 struct RingMatch {
   // rings[first_ring + i] is distances[first_distance + i] for i < count.
@@ -255,8 +255,8 @@ struct LineCalibration {
 
 // Throws std::invalid_argument for frames of the wrong size, no frames, or too few line pixels.
 LineCalibration calibrateFromLines(const std::vector<PosedImage>& frames,
-                                   const field::FieldModel& field,
-                                   const camera::MirrorParams& base, const LineFitParams& params);
+                                   const field::FieldModel& field, const camera::MirrorParams& base,
+                                   const LineFitParams& params);
 
 // The camera preset (image, mirror with the table, colour_table, pipeline; no render section)
 // as YAML text, loadable by services/camera/camera_config.

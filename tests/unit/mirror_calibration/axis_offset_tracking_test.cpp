@@ -79,8 +79,8 @@ TEST_F(AxisOffsetTracking, MatchingConfigTracksAndOffsetFreeConfigDoesNot) {
       const Vec2 ball = geometry::pointRobotToField(pose, Vec2(1.6, 0.7));
       const Seen right = track(withOffset, withOffset, pose, ball);
       const Seen wrong = track(withOffset, centred, pose, ball);
-      SCOPED_TRACE(testing::Message() << "offset " << offset.transpose() << " pose " << pose.x
-                                      << "," << pose.y);
+      SCOPED_TRACE(testing::Message()
+                   << "offset " << offset.transpose() << " pose " << pose.x << "," << pose.y);
       ASSERT_GT(right.line_points, 50);
       EXPECT_LT(right.line_median_m, 0.025);
       EXPECT_GT(wrong.line_median_m, 0.04);

@@ -50,8 +50,7 @@ std::vector<RingPoint> exactPoints(const camera::MirrorModel& m,
   for (std::size_t k = 0; k < distances.size(); ++k) {
     for (int i = 0; i < perRing; ++i) {
       const double a = 2.0 * kPi * i / perRing;
-      const std::optional<Vec2> px =
-          m.robotToImage(distances[k] * Vec2(std::cos(a), std::sin(a)));
+      const std::optional<Vec2> px = m.robotToImage(distances[k] * Vec2(std::cos(a), std::sin(a)));
       if (px) pts.push_back({*px, static_cast<int>(k)});
     }
   }

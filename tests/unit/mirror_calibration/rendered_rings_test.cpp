@@ -36,24 +36,24 @@ TEST_P(RenderedRings, RecoversCentreOffsetAndDistances) {
   RecordProperty("centre_px", std::to_string(e.centre_px));
   RecordProperty("offset_cm", std::to_string(100 * e.offset_m));
   RecordProperty("distance_percent", std::to_string(e.distance_percent));
-  std::printf("%-6s shift (%.1f, %.1f) px offset (%.2f, %.2f) m: centre %.2f px, offset %.2f cm, "
-              "distance up to 5 m %.2f %%, table rms %.2f px\n",
-              c.realism, c.centre_shift.x(), c.centre_shift.y(), c.offset.x(), c.offset.y(),
-              e.centre_px, 100 * e.offset_m, e.distance_percent, cal.table.total.rms_px);
+  std::printf(
+      "%-6s shift (%.1f, %.1f) px offset (%.2f, %.2f) m: centre %.2f px, offset %.2f cm, "
+      "distance up to 5 m %.2f %%, table rms %.2f px\n",
+      c.realism, c.centre_shift.x(), c.centre_shift.y(), c.offset.x(), c.offset.y(), e.centre_px,
+      100 * e.offset_m, e.distance_percent, cal.table.total.rms_px);
   EXPECT_LT(e.centre_px, 1.0);
   EXPECT_LT(e.offset_m, 0.01);
   EXPECT_LT(e.distance_percent, 2.0);
 }
 
-INSTANTIATE_TEST_SUITE_P(
-    Settings, RenderedRings,
-    ::testing::Values(Case{{0.0, 0.0}, {0.0, 0.0}, "clean"},
-                      Case{{2.5, -1.5}, {0.06, -0.04}, "clean"},
-                      Case{{-3.0, 2.0}, {-0.10, 0.05}, "noise"},
-                      Case{{2.5, -1.5}, {0.06, -0.04}, "blur"},
-                      Case{{1.5, 2.5}, {0.03, 0.08}, "uneven"},
-                      Case{{-2.0, -2.0}, {0.12, 0.0}, "all"},
-                      Case{{2.5, -1.5}, {0.06, -0.04}, "all"}));
+INSTANTIATE_TEST_SUITE_P(Settings, RenderedRings,
+                         ::testing::Values(Case{{0.0, 0.0}, {0.0, 0.0}, "clean"},
+                                           Case{{2.5, -1.5}, {0.06, -0.04}, "clean"},
+                                           Case{{-3.0, 2.0}, {-0.10, 0.05}, "noise"},
+                                           Case{{2.5, -1.5}, {0.06, -0.04}, "blur"},
+                                           Case{{1.5, 2.5}, {0.03, 0.08}, "uneven"},
+                                           Case{{-2.0, -2.0}, {0.12, 0.0}, "all"},
+                                           Case{{2.5, -1.5}, {0.06, -0.04}, "all"}));
 
 }  // namespace
 }  // namespace fieldline::calibration
