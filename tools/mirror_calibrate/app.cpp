@@ -12,6 +12,7 @@
 
 #include "common/camera/image_io.hpp"
 #include "common/config/config.hpp"
+#include "common/field/field_model.hpp"
 #include "services/camera/camera_config.hpp"
 #include "tools/colour_calibrate/evaluation.hpp"
 #include "tools/mirror_calibrate/evaluation.hpp"
@@ -162,6 +163,13 @@ void MirrorCalibrateOptions::addTo(CLI::App& app) {
                "Calibrate from a rendered ring carpet (the camera's mirror, moved by "
                "--render-centre-shift and --render-offset, with --realism)")
       ->excludes(in);
+  app.add_option("--lines", lines,
+                 "A frame of the field at a known pose (repeatable; one --pose each)")
+      ->excludes(in);
+  app.add_option("--pose", poses, "The robot's field pose x,y,phi of each --lines frame");
+  app.add_flag("--render-lines", render_lines,
+               "Calibrate from rendered field frames at the --pose poses (default four poses)");
+  app.add_option("--field", field, "Field preset of the --lines frames")->capture_default_str();
   app.add_option("--distances", distances,
                  "Ring distances from the robot's centre: 1,1.5,2 (m) or a file with "
                  "`distN = <mm>` lines (default for --render-rings: the rendered carpet's)");
@@ -182,11 +190,103 @@ void MirrorCalibrateOptions::addTo(CLI::App& app) {
   app.add_option("--debug-png", debug_png, "Write the rings found and the fitted table here");
 }
 
+namespace {
+
+geometry::Pose2 parsePose(const std::string& text) {
+  const std::vector<double> p = numbers(text, 3, "--pose");
+  return {p[0], p[1], p[2]};
+}
+
+void printLineReport(const LineCalibration& c) {
+  fmt::print("{} ridge pixels, {} on field lines\n", c.candidates, c.points);
+  fmt::print("centre ({:.2f}, {:.2f}) px, axis offset ({:.3f}, {:.3f}) m\nradii (px):",
+             c.centre.x(), c.centre.y(), c.axis_offset.x(), c.axis_offset.y());
+  for (std::size_t k = 0; k < c.knot_distances.size(); ++k)
+    fmt::print(" {:g} m {:.2f}", c.knot_distances[k], c.knot_radii[k]);
+  fmt::print("\n{:>8s} {:>7s} {:>8s} {:>8s}\n", "bearing", "points", "rms_px", "rms_cm");
+  auto row = [](const std::string& name, const LineSectorResidual& r) {
+    fmt::print("{:>8s} {:7d} {:8.2f} {:8.1f}\n", name, r.points, r.rms_px, r.rms_cm);
+  };
+  for (const LineSectorResidual& r : c.residuals)
+    row(fmt::format("{:.0f}°", r.bearing * 180.0 / std::numbers::pi), r);
+  row("all", c.total);
+}
+
+// Writes the camera preset and reads it back through the camera service's loader.
+void writePreset(const MirrorCalibrateOptions& o, const camera::CameraConfig& config,
+                 const camera::MirrorParams& mirror, const std::string& comment) {
+  const std::string yaml = cameraYaml(mirror, config.model.colour_table, config.pipeline.frame_rate,
+                                      config.pipeline.exposure, config.pipeline.latency, comment);
+  std::ofstream file(o.out);
+  file << yaml;
+  file.close();
+  if (!file) throw std::runtime_error("cannot write " + o.out);
+  (void)camera::loadCameraConfigPreset(o.out);
+  fmt::print("wrote {}\n", o.out);
+}
+
+// --lines / --render-lines: the calibration from field lines at known poses.
+int runLines(const MirrorCalibrateOptions& o, const camera::CameraConfig& config) {
+  const camera::MirrorParams base = config.model.mirror.params();
+  const field::FieldModel field = field::loadFieldPreset(o.field);
+  std::vector<geometry::Pose2> poses;
+  for (const std::string& p : o.poses)
+    poses.push_back(parsePose(p));
+  std::vector<PosedImage> frames;
+  std::optional<camera::MirrorModel> truth;
+  if (o.render_lines) {
+    if (poses.empty())
+      poses = {{-6.0, 1.5, 0.4}, {0.5, 0.8, 0.3}, {-3.5, -2.5, 2.0}, {4.0, 3.0, -1.0}};
+    camera::MirrorParams t = base;
+    const std::vector<double> shift = numbers(o.render_centre_shift, 2, "--render-centre-shift");
+    const std::vector<double> offset = numbers(o.render_offset, 2, "--render-offset");
+    t.centre += Vec2(shift[0], shift[1]);
+    t.axis_offset = Vec2(offset[0], offset[1]);
+    truth.emplace(t);
+    frames = renderFieldFrames(*truth, field, camera::renderParamsOf(config, "--render-lines"),
+                               poses, realismSetting(o.realism).realism);
+  } else {
+    if (poses.size() != o.lines.size()) {
+      throw std::invalid_argument(
+          fmt::format("{} --lines frames but {} --pose values", o.lines.size(), poses.size()));
+    }
+    for (std::size_t i = 0; i < o.lines.size(); ++i)
+      frames.push_back({greyFromMat(camera::readBgrImage(o.lines[i])), poses[i]});
+  }
+  LineFitParams params;
+  params.sectors = o.sectors;
+  params.radius_step = o.radius_step;
+  params.fit_offset = !o.no_offset;
+  params.search.min_contrast = o.min_contrast;
+  const LineCalibration c = calibrateFromLines(frames, field, base, params);
+  printLineReport(c);
+  if (truth) {
+    const MirrorError e = compareMirrors(*truth, camera::MirrorModel(c.mirror), 5.0);
+    fmt::print(
+        "against the rendered truth: centre {:.2f} px, axis offset {:.1f} cm, distance "
+        "function up to 5 m {:.2f} %, floor points up to 5 m {:.1f} cm\n",
+        e.centre_px, 100 * e.offset_m, e.distance_percent, 100 * e.floor_point_m);
+  }
+  if (!o.out.empty()) {
+    writePreset(o, config, c.mirror,
+                fmt::format("Written by fieldline-mirror-calibrate from {} field frame(s) (base "
+                            "preset {}).\nResiduals: rms {:.2f} px, {:.1f} cm to the lines.",
+                            frames.size(), o.camera, c.total.rms_px, c.total.rms_cm));
+  }
+  return 0;
+}
+
+}  // namespace
+
 int runMirrorCalibrate(const MirrorCalibrateOptions& o) {
-  if (o.rings.empty() && !o.render_rings) {
-    throw std::invalid_argument("give --rings IMAGE or --render-rings");
+  const int inputs = (o.rings.empty() ? 0 : 1) + (o.render_rings ? 1 : 0) +
+                     (o.lines.empty() ? 0 : 1) + (o.render_lines ? 1 : 0);
+  if (inputs != 1) {
+    throw std::invalid_argument(
+        "give one of --rings IMAGE, --render-rings, --lines FRAME --pose x,y,phi, --render-lines");
   }
   const camera::CameraConfig config = camera::loadCameraConfigPreset(o.camera);
+  if (!o.lines.empty() || o.render_lines) return runLines(o, config);
   camera::MirrorParams base = config.model.mirror.params();
   GreyImage image;
   std::vector<double> distances;
@@ -246,21 +346,13 @@ int runMirrorCalibrate(const MirrorCalibrateOptions& o) {
     fmt::print("wrote {}\n", o.debug_png);
   }
   if (!o.out.empty()) {
-    const std::string source = o.render_rings ? "a rendered ring carpet" : o.rings;
-    const std::string yaml = cameraYaml(
-        c.mirror, config.model.colour_table, config.pipeline.frame_rate, config.pipeline.exposure,
-        config.pipeline.latency,
-        fmt::format("Written by fieldline-mirror-calibrate from {} (base preset {}).\nResiduals "
-                    "of the table: rms {:.2f} px, {:.2f} % of the distance, max {:.2f} %.",
-                    source, o.camera, c.table.total.rms_px, c.table.total.rms_percent,
-                    c.table.total.max_percent));
-    std::ofstream file(o.out);
-    file << yaml;
-    file.close();
-    if (!file) throw std::runtime_error("cannot write " + o.out);
-    // Read back through the camera service's loader before saying so.
-    (void)camera::loadCameraConfigPreset(o.out);
-    fmt::print("wrote {}\n", o.out);
+    writePreset(
+        o, config, c.mirror,
+        fmt::format("Written by fieldline-mirror-calibrate from {} (base preset {}).\n"
+                    "Residuals of the table: rms {:.2f} px, {:.2f} % of the distance, max "
+                    "{:.2f} %.",
+                    o.render_rings ? "a rendered ring carpet" : o.rings, o.camera,
+                    c.table.total.rms_px, c.table.total.rms_percent, c.table.total.max_percent));
   }
   return 0;
 }

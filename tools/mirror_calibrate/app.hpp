@@ -10,9 +10,14 @@
 namespace fieldline::calibration {
 
 struct MirrorCalibrateOptions {
-  // Input: an image of the ring carpet, or a rendered one (--render-rings).
+  // Input (one of): an image of the ring carpet, a rendered one (--render-rings), frames of the
+  // field at known poses (--lines with one --pose each), or rendered ones (--render-lines).
   std::string rings;
   bool render_rings = false;
+  std::vector<std::string> lines;
+  std::vector<std::string> poses;
+  bool render_lines = false;
+  std::string field = "msl";
   // Ring distances: "1,1.5,2" (m) or a file with `distN = <mm>` lines.
   std::string distances;
   // Base camera preset: heading, mirrored, radii, reference height, colour table, pipeline; its
@@ -25,7 +30,8 @@ struct MirrorCalibrateOptions {
   int sectors = 8;
   double radius_step = 2.0;
   bool no_offset = false;
-  // Rendered carpet: mirror centre moved by (du, dv) px, axis offset (x, y) m, realism setting.
+  // Rendered carpet or field frames: mirror centre moved by (du, dv) px, axis offset (x, y) m,
+  // realism setting.
   std::string render_centre_shift = "0,0";
   std::string render_offset = "0,0";
   std::string realism = "clean";

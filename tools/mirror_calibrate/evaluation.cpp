@@ -54,6 +54,26 @@ GreyImage renderRingCarpet(const camera::MirrorModel& mirror, const RingCarpet& 
   return out;
 }
 
+std::vector<PosedImage> renderFieldFrames(const camera::MirrorModel& mirror,
+                                          const field::FieldModel& field,
+                                          const camera::RenderParams& render,
+                                          const std::vector<geometry::Pose2>& poses,
+                                          const camera::RealismParams& realism) {
+  camera::RenderParams params = render;
+  params.realism = realism;
+  camera::SimRenderer renderer(mirror, field, params);
+  std::vector<PosedImage> out;
+  std::vector<std::uint8_t> yuyv;
+  for (std::size_t i = 0; i < poses.size(); ++i) {
+    camera::SimScene scene;
+    scene.robot = poses[i];
+    scene.frame_number = i;
+    renderer.render(scene, yuyv);
+    out.push_back({greyFromFrame(renderer.view(yuyv)), poses[i]});
+  }
+  return out;
+}
+
 MirrorError compareMirrors(const camera::MirrorModel& truth, const camera::MirrorModel& fitted,
                            double up_to) {
   MirrorError e;

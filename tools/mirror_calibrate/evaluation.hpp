@@ -7,7 +7,9 @@
 #include <string>
 #include <vector>
 
+#include "common/field/field_model.hpp"
 #include "services/camera/realism.hpp"
+#include "services/camera/sim_renderer.hpp"
 #include "tools/mirror_calibrate/mirror_calibration.hpp"
 
 namespace fieldline::calibration {
@@ -27,6 +29,14 @@ struct RingCarpet {
 // shows), with the realism knobs applied to frame `frame_number`.
 GreyImage renderRingCarpet(const camera::MirrorModel& mirror, const RingCarpet& carpet,
                            const camera::RealismParams& realism, std::uint64_t frame_number);
+
+// Field frames at `poses` rendered by the simulated camera through `mirror` (luma only), with the
+// realism knobs; for the calibration from field lines.
+std::vector<PosedImage> renderFieldFrames(const camera::MirrorModel& mirror,
+                                          const field::FieldModel& field,
+                                          const camera::RenderParams& render,
+                                          const std::vector<geometry::Pose2>& poses,
+                                          const camera::RealismParams& realism);
 
 struct MirrorError {
   double centre_px = 0.0;
