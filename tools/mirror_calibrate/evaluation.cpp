@@ -84,7 +84,8 @@ MirrorError compareMirrors(const camera::MirrorModel& truth, const camera::Mirro
   const double end = t.distance.imageRadius(up_to, 0.0);
   for (int deg = -179; deg <= 180; ++deg) {
     const double b = deg * std::numbers::pi / 180.0;
-    for (double r = t.self_radius; r <= end; r += 0.5) {
+    // From 1 px outside the reflection (the fitted centre differs by a fraction of a pixel).
+    for (double r = t.self_radius + 1.0; r <= end; r += 0.5) {
       const double dt = t.distance.floorDistance(r, b);
       const double df = f.distance.floorDistance(r, b);
       if (!std::isfinite(dt) || dt > up_to) continue;

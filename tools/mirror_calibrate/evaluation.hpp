@@ -42,7 +42,7 @@ struct MirrorError {
   double centre_px = 0.0;
   double offset_m = 0.0;
   // Largest |D_fit(r, b) - D_true(r, b)| / D_true over bearings every degree and radii every
-  // 0.5 px from the reflection's edge to where the true distance reaches `up_to`, %.
+  // 0.5 px from 1 px outside the reflection to where the true distance reaches `up_to`, %.
   double distance_percent = 0.0;
   // Largest distance between the floor points both models give for the same pixel, over the
   // same range, m.

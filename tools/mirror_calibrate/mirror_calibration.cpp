@@ -1064,13 +1064,14 @@ std::string cameraYaml(const camera::MirrorParams& m, const std::string& colour_
   s += fmt::format("  heading_angle: {:.6f}\n", m.heading_angle);
   s += fmt::format("  mirrored: {}\n", m.mirrored ? "true" : "false");
   s += fmt::format("  outer_radius: {:.3f}\n", m.outer_radius);
-  s += fmt::format("  useful_radius: {:.3f}\n", m.useful_radius);
+  // Rounded down: never beyond the table's last radius.
+  s += fmt::format("  useful_radius: {:.3f}\n", std::floor(m.useful_radius * 1000.0) / 1000.0);
   s += fmt::format("  self_radius: {:.3f}\n", m.self_radius);
   s += fmt::format("  reference_height: {:.4f}\n", m.reference_height);
   s += "  # Where the mirror axis stands in the robot frame (x forward, y left), m.\n";
   s += fmt::format("  axis_offset: [{:.4f}, {:.4f}]\n", m.axis_offset.x(), m.axis_offset.y());
   s += "  distance_function:\n    type: table\n";
-  s += "    radii: " + list(t->radii, 2) + "\n    sectors:\n";
+  s += "    radii: " + list(t->radii, 3) + "\n    sectors:\n";
   for (std::size_t k = 0; k < t->sector_bearings.size(); ++k) {
     // Rounded toward zero so that pi stays within the loader's range (-pi, pi].
     const double b = std::trunc(t->sector_bearings[k] * 1e9) / 1e9;

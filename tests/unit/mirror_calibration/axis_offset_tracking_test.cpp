@@ -3,6 +3,7 @@
 // model has the same offset, and visibly wrong ones when it has none.
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -79,6 +80,12 @@ TEST_F(AxisOffsetTracking, MatchingConfigTracksAndOffsetFreeConfigDoesNot) {
       const Vec2 ball = geometry::pointRobotToField(pose, Vec2(1.6, 0.7));
       const Seen right = track(withOffset, withOffset, pose, ball);
       const Seen wrong = track(withOffset, centred, pose, ball);
+      std::printf(
+          "offset (%.2f, %.2f) pose (%.1f, %.1f): lines median %.1f / %.1f cm (%d / %d "
+          "points), ball %.1f / %.1f cm (matching / offset-free config)\n",
+          offset.x(), offset.y(), pose.x, pose.y, 100 * right.line_median_m,
+          100 * wrong.line_median_m, right.line_points, wrong.line_points, 100 * right.ball_error_m,
+          100 * wrong.ball_error_m);
       SCOPED_TRACE(testing::Message()
                    << "offset " << offset.transpose() << " pose " << pose.x << "," << pose.y);
       ASSERT_GT(right.line_points, 50);
