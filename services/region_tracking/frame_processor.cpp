@@ -30,7 +30,7 @@ VisionParams defaultVisionParams() {
   const ClassId green = classIdOf(ColourClass::kGreen);
   params.tracker.classes.push_back({.class_id = green,
                                     .search_when_lost = true,
-                                    .max_seed_regions = 10,
+                                    .max_seed_regions = 0,
                                     .min_seed_cells = 4,
                                     .seed_from_boundary_of = kNoClass,
                                     .view_edge_stride = 4});
@@ -40,7 +40,7 @@ VisionParams defaultVisionParams() {
     params.tracker.classes.push_back(
         {.class_id = classIdOf(c),
          .search_when_lost = false,
-         .max_seed_regions = 10,
+         .max_seed_regions = 0,
          .min_seed_cells = 1,
          .seed_from_boundary_of = green,
          .search_inside_parent_stride = c == ColourClass::kOrange ? 4 : 0});

@@ -24,8 +24,8 @@ struct VisionParams {
   ObstacleParams obstacles;
 };
 
-// Green searched for when lost (10 largest regions) and seeded at the edge of the view; goal
-// colours, ball and obstacles seeded from green's boundary every frame; 4x4 cells;
+// Green searched for when lost (every region of at least 4 cells) and seeded at the edge of the
+// view; goal colours, ball and obstacles seeded from green's boundary every frame; 4x4 cells;
 // re-initialisation every 300 frames (services/region_tracking/vision_default.yaml).
 VisionParams defaultVisionParams();
 
