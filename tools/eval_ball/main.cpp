@@ -30,7 +30,7 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(0.0, 1.0));
   bool noChecks = false;
   app.add_flag("--no-checks", noChecks,
-               "accept any ball-coloured region (the comparison: what the checks buy)");
+               "no size, fill or carpet check (the comparison: what they buy)");
   CLI11_PARSE(app, argc, argv);
   try {
     options.realism = calibration::realismSetting(realism).realism;
