@@ -320,6 +320,9 @@ TEST(VisionParams, TheShippedYamlHoldsTheDefaults) {
   EXPECT_DOUBLE_EQ(loaded.lines.line_width, defaults.lines.line_width);
   EXPECT_DOUBLE_EQ(loaded.lines.width_tolerance, defaults.lines.width_tolerance);
   EXPECT_EQ(loaded.lines.max_transition_pixels, defaults.lines.max_transition_pixels);
+  EXPECT_EQ(loaded.lines.max_gap_pixels, defaults.lines.max_gap_pixels);
+  EXPECT_EQ(loaded.lines.field_confirm_pixels, defaults.lines.field_confirm_pixels);
+  EXPECT_EQ(loaded.lines.end_at_self, defaults.lines.end_at_self);
   EXPECT_EQ(loaded.lines.sample_spacing, defaults.lines.sample_spacing);
   EXPECT_EQ(loaded.lines.smoothing_passes, defaults.lines.smoothing_passes);
   EXPECT_EQ(loaded.lines.tangent_half_span, defaults.lines.tangent_half_span);
@@ -327,6 +330,10 @@ TEST(VisionParams, TheShippedYamlHoldsTheDefaults) {
   EXPECT_EQ(loaded.lines.max_gap_samples, defaults.lines.max_gap_samples);
   EXPECT_DOUBLE_EQ(loaded.ball.centre_height, defaults.ball.centre_height);
   EXPECT_EQ(loaded.ball.min_pixels, defaults.ball.min_pixels);
+  EXPECT_DOUBLE_EQ(loaded.ball.size_tolerance, defaults.ball.size_tolerance);
+  EXPECT_DOUBLE_EQ(loaded.ball.size_slack_px, defaults.ball.size_slack_px);
+  EXPECT_DOUBLE_EQ(loaded.ball.min_fill, defaults.ball.min_fill);
+  EXPECT_DOUBLE_EQ(loaded.ball.min_carpet_share, defaults.ball.min_carpet_share);
   EXPECT_EQ(loaded.obstacles.min_cells, defaults.obstacles.min_cells);
 }
 
