@@ -62,6 +62,8 @@ void loadLocalizer(const config::Node& n, LocalizerParams& p) {
   p.slip_confirm_rad = n.getOr<double>("slip_confirm_rad", p.slip_confirm_rad, 0.0, 3.2);
   p.slip_single_frame_rad =
       n.getOr<double>("slip_single_frame_rad", p.slip_single_frame_rad, 0.0, 3.2);
+  p.slip_pinned_ratio = n.getOr<double>("slip_pinned_ratio", p.slip_pinned_ratio, 0.0, 100.0);
+  p.slip_pinned_chi2 = n.getOr<double>("slip_pinned_chi2", p.slip_pinned_chi2, 0.0, 1e6);
   p.commit_frames = n.getOr<int>("commit_frames", p.commit_frames, 1, 100);
   p.commit_margin_m = n.getOr<double>("commit_margin_m", p.commit_margin_m, 0.0, 1.0);
   p.feature_gate_m = n.getOr<double>("feature_gate_m", p.feature_gate_m, 0.0, 20.0);
