@@ -124,6 +124,8 @@ void loadBall(const config::Node& n, FusionConfig& c) {
   p.restart_after_outliers =
       n.getOr<int>("restart_after_outliers", p.restart_after_outliers, 1, 1000);
   p.max_range_m = n.getOr<double>("max_range_m", p.max_range_m, 0.1, 50.0);
+  p.sighting_floor_m = n.getOr<double>("sighting_floor_m", p.sighting_floor_m, 0.0, 5.0);
+  p.invalid_after_outlier = n.getOr<bool>("invalid_after_outlier", p.invalid_after_outlier);
   c.ball_rate_hz = n.getOr<double>("rate_hz", c.ball_rate_hz, 1.0, 200.0);
   n.rejectUnknownKeys();
 }
