@@ -2,11 +2,12 @@
 // black) and a classification table that maps one pixel to its class with a single table
 // lookup, for YUV and for BGR input.
 //
-// The table is configured as boxes in YUV (config/camera/colours_*.yaml); at start the boxes are
-// sampled into two 3-D lookup tables, one indexed by quantised (Y, U, V) and one by quantised
-// (B, G, R), so classification costs the same for both input formats and no frame is converted.
-// The quantisation is kIndexBits bits per channel (4 grey levels per cell at 6 bits): a box edge
-// is honoured to within one cell.
+// The table is configured as boxes in YUV (config/camera/colours_*.yaml) or as a full lookup
+// table (a `.lut` file, see writeColourLookup; what the calibrator and the light adaptation
+// produce); either way it becomes two 3-D lookup tables, one indexed by quantised (Y, U, V) and one
+// by quantised (B, G, R), so classification costs the same for both input formats and no frame is
+// converted. The quantisation is kIndexBits bits per channel (4 grey levels per cell at 6 bits): a
+// box edge is honoured to within one cell.
 //
 // Usage (the region tracker):
 //   const camera::ColourTable table = camera::loadColourTablePreset("colours_sim");
@@ -69,6 +70,12 @@ class ColourTable {
   ColourTable();
   // Samples the boxes (first match wins) at the centre of every cell.
   explicit ColourTable(std::vector<YuvBox> boxes);
+  // The boxes first; cells no box claims take the class of `fallback` (e.g. a lookup table's
+  // other classes under freshly calibrated green and white).
+  ColourTable(std::vector<YuvBox> boxes, const ColourTable& fallback);
+  // A full lookup table: kCells classes indexed by quantised (Y, U, V) as index() orders them
+  // (Y major). Throws std::invalid_argument for another size or an invalid class.
+  static ColourTable fromLookup(std::vector<ColourClass> yuv);
 
   ColourClass classifyYuv(std::uint8_t y, std::uint8_t u, std::uint8_t v) const {
     return yuv_[index(y, u, v)];
@@ -97,22 +104,50 @@ class ColourTable {
   // Exact box test without the quantisation of the lookup tables (for tests and tools).
   ColourClass classifyExact(Yuv c) const;
 
+  // The boxes the table was made from (empty for a table made from a lookup table).
   const std::vector<YuvBox>& boxes() const { return boxes_; }
+  // True when made by fromLookup (classifyExact then reads the lookup table).
+  bool fromLookupTable() const { return from_lookup_; }
+  // The YUV lookup table (kCells entries).
+  const std::vector<ColourClass>& yuvLookup() const { return yuv_; }
 
- private:
+  // Index of a (Y, U, V) or (B, G, R) triple into the lookup tables.
   static int index(std::uint8_t a, std::uint8_t b, std::uint8_t c) {
     constexpr int shift = 8 - kIndexBits;
     return ((a >> shift) << (2 * kIndexBits)) | ((b >> shift) << kIndexBits) | (c >> shift);
   }
 
+ private:
+  // Fills bgr_ from yuv_ (each BGR cell centre converted to YUV and looked up).
+  void fillBgrFromYuv();
+
   std::vector<YuvBox> boxes_;
+  bool from_lookup_ = false;
   std::vector<ColourClass> yuv_;
   std::vector<ColourClass> bgr_;
 };
 
+// The lookup table file (`.lut`), compact and exact: a text header of four lines
+//   fieldline-colour-lut 1
+//   bits 6
+//   classes green white yellow blue orange black unknown
+//   runs N
+// then N runs over the YUV cells in index order (Y major, then U, then V), each one byte of class
+// (the position in the `classes` line) and the run length as an unsigned LEB128 varint; the runs
+// cover exactly 2^(3 * bits) cells and nothing follows them. A box table is a few ten thousand
+// runs (about 60 KB).
+void writeColourLookup(std::ostream& out, const ColourTable& table);
+// Throws std::runtime_error "NAME: reason" for a bad header, other bits, an unknown class, runs
+// that do not cover the cells exactly, or trailing bytes.
+ColourTable readColourLookup(std::istream& in, const std::string& name);
+void writeColourLookupFile(const std::string& path, const ColourTable& table);
+ColourTable readColourLookupFile(const std::string& path);
+
 // Reads the `colours:` map of a colour preset: for each class name a list of boxes
 // {y: [min, max], u: [min, max], v: [min, max]} (0..255, min <= max). Classes are tried in file
-// order. Throws config::Error with file:line for unknown classes, keys or bad ranges.
+// order. Or, instead of `colours:`, `lookup_table: FILE.lut` (relative to the YAML's folder): a
+// full lookup table. Throws config::Error with file:line for unknown classes, keys or bad
+// ranges, both or neither of the two keys, and a lookup file that does not read.
 ColourTable loadColourTable(const config::Node& root);
 // Loads config/camera/<name>.yaml (or a path).
 ColourTable loadColourTablePreset(const std::string& name_or_path);

@@ -1,5 +1,8 @@
 #include "common/camera/image_io.hpp"
 
+#include <cstdio>
+#include <fstream>
+#include <iterator>
 #include <stdexcept>
 
 #include <opencv2/imgcodecs.hpp>
@@ -53,6 +56,48 @@ cv::Mat readBgrImage(const std::string& path) {
   cv::Mat image = cv::imread(path, cv::IMREAD_COLOR);
   if (image.empty()) throw std::runtime_error("cannot read image " + path);
   return image;
+}
+
+FrameSize parseFrameSize(const std::string& text, bool even_width) {
+  int w = 0, h = 0, used = 0;
+  char x = 0;
+  if (std::sscanf(text.c_str(), "%d%c%d%n", &w, &x, &h, &used) != 3 ||
+      used != static_cast<int>(text.size()) || x != 'x' || w <= 0 || h <= 0 || w > 16384 ||
+      h > 16384) {
+    throw std::invalid_argument("expected WIDTHxHEIGHT (e.g. 320x240), got '" + text + "'");
+  }
+  if (even_width && w % 2 != 0) {
+    throw std::invalid_argument("YUYV needs an even width, got '" + text + "'");
+  }
+  return {w, h};
+}
+
+FrameView FrameFile::view() const {
+  if (!yuyv.empty()) {
+    return {yuyv.data(), size.width, size.height, 2 * size.width, PixelFormat::kYuyv};
+  }
+  return viewOfBgr(bgr);
+}
+
+FrameFile readFrameFile(const std::string& path, const std::optional<FrameSize>& yuyv_size) {
+  FrameFile f;
+  if (!yuyv_size) {
+    f.bgr = readBgrImage(path);
+    f.size = {f.bgr.cols, f.bgr.rows};
+    return f;
+  }
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw std::runtime_error("cannot open " + path);
+  f.yuyv.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  const std::size_t expected =
+      2 * static_cast<std::size_t>(yuyv_size->width) * static_cast<std::size_t>(yuyv_size->height);
+  if (f.yuyv.size() != expected) {
+    throw std::runtime_error(path + ": " + std::to_string(f.yuyv.size()) + " bytes, expected " +
+                             std::to_string(expected) + " for " + std::to_string(yuyv_size->width) +
+                             "x" + std::to_string(yuyv_size->height) + " YUYV");
+  }
+  f.size = *yuyv_size;
+  return f;
 }
 
 }  // namespace fieldline::camera

@@ -3,7 +3,10 @@
 // table does not link OpenCV.
 #pragma once
 
+#include <cstdint>
+#include <optional>
 #include <string>
+#include <vector>
 
 #include <opencv2/core.hpp>
 
@@ -25,5 +28,26 @@ cv::Mat classificationImage(const FrameView& frame, const ColourTable& table);
 void writeImage(const std::string& path, const cv::Mat& image);
 // Reads a colour image as BGR; throws std::runtime_error if it cannot be read.
 cv::Mat readBgrImage(const std::string& path);
+
+// Image size "WIDTHxHEIGHT" (e.g. "320x240"); throws std::invalid_argument for anything else,
+// and for an odd width when `even_width` (YUYV pairs).
+struct FrameSize {
+  int width = 0;
+  int height = 0;
+};
+FrameSize parseFrameSize(const std::string& text, bool even_width = true);
+
+// A frame read from a file, owning its pixels: an image file (PNG, JPEG, BMP, anything OpenCV
+// reads; grey images become BGR) or raw YUYV 4:2:2 of a given size. Moving keeps view() valid.
+struct FrameFile {
+  cv::Mat bgr;                     // image files
+  std::vector<std::uint8_t> yuyv;  // raw YUYV
+  FrameSize size;
+
+  FrameView view() const;
+};
+// Reads `path` as an image, or as raw YUYV when `yuyv_size` is given (the file must hold exactly
+// 2 * width * height bytes). Throws std::runtime_error naming the file otherwise.
+FrameFile readFrameFile(const std::string& path, const std::optional<FrameSize>& yuyv_size = {});
 
 }  // namespace fieldline::camera

@@ -28,7 +28,7 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--vision-config", vision_config,
                  "YAML with tracker, blocks, lines, ball and obstacles sections and optionally "
-                 "health (default: "
+                 "health and adaptation (default: "
                  "built-in values, see docs/region_tracking.md)");
   app.add_option("--lines-every", lines_every, "Extract field lines on every n-th frame")
       ->check(CLI::Range(1, 1000))
@@ -47,6 +47,10 @@ int main(int argc, char** argv) {
       // Optional: when the vision counts as blind (docs/calibration.md, vision health).
       if (const std::optional<config::Node> health = root.childIf("health")) {
         options.health = region_tracking::loadVisionHealthParams(*health);
+      }
+      // Optional: green and white follow the light (docs/calibration.md, staying calibrated).
+      if (const std::optional<config::Node> adaptation = root.childIf("adaptation")) {
+        options.adaptation = region_tracking::loadColourAdaptationParams(*adaptation);
       }
     }
     options.lines_every_frames = lines_every;

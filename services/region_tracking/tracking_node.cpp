@@ -16,6 +16,9 @@ TrackingNode::TrackingNode(bus::Node& node, TrackingNodeOptions options)
   if (options_.lines_every_frames < 1) {
     throw std::invalid_argument("region tracking: lines_every_frames must be >= 1");
   }
+  if (options_.adaptation.enabled) {
+    adaptation_ = std::make_unique<ColourAdaptation>(options_.colours, options_.adaptation);
+  }
   node_.subscribe(bus::channels::kCameraImage, [this](const image_t& image) { onImage(image); });
   // Without images this process does nothing: a dead camera must show in its status.
   node_.requireInput(
@@ -77,6 +80,10 @@ void TrackingNode::onImage(const image_t& image) {
   if (detectLines) publishLines(image, result_, processingUs);
   node_.setMetric("touched_percent", 100.0 * result_.tracking.touched_fraction);
   // Blind or degraded vision is a WARN with its reason, ok again once the frames fit.
+  if (adaptation_) {
+    adaptation_->observe(*view, processor_->tracker(), options_.colours);
+    node_.setMetric("light_gain", adaptation_->appliedGain());
+  }
   health_->update(*view, result_);
   node_.status().setWarning("vision", health_->reason());
   node_.setMetric("green_percent", 100.0 * health_->greenFraction());

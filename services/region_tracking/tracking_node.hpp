@@ -18,6 +18,7 @@
 #include "common/camera/mirror_model.hpp"
 #include "common/perception/estimates.hpp"
 #include "common/perception/obstacles.hpp"
+#include "services/region_tracking/colour_adaptation.hpp"
 #include "services/region_tracking/frame_processor.hpp"
 #include "services/region_tracking/vision_health.hpp"
 
@@ -31,6 +32,8 @@ struct TrackingNodeOptions {
   VisionParams vision = defaultVisionParams();
   // When the vision counts as blind or degraded (SERVICE_STATUS WARN with the reason).
   VisionHealthParams health;
+  // Green and white follow slow changes of light (colour_adaptation.hpp); off by default.
+  ColourAdaptationParams adaptation;
   // Field lines are extracted on every n-th frame (the seed's 10 Hz at 30 fps).
   int lines_every_frames = 3;
   // VISION_LINES.processing_us is the one output that depends on this machine, not on the
@@ -63,6 +66,8 @@ class TrackingNode {
   std::unique_ptr<camera::MirrorModel> mirror_;
   std::unique_ptr<FrameProcessor> processor_;
   std::unique_ptr<VisionHealth> health_;
+  // Adapts options_.colours in place (the processor classifies with it); null when off.
+  std::unique_ptr<ColourAdaptation> adaptation_;
   VisionResult result_;
   line_contours_t lines_{};
   ball_observation_t ball_{};

@@ -1,6 +1,7 @@
 #include "tools/colour_calibrate/evaluation.hpp"
 
 #include <algorithm>
+#include <optional>
 #include <stdexcept>
 
 namespace fieldline::calibration {
@@ -99,9 +100,13 @@ SettingResult evaluateSetting(region_tracking::SimCamera& sim, const RealismSett
 }
 
 DriveResult evaluateDrive(region_tracking::SimCamera& sim, const RealismSetting& setting,
-                          const camera::ColourTable& table, int frames, double light_from,
-                          double light_to) {
+                          const camera::ColourTable& calibrated, int frames, double light_from,
+                          double light_to,
+                          const region_tracking::ColourAdaptationParams& adaptation) {
   DriveResult result;
+  camera::ColourTable table = calibrated;
+  std::optional<region_tracking::ColourAdaptation> adapter;
+  if (adaptation.enabled) adapter.emplace(calibrated, adaptation);
   result.light_from = light_from;
   result.light_to = light_to;
   const std::vector<geometry::Pose2> poses = region_tracking::motionPoses(
@@ -121,9 +126,18 @@ DriveResult evaluateDrive(region_tracking::SimCamera& sim, const RealismSetting&
     const camera::FrameView view = sim.render(scene);
     const bool lines = i % 3 == 0;
     processor.process(view, lines, vision);
+    if (adapter) {
+      adapter->observe(view, processor.tracker(), table);
+      result.min_gain = std::min(result.min_gain, adapter->appliedGain());
+      result.max_gain = std::max(result.max_gain, adapter->appliedGain());
+    }
     if (lines && i >= 3) {
       result.score.add(scoreLinePoints(sim.mirror, sim.field, scene.robot, vision.lines, {}));
     }
+  }
+  if (adapter) {
+    result.final_gain = adapter->appliedGain();
+    result.rebuilds = adapter->rebuilds();
   }
   sim.renderer->realism().setParams({});
   return result;

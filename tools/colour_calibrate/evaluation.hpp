@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "services/camera/realism.hpp"
+#include "services/region_tracking/colour_adaptation.hpp"
 #include "services/region_tracking/frame_processor.hpp"
 #include "tests/support/sim_frames.hpp"
 #include "tools/colour_calibrate/colour_calibration.hpp"
@@ -56,13 +57,19 @@ SettingResult evaluateSetting(region_tracking::SimCamera& sim, const RealismSett
 struct DriveResult {
   ScoreSum score;
   double light_from = 1.0, light_to = 1.0;
+  // With adaptation: the light gain applied at the end, its range over the drive (relative to
+  // the reference), and how often the table was rebuilt.
+  double final_gain = 1.0, min_gain = 1.0, max_gain = 1.0;
+  long rebuilds = 0;
 };
 
 // Drives `frames` frames around the field (1.5 m/s, turning 0.5 rad/s) under `setting` with its
-// light factor changing linearly from light_from to light_to, tracking with `table` (lines every
-// 3rd frame), scoring every line frame.
+// light factor changing linearly from light_from to light_to (the light ramp), tracking with a
+// copy of `table` (lines every 3rd frame), scoring every line frame. With `adaptation.enabled`,
+// green and white follow the light (ColourAdaptation over the tracked green, as the node does).
 DriveResult evaluateDrive(region_tracking::SimCamera& sim, const RealismSetting& setting,
                           const camera::ColourTable& table, int frames, double light_from,
-                          double light_to);
+                          double light_to,
+                          const region_tracking::ColourAdaptationParams& adaptation = {});
 
 }  // namespace fieldline::calibration

@@ -2,7 +2,9 @@
 // matches a rendered frame; the written YAML reads back as the same table; a wrong pose or a
 // frame of another size is refused; and the must-show: under every realism setting, a table
 // calibrated from one rendered frame gives line points with precision >= 90 % (within 3 px of a
-// model line) and recall >= 85 % of the visible model line length within 4 m.
+// model line) and recall >= 85 % of the visible model line length within 4 m; the same table on
+// a drive with the light changing by a factor of two; and with colour adaptation (part 2), a
+// table calibrated in the bright light holds a drive into half the light, without it it does not.
 #include "tools/colour_calibrate/colour_calibration.hpp"
 
 #include <cmath>
@@ -151,6 +153,31 @@ TEST(ColourCalibration, TheSameTableHoldsOnADriveWithTheLightChangingByAFactorOf
   const DriveResult fragile =
       evaluateDrive(sim, clean, camera::ColourTable(fixed.calibration.boxes), 500, 0.7, 1.4);
   EXPECT_LT(fragile.score.recall(), drive.score.recall() - 0.1);
+}
+
+TEST(ColourCalibration, CalibratedOnTheBrightSideTheLinesStayWhenTheLightHalvesWithAdaptation) {
+  region_tracking::SimCamera& sim = sharedCamera();
+  const RealismSetting clean = realismSetting("clean");
+  // Calibrated at the drive's start pose in the start light, driven from x1.0 to x0.5: beyond
+  // the light range of the fit (x0.65) at the dark end.
+  const std::vector<geometry::Pose2> start = region_tracking::motionPoses(
+      sim.field, region_tracking::Motion{.speed = 1.5, .omega = 0.5}, 1);
+  const SettingResult calibrated = evaluateSetting(sim, clean, start[0], 3, FitParams{});
+  const camera::ColourTable table(calibrated.calibration.boxes);
+  region_tracking::ColourAdaptationParams adaptation;
+  adaptation.enabled = true;
+  const DriveResult on = evaluateDrive(sim, clean, table, 500, 1.0, 0.5, adaptation);
+  EXPECT_EQ(on.score.frames, 166);
+  EXPECT_GE(on.score.precision(), 0.9);
+  EXPECT_GE(on.score.recall(), 0.85);
+  EXPECT_GE(on.score.frames_meeting, on.score.frames * 95 / 100);
+  EXPECT_NEAR(on.final_gain, 0.55, 0.1);  // the carpet's median luma followed the light
+  EXPECT_GT(on.rebuilds, 5);
+
+  // Adaptation off: the same table loses the lines in the dark part of the drive.
+  const DriveResult off = evaluateDrive(sim, clean, table, 500, 1.0, 0.5);
+  EXPECT_LT(off.score.recall(), on.score.recall() - 0.1);
+  EXPECT_LT(off.score.min_recall, 0.5);
 }
 
 }  // namespace
