@@ -134,6 +134,13 @@ struct RecognitionParams {
   int identity_screen_points = 60;
   double identity_screen_slack = 0.15;
 
+  // --- consistency of one frame's high-level features (beyond the seed) ---
+  // Features whose robot poses differ (and differ from each other's point-symmetric twin) by
+  // more than this (m, rad) cannot both be right: only the one whose pose fits the most points
+  // is kept.
+  double consistency_distance = 0.3;
+  double consistency_angle = 0.1;
+
   // --- pose hypotheses ---
   // Floors on the standard deviations (the fit's own residuals underestimate the calibration's
   // errors), m and rad.
