@@ -98,8 +98,10 @@ int runFusion(const FusionAppOptions& options, const bus::CommonOptions& common)
                                    }};
 
   bus::installStopSignals();
-  bus::Node node({.process = "fusion", .robot_id = common.robot, .url = common.bus_url},
-                 bus::robotClockFromEnvironment());
+  // The node keeps a reference to its clock: it must outlive the node (a temporary here was a
+  // dangling reference, and fusion crashed within 2 s of its start).
+  const RobotClock clock = bus::robotClockFromEnvironment();
+  bus::Node node({.process = "fusion", .robot_id = common.robot, .url = common.bus_url}, clock);
   FusionNode fusion(node, std::move(node_options), functions);
   spdlog::info("fusing on field {} with the {} matcher, settings {}", options.field,
                config.matcher.method == MatchMethod::kForceField ? "force_field" : "lsq",

@@ -31,9 +31,13 @@ void addOptions(CLI::App& app, replay::ReplayRunOptions& options, std::string& r
       ->capture_default_str();
   app.add_option("--robot-config", options.robot_config, "fusion: robot preset or YAML path")
       ->capture_default_str();
-  app.add_option("--matcher", options.matcher, "fusion: layer 2 method, lsq or force_field")
-      ->check(CLI::IsMember({"lsq", "force_field"}))
+  app.add_option("--fusion-config", options.fusion_config,
+                 "fusion: settings preset (config/fusion/NAME.yaml) or YAML path, as "
+                 "fieldline-fusion --config")
       ->capture_default_str();
+  app.add_option("--matcher", options.matcher,
+                 "fusion: layer 2 method, lsq or force_field (default: the settings file's)")
+      ->check(CLI::IsMember({"lsq", "force_field"}));
   app.add_option("--start-prior", options.start_prior, "fusion: own_half or none")
       ->check(CLI::IsMember({"own_half", "none"}))
       ->capture_default_str();
