@@ -1,12 +1,22 @@
-// The feature recogniser on line points recorded from rendered frames (omni_sim camera, msl
-// field): 200 poses along a drive through the field, each tracked over three frames, then the
-// recogniser alone timed per frame.
+// The feature recogniser alone, timed per frame, on two sets of line points:
+//
+//   BM_RecognizeRecordedMatch640  VISION_LINES recorded from a simulated match
+//       (bench/data/vision_lines_match_640.lcmlog: robot 1 of the match scenario with the 640x480
+//       camera preset, about 400 points per frame; bench/data/make_vision_lines_log.sh). This is
+//       the benchmark.
+//   BM_RecognizeRendered320       200 frames rendered in-process along a drive through the field
+//       with the 320x240 omni_sim camera (about 160 points per frame), for comparison.
 //
 //   build/bin/fieldline-bench-features --benchmark_repetitions=5 --benchmark_report_aggregates_only
 #include <benchmark/benchmark.h>
 
+#include <stdexcept>
+#include <string>
 #include <vector>
 
+#include "common/bus/log_file.hpp"
+#include "common/config/config.hpp"
+#include "common/msg/line_contours.hpp"
 #include "services/feature_recognition/recognizer.hpp"
 #include "services/region_tracking/frame_processor.hpp"
 #include "tests/support/sim_frames.hpp"
@@ -21,7 +31,30 @@ struct Recorded {
   double mean_points = 0.0;
 };
 
-const Recorded& recorded() {
+void addFrame(Recorded& r, const perception::LinePoints& lines) {
+  const double n = static_cast<double>(r.frames.size());
+  r.mean_points = (r.mean_points * n + static_cast<double>(lines.points.size())) / (n + 1);
+  r.frames.push_back(lines);
+}
+
+const Recorded& recordedMatch() {
+  static const Recorded data = [] {
+    const std::string path = config::projectRoot() + "/bench/data/vision_lines_match_640.lcmlog";
+    Recorded r{field::loadFieldPreset("msl"), {}, 0.0};
+    bus::LogReader log(path);
+    line_contours_t message;
+    perception::LinePoints lines;
+    while (log.next(bus::channels::kVisionLines, message)) {
+      msg::fromMessage(message, lines);
+      addFrame(r, lines);
+    }
+    if (r.frames.empty()) throw std::runtime_error(path + ": no VISION_LINES");
+    return r;
+  }();
+  return data;
+}
+
+const Recorded& rendered320() {
   static const Recorded data = [] {
     region_tracking::SimCamera sim = region_tracking::SimCamera::load("omni_sim", "msl");
     region_tracking::FrameProcessor processor(sim.mirror, sim.table,
@@ -29,23 +62,19 @@ const Recorded& recorded() {
     region_tracking::VisionResult result;
     Recorded r{sim.field, {}, 0.0};
     const auto poses = region_tracking::motionPoses(sim.field, {2.0, 1.0, 10.0}, 200);
-    double total = 0.0;
     for (std::size_t i = 0; i < poses.size(); ++i) {
       camera::SimScene scene;
       scene.robot = poses[i];
       scene.frame_number = i;
       processor.process(sim.render(scene), true, result);
-      r.frames.push_back(result.lines);
-      total += static_cast<double>(result.lines.points.size());
+      addFrame(r, result.lines);
     }
-    r.mean_points = total / static_cast<double>(poses.size());
     return r;
   }();
   return data;
 }
 
-void BM_RecognizeFrame(benchmark::State& state) {
-  const Recorded& data = recorded();
+void recognizeFrames(benchmark::State& state, const Recorded& data) {
   feature_recognition::FeatureRecognizer recognizer(data.field);
   perception::FieldFeatures out;
   std::size_t i = 0;
@@ -55,7 +84,17 @@ void BM_RecognizeFrame(benchmark::State& state) {
     i = (i + 1) % data.frames.size();
   }
   state.counters["points_per_frame"] = data.mean_points;
+  state.counters["frames"] = static_cast<double>(data.frames.size());
 }
-BENCHMARK(BM_RecognizeFrame)->Unit(benchmark::kMicrosecond);
+
+void BM_RecognizeRecordedMatch640(benchmark::State& state) {
+  recognizeFrames(state, recordedMatch());
+}
+BENCHMARK(BM_RecognizeRecordedMatch640)->Unit(benchmark::kMicrosecond);
+
+void BM_RecognizeRendered320(benchmark::State& state) {
+  recognizeFrames(state, rendered320());
+}
+BENCHMARK(BM_RecognizeRendered320)->Unit(benchmark::kMicrosecond);
 
 }  // namespace

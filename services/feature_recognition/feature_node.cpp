@@ -1,6 +1,7 @@
 #include "services/feature_recognition/feature_node.hpp"
 
 #include <chrono>
+#include <string>
 
 #include "common/bus/channels.hpp"
 #include "common/msg/field_features.hpp"
@@ -25,16 +26,41 @@ void FeatureNode::onLines(const line_contours_t& m) {
   const double processing_ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   ++frames_processed_;
-  if (check.errors() > 0) {
-    ++frames_with_errors_;
-    node_.reportError(check.too_many_points ? "too_many_points" : "bad_sequences",
-                      "VISION_LINES: " + check.describe());
-  }
+  countInputErrors(check);
+  countModelCheck();
   out_.header.utime = m.header.utime;
   msg::toMessage(features_, out_);
   node_.publish(bus::channels::kFieldFeatures, out_);
   updateRates(m.header.utime, features_);
   node_.setMetric("recognition_ms", processing_ms);
+}
+
+void FeatureNode::countInputErrors(const InputCheck& check) {
+  if (check.errors() == 0) return;
+  ++frames_with_errors_;
+  const std::string text = "VISION_LINES: " + check.describe();
+  // One error per kind present in the frame, so that each kind has its own count.
+  if (check.too_many_points) node_.reportError("too_many_points", text);
+  if (check.non_finite > 0) node_.reportError("non_finite_sequences", text);
+  if (check.out_of_range > 0) node_.reportError("sequences_out_of_range", text);
+  if (check.overlapping > 0) node_.reportError("overlapping_sequences", text);
+  dropped_sequences_ += check.non_finite + check.out_of_range + check.overlapping;
+  node_.setMetric("dropped_sequences_total", static_cast<double>(dropped_sequences_));
+}
+
+void FeatureNode::countModelCheck() {
+  for (const CheckedFeature& c : recognizer_.checked()) {
+    if (c.accepted) continue;
+    if (c.kind == perception::FeatureKind::kCentreCircle) {
+      ++rejected_circles_;
+    } else {
+      ++rejected_corners_;
+    }
+  }
+  node_.setMetric("model_check_rejected_total",
+                  static_cast<double>(rejected_circles_ + rejected_corners_));
+  node_.setMetric("model_check_rejected_circle_total", static_cast<double>(rejected_circles_));
+  node_.setMetric("model_check_rejected_corner_total", static_cast<double>(rejected_corners_));
 }
 
 void FeatureNode::updateRates(std::int64_t utime, const perception::FieldFeatures& features) {

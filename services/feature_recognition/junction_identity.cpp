@@ -125,24 +125,33 @@ bool identifyJunction(const Junction& junction, const std::vector<ModelJunction>
       if (!fits) continue;
       const Vec2 robot = model.position - geometry::rotate(junction.position, phi);
       const geometry::Pose2 pose{robot.x(), robot.y(), geometry::normalizeAngle(phi)};
-      candidates.push_back({static_cast<int>(m), pose, check.fit(others, pose)});
+      candidates.push_back(
+          {static_cast<int>(m), pose, check.fit(others, pose, params.identity_screen_points)});
     }
   }
   if (candidates.empty()) return false;
   const auto best = std::max_element(
       candidates.begin(), candidates.end(),
       [](const Candidate& a, const Candidate& b) { return a.fit.share() < b.fit.share(); });
+  // The chosen place on all the other points (the screening used a thinned set), and so is every
+  // rival the screening puts near it: the verdict rests on full fits wherever it is close.
+  const ModelFit chosen = check.fit(others, best->robot);
   double rival = 0.0;
   for (const Candidate& c : candidates) {
-    if (!sameOrTwin(c.robot, best->robot)) rival = std::max(rival, c.fit.share());
+    if (sameOrTwin(c.robot, best->robot)) continue;
+    double share = c.fit.share();
+    if (share > chosen.share() - params.identity_margin - params.identity_screen_slack) {
+      share = check.fit(others, c.robot).share();
+    }
+    rival = std::max(rival, share);
   }
   out.model = best->model;
   out.robot = best->robot;
-  out.fit = best->fit;
+  out.fit = chosen;
   out.rival_share = rival;
-  return best->fit.points >= params.identity_min_points &&
-         best->fit.share() >= params.identity_min_share &&
-         rival <= best->fit.share() - params.identity_margin;
+  return chosen.points >= params.identity_min_points &&
+         chosen.share() >= params.identity_min_share &&
+         rival <= chosen.share() - params.identity_margin;
 }
 
 }  // namespace fieldline::feature_recognition

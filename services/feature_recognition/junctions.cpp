@@ -47,10 +47,21 @@ void findJunctions(const LineStructure& structure, const RecognitionParams& para
   const auto& g1 = structure.groups[1];
   for (int i = 0; i < static_cast<int>(g0.size()); ++i) {
     for (int j = 0; j < static_cast<int>(g1.size()); ++j) {
-      const Line& a = g0[i].line;
-      const Line& b = g1[j].line;
-      Vec2 c;
-      if (!intersect(a, b, c)) continue;
+      // The two lines squared up (one orientation for both, from the better seen one).
+      SquareCorner square;
+      if (!squareUp(g0[i].line, g1[j].line, params.direction_cluster, square)) continue;
+      Line a = g0[i].line;
+      Line b = g1[j].line;
+      a.direction = square.a_direction;
+      b.direction = square.b_direction;
+      a.centre = g0[i].line.midpoint();
+      b.centre = g1[j].line.midpoint();
+      const double half_a = 0.5 * g0[i].line.length(), half_b = 0.5 * g1[j].line.length();
+      a.t_min = -half_a;
+      a.t_max = half_a;
+      b.t_min = -half_b;
+      b.t_max = half_b;
+      const Vec2 c = square.position;
       Vec2 away_a, away_b;
       const Meets ma = howMeets(a, c, params, away_a);
       const Meets mb = howMeets(b, c, params, away_b);

@@ -26,10 +26,16 @@ ModelCheck::ModelCheck(const field::FieldModel& field, const RecognitionParams& 
 
 ModelFit ModelCheck::fit(const std::vector<geometry::Vec2>& points,
                          const geometry::Pose2& robot) const {
+  return fit(points, robot, max_points_);
+}
+
+ModelFit ModelCheck::fit(const std::vector<geometry::Vec2>& points, const geometry::Pose2& robot,
+                         int max_points) const {
   ModelFit out;
-  // Bounded time: at most max_points_ points, spread evenly over the frame.
+  // Bounded time: at most max_points points, spread evenly over the frame.
   const std::size_t n = points.size();
-  const std::size_t step = std::max<std::size_t>(1, (n + max_points_ - 1) / max_points_);
+  const std::size_t limit = static_cast<std::size_t>(std::clamp(max_points, 1, max_points_));
+  const std::size_t step = std::max<std::size_t>(1, (n + limit - 1) / limit);
   const double c = std::cos(robot.phi), s = std::sin(robot.phi);
   for (std::size_t i = 0; i < n; i += step) {
     const geometry::Vec2& p = points[i];

@@ -42,6 +42,10 @@ class ModelCheck {
 
   // How well `points` (robot frame, m) fit the field's lines with the robot at `robot`.
   ModelFit fit(const std::vector<geometry::Vec2>& points, const geometry::Pose2& robot) const;
+  // As fit(), but on at most `max_points` of them (evenly thinned): a cheaper estimate of the
+  // share when many poses are compared.
+  ModelFit fit(const std::vector<geometry::Vec2>& points, const geometry::Pose2& robot,
+               int max_points) const;
   // True if the fit is good enough to keep the hypothesis.
   bool accepts(const ModelFit& fit) const;
   // True if the fit of all points and that of the other points (see pointsAwayFrom) are good

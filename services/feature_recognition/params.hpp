@@ -128,6 +128,18 @@ struct RecognitionParams {
   int identity_min_points = 25;
   double identity_min_share = 0.8;
   double identity_margin = 0.2;
+  // The candidates are screened on at most this many of the other points (evenly thinned); the
+  // best of them, and every rival screened within identity_margin + identity_screen_slack of it,
+  // is then fitted on all of them (up to model_check_max_points) for the verdict.
+  int identity_screen_points = 60;
+  double identity_screen_slack = 0.15;
+
+  // --- consistency of one frame's high-level features (beyond the seed) ---
+  // Features whose robot poses differ (and differ from each other's point-symmetric twin) by
+  // more than this (m, rad) cannot both be right: only the one whose pose fits the most points
+  // is kept.
+  double consistency_distance = 0.3;
+  double consistency_angle = 0.1;
 
   // --- pose hypotheses ---
   // Floors on the standard deviations (the fit's own residuals underestimate the calibration's

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 
 namespace fieldline::feature_recognition {
 
@@ -21,6 +22,33 @@ bool intersect(const Line& a, const Line& b, Vec2& out) {
   const Vec2 d = b.centre - a.centre;
   const double s = (d.x() * b.direction.y() - d.y() * b.direction.x()) / cross;
   out = a.centre + s * a.direction;
+  return true;
+}
+
+bool squareUp(const Line& a, const Line& b, double max_skew, SquareCorner& out) {
+  const double ta = std::atan2(a.direction.y(), a.direction.x());
+  const double tb = std::atan2(b.direction.y(), b.direction.x());
+  // b turned by -90 or +90 degrees, whichever lies nearer a.
+  double db = geometry::angleDiff(tb - std::numbers::pi / 2, ta);
+  double turn = -std::numbers::pi / 2;
+  if (std::abs(db) > std::numbers::pi / 2) {
+    db = geometry::angleDiff(tb + std::numbers::pi / 2, ta);
+    turn = std::numbers::pi / 2;
+  }
+  if (std::abs(db) > max_skew) return false;
+  auto information = [](const Line& line) {
+    Line floored = line;
+    floored.rms = std::max(line.rms, 0.005);
+    const double sigma = lineAngleSigma(floored);
+    return 1.0 / (sigma * sigma);
+  };
+  const double wa = information(a), wb = information(b);
+  const double theta = ta + db * wb / (wa + wb);
+  const Vec2 u(std::cos(theta), std::sin(theta));
+  out.a_direction = u;
+  out.b_direction = geometry::rotate(u, -turn);
+  out.position = a.centre + (b.centre - a.centre).dot(u) * u;
+  out.sigma_phi = 1.0 / std::sqrt(wa + wb);
   return true;
 }
 
@@ -64,8 +92,11 @@ void findCorners(const LineStructure& structure, const PenaltyStructure& area, c
         hi < std::min(goal_v, front_v + params.partial_side_line) - params.corner_distance) {
       continue;
     }
-    Vec2 corner;
-    if (!intersect(front, side, corner)) continue;
+    // The corner and its orientation from both lines squared up (the front line of a far corner
+    // is often short, its own direction poor).
+    SquareCorner square;
+    if (!squareUp(front, side, params.direction_cluster, square)) continue;
+    const Vec2 corner = square.position;
     const double lateral = corner.dot(left);
     bool is_left;
     if (std::abs(lateral - front_hi) <= params.corner_distance) {
@@ -79,9 +110,9 @@ void findCorners(const LineStructure& structure, const PenaltyStructure& area, c
     c.left = is_left;
     c.inner = inner;
     c.position = corner;
-    c.toward_goal = v;
+    c.toward_goal = square.b_direction.dot(v) >= 0 ? square.b_direction : -square.b_direction;
     c.sigma_xy = std::hypot(lineOffsetSigma(front), lineOffsetSigma(side));
-    c.sigma_phi = lineAngleSigma(front);
+    c.sigma_phi = square.sigma_phi;
     c.front = front;
     c.side = side;
     // One corner per end: the closer side line wins.

@@ -51,6 +51,21 @@ double lineAngleSigma(const Line& line);
 // Intersection of two lines (false if nearly parallel).
 bool intersect(const Line& a, const Line& b, Vec2& out);
 
+// Two lines of the field that meet at right angles, fitted together (beyond the seed): one
+// orientation for both, each line's own weighted by its information (1 / lineAngleSigma^2, the
+// rms floored at 5 mm), so that a short line at a corner takes its direction from the long one.
+struct SquareCorner {
+  // Where the lines through the two centres, squared up, meet (robot frame).
+  Vec2 position = Vec2::Zero();
+  // The squared-up directions, each with the sign of its line's own.
+  Vec2 a_direction = Vec2::UnitX();
+  Vec2 b_direction = Vec2::UnitY();
+  // Standard deviation of the common orientation, rad.
+  double sigma_phi = 0.0;
+};
+// False if the lines are further than `max_skew` (rad) from perpendicular.
+bool squareUp(const Line& a, const Line& b, double max_skew, SquareCorner& out);
+
 // The best penalty-area structure in `structure`, with its corners; false if there is none.
 bool findPenaltyArea(const LineStructure& structure, const field::FieldModel& field,
                      const RecognitionParams& params, PenaltyStructure& out);

@@ -1,6 +1,8 @@
 #include "services/feature_recognition/recognizer.hpp"
 
+#include <algorithm>
 #include <cmath>
+#include <numbers>
 
 #include "services/feature_recognition/pose_hypotheses.hpp"
 
@@ -35,6 +37,45 @@ bool FeatureRecognizer::passesModelCheck(FeatureKind kind, const Pose2& local, c
   return c.accepted;
 }
 
+void FeatureRecognizer::dropInconsistent(perception::FieldFeatures& out) {
+  if (high_level_.size() < 2) return;
+  auto share = [&](const std::pair<int, int>& h) { return checked_[h.second].fit.share(); };
+  const auto best =
+      *std::max_element(high_level_.begin(), high_level_.end(),
+                        [&](const std::pair<int, int>& a, const std::pair<int, int>& b) {
+                          return share(a) < share(b);
+                        });
+  const Pose2& pose = checked_[best.second].robot;
+  std::vector<int> new_index(out.features.size());
+  std::vector<bool> drop(out.features.size(), false);
+  bool any = false;
+  for (const auto& h : high_level_) {
+    const Pose2& other = checked_[h.second].robot;
+    const bool same =
+        (other.position() - pose.position()).norm() <= params_.consistency_distance &&
+        std::abs(geometry::angleDiff(other.phi, pose.phi)) <= params_.consistency_angle;
+    const bool twin = (other.position() + pose.position()).norm() <= params_.consistency_distance &&
+                      std::abs(geometry::angleDiff(other.phi + std::numbers::pi, pose.phi)) <=
+                          params_.consistency_angle;
+    if (same || twin) continue;
+    drop[h.first] = true;
+    checked_[h.second].accepted = false;
+    checked_[h.second].inconsistent = true;
+    any = true;
+  }
+  if (!any) return;
+  int kept = 0;
+  for (std::size_t f = 0; f < out.features.size(); ++f) {
+    new_index[f] = drop[f] ? -1 : kept;
+    if (!drop[f]) out.features[kept++] = out.features[f];
+  }
+  out.features.resize(static_cast<std::size_t>(kept));
+  std::erase_if(out.hypotheses,
+                [&](const perception::PoseHypothesis& h) { return drop[h.feature]; });
+  for (auto& h : out.hypotheses)
+    h.feature = new_index[h.feature];
+}
+
 InputCheck FeatureRecognizer::recognize(const perception::LinePoints& in,
                                         perception::FieldFeatures& out) {
   out.clear();
@@ -42,6 +83,7 @@ InputCheck FeatureRecognizer::recognize(const perception::LinePoints& in,
   structure_.clear();
   junctions_.clear();
   checked_.clear();
+  high_level_.clear();
   penalty_found_ = false;
   const InputCheck check = prepareContours(in, params_, contours_);
   classifyPieces(contours_, params_, classified_);
@@ -68,6 +110,7 @@ InputCheck FeatureRecognizer::recognize(const perception::LinePoints& in,
     const std::vector<Pose2> marks = centreCircleMarks();
     if (passesModelCheck(FeatureKind::kCentreCircle, local, marks.front(), nullptr)) {
       const int index = static_cast<int>(out.features.size());
+      high_level_.emplace_back(index, static_cast<int>(checked_.size()) - 1);
       out.features.push_back({FeatureKind::kCentreCircle, local, qualityMeasure(0, 2)});
       Line line;
       line.rms = circle_.line_rms;
@@ -93,6 +136,8 @@ InputCheck FeatureRecognizer::recognize(const perception::LinePoints& in,
     }
     corners_seen.push_back(position);
     const int index = static_cast<int>(out.features.size());
+    // Both ways here, the feature's verdict is the last one recorded.
+    high_level_.emplace_back(index, static_cast<int>(checked_.size()) - 1);
     out.features.push_back({FeatureKind::kPenaltyCorner, local, qualityMeasure(0, 2)});
     addHypotheses(index, local, marks, sigma_xy, sigma_phi, params_.min_sigma_xy,
                   params_.min_sigma_phi, out.hypotheses);
@@ -138,6 +183,7 @@ InputCheck FeatureRecognizer::recognize(const perception::LinePoints& in,
     addCorner(j.position, toward_goal, model->left, model->inner,
               std::hypot(lineOffsetSigma(a), lineOffsetSigma(b)), sigma_phi, nullptr);
   }
+  dropInconsistent(out);
   // Lower features: no pose of their own (many places on the field look the same).
   for (const Junction& j : junctions_) {
     if (explained(j)) continue;

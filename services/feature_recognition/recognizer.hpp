@@ -16,6 +16,7 @@
 // Not thread-safe: one recogniser per thread.
 #pragma once
 
+#include <utility>
 #include <vector>
 
 #include "common/field/field_model.hpp"
@@ -40,6 +41,9 @@ struct CheckedFeature {
   ModelFit fit;
   ModelFit others;
   bool accepted = false;
+  // Refused after passing: another high-level feature of the frame fits the points better and
+  // implies a different pose (one robot has one pose, up to the field's point symmetry).
+  bool inconsistent = false;
 };
 
 class FeatureRecognizer {
@@ -87,6 +91,11 @@ class FeatureRecognizer {
   bool passesModelCheck(perception::FeatureKind kind, const geometry::Pose2& local,
                         const geometry::Pose2& mark, const std::vector<Segment2>* own);
   std::vector<Vec2> others_;
+  // The high-level features of the frame so far: (index into the output's features, index into
+  // checked_).
+  std::vector<std::pair<int, int>> high_level_;
+  // Drops the high-level features whose pose disagrees with the best fitting one's.
+  void dropInconsistent(perception::FieldFeatures& out);
 };
 
 }  // namespace fieldline::feature_recognition

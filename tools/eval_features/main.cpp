@@ -51,6 +51,8 @@ struct Options {
   int frames = 3000;
   std::string field = "msl";
   std::string camera = "omni_sim";
+  // The region tracker's line sample spacing (px); 0 = its default (vision_default.yaml).
+  int sample_spacing = 0;
   bool clutter = true;
   int opponents = 3;
   // Clutter knobs (with --no-clutter all are off).
@@ -535,8 +537,9 @@ void occlusionSeries(const Options& options, region_tracking::SimCamera& sim,
 int run(const Options& options) {
   region_tracking::SimCamera sim = region_tracking::SimCamera::load(options.camera, options.field);
   feature_recognition::FeatureRecognizer recognizer(sim.field);
-  region_tracking::FrameProcessor processor(sim.mirror, sim.table,
-                                            region_tracking::defaultVisionParams());
+  region_tracking::VisionParams vision_params = region_tracking::defaultVisionParams();
+  if (options.sample_spacing > 0) vision_params.lines.sample_spacing = options.sample_spacing;
+  region_tracking::FrameProcessor processor(sim.mirror, sim.table, vision_params);
   region_tracking::VisionResult vision;
   perception::FieldFeatures features;
 
@@ -568,6 +571,7 @@ int run(const Options& options) {
   long false_hypotheses = 0, hypotheses = 0;
   long circle_eligible = 0, circle_found = 0, corner_eligible = 0, corner_found = 0;
   long frames_with_feature = 0;
+  double line_points = 0.0;
   std::ofstream check_csv, misses_csv;
   if (!options.misses_csv.empty()) {
     misses_csv.open(options.misses_csv);
@@ -582,6 +586,7 @@ int run(const Options& options) {
     visionOf(sim, processor, sceneFor(pose, static_cast<std::uint64_t>(f), options, sim.field),
              vision);
     recognizer.recognize(vision.lines, features);
+    line_points += static_cast<double>(vision.lines.points.size());
     const FrameResult r = evaluate(pose, features, sites, circle_radius);
     if (misses_csv.is_open()) {
       for (const auto& [site, distance] : r.missed_corners) {
@@ -626,6 +631,8 @@ int run(const Options& options) {
   const double corner_rate = corner_eligible ? double(corner_found) / corner_eligible : 0.0;
   const double pos_median = median(position_errors);
   const double heading_median = median(heading_errors);
+  const double points_per_frame =
+      line_points / static_cast<double>(std::max<std::size_t>(records.size(), 1));
 
   if (!options.out_dir.empty()) {
     std::filesystem::create_directories(options.out_dir);
@@ -659,10 +666,12 @@ int run(const Options& options) {
          << ",\n  \"corner_eligible\": " << corner_eligible
          << ",\n  \"corner_found\": " << corner_found << ",\n  \"corner_rate\": " << corner_rate
          << ",\n  \"pos_median_m\": " << pos_median
-         << ",\n  \"heading_median_deg\": " << heading_median << "\n}\n";
+         << ",\n  \"heading_median_deg\": " << heading_median
+         << ",\n  \"line_points_per_frame\": " << points_per_frame << "\n}\n";
   }
   if (options.occlusion_frames > 0) occlusionSeries(options, sim, processor, recognizer);
 
+  std::cout << "line_points_per_frame=" << points_per_frame << "\n";
   std::cout << "frames=" << records.size() << " false_hypotheses=" << false_hypotheses
             << " circle_rate=" << circle_rate << " corner_rate=" << corner_rate
             << " pos_median_m=" << pos_median << " heading_median_deg=" << heading_median
@@ -673,19 +682,17 @@ int run(const Options& options) {
   return ok ? 0 : 1;
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  CLI::App app{
-      "Evaluates feature recognition on rendered frames over the whole field: detection rates, "
-      "false pose hypotheses and pose errors. Exit code 1 when a hypothesis is false or a "
-      "required rate is missed."};
-  Options options;
+// The command line into `options`.
+void addOptions(CLI::App& app, Options& options) {
   app.add_option("--frames", options.frames, "Frames along the scanning path")
       ->check(CLI::Range(1, 10'000'000))
       ->capture_default_str();
   app.add_option("--field", options.field, "Field preset or YAML file")->capture_default_str();
   app.add_option("--camera", options.camera, "Camera preset")->capture_default_str();
+  app.add_option("--sample-spacing", options.sample_spacing,
+                 "The region tracker's line sample spacing in pixels (0 = its default)")
+      ->check(CLI::Range(0, 64))
+      ->capture_default_str();
   app.add_flag("!--no-clutter", options.clutter, "No opponents or clutter");
   app.add_option("--opponents", options.opponents, "Opponents around the robot per frame")
       ->check(CLI::Range(0, 20))
@@ -738,6 +745,17 @@ int main(int argc, char** argv) {
                  "Evaluate one frame at x,y,phi (m, m, rad) and print its hypotheses");
   app.add_option("--dump", options.dump,
                  "With --frame or --pose: write the frame's line points as CSV");
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{
+      "Evaluates feature recognition on rendered frames over the whole field: detection rates, "
+      "false pose hypotheses and pose errors. Exit code 1 when a hypothesis is false or a "
+      "required rate is missed."};
+  Options options;
+  addOptions(app, options);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

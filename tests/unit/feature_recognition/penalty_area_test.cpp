@@ -4,6 +4,8 @@
 
 #include <cmath>
 #include <numbers>
+#include <random>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -104,6 +106,36 @@ TEST(PenaltyArea, NothingAtTheCentreOrAlongATouchLine) {
     const Seen s = look(field, pose, 5.0);
     EXPECT_FALSE(s.found) << pose.x << "," << pose.y;
   }
+}
+
+// A far corner: a long, well seen side line and a short front line of 5 noisy points whose own
+// direction is off. Squared up, the corner takes its orientation from the long line, and its
+// position is where the squared lines meet.
+TEST(SquareUp, TheShortLineTakesItsDirectionFromTheLongOne) {
+  const double truth = 0.7;  // the long line's direction, rad
+  const Vec2 u(std::cos(truth), std::sin(truth)), n(-u.y(), u.x());
+  const Vec2 corner(2.0, 1.0);
+  std::mt19937 rng(3);
+  std::vector<Vec2> long_points =
+      test::polyline({corner + 0.1 * u, corner + 3.0 * u}, 0.1, 0.01, rng);
+  // The short line, 0.4 m along n, bent by 0.15 rad.
+  const Vec2 bent = geometry::rotate(n, 0.15);
+  std::vector<Vec2> short_points =
+      test::polyline({corner + 0.05 * bent, corner + 0.4 * bent}, 0.08, 0.0, rng);
+  const Line a = fitLine(long_points.data(), static_cast<int>(long_points.size()));
+  const Line b = fitLine(short_points.data(), static_cast<int>(short_points.size()));
+  SquareCorner square;
+  ASSERT_TRUE(squareUp(a, b, 0.3, square));
+  const double along = std::atan2(square.a_direction.y(), square.a_direction.x());
+  EXPECT_LT(std::abs(geometry::angleDiff(
+                along, a.direction.dot(u) > 0 ? truth : truth + std::numbers::pi)),
+            0.02);
+  EXPECT_NEAR(square.a_direction.dot(square.b_direction), 0.0, 1e-9);
+  EXPECT_GT(square.b_direction.dot(b.direction), 0.9);  // the sign of b's own direction kept
+  EXPECT_LT((square.position - corner).norm(), 0.05);
+  EXPECT_GT(square.sigma_phi, 0.0);
+  // Far from perpendicular: refused.
+  EXPECT_FALSE(squareUp(a, a, 0.3, square));
 }
 
 }  // namespace
