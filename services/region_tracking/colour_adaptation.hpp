@@ -14,8 +14,8 @@
 // table: a cell (Y, U, V) is green or white when the calibrated table says so of
 // (Y / g, U0 + (U - U1) / g, V0 + (V - V1) / g), (U0, V0) the carpet's chroma at the reference
 // and (U1, V1) now; the other classes stay where the calibration put them. Classification stays
-// one lookup per pixel; the table is rebuilt in place (the tracker's references stay valid), a
-// few ms on the 2^18 cells, only when the light has moved.
+// one lookup per pixel; the table is rebuilt in place (the tracker's references stay valid),
+// walking its 2^18 cells, only when the light has moved.
 //
 // Plain library: no LCM, no clock.
 #pragma once
