@@ -287,8 +287,8 @@ void AppOptions::addTo(CLI::App& app) {
                  "CLASS (orange, black, yellow, blue); repeatable");
   app.add_option("--masks", painted,
                  "a PNG painted over the first frame, a colour per class (RGB): ball 255,128,0; "
-                 "obstacles 255,0,255; yellow goal 255,230,0; blue goal 20,90,230; other pixels "
-                 "ignored");
+                 "obstacles 255,0,255; yellow goal 255,230,0; blue goal 20,90,230; not carpet "
+                 "and no class (team markers, people) 0,255,255; other pixels ignored");
   app.add_option("--base", base,
                  "colour table (boxes or lookup table) whose other classes are kept (default: the "
                  "camera's)");
@@ -324,10 +324,9 @@ void AppOptions::addTo(CLI::App& app) {
 
 const std::vector<PaintColour>& paintPalette() {
   static const std::vector<PaintColour> palette = {
-      {camera::ColourClass::kOrange, 255, 128, 0},
-      {camera::ColourClass::kBlack, 255, 0, 255},
-      {camera::ColourClass::kYellow, 255, 230, 0},
-      {camera::ColourClass::kBlue, 20, 90, 230},
+      {camera::ColourClass::kOrange, 255, 128, 0},  {camera::ColourClass::kBlack, 255, 0, 255},
+      {camera::ColourClass::kYellow, 255, 230, 0},  {camera::ColourClass::kBlue, 20, 90, 230},
+      {camera::ColourClass::kUnknown, 0, 255, 255},
   };
   return palette;
 }

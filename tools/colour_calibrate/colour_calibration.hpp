@@ -95,7 +95,8 @@ struct PosedFrame {
   geometry::Pose2 pose;
 };
 
-// Samples of a class painted by the user (nonzero pixels of a mask over a frame).
+// Samples of a class painted by the user (nonzero pixels of a mask over a frame). kUnknown:
+// pixels that are neither carpet nor line nor any class (kept out of the samples only).
 struct UserMask {
   camera::ColourClass colour = camera::ColourClass::kOrange;
   camera::FrameView frame;
@@ -115,7 +116,9 @@ struct Calibration {
   std::vector<ClassFit> fits;
 };
 
-// Fits green and white from `frames` (all of the mirror's size) and any user masks; keeps the
+// Fits green and white from `frames` (all of the mirror's size) and any user masks (pixels
+// painted over a frame, and 3 px around them, are left out of that frame's carpet and line
+// samples: a ball or robot on the carpet is not carpet); keeps the
 // base table's boxes of the classes not fitted. Throws std::runtime_error naming the class when a
 // class has fewer samples than the minimum, std::invalid_argument for frames of another size.
 Calibration calibrate(const camera::MirrorModel& mirror, const field::FieldModel& field,
