@@ -159,6 +159,7 @@ int evaluate(const AppOptions& o, const cal::FitParams& params) {
     if (o.adapt) {
       rt::ColourAdaptationParams adaptation;
       adaptation.enabled = true;
+      adaptation.reference = calibrated.calibration.carpet_median;
       printDrive(s.name, "on", o,
                  cal::evaluateDrive(sim, s, table, o.drive, o.light_from, o.light_to, adaptation));
     }
@@ -384,6 +385,10 @@ int runApp(const AppOptions& o) {
       cal::calibrate(sim.mirror, sim.field, posed, masks, sim.table.boxes(), params);
   const camera::ColourTable table = finalTable(calibration, sim.table);
   printFits(calibration);
+  fmt::print(
+      "carpet median y,u,v {:.0f},{:.0f},{:.0f} (adaptation: reference [{:.0f}, {:.0f}, {:.0f}])\n",
+      calibration.carpet_median[0], calibration.carpet_median[1], calibration.carpet_median[2],
+      calibration.carpet_median[0], calibration.carpet_median[1], calibration.carpet_median[2]);
   printCoverage(cal::measureCoverage(sim.mirror, sim.field, posed, table, params.masks));
   if (!o.out.empty()) writeTable(o, calibration, table, posed.size());
   if (!o.debug_png.empty()) {

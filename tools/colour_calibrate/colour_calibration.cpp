@@ -246,6 +246,19 @@ Calibration calibrate(const camera::MirrorModel& mirror, const field::FieldModel
   }
 
   Calibration result;
+  {
+    std::array<std::vector<std::uint8_t>, 3> channels;
+    for (const Yuv& g : green) {
+      channels[0].push_back(g.y);
+      channels[1].push_back(g.u);
+      channels[2].push_back(g.v);
+    }
+    for (std::size_t k = 0; k < 3; ++k) {
+      auto mid = channels[k].begin() + static_cast<std::ptrdiff_t>(channels[k].size() / 2);
+      std::nth_element(channels[k].begin(), mid, channels[k].end());
+      result.carpet_median[k] = *mid;
+    }
+  }
   ClassFit greenFit{ColourClass::kGreen,
                     coneBoxes(ColourClass::kGreen, green, params, params.green_low_percentile,
                               params.green_high_percentile, params.green_bands, false),

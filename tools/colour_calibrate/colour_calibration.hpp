@@ -114,6 +114,8 @@ struct Calibration {
   // boxes of every other class: the table to write.
   std::vector<camera::YuvBox> boxes;
   std::vector<ClassFit> fits;
+  // Median (Y, U, V) of the carpet samples: the colour adaptation's reference.
+  std::array<double, 3> carpet_median{0, 0, 0};
 };
 
 // Fits green and white from `frames` (all of the mirror's size) and any user masks (pixels
