@@ -105,7 +105,7 @@ enum class Order {
 };
 
 Result run(rt::SimCamera& sim, const Sequence& sequence, int cell_size, int frameCount, int rounds,
-           bool coldFrames, Order order) {
+           bool coldFrames, Order order, int max_seed_regions) {
   Result result;
   result.sequence = sequence;
   result.cell_size = cell_size;
@@ -125,6 +125,10 @@ Result run(rt::SimCamera& sim, const Sequence& sequence, int cell_size, int fram
 
   rt::VisionParams params = rt::defaultVisionParams();
   params.tracker.cell_size = cell_size;
+  if (max_seed_regions >= 0) {
+    for (rt::ClassTracking& c : params.tracker.classes)
+      c.max_seed_regions = max_seed_regions;
+  }
   const std::vector<rt::ClassId> classes = trackedClasses(params);
 
   // Each method is one step per frame; all times are wall-clock times of one thread. The
@@ -294,6 +298,7 @@ struct Options {
   bool cold = false;
   bool interleave = false;
   int rounds = 5;
+  int max_seed_regions = -1;
   std::string field = "msl";
 
   void addTo(CLI::App& app) {
@@ -313,6 +318,10 @@ struct Options {
                    "fastest round")
         ->check(CLI::Range(1, 20))
         ->capture_default_str();
+    app.add_option("--max-seed-regions", max_seed_regions,
+                   "seed only this many of the largest regions in an initial search (the seed: "
+                   "10; 0: every region; default: the vision config's)")
+        ->check(CLI::Range(0, 1000));
     app.add_flag("--interleave", interleave,
                  "run the methods frame by frame instead of each over the whole sequence in turn "
                  "(each method's data then leaves the cache between its frames)");
@@ -415,7 +424,8 @@ int main(int argc, char** argv) {
       }
       rt::SimCamera& sim = cameras.at(s.camera);
       results.push_back(run(sim, s, options.cell_size, options.frames, options.rounds, options.cold,
-                            options.interleave ? Order::kInterleaved : Order::kSequential));
+                            options.interleave ? Order::kInterleaved : Order::kSequential,
+                            options.max_seed_regions));
       const Result& r = results.back();
       std::fprintf(stderr, "done %s %dx%d %s\n", r.sequence.kind.c_str(), sim.mirror.width(),
                    sim.mirror.height(), motionName(r.sequence).c_str());

@@ -116,6 +116,17 @@ struct Options {
   double speed = 1.0, omega_deg = 90.0;
   int frames = 240, repeat = 1, line_repeat = 1;
   bool no_breakdown = false;
+  int max_seed_regions = -1;
+
+  // The vision parameters of the run: the defaults, with --max-seed-regions.
+  rt::VisionParams params() const {
+    rt::VisionParams p = rt::defaultVisionParams();
+    if (max_seed_regions >= 0) {
+      for (rt::ClassTracking& c : p.tracker.classes)
+        c.max_seed_regions = max_seed_regions;
+    }
+    return p;
+  }
 
   void addTo(CLI::App& app) {
     app.add_option("--camera", camera_preset, "camera preset")->capture_default_str();
@@ -138,6 +149,10 @@ struct Options {
         ->check(CLI::Range(1, 1000))
         ->capture_default_str();
     app.add_flag("--no-breakdown", no_breakdown, "skip the per-cell analysis (for callgrind)");
+    app.add_option("--max-seed-regions", max_seed_regions,
+                   "seed only this many of the largest regions in an initial search (the seed: "
+                   "10; 0: every region; default: the vision config's)")
+        ->check(CLI::Range(0, 1000));
   }
 };
 
@@ -147,7 +162,7 @@ using Sequence = std::vector<std::vector<std::uint8_t>>;
 // of every frame but the first (the initial search). Returns the number of frames summed.
 int runMethod(const Options& options, rt::SimCamera& sim, const Sequence& sequence,
               Breakdown& breakdown) {
-  const rt::VisionParams params = rt::defaultVisionParams();
+  const rt::VisionParams params = options.params();
   std::vector<rt::ClassId> classes;
   for (const rt::ClassTracking& c : params.tracker.classes)
     classes.push_back(c.class_id);
@@ -223,7 +238,7 @@ void printTimes(const Options& options, rt::SimCamera& sim, const Sequence& sequ
     return v[v.size() / 2];
   };
   std::vector<std::uint8_t> delivered(sequence[0].size());
-  rt::FrameProcessor timed(sim.mirror, sim.table, rt::defaultVisionParams());
+  rt::FrameProcessor timed(sim.mirror, sim.table, options.params());
   rt::FrameCellClassifier& classifier = timed.classifier();
   const rt::CellGrid& grid = timed.grid();
   std::vector<rt::Cell> touched_cells;

@@ -369,4 +369,14 @@ std::string resolvePreset(const std::string& category, const std::string& nameOr
   return projectRoot() + "/config/" + category + "/" + nameOrPath + ".yaml";
 }
 
+std::string defaultCacheDirectory() {
+  if (const char* xdg = std::getenv("XDG_CACHE_HOME"); xdg && *xdg) {
+    return std::string(xdg) + "/fieldline";
+  }
+  if (const char* home = std::getenv("HOME"); home && *home) {
+    return std::string(home) + "/.cache/fieldline";
+  }
+  return {};
+}
+
 }  // namespace fieldline::config

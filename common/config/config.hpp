@@ -28,6 +28,10 @@
 
 namespace fieldline::config {
 
+// Where fieldline keeps caches that are rebuilt when missing (distance grids, floor rasters):
+// $XDG_CACHE_HOME/fieldline, else ~/.cache/fieldline; empty when neither variable is set.
+std::string defaultCacheDirectory();
+
 class Error : public std::runtime_error {
  public:
   using std::runtime_error::runtime_error;

@@ -96,7 +96,7 @@ void CameraAppOptions::addTo(CLI::App& app) {
   app.add_flag("--bgr", bgr, "v4l2: take OpenCV's BGR frames instead of raw YUYV");
   app.add_option("--max-frames", max_frames,
                  "Real sources: stop after this many frames (0: no limit)");
-  raster_cache = defaultCacheDirectory();
+  raster_cache = config::defaultCacheDirectory();
   app.add_option("--raster-cache", raster_cache,
                  "sim: directory for the floor raster cache (default: $XDG_CACHE_HOME/fieldline "
                  "or ~/.cache/fieldline; empty string: none)");

@@ -42,7 +42,7 @@ struct CameraAppOptions {
   // log: the bus the frames go to; empty: bus::replayBusUrl(robot).
   std::string replay_bus_url;
   // sim: directory of the floor raster cache (floor_raster_cache.hpp); empty: none. Set to
-  // defaultCacheDirectory() by addTo().
+  // config::defaultCacheDirectory() by addTo().
   std::string raster_cache;
 
   // Adds --source, --config, --field, --input, --latency, --fps, --width, --height, --loop, --bgr,

@@ -280,14 +280,4 @@ void SimRenderer::loadOrBuildFloorRaster(const field::FieldModel& field,
   }
 }
 
-std::string defaultCacheDirectory() {
-  if (const char* xdg = std::getenv("XDG_CACHE_HOME"); xdg && *xdg) {
-    return std::string(xdg) + "/fieldline";
-  }
-  if (const char* home = std::getenv("HOME"); home && *home) {
-    return std::string(home) + "/.cache/fieldline";
-  }
-  return {};
-}
-
 }  // namespace fieldline::camera

@@ -58,7 +58,4 @@ std::optional<std::vector<FloorRasterLevel>> loadFloorRaster(const std::string& 
 // How the renderer came by its raster.
 enum class RasterSource { kBuilt, kLoadedFromCache, kRebuiltBadCache };
 
-// The default cache directory: $XDG_CACHE_HOME/fieldline, else ~/.cache/fieldline, else "".
-std::string defaultCacheDirectory();
-
 }  // namespace fieldline::camera

@@ -71,11 +71,12 @@ BallRejection BallFilter::update(const perception::BallSighting& s, const EkfSta
   const Eigen::Vector2d z = geometry::pointRobotToField(pose, local);
   const double bearing = std::atan2(local.y(), local.x()) + pose.phi;
   const Eigen::Matrix2d rot = Eigen::Rotation2Dd(bearing).toRotationMatrix();
-  Eigen::Matrix2d r =
-      rot *
-      Eigen::Vector2d(s.sigma_radial * s.sigma_radial, s.sigma_tangential * s.sigma_tangential)
-          .asDiagonal() *
-      rot.transpose();
+  const double floor2 = params_.sighting_floor_m * params_.sighting_floor_m;
+  Eigen::Matrix2d r = rot *
+                      Eigen::Vector2d(s.sigma_radial * s.sigma_radial + floor2,
+                                      s.sigma_tangential * s.sigma_tangential + floor2)
+                          .asDiagonal() *
+                      rot.transpose();
   Eigen::Matrix<double, 2, 3> j;
   j << 1, 0, -(z.y() - pose.y), 0, 1, z.x() - pose.x;
   r += j * robot.p.topLeftCorner<3, 3>() * j.transpose();
@@ -89,6 +90,7 @@ BallRejection BallFilter::update(const perception::BallSighting& s, const EkfSta
     utime_ = s.utime;
     last_seen_ = s.utime;
     outliers_in_row_ = 0;
+    contradicted_ = false;
     return BallRejection::kNone;
   }
   Eigen::Vector4d x = x_;
@@ -102,9 +104,11 @@ BallRejection BallFilter::update(const perception::BallSighting& s, const EkfSta
       initialized_ = false;
       return update(s, robot);
     }
+    contradicted_ = params_.invalid_after_outlier;
     return BallRejection::kOutlier;
   }
   outliers_in_row_ = 0;
+  contradicted_ = false;
   Eigen::Matrix<double, 2, 4> h = Eigen::Matrix<double, 2, 4>::Zero();
   h(0, 0) = h(1, 1) = 1.0;
   const Eigen::Matrix<double, 4, 2> k = p * h.transpose() * sm.inverse();
@@ -125,7 +129,7 @@ perception::BallEstimate BallFilter::estimate(Utime t) const {
   Eigen::Vector4d x = x_;
   Eigen::Matrix4d p = p_;
   predict(t, x, p);
-  e.valid = static_cast<double>(t - last_seen_) * 1e-6 <= params_.max_age_s;
+  e.valid = static_cast<double>(t - last_seen_) * 1e-6 <= params_.max_age_s && !contradicted_;
   e.x = x[0];
   e.y = x[1];
   e.vx = x[2];

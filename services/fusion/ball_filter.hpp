@@ -28,6 +28,12 @@ struct BallFilterParams {
   int restart_after_outliers = 3;
   // Sightings further than this from the robot are too coarse to use, m.
   double max_range_m = 9.0;
+  // Added (in quadrature) to a sighting's radial and tangential sigmas: what the camera's own
+  // figures leave out (its exposure against the robot's turning, the ball's blur), m.
+  double sighting_floor_m = 0.0;
+  // An outlier makes the estimate invalid until a sighting agrees again or the filter restarts
+  // (the ball was kicked or bounced: where the filter thinks it is, it is not).
+  bool invalid_after_outlier = false;
 };
 
 enum class BallRejection : std::uint8_t {
@@ -59,6 +65,9 @@ class BallFilter {
   Utime utime_ = 0;
   Utime last_seen_ = 0;
   int outliers_in_row_ = 0;
+  // The newest sighting was an outlier: the estimate is contradicted until a sighting agrees or
+  // the filter restarts, and not reported valid meanwhile.
+  bool contradicted_ = false;
   Eigen::Vector4d x_ = Eigen::Vector4d::Zero();
   Eigen::Matrix4d p_ = Eigen::Matrix4d::Identity();
 };

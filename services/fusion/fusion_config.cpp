@@ -62,6 +62,8 @@ void loadLocalizer(const config::Node& n, LocalizerParams& p) {
   p.slip_confirm_rad = n.getOr<double>("slip_confirm_rad", p.slip_confirm_rad, 0.0, 3.2);
   p.slip_single_frame_rad =
       n.getOr<double>("slip_single_frame_rad", p.slip_single_frame_rad, 0.0, 3.2);
+  p.slip_pinned_ratio = n.getOr<double>("slip_pinned_ratio", p.slip_pinned_ratio, 0.0, 100.0);
+  p.slip_pinned_chi2 = n.getOr<double>("slip_pinned_chi2", p.slip_pinned_chi2, 0.0, 1e6);
   p.commit_frames = n.getOr<int>("commit_frames", p.commit_frames, 1, 100);
   p.commit_margin_m = n.getOr<double>("commit_margin_m", p.commit_margin_m, 0.0, 1.0);
   p.feature_gate_m = n.getOr<double>("feature_gate_m", p.feature_gate_m, 0.0, 20.0);
@@ -122,6 +124,8 @@ void loadBall(const config::Node& n, FusionConfig& c) {
   p.restart_after_outliers =
       n.getOr<int>("restart_after_outliers", p.restart_after_outliers, 1, 1000);
   p.max_range_m = n.getOr<double>("max_range_m", p.max_range_m, 0.1, 50.0);
+  p.sighting_floor_m = n.getOr<double>("sighting_floor_m", p.sighting_floor_m, 0.0, 5.0);
+  p.invalid_after_outlier = n.getOr<bool>("invalid_after_outlier", p.invalid_after_outlier);
   c.ball_rate_hz = n.getOr<double>("rate_hz", c.ball_rate_hz, 1.0, 200.0);
   n.rejectUnknownKeys();
 }

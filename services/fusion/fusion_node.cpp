@@ -128,6 +128,7 @@ void FusionNode::updateMetrics() {
   node_.setMetric("replays", static_cast<double>(localizer_.filter().replays()));
   node_.setMetric("gate_resets", static_cast<double>(localizer_.counters().resets));
   node_.setMetric("slips", static_cast<double>(localizer_.counters().slips));
+  node_.setMetric("pinned_slips", static_cast<double>(localizer_.counters().pinned_slips));
 }
 
 }  // namespace fieldline::fusion

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <numbers>
 
+#include <Eigen/Eigenvalues>
+
 namespace fieldline::fusion {
 namespace {
 
@@ -20,6 +22,37 @@ TimedChannelLimits deadReckoningLimits() {
   limits.capacity = 128;
   limits.future_tolerance_us = 500'000;
   return limits;
+}
+
+// What a frame's position disagreement `d` with the estimate says, given the frame's covariance
+// `r` and the estimate's `p` (squared Mahalanobis distances against `chi2`). When the frame's
+// sigmas differ by less than `ratio` it pins every direction down; otherwise it pins down only
+// the direction across its long axis, and a disagreement along that axis alone is what an
+// aliased match (sliding along the line it sees) looks like.
+struct Disagreement {
+  bool pinned = false;
+  bool along_long_axis = false;
+};
+
+Disagreement classifyDisagreement(const Eigen::Vector2d& d, const Eigen::Matrix2d& r,
+                                  const Eigen::Matrix2d& p, double ratio, double chi2) {
+  Disagreement out;
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> es(r);
+  if (es.info() != Eigen::Success) return out;
+  const Eigen::Vector2d ev = es.eigenvalues();  // ascending
+  if (!(ev[0] > 0.0)) return out;
+  const Eigen::Matrix2d s = r + p;
+  if (ev[1] < ratio * ratio * ev[0]) {
+    out.pinned = d.dot(s.ldlt().solve(d)) > chi2;
+    return out;
+  }
+  const Eigen::Vector2d tight = es.eigenvectors().col(0);
+  const Eigen::Vector2d loose = es.eigenvectors().col(1);
+  const double across = tight.dot(d);
+  const double along = loose.dot(d);
+  out.pinned = across * across > chi2 * tight.dot(s * tight);
+  out.along_long_axis = !out.pinned && along * along > chi2 * loose.dot(s * loose);
+  return out;
 }
 
 }  // namespace
@@ -142,11 +175,26 @@ void Localizer::trackLines(std::span<const perception::LinePoint> points, Utime 
         (offset.head<2>() - gated_offset_->head<2>()).norm() <= params_.slip_confirm_m &&
         std::abs(geometry::normalizeAngle(offset[2] - (*gated_offset_)[2])) <=
             params_.slip_confirm_rad;
-    z.may_reveal_slip = confirmed || std::abs(offset[2]) >= params_.slip_single_frame_rad;
+    // A single frame reveals a slip when the lines pin its disagreement down, or when it twists
+    // the heading without sliding along the one line it sees (an aliased match); otherwise the
+    // next frame must confirm it.
+    Disagreement seen;
+    if (params_.slip_pinned_ratio > 0.0) {
+      seen = classifyDisagreement(offset.head<2>(), z.covariance.topLeftCorner<2, 2>(),
+                                  guess->p.topLeftCorner<2, 2>(), params_.slip_pinned_ratio,
+                                  params_.slip_pinned_chi2);
+    }
+    const bool pinned = seen.pinned;
+    const bool twisted =
+        std::abs(offset[2]) >= params_.slip_single_frame_rad && !seen.along_long_axis;
+    z.may_reveal_slip = confirmed || twisted || pinned;
     const auto r = filter_.addPose(MeasurementSource::kLines, z, now);
     if (r.rejection == Rejection::kNone) {
       ++counters_.corrections;
-      if (r.update.slip) ++counters_.slips;
+      if (r.update.slip) {
+        ++counters_.slips;
+        if (pinned && !confirmed && !twisted) ++counters_.pinned_slips;
+      }
       good = true;
       gated_in_row_ = 0;
       gated_offset_.reset();

@@ -65,6 +65,14 @@ struct LocalizerParams {
   // A single gated frame is taken as a slip at once when its heading disagrees by at least this:
   // collisions twist the robot (up to 2 rad in 0.4 s), aliased matches along a line shift it. rad.
   double slip_single_frame_rad = 0.15;
+  // ... or when the lines pin its disagreement down: an aliased match slides along the
+  // direction the frame says little about (its covariance is long there), a push moves the robot
+  // against lines the frame sees. When the frame's position sigmas differ by at least
+  // `slip_pinned_ratio`, only the disagreement across its long axis is tested, otherwise all of
+  // it; beyond `slip_pinned_chi2` (squared Mahalanobis distance with the estimate's and the
+  // frame's covariance) the frame is a slip at once. Ratio 0: off.
+  double slip_pinned_ratio = 2.0;
+  double slip_pinned_chi2 = 10.83;
   // Frames a hypothesis must have been tested on before committing to it.
   int commit_frames = 2;
   // The best hypothesis must beat every other (but its twin) by this mean cost, m.
@@ -124,6 +132,8 @@ struct LocalizerCounters {
   std::uint64_t resets = 0;
   // Corrections that revealed a slip or push odometry did not see (SlipModel).
   std::uint64_t slips = 0;
+  // Of those, single frames taken at once because the lines pinned the disagreement down.
+  std::uint64_t pinned_slips = 0;
 };
 
 class Localizer {

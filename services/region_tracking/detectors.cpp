@@ -30,7 +30,11 @@ FloorLookup::FloorLookup(const camera::MirrorModel& mirror)
     : width_(mirror.width()),
       height_(mirror.height()),
       floor_(static_cast<std::size_t>(width_) * height_, FloorXY{kNaN, kNaN}),
-      finest_metres_per_pixel_(floor_.size(), kNaN) {
+      finest_metres_per_pixel_(floor_.size(), kNaN),
+      centre_u_(static_cast<float>(mirror.params().centre.x())),
+      centre_v_(static_cast<float>(mirror.params().centre.y())),
+      self_radius_squared_(static_cast<float>((mirror.params().self_radius + 1.0) *
+                                              (mirror.params().self_radius + 1.0))) {
   for (int v = 0; v < height_; ++v) {
     for (int u = 0; u < width_; ++u) {
       if (mirror.dontTouch(u, v)) continue;
@@ -98,12 +102,14 @@ LineDetector::LineDetector(const camera::ColourTable& table, const FloorLookup& 
       // Half a cell inside the boundary (at least 2 px): the field pixels before the line.
       first_step_(-std::max(2, cell_size / 2)) {
   if (params_.sample_spacing < 1 || params_.tangent_half_span < 1 || params_.smoothing_passes < 0 ||
-      params_.max_transition_pixels < 0 || cell_size < 1) {
+      params_.max_transition_pixels < 0 || params_.max_gap_pixels < 0 ||
+      params_.field_confirm_pixels < 1 || cell_size < 1) {
     throw std::invalid_argument("line detector: invalid parameters");
   }
   // The longest white run a line can give at a pixel: its width at the pixel's finest floor
   // resolution, with tolerance, + 2 px; capped so that walks fit the 8-bit steps (~110 px).
-  const int runCap = 127 - cell_size_ - 2 * params_.max_transition_pixels - 1;
+  const int runCap =
+      127 - cell_size_ - 2 * params_.max_transition_pixels - params_.field_confirm_pixels - 1;
   if (runCap < 3 || first_step_ < -127) {
     throw std::invalid_argument("line detector: cells or transitions too large");
   }
@@ -123,7 +129,8 @@ LineDetector::LineDetector(const camera::ColourTable& table, const FloorLookup& 
       longestRun = std::max(longestRun, capped);
     }
   }
-  last_step_ = cell_size_ + longestRun + 2 * params_.max_transition_pixels + 1;
+  last_step_ =
+      cell_size_ + longestRun + 2 * params_.max_transition_pixels + params_.field_confirm_pixels;
 
   // The walks: nearest pixel to t * normal for t = first_step_..last_step_, repeats dropped.
   const int span = last_step_ - first_step_ + 1;
@@ -201,7 +208,8 @@ bool LineDetector::scan(const camera::FrameView& frame, float originU, float ori
   if (!frame.contains(ou + probe.du, ov + probe.dv) || !usable(ou + probe.du, ov + probe.dv)) {
     return false;
   }
-  const int stop = cell_size_ + maxRun + 2 * params_.max_transition_pixels + 1;
+  const int stop =
+      cell_size_ + maxRun + 2 * params_.max_transition_pixels + params_.field_confirm_pixels;
   int count = countUpTo[stop - first_step_];
   // The walk is a straight line: inside the frame if both ends are; else cut it where it
   // leaves (running into the cut is a miss, as running past `stop`).
@@ -223,11 +231,15 @@ bool LineDetector::scan(const camera::FrameView& frame, float originU, float ori
   const camera::ColourClass field_colour = params_.field_colour;
   const camera::ColourClass line_colour = params_.line_colour;
   const int maxTransition = params_.max_transition_pixels;
+  const int maxGap = params_.max_gap_pixels;
+  const int confirm = params_.field_confirm_pixels;
+  const bool endAtSelf = params_.end_at_self;
   // On the stack, so that storing a brightness cannot alias the colour table's pointer (which
   // would be reloaded for every pixel). Walks have at most 255 steps (8-bit offsets).
   std::array<std::uint8_t, kMaxWalk> luma;
   bool sawField = false;
   int lastField = -1, runStart = -1, runEnd = -1, transition = 0;
+  int fieldAfter = -1, fieldCount = 0;  // the first field pixel after the run, and how many
   int index = 0;
   bool found = false;
   for (; index < count; ++index) {
@@ -257,16 +269,34 @@ bool LineDetector::scan(const camera::FrameView& frame, float originU, float ori
       } else if (sawField && ++transition > maxTransition) {
         break;
       }
-    } else if (line && runEnd == index - 1) {  // on the line
+    } else if (line) {        // on the line, or back on it after a hole of noise
+      if (fieldAfter >= 0) {  // field came between: the line ended there, another one begins
+        found = true;
+        break;
+      }
+      if (index - runEnd - 1 > maxGap) break;
       runEnd = index;
+      fieldAfter = -1;
+      fieldCount = 0;
       if (runEnd - runStart + 1 > maxRun) break;
-    } else if (field) {  // back on the field: found
-      found = true;
-      break;
-    } else if (line || ++transition > maxTransition) {
-      break;
+    } else {
+      if (field) {
+        if (fieldAfter < 0) fieldAfter = index;
+        if (++fieldCount >= confirm) {  // back on the field: found
+          found = true;
+          break;
+        }
+      } else if (endAtSelf && fieldAfter < 0 && floor_.inSelf(ou + step.du, ov + step.dv)) {
+        // The robot's own reflection right after the line: its dark edge ends the line.
+        fieldAfter = index;
+        found = true;
+        break;
+      }
+      if (index - runEnd > maxTransition + confirm) break;
     }
   }
+  // A field pixel that the walk's end left unconfirmed still ends the line.
+  if (!found && runStart >= 0 && fieldAfter >= 0 && index == count) found = true;
   const int read = std::min(index + 1, count);
   pixels_read_ += read;
   if (!found) return false;
@@ -278,7 +308,7 @@ bool LineDetector::scan(const camera::FrameView& frame, float originU, float ori
   walk_normal_u_ = normalU * inverseLength;
   walk_normal_v_ = normalV * inverseLength;
   const float middle = 0.5f * (risingEdge(luma.data(), lastField, runStart, runEnd) +
-                               fallingEdge(luma.data(), runStart, runEnd, index));
+                               fallingEdge(luma.data(), runStart, runEnd, fieldAfter));
   lineU = originU + walk_normal_u_ * middle;
   lineV = originV + walk_normal_v_ * middle;
   return true;
@@ -451,37 +481,101 @@ void LineDetector::detect(const camera::FrameView& frame, const ContourSet& cont
 
 BallDetector::BallDetector(const camera::ColourTable& table, const camera::MirrorModel& mirror,
                            const BallParams& params)
-    : table_(table), mirror_(mirror), params_(params) {}
-
-BallDetection BallDetector::detect(const camera::FrameView& frame,
-                                   const ContourSet& contours) const {
-  BallDetection ball;
-  const ClassId orange = classIdOf(params_.colour);
-  const Contour* best = nullptr;
-  for (const Contour& contour : contours.contours) {
-    if (contour.class_id == orange && contour.outer &&
-        (best == nullptr || contour.signed_cell_area > best->signed_cell_area)) {
-      best = &contour;
+    : table_(table), mirror_(mirror), params_(params) {
+  if (!(params_.size_tolerance >= 1.0) || !(params_.size_slack_px >= 0.0) ||
+      !(params_.min_fill >= 0.0 && params_.min_fill <= 1.0) ||
+      !(params_.min_carpet_share >= 0.0 && params_.min_carpet_share <= 1.0) ||
+      !(params_.centre_height > 0.0 &&
+        params_.centre_height < 0.5 * mirror_.params().reference_height) ||
+      params_.min_pixels < 1) {
+    throw std::invalid_argument("ball detector: invalid parameters");
+  }
+  // The ball is largest in the image next to the robot: the largest extent of a ball at the
+  // edge of the robot's own reflection and a little beyond, in a few directions.
+  const double nearest = mirror_.params().distance.floorDistance(
+      mirror_.params().self_radius, 0.0);  // floor distance at the self radius
+  for (int k = 0; k < 8; ++k) {
+    const double bearing = k * std::numbers::pi / 4;
+    for (double d = std::max(nearest, 0.0) + params_.centre_height; d < 2.0; d += 0.05) {
+      double radial = 0, tangential = 0;
+      if (expectedExtent(d, bearing, radial, tangential)) {
+        max_extent_px_ = std::max({max_extent_px_, radial, tangential});
+      }
     }
   }
-  if (best == nullptr) return ball;
+  if (max_extent_px_ <= 0) throw std::invalid_argument("ball detector: no ball is visible");
+}
+
+bool BallDetector::expectedExtent(double horizontal, double bearing, double& radialPx,
+                                  double& tangentialPx) const {
+  // Every point of the sphere projects inside its silhouette and the silhouette's rim is made of
+  // sphere points: the extents of the projected surface points are the silhouette's.
+  const double r = params_.centre_height;
+  const camera::Vec3 centre(horizontal * std::cos(bearing), horizontal * std::sin(bearing), r);
+  const std::optional<camera::Vec2> centrePixel = mirror_.robotPointToImage(centre);
+  if (!centrePixel) return false;
+  const double centreBearing = mirror_.bearingOf(*centrePixel);
+  const double centreRadius = mirror_.radiusOf(*centrePixel);
+  double nearR = std::numeric_limits<double>::infinity(), farR = 0, minOff = 0, maxOff = 0;
+  constexpr int kPolar = 8, kAzimuth = 16;
+  for (int i = 0; i <= kPolar; ++i) {
+    const double theta = std::numbers::pi * i / kPolar;
+    for (int j = 0; j < (i == 0 || i == kPolar ? 1 : kAzimuth); ++j) {
+      const double phi = 2 * std::numbers::pi * j / kAzimuth;
+      const camera::Vec3 p =
+          centre + r * camera::Vec3(std::sin(theta) * std::cos(phi),
+                                    std::sin(theta) * std::sin(phi), std::cos(theta));
+      const std::optional<camera::Vec2> pixel = mirror_.robotPointToImage(p);
+      if (!pixel) return false;
+      const double radius = mirror_.radiusOf(*pixel);
+      nearR = std::min(nearR, radius);
+      farR = std::max(farR, radius);
+      const double offset =
+          std::remainder(mirror_.bearingOf(*pixel) - centreBearing, 2 * std::numbers::pi);
+      minOff = std::min(minOff, offset);
+      maxOff = std::max(maxOff, offset);
+    }
+  }
+  radialPx = farR - nearR;
+  tangentialPx = (maxOff - minOff) * centreRadius;
+  return true;
+}
+
+namespace {
+// How well a measured extent agrees with the expected one, in (0, 1].
+double agreement(double measured, double expected) {
+  return (std::min(measured, expected) + 1.0) / (std::max(measured, expected) + 1.0);
+}
+}  // namespace
+
+BallReject BallDetector::evaluate(const camera::FrameView& frame, const ContourSet& contours,
+                                  const Contour& contour, BallDetection& out) const {
+  out = BallDetection{};
+  int minU = frame.width, minV = frame.height, maxU = 0, maxV = 0;
+  for (const ContourPoint& p : contours.pointsOf(contour)) {
+    minU = std::min(minU, p.x);
+    maxU = std::max(maxU, p.x);
+    minV = std::min(minV, p.y);
+    maxV = std::max(maxV, p.y);
+  }
+  // The region's box is in whole cells; a ball's image is never much larger than the largest
+  // ball image plus a cell on each side.
+  const double largest = max_extent_px_ * params_.size_tolerance + params_.size_slack_px + 8.0;
+  if (maxU - minU > largest || maxV - minV > largest) return BallReject::kTooLarge;
+  // Cut by the image's border: its size says nothing (a cut box can look like a ball).
+  if (minU <= 0 || minV <= 0 || maxU >= frame.width || maxV >= frame.height) {
+    return BallReject::kAtImageBorder;
+  }
+  minU = std::max(0, minU - 1);
+  minV = std::max(0, minV - 1);
+  maxU = std::min(frame.width, maxU + 1);
+  maxV = std::min(frame.height, maxV + 1);
 
   // The ball is a sphere seen from the mirror's reference point R: its image stretches
   // radially from the ray grazing its near side to the ray grazing its far side, and the ray to
   // its centre halves the angle between those two (seed 4.9.5). So take the nearest and
   // farthest orange pixel radius (the centroid would be pulled outward), and the bearing from
   // the centroid of the orange pixels.
-  int minU = frame.width, minV = frame.height, maxU = 0, maxV = 0;
-  for (const ContourPoint& p : contours.pointsOf(*best)) {
-    minU = std::min(minU, p.x);
-    maxU = std::max(maxU, p.x);
-    minV = std::min(minV, p.y);
-    maxV = std::max(maxV, p.y);
-  }
-  minU = std::max(0, minU - 1);
-  minV = std::max(0, minV - 1);
-  maxU = std::min(frame.width, maxU + 1);
-  maxV = std::min(frame.height, maxV + 1);
   const camera::Vec2 centre = mirror_.params().centre;
   double sumU = 0, sumV = 0;
   double nearRadius = std::numeric_limits<double>::infinity(), farRadius = 0;
@@ -497,14 +591,14 @@ BallDetection BallDetector::detect(const camera::FrameView& frame,
       farRadius = std::max(farRadius, radius);
     }
   }
-  if (pixels < params_.min_pixels) return ball;
+  if (pixels < params_.min_pixels) return BallReject::kTooFewPixels;
   const camera::Vec2 centroid(sumU / pixels, sumV / pixels);
   const double bearing = mirror_.bearingOf(centroid);
   const camera::DistanceFunction& distance = mirror_.params().distance;
   // Half a pixel beyond the outermost pixel centres on both sides.
   const double nearFloor = distance.floorDistance(std::max(0.0, nearRadius - 0.5), bearing);
   const double farFloor = distance.floorDistance(farRadius + 0.5, bearing);
-  if (!std::isfinite(nearFloor) || !std::isfinite(farFloor)) return ball;
+  if (!std::isfinite(nearFloor) || !std::isfinite(farFloor)) return BallReject::kNoFloor;
   const double H = mirror_.params().reference_height;
   // Depression angles of the two grazing rays from R; the centre ray lies midway.
   const double centreAngle = 0.5 * (std::atan2(H, nearFloor) + std::atan2(H, farFloor));
@@ -514,26 +608,96 @@ BallDetection BallDetector::detect(const camera::FrameView& frame,
   const camera::Vec2 direction = camera::Vec2(std::cos(bearing), std::sin(bearing));
   const camera::Vec2 centreXY = direction * horizontal;
   const std::optional<camera::Vec2> centrePixel = mirror_.robotToImage(direction * centreFloor);
-  if (!centrePixel) return ball;
+  if (!centrePixel) return BallReject::kNoFloor;
 
-  ball.visible = true;
-  ball.u = centrePixel->x();
-  ball.v = centrePixel->y();
-  ball.x = centreXY.x();
-  ball.y = centreXY.y();
-  ball.pixels = pixels;
-  ball.cells = best->signed_cell_area;
+  // Size and shape: what a ball there would look like (3-D mirror model) against the pixels.
+  double expectedRadial = 0, expectedTangential = 0;
+  if (!expectedExtent(horizontal, bearing, expectedRadial, expectedTangential)) {
+    return BallReject::kNoFloor;
+  }
+  double minOffset = 0, maxOffset = 0;
+  for (int v = minV; v < maxV; ++v) {
+    for (int u = minU; u < maxU; ++u) {
+      if (table_.classifyPixel(frame, u, v) != params_.colour) continue;
+      const double offset =
+          std::remainder(mirror_.bearingOf(camera::Vec2(u, v)) - bearing, 2 * std::numbers::pi);
+      minOffset = std::min(minOffset, offset);
+      maxOffset = std::max(maxOffset, offset);
+    }
+  }
+  // Extents over pixel centres, plus the pixel itself.
+  const double radialPx = farRadius - nearRadius + 1;
+  const double tangentialPx = (maxOffset - minOffset) * mirror_.radiusOf(centroid) + 1;
+  const double tol = params_.size_tolerance, slack = params_.size_slack_px;
+  auto fits = [&](double measured, double expected) {
+    return measured <= expected * tol + slack && measured >= expected / tol - slack;
+  };
+  if (!fits(radialPx, expectedRadial) || !fits(tangentialPx, expectedTangential)) {
+    return BallReject::kSize;
+  }
+  const double silhouette = std::numbers::pi / 4 * (expectedRadial + 1) * (expectedTangential + 1);
+  const double fill = pixels / silhouette;
+  if (fill < params_.min_fill) return BallReject::kFill;
+
+  // On the carpet: a ring of samples around the candidate, 1.5 times its expected size + 2 px.
+  const camera::Vec2 radialAxis = (centroid - centre).normalized();
+  const camera::Vec2 tangentialAxis(-radialAxis.y(), radialAxis.x());
+  const double ringRadial = 0.75 * expectedRadial + 2.0;
+  const double ringTangential = 0.75 * expectedTangential + 2.0;
+  constexpr int kRingSamples = 16;
+  int usable = 0, carpet = 0;
+  for (int k = 0; k < kRingSamples; ++k) {
+    const double a = 2 * std::numbers::pi * k / kRingSamples;
+    const camera::Vec2 p = centroid + radialAxis * (std::cos(a) * ringRadial) +
+                           tangentialAxis * (std::sin(a) * ringTangential);
+    const int u = static_cast<int>(std::lround(p.x())), v = static_cast<int>(std::lround(p.y()));
+    if (!frame.contains(u, v) || mirror_.zone(camera::Vec2(u, v)) == camera::MirrorZone::kSelf ||
+        mirror_.zone(camera::Vec2(u, v)) == camera::MirrorZone::kOutside) {
+      continue;  // no floor to see there (the robot's own reflection, outside the mirror)
+    }
+    ++usable;
+    const camera::ColourClass c = table_.classifyPixel(frame, u, v);
+    if (c == params_.field_colour || c == params_.line_colour) ++carpet;
+  }
+  const double carpetShare = usable > 0 ? static_cast<double>(carpet) / usable : 0.0;
+  if (usable < kRingSamples / 2 || carpetShare < params_.min_carpet_share) {
+    return BallReject::kNotOnCarpet;
+  }
+
+  out.visible = true;
+  out.u = centrePixel->x();
+  out.v = centrePixel->y();
+  out.x = centreXY.x();
+  out.y = centreXY.y();
+  out.pixels = pixels;
+  out.cells = contour.signed_cell_area;
   // Half a pixel of centroid error, scaled to the floor and lifted to the ball's height.
   const camera::Vec2 mpp = mirror_.metresPerPixel(*centrePixel);
-  ball.sigma_radial = 0.5 * mpp.x() * lift;
-  ball.sigma_tangential = 0.5 * mpp.y() * lift;
-  // The blob should be about as wide (across the ray) as the ball: a too narrow one is
-  // probably a partly hidden ball or an orange speck.
-  const double expectedWidthPx = 2 * params_.centre_height / lift / mpp.y();
-  const double radialPx = farRadius - nearRadius + 1;
-  ball.confidence = std::clamp(
-      pixels / std::max(radialPx * expectedWidthPx * std::numbers::pi / 4, 1.0), 0.0, 1.0);
-  return ball;
+  out.sigma_radial = 0.5 * mpp.x() * lift;
+  out.sigma_tangential = 0.5 * mpp.y() * lift;
+  out.confidence = carpetShare * std::min(fill, 1.0) * agreement(radialPx, expectedRadial + 1) *
+                   agreement(tangentialPx, expectedTangential + 1);
+  return BallReject::kNone;
+}
+
+BallDetection BallDetector::detect(const camera::FrameView& frame,
+                                   const ContourSet& contours) const {
+  BallDetection best;
+  int candidates = 0, rejected = 0;
+  const ClassId orange = classIdOf(params_.colour);
+  BallDetection candidate;
+  for (const Contour& contour : contours.contours) {
+    if (contour.class_id != orange || !contour.outer) continue;
+    ++candidates;
+    if (evaluate(frame, contours, contour, candidate) != BallReject::kNone) {
+      ++rejected;
+      continue;
+    }
+    if (!best.visible || candidate.confidence > best.confidence) best = candidate;
+  }
+  best.candidates = candidates;
+  best.rejected = rejected;
+  return best;
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -46,6 +46,11 @@ class FloorLookup {
   }
   int width() const { return width_; }
   int height() const { return height_; }
+  // Inside the robot's own reflection (around the mirror centre, self_radius + 1 px).
+  bool inSelf(int u, int v) const {
+    const float du = static_cast<float>(u) - centre_u_, dv = static_cast<float>(v) - centre_v_;
+    return du * du + dv * dv <= self_radius_squared_;
+  }
 
  private:
   struct FloorXY {
@@ -56,6 +61,7 @@ class FloorLookup {
   // x and y side by side: a bilinear lookup touches two cache lines, not four.
   std::vector<FloorXY> floor_;
   std::vector<float> finest_metres_per_pixel_;
+  float centre_u_, centre_v_, self_radius_squared_;
 };
 
 using perception::LinePoint;
@@ -70,6 +76,16 @@ struct LineDetectorParams {
   double width_tolerance = 2.5;
   // Pixels of neither class allowed between green and white (blurred edges).
   int max_transition_pixels = 2;
+  // Sensor noise: up to this many consecutive pixels of another class inside a line's run are
+  // holes in it (0 = a clean run only).
+  int max_gap_pixels = 1;
+  // Field pixels after the run that confirm the line's end (a single green pixel may be noise
+  // inside the line); fewer suffice where the walk ends or another line follows. 1 = the first
+  // field pixel ends it.
+  int field_confirm_pixels = 1;
+  // A line may also end at the robot's own reflection (dark pixels without a floor point), e.g.
+  // the centre circle under the robot.
+  bool end_at_self = true;
   // The detector runs at every n-th contour corner.
   int sample_spacing = 2;
   // Passes of 0.25/0.5/0.25 smoothing of the contour before tangents are taken.
@@ -174,10 +190,23 @@ class LineDetector {
 
 struct BallParams {
   camera::ColourClass colour = camera::ColourClass::kOrange;
-  // Height of the ball's centre above the floor, m.
+  // Height of the ball's centre above the floor, m (the ball's radius: it lies on the floor).
   double centre_height = 0.11;
   // Fewer orange pixels than this is no ball.
   int min_pixels = 2;
+  // Shape: a candidate's radial and tangential extents (px) must lie within
+  // [expected / size_tolerance - size_slack_px, expected * size_tolerance + size_slack_px],
+  // where `expected` is the image of a ball at the candidate's distance (3-D mirror model).
+  double size_tolerance = 1.5;
+  double size_slack_px = 1.5;
+  // Ball-coloured pixels per pixel of the expected silhouette (ellipse of the expected extents):
+  // at least this (a thin streak or a ring is no ball).
+  double min_fill = 0.4;
+  // On the carpet: of the samples on a ring around the candidate (1.5 times its expected size +
+  // 2 px), at least this share must be carpet (field or line colour).
+  double min_carpet_share = 0.5;
+  camera::ColourClass field_colour = camera::ColourClass::kGreen;
+  camera::ColourClass line_colour = camera::ColourClass::kWhite;
 };
 
 struct BallDetection {
@@ -189,20 +218,53 @@ struct BallDetection {
   double sigma_radial = 0, sigma_tangential = 0;
   int pixels = 0;
   int cells = 0;
+  // Fit of the winning candidate in (0, 1]: carpet share x fill x size agreement.
   double confidence = 0;
+  // Ball-coloured regions looked at this frame, and how many of them were refused (too large
+  // or too small for a ball at their distance, wrong shape, not on the carpet).
+  int candidates = 0;
+  int rejected = 0;
+};
+
+// Why a candidate was refused (counted per frame in BallDetection::rejected; the reason is for
+// tests and tools).
+enum class BallReject {
+  kNone,
+  kTooFewPixels,
+  kTooLarge,
+  kAtImageBorder,
+  kNoFloor,
+  kSize,
+  kFill,
+  kNotOnCarpet
 };
 
 class BallDetector {
  public:
+  // Throws std::invalid_argument for parameters out of range (size_tolerance < 1, slack < 0,
+  // min_fill or min_carpet_share outside [0, 1], centre height outside (0, reference height)).
   BallDetector(const camera::ColourTable& table, const camera::MirrorModel& mirror,
                const BallParams& params);
-  // The largest orange region among `contours` (outer contours of the ball colour).
+  // Every outer contour of the ball colour in `contours` is a candidate; a candidate is a ball
+  // when its size and shape fit a ball at its distance and it lies on the carpet; the best fit
+  // wins. Candidates cut by the image's border are refused (their size cannot be checked).
   BallDetection detect(const camera::FrameView& frame, const ContourSet& contours) const;
+
+  // One candidate, with the reason when refused (kNone: `out` holds the detection).
+  BallReject evaluate(const camera::FrameView& frame, const ContourSet& contours,
+                      const Contour& contour, BallDetection& out) const;
+
+  // Image extents (px) of a ball whose centre is `horizontal` m away at `bearing` (robot
+  // frame): radially and across the ray; false where the mirror does not see it.
+  bool expectedExtent(double horizontal, double bearing, double& radialPx,
+                      double& tangentialPx) const;
 
  private:
   const camera::ColourTable& table_;
   const camera::MirrorModel& mirror_;
   BallParams params_;
+  // Regions whose bounding box is larger than this (px) are no ball anywhere in the image.
+  double max_extent_px_ = 0;
 };
 
 struct ObstacleParams {

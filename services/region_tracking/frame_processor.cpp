@@ -30,7 +30,7 @@ VisionParams defaultVisionParams() {
   const ClassId green = classIdOf(ColourClass::kGreen);
   params.tracker.classes.push_back({.class_id = green,
                                     .search_when_lost = true,
-                                    .max_seed_regions = 10,
+                                    .max_seed_regions = 0,
                                     .min_seed_cells = 4,
                                     .seed_from_boundary_of = kNoClass,
                                     .view_edge_stride = 4});
@@ -40,7 +40,7 @@ VisionParams defaultVisionParams() {
     params.tracker.classes.push_back(
         {.class_id = classIdOf(c),
          .search_when_lost = false,
-         .max_seed_regions = 10,
+         .max_seed_regions = 0,
          .min_seed_cells = 1,
          .seed_from_boundary_of = green,
          .search_inside_parent_stride = c == ColourClass::kOrange ? 4 : 0});
@@ -65,6 +65,12 @@ VisionParams loadVisionParams(const config::Node& node) {
   params.lines.line_width = lines.get<double>("line_width", 0.01, 1.0);
   params.lines.width_tolerance = lines.get<double>("width_tolerance", 1.0, 10.0);
   params.lines.max_transition_pixels = lines.get<int>("max_transition_pixels", 0, 10);
+  const LineDetectorParams lineDefaults;
+  params.lines.max_gap_pixels =
+      lines.getOr<int>("max_gap_pixels", lineDefaults.max_gap_pixels, 0, 10);
+  params.lines.field_confirm_pixels =
+      lines.getOr<int>("field_confirm_pixels", lineDefaults.field_confirm_pixels, 1, 10);
+  params.lines.end_at_self = lines.getOr<bool>("end_at_self", lineDefaults.end_at_self);
   params.lines.sample_spacing = lines.get<int>("sample_spacing", 1, 64);
   params.lines.smoothing_passes = lines.get<int>("smoothing_passes", 0, 20);
   params.lines.tangent_half_span = lines.get<int>("tangent_half_span", 1, 20);
@@ -75,6 +81,14 @@ VisionParams loadVisionParams(const config::Node& node) {
   const config::Node ball = node.child("ball");
   params.ball.centre_height = ball.get<double>("centre_height", 0.0, 0.5);
   params.ball.min_pixels = ball.get<int>("min_pixels", 1, 10000);
+  const BallParams ballDefaults;
+  params.ball.size_tolerance =
+      ball.getOr<double>("size_tolerance", ballDefaults.size_tolerance, 1.0, 10.0);
+  params.ball.size_slack_px =
+      ball.getOr<double>("size_slack_px", ballDefaults.size_slack_px, 0.0, 20.0);
+  params.ball.min_fill = ball.getOr<double>("min_fill", ballDefaults.min_fill, 0.0, 1.0);
+  params.ball.min_carpet_share =
+      ball.getOr<double>("min_carpet_share", ballDefaults.min_carpet_share, 0.0, 1.0);
   ball.rejectUnknownKeys();
 
   const config::Node obstacles = node.child("obstacles");

@@ -24,15 +24,17 @@ struct VisionParams {
   ObstacleParams obstacles;
 };
 
-// Green searched for when lost (10 largest regions) and seeded at the edge of the view; goal
-// colours, ball and obstacles seeded from green's boundary every frame; 4x4 cells;
+// Green searched for when lost (every region of at least 4 cells) and seeded at the edge of the
+// view; goal colours, ball and obstacles seeded from green's boundary every frame; 4x4 cells;
 // re-initialisation every 300 frames (services/region_tracking/vision_default.yaml).
 VisionParams defaultVisionParams();
 
 // Reads a vision preset: sections tracker (see loadTrackerConfig, class names as in
 // camera::colourName), blocks {claims: [{class, min_fraction}]}, lines {line_width,
 // width_tolerance, max_transition_pixels, sample_spacing, smoothing_passes, tangent_half_span,
-// min_contour_points, max_gap_samples}, ball {centre_height, min_pixels}, obstacles {min_cells}.
+// min_contour_points, max_gap_samples, optional max_gap_pixels, field_confirm_pixels,
+// end_at_self}, ball {centre_height, min_pixels, optional size_tolerance,
+// size_slack_px, min_fill, min_carpet_share}, obstacles {min_cells}.
 // Every key is required in its section except those documented optional in loadTrackerConfig.
 VisionParams loadVisionParams(const config::Node& node);
 

@@ -27,7 +27,7 @@ TrackerConfig loadTrackerConfig(
     ClassTracking tracking;
     tracking.class_id = classAt(entry, "class");
     tracking.search_when_lost = entry.getOr<bool>("search_when_lost", true);
-    tracking.max_seed_regions = entry.getOr<int>("max_seed_regions", 10, 1, 1000);
+    tracking.max_seed_regions = entry.getOr<int>("max_seed_regions", 0, 0, 1000);
     tracking.min_seed_cells = entry.getOr<int>("min_seed_cells", 4, 1, 1000000);
     tracking.view_edge_stride = entry.getOr<int>("view_edge_stride", 0, 0, 64);
     tracking.search_inside_parent_stride =
@@ -93,7 +93,7 @@ RegionTracker::RegionTracker(const CellGrid& grid, const TrackerConfig& config,
     if (tracking.class_id == kNoClass || tracking.class_id == kBlocked) {
       throw std::invalid_argument("region tracker: class ids 254 and 255 are reserved");
     }
-    if (tracking.max_seed_regions < 1 || tracking.min_seed_cells < 1 ||
+    if (tracking.max_seed_regions < 0 || tracking.min_seed_cells < 1 ||
         tracking.view_edge_stride < 0 || tracking.search_inside_parent_stride < 0) {
       throw std::invalid_argument("region tracker: seed limits must be positive");
     }
@@ -170,13 +170,21 @@ ClassId RegionTracker::classifyNow(CellIndex cell) {
   const ClassId class_id = classifier_->classify(at.x, at.y);
   classified_[cell] = (stamp_ << 8) | class_id;
   ++stats_.cells_classified;
-  ++stats_.classified_by[static_cast<int>(touch_reason_)];
   return class_id;
+}
+
+void RegionTracker::touchFor(TouchReason reason) {
+  // The cells classified since the last switch were classified for the last reason. (Counting
+  // here, not per cell, keeps the per-cell path to one counter.)
+  stats_.classified_by[static_cast<int>(touch_reason_)] += stats_.cells_classified - reason_start_;
+  touch_reason_ = reason;
+  reason_start_ = stats_.cells_classified;
 }
 
 const TrackingStats& RegionTracker::track(const CellClassifier& classifier) {
   stats_ = TrackingStats{};
   stats_.frame = frame_count_;
+  reason_start_ = 0;
   classifier_ = &classifier;
   if (++stamp_ == kStampLimit) {  // wrapped after 2^24 frames: old stamps could look current
     std::fill(classified_.begin(), classified_.end(), 0);
@@ -195,35 +203,36 @@ const TrackingStats& RegionTracker::track(const CellClassifier& classifier) {
   };
 
   stats_.cells_before = totalCells();
-  touch_reason_ = TouchReason::kInsideParent;
+  touchFor(TouchReason::kInsideParent);
   for (const ClassState& state : classes_) {
     const int stride = state.tracking.search_inside_parent_stride;
     if (state.cells == 0 && stride > 0 && state.frames_lost <= 2 * stride * stride) {
       searchInsideParent(state);
     }
   }
-  touch_reason_ = TouchReason::kShrink;
+  touchFor(TouchReason::kShrink);
   for (ClassState& state : classes_)
     shrink(state);
   stats_.cells_after_shrink = totalCells();
 
   contours_.clear();
   for (ClassState& state : classes_) {
-    touch_reason_ = TouchReason::kSeed;
+    touchFor(TouchReason::kSeed);
     seedPending(state);
     // Lost: nothing carried over and no seed given. (Seeds at the view's edge come after this
     // check: a sliver entering the view must not stand in for the search.)
     if (state.cells == 0 && state.tracking.search_when_lost) {
-      touch_reason_ = TouchReason::kInitialSearch;
+      touchFor(TouchReason::kInitialSearch);
       initialSearch(state);
       ++stats_.initial_searches;
     }
-    touch_reason_ = TouchReason::kViewEdge;
+    touchFor(TouchReason::kViewEdge);
     if (state.tracking.view_edge_stride > 0) seedAtViewEdge(state);
-    touch_reason_ = TouchReason::kGrow;
+    touchFor(TouchReason::kGrow);
     grow(state);
     connectivity_.extractContoursAt(state.boundary_drops, state.tracking.class_id, contours_);
   }
+  touchFor(TouchReason::kShrink);  // books the last phase's cells
   stats_.cells_after_grow = totalCells();
   for (ClassState& state : classes_) {
     if (state.cells > 0) {
@@ -320,17 +329,23 @@ void RegionTracker::grow(ClassState& state) {
     // Another class, blocked, or unvisited of another class: a boundary side.
     return true;
   };
+  auto boundarySide = [&](CellIndex drop, int offset, int side) {
+    if (!spreadTo(drop + offset)) return 0;
+    connectivity_.addBoundarySideAt(drop, side);
+    return 1;
+  };
   const int up = neighbour_[0], right = neighbour_[1], down = neighbour_[2], left = neighbour_[3];
   while (!drops.empty()) {
     const CellIndex drop = drops.back();
     drops.pop_back();
     ++processed;
-    const unsigned sides = (spreadTo(drop + up) ? 1u : 0u) | (spreadTo(drop + right) ? 2u : 0u) |
-                           (spreadTo(drop + down) ? 4u : 0u) | (spreadTo(drop + left) ? 8u : 0u);
-    if (sides != 0) {
-      connectivity_.addBoundarySidesAt(drop, sides);
-      boundary.push_back(drop);
-    }
+    // Each side on the boundary goes straight into the connectivity grid; a drop with any such
+    // side is a boundary drop. (One statement per side: the order of the sides is fixed.)
+    int sides = boundarySide(drop, up, 0);
+    sides += boundarySide(drop, right, 1);
+    sides += boundarySide(drop, down, 2);
+    sides += boundarySide(drop, left, 3);
+    if (sides > 0) boundary.push_back(drop);
   }
   state.cells = cells;
   stats_.drops_processed += processed;
@@ -406,11 +421,15 @@ void RegionTracker::initialSearch(ClassState& state) {
   }
   std::fill(scratch_mark_.begin(), scratch_mark_.end(), 0);
 
-  const auto seeds =
-      std::min<std::size_t>(seed_candidates_.size(), state.tracking.max_seed_regions);
-  std::partial_sort(
-      seed_candidates_.begin(), seed_candidates_.begin() + seeds, seed_candidates_.end(),
-      [](const SeedCandidate& a, const SeedCandidate& b) { return a.cells > b.cells; });
+  // Every candidate, or (with a cap) the largest ones.
+  std::size_t seeds = seed_candidates_.size();
+  if (state.tracking.max_seed_regions > 0 &&
+      seeds > static_cast<std::size_t>(state.tracking.max_seed_regions)) {
+    seeds = static_cast<std::size_t>(state.tracking.max_seed_regions);
+    std::partial_sort(
+        seed_candidates_.begin(), seed_candidates_.begin() + seeds, seed_candidates_.end(),
+        [](const SeedCandidate& a, const SeedCandidate& b) { return a.cells > b.cells; });
+  }
   for (std::size_t i = 0; i < seeds; ++i)
     claim(state, seed_candidates_[i].seed);
 }

@@ -40,9 +40,10 @@ struct ClassTracking {
   // When the class has no region left, search the whole frame for its largest regions (seed
   // 3.1.7). Costs a full pass over the frame in every frame the class stays absent.
   bool search_when_lost = true;
-  // At most this many regions are seeded by one initial search (the seed uses 10).
-  int max_seed_regions = 10;
-  // Regions smaller than this (cells) are not seeded by an initial search.
+  // An initial search seeds every region of at least min_seed_cells cells; with
+  // max_seed_regions > 0 only that many of the largest (the seed uses 10, which misses the small
+  // regions inside the penalty and goal areas when more than ten are in view). 0: no cap.
+  int max_seed_regions = 0;
   int min_seed_cells = 4;
   // Extension to the seed: every frame, unvisited cells of this class next to the boundary of
   // the regions of class `seed_from_boundary_of` become seeds (e.g. the ball next to green). The
@@ -192,6 +193,8 @@ class RegionTracker {
     return classifyNow(cell);
   }
   ClassId classifyNow(CellIndex cell);
+  // From now on cells are classified for `reason` (books the cells since the last call).
+  void touchFor(TouchReason reason);
   ClassState* stateOf(ClassId class_id);
   // Marks an unvisited cell as the class's and queues it as a growing drop.
   void claim(ClassState& state, CellIndex cell) {
@@ -225,7 +228,9 @@ class RegionTracker {
   // Per-frame cache of classifications, one word per cell: the frame's stamp (24 bits) and the
   // class (low 8 bits); valid while the stamp is the frame's. One load answers both questions.
   const CellClassifier* classifier_ = nullptr;
+  // Why the cells classified now are classified; stats_.cells_classified when it was set.
   TouchReason touch_reason_ = TouchReason::kShrink;
+  int reason_start_ = 0;
   std::vector<std::uint32_t> classified_;
   std::uint32_t stamp_ = 0;
   static constexpr std::uint32_t kStampLimit = 1u << 24;

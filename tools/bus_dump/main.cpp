@@ -149,6 +149,56 @@ int dumpBus(const std::string& url, const Settings& settings) {
   return 0;
 }
 
+// Where to read (exactly one of robot, sim, url, log) and what to print.
+struct Options {
+  std::optional<int> robot;
+  bool sim = false;
+  std::string url;
+  std::string log_path;
+  Settings settings;
+  bool follow = false;
+  double duration_s = 0.0;
+  bus::BusAddress address;
+  CLI::Option* duration = nullptr;
+
+  void addTo(CLI::App& app) {
+    app.add_option("--robot", robot, "Dump robot N's bus")->check(CLI::Range(1, 6));
+    app.add_flag("--sim", sim, "Dump the simulator's bus");
+    app.add_option("--url", url, "Dump the bus at this LCM URL");
+    app.add_option("--log", log_path, "Dump an LCM log file instead of a bus")
+        ->check(CLI::ExistingFile);
+    app.add_option("--base-port", address.base_port,
+                   "Port of the simulator's bus; robot N is base+N (with --robot/--sim)")
+        ->capture_default_str();
+    app.add_option("--channel", settings.channels, "Channel to dump (repeatable; default: all)")
+        ->check(CLI::IsMember(
+            std::vector<std::string>(bus::kAllChannelNames.begin(), bus::kAllChannelNames.end())));
+    app.add_option("--count", settings.count, "Stop after this many printed messages")
+        ->check(CLI::Range(std::int64_t{1}, std::int64_t{1} << 40));
+    duration = app.add_option("--duration", duration_s,
+                              "Stop after this many seconds (bus: wall time; log: log time "
+                              "from the first event of the chosen channels)")
+                   ->check(CLI::Range(1e-6, 1e7));
+    app.add_flag("--follow", follow,
+                 "Bus only: dump until interrupted (a bus dump needs --count, --duration or this)");
+    app.add_flag("--image-data", settings.json.image_data,
+                 "Print image_t pixel bytes as a JSON array instead of size and hash");
+  }
+
+  // Throws CLI::ValidationError when the combination is not allowed.
+  void check() const {
+    const int sources =
+        (robot ? 1 : 0) + (sim ? 1 : 0) + (url.empty() ? 0 : 1) + (log_path.empty() ? 0 : 1);
+    if (sources != 1)
+      throw CLI::ValidationError("source", "give exactly one of --robot, --sim, --url, --log");
+    if (!log_path.empty() && follow)
+      throw CLI::ValidationError("--follow", "--follow is for buses; a log is read to its end");
+    if (log_path.empty() && settings.count == 0 && duration->count() == 0 && !follow)
+      throw CLI::ValidationError("bounds",
+                                 "a bus dump needs --count, --duration or --follow (until Ctrl-C)");
+  }
+};
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -160,56 +210,22 @@ int main(int argc, char** argv) {
       "ones are reported on stderr and counted, never printed. Examples:\n"
       "  fieldline-bus-dump --log run.lcmlog --channel ROBOT_STATE | jq .message.x\n"
       "  fieldline-bus-dump --robot 2 --channel ODOMETRY --count 10"};
-  std::optional<int> robot;
-  bool sim = false;
-  std::string url;
-  std::string log_path;
-  Settings settings;
-  bool follow = false;
-  double duration_s = 0.0;
-  bus::BusAddress address;
-  app.add_option("--robot", robot, "Dump robot N's bus")->check(CLI::Range(1, 6));
-  app.add_flag("--sim", sim, "Dump the simulator's bus");
-  app.add_option("--url", url, "Dump the bus at this LCM URL");
-  app.add_option("--log", log_path, "Dump an LCM log file instead of a bus")
-      ->check(CLI::ExistingFile);
-  app.add_option("--base-port", address.base_port,
-                 "Port of the simulator's bus; robot N is base+N (with --robot/--sim)")
-      ->capture_default_str();
-  app.add_option("--channel", settings.channels, "Channel to dump (repeatable; default: all)")
-      ->check(CLI::IsMember(
-          std::vector<std::string>(bus::kAllChannelNames.begin(), bus::kAllChannelNames.end())));
-  app.add_option("--count", settings.count, "Stop after this many printed messages")
-      ->check(CLI::Range(std::int64_t{1}, std::int64_t{1} << 40));
-  auto* duration = app.add_option("--duration", duration_s,
-                                  "Stop after this many seconds (bus: wall time; log: log time "
-                                  "from the first event of the chosen channels)")
-                       ->check(CLI::Range(1e-6, 1e7));
-  app.add_flag("--follow", follow,
-               "Bus only: dump until interrupted (a bus dump needs --count, --duration or this)");
-  app.add_flag("--image-data", settings.json.image_data,
-               "Print image_t pixel bytes as a JSON array instead of size and hash");
+  Options o;
+  o.addTo(app);
   try {
     app.parse(argc, argv);
-    const int sources =
-        (robot ? 1 : 0) + (sim ? 1 : 0) + (url.empty() ? 0 : 1) + (log_path.empty() ? 0 : 1);
-    if (sources != 1)
-      throw CLI::ValidationError("source", "give exactly one of --robot, --sim, --url, --log");
-    if (!log_path.empty() && follow)
-      throw CLI::ValidationError("--follow", "--follow is for buses; a log is read to its end");
-    if (log_path.empty() && settings.count == 0 && duration->count() == 0 && !follow)
-      throw CLI::ValidationError("bounds",
-                                 "a bus dump needs --count, --duration or --follow (until Ctrl-C)");
+    o.check();
   } catch (const CLI::ParseError& e) {
     // --help is a ParseError too (exit code 0); every real one is a bad argument: 2.
     return app.exit(e) == 0 ? 0 : 2;
   }
-  if (duration->count() > 0) settings.duration_s = duration_s;
+  if (o.duration->count() > 0) o.settings.duration_s = o.duration_s;
 
   return bus::runMain("bus_dump", [&]() -> int {
-    if (!log_path.empty()) return dumpLog(log_path, settings);
-    const std::string bus_url =
-        !url.empty() ? url : (sim ? bus::simBusUrl(address) : bus::robotBusUrl(*robot, address));
-    return dumpBus(bus_url, settings);
+    if (!o.log_path.empty()) return dumpLog(o.log_path, o.settings);
+    const std::string bus_url = !o.url.empty() ? o.url
+                                : o.sim        ? bus::simBusUrl(o.address)
+                                               : bus::robotBusUrl(*o.robot, o.address);
+    return dumpBus(bus_url, o.settings);
   });
 }

@@ -226,8 +226,11 @@ Summary evaluate(const std::vector<TruthSample>& truth, std::vector<StateSample>
     TruthRobot tr;
     double bx = 0, by = 0;
     if (!truthAt(truth, b.utime, b.robot, tr, &bx, &by)) continue;
-    if (std::hypot(bx - tr.x, by - tr.y) > options.ball_range_m) continue;
+    const double range = std::hypot(bx - tr.x, by - tr.y);
+    if (range > options.ball_range_m) continue;
     ball_errors.push_back(std::hypot(b.x - bx, b.y - by));
+    s.balls.push_back({b.robot, static_cast<double>(b.utime - t0) * 1e-6, b.x, b.y, bx, by,
+                       ball_errors.back(), range});
   }
   s.balls_scored = ball_errors.size();
   s.ball_mean_m = mean(ball_errors);

@@ -62,6 +62,16 @@ struct Matched {
   double latency_ms = 0;
 };
 
+// One scored BALL_STATE (valid, after the settle time, the robot within ball_range_m).
+struct BallMatched {
+  int robot = 0;
+  double t = 0;  // s since the first state
+  double x = 0, y = 0, true_x = 0, true_y = 0;
+  double error = 0;
+  // Distance from the robot to the ball, m.
+  double range = 0;
+};
+
 struct Summary {
   std::size_t states = 0, scored = 0, balls_scored = 0;
   double pos_mean_m = 0, pos_p99_m = 0, pos_max_m = 0, heading_mean_deg = 0;
@@ -81,6 +91,7 @@ struct Summary {
   std::map<int, double> ball_state_hz;
   std::vector<double> recoveries_s;
   std::vector<Matched> matched;
+  std::vector<BallMatched> balls;
 };
 
 // Truth at `t` interpolated between the bracketing samples (sorted by utime); false outside.

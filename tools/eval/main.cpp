@@ -152,14 +152,8 @@ struct Collector {
   }
 };
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  CLI::App app{
-      "Localization evaluation: runs the simulated team for a scenario (or reads a recorded log "
-      "with SIM_WORLD, ROBOT_STATE and BALL_STATE), matches every estimate with the truth at the "
-      "same utime, writes summary.json, trajectories.png, errors.png and latency.png, and prints "
-      "one summary line. Run it inside a private network namespace (see docs/fusion.md)."};
+// The command line.
+struct EvalArgs {
   std::string scenario = "figure_eight";
   std::string log;
   std::string launch = "sim_team";
@@ -169,140 +163,172 @@ int main(int argc, char** argv) {
   int robots = 0;
   eval::EvalOptions options;
   std::string log_level = "warn";
-  app.add_option("--scenario", scenario, "Scenario preset (config/scenarios) or YAML path")
+};
+
+void addOptions(CLI::App& app, EvalArgs& a) {
+  app.add_option("--scenario", a.scenario, "Scenario preset (config/scenarios) or YAML path")
       ->capture_default_str();
-  app.add_option("--log", log, "Evaluate a recorded LCM log instead of running the team");
-  app.add_option("--duration", duration, "Seconds to run (default: the scenario's, else 30)")
+  app.add_option("--log", a.log, "Evaluate a recorded LCM log instead of running the team");
+  app.add_option("--duration", a.duration, "Seconds to run (default: the scenario's, else 30)")
       ->check(CLI::Range(3.0, 3600.0));
-  app.add_option("--robots", robots, "Team size (default: the scenario's highest robot number)")
+  app.add_option("--robots", a.robots, "Team size (default: the scenario's highest robot number)")
       ->check(CLI::Range(1, 6));
-  app.add_option("--launch", launch, "Launch file to run the team with")->capture_default_str();
-  app.add_option("--out", out_dir, "Output directory (default: eval/<scenario or log name>)");
-  app.add_option("--field", field_name, "Field preset for the plots (default: the scenario's)");
-  app.add_option("--settle", options.settle_s, "Seconds at the start not scored")
+  app.add_option("--launch", a.launch, "Launch file to run the team with")->capture_default_str();
+  app.add_option("--out", a.out_dir, "Output directory (default: eval/<scenario or log name>)");
+  app.add_option("--field", a.field_name, "Field preset for the plots (default: the scenario's)");
+  app.add_option("--settle", a.options.settle_s, "Seconds at the start not scored")
       ->check(CLI::Range(0.0, 60.0))
       ->capture_default_str();
-  app.add_option("--log-level", log_level, "trace, debug, info, warn, error")
+  app.add_option("--log-level", a.log_level, "trace, debug, info, warn, error")
       ->capture_default_str();
+}
+
+// Reads a recorded log into the collector; returns the source's name.
+std::string collectFromLog(EvalArgs& a, Collector& collector, const Clock& clock) {
+  if (!std::filesystem::exists(a.log)) throw std::invalid_argument("no such log: " + a.log);
+  if (a.out_dir.empty()) a.out_dir = "eval/" + std::filesystem::path(a.log).stem().string();
+  if (a.field_name.empty()) a.field_name = "msl";
+  std::filesystem::create_directories(a.out_dir);
+  bus::Node node({.process = "eval",
+                  .robot_id = 0,
+                  .url = "file://" + std::filesystem::absolute(a.log).string() + "?speed=0",
+                  .future_tolerance_us = std::numeric_limits<Utime>::max() / 4,
+                  // A log is read long after it was recorded: its messages are not stale.
+                  .max_age_us = std::numeric_limits<Utime>::max() / 4,
+                  .status_period_us = 0},
+                 clock);
+  collector.subscribe(node, bus::kPrimaryBus, {bus::kPrimaryBus});
+  // The log plays as fast as it can be read; a second without messages is its end.
+  int idle_ms = 0;
+  while (idle_ms < 1000 && !bus::stopSignalReceived()) {
+    idle_ms = node.spinOnce(100) > 0 ? 0 : idle_ms + 100;
+  }
+  return a.log;
+}
+
+// Runs the team for the scenario through fieldline-launch while collecting; returns the
+// source's name.
+std::string collectFromTeam(EvalArgs& a, Collector& collector, const Clock& clock) {
+  const scenario::Scenario sc = scenario::loadScenarioPreset(a.scenario);
+  // Stop before the scenario ends: the simulator would start it over (a jump of every robot
+  // that would count as a kidnap).
+  if (a.duration <= 0.0) a.duration = sc.duration > 0.0 ? sc.duration - 1.5 : 30.0;
+  if (a.robots == 0)
+    for (const auto& r : sc.robots)
+      a.robots = std::max(a.robots, r.id);
+  if (a.field_name.empty()) a.field_name = sc.field;
+  if (a.out_dir.empty()) a.out_dir = "eval/" + sc.name;
+  std::filesystem::create_directories(a.out_dir);
+  const std::string launch_file = scenarioLaunchFile(a.launch, a.scenario, a.out_dir);
+  // The robots' clocks count their drift from this time; the launcher takes it from here.
+  const Utime clock_reference = clock.now();
+  setenv(kClockReferenceVariable, std::to_string(clock_reference).c_str(), 1);
+  collector.clocks = launch::parseRobotClocks(config::Node::loadFile(launch_file), clock_reference);
+  const std::string launcher = selfDirectory() + "/fieldline-launch";
+  const std::string launch_log = a.out_dir + "/launch.log";
+
+  bus::installStopSignals();
+  bus::Node node({.process = "eval", .robot_id = 0, .status_period_us = 0}, clock);
+  std::vector<bus::BusId> buses;
+  for (int r = 1; r <= a.robots; ++r)
+    buses.push_back(node.addBus(bus::robotBusUrl(r)));
+  collector.subscribe(node, bus::kPrimaryBus, buses);
+
+  const std::string robots_arg = std::to_string(a.robots);
+  const std::string duration_arg = std::to_string(a.duration);
+  const pid_t child = fork();
+  if (child < 0) throw std::runtime_error("fork failed");
+  if (child == 0) {
+    std::FILE* f = std::freopen(launch_log.c_str(), "w", stdout);
+    if (f) dup2(fileno(stdout), STDERR_FILENO);
+    execl(launcher.c_str(), launcher.c_str(), launch_file.c_str(), "--robots", robots_arg.c_str(),
+          "--duration", duration_arg.c_str(), "--no-table", static_cast<char*>(nullptr));
+    _exit(127);
+  }
+  std::fprintf(stderr, "running %s with %d robot(s) for %.0f s (log: %s)\n", sc.name.c_str(),
+               a.robots, a.duration, launch_log.c_str());
+  int status = 0;
+  for (;;) {
+    node.spinOnce(50);
+    const pid_t done = waitpid(child, &status, WNOHANG);
+    if (done == child) break;
+    if (bus::stopSignalReceived()) kill(child, SIGTERM);
+  }
+  for (int i = 0; i < 10; ++i)
+    node.spinOnce(10);
+  if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) {
+    std::fprintf(stderr, "launcher ended with status %d (see %s)\n", status, launch_log.c_str());
+  }
+  return "scenario " + sc.name;
+}
+
+// samples.csv (every matched ROBOT_STATE) and balls.csv (every scored BALL_STATE).
+void writeCsvs(const eval::Summary& summary, const std::string& out_dir) {
+  std::ofstream csv(out_dir + "/samples.csv");
+  csv << "robot,t_s,x,y,phi,true_x,true_y,true_phi,pos_error_m,heading_error_rad,nees,status,"
+         "recovering,latency_ms\n";
+  for (const eval::Matched& m : summary.matched) {
+    csv << fmt::format(
+        "{},{:.3f},{:.4f},{:.4f},{:.4f},{:.4f},{:.4f},{:.4f},{:.4f},{:.4f},{:.3f},{},{},{:.2f}\n",
+        m.robot, m.t, m.x, m.y, m.phi, m.true_x, m.true_y, m.true_phi, m.pos_error, m.heading_error,
+        m.nees, m.status, m.recovering ? 1 : 0, m.latency_ms);
+  }
+  std::ofstream balls(out_dir + "/balls.csv");
+  balls << "robot,t_s,x,y,true_x,true_y,error_m,range_m\n";
+  for (const eval::BallMatched& b : summary.balls) {
+    balls << fmt::format("{},{:.3f},{:.4f},{:.4f},{:.4f},{:.4f},{:.4f},{:.3f}\n", b.robot, b.t, b.x,
+                         b.y, b.true_x, b.true_y, b.error, b.range);
+  }
+}
+
+// Scores what was collected, writes the files and prints the summary line(s).
+int report(const EvalArgs& a, const Collector& collector, const std::string& source) {
+  const eval::Summary summary = eval::evaluate(collector.truth, collector.states, collector.balls,
+                                               a.options, collector.first_lines);
+  const field::FieldModel field = field::loadFieldPreset(a.field_name);
+  const geometry::Vec2 half = field.carpetHalfExtent();
+  std::ofstream(a.out_dir + "/summary.json") << eval::summaryJson(summary, source);
+  eval::writePlots(summary, a.out_dir, half.x(), half.y());
+  writeCsvs(summary, a.out_dir);
+  std::fprintf(stderr,
+               "%zu truth samples, %zu robot states (%zu scored), %zu ball states; kidnaps %d "
+               "(unrecovered %d); latency p50 %.1f ms; output in %s\n",
+               collector.truth.size(), summary.states, summary.scored, collector.balls.size(),
+               summary.kidnaps, summary.unrecovered, summary.latency_p50_ms, a.out_dir.c_str());
+  std::printf("%s\n", eval::summaryLine(summary).c_str());
+  if (summary.states == 0 || collector.truth.empty()) {
+    std::fprintf(stderr, "no estimates or no truth to compare\n");
+    return 1;
+  }
+  if (!collector.teams.empty()) {
+    const eval::TeamBallSummary team_ball =
+        eval::evaluateTeamBall(collector.truth, collector.balls, collector.teams);
+    std::ofstream(a.out_dir + "/team_ball.json") << eval::teamBallJson(team_ball);
+    std::printf("%s\n", eval::teamBallLine(team_ball).c_str());
+  }
+  return 0;
+}
+
+int run(EvalArgs a) {
+  spdlog::set_level(spdlog::level::from_str(a.log_level));
+  SystemClock clock;
+  Collector collector;
+  const std::string source =
+      a.log.empty() ? collectFromTeam(a, collector, clock) : collectFromLog(a, collector, clock);
+  return report(a, collector, source);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{
+      "Localization evaluation: runs the simulated team for a scenario (or reads a recorded log "
+      "with SIM_WORLD, ROBOT_STATE and BALL_STATE), matches every estimate with the truth at the "
+      "same utime, writes summary.json, samples.csv, balls.csv, trajectories.png, errors.png and "
+      "latency.png, and prints one summary line. Run it inside a private network namespace (see "
+      "docs/fusion.md)."};
+  EvalArgs args;
+  addOptions(app, args);
   FIELDLINE_PARSE(app, argc, argv);
-
-  return bus::runMain("eval", [&]() -> int {
-    spdlog::set_level(spdlog::level::from_str(log_level));
-    SystemClock clock;
-    Collector collector;
-    std::string source;
-    if (!log.empty()) {
-      if (!std::filesystem::exists(log)) throw std::invalid_argument("no such log: " + log);
-      source = log;
-      if (out_dir.empty()) out_dir = "eval/" + std::filesystem::path(log).stem().string();
-      if (field_name.empty()) field_name = "msl";
-      std::filesystem::create_directories(out_dir);
-      bus::Node node({.process = "eval",
-                      .robot_id = 0,
-                      .url = "file://" + std::filesystem::absolute(log).string() + "?speed=0",
-                      .future_tolerance_us = std::numeric_limits<Utime>::max() / 4,
-                      // A log is read long after it was recorded: its messages are not stale.
-                      .max_age_us = std::numeric_limits<Utime>::max() / 4,
-                      .status_period_us = 0},
-                     clock);
-      collector.subscribe(node, bus::kPrimaryBus, {bus::kPrimaryBus});
-      // The log plays as fast as it can be read; a second without messages is its end.
-      int idle_ms = 0;
-      while (idle_ms < 1000 && !bus::stopSignalReceived()) {
-        idle_ms = node.spinOnce(100) > 0 ? 0 : idle_ms + 100;
-      }
-    } else {
-      const scenario::Scenario sc = scenario::loadScenarioPreset(scenario);
-      source = "scenario " + sc.name;
-      // Stop before the scenario ends: the simulator would start it over (a jump of every
-      // robot that would count as a kidnap).
-      if (duration <= 0.0) duration = sc.duration > 0.0 ? sc.duration - 1.5 : 30.0;
-      if (robots == 0)
-        for (const auto& r : sc.robots)
-          robots = std::max(robots, r.id);
-      if (field_name.empty()) field_name = sc.field;
-      if (out_dir.empty()) out_dir = "eval/" + sc.name;
-      std::filesystem::create_directories(out_dir);
-      const std::string launch_file = scenarioLaunchFile(launch, scenario, out_dir);
-      // The robots' clocks count their drift from this time; the launcher takes it from here.
-      const Utime clock_reference = clock.now();
-      setenv(kClockReferenceVariable, std::to_string(clock_reference).c_str(), 1);
-      collector.clocks =
-          launch::parseRobotClocks(config::Node::loadFile(launch_file), clock_reference);
-      const std::string launcher = selfDirectory() + "/fieldline-launch";
-      const std::string launch_log = out_dir + "/launch.log";
-
-      bus::installStopSignals();
-      bus::Node node({.process = "eval", .robot_id = 0, .status_period_us = 0}, clock);
-      std::vector<bus::BusId> buses;
-      for (int r = 1; r <= robots; ++r)
-        buses.push_back(node.addBus(bus::robotBusUrl(r)));
-      collector.subscribe(node, bus::kPrimaryBus, buses);
-
-      const std::string robots_arg = std::to_string(robots);
-      const std::string duration_arg = std::to_string(duration);
-      const pid_t child = fork();
-      if (child < 0) throw std::runtime_error("fork failed");
-      if (child == 0) {
-        std::FILE* f = std::freopen(launch_log.c_str(), "w", stdout);
-        if (f) dup2(fileno(stdout), STDERR_FILENO);
-        execl(launcher.c_str(), launcher.c_str(), launch_file.c_str(), "--robots",
-              robots_arg.c_str(), "--duration", duration_arg.c_str(), "--no-table",
-              static_cast<char*>(nullptr));
-        _exit(127);
-      }
-      std::fprintf(stderr, "running %s with %d robot(s) for %.0f s (log: %s)\n", sc.name.c_str(),
-                   robots, duration, launch_log.c_str());
-      int status = 0;
-      for (;;) {
-        node.spinOnce(50);
-        const pid_t done = waitpid(child, &status, WNOHANG);
-        if (done == child) break;
-        if (bus::stopSignalReceived()) kill(child, SIGTERM);
-      }
-      for (int i = 0; i < 10; ++i)
-        node.spinOnce(10);
-      if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) {
-        std::fprintf(stderr, "launcher ended with status %d (see %s)\n", status,
-                     launch_log.c_str());
-      }
-    }
-
-    const eval::Summary summary = eval::evaluate(collector.truth, collector.states, collector.balls,
-                                                 options, collector.first_lines);
-    const field::FieldModel field = field::loadFieldPreset(field_name);
-    const geometry::Vec2 half = field.carpetHalfExtent();
-    std::ofstream(out_dir + "/summary.json") << eval::summaryJson(summary, source);
-    eval::writePlots(summary, out_dir, half.x(), half.y());
-    {
-      std::ofstream csv(out_dir + "/samples.csv");
-      csv << "robot,t_s,x,y,phi,true_x,true_y,true_phi,pos_error_m,heading_error_rad,nees,status,"
-             "recovering,latency_ms\n";
-      for (const eval::Matched& m : summary.matched) {
-        csv << fmt::format(
-            "{},{:.3f},{:.4f},{:.4f},{:.4f},{:.4f},{:.4f},{:.4f},{:.4f},{:.4f},{:.3f},{},{},{:.2f}"
-            "\n",
-            m.robot, m.t, m.x, m.y, m.phi, m.true_x, m.true_y, m.true_phi, m.pos_error,
-            m.heading_error, m.nees, m.status, m.recovering ? 1 : 0, m.latency_ms);
-      }
-    }
-    std::fprintf(stderr,
-                 "%zu truth samples, %zu robot states (%zu scored), %zu ball states; kidnaps %d "
-                 "(unrecovered %d); latency p50 %.1f ms; output in %s\n",
-                 collector.truth.size(), summary.states, summary.scored, collector.balls.size(),
-                 summary.kidnaps, summary.unrecovered, summary.latency_p50_ms, out_dir.c_str());
-    if (summary.states == 0 || collector.truth.empty()) {
-      std::fprintf(stderr, "no estimates or no truth to compare\n");
-      std::printf("%s\n", eval::summaryLine(summary).c_str());
-      return 1;
-    }
-    std::printf("%s\n", eval::summaryLine(summary).c_str());
-    if (!collector.teams.empty()) {
-      const eval::TeamBallSummary team_ball =
-          eval::evaluateTeamBall(collector.truth, collector.balls, collector.teams);
-      std::ofstream(out_dir + "/team_ball.json") << eval::teamBallJson(team_ball);
-      std::printf("%s\n", eval::teamBallLine(team_ball).c_str());
-    }
-    return 0;
-  });
+  return bus::runMain("eval", [&]() -> int { return run(args); });
 }

@@ -81,6 +81,26 @@ void drawPng(const FieldModel& field, const std::vector<fieldline::perception::L
   if (!cv::imwrite(path, image)) throw std::runtime_error("cannot write " + path);
 }
 
+// The JSON answer: the best pose first, then the alternatives (empty results: not valid).
+void printResults(const FieldModel& field, const std::string& method, std::size_t num_points,
+                  bool from_guess, const std::vector<PoseCorrection>& results) {
+  std::printf("{\n  \"field\": \"%s\", \"method\": \"%s\", \"points\": %zu, \"source\": \"%s\",\n",
+              field.name().c_str(), method.c_str(), num_points,
+              from_guess ? "guess" : "global_search");
+  if (results.empty()) {
+    std::printf("  \"valid\": false\n}\n");
+    return;
+  }
+  printPose(results[0], "  ");
+  std::printf(",\n  \"alternatives\": [");
+  for (std::size_t k = 1; k < results.size(); ++k) {
+    std::printf("%s\n    {\n", k > 1 ? "," : "");
+    printPose(results[k], "      ");
+    std::printf("\n    }");
+  }
+  std::printf("]\n}\n");
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -121,22 +141,8 @@ int main(int argc, char** argv) {
     } else {
       results = matcher.globalSearch(points.points);
     }
-    std::printf(
-        "{\n  \"field\": \"%s\", \"method\": \"%s\", \"points\": %zu, \"source\": \"%s\",\n",
-        field.name().c_str(), method.c_str(), points.points.size(),
-        guess ? "guess" : "global_search");
-    if (results.empty()) {
-      std::printf("  \"valid\": false\n}\n");
-      return 1;
-    }
-    printPose(results[0], "  ");
-    std::printf(",\n  \"alternatives\": [");
-    for (std::size_t k = 1; k < results.size(); ++k) {
-      std::printf("%s\n    {\n", k > 1 ? "," : "");
-      printPose(results[k], "      ");
-      std::printf("\n    }");
-    }
-    std::printf("]\n}\n");
+    printResults(field, method, points.points.size(), guess.has_value(), results);
+    if (results.empty()) return 1;
     if (!png.empty()) drawPng(field, points.points, results[0].pose, png);
     return results[0].valid ? 0 : 1;
   } catch (const std::invalid_argument& e) {

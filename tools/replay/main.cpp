@@ -12,16 +12,9 @@
 
 using namespace fieldline;
 
-int main(int argc, char** argv) {
-  CLI::App app{
-      "Replays a recorded robot-bus LCM log (lcm-logger's format, e.g. scripts/demo --record) "
-      "through the named algorithm nodes in one process, in log-time order under a simulated "
-      "clock, and writes what they publish to an LCM log. The log's own messages on channels the "
-      "run nodes produce are not fed (the replayed outputs replace them). Two replays of a log "
-      "give byte-identical outputs. Prints one summary line: messages in and out per channel.\n"
-      "Example: fieldline-replay robot1.lcm --run feature_recognition,fusion --out replayed.lcm"};
-  replay::ReplayRunOptions options;
-  std::string run = "feature_recognition,fusion";
+namespace {
+
+void addOptions(CLI::App& app, replay::ReplayRunOptions& options, std::string& run) {
   app.add_option("log", options.log_path, "The recorded log of one robot's bus")
       ->required()
       ->check(CLI::ExistingFile);
@@ -38,9 +31,13 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--robot-config", options.robot_config, "fusion: robot preset or YAML path")
       ->capture_default_str();
-  app.add_option("--matcher", options.matcher, "fusion: layer 2 method, lsq or force_field")
-      ->check(CLI::IsMember({"lsq", "force_field"}))
+  app.add_option("--fusion-config", options.fusion_config,
+                 "fusion: settings preset (config/fusion/NAME.yaml) or YAML path, as "
+                 "fieldline-fusion --config")
       ->capture_default_str();
+  app.add_option("--matcher", options.matcher,
+                 "fusion: layer 2 method, lsq or force_field (default: the settings file's)")
+      ->check(CLI::IsMember({"lsq", "force_field"}));
   app.add_option("--start-prior", options.start_prior, "fusion: own_half or none")
       ->check(CLI::IsMember({"own_half", "none"}))
       ->capture_default_str();
@@ -55,6 +52,21 @@ int main(int argc, char** argv) {
                  "(with --truth's SIM_WORLD) to this log, to compare with the replay");
   app.add_option("--camera", options.camera, "region_tracking: camera preset")
       ->capture_default_str();
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{
+      "Replays a recorded robot-bus LCM log (lcm-logger's format, e.g. scripts/demo --record) "
+      "through the named algorithm nodes in one process, in log-time order under a simulated "
+      "clock, and writes what they publish to an LCM log. The log's own messages on channels the "
+      "run nodes produce are not fed (the replayed outputs replace them). Two replays of a log "
+      "give byte-identical outputs. Prints one summary line: messages in and out per channel.\n"
+      "Example: fieldline-replay robot1.lcm --run feature_recognition,fusion --out replayed.lcm"};
+  replay::ReplayRunOptions options;
+  std::string run = "feature_recognition,fusion";
+  addOptions(app, options, run);
   FIELDLINE_PARSE(app, argc, argv);
 
   try {

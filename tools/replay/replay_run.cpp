@@ -19,6 +19,7 @@
 #include "common/robot/robot_params.hpp"
 #include "common/time/clock.hpp"
 #include "services/feature_recognition/feature_node.hpp"
+#include "services/fusion/fusion_config.hpp"
 #include "services/fusion/fusion_node.hpp"
 #include "services/fusion/line_matcher.hpp"
 #include "services/region_tracking/tracking_node.hpp"
@@ -158,20 +159,26 @@ ReplayRunResult runReplay(const ReplayRunOptions& options) {
     } else if (name == "feature_recognition") {
       features = std::make_unique<feature_recognition::FeatureNode>(node, field);
     } else {
-      fusion::MatcherParams matcher_params;
-      if (options.matcher == "lsq") {
-        matcher_params.method = fusion::MatchMethod::kRobustLeastSquares;
+      // As fieldline-fusion: the settings file, then the options that override it.
+      fusion::FusionConfig config = fusion::loadFusionConfigPreset(options.fusion_config);
+      if (options.matcher.empty()) {
+        // the settings file's method
+      } else if (options.matcher == "lsq") {
+        config.matcher.method = fusion::MatchMethod::kRobustLeastSquares;
       } else if (options.matcher == "force_field") {
-        matcher_params.method = fusion::MatchMethod::kForceField;
+        config.matcher.method = fusion::MatchMethod::kForceField;
       } else {
         throw ReplayArgumentError("unknown matcher '" + options.matcher + "'");
       }
       if (options.start_prior != "own_half" && options.start_prior != "none") {
         throw ReplayArgumentError("unknown start prior '" + options.start_prior + "'");
       }
-      matcher = std::make_unique<fusion::LineMatcher>(field, matcher_params, options.grid_cache);
+      matcher = std::make_unique<fusion::LineMatcher>(field, config.matcher, options.grid_cache);
       fusion::FusionNodeOptions fusion_options;
       fusion_options.robot = robot::loadRobotPreset(options.robot_config);
+      fusion_options.localizer = config.localizer;
+      fusion_options.ball = config.ball;
+      fusion_options.ball_rate_hz = config.ball_rate_hz;
       fusion_options.localizer.start_prior = options.start_prior == "own_half"
                                                  ? fusion::StartPrior::kOwnHalf
                                                  : fusion::StartPrior::kNone;

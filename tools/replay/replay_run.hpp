@@ -36,7 +36,10 @@ struct ReplayRunOptions {
   std::string field = "msl";
   std::string robot_config = "fu2004";
   std::string camera = "omni_sim";
-  std::string matcher = "lsq";
+  // fusion: settings preset (config/fusion/NAME.yaml) or path, as fieldline-fusion --config;
+  // matcher (when not empty) and start_prior override it.
+  std::string fusion_config = "default";
+  std::string matcher;
   std::string start_prior = "own_half";
   // Distance grid cache of the line matcher; empty: built in memory.
   std::string grid_cache;

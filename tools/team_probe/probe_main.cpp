@@ -8,6 +8,9 @@
 #include <fstream>
 #include <map>
 #include <memory>
+#include <optional>
+#include <string>
+#include <vector>
 
 #include "common/bus/cli.hpp"
 #include "common/bus/node.hpp"
@@ -28,68 +31,112 @@ std::string list(const auto& values) {
   return out + "]";
 }
 
+std::string object(const auto& map) {
+  std::string out = "{";
+  for (const auto& [k, v] : map)
+    out += fmt::format("{}\"{}\":{}", out.size() > 1 ? "," : "", k, v);
+  return out + "}";
+}
+
+struct Options {
+  bus::CommonOptions common;
+  std::string pose_text = "0,0,0", ball_text;
+  std::string out_path;
+  double duration_s = 10.0;
+
+  void addTo(CLI::App& app) {
+    common.addTo(app);
+    app.add_option("--pose", pose_text, "x,y,phi of the robot in the field frame")
+        ->capture_default_str();
+    app.add_option("--ball", ball_text, "x,y of a ball this robot sees (none when empty)");
+    app.add_option("--out", out_path, "JSON lines file")->required();
+    app.add_option("--duration", duration_s, "Seconds to run")
+        ->check(CLI::Range(0.5, 3600.0))
+        ->capture_default_str();
+  }
+};
+
+// One TEAM_STATE as a JSON line, with the system time it arrived.
+std::string teamStateLine(const perception::TeamState& s, Utime arrived) {
+  std::vector<int> present, ball_valid;
+  std::vector<std::int64_t> age, ball_age, offset, rtt, received, rejected;
+  std::vector<double> x, y;
+  for (const auto& r : s.robots) {
+    present.push_back(r.present);
+    ball_valid.push_back(r.ball_valid);
+    age.push_back(r.robot_age_us);
+    ball_age.push_back(r.ball_age_us);
+    offset.push_back(r.clock_offset_us);
+    rtt.push_back(r.round_trip_us);
+    received.push_back(r.packets_received);
+    rejected.push_back(r.packets_rejected);
+    x.push_back(r.x);
+    y.push_back(r.y);
+  }
+  return fmt::format(
+      "{{\"t\":{},\"utime\":{},\"present\":{},\"age\":{},\"ball_valid\":{},\"ball_age\":{},"
+      "\"offset\":{},\"rtt\":{},\"received\":{},\"rejected\":{},\"x\":{},\"y\":{},"
+      "\"team_ball\":[{},{},{}]}}\n",
+      arrived, s.utime, list(present), list(age), list(ball_valid), list(ball_age), list(offset),
+      list(rtt), list(received), list(rejected), list(x), list(y), s.team_ball_valid ? 1 : 0,
+      s.team_ball_x, s.team_ball_y);
+}
+
+// What fusion would publish: the fixed pose, and the ball when one is given.
+void publishEstimates(bus::Node& node, const std::vector<double>& pose,
+                      const std::optional<std::vector<double>>& ball) {
+  robot_state_t r{};
+  perception::RobotEstimate e;
+  e.utime = node.now() - 8'000;
+  e.pose = {pose[0], pose[1], pose[2]};
+  e.covariance = Eigen::Matrix3d::Identity() * 0.0025;
+  e.status = perception::LocalizationStatus::kTracking;
+  msg::toMessage(e, r);
+  node.publish(bus::channels::kRobotState, r);
+  ball_state_t b{};
+  perception::BallEstimate be;
+  be.utime = e.utime;
+  be.valid = ball.has_value();
+  if (ball) {
+    be.x = (*ball)[0];
+    be.y = (*ball)[1];
+    be.last_seen_utime = e.utime - 30'000;
+    be.covariance = Eigen::Matrix2d::Identity() * 0.01;
+  }
+  msg::toMessage(be, b);
+  node.publish(bus::channels::kBallState, b);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   CLI::App app{
       "Team test probe: publishes a robot's ROBOT_STATE and BALL_STATE and records its "
       "TEAM_STATE as JSON lines."};
-  bus::CommonOptions common;
-  common.addTo(app);
-  std::string pose_text = "0,0,0", ball_text;
-  std::string out_path;
-  double duration_s = 10.0;
-  app.add_option("--pose", pose_text, "x,y,phi of the robot in the field frame")
-      ->capture_default_str();
-  app.add_option("--ball", ball_text, "x,y of a ball this robot sees (none when empty)");
-  app.add_option("--out", out_path, "JSON lines file")->required();
-  app.add_option("--duration", duration_s, "Seconds to run")
-      ->check(CLI::Range(0.5, 3600.0))
-      ->capture_default_str();
+  Options o;
+  o.addTo(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     return app.exit(e) == 0 ? 0 : 2;
   }
   return bus::runMain("team_probe", [&] {
-    common.resolve("team_probe");
-    const auto pose = bus::parseNumberList(pose_text, 3, "--pose");
+    o.common.resolve("team_probe");
+    const auto pose = bus::parseNumberList(o.pose_text, 3, "--pose");
     std::optional<std::vector<double>> ball;
-    if (!ball_text.empty()) ball = bus::parseNumberList(ball_text, 2, "--ball");
+    if (!o.ball_text.empty()) ball = bus::parseNumberList(o.ball_text, 2, "--ball");
     SystemClock system_clock;
     const auto error = clockErrorFromEnvironment();
     OffsetClock clock(system_clock, error ? error->offset_us : 0, error ? error->drift_ppm : 0.0,
                       error ? error->reference_us : 0);
     bus::Node node({.process = "team_probe",
-                    .robot_id = common.robot,
-                    .url = common.bus_url,
+                    .robot_id = o.common.robot,
+                    .url = o.common.bus_url,
                     .status_period_us = 0},
                    clock);
-    std::ofstream out(out_path);
+    std::ofstream out(o.out_path);
     node.subscribe(bus::channels::kTeamState, [&](const team_state_t& m) {
-      const perception::TeamState s = msg::fromMessage(m);
-      std::vector<int> present, ball_valid;
-      std::vector<std::int64_t> age, ball_age, offset, rtt, received, rejected;
-      std::vector<double> x, y;
-      for (const auto& r : s.robots) {
-        present.push_back(r.present);
-        ball_valid.push_back(r.ball_valid);
-        age.push_back(r.robot_age_us);
-        ball_age.push_back(r.ball_age_us);
-        offset.push_back(r.clock_offset_us);
-        rtt.push_back(r.round_trip_us);
-        received.push_back(r.packets_received);
-        rejected.push_back(r.packets_rejected);
-        x.push_back(r.x);
-        y.push_back(r.y);
-      }
-      out << fmt::format(
-          "{{\"t\":{},\"utime\":{},\"present\":{},\"age\":{},\"ball_valid\":{},\"ball_age\":{},"
-          "\"offset\":{},\"rtt\":{},\"received\":{},\"rejected\":{},\"x\":{},\"y\":{},"
-          "\"team_ball\":[{},{},{}]}}\n",
-          system_clock.now(), s.utime, list(present), list(age), list(ball_valid), list(ball_age),
-          list(offset), list(rtt), list(received), list(rejected), list(x), list(y),
-          s.team_ball_valid ? 1 : 0, s.team_ball_x, s.team_ball_y);
+      out << teamStateLine(msg::fromMessage(m), system_clock.now());
     });
     std::map<std::string, std::int64_t> errors;
     std::map<std::string, double> metrics;
@@ -99,44 +146,14 @@ int main(int argc, char** argv) {
         errors[m.error_kind[i]] = m.error_count[i];
       for (int i = 0; i < m.num_metrics; ++i)
         metrics[m.metric_name[i]] = m.metric_value[i];
-      std::string e = "{";
-      for (const auto& [k, v] : errors) {
-        e += fmt::format("{}\"{}\":{}", e.size() > 1 ? "," : "", k, v);
-      }
-      out << fmt::format("{{\"status_t\":{},\"state\":{},\"errors\":{}}}}}\n", system_clock.now(),
-                         m.state, e);
+      out << fmt::format("{{\"status_t\":{},\"state\":{},\"errors\":{}}}\n", system_clock.now(),
+                         m.state, object(errors));
     });
-    node.every(20'000, [&] {
-      robot_state_t r{};
-      perception::RobotEstimate e;
-      e.utime = node.now() - 8'000;
-      e.pose = {pose[0], pose[1], pose[2]};
-      e.covariance = Eigen::Matrix3d::Identity() * 0.0025;
-      e.status = perception::LocalizationStatus::kTracking;
-      msg::toMessage(e, r);
-      node.publish(bus::channels::kRobotState, r);
-      ball_state_t b{};
-      perception::BallEstimate be;
-      be.utime = e.utime;
-      be.valid = ball.has_value();
-      if (ball) {
-        be.x = (*ball)[0];
-        be.y = (*ball)[1];
-        be.last_seen_utime = e.utime - 30'000;
-        be.covariance = Eigen::Matrix2d::Identity() * 0.01;
-      }
-      msg::toMessage(be, b);
-      node.publish(bus::channels::kBallState, b);
-    });
-    node.at(node.now() + static_cast<Utime>(duration_s * 1e6), [&] { node.requestStop(); });
+    node.every(20'000, [&] { publishEstimates(node, pose, ball); });
+    node.at(node.now() + static_cast<Utime>(o.duration_s * 1e6), [&] { node.requestStop(); });
     node.run();
-    std::string e = "{";
-    for (const auto& [k, v] : errors)
-      e += fmt::format("{}\"{}\":{}", e.size() > 1 ? "," : "", k, v);
-    std::string mt = "{";
-    for (const auto& [k, v] : metrics)
-      mt += fmt::format("{}\"{}\":{}", mt.size() > 1 ? "," : "", k, v);
-    out << fmt::format("{{\"final\":1,\"errors\":{}}},\"metrics\":{}}}}}\n", e, mt);
+    out << fmt::format("{{\"final\":1,\"errors\":{},\"metrics\":{}}}\n", object(errors),
+                       object(metrics));
     return 0;
   });
 }

@@ -18,6 +18,40 @@
 
 using namespace fieldline;
 
+namespace {
+
+struct Samples {
+  std::vector<fusion::RateSample> odometry;
+  std::vector<fusion::BallBearing> ball;
+};
+
+// Odometry's rotation rates and the ball's sightings, in stamp order, from the whole log.
+Samples readLog(const std::string& log) {
+  SystemClock clock;
+  bus::Node node({.process = "time_shift",
+                  .robot_id = 0,
+                  .url = "file://" + std::filesystem::absolute(log).string() + "?speed=0",
+                  .future_tolerance_us = std::numeric_limits<Utime>::max() / 4,
+                  .status_period_us = 0},
+                 clock);
+  Samples s;
+  node.subscribe(bus::channels::kOdometry, [&](const odometry_t& m) {
+    if (s.odometry.empty() || m.header.utime > s.odometry.back().utime)
+      s.odometry.push_back({m.header.utime, m.omega});
+  });
+  node.subscribe(bus::channels::kVisionBall, [&](const ball_observation_t& m) {
+    if (m.visible && (s.ball.empty() || m.header.utime > s.ball.back().utime))
+      s.ball.push_back({m.header.utime, m.x, m.y});
+  });
+  int idle_ms = 0;
+  while (idle_ms < 1000) {
+    idle_ms = node.spinOnce(100) > 0 ? 0 : idle_ms + 100;
+  }
+  return s;
+}
+
+}  // namespace
+
 int main(int argc, char** argv) {
   CLI::App app{
       "Estimates the delay between odometry and vision from a recorded LCM log (ODOMETRY and "
@@ -43,27 +77,9 @@ int main(int argc, char** argv) {
                                       .get<double>("latency");
     const double controller_latency = robot::loadRobotPreset(robot).controller_latency;
 
-    SystemClock clock;
-    bus::Node node({.process = "time_shift",
-                    .robot_id = 0,
-                    .url = "file://" + std::filesystem::absolute(log).string() + "?speed=0",
-                    .future_tolerance_us = std::numeric_limits<Utime>::max() / 4,
-                    .status_period_us = 0},
-                   clock);
-    std::vector<fusion::RateSample> odometry;
-    std::vector<fusion::BallBearing> ball;
-    node.subscribe(bus::channels::kOdometry, [&](const odometry_t& m) {
-      if (odometry.empty() || m.header.utime > odometry.back().utime)
-        odometry.push_back({m.header.utime, m.omega});
-    });
-    node.subscribe(bus::channels::kVisionBall, [&](const ball_observation_t& m) {
-      if (m.visible && (ball.empty() || m.header.utime > ball.back().utime))
-        ball.push_back({m.header.utime, m.x, m.y});
-    });
-    int idle_ms = 0;
-    while (idle_ms < 1000) {
-      idle_ms = node.spinOnce(100) > 0 ? 0 : idle_ms + 100;
-    }
+    const Samples samples = readLog(log);
+    const auto& odometry = samples.odometry;
+    const auto& ball = samples.ball;
     const auto vision = fusion::ratesFromBearings(ball);
     std::printf("odometry samples %zu, ball sightings %zu, vision rates %zu\n", odometry.size(),
                 ball.size(), vision.size());

@@ -112,5 +112,30 @@ TEST(BallFilter, RestartsWhenTheBallReallyMoved) {
   EXPECT_NEAR(e.y, 1.0, 0.15);
 }
 
+TEST(BallFilter, AnOutlierMakesTheEstimateInvalidUntilASightingAgrees) {
+  BallFilterParams params;
+  params.invalid_after_outlier = true;
+  std::mt19937 rng(4);
+  const geometry::Pose2 robot{0.0, 0.0, 0.5};
+  auto seen = [&](BallFilter& f, int k, const geometry::Vec2& ball) {
+    const Utime t = kStart + k * 33'333;
+    return f.update(sightingOf(ball, robot, t, rng), robotAt(robot, t));
+  };
+  // Kicked away: the first sighting far off is an outlier, and the estimate is no longer valid
+  // although the ball was seen 33 ms ago.
+  BallFilter kicked(params);
+  for (int k = 0; k < 5; ++k)
+    seen(kicked, k, {1.0, 0.0});
+  EXPECT_TRUE(kicked.estimate(kStart + 4 * 33'333).valid);
+  EXPECT_EQ(seen(kicked, 5, {-2.0, 1.0}), BallRejection::kOutlier);
+  EXPECT_FALSE(kicked.estimate(kStart + 5 * 33'333).valid);
+  // Without the setting the outlier leaves it valid (the old behaviour).
+  BallFilter lenient;
+  for (int k = 0; k < 5; ++k)
+    seen(lenient, k, {1.0, 0.0});
+  EXPECT_EQ(seen(lenient, 5, {-2.0, 1.0}), BallRejection::kOutlier);
+  EXPECT_TRUE(lenient.estimate(kStart + 5 * 33'333).valid);
+}
+
 }  // namespace
 }  // namespace fieldline::fusion

@@ -33,8 +33,9 @@ struct Drive {
   int step = 0;
   bool lines = true;
 
-  Drive(const geometry::Pose2& start, LocalizerParams params = {})
-      : localizer(world().robot, params, world().functions()),
+  Drive(const geometry::Pose2& start, LocalizerParams params = {},
+        MatcherFunctions matcher = world().functions())
+      : localizer(world().robot, params, std::move(matcher)),
         kinematics(world().robot.wheels),
         truth(start) {
     localizer.addOdometry({t, ticks, false}, t);
@@ -130,6 +131,82 @@ TEST(Localizer, FusesConsistentFeaturesAndRefusesBadOnes) {
   d.localizer.addFeatures(f, d.t - 30'000, d.t + 8'000);
   EXPECT_EQ(d.localizer.counters().rejected.at("features_not_finite"), 1u);
   EXPECT_EQ(d.localizer.counters().feature_updates, 1u);
+}
+
+// Layer 2 as the test world does it, except that one frame's correction can be replaced: moved by
+// an offset (field frame) and given another covariance.
+struct Injected {
+  bool armed = false;
+  Eigen::Vector3d offset = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Identity();
+};
+
+MatcherFunctions injecting(Injected& inject) {
+  MatcherFunctions f = world().functions();
+  f.correct = [&inject](std::span<const perception::LinePoint> p, const geometry::Pose2& g) {
+    PoseCorrection c = world().correct(p, g);
+    if (inject.armed) {
+      inject.armed = false;
+      c.pose.x += inject.offset.x();
+      c.pose.y += inject.offset.y();
+      c.pose.phi = geometry::normalizeAngle(c.pose.phi + inject.offset.z());
+      c.covariance = inject.covariance;
+    }
+    return c;
+  };
+  return f;
+}
+
+// Drives until the filter tracks, then lets exactly one more frame's correction be `inject`ed.
+// Returns the localizer's counters after that frame.
+LocalizerCounters oneInjectedFrame(Drive& d, Injected& inject) {
+  d.run(1.5, {0.3, 0.0, 0.0});
+  EXPECT_EQ(d.localizer.mode(), perception::LocalizationStatus::kTracking);
+  const std::uint64_t corrections = d.localizer.counters().corrections;
+  const std::size_t gated = d.localizer.counters().rejected.count("lines_gated") > 0
+                                ? d.localizer.counters().rejected.at("lines_gated")
+                                : 0;
+  inject.armed = true;
+  while (inject.armed)
+    d.run(0.02, {0.3, 0.0, 0.0});
+  const LocalizerCounters& c = d.localizer.counters();
+  const std::size_t gated_after =
+      c.rejected.count("lines_gated") > 0 ? c.rejected.at("lines_gated") : 0;
+  EXPECT_EQ(c.corrections + gated_after, corrections + gated + 1);
+  return c;
+}
+
+TEST(Localizer, AFrameThatSlidesAlongItsLineWaitsForTheNextOne) {
+  // The frame sees one line along y (its covariance is long in y) and puts the robot 30 cm
+  // further along it: an aliased match looks like that. One frame alone is not a slip.
+  Injected inject;
+  inject.offset = {0.0, 0.30, 0.0};
+  inject.covariance = Eigen::Vector3d(0.01 * 0.01, 0.05 * 0.05, 0.005 * 0.005).asDiagonal();
+  Drive d({-3.0, 1.0, 0.0}, {}, injecting(inject));
+  const LocalizerCounters c = oneInjectedFrame(d, inject);
+  EXPECT_EQ(c.slips, 0u);
+  EXPECT_EQ(c.rejected.at("lines_gated"), 1u);
+  EXPECT_LT(d.error(), 0.05);  // the estimate did not follow it
+}
+
+TEST(Localizer, AFrameWhoseLinesPinTheDisagreementDownIsASlipAtOnce) {
+  // The same 30 cm, from a frame that sees lines in both directions: a push.
+  Injected inject;
+  inject.offset = {0.0, 0.30, 0.0};
+  inject.covariance = Eigen::Vector3d(0.01 * 0.01, 0.01 * 0.01, 0.005 * 0.005).asDiagonal();
+  Drive d({-3.0, 1.0, 0.0}, {}, injecting(inject));
+  const LocalizerCounters c = oneInjectedFrame(d, inject);
+  EXPECT_EQ(c.slips, 1u);
+  EXPECT_EQ(c.pinned_slips, 1u);
+  EXPECT_EQ(c.rejected.count("lines_gated"), 0u);
+  // With the rule off it waits like the aliased one.
+  Injected again = inject;
+  LocalizerParams off;
+  off.slip_pinned_ratio = 0.0;
+  Drive e({-3.0, 1.0, 0.0}, off, injecting(again));
+  const LocalizerCounters c_off = oneInjectedFrame(e, again);
+  EXPECT_EQ(c_off.slips, 0u);
+  EXPECT_EQ(c_off.rejected.at("lines_gated"), 1u);
 }
 
 }  // namespace

@@ -135,6 +135,41 @@ TEST(RegionTracker, FirstFrameInitialSearchTracksTheLargestRegions) {
   EXPECT_DOUBLE_EQ(stats.overlap, 0.0);
 }
 
+// Issue 12 part 6: a field cut by lines into twelve regions, with a goal area (lines around 6x5
+// green cells) inside one of them. Every region of at least min_seed_cells is seeded; the seed's
+// cap of the 10 largest drops the goal area's (and the region around it).
+TEST(RegionTracker, GreenRegionsAboveTheMinimumSizeAreAllSeeded) {
+  const ClassId green = 1, white = 2;
+  ClassGrid g(65, 40, white);
+  for (int row = 0; row < 3; ++row) {
+    for (int col = 0; col < 4; ++col)  // 15x12 cells each, one white cell between them
+      g.fillRect(1 + 16 * col, 1 + 13 * row, 16 + 16 * col, 13 + 13 * row, green);
+  }
+  g.fillRect(3, 3, 11, 10, white);    // the goal area's lines ...
+  g.fillRect(4, 4, 10, 9, green);     // ... around 6x5 = 30 cells of green
+  g.fillRect(40, 29, 45, 34, white);  // a white patch with one green cell in it: too small
+  g.at(42, 31) = green;
+  TrackerConfig config = configFor({green});
+  config.classes[0].min_seed_cells = 4;
+  config.classes[0].max_seed_regions = 0;
+  RegionTracker all(gridOf(g), config);
+  all.track(ClassMapClassifier(g.cells, g.width));
+  EXPECT_EQ(all.ownerOf(6, 6), green);
+  int count = 0;
+  for (const Contour& c : all.contours().contours)
+    count += c.outer ? 1 : 0;
+  EXPECT_EQ(count, 13);
+
+  config.classes[0].max_seed_regions = 10;
+  RegionTracker capped(gridOf(g), config);
+  capped.track(ClassMapClassifier(g.cells, g.width));
+  EXPECT_EQ(capped.ownerOf(6, 6), kNoClass);
+  EXPECT_EQ(capped.ownerOf(2, 2), kNoClass);
+  EXPECT_EQ(capped.regionCells(green), 10 * 180);
+  EXPECT_EQ(all.regionCells(green), 10 * 180 + (180 - 25) + (180 - 56) + 30);
+  EXPECT_EQ(all.ownerOf(42, 31), kNoClass);
+}
+
 TEST(RegionTracker, UnchangedFrameTouchesOnlyTheBoundaryBand) {
   ClassGrid g(80, 60, 0);
   g.fillRect(10, 10, 70, 50, 1);

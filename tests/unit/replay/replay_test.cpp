@@ -145,6 +145,27 @@ TEST(ReplayTool, TheLogsOwnOutputsOfRunNodesAreNotFed) {
   EXPECT_EQ(fusion_only.in.count("ROBOT_STATE"), 0u);
 }
 
+TEST(ReplayTool, FusionTakesItsSettingsFile) {
+  // The process's settings file (config/fusion/default.yaml) by default, another by path: here
+  // BALL_STATE at 10 Hz instead of 30 Hz.
+  const std::string settings = tempPath("fusion_settings") + ".yaml";
+  std::ofstream(settings) << "ball:\n  rate_hz: 10.0\n";
+  ReplayRunOptions options;
+  options.log_path = kFixture;
+  options.run = {"fusion"};
+  const ReplayRunResult by_default = runReplay(options);
+  options.fusion_config = settings;
+  const ReplayRunResult slower = runReplay(options);
+  std::filesystem::remove(settings);
+  ASSERT_GT(by_default.out.at("BALL_STATE"), 150);
+  EXPECT_NEAR(static_cast<double>(slower.out.at("BALL_STATE")),
+              by_default.out.at("BALL_STATE") / 3.0, 5.0);
+  EXPECT_EQ(slower.out.at("ROBOT_STATE"), by_default.out.at("ROBOT_STATE"));
+  // A file that does not exist stops the replay.
+  options.fusion_config = settings;
+  EXPECT_ANY_THROW(runReplay(options));
+}
+
 TEST(ReplayTool, DamagedLogIsCountedNotFatal) {
   const std::string damaged = tempPath("replay_damaged");
   std::string bytes = readBytes(kFixture);

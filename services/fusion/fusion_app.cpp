@@ -1,0 +1,112 @@
+#include "services/fusion/fusion_app.hpp"
+
+#include <utility>
+
+#include <spdlog/spdlog.h>
+
+#include "common/bus/node.hpp"
+#include "common/bus/robot_clock.hpp"
+#include "common/config/config.hpp"
+#include "common/field/field_model.hpp"
+#include "common/robot/robot_params.hpp"
+#include "services/fusion/fusion_config.hpp"
+#include "services/fusion/fusion_node.hpp"
+#include "services/fusion/line_matcher.hpp"
+
+namespace fieldline::fusion {
+
+namespace {
+
+template <typename T>
+CLI::Option* addOverride(CLI::App& app, const std::string& name, std::optional<T>& target,
+                         const std::string& help) {
+  return app.add_option_function<T>(
+      name, [&target](const T& value) { target = value; }, help);
+}
+
+// The settings file with the command line's overrides applied.
+FusionConfig resolveConfig(const FusionAppOptions& options, const field::FieldModel& field) {
+  FusionConfig config = loadFusionConfigPreset(options.config);
+  if (options.matcher) {
+    config.matcher.method =
+        *options.matcher == "lsq" ? MatchMethod::kRobustLeastSquares : MatchMethod::kForceField;
+  }
+  if (options.start_prior) {
+    config.localizer.start_prior =
+        *options.start_prior == "own_half" ? StartPrior::kOwnHalf : StartPrior::kNone;
+  }
+  if (options.window_s) {
+    config.localizer.filter.window_us = static_cast<Utime>(*options.window_s * 1e6);
+  }
+  if (options.ball_max_age_s) config.ball.max_age_s = *options.ball_max_age_s;
+  if (options.ball_rate_hz) config.ball_rate_hz = *options.ball_rate_hz;
+  const geometry::Vec2 half = field.carpetHalfExtent();
+  config.localizer.search_half_length_m = half.x();
+  config.localizer.search_half_width_m = half.y();
+  return config;
+}
+
+}  // namespace
+
+void FusionAppOptions::addTo(CLI::App& app) {
+  grid_cache = config::defaultCacheDirectory();
+  app.add_option("--field", field, "Field preset (msl, fu2004) or YAML path")
+      ->capture_default_str();
+  app.add_option("--robot-config", robot, "Robot preset name or YAML path")->capture_default_str();
+  app.add_option("--config", config,
+                 "Fusion settings: preset name (config/fusion/NAME.yaml) or YAML path; the options "
+                 "below override it where given")
+      ->capture_default_str();
+  app.add_option("--grid-cache", grid_cache,
+                 "Directory for the distance grid cache (empty string: none)")
+      ->capture_default_str();
+  addOverride(app, "--matcher", matcher,
+              "Layer 2 method: lsq (robust least squares) or force_field")
+      ->check(CLI::IsMember({"lsq", "force_field"}));
+  addOverride(app, "--start-prior", start_prior,
+              "Which symmetric twin to believe at start-up: own_half (x < 0) or none")
+      ->check(CLI::IsMember({"own_half", "none"}));
+  addOverride(app, "--window", window_s, "How far back a late measurement may reach, s")
+      ->check(CLI::Range(0.1, 10.0));
+  addOverride(app, "--ball-rate", ball_rate_hz, "BALL_STATE messages per second")
+      ->check(CLI::Range(1.0, 200.0));
+  addOverride(app, "--ball-max-age", ball_max_age_s,
+              "The ball is invalid after this long unseen, s")
+      ->check(CLI::Range(0.05, 60.0));
+}
+
+int runFusion(const FusionAppOptions& options, const bus::CommonOptions& common) {
+  const field::FieldModel field = field::loadFieldPreset(options.field);
+  const FusionConfig config = resolveConfig(options, field);
+  const robot::RobotParams robot = robot::loadRobotPreset(options.robot);
+  if (common.check_args) return 0;
+
+  const LineMatcher matcher(field, config.matcher, options.grid_cache);
+  FusionNodeOptions node_options;
+  node_options.robot = robot;
+  node_options.localizer = config.localizer;
+  node_options.ball = config.ball;
+  node_options.ball_rate_hz = config.ball_rate_hz;
+  const MatcherFunctions functions{[&](std::span<const perception::LinePoint> p,
+                                       const geometry::Pose2& g) { return matcher.correct(p, g); },
+                                   [&](std::span<const perception::LinePoint> p,
+                                       const geometry::Pose2& g) { return matcher.cost(p, g); },
+                                   [&](std::span<const perception::LinePoint> p) {
+                                     GlobalSearchParams search;
+                                     search.max_results = 8;
+                                     return matcher.globalSearch(p, search);
+                                   }};
+
+  bus::installStopSignals();
+  // The node keeps a reference to its clock: it must outlive the node (a temporary here was a
+  // dangling reference, and fusion crashed within 2 s of its start).
+  const RobotClock clock = bus::robotClockFromEnvironment();
+  bus::Node node({.process = "fusion", .robot_id = common.robot, .url = common.bus_url}, clock);
+  FusionNode fusion(node, std::move(node_options), functions);
+  spdlog::info("fusing on field {} with the {} matcher, settings {}", options.field,
+               config.matcher.method == MatchMethod::kForceField ? "force_field" : "lsq",
+               options.config);
+  return node.run();
+}
+
+}  // namespace fieldline::fusion

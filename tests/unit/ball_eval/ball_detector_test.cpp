@@ -1,0 +1,168 @@
+// The ball detector on rendered frames (msl field, omni_sim camera): a ball is accepted only when
+// its size and shape fit a ball at its distance and it lies on the carpet, and the best
+// candidate wins, not the largest orange region.
+#include <cmath>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "common/geometry/geometry.hpp"
+#include "services/region_tracking/frame_processor.hpp"
+#include "tests/support/sim_frames.hpp"
+#include "tools/eval_ball/ball_evaluation.hpp"
+
+namespace fieldline::region_tracking {
+namespace {
+
+using camera::Vec2;
+
+const camera::Bgr kOrange{10, 100, 240};
+const camera::Bgr kRed{40, 40, 200};
+
+camera::SimBox box(const Vec2& c, double sx, double sy, double h, camera::Bgr colour) {
+  camera::SimBox b;
+  b.lo = Eigen::Vector3d(c.x() - sx / 2, c.y() - sy / 2, 0.0);
+  b.hi = Eigen::Vector3d(c.x() + sx / 2, c.y() + sy / 2, h);
+  b.colour = colour;
+  return b;
+}
+
+class BallDetectorTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() { sim_ = new SimCamera(SimCamera::load("omni_sim", "msl")); }
+  static void TearDownTestSuite() {
+    delete sim_;
+    sim_ = nullptr;
+  }
+
+  VisionResult track(camera::SimScene scene, int frames = 3) {
+    FrameProcessor processor(sim_->mirror, sim_->table, defaultVisionParams());
+    VisionResult result;
+    for (int i = 0; i < frames; ++i) {
+      scene.frame_number = static_cast<std::uint64_t>(i);
+      processor.process(sim_->render(scene), true, result);
+    }
+    return result;
+  }
+
+  static SimCamera* sim_;
+};
+SimCamera* BallDetectorTest::sim_ = nullptr;
+
+TEST_F(BallDetectorTest, ExpectedSizeShrinksWithDistanceAndMatchesTheRenderedBall) {
+  const BallDetector detector(sim_->table, sim_->mirror, BallParams{});
+  double previous = 1e9;
+  for (const double d : {0.6, 1.0, 2.0, 3.0, 4.0}) {
+    double radial = 0, tangential = 0;
+    ASSERT_TRUE(detector.expectedExtent(d, 0.3, radial, tangential)) << d;
+    EXPECT_LT(tangential, previous) << d;
+    previous = tangential;
+    EXPECT_GT(radial, 0.5) << d;
+  }
+  // At 1 m the rendered ball's orange pixels span what the model says, within 1.5 px.
+  const geometry::Pose2 pose{0.0, -2.0, 0.0};
+  camera::SimScene scene;
+  scene.robot = pose;
+  scene.ball = camera::SimBall{geometry::pointRobotToField(pose, Vec2(1.0, 0.0)), 0.11};
+  const VisionResult result = track(scene);
+  ASSERT_TRUE(result.ball.visible);
+  double radial = 0, tangential = 0;
+  ASSERT_TRUE(detector.expectedExtent(1.0, 0.0, radial, tangential));
+  const double expectedArea = 3.14159 / 4 * (radial + 1) * (tangential + 1);
+  EXPECT_NEAR(result.ball.pixels / expectedArea, 1.0, 0.4)
+      << result.ball.pixels << " px, expected " << expectedArea;
+}
+
+TEST_F(BallDetectorTest, TheBallWinsOverALargerOrangeObject) {
+  // The robot near the touch line; an orange box on the carpet beyond the line, larger than the
+  // ball (the old detector took the largest orange region), and the ball on the field.
+  const geometry::Pose2 pose{1.0, 4.8, 0.0};
+  camera::SimScene scene;
+  scene.robot = pose;
+  const Vec2 ballInRobot(-0.5, -1.8);
+  scene.ball = camera::SimBall{geometry::pointRobotToField(pose, ballInRobot), 0.11};
+  scene.boxes.push_back(box(Vec2(2.5, 7.6), 0.5, 0.5, 0.6, kOrange));
+  const VisionResult result = track(scene);
+  ASSERT_TRUE(result.ball.visible);
+  EXPECT_LE((Vec2(result.ball.x, result.ball.y) - ballInRobot).norm(), 0.05);
+  EXPECT_GE(result.ball.candidates, 2);
+  EXPECT_GE(result.ball.rejected, 1);
+}
+
+TEST_F(BallDetectorTest, OrangeObjectsAndRedPeopleOffTheFieldAreNoBall) {
+  const geometry::Pose2 pose{-2.0, 4.5, 1.0};
+  camera::SimScene scene;
+  scene.robot = pose;
+  // The touch line is at y = 7 m, the carpet ends at 8 m.
+  scene.boxes.push_back(box(Vec2(-1.0, 7.5), 0.4, 0.4, 0.5, kOrange));
+  scene.boxes.push_back(box(Vec2(-3.5, 8.3), 0.6, 0.3, 0.3, kOrange));
+  scene.boxes.push_back(box(Vec2(0.0, 7.8), 0.45, 0.3, 1.7, kRed));
+  scene.boxes.push_back(box(Vec2(-4.0, 7.6), 0.45, 0.3, 1.8, kRed));
+  for (int frames : {1, 3, 10}) {
+    const VisionResult result = track(scene, frames);
+    EXPECT_FALSE(result.ball.visible) << "at (" << result.ball.x << ", " << result.ball.y << ")";
+  }
+}
+
+TEST_F(BallDetectorTest, RefusesCandidatesOfTheWrongSizeAndOffTheCarpet) {
+  // An orange box the size of a person lying on the carpet: too large for a ball anywhere.
+  const geometry::Pose2 pose{0.0, 0.0, 0.0};
+  camera::SimScene scene;
+  scene.robot = pose;
+  scene.boxes.push_back(box(Vec2(1.5, 0.0), 0.3, 1.2, 0.3, kOrange));
+  const VisionResult result = track(scene);
+  EXPECT_FALSE(result.ball.visible);
+  EXPECT_GE(result.ball.rejected, 1);
+}
+
+TEST(BallParamsTest, InvalidParametersAreRefused) {
+  const SimCamera sim = SimCamera::load("omni_sim", "msl");
+  auto with = [&](auto change) {
+    BallParams p;
+    change(p);
+    return [&sim, p] { BallDetector d(sim.table, sim.mirror, p); };
+  };
+  EXPECT_THROW(with([](BallParams& p) { p.size_tolerance = 0.9; })(), std::invalid_argument);
+  EXPECT_THROW(with([](BallParams& p) { p.min_fill = 1.5; })(), std::invalid_argument);
+  EXPECT_THROW(with([](BallParams& p) { p.min_carpet_share = -0.1; })(), std::invalid_argument);
+  EXPECT_THROW(with([](BallParams& p) { p.centre_height = 0.0; })(), std::invalid_argument);
+  EXPECT_NO_THROW(with([](BallParams&) {})());
+}
+
+TEST(BallEvaluation, ScenesAreDeterministicAndTheBallRollsOnTheField) {
+  const SimCamera sim = SimCamera::load("omni_sim", "msl");
+  const eval_ball::BallEvalOptions options;
+  const int frames = 600;
+  const std::vector<geometry::Pose2> poses =
+      motionPoses(sim.field, Motion{.speed = 1.0, .omega = 0.4}, frames);
+  const std::vector<Vec2> balls = eval_ball::ballPath(options, sim.field, poses);
+  ASSERT_EQ(balls, eval_ball::ballPath(options, sim.field, poses));
+  double travelled = 0;
+  for (int frame = 0; frame < frames; ++frame) {
+    const Vec2& ball = balls[static_cast<std::size_t>(frame)];
+    EXPECT_LT(std::abs(ball.x()), sim.field.length() / 2);
+    EXPECT_LT(std::abs(ball.y()), sim.field.width() / 2);
+    if (frame > 0) {
+      const double step = (ball - balls[static_cast<std::size_t>(frame - 1)]).norm();
+      EXPECT_LE(step, options.max_ball_speed / 30.0 + 1e-9);
+      travelled += step;
+    }
+    if (frame % 7 != 0) continue;
+    const camera::SimScene a = eval_ball::sceneFor(options, sim.field, poses, balls, frame);
+    const camera::SimScene b = eval_ball::sceneFor(options, sim.field, poses, balls, frame);
+    ASSERT_TRUE(a.ball.has_value());
+    ASSERT_EQ(a.boxes.size(), b.boxes.size());
+    EXPECT_EQ(a.boxes.size(), 5u);
+    // Clutter stays off the field's lines.
+    for (const camera::SimBox& c : a.boxes) {
+      const Vec2 mid(0.5 * (c.lo.x() + c.hi.x()), 0.5 * (c.lo.y() + c.hi.y()));
+      EXPECT_EQ(c.lo, b.boxes[&c - a.boxes.data()].lo);
+      EXPECT_TRUE(std::abs(mid.x()) > sim.field.length() / 2 + 0.3 ||
+                  std::abs(mid.y()) > sim.field.width() / 2 + 0.3);
+    }
+  }
+  EXPECT_GT(travelled, 5.0);  // it rolls
+}
+
+}  // namespace
+}  // namespace fieldline::region_tracking
