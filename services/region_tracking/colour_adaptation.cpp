@@ -31,6 +31,13 @@ ColourAdaptationParams loadColourAdaptationParams(const config::Node& node) {
   p.reference_frames = node.getOr<int>("reference_frames", p.reference_frames, 1, 10000);
   p.min_samples = node.getOr<int>("min_samples", p.min_samples, 1, 1000000);
   p.cell_stride = node.getOr<int>("cell_stride", p.cell_stride, 1, 64);
+  if (node.has("reference")) {
+    const std::vector<double> r = node.getList<double>("reference", 3);
+    if (!(r[0] > 0 && r[0] <= 255 && r[1] >= 0 && r[1] <= 255 && r[2] >= 0 && r[2] <= 255)) {
+      node.fail("reference", "expected [y, u, v] with 0 < y <= 255, 0 <= u, v <= 255");
+    }
+    p.reference = std::array<double, 3>{r[0], r[1], r[2]};
+  }
   node.rejectUnknownKeys();
   return p;
 }
@@ -107,6 +114,19 @@ ColourAdaptation::ColourAdaptation(const camera::ColourTable& calibrated,
         "ColourAdaptation: need 0 < min_gain <= 1 <= max_gain, 0 < smoothing <= 1, "
         "reference_frames >= 1, cell_stride >= 1, rebuild_step >= 0, rebuild_chroma >= 0");
   }
+  if (params.reference && !((*params.reference)[0] > 0)) {
+    throw std::invalid_argument("ColourAdaptation: the reference luma must be positive");
+  }
+  seedReference();
+}
+
+void ColourAdaptation::seedReference() {
+  if (!params_.reference) return;
+  const std::array<double, 3>& r = *params_.reference;
+  reference_log_y_ = std::log(r[0]);
+  reference_chroma_ = {r[1], r[2]};
+  reference_count_ = params_.reference_frames;
+  chroma_ = applied_chroma_ = reference_chroma_;
 }
 
 double ColourAdaptation::gain() const {
@@ -165,6 +185,7 @@ void ColourAdaptation::reset(camera::ColourTable& table) {
   applied_gain_ = 1.0;
   chroma_ = applied_chroma_ = {128, 128};
   at_bound_ = false;
+  seedReference();
 }
 
 }  // namespace fieldline::region_tracking

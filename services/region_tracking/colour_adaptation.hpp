@@ -14,14 +14,15 @@
 // table: a cell (Y, U, V) is green or white when the calibrated table says so of
 // (Y / g, U0 + (U - U1) / g, V0 + (V - V1) / g), (U0, V0) the carpet's chroma at the reference
 // and (U1, V1) now; the other classes stay where the calibration put them. Classification stays
-// one lookup per pixel; the table is rebuilt in place (the tracker's references stay valid), a
-// few ms on the 2^18 cells, only when the light has moved.
+// one lookup per pixel; the table is rebuilt in place (the tracker's references stay valid),
+// walking its 2^18 cells, only when the light has moved.
 //
 // Plain library: no LCM, no clock.
 #pragma once
 
 #include <array>
 #include <cstdint>
+#include <optional>
 #include <vector>
 
 #include "common/camera/colour.hpp"
@@ -49,10 +50,15 @@ struct ColourAdaptationParams {
   int min_samples = 150;
   // Every n-th cell in each direction is sampled (its centre pixel).
   int cell_stride = 2;
+  // The carpet's median (Y, U, V) in the calibration frames (fieldline-colour-calibrate prints
+  // it): the reference. Without it the first `reference_frames` frames after the start or a
+  // reset are the reference, which is right only in the calibration's light.
+  std::optional<std::array<double, 3>> reference;
 };
 
 // Reads the `adaptation` section of a vision preset: enabled, and optionally min_gain, max_gain,
-// smoothing, rebuild_step, rebuild_chroma, reference_frames, min_samples, cell_stride. Throws
+// smoothing, rebuild_step, rebuild_chroma, reference_frames, min_samples, cell_stride,
+// reference [y, u, v]. Throws
 // config::Error.
 ColourAdaptationParams loadColourAdaptationParams(const config::Node& node);
 
@@ -84,7 +90,8 @@ class ColourAdaptation {
   // The tracked frame itself (statistic from the tracker's green cells).
   bool observe(const camera::FrameView& frame, const RegionTracker& tracker,
                camera::ColourTable& table);
-  // Back to the calibrated table; the next frames measure a new reference.
+  // Back to the calibrated table; the next frames measure a new reference (unless the
+  // parameters give it).
   void reset(camera::ColourTable& table);
 
   // The light followed (1 = the reference) and the one the table is built for.
@@ -110,6 +117,8 @@ class ColourAdaptation {
   bool at_bound_ = false;
   std::int64_t frames_skipped_ = 0;
   std::int64_t rebuilds_ = 0;
+
+  void seedReference();
 };
 
 }  // namespace fieldline::region_tracking

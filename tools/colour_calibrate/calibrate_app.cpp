@@ -159,6 +159,7 @@ int evaluate(const AppOptions& o, const cal::FitParams& params) {
     if (o.adapt) {
       rt::ColourAdaptationParams adaptation;
       adaptation.enabled = true;
+      adaptation.reference = calibrated.calibration.carpet_median;
       printDrive(s.name, "on", o,
                  cal::evaluateDrive(sim, s, table, o.drive, o.light_from, o.light_to, adaptation));
     }
@@ -287,8 +288,8 @@ void AppOptions::addTo(CLI::App& app) {
                  "CLASS (orange, black, yellow, blue); repeatable");
   app.add_option("--masks", painted,
                  "a PNG painted over the first frame, a colour per class (RGB): ball 255,128,0; "
-                 "obstacles 255,0,255; yellow goal 255,230,0; blue goal 20,90,230; other pixels "
-                 "ignored");
+                 "obstacles 255,0,255; yellow goal 255,230,0; blue goal 20,90,230; not carpet "
+                 "and no class (team markers, people) 0,255,255; other pixels ignored");
   app.add_option("--base", base,
                  "colour table (boxes or lookup table) whose other classes are kept (default: the "
                  "camera's)");
@@ -324,10 +325,9 @@ void AppOptions::addTo(CLI::App& app) {
 
 const std::vector<PaintColour>& paintPalette() {
   static const std::vector<PaintColour> palette = {
-      {camera::ColourClass::kOrange, 255, 128, 0},
-      {camera::ColourClass::kBlack, 255, 0, 255},
-      {camera::ColourClass::kYellow, 255, 230, 0},
-      {camera::ColourClass::kBlue, 20, 90, 230},
+      {camera::ColourClass::kOrange, 255, 128, 0},  {camera::ColourClass::kBlack, 255, 0, 255},
+      {camera::ColourClass::kYellow, 255, 230, 0},  {camera::ColourClass::kBlue, 20, 90, 230},
+      {camera::ColourClass::kUnknown, 0, 255, 255},
   };
   return palette;
 }
@@ -385,6 +385,10 @@ int runApp(const AppOptions& o) {
       cal::calibrate(sim.mirror, sim.field, posed, masks, sim.table.boxes(), params);
   const camera::ColourTable table = finalTable(calibration, sim.table);
   printFits(calibration);
+  fmt::print(
+      "carpet median y,u,v {:.0f},{:.0f},{:.0f} (adaptation: reference [{:.0f}, {:.0f}, {:.0f}])\n",
+      calibration.carpet_median[0], calibration.carpet_median[1], calibration.carpet_median[2],
+      calibration.carpet_median[0], calibration.carpet_median[1], calibration.carpet_median[2]);
   printCoverage(cal::measureCoverage(sim.mirror, sim.field, posed, table, params.masks));
   if (!o.out.empty()) writeTable(o, calibration, table, posed.size());
   if (!o.debug_png.empty()) {

@@ -34,7 +34,8 @@ int runApp(const AppOptions& options);
 // The painting palette for user masks: paint over a frame (same size) in these colours (RGB,
 // each channel within 6 levels), everything else is ignored, so the frame itself may be the
 // canvas: ball (orange class) 255,128,0; obstacles (black class) 255,0,255; yellow goal
-// 255,230,0; blue goal 20,90,230.
+// 255,230,0; blue goal 20,90,230; neither carpet nor a class (team markers, people: kept out of
+// the carpet samples, kUnknown) 0,255,255.
 struct PaintColour {
   camera::ColourClass colour;
   int r, g, b;

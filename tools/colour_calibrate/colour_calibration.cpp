@@ -191,6 +191,32 @@ std::vector<PredictedPixel> predictPixels(const camera::MirrorModel& mirror,
   return out;
 }
 
+namespace {
+
+// Pixels within `margin` px of a pixel painted in any user mask over `frame` (the same image).
+std::vector<std::uint8_t> paintedNear(const camera::MirrorModel& mirror,
+                                      const camera::FrameView& frame,
+                                      const std::vector<UserMask>& masks, int margin = 3) {
+  const int w = mirror.width(), h = mirror.height();
+  std::vector<std::uint8_t> out(static_cast<std::size_t>(w) * h, 0);
+  for (const UserMask& m : masks) {
+    if (m.frame.data != frame.data || m.mask.size() != out.size()) continue;
+    for (int v = 0; v < h; ++v) {
+      for (int u = 0; u < w; ++u) {
+        if (!m.mask[static_cast<std::size_t>(v) * w + u]) continue;
+        for (int dv = std::max(-margin, -v); dv <= margin && v + dv < h; ++dv) {
+          for (int du = std::max(-margin, -u); du <= margin && u + du < w; ++du) {
+            out[static_cast<std::size_t>(v + dv) * w + u + du] = 1;
+          }
+        }
+      }
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
 Calibration calibrate(const camera::MirrorModel& mirror, const field::FieldModel& field,
                       const std::vector<PosedFrame>& frames, const std::vector<UserMask>& masks,
                       const std::vector<YuvBox>& base, const FitParams& params) {
@@ -200,9 +226,13 @@ Calibration calibrate(const camera::MirrorModel& mirror, const field::FieldModel
     checkSize(mirror, f.frame);
     const std::vector<PredictedPixel> predicted =
         predictPixels(mirror, field, f.pose, params.masks);
+    const std::vector<std::uint8_t> painted = paintedNear(mirror, f.frame, masks);
     for (int v = 0; v < mirror.height(); ++v) {
       for (int u = 0; u < mirror.width(); ++u) {
-        const PredictedPixel& px = predicted[static_cast<std::size_t>(v) * mirror.width() + u];
+        const std::size_t i = static_cast<std::size_t>(v) * mirror.width() + u;
+        // What the user painted as ball or obstacle is neither carpet nor line.
+        if (painted[i]) continue;
+        const PredictedPixel& px = predicted[i];
         if (px.carpet_core) green.push_back(camera::readYuv(f.frame, u, v));
         if (px.line_core) lineSamples.push_back(camera::readYuv(f.frame, u, v));
       }
@@ -216,6 +246,19 @@ Calibration calibrate(const camera::MirrorModel& mirror, const field::FieldModel
   }
 
   Calibration result;
+  {
+    std::array<std::vector<std::uint8_t>, 3> channels;
+    for (const Yuv& g : green) {
+      channels[0].push_back(g.y);
+      channels[1].push_back(g.u);
+      channels[2].push_back(g.v);
+    }
+    for (std::size_t k = 0; k < 3; ++k) {
+      auto mid = channels[k].begin() + static_cast<std::ptrdiff_t>(channels[k].size() / 2);
+      std::nth_element(channels[k].begin(), mid, channels[k].end());
+      result.carpet_median[k] = *mid;
+    }
+  }
   ClassFit greenFit{ColourClass::kGreen,
                     coneBoxes(ColourClass::kGreen, green, params, params.green_low_percentile,
                               params.green_high_percentile, params.green_bands, false),
@@ -247,6 +290,8 @@ Calibration calibrate(const camera::MirrorModel& mirror, const field::FieldModel
 
   // Classes painted by the user.
   for (const UserMask& m : masks) {
+    // Painted as "not carpet, no class": only kept out of the samples above.
+    if (m.colour == ColourClass::kUnknown) continue;
     checkSize(mirror, m.frame);
     if (m.mask.size() != static_cast<std::size_t>(mirror.width()) * mirror.height()) {
       throw std::invalid_argument("colour calibration: a mask of another size than its frame");

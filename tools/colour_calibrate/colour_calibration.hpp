@@ -95,7 +95,8 @@ struct PosedFrame {
   geometry::Pose2 pose;
 };
 
-// Samples of a class painted by the user (nonzero pixels of a mask over a frame).
+// Samples of a class painted by the user (nonzero pixels of a mask over a frame). kUnknown:
+// pixels that are neither carpet nor line nor any class (kept out of the samples only).
 struct UserMask {
   camera::ColourClass colour = camera::ColourClass::kOrange;
   camera::FrameView frame;
@@ -113,9 +114,13 @@ struct Calibration {
   // boxes of every other class: the table to write.
   std::vector<camera::YuvBox> boxes;
   std::vector<ClassFit> fits;
+  // Median (Y, U, V) of the carpet samples: the colour adaptation's reference.
+  std::array<double, 3> carpet_median{0, 0, 0};
 };
 
-// Fits green and white from `frames` (all of the mirror's size) and any user masks; keeps the
+// Fits green and white from `frames` (all of the mirror's size) and any user masks (pixels
+// painted over a frame, and 3 px around them, are left out of that frame's carpet and line
+// samples: a ball or robot on the carpet is not carpet); keeps the
 // base table's boxes of the classes not fitted. Throws std::runtime_error naming the class when a
 // class has fewer samples than the minimum, std::invalid_argument for frames of another size.
 Calibration calibrate(const camera::MirrorModel& mirror, const field::FieldModel& field,

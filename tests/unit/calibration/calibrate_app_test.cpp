@@ -44,6 +44,20 @@ TEST(CalibrateApp, ABallPaintedOverTheFrameBecomesTheOrangeClass) {
   const Calibration calibration =
       calibrate(sim.mirror, sim.field, {{view, pose}}, masks, sim.table.boxes(), FitParams{});
   const camera::ColourTable table = finalTable(calibration, sim.table);
+  // The painted ball (and 3 px around it) is not carpet: fewer green samples than unpainted.
+  const Calibration unpainted =
+      calibrate(sim.mirror, sim.field, {{view, pose}}, {}, sim.table.boxes(), FitParams{});
+  EXPECT_LT(calibration.fits[0].samples, unpainted.fits[0].samples - 20);
+  // Painted "no class" (cyan): kept out of the samples, no class fitted.
+  cv::Mat marked = camera::toBgrImage(view);
+  cv::circle(marked, c, 2, cv::Scalar(255, 255, 0), cv::FILLED);
+  const std::vector<UserMask> ignore = masksFromPainting(marked, view);
+  ASSERT_EQ(ignore.size(), 1u);
+  EXPECT_EQ(ignore[0].colour, camera::ColourClass::kUnknown);
+  const Calibration ignored =
+      calibrate(sim.mirror, sim.field, {{view, pose}}, ignore, sim.table.boxes(), FitParams{});
+  EXPECT_EQ(ignored.fits.size(), 2u);
+  EXPECT_EQ(ignored.fits[0].samples, calibration.fits[0].samples);
   int orange = 0, carpetOrange = 0;
   for (int dv = -1; dv <= 1; ++dv) {
     for (int du = -1; du <= 1; ++du) {

@@ -120,6 +120,33 @@ TEST(ColourAdaptation, FollowsTheLightSlowlyWithinItsBoundsAndResets) {
   EXPECT_DOUBLE_EQ(adaptation.gain(), 1.0);
 }
 
+TEST(ColourAdaptation, AGivenReferenceIsTheCalibrationLightFromTheFirstFrame) {
+  const camera::ColourTable calibrated = calibratedTable();
+  camera::ColourTable table = calibrated;
+  ColourAdaptationParams params;
+  params.enabled = true;
+  params.smoothing = 1.0;  // follow at once
+  params.min_samples = 100;
+  const camera::Yuv carpet{90, 112, 110};
+  params.reference = std::array<double, 3>{90, 112, 110};
+  ColourAdaptation adaptation(calibrated, params);
+  EXPECT_TRUE(adaptation.hasReference());
+  // The robot starts in half the light: the first frame already moves the table.
+  EXPECT_TRUE(adaptation.observe(carpetSeen(darkened(carpet, 0.5)), table));
+  EXPECT_NEAR(adaptation.gain(), 0.5, 0.01);
+  EXPECT_EQ(table.classifyYuv(darkened(carpet, 0.5)), ColourClass::kGreen);
+  adaptation.reset(table);
+  EXPECT_TRUE(adaptation.hasReference());
+  EXPECT_EQ(table.yuvLookup(), calibrated.yuvLookup());
+  const ColourAdaptationParams loaded = loadColourAdaptationParams(
+      config::Node::loadString("enabled: true\nreference: [90, 112, 110]\n"));
+  ASSERT_TRUE(loaded.reference);
+  EXPECT_DOUBLE_EQ((*loaded.reference)[1], 112.0);
+  EXPECT_THROW(loadColourAdaptationParams(
+                   config::Node::loadString("enabled: true\nreference: [0, 112, 110]\n")),
+               config::Error);
+}
+
 TEST(ColourAdaptation, BadParametersAreRefused) {
   ColourAdaptationParams p;
   p.min_gain = 1.5;
