@@ -100,6 +100,10 @@ class Node {
   Node(NodeOptions options, const Clock& clock);
   // Uses an existing connection as the primary bus (in-process tests over memq://).
   Node(NodeOptions options, const Clock& clock, std::shared_ptr<Connection> primary);
+  // The node keeps a reference to its clock: a temporary would dangle (it once crashed every
+  // fusion process), so the compiler refuses one.
+  Node(NodeOptions options, const Clock&& clock) = delete;
+  Node(NodeOptions options, const Clock&& clock, std::shared_ptr<Connection> primary) = delete;
   ~Node();
   Node(const Node&) = delete;
   Node& operator=(const Node&) = delete;

@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include "common/bus/node.hpp"
+#include "common/msg/image.hpp"
 #include "common/time/clock.hpp"
 #include "services/region_tracking/tracking_node.hpp"
 #include "tests/support/sim_frames.hpp"
@@ -47,14 +48,9 @@ Outcome driveIntoTheDark(bool adapt) {
     sim.render(scene);
     image_t image{};
     image.header.utime = clock.now() - 60'000;
-    image.width = sim.renderer->width();
-    image.height = sim.renderer->height();
-    image.stride = sim.renderer->stride();
-    image.format = image_t::FORMAT_YUYV;
+    msg::toMessage(sim.renderer->view(sim.frame), image);
     image.source = image_t::SOURCE_SIM;
     image.frame_number = frame;
-    image.size = static_cast<std::int32_t>(sim.frame.size());
-    image.data = sim.frame;
     camera.publish(bus::channels::kCameraImage, image);
     vision.spinOnce(0);
     // The status of the last 45 frames (the dark end).
