@@ -75,11 +75,12 @@ camera::ColourTable tableUnderLight(const camera::ColourTable& calibrated, doubl
 }
 
 GreenStatistics trackedGreen(const camera::FrameView& frame, const RegionTracker& tracker,
-                             int cell_stride) {
+                             int cell_stride, GreenSamples& channels) {
   const CellGrid& grid = tracker.grid();
   const int s = grid.cell_size;
   const auto green = static_cast<ClassId>(ColourClass::kGreen);
-  std::array<std::vector<std::uint8_t>, 3> channels;
+  for (auto& channel : channels)
+    channel.clear();
   for (int y = 0; y < grid.height; y += cell_stride) {
     for (int x = 0; x < grid.width; x += cell_stride) {
       if (tracker.ownerOf(x, y) != green) continue;
@@ -173,7 +174,7 @@ bool ColourAdaptation::observe(const GreenStatistics& green, camera::ColourTable
 
 bool ColourAdaptation::observe(const camera::FrameView& frame, const RegionTracker& tracker,
                                camera::ColourTable& table) {
-  return observe(trackedGreen(frame, tracker, params_.cell_stride), table);
+  return observe(trackedGreen(frame, tracker, params_.cell_stride, samples_), table);
 }
 
 void ColourAdaptation::reset(camera::ColourTable& table) {

@@ -76,8 +76,10 @@ struct GreenStatistics {
   double y = -1, u = -1, v = -1;
   int samples = 0;
 };
+// `scratch` holds the samples; pass the same one every frame so nothing is allocated per frame.
+using GreenSamples = std::array<std::vector<std::uint8_t>, 3>;
 GreenStatistics trackedGreen(const camera::FrameView& frame, const RegionTracker& tracker,
-                             int cell_stride);
+                             int cell_stride, GreenSamples& scratch);
 
 class ColourAdaptation {
  public:
@@ -117,6 +119,7 @@ class ColourAdaptation {
   bool at_bound_ = false;
   std::int64_t frames_skipped_ = 0;
   std::int64_t rebuilds_ = 0;
+  GreenSamples samples_;  // reused by observe(frame, ...)
 
   void seedReference();
 };
