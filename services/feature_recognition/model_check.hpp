@@ -6,6 +6,7 @@
 // model, so one check costs one grid lookup per point.
 #pragma once
 
+#include <cstdint>
 #include <vector>
 
 #include "common/field/distance_grid.hpp"
@@ -54,6 +55,16 @@ class ModelCheck {
 
  private:
   field::DistanceGrid grid_;
+  // The grid's node distances in units of kUnit, saturated at 255 (every tolerance is far below
+  // 255 units, and a node beyond it has all its neighbours within one cell beyond the largest
+  // tolerance too): a quarter of the float grid's memory, so the lookups stay in the cache.
+  static constexpr double kUnit = 0.002;
+  std::vector<std::uint8_t> compact_;
+  double origin_x_ = 0.0, origin_y_ = 0.0, inverse_cell_ = 1.0;
+  int columns_ = 0, rows_ = 0;
+  // True if the field point q (found at `range` from the robot) is within the tolerance of a
+  // model line: the bilinear interpolation of the compact grid, the exact grid outside it.
+  bool fits(double qx, double qy, double range) const;
   double tolerance_;
   double tolerance_per_m_;
   double range_;
