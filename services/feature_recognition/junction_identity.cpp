@@ -84,7 +84,7 @@ std::vector<ModelJunction> modelJunctions(const field::FieldModel& field) {
 bool identifyJunction(const Junction& junction, const std::vector<ModelJunction>& models,
                       const std::vector<Vec2>& points, const ModelCheck& check,
                       const RecognitionParams& params, JunctionIdentity& out) {
-  if (junction.leg_count < 2) return false;
+  if (junction.leg_count < 1) return false;
   // The other points: those not on the junction's own lines.
   thread_local std::vector<Vec2> others;
   others.clear();
