@@ -71,7 +71,7 @@ bool identifyLineEnd(const LineEnd& end, const std::vector<ModelJunction>& model
     if (!model.penalty_corner) continue;
     for (std::size_t l = 0; l < model.legs.size(); ++l) {
       if (end.length > model.leg_lengths[l] + params.length_tolerance) continue;
-      const double phi = std::atan2(model.legs[l].y(), model.legs[l].x()) - junction.phi;
+      const double phi = model.leg_angles[l] - junction.phi;
       const Vec2 robot = model.position - geometry::rotate(end.position, phi);
       const geometry::Pose2 pose{robot.x(), robot.y(), geometry::normalizeAngle(phi)};
       best_screen =
@@ -95,6 +95,14 @@ bool identifyLineEnd(const LineEnd& end, const std::vector<ModelJunction>& model
   }
   if (out.shifted_share > out.identity.fit.share() - params.line_end_shift_margin) {
     out.identified = false;
+  }
+  out.corner = end.position;
+  if (out.identified) {
+    // The pose along the line from the other points (the perpendicular lines among them).
+    const double shift = check.refineShift(others, robot, along, params.line_end_shift / 2);
+    out.identity.robot = {robot.x + shift * along.x(), robot.y + shift * along.y(), robot.phi};
+    out.corner =
+        geometry::pointFieldToRobot(out.identity.robot, models[out.identity.model].position);
   }
   return out.identified;
 }

@@ -43,6 +43,10 @@ struct LineEndIdentity {
   JunctionIdentity identity;
   // The other points' best share at the chosen pose shifted along and across the line.
   double shifted_share = 0.0;
+  // The corner's position (robot frame) after the chosen pose was refined along the line by the
+  // other points (the line's last point is not the corner: the points stop up to a sample
+  // spacing short of it).
+  Vec2 corner = Vec2::Zero();
   bool identified = false;
 };
 

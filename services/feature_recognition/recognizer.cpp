@@ -205,7 +205,8 @@ InputCheck FeatureRecognizer::recognize(const perception::LinePoints& in,
       const Vec2 toward_goal = geometry::rotate(model.toward_goal, -identity.identity.robot.phi);
       CheckedFeature c;
       c.kind = FeatureKind::kPenaltyCorner;
-      c.local = {end.position.x(), end.position.y(), std::atan2(toward_goal.y(), toward_goal.x())};
+      c.local = {identity.corner.x(), identity.corner.y(),
+                 std::atan2(toward_goal.y(), toward_goal.x())};
       c.robot = identity.identity.robot;
       c.fit = model_check_.fit(contours_.points, c.robot);
       c.others = identity.identity.fit;
@@ -213,7 +214,7 @@ InputCheck FeatureRecognizer::recognize(const perception::LinePoints& in,
       checked_.push_back(c);
       if (!c.accepted) continue;
       const Line& line = structure_.groups[end.axis][end.group].line;
-      addCorner(end.position, toward_goal, model.left, model.inner, lineOffsetSigma(line),
+      addCorner(identity.corner, toward_goal, model.left, model.inner, lineOffsetSigma(line),
                 lineAngleSigma(line), nullptr);
     }
   }
