@@ -381,7 +381,8 @@ int detailFrame(const Options& options, region_tracking::SimCamera& sim,
     std::cout << "model_check kind=" << static_cast<int>(c.kind) << " local=" << c.local.x << ","
               << c.local.y << "," << c.local.phi << " share=" << c.fit.share()
               << " points=" << c.fit.points << " others_share=" << c.others.share()
-              << " others=" << c.others.points << " accepted=" << c.accepted
+              << " others=" << c.others.points << " rival=" << c.rival_share
+              << " shifted=" << c.shifted_share << " accepted=" << c.accepted
               << " error_m=" << position << "\n";
   }
   for (const CornerSite& site : cornerSites(sim.field)) {
