@@ -66,7 +66,7 @@ struct RecognitionParams {
   double orientation_line_distance = 0.3;
   double min_orientation_line = 1.0;
   // It reaches this fraction of the radius to both sides of the centre.
-  double orientation_line_reach = 0.5;
+  double orientation_line_reach = 0.25;
 
   // --- principal directions, collinear groups ---
   double direction_cluster = 0.3;
