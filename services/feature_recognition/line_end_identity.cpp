@@ -103,11 +103,27 @@ bool identifyLineEnd(const LineEnd& end, const std::vector<ModelJunction>& model
       out.shifted_share = std::max(out.shifted_share, check.fit(others, pose).share());
     }
   }
+  // Evidence of the corner's other line: a few points where the model puts it.
+  int side_points = 0;
+  const ModelJunction& model = models[out.identity.model];
+  for (std::size_t l = 0; l < model.legs.size(); ++l) {
+    const Vec2 leg = geometry::rotate(model.legs[l], -robot.phi);
+    if (std::abs(leg.dot(end.into)) > 0.5) continue;  // the seen line's own leg
+    const double reach = std::min(params.line_end_side_reach, model.leg_lengths[l]);
+    for (const Vec2& p : points) {
+      const Vec2 d = p - out.corner;
+      const double t = d.dot(leg);
+      if (t < 0.1 || t > reach) continue;
+      if (std::abs(leg.x() * d.y() - leg.y() * d.x()) <= 0.1 + 0.02 * p.norm()) ++side_points;
+    }
+  }
+  out.side_points = side_points;
   const double share = out.identity.fit.share();
   out.identified = out.identity.fit.points >= params.identity_min_points &&
                    share >= params.identity_min_share &&
                    out.identity.rival_share <= share - params.identity_margin &&
-                   out.shifted_share <= share - params.line_end_shift_margin;
+                   out.shifted_share <= share - params.line_end_shift_margin &&
+                   side_points >= params.line_end_min_side_points;
   return out.identified;
 }
 

@@ -9,8 +9,9 @@
 // corner's front line has the goal line or the other front line beside it), the other points
 // must fix the position (the chosen pose shifted by `line_end_shift` along the
 // line and across it, each way, fits them clearly worse), and the end must lie within
-// `line_end_range` of the robot. Only ends placed at a penalty-area or goal-area corner become
-// features.
+// `line_end_range` of the robot. And the corner's other line must show at least a point where
+// the model puts it (line_end_min_side_points): a line that merely stops has nothing there.
+// Only ends placed at a penalty-area or goal-area corner become features.
 #pragma once
 
 #include <vector>
@@ -47,6 +48,8 @@ struct LineEndIdentity {
   // other points (the line's last point is not the corner: the points stop up to a sample
   // spacing short of it).
   Vec2 corner = Vec2::Zero();
+  // Points on the first line_end_side_reach metres of the corner's other line.
+  int side_points = 0;
   bool identified = false;
 };
 

@@ -145,6 +145,13 @@ struct RecognitionParams {
   // at least line_end_shift_margin (share) worse.
   double line_end_shift = 0.5;
   double line_end_shift_margin = 0.1;
+  // The corner's other line must show at least this many points (within 0.1 m + 2 cm per metre
+  // of range of its first line_end_side_reach metres, from 0.1 m on) at the refined pose: a line
+  // that merely stops (occluded, out of view) has nothing there.
+  int line_end_min_side_points = 1;
+  double line_end_side_reach = 0.6;
+  // Both lines of an L placed by junction_identity are at least this long, m.
+  double min_identity_leg = 0.4;
 
   // --- consistency of one frame's high-level features (beyond the seed) ---
   // Features whose robot poses differ (and differ from each other's point-symmetric twin) by

@@ -158,8 +158,10 @@ InputCheck FeatureRecognizer::recognize(const perception::LinePoints& in,
   };
   for (const Junction& j : junctions_) {
     if (j.is_t || explained(j)) continue;
-    if (structure_.groups[j.bar_axis][j.bar].line.count < params_.min_corner_line_points ||
-        structure_.groups[j.stem_axis][j.stem].line.count < params_.min_corner_line_points) {
+    const Line& bar = structure_.groups[j.bar_axis][j.bar].line;
+    const Line& stem = structure_.groups[j.stem_axis][j.stem].line;
+    if (bar.count < params_.min_corner_line_points || stem.count < params_.min_corner_line_points ||
+        bar.length() < params_.min_identity_leg || stem.length() < params_.min_identity_leg) {
       continue;
     }
     JunctionIdentity identity;

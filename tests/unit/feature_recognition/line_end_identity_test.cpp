@@ -1,8 +1,8 @@
-// Penalty corners from one line's end: a goal-area corner whose side line shows no points is
-// found from the end of its front line (the goal line beside it, the rest of the frame placing
-// it); the same end with nothing but parallel lines around it is refused (the other points do
-// not fix the position along the line); ends without a parallel partner at the area's spacings
-// are no candidates.
+// Penalty corners from one line's end: a goal-area corner whose side line shows a point or two
+// (too few for a line) is found from the end of its front line (none at all: refused) (the goal
+// line beside it, the rest of the frame placing it); the same end with nothing but parallel lines
+// around it is refused (the other points do not fix the position along the line); ends without a
+// parallel partner at the area's spacings are no candidates.
 #include "services/feature_recognition/line_end_identity.hpp"
 
 #include <cmath>
@@ -94,7 +94,9 @@ TEST(LineEndIdentity, GoalAreaCornerWithoutItsSideLineIsFoundFromTheFrontLineEnd
   const GoalArea area = goalAreaOf(field);
   const Pose2 truth{8.2, 0.6, 0.3};
   const perception::LinePoints full = test::frameAt(field, truth, 4.5, 0.12, 0.005);
-  const perception::LinePoints frame = without(full, truth, area.corner, area.side_end, 0.06);
+  // The side line shows only its first 0.3 m (two or three points, too short for a line).
+  const Vec2 side_cut = area.corner + 0.3 * (area.side_end - area.corner).normalized();
+  const perception::LinePoints frame = without(full, truth, side_cut, area.side_end, 0.06);
   ASSERT_GT(frame.points.size(), 80u);
 
   // The stage alone, on the front line's end at the corner.
@@ -114,7 +116,14 @@ TEST(LineEndIdentity, GoalAreaCornerWithoutItsSideLineIsFoundFromTheFrontLineEnd
   const double error = std::min((robot.position() - truth.position()).norm(),
                                 (robot.position() - twin.position()).norm());
   EXPECT_LT(error, 0.02);
-  EXPECT_LT(identity.shifted_share, identity.identity.fit.share() - 0.15);
+  EXPECT_LT(identity.shifted_share, identity.identity.fit.share() - 0.1);
+  EXPECT_GE(identity.side_points, 1);
+
+  // Without a single point where the side line should be, the end is not taken for a corner.
+  const perception::LinePoints bare = without(full, truth, area.corner, area.side_end, 0.06);
+  LineEndIdentity bare_identity;
+  EXPECT_FALSE(
+      identifyLineEnd(end, models, pointsOf(bare), check, RecognitionParams{}, bare_identity));
 
   // The whole recogniser finds that corner, only with the line-end rule.
   auto cornerFound = [&](bool line_ends) {
