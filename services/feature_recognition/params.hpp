@@ -151,7 +151,7 @@ struct RecognitionParams {
   int line_end_min_side_points = 1;
   double line_end_side_reach = 0.6;
   // Both lines of an L placed by junction_identity are at least this long, m.
-  double min_identity_leg = 0.4;
+  double min_identity_leg = 0.35;
 
   // --- consistency of one frame's high-level features (beyond the seed) ---
   // Features whose robot poses differ (and differ from each other's point-symmetric twin) by
