@@ -117,6 +117,8 @@ void loadContact(const config::Node& n, LocalizerParams& l) {
   ContactModel& p = l.filter.contact;
   l.contact_search_steps = n.getOr<int>("search_steps", l.contact_search_steps, 0, 20);
   l.twist_search_always = n.getOr<bool>("search_always", l.twist_search_always);
+  l.contact_search_min_points = static_cast<std::size_t>(
+      n.getOr<int>("search_min_points", static_cast<int>(l.contact_search_min_points), 1, 100000));
   p.distance_m = n.getOr<double>("distance_m", p.distance_m, 0.0, 5.0);
   p.hold_us = micros(n.getOr<double>("hold_s", seconds(p.hold_us), 0.0, 5.0));
   p.position_density = n.getOr<double>("position_density", p.position_density, 0.0, 10.0);

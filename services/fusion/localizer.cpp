@@ -169,7 +169,8 @@ void Localizer::trackLines(std::span<const perception::LinePoint> points, Utime 
   const bool contact = filter_.inContact(utime);
   bool twist_found = false;
   if (params_.contact_search_steps > 0 && (contact || params_.twist_search_always) &&
-      !(c.valid && c.cost <= params_.accept_cost_m) && points.size() >= 10) {
+      !(c.valid && c.cost <= params_.accept_cost_m) &&
+      points.size() >= params_.contact_search_min_points) {
     if (const auto found = searchHeadings(points, guess->pose(), params_.contact_search_steps)) {
       c = *found;
       twist_found = true;

@@ -124,6 +124,8 @@ struct LocalizerParams {
   // searched, contact seen or not.
   int contact_search_steps = 0;
   bool twist_search_always = false;
+  // Frames with fewer points are not searched (a few points fit some heading by chance).
+  std::size_t contact_search_min_points = 30;
   // Half extents of the area searched (the carpet), m.
   double search_half_length_m = 10.0;
   double search_half_width_m = 6.5;
