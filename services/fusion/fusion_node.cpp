@@ -140,6 +140,7 @@ void FusionNode::updateMetrics() {
   node_.setMetric("pinned_slips", static_cast<double>(localizer_.counters().pinned_slips));
   node_.setMetric("contact_slips", static_cast<double>(localizer_.counters().contact_slips));
   node_.setMetric("contact_frames", static_cast<double>(localizer_.counters().contact_frames));
+  node_.setMetric("twist_searches", static_cast<double>(localizer_.counters().twist_searches));
   node_.setMetric("ball_restarts_far", static_cast<double>(ball_.restartsFar()));
   node_.setMetric("ball_restarts_with_velocity", static_cast<double>(ball_.restartsWithVelocity()));
 }
