@@ -134,6 +134,18 @@ struct RecognitionParams {
   int identity_screen_points = 60;
   double identity_screen_slack = 0.15;
 
+  // --- penalty corners from one line's end (beyond the seed, line_end_identity) ---
+  // Off: no corners from line ends.
+  bool line_end_corners = true;
+  // Only ends within this distance of the robot are placed, m.
+  double line_end_range = 4.5;
+  // The penalty-corner candidates are screened on at most this many other points first.
+  int line_end_screen_points = 30;
+  // The chosen pose shifted along the line by this much, m, each way, must fit the other points
+  // at least line_end_shift_margin (share) worse.
+  double line_end_shift = 0.5;
+  double line_end_shift_margin = 0.15;
+
   // --- consistency of one frame's high-level features (beyond the seed) ---
   // Features whose robot poses differ (and differ from each other's point-symmetric twin) by
   // more than this (m, rad) cannot both be right: only the one whose pose fits the most points

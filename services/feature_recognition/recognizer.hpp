@@ -25,6 +25,7 @@
 #include "services/feature_recognition/centre_circle.hpp"
 #include "services/feature_recognition/junction_identity.hpp"
 #include "services/feature_recognition/junctions.hpp"
+#include "services/feature_recognition/line_end_identity.hpp"
 #include "services/feature_recognition/model_check.hpp"
 #include "services/feature_recognition/penalty_area.hpp"
 
