@@ -79,12 +79,22 @@ bool identifyLineEnd(const LineEnd& end, const std::vector<ModelJunction>& model
     }
   }
   if (best_screen < params.identity_min_share - params.identity_screen_slack) return false;
-  out.identified = identifyJunction(junction, models, points, check, params, out.identity);
+  // The verdict is taken below, on the refined pose (identifyJunction's own is on the line's
+  // last point).
+  identifyJunction(junction, models, points, check, params, out.identity);
   if (out.identity.model < 0) return false;
+  // The pose along the line from the other points (the perpendicular lines among them): the
+  // line's last point is up to a sample spacing short of the true end.
+  const geometry::Pose2 first = out.identity.robot;
+  const Vec2 along = geometry::rotate(end.into, first.phi);
+  const double refined = check.refineShift(others, first, along, params.line_end_shift / 2);
+  const geometry::Pose2 robot{first.x + refined * along.x(), first.y + refined * along.y(),
+                              first.phi};
+  out.identity.robot = robot;
+  out.identity.fit = check.fit(others, robot);
+  out.corner = geometry::pointFieldToRobot(robot, models[out.identity.model].position);
   // The position must be fixed by the other points: along the line (a perpendicular line among
   // them) and across it (a parallel one), each way.
-  const geometry::Pose2& robot = out.identity.robot;
-  const Vec2 along = geometry::rotate(end.into, robot.phi);
   const Vec2 across(-along.y(), along.x());
   for (const Vec2& direction : {along, across}) {
     for (double sign : {-1.0, 1.0}) {
@@ -93,17 +103,11 @@ bool identifyLineEnd(const LineEnd& end, const std::vector<ModelJunction>& model
       out.shifted_share = std::max(out.shifted_share, check.fit(others, pose).share());
     }
   }
-  if (out.shifted_share > out.identity.fit.share() - params.line_end_shift_margin) {
-    out.identified = false;
-  }
-  out.corner = end.position;
-  if (out.identified) {
-    // The pose along the line from the other points (the perpendicular lines among them).
-    const double shift = check.refineShift(others, robot, along, params.line_end_shift / 2);
-    out.identity.robot = {robot.x + shift * along.x(), robot.y + shift * along.y(), robot.phi};
-    out.corner =
-        geometry::pointFieldToRobot(out.identity.robot, models[out.identity.model].position);
-  }
+  const double share = out.identity.fit.share();
+  out.identified = out.identity.fit.points >= params.identity_min_points &&
+                   share >= params.identity_min_share &&
+                   out.identity.rival_share <= share - params.identity_margin &&
+                   out.shifted_share <= share - params.line_end_shift_margin;
   return out.identified;
 }
 

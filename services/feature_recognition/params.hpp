@@ -66,7 +66,7 @@ struct RecognitionParams {
   double orientation_line_distance = 0.3;
   double min_orientation_line = 1.0;
   // It reaches this fraction of the radius to both sides of the centre.
-  double orientation_line_reach = 0.5;
+  double orientation_line_reach = 0.25;
 
   // --- principal directions, collinear groups ---
   double direction_cluster = 0.3;
@@ -144,7 +144,7 @@ struct RecognitionParams {
   // The chosen pose shifted along the line by this much, m, each way, must fit the other points
   // at least line_end_shift_margin (share) worse.
   double line_end_shift = 0.5;
-  double line_end_shift_margin = 0.15;
+  double line_end_shift_margin = 0.1;
 
   // --- consistency of one frame's high-level features (beyond the seed) ---
   // Features whose robot poses differ (and differ from each other's point-symmetric twin) by

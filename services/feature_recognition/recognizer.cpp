@@ -174,6 +174,7 @@ InputCheck FeatureRecognizer::recognize(const perception::LinePoints& in,
     c.robot = identity.robot;
     c.fit = model_check_.fit(contours_.points, identity.robot);
     c.others = identity.fit;
+    c.rival_share = identity.rival_share;
     c.accepted = identified && model_check_.accepts(c.fit, c.others);
     checked_.push_back(c);
     if (!c.accepted) continue;
@@ -210,6 +211,8 @@ InputCheck FeatureRecognizer::recognize(const perception::LinePoints& in,
       c.robot = identity.identity.robot;
       c.fit = model_check_.fit(contours_.points, c.robot);
       c.others = identity.identity.fit;
+      c.rival_share = identity.identity.rival_share;
+      c.shifted_share = identity.shifted_share;
       c.accepted = identity.identified && model_check_.accepts(c.fit, c.others);
       checked_.push_back(c);
       if (!c.accepted) continue;

@@ -74,6 +74,7 @@ struct Options {
   bool progress = false;
   std::string check_csv;
   std::string misses_csv;
+  std::string circle_misses_csv;
 };
 
 // The eight penalty-area corners: (inner, left) as seen toward their goal, and the goal.
@@ -381,7 +382,8 @@ int detailFrame(const Options& options, region_tracking::SimCamera& sim,
     std::cout << "model_check kind=" << static_cast<int>(c.kind) << " local=" << c.local.x << ","
               << c.local.y << "," << c.local.phi << " share=" << c.fit.share()
               << " points=" << c.fit.points << " others_share=" << c.others.share()
-              << " others=" << c.others.points << " accepted=" << c.accepted
+              << " others=" << c.others.points << " rival=" << c.rival_share
+              << " shifted=" << c.shifted_share << " accepted=" << c.accepted
               << " error_m=" << position << "\n";
   }
   for (const CornerSite& site : cornerSites(sim.field)) {
@@ -722,7 +724,12 @@ int run(const Options& options) {
   // Corners within 4 m the camera can see (seeable()) and those of them found.
   long corner_seeable = 0, corner_seeable_found = 0;
   double line_points = 0.0;
-  std::ofstream check_csv, misses_csv;
+  std::ofstream check_csv, misses_csv, circle_misses_csv;
+  if (!options.circle_misses_csv.empty()) {
+    circle_misses_csv.open(options.circle_misses_csv);
+    circle_misses_csv << "frame,x,y,phi,occluded_share,arcs,circle_found,coverage_rad,oriented,"
+                         "checked,share\n";
+  }
   if (!options.misses_csv.empty()) {
     misses_csv.open(options.misses_csv);
     misses_csv << "frame,inner,left,opponent_goal,distance,local_x,local_y,x,y,cause,zone,"
@@ -762,6 +769,25 @@ int run(const Options& options) {
                    << m.side_group << "," << m.junction << "," << m.structure_corner << ","
                    << m.checked << "\n";
       }
+    }
+    if (circle_misses_csv.is_open() && r.circle_eligible && !r.circle_found) {
+      // Why the centre circle was missed: occluded share, the stage reached, the model check.
+      const auto& circle = recognizer.circle();
+      int checked = -1;
+      double share = 0.0;
+      for (const auto& c : recognizer.checked()) {
+        if (c.kind == FeatureKind::kCentreCircle) {
+          checked = c.accepted;
+          share = c.fit.share();
+        }
+      }
+      circle_misses_csv << f << "," << pose.x << "," << pose.y << "," << pose.phi << ","
+                        << occludedCircleShare(scene, circle_radius,
+                                               sim.mirror.params().reference_height,
+                                               sim.renderer->params().robot_height)
+                        << "," << recognizer.classified().arcs.size() << "," << circle.found << ","
+                        << circle.coverage << "," << circle.oriented << "," << checked << ","
+                        << share << "\n";
     }
     if (check_csv.is_open()) {
       for (const auto& c : recognizer.checked()) {
@@ -908,6 +934,9 @@ void addOptions(CLI::App& app, Options& options) {
   app.add_flag("--progress", options.progress, "Report progress every 1000 frames on stderr");
   app.add_option("--misses-csv", options.misses_csv,
                  "Write every penalty corner within 4 m that was not found as CSV");
+  app.add_option("--circle-misses-csv", options.circle_misses_csv,
+                 "Write every frame with the whole centre circle within 4 m in which it was not "
+                 "found as CSV (occluded share, the stage reached)");
   app.add_option("--check-csv", options.check_csv,
                  "Write every model check (fits, verdict, error of its pose) as CSV");
   app.add_option("--seed", options.seed, "Seed of the clutter placement")->capture_default_str();
