@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <bit>
 
 namespace fieldline::region_tracking {
 
@@ -59,11 +60,16 @@ void ConnectivityGrid::extractContoursAt(std::span<const std::int32_t> cells, Cl
 }
 
 // Each boundary cell is checked once: a contour through it is followed completely and its
-// edges removed, so the next edge found on a later cell always starts a new contour.
+// edges removed, so the next edge found on a later cell always starts a new contour. Most cells
+// have no edge left (the contours through them were followed from an earlier cell), so the four
+// sides are tested in one go and the cell is left with one well-predicted branch.
 void ConnectivityGrid::extractAround(int cell, ClassId class_id, ContourSet& out) {
-  for (int side = 0; side < 4; ++side) {
-    const int corner = cell + corner_offset_[side];
-    if (bits_[corner] & (1u << side)) followContour(corner, side, class_id, out);
+  unsigned sides = sidesLeft(cell);
+  while (sides != 0) {
+    const int side = std::countr_zero(sides);
+    followContour(cell + corner_offset_[side], side, class_id, out);
+    // The contour may have taken other sides of this cell: the later sides are read again.
+    sides = sidesLeft(cell) & (~0u << (side + 1));
   }
 }
 

@@ -113,6 +113,11 @@ class ConnectivityGrid {
 
  private:
   void extractAround(int cell, ClassId class_id, ContourSet& out);
+  // Bit k set: side k of the cell at padded index `cell` is a boundary edge not yet followed.
+  unsigned sidesLeft(int cell) const {
+    return (bits_[cell + corner_offset_[0]] & 1u) | (bits_[cell + corner_offset_[1]] & 2u) |
+           (bits_[cell + corner_offset_[2]] & 4u) | (bits_[cell + corner_offset_[3]] & 8u);
+  }
   void followContour(int startCorner, int startDirection, ClassId class_id, ContourSet& out);
 
   CellGrid grid_;

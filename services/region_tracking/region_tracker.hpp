@@ -170,15 +170,38 @@ class RegionTracker {
   // spares every bounds check when a drop looks at its neighbours.
   using CellIndex = std::int32_t;
 
-  // Per class: the pair of drop queues (used as stacks; order does not matter) and its size.
+  // A list of cells, used as a stack, with room for every cell of the grid allocated once, so a
+  // push needs no capacity check: a cell is on one of a class's drop lists at most once.
+  class DropList {
+   public:
+    void allocate(std::size_t capacity) { cells_.resize(capacity); }
+    void push(CellIndex cell) { cells_[size_++] = cell; }
+    CellIndex pop() { return cells_[--size_]; }
+    bool empty() const { return size_ == 0; }
+    void clear() { size_ = 0; }
+    const CellIndex* begin() const { return cells_.data(); }
+    const CellIndex* end() const { return cells_.data() + size_; }
+    operator std::span<const CellIndex>() const { return {begin(), size_}; }
+    // For the hot loops, which keep the top of the stack in a register: the cells, and setting
+    // the size they leave.
+    CellIndex* data() { return cells_.data(); }
+    std::size_t size() const { return size_; }
+    void setSize(std::size_t size) { size_ = size; }
+
+   private:
+    std::vector<CellIndex> cells_;
+    std::size_t size_ = 0;
+  };
+
+  // Per class: the pair of drop lists (used as stacks; order does not matter) and its size.
   struct ClassState {
     ClassTracking tracking;
     // Kept from frame to frame: the boundary cells of the regions. Filled by grow, emptied by the
     // next shrink, which starts from them.
-    std::vector<CellIndex> boundary_drops;
+    DropList boundary_drops;
     // Within one frame: the drops still to spread. Filled by shrink (the drops that stopped) and
     // by seeding, emptied by grow.
-    std::vector<CellIndex> work_drops;
+    DropList work_drops;
     std::vector<CellIndex> pending_seeds;
     int cells = 0;
     // Frames since the class last had a region (a large number before it was ever seen).
@@ -200,7 +223,7 @@ class RegionTracker {
   void claim(ClassState& state, CellIndex cell) {
     visited_[cell] = state.tracking.class_id;
     ++state.cells;
-    state.work_drops.push_back(cell);
+    state.work_drops.push(cell);
   }
 
   void shrink(ClassState& state);
