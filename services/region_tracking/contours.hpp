@@ -7,6 +7,7 @@
 // (0 up, 1 right, 2 down, 3 left) becomes the edge in direction k (0 +x, 1 +y, 2 -x, 3 -y).
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <span>
 #include <vector>
@@ -126,6 +127,13 @@ class ConnectivityGrid {
   // top-right, bottom-right, bottom-left; and the index step along each edge direction.
   int corner_offset_[4];
   int step_[4];
+  // The turning rule (right, straight, left) for the direction walked and the edges available
+  // at the corner reached: the next direction (-1: none) and its index step.
+  struct Turn {
+    std::int32_t step;
+    std::int8_t direction;
+  };
+  std::array<std::array<Turn, 16>, 4> turns_;
   std::vector<std::uint8_t> bits_;
 };
 

@@ -168,7 +168,7 @@ int RegionTracker::regionCells(ClassId class_id) const {
 ClassId RegionTracker::classifyNow(CellIndex cell) {
   const Cell at = coordinates_[cell];
   const ClassId class_id = classifier_->classify(at.x, at.y);
-  classified_[cell] = (stamp_ << 8) | class_id;
+  classified_[cell] = static_cast<std::uint16_t>((stamp_ << 8) | class_id);
   ++stats_.cells_classified;
   return class_id;
 }
@@ -186,7 +186,7 @@ const TrackingStats& RegionTracker::track(const CellClassifier& classifier) {
   stats_.frame = frame_count_;
   reason_start_ = 0;
   classifier_ = &classifier;
-  if (++stamp_ == kStampLimit) {  // wrapped after 2^24 frames: old stamps could look current
+  if (++stamp_ == kStampLimit) {  // wrapped: old stamps could look current
     std::fill(classified_.begin(), classified_.end(), 0);
     stamp_ = 1;
   }
