@@ -61,7 +61,7 @@ RegionTracker::RegionTracker(const CellGrid& grid, const TrackerConfig& config,
       visited_(layout_.size(), kBlocked),
       connectivity_(grid),
       classified_(layout_.size(), 0),
-      coordinates_(layout_.size(), Cell{-1, -1}),
+      width_inverse_(~std::uint64_t{0} / static_cast<std::uint64_t>(layout_.width) + 1),
       scratch_mark_(layout_.size(), 0) {
   class_slot_.fill(-1);
   seed_parent_.fill(kNoClass);
@@ -82,11 +82,6 @@ RegionTracker::RegionTracker(const CellGrid& grid, const TrackerConfig& config,
     }
   }
   empty_visited_ = visited_;
-  for (int y = 0; y < grid.height; ++y) {
-    for (int x = 0; x < grid.width; ++x)
-      coordinates_[layout_.index(x, y)] = {static_cast<std::int16_t>(x),
-                                           static_cast<std::int16_t>(y)};
-  }
 
   for (std::size_t i = 0; i < config.classes.size(); ++i) {
     const ClassTracking& tracking = config.classes[i];
@@ -166,7 +161,7 @@ int RegionTracker::regionCells(ClassId class_id) const {
 }
 
 ClassId RegionTracker::classifyNow(CellIndex cell) {
-  const Cell at = coordinates_[cell];
+  const Cell at = coordinatesOf(cell);
   const ClassId class_id = classifier_->classify(at.x, at.y);
   classified_[cell] = static_cast<std::uint16_t>((stamp_ << 8) | class_id);
   ++stats_.cells_classified;
