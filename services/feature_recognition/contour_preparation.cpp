@@ -39,6 +39,21 @@ void turningAngles(const Vec2* p, int n, int w, std::vector<double>& out) {
   }
 }
 
+void turningAnglesAbove(const Vec2* p, int n, int w, double threshold, std::vector<double>& out) {
+  out.assign(static_cast<std::size_t>(std::max(n, 0)), 0.0);
+  // |angle| <= threshold <=> the dot product is positive and |cross| <= tan(threshold) * dot
+  // (threshold below pi / 2); only the angles above it are computed.
+  const double tan_threshold = std::tan(std::clamp(threshold, 0.0, 1.5));
+  for (int i = 2; i + 2 < n; ++i) {
+    const int span = std::min({w, i, n - 1 - i});
+    const Vec2 a = p[i] - p[i - span];
+    const Vec2 b = p[i + span] - p[i];
+    const double cross = a.x() * b.y() - a.y() * b.x(), dot = a.dot(b);
+    if (threshold < 1.5 && dot > 0.0 && std::abs(cross) <= tan_threshold * dot) continue;
+    out[i] = std::atan2(cross, dot);
+  }
+}
+
 void curvatureMaxima(const std::vector<double>& turn, double threshold, int min_separation,
                      std::vector<int>& out) {
   out.clear();
@@ -74,7 +89,7 @@ void splitRun(const Vec2* raw, int n, int w, const RecognitionParams& params, Co
   out.points.resize(base + n);
   Vec2* smoothed = out.points.data() + base;
   smoothSequence(raw, n, smoothed);
-  turningAngles(smoothed, n, w, turn);
+  turningAnglesAbove(smoothed, n, w, params.split_turn_angle, turn);
   curvatureMaxima(turn, params.split_turn_angle, params.split_min_separation, splits);
   int piece_start = 0;
   auto emit = [&](int b, int e) {

@@ -54,6 +54,9 @@ void smoothSequence(const Vec2* p, int n, Vec2* out);
 // The signed angle (rad, CCW positive) by which p[i]-p[i-w] turns into p[i+w]-p[i]; within w of
 // an end the span shrinks to the points available, down to 2; 0 for the first and last 2 points.
 void turningAngles(const Vec2* p, int n, int w, std::vector<double>& out);
+// As turningAngles, but angles whose magnitude is at most `threshold` (< 1.5 rad) are left 0:
+// all the split needs, without an atan2 for every straight stretch.
+void turningAnglesAbove(const Vec2* p, int n, int w, double threshold, std::vector<double>& out);
 
 // Indices of the maxima of |turn| inside the intervals where |turn| exceeds `threshold`; an
 // interval opens only `min_separation` indices after the previous one closed (seed procedure 6).

@@ -75,6 +75,8 @@ std::vector<ModelJunction> modelJunctions(const field::FieldModel& field) {
           m.toward_goal = Vec2(x.x() > 0 ? 1.0 : -1.0, 0.0);
         }
       }
+      for (const Vec2& leg : m.legs)
+        m.leg_angles.push_back(std::atan2(leg.y(), leg.x()));
       out.push_back(m);
     }
   }
@@ -84,7 +86,7 @@ std::vector<ModelJunction> modelJunctions(const field::FieldModel& field) {
 bool identifyJunction(const Junction& junction, const std::vector<ModelJunction>& models,
                       const std::vector<Vec2>& points, const ModelCheck& check,
                       const RecognitionParams& params, JunctionIdentity& out) {
-  if (junction.leg_count < 2) return false;
+  if (junction.leg_count < 1) return false;
   // The other points: those not on the junction's own lines.
   thread_local std::vector<Vec2> others;
   others.clear();
@@ -96,6 +98,7 @@ bool identifyJunction(const Junction& junction, const std::vector<ModelJunction>
     }
     if (!on_leg) others.push_back(p);
   }
+  const double min_cos = std::cos(params.identity_angle);
   const Vec2& o0 = junction.legs[0];
   const double o0_angle = std::atan2(o0.y(), o0.x());
   struct Candidate {
@@ -109,14 +112,14 @@ bool identifyJunction(const Junction& junction, const std::vector<ModelJunction>
     const ModelJunction& model = models[m];
     // An L may be a T with one half of its bar unseen; a T is only a T.
     if (static_cast<int>(model.legs.size()) < junction.leg_count) continue;
-    for (const Vec2& first : model.legs) {
-      const double phi = std::atan2(first.y(), first.x()) - o0_angle;
+    for (const double first_angle : model.leg_angles) {
+      const double phi = first_angle - o0_angle;
       bool fits = true;
       for (int k = 0; k < junction.leg_count && fits; ++k) {
         const Vec2 leg = geometry::rotate(junction.legs[k], phi);
         fits = false;
         for (std::size_t l = 0; l < model.legs.size(); ++l) {
-          if (leg.dot(model.legs[l]) > std::cos(params.identity_angle) &&
+          if (leg.dot(model.legs[l]) > min_cos &&
               junction.leg_lengths[k] <= model.leg_lengths[l] + params.length_tolerance) {
             fits = true;
           }

@@ -23,6 +23,8 @@ struct ModelJunction {
   Vec2 position = Vec2::Zero();
   std::vector<Vec2> legs;
   std::vector<double> leg_lengths;
+  // atan2 of each leg (field frame), rad.
+  std::vector<double> leg_angles;
   // Set for the corners of the penalty and goal areas (the eight penalty corners).
   bool penalty_corner = false;
   bool inner = false;

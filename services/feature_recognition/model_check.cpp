@@ -22,6 +22,39 @@ ModelCheck::ModelCheck(const field::FieldModel& field, const RecognitionParams& 
         "ModelCheck: tolerance and range must be positive, shares in [0, 1], max_points >= 1, "
         "min_other_points >= 0");
   }
+  columns_ = grid_.columns();
+  rows_ = grid_.rows();
+  origin_x_ = grid_.origin().x();
+  origin_y_ = grid_.origin().y();
+  inverse_cell_ = 1.0 / grid_.cellSize();
+  outside_never_fits_ =
+      params.model_check_margin - 2.0 * grid_.cellSize() > tolerance_ + tolerance_per_m_ * range_;
+  compact_.resize(static_cast<std::size_t>(columns_) * static_cast<std::size_t>(rows_));
+  for (int j = 0; j < rows_; ++j) {
+    for (int i = 0; i < columns_; ++i) {
+      const double units = std::round(grid_.nodeValue(i, j) / kUnit);
+      compact_[static_cast<std::size_t>(j) * columns_ + i] =
+          static_cast<std::uint8_t>(std::min(units, 255.0));
+    }
+  }
+}
+
+bool ModelCheck::fits(double qx, double qy, double range) const {
+  const double limit = tolerance_ + tolerance_per_m_ * range;
+  const double gx = (qx - origin_x_) * inverse_cell_;
+  const double gy = (qy - origin_y_) * inverse_cell_;
+  // Outside the compact grid's cells (or not finite): the exact grid with its extension.
+  if (!(gx >= 0.0 && gy >= 0.0 && gx < columns_ - 1 && gy < rows_ - 1)) {
+    if (outside_never_fits_ && std::isfinite(gx) && std::isfinite(gy)) return false;
+    return grid_.distance(geometry::Vec2(qx, qy)) <= limit;
+  }
+  const int i = static_cast<int>(gx), j = static_cast<int>(gy);
+  const double fx = gx - i, fy = gy - j;
+  const std::uint8_t* row = compact_.data() + static_cast<std::size_t>(j) * columns_ + i;
+  const double v00 = row[0], v10 = row[1], v01 = row[columns_], v11 = row[columns_ + 1];
+  const double units =
+      (1.0 - fy) * ((1.0 - fx) * v00 + fx * v10) + fy * ((1.0 - fx) * v01 + fx * v11);
+  return units * kUnit <= limit;
 }
 
 ModelFit ModelCheck::fit(const std::vector<geometry::Vec2>& points,
@@ -43,9 +76,34 @@ ModelFit ModelCheck::fit(const std::vector<geometry::Vec2>& points, const geomet
     if (!(range <= range_)) continue;
     const geometry::Vec2 q(robot.x + c * p.x() - s * p.y(), robot.y + s * p.x() + c * p.y());
     ++out.points;
-    if (grid_.distance(q) <= tolerance_ + tolerance_per_m_ * range) ++out.inliers;
+    if (fits(q.x(), q.y(), range)) ++out.inliers;
   }
   return out;
+}
+
+double ModelCheck::refineShift(const std::vector<geometry::Vec2>& points,
+                               const geometry::Pose2& robot, const geometry::Vec2& u,
+                               double max_shift) const {
+  const double c = std::cos(robot.phi), s = std::sin(robot.phi);
+  double shift = 0.0;
+  for (int iteration = 0; iteration < 4; ++iteration) {
+    const geometry::Vec2 origin = robot.position() + shift * u;
+    double num = 0.0, den = 0.0;
+    for (const geometry::Vec2& p : points) {
+      const double range = p.norm();
+      if (!(range <= range_)) continue;
+      const geometry::Vec2 q(origin.x() + c * p.x() - s * p.y(),
+                             origin.y() + s * p.x() + c * p.y());
+      const double d = grid_.distance(q);
+      if (d > tolerance_ + tolerance_per_m_ * range) continue;
+      const double j = grid_.gradient(q).dot(u);
+      num += d * j;
+      den += j * j;
+    }
+    if (!(den > 1e-9)) break;
+    shift = std::clamp(shift - num / den, -max_shift, max_shift);
+  }
+  return shift;
 }
 
 bool ModelCheck::accepts(const ModelFit& fit) const {

@@ -6,6 +6,7 @@
 // model, so one check costs one grid lookup per point.
 #pragma once
 
+#include <cstdint>
 #include <vector>
 
 #include "common/field/distance_grid.hpp"
@@ -46,6 +47,12 @@ class ModelCheck {
   // share when many poses are compared.
   ModelFit fit(const std::vector<geometry::Vec2>& points, const geometry::Pose2& robot,
                int max_points) const;
+  // The shift s (m, |s| <= max_shift) of the robot along the unit vector u (field frame) that
+  // best fits the points within the tolerance to the lines: a few Gauss-Newton steps on the
+  // squared distances (the distance grid's gradient). Refines a pose whose position along u only
+  // the points fix (a corner placed from a line's end).
+  double refineShift(const std::vector<geometry::Vec2>& points, const geometry::Pose2& robot,
+                     const geometry::Vec2& u, double max_shift) const;
   // True if the fit is good enough to keep the hypothesis.
   bool accepts(const ModelFit& fit) const;
   // True if the fit of all points and that of the other points (see pointsAwayFrom) are good
@@ -54,6 +61,19 @@ class ModelCheck {
 
  private:
   field::DistanceGrid grid_;
+  // The grid's node distances in units of kUnit, saturated at 255 (every tolerance is far below
+  // 255 units, and a node beyond it has all its neighbours within one cell beyond the largest
+  // tolerance too): a quarter of the float grid's memory, so the lookups stay in the cache.
+  static constexpr double kUnit = 0.002;
+  std::vector<std::uint8_t> compact_;
+  double origin_x_ = 0.0, origin_y_ = 0.0, inverse_cell_ = 1.0;
+  int columns_ = 0, rows_ = 0;
+  // True when every point outside the compact grid's cells is further from every line than the
+  // largest tolerance (the grid's margin minus a cell exceeds it): such points never fit.
+  bool outside_never_fits_ = false;
+  // True if the field point q (found at `range` from the robot) is within the tolerance of a
+  // model line: the bilinear interpolation of the compact grid, the exact grid outside it.
+  bool fits(double qx, double qy, double range) const;
   double tolerance_;
   double tolerance_per_m_;
   double range_;

@@ -66,7 +66,7 @@ struct RecognitionParams {
   double orientation_line_distance = 0.3;
   double min_orientation_line = 1.0;
   // It reaches this fraction of the radius to both sides of the centre.
-  double orientation_line_reach = 0.5;
+  double orientation_line_reach = 0.25;
 
   // --- principal directions, collinear groups ---
   double direction_cluster = 0.3;
@@ -133,6 +133,18 @@ struct RecognitionParams {
   // is then fitted on all of them (up to model_check_max_points) for the verdict.
   int identity_screen_points = 60;
   double identity_screen_slack = 0.15;
+
+  // --- penalty corners from one line's end (beyond the seed, line_end_identity) ---
+  // Off: no corners from line ends.
+  bool line_end_corners = true;
+  // Only ends within this distance of the robot are placed, m.
+  double line_end_range = 4.5;
+  // The penalty-corner candidates are screened on at most this many other points first.
+  int line_end_screen_points = 30;
+  // The chosen pose shifted along the line by this much, m, each way, must fit the other points
+  // at least line_end_shift_margin (share) worse.
+  double line_end_shift = 0.5;
+  double line_end_shift_margin = 0.1;
 
   // --- consistency of one frame's high-level features (beyond the seed) ---
   // Features whose robot poses differ (and differ from each other's point-symmetric twin) by

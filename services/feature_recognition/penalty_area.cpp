@@ -139,9 +139,26 @@ constexpr int kModelSegments[2][3] = {{2, 7, 5}, {3, 8, 6}};
 // True if two parallel lines `spacing` apart and at most `length_a`, `length_b` long can only be
 // the lines of roles (role_a, role_b) of one penalty area: every pair of parallel model lines at
 // that spacing that is long enough to show them is such a pair.
-bool onlyPenaltyPair(const field::FieldModel& field, int role_a, int role_b, double spacing,
-                     double length_a, double length_b, const RecognitionParams& params) {
+// Every ordered pair of parallel model segments with their spacing and lengths, computed once per
+// field (cached per thread, checked against the field's segments on every call).
+struct ParallelPair {
+  int i, j;
+  double spacing, length_i, length_j;
+};
+
+const std::vector<ParallelPair>& parallelPairs(const field::FieldModel& field) {
+  thread_local std::vector<field::LineSegment> cached_segments;
+  thread_local std::vector<ParallelPair> pairs;
+  thread_local bool valid = false;
   const auto& segments = field.segments();
+  const bool same = valid && cached_segments.size() == segments.size() &&
+                    std::equal(segments.begin(), segments.end(), cached_segments.begin(),
+                               [](const field::LineSegment& x, const field::LineSegment& y) {
+                                 return x.a == y.a && x.b == y.b;
+                               });
+  if (same) return pairs;
+  cached_segments = segments;
+  pairs.clear();
   const int n = static_cast<int>(segments.size());
   for (int i = 0; i < n; ++i) {
     for (int j = 0; j < n; ++j) {
@@ -150,21 +167,34 @@ bool onlyPenaltyPair(const field::FieldModel& field, int role_a, int role_b, dou
       const Vec2 dj = (segments[j].b - segments[j].a).normalized();
       if (std::abs(di.x() * dj.y() - di.y() * dj.x()) > 1e-6) continue;
       const Vec2 d = segments[j].a - segments[i].a;
-      const double model_spacing = std::abs(di.x() * d.y() - di.y() * d.x());
-      if (std::abs(model_spacing - spacing) > params.spacing_tolerance) continue;
-      if (length_a > segments[i].length() + params.length_tolerance ||
-          length_b > segments[j].length() + params.length_tolerance) {
-        continue;
-      }
-      bool explained = false;
-      for (const auto& goal : kModelSegments) {
-        // Either way round: which side the goal is on is settled by the corners.
-        if ((goal[role_a] == i && goal[role_b] == j) || (goal[role_a] == j && goal[role_b] == i)) {
-          explained = true;
-        }
-      }
-      if (!explained) return false;
+      pairs.push_back({i, j, std::abs(di.x() * d.y() - di.y() * d.x()), segments[i].length(),
+                       segments[j].length()});
     }
+  }
+  valid = true;
+  return pairs;
+}
+
+// True if two parallel lines `spacing` apart and at most `length_a`, `length_b` long can only be
+// the lines of roles (role_a, role_b) of one penalty area: every pair of parallel model lines at
+// that spacing that is long enough to show them is such a pair.
+bool onlyPenaltyPair(const field::FieldModel& field, int role_a, int role_b, double spacing,
+                     double length_a, double length_b, const RecognitionParams& params) {
+  for (const ParallelPair& pair : parallelPairs(field)) {
+    if (std::abs(pair.spacing - spacing) > params.spacing_tolerance) continue;
+    if (length_a > pair.length_i + params.length_tolerance ||
+        length_b > pair.length_j + params.length_tolerance) {
+      continue;
+    }
+    bool explained = false;
+    for (const auto& goal : kModelSegments) {
+      // Either way round: which side the goal is on is settled by the corners.
+      if ((goal[role_a] == pair.i && goal[role_b] == pair.j) ||
+          (goal[role_a] == pair.j && goal[role_b] == pair.i)) {
+        explained = true;
+      }
+    }
+    if (!explained) return false;
   }
   return true;
 }

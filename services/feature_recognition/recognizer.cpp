@@ -174,6 +174,7 @@ InputCheck FeatureRecognizer::recognize(const perception::LinePoints& in,
     c.robot = identity.robot;
     c.fit = model_check_.fit(contours_.points, identity.robot);
     c.others = identity.fit;
+    c.rival_share = identity.rival_share;
     c.accepted = identified && model_check_.accepts(c.fit, c.others);
     checked_.push_back(c);
     if (!c.accepted) continue;
@@ -182,6 +183,43 @@ InputCheck FeatureRecognizer::recognize(const perception::LinePoints& in,
     const double sigma_phi = std::min(lineAngleSigma(a), lineAngleSigma(b));
     addCorner(j.position, toward_goal, model->left, model->inner,
               std::hypot(lineOffsetSigma(a), lineOffsetSigma(b)), sigma_phi, nullptr);
+  }
+  // Penalty corners from one line's end, when the corner's other line is too sparse for a line.
+  if (params_.line_end_corners && structure_.found) {
+    thread_local std::vector<Vec2> taken;
+    thread_local std::vector<LineEnd> ends;
+    taken = corners_seen;
+    for (const Junction& j : junctions_)
+      taken.push_back(j.position);
+    candidateLineEnds(structure_, field_, taken, params_, ends);
+    for (const LineEnd& end : ends) {
+      bool seen = false;
+      for (const Vec2& c : corners_seen) {
+        if ((c - end.position).norm() < params_.junction_distance) seen = true;
+      }
+      if (seen) continue;
+      LineEndIdentity identity;
+      identifyLineEnd(end, model_junctions_, contours_.points, model_check_, params_, identity);
+      const int m = identity.identity.model;
+      if (m < 0 || !model_junctions_[m].penalty_corner) continue;
+      const ModelJunction& model = model_junctions_[m];
+      const Vec2 toward_goal = geometry::rotate(model.toward_goal, -identity.identity.robot.phi);
+      CheckedFeature c;
+      c.kind = FeatureKind::kPenaltyCorner;
+      c.local = {identity.corner.x(), identity.corner.y(),
+                 std::atan2(toward_goal.y(), toward_goal.x())};
+      c.robot = identity.identity.robot;
+      c.fit = model_check_.fit(contours_.points, c.robot);
+      c.others = identity.identity.fit;
+      c.rival_share = identity.identity.rival_share;
+      c.shifted_share = identity.shifted_share;
+      c.accepted = identity.identified && model_check_.accepts(c.fit, c.others);
+      checked_.push_back(c);
+      if (!c.accepted) continue;
+      const Line& line = structure_.groups[end.axis][end.group].line;
+      addCorner(identity.corner, toward_goal, model.left, model.inner, lineOffsetSigma(line),
+                lineAngleSigma(line), nullptr);
+    }
   }
   dropInconsistent(out);
   // Lower features: no pose of their own (many places on the field look the same).

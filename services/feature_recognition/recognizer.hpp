@@ -25,6 +25,7 @@
 #include "services/feature_recognition/centre_circle.hpp"
 #include "services/feature_recognition/junction_identity.hpp"
 #include "services/feature_recognition/junctions.hpp"
+#include "services/feature_recognition/line_end_identity.hpp"
 #include "services/feature_recognition/model_check.hpp"
 #include "services/feature_recognition/penalty_area.hpp"
 
@@ -40,6 +41,10 @@ struct CheckedFeature {
   // corners only).
   ModelFit fit;
   ModelFit others;
+  // L-corners and line ends placed by the model check: the best rival place's share of the
+  // other points, and (line ends) the best share with the pose shifted (line_end_identity).
+  double rival_share = 0.0;
+  double shifted_share = 0.0;
   bool accepted = false;
   // Refused after passing: another high-level feature of the frame fits the points better and
   // implies a different pose (one robot has one pose, up to the field's point symmetry).

@@ -82,15 +82,7 @@ BallRejection BallFilter::update(const perception::BallSighting& s, const EkfSta
   r += j * robot.p.topLeftCorner<3, 3>() * j.transpose();
 
   if (!initialized_) {
-    initialized_ = true;
-    x_ << z, 0.0, 0.0;
-    p_.setZero();
-    p_.topLeftCorner<2, 2>() = r;
-    p_(2, 2) = p_(3, 3) = 4.0;
-    utime_ = s.utime;
-    last_seen_ = s.utime;
-    outliers_in_row_ = 0;
-    contradicted_ = false;
+    restart(s.utime, z, r);
     return BallRejection::kNone;
   }
   Eigen::Vector4d x = x_;
@@ -100,15 +92,22 @@ BallRejection BallFilter::update(const perception::BallSighting& s, const EkfSta
   const Eigen::Matrix2d sm = p.topLeftCorner<2, 2>() + r;
   const double m2 = y.dot(sm.inverse() * y);
   if (!(m2 <= params_.gate2)) {
-    if (++outliers_in_row_ >= params_.restart_after_outliers) {
-      initialized_ = false;
-      return update(s, robot);
+    const bool confident = s.sigma_radial <= params_.restart_max_sigma_m &&
+                           s.sigma_tangential <= params_.restart_max_sigma_m;
+    const bool far =
+        params_.restart_distance_m > 0.0 && confident && y.norm() > params_.restart_distance_m;
+    if (far || ++outliers_in_row_ >= params_.restart_after_outliers) {
+      if (far) ++restarts_far_;
+      restart(s.utime, z, r);
+      return BallRejection::kNone;
     }
     contradicted_ = params_.invalid_after_outlier;
+    last_outlier_ = Outlier{s.utime, z, r};
     return BallRejection::kOutlier;
   }
   outliers_in_row_ = 0;
   contradicted_ = false;
+  last_outlier_.reset();
   Eigen::Matrix<double, 2, 4> h = Eigen::Matrix<double, 2, 4>::Zero();
   h(0, 0) = h(1, 1) = 1.0;
   const Eigen::Matrix<double, 4, 2> k = p * h.transpose() * sm.inverse();
@@ -120,6 +119,36 @@ BallRejection BallFilter::update(const perception::BallSighting& s, const EkfSta
   utime_ = s.utime;
   last_seen_ = s.utime;
   return BallRejection::kNone;
+}
+
+void BallFilter::restart(Utime t, const Eigen::Vector2d& z, const Eigen::Matrix2d& r) {
+  Eigen::Vector2d v = Eigen::Vector2d::Zero();
+  Eigen::Matrix2d pv = Eigen::Matrix2d::Identity() * 4.0;
+  Eigen::Matrix2d pxv = Eigen::Matrix2d::Zero();
+  if (params_.velocity_from_pair && initialized_ && last_outlier_ && last_outlier_->utime < t) {
+    const double dt = static_cast<double>(t - last_outlier_->utime) * 1e-6;
+    const Eigen::Vector2d pair = (z - last_outlier_->z) / dt;
+    if (dt <= params_.pair_max_age_s && pair.norm() <= params_.pair_max_speed) {
+      ++restarts_with_velocity_;
+      v = pair;
+      // Both sightings' errors over the interval, plus the deceleration the interval hides.
+      const double slack = params_.rolling_deceleration + params_.acceleration_density;
+      pv = (r + last_outlier_->r) / (dt * dt) + Eigen::Matrix2d::Identity() * (slack * slack * dt);
+      pxv = r / dt;
+    }
+  }
+  initialized_ = true;
+  x_ << z, v;
+  p_.setZero();
+  p_.topLeftCorner<2, 2>() = r;
+  p_.bottomRightCorner<2, 2>() = pv;
+  p_.topRightCorner<2, 2>() = pxv;
+  p_.bottomLeftCorner<2, 2>() = pxv.transpose();
+  utime_ = t;
+  last_seen_ = t;
+  outliers_in_row_ = 0;
+  contradicted_ = false;
+  last_outlier_.reset();
 }
 
 perception::BallEstimate BallFilter::estimate(Utime t) const {

@@ -34,6 +34,17 @@ struct BallFilterParams {
   // An outlier makes the estimate invalid until a sighting agrees again or the filter restarts
   // (the ball was kicked or bounced: where the filter thinks it is, it is not).
   bool invalid_after_outlier = false;
+  // A confident sighting (radial and tangential sigmas at most `restart_max_sigma_m`) further
+  // than this from the prediction restarts the filter at it at once: the ball was put somewhere
+  // else or bounced off a robot, and the sighting is better than the old estimate. 0: off, m.
+  double restart_distance_m = 0.0;
+  double restart_max_sigma_m = 0.15;
+  // When the filter restarts after outliers, the outlier before (at most `pair_max_age_s` older,
+  // implying at most `pair_max_speed` m/s) gives the velocity: the ball rolls on as the two
+  // sightings say instead of starting from rest. false: restart at rest.
+  bool velocity_from_pair = false;
+  double pair_max_age_s = 0.25;
+  double pair_max_speed = 12.0;
 };
 
 enum class BallRejection : std::uint8_t {
@@ -55,10 +66,16 @@ class BallFilter {
   // The estimate at `t` (moved on with friction); valid only within max_age of the last sighting.
   perception::BallEstimate estimate(Utime t) const;
   bool initialized() const { return initialized_; }
+  // Restarts at a confident far sighting, and restarts with the velocity of an outlier pair.
+  std::uint64_t restartsFar() const { return restarts_far_; }
+  std::uint64_t restartsWithVelocity() const { return restarts_with_velocity_; }
 
  private:
   // State (x, y, vx, vy) moved to `t`.
   void predict(Utime t, Eigen::Vector4d& x, Eigen::Matrix4d& p) const;
+  // (Re)starts at a sighting `z` (field frame, covariance `r`) at `t`, with the velocity from the
+  // previous outlier when params allow.
+  void restart(Utime t, const Eigen::Vector2d& z, const Eigen::Matrix2d& r);
 
   BallFilterParams params_;
   bool initialized_ = false;
@@ -70,6 +87,15 @@ class BallFilter {
   bool contradicted_ = false;
   Eigen::Vector4d x_ = Eigen::Vector4d::Zero();
   Eigen::Matrix4d p_ = Eigen::Matrix4d::Identity();
+  // The newest outlier sighting (field frame), for the velocity of a restart.
+  struct Outlier {
+    Utime utime = 0;
+    Eigen::Vector2d z = Eigen::Vector2d::Zero();
+    Eigen::Matrix2d r = Eigen::Matrix2d::Identity();
+  };
+  std::optional<Outlier> last_outlier_;
+  std::uint64_t restarts_far_ = 0;
+  std::uint64_t restarts_with_velocity_ = 0;
 };
 
 }  // namespace fieldline::fusion

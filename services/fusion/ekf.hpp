@@ -77,6 +77,22 @@ struct SlipModel {
   double inflation = 2.0;
 };
 
+// Contact with another robot, as the robot's own camera tells it (an obstacle's near edge close to
+// the body in VISION_OBSTACLES): while in contact the simulator (and a real carpet) twists and
+// pushes the robot in ways the wheels do not see, so the pose's process noise grows by these
+// densities for `hold_us` after each frame that showed contact. `distance_m` 0: off.
+struct ContactModel {
+  // A frame whose nearest obstacle is closer than this (robot centre to the obstacle's nearest
+  // floor point) is contact evidence, m.
+  double distance_m = 0.0;
+  // How long one such frame keeps the robot in contact, µs (the touching obstacle disappears
+  // into the mirror's blind centre once it touches).
+  Utime hold_us = 400'000;
+  // Extra position and heading noise while in contact, m/sqrt(s) and rad/sqrt(s).
+  double position_density = 0.0;
+  double heading_density = 0.0;
+};
+
 struct UpdateResult {
   bool accepted = false;
   // Squared Mahalanobis distance of the innovation.

@@ -113,6 +113,19 @@ void loadCalibration(const config::Node& n, LocalizerParams& p) {
   n.rejectUnknownKeys();
 }
 
+void loadContact(const config::Node& n, LocalizerParams& l) {
+  ContactModel& p = l.filter.contact;
+  l.contact_search_steps = n.getOr<int>("search_steps", l.contact_search_steps, 0, 20);
+  l.twist_search_always = n.getOr<bool>("search_always", l.twist_search_always);
+  l.contact_search_min_points = static_cast<std::size_t>(
+      n.getOr<int>("search_min_points", static_cast<int>(l.contact_search_min_points), 1, 100000));
+  p.distance_m = n.getOr<double>("distance_m", p.distance_m, 0.0, 5.0);
+  p.hold_us = micros(n.getOr<double>("hold_s", seconds(p.hold_us), 0.0, 5.0));
+  p.position_density = n.getOr<double>("position_density", p.position_density, 0.0, 10.0);
+  p.heading_density = n.getOr<double>("heading_density", p.heading_density, 0.0, 10.0);
+  n.rejectUnknownKeys();
+}
+
 void loadBall(const config::Node& n, FusionConfig& c) {
   BallFilterParams& p = c.ball;
   p.rolling_deceleration =
@@ -126,6 +139,12 @@ void loadBall(const config::Node& n, FusionConfig& c) {
   p.max_range_m = n.getOr<double>("max_range_m", p.max_range_m, 0.1, 50.0);
   p.sighting_floor_m = n.getOr<double>("sighting_floor_m", p.sighting_floor_m, 0.0, 5.0);
   p.invalid_after_outlier = n.getOr<bool>("invalid_after_outlier", p.invalid_after_outlier);
+  p.restart_distance_m = n.getOr<double>("restart_distance_m", p.restart_distance_m, 0.0, 50.0);
+  p.restart_max_sigma_m =
+      n.getOr<double>("restart_max_sigma_m", p.restart_max_sigma_m, 0.001, 10.0);
+  p.velocity_from_pair = n.getOr<bool>("velocity_from_pair", p.velocity_from_pair);
+  p.pair_max_age_s = n.getOr<double>("pair_max_age_s", p.pair_max_age_s, 0.001, 5.0);
+  p.pair_max_speed = n.getOr<double>("pair_max_speed", p.pair_max_speed, 0.1, 100.0);
   c.ball_rate_hz = n.getOr<double>("rate_hz", c.ball_rate_hz, 1.0, 200.0);
   n.rejectUnknownKeys();
 }
@@ -139,6 +158,7 @@ FusionConfig loadFusionConfig(const config::Node& root) {
   if (const auto n = root.childIf("odometry")) loadOdometry(*n, c.localizer.odometry);
   if (const auto n = root.childIf("localizer")) loadLocalizer(*n, c.localizer);
   if (const auto n = root.childIf("calibration")) loadCalibration(*n, c.localizer);
+  if (const auto n = root.childIf("contact")) loadContact(*n, c.localizer);
   if (const auto n = root.childIf("ball")) loadBall(*n, c);
   if (const auto n = root.childIf("matcher")) c.matcher = loadMatcherParams(*n);
   root.rejectUnknownKeys();

@@ -1,8 +1,9 @@
 // The fusion process's settings in one YAML file (config/fusion/default.yaml): the filter's
 // window and gate, the process and odometry noise, the localizer's thresholds, the covariance
-// calibration (floors, slip and collision inflation, the uncertainty of a committed pose), the
-// ball filter and layer 2's matcher. Every key is optional (absent keys keep the code's
-// defaults); an unknown key or a value out of range is an error with file:line.
+// calibration (floors, slip and collision inflation, the uncertainty of a committed pose), contact
+// evidence from VISION_OBSTACLES, the ball filter and layer 2's matcher. Every key is optional
+// (absent keys keep the code's defaults); an unknown key or a value out of range is an error with
+// file:line.
 #pragma once
 
 #include <string>
@@ -23,7 +24,7 @@ struct FusionConfig {
 };
 
 // Reads the root of a fusion config file: sections filter, process_noise, odometry, localizer,
-// calibration, ball, matcher (each optional).
+// calibration, contact, ball, matcher (each optional).
 FusionConfig loadFusionConfig(const config::Node& root);
 // Preset name (config/fusion/NAME.yaml) or path.
 FusionConfig loadFusionConfigPreset(const std::string& name_or_path);

@@ -7,6 +7,7 @@
 #include "common/msg/estimates.hpp"
 #include "common/msg/field_features.hpp"
 #include "common/msg/line_contours.hpp"
+#include "common/msg/obstacle_observations.hpp"
 
 namespace fieldline::fusion {
 namespace {
@@ -36,6 +37,8 @@ FusionNode::FusionNode(bus::Node& node, FusionNodeOptions options, MatcherFuncti
   node_.subscribe(bus::channels::kFieldFeatures,
                   [this](const field_features_t& m) { onFeatures(m); });
   node_.subscribe(bus::channels::kVisionBall, [this](const ball_observation_t& m) { onBall(m); });
+  node_.subscribe(bus::channels::kVisionObstacles,
+                  [this](const obstacle_observations_t& m) { onObstacles(m); });
   node_.every(static_cast<Utime>(std::llround(1e6 / options_.ball_rate_hz)),
               [this] { publishBall(); });
 }
@@ -75,6 +78,12 @@ void FusionNode::onLines(const line_contours_t& m) {
 void FusionNode::onFeatures(const field_features_t& m) {
   msg::fromMessage(m, features_);
   localizer_.addFeatures(features_, m.header.utime, node_.now());
+  reportNewRejections();
+}
+
+void FusionNode::onObstacles(const obstacle_observations_t& m) {
+  msg::fromMessage(m, obstacles_);
+  localizer_.addObstacles(obstacles_, node_.now());
   reportNewRejections();
 }
 
@@ -129,6 +138,11 @@ void FusionNode::updateMetrics() {
   node_.setMetric("gate_resets", static_cast<double>(localizer_.counters().resets));
   node_.setMetric("slips", static_cast<double>(localizer_.counters().slips));
   node_.setMetric("pinned_slips", static_cast<double>(localizer_.counters().pinned_slips));
+  node_.setMetric("contact_slips", static_cast<double>(localizer_.counters().contact_slips));
+  node_.setMetric("contact_frames", static_cast<double>(localizer_.counters().contact_frames));
+  node_.setMetric("twist_searches", static_cast<double>(localizer_.counters().twist_searches));
+  node_.setMetric("ball_restarts_far", static_cast<double>(ball_.restartsFar()));
+  node_.setMetric("ball_restarts_with_velocity", static_cast<double>(ball_.restartsWithVelocity()));
 }
 
 }  // namespace fieldline::fusion

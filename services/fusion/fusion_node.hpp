@@ -1,7 +1,8 @@
-// The fusion process's bus side: ODOMETRY, VISION_LINES, FIELD_FEATURES and VISION_BALL in;
-// ROBOT_STATE on every odometry message (stamped with the odometry's utime) and BALL_STATE at a
-// fixed rate out. The algorithms are the Localizer and the BallFilter; the node converts messages,
-// reads time from its clock and reports refused inputs in SERVICE_STATUS.
+// The fusion process's bus side: ODOMETRY, VISION_LINES, FIELD_FEATURES, VISION_BALL and
+// VISION_OBSTACLES (contact evidence) in; ROBOT_STATE on every odometry message (stamped with the
+// odometry's utime) and BALL_STATE at a fixed rate out. The algorithms are the Localizer and the
+// BallFilter; the node converts messages, reads time from its clock and reports refused inputs in
+// SERVICE_STATUS.
 #pragma once
 
 #include <cstdint>
@@ -9,11 +10,13 @@
 #include <string>
 
 #include <fieldline/ball_state_t.hpp>
+#include <fieldline/obstacle_observations_t.hpp>
 #include <fieldline/robot_state_t.hpp>
 
 #include "common/bus/node.hpp"
 #include "common/perception/field_features.hpp"
 #include "common/perception/line_points.hpp"
+#include "common/perception/obstacles.hpp"
 #include "common/robot/robot_params.hpp"
 #include "services/fusion/ball_filter.hpp"
 #include "services/fusion/localizer.hpp"
@@ -42,6 +45,7 @@ class FusionNode {
   void onLines(const line_contours_t& m);
   void onFeatures(const field_features_t& m);
   void onBall(const ball_observation_t& m);
+  void onObstacles(const obstacle_observations_t& m);
   void publishBall();
   // Reports every refusal the localizer counted since the last call.
   void reportNewRejections();
@@ -53,6 +57,7 @@ class FusionNode {
   BallFilter ball_;
   perception::LinePoints lines_;
   perception::FieldFeatures features_;
+  perception::ObstacleSightings obstacles_;
   std::map<std::string, std::uint64_t> reported_;
   std::map<std::string, std::uint64_t> ball_rejections_;
   robot_state_t state_msg_{};

@@ -129,6 +129,52 @@ DelayedFilter::PoseResult DelayedFilter::addPose(MeasurementSource source, const
   return result;
 }
 
+Rejection DelayedFilter::addContact(Utime utime, Utime now) {
+  if (const Rejection r = checkTime(utime, now); r != Rejection::kNone) return count(r);
+  const auto it = std::lower_bound(contacts_.begin(), contacts_.end(), utime);
+  if (it != contacts_.end() && *it == utime) return count(Rejection::kDuplicate);
+  contacts_.insert(it, utime);
+  newest_input_ = std::max(newest_input_, utime);
+  if (initialized() && params_.contact.hold_us > 0) replayFrom(utime, -1);
+  prune();
+  return Rejection::kNone;
+}
+
+bool DelayedFilter::inContact(Utime t) const {
+  // The newest evidence at or before t.
+  auto it = std::upper_bound(contacts_.begin(), contacts_.end(), t);
+  if (it == contacts_.begin()) return false;
+  return t - *std::prev(it) <= params_.contact.hold_us;
+}
+
+double DelayedFilter::contactSeconds(Utime a, Utime b) const {
+  const Utime hold = params_.contact.hold_us;
+  if (b <= a || hold <= 0 || contacts_.empty()) return 0.0;
+  // The union of [e, e + hold] over the evidence e, intersected with [a, b].
+  auto it = std::lower_bound(contacts_.begin(), contacts_.end(), a - hold);
+  Utime covered = 0;
+  Utime reach = a;  // everything before `reach` is counted already
+  for (; it != contacts_.end() && *it < b; ++it) {
+    const Utime from = std::max(*it, reach);
+    const Utime to = std::min(*it + hold, b);
+    if (to > from) {
+      covered += to - from;
+      reach = to;
+    }
+  }
+  return static_cast<double>(covered) * 1e-6;
+}
+
+void DelayedFilter::addContactNoise(EkfState& s, Utime a, Utime b) const {
+  const ContactModel& c = params_.contact;
+  if (c.position_density <= 0.0 && c.heading_density <= 0.0) return;
+  const double dt = contactSeconds(a, b);
+  if (dt <= 0.0) return;
+  s.p(0, 0) += c.position_density * c.position_density * dt;
+  s.p(1, 1) += c.position_density * c.position_density * dt;
+  s.p(2, 2) += c.heading_density * c.heading_density * dt;
+}
+
 DelayedFilter::Applied DelayedFilter::replayFrom(Utime t, int target_kind) {
   Applied applied;
   if (!initialized()) return applied;
@@ -161,7 +207,9 @@ DelayedFilter::Applied DelayedFilter::replayFrom(Utime t, int target_kind) {
     }
     if (kind < 0) break;
     if (kind == kOdometryKind) {
+      const Utime before = state.utime;
       predictOdometry(state, odometry_[io].value, params_.noise);
+      addContactNoise(state, before, state.utime);
       ++io;
     } else {
       const std::size_t m = static_cast<std::size_t>(kind - 1);
@@ -169,6 +217,7 @@ DelayedFilter::Applied DelayedFilter::replayFrom(Utime t, int target_kind) {
       // A refused measurement leaves no trace, not even the split of the odometry interval.
       EkfState updated = state;
       predictConstantVelocity(updated, z.utime, params_.noise);
+      addContactNoise(updated, state.utime, updated.utime);
       const UpdateResult u = updatePose(updated, z, params_.gate2, params_.slip);
       if (u.accepted) state = updated;
       if (kind == target_kind && z.utime == t) {
@@ -197,10 +246,15 @@ void DelayedFilter::prune() {
     odometry_.dropBefore(base + 1);
     for (auto& channel : measurements_)
       channel.dropBefore(base + 1);
+    // Evidence still covering the base stays: it widens the intervals after it.
+    while (!contacts_.empty() && contacts_.front() + params_.contact.hold_us < base)
+      contacts_.pop_front();
   } else {
     odometry_.dropBefore(limit);
     for (auto& channel : measurements_)
       channel.dropBefore(limit);
+    while (!contacts_.empty() && contacts_.front() + params_.contact.hold_us < limit)
+      contacts_.pop_front();
   }
 }
 
@@ -209,7 +263,9 @@ std::optional<EkfState> DelayedFilter::stateAt(Utime t) const {
   auto it = std::upper_bound(checkpoints_.begin(), checkpoints_.end(), t,
                              [](Utime v, const EkfState& s) { return v < s.utime; });
   EkfState s = *std::prev(it);
+  const Utime from = s.utime;
   predictConstantVelocity(s, t, params_.noise);
+  addContactNoise(s, from, s.utime);
   return s;
 }
 

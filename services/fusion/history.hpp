@@ -45,6 +45,8 @@ struct FilterParams {
   ProcessNoise noise;
   // Trusted measurements beyond the gate: a slip odometry did not see (collisions).
   SlipModel slip;
+  // Contact evidence widens the pose's process noise (ContactModel).
+  ContactModel contact;
 };
 
 class DelayedFilter {
@@ -68,6 +70,14 @@ class DelayedFilter {
   };
   PoseResult addPose(MeasurementSource source, const PoseMeasurement& z, Utime now);
 
+  // Stores a frame's contact evidence (its exposure time) and replays what came after it: from
+  // `utime` for params().contact.hold_us the pose's process noise grows (ContactModel). Like any
+  // input it is refused when from the future or older than the window; a second one at the same
+  // time is a duplicate (refused, changes nothing).
+  Rejection addContact(Utime utime, Utime now);
+  // True when contact evidence covers `t` (a frame at or before it within the hold).
+  bool inContact(Utime t) const;
+
   // The state after the newest input. Requires initialized().
   const EkfState& current() const { return checkpoints_.back(); }
   // The state at `t` (from the checkpoint at or before it, moved on with the velocity); empty
@@ -88,6 +98,10 @@ class DelayedFilter {
     UpdateResult update;
   };
   Rejection checkTime(Utime utime, Utime now) const;
+  // Time in [a, b] covered by contact evidence, s.
+  double contactSeconds(Utime a, Utime b) const;
+  // Adds the contact noise for the interval [a, b] to the state's pose covariance.
+  void addContactNoise(EkfState& s, Utime a, Utime b) const;
   // Rewinds to the last checkpoint before `t` and replays every input after it. Returns the
   // update result of the pose measurement `target_source` at `t`, when it was replayed.
   Applied replayFrom(Utime t, int target_kind);
@@ -100,6 +114,8 @@ class DelayedFilter {
   FilterParams params_;
   TimedChannel<OdometryStep> odometry_;
   std::array<TimedChannel<PoseMeasurement>, 2> measurements_;
+  // Times of the frames that showed contact, ascending.
+  std::deque<Utime> contacts_;
   // checkpoints_[0]: the base (everything at or before its utime is in it); then the state after
   // each processed instant, in time order.
   std::deque<EkfState> checkpoints_;

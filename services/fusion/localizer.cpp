@@ -162,9 +162,21 @@ void Localizer::trackLines(std::span<const perception::LinePoint> points, Utime 
     count("lines_too_old");
     return;
   }
-  const PoseCorrection c = matcher_.correct(points, guess->pose());
+  PoseCorrection c = matcher_.correct(points, guess->pose());
   const double cost_at_estimate = matcher_.cost(points, guess->pose());
   last_cost_ = cost_at_estimate;
+  // Twisted in contact beyond what the matcher reaches from the estimate: search the heading.
+  const bool contact = filter_.inContact(utime);
+  bool twist_found = false;
+  if (params_.contact_search_steps > 0 && (contact || params_.twist_search_always) &&
+      !(c.valid && c.cost <= params_.accept_cost_m) &&
+      points.size() >= params_.contact_search_min_points) {
+    if (const auto found = searchHeadings(points, guess->pose(), params_.contact_search_steps)) {
+      c = *found;
+      twist_found = true;
+      ++counters_.twist_searches;
+    }
+  }
   bool good = false;
   if (c.valid && c.cost <= params_.accept_cost_m) {
     PoseMeasurement z{utime, c.pose, correctionCovariance(c)};
@@ -187,13 +199,16 @@ void Localizer::trackLines(std::span<const perception::LinePoint> points, Utime 
     const bool pinned = seen.pinned;
     const bool twisted =
         std::abs(offset[2]) >= params_.slip_single_frame_rad && !seen.along_long_axis;
-    z.may_reveal_slip = confirmed || twisted || pinned;
+    // In contact (the robot's camera saw an obstacle at its body) a push or twist is expected:
+    // the frame is taken at once.
+    z.may_reveal_slip = confirmed || twisted || pinned || contact || twist_found;
     const auto r = filter_.addPose(MeasurementSource::kLines, z, now);
     if (r.rejection == Rejection::kNone) {
       ++counters_.corrections;
       if (r.update.slip) {
         ++counters_.slips;
         if (pinned && !confirmed && !twisted) ++counters_.pinned_slips;
+        if (contact && !pinned && !confirmed && !twisted) ++counters_.contact_slips;
       }
       good = true;
       gated_in_row_ = 0;
@@ -353,6 +368,20 @@ void Localizer::localSearch(std::span<const perception::LinePoint> points, Utime
     h.frames = 1;
     addHypothesis(h);
   }
+}
+
+std::optional<PoseCorrection> Localizer::searchHeadings(
+    std::span<const perception::LinePoint> points, const geometry::Pose2& guess, int steps) const {
+  std::optional<PoseCorrection> best;
+  for (int k = -steps; k <= steps; ++k) {
+    if (k == 0) continue;
+    const geometry::Pose2 turned{
+        guess.x, guess.y, geometry::normalizeAngle(guess.phi + k * params_.local_search_step_rad)};
+    const PoseCorrection c = matcher_.correct(points, turned);
+    if (!c.valid || c.cost > params_.accept_cost_m) continue;
+    if (!best || c.cost < best->cost) best = c;
+  }
+  return best;
 }
 
 void Localizer::searchLines(std::span<const perception::LinePoint> points, Utime utime) {
@@ -518,6 +547,22 @@ void Localizer::addFeatures(const perception::FieldFeatures& features, Utime uti
     if (d <= params_.contradict_m || ph.sigma_xy > 0.3) all_far = false;
   }
   contradictions_ = (!fused && all_far) ? contradictions_ + 1 : 0;
+}
+
+void Localizer::addObstacles(const perception::ObstacleSightings& sightings, Utime now) {
+  const ContactModel& contact = params_.filter.contact;
+  bool touching = false;
+  for (const perception::ObstacleSighting& o : sightings.obstacles) {
+    if (!std::isfinite(o.distance) || o.distance < 0.0) {
+      count("obstacles_not_finite");
+      return;
+    }
+    touching = touching || o.distance < contact.distance_m;
+  }
+  if (!touching) return;
+  ++counters_.contact_frames;
+  const Rejection r = filter_.addContact(sightings.utime, now);
+  if (r != Rejection::kNone) count(std::string("obstacles_") + toString(r));
 }
 
 std::optional<EkfState> Localizer::stateAt(Utime t) const {

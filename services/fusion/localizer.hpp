@@ -21,6 +21,7 @@
 #include "common/perception/estimates.hpp"
 #include "common/perception/field_features.hpp"
 #include "common/perception/line_points.hpp"
+#include "common/perception/obstacles.hpp"
 #include "common/robot/robot_params.hpp"
 #include "services/fusion/history.hpp"
 #include "services/fusion/line_matcher.hpp"
@@ -116,6 +117,15 @@ struct LocalizerParams {
   double local_search_s = 1.0;
   double local_search_step_rad = 0.35;
   int local_search_steps = 4;
+  // In contact (ContactModel), a frame that gives no good correction from the estimate (the
+  // robot was twisted further than the matcher reaches) is matched again from the estimate
+  // turned by multiples of local_search_step_rad, up to this many each side, and the best good
+  // correction is taken at once as a slip; 0: off. With `twist_search_always` every such frame is
+  // searched, contact seen or not.
+  int contact_search_steps = 0;
+  bool twist_search_always = false;
+  // Frames with fewer points are not searched (a few points fit some heading by chance).
+  std::size_t contact_search_min_points = 30;
   // Half extents of the area searched (the carpet), m.
   double search_half_length_m = 10.0;
   double search_half_width_m = 6.5;
@@ -134,6 +144,12 @@ struct LocalizerCounters {
   std::uint64_t slips = 0;
   // Of those, single frames taken at once because the lines pinned the disagreement down.
   std::uint64_t pinned_slips = 0;
+  // ... or because the robot was in contact (ContactModel).
+  std::uint64_t contact_slips = 0;
+  // Frames whose correction came from the twist search (contact_search_steps).
+  std::uint64_t twist_searches = 0;
+  // VISION_OBSTACLES frames that showed an obstacle touching the robot.
+  std::uint64_t contact_frames = 0;
 };
 
 class Localizer {
@@ -146,6 +162,13 @@ class Localizer {
   void addLines(std::span<const perception::LinePoint> points, Utime utime, Utime now);
   // Layer 3.
   void addFeatures(const perception::FieldFeatures& features, Utime utime, Utime now);
+  // Contact evidence: a frame whose nearest obstacle lies within params.filter.contact.distance_m
+  // of the robot's centre. While in contact the pose's process noise grows (ContactModel) and a
+  // well-matching line frame beyond the gate is taken at once as a slip. A frame with a
+  // non-finite or negative distance is refused and counted ("obstacles_not_finite").
+  void addObstacles(const perception::ObstacleSightings& sightings, Utime now);
+  // True while contact evidence covers `t`.
+  bool inContact(Utime t) const { return filter_.inContact(t); }
 
   // The estimate at the newest odometry time (what ROBOT_STATE carries); `now` decides
   // ODOMETRY_ONLY.
@@ -185,6 +208,10 @@ class Localizer {
   void searchLines(std::span<const perception::LinePoint> points, Utime utime);
   void coarseSearch(std::span<const perception::LinePoint> points, Utime utime);
   void localSearch(std::span<const perception::LinePoint> points, Utime utime);
+  // The best good correction from `guess` turned by up to `steps` heading steps each side
+  // (not the unturned guess itself).
+  std::optional<PoseCorrection> searchHeadings(std::span<const perception::LinePoint> points,
+                                               const geometry::Pose2& guess, int steps) const;
   void addHypothesis(const Hypothesis& h);
   void becomeLost(Utime utime);
   void commit(const Hypothesis& h);

@@ -103,7 +103,9 @@ LineDetector::LineDetector(const camera::ColourTable& table, const FloorLookup& 
       first_step_(-std::max(2, cell_size / 2)) {
   if (params_.sample_spacing < 1 || params_.tangent_half_span < 1 || params_.smoothing_passes < 0 ||
       params_.max_transition_pixels < 0 || params_.max_gap_pixels < 0 ||
-      params_.field_confirm_pixels < 1 || cell_size < 1) {
+      params_.field_confirm_pixels < 1 || cell_size < 1 ||
+      !(params_.ridge_contrast == 0.0 || params_.ridge_contrast >= 1.0) ||
+      params_.ridge_min_levels < 0 || params_.ridge_min_levels > 255) {
     throw std::invalid_argument("line detector: invalid parameters");
   }
   // The longest white run a line can give at a pixel: its width at the pixel's finest floor
@@ -234,6 +236,15 @@ bool LineDetector::scan(const camera::FrameView& frame, float originU, float ori
   const int maxGap = params_.max_gap_pixels;
   const int confirm = params_.field_confirm_pixels;
   const bool endAtSelf = params_.end_at_self;
+  // A ridge (blurred line without line-coloured pixels) may span the longest run and both
+  // transitions.
+  const bool ridges = params_.ridge_contrast > 0.0;
+  const int maxRidge = maxRun + 2 * maxTransition;
+  bool ridgeEligible = true;  // every pixel since the last field pixel is unclassified
+  // The first ridge met: its field pixel before, peak and field pixel after. A run of the line
+  // colour further along the walk wins over it (a ridge right before a line is mostly that
+  // line's blurred edge with a pixel of it classified as field).
+  int ridgeField = -1, ridgeAt = -1, ridgeAfter = -1;
   // On the stack, so that storing a brightness cannot alias the colour table's pointer (which
   // would be reloaded for every pixel). Walks have at most 255 steps (8-bit offsets).
   std::array<std::uint8_t, kMaxWalk> luma;
@@ -259,15 +270,26 @@ bool LineDetector::scan(const camera::FrameView& frame, float originU, float ori
     const bool line = c == line_colour;
     if (runStart < 0) {  // before the line
       if (field) {
+        if (transition > 0 && ridgeEligible && ridges && ridgeAt < 0) {
+          const int peak = ridgePeak(luma.data(), lastField, index);
+          if (peak >= 0) {  // field - a ridge of brightness - field: a blurred line
+            ridgeField = lastField;
+            ridgeAt = peak;
+            ridgeAfter = index;
+          }
+        }
         sawField = true;
         lastField = index;
         transition = 0;
+        ridgeEligible = true;
       } else if (line) {
-        if (!sawField) break;
+        if (!sawField || transition > maxTransition) break;
         runStart = runEnd = index;
         transition = 0;
-      } else if (sawField && ++transition > maxTransition) {
-        break;
+      } else if (sawField) {
+        ridgeEligible = ridgeEligible && c == camera::ColourClass::kUnknown;
+        ++transition;
+        if (transition > (ridges && ridgeEligible ? maxRidge : maxTransition)) break;
       }
     } else if (line) {        // on the line, or back on it after a hole of noise
       if (fieldAfter >= 0) {  // field came between: the line ended there, another one begins
@@ -297,6 +319,12 @@ bool LineDetector::scan(const camera::FrameView& frame, float originU, float ori
   }
   // A field pixel that the walk's end left unconfirmed still ends the line.
   if (!found && runStart >= 0 && fieldAfter >= 0 && index == count) found = true;
+  if (!found && ridgeAt >= 0) {  // no line-coloured run: the ridge is the line
+    lastField = ridgeField;
+    runStart = runEnd = ridgeAt;
+    fieldAfter = ridgeAfter;
+    found = true;
+  }
   const int read = std::min(index + 1, count);
   pixels_read_ += read;
   if (!found) return false;
@@ -312,6 +340,15 @@ bool LineDetector::scan(const camera::FrameView& frame, float originU, float ori
   lineU = originU + walk_normal_u_ * middle;
   lineV = originV + walk_normal_v_ * middle;
   return true;
+}
+
+int LineDetector::ridgePeak(const std::uint8_t* luma, int fieldBefore, int fieldAfter) const {
+  const int peak =
+      static_cast<int>(std::max_element(&luma[fieldBefore + 1], &luma[fieldAfter]) - luma);
+  const int field = std::max(luma[fieldBefore], luma[fieldAfter]);
+  const bool bright = luma[peak] >= params_.ridge_contrast * field &&
+                      luma[peak] >= field + params_.ridge_min_levels;
+  return bright ? peak : -1;
 }
 
 // Where the brightness crosses halfway between the field before the line and the line's

@@ -86,6 +86,13 @@ struct LineDetectorParams {
   // A line may also end at the robot's own reflection (dark pixels without a floor point), e.g.
   // the centre circle under the robot.
   bool end_at_self = true;
+  // Blurred thin lines: optics blur a far line into a ridge of brightness that is neither field
+  // nor line colour (its peak mixes paint with carpet). A run of unclassified pixels between two
+  // field pixels, no longer than a line's longest run plus both transitions, is a line when its
+  // brightest pixel is at least `ridge_contrast` times as bright as the brighter of the two field
+  // pixels and at least `ridge_min_levels` above it (0 = off: only runs of the line colour).
+  double ridge_contrast = 1.3;
+  int ridge_min_levels = 16;
   // The detector runs at every n-th contour corner.
   int sample_spacing = 2;
   // Passes of 0.25/0.5/0.25 smoothing of the contour before tangents are taken.
@@ -126,6 +133,9 @@ class LineDetector {
   template <camera::PixelFormat kFormat>
   bool scan(const camera::FrameView& frame, float originU, float originV, float normalU,
             float normalV, float& lineU, float& lineV);
+  // The brightest sample strictly between the field samples `fieldBefore` and `fieldAfter` when
+  // it is bright enough for a ridge (ridge_contrast, ridge_min_levels), else -1.
+  int ridgePeak(const std::uint8_t* luma, int fieldBefore, int fieldAfter) const;
   // Where the brightness crosses halfway between the field sample `field` and the peak of the
   // line run [runStart, runEnd], along the normal; `luma` holds the walk's brightness.
   float risingEdge(const std::uint8_t* luma, int field, int runStart, int runEnd) const;

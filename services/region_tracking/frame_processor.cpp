@@ -71,6 +71,13 @@ VisionParams loadVisionParams(const config::Node& node) {
   params.lines.field_confirm_pixels =
       lines.getOr<int>("field_confirm_pixels", lineDefaults.field_confirm_pixels, 1, 10);
   params.lines.end_at_self = lines.getOr<bool>("end_at_self", lineDefaults.end_at_self);
+  params.lines.ridge_contrast =
+      lines.getOr<double>("ridge_contrast", lineDefaults.ridge_contrast, 0.0, 10.0);
+  if (params.lines.ridge_contrast > 0.0 && params.lines.ridge_contrast < 1.0) {
+    lines.fail("ridge_contrast", "must be 0 (off) or at least 1");
+  }
+  params.lines.ridge_min_levels =
+      lines.getOr<int>("ridge_min_levels", lineDefaults.ridge_min_levels, 0, 255);
   params.lines.sample_spacing = lines.get<int>("sample_spacing", 1, 64);
   params.lines.smoothing_passes = lines.get<int>("smoothing_passes", 0, 20);
   params.lines.tangent_half_span = lines.get<int>("tangent_half_span", 1, 20);

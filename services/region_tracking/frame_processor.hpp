@@ -33,9 +33,9 @@ VisionParams defaultVisionParams();
 // camera::colourName), blocks {claims: [{class, min_fraction}]}, lines {line_width,
 // width_tolerance, max_transition_pixels, sample_spacing, smoothing_passes, tangent_half_span,
 // min_contour_points, max_gap_samples, optional max_gap_pixels, field_confirm_pixels,
-// end_at_self}, ball {centre_height, min_pixels, optional size_tolerance,
-// size_slack_px, min_fill, min_carpet_share}, obstacles {min_cells}.
-// Every key is required in its section except those documented optional in loadTrackerConfig.
+// end_at_self, ridge_contrast, ridge_min_levels}, ball {centre_height, min_pixels, optional
+// size_tolerance, size_slack_px, min_fill, min_carpet_share}, obstacles {min_cells}. Every key is
+// required in its section except those documented optional in loadTrackerConfig.
 VisionParams loadVisionParams(const config::Node& node);
 
 struct VisionResult {

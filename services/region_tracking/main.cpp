@@ -18,7 +18,7 @@ int main(int argc, char** argv) {
   CLI::App app{
       "Region tracking: grow/shrink tracking of the colour regions in each CAMERA_IMAGE, field "
       "lines along the green boundaries (VISION_LINES), the ball (VISION_BALL) and obstacles "
-      "(VISION_OBSTACLES)."};
+      "(VISION_OBSTACLES). SIGUSR1 resets the colour adaptation to the calibrated table."};
   bus::CommonOptions common;
   common.addTo(app);
   std::string camera_preset = "omni_sim";
@@ -61,6 +61,8 @@ int main(int argc, char** argv) {
     bus::Node node({.process = "region_tracking", .robot_id = common.robot, .url = common.bus_url},
                    clock);
     region_tracking::TrackingNode tracking(node, std::move(options));
+    // `kill -USR1 <pid>`: the colour adaptation back to the calibrated table (docs/calibration.md).
+    region_tracking::installColourResetSignal(tracking);
     spdlog::info("tracking CAMERA_IMAGE with camera preset {}, lines every {} frames",
                  camera_preset, lines_every);
     return node.run();

@@ -1,8 +1,11 @@
 #include "services/region_tracking/tracking_node.hpp"
 
 #include <chrono>
+#include <csignal>
 #include <stdexcept>
 #include <string>
+
+#include <spdlog/spdlog.h>
 
 #include "common/msg/estimates.hpp"
 #include "common/msg/image.hpp"
@@ -80,6 +83,17 @@ void TrackingNode::onImage(const image_t& image) {
   if (detectLines) publishLines(image, result_, processingUs);
   node_.setMetric("touched_percent", 100.0 * result_.tracking.touched_fraction);
   // Blind or degraded vision is a WARN with its reason, ok again once the frames fit.
+  if (colour_reset_requested_.exchange(false)) {
+    if (adaptation_) {
+      adaptation_->reset(options_.colours);
+      ++colour_resets_;
+      node_.setMetric("colour_resets", static_cast<double>(colour_resets_));
+      spdlog::info("colour adaptation reset on demand: back to the calibrated table ({} so far)",
+                   colour_resets_);
+    } else {
+      spdlog::warn("colour adaptation reset requested, but the adaptation is off: nothing to do");
+    }
+  }
   if (adaptation_) {
     adaptation_->observe(*view, processor_->tracker(), options_.colours);
     node_.setMetric("light_gain", adaptation_->appliedGain());
@@ -88,6 +102,33 @@ void TrackingNode::onImage(const image_t& image) {
   node_.status().setWarning("vision", health_->reason());
   node_.setMetric("green_percent", 100.0 * health_->greenFraction());
   node_.setMetric("processing_ms", measuredUs / 1000.0);
+}
+
+namespace {
+std::atomic<TrackingNode*> g_reset_target{nullptr};
+static_assert(std::atomic<TrackingNode*>::is_always_lock_free);
+static_assert(std::atomic<bool>::is_always_lock_free);
+
+void onColourResetSignal(int) {
+  // Async-signal-safe: a lock-free load and a lock-free store.
+  if (TrackingNode* node = g_reset_target.load()) node->requestColourReset();
+}
+}  // namespace
+
+TrackingNode::~TrackingNode() {
+  TrackingNode* self = this;
+  g_reset_target.compare_exchange_strong(self, nullptr);
+}
+
+void installColourResetSignal(TrackingNode& node) {
+  g_reset_target.store(&node);
+  struct sigaction sa {};
+  sa.sa_handler = onColourResetSignal;
+  sa.sa_flags = SA_RESTART;
+  sigemptyset(&sa.sa_mask);
+  if (sigaction(SIGUSR1, &sa, nullptr) != 0) {
+    throw std::runtime_error("region tracking: cannot install the SIGUSR1 handler");
+  }
 }
 
 void TrackingNode::publishLines(const image_t& image, const VisionResult& result,

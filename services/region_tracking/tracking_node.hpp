@@ -3,6 +3,7 @@
 // exposure time), so fusion can line them up with odometry.
 #pragma once
 
+#include <atomic>
 #include <cstdint>
 #include <memory>
 #include <optional>
@@ -46,11 +47,21 @@ class TrackingNode {
   // Subscribes CAMERA_IMAGE on `node`'s primary bus. Throws std::invalid_argument for
   // lines_every_frames < 1.
   TrackingNode(bus::Node& node, TrackingNodeOptions options);
+  // No longer the target of installColourResetSignal().
+  ~TrackingNode();
+  TrackingNode(const TrackingNode&) = delete;
+  TrackingNode& operator=(const TrackingNode&) = delete;
 
   std::int64_t framesProcessed() const { return frames_processed_; }
   std::int64_t framesRejected() const { return frames_rejected_; }
   // Empty while the vision looks healthy (vision_health.hpp), else why it does not.
   std::string healthReason() const { return health_ ? health_->reason() : std::string(); }
+  // Reset on demand of the colour adaptation: before the next frame the table returns to the
+  // calibrated one and the adaptation measures a new reference (ColourAdaptation::reset).
+  // Only sets a flag, so it may be called from a signal handler or another thread; with the
+  // adaptation off it is logged and ignored. Resets done so far: the metric `colour_resets`.
+  void requestColourReset() { colour_reset_requested_.store(true); }
+  std::int64_t colourResets() const { return colour_resets_; }
 
  private:
   void onImage(const image_t& image);
@@ -76,6 +87,12 @@ class TrackingNode {
   std::int64_t frames_received_ = 0;
   std::int64_t frames_processed_ = 0;
   std::int64_t frames_rejected_ = 0;
+  std::atomic<bool> colour_reset_requested_{false};
+  std::int64_t colour_resets_ = 0;
 };
+
+// SIGUSR1 calls node.requestColourReset() (`kill -USR1 <pid>` resets the colour adaptation of a
+// running process). One node per process; installing again replaces the previous one.
+void installColourResetSignal(TrackingNode& node);
 
 }  // namespace fieldline::region_tracking

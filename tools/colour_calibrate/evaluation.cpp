@@ -102,7 +102,8 @@ SettingResult evaluateSetting(region_tracking::SimCamera& sim, const RealismSett
 DriveResult evaluateDrive(region_tracking::SimCamera& sim, const RealismSetting& setting,
                           const camera::ColourTable& calibrated, int frames, double light_from,
                           double light_to,
-                          const region_tracking::ColourAdaptationParams& adaptation) {
+                          const region_tracking::ColourAdaptationParams& adaptation,
+                          const region_tracking::VisionParams& vision) {
   DriveResult result;
   camera::ColourTable table = calibrated;
   std::optional<region_tracking::ColourAdaptation> adapter;
@@ -111,9 +112,8 @@ DriveResult evaluateDrive(region_tracking::SimCamera& sim, const RealismSetting&
   result.light_to = light_to;
   const std::vector<geometry::Pose2> poses = region_tracking::motionPoses(
       sim.field, region_tracking::Motion{.speed = 1.5, .omega = 0.5}, frames);
-  region_tracking::FrameProcessor processor(sim.mirror, table,
-                                            region_tracking::defaultVisionParams());
-  region_tracking::VisionResult vision;
+  region_tracking::FrameProcessor processor(sim.mirror, table, vision);
+  region_tracking::VisionResult tracked;
   camera::RealismParams realism = setting.realism;
   for (int i = 0; i < frames; ++i) {
     const double t = frames > 1 ? static_cast<double>(i) / (frames - 1) : 0.0;
@@ -125,14 +125,14 @@ DriveResult evaluateDrive(region_tracking::SimCamera& sim, const RealismSetting&
     scene.frame_number = static_cast<std::uint64_t>(i);
     const camera::FrameView view = sim.render(scene);
     const bool lines = i % 3 == 0;
-    processor.process(view, lines, vision);
+    processor.process(view, lines, tracked);
     if (adapter) {
       adapter->observe(view, processor.tracker(), table);
       result.min_gain = std::min(result.min_gain, adapter->appliedGain());
       result.max_gain = std::max(result.max_gain, adapter->appliedGain());
     }
     if (lines && i >= 3) {
-      result.score.add(scoreLinePoints(sim.mirror, sim.field, scene.robot, vision.lines, {}));
+      result.score.add(scoreLinePoints(sim.mirror, sim.field, scene.robot, tracked.lines, {}));
     }
   }
   if (adapter) {

@@ -67,9 +67,11 @@ struct DriveResult {
 // light factor changing linearly from light_from to light_to (the light ramp), tracking with a
 // copy of `table` (lines every 3rd frame), scoring every line frame. With `adaptation.enabled`,
 // green and white follow the light (ColourAdaptation over the tracked green, as the node does).
-DriveResult evaluateDrive(region_tracking::SimCamera& sim, const RealismSetting& setting,
-                          const camera::ColourTable& table, int frames, double light_from,
-                          double light_to,
-                          const region_tracking::ColourAdaptationParams& adaptation = {});
+// `vision`: the tracker's and detectors' parameters (defaultVisionParams()).
+DriveResult evaluateDrive(
+    region_tracking::SimCamera& sim, const RealismSetting& setting,
+    const camera::ColourTable& table, int frames, double light_from, double light_to,
+    const region_tracking::ColourAdaptationParams& adaptation = {},
+    const region_tracking::VisionParams& vision = region_tracking::defaultVisionParams());
 
 }  // namespace fieldline::calibration

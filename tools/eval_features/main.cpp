@@ -74,6 +74,7 @@ struct Options {
   bool progress = false;
   std::string check_csv;
   std::string misses_csv;
+  std::string circle_misses_csv;
 };
 
 // The eight penalty-area corners: (inner, left) as seen toward their goal, and the goal.
@@ -288,8 +289,13 @@ struct FrameResult {
   int corner_eligible = 0;
   int corner_found = 0;
   std::vector<double> position_errors, heading_errors;
-  // Corners within 4 m that were not found: (site index, distance).
-  std::vector<std::pair<int, double>> missed_corners;
+  // Corners within 4 m: site index, distance, found.
+  struct Eligible {
+    int site;
+    double distance;
+    bool found;
+  };
+  std::vector<Eligible> eligible_corners;
 };
 
 FrameResult evaluate(const Pose2& pose, const perception::FieldFeatures& features,
@@ -327,11 +333,8 @@ FrameResult evaluate(const Pose2& pose, const perception::FieldFeatures& feature
     const double distance = (site.position - pose.position()).norm();
     if (distance <= kViewDistance) {
       ++r.corner_eligible;
-      if (found) {
-        ++r.corner_found;
-      } else {
-        r.missed_corners.emplace_back(static_cast<int>(&site - sites.data()), distance);
-      }
+      if (found) ++r.corner_found;
+      r.eligible_corners.push_back({static_cast<int>(&site - sites.data()), distance, found});
     }
   }
   return r;
@@ -379,7 +382,8 @@ int detailFrame(const Options& options, region_tracking::SimCamera& sim,
     std::cout << "model_check kind=" << static_cast<int>(c.kind) << " local=" << c.local.x << ","
               << c.local.y << "," << c.local.phi << " share=" << c.fit.share()
               << " points=" << c.fit.points << " others_share=" << c.others.share()
-              << " others=" << c.others.points << " accepted=" << c.accepted
+              << " others=" << c.others.points << " rival=" << c.rival_share
+              << " shifted=" << c.shifted_share << " accepted=" << c.accepted
               << " error_m=" << position << "\n";
   }
   for (const CornerSite& site : cornerSites(sim.field)) {
@@ -419,34 +423,180 @@ int detailFrame(const Options& options, region_tracking::SimCamera& sim,
   return 0;
 }
 
+// True if the ray from the camera (at the mirror's reference height above the robot) to the floor
+// point `q` (field frame) passes through a robot's cylinder.
+bool rayBlocked(const camera::SimScene& scene, const Vec2& q, double camera_height,
+                double robot_height) {
+  const Vec2 p = scene.robot.position();
+  const Vec2 d = q - p;
+  for (const auto& robot : scene.robots) {
+    // |p + t d - c| = rho for t in [t0, t1]; the ray is below the robot's top for
+    // t >= 1 - robot_height / camera_height.
+    const Vec2 f = p - robot.position;
+    const double A = d.squaredNorm(), B = 2 * f.dot(d),
+                 C = f.squaredNorm() - robot.radius * robot.radius;
+    const double disc = B * B - 4 * A * C;
+    if (disc < 0 || A <= 0) continue;
+    const double t0 = (-B - std::sqrt(disc)) / (2 * A), t1 = (-B + std::sqrt(disc)) / (2 * A);
+    const double low = std::max(t0, 1.0 - robot_height / camera_height);
+    if (t1 >= low && low <= 1.0 && t1 >= 0.0) return true;
+  }
+  return false;
+}
+
 // Share of the centre circle hidden from the camera by the robots in `scene`: the circle sampled
-// every degree, a sample hidden when the ray from the camera (at the mirror's reference height)
-// to it passes through a robot's cylinder.
+// every degree, a sample hidden when the ray from the camera to it is blocked.
 double occludedCircleShare(const camera::SimScene& scene, double radius, double camera_height,
                            double robot_height) {
   const int samples = 360;
   int hidden = 0;
-  const Vec2 p = scene.robot.position();
   for (int k = 0; k < samples; ++k) {
     const double a = 2 * kPi * k / samples;
-    const Vec2 q = radius * Vec2(std::cos(a), std::sin(a));
-    const Vec2 d = q - p;
-    bool blocked = false;
-    for (const auto& robot : scene.robots) {
-      // |p + t d - c| = rho for t in [t0, t1]; the ray is below the robot's top for
-      // t >= 1 - robot_height / camera_height.
-      const Vec2 f = p - robot.position;
-      const double A = d.squaredNorm(), B = 2 * f.dot(d),
-                   C = f.squaredNorm() - robot.radius * robot.radius;
-      const double disc = B * B - 4 * A * C;
-      if (disc < 0) continue;
-      const double t0 = (-B - std::sqrt(disc)) / (2 * A), t1 = (-B + std::sqrt(disc)) / (2 * A);
-      const double low = std::max(t0, 1.0 - robot_height / camera_height);
-      if (t1 >= low && low <= 1.0 && t1 >= 0.0) blocked = true;
+    if (rayBlocked(scene, radius * Vec2(std::cos(a), std::sin(a)), camera_height, robot_height)) {
+      ++hidden;
     }
-    if (blocked) ++hidden;
   }
   return static_cast<double>(hidden) / samples;
+}
+
+// Why a penalty corner within 4 m was not found (--misses-csv): what the camera could see of it,
+// how many line points lie on its two lines near it, and how far the recogniser's stages got.
+struct MissDiagnosis {
+  // Where the corner point appears: 0 useful, 1 inside the robot's own reflection, 2 beyond the
+  // useful radius or outside the image; and whether an opponent stands in the ray to it.
+  int zone = 0;
+  bool blocked = false;
+  // Share of samples (every 5 cm over the first `kLegReach` of each line from the corner) that
+  // are in the useful zone and not blocked.
+  double front_visible = 0.0, side_visible = 0.0;
+  // Line points within 0.12 m of those two leg pieces, 0.1 m or more from their ends.
+  int front_points = 0, side_points = 0;
+  // A line group of the structure along each leg (within 0.2 m and 0.3 rad, reaching within
+  // 0.5 m of the corner).
+  bool front_group = false, side_group = false;
+  // An L-corner (or T) of the recogniser within 0.4 m; a stage-5 corner within 0.4 m; a model
+  // check verdict on a penalty corner within 0.4 m (and whether it was accepted).
+  bool junction = false;
+  bool structure_corner = false;
+  bool checked = false;
+  std::string cause;
+};
+
+constexpr double kLegReach = 0.75;
+
+// The visibility part of the diagnosis (zone, blocked, front_visible, side_visible).
+void cornerVisibility(const CornerSite& site, const Pose2& pose, const camera::SimScene& scene,
+                      const region_tracking::SimCamera& sim, MissDiagnosis& m) {
+  const auto& d = sim.field.dimensions();
+  const double camera_height = sim.mirror.params().reference_height;
+  const double robot_height = sim.renderer->params().robot_height;
+  const Vec2 corner = site.position;
+  const double sx = corner.x() > 0 ? 1.0 : -1.0, sy = corner.y() > 0 ? 1.0 : -1.0;
+  const Vec2 front_dir(0.0, -sy), side_dir(sx, 0.0);
+  const double side_length =
+      std::min(kLegReach, site.inner ? d.goal_area_depth : d.penalty_area_depth);
+  auto zoneOf = [&](const Vec2& field_point) {
+    const Vec2 local = geometry::pointFieldToRobot(pose, field_point);
+    const auto pixel = sim.mirror.robotToImage(local);
+    if (!pixel) return local.norm() < 1.0 ? 1 : 2;
+    const camera::MirrorZone z = sim.mirror.zone(*pixel);
+    return z == camera::MirrorZone::kUseful ? 0 : z == camera::MirrorZone::kSelf ? 1 : 2;
+  };
+  m.zone = zoneOf(corner);
+  m.blocked = rayBlocked(scene, corner, camera_height, robot_height);
+  auto visibleShare = [&](const Vec2& dir, double length) {
+    int seen = 0, n = 0;
+    for (double t = 0.05; t <= length + 1e-9; t += 0.05, ++n) {
+      const Vec2 q = corner + t * dir;
+      if (zoneOf(q) == 0 && !rayBlocked(scene, q, camera_height, robot_height)) ++seen;
+    }
+    return n ? static_cast<double>(seen) / n : 0.0;
+  };
+  m.front_visible = visibleShare(front_dir, kLegReach);
+  m.side_visible = visibleShare(side_dir, side_length);
+}
+
+// A corner the camera can see: its point in the useful part of the image, no robot in the way,
+// and at least half of the first 0.75 m of both its lines visible likewise.
+bool seeable(const MissDiagnosis& m) {
+  return m.zone == 0 && !m.blocked && m.front_visible >= 0.5 && m.side_visible >= 0.5;
+}
+
+MissDiagnosis diagnoseMiss(const CornerSite& site, const Pose2& pose, const camera::SimScene& scene,
+                           const region_tracking::SimCamera& sim,
+                           const perception::LinePoints& lines,
+                           const feature_recognition::FeatureRecognizer& recognizer) {
+  MissDiagnosis m;
+  cornerVisibility(site, pose, scene, sim, m);
+  const auto& d = sim.field.dimensions();
+  const Vec2 corner = site.position;
+  const double sx = corner.x() > 0 ? 1.0 : -1.0, sy = corner.y() > 0 ? 1.0 : -1.0;
+  const Vec2 front_dir(0.0, -sy), side_dir(sx, 0.0);
+  const double side_length =
+      std::min(kLegReach, site.inner ? d.goal_area_depth : d.penalty_area_depth);
+  const Vec2 local_corner = geometry::pointFieldToRobot(pose, corner);
+  const Vec2 local_front = geometry::rotate(front_dir, -pose.phi);
+  const Vec2 local_side = geometry::rotate(side_dir, -pose.phi);
+  auto onLeg = [&](const Vec2& p, const Vec2& dir, double length) {
+    // Away from both ends (the points of the perpendicular lines there are not the leg's).
+    const double t = (p - local_corner).dot(dir);
+    if (t < 0.1 || t > length - 0.1) return false;
+    return (p - local_corner - t * dir).norm() <= 0.12;
+  };
+  for (const auto& p : lines.points) {
+    const Vec2 q(p.x, p.y);
+    if (onLeg(q, local_front, kLegReach)) ++m.front_points;
+    if (onLeg(q, local_side, side_length)) ++m.side_points;
+  }
+  const auto& structure = recognizer.structure();
+  for (const auto& groups : structure.groups) {
+    for (const auto& g : groups) {
+      const auto& line = g.line;
+      auto along = [&](const Vec2& dir) {
+        if (std::abs(line.direction.dot(dir)) < std::cos(0.3)) return false;
+        if (std::abs(line.signedDistance(local_corner)) > 0.2) return false;
+        // The group's extent reaches within 0.5 m of the corner on the leg's side.
+        const double a = (line.start() - local_corner).dot(dir);
+        const double b = (line.end() - local_corner).dot(dir);
+        return std::max(a, b) > 0.1 && std::min(a, b) < 0.5;
+      };
+      if (along(local_front)) m.front_group = true;
+      if (along(local_side)) m.side_group = true;
+    }
+  }
+  for (const auto& j : recognizer.junctions()) {
+    if ((j.position - local_corner).norm() <= 0.4) m.junction = true;
+  }
+  if (recognizer.penaltyFound()) {
+    for (const auto& c : recognizer.penalty().corners) {
+      if ((c.position - local_corner).norm() <= 0.4) m.structure_corner = true;
+    }
+  }
+  for (const auto& c : recognizer.checked()) {
+    if (c.kind != FeatureKind::kPenaltyCorner) continue;
+    if ((Vec2(c.local.x, c.local.y) - local_corner).norm() <= 0.4) m.checked = true;
+  }
+  const int min_points = recognizer.params().min_corner_line_points;
+  if (m.zone == 1) {
+    m.cause = "self_reflection";
+  } else if (m.zone == 2) {
+    m.cause = "beyond_view";
+  } else if (m.blocked) {
+    m.cause = "occluded";
+  } else if (m.front_visible < 0.5 || m.side_visible < 0.5) {
+    m.cause = "leg_hidden";
+  } else if (m.front_points < min_points || m.side_points < min_points) {
+    m.cause = "few_points";
+  } else if (!m.front_group || !m.side_group) {
+    m.cause = "no_line_group";
+  } else if (!m.junction && !m.structure_corner) {
+    m.cause = "no_junction";
+  } else if (m.checked) {
+    m.cause = "refused";
+  } else {
+    m.cause = "not_identified";
+  }
+  return m;
 }
 
 // Seed fig. 4.60: the robot within reach of the whole centre circle, 0-10 robots standing on and
@@ -571,11 +721,20 @@ int run(const Options& options) {
   long false_hypotheses = 0, hypotheses = 0;
   long circle_eligible = 0, circle_found = 0, corner_eligible = 0, corner_found = 0;
   long frames_with_feature = 0;
+  // Corners within 4 m the camera can see (seeable()) and those of them found.
+  long corner_seeable = 0, corner_seeable_found = 0;
   double line_points = 0.0;
-  std::ofstream check_csv, misses_csv;
+  std::ofstream check_csv, misses_csv, circle_misses_csv;
+  if (!options.circle_misses_csv.empty()) {
+    circle_misses_csv.open(options.circle_misses_csv);
+    circle_misses_csv << "frame,x,y,phi,occluded_share,arcs,circle_found,coverage_rad,oriented,"
+                         "checked,share\n";
+  }
   if (!options.misses_csv.empty()) {
     misses_csv.open(options.misses_csv);
-    misses_csv << "frame,inner,left,opponent_goal,distance,local_x,local_y,x,y\n";
+    misses_csv << "frame,inner,left,opponent_goal,distance,local_x,local_y,x,y,cause,zone,"
+                  "blocked,front_visible,side_visible,front_points,side_points,front_group,"
+                  "side_group,junction,structure_corner,checked\n";
   }
   if (!options.check_csv.empty()) {
     check_csv.open(options.check_csv);
@@ -583,18 +742,52 @@ int run(const Options& options) {
   }
   for (int f = 0; f < static_cast<int>(path.size()); ++f) {
     const Pose2& pose = path[f];
-    visionOf(sim, processor, sceneFor(pose, static_cast<std::uint64_t>(f), options, sim.field),
-             vision);
+    const camera::SimScene scene =
+        sceneFor(pose, static_cast<std::uint64_t>(f), options, sim.field);
+    visionOf(sim, processor, scene, vision);
     recognizer.recognize(vision.lines, features);
     line_points += static_cast<double>(vision.lines.points.size());
     const FrameResult r = evaluate(pose, features, sites, circle_radius);
+    for (const auto& e : r.eligible_corners) {
+      MissDiagnosis v;
+      cornerVisibility(sites[e.site], pose, scene, sim, v);
+      if (!seeable(v)) continue;
+      ++corner_seeable;
+      if (e.found) ++corner_seeable_found;
+    }
     if (misses_csv.is_open()) {
-      for (const auto& [site, distance] : r.missed_corners) {
+      for (const auto& [site, distance, found] : r.eligible_corners) {
+        if (found) continue;
         const Vec2 local = geometry::pointFieldToRobot(pose, sites[site].position);
+        const MissDiagnosis m =
+            diagnoseMiss(sites[site], pose, scene, sim, vision.lines, recognizer);
         misses_csv << f << "," << sites[site].inner << "," << sites[site].left << ","
                    << sites[site].opponent_goal << "," << distance << "," << local.x() << ","
-                   << local.y() << "," << pose.x << "," << pose.y << "\n";
+                   << local.y() << "," << pose.x << "," << pose.y << "," << m.cause << "," << m.zone
+                   << "," << m.blocked << "," << m.front_visible << "," << m.side_visible << ","
+                   << m.front_points << "," << m.side_points << "," << m.front_group << ","
+                   << m.side_group << "," << m.junction << "," << m.structure_corner << ","
+                   << m.checked << "\n";
       }
+    }
+    if (circle_misses_csv.is_open() && r.circle_eligible && !r.circle_found) {
+      // Why the centre circle was missed: occluded share, the stage reached, the model check.
+      const auto& circle = recognizer.circle();
+      int checked = -1;
+      double share = 0.0;
+      for (const auto& c : recognizer.checked()) {
+        if (c.kind == FeatureKind::kCentreCircle) {
+          checked = c.accepted;
+          share = c.fit.share();
+        }
+      }
+      circle_misses_csv << f << "," << pose.x << "," << pose.y << "," << pose.phi << ","
+                        << occludedCircleShare(scene, circle_radius,
+                                               sim.mirror.params().reference_height,
+                                               sim.renderer->params().robot_height)
+                        << "," << recognizer.classified().arcs.size() << "," << circle.found << ","
+                        << circle.coverage << "," << circle.oriented << "," << checked << ","
+                        << share << "\n";
     }
     if (check_csv.is_open()) {
       for (const auto& c : recognizer.checked()) {
@@ -629,6 +822,8 @@ int run(const Options& options) {
 
   const double circle_rate = circle_eligible ? double(circle_found) / circle_eligible : 0.0;
   const double corner_rate = corner_eligible ? double(corner_found) / corner_eligible : 0.0;
+  const double corner_seeable_rate =
+      corner_seeable ? double(corner_seeable_found) / corner_seeable : 0.0;
   const double pos_median = median(position_errors);
   const double heading_median = median(heading_errors);
   const double points_per_frame =
@@ -665,6 +860,9 @@ int run(const Options& options) {
          << ",\n  \"circle_found\": " << circle_found << ",\n  \"circle_rate\": " << circle_rate
          << ",\n  \"corner_eligible\": " << corner_eligible
          << ",\n  \"corner_found\": " << corner_found << ",\n  \"corner_rate\": " << corner_rate
+         << ",\n  \"corner_seeable\": " << corner_seeable
+         << ",\n  \"corner_seeable_found\": " << corner_seeable_found
+         << ",\n  \"corner_seeable_rate\": " << corner_seeable_rate
          << ",\n  \"pos_median_m\": " << pos_median
          << ",\n  \"heading_median_deg\": " << heading_median
          << ",\n  \"line_points_per_frame\": " << points_per_frame << "\n}\n";
@@ -672,6 +870,11 @@ int run(const Options& options) {
   if (options.occlusion_frames > 0) occlusionSeries(options, sim, processor, recognizer);
 
   std::cout << "line_points_per_frame=" << points_per_frame << "\n";
+  // The corners within 4 m that the camera can see at all (see seeable()): the rest stand behind
+  // an opponent, in the robot's own reflection or beyond the mirror's useful radius. Both rates
+  // are reported; corner_rate in the last line counts every corner within 4 m.
+  std::cout << "corner_eligible=" << corner_eligible << " corner_seeable=" << corner_seeable
+            << " corner_seeable_rate=" << corner_seeable_rate << "\n";
   std::cout << "frames=" << records.size() << " false_hypotheses=" << false_hypotheses
             << " circle_rate=" << circle_rate << " corner_rate=" << corner_rate
             << " pos_median_m=" << pos_median << " heading_median_deg=" << heading_median
@@ -731,6 +934,9 @@ void addOptions(CLI::App& app, Options& options) {
   app.add_flag("--progress", options.progress, "Report progress every 1000 frames on stderr");
   app.add_option("--misses-csv", options.misses_csv,
                  "Write every penalty corner within 4 m that was not found as CSV");
+  app.add_option("--circle-misses-csv", options.circle_misses_csv,
+                 "Write every frame with the whole centre circle within 4 m in which it was not "
+                 "found as CSV (occluded share, the stage reached)");
   app.add_option("--check-csv", options.check_csv,
                  "Write every model check (fits, verdict, error of its pose) as CSV");
   app.add_option("--seed", options.seed, "Seed of the clutter placement")->capture_default_str();

@@ -33,7 +33,8 @@ std::vector<std::string> inputChannels(const std::string& node) {
   if (node == "feature_recognition") return {std::string(ch::kVisionLines.name)};
   if (node == "fusion") {
     return {std::string(ch::kOdometry.name), std::string(ch::kVisionLines.name),
-            std::string(ch::kFieldFeatures.name), std::string(ch::kVisionBall.name)};
+            std::string(ch::kFieldFeatures.name), std::string(ch::kVisionBall.name),
+            std::string(ch::kVisionObstacles.name)};
   }
   throw ReplayArgumentError("unknown node '" + node + "'");
 }

@@ -8,6 +8,7 @@
 # and each sees the other again within 3 s of the heal (a generous bound; figures in
 # docs/drills.md). Usage: partition_drill.sh BIN ROOT OUT
 set -u
+source "$(dirname "$0")/../lib/team_net.sh"
 bin=$1
 root=$2
 out=$3
@@ -17,30 +18,12 @@ tag=dr$$
 relay=${tag}relay
 robots="1 2"
 cleanup() {
-  for ns in $relay $(for r in $robots; do echo ${tag}r$r; done); do
-    ip netns pids $ns 2>/dev/null | xargs -r kill 2>/dev/null
-    ip netns del $ns 2>/dev/null
-  done
+  team_net_remove $relay $(for r in $robots; do echo ${tag}r$r; done)
 }
 trap cleanup EXIT
 
-ip netns add $relay || { echo "cannot create network namespaces (needs root)"; exit 1; }
-ip -n $relay link set lo up
-ip -n $relay link add br0 type bridge
-ip -n $relay link set br0 up
-ip -n $relay addr add 10.20.0.100/24 dev br0
-join() {  # namespace, address
-  ip netns add $1
-  ip link add eth0 netns $1 type veth peer name p_$1 netns $relay
-  ip -n $relay link set p_$1 master br0
-  ip -n $relay link set p_$1 up
-  ip -n $1 link set lo up
-  ip -n $1 link set lo multicast on
-  ip -n $1 route add 224.0.0.0/4 dev lo
-  ip -n $1 addr add $2/24 dev eth0
-  ip -n $1 link set eth0 up
-}
-for r in $robots; do join ${tag}r$r 10.20.0.$r; done
+team_net_bridge $relay || exit 1
+for r in $robots; do team_net_join ${tag}r$r 10.20.0.$r $relay; done
 
 duration=14
 export FIELDLINE_ROOT="$root"

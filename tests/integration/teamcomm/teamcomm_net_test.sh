@@ -7,6 +7,7 @@
 # TEAM_STATE. Timeline (s): 0-14 clean link with jitter; 14-22 30 % loss with duplicates and
 # reordering; 22-25 partition {1,2,3} | {4,5,6}; 25 healed; 27-31 attack; 34 end.
 set -u
+source "$(dirname "$0")/../lib/team_net.sh"
 bin=$1
 root=$2
 out=$(mktemp -d)
@@ -15,32 +16,14 @@ relay=${tag}relay
 attacker=${tag}att
 robots="1 2 3 4 5 6"
 cleanup() {
-  for ns in $relay $attacker $(for r in $robots; do echo ${tag}r$r; done); do
-    ip netns pids $ns 2>/dev/null | xargs -r kill 2>/dev/null
-    ip netns del $ns 2>/dev/null
-  done
+  team_net_remove $relay $attacker $(for r in $robots; do echo ${tag}r$r; done)
   rm -rf "$out"
 }
 trap cleanup EXIT
 
-ip netns add $relay || { echo "cannot create network namespaces (needs root)"; exit 1; }
-ip -n $relay link set lo up
-ip -n $relay link add br0 type bridge
-ip -n $relay link set br0 up
-ip -n $relay addr add 10.20.0.100/24 dev br0
-join() {  # namespace, address
-  ip netns add $1
-  ip link add eth0 netns $1 type veth peer name p_$1 netns $relay
-  ip -n $relay link set p_$1 master br0
-  ip -n $relay link set p_$1 up
-  ip -n $1 link set lo up
-  ip -n $1 link set lo multicast on
-  ip -n $1 route add 224.0.0.0/4 dev lo
-  ip -n $1 addr add $2/24 dev eth0
-  ip -n $1 link set eth0 up
-}
-for r in $robots; do join ${tag}r$r 10.20.0.$r; done
-join $attacker 10.20.0.66
+team_net_bridge $relay || exit 1
+for r in $robots; do team_net_join ${tag}r$r 10.20.0.$r $relay; done
+team_net_join $attacker 10.20.0.66 $relay
 
 # Clock errors: offsets up to +-0.5 s, drifts up to +-50 ppm.
 offsets=(0 450000 -300000 120000 -500000 250000 -50000)

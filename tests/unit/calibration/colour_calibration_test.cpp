@@ -115,15 +115,13 @@ TEST(ColourCalibration, LineScoreCountsPointsOffTheLinesAndMissingLength) {
 TEST(ColourCalibration, EveryRealismSettingGivesPreciseAndCompleteLinePoints) {
   region_tracking::SimCamera& sim = sharedCamera();
   for (const RealismSetting& setting : realismSettings()) {
+    // The three poses of `--evaluate`: centre circle, penalty area, corner.
     for (const geometry::Pose2& pose :
-         {geometry::Pose2{0.5, 0.8, 0.3}, geometry::Pose2{-6.0, 1.5, 0.4}}) {
+         {geometry::Pose2{0.5, 0.8, 0.3}, geometry::Pose2{-6.0, 1.5, 0.4},
+          geometry::Pose2{7.5, -4.5, 2.2}}) {
       const SettingResult r = evaluateSetting(sim, setting, pose, 6, FitParams{});
       EXPECT_GE(r.score.precision(), 0.90) << setting.name << " at " << pose.x << "," << pose.y;
-      // Known short of the must-show (docs/calibration.md): blurred near lines lose white pixels
-      // to green at the centre circle (recall 79 %).
-      const bool knownShort = setting.name == "blur" && pose.x > 0.0;
-      EXPECT_GE(r.score.recall(), knownShort ? 0.70 : 0.85)
-          << setting.name << " at " << pose.x << "," << pose.y;
+      EXPECT_GE(r.score.recall(), 0.85) << setting.name << " at " << pose.x << "," << pose.y;
       EXPECT_GT(r.coverage.carpet_green, 0.9) << setting.name;
     }
   }
@@ -174,10 +172,19 @@ TEST(ColourCalibration, CalibratedOnTheBrightSideTheLinesStayWhenTheLightHalvesW
   EXPECT_NEAR(on.final_gain, 0.55, 0.1);  // the carpet's median luma followed the light
   EXPECT_GT(on.rebuilds, 5);
 
-  // Adaptation off: the same table loses the lines in the dark part of the drive.
-  const DriveResult off = evaluateDrive(sim, clean, table, 500, 1.0, 0.5);
+  // Adaptation off, the classes alone (the line scan's ridge rule off): the same table loses
+  // the lines in the dark part of the drive.
+  region_tracking::VisionParams classesOnly = region_tracking::defaultVisionParams();
+  classesOnly.lines.ridge_contrast = 0.0;
+  const DriveResult off = evaluateDrive(sim, clean, table, 500, 1.0, 0.5, {}, classesOnly);
   EXPECT_LT(off.score.recall(), on.score.recall() - 0.1);
   EXPECT_LT(off.score.min_recall, 0.5);
+  // With the ridge rule most dim lines are still found as ridges of brightness (recall 94 %
+  // measured), but not all: the worst frames stay well below the adapted table's.
+  const DriveResult ridgesOnly = evaluateDrive(sim, clean, table, 500, 1.0, 0.5);
+  EXPECT_GT(ridgesOnly.score.recall(), off.score.recall());
+  EXPECT_LT(ridgesOnly.score.min_recall, on.score.min_recall - 0.2);
+  EXPECT_LT(ridgesOnly.score.frames_meeting, on.score.frames_meeting);
 }
 
 }  // namespace

@@ -236,7 +236,7 @@ TEST(LogImageSource, ReadsValidCameraFramesAndCountsTheRest) {
   {
     bus::LogWriter log(path);
     for (int k = 0; k < 4; ++k) {
-      image_t img;
+      image_t img{};  // value-initialised: a stack-garbage robot_id made the reader refuse it
       img.header.utime = 1000 + k;
       img.width = 4;
       img.height = 2;
@@ -265,7 +265,7 @@ TEST(LogImageSource, ReadsValidCameraFramesAndCountsTheRest) {
   LogImageSource source(path, false);
   SourceFrame frame;
   for (int k : {0, 1, 3}) {
-    ASSERT_TRUE(source.next(frame)) << k;
+    ASSERT_TRUE(source.next(frame)) << "frame " << k << ": " << source.lastError();
     EXPECT_EQ(frame.width, 4);
     EXPECT_EQ(frame.format, PixelFormat::kYuyv);
     EXPECT_EQ(frame.bytes[0], 50 + k);

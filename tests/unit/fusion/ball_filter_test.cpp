@@ -137,5 +137,69 @@ TEST(BallFilter, AnOutlierMakesTheEstimateInvalidUntilASightingAgrees) {
   EXPECT_TRUE(lenient.estimate(kStart + 5 * 33'333).valid);
 }
 
+TEST(BallFilter, AConfidentSightingFarFromThePredictionRestartsAtIt) {
+  BallFilterParams params;
+  params.invalid_after_outlier = true;
+  params.restart_distance_m = 0.5;
+  std::mt19937 rng(5);
+  const geometry::Pose2 robot{0.0, 0.0, 0.5};
+  auto seen = [&](BallFilter& f, int k, const geometry::Vec2& ball, double sigma) {
+    const Utime t = kStart + k * 33'333;
+    perception::BallSighting s = sightingOf(ball, robot, t, rng);
+    s.sigma_radial = s.sigma_tangential = sigma;
+    return f.update(s, robotAt(robot, t));
+  };
+  BallFilter f(params);
+  for (int k = 0; k < 5; ++k)
+    seen(f, k, {1.0, 0.0}, 0.05);
+  // Put back 3 m away: taken at once and valid there.
+  EXPECT_EQ(seen(f, 5, {-2.0, 1.0}, 0.05), BallRejection::kNone);
+  auto e = f.estimate(kStart + 5 * 33'333);
+  EXPECT_TRUE(e.valid);
+  EXPECT_LT(std::hypot(e.x + 2.0, e.y - 1.0), 0.15);
+  EXPECT_EQ(f.restartsFar(), 1u);
+  // A vague sighting (sigma 0.4 m) as far off is only an outlier.
+  EXPECT_EQ(seen(f, 6, {1.0, 0.0}, 0.4), BallRejection::kOutlier);
+  EXPECT_FALSE(f.estimate(kStart + 6 * 33'333).valid);
+  EXPECT_EQ(f.restartsFar(), 1u);
+}
+
+TEST(BallFilter, ARestartAfterOutliersTakesTheVelocityOfThePair) {
+  BallFilterParams params;
+  params.invalid_after_outlier = true;
+  params.restart_after_outliers = 2;
+  params.velocity_from_pair = true;
+  std::mt19937 rng(6);
+  const geometry::Pose2 robot{0.0, 0.0, 0.0};
+  auto seen = [&](BallFilter& f, int k, const geometry::Vec2& ball) {
+    const Utime t = kStart + k * 33'333;
+    // Noise-free, so the pair's velocity is exact.
+    perception::BallSighting s = sightingOf(ball, robot, t, rng);
+    s.x = geometry::pointFieldToRobot(robot, ball).x();
+    s.y = geometry::pointFieldToRobot(robot, ball).y();
+    return f.update(s, robotAt(robot, t));
+  };
+  BallFilter f(params);
+  for (int k = 0; k < 5; ++k)
+    seen(f, k, {1.0, 0.0});
+  // Kicked at 3 m/s along y from (1, 0.6): two sightings 10 cm apart, both outliers of the ball
+  // at rest; the second restarts with the pair's velocity.
+  EXPECT_EQ(seen(f, 5, {1.0, 0.6}), BallRejection::kOutlier);
+  EXPECT_EQ(seen(f, 6, {1.0, 0.7}), BallRejection::kNone);
+  EXPECT_EQ(f.restartsWithVelocity(), 1u);
+  const auto e = f.estimate(kStart + 6 * 33'333);
+  EXPECT_TRUE(e.valid);
+  EXPECT_NEAR(e.vy, 3.0, 0.05);
+  EXPECT_NEAR(e.vx, 0.0, 0.05);
+  // Without the setting the restart starts at rest.
+  params.velocity_from_pair = false;
+  BallFilter at_rest(params);
+  for (int k = 0; k < 5; ++k)
+    seen(at_rest, k, {1.0, 0.0});
+  seen(at_rest, 5, {1.0, 0.6});
+  seen(at_rest, 6, {1.0, 0.7});
+  EXPECT_NEAR(at_rest.estimate(kStart + 6 * 33'333).vy, 0.0, 1e-12);
+}
+
 }  // namespace
 }  // namespace fieldline::fusion

@@ -430,5 +430,104 @@ TEST(OdometryLayer, SlipDensityGrowsWithTheSquareRootOfTime) {
   EXPECT_LT(no_dt.covariance(0, 0), 0.01 * fast.covariance(0, 0));
 }
 
+// Contact evidence (VISION_OBSTACLES showing an obstacle at the body) is an input like any other:
+// inserted late and out of order it gives the in-order state exactly; while it covers an interval
+// the pose's process noise grows by the contact densities over exactly the time covered.
+FilterParams contactParams() {
+  FilterParams p;
+  p.contact.distance_m = 0.35;
+  p.contact.hold_us = 300'000;
+  p.contact.position_density = 0.2;
+  p.contact.heading_density = 0.8;
+  return p;
+}
+
+TEST(DelayedFilter, LateContactEvidenceGivesTheInOrderStateExactly) {
+  for (unsigned seed = 1; seed <= 10; ++seed) {
+    std::mt19937 rng(seed);
+    const std::vector<Input> inputs = makeInputs(rng);
+    // Contact frames at 30 Hz in two bursts, each 60-200 ms late.
+    std::vector<std::pair<Utime, Utime>> contacts;  // (utime, arrival)
+    std::uniform_int_distribution<Utime> delay(60'000, 200'000);
+    for (Utime t = kStart + 700'000; t < kStart + 1'000'000; t += 33'333)
+      contacts.emplace_back(t, t + delay(rng));
+    for (Utime t = kStart + 1'900'000; t < kStart + 2'100'000; t += 33'333)
+      contacts.emplace_back(t, t + delay(rng));
+
+    struct Event {
+      Utime time;
+      const Input* input;
+      Utime contact;
+    };
+    std::vector<Event> by_time, by_arrival;
+    for (const Input& in : inputs) {
+      by_time.push_back({timeOf(in), &in, 0});
+      by_arrival.push_back({in.arrival, &in, 0});
+    }
+    for (const auto& [t, arrival] : contacts) {
+      by_time.push_back({t, nullptr, t});
+      by_arrival.push_back({arrival, nullptr, t});
+    }
+    const auto order = [](const Event& a, const Event& b) { return a.time < b.time; };
+    std::stable_sort(by_time.begin(), by_time.end(), order);
+    std::stable_sort(by_arrival.begin(), by_arrival.end(), order);
+    const auto run = [](const std::vector<Event>& events) {
+      DelayedFilter f(contactParams());
+      f.initialize(startState());
+      for (const Event& e : events) {
+        if (e.input) {
+          feed(f, *e.input, e.time);
+        } else {
+          EXPECT_EQ(f.addContact(e.contact, e.time), Rejection::kNone);
+        }
+      }
+      return f.current();
+    };
+    const EkfState a = run(by_time);
+    const EkfState b = run(by_arrival);
+    EXPECT_EQ(a.utime, b.utime);
+    EXPECT_LT((a.x - b.x).cwiseAbs().maxCoeff(), 1e-9) << "seed " << seed;
+    EXPECT_LT((a.p - b.p).cwiseAbs().maxCoeff(), 1e-9) << "seed " << seed;
+  }
+}
+
+TEST(DelayedFilter, ContactGrowsThePoseNoiseOverTheTimeItCovers) {
+  const auto p = params();
+  OdometryLayer layer(p);
+  const OdometryStep still = layer.stepFor({0, 0, 0}, 0.02);
+  const auto run = [&](std::vector<Utime> contacts, DelayedFilter& f) {
+    f.initialize(startState());
+    for (Utime c : contacts)
+      EXPECT_EQ(f.addContact(c, c), Rejection::kNone);
+    for (int k = 1; k <= 50; ++k) {
+      OdometryStep step = still;
+      step.t_start = kStart + (k - 1) * 20'000;
+      step.t_end = kStart + k * 20'000;
+      EXPECT_EQ(f.addOdometry(step, step.t_end), Rejection::kNone);
+    }
+  };
+  DelayedFilter untouched(contactParams());
+  run({}, untouched);
+  // Two frames 100 ms apart: covered from 200 ms to 600 ms (hold 300 ms), 0.4 s in all.
+  DelayedFilter touched(contactParams());
+  run({kStart + 200'000, kStart + 300'000}, touched);
+  const double extra_phi = touched.current().p(2, 2) - untouched.current().p(2, 2);
+  const double extra_x = touched.current().p(0, 0) - untouched.current().p(0, 0);
+  EXPECT_NEAR(extra_phi, 0.8 * 0.8 * 0.4, 1e-9);
+  EXPECT_NEAR(extra_x, 0.2 * 0.2 * 0.4, 1e-9);
+  EXPECT_TRUE(touched.inContact(kStart + 550'000));
+  EXPECT_FALSE(touched.inContact(kStart + 650'000));
+  EXPECT_FALSE(touched.inContact(kStart + 100'000));
+  EXPECT_FALSE(untouched.inContact(kStart + 300'000));
+
+  // Refused and counted, changing nothing: a duplicate, from the future, older than the window.
+  const EkfState before = touched.current();
+  EXPECT_EQ(touched.addContact(kStart + 300'000, kStart + 1'000'000), Rejection::kDuplicate);
+  EXPECT_EQ(touched.addContact(kStart + 2'000'000, kStart + 1'000'000), Rejection::kFromFuture);
+  EXPECT_EQ(touched.addContact(kStart - 500'000, kStart + 1'000'000), Rejection::kTooOld);
+  EXPECT_LT((touched.current().p - before.p).cwiseAbs().maxCoeff(), 1e-15);
+  EXPECT_EQ(touched.rejections()[static_cast<std::size_t>(Rejection::kDuplicate)], 1u);
+}
+
 }  // namespace
 }  // namespace fieldline::fusion

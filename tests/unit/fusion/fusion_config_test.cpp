@@ -46,6 +46,27 @@ TEST(FusionConfig, AbsentKeysKeepTheDefaultsAndGivenOnesApply) {
                    defaults.localizer.filter.noise.linear_acceleration);
 }
 
+TEST(FusionConfig, ContactAndBallRestartKeys) {
+  const FusionConfig c = loadFusionConfig(config::Node::loadString(
+      "contact:\n  distance_m: 0.35\n  hold_s: 0.25\n  heading_density: 0.7\n"
+      "  search_steps: 2\n  search_always: true\n  search_min_points: 40\n"
+      "ball:\n  restart_distance_m: 0.8\n  velocity_from_pair: true\n  pair_max_age_s: 0.1\n"));
+  EXPECT_DOUBLE_EQ(c.localizer.filter.contact.distance_m, 0.35);
+  EXPECT_EQ(c.localizer.filter.contact.hold_us, 250'000);
+  EXPECT_DOUBLE_EQ(c.localizer.filter.contact.heading_density, 0.7);
+  EXPECT_DOUBLE_EQ(c.localizer.filter.contact.position_density, 0.0);
+  EXPECT_EQ(c.localizer.contact_search_steps, 2);
+  EXPECT_TRUE(c.localizer.twist_search_always);
+  EXPECT_EQ(c.localizer.contact_search_min_points, 40u);
+  EXPECT_DOUBLE_EQ(c.ball.restart_distance_m, 0.8);
+  EXPECT_TRUE(c.ball.velocity_from_pair);
+  EXPECT_DOUBLE_EQ(c.ball.pair_max_age_s, 0.1);
+  // The shipped file has contact evidence on.
+  EXPECT_GT(loadFusionConfigPreset("default").localizer.filter.contact.distance_m, 0.0);
+  EXPECT_NE(errorOf("contact:\n  distance_m: -1\n"), "");
+  EXPECT_NE(errorOf("contact:\n  serch_steps: 2\n"), "");
+}
+
 TEST(FusionConfig, TyposAndBadValuesNameFileAndLine) {
   // An unknown key inside a section, on line 3.
   const std::string typo = errorOf("filter:\n  window_s: 1.0\n  gate_chi: 10\n");

@@ -14,6 +14,7 @@
 #include "common/msg/estimates.hpp"
 #include "common/msg/field_features.hpp"
 #include "common/msg/line_contours.hpp"
+#include "common/msg/obstacle_observations.hpp"
 #include "common/time/clock.hpp"
 #include "tests/unit/fusion/test_world.hpp"
 
@@ -42,7 +43,7 @@ struct Rig {
     return o;
   }
 
-  Rig() : fusion(fusion_bus, options(), world().functions()) {
+  explicit Rig(FusionNodeOptions o = options()) : fusion(fusion_bus, o, world().functions()) {
     listener.subscribe(bus::channels::kRobotState,
                        [this](const robot_state_t& m) { states.push_back(m); });
     listener.subscribe(bus::channels::kBallState,
@@ -228,6 +229,34 @@ TEST(FusionNode, EveryKindOfBadInputIsCountedAndChangesNothing) {
   EXPECT_NEAR(geometry::angleDiff(after.phi, before.phi), 0.0, 0.02);
   EXPECT_EQ(after.status, robot_state_t::STATUS_TRACKING);
   EXPECT_TRUE(rig.balls.back().valid);
+}
+
+// VISION_OBSTACLES reaches the localizer: an obstacle at the body is contact evidence, one far
+// away is not, and a frame with a negative distance is refused and counted in SERVICE_STATUS.
+TEST(FusionNode, ObstaclesAtTheBodyAreContactEvidence) {
+  FusionNodeOptions o = Rig::options();
+  o.localizer.filter.contact.distance_m = 0.4;
+  Rig rig(o);
+  for (int i = 0; i < 60; ++i)
+    rig.period(i, true, false);
+  ASSERT_EQ(rig.states.back().status, robot_state_t::STATUS_TRACKING);
+  const auto send = [&](double distance, Utime age) {
+    perception::ObstacleSightings s;
+    s.utime = rig.clock.now() - age;
+    s.obstacles.push_back({0.5, distance, 0.6, 0.5, distance * 0.88, distance * 0.48});
+    obstacle_observations_t m{};
+    msg::toMessage(s, m);
+    rig.sensors.publish(bus::channels::kVisionObstacles, m);
+    rig.spin();
+  };
+  send(2.0, 70'000);
+  EXPECT_EQ(rig.fusion.localizer().counters().contact_frames, 0u);
+  send(0.29, 60'000);
+  EXPECT_EQ(rig.fusion.localizer().counters().contact_frames, 1u);
+  EXPECT_TRUE(rig.fusion.localizer().inContact(rig.clock.now() - 30'000));
+  send(-0.5, 50'000);
+  EXPECT_EQ(rig.fusion_bus.status().errorCount("obstacles_not_finite"), 1);
+  EXPECT_EQ(rig.fusion.localizer().counters().contact_frames, 1u);
 }
 
 }  // namespace

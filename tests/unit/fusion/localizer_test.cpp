@@ -209,5 +209,52 @@ TEST(Localizer, AFrameWhoseLinesPinTheDisagreementDownIsASlipAtOnce) {
   EXPECT_EQ(c_off.rejected.at("lines_gated"), 1u);
 }
 
+TEST(Localizer, InContactAFrameBeyondTheGateIsTakenAtOnce) {
+  // The aliased-looking frame of the test above, but the robot's camera has just seen an obstacle
+  // at its body: a push is expected, the frame is taken at once.
+  Injected inject;
+  inject.offset = {0.0, 0.30, 0.0};
+  inject.covariance = Eigen::Vector3d(0.01 * 0.01, 0.05 * 0.05, 0.005 * 0.005).asDiagonal();
+  LocalizerParams params;
+  params.filter.contact.distance_m = 0.35;
+  params.filter.contact.heading_density = 0.5;
+  Drive d({-3.0, 1.0, 0.0}, params, injecting(inject));
+  d.run(1.5, {0.3, 0.0, 0.0});
+  ASSERT_EQ(d.localizer.mode(), perception::LocalizationStatus::kTracking);
+  const double heading_var = d.localizer.stateAt(d.t)->p(2, 2);
+
+  // An obstacle 1.5 m away is no contact.
+  perception::ObstacleSightings far;
+  far.utime = d.t - 40'000;
+  far.obstacles.push_back({0.3, 1.5, 0.3, 0.45, 1.43, 0.44});
+  d.localizer.addObstacles(far, d.t + 8'000);
+  EXPECT_EQ(d.localizer.counters().contact_frames, 0u);
+  EXPECT_FALSE(d.localizer.inContact(d.t));
+
+  perception::ObstacleSightings touching;
+  touching.utime = d.t - 20'000;
+  touching.obstacles.push_back({0.3, 0.29, 1.2, 0.7, 0.28, 0.08});
+  d.localizer.addObstacles(touching, d.t + 8'000);
+  EXPECT_EQ(d.localizer.counters().contact_frames, 1u);
+  EXPECT_TRUE(d.localizer.inContact(d.t));
+  // The heading is less certain at once (the contact replayed the history after it).
+  EXPECT_GT(d.localizer.stateAt(d.t)->p(2, 2), heading_var + 0.5 * 0.5 * 0.015);
+
+  inject.armed = true;
+  while (inject.armed)
+    d.run(0.02, {0.3, 0.0, 0.0});
+  const LocalizerCounters& c = d.localizer.counters();
+  EXPECT_EQ(c.slips, 1u);
+  EXPECT_EQ(c.contact_slips, 1u);
+  EXPECT_EQ(c.rejected.count("lines_gated"), 0u);
+
+  // A sighting with a NaN distance is refused and counted, no contact evidence.
+  touching.utime = d.t - 10'000;
+  touching.obstacles[0].distance = std::nan("");
+  d.localizer.addObstacles(touching, d.t + 8'000);
+  EXPECT_EQ(c.rejected.at("obstacles_not_finite"), 1u);
+  EXPECT_EQ(c.contact_frames, 1u);
+}
+
 }  // namespace
 }  // namespace fieldline::fusion

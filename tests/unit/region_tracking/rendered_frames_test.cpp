@@ -323,6 +323,8 @@ TEST(VisionParams, TheShippedYamlHoldsTheDefaults) {
   EXPECT_EQ(loaded.lines.max_gap_pixels, defaults.lines.max_gap_pixels);
   EXPECT_EQ(loaded.lines.field_confirm_pixels, defaults.lines.field_confirm_pixels);
   EXPECT_EQ(loaded.lines.end_at_self, defaults.lines.end_at_self);
+  EXPECT_EQ(loaded.lines.ridge_contrast, defaults.lines.ridge_contrast);
+  EXPECT_EQ(loaded.lines.ridge_min_levels, defaults.lines.ridge_min_levels);
   EXPECT_EQ(loaded.lines.sample_spacing, defaults.lines.sample_spacing);
   EXPECT_EQ(loaded.lines.smoothing_passes, defaults.lines.smoothing_passes);
   EXPECT_EQ(loaded.lines.tangent_half_span, defaults.lines.tangent_half_span);
@@ -356,6 +358,16 @@ obstacles: {min_cells: 2}
   EXPECT_THROW(loadVisionParams(broken("min_cells: 2", "min_cells: 2, colour: black")),
                config::Error);
   EXPECT_THROW(loadVisionParams(broken("line_width: 0.05", "line_width: -1")), config::Error);
+  // The ridge rule: 0 turns it off; a contrast below 1 (darker than the carpet) is refused.
+  EXPECT_EQ(loadVisionParams(broken("max_gap_samples: 0", "max_gap_samples: 0, ridge_contrast: 0"))
+                .lines.ridge_contrast,
+            0.0);
+  EXPECT_THROW(
+      loadVisionParams(broken("max_gap_samples: 0", "max_gap_samples: 0, ridge_contrast: 0.5")),
+      config::Error);
+  EXPECT_THROW(
+      loadVisionParams(broken("max_gap_samples: 0", "max_gap_samples: 0, ridge_min_levels: -2")),
+      config::Error);
 }
 
 TEST_F(RenderedFrames, RejectsFramesOfTheWrongSize) {

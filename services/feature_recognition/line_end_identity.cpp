@@ -1,0 +1,114 @@
+#include "services/feature_recognition/line_end_identity.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace fieldline::feature_recognition {
+
+void candidateLineEnds(const LineStructure& structure, const field::FieldModel& field,
+                       const std::vector<Vec2>& taken, const RecognitionParams& params,
+                       std::vector<LineEnd>& out) {
+  out.clear();
+  if (!structure.found) return;
+  const auto& dims = field.dimensions();
+  // The spacings of the penalty area's parallel lines (goal line, goal-area line, penalty-area
+  // line).
+  const double spacings[3] = {dims.goal_area_depth, dims.penalty_area_depth - dims.goal_area_depth,
+                              dims.penalty_area_depth};
+  for (int axis = 0; axis < 2; ++axis) {
+    const auto& groups = structure.groups[axis];
+    for (int g = 0; g < static_cast<int>(groups.size()); ++g) {
+      const Line& line = groups[g].line;
+      if (line.count < params.min_corner_line_points || line.length() < params.min_front_line) {
+        continue;
+      }
+      bool partner = false;
+      for (int h = 0; h < static_cast<int>(groups.size()) && !partner; ++h) {
+        if (h == g || groups[h].line.count < params.min_corner_line_points) continue;
+        for (double spacing : spacings) {
+          if (std::abs(std::abs(groups[h].t - groups[g].t) - spacing) <= params.spacing_tolerance) {
+            partner = true;
+          }
+        }
+      }
+      if (!partner) continue;
+      for (int side = 0; side < 2; ++side) {
+        LineEnd end;
+        end.position = side == 0 ? line.start() : line.end();
+        end.into = side == 0 ? line.direction : Vec2(-line.direction);
+        end.length = line.length();
+        end.axis = axis;
+        end.group = g;
+        if (end.position.norm() > params.line_end_range) continue;
+        const bool explained = std::any_of(taken.begin(), taken.end(), [&](const Vec2& t) {
+          return (t - end.position).norm() < params.junction_distance;
+        });
+        if (!explained) out.push_back(end);
+      }
+    }
+  }
+}
+
+bool identifyLineEnd(const LineEnd& end, const std::vector<ModelJunction>& models,
+                     const std::vector<Vec2>& points, const ModelCheck& check,
+                     const RecognitionParams& params, LineEndIdentity& out) {
+  out = {};
+  Junction junction;
+  junction.position = end.position;
+  junction.phi = std::atan2(end.into.y(), end.into.x());
+  junction.leg_count = 1;
+  junction.legs = {end.into, Vec2::Zero(), Vec2::Zero()};
+  junction.leg_lengths = {end.length, 0.0, 0.0};
+  // The other points: those not on the line.
+  thread_local std::vector<Vec2> others;
+  others.clear();
+  const Vec2 far_end = end.position + end.length * end.into;
+  pointsAwayFrom(points, {{end.position, far_end}}, params.identity_leg_margin, others);
+  if (static_cast<int>(others.size()) < params.identity_min_points) return false;
+  // Screening: the line along a leg of a model penalty corner, on a few of the other points.
+  double best_screen = 0.0;
+  for (const ModelJunction& model : models) {
+    if (!model.penalty_corner) continue;
+    for (std::size_t l = 0; l < model.legs.size(); ++l) {
+      if (end.length > model.leg_lengths[l] + params.length_tolerance) continue;
+      const double phi = model.leg_angles[l] - junction.phi;
+      const Vec2 robot = model.position - geometry::rotate(end.position, phi);
+      const geometry::Pose2 pose{robot.x(), robot.y(), geometry::normalizeAngle(phi)};
+      best_screen =
+          std::max(best_screen, check.fit(others, pose, params.line_end_screen_points).share());
+    }
+  }
+  if (best_screen < params.identity_min_share - params.identity_screen_slack) return false;
+  // The verdict is taken below, on the refined pose (identifyJunction's own is on the line's
+  // last point).
+  identifyJunction(junction, models, points, check, params, out.identity);
+  if (out.identity.model < 0) return false;
+  // The pose along the line from the other points (the perpendicular lines among them): the
+  // line's last point is up to a sample spacing short of the true end.
+  const geometry::Pose2 first = out.identity.robot;
+  const Vec2 along = geometry::rotate(end.into, first.phi);
+  const double refined = check.refineShift(others, first, along, params.line_end_shift / 2);
+  const geometry::Pose2 robot{first.x + refined * along.x(), first.y + refined * along.y(),
+                              first.phi};
+  out.identity.robot = robot;
+  out.identity.fit = check.fit(others, robot);
+  out.corner = geometry::pointFieldToRobot(robot, models[out.identity.model].position);
+  // The position must be fixed by the other points: along the line (a perpendicular line among
+  // them) and across it (a parallel one), each way.
+  const Vec2 across(-along.y(), along.x());
+  for (const Vec2& direction : {along, across}) {
+    for (double sign : {-1.0, 1.0}) {
+      const Vec2 shifted = robot.position() + sign * params.line_end_shift * direction;
+      const geometry::Pose2 pose{shifted.x(), shifted.y(), robot.phi};
+      out.shifted_share = std::max(out.shifted_share, check.fit(others, pose).share());
+    }
+  }
+  const double share = out.identity.fit.share();
+  out.identified = out.identity.fit.points >= params.identity_min_points &&
+                   share >= params.identity_min_share &&
+                   out.identity.rival_share <= share - params.identity_margin &&
+                   out.shifted_share <= share - params.line_end_shift_margin;
+  return out.identified;
+}
+
+}  // namespace fieldline::feature_recognition

@@ -1,0 +1,198 @@
+// Penalty corners from one line's end: a goal-area corner whose side line shows no points is
+// found from the end of its front line (the goal line beside it, the rest of the frame placing
+// it); the same end with nothing but parallel lines around it is refused (the other points do
+// not fix the position along the line); ends without a parallel partner at the area's spacings
+// are no candidates.
+#include "services/feature_recognition/line_end_identity.hpp"
+
+#include <cmath>
+
+#include <gtest/gtest.h>
+
+#include "services/feature_recognition/recognizer.hpp"
+#include "tests/unit/feature_recognition/synthetic.hpp"
+
+namespace fieldline::feature_recognition {
+namespace {
+
+using geometry::Pose2;
+using geometry::Vec2;
+
+// Distance of p from the segment a-b.
+double segmentDistance(const Vec2& p, const Vec2& a, const Vec2& b) {
+  const Vec2 d = b - a;
+  const double t = std::clamp((p - a).dot(d) / d.squaredNorm(), 0.0, 1.0);
+  return (p - (a + t * d)).norm();
+}
+
+// `frame` without its points within `margin` of the field segment a-b (field frame), sequences
+// split where points were removed.
+perception::LinePoints without(const perception::LinePoints& frame, const Pose2& pose,
+                               const Vec2& a, const Vec2& b, double margin) {
+  perception::LinePoints out;
+  for (const auto& [begin, end] : frame.sequences) {
+    std::vector<Vec2> run;
+    auto flush = [&] {
+      if (run.size() >= 3) test::addSequence(out, run);
+      run.clear();
+    };
+    for (int i = begin; i < end; ++i) {
+      const Vec2 local(frame.points[i].x, frame.points[i].y);
+      if (segmentDistance(geometry::pointRobotToField(pose, local), a, b) < margin) {
+        flush();
+      } else {
+        run.push_back(local);
+      }
+    }
+    flush();
+  }
+  return out;
+}
+
+// Only the points within `margin` of the field segments given.
+perception::LinePoints onlyNear(const perception::LinePoints& frame, const Pose2& pose,
+                                const std::vector<std::pair<Vec2, Vec2>>& segments, double margin) {
+  perception::LinePoints out;
+  for (const auto& [begin, end] : frame.sequences) {
+    std::vector<Vec2> run;
+    for (int i = begin; i < end; ++i) {
+      const Vec2 local(frame.points[i].x, frame.points[i].y);
+      const Vec2 p = geometry::pointRobotToField(pose, local);
+      for (const auto& [a, b] : segments) {
+        if (segmentDistance(p, a, b) < margin) {
+          run.push_back(local);
+          break;
+        }
+      }
+    }
+    if (run.size() >= 3) test::addSequence(out, run);
+  }
+  return out;
+}
+
+std::vector<Vec2> pointsOf(const perception::LinePoints& frame) {
+  std::vector<Vec2> out;
+  for (const auto& p : frame.points)
+    out.emplace_back(p.x, p.y);
+  return out;
+}
+
+struct GoalArea {
+  Vec2 corner;     // the opponent goal's goal-area corner at +y (field frame)
+  Vec2 side_end;   // where its side line meets the goal line
+  Vec2 front_end;  // the other end of its front line
+};
+
+GoalArea goalAreaOf(const field::FieldModel& field) {
+  const auto& d = field.dimensions();
+  const double x = field.length() / 2 - d.goal_area_depth, y = d.goal_area_width / 2;
+  return {Vec2(x, y), Vec2(field.length() / 2, y), Vec2(x, -y)};
+}
+
+TEST(LineEndIdentity, GoalAreaCornerWithoutItsSideLineIsFoundFromTheFrontLineEnd) {
+  const field::FieldModel field = field::loadFieldPreset("msl");
+  const GoalArea area = goalAreaOf(field);
+  const Pose2 truth{8.2, 0.6, 0.3};
+  const perception::LinePoints full = test::frameAt(field, truth, 4.5, 0.12, 0.005);
+  const perception::LinePoints frame = without(full, truth, area.corner, area.side_end, 0.06);
+  ASSERT_GT(frame.points.size(), 80u);
+
+  // The stage alone, on the front line's end at the corner.
+  const ModelCheck check(field, RecognitionParams{});
+  const std::vector<ModelJunction> models = modelJunctions(field);
+  LineEnd end;
+  end.position = geometry::pointFieldToRobot(truth, area.corner);
+  end.into = geometry::rotate(Vec2(0.0, -1.0), -truth.phi);
+  end.length = 2.0;
+  LineEndIdentity identity;
+  ASSERT_TRUE(identifyLineEnd(end, models, pointsOf(frame), check, RecognitionParams{}, identity));
+  const ModelJunction& model = models[identity.identity.model];
+  EXPECT_TRUE(model.penalty_corner);
+  EXPECT_TRUE(model.inner);
+  const Pose2& robot = identity.identity.robot;
+  const Pose2 twin{-truth.x, -truth.y, truth.phi + std::numbers::pi};
+  const double error = std::min((robot.position() - truth.position()).norm(),
+                                (robot.position() - twin.position()).norm());
+  EXPECT_LT(error, 0.02);
+  EXPECT_LT(identity.shifted_share, identity.identity.fit.share() - 0.15);
+
+  // The whole recogniser finds that corner, only with the line-end rule.
+  auto cornerFound = [&](bool line_ends) {
+    RecognitionParams params;
+    params.line_end_corners = line_ends;
+    FeatureRecognizer recognizer(field, params);
+    perception::FieldFeatures features;
+    recognizer.recognize(frame, features);
+    bool found = false;
+    for (const auto& h : features.hypotheses) {
+      const double e = std::min((h.pose.position() - truth.position()).norm(),
+                                (h.pose.position() - twin.position()).norm());
+      EXPECT_LT(e, 0.1) << "a hypothesis off the true pose and its twin";
+    }
+    for (const auto& f : features.features) {
+      if (f.kind != perception::FeatureKind::kPenaltyCorner) continue;
+      const Vec2 seen = geometry::pointRobotToField(truth, {f.local.x, f.local.y});
+      if ((seen - area.corner).norm() < 0.2) found = true;
+    }
+    return found;
+  };
+  EXPECT_TRUE(cornerFound(true));
+  EXPECT_FALSE(cornerFound(false));
+}
+
+TEST(LineEndIdentity, AnEndAmongParallelLinesOnlyIsRefused) {
+  const field::FieldModel field = field::loadFieldPreset("msl");
+  const GoalArea area = goalAreaOf(field);
+  const auto& d = field.dimensions();
+  const Pose2 truth{8.2, 0.6, 0.3};
+  const perception::LinePoints full = test::frameAt(field, truth, 4.5, 0.12, 0.005);
+  // The goal-area front line and the goal line and penalty-area front line beside it, nothing
+  // else: every place along them fits the same.
+  const double half = field.length() / 2;
+  const perception::LinePoints frame =
+      onlyNear(full, truth,
+               {{area.corner, area.front_end},
+                {Vec2(half, -3.0), Vec2(half, 3.0)},
+                {Vec2(half - d.penalty_area_depth, -3.0), Vec2(half - d.penalty_area_depth, 3.0)}},
+               0.1);
+  ASSERT_GT(frame.points.size(), 60u);
+  LineEnd end;
+  end.position = geometry::pointFieldToRobot(truth, area.corner);
+  end.into = geometry::rotate(Vec2(0.0, -1.0), -truth.phi);
+  end.length = 2.0;
+  LineEndIdentity identity;
+  EXPECT_FALSE(identifyLineEnd(end, modelJunctions(field), pointsOf(frame),
+                               ModelCheck(field, RecognitionParams{}), RecognitionParams{},
+                               identity));
+}
+
+TEST(LineEndIdentity, CandidateEndsNeedAParallelPartnerAtTheAreasSpacings) {
+  const field::FieldModel field = field::loadFieldPreset("msl");
+  auto groupAt = [](double t, double from, double to) {
+    LineGroup g;
+    g.t = t;
+    g.line.centre = Vec2(t, 0.0);
+    g.line.direction = Vec2::UnitY();
+    g.line.t_min = from;
+    g.line.t_max = to;
+    g.line.count = 10;
+    return g;
+  };
+  LineStructure structure;
+  structure.found = true;
+  // Two parallel lines 0.75 m apart (goal-area depth) and one 3 m away from both.
+  structure.groups[0] = {groupAt(1.0, -1.0, 1.5), groupAt(1.75, -3.0, 3.0),
+                         groupAt(4.9, -1.0, 1.0)};
+  std::vector<LineEnd> ends;
+  candidateLineEnds(structure, field, {}, RecognitionParams{}, ends);
+  // Both ends of the first two (within 4.5 m), none of the third.
+  ASSERT_EQ(ends.size(), 4u);
+  for (const LineEnd& e : ends)
+    EXPECT_LT(e.group, 2);
+  // An end already explained by a junction is no candidate.
+  candidateLineEnds(structure, field, {Vec2(1.0, 1.5)}, RecognitionParams{}, ends);
+  EXPECT_EQ(ends.size(), 3u);
+}
+
+}  // namespace
+}  // namespace fieldline::feature_recognition
