@@ -12,6 +12,8 @@
 //       fieldline-profile-tracking --method whole --no-breakdown     (the line detector)
 //   perf stat fieldline-profile-tracking --method whole --no-breakdown --line-repeat 400
 //       (the detector run 400 times per frame, so that it dominates the counters)
+//   fieldline-profile-tracking --digest              # one hash of everything the tracker output
+//       (owners, contours, counts of every frame): equal before and after a speed change
 #include <algorithm>
 #include <array>
 #include <chrono>
@@ -109,6 +111,48 @@ void addBreakdown(const rt::FrameProcessor& processor, rt::FrameCellClassifier& 
   }
 }
 
+// FNV-1a over the tracker's outputs of every frame: which class owns each cell, the contours
+// (class, kind, area, every point in order) and the counts of TrackingStats.
+class OutputDigest {
+ public:
+  void add(const rt::RegionTracker& tracker) {
+    const rt::CellGrid& grid = tracker.grid();
+    for (int y = 0; y < grid.height; ++y) {
+      for (int x = 0; x < grid.width; ++x)
+        mix(tracker.ownerOf(x, y));
+    }
+    const rt::ContourSet& contours = tracker.contours();
+    for (const rt::Contour& c : contours.contours) {
+      mix(c.class_id);
+      mix(c.outer ? 1 : 0);
+      mix(c.signed_cell_area);
+      for (const rt::ContourPoint& p : contours.pointsOf(c)) {
+        mix(p.x);
+        mix(p.y);
+      }
+    }
+    const rt::TrackingStats& s = tracker.stats();
+    mix(s.cells_classified);
+    for (const int n : s.classified_by)
+      mix(n);
+    mix(s.drops_processed);
+    mix(s.cells_before);
+    mix(s.cells_after_shrink);
+    mix(s.cells_after_grow);
+    mix(s.initial_searches);
+    mix(s.contours);
+  }
+  std::uint64_t value() const { return hash_; }
+
+ private:
+  void mix(std::int64_t v) {
+    for (int i = 0; i < 8; ++i) {
+      hash_ = (hash_ ^ static_cast<std::uint8_t>(v >> (8 * i))) * 0x100000001b3ULL;
+    }
+  }
+  std::uint64_t hash_ = 0xcbf29ce484222325ULL;
+};
+
 struct Options {
   std::string camera_preset = "omni_sim";
   std::string field = "msl";
@@ -116,6 +160,7 @@ struct Options {
   double speed = 1.0, omega_deg = 90.0;
   int frames = 240, repeat = 1, line_repeat = 1;
   bool no_breakdown = false;
+  bool digest = false;
   int max_seed_regions = -1;
 
   // The vision parameters of the run: the defaults, with --max-seed-regions.
@@ -149,6 +194,9 @@ struct Options {
         ->check(CLI::Range(1, 1000))
         ->capture_default_str();
     app.add_flag("--no-breakdown", no_breakdown, "skip the per-cell analysis (for callgrind)");
+    app.add_flag("--digest", digest,
+                 "print only a hash of the tracker's outputs over the sequence (owners, contours, "
+                 "counts; to check that a change keeps them)");
     app.add_option("--max-seed-regions", max_seed_regions,
                    "seed only this many of the largest regions in an initial search (the seed: "
                    "10; 0: every region; default: the vision config's)")
@@ -161,7 +209,7 @@ using Sequence = std::vector<std::vector<std::uint8_t>>;
 // Runs the chosen method over the sequence (`repeat` times); for the tracker, sums the breakdown
 // of every frame but the first (the initial search). Returns the number of frames summed.
 int runMethod(const Options& options, rt::SimCamera& sim, const Sequence& sequence,
-              Breakdown& breakdown) {
+              Breakdown& breakdown, OutputDigest& digest) {
   const rt::VisionParams params = options.params();
   std::vector<rt::ClassId> classes;
   for (const rt::ClassTracking& c : params.tracker.classes)
@@ -190,7 +238,8 @@ int runMethod(const Options& options, rt::SimCamera& sim, const Sequence& sequen
         for (int k = 0; k < options.line_repeat; ++k)
           processor.lineDetector().detect(frame, processor.tracker().contours(), lines);
       }
-      if (options.no_breakdown || i == 0) continue;
+      if (options.digest) digest.add(processor.tracker());
+      if (options.no_breakdown || options.digest || i == 0) continue;
       addBreakdown(processor, processor.classifier(), breakdown);
       ++measured;
     }
@@ -319,7 +368,12 @@ int main(int argc, char** argv) {
     const Sequence sequence =
         rt::bench::renderSequence(sim, options.speed, options.omega_deg, options.frames);
     Breakdown breakdown;
-    const int measured = runMethod(options, sim, sequence, breakdown);
+    OutputDigest digest;
+    const int measured = runMethod(options, sim, sequence, breakdown, digest);
+    if (options.digest) {
+      std::printf("digest=%016llx\n", static_cast<unsigned long long>(digest.value()));
+      return;
+    }
     if (options.no_breakdown || measured == 0) return;
     printBreakdown(options, breakdown, measured);
     printTimes(options, sim, sequence);

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <bit>
 
 namespace fieldline::region_tracking {
 
@@ -36,7 +37,14 @@ ConnectivityGrid::ConnectivityGrid(const CellGrid& grid)
       layout_(grid),
       corner_offset_{0, 1, layout_.width + 1, layout_.width},
       step_{1, layout_.width, -1, -layout_.width},
-      bits_(layout_.size(), 0) {}
+      bits_(layout_.size(), 0) {
+  for (int direction = 0; direction < 4; ++direction) {
+    for (int available = 0; available < 16; ++available) {
+      const int next = kNextDirection[direction][available];
+      turns_[direction][available] = {next < 0 ? 0 : step_[next], static_cast<std::int8_t>(next)};
+    }
+  }
+}
 
 bool ConnectivityGrid::isClear() const {
   return std::all_of(bits_.begin(), bits_.end(), [](std::uint8_t b) { return b == 0; });
@@ -59,11 +67,16 @@ void ConnectivityGrid::extractContoursAt(std::span<const std::int32_t> cells, Cl
 }
 
 // Each boundary cell is checked once: a contour through it is followed completely and its
-// edges removed, so the next edge found on a later cell always starts a new contour.
+// edges removed, so the next edge found on a later cell always starts a new contour. Most cells
+// have no edge left (the contours through them were followed from an earlier cell), so the four
+// sides are tested in one go and the cell is left with one well-predicted branch.
 void ConnectivityGrid::extractAround(int cell, ClassId class_id, ContourSet& out) {
-  for (int side = 0; side < 4; ++side) {
-    const int corner = cell + corner_offset_[side];
-    if (bits_[corner] & (1u << side)) followContour(corner, side, class_id, out);
+  unsigned sides = sidesLeft(cell);
+  while (sides != 0) {
+    const int side = std::countr_zero(sides);
+    followContour(cell + corner_offset_[side], side, class_id, out);
+    // The contour may have taken other sides of this cell: the later sides are read again.
+    sides = sidesLeft(cell) & (~0u << (side + 1));
   }
 }
 
@@ -74,30 +87,35 @@ void ConnectivityGrid::followContour(int startCorner, int startDirection, ClassI
   contour.begin = static_cast<int>(out.points.size());
   long twiceArea = 0;  // shoelace sum over the edges, in cell units
 
-  // Corner (x, y) has the index of cell (x, y); x and y are carried along with the index.
+  // Corner (x, y) has the index of cell (x, y); x and y are carried along with the index. The
+  // walk is one chain of dependent loads (corner, its bits, the turn): the step of the next
+  // direction comes with the turn, so the chain has no third load.
+  std::uint8_t* const bits = bits_.data();
   int corner = startCorner;
   int x = layout_.x(startCorner);
   int y = layout_.y(startCorner);
   int direction = startDirection;
+  int step = step_[startDirection];
   while (true) {
-    bits_[corner] &= static_cast<std::uint8_t>(~(1u << direction));
+    bits[corner] &= static_cast<std::uint8_t>(~(1u << direction));
     out.points.push_back({x * grid_.cell_size, y * grid_.cell_size});
     const int nextX = x + kStepDx[direction];
     const int nextY = y + kStepDy[direction];
     twiceArea += static_cast<long>(x) * nextY - static_cast<long>(nextX) * y;
     x = nextX;
     y = nextY;
-    corner += step_[direction];
+    corner += step;
 
-    std::uint8_t available = bits_[corner];
+    std::uint8_t available = bits[corner];
     const bool atStart = corner == startCorner;
     // Back at the start, the (already removed) first edge counts as available: if the turning
     // rule would take it, the contour is closed.
     if (atStart) available |= static_cast<std::uint8_t>(1u << startDirection);
     // Turning rule: right, straight, left. A U-turn never occurs within one class.
-    const int next = kNextDirection[direction][available & 0xF];
-    if (next < 0 || (atStart && next == startDirection)) break;
-    direction = next;
+    const Turn turn = turns_[direction][available & 0xF];
+    if (turn.direction < 0 || (atStart && turn.direction == startDirection)) break;
+    direction = turn.direction;
+    step = turn.step;
   }
 
   contour.end = static_cast<int>(out.points.size());

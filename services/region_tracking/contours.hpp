@@ -7,6 +7,7 @@
 // (0 up, 1 right, 2 down, 3 left) becomes the edge in direction k (0 +x, 1 +y, 2 -x, 3 -y).
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <span>
 #include <vector>
@@ -113,6 +114,11 @@ class ConnectivityGrid {
 
  private:
   void extractAround(int cell, ClassId class_id, ContourSet& out);
+  // Bit k set: side k of the cell at padded index `cell` is a boundary edge not yet followed.
+  unsigned sidesLeft(int cell) const {
+    return (bits_[cell + corner_offset_[0]] & 1u) | (bits_[cell + corner_offset_[1]] & 2u) |
+           (bits_[cell + corner_offset_[2]] & 4u) | (bits_[cell + corner_offset_[3]] & 8u);
+  }
   void followContour(int startCorner, int startDirection, ClassId class_id, ContourSet& out);
 
   CellGrid grid_;
@@ -121,6 +127,13 @@ class ConnectivityGrid {
   // top-right, bottom-right, bottom-left; and the index step along each edge direction.
   int corner_offset_[4];
   int step_[4];
+  // The turning rule (right, straight, left) for the direction walked and the edges available
+  // at the corner reached: the next direction (-1: none) and its index step.
+  struct Turn {
+    std::int32_t step;
+    std::int8_t direction;
+  };
+  std::array<std::array<Turn, 16>, 4> turns_;
   std::vector<std::uint8_t> bits_;
 };
 

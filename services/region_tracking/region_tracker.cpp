@@ -61,7 +61,7 @@ RegionTracker::RegionTracker(const CellGrid& grid, const TrackerConfig& config,
       visited_(layout_.size(), kBlocked),
       connectivity_(grid),
       classified_(layout_.size(), 0),
-      coordinates_(layout_.size(), Cell{-1, -1}),
+      width_inverse_(~std::uint64_t{0} / static_cast<std::uint64_t>(layout_.width) + 1),
       scratch_mark_(layout_.size(), 0) {
   class_slot_.fill(-1);
   seed_parent_.fill(kNoClass);
@@ -82,11 +82,6 @@ RegionTracker::RegionTracker(const CellGrid& grid, const TrackerConfig& config,
     }
   }
   empty_visited_ = visited_;
-  for (int y = 0; y < grid.height; ++y) {
-    for (int x = 0; x < grid.width; ++x)
-      coordinates_[layout_.index(x, y)] = {static_cast<std::int16_t>(x),
-                                           static_cast<std::int16_t>(y)};
-  }
 
   for (std::size_t i = 0; i < config.classes.size(); ++i) {
     const ClassTracking& tracking = config.classes[i];
@@ -122,8 +117,8 @@ RegionTracker::RegionTracker(const CellGrid& grid, const TrackerConfig& config,
     state.tracking = tracking;
     // Reserve the worst case once so no frame ever allocates (a cell can be proposed as a
     // seed from each of its four sides).
-    state.work_drops.reserve(grid.cellCount());
-    state.boundary_drops.reserve(grid.cellCount());
+    state.work_drops.allocate(grid.cellCount());
+    state.boundary_drops.allocate(grid.cellCount());
     state.pending_seeds.reserve(4 * static_cast<std::size_t>(grid.cellCount()));
     class_slot_[tracking.class_id] = static_cast<int>(classes_.size());
     seed_parent_[tracking.class_id] = tracking.seed_from_boundary_of;
@@ -166,9 +161,9 @@ int RegionTracker::regionCells(ClassId class_id) const {
 }
 
 ClassId RegionTracker::classifyNow(CellIndex cell) {
-  const Cell at = coordinates_[cell];
+  const Cell at = coordinatesOf(cell);
   const ClassId class_id = classifier_->classify(at.x, at.y);
-  classified_[cell] = (stamp_ << 8) | class_id;
+  classified_[cell] = static_cast<std::uint16_t>((stamp_ << 8) | class_id);
   ++stats_.cells_classified;
   return class_id;
 }
@@ -186,7 +181,7 @@ const TrackingStats& RegionTracker::track(const CellClassifier& classifier) {
   stats_.frame = frame_count_;
   reason_start_ = 0;
   classifier_ = &classifier;
-  if (++stamp_ == kStampLimit) {  // wrapped after 2^24 frames: old stamps could look current
+  if (++stamp_ == kStampLimit) {  // wrapped: old stamps could look current
     std::fill(classified_.begin(), classified_.end(), 0);
     stamp_ = 1;
   }
@@ -257,32 +252,34 @@ void RegionTracker::shrink(ClassState& state) {
   const ClassId id = state.tracking.class_id;
   ClassId* const visited = visited_.data();
   const int up = neighbour_[0], right = neighbour_[1], down = neighbour_[2], left = neighbour_[3];
-  std::vector<CellIndex>& drops = state.boundary_drops;
-  std::vector<CellIndex>& stopped = state.work_drops;
   // Drops stand on unmarked cells while shrinking, so unmark the boundary drops first.
-  for (const CellIndex drop : drops)
+  for (const CellIndex drop : state.boundary_drops)
     visited[drop] = kNoClass;
-  int cells = state.cells - static_cast<int>(drops.size());
+  int cells = state.cells - static_cast<int>(state.boundary_drops.size());
   int processed = 0;
-  // Every cell is pushed at most once (it is unmarked when pushed), so the reserved capacity of
-  // one entry per cell is never exceeded.
+  // The two lists as plain arrays with their sizes in registers (the byte stores into V would
+  // make the compiler reload sizes kept in memory after each of them). Every cell is pushed at
+  // most once (it is unmarked when pushed), so the room for every cell suffices.
+  CellIndex* const drops = state.boundary_drops.data();
+  std::size_t dropCount = state.boundary_drops.size();
+  CellIndex* const stopped = state.work_drops.data();
+  std::size_t stoppedCount = state.work_drops.size();
   auto moveInto = [&](CellIndex next) {
     if (visited[next] == id) {
       visited[next] = kNoClass;
       --cells;
-      drops.push_back(next);
+      drops[dropCount++] = next;
     }
   };
   // Shrinking starts only at the boundary: a change deep inside a region that touches no
   // boundary drop (a ball jumping into green) is not seen here (seed 3.1.5); see
   // searchInsideParent for the remedy used for small, fast classes.
-  while (!drops.empty()) {
-    const CellIndex drop = drops.back();
-    drops.pop_back();
+  while (dropCount > 0) {
+    const CellIndex drop = drops[--dropCount];
     ++processed;
     if (classOf(drop) == id) {
       // Still the region's class: the drop stops here and will seed the growing.
-      stopped.push_back(drop);
+      stopped[stoppedCount++] = drop;
       continue;
     }
     // The cell left the region: the drop moves into every still-marked neighbour.
@@ -291,10 +288,12 @@ void RegionTracker::shrink(ClassState& state) {
     moveInto(drop + down);
     moveInto(drop + left);
   }
+  state.boundary_drops.setSize(0);
+  state.work_drops.setSize(stoppedCount);
   // The stopped drops belong to the region again.
-  for (const CellIndex drop : stopped)
+  for (const CellIndex drop : state.work_drops)
     visited[drop] = id;
-  state.cells = cells + static_cast<int>(stopped.size());
+  state.cells = cells + static_cast<int>(stoppedCount);
   stats_.drops_processed += processed;
 }
 
@@ -304,8 +303,12 @@ void RegionTracker::grow(ClassState& state) {
   const ClassId id = state.tracking.class_id;
   ClassId* const visited = visited_.data();
   const ClassId* const seedParent = seed_parent_.data();
-  std::vector<CellIndex>& drops = state.work_drops;
-  std::vector<CellIndex>& boundary = state.boundary_drops;
+  // The lists as plain arrays with their sizes in registers, as in shrink. A cell is claimed at
+  // most once, and is a boundary drop at most once.
+  CellIndex* const drops = state.work_drops.data();
+  std::size_t dropCount = state.work_drops.size();
+  CellIndex* const boundary = state.boundary_drops.data();
+  std::size_t boundaryCount = state.boundary_drops.size();
   int cells = state.cells;
   int processed = 0;
   // Looks at the neighbour on one side; true if that side is on the region's boundary.
@@ -317,7 +320,7 @@ void RegionTracker::grow(ClassState& state) {
       if (nextClass == id) {
         visited[next] = id;
         ++cells;
-        drops.push_back(next);
+        drops[dropCount++] = next;
         return false;
       }
       if (seedParent[nextClass] == id) {
@@ -335,9 +338,8 @@ void RegionTracker::grow(ClassState& state) {
     return 1;
   };
   const int up = neighbour_[0], right = neighbour_[1], down = neighbour_[2], left = neighbour_[3];
-  while (!drops.empty()) {
-    const CellIndex drop = drops.back();
-    drops.pop_back();
+  while (dropCount > 0) {
+    const CellIndex drop = drops[--dropCount];
     ++processed;
     // Each side on the boundary goes straight into the connectivity grid; a drop with any such
     // side is a boundary drop. (One statement per side: the order of the sides is fixed.)
@@ -345,8 +347,10 @@ void RegionTracker::grow(ClassState& state) {
     sides += boundarySide(drop, right, 1);
     sides += boundarySide(drop, down, 2);
     sides += boundarySide(drop, left, 3);
-    if (sides > 0) boundary.push_back(drop);
+    if (sides > 0) boundary[boundaryCount++] = drop;
   }
+  state.work_drops.setSize(0);
+  state.boundary_drops.setSize(boundaryCount);
   state.cells = cells;
   stats_.drops_processed += processed;
 }
@@ -386,7 +390,7 @@ void RegionTracker::searchInsideParent(const ClassState& child) {
       bool interior = true;
       for (const int offset : neighbour_)
         interior = interior && visited_[cell + offset] == parentId;
-      if (interior && classOf(cell) != parentId) parent->boundary_drops.push_back(cell);
+      if (interior && classOf(cell) != parentId) parent->boundary_drops.push(cell);
     }
   }
 }
@@ -457,7 +461,12 @@ int RegionTracker::dropRegion(ClassId class_id, int x, int y) {
   }
   state->cells -= released;
   // Its boundary drops must go too, or the next shrink would revive the region.
-  std::erase_if(state->boundary_drops, [&](const CellIndex d) { return visited_[d] != class_id; });
+  std::size_t kept = 0;
+  CellIndex* const drops = state->boundary_drops.data();
+  for (std::size_t i = 0; i < state->boundary_drops.size(); ++i) {
+    if (visited_[drops[i]] == class_id) drops[kept++] = drops[i];
+  }
+  state->boundary_drops.setSize(kept);
   return released;
 }
 

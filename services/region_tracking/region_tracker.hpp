@@ -170,15 +170,38 @@ class RegionTracker {
   // spares every bounds check when a drop looks at its neighbours.
   using CellIndex = std::int32_t;
 
-  // Per class: the pair of drop queues (used as stacks; order does not matter) and its size.
+  // A list of cells, used as a stack, with room for every cell of the grid allocated once, so a
+  // push needs no capacity check: a cell is on one of a class's drop lists at most once.
+  class DropList {
+   public:
+    void allocate(std::size_t capacity) { cells_.resize(capacity); }
+    void push(CellIndex cell) { cells_[size_++] = cell; }
+    CellIndex pop() { return cells_[--size_]; }
+    bool empty() const { return size_ == 0; }
+    void clear() { size_ = 0; }
+    const CellIndex* begin() const { return cells_.data(); }
+    const CellIndex* end() const { return cells_.data() + size_; }
+    operator std::span<const CellIndex>() const { return {begin(), size_}; }
+    // For the hot loops, which keep the top of the stack in a register: the cells, and setting
+    // the size they leave.
+    CellIndex* data() { return cells_.data(); }
+    std::size_t size() const { return size_; }
+    void setSize(std::size_t size) { size_ = size; }
+
+   private:
+    std::vector<CellIndex> cells_;
+    std::size_t size_ = 0;
+  };
+
+  // Per class: the pair of drop lists (used as stacks; order does not matter) and its size.
   struct ClassState {
     ClassTracking tracking;
     // Kept from frame to frame: the boundary cells of the regions. Filled by grow, emptied by the
     // next shrink, which starts from them.
-    std::vector<CellIndex> boundary_drops;
+    DropList boundary_drops;
     // Within one frame: the drops still to spread. Filled by shrink (the drops that stopped) and
     // by seeding, emptied by grow.
-    std::vector<CellIndex> work_drops;
+    DropList work_drops;
     std::vector<CellIndex> pending_seeds;
     int cells = 0;
     // Frames since the class last had a region (a large number before it was ever seen).
@@ -200,7 +223,7 @@ class RegionTracker {
   void claim(ClassState& state, CellIndex cell) {
     visited_[cell] = state.tracking.class_id;
     ++state.cells;
-    state.work_drops.push_back(cell);
+    state.work_drops.push(cell);
   }
 
   void shrink(ClassState& state);
@@ -225,18 +248,32 @@ class RegionTracker {
   ConnectivityGrid connectivity_;
   ContourSet contours_;
 
-  // Per-frame cache of classifications, one word per cell: the frame's stamp (24 bits) and the
-  // class (low 8 bits); valid while the stamp is the frame's. One load answers both questions.
+  // Per-frame cache of classifications, 16 bits per cell: the frame's stamp (high byte) and the
+  // class (low byte); valid while the stamp is the frame's. One load answers both questions. (16
+  // bits keep the cache of a 640x480 frame's grid at 40 kB; the stamp wraps every 255 frames,
+  // when the cache is cleared.)
   const CellClassifier* classifier_ = nullptr;
   // Why the cells classified now are classified; stats_.cells_classified when it was set.
   TouchReason touch_reason_ = TouchReason::kShrink;
   int reason_start_ = 0;
-  std::vector<std::uint32_t> classified_;
+  std::vector<std::uint16_t> classified_;
   std::uint32_t stamp_ = 0;
-  static constexpr std::uint32_t kStampLimit = 1u << 24;
-  // Grid coordinates of every padded index (the classifier takes x, y; dividing by the padded
-  // width for every classification costs more than the lookup).
-  std::vector<Cell> coordinates_;
+  static constexpr std::uint32_t kStampLimit = 1u << 8;
+  // The classifier takes grid coordinates: x and y of a padded index come from a division by
+  // the padded width done as two multiplications (Lemire, Kaser and Kurz, "Faster remainder by
+  // direct computation", 2019: exact for every 32-bit index and divisor >= 2), instead of a
+  // table of the coordinates of every cell: 4 bytes per cell less to keep in the cache.
+  std::uint64_t width_inverse_ = 0;  // 2^64 / padded width, rounded up
+  Cell coordinatesOf(CellIndex cell) const {
+    const auto index = static_cast<std::uint32_t>(cell);
+    const auto row =
+        static_cast<std::uint32_t>((static_cast<unsigned __int128>(width_inverse_) * index) >> 64);
+    const std::uint64_t fraction = width_inverse_ * index;
+    const auto column = static_cast<std::uint32_t>(
+        (static_cast<unsigned __int128>(fraction) * static_cast<std::uint32_t>(layout_.width)) >>
+        64);
+    return {static_cast<std::int16_t>(column - 1), static_cast<std::int16_t>(row - 1)};
+  }
 
   // Scratch for initial searches and dropRegion, kept to avoid per-frame allocation.
   std::vector<CellIndex> scratch_queue_;
