@@ -12,6 +12,7 @@
 #include "common/camera/mirror_model.hpp"
 #include "common/field/field_model.hpp"
 #include "services/camera/sim_renderer.hpp"
+#include "services/region_tracking/frame_processor.hpp"
 
 namespace fieldline::region_tracking {
 
@@ -29,6 +30,17 @@ struct SimCamera {
   const camera::FrameView render(const camera::SimScene& scene) {
     renderer->render(scene, frame);
     return renderer->view(frame);
+  }
+
+  // Renders the scene `frames` times (the noise differs per frame number), tracks each with
+  // `processor` (lines detected) and returns the last frame's result.
+  VisionResult track(FrameProcessor& processor, camera::SimScene scene, int frames = 3) {
+    VisionResult result;
+    for (int i = 0; i < frames; ++i) {
+      scene.frame_number = static_cast<std::uint64_t>(i);
+      processor.process(render(scene), true, result);
+    }
+    return result;
   }
 };
 

@@ -35,14 +35,9 @@ class BallDetectorTest : public ::testing::Test {
     sim_ = nullptr;
   }
 
-  VisionResult track(camera::SimScene scene, int frames = 3) {
+  VisionResult track(const camera::SimScene& scene, int frames = 3) {
     FrameProcessor processor(sim_->mirror, sim_->table, defaultVisionParams());
-    VisionResult result;
-    for (int i = 0; i < frames; ++i) {
-      scene.frame_number = static_cast<std::uint64_t>(i);
-      processor.process(sim_->render(scene), true, result);
-    }
-    return result;
+    return sim_->track(processor, scene, frames);
   }
 
   static SimCamera* sim_;

@@ -39,12 +39,7 @@ class RenderedMatching : public ::testing::TestWithParam<MatchMethod> {
                                               region_tracking::defaultVisionParams());
     camera::SimScene scene;
     scene.robot = pose;
-    region_tracking::VisionResult result;
-    for (int i = 0; i < 3; ++i) {
-      scene.frame_number = static_cast<std::uint64_t>(i);
-      processor.process(sim_->render(scene), true, result);
-    }
-    return result.lines.points;
+    return sim_->track(processor, scene).lines.points;
   }
 
   LineMatcher matcher(double max_range = MatcherParams{}.max_point_range_m) const {

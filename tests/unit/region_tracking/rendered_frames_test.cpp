@@ -28,14 +28,8 @@ class RenderedFrames : public ::testing::Test {
     sim_ = nullptr;
   }
 
-  // Tracks `frames` renderings of the scene (noise differs per frame) and returns the last result.
-  VisionResult track(FrameProcessor& processor, camera::SimScene scene, int frames = 3) {
-    VisionResult result;
-    for (int i = 0; i < frames; ++i) {
-      scene.frame_number = static_cast<std::uint64_t>(i);
-      processor.process(sim_->render(scene), true, result);
-    }
-    return result;
+  VisionResult track(FrameProcessor& processor, const camera::SimScene& scene, int frames = 3) {
+    return sim_->track(processor, scene, frames);
   }
 
   static SimCamera* sim_;
