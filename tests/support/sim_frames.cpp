@@ -18,6 +18,31 @@ SimCamera SimCamera::load(const std::string& cameraPreset, const std::string& fi
   return SimCamera{model.mirror, std::move(table), std::move(field), std::move(renderer), {}};
 }
 
+camera::SimBox standingBox(const geometry::Vec2& centre, double sx, double sy, double height,
+                           camera::Bgr colour) {
+  camera::SimBox b;
+  b.lo = Eigen::Vector3d(centre.x() - sx / 2, centre.y() - sy / 2, 0.0);
+  b.hi = Eigen::Vector3d(centre.x() + sx / 2, centre.y() + sy / 2, height);
+  b.colour = colour;
+  return b;
+}
+
+geometry::Vec2 placeBeyondLines(const field::FieldModel& field, std::mt19937& rng, bool side_only) {
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  auto uniform = [&](double lo, double hi) { return lo + (hi - lo) * unit(rng); };
+  const geometry::Vec2 half = field.carpetHalfExtent();
+  const geometry::Vec2 lines(field.length() / 2, field.width() / 2);
+  const bool along_x = side_only || unit(rng) < 0.6;
+  const double sign = unit(rng) < 0.5 ? -1.0 : 1.0;
+  // y is drawn before x: the order the evaluations' recorded figures were measured with.
+  if (along_x) {
+    const double y = sign * uniform(lines.y() + 0.4, half.y() + 1.5);
+    return {uniform(-half.x(), half.x()), y};
+  }
+  const double y = uniform(-half.y(), half.y());
+  return {sign * uniform(lines.x() + 0.4, half.x() + 1.5), y};
+}
+
 std::vector<geometry::Pose2> motionPoses(const field::FieldModel& field, const Motion& motion,
                                          int frames) {
   // A circuit 1.5 m inside the field lines (at least halfway in on a small field), with

@@ -5,6 +5,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -50,6 +51,15 @@ struct Motion {
   double omega = 0.0;
   double frame_rate = 30.0;
 };
+
+// A box standing on the floor: a footprint of sx x sy centred at `centre`, `height` tall.
+camera::SimBox standingBox(const geometry::Vec2& centre, double sx, double sy, double height,
+                           camera::Bgr colour);
+
+// A random place in the hall beyond the field's lines, where clutter stands: from 0.4 m beyond a
+// touch line (or, unless `side_only`, in 40 % of the draws a goal line) up to 1.5 m beyond the
+// carpet's edge.
+geometry::Vec2 placeBeyondLines(const field::FieldModel& field, std::mt19937& rng, bool side_only);
 
 // `frames` poses of a robot that drives at `motion.speed` around a rounded rectangle inside the
 // field (so it never leaves it) while turning at `motion.omega`. Deterministic for equal input.

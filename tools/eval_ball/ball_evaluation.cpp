@@ -26,14 +26,6 @@ std::mt19937 segmentRng(std::uint32_t seed, int segment) {
   return std::mt19937(seq);
 }
 
-camera::SimBox box(const Vec2& c, double sx, double sy, double h, camera::Bgr colour) {
-  camera::SimBox b;
-  b.lo = Eigen::Vector3d(c.x() - sx / 2, c.y() - sy / 2, 0.0);
-  b.hi = Eigen::Vector3d(c.x() + sx / 2, c.y() + sy / 2, h);
-  b.colour = colour;
-  return b;
-}
-
 // Whether the whole image of a ball at `ball` (robot frame) lies inside the frame.
 bool wholeInImage(const camera::MirrorModel& mirror, const Vec2& ball, double radius) {
   for (int i = 0; i <= 6; ++i) {
@@ -123,26 +115,17 @@ camera::SimScene sceneFor(const BallEvalOptions& o, const field::FieldModel& fie
   std::mt19937 rng = segmentRng(o.seed + 1, segment);
   std::uniform_real_distribution<double> unit(0.0, 1.0);
   auto uniform = [&](double lo, double hi) { return lo + (hi - lo) * unit(rng); };
-  const Vec2 half = field.carpetHalfExtent();
-  const Vec2 lines(field.length() / 2, field.width() / 2);
-
-  // Off the field: 0.4 m beyond a goal or touch line up to 1.5 m beyond the carpet's edge.
-  auto beyondBorder = [&](bool side_only) {
-    const bool along_x = side_only || unit(rng) < 0.6;
-    const double sign = unit(rng) < 0.5 ? -1.0 : 1.0;
-    if (along_x) {
-      return Vec2(uniform(-half.x(), half.x()), sign * uniform(lines.y() + 0.4, half.y() + 1.5));
-    }
-    return Vec2(sign * uniform(lines.x() + 0.4, half.x() + 1.5), uniform(-half.y(), half.y()));
-  };
+  using region_tracking::placeBeyondLines;
+  using region_tracking::standingBox;
   // Orange things in the hall (bags, jackets, boxes, cones): larger than a ball.
   for (int i = 0; i < o.orange_objects; ++i) {
-    scene.boxes.push_back(
-        box(beyondBorder(false), uniform(0.3, 0.8), uniform(0.3, 0.8), uniform(0.3, 1.0), kOrange));
+    scene.boxes.push_back(standingBox(placeBeyondLines(field, rng, false), uniform(0.3, 0.8),
+                                      uniform(0.3, 0.8), uniform(0.3, 1.0), kOrange));
   }
   // People in red beyond the side lines.
   for (int i = 0; i < o.people; ++i) {
-    scene.boxes.push_back(box(beyondBorder(true), 0.45, 0.3, uniform(1.5, 1.9), kRed));
+    scene.boxes.push_back(
+        standingBox(placeBeyondLines(field, rng, true), 0.45, 0.3, uniform(1.5, 1.9), kRed));
   }
   return scene;
 }

@@ -169,7 +169,6 @@ camera::SimScene sceneFor(const Pose2& pose, std::uint64_t frame, const Options&
   std::uniform_real_distribution<double> unit(0.0, 1.0);
   auto uniform = [&](double lo, double hi) { return lo + (hi - lo) * unit(rng); };
   const Vec2 half = field.carpetHalfExtent();
-  const Vec2 lines(field.length() / 2, field.width() / 2);
   for (int i = 0; i < o.opponents; ++i) {
     const double d = uniform(1.0, 5.0), b = uniform(-kPi, kPi);
     const Vec2 p = pose.position() + d * Vec2(std::cos(b), std::sin(b));
@@ -184,43 +183,31 @@ camera::SimScene sceneFor(const Pose2& pose, std::uint64_t frame, const Options&
     }
     scene.robots.push_back(r);
   }
-  // A place beyond the field's lines: 0.4 m beyond a goal or touch line up to 1.5 m beyond the
-  // carpet's edge (in the hall).
+  using region_tracking::standingBox;
+  // Where hall clutter stands: beyond the field's lines.
   auto beyondBorder = [&](bool side_only) {
-    const bool along_x = side_only || unit(rng) < 0.6;
-    const double sign = unit(rng) < 0.5 ? -1.0 : 1.0;
-    if (along_x) {
-      return Vec2(uniform(-half.x(), half.x()), sign * uniform(lines.y() + 0.4, half.y() + 1.5));
-    }
-    return Vec2(sign * uniform(lines.x() + 0.4, half.x() + 1.5), uniform(-half.y(), half.y()));
-  };
-  auto box = [](const Vec2& c, double sx, double sy, double h, camera::Bgr colour) {
-    camera::SimBox b;
-    b.lo = Eigen::Vector3d(c.x() - sx / 2, c.y() - sy / 2, 0.0);
-    b.hi = Eigen::Vector3d(c.x() + sx / 2, c.y() + sy / 2, h);
-    b.colour = colour;
-    return b;
+    return region_tracking::placeBeyondLines(field, rng, side_only);
   };
   for (int i = 0; i < o.white_objects; ++i) {
     const Vec2 c = beyondBorder(false);
     const double sx = uniform(0.2, 1.0), sy = uniform(0.2, 1.0), h = uniform(0.2, 1.2);
-    scene.boxes.push_back(box(c, sx, sy, h, kWhite));
+    scene.boxes.push_back(standingBox(c, sx, sy, h, kWhite));
   }
   for (int i = 0; i < o.people; ++i) {
     const Vec2 c = beyondBorder(true);
     const camera::Bgr colour = kColours[static_cast<int>(unit(rng) * 4.999)];
-    scene.boxes.push_back(box(c, 0.45, 0.3, uniform(1.5, 1.9), colour));
+    scene.boxes.push_back(standingBox(c, 0.45, 0.3, uniform(1.5, 1.9), colour));
   }
   for (int i = 0; i < o.patches; ++i) {
     const double d = uniform(0.8, 5.0), b = uniform(-kPi, kPi);
     const Vec2 c = pose.position() + d * Vec2(std::cos(b), std::sin(b));
-    scene.boxes.push_back(box(c, uniform(0.05, 0.3), uniform(0.05, 0.3), 0.004, kWhite));
+    scene.boxes.push_back(standingBox(c, uniform(0.05, 0.3), uniform(0.05, 0.3), 0.004, kWhite));
   }
   for (int i = 0; i < o.orange_objects; ++i) {
     const double d = uniform(0.8, 5.0), b = uniform(-kPi, kPi);
     scene.ball = camera::SimBall{pose.position() + d * Vec2(std::cos(b), std::sin(b)), 0.11};
-    scene.boxes.push_back(
-        box(beyondBorder(false), uniform(0.2, 0.6), uniform(0.2, 0.6), uniform(0.1, 0.8), kOrange));
+    scene.boxes.push_back(standingBox(beyondBorder(false), uniform(0.2, 0.6), uniform(0.2, 0.6),
+                                      uniform(0.1, 0.8), kOrange));
   }
   return scene;
 }

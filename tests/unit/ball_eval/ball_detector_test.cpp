@@ -19,14 +19,6 @@ using camera::Vec2;
 const camera::Bgr kOrange{10, 100, 240};
 const camera::Bgr kRed{40, 40, 200};
 
-camera::SimBox box(const Vec2& c, double sx, double sy, double h, camera::Bgr colour) {
-  camera::SimBox b;
-  b.lo = Eigen::Vector3d(c.x() - sx / 2, c.y() - sy / 2, 0.0);
-  b.hi = Eigen::Vector3d(c.x() + sx / 2, c.y() + sy / 2, h);
-  b.colour = colour;
-  return b;
-}
-
 class BallDetectorTest : public ::testing::Test {
  protected:
   static void SetUpTestSuite() { sim_ = new SimCamera(SimCamera::load("omni_sim", "msl")); }
@@ -76,7 +68,7 @@ TEST_F(BallDetectorTest, TheBallWinsOverALargerOrangeObject) {
   scene.robot = pose;
   const Vec2 ballInRobot(-0.5, -1.8);
   scene.ball = camera::SimBall{geometry::pointRobotToField(pose, ballInRobot), 0.11};
-  scene.boxes.push_back(box(Vec2(2.5, 7.6), 0.5, 0.5, 0.6, kOrange));
+  scene.boxes.push_back(standingBox(Vec2(2.5, 7.6), 0.5, 0.5, 0.6, kOrange));
   const VisionResult result = track(scene);
   ASSERT_TRUE(result.ball.visible);
   EXPECT_LE((Vec2(result.ball.x, result.ball.y) - ballInRobot).norm(), 0.05);
@@ -89,10 +81,10 @@ TEST_F(BallDetectorTest, OrangeObjectsAndRedPeopleOffTheFieldAreNoBall) {
   camera::SimScene scene;
   scene.robot = pose;
   // The touch line is at y = 7 m, the carpet ends at 8 m.
-  scene.boxes.push_back(box(Vec2(-1.0, 7.5), 0.4, 0.4, 0.5, kOrange));
-  scene.boxes.push_back(box(Vec2(-3.5, 8.3), 0.6, 0.3, 0.3, kOrange));
-  scene.boxes.push_back(box(Vec2(0.0, 7.8), 0.45, 0.3, 1.7, kRed));
-  scene.boxes.push_back(box(Vec2(-4.0, 7.6), 0.45, 0.3, 1.8, kRed));
+  scene.boxes.push_back(standingBox(Vec2(-1.0, 7.5), 0.4, 0.4, 0.5, kOrange));
+  scene.boxes.push_back(standingBox(Vec2(-3.5, 8.3), 0.6, 0.3, 0.3, kOrange));
+  scene.boxes.push_back(standingBox(Vec2(0.0, 7.8), 0.45, 0.3, 1.7, kRed));
+  scene.boxes.push_back(standingBox(Vec2(-4.0, 7.6), 0.45, 0.3, 1.8, kRed));
   for (int frames : {1, 3, 10}) {
     const VisionResult result = track(scene, frames);
     EXPECT_FALSE(result.ball.visible) << "at (" << result.ball.x << ", " << result.ball.y << ")";
@@ -104,7 +96,7 @@ TEST_F(BallDetectorTest, RefusesCandidatesOfTheWrongSizeAndOffTheCarpet) {
   const geometry::Pose2 pose{0.0, 0.0, 0.0};
   camera::SimScene scene;
   scene.robot = pose;
-  scene.boxes.push_back(box(Vec2(1.5, 0.0), 0.3, 1.2, 0.3, kOrange));
+  scene.boxes.push_back(standingBox(Vec2(1.5, 0.0), 0.3, 1.2, 0.3, kOrange));
   const VisionResult result = track(scene);
   EXPECT_FALSE(result.ball.visible);
   EXPECT_GE(result.ball.rejected, 1);
