@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <numbers>
 #include <numeric>
@@ -230,91 +231,113 @@ bool LineDetector::scan(const camera::FrameView& frame, float originU, float ori
   const std::uint8_t* origin =
       frame.data + static_cast<std::ptrdiff_t>(ov) * frame.stride + ou * kBytesPerPixel;
   const std::ptrdiff_t stride = frame.stride;
+  const camera::ColourClass* lookup = table_.yuvLookup().data();
+  // On the stack, so that storing a brightness cannot alias the colour table's pointer (which
+  // would be reloaded for every pixel). Walks have at most 255 steps (8-bit offsets).
+  std::array<std::uint8_t, kMaxWalk> luma;
+  // Class of step `i` of the walk; keeps its brightness in luma[i].
+  const auto classAt = [&](const int i) {
+    const Step step = walk[i];
+    const std::uint8_t* pixel = origin + step.dv * stride + step.du * kBytesPerPixel;
+    camera::Yuv yuv;
+    if constexpr (kFormat == camera::PixelFormat::kYuyv) {
+      // The pair's Y0 U Y1 V in one read: Y at 2u (byte 0 or 2 of the pair, by the pixel's
+      // parity), U and V at 1 and 3 from the pair's even pixel.
+      const unsigned odd = static_cast<unsigned>(ou + step.du) & 1u;
+      std::uint32_t word;
+      std::memcpy(&word, pixel - (odd << 1), sizeof word);
+      yuv = {static_cast<std::uint8_t>(word >> (odd << 4)), static_cast<std::uint8_t>(word >> 8),
+             static_cast<std::uint8_t>(word >> 24)};
+    } else {
+      yuv = camera::yuvFromBgr({pixel[0], pixel[1], pixel[2]});
+    }
+    luma[i] = yuv.y;
+    return lookup[camera::ColourTable::index(yuv.y, yuv.u, yuv.v)];
+  };
   const camera::ColourClass field_colour = params_.field_colour;
   const camera::ColourClass line_colour = params_.line_colour;
   const int maxTransition = params_.max_transition_pixels;
-  const int maxGap = params_.max_gap_pixels;
-  const int confirm = params_.field_confirm_pixels;
-  const bool endAtSelf = params_.end_at_self;
   // A ridge (blurred line without line-coloured pixels) may span the longest run and both
-  // transitions.
+  // transitions: pixels of no class after the field may go on that long.
   const bool ridges = params_.ridge_contrast > 0.0;
-  const int maxRidge = maxRun + 2 * maxTransition;
+  const int maxRidge = ridges ? maxRun + 2 * maxTransition : maxTransition;
   bool ridgeEligible = true;  // every pixel since the last field pixel is unclassified
   // The first ridge met: its field pixel before, peak and field pixel after. A run of the line
   // colour further along the walk wins over it (a ridge right before a line is mostly that
   // line's blurred edge with a pixel of it classified as field).
   int ridgeField = -1, ridgeAt = -1, ridgeAfter = -1;
-  // On the stack, so that storing a brightness cannot alias the colour table's pointer (which
-  // would be reloaded for every pixel). Walks have at most 255 steps (8-bit offsets).
-  std::array<std::uint8_t, kMaxWalk> luma;
   bool sawField = false;
   int lastField = -1, runStart = -1, runEnd = -1, transition = 0;
-  int fieldAfter = -1, fieldCount = 0;  // the first field pixel after the run, and how many
+  int fieldAfter = -1;  // the first field pixel after the run
   int index = 0;
   bool found = false;
+  bool stopped = false;  // the walk ended before its last pixel
+  // Before the line: field, then at most maxTransition pixels of other classes (maxRidge of no
+  // class), then the line's first pixel.
   for (; index < count; ++index) {
-    const Step step = walk[index];
-    const std::uint8_t* pixel = origin + step.dv * stride + step.du * kBytesPerPixel;
-    camera::Yuv yuv;
-    if constexpr (kFormat == camera::PixelFormat::kYuyv) {
-      // Y at 2u; the pair's U and V at 1 and 3 from its even pixel.
-      const std::uint8_t* pair = pixel - (((ou + step.du) & 1) << 1);
-      yuv = {pixel[0], pair[1], pair[3]};
-    } else {
-      yuv = camera::yuvFromBgr({pixel[0], pixel[1], pixel[2]});
-    }
-    luma[index] = yuv.y;
-    const camera::ColourClass c = table_.classifyYuv(yuv);
-    const bool field = c == field_colour;
-    const bool line = c == line_colour;
-    if (runStart < 0) {  // before the line
-      if (field) {
-        if (transition > 0 && ridgeEligible && ridges && ridgeAt < 0) {
-          const int peak = ridgePeak(luma.data(), lastField, index);
-          if (peak >= 0) {  // field - a ridge of brightness - field: a blurred line
-            ridgeField = lastField;
-            ridgeAt = peak;
-            ridgeAfter = index;
-          }
+    const camera::ColourClass c = classAt(index);
+    if (c == field_colour) {
+      if (transition > 0 && ridgeEligible && ridges && ridgeAt < 0) {
+        const int peak = ridgePeak(luma.data(), lastField, index);
+        if (peak >= 0) {  // field - a ridge of brightness - field: a blurred line
+          ridgeField = lastField;
+          ridgeAt = peak;
+          ridgeAfter = index;
         }
-        sawField = true;
-        lastField = index;
-        transition = 0;
-        ridgeEligible = true;
-      } else if (line) {
-        if (!sawField || transition > maxTransition) break;
-        runStart = runEnd = index;
-        transition = 0;
-      } else if (sawField) {
-        ridgeEligible = ridgeEligible && c == camera::ColourClass::kUnknown;
-        ++transition;
-        if (transition > (ridges && ridgeEligible ? maxRidge : maxTransition)) break;
       }
-    } else if (line) {        // on the line, or back on it after a hole of noise
-      if (fieldAfter >= 0) {  // field came between: the line ended there, another one begins
-        found = true;
+      sawField = true;
+      lastField = index;
+      transition = 0;
+      ridgeEligible = true;
+    } else if (c == line_colour) {
+      if (!sawField || transition > maxTransition) {
+        stopped = true;
         break;
       }
-      if (index - runEnd - 1 > maxGap) break;
-      runEnd = index;
-      fieldAfter = -1;
-      fieldCount = 0;
-      if (runEnd - runStart + 1 > maxRun) break;
-    } else {
-      if (field) {
-        if (fieldAfter < 0) fieldAfter = index;
-        if (++fieldCount >= confirm) {  // back on the field: found
+      runStart = runEnd = index;
+      break;
+    } else if (sawField) {
+      ridgeEligible = ridgeEligible && c == camera::ColourClass::kUnknown;
+      ++transition;
+      if (transition > (ridgeEligible ? maxRidge : maxTransition)) {
+        stopped = true;
+        break;
+      }
+    }
+  }
+  if (!stopped && runStart >= 0) {
+    // On the line, or back on it after a hole of noise, until field pixels confirm its end.
+    const int maxGap = params_.max_gap_pixels;
+    const int confirm = params_.field_confirm_pixels;
+    const bool endAtSelf = params_.end_at_self;
+    int fieldCount = 0;  // field pixels since fieldAfter
+    for (++index; index < count; ++index) {
+      const camera::ColourClass c = classAt(index);
+      if (c == line_colour) {
+        if (fieldAfter >= 0) {  // field came between: the line ended there, another one begins
           found = true;
           break;
         }
-      } else if (endAtSelf && fieldAfter < 0 && floor_.inSelf(ou + step.du, ov + step.dv)) {
-        // The robot's own reflection right after the line: its dark edge ends the line.
-        fieldAfter = index;
-        found = true;
-        break;
+        if (index - runEnd - 1 > maxGap) break;
+        runEnd = index;
+        fieldCount = 0;
+        if (runEnd - runStart + 1 > maxRun) break;
+      } else {
+        if (c == field_colour) {
+          if (fieldAfter < 0) fieldAfter = index;
+          if (++fieldCount >= confirm) {  // back on the field: found
+            found = true;
+            break;
+          }
+        } else if (endAtSelf && fieldAfter < 0 &&
+                   floor_.inSelf(ou + walk[index].du, ov + walk[index].dv)) {
+          // The robot's own reflection right after the line: its dark edge ends the line.
+          fieldAfter = index;
+          found = true;
+          break;
+        }
+        if (index - runEnd > maxTransition + confirm) break;
       }
-      if (index - runEnd > maxTransition + confirm) break;
     }
   }
   // A field pixel that the walk's end left unconfirmed still ends the line.
