@@ -14,8 +14,13 @@
 //       (the detector run 400 times per frame, so that it dominates the counters)
 //   fieldline-profile-tracking --digest              # one hash of everything the tracker output
 //       (owners, contours, counts of every frame): equal before and after a speed change
+//   fieldline-profile-tracking --digest --method whole   # also a hash of the line points
+//       (every point's image and floor position bit for bit, the sequences) and the pixels the
+//       line detector read: equal before and after a speed change of the line detector
+//       (--blur 1.2 renders the frames through the optics blur, where the ridge rule finds lines)
 #include <algorithm>
 #include <array>
+#include <bit>
 #include <chrono>
 #include <cstdio>
 #include <string>
@@ -26,6 +31,7 @@
 
 #include "bench/region_tracking/bench_sequence.hpp"
 #include "common/config/config.hpp"
+#include "services/camera/realism.hpp"
 #include "services/region_tracking/baselines.hpp"
 #include "services/region_tracking/frame_processor.hpp"
 
@@ -142,6 +148,19 @@ class OutputDigest {
     mix(s.initial_searches);
     mix(s.contours);
   }
+  // The line points of a frame: every position bit for bit, and the sequences.
+  void add(const rt::LinePoints& lines) {
+    mix(static_cast<std::int64_t>(lines.points.size()));
+    for (const rt::LinePoint& p : lines.points) {
+      for (const float f : {p.u, p.v, p.x, p.y})
+        mix(std::bit_cast<std::uint32_t>(f));
+    }
+    mix(static_cast<std::int64_t>(lines.sequences.size()));
+    for (const auto& [begin, end] : lines.sequences) {
+      mix(begin);
+      mix(end);
+    }
+  }
   std::uint64_t value() const { return hash_; }
 
  private:
@@ -158,6 +177,7 @@ struct Options {
   std::string field = "msl";
   std::string method = "tracker";
   double speed = 1.0, omega_deg = 90.0;
+  double blur_sigma = 0.0;
   int frames = 240, repeat = 1, line_repeat = 1;
   bool no_breakdown = false;
   bool digest = false;
@@ -180,6 +200,11 @@ struct Options {
     app.add_option("--omega", omega_deg, "deg/s")
         ->check(CLI::Range(0.0, 1000.0))
         ->capture_default_str();
+    app.add_option("--blur", blur_sigma,
+                   "optics blur of the rendered frames, px (0 = off; 1.2 is the calibration "
+                   "evaluation's `blur` setting, where lines become ridges)")
+        ->check(CLI::Range(0.0, 5.0))
+        ->capture_default_str();
     app.add_option("--frames", frames, "frames (30 Hz)")
         ->check(CLI::Range(2, 3000))
         ->capture_default_str();
@@ -196,7 +221,8 @@ struct Options {
     app.add_flag("--no-breakdown", no_breakdown, "skip the per-cell analysis (for callgrind)");
     app.add_flag("--digest", digest,
                  "print only a hash of the tracker's outputs over the sequence (owners, contours, "
-                 "counts; to check that a change keeps them)");
+                 "counts; to check that a change keeps them); with --method whole also one of "
+                 "the line points and the pixels the line detector read");
     app.add_option("--max-seed-regions", max_seed_regions,
                    "seed only this many of the largest regions in an initial search (the seed: "
                    "10; 0: every region; default: the vision config's)")
@@ -206,10 +232,18 @@ struct Options {
 
 using Sequence = std::vector<std::vector<std::uint8_t>>;
 
+// What --digest prints: hashes of the tracker's and the line detector's outputs of every frame.
+struct Digests {
+  OutputDigest tracker;
+  OutputDigest lines;
+  long long line_pixels_read = 0;
+  int line_frames = 0;
+};
+
 // Runs the chosen method over the sequence (`repeat` times); for the tracker, sums the breakdown
 // of every frame but the first (the initial search). Returns the number of frames summed.
 int runMethod(const Options& options, rt::SimCamera& sim, const Sequence& sequence,
-              Breakdown& breakdown, OutputDigest& digest) {
+              Breakdown& breakdown, Digests& digests) {
   const rt::VisionParams params = options.params();
   std::vector<rt::ClassId> classes;
   for (const rt::ClassTracking& c : params.tracker.classes)
@@ -237,8 +271,13 @@ int runMethod(const Options& options, rt::SimCamera& sim, const Sequence& sequen
       if (options.method == "whole") {
         for (int k = 0; k < options.line_repeat; ++k)
           processor.lineDetector().detect(frame, processor.tracker().contours(), lines);
+        if (options.digest) {
+          digests.lines.add(lines);
+          digests.line_pixels_read += processor.lineDetector().pixelsRead();
+          ++digests.line_frames;
+        }
       }
-      if (options.digest) digest.add(processor.tracker());
+      if (options.digest) digests.tracker.add(processor.tracker());
       if (options.no_breakdown || options.digest || i == 0) continue;
       addBreakdown(processor, processor.classifier(), breakdown);
       ++measured;
@@ -365,13 +404,23 @@ int main(int argc, char** argv) {
   cv::setNumThreads(1);  // one thread, as in fieldline-bench-tracking
   fieldline::config::runOrExit([&] {
     rt::SimCamera sim = rt::SimCamera::load(options.camera_preset, options.field);
+    if (options.blur_sigma > 0.0) {
+      camera::RealismParams realism;
+      realism.blur_sigma = options.blur_sigma;
+      sim.renderer->realism().setParams(realism);
+    }
     const Sequence sequence =
         rt::bench::renderSequence(sim, options.speed, options.omega_deg, options.frames);
     Breakdown breakdown;
-    OutputDigest digest;
-    const int measured = runMethod(options, sim, sequence, breakdown, digest);
+    Digests digests;
+    const int measured = runMethod(options, sim, sequence, breakdown, digests);
     if (options.digest) {
-      std::printf("digest=%016llx\n", static_cast<unsigned long long>(digest.value()));
+      std::printf("digest=%016llx\n", static_cast<unsigned long long>(digests.tracker.value()));
+      if (digests.line_frames > 0) {
+        std::printf("line_digest=%016llx line_pixels_read=%lld\n",
+                    static_cast<unsigned long long>(digests.lines.value()),
+                    digests.line_pixels_read);
+      }
       return;
     }
     if (options.no_breakdown || measured == 0) return;

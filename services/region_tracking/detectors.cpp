@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <numbers>
 #include <numeric>
@@ -133,6 +134,9 @@ LineDetector::LineDetector(const camera::ColourTable& table, const FloorLookup& 
   }
   last_step_ =
       cell_size_ + longestRun + 2 * params_.max_transition_pixels + params_.field_confirm_pixels;
+  stop_step_base_ =
+      cell_size_ + 2 * params_.max_transition_pixels + params_.field_confirm_pixels - first_step_;
+  probe_step_ = cell_size_ + 1 - first_step_;
 
   // The walks: nearest pixel to t * normal for t = first_step_..last_step_, repeats dropped.
   const int span = last_step_ - first_step_ + 1;
@@ -180,6 +184,21 @@ LineDetector::LineDetector(const camera::ColourTable& table, const FloorLookup& 
   pad_ = params_.smoothing_passes + params_.tangent_half_span;
 }
 
+void LineDetector::prepareOffsets(std::ptrdiff_t stride, camera::PixelFormat format) {
+  const bool yuyv = format == camera::PixelFormat::kYuyv;
+  const std::ptrdiff_t bytesPerPixel = yuyv ? 2 : 3;
+  if (std::abs(stride) > (std::int64_t{1} << 22)) {
+    throw std::invalid_argument("line detector: frame stride out of range");
+  }
+  walk_offsets_.resize(walks_.size());
+  for (std::size_t i = 0; i < walks_.size(); ++i) {
+    const std::ptrdiff_t offset = walks_[i].dv * stride + walks_[i].du * bytesPerPixel;
+    walk_offsets_[i] = static_cast<std::int32_t>(yuyv ? offset * 2 + (walks_[i].du & 1) : offset);
+  }
+  offsets_stride_ = stride;
+  offsets_format_ = format;
+}
+
 // Bins of equal length on the diamond |u| + |v| = 1, counter-clockwise from +u: no atan2, and
 // no bin is wider than 2 * 360 / kDirections degrees.
 int LineDetector::directionOf(float normalU, float normalV) {
@@ -198,24 +217,29 @@ bool LineDetector::scan(const camera::FrameView& frame, float originU, float ori
                         float normalV, float& lineU, float& lineV) {
   const int ou = nearestPixel(originU);
   const int ov = nearestPixel(originV);
-  if (!frame.contains(ou, ov)) return false;
+  // Inside the frame: one unsigned comparison per coordinate (negative ones wrap to large).
+  const unsigned width = static_cast<unsigned>(frame.width);
+  const unsigned height = static_cast<unsigned>(frame.height);
+  const auto inFrame = [&](const int u, const int v) {
+    return (static_cast<unsigned>(u) < width) & (static_cast<unsigned>(v) < height);
+  };
+  if (!inFrame(ou, ov)) return false;
   if (!usable(ou, ov)) return false;
   const int maxRun = maxRunAt(ou, ov);
   const int direction = directionOf(normalU, normalV);
-  const Step* walk = &walks_[static_cast<std::size_t>(direction) * walk_capacity_];
-  const std::uint8_t* countUpTo =
-      &walk_count_up_to_[static_cast<std::size_t>(direction) * walk_capacity_];
+  const std::size_t walkAt = static_cast<std::size_t>(direction) * walk_capacity_;
+  const Step* walk = &walks_[walkAt];
+  const std::uint8_t* countUpTo = &walk_count_up_to_[walkAt];
   // Boundaries along the edge of the view face unusable pixels: nothing to find there.
-  const Step probe = walk[countUpTo[cell_size_ + 1 - first_step_] - 1];
-  if (!frame.contains(ou + probe.du, ov + probe.dv) || !usable(ou + probe.du, ov + probe.dv)) {
+  const Step probe = walk[countUpTo[probe_step_] - 1];
+  if (!inFrame(ou + probe.du, ov + probe.dv) || !usable(ou + probe.du, ov + probe.dv)) {
     return false;
   }
-  const int stop =
-      cell_size_ + maxRun + 2 * params_.max_transition_pixels + params_.field_confirm_pixels;
-  int count = countUpTo[stop - first_step_];
+  // Up to `stop` steps: the cell, the longest run here, both transitions, the confirmation.
+  int count = countUpTo[stop_step_base_ + maxRun];
   // The walk is a straight line: inside the frame if both ends are; else cut it where it
   // leaves (running into the cut is a miss, as running past `stop`).
-  const auto inside = [&](const Step s) { return frame.contains(ou + s.du, ov + s.dv); };
+  const auto inside = [&](const Step s) { return inFrame(ou + s.du, ov + s.dv); };
   if (!inside(walk[0])) return false;
   if (!inside(walk[count - 1])) {
     int within = 1;
@@ -223,98 +247,124 @@ bool LineDetector::scan(const camera::FrameView& frame, float originU, float ori
       ++within;
     count = within;
   }
+  if (frame.stride != offsets_stride_ || frame.format != offsets_format_) {
+    prepareOffsets(frame.stride, frame.format);
+  }
+  const std::int32_t* offsets = &walk_offsets_[walkAt];
 
   // Walk the normal pixel by pixel looking for: field ... [transition] line-run [transition]
   // field, keeping each pixel's brightness for the sub-pixel edges.
   constexpr int kBytesPerPixel = kFormat == camera::PixelFormat::kYuyv ? 2 : 3;
   const std::uint8_t* origin =
       frame.data + static_cast<std::ptrdiff_t>(ov) * frame.stride + ou * kBytesPerPixel;
-  const std::ptrdiff_t stride = frame.stride;
+  const camera::ColourClass* lookup = table_.yuvLookup().data();
+  // On the stack, so that storing a brightness cannot alias the colour table's pointer (which
+  // would be reloaded for every pixel). Walks have at most 255 steps (8-bit offsets).
+  std::array<std::uint8_t, kMaxWalk> luma;
+  // Class of step `i` of the walk; keeps its brightness in luma[i].
+  const auto classAt = [&](const int i) {
+    camera::Yuv yuv;
+    if constexpr (kFormat == camera::PixelFormat::kYuyv) {
+      // The pair's Y0 U Y1 V in one read: Y at 2u (byte 0 or 2 of the pair, by the pixel's
+      // parity, that of ou + du), U and V at 1 and 3 from the pair's even pixel.
+      const std::int32_t packed = offsets[i];
+      const std::uint8_t* pixel = origin + (packed >> 1);
+      const unsigned odd = static_cast<unsigned>(ou ^ packed) & 1u;
+      std::uint32_t word;
+      std::memcpy(&word, pixel - (odd << 1), sizeof word);
+      yuv = {static_cast<std::uint8_t>(word >> (odd << 4)), static_cast<std::uint8_t>(word >> 8),
+             static_cast<std::uint8_t>(word >> 24)};
+    } else {
+      const std::uint8_t* pixel = origin + offsets[i];
+      yuv = camera::yuvFromBgr({pixel[0], pixel[1], pixel[2]});
+    }
+    luma[i] = yuv.y;
+    return lookup[camera::ColourTable::index(yuv.y, yuv.u, yuv.v)];
+  };
   const camera::ColourClass field_colour = params_.field_colour;
   const camera::ColourClass line_colour = params_.line_colour;
   const int maxTransition = params_.max_transition_pixels;
-  const int maxGap = params_.max_gap_pixels;
-  const int confirm = params_.field_confirm_pixels;
-  const bool endAtSelf = params_.end_at_self;
   // A ridge (blurred line without line-coloured pixels) may span the longest run and both
-  // transitions.
+  // transitions: pixels of no class after the field may go on that long.
   const bool ridges = params_.ridge_contrast > 0.0;
-  const int maxRidge = maxRun + 2 * maxTransition;
+  const int maxRidge = ridges ? maxRun + 2 * maxTransition : maxTransition;
   bool ridgeEligible = true;  // every pixel since the last field pixel is unclassified
   // The first ridge met: its field pixel before, peak and field pixel after. A run of the line
   // colour further along the walk wins over it (a ridge right before a line is mostly that
   // line's blurred edge with a pixel of it classified as field).
   int ridgeField = -1, ridgeAt = -1, ridgeAfter = -1;
-  // On the stack, so that storing a brightness cannot alias the colour table's pointer (which
-  // would be reloaded for every pixel). Walks have at most 255 steps (8-bit offsets).
-  std::array<std::uint8_t, kMaxWalk> luma;
   bool sawField = false;
   int lastField = -1, runStart = -1, runEnd = -1, transition = 0;
-  int fieldAfter = -1, fieldCount = 0;  // the first field pixel after the run, and how many
+  int fieldAfter = -1;  // the first field pixel after the run
   int index = 0;
   bool found = false;
+  bool stopped = false;  // the walk ended before its last pixel
+  // Before the line: field, then at most maxTransition pixels of other classes (maxRidge of no
+  // class), then the line's first pixel.
   for (; index < count; ++index) {
-    const Step step = walk[index];
-    const std::uint8_t* pixel = origin + step.dv * stride + step.du * kBytesPerPixel;
-    camera::Yuv yuv;
-    if constexpr (kFormat == camera::PixelFormat::kYuyv) {
-      // Y at 2u; the pair's U and V at 1 and 3 from its even pixel.
-      const std::uint8_t* pair = pixel - (((ou + step.du) & 1) << 1);
-      yuv = {pixel[0], pair[1], pair[3]};
-    } else {
-      yuv = camera::yuvFromBgr({pixel[0], pixel[1], pixel[2]});
-    }
-    luma[index] = yuv.y;
-    const camera::ColourClass c = table_.classifyYuv(yuv);
-    const bool field = c == field_colour;
-    const bool line = c == line_colour;
-    if (runStart < 0) {  // before the line
-      if (field) {
-        if (transition > 0 && ridgeEligible && ridges && ridgeAt < 0) {
-          const int peak = ridgePeak(luma.data(), lastField, index);
-          if (peak >= 0) {  // field - a ridge of brightness - field: a blurred line
-            ridgeField = lastField;
-            ridgeAt = peak;
-            ridgeAfter = index;
-          }
+    const camera::ColourClass c = classAt(index);
+    if (c == field_colour) {
+      if (transition > 0 && ridgeEligible && ridges && ridgeAt < 0) {
+        const int peak = ridgePeak(luma.data(), lastField, index);
+        if (peak >= 0) {  // field - a ridge of brightness - field: a blurred line
+          ridgeField = lastField;
+          ridgeAt = peak;
+          ridgeAfter = index;
         }
-        sawField = true;
-        lastField = index;
-        transition = 0;
-        ridgeEligible = true;
-      } else if (line) {
-        if (!sawField || transition > maxTransition) break;
-        runStart = runEnd = index;
-        transition = 0;
-      } else if (sawField) {
-        ridgeEligible = ridgeEligible && c == camera::ColourClass::kUnknown;
-        ++transition;
-        if (transition > (ridges && ridgeEligible ? maxRidge : maxTransition)) break;
       }
-    } else if (line) {        // on the line, or back on it after a hole of noise
-      if (fieldAfter >= 0) {  // field came between: the line ended there, another one begins
-        found = true;
+      sawField = true;
+      lastField = index;
+      transition = 0;
+      ridgeEligible = true;
+    } else if (c == line_colour) {
+      if (!sawField || transition > maxTransition) {
+        stopped = true;
         break;
       }
-      if (index - runEnd - 1 > maxGap) break;
-      runEnd = index;
-      fieldAfter = -1;
-      fieldCount = 0;
-      if (runEnd - runStart + 1 > maxRun) break;
-    } else {
-      if (field) {
-        if (fieldAfter < 0) fieldAfter = index;
-        if (++fieldCount >= confirm) {  // back on the field: found
+      runStart = runEnd = index;
+      break;
+    } else if (sawField) {
+      ridgeEligible = ridgeEligible && c == camera::ColourClass::kUnknown;
+      ++transition;
+      if (transition > (ridgeEligible ? maxRidge : maxTransition)) {
+        stopped = true;
+        break;
+      }
+    }
+  }
+  if (!stopped && runStart >= 0) {
+    // On the line, or back on it after a hole of noise, until field pixels confirm its end.
+    const int maxGap = params_.max_gap_pixels;
+    const int confirm = params_.field_confirm_pixels;
+    const bool endAtSelf = params_.end_at_self;
+    int fieldCount = 0;  // field pixels since fieldAfter
+    for (++index; index < count; ++index) {
+      const camera::ColourClass c = classAt(index);
+      if (c == line_colour) {
+        if (fieldAfter >= 0) {  // field came between: the line ended there, another one begins
           found = true;
           break;
         }
-      } else if (endAtSelf && fieldAfter < 0 && floor_.inSelf(ou + step.du, ov + step.dv)) {
-        // The robot's own reflection right after the line: its dark edge ends the line.
-        fieldAfter = index;
-        found = true;
-        break;
+        if (index - runEnd - 1 > maxGap) break;
+        runEnd = index;
+        fieldCount = 0;
+        if (runEnd - runStart + 1 > maxRun) break;
+      } else {
+        if (c == field_colour) {
+          if (fieldAfter < 0) fieldAfter = index;
+          if (++fieldCount >= confirm) {  // back on the field: found
+            found = true;
+            break;
+          }
+        } else if (endAtSelf && fieldAfter < 0 &&
+                   floor_.inSelf(ou + walk[index].du, ov + walk[index].dv)) {
+          // The robot's own reflection right after the line: its dark edge ends the line.
+          fieldAfter = index;
+          found = true;
+          break;
+        }
+        if (index - runEnd > maxTransition + confirm) break;
       }
-      if (index - runEnd > maxTransition + confirm) break;
     }
   }
   // A field pixel that the walk's end left unconfirmed still ends the line.
@@ -335,8 +385,9 @@ bool LineDetector::scan(const camera::FrameView& frame, float originU, float ori
   walk_fraction_v_ = originV - static_cast<float>(ov);
   walk_normal_u_ = normalU * inverseLength;
   walk_normal_v_ = normalV * inverseLength;
-  const float middle = 0.5f * (risingEdge(luma.data(), lastField, runStart, runEnd) +
-                               fallingEdge(luma.data(), runStart, runEnd, fieldAfter));
+  const std::uint8_t peak = *std::max_element(&luma[runStart], &luma[runEnd] + 1);
+  const float middle = 0.5f * (risingEdge(luma.data(), lastField, runStart, peak) +
+                               fallingEdge(luma.data(), runEnd, peak, fieldAfter));
   lineU = originU + walk_normal_u_ * middle;
   lineV = originV + walk_normal_v_ * middle;
   return true;
@@ -353,9 +404,9 @@ int LineDetector::ridgePeak(const std::uint8_t* luma, int fieldBefore, int field
 
 // Where the brightness crosses halfway between the field before the line and the line's
 // brightest sample, interpolated between the two samples around the crossing.
-float LineDetector::risingEdge(const std::uint8_t* luma, int field, int runStart,
-                               int runEnd) const {
-  const std::uint8_t peak = *std::max_element(&luma[runStart], &luma[runEnd] + 1);
+[[gnu::always_inline]] inline float LineDetector::risingEdge(const std::uint8_t* luma, int field,
+                                                             int runStart,
+                                                             std::uint8_t peak) const {
   const float threshold = 0.5f * (static_cast<float>(luma[field]) + peak);
   for (int i = field; i < runStart; ++i) {
     const float a = luma[i], b = luma[i + 1];
@@ -367,9 +418,8 @@ float LineDetector::risingEdge(const std::uint8_t* luma, int field, int runStart
   return 0.5f * (along(runStart - 1) + along(runStart));
 }
 
-float LineDetector::fallingEdge(const std::uint8_t* luma, int runStart, int runEnd,
-                                int field) const {
-  const std::uint8_t peak = *std::max_element(&luma[runStart], &luma[runEnd] + 1);
+[[gnu::always_inline]] inline float LineDetector::fallingEdge(const std::uint8_t* luma, int runEnd,
+                                                              std::uint8_t peak, int field) const {
   const float threshold = 0.5f * (static_cast<float>(luma[field]) + peak);
   for (int i = runEnd; i < field; ++i) {
     const float a = luma[i], b = luma[i + 1];

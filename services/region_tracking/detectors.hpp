@@ -136,10 +136,13 @@ class LineDetector {
   // The brightest sample strictly between the field samples `fieldBefore` and `fieldAfter` when
   // it is bright enough for a ridge (ridge_contrast, ridge_min_levels), else -1.
   int ridgePeak(const std::uint8_t* luma, int fieldBefore, int fieldAfter) const;
-  // Where the brightness crosses halfway between the field sample `field` and the peak of the
-  // line run [runStart, runEnd], along the normal; `luma` holds the walk's brightness.
-  float risingEdge(const std::uint8_t* luma, int field, int runStart, int runEnd) const;
-  float fallingEdge(const std::uint8_t* luma, int runStart, int runEnd, int field) const;
+  // Where the brightness crosses halfway between the field sample `field` and `peak`, the
+  // brightest sample of the line run [runStart, runEnd], along the normal; `luma` holds the
+  // walk's brightness.
+  float risingEdge(const std::uint8_t* luma, int field, int runStart, std::uint8_t peak) const;
+  float fallingEdge(const std::uint8_t* luma, int runEnd, std::uint8_t peak, int field) const;
+  // The walks' pixels as byte offsets in frames of this stride and format (walk_offsets_).
+  void prepareOffsets(std::ptrdiff_t stride, camera::PixelFormat format);
   // Position along the current normal of step `index` of the current walk (pixel centre
   // projected on the exact normal).
   float along(int index) const {
@@ -179,6 +182,16 @@ class LineDetector {
   int walk_capacity_;
   std::vector<Step> walks_;
   std::vector<std::uint8_t> walk_count_up_to_;
+  // Index into a direction's walk_count_up_to_ of the step that probes for the view's edge (one
+  // past the cell), and of the last step less the longest run at the origin.
+  int probe_step_;
+  int stop_step_base_;
+  // The walks' pixels as byte offsets from the origin's pixel in frames of offsets_stride_
+  // (for YUYV twice the offset plus the parity of du: one read gives both), made by scan() when
+  // a frame of another stride or format comes.
+  std::vector<std::int32_t> walk_offsets_;
+  std::ptrdiff_t offsets_stride_ = -1;
+  camera::PixelFormat offsets_format_ = camera::PixelFormat::kYuyv;
   // Binomial kernel equal to smoothing_passes passes of 0.25/0.5/0.25.
   std::vector<float> smoothing_kernel_;
   // Per contour scratch, reused: the contour's corners with the kernel's reach wrapped around
