@@ -105,7 +105,9 @@ LineDetector::LineDetector(const camera::ColourTable& table, const FloorLookup& 
       params_.max_transition_pixels < 0 || params_.max_gap_pixels < 0 ||
       params_.field_confirm_pixels < 1 || cell_size < 1 ||
       !(params_.ridge_contrast == 0.0 || params_.ridge_contrast >= 1.0) ||
-      params_.ridge_min_levels < 0 || params_.ridge_min_levels > 255) {
+      params_.ridge_min_levels < 0 || params_.ridge_min_levels > 255 ||
+      !(params_.sample_spacing_m >= 0.0 && params_.sample_spacing_m <= 10.0) ||
+      !(params_.sample_min_px >= 0.25 && params_.sample_min_px <= 1000.0)) {
     throw std::invalid_argument("line detector: invalid parameters");
   }
   // The longest white run a line can give at a pixel: its width at the pixel's finest floor
@@ -178,6 +180,86 @@ LineDetector::LineDetector(const camera::ColourTable& table, const FloorLookup& 
     smoothing_kernel_.swap(wider);
   }
   pad_ = params_.smoothing_passes + params_.tangent_half_span;
+
+  // The floor's Jacobian at every cell corner, by central differences half a cell each way
+  // (one-sided where one side has no floor).
+  jacobian_columns_ = floor.width() / cell_size_ + 1;
+  jacobian_rows_ = floor.height() / cell_size_ + 1;
+  jacobians_.assign(static_cast<std::size_t>(jacobian_columns_) * jacobian_rows_,
+                    Jacobian{kNaN, kNaN, kNaN, kNaN});
+  const float h = 0.5f * static_cast<float>(cell_size_);
+  for (int j = 0; j < jacobian_rows_; ++j) {
+    for (int i = 0; i < jacobian_columns_; ++i) {
+      const float u = static_cast<float>(i * cell_size_) + kCornerToPixel;
+      const float v = static_cast<float>(j * cell_size_) + kCornerToPixel;
+      // d(floor)/d(image) along one image axis from the points at -h, 0, +h.
+      auto derivative = [&](float du, float dv, float& dx, float& dy) {
+        float x0, y0, x1, y1;
+        const bool before = floor_.floorPoint(u - du, v - dv, x0, y0);
+        const bool after = floor_.floorPoint(u + du, v + dv, x1, y1);
+        if (before && after) {
+          dx = (x1 - x0) / (2 * h);
+          dy = (y1 - y0) / (2 * h);
+          return true;
+        }
+        float xc, yc;
+        if (!floor_.floorPoint(u, v, xc, yc)) return false;
+        if (after) {
+          dx = (x1 - xc) / h;
+          dy = (y1 - yc) / h;
+          return true;
+        }
+        if (before) {
+          dx = (xc - x0) / h;
+          dy = (yc - y0) / h;
+          return true;
+        }
+        return false;
+      };
+      Jacobian jac;
+      if (derivative(h, 0.0f, jac.xu, jac.yu) && derivative(0.0f, h, jac.xv, jac.yv)) {
+        jacobians_[static_cast<std::size_t>(j) * jacobian_columns_ + i] = jac;
+      }
+    }
+  }
+}
+
+float LineDetector::floorLength(float u, float v, float du, float dv) const {
+  // Nearest cell corner: pixel u sits at corner (u + 0.5) / cell_size.
+  const float inverseCell = 1.0f / static_cast<float>(cell_size_);
+  const int i = nearestPixel((u - kCornerToPixel) * inverseCell);
+  const int j = nearestPixel((v - kCornerToPixel) * inverseCell);
+  if (i < 0 || j < 0 || i >= jacobian_columns_ || j >= jacobian_rows_) return 0.0f;
+  const Jacobian& jac = jacobians_[static_cast<std::size_t>(j) * jacobian_columns_ + i];
+  const float dx = jac.xu * du + jac.xv * dv;
+  const float dy = jac.yu * du + jac.yv * dv;
+  const float length = std::sqrt(dx * dx + dy * dy);
+  return std::isfinite(length) ? length : 0.0f;
+}
+
+void LineDetector::sampleByDistance(int n, std::vector<float>& positions) {
+  // Each corner step counts min(floor length / spacing, pixels / minimum pixels) samples; a
+  // sample sits wherever the running count passes a whole number, at its fraction of the step.
+  positions.clear();
+  const float perMetre = static_cast<float>(1.0 / params_.sample_spacing_m);
+  const float perPixel = static_cast<float>(1.0 / params_.sample_min_px);
+  float count = 0.0f;  // samples before corner j (running, fractional)
+  float next = 0.0f;   // count at which the next sample falls
+  for (int j = 0; j < n; ++j) {
+    const int after = j + 1 == n ? 0 : j + 1;
+    const float u = smooth_u_[j], v = smooth_v_[j];
+    const float du = smooth_u_[after] - u, dv = smooth_v_[after] - v;
+    const float pixels = std::sqrt(du * du + dv * dv);
+    const float metres = floorLength(u + 0.5f * du, v + 0.5f * dv, du, dv);
+    const float units = std::min(metres * perMetre, pixels * perPixel);
+    if (units <= 0.0f) continue;
+    const float end = count + units;
+    while (next < end) {
+      positions.push_back(static_cast<float>(j) + (next - count) / units);
+      next += 1.0f;
+    }
+    count = end;
+  }
 }
 
 // Bins of equal length on the diamond |u| + |v| = 1, counter-clockwise from +u: no atan2, and
@@ -437,7 +519,8 @@ void LineDetector::detect(const camera::FrameView& frame, const ContourSet& cont
     // The contour is a staircase of cell sides; smoothing turns it into a curve with usable
     // tangents (the seed smooths before taking differences, section 3.3). Only the corners
     // that are sampled or give a sample's tangent are smoothed: every `stride`-th one.
-    const int stride = n % std::gcd(spacing, k) == 0 ? std::gcd(spacing, k) : 1;
+    const bool byDistance = params_.sample_spacing_m > 0.0;
+    const int stride = !byDistance && n % std::gcd(spacing, k) == 0 ? std::gcd(spacing, k) : 1;
     const int smoothed = n / stride;
     smooth_u_.resize(smoothed);
     smooth_v_.resize(smoothed);
@@ -449,23 +532,45 @@ void LineDetector::detect(const camera::FrameView& frame, const ContourSet& cont
         smoothedPoint<0>(j * stride, smooth_u_[j], smooth_v_[j]);
     }
 
-    const int samples = n / spacing;
+    if (byDistance) sampleByDistance(n, sample_positions_);
+    const int samples = byDistance ? static_cast<int>(sample_positions_.size()) : n / spacing;
     hits_.assign(samples, Hit{false, {}});
     // Indices among the smoothed corners: no division per sample but at the contour's ends.
     const int sampleStep = spacing / stride, tangentReach = k / stride;
-    for (int s = 0; s < samples; ++s) {
-      const int centre = s * sampleStep;
+    // Tangent (difference of the smoothed corners tangentReach before and after) at `centre`.
+    auto tangentAt = [&](int centre, float& tu, float& tv) {
       int ahead = centre + tangentReach, behind = centre - tangentReach;
       if (ahead >= smoothed) ahead %= smoothed;
       if (behind < 0) behind = (behind % smoothed + smoothed) % smoothed;
-      const float tu = smooth_u_[ahead] - smooth_u_[behind];
-      const float tv = smooth_v_[ahead] - smooth_v_[behind];
+      tu = smooth_u_[ahead] - smooth_u_[behind];
+      tv = smooth_v_[ahead] - smooth_v_[behind];
+    };
+    for (int s = 0; s < samples; ++s) {
+      float tu, tv, originU, originV;
+      if (byDistance) {
+        // Between smoothed corners: the curve and its tangent interpolated linearly.
+        const float position = sample_positions_[s];
+        const int centre = static_cast<int>(position);
+        const int after = centre + 1 == smoothed ? 0 : centre + 1;
+        const float f = position - static_cast<float>(centre);
+        float tu1, tv1;
+        tangentAt(centre, tu, tv);
+        tangentAt(after, tu1, tv1);
+        tu += f * (tu1 - tu);
+        tv += f * (tv1 - tv);
+        originU = smooth_u_[centre] + f * (smooth_u_[after] - smooth_u_[centre]);
+        originV = smooth_v_[centre] + f * (smooth_v_[after] - smooth_v_[centre]);
+      } else {
+        const int centre = s * sampleStep;
+        tangentAt(centre, tu, tv);
+        originU = smooth_u_[centre];
+        originV = smooth_v_[centre];
+      }
       if (tu * tu + tv * tv < 1e-6f) continue;
       // The region lies to the right of the walking direction on screen: outward is left. The
       // walk needs only the normal's direction; scan() normalises it when it finds a line.
       const float normalU = tv;
       const float normalV = -tu;
-      const float originU = smooth_u_[centre], originV = smooth_v_[centre];
       float lineU = 0, lineV = 0;
       const bool hit = yuyv ? scan<camera::PixelFormat::kYuyv>(frame, originU, originV, normalU,
                                                                normalV, lineU, lineV)
