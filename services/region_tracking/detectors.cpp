@@ -107,7 +107,11 @@ LineDetector::LineDetector(const camera::ColourTable& table, const FloorLookup& 
       !(params_.ridge_contrast == 0.0 || params_.ridge_contrast >= 1.0) ||
       params_.ridge_min_levels < 0 || params_.ridge_min_levels > 255 ||
       !(params_.sample_spacing_m >= 0.0 && params_.sample_spacing_m <= 10.0) ||
-      !(params_.sample_min_px >= 0.25 && params_.sample_min_px <= 1000.0)) {
+      !(params_.sample_min_px >= 0.25 && params_.sample_min_px <= 1000.0) ||
+      !(params_.turn_spacing_m >= 0.0 && params_.turn_spacing_m <= 10.0) ||
+      !(params_.turn_reach_m >= 0.0 && params_.turn_reach_m <= 100.0) ||
+      !(params_.turn_angle > 0.0 && params_.turn_angle <= 1.5) || params_.turn_span < 1 ||
+      params_.turn_span > 100) {
     throw std::invalid_argument("line detector: invalid parameters");
   }
   // The longest white run a line can give at a pixel: its width at the pixel's finest floor
@@ -224,34 +228,95 @@ LineDetector::LineDetector(const camera::ColourTable& table, const FloorLookup& 
   }
 }
 
-float LineDetector::floorLength(float u, float v, float du, float dv) const {
+bool LineDetector::floorStep(float u, float v, float du, float dv, float& dx, float& dy) const {
   // Nearest cell corner: pixel u sits at corner (u + 0.5) / cell_size.
   const float inverseCell = 1.0f / static_cast<float>(cell_size_);
   const int i = nearestPixel((u - kCornerToPixel) * inverseCell);
   const int j = nearestPixel((v - kCornerToPixel) * inverseCell);
-  if (i < 0 || j < 0 || i >= jacobian_columns_ || j >= jacobian_rows_) return 0.0f;
+  dx = dy = 0.0f;
+  if (i < 0 || j < 0 || i >= jacobian_columns_ || j >= jacobian_rows_) return false;
   const Jacobian& jac = jacobians_[static_cast<std::size_t>(j) * jacobian_columns_ + i];
-  const float dx = jac.xu * du + jac.xv * dv;
-  const float dy = jac.yu * du + jac.yv * dv;
-  const float length = std::sqrt(dx * dx + dy * dy);
-  return std::isfinite(length) ? length : 0.0f;
+  const float x = jac.xu * du + jac.xv * dv;
+  const float y = jac.yu * du + jac.yv * dv;
+  if (!std::isfinite(x) || !std::isfinite(y)) return false;
+  dx = x;
+  dy = y;
+  return true;
 }
 
 void LineDetector::sampleByDistance(int n, std::vector<float>& positions) {
+  positions.clear();
+  // The floor step of every corner step of the smoothed contour (step j: corner j to j + 1).
+  step_x_.resize(n);
+  step_y_.resize(n);
+  step_length_.resize(n);
+  for (int j = 0; j < n; ++j) {
+    const int after = j + 1 == n ? 0 : j + 1;
+    const float u = smooth_u_[j], v = smooth_v_[j];
+    const float du = smooth_u_[after] - u, dv = smooth_v_[after] - v;
+    floorStep(u + 0.5f * du, v + 0.5f * dv, du, dv, step_x_[j], step_y_[j]);
+    step_length_[j] = std::sqrt(step_x_[j] * step_x_[j] + step_y_[j] * step_y_[j]);
+  }
+  // Steps within turn_reach_m of a turn: the floor directions summed over the turn_span steps
+  // before corner j and after it differ by more than turn_angle.
+  const bool turns = params_.turn_spacing_m > 0.0 && n > 2 * params_.turn_span;
+  if (turns) {
+    near_turn_.assign(n, 0);
+    const int span = params_.turn_span;
+    const float tanTurn = static_cast<float>(std::tan(std::min(params_.turn_angle, 1.5)));
+    float bx = 0, by = 0, ax = 0, ay = 0;  // sums of the steps [j - span, j) and [j, j + span)
+    for (int i = 0; i < span; ++i) {
+      bx += step_x_[n - span + i];
+      by += step_y_[n - span + i];
+      ax += step_x_[i];
+      ay += step_y_[i];
+    }
+    const float reach = static_cast<float>(params_.turn_reach_m);
+    // Marks the steps within `reach` of corner j both ways (around the closed contour).
+    auto mark = [&](int j) {
+      float walked = 0.0f;
+      for (int i = j, k = 0; k < n && walked < reach; ++k, i = i + 1 == n ? 0 : i + 1) {
+        near_turn_[i] = 1;
+        walked += step_length_[i];
+      }
+      walked = 0.0f;
+      for (int i = j == 0 ? n - 1 : j - 1, k = 0; k < n && walked < reach;
+           ++k, i = i == 0 ? n - 1 : i - 1) {
+        near_turn_[i] = 1;
+        walked += step_length_[i];
+      }
+    };
+    for (int j = 0; j < n; ++j) {
+      const float dot = bx * ax + by * ay, cross = bx * ay - by * ax;
+      if ((bx != 0.0f || by != 0.0f) && (ax != 0.0f || ay != 0.0f) &&
+          (dot <= 0.0f || std::abs(cross) > tanTurn * dot)) {
+        mark(j);
+      }
+      // Slide both windows by one step.
+      const int leaving = j - span < 0 ? j - span + n : j - span;
+      const int entering = j + span >= n ? j + span - n : j + span;
+      bx += step_x_[j] - step_x_[leaving];
+      by += step_y_[j] - step_y_[leaving];
+      ax += step_x_[entering] - step_x_[j];
+      ay += step_y_[entering] - step_y_[j];
+    }
+  }
   // Each corner step counts min(floor length / spacing, pixels / minimum pixels) samples; a
   // sample sits wherever the running count passes a whole number, at its fraction of the step.
-  positions.clear();
   const float perMetre = static_cast<float>(1.0 / params_.sample_spacing_m);
+  const float perMetreNearTurn =
+      turns ? static_cast<float>(1.0 / params_.turn_spacing_m) : perMetre;
   const float perPixel = static_cast<float>(1.0 / params_.sample_min_px);
   float count = 0.0f;  // samples before corner j (running, fractional)
   float next = 0.0f;   // count at which the next sample falls
   for (int j = 0; j < n; ++j) {
     const int after = j + 1 == n ? 0 : j + 1;
-    const float u = smooth_u_[j], v = smooth_v_[j];
-    const float du = smooth_u_[after] - u, dv = smooth_v_[after] - v;
+    const float du = smooth_u_[after] - smooth_u_[j], dv = smooth_v_[after] - smooth_v_[j];
     const float pixels = std::sqrt(du * du + dv * dv);
-    const float metres = floorLength(u + 0.5f * du, v + 0.5f * dv, du, dv);
-    const float units = std::min(metres * perMetre, pixels * perPixel);
+    if (step_length_[j] <= 0.0f) continue;  // no floor there
+    const float units =
+        std::min(step_length_[j] * (turns && near_turn_[j] ? perMetreNearTurn : perMetre),
+                 pixels * perPixel);
     if (units <= 0.0f) continue;
     const float end = count + units;
     while (next < end) {

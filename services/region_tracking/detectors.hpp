@@ -4,6 +4,7 @@
 // through the mirror model.
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 #include <optional>
 #include <vector>
@@ -104,6 +105,15 @@ struct LineDetectorParams {
   // (far away a pixel spans decimetres of floor, and two scans within a pixel read the same
   // pixels).
   double sample_min_px = 2.0;
+  // With sample_spacing_m: where the contour turns (a line's corner or junction, where the
+  // features are), denser. Within `turn_reach_m` of floor along the contour from a point where
+  // the contour's floor direction turns by more than `turn_angle` (rad) between the
+  // `turn_span` corner steps before and after it, the spacing is `turn_spacing_m` (0 = no
+  // denser sampling).
+  double turn_spacing_m = 0.0;
+  double turn_reach_m = 0.7;
+  double turn_angle = 0.5;
+  int turn_span = 3;
   // Passes of 0.25/0.5/0.25 smoothing of the contour before tangents are taken.
   int smoothing_passes = 3;
   // Tangent from the points this many corners before and after.
@@ -128,7 +138,12 @@ class LineDetector {
   // Floor length (m) of the image step (du, dv) px taken at the image point (u, v): the floor
   // lookup's Jacobian at the nearest cell corner applied to the step; 0 where that corner has
   // no usable floor. Used by the sampling by distance (sample_spacing_m).
-  float floorLength(float u, float v, float du, float dv) const;
+  float floorLength(float u, float v, float du, float dv) const {
+    float dx, dy;
+    return floorStep(u, v, du, dv, dx, dy) ? std::sqrt(dx * dx + dy * dy) : 0.0f;
+  }
+  // The floor step (dx, dy) m itself; false (and 0) where no floor.
+  bool floorStep(float u, float v, float du, float dv, float& dx, float& dy) const;
 
  private:
   // One pixel of a walk along a normal: offset from the pixel nearest the walk's origin.
@@ -209,6 +224,9 @@ class LineDetector {
   // corner step after it), chosen from `sampleByDistance`.
   void sampleByDistance(int n, std::vector<float>& positions);
   std::vector<float> sample_positions_;
+  // Per corner step of the current contour: floor step (m) and whether it is near a turn.
+  std::vector<float> step_x_, step_y_, step_length_;
+  std::vector<std::uint8_t> near_turn_;
   // Jacobian of the floor point by the image point (m/px: dx/du, dx/dv, dy/du, dy/dv) at every
   // cell corner (pixel (i * cell_size - 0.5, j * cell_size - 0.5)); NaN where no floor.
   struct Jacobian {

@@ -59,6 +59,10 @@ struct Options {
   // (0 = the default).
   double sample_spacing_m = -1.0;
   double sample_min_px = 0.0;
+  // Denser near the contour's turns (m; negative = the default), and the reach (m; negative =
+  // the default).
+  double turn_spacing_m = -1.0;
+  double turn_reach_m = -1.0;
   bool clutter = true;
   int opponents = 3;
   // Clutter knobs (with --no-clutter all are off).
@@ -688,6 +692,8 @@ int run(const Options& options) {
   if (options.sample_spacing_m >= 0.0)
     vision_params.lines.sample_spacing_m = options.sample_spacing_m;
   if (options.sample_min_px > 0.0) vision_params.lines.sample_min_px = options.sample_min_px;
+  if (options.turn_spacing_m >= 0.0) vision_params.lines.turn_spacing_m = options.turn_spacing_m;
+  if (options.turn_reach_m >= 0.0) vision_params.lines.turn_reach_m = options.turn_reach_m;
   region_tracking::FrameProcessor processor(sim.mirror, sim.table, vision_params);
   region_tracking::VisionResult vision;
   perception::FieldFeatures features;
@@ -917,6 +923,14 @@ void addOptions(CLI::App& app, Options& options) {
                  "With --sample-spacing-m: samples at least this many pixels apart (default: "
                  "vision_default.yaml's)")
       ->check(CLI::Range(0.25, 1000.0));
+  app.add_option("--turn-spacing-m", options.turn_spacing_m,
+                 "With --sample-spacing-m: the spacing near the contour's turns, m (0 = none; "
+                 "default: vision_default.yaml's)")
+      ->check(CLI::Range(0.0, 10.0));
+  app.add_option("--turn-reach-m", options.turn_reach_m,
+                 "How far along the contour from a turn the turn spacing holds, m (default: "
+                 "vision_default.yaml's)")
+      ->check(CLI::Range(0.0, 100.0));
   app.add_flag("!--no-clutter", options.clutter, "No opponents or clutter");
   app.add_option("--opponents", options.opponents, "Opponents around the robot per frame")
       ->check(CLI::Range(0, 20))

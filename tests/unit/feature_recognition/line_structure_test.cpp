@@ -57,8 +57,26 @@ TEST(LineStructure, FindsTheDirectionsDespiteOutliersAndGroupsCollinearPieces) {
   for (const auto& g : groups) {
     if (g.members.size() == 2) {
       EXPECT_NEAR(g.line.length(), 6.0, 0.1);
+      // The pieces are 1.5 m apart (more than group_run_gap): two runs, 2 m and 2.5 m, sorted
+      // along the line and within its extent.
+      ASSERT_EQ(g.runs.size(), 2u);
+      EXPECT_LT(g.runs[0].t_max, g.runs[1].t_min);
+      EXPECT_NEAR(g.runs[1].t_min - g.runs[0].t_max, 1.5, 0.1);
+      EXPECT_NEAR(g.runs[0].length() + g.runs[1].length(), 4.5, 0.1);
+      EXPECT_NEAR(g.runs[0].t_min, g.line.t_min, 1e-9);
+      EXPECT_NEAR(g.runs[1].t_max, g.line.t_max, 1e-9);
+      EXPECT_EQ(g.runs[0].count + g.runs[1].count, g.line.count);
+    } else {
+      EXPECT_EQ(g.runs.size(), 1u);
     }
   }
+  // With a gap larger than the pieces' one, one run.
+  RecognitionParams wide;
+  wide.group_run_gap = 2.0;
+  LineStructure joined;
+  buildLineStructure(c, classified.lines, {}, wide, joined);
+  for (const auto& g : joined.groups[along_u])
+    EXPECT_EQ(g.runs.size(), 1u);
   // The outlier is in no group; the perpendicular line is the other axis's only group.
   ASSERT_EQ(s.groups[1 - along_u].size(), 1u);
   EXPECT_NEAR(std::abs(s.groups[1 - along_u][0].t), 3.0, 0.02);
