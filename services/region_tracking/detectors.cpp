@@ -110,6 +110,7 @@ LineDetector::LineDetector(const camera::ColourTable& table, const FloorLookup& 
       !(params_.sample_min_px >= 0.25 && params_.sample_min_px <= 1000.0) ||
       !(params_.turn_spacing_m >= 0.0 && params_.turn_spacing_m <= 10.0) ||
       !(params_.turn_reach_m >= 0.0 && params_.turn_reach_m <= 100.0) ||
+      !(params_.turn_range_m >= 0.0 && params_.turn_range_m <= 100.0) ||
       !(params_.turn_angle > 0.0 && params_.turn_angle <= 1.5) || params_.turn_span < 1 ||
       params_.turn_span > 100) {
     throw std::invalid_argument("line detector: invalid parameters");
@@ -190,7 +191,7 @@ LineDetector::LineDetector(const camera::ColourTable& table, const FloorLookup& 
   jacobian_columns_ = floor.width() / cell_size_ + 1;
   jacobian_rows_ = floor.height() / cell_size_ + 1;
   jacobians_.assign(static_cast<std::size_t>(jacobian_columns_) * jacobian_rows_,
-                    Jacobian{kNaN, kNaN, kNaN, kNaN});
+                    Jacobian{kNaN, kNaN, kNaN, kNaN, kNaN});
   const float h = 0.5f * static_cast<float>(cell_size_);
   for (int j = 0; j < jacobian_rows_; ++j) {
     for (int i = 0; i < jacobian_columns_; ++i) {
@@ -221,21 +222,30 @@ LineDetector::LineDetector(const camera::ColourTable& table, const FloorLookup& 
         return false;
       };
       Jacobian jac;
-      if (derivative(h, 0.0f, jac.xu, jac.yu) && derivative(0.0f, h, jac.xv, jac.yv)) {
+      float x, y;
+      if (derivative(h, 0.0f, jac.xu, jac.yu) && derivative(0.0f, h, jac.xv, jac.yv) &&
+          floor_.floorPoint(u, v, x, y)) {
+        jac.range2 = x * x + y * y;
         jacobians_[static_cast<std::size_t>(j) * jacobian_columns_ + i] = jac;
       }
     }
   }
 }
 
-bool LineDetector::floorStep(float u, float v, float du, float dv, float& dx, float& dy) const {
+const LineDetector::Jacobian* LineDetector::jacobianNear(float u, float v) const {
   // Nearest cell corner: pixel u sits at corner (u + 0.5) / cell_size.
   const float inverseCell = 1.0f / static_cast<float>(cell_size_);
   const int i = nearestPixel((u - kCornerToPixel) * inverseCell);
   const int j = nearestPixel((v - kCornerToPixel) * inverseCell);
+  if (i < 0 || j < 0 || i >= jacobian_columns_ || j >= jacobian_rows_) return nullptr;
+  return &jacobians_[static_cast<std::size_t>(j) * jacobian_columns_ + i];
+}
+
+bool LineDetector::floorStep(float u, float v, float du, float dv, float& dx, float& dy) const {
   dx = dy = 0.0f;
-  if (i < 0 || j < 0 || i >= jacobian_columns_ || j >= jacobian_rows_) return false;
-  const Jacobian& jac = jacobians_[static_cast<std::size_t>(j) * jacobian_columns_ + i];
+  const Jacobian* near = jacobianNear(u, v);
+  if (near == nullptr) return false;
+  const Jacobian& jac = *near;
   const float x = jac.xu * du + jac.xv * dv;
   const float y = jac.yu * du + jac.yv * dv;
   if (!std::isfinite(x) || !std::isfinite(y)) return false;
@@ -272,25 +282,18 @@ void LineDetector::sampleByDistance(int n, std::vector<float>& positions) {
       ay += step_y_[i];
     }
     const float reach = static_cast<float>(params_.turn_reach_m);
-    // Marks the steps within `reach` of corner j both ways (around the closed contour).
-    auto mark = [&](int j) {
-      float walked = 0.0f;
-      for (int i = j, k = 0; k < n && walked < reach; ++k, i = i + 1 == n ? 0 : i + 1) {
-        near_turn_[i] = 1;
-        walked += step_length_[i];
-      }
-      walked = 0.0f;
-      for (int i = j == 0 ? n - 1 : j - 1, k = 0; k < n && walked < reach;
-           ++k, i = i == 0 ? n - 1 : i - 1) {
-        near_turn_[i] = 1;
-        walked += step_length_[i];
-      }
-    };
+    const float range2 = static_cast<float>(params_.turn_range_m * params_.turn_range_m);
+    turn_.assign(n, 0);
+    bool anyTurn = false;
     for (int j = 0; j < n; ++j) {
       const float dot = bx * ax + by * ay, cross = bx * ay - by * ax;
       if ((bx != 0.0f || by != 0.0f) && (ax != 0.0f || ay != 0.0f) &&
           (dot <= 0.0f || std::abs(cross) > tanTurn * dot)) {
-        mark(j);
+        const Jacobian* near = jacobianNear(smooth_u_[j], smooth_v_[j]);
+        if (near != nullptr && near->range2 <= range2) {  // (NaN: no)
+          turn_[j] = 1;
+          anyTurn = true;
+        }
       }
       // Slide both windows by one step.
       const int leaving = j - span < 0 ? j - span + n : j - span;
@@ -299,6 +302,25 @@ void LineDetector::sampleByDistance(int n, std::vector<float>& positions) {
       by += step_y_[j] - step_y_[leaving];
       ax += step_x_[entering] - step_x_[j];
       ay += step_y_[entering] - step_y_[j];
+    }
+    // The steps within `reach` of a turning corner, forward (steps j, j + 1, ...) and backward
+    // (steps j - 1, j - 2, ...): two sweeps of twice around the closed contour, each carrying the
+    // floor walked since the last turn.
+    if (anyTurn) {
+      float walked = reach;
+      for (int k = 0; k < 2 * n; ++k) {
+        const int i = k < n ? k : k - n;
+        if (turn_[i]) walked = 0.0f;
+        if (walked < reach) near_turn_[i] = 1;
+        walked += step_length_[i];
+      }
+      walked = reach;
+      for (int k = 2 * n - 1; k >= 0; --k) {
+        const int i = k < n ? k : k - n;  // step i, from corner i to corner i + 1
+        if (turn_[i + 1 == n ? 0 : i + 1]) walked = 0.0f;
+        if (walked < reach) near_turn_[i] = 1;
+        walked += step_length_[i];
+      }
     }
   }
   // Each corner step counts min(floor length / spacing, pixels / minimum pixels) samples; a

@@ -112,6 +112,9 @@ struct LineDetectorParams {
   // denser sampling).
   double turn_spacing_m = 0.0;
   double turn_reach_m = 0.7;
+  // Only turns within this floor distance of the robot count, m (features further away are not
+  // looked for; far turns cost points for nothing).
+  double turn_range_m = 4.5;
   double turn_angle = 0.5;
   int turn_span = 3;
   // Passes of 0.25/0.5/0.25 smoothing of the contour before tangents are taken.
@@ -226,12 +229,16 @@ class LineDetector {
   std::vector<float> sample_positions_;
   // Per corner step of the current contour: floor step (m) and whether it is near a turn.
   std::vector<float> step_x_, step_y_, step_length_;
-  std::vector<std::uint8_t> near_turn_;
+  std::vector<std::uint8_t> near_turn_, turn_;
   // Jacobian of the floor point by the image point (m/px: dx/du, dx/dv, dy/du, dy/dv) at every
   // cell corner (pixel (i * cell_size - 0.5, j * cell_size - 0.5)); NaN where no floor.
   struct Jacobian {
     float xu, xv, yu, yv;
+    // Squared floor distance of the corner from the robot, m^2.
+    float range2;
   };
+  // The table entry of the cell corner nearest to pixel (u, v); nullptr outside the image.
+  const Jacobian* jacobianNear(float u, float v) const;
   int jacobian_columns_ = 0, jacobian_rows_ = 0;
   std::vector<Jacobian> jacobians_;
   // The walk of the current scan, for along().

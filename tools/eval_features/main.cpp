@@ -63,6 +63,7 @@ struct Options {
   // the default).
   double turn_spacing_m = -1.0;
   double turn_reach_m = -1.0;
+  double turn_range_m = -1.0;
   bool clutter = true;
   int opponents = 3;
   // Clutter knobs (with --no-clutter all are off).
@@ -694,6 +695,7 @@ int run(const Options& options) {
   if (options.sample_min_px > 0.0) vision_params.lines.sample_min_px = options.sample_min_px;
   if (options.turn_spacing_m >= 0.0) vision_params.lines.turn_spacing_m = options.turn_spacing_m;
   if (options.turn_reach_m >= 0.0) vision_params.lines.turn_reach_m = options.turn_reach_m;
+  if (options.turn_range_m >= 0.0) vision_params.lines.turn_range_m = options.turn_range_m;
   region_tracking::FrameProcessor processor(sim.mirror, sim.table, vision_params);
   region_tracking::VisionResult vision;
   perception::FieldFeatures features;
@@ -929,6 +931,10 @@ void addOptions(CLI::App& app, Options& options) {
       ->check(CLI::Range(0.0, 10.0));
   app.add_option("--turn-reach-m", options.turn_reach_m,
                  "How far along the contour from a turn the turn spacing holds, m (default: "
+                 "vision_default.yaml's)")
+      ->check(CLI::Range(0.0, 100.0));
+  app.add_option("--turn-range-m", options.turn_range_m,
+                 "Only turns within this distance of the robot count, m (default: "
                  "vision_default.yaml's)")
       ->check(CLI::Range(0.0, 100.0));
   app.add_flag("!--no-clutter", options.clutter, "No opponents or clutter");
