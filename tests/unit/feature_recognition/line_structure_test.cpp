@@ -91,9 +91,9 @@ TEST(LineStructure, FindsTheDirectionsDespiteOutliersAndGroupsCollinearPieces) {
 TEST(LineStructure, AFragmentFarBeyondACornerLeavesItAnL) {
   std::mt19937 rng(3);
   const std::vector<std::vector<Vec2>> runs = {
-      test::polyline({{1.0, 2.0}, {1.0, 0.5}}, 0.1, 0.005, rng),   // front line, ends at (1, 0.5)
-      test::polyline({{1.0, 0.5}, {3.0, 0.5}}, 0.1, 0.005, rng),   // side line, from the corner
-      test::polyline({{1.0, 2.0}, {-2.0, 2.0}}, 0.1, 0.005, rng),  // a third line (the structure)
+      test::polyline({{1.0, 2.0}, {1.0, 0.5}}, 0.1, 0.005, rng),     // front line, ends at (1, 0.5)
+      test::polyline({{1.0, 0.5}, {3.0, 0.5}}, 0.1, 0.005, rng),     // side line, from the corner
+      test::polyline({{1.0, 2.0}, {-2.0, 2.0}}, 0.1, 0.005, rng),    // a third line (the structure)
       test::polyline({{1.0, -2.0}, {1.0, -2.4}}, 0.1, 0.005, rng)};  // fragment on the extension
   Contours c;
   for (const auto& run : runs) {
