@@ -123,6 +123,10 @@ void loadContact(const config::Node& n, LocalizerParams& l) {
   p.hold_us = micros(n.getOr<double>("hold_s", seconds(p.hold_us), 0.0, 5.0));
   p.position_density = n.getOr<double>("position_density", p.position_density, 0.0, 10.0);
   p.heading_density = n.getOr<double>("heading_density", p.heading_density, 0.0, 10.0);
+  CurrentContactParams& c = l.current_contact;
+  c.force_threshold_n = n.getOr<double>("current_force_n", c.force_threshold_n, 0.0, 1e4);
+  c.samples = n.getOr<int>("current_samples", c.samples, 1, 100);
+  c.max_current_a = n.getOr<double>("current_max_a", c.max_current_a, 0.1, 1e4);
   n.rejectUnknownKeys();
 }
 
