@@ -92,7 +92,10 @@ void FusionNode::onObstacles(const obstacle_observations_t& m) {
 
 void FusionNode::onBall(const ball_observation_t& m) {
   const perception::BallSighting sighting = msg::fromMessage(m);
-  if (!sighting.visible) return;
+  if (!sighting.visible) {
+    if (const auto robot = localizer_.stateAt(sighting.utime)) ball_.missed(sighting.utime, *robot);
+    return;
+  }
   const auto robot = localizer_.stateAt(sighting.utime);
   if (!robot) {
     ++ball_rejections_["ball_no_pose"];
@@ -146,6 +149,7 @@ void FusionNode::updateMetrics() {
   node_.setMetric("current_contacts", static_cast<double>(localizer_.counters().current_contacts));
   node_.setMetric("twist_searches", static_cast<double>(localizer_.counters().twist_searches));
   node_.setMetric("ball_restarts_far", static_cast<double>(ball_.restartsFar()));
+  node_.setMetric("ball_unseen_invalidations", static_cast<double>(ball_.unseenInvalidations()));
   node_.setMetric("ball_restarts_with_velocity", static_cast<double>(ball_.restartsWithVelocity()));
 }
 
