@@ -105,7 +105,7 @@ enum class Order {
 };
 
 Result run(rt::SimCamera& sim, const Sequence& sequence, int cell_size, int frameCount, int rounds,
-           bool coldFrames, Order order, int max_seed_regions) {
+           bool coldFrames, Order order, int max_seed_regions, const std::string& vision_config) {
   Result result;
   result.sequence = sequence;
   result.cell_size = cell_size;
@@ -123,7 +123,10 @@ Result run(rt::SimCamera& sim, const Sequence& sequence, int cell_size, int fram
     return sim.renderer->view(delivered);
   };
 
-  rt::VisionParams params = rt::defaultVisionParams();
+  rt::VisionParams params =
+      vision_config.empty()
+          ? rt::defaultVisionParams()
+          : rt::loadVisionParams(fieldline::config::Node::loadFile(vision_config));
   params.tracker.cell_size = cell_size;
   if (max_seed_regions >= 0) {
     for (rt::ClassTracking& c : params.tracker.classes)
@@ -299,6 +302,7 @@ struct Options {
   bool interleave = false;
   int rounds = 5;
   int max_seed_regions = -1;
+  std::string vision_config;
   std::string field = "msl";
 
   void addTo(CLI::App& app) {
@@ -322,6 +326,10 @@ struct Options {
                    "seed only this many of the largest regions in an initial search (the seed: "
                    "10; 0: every region; default: the vision config's)")
         ->check(CLI::Range(0, 1000));
+    app.add_option("--vision-config", vision_config,
+                   "region tracking parameters (YAML, as fieldline-region-tracking's; default: the "
+                   "built-in ones); --cell-size still applies")
+        ->check(CLI::ExistingFile);
     app.add_flag("--interleave", interleave,
                  "run the methods frame by frame instead of each over the whole sequence in turn "
                  "(each method's data then leaves the cache between its frames)");
@@ -425,7 +433,7 @@ int main(int argc, char** argv) {
       rt::SimCamera& sim = cameras.at(s.camera);
       results.push_back(run(sim, s, options.cell_size, options.frames, options.rounds, options.cold,
                             options.interleave ? Order::kInterleaved : Order::kSequential,
-                            options.max_seed_regions));
+                            options.max_seed_regions, options.vision_config));
       const Result& r = results.back();
       std::fprintf(stderr, "done %s %dx%d %s\n", r.sequence.kind.c_str(), sim.mirror.width(),
                    sim.mirror.height(), motionName(r.sequence).c_str());

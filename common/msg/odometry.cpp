@@ -7,6 +7,7 @@ static_assert(perception::kOdometryWatchdog == odometry_t::STATUS_WATCHDOG);
 static_assert(perception::kOdometryMotorFault == odometry_t::STATUS_MOTOR_FAULT);
 static_assert(perception::kOdometryFramesLost == odometry_t::STATUS_FRAMES_LOST);
 static_assert(perception::kOdometryResync == odometry_t::STATUS_RESYNC);
+static_assert(perception::kOdometryCurrents == odometry_t::STATUS_CURRENTS);
 
 perception::OdometryReading fromMessage(const odometry_t& m) {
   perception::OdometryReading r;
@@ -19,6 +20,8 @@ perception::OdometryReading fromMessage(const odometry_t& m) {
   r.vy = m.vy;
   r.omega = m.omega;
   r.status = m.status;
+  for (std::size_t i = 0; i < 3; ++i)
+    r.wheel_current[i] = m.wheel_current[i];
   return r;
 }
 
@@ -34,6 +37,8 @@ void toMessage(const perception::OdometryReading& r, odometry_t& m) {
   m.vy = r.vy;
   m.omega = r.omega;
   m.status = r.status;
+  for (std::size_t i = 0; i < 3; ++i)
+    m.wheel_current[i] = r.wheel_current[i];
 }
 
 }  // namespace fieldline::msg

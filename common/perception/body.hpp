@@ -15,6 +15,7 @@ inline constexpr std::int32_t kOdometryWatchdog = 1;
 inline constexpr std::int32_t kOdometryMotorFault = 2;
 inline constexpr std::int32_t kOdometryFramesLost = 4;
 inline constexpr std::int32_t kOdometryResync = 8;
+inline constexpr std::int32_t kOdometryCurrents = 16;
 
 // One odometry sample of the motor controller.
 struct OdometryReading {
@@ -32,6 +33,8 @@ struct OdometryReading {
   double omega = 0.0;
   // kOdometry* bits.
   std::int32_t status = 0;
+  // Mean motor current per wheel over the sample period [A]; valid with kOdometryCurrents.
+  std::array<float, 3> wheel_current{};
 };
 
 // Who sent a motion command; values equal motion_command_t's SOURCE_ constants.

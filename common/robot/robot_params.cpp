@@ -66,6 +66,8 @@ RobotParams loadRobotParams(const config::Node& root) {
   const auto motor = root.child("motor");
   p.motor.max_wheel_speed = motor.get<double>("max_wheel_speed", 0.1, 20.0);
   p.motor.time_constant = motor.get<double>("time_constant", 0.001, 10.0);
+  p.motor.torque_constant =
+      motor.getOr<double>("torque_constant", p.motor.torque_constant, 1e-4, 10.0);
   motor.rejectUnknownKeys();
 
   const auto sim = root.child("simulation");

@@ -30,6 +30,9 @@ struct MotorParams {
   double max_wheel_speed = 0.0;
   // Time constant of the wheel speed response to a command step [s].
   double time_constant = 0.0;
+  // Motor torque per ampere [N m / A] (optional key; the seed's 90 W motors: about 0.0255): turns
+  // the controller's measured wheel currents into wheel forces (through gear and wheel radius).
+  double torque_constant = 0.0255;
 };
 
 // How the simulated robot differs from its nominal model: odometry does not know these.

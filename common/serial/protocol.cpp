@@ -11,6 +11,8 @@ namespace {
 constexpr std::size_t kHelloBody = 9;
 constexpr std::size_t kCommandBody = 10;
 constexpr std::size_t kOdometryBody = 30;
+// ... with the wheel currents' tail.
+constexpr std::size_t kOdometryCurrentsBody = 36;
 constexpr std::size_t kErrorBody = 5;
 constexpr std::size_t kHeaderSize = 2;
 constexpr std::size_t kCrcSize = 4;
@@ -80,6 +82,10 @@ void writeBody(const OdometrySample& m, Writer& w) {
     w.i32(t);
   w.u16(m.status);
   w.u32(m.last_command_seq);
+  if (m.current_ma) {
+    for (const auto c : *m.current_ma)
+      w.i16(c);
+  }
 }
 void writeBody(const ErrorReport& m, Writer& w) {
   w.u8(static_cast<std::uint8_t>(m.code));
@@ -199,7 +205,9 @@ std::variant<Message, Reject> parsePayload(std::span<const std::uint8_t> payload
       return Message{m};
     }
     case MessageType::kOdometry: {
-      if (body_size != kOdometryBody) return Reject::kLength;
+      if (body_size != kOdometryBody && body_size != kOdometryCurrentsBody) {
+        return Reject::kLength;
+      }
       OdometrySample m;
       m.seq = r.u32();
       m.controller_time_us = r.u64();
@@ -207,6 +215,12 @@ std::variant<Message, Reject> parsePayload(std::span<const std::uint8_t> payload
         t = r.i32();
       m.status = r.u16();
       m.last_command_seq = r.u32();
+      if (body_size == kOdometryCurrentsBody) {
+        std::array<std::int16_t, 3> current{};
+        for (auto& c : current)
+          c = r.i16();
+        m.current_ma = current;
+      }
       return Message{m};
     }
     case MessageType::kError: {

@@ -7,6 +7,7 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <optional>
 #include <span>
 #include <string_view>
 #include <variant>
@@ -70,6 +71,10 @@ struct OdometrySample {
   std::uint16_t status = 0;
   // seq of the last valid command the controller accepted (0 before the first).
   std::uint32_t last_command_seq = 0;
+  // Mean motor current per wheel over the sample period [mA], signed like the wheel's drive
+  // direction: an optional tail of the body (a controller without current sensing sends the
+  // 30-byte body, one with it 36 bytes; docs/serial-protocol.md).
+  std::optional<std::array<std::int16_t, 3>> current_ma;
 
   bool operator==(const OdometrySample&) const = default;
 };
@@ -96,7 +101,7 @@ double fromQ15(std::int16_t value);
 
 // Largest payload (version + type + body + CRC) of any message, and of its COBS frame with the
 // delimiter. Anything longer on the wire is garbage.
-inline constexpr std::size_t kMaxPayloadSize = 2 + 30 + 4;
+inline constexpr std::size_t kMaxPayloadSize = 2 + 36 + 4;
 inline constexpr std::size_t kMaxFrameSize = kMaxPayloadSize + kMaxPayloadSize / 254 + 2;
 
 // Appends the complete frame (COBS bytes and the 0x00 delimiter) for `message` to `out`.

@@ -50,18 +50,21 @@ void findJunctions(const LineStructure& structure, const RecognitionParams& para
       // The two lines squared up (one orientation for both, from the better seen one).
       SquareCorner square;
       if (!squareUp(g0[i].line, g1[j].line, params.direction_cluster, square)) continue;
-      Line a = g0[i].line;
-      Line b = g1[j].line;
-      a.direction = square.a_direction;
-      b.direction = square.b_direction;
-      a.centre = g0[i].line.midpoint();
-      b.centre = g1[j].line.midpoint();
-      const double half_a = 0.5 * g0[i].line.length(), half_b = 0.5 * g1[j].line.length();
-      a.t_min = -half_a;
-      a.t_max = half_a;
-      b.t_min = -half_b;
-      b.t_max = half_b;
       const Vec2 c = square.position;
+      // Each line squared up, over its run at the junction (the group may hold collinear pieces
+      // far beyond it: they neither make the line pass through nor lengthen its leg).
+      auto atJunction = [&](const LineGroup& group, const Vec2& direction) {
+        Line line = group.line;
+        const LineRun& run = group.runNear(group.line.along(c));
+        const double middle = 0.5 * (group.line.t_min + group.line.t_max);
+        line.direction = direction;
+        line.centre = group.line.midpoint();
+        line.t_min = run.t_min - middle;
+        line.t_max = run.t_max - middle;
+        return line;
+      };
+      const Line a = atJunction(g0[i], square.a_direction);
+      const Line b = atJunction(g1[j], square.b_direction);
       Vec2 away_a, away_b;
       const Meets ma = howMeets(a, c, params, away_a);
       const Meets mb = howMeets(b, c, params, away_b);

@@ -32,18 +32,24 @@ void candidateLineEnds(const LineStructure& structure, const field::FieldModel& 
         }
       }
       if (!partner) continue;
-      for (int side = 0; side < 2; ++side) {
-        LineEnd end;
-        end.position = side == 0 ? line.start() : line.end();
-        end.into = side == 0 ? line.direction : Vec2(-line.direction);
-        end.length = line.length();
-        end.axis = axis;
-        end.group = g;
-        if (end.position.norm() > params.line_end_range) continue;
-        const bool explained = std::any_of(taken.begin(), taken.end(), [&](const Vec2& t) {
-          return (t - end.position).norm() < params.junction_distance;
-        });
-        if (!explained) out.push_back(end);
+      // The ends of each run of the group (a line seen in parts ends where a part ends).
+      for (const LineRun& run : groups[g].runs) {
+        if (run.count < params.min_corner_line_points || run.length() < params.min_front_line) {
+          continue;
+        }
+        for (int side = 0; side < 2; ++side) {
+          LineEnd end;
+          end.position = line.centre + (side == 0 ? run.t_min : run.t_max) * line.direction;
+          end.into = side == 0 ? line.direction : Vec2(-line.direction);
+          end.length = run.length();
+          end.axis = axis;
+          end.group = g;
+          if (end.position.norm() > params.line_end_range) continue;
+          const bool explained = std::any_of(taken.begin(), taken.end(), [&](const Vec2& t) {
+            return (t - end.position).norm() < params.junction_distance;
+          });
+          if (!explained) out.push_back(end);
+        }
       }
     }
   }

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numbers>
 
 namespace fieldline::feature_recognition {
@@ -62,6 +63,20 @@ bool principalDirection(const std::vector<Line>& lines, double cluster_angle, do
   return true;
 }
 
+const LineRun& LineGroup::runNear(double t) const {
+  const LineRun* best = nullptr;
+  double best_d = 0.0;
+  for (const LineRun& run : runs) {
+    const double d = std::max({0.0, run.t_min - t, t - run.t_max});
+    if (!best || d < best_d) {
+      best = &run;
+      best_d = d;
+    }
+  }
+  static const LineRun kNone{};
+  return best ? *best : kNone;
+}
+
 void buildLineStructure(const Contours& contours, const std::vector<Line>& lines,
                         const std::vector<int>& excluded_pieces, const RecognitionParams& params,
                         LineStructure& out) {
@@ -104,7 +119,7 @@ void buildLineStructure(const Contours& contours, const std::vector<Line>& lines
       }
       const double w = line.length();
       if (!best || best_d > params.collinear_cluster) {
-        groups.push_back({line, t, w, {usable_index[i]}});
+        groups.push_back({line, {}, t, w, {usable_index[i]}});
         continue;
       }
       best->t = (best->t * best->support + t * w) / (best->support + w);
@@ -138,6 +153,32 @@ void buildLineStructure(const Contours& contours, const std::vector<Line>& lines
           sum_sq += d * d;
         }
       }
+      // The members' extents along the merged line, chained into runs.
+      g.runs.clear();
+      for (int i : g.members) {
+        const Piece& piece = contours.pieces[lines[i].piece];
+        LineRun run{std::numeric_limits<double>::infinity(),
+                    -std::numeric_limits<double>::infinity(), piece.size()};
+        for (int k = piece.begin; k < piece.end; ++k) {
+          const double t = merged.along(contours.points[k]);
+          run.t_min = std::min(run.t_min, t);
+          run.t_max = std::max(run.t_max, t);
+        }
+        g.runs.push_back(run);
+      }
+      std::sort(g.runs.begin(), g.runs.end(),
+                [](const LineRun& x, const LineRun& y) { return x.t_min < y.t_min; });
+      std::size_t chained = 0;
+      for (std::size_t r = 1; r < g.runs.size(); ++r) {
+        LineRun& last = g.runs[chained];
+        if (g.runs[r].t_min - last.t_max <= params.group_run_gap) {
+          last.t_max = std::max(last.t_max, g.runs[r].t_max);
+          last.count += g.runs[r].count;
+        } else {
+          g.runs[++chained] = g.runs[r];
+        }
+      }
+      g.runs.resize(g.runs.empty() ? 0 : chained + 1);
       merged.count = acc.count();
       merged.rms = std::sqrt(sum_sq / std::max(acc.count(), 1));
       merged.piece = -1;

@@ -13,9 +13,25 @@
 
 namespace fieldline::feature_recognition {
 
+// A stretch of a group's line that its members cover: t along LineGroup::line (as
+// Line::along), and the points in it.
+struct LineRun {
+  double t_min = 0.0;
+  double t_max = 0.0;
+  int count = 0;
+  double length() const { return t_max - t_min; }
+};
+
 // A group of collinear lines merged into one.
 struct LineGroup {
   Line line;
+  // The stretches its members cover, sorted along the line; members less than group_run_gap
+  // apart form one run. Collinear lines far apart are one group (one field line seen in parts,
+  // or a fragment of something else that happens to lie on its extension): where a line ends or
+  // meets another, the run there tells it, not the whole group.
+  std::vector<LineRun> runs;
+  // The run nearest to the point `t` along the line (containing it if any).
+  const LineRun& runNear(double t) const;
   // Position of the line along the axis it is perpendicular to, m.
   double t = 0.0;
   // Summed length of the member lines (the visible part), m.

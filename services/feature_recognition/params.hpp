@@ -71,6 +71,9 @@ struct RecognitionParams {
   // --- principal directions, collinear groups ---
   double direction_cluster = 0.3;
   double collinear_cluster = 0.2;
+  // Members of a group further apart than this along the line are separate runs (LineGroup::
+  // runs): junctions and line ends are taken from the run at the place, m.
+  double group_run_gap = 1.0;
 
   // --- penalty area ---
   // Tolerance on the spacings of the goal line, goal-area line and penalty-area line, m.

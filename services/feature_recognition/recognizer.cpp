@@ -156,14 +156,18 @@ InputCheck FeatureRecognizer::recognize(const perception::LinePoints& in,
     }
     return false;
   };
-  for (const Junction& j : junctions_) {
-    if (j.is_t || explained(j)) continue;
+  // An L whose lines are too short or too sparse to place it (below) leaves its place to the
+  // line-end rule (the longer line's end is the corner).
+  auto placeable = [&](const Junction& j) {
     const Line& bar = structure_.groups[j.bar_axis][j.bar].line;
     const Line& stem = structure_.groups[j.stem_axis][j.stem].line;
-    if (bar.count < params_.min_corner_line_points || stem.count < params_.min_corner_line_points ||
-        bar.length() < params_.min_identity_leg || stem.length() < params_.min_identity_leg) {
-      continue;
-    }
+    return j.is_t ||
+           (bar.count >= params_.min_corner_line_points &&
+            stem.count >= params_.min_corner_line_points &&
+            bar.length() >= params_.min_identity_leg && stem.length() >= params_.min_identity_leg);
+  };
+  for (const Junction& j : junctions_) {
+    if (j.is_t || explained(j) || !placeable(j)) continue;
     JunctionIdentity identity;
     const bool identified =
         identifyJunction(j, model_junctions_, contours_.points, model_check_, params_, identity);
@@ -191,8 +195,9 @@ InputCheck FeatureRecognizer::recognize(const perception::LinePoints& in,
     thread_local std::vector<Vec2> taken;
     thread_local std::vector<LineEnd> ends;
     taken = corners_seen;
-    for (const Junction& j : junctions_)
-      taken.push_back(j.position);
+    for (const Junction& j : junctions_) {
+      if (placeable(j)) taken.push_back(j.position);
+    }
     candidateLineEnds(structure_, field_, taken, params_, ends);
     for (const LineEnd& end : ends) {
       bool seen = false;

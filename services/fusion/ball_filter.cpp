@@ -106,6 +106,7 @@ BallRejection BallFilter::update(const perception::BallSighting& s, const EkfSta
     return BallRejection::kOutlier;
   }
   outliers_in_row_ = 0;
+  missed_in_row_ = 0;
   contradicted_ = false;
   last_outlier_.reset();
   Eigen::Matrix<double, 2, 4> h = Eigen::Matrix<double, 2, 4>::Zero();
@@ -119,6 +120,25 @@ BallRejection BallFilter::update(const perception::BallSighting& s, const EkfSta
   utime_ = s.utime;
   last_seen_ = s.utime;
   return BallRejection::kNone;
+}
+
+void BallFilter::missed(Utime t, const EkfState& robot) {
+  if (params_.unseen_range_m <= 0.0 || !initialized_ || contradicted_ || t < utime_ ||
+      !robot.x.allFinite()) {
+    return;
+  }
+  Eigen::Vector4d x = x_;
+  Eigen::Matrix4d p = p_;
+  predict(t, x, p);
+  const double range = std::hypot(x[0] - robot.x[0], x[1] - robot.x[1]);
+  if (!(range <= params_.unseen_range_m)) {
+    missed_in_row_ = 0;
+    return;
+  }
+  if (++missed_in_row_ >= params_.unseen_frames) {
+    contradicted_ = true;
+    ++unseen_invalidations_;
+  }
 }
 
 void BallFilter::restart(Utime t, const Eigen::Vector2d& z, const Eigen::Matrix2d& r) {
@@ -147,6 +167,7 @@ void BallFilter::restart(Utime t, const Eigen::Vector2d& z, const Eigen::Matrix2
   utime_ = t;
   last_seen_ = t;
   outliers_in_row_ = 0;
+  missed_in_row_ = 0;
   contradicted_ = false;
   last_outlier_.reset();
 }

@@ -45,6 +45,12 @@ struct BallFilterParams {
   bool velocity_from_pair = false;
   double pair_max_age_s = 0.25;
   double pair_max_speed = 12.0;
+  // The omni camera sees all around: `unseen_frames` frames in a row without the ball while the
+  // estimate lies within `unseen_range_m` of the robot make the estimate invalid until a sighting
+  // agrees or the filter restarts (the ball was put back or kicked away out of sight; a ball
+  // hidden behind a robot is not reported meanwhile). 0: off, m.
+  double unseen_range_m = 0.0;
+  int unseen_frames = 3;
 };
 
 enum class BallRejection : std::uint8_t {
@@ -63,6 +69,10 @@ class BallFilter {
 
   // Fuses a visible sighting with the robot's state at the sighting's utime.
   BallRejection update(const perception::BallSighting& sighting, const EkfState& robot);
+  // A frame at `t` that did not see the ball, the robot's state at that time (unseen_range_m).
+  void missed(Utime t, const EkfState& robot);
+  // Times the estimate was made invalid by frames that should have seen it.
+  std::uint64_t unseenInvalidations() const { return unseen_invalidations_; }
   // The estimate at `t` (moved on with friction); valid only within max_age of the last sighting.
   perception::BallEstimate estimate(Utime t) const;
   bool initialized() const { return initialized_; }
@@ -82,6 +92,8 @@ class BallFilter {
   Utime utime_ = 0;
   Utime last_seen_ = 0;
   int outliers_in_row_ = 0;
+  int missed_in_row_ = 0;
+  std::uint64_t unseen_invalidations_ = 0;
   // The newest sighting was an outlier: the estimate is contradicted until a sighting agrees or
   // the filter restarts, and not reported valid meanwhile.
   bool contradicted_ = false;

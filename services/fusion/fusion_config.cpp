@@ -123,6 +123,10 @@ void loadContact(const config::Node& n, LocalizerParams& l) {
   p.hold_us = micros(n.getOr<double>("hold_s", seconds(p.hold_us), 0.0, 5.0));
   p.position_density = n.getOr<double>("position_density", p.position_density, 0.0, 10.0);
   p.heading_density = n.getOr<double>("heading_density", p.heading_density, 0.0, 10.0);
+  CurrentContactParams& c = l.current_contact;
+  c.force_threshold_n = n.getOr<double>("current_force_n", c.force_threshold_n, 0.0, 1e4);
+  c.samples = n.getOr<int>("current_samples", c.samples, 1, 100);
+  c.max_current_a = n.getOr<double>("current_max_a", c.max_current_a, 0.1, 1e4);
   n.rejectUnknownKeys();
 }
 
@@ -139,6 +143,8 @@ void loadBall(const config::Node& n, FusionConfig& c) {
   p.max_range_m = n.getOr<double>("max_range_m", p.max_range_m, 0.1, 50.0);
   p.sighting_floor_m = n.getOr<double>("sighting_floor_m", p.sighting_floor_m, 0.0, 5.0);
   p.invalid_after_outlier = n.getOr<bool>("invalid_after_outlier", p.invalid_after_outlier);
+  p.unseen_range_m = n.getOr<double>("unseen_range_m", p.unseen_range_m, 0.0, 20.0);
+  p.unseen_frames = n.getOr<int>("unseen_frames", p.unseen_frames, 1, 1000);
   p.restart_distance_m = n.getOr<double>("restart_distance_m", p.restart_distance_m, 0.0, 50.0);
   p.restart_max_sigma_m =
       n.getOr<double>("restart_max_sigma_m", p.restart_max_sigma_m, 0.001, 10.0);

@@ -16,7 +16,7 @@ namespace {
 // measurement) are the filter doing its job and show as metrics.
 bool isBadInput(const std::string& reason) {
   for (const char* kind : {"from_future", "too_old", "not_finite", "not_positive_definite",
-                           "duplicate", "odometry_jump", "odometry_out_of_order"}) {
+                           "duplicate", "odometry_jump", "odometry_out_of_order", "absurd"}) {
     if (reason.find(kind) != std::string::npos) return true;
   }
   return false;
@@ -50,6 +50,9 @@ void FusionNode::onOdometry(const odometry_t& m) {
     sample.ticks[i] = m.ticks[i];
   sample.resync = (m.status & odometry_t::STATUS_RESYNC) != 0;
   sample.controller_utime = m.controller_utime;
+  sample.has_currents = (m.status & odometry_t::STATUS_CURRENTS) != 0;
+  for (std::size_t i = 0; i < 3; ++i)
+    sample.wheel_current[i] = m.wheel_current[i];
   localizer_.addOdometry(sample, node_.now());
 
   // The estimate at this odometry's time, whatever happened to the sample.
@@ -89,7 +92,10 @@ void FusionNode::onObstacles(const obstacle_observations_t& m) {
 
 void FusionNode::onBall(const ball_observation_t& m) {
   const perception::BallSighting sighting = msg::fromMessage(m);
-  if (!sighting.visible) return;
+  if (!sighting.visible) {
+    if (const auto robot = localizer_.stateAt(sighting.utime)) ball_.missed(sighting.utime, *robot);
+    return;
+  }
   const auto robot = localizer_.stateAt(sighting.utime);
   if (!robot) {
     ++ball_rejections_["ball_no_pose"];
@@ -140,8 +146,10 @@ void FusionNode::updateMetrics() {
   node_.setMetric("pinned_slips", static_cast<double>(localizer_.counters().pinned_slips));
   node_.setMetric("contact_slips", static_cast<double>(localizer_.counters().contact_slips));
   node_.setMetric("contact_frames", static_cast<double>(localizer_.counters().contact_frames));
+  node_.setMetric("current_contacts", static_cast<double>(localizer_.counters().current_contacts));
   node_.setMetric("twist_searches", static_cast<double>(localizer_.counters().twist_searches));
   node_.setMetric("ball_restarts_far", static_cast<double>(ball_.restartsFar()));
+  node_.setMetric("ball_unseen_invalidations", static_cast<double>(ball_.unseenInvalidations()));
   node_.setMetric("ball_restarts_with_velocity", static_cast<double>(ball_.restartsWithVelocity()));
 }
 

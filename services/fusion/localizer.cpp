@@ -67,10 +67,18 @@ Localizer::Localizer(const robot::RobotParams& robot, LocalizerParams params,
       params_(params),
       matcher_(std::move(matcher)),
       odometry_(robot, params.odometry),
+      currents_(robot, params.current_contact),
       filter_(params.filter),
       dead_reckoning_(deadReckoningLimits()) {}
 
 bool Localizer::addOdometry(const OdometrySample& sample, Utime now) {
+  const CurrentContactDetector::Result contact = currents_.add(sample);
+  if (!contact.rejection.empty()) count(contact.rejection);
+  if (contact.contact) {
+    ++counters_.current_contacts;
+    const Rejection c = filter_.addContact(*contact.contact, now);
+    if (c != Rejection::kNone) count(std::string("current_") + toString(c));
+  }
   const OdometryLayer::Result r = odometry_.update(sample);
   if (r.rejection != OdometryRejection::kNone) count(toString(r.rejection));
   if (!r.step) {

@@ -23,6 +23,7 @@
 #include "common/perception/line_points.hpp"
 #include "common/perception/obstacles.hpp"
 #include "common/robot/robot_params.hpp"
+#include "services/fusion/current_contact.hpp"
 #include "services/fusion/history.hpp"
 #include "services/fusion/line_matcher.hpp"
 #include "services/fusion/odometry_layer.hpp"
@@ -126,6 +127,8 @@ struct LocalizerParams {
   bool twist_search_always = false;
   // Frames with fewer points are not searched (a few points fit some heading by chance).
   std::size_t contact_search_min_points = 30;
+  // Contact evidence from the motor currents in ODOMETRY (current_contact.hpp); off by default.
+  CurrentContactParams current_contact;
   // Half extents of the area searched (the carpet), m.
   double search_half_length_m = 10.0;
   double search_half_width_m = 6.5;
@@ -150,13 +153,17 @@ struct LocalizerCounters {
   std::uint64_t twist_searches = 0;
   // VISION_OBSTACLES frames that showed an obstacle touching the robot.
   std::uint64_t contact_frames = 0;
+  // Odometry samples whose currents showed a contact (CurrentContactDetector).
+  std::uint64_t current_contacts = 0;
 };
 
 class Localizer {
  public:
   Localizer(const robot::RobotParams& robot, LocalizerParams params, MatcherFunctions matcher);
 
-  // Layer 1. Returns false when the sample gave no movement (first, refused).
+  // Layer 1. Returns false when the sample gave no movement (first, refused). Its currents, when
+  // it carries them, are contact evidence (LocalizerParams::current_contact); bad currents are
+  // refused and counted ("current_not_finite", "current_absurd"), the ticks still count.
   bool addOdometry(const OdometrySample& sample, Utime now);
   // Layer 2 (and hypothesis testing while lost) on one frame's line points at its utime.
   void addLines(std::span<const perception::LinePoint> points, Utime utime, Utime now);
@@ -225,6 +232,7 @@ class Localizer {
   LocalizerParams params_;
   MatcherFunctions matcher_;
   OdometryLayer odometry_;
+  CurrentContactDetector currents_;
   DelayedFilter filter_;
   // Dead-reckoned (x, y, unwrapped phi) in the odometry frame at each odometry time.
   TimedChannel<Eigen::Vector3d> dead_reckoning_;

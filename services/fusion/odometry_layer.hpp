@@ -54,6 +54,10 @@ struct OdometrySample {
   bool resync = false;
   // The controller's own time of the sample, µs since it started (0: not known).
   std::int64_t controller_utime = 0;
+  // The controller's mean wheel currents over the sample period [A] (odometry_t
+  // STATUS_CURRENTS), for contact detection (current_contact.hpp); unchecked here.
+  bool has_currents = false;
+  std::array<double, 3> wheel_current{};
 };
 
 // The movement between two samples, ready for the filter.

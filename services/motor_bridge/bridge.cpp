@@ -149,6 +149,12 @@ void BridgeCore::onBytes(std::span<const std::uint8_t> bytes, Utime now,
     o.controller_utime = static_cast<std::int64_t>(sample->controller_time_us);
     if (sample->status & proto::kStatusWatchdog) o.status |= perception::kOdometryWatchdog;
     if (sample->status & proto::kStatusMotorFault) o.status |= perception::kOdometryMotorFault;
+    if (sample->current_ma) {
+      // mA on the wire, A on the bus; any int16 is a finite current (fusion judges the size).
+      for (std::size_t i = 0; i < 3; ++i)
+        o.wheel_current[i] = static_cast<float>((*sample->current_ma)[i]) * 1e-3f;
+      o.status |= perception::kOdometryCurrents;
+    }
     if (last_sample_ && sample->seq == last_sample_->seq &&
         sample->controller_time_us == last_sample_->controller_time_us) {
       count("odometry_duplicate");  // the same frame twice (a replaying line)

@@ -106,7 +106,14 @@ LineDetector::LineDetector(const camera::ColourTable& table, const FloorLookup& 
       params_.max_transition_pixels < 0 || params_.max_gap_pixels < 0 ||
       params_.field_confirm_pixels < 1 || cell_size < 1 ||
       !(params_.ridge_contrast == 0.0 || params_.ridge_contrast >= 1.0) ||
-      params_.ridge_min_levels < 0 || params_.ridge_min_levels > 255) {
+      params_.ridge_min_levels < 0 || params_.ridge_min_levels > 255 ||
+      !(params_.sample_spacing_m >= 0.0 && params_.sample_spacing_m <= 10.0) ||
+      !(params_.sample_min_px >= 0.25 && params_.sample_min_px <= 1000.0) ||
+      !(params_.turn_spacing_m >= 0.0 && params_.turn_spacing_m <= 10.0) ||
+      !(params_.turn_reach_m >= 0.0 && params_.turn_reach_m <= 100.0) ||
+      !(params_.turn_range_m >= 0.0 && params_.turn_range_m <= 100.0) ||
+      !(params_.turn_angle > 0.0 && params_.turn_angle <= 1.5) || params_.turn_span < 1 ||
+      params_.turn_span > 100) {
     throw std::invalid_argument("line detector: invalid parameters");
   }
   // The longest white run a line can give at a pixel: its width at the pixel's finest floor
@@ -182,6 +189,168 @@ LineDetector::LineDetector(const camera::ColourTable& table, const FloorLookup& 
     smoothing_kernel_.swap(wider);
   }
   pad_ = params_.smoothing_passes + params_.tangent_half_span;
+
+  // The floor's Jacobian at every cell corner, by central differences half a cell each way
+  // (one-sided where one side has no floor).
+  jacobian_columns_ = floor.width() / cell_size_ + 1;
+  jacobian_rows_ = floor.height() / cell_size_ + 1;
+  jacobians_.assign(static_cast<std::size_t>(jacobian_columns_) * jacobian_rows_,
+                    Jacobian{kNaN, kNaN, kNaN, kNaN, kNaN});
+  const float h = 0.5f * static_cast<float>(cell_size_);
+  for (int j = 0; j < jacobian_rows_; ++j) {
+    for (int i = 0; i < jacobian_columns_; ++i) {
+      const float u = static_cast<float>(i * cell_size_) + kCornerToPixel;
+      const float v = static_cast<float>(j * cell_size_) + kCornerToPixel;
+      // d(floor)/d(image) along one image axis from the points at -h, 0, +h.
+      auto derivative = [&](float du, float dv, float& dx, float& dy) {
+        float x0, y0, x1, y1;
+        const bool before = floor_.floorPoint(u - du, v - dv, x0, y0);
+        const bool after = floor_.floorPoint(u + du, v + dv, x1, y1);
+        if (before && after) {
+          dx = (x1 - x0) / (2 * h);
+          dy = (y1 - y0) / (2 * h);
+          return true;
+        }
+        float xc, yc;
+        if (!floor_.floorPoint(u, v, xc, yc)) return false;
+        if (after) {
+          dx = (x1 - xc) / h;
+          dy = (y1 - yc) / h;
+          return true;
+        }
+        if (before) {
+          dx = (xc - x0) / h;
+          dy = (yc - y0) / h;
+          return true;
+        }
+        return false;
+      };
+      Jacobian jac;
+      float x, y;
+      if (derivative(h, 0.0f, jac.xu, jac.yu) && derivative(0.0f, h, jac.xv, jac.yv) &&
+          floor_.floorPoint(u, v, x, y)) {
+        jac.range2 = x * x + y * y;
+        jacobians_[static_cast<std::size_t>(j) * jacobian_columns_ + i] = jac;
+      }
+    }
+  }
+}
+
+const LineDetector::Jacobian* LineDetector::jacobianNear(float u, float v) const {
+  // Nearest cell corner: pixel u sits at corner (u + 0.5) / cell_size.
+  const float inverseCell = 1.0f / static_cast<float>(cell_size_);
+  const int i = nearestPixel((u - kCornerToPixel) * inverseCell);
+  const int j = nearestPixel((v - kCornerToPixel) * inverseCell);
+  if (i < 0 || j < 0 || i >= jacobian_columns_ || j >= jacobian_rows_) return nullptr;
+  return &jacobians_[static_cast<std::size_t>(j) * jacobian_columns_ + i];
+}
+
+bool LineDetector::floorStep(float u, float v, float du, float dv, float& dx, float& dy) const {
+  dx = dy = 0.0f;
+  const Jacobian* near = jacobianNear(u, v);
+  if (near == nullptr) return false;
+  const Jacobian& jac = *near;
+  const float x = jac.xu * du + jac.xv * dv;
+  const float y = jac.yu * du + jac.yv * dv;
+  if (!std::isfinite(x) || !std::isfinite(y)) return false;
+  dx = x;
+  dy = y;
+  return true;
+}
+
+void LineDetector::sampleByDistance(int n, std::vector<float>& positions) {
+  positions.clear();
+  // The floor step of every corner step of the smoothed contour (step j: corner j to j + 1).
+  step_x_.resize(n);
+  step_y_.resize(n);
+  step_length_.resize(n);
+  for (int j = 0; j < n; ++j) {
+    const int after = j + 1 == n ? 0 : j + 1;
+    const float u = smooth_u_[j], v = smooth_v_[j];
+    const float du = smooth_u_[after] - u, dv = smooth_v_[after] - v;
+    floorStep(u + 0.5f * du, v + 0.5f * dv, du, dv, step_x_[j], step_y_[j]);
+    step_length_[j] = std::sqrt(step_x_[j] * step_x_[j] + step_y_[j] * step_y_[j]);
+  }
+  // Steps within turn_reach_m of a turn: the floor directions summed over the turn_span steps
+  // before corner j and after it differ by more than turn_angle.
+  const bool turns = params_.turn_spacing_m > 0.0 && n > 2 * params_.turn_span;
+  if (turns) {
+    near_turn_.assign(n, 0);
+    const int span = params_.turn_span;
+    const float tanTurn = static_cast<float>(std::tan(std::min(params_.turn_angle, 1.5)));
+    float bx = 0, by = 0, ax = 0, ay = 0;  // sums of the steps [j - span, j) and [j, j + span)
+    for (int i = 0; i < span; ++i) {
+      bx += step_x_[n - span + i];
+      by += step_y_[n - span + i];
+      ax += step_x_[i];
+      ay += step_y_[i];
+    }
+    const float reach = static_cast<float>(params_.turn_reach_m);
+    const float range2 = static_cast<float>(params_.turn_range_m * params_.turn_range_m);
+    turn_.assign(n, 0);
+    bool anyTurn = false;
+    for (int j = 0; j < n; ++j) {
+      const float dot = bx * ax + by * ay, cross = bx * ay - by * ax;
+      if ((bx != 0.0f || by != 0.0f) && (ax != 0.0f || ay != 0.0f) &&
+          (dot <= 0.0f || std::abs(cross) > tanTurn * dot)) {
+        const Jacobian* near = jacobianNear(smooth_u_[j], smooth_v_[j]);
+        if (near != nullptr && near->range2 <= range2) {  // (NaN: no)
+          turn_[j] = 1;
+          anyTurn = true;
+        }
+      }
+      // Slide both windows by one step.
+      const int leaving = j - span < 0 ? j - span + n : j - span;
+      const int entering = j + span >= n ? j + span - n : j + span;
+      bx += step_x_[j] - step_x_[leaving];
+      by += step_y_[j] - step_y_[leaving];
+      ax += step_x_[entering] - step_x_[j];
+      ay += step_y_[entering] - step_y_[j];
+    }
+    // The steps within `reach` of a turning corner, forward (steps j, j + 1, ...) and backward
+    // (steps j - 1, j - 2, ...): two sweeps of twice around the closed contour, each carrying the
+    // floor walked since the last turn.
+    if (anyTurn) {
+      float walked = reach;
+      for (int k = 0; k < 2 * n; ++k) {
+        const int i = k < n ? k : k - n;
+        if (turn_[i]) walked = 0.0f;
+        if (walked < reach) near_turn_[i] = 1;
+        walked += step_length_[i];
+      }
+      walked = reach;
+      for (int k = 2 * n - 1; k >= 0; --k) {
+        const int i = k < n ? k : k - n;  // step i, from corner i to corner i + 1
+        if (turn_[i + 1 == n ? 0 : i + 1]) walked = 0.0f;
+        if (walked < reach) near_turn_[i] = 1;
+        walked += step_length_[i];
+      }
+    }
+  }
+  // Each corner step counts min(floor length / spacing, pixels / minimum pixels) samples; a
+  // sample sits wherever the running count passes a whole number, at its fraction of the step.
+  const float perMetre = static_cast<float>(1.0 / params_.sample_spacing_m);
+  const float perMetreNearTurn =
+      turns ? static_cast<float>(1.0 / params_.turn_spacing_m) : perMetre;
+  const float perPixel = static_cast<float>(1.0 / params_.sample_min_px);
+  float count = 0.0f;  // samples before corner j (running, fractional)
+  float next = 0.0f;   // count at which the next sample falls
+  for (int j = 0; j < n; ++j) {
+    const int after = j + 1 == n ? 0 : j + 1;
+    const float du = smooth_u_[after] - smooth_u_[j], dv = smooth_v_[after] - smooth_v_[j];
+    const float pixels = std::sqrt(du * du + dv * dv);
+    if (step_length_[j] <= 0.0f) continue;  // no floor there
+    const float units =
+        std::min(step_length_[j] * (turns && near_turn_[j] ? perMetreNearTurn : perMetre),
+                 pixels * perPixel);
+    if (units <= 0.0f) continue;
+    const float end = count + units;
+    while (next < end) {
+      positions.push_back(static_cast<float>(j) + (next - count) / units);
+      next += 1.0f;
+    }
+    count = end;
+  }
 }
 
 void LineDetector::prepareOffsets(std::ptrdiff_t stride, camera::PixelFormat format) {
@@ -487,7 +656,8 @@ void LineDetector::detect(const camera::FrameView& frame, const ContourSet& cont
     // The contour is a staircase of cell sides; smoothing turns it into a curve with usable
     // tangents (the seed smooths before taking differences, section 3.3). Only the corners
     // that are sampled or give a sample's tangent are smoothed: every `stride`-th one.
-    const int stride = n % std::gcd(spacing, k) == 0 ? std::gcd(spacing, k) : 1;
+    const bool byDistance = params_.sample_spacing_m > 0.0;
+    const int stride = !byDistance && n % std::gcd(spacing, k) == 0 ? std::gcd(spacing, k) : 1;
     const int smoothed = n / stride;
     smooth_u_.resize(smoothed);
     smooth_v_.resize(smoothed);
@@ -499,23 +669,45 @@ void LineDetector::detect(const camera::FrameView& frame, const ContourSet& cont
         smoothedPoint<0>(j * stride, smooth_u_[j], smooth_v_[j]);
     }
 
-    const int samples = n / spacing;
+    if (byDistance) sampleByDistance(n, sample_positions_);
+    const int samples = byDistance ? static_cast<int>(sample_positions_.size()) : n / spacing;
     hits_.assign(samples, Hit{false, {}});
     // Indices among the smoothed corners: no division per sample but at the contour's ends.
     const int sampleStep = spacing / stride, tangentReach = k / stride;
-    for (int s = 0; s < samples; ++s) {
-      const int centre = s * sampleStep;
+    // Tangent (difference of the smoothed corners tangentReach before and after) at `centre`.
+    auto tangentAt = [&](int centre, float& tu, float& tv) {
       int ahead = centre + tangentReach, behind = centre - tangentReach;
       if (ahead >= smoothed) ahead %= smoothed;
       if (behind < 0) behind = (behind % smoothed + smoothed) % smoothed;
-      const float tu = smooth_u_[ahead] - smooth_u_[behind];
-      const float tv = smooth_v_[ahead] - smooth_v_[behind];
+      tu = smooth_u_[ahead] - smooth_u_[behind];
+      tv = smooth_v_[ahead] - smooth_v_[behind];
+    };
+    for (int s = 0; s < samples; ++s) {
+      float tu, tv, originU, originV;
+      if (byDistance) {
+        // Between smoothed corners: the curve and its tangent interpolated linearly.
+        const float position = sample_positions_[s];
+        const int centre = static_cast<int>(position);
+        const int after = centre + 1 == smoothed ? 0 : centre + 1;
+        const float f = position - static_cast<float>(centre);
+        float tu1, tv1;
+        tangentAt(centre, tu, tv);
+        tangentAt(after, tu1, tv1);
+        tu += f * (tu1 - tu);
+        tv += f * (tv1 - tv);
+        originU = smooth_u_[centre] + f * (smooth_u_[after] - smooth_u_[centre]);
+        originV = smooth_v_[centre] + f * (smooth_v_[after] - smooth_v_[centre]);
+      } else {
+        const int centre = s * sampleStep;
+        tangentAt(centre, tu, tv);
+        originU = smooth_u_[centre];
+        originV = smooth_v_[centre];
+      }
       if (tu * tu + tv * tv < 1e-6f) continue;
       // The region lies to the right of the walking direction on screen: outward is left. The
       // walk needs only the normal's direction; scan() normalises it when it finds a line.
       const float normalU = tv;
       const float normalV = -tu;
-      const float originU = smooth_u_[centre], originV = smooth_v_[centre];
       float lineU = 0, lineV = 0;
       const bool hit = yuyv ? scan<camera::PixelFormat::kYuyv>(frame, originU, originV, normalU,
                                                                normalV, lineU, lineV)

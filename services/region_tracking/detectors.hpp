@@ -4,6 +4,7 @@
 // through the mirror model.
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 #include <optional>
 #include <vector>
@@ -93,8 +94,29 @@ struct LineDetectorParams {
   // pixels and at least `ridge_min_levels` above it (0 = off: only runs of the line colour).
   double ridge_contrast = 1.3;
   int ridge_min_levels = 16;
-  // The detector runs at every n-th contour corner.
+  // The detector runs at every n-th contour corner (when sample_spacing_m is 0).
   int sample_spacing = 2;
+  // Sampling by distance on the field instead (0 = off): the detector runs every this many
+  // metres of floor along the smoothed contour, at fractional positions between its corners
+  // where a corner step spans more floor than that (far from the robot) and every few corners
+  // near it. Far lines get the points that their features need; near lines give fewer.
+  double sample_spacing_m = 0.0;
+  // With sample_spacing_m: samples at least this many pixels apart along the smoothed contour
+  // (far away a pixel spans decimetres of floor, and two scans within a pixel read the same
+  // pixels).
+  double sample_min_px = 2.0;
+  // With sample_spacing_m: where the contour turns (a line's corner or junction, where the
+  // features are), denser. Within `turn_reach_m` of floor along the contour from a point where
+  // the contour's floor direction turns by more than `turn_angle` (rad) between the
+  // `turn_span` corner steps before and after it, the spacing is `turn_spacing_m` (0 = no
+  // denser sampling).
+  double turn_spacing_m = 0.0;
+  double turn_reach_m = 0.7;
+  // Only turns within this floor distance of the robot count, m (features further away are not
+  // looked for; far turns cost points for nothing).
+  double turn_range_m = 4.5;
+  double turn_angle = 0.5;
+  int turn_span = 3;
   // Passes of 0.25/0.5/0.25 smoothing of the contour before tangents are taken.
   int smoothing_passes = 3;
   // Tangent from the points this many corners before and after.
@@ -116,6 +138,15 @@ class LineDetector {
   void detect(const camera::FrameView& frame, const ContourSet& contours, LinePoints& out);
   // Pixels the last detect() read along the normals.
   int pixelsRead() const { return pixels_read_; }
+  // Floor length (m) of the image step (du, dv) px taken at the image point (u, v): the floor
+  // lookup's Jacobian at the nearest cell corner applied to the step; 0 where that corner has
+  // no usable floor. Used by the sampling by distance (sample_spacing_m).
+  float floorLength(float u, float v, float du, float dv) const {
+    float dx, dy;
+    return floorStep(u, v, du, dv, dx, dy) ? std::sqrt(dx * dx + dy * dy) : 0.0f;
+  }
+  // The floor step (dx, dy) m itself; false (and 0) where no floor.
+  bool floorStep(float u, float v, float du, float dv, float& dx, float& dy) const;
 
  private:
   // One pixel of a walk along a normal: offset from the pixel nearest the walk's origin.
@@ -205,6 +236,24 @@ class LineDetector {
     LinePoint point;
   };
   std::vector<Hit> hits_;
+  // Sampling by distance: samples along the closed smoothed contour (index + fraction of the
+  // corner step after it), chosen from `sampleByDistance`.
+  void sampleByDistance(int n, std::vector<float>& positions);
+  std::vector<float> sample_positions_;
+  // Per corner step of the current contour: floor step (m) and whether it is near a turn.
+  std::vector<float> step_x_, step_y_, step_length_;
+  std::vector<std::uint8_t> near_turn_, turn_;
+  // Jacobian of the floor point by the image point (m/px: dx/du, dx/dv, dy/du, dy/dv) at every
+  // cell corner (pixel (i * cell_size - 0.5, j * cell_size - 0.5)); NaN where no floor.
+  struct Jacobian {
+    float xu, xv, yu, yv;
+    // Squared floor distance of the corner from the robot, m^2.
+    float range2;
+  };
+  // The table entry of the cell corner nearest to pixel (u, v); nullptr outside the image.
+  const Jacobian* jacobianNear(float u, float v) const;
+  int jacobian_columns_ = 0, jacobian_rows_ = 0;
+  std::vector<Jacobian> jacobians_;
   // The walk of the current scan, for along().
   const Step* walk_ = nullptr;
   float walk_fraction_u_ = 0, walk_fraction_v_ = 0, walk_normal_u_ = 0, walk_normal_v_ = 0;

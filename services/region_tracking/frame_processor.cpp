@@ -79,6 +79,18 @@ VisionParams loadVisionParams(const config::Node& node) {
   params.lines.ridge_min_levels =
       lines.getOr<int>("ridge_min_levels", lineDefaults.ridge_min_levels, 0, 255);
   params.lines.sample_spacing = lines.get<int>("sample_spacing", 1, 64);
+  params.lines.sample_spacing_m =
+      lines.getOr<double>("sample_spacing_m", lineDefaults.sample_spacing_m, 0.0, 10.0);
+  params.lines.sample_min_px =
+      lines.getOr<double>("sample_min_px", lineDefaults.sample_min_px, 0.25, 1000.0);
+  params.lines.turn_spacing_m =
+      lines.getOr<double>("turn_spacing_m", lineDefaults.turn_spacing_m, 0.0, 10.0);
+  params.lines.turn_reach_m =
+      lines.getOr<double>("turn_reach_m", lineDefaults.turn_reach_m, 0.0, 100.0);
+  params.lines.turn_range_m =
+      lines.getOr<double>("turn_range_m", lineDefaults.turn_range_m, 0.0, 100.0);
+  params.lines.turn_angle = lines.getOr<double>("turn_angle", lineDefaults.turn_angle, 0.01, 1.5);
+  params.lines.turn_span = lines.getOr<int>("turn_span", lineDefaults.turn_span, 1, 100);
   params.lines.smoothing_passes = lines.get<int>("smoothing_passes", 0, 20);
   params.lines.tangent_half_span = lines.get<int>("tangent_half_span", 1, 20);
   params.lines.min_contour_points = lines.get<int>("min_contour_points", 4, 100000);

@@ -1,14 +1,40 @@
 #include "services/world_sim/firmware.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 namespace fieldline::world_sim {
 
 namespace proto = serial;
 
-FirmwareEmulator::FirmwareEmulator(const robot::RobotParams& params, std::uint64_t clock_offset_us)
-    : params_(params), clock_offset_us_(clock_offset_us) {
+FirmwareEmulator::FirmwareEmulator(const robot::RobotParams& params, std::uint64_t clock_offset_us,
+                                   CurrentModel currents)
+    : params_(params),
+      clock_offset_us_(clock_offset_us),
+      currents_(currents),
+      noise_rng_(clock_offset_us ^ 0x5eed'c0ffeeULL) {
   messages_.reserve(16);
+}
+
+Eigen::Vector3d FirmwareEmulator::wheelCurrents(const robot::RobotParams& params,
+                                                const CurrentModel& model,
+                                                const WheelState& previous, const WheelState& now,
+                                                double dt, const Eigen::Vector3d& unit_noise) {
+  constexpr double kGravity = 9.81;
+  const double share = params.mass / 3.0;
+  const double friction_limit = model.friction_coefficient * share * kGravity;
+  const double saturation = std::max(model.saturation_slip_speed, 1e-6);
+  Eigen::Vector3d current;
+  for (int i = 0; i < 3; ++i) {
+    const double acceleration = (now.speeds[i] - previous.speeds[i]) / dt;
+    const double slip_speed = (now.slip[i] - previous.slip[i]) / dt;
+    const double force =
+        share * acceleration + friction_limit * std::clamp(slip_speed / saturation, -1.0, 1.0);
+    const double torque = force * params.wheels[static_cast<std::size_t>(i)].radius /
+                          static_cast<double>(params.gear_ratio);
+    current[i] = torque / params.motor.torque_constant + model.noise_a * unit_noise[i];
+  }
+  return current;
 }
 
 std::uint64_t FirmwareEmulator::controllerTimeUs(double t) const {
@@ -70,7 +96,7 @@ robot::NormalizedCommand FirmwareEmulator::motorCommand(double t) {
 }
 
 void FirmwareEmulator::sample(double t, const robot::TickCounts& ticks,
-                              std::vector<std::uint8_t>& out) {
+                              std::vector<std::uint8_t>& out, const WheelState* wheels) {
   proto::OdometrySample s;
   s.seq = sample_seq_;
   s.controller_time_us = controllerTimeUs(t);
@@ -81,6 +107,21 @@ void FirmwareEmulator::sample(double t, const robot::TickCounts& ticks,
   if (bad > bad_frames_reported_) s.status |= proto::kStatusRxErrors;
   bad_frames_reported_ = bad;
   s.last_command_seq = last_command_seq_;
+  if (currents_.enabled && wheels) {
+    // The first sample has no period to average over: no current yet.
+    if (last_wheels_ && t > last_wheels_t_) {
+      const Eigen::Vector3d noise(normal_(noise_rng_), normal_(noise_rng_), normal_(noise_rng_));
+      const Eigen::Vector3d amps =
+          wheelCurrents(params_, currents_, *last_wheels_, *wheels, t - last_wheels_t_, noise);
+      std::array<std::int16_t, 3> ma{};
+      for (std::size_t i = 0; i < 3; ++i)
+        ma[i] = static_cast<std::int16_t>(
+            std::lround(std::clamp(amps[static_cast<Eigen::Index>(i)] * 1e3, -32767.0, 32767.0)));
+      s.current_ma = ma;
+    }
+    last_wheels_ = *wheels;
+    last_wheels_t_ = t;
+  }
   proto::encode(s, out);
   ++sample_seq_;
   ++stats_.samples_sent;

@@ -9,8 +9,12 @@
 
 #include <cstdint>
 #include <deque>
+#include <optional>
+#include <random>
 #include <span>
 #include <vector>
+
+#include <Eigen/Core>
 
 #include "common/robot/motor_model.hpp"
 #include "common/robot/robot_params.hpp"
@@ -20,6 +24,32 @@
 namespace fieldline::world_sim {
 
 inline constexpr std::uint16_t kEmulatorFirmwareVersion = 0x0100;
+
+// The controller's current measurement, emulated from the simulated wheel: each wheel's motor
+// delivers the force that accelerates its third of the robot (m / 3 times the wheel's
+// acceleration over the sample period) plus the floor's friction against the wheel's slip
+// (surface speed minus the body's ground speed at the wheel, mean over the period), which grows
+// with the slip and saturates at the friction limit mu m g / 3. Current = force * wheel radius /
+// (gear ratio * torque constant) + white measurement noise. In free driving the slip is the
+// carpet's small random slip; a robot pushed or twisted by another one slips at up to metres per
+// second and its currents sit at the friction limit.
+struct CurrentModel {
+  bool enabled = true;
+  // Friction coefficient of wheel on carpet.
+  double friction_coefficient = 0.5;
+  // Slip speed at which the friction reaches its limit [m/s].
+  double saturation_slip_speed = 1.0;
+  // Standard deviation of the measured current [A].
+  double noise_a = 0.05;
+};
+
+// What the simulator tells the emulated controller about its wheels at a sample (world.hpp).
+struct WheelState {
+  // Wheel speeds as the encoders see them [m/s].
+  Eigen::Vector3d speeds = Eigen::Vector3d::Zero();
+  // Accumulated slip per wheel [m] (RobotTruth::wheel_slip).
+  Eigen::Vector3d slip = Eigen::Vector3d::Zero();
+};
 
 struct FirmwareStats {
   std::uint64_t commands_accepted = 0;
@@ -31,7 +61,8 @@ struct FirmwareStats {
 class FirmwareEmulator {
  public:
   // `clock_offset_us`: the controller clock's reading at simulated time 0 (it has its own clock).
-  FirmwareEmulator(const robot::RobotParams& params, std::uint64_t clock_offset_us);
+  FirmwareEmulator(const robot::RobotParams& params, std::uint64_t clock_offset_us,
+                   CurrentModel currents = {});
 
   // Bytes from the host, arriving at simulated time `t` [s]. Replies (Hello, error reports) are
   // appended to `reply`.
@@ -40,8 +71,15 @@ class FirmwareEmulator {
   // the watchdog has expired.
   robot::NormalizedCommand motorCommand(double t);
   bool watchdogStopped(double t) const;
-  // Appends the odometry frame for ticks sampled at `t`.
-  void sample(double t, const robot::TickCounts& ticks, std::vector<std::uint8_t>& out);
+  // Appends the odometry frame for ticks sampled at `t`; with `wheels`, and the current model
+  // enabled, the frame carries the mean wheel currents since the previous sample.
+  void sample(double t, const robot::TickCounts& ticks, std::vector<std::uint8_t>& out,
+              const WheelState* wheels = nullptr);
+  // The currents (CurrentModel) for wheels in state `now` after `previous`, `dt` seconds apart,
+  // with noise `noise_a` (one standard normal draw per wheel) [A].
+  static Eigen::Vector3d wheelCurrents(const robot::RobotParams& params, const CurrentModel& model,
+                                       const WheelState& previous, const WheelState& now, double dt,
+                                       const Eigen::Vector3d& unit_noise);
   // The serial line was replaced: forget a partial frame.
   void lineReset() { decoder_.reset(); }
 
@@ -57,6 +95,11 @@ class FirmwareEmulator {
 
   robot::RobotParams params_;
   std::uint64_t clock_offset_us_;
+  CurrentModel currents_;
+  std::optional<WheelState> last_wheels_;
+  double last_wheels_t_ = 0.0;
+  std::mt19937_64 noise_rng_;
+  std::normal_distribution<double> normal_{0.0, 1.0};
   serial::Decoder decoder_;
   std::vector<serial::Message> messages_;
   std::deque<Pending> pending_;

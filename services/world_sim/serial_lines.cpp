@@ -97,7 +97,9 @@ void SerialLines::afterStep(const World& world) {
     if (t + 1e-9 < line.next_sample) continue;
     line.next_sample += sample_period_;
     std::vector<std::uint8_t> frame;
-    line.firmware->sample(t, world.ticks(i), frame);
+    const RobotTruth& truth = world.robots()[i];
+    const WheelState wheels{truth.wheel_speeds, truth.wheel_slip};
+    line.firmware->sample(t, world.ticks(i), frame, &wheels);
     line.outgoing.emplace_back(t + controller_latency_, std::move(frame));
   }
 }

@@ -68,6 +68,7 @@ World::World(const scenario::Scenario& scenario, const robot::RobotParams& param
     robots_.push_back(r);
   }
   previous_poses_.resize(robots_.size());
+  surface_travel_.assign(robots_.size(), Eigen::Vector3d::Zero());
   for (const auto& o : scenario.opponents) {
     opponent_paths_.emplace_back(o.trajectory, o.start);
     opponents_.push_back({opponent_paths_.back().at(0.0).pose, o.radius});
@@ -205,7 +206,8 @@ void World::stepRobot(std::size_t index) {
   const double noise_scale = sim.slip_noise / std::sqrt(dt_);
   Eigen::Vector3d contact;
   for (int i = 0; i < robot::kWheelCount; ++i) {
-    contact[i] = travel[i] * radius_scale_[i] * (1.0 + noise_scale * normal_(rng_));
+    surface_travel_[index][i] = travel[i] * radius_scale_[i];
+    contact[i] = surface_travel_[index][i] * (1.0 + noise_scale * normal_(rng_));
   }
   Eigen::Vector3d body = true_.robotMatrixInverse() * contact;
   const double speed = std::hypot(body.x(), body.y()) / dt_;
@@ -297,6 +299,14 @@ void World::step() {
     r.pose.phi = geometry::normalizeAngle(r.pose.phi);
     r.velocity = (r.pose.position() - previous_poses_[i].position()) / dt_;
     r.omega = geometry::angleDiff(r.pose.phi, previous_poses_[i].phi) / dt_;
+    // The body's movement over the step in its frame at the step's start, at each wheel.
+    const geometry::Pose2& before = previous_poses_[i];
+    const double c = std::cos(before.phi);
+    const double s = std::sin(before.phi);
+    const double dx = r.pose.x - before.x;
+    const double dy = r.pose.y - before.y;
+    const Eigen::Vector3d body(c * dx + s * dy, -s * dx + c * dy, r.omega * dt_);
+    r.wheel_slip += surface_travel_[i] - true_.robotMatrix() * body;
   }
   stepBall();
   for (auto& r : robots_)

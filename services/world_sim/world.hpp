@@ -41,6 +41,11 @@ struct RobotTruth {
   Eigen::Vector3d wheel_speeds = Eigen::Vector3d::Zero();
   // Total wheel rotation since the start [rad], what the encoders count.
   Eigen::Vector3d wheel_angles = Eigen::Vector3d::Zero();
+  // Total slip of each wheel since the start [m]: its true surface travel minus the body's
+  // ground travel at the wheel along its rolling direction (after collisions). Grows with the
+  // slip noise while driving and fast while another robot pushes or twists the body. An output
+  // for the controller's current model (firmware.hpp); the motion does not depend on it.
+  Eigen::Vector3d wheel_slip = Eigen::Vector3d::Zero();
   int kidnaps = 0;
   // Collision steps so far (barrier, robots, opponents, ball).
   std::int64_t contact_steps = 0;
@@ -122,6 +127,8 @@ class World {
   geometry::Vec2 barrier_;
   std::vector<RobotTruth> robots_;
   std::vector<geometry::Pose2> previous_poses_;
+  // Each robot's true wheel surface travel in the current step [m].
+  std::vector<Eigen::Vector3d> surface_travel_;
   std::vector<OpponentTruth> opponents_;
   std::vector<robot::Trajectory> opponent_paths_;
   BallTruth ball_;

@@ -5,6 +5,7 @@
 #include <numbers>
 
 #include "common/config/config.hpp"
+#include "common/msg/image.hpp"
 
 namespace fieldline::region_tracking {
 
@@ -16,6 +17,16 @@ SimCamera SimCamera::load(const std::string& cameraPreset, const std::string& fi
   const camera::RenderParams render = camera::loadRenderParams(root.child("render"));
   auto renderer = std::make_unique<camera::SimRenderer>(model.mirror, field, render);
   return SimCamera{model.mirror, std::move(table), std::move(field), std::move(renderer), {}};
+}
+
+image_t SimCamera::renderImage(const camera::SimScene& scene, Utime exposure_utime) {
+  render(scene);
+  image_t image{};
+  image.header.utime = exposure_utime;
+  msg::toMessage(renderer->view(frame), image);
+  image.source = image_t::SOURCE_SIM;
+  image.frame_number = static_cast<std::int64_t>(scene.frame_number);
+  return image;
 }
 
 camera::SimBox standingBox(const geometry::Vec2& centre, double sx, double sy, double height,

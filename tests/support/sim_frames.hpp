@@ -9,9 +9,12 @@
 #include <string>
 #include <vector>
 
+#include <fieldline/image_t.hpp>
+
 #include "common/camera/colour.hpp"
 #include "common/camera/mirror_model.hpp"
 #include "common/field/field_model.hpp"
+#include "common/time/clock.hpp"
 #include "services/camera/sim_renderer.hpp"
 #include "services/region_tracking/frame_processor.hpp"
 
@@ -32,6 +35,10 @@ struct SimCamera {
     renderer->render(scene, frame);
     return renderer->view(frame);
   }
+
+  // Renders the scene as the camera process publishes it: a CAMERA_IMAGE exposed at
+  // `exposure_utime`, numbered with the scene's frame number.
+  image_t renderImage(const camera::SimScene& scene, Utime exposure_utime);
 
   // Renders the scene `frames` times (the noise differs per frame number), tracks each with
   // `processor` (lines detected) and returns the last frame's result.

@@ -18,6 +18,7 @@
 #include "common/bus/node.hpp"
 #include "common/bus/urls.hpp"
 #include "tools/bus_dump/message_json.hpp"
+#include "tools/json/json_text.hpp"
 
 using namespace fieldline;
 
@@ -45,7 +46,7 @@ class Dumper {
              std::optional<std::int64_t> event_number, const void* data, int size) {
     line_.clear();
     line_ += "{\"channel\":";
-    bus_dump::appendJsonString(line_, channel);
+    json::appendString(line_, channel);
     if (event_number) line_ += fmt::format(",\"event\":{}", *event_number);
     line_ += fmt::format(",\"{}\":{},\"message\":", time_key, time);
     if (!bus_dump::appendMessageJson(line_, channel, data, size, settings_.json)) {

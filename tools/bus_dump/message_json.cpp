@@ -10,6 +10,7 @@
 #include <fmt/format.h>
 
 #include "common/bus/channels.hpp"
+#include "tools/json/json_text.hpp"
 
 namespace fieldline::bus_dump {
 namespace {
@@ -26,16 +27,16 @@ void appendValue(std::string& out, std::int32_t v) {
 void appendValue(std::string& out, std::int64_t v) {
   out += std::to_string(v);
 }
-// JSON has no NaN or infinity; validated messages have none, but a writer must not emit
-// invalid JSON if one slips through.
+// Validated messages have no NaN or infinity, but a writer must not emit invalid JSON if one
+// slips through: json::appendNumber writes null.
 void appendValue(std::string& out, float v) {
-  out += std::isfinite(v) ? fmt::format("{}", v) : std::string("null");
+  json::appendNumber(out, v);
 }
 void appendValue(std::string& out, double v) {
-  out += std::isfinite(v) ? fmt::format("{}", v) : std::string("null");
+  json::appendNumber(out, v);
 }
 void appendValue(std::string& out, const std::string& v) {
-  appendJsonString(out, v);
+  json::appendString(out, v);
 }
 
 template <typename T>
@@ -48,22 +49,12 @@ void appendArray(std::string& out, const T* values, std::size_t count) {
   out += ']';
 }
 
-// An object under construction: {"a":1,"b":[...]}.
+// An object under construction with one adder per LCM field type.
 class Object {
  public:
-  explicit Object(std::string& out) : out_(out) { out_ += '{'; }
-  ~Object() { out_ += '}'; }
-  Object(const Object&) = delete;
-  Object& operator=(const Object&) = delete;
+  explicit Object(std::string& out) : object_(out) {}
 
-  // Starts a member and returns the output for its value.
-  std::string& key(std::string_view name) {
-    if (!first_) out_ += ',';
-    first_ = false;
-    appendJsonString(out_, name);
-    out_ += ':';
-    return out_;
-  }
+  std::string& key(std::string_view name) { return object_.key(name); }
   template <typename T>
   Object& add(std::string_view name, const T& value) {
     appendValue(key(name), value);
@@ -96,8 +87,7 @@ class Object {
   }
 
  private:
-  std::string& out_;
-  bool first_ = true;
+  json::Object object_;
 };
 
 // ---- one writer per message type (fields in the order of lcmtypes/*.lcm) --------------------
@@ -276,63 +266,7 @@ constexpr auto kChannels = std::make_tuple(
 static_assert(std::tuple_size_v<decltype(kChannels)> == bus::kAllChannelNames.size(),
               "every channel of channels.hpp needs a JSON writer");
 
-// Length of a valid UTF-8 sequence starting at text[i], 0 if it is not one.
-std::size_t utf8SequenceLength(std::string_view text, std::size_t i) {
-  const auto byte = [&](std::size_t k) { return static_cast<unsigned char>(text[k]); };
-  const unsigned char lead = byte(i);
-  std::size_t length = 0;
-  std::uint32_t code = 0;
-  if (lead < 0x80) return 1;
-  if (lead >= 0xC2 && lead <= 0xDF) {
-    length = 2;
-    code = lead & 0x1F;
-  } else if (lead >= 0xE0 && lead <= 0xEF) {
-    length = 3;
-    code = lead & 0x0F;
-  } else if (lead >= 0xF0 && lead <= 0xF4) {
-    length = 4;
-    code = lead & 0x07;
-  } else {
-    return 0;
-  }
-  if (i + length > text.size()) return 0;
-  for (std::size_t k = 1; k < length; ++k) {
-    if ((byte(i + k) & 0xC0) != 0x80) return 0;
-    code = (code << 6) | (byte(i + k) & 0x3F);
-  }
-  // Overlong forms, surrogates and code points past U+10FFFF are not valid UTF-8.
-  if ((length == 3 && code < 0x800) || (length == 4 && code < 0x10000) || code > 0x10FFFF ||
-      (code >= 0xD800 && code <= 0xDFFF))
-    return 0;
-  return length;
-}
-
 }  // namespace
-
-void appendJsonString(std::string& out, std::string_view text) {
-  out += '"';
-  for (std::size_t i = 0; i < text.size();) {
-    const auto c = static_cast<unsigned char>(text[i]);
-    if (c == '"' || c == '\\') {
-      out += '\\';
-      out += static_cast<char>(c);
-      ++i;
-    } else if (c < 0x20) {
-      out += fmt::format("\\u{:04x}", c);
-      ++i;
-    } else if (c < 0x80) {
-      out += static_cast<char>(c);
-      ++i;
-    } else if (const std::size_t length = utf8SequenceLength(text, i); length > 0) {
-      out.append(text.substr(i, length));
-      i += length;
-    } else {
-      out += "\\ufffd";
-      ++i;
-    }
-  }
-  out += '"';
-}
 
 std::uint64_t fnv1a64(const std::uint8_t* data, std::size_t size) {
   std::uint64_t hash = 0xcbf29ce484222325ULL;

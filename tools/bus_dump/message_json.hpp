@@ -13,10 +13,6 @@ struct JsonOptions {
   bool image_data = false;
 };
 
-// Appends `text` as a JSON string literal: quotes, backslashes and control characters escaped,
-// invalid UTF-8 replaced by U+FFFD so the output is always valid JSON.
-void appendJsonString(std::string& out, std::string_view text);
-
 // FNV-1a, 64 bit, of `size` bytes: the summary of image data.
 std::uint64_t fnv1a64(const std::uint8_t* data, std::size_t size);
 

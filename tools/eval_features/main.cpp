@@ -12,6 +12,7 @@
 // Every frame is reproducible on its own: its clutter comes from (seed, frame), the sensor noise
 // from the frame number, and the region tracker starts afresh on each frame.
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -53,6 +54,16 @@ struct Options {
   std::string camera = "omni_sim";
   // The region tracker's line sample spacing (px); 0 = its default (vision_default.yaml).
   int sample_spacing = 0;
+  // Sampling by distance on the field (m; 0 = off; negative = the default of
+  // vision_default.yaml, or off when sample_spacing is given), and its minimum pixel spacing
+  // (0 = the default).
+  double sample_spacing_m = -1.0;
+  double sample_min_px = 0.0;
+  // Denser near the contour's turns (m; negative = the default), and the reach (m; negative =
+  // the default).
+  double turn_spacing_m = -1.0;
+  double turn_reach_m = -1.0;
+  double turn_range_m = -1.0;
   bool clutter = true;
   int opponents = 3;
   // Clutter knobs (with --no-clutter all are off).
@@ -675,7 +686,16 @@ int run(const Options& options) {
   region_tracking::SimCamera sim = region_tracking::SimCamera::load(options.camera, options.field);
   feature_recognition::FeatureRecognizer recognizer(sim.field);
   region_tracking::VisionParams vision_params = region_tracking::defaultVisionParams();
-  if (options.sample_spacing > 0) vision_params.lines.sample_spacing = options.sample_spacing;
+  if (options.sample_spacing > 0) {
+    vision_params.lines.sample_spacing = options.sample_spacing;
+    vision_params.lines.sample_spacing_m = 0.0;  // sampling by contour index asked for
+  }
+  if (options.sample_spacing_m >= 0.0)
+    vision_params.lines.sample_spacing_m = options.sample_spacing_m;
+  if (options.sample_min_px > 0.0) vision_params.lines.sample_min_px = options.sample_min_px;
+  if (options.turn_spacing_m >= 0.0) vision_params.lines.turn_spacing_m = options.turn_spacing_m;
+  if (options.turn_reach_m >= 0.0) vision_params.lines.turn_reach_m = options.turn_reach_m;
+  if (options.turn_range_m >= 0.0) vision_params.lines.turn_range_m = options.turn_range_m;
   region_tracking::FrameProcessor processor(sim.mirror, sim.table, vision_params);
   region_tracking::VisionResult vision;
   perception::FieldFeatures features;
@@ -711,6 +731,8 @@ int run(const Options& options) {
   // Corners within 4 m the camera can see (seeable()) and those of them found.
   long corner_seeable = 0, corner_seeable_found = 0;
   double line_points = 0.0;
+  // Line points by range from the robot: within 2 m, 2-4 m, beyond 4 m.
+  std::array<double, 3> line_points_by_range{};
   std::ofstream check_csv, misses_csv, circle_misses_csv;
   if (!options.circle_misses_csv.empty()) {
     circle_misses_csv.open(options.circle_misses_csv);
@@ -734,6 +756,10 @@ int run(const Options& options) {
     visionOf(sim, processor, scene, vision);
     recognizer.recognize(vision.lines, features);
     line_points += static_cast<double>(vision.lines.points.size());
+    for (const perception::LinePoint& p : vision.lines.points) {
+      const double range = std::hypot(p.x, p.y);
+      ++line_points_by_range[range < 2.0 ? 0 : range < kViewDistance ? 1 : 2];
+    }
     const FrameResult r = evaluate(pose, features, sites, circle_radius);
     for (const auto& e : r.eligible_corners) {
       MissDiagnosis v;
@@ -815,6 +841,9 @@ int run(const Options& options) {
   const double heading_median = median(heading_errors);
   const double points_per_frame =
       line_points / static_cast<double>(std::max<std::size_t>(records.size(), 1));
+  for (double& count : line_points_by_range) {
+    count /= static_cast<double>(std::max<std::size_t>(records.size(), 1));
+  }
 
   if (!options.out_dir.empty()) {
     std::filesystem::create_directories(options.out_dir);
@@ -852,11 +881,16 @@ int run(const Options& options) {
          << ",\n  \"corner_seeable_rate\": " << corner_seeable_rate
          << ",\n  \"pos_median_m\": " << pos_median
          << ",\n  \"heading_median_deg\": " << heading_median
-         << ",\n  \"line_points_per_frame\": " << points_per_frame << "\n}\n";
+         << ",\n  \"line_points_per_frame\": " << points_per_frame
+         << ",\n  \"line_points_per_frame_within_2m\": " << line_points_by_range[0]
+         << ",\n  \"line_points_per_frame_2_to_4m\": " << line_points_by_range[1]
+         << ",\n  \"line_points_per_frame_beyond_4m\": " << line_points_by_range[2] << "\n}\n";
   }
   if (options.occlusion_frames > 0) occlusionSeries(options, sim, processor, recognizer);
 
-  std::cout << "line_points_per_frame=" << points_per_frame << "\n";
+  std::cout << "line_points_per_frame=" << points_per_frame
+            << " within_2m=" << line_points_by_range[0] << " 2_to_4m=" << line_points_by_range[1]
+            << " beyond_4m=" << line_points_by_range[2] << "\n";
   // The corners within 4 m that the camera can see at all (see seeable()): the rest stand behind
   // an opponent, in the robot's own reflection or beyond the mirror's useful radius. Both rates
   // are reported; corner_rate in the last line counts every corner within 4 m.
@@ -883,6 +917,26 @@ void addOptions(CLI::App& app, Options& options) {
                  "The region tracker's line sample spacing in pixels (0 = its default)")
       ->check(CLI::Range(0, 64))
       ->capture_default_str();
+  app.add_option("--sample-spacing-m", options.sample_spacing_m,
+                 "The region tracker's line sampling by distance on the field, m (0 = off, by "
+                 "contour index; default: vision_default.yaml's, off with --sample-spacing)")
+      ->check(CLI::Range(0.0, 10.0));
+  app.add_option("--sample-min-px", options.sample_min_px,
+                 "With --sample-spacing-m: samples at least this many pixels apart (default: "
+                 "vision_default.yaml's)")
+      ->check(CLI::Range(0.25, 1000.0));
+  app.add_option("--turn-spacing-m", options.turn_spacing_m,
+                 "With --sample-spacing-m: the spacing near the contour's turns, m (0 = none; "
+                 "default: vision_default.yaml's)")
+      ->check(CLI::Range(0.0, 10.0));
+  app.add_option("--turn-reach-m", options.turn_reach_m,
+                 "How far along the contour from a turn the turn spacing holds, m (default: "
+                 "vision_default.yaml's)")
+      ->check(CLI::Range(0.0, 100.0));
+  app.add_option("--turn-range-m", options.turn_range_m,
+                 "Only turns within this distance of the robot count, m (default: "
+                 "vision_default.yaml's)")
+      ->check(CLI::Range(0.0, 100.0));
   app.add_flag("!--no-clutter", options.clutter, "No opponents or clutter");
   app.add_option("--opponents", options.opponents, "Opponents around the robot per frame")
       ->check(CLI::Range(0, 20))

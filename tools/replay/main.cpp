@@ -50,6 +50,11 @@ void addOptions(CLI::App& app, replay::ReplayRunOptions& options, std::string& r
   app.add_option("--live-out", options.live_out_path,
                  "Also write what the live processes published on the run nodes' output channels "
                  "(with --truth's SIM_WORLD) to this log, to compare with the replay");
+  app.add_flag("--oracle-contact", options.oracle_contact,
+               "Analysis only: replace the log's VISION_OBSTACLES by the truth's contact state "
+               "(--truth: this robot's centre closer to another robot's or an opponent's than "
+               "the two radii) fed as contact evidence, to measure what a perfect contact signal "
+               "could give");
   app.add_option("--camera", options.camera, "region_tracking: camera preset")
       ->capture_default_str();
 }

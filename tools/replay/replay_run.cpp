@@ -1,12 +1,14 @@
 #include "tools/replay/replay_run.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <memory>
 #include <optional>
 #include <set>
 #include <sstream>
 
+#include <fieldline/obstacle_observations_t.hpp>
 #include <fieldline/service_status_t.hpp>
 
 #include "common/bus/channels.hpp"
@@ -92,6 +94,47 @@ bool contains(const std::vector<std::string>& list, const std::string& item) {
   return std::find(list.begin(), list.end(), item) != list.end();
 }
 
+// oracle_contact: writes `scratch` with the fed channels of `options.log_path` except
+// VISION_OBSTACLES, and in their place one VISION_OBSTACLES frame (an obstacle at the body) at
+// every SIM_WORLD sample of the truth log in which the robot touches another robot. Returns the
+// number of such samples.
+std::int64_t writeOracleContactLog(const ReplayRunOptions& options, int robot_id,
+                                   const std::vector<std::string>& fed,
+                                   const std::string& scratch) {
+  const std::string evidence_path = scratch + ".contacts";
+  std::int64_t contacts = 0;
+  {
+    bus::LogReader truth(options.truth_path);
+    bus::LogWriter out(evidence_path);
+    world_state_t world;
+    bus::LogEvent event;
+    obstacle_observations_t m{};
+    m.header.robot_id = static_cast<std::int8_t>(robot_id);
+    m.header.publisher_id = 0x0c0ac1e;
+    m.count = 1;
+    m.bearing = {0.0f};
+    m.distance = {0.0f};
+    m.angular_width = {0.0f};
+    m.width = {0.0f};
+    m.x = {0.0f};
+    m.y = {0.0f};
+    while (truth.next(ch::kSimWorld, world, &event)) {
+      if (!touchesAnotherRobot(world, robot_id)) continue;
+      m.header.utime = world.header.utime;
+      m.header.utime_published = std::max(world.header.utime, event.timestamp);
+      m.header.seq = contacts++;
+      out.write(ch::kVisionObstacles, event.timestamp, m);
+    }
+    out.flush();
+  }
+  std::vector<std::string> kept;
+  for (const auto& c : fed)
+    if (c != ch::kVisionObstacles.name) kept.push_back(c);
+  mergeLogs({{options.log_path, kept}, {evidence_path, {}}}, scratch);
+  std::filesystem::remove(evidence_path);
+  return contacts;
+}
+
 // Fixed per node kind: a random id would make two replays differ.
 std::int64_t publisherId(const std::string& node) {
   const auto it = std::find(kRunnableNodes.begin(), kRunnableNodes.end(), node);
@@ -99,6 +142,30 @@ std::int64_t publisherId(const std::string& node) {
 }
 
 }  // namespace
+
+bool touchesAnotherRobot(const world_state_t& world, int robot_id) {
+  const auto n = static_cast<std::size_t>(std::max(0, world.num_robots));
+  std::size_t k = 0;
+  while (k < n && world.robot_id[k] != robot_id)
+    ++k;
+  if (k == n) return false;
+  // The simulator resolves a collision by moving the bodies apart until they just touch, so a
+  // touching pair is at the two radii (to rounding) in SIM_WORLD: 1 cm of margin.
+  constexpr double kMargin = 0.01;
+  const double r = world.robot_radius;
+  const double x = world.robot_x[k];
+  const double y = world.robot_y[k];
+  for (std::size_t j = 0; j < n; ++j) {
+    if (j != k && std::hypot(world.robot_x[j] - x, world.robot_y[j] - y) < 2.0 * r + kMargin)
+      return true;
+  }
+  for (std::size_t j = 0; j < static_cast<std::size_t>(std::max(0, world.num_opponents)); ++j) {
+    if (std::hypot(world.opponent_x[j] - x, world.opponent_y[j] - y) <
+        r + world.opponent_radius[j] + kMargin)
+      return true;
+  }
+  return false;
+}
 
 ReplayRunResult runReplay(const ReplayRunOptions& options) {
   if (options.run.empty()) throw ReplayArgumentError("no node to run");
@@ -225,13 +292,24 @@ ReplayRunResult runReplay(const ReplayRunOptions& options) {
         *watcher, *writer, std::vector<std::string_view>(produced.begin(), produced.end()));
   }
 
+  std::string input_path = options.log_path;
+  std::string oracle_path;
+  if (options.oracle_contact) {
+    if (options.truth_path.empty()) throw ReplayArgumentError("oracle_contact needs a truth log");
+    if (!contains(options.run, "fusion")) throw ReplayArgumentError("oracle_contact needs fusion");
+    oracle_path = (options.out_path.empty() ? options.log_path : options.out_path) + ".oracle";
+    result.oracle_contacts = writeOracleContactLog(options, result.robot_id, fed, oracle_path);
+    input_path = oracle_path;
+  }
+
   bus::Replay replay(clock, memq, {.channels = fed});
   for (auto& node : nodes)
     replay.add(*node);
   replay.add(*watcher);
-  bus::LogReader log(options.log_path);
+  bus::LogReader log(input_path);
   const bus::ReplayStats stats = replay.run(log);
   if (writer) writer->flush();
+  if (!oracle_path.empty()) std::filesystem::remove(oracle_path);
 
   result.skipped = stats.skipped;
   result.out_of_order = stats.out_of_order;
@@ -320,6 +398,7 @@ std::string summaryLine(const ReplayRunResult& result) {
   line << " refused " << refused << " out_of_order " << result.out_of_order;
   if (result.truth_merged > 0) line << " | SIM_WORLD merged " << result.truth_merged;
   if (result.live_written > 0) line << " | live events " << result.live_written;
+  if (result.oracle_contacts > 0) line << " | oracle contacts " << result.oracle_contacts;
   return line.str();
 }
 

@@ -13,6 +13,8 @@
 #include <string>
 #include <vector>
 
+#include <fieldline/world_state_t.hpp>
+
 namespace fieldline::replay {
 
 // A node name that is not one of kRunnableNodes, or options that cannot work.
@@ -51,6 +53,13 @@ struct ReplayRunOptions {
   // log's own ROBOT_STATE, FIELD_FEATURES, ...) and the truth: the live run to compare the
   // replay with. Empty: not written.
   std::string live_out_path;
+  // Analysis only, never in a process (fieldline-replay --oracle-contact): the log's
+  // VISION_OBSTACLES are replaced by the truth's contact state, to measure what a perfect contact
+  // signal could give. At every SIM_WORLD sample of truth_path in which this robot's centre is
+  // closer to another robot's or an opponent's than the two radii, fusion receives a
+  // VISION_OBSTACLES frame stamped with that sample's time holding one obstacle at the body
+  // (distance 0): the path real contact evidence takes. Needs truth_path.
+  bool oracle_contact = false;
 };
 
 struct ReplayRunResult {
@@ -70,7 +79,14 @@ struct ReplayRunResult {
   std::int64_t truth_merged = 0;
   // Events written to live_out_path.
   std::int64_t live_written = 0;
+  // oracle_contact: SIM_WORLD samples of this robot in contact (each one fed as evidence).
+  std::int64_t oracle_contacts = 0;
 };
+
+// oracle_contact's test: true when robot `robot_id` of `world` touches another robot or an
+// opponent (centres closer than the two radii plus 1 cm: the simulator leaves touching bodies
+// at exactly the two radii). False when the robot is not in `world`.
+bool touchesAnotherRobot(const world_state_t& world, int robot_id);
 
 // The channels each runnable node reads and writes.
 std::vector<std::string> inputChannels(const std::string& node);

@@ -21,7 +21,7 @@ void keepAtMost(std::deque<T>& ring, std::size_t n) {
 }
 
 void writeLines(std::string& out, const line_contours_t& m) {
-  JsonObject o(out);
+  json::Object o(out);
   o.integer("utime", m.header.utime);
   o.integer("seq", m.header.seq);
   o.integer("num_points", m.num_points);
@@ -37,7 +37,7 @@ void writeLines(std::string& out, const line_contours_t& m) {
 }
 
 void writeBall(std::string& out, const ball_observation_t& m) {
-  JsonObject o(out);
+  json::Object o(out);
   o.integer("utime", m.header.utime);
   o.integer("seq", m.header.seq);
   o.boolean("visible", m.visible);
@@ -137,10 +137,10 @@ std::optional<std::string> CameraView::update(Utime now) {
   std::string out;
   out.reserve(jpeg.size() * 4 / 3 + 64 + (lines ? 24 * lines->num_points : 0));
   {
-    JsonObject doc(out);
+    json::Object doc(out);
     doc.integer("robot", selected_);
     {
-      JsonObject f(doc.key("frame"));
+      json::Object f(doc.key("frame"));
       f.integer("utime", frame->header.utime);
       f.integer("seq", frame->header.seq);
       f.integer("frame_number", frame->frame_number);

@@ -14,7 +14,7 @@ double ageSeconds(Utime now, Utime then) {
   return static_cast<double>(now - then) * 1e-6;
 }
 
-using Object = JsonObject;
+using json::Object;
 
 void writeHeader(Object& o, const header_t& h, Utime now, Utime received) {
   o.integer("utime", h.utime);
@@ -181,9 +181,9 @@ void writeStatuses(Object& o, const BusView& bus, Utime now, Utime stale_after_u
 
 void writePoint(std::string& out, const geometry::Vec2& p) {
   out += '[';
-  appendJsonNumber(out, p.x());
+  json::appendNumber(out, p.x());
   out += ',';
-  appendJsonNumber(out, p.y());
+  json::appendNumber(out, p.y());
   out += ']';
 }
 
@@ -301,43 +301,6 @@ std::string fieldJson(const field::FieldModel& model) {
   }
   o.number("penalty_mark_diameter", model.dimensions().penalty_mark_diameter);
   return out;
-}
-
-void appendJsonString(std::string& out, std::string_view text) {
-  out += '"';
-  for (char c : text) {
-    switch (c) {
-      case '"':
-        out += "\\\"";
-        break;
-      case '\\':
-        out += "\\\\";
-        break;
-      case '\n':
-        out += "\\n";
-        break;
-      case '\t':
-        out += "\\t";
-        break;
-      default:
-        if (static_cast<unsigned char>(c) < 0x20)
-          out += fmt::format("\\u{:04x}", static_cast<unsigned char>(c));
-        else if (static_cast<unsigned char>(c) >= 0x80)
-          out += '?';  // a WebSocket text frame must be valid UTF-8; names are ASCII anyway
-        else
-          out += c;
-    }
-  }
-  out += '"';
-}
-
-void appendJsonNumber(std::string& out, double value) {
-  if (!std::isfinite(value)) {
-    out += "null";
-    return;
-  }
-  // fmt's shortest round-trip form: parses back to the same double.
-  out += fmt::format("{}", value);
 }
 
 }  // namespace fieldline::viewer

@@ -22,6 +22,7 @@
 
 #include "common/field/field_model.hpp"
 #include "common/time/clock.hpp"
+#include "tools/json/json_text.hpp"
 
 namespace fieldline::viewer {
 
@@ -69,47 +70,5 @@ class TeamView {
 
 // The field's painted lines, goals, penalty marks and carpet as JSON (sent once to the page).
 std::string fieldJson(const field::FieldModel& model);
-
-// Appends `text` as a JSON string literal (quoted, control characters escaped); bytes outside
-// ASCII become '?' so that the document is always valid UTF-8.
-void appendJsonString(std::string& out, std::string_view text);
-// Appends a number that reads back to the same double; NaN and infinities become null.
-void appendJsonNumber(std::string& out, double value);
-
-// Writes a JSON object member by member, with the commas in the right places; closes it when
-// destroyed.
-class JsonObject {
- public:
-  explicit JsonObject(std::string& out) : out_(out) { out_ += '{'; }
-  ~JsonObject() { out_ += '}'; }
-  JsonObject(const JsonObject&) = delete;
-  JsonObject& operator=(const JsonObject&) = delete;
-
-  std::string& key(std::string_view name) {
-    if (!first_) out_ += ',';
-    first_ = false;
-    appendJsonString(out_, name);
-    out_ += ':';
-    return out_;
-  }
-  void number(std::string_view name, double value) { appendJsonNumber(key(name), value); }
-  void integer(std::string_view name, std::int64_t value) { key(name) += std::to_string(value); }
-  void boolean(std::string_view name, bool value) { key(name) += value ? "true" : "false"; }
-  void string(std::string_view name, std::string_view value) { appendJsonString(key(name), value); }
-  template <typename T>
-  void numbers(std::string_view name, const T* values, std::size_t count) {
-    std::string& out = key(name);
-    out += '[';
-    for (std::size_t i = 0; i < count; ++i) {
-      if (i > 0) out += ',';
-      appendJsonNumber(out, static_cast<double>(values[i]));
-    }
-    out += ']';
-  }
-
- private:
-  std::string& out_;
-  bool first_ = true;
-};
 
 }  // namespace fieldline::viewer

@@ -2,7 +2,9 @@
 # Regenerates robot1_bus.lcmlog, the fixture of tools/replay's test: everything on robot 1's bus
 # except CAMERA_IMAGE (ODOMETRY, VISION_*, FIELD_FEATURES, ROBOT_STATE, ... about 0.7 MB) for
 # 10 s of the simulated team (sim_team.yaml, one robot) after its first 3 s, recorded with
-# lcm-logger in a private network namespace.
+# lcm-logger in a private network namespace. The launch file is sim_team.yaml without its
+# `robots:` clock section: a replay runs every node on the log's time, so robot 1's clock must be
+# the simulator's (with its offset every ODOMETRY would be from the future).
 #
 #   tests/data/replay/make_robot_log.sh build/bin [SECONDS]
 #
@@ -14,13 +16,16 @@ seconds=${2:-10}
 here=$(cd "$(dirname "$0")" && pwd)
 root=$(cd "$here/../../.." && pwd)
 out="$here/robot1_bus.lcmlog"
+launch=$(mktemp --suffix=.yaml)
+trap 'rm -f "$launch"' EXIT
+sed '/^robots:/,$d' "$root/config/launch/sim_team.yaml" > "$launch"
 ns="unshare -n"
 unshare -n true 2>/dev/null || ns="unshare -rn"
 $ns bash -c "
   set -eu
   ip link set lo up; ip link set lo multicast on; ip route add 224.0.0.0/4 dev lo
   export FIELDLINE_ROOT='$root'
-  '$bin/fieldline-launch' sim_team --robots 1 --duration $((seconds + 8)) --no-table \
+  '$bin/fieldline-launch' '$launch' --robots 1 --duration $((seconds + 8)) --no-table \
       > /dev/null 2>&1 &
   launcher=\$!
   sleep 3

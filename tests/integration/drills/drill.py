@@ -30,6 +30,9 @@ import subprocess
 import sys
 import time
 
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent.parent / "lib"))
+from launcher_children import child_pid  # noqa: E402
+
 # common/bus/channels.hpp nominalRateHz (the channel table).
 NOMINAL_HZ = {"SIM_WORLD": 100, "CAMERA_IMAGE": 30, "VISION_LINES": 10, "FIELD_FEATURES": 10,
               "ODOMETRY": 50, "MOTION_COMMAND": 30, "ROBOT_STATE": 50, "TEAM_STATE": 10}
@@ -86,28 +89,13 @@ def launch_file(folder, robots):
     return path
 
 
-# The drill's launcher: only its own children are ever signalled. /proc is shared with every other
-# network namespace on the machine, so a match by name alone could hit another run's process.
+# The drill's launcher: only its own children are ever signalled (launcher_children.py says why).
 LAUNCHER_PID = None
 
 
 def find_pid(exe, bus):
     """Pid of the launcher's child running `exe` for robot 1 (or the simulator), or None."""
-    for entry in os.listdir("/proc"):
-        if not entry.isdigit():
-            continue
-        try:
-            argv = pathlib.Path(f"/proc/{entry}/cmdline").read_bytes().split(b"\0")
-            fields = pathlib.Path(f"/proc/{entry}/stat").read_text().rsplit(")", 1)[1].split()
-        except OSError:
-            continue
-        state, parent = fields[0], int(fields[1])
-        if parent != LAUNCHER_PID or state == "Z" or not argv or os.path.basename(argv[0].decode()) != exe:
-            continue
-        words = [a.decode() for a in argv]
-        if bus == "sim" or ("--robot" in words and words[words.index("--robot") + 1] == "1"):
-            return int(entry)
-    return None
+    return child_pid(LAUNCHER_PID, exe, robot=None if bus == "sim" else 1)
 
 
 def start_time_us(pid):

@@ -20,6 +20,9 @@ import subprocess
 import sys
 import time
 
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent.parent / "lib"))
+from launcher_children import child_pid  # noqa: E402
+
 MOVED_M = 0.5        # robot 1 must be this far from its start pose before the kill
 JUMP_LIMIT_M = 0.25  # asserted: the restart moves robot 1 by less than this
 
@@ -46,22 +49,6 @@ def poses(path):
         k = m["robot_id"].index(1)
         out.append((row["receive_utime"], m["header"]["utime"], m["robot_x"][k], m["robot_y"][k]))
     return out
-
-
-def child_pid(launcher_pid, exe):
-    """Pid of the launcher's live child running `exe`, or None."""
-    for entry in os.listdir("/proc"):
-        if not entry.isdigit():
-            continue
-        try:
-            argv = pathlib.Path(f"/proc/{entry}/cmdline").read_bytes().split(b"\0")
-            fields = pathlib.Path(f"/proc/{entry}/stat").read_text().rsplit(")", 1)[1].split()
-        except OSError:
-            continue
-        if int(fields[1]) == launcher_pid and fields[0] != "Z" and argv and \
-                os.path.basename(argv[0].decode()) == exe:
-            return int(entry)
-    return None
 
 
 def wait_for(what, check, timeout_s):

@@ -1,5 +1,5 @@
-// The JSON writers of fieldline-bus-dump: string escaping that always gives valid JSON, the image
-// summary, and refusal of bytes that do not decode.
+// The JSON writers of fieldline-bus-dump: the image summary, and refusal of bytes that do not
+// decode (string escaping is tools/json's, tested in tests/unit/json).
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -11,15 +11,8 @@
 #include "tools/bus_dump/message_json.hpp"
 
 using namespace fieldline;
-using bus_dump::appendJsonString;
 
 namespace {
-
-std::string asJson(std::string_view text) {
-  std::string out;
-  appendJsonString(out, text);
-  return out;
-}
 
 template <typename Msg>
 std::vector<std::uint8_t> encode(const Msg& msg) {
@@ -29,25 +22,6 @@ std::vector<std::uint8_t> encode(const Msg& msg) {
 }
 
 }  // namespace
-
-TEST(JsonString, EscapesQuotesBackslashesAndControlCharacters) {
-  EXPECT_EQ(asJson("a\"b\\c"), R"("a\"b\\c")");
-  EXPECT_EQ(asJson(std::string("\n\t\x01\x1f", 4)), R"("\u000a\u0009\u0001\u001f")");
-  EXPECT_EQ(asJson(std::string("nul\0x", 5)), R"("nul\u0000x")");
-  EXPECT_EQ(asJson(""), R"("")");
-}
-
-TEST(JsonString, KeepsValidUtf8) {
-  EXPECT_EQ(asJson("µs ° 😀"), "\"µs ° 😀\"");
-}
-
-TEST(JsonString, ReplacesInvalidUtf8) {
-  EXPECT_EQ(asJson("\xff"), R"("\ufffd")");
-  EXPECT_EQ(asJson("\xc0\xaf"), R"("\ufffd\ufffd")");            // overlong '/'
-  EXPECT_EQ(asJson("\xed\xa0\x80"), R"("\ufffd\ufffd\ufffd")");  // a surrogate
-  EXPECT_EQ(asJson("ab\xe2\x82"), R"("ab\ufffd\ufffd")");        // cut sequence at the end
-  EXPECT_EQ(asJson("\xf4\x90\x80\x80"), R"("\ufffd\ufffd\ufffd\ufffd")");  // past U+10FFFF
-}
 
 TEST(Fnv1a64, MatchesTheReferenceValues) {
   EXPECT_EQ(bus_dump::fnv1a64(nullptr, 0), 0xcbf29ce484222325ULL);

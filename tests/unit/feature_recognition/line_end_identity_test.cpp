@@ -185,6 +185,7 @@ TEST(LineEndIdentity, CandidateEndsNeedAParallelPartnerAtTheAreasSpacings) {
     g.line.t_min = from;
     g.line.t_max = to;
     g.line.count = 10;
+    g.runs = {{from, to, 10}};
     return g;
   };
   LineStructure structure;
@@ -201,6 +202,16 @@ TEST(LineEndIdentity, CandidateEndsNeedAParallelPartnerAtTheAreasSpacings) {
   // An end already explained by a junction is no candidate.
   candidateLineEnds(structure, field, {Vec2(1.0, 1.5)}, RecognitionParams{}, ends);
   EXPECT_EQ(ends.size(), 3u);
+
+  // A group seen in two runs (a collinear fragment 2 m beyond the line's end): the line's end
+  // is where its run ends, not at the fragment; the fragment (3 points) gives no ends.
+  structure.groups[0][0].line.t_max = 3.5;
+  structure.groups[0][0].runs = {{-1.0, 1.5, 10}, {3.4, 3.5, 3}};
+  candidateLineEnds(structure, field, {}, RecognitionParams{}, ends);
+  ASSERT_EQ(ends.size(), 4u);
+  EXPECT_NEAR(ends[0].position.y(), -1.0, 1e-9);
+  EXPECT_NEAR(ends[1].position.y(), 1.5, 1e-9);
+  EXPECT_NEAR(ends[1].length, 2.5, 1e-9);
 }
 
 }  // namespace

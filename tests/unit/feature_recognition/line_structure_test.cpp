@@ -1,6 +1,8 @@
 // Stage 4: principal directions and collinear groups in topological order.
 #include "services/feature_recognition/line_structure.hpp"
 
+#include "services/feature_recognition/junctions.hpp"
+
 #include <cmath>
 #include <numbers>
 
@@ -57,11 +59,81 @@ TEST(LineStructure, FindsTheDirectionsDespiteOutliersAndGroupsCollinearPieces) {
   for (const auto& g : groups) {
     if (g.members.size() == 2) {
       EXPECT_NEAR(g.line.length(), 6.0, 0.1);
+      // The pieces are 1.5 m apart (more than group_run_gap): two runs, 2 m and 2.5 m, sorted
+      // along the line and within its extent.
+      ASSERT_EQ(g.runs.size(), 2u);
+      EXPECT_LT(g.runs[0].t_max, g.runs[1].t_min);
+      EXPECT_NEAR(g.runs[1].t_min - g.runs[0].t_max, 1.5, 0.1);
+      EXPECT_NEAR(g.runs[0].length() + g.runs[1].length(), 4.5, 0.1);
+      EXPECT_NEAR(g.runs[0].t_min, g.line.t_min, 1e-9);
+      EXPECT_NEAR(g.runs[1].t_max, g.line.t_max, 1e-9);
+      EXPECT_EQ(g.runs[0].count + g.runs[1].count, g.line.count);
+    } else {
+      EXPECT_EQ(g.runs.size(), 1u);
     }
   }
+  // With a gap larger than the pieces' one, one run.
+  RecognitionParams wide;
+  wide.group_run_gap = 2.0;
+  LineStructure joined;
+  buildLineStructure(c, classified.lines, {}, wide, joined);
+  for (const auto& g : joined.groups[along_u])
+    EXPECT_EQ(g.runs.size(), 1u);
   // The outlier is in no group; the perpendicular line is the other axis's only group.
   ASSERT_EQ(s.groups[1 - along_u].size(), 1u);
   EXPECT_NEAR(std::abs(s.groups[1 - along_u][0].t), 3.0, 0.02);
+}
+
+// An L-corner whose front line has a collinear fragment 2.5 m beyond the corner (a piece of
+// clutter, or another line's stub, on its extension): the fragment joins the line's group, but
+// the junction is taken from the run at the corner, so it stays an L with its true leg lengths
+// (before the runs, the group passed through the corner and made it a T).
+TEST(LineStructure, AFragmentFarBeyondACornerLeavesItAnL) {
+  std::mt19937 rng(3);
+  const std::vector<std::vector<Vec2>> runs = {
+      test::polyline({{1.0, 2.0}, {1.0, 0.5}}, 0.1, 0.005, rng),     // front line, ends at (1, 0.5)
+      test::polyline({{1.0, 0.5}, {3.0, 0.5}}, 0.1, 0.005, rng),     // side line, from the corner
+      test::polyline({{1.0, 2.0}, {-2.0, 2.0}}, 0.1, 0.005, rng),    // a third line (the structure)
+      test::polyline({{1.0, -2.0}, {1.0, -2.4}}, 0.1, 0.005, rng)};  // fragment on the extension
+  Contours c;
+  for (const auto& run : runs) {
+    const int begin = static_cast<int>(c.points.size());
+    c.points.insert(c.points.end(), run.begin(), run.end());
+    c.pieces.push_back({begin, static_cast<int>(c.points.size())});
+  }
+  Classified classified;
+  classifyPieces(c, RecognitionParams{}, classified);
+  ASSERT_EQ(classified.lines.size(), 4u);
+  auto cornerAt = [&](const RecognitionParams& params, Junction& found) {
+    LineStructure s;
+    buildLineStructure(c, classified.lines, {}, params, s);
+    std::vector<Junction> junctions;
+    findJunctions(s, params, junctions);
+    for (const Junction& j : junctions) {
+      if ((j.position - Vec2(1.0, 0.5)).norm() < 0.1) {
+        found = j;
+        return true;
+      }
+    }
+    return false;
+  };
+  Junction j;
+  ASSERT_TRUE(cornerAt(RecognitionParams{}, j));
+  EXPECT_FALSE(j.is_t);
+  ASSERT_EQ(j.leg_count, 2);
+  for (int k = 0; k < 2; ++k) {
+    if (std::abs(j.legs[k].y()) > 0.9) {
+      EXPECT_GT(j.legs[k].y(), 0.0);  // the front line leaves the corner toward +y
+      EXPECT_NEAR(j.leg_lengths[k], 1.5, 0.05);
+    } else {
+      EXPECT_NEAR(j.leg_lengths[k], 2.0, 0.05);
+    }
+  }
+  // Runs chained over the gap: the front line passes through the corner, a T.
+  RecognitionParams joined;
+  joined.group_run_gap = 5.0;
+  ASSERT_TRUE(cornerAt(joined, j));
+  EXPECT_TRUE(j.is_t);
 }
 
 TEST(LineStructure, ExcludedPiecesAndNoLines) {

@@ -137,6 +137,39 @@ TEST(BallFilter, AnOutlierMakesTheEstimateInvalidUntilASightingAgrees) {
   EXPECT_TRUE(lenient.estimate(kStart + 5 * 33'333).valid);
 }
 
+TEST(BallFilter, FramesThatShouldHaveSeenTheBallMakeItInvalid) {
+  BallFilterParams params;
+  params.unseen_range_m = 6.0;
+  params.unseen_frames = 2;
+  std::mt19937 rng(6);
+  const geometry::Pose2 robot{0.0, 0.0, 0.5};
+  auto tick = [](int k) { return kStart + k * 33'333; };
+  BallFilter f(params);
+  for (int k = 0; k < 5; ++k)
+    f.update(sightingOf({2.0, 1.0}, robot, tick(k), rng), robotAt(robot, tick(k)));
+  // One frame without the ball may be a robot in the way; the second says it is gone.
+  f.missed(tick(5), robotAt(robot, tick(5)));
+  EXPECT_TRUE(f.estimate(tick(5)).valid);
+  f.missed(tick(6), robotAt(robot, tick(6)));
+  EXPECT_FALSE(f.estimate(tick(6)).valid);
+  EXPECT_EQ(f.unseenInvalidations(), 1u);
+  // A sighting where it was makes it valid again.
+  EXPECT_EQ(f.update(sightingOf({2.0, 1.0}, robot, tick(7), rng), robotAt(robot, tick(7))),
+            BallRejection::kNone);
+  EXPECT_TRUE(f.estimate(tick(7)).valid);
+  // A robot far from the estimate (7.2 m) could not have seen it: no change. Off by default.
+  const geometry::Pose2 far{-5.0, -4.0, 0.0};
+  for (int k = 8; k < 12; ++k)
+    f.missed(tick(k), robotAt(far, tick(k)));
+  EXPECT_TRUE(f.estimate(tick(11)).valid);
+  BallFilter off;
+  for (int k = 0; k < 5; ++k)
+    off.update(sightingOf({2.0, 1.0}, robot, tick(k), rng), robotAt(robot, tick(k)));
+  for (int k = 5; k < 9; ++k)
+    off.missed(tick(k), robotAt(robot, tick(k)));
+  EXPECT_TRUE(off.estimate(tick(8)).valid);
+}
+
 TEST(BallFilter, AConfidentSightingFarFromThePredictionRestartsAtIt) {
   BallFilterParams params;
   params.invalid_after_outlier = true;

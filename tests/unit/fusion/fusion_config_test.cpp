@@ -61,8 +61,17 @@ TEST(FusionConfig, ContactAndBallRestartKeys) {
   EXPECT_DOUBLE_EQ(c.ball.restart_distance_m, 0.8);
   EXPECT_TRUE(c.ball.velocity_from_pair);
   EXPECT_DOUBLE_EQ(c.ball.pair_max_age_s, 0.1);
-  // The shipped file has contact evidence on.
-  EXPECT_GT(loadFusionConfigPreset("default").localizer.filter.contact.distance_m, 0.0);
+  // The shipped file takes contact from the motor currents, not from the camera.
+  const FusionConfig shipped = loadFusionConfigPreset("default");
+  EXPECT_GT(shipped.localizer.current_contact.force_threshold_n, 0.0);
+  EXPECT_EQ(shipped.localizer.current_contact.samples, 2);
+  EXPECT_DOUBLE_EQ(shipped.localizer.filter.contact.distance_m, 0.0);
+  const FusionConfig currents = loadFusionConfig(config::Node::loadString(
+      "contact:\n  current_force_n: 12\n  current_samples: 3\n  current_max_a: 20\n"));
+  EXPECT_DOUBLE_EQ(currents.localizer.current_contact.force_threshold_n, 12.0);
+  EXPECT_EQ(currents.localizer.current_contact.samples, 3);
+  EXPECT_DOUBLE_EQ(currents.localizer.current_contact.max_current_a, 20.0);
+  EXPECT_NE(errorOf("contact:\n  current_samples: 0\n"), "");
   EXPECT_NE(errorOf("contact:\n  distance_m: -1\n"), "");
   EXPECT_NE(errorOf("contact:\n  serch_steps: 2\n"), "");
 }

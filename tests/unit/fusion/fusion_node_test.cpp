@@ -4,8 +4,10 @@
 // the status and changes nothing, and ODOMETRY_ONLY is reported when the lines stop.
 #include "services/fusion/fusion_node.hpp"
 
+#include <array>
 #include <cmath>
 #include <numbers>
+#include <optional>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -36,6 +38,8 @@ struct Rig {
   geometry::Pose2 truth{-2.5, 1.0, 0.3};
   std::int32_t tick = 0;
   std::mt19937 rng{4};
+  // Sent with every ODOMETRY when set (STATUS_CURRENTS).
+  std::optional<std::array<float, 3>> currents;
 
   static FusionNodeOptions options() {
     FusionNodeOptions o;
@@ -64,6 +68,11 @@ struct Rig {
     odometry_t o{};
     o.header.utime = clock.now() - 8'000;
     o.ticks[0] = o.ticks[1] = o.ticks[2] = tick;
+    if (currents) {
+      o.status |= odometry_t::STATUS_CURRENTS;
+      for (std::size_t k = 0; k < 3; ++k)
+        o.wheel_current[k] = (*currents)[k];
+    }
     sensors.publish(bus::channels::kOdometry, o);
     if (lines && i % 5 == 0) {
       line_contours_t m{};
@@ -257,6 +266,33 @@ TEST(FusionNode, ObstaclesAtTheBodyAreContactEvidence) {
   send(-0.5, 50'000);
   EXPECT_EQ(rig.fusion_bus.status().errorCount("obstacles_not_finite"), 1);
   EXPECT_EQ(rig.fusion.localizer().counters().contact_frames, 1u);
+}
+
+TEST(FusionNode, WheelCurrentsAtTheFrictionLimitAreContactEvidence) {
+  FusionNodeOptions o = Rig::options();
+  o.localizer.current_contact.force_threshold_n = 8.0;
+  Rig rig(o);
+  rig.currents = std::array<float, 3>{0.0f, 0.0f, 0.0f};
+  for (int i = 0; i < 60; ++i)
+    rig.period(i, true, false);
+  ASSERT_EQ(rig.states.back().status, robot_state_t::STATUS_TRACKING);
+  EXPECT_EQ(rig.fusion.localizer().counters().current_contacts, 0u);
+  EXPECT_FALSE(rig.fusion.localizer().inContact(rig.clock.now() - 8'000));
+  // Standing still while the wheels push at the friction limit (13 N, 1.7 A): pushed.
+  rig.currents = std::array<float, 3>{1.7f, -1.7f, 0.0f};
+  for (int i = 60; i < 66; ++i)
+    rig.period(i, false, false);
+  EXPECT_GE(rig.fusion.localizer().counters().current_contacts, 2u);
+  EXPECT_TRUE(rig.fusion.localizer().inContact(rig.clock.now() - 60'000));
+  // A NaN current is counted in SERVICE_STATUS; the sample's ticks still give a ROBOT_STATE.
+  const std::size_t states = rig.states.size();
+  rig.currents = std::array<float, 3>{std::nanf(""), 0.0f, 0.0f};
+  rig.period(66, false, false);
+  EXPECT_EQ(rig.fusion_bus.status().errorCount("current_not_finite"), 1);
+  rig.currents = std::array<float, 3>{0.0f, 900.0f, 0.0f};
+  rig.period(67, false, false);
+  EXPECT_EQ(rig.fusion_bus.status().errorCount("current_absurd"), 1);
+  EXPECT_EQ(rig.states.size(), states + 2);
 }
 
 }  // namespace

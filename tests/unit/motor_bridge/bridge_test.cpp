@@ -94,6 +94,26 @@ TEST(Bridge, OdometryFromTheEmulatorIsStampedWithThePhysicalTime) {
   EXPECT_NEAR(out[2].movement.dx, reference.movement({200, -200, 0}).dx, 1e-12);
 }
 
+TEST(Bridge, WheelCurrentsAreForwardedInAmperes) {
+  const auto params = robot::loadRobotPreset("fu2004");
+  BridgeCore bridge(params);
+  std::vector<OdometryOutput> out;
+  serial::OdometrySample s;
+  s.seq = 0;
+  s.controller_time_us = 1'000;
+  bridge.onBytes(serial::encode(s), kT0, out);  // no currents
+  s.seq = 1;
+  s.controller_time_us = 21'000;
+  s.current_ma = std::array<std::int16_t, 3>{1500, -250, 0};
+  bridge.onBytes(serial::encode(s), kT0 + 20'000, out);
+  ASSERT_EQ(out.size(), 2u);
+  EXPECT_EQ(out[0].status & perception::kOdometryCurrents, 0);
+  EXPECT_TRUE(out[1].status & perception::kOdometryCurrents);
+  EXPECT_FLOAT_EQ(out[1].wheel_current[0], 1.5f);
+  EXPECT_FLOAT_EQ(out[1].wheel_current[1], -0.25f);
+  EXPECT_FLOAT_EQ(out[1].wheel_current[2], 0.0f);
+}
+
 TEST(Bridge, MalformedFramesAreCountedNeverForwarded) {
   const auto params = robot::loadRobotPreset("fu2004");
   BridgeCore bridge(params);

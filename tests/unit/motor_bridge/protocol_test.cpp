@@ -34,6 +34,12 @@ Message randomMessage(std::mt19937& rng) {
         t = static_cast<std::int32_t>(u32(rng));
       s.status = static_cast<std::uint16_t>(u32(rng));
       s.last_command_seq = u32(rng);
+      // Half the samples carry wheel currents (the 36-byte body).
+      if (rng() % 2) {
+        s.current_ma = std::array<std::int16_t, 3>{static_cast<std::int16_t>(i16(rng)),
+                                                   static_cast<std::int16_t>(i16(rng)),
+                                                   static_cast<std::int16_t>(i16(rng))};
+      }
       return s;
     }
     default:
@@ -133,6 +139,30 @@ TEST(Protocol, EveryTypeRoundTrips) {
     ASSERT_EQ(d.feed(frame, out), 1u);
     EXPECT_EQ(out.front(), m);
   }
+}
+
+TEST(Protocol, OdometryCarriesCurrentsInAnOptionalTail) {
+  OdometrySample s;
+  s.seq = 3;
+  s.ticks = {1, 2, 3};
+  const Bytes plain = encode(s);
+  s.current_ma = std::array<std::int16_t, 3>{1500, -32767, 7};
+  const Bytes with = encode(s);
+  // COBS adds nothing here: no run reaches 254 bytes. 6 more bytes for the three currents.
+  EXPECT_EQ(with.size(), plain.size() + 6);
+  Decoder d;
+  std::vector<Message> out;
+  d.feed(plain, out);
+  d.feed(with, out);
+  ASSERT_EQ(out.size(), 2u);
+  EXPECT_FALSE(std::get<OdometrySample>(out[0]).current_ma);
+  EXPECT_EQ(std::get<OdometrySample>(out[1]), s);
+  // Any other body length is refused: 30 + 2 bytes (one current) is neither layout.
+  Bytes payload{kVersion, 0x20};
+  payload.resize(2 + 32, 0);
+  d.feed(frameFromPayload(payload), out);
+  EXPECT_EQ(d.stats().length_errors, 1u);
+  EXPECT_EQ(out.size(), 2u);
 }
 
 TEST(Protocol, WellFormedButWrongFramesAreCountedByReason) {

@@ -9,7 +9,6 @@
 
 #include "common/bus/node.hpp"
 #include "common/geometry/geometry.hpp"
-#include "common/msg/image.hpp"
 #include "common/time/clock.hpp"
 #include "tests/support/sim_frames.hpp"
 
@@ -54,14 +53,10 @@ TEST(TrackingNode, PublishesBallAndObstaclesEveryFrameAndLinesEveryThird) {
   auto publishFrame = [&](int i) {
     clock.advance(33'333);
     scene.frame_number = static_cast<std::uint64_t>(i);
-    sim.render(scene);
-    image_t image{};
-    image.header.utime = clock.now() - 60'000;  // exposure time
-    msg::toMessage(sim.renderer->view(sim.frame), image);
-    image.source = image_t::SOURCE_SIM;
-    image.frame_number = i;
+    const Utime exposure = clock.now() - 60'000;
+    image_t image = sim.renderImage(scene, exposure);
     camera.publish(bus::channels::kCameraImage, image);
-    return image.header.utime;
+    return exposure;
   };
   std::vector<Utime> frameTimes;
   for (int i = 0; i < 7; ++i) {

@@ -10,7 +10,6 @@
 
 #include "common/bus/node.hpp"
 #include "common/geometry/geometry.hpp"
-#include "common/msg/image.hpp"
 #include "common/time/clock.hpp"
 #include "services/region_tracking/tracking_node.hpp"
 #include "tests/support/sim_frames.hpp"
@@ -51,12 +50,7 @@ TEST(VisionHealth, StatusWarnsWithTheReasonWhenTheTableDoesNotFitAndRecovers) {
       camera::SimScene scene;
       scene.robot = poses[static_cast<std::size_t>(frame)];
       scene.frame_number = static_cast<std::uint64_t>(frame);
-      sim.render(scene);
-      image_t image{};
-      image.header.utime = clock.now() - 60'000;
-      msg::toMessage(sim.renderer->view(sim.frame), image);
-      image.source = image_t::SOURCE_SIM;
-      image.frame_number = frame;
+      image_t image = sim.renderImage(scene, clock.now() - 60'000);
       camera.publish(bus::channels::kCameraImage, image);
       vision.spinOnce(0);
     }

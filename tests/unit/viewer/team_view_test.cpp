@@ -49,19 +49,9 @@ TEST(TeamView, StatusIsStaleAfterItsTimeoutAndStringsAreEscaped) {
   s.last_error = "bad";
   team.bus(1).statuses[{"camera", 1}] = {s, 1'000'000};
   const std::string fresh = team.toJson(1'500'000, 1'000'000);
-  EXPECT_TRUE(contains(fresh, "\"process\":\"cam\\\"era\\\\\\n\\u0001?\"")) << fresh;
+  EXPECT_TRUE(contains(fresh, "\"process\":\"cam\\\"era\\\\\\n\\u0001\\ufffd\"")) << fresh;
   EXPECT_TRUE(contains(fresh, "\"stale\":false")) << fresh;
   EXPECT_TRUE(contains(team.toJson(2'500'000, 1'000'000), "\"stale\":true"));
-}
-
-TEST(Json, NonFiniteNumbersBecomeNull) {
-  std::string out;
-  appendJsonNumber(out, std::numeric_limits<double>::quiet_NaN());
-  out += ',';
-  appendJsonNumber(out, -std::numeric_limits<double>::infinity());
-  out += ',';
-  appendJsonNumber(out, 1e-300);
-  EXPECT_EQ(out, "null,null,1e-300");
 }
 
 TEST(FieldJson, HasEveryLineArcGoalAndMark) {

@@ -40,6 +40,60 @@ TEST(Firmware, CommandsActAfterTheLatencyAndTheWatchdogStopsThem) {
   EXPECT_EQ(fw.stats().watchdog_stops, 1u);
 }
 
+TEST(Firmware, CurrentsAreTheAccelerationAndTheFrictionOfTheSlip) {
+  const auto params = robot::loadRobotPreset("fu2004");
+  const CurrentModel model{
+      .enabled = true, .friction_coefficient = 0.5, .saturation_slip_speed = 1.0, .noise_a = 0.0};
+  // Amperes per newton at the wheel: radius / (gear * torque constant).
+  const double per_newton =
+      params.wheels[0].radius / (params.gear_ratio * params.motor.torque_constant);
+  const double share = params.mass / 3.0;
+  const double limit = 0.5 * share * 9.81;
+  WheelState before;
+  WheelState after;
+  after.speeds = Eigen::Vector3d(0.1, -0.1, 0.0);  // +-5 m/s^2 over 20 ms
+  const Eigen::Vector3d zero = Eigen::Vector3d::Zero();
+  Eigen::Vector3d amps = FirmwareEmulator::wheelCurrents(params, model, before, after, 0.02, zero);
+  EXPECT_NEAR(amps[0], share * 5.0 * per_newton, 1e-9);
+  EXPECT_NEAR(amps[1], -share * 5.0 * per_newton, 1e-9);
+  EXPECT_NEAR(amps[2], 0.0, 1e-12);
+  // Slipping: half the limit at half the saturation speed, the limit beyond it, either sign.
+  after.speeds = zero;
+  after.slip = Eigen::Vector3d(0.01, 0.1, -0.1);  // 0.5, 5, -5 m/s over 20 ms
+  amps = FirmwareEmulator::wheelCurrents(params, model, before, after, 0.02, zero);
+  EXPECT_NEAR(amps[0], 0.5 * limit * per_newton, 1e-9);
+  EXPECT_NEAR(amps[1], limit * per_newton, 1e-9);
+  EXPECT_NEAR(amps[2], -limit * per_newton, 1e-9);
+  // Noise adds noise_a per unit.
+  CurrentModel noisy = model;
+  noisy.noise_a = 0.05;
+  const Eigen::Vector3d unit(1.0, -2.0, 0.0);
+  const Eigen::Vector3d with_noise =
+      FirmwareEmulator::wheelCurrents(params, noisy, before, after, 0.02, unit);
+  EXPECT_NEAR(with_noise[0] - amps[0], 0.05, 1e-12);
+  EXPECT_NEAR(with_noise[1] - amps[1], -0.1, 1e-12);
+
+  // In frames: none in the first sample (no period yet), then mA in every one; off: none.
+  FirmwareEmulator fw(params, 5'000'000, noisy);
+  std::vector<std::uint8_t> out;
+  WheelState wheels;
+  fw.sample(0.02, {0, 0, 0}, out, &wheels);
+  wheels.slip = Eigen::Vector3d(0.1, 0.0, 0.0);
+  fw.sample(0.04, {0, 0, 0}, out, &wheels);
+  FirmwareEmulator off(params, 5'000'000, CurrentModel{.enabled = false});
+  off.sample(0.02, {0, 0, 0}, out, &wheels);
+  off.sample(0.04, {0, 0, 0}, out, &wheels);
+  const auto msgs = decode(out);
+  ASSERT_EQ(msgs.size(), 4u);
+  EXPECT_FALSE(std::get<proto::OdometrySample>(msgs[0]).current_ma);
+  const auto second = std::get<proto::OdometrySample>(msgs[1]).current_ma;
+  ASSERT_TRUE(second);
+  EXPECT_NEAR((*second)[0] * 1e-3, limit * per_newton, 0.3);  // 1.71 A, noise 0.05 A
+  EXPECT_NEAR((*second)[1] * 1e-3, 0.0, 0.3);
+  EXPECT_FALSE(std::get<proto::OdometrySample>(msgs[2]).current_ma);
+  EXPECT_FALSE(std::get<proto::OdometrySample>(msgs[3]).current_ma);
+}
+
 TEST(Firmware, SamplesCarryTicksClockStatusAndTheLastCommand) {
   const auto params = robot::loadRobotPreset("fu2004");
   FirmwareEmulator fw(params, 5'000'000);

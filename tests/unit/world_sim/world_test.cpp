@@ -177,6 +177,29 @@ TEST(World, TheBarrierStopsTheBodyButNotTheWheels) {
   EXPECT_GT(odo.pose().x, barrier + 1.0);
 }
 
+TEST(World, WheelsSlipAgainstTheBarrierNotInFreeDriving) {
+  // Without slip noise a free robot's wheels roll exactly (the slip is the arc-versus-chord
+  // rounding of a step); driving into the barrier, the two front wheels slip at their speed.
+  Scenario s = oneRobot({9.0, 0.0, 0.0}, 0.0);
+  World world(s);
+  world.setCommand(0, {0.5, 0.0, 0.0});
+  world.runUntil(0.4);
+  const Eigen::Vector3d free = world.robots()[0].wheel_slip;
+  EXPECT_LT(free.cwiseAbs().maxCoeff(), 1e-6);
+  EXPECT_FALSE(world.robots()[0].in_contact);
+  world.runUntil(3.0);
+  ASSERT_TRUE(world.robots()[0].in_contact);
+  const Eigen::Vector3d before = world.robots()[0].wheel_slip;
+  world.runUntil(4.0);
+  const Eigen::Vector3d in_one_second = world.robots()[0].wheel_slip - before;
+  // The body stands still: each wheel's slip speed is its surface speed (1.75 m/s forward at
+  // wheels 0 and 1, at -+60 degrees: |cos 30 deg| * 1.75 = 1.52 m/s; the back wheel rolls
+  // across).
+  EXPECT_NEAR(std::abs(in_one_second[0]), 1.75 * std::cos(kPi / 6.0), 0.05);
+  EXPECT_NEAR(std::abs(in_one_second[1]), 1.75 * std::cos(kPi / 6.0), 0.05);
+  EXPECT_LT(std::abs(in_one_second[2]), 0.05);
+}
+
 TEST(World, KidnapMovesTheRobotWithoutTurningAWheel) {
   Scenario s = oneRobot({0.0, 0.0, 0.0}, 1.0);
   s.kidnaps.push_back({1.0, 1, {3.0, -2.0, 1.0}});
