@@ -37,7 +37,10 @@ ConnectivityGrid::ConnectivityGrid(const CellGrid& grid)
       layout_(grid),
       corner_offset_{0, 1, layout_.width + 1, layout_.width},
       step_{1, layout_.width, -1, -layout_.width},
-      bits_(layout_.size(), 0) {
+      bits_(layout_.size(), 0),
+      // A contour takes each edge once: at most the four sides of every cell.
+      walk_points_(std::make_unique_for_overwrite<ContourPoint[]>(
+          4 * static_cast<std::size_t>(layout_.size()))) {
   for (int direction = 0; direction < 4; ++direction) {
     for (int available = 0; available < 16; ++available) {
       const int next = kNextDirection[direction][available];
@@ -89,8 +92,14 @@ void ConnectivityGrid::followContour(int startCorner, int startDirection, ClassI
 
   // Corner (x, y) has the index of cell (x, y); x and y are carried along with the index. The
   // walk is one chain of dependent loads (corner, its bits, the turn): the step of the next
-  // direction comes with the turn, so the chain has no third load.
+  // direction comes with the turn, so the chain has no third load, and the check for the start
+  // corner is a branch beside it (taken once per contour) rather than a step in it. Points go to
+  // a scratch array through a pointer held in a register: a vector's end, reloaded after every
+  // byte stored into the grid (a byte may alias anything), would be in the loop's way.
   std::uint8_t* const bits = bits_.data();
+  ContourPoint* const first = walk_points_.get();
+  ContourPoint* point = first;
+  const int cellSize = grid_.cell_size;
   int corner = startCorner;
   int x = layout_.x(startCorner);
   int y = layout_.y(startCorner);
@@ -98,7 +107,7 @@ void ConnectivityGrid::followContour(int startCorner, int startDirection, ClassI
   int step = step_[startDirection];
   while (true) {
     bits[corner] &= static_cast<std::uint8_t>(~(1u << direction));
-    out.points.push_back({x * grid_.cell_size, y * grid_.cell_size});
+    *point++ = {x * cellSize, y * cellSize};
     const int nextX = x + kStepDx[direction];
     const int nextY = y + kStepDy[direction];
     twiceArea += static_cast<long>(x) * nextY - static_cast<long>(nextX) * y;
@@ -106,18 +115,22 @@ void ConnectivityGrid::followContour(int startCorner, int startDirection, ClassI
     y = nextY;
     corner += step;
 
-    std::uint8_t available = bits[corner];
-    const bool atStart = corner == startCorner;
-    // Back at the start, the (already removed) first edge counts as available: if the turning
-    // rule would take it, the contour is closed.
-    if (atStart) available |= static_cast<std::uint8_t>(1u << startDirection);
-    // Turning rule: right, straight, left. A U-turn never occurs within one class.
-    const Turn turn = turns_[direction][available & 0xF];
-    if (turn.direction < 0 || (atStart && turn.direction == startDirection)) break;
+    // Turning rule: right, straight, left. A U-turn never occurs within one class. (The grid
+    // holds the four edge bits only, so `available` indexes the 16 entries as it is.)
+    const std::uint8_t available = bits[corner];
+    Turn turn = turns_[direction][available];
+    if (corner == startCorner) {
+      // Back at the start, the (already removed) first edge counts as available: if the turning
+      // rule would take it, the contour is closed.
+      turn = turns_[direction][available | (1u << startDirection)];
+      if (turn.direction == startDirection) break;
+    }
+    if (turn.direction < 0) break;
     direction = turn.direction;
     step = turn.step;
   }
 
+  out.points.insert(out.points.end(), first, point);
   contour.end = static_cast<int>(out.points.size());
   contour.signed_cell_area = static_cast<int>(twiceArea / 2);
   contour.outer = contour.signed_cell_area > 0;

@@ -9,6 +9,7 @@
 
 #include <array>
 #include <cstdint>
+#include <memory>
 #include <span>
 #include <vector>
 
@@ -135,6 +136,8 @@ class ConnectivityGrid {
   };
   std::array<std::array<Turn, 16>, 4> turns_;
   std::vector<std::uint8_t> bits_;
+  // The points of the contour being followed (room for every edge of the grid).
+  std::unique_ptr<ContourPoint[]> walk_points_;
 };
 
 }  // namespace fieldline::region_tracking
