@@ -11,15 +11,7 @@
 namespace fieldline::feature_recognition {
 namespace {
 
-Contours contoursOf(const std::vector<std::vector<Vec2>>& runs) {
-  Contours c;
-  for (const auto& run : runs) {
-    const int begin = static_cast<int>(c.points.size());
-    c.points.insert(c.points.end(), run.begin(), run.end());
-    c.pieces.push_back({begin, static_cast<int>(c.points.size())});
-  }
-  return c;
-}
+using test::contoursOf;
 
 TEST(FitLine, RecoversDirectionOffsetAndExtent) {
   std::mt19937 rng(4);

@@ -26,12 +26,7 @@ TEST(LineStructure, FindsTheDirectionsDespiteOutliersAndGroupsCollinearPieces) {
       test::polyline({-1 * u - 1.0 * w, 2 * u - 1.0 * w}, 0.1, 0.01, rng),
       test::polyline({3 * u - 1 * w, 3 * u + 3 * w}, 0.1, 0.01, rng),
       test::polyline({-1.0 * (u + w), 1.0 * (u + w)}, 0.1, 0.0, rng)};
-  Contours c;
-  for (const auto& run : runs) {
-    const int begin = static_cast<int>(c.points.size());
-    c.points.insert(c.points.end(), run.begin(), run.end());
-    c.pieces.push_back({begin, static_cast<int>(c.points.size())});
-  }
+  Contours c = test::contoursOf(runs);
   Classified classified;
   classifyPieces(c, RecognitionParams{}, classified);
   ASSERT_EQ(classified.lines.size(), 6u);
@@ -95,12 +90,7 @@ TEST(LineStructure, AFragmentFarBeyondACornerLeavesItAnL) {
       test::polyline({{1.0, 0.5}, {3.0, 0.5}}, 0.1, 0.005, rng),     // side line, from the corner
       test::polyline({{1.0, 2.0}, {-2.0, 2.0}}, 0.1, 0.005, rng),    // a third line (the structure)
       test::polyline({{1.0, -2.0}, {1.0, -2.4}}, 0.1, 0.005, rng)};  // fragment on the extension
-  Contours c;
-  for (const auto& run : runs) {
-    const int begin = static_cast<int>(c.points.size());
-    c.points.insert(c.points.end(), run.begin(), run.end());
-    c.pieces.push_back({begin, static_cast<int>(c.points.size())});
-  }
+  Contours c = test::contoursOf(runs);
   Classified classified;
   classifyPieces(c, RecognitionParams{}, classified);
   ASSERT_EQ(classified.lines.size(), 4u);

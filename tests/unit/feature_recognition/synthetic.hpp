@@ -10,10 +10,22 @@
 #include "common/field/field_model.hpp"
 #include "common/geometry/geometry.hpp"
 #include "common/perception/line_points.hpp"
+#include "services/feature_recognition/contour_preparation.hpp"
 
 namespace fieldline::feature_recognition::test {
 
 using geometry::Vec2;
+
+// Prepared contours with one piece per run of points, for the stages after splitting.
+inline Contours contoursOf(const std::vector<std::vector<Vec2>>& runs) {
+  Contours c;
+  for (const auto& run : runs) {
+    const int begin = static_cast<int>(c.points.size());
+    c.points.insert(c.points.end(), run.begin(), run.end());
+    c.pieces.push_back({begin, static_cast<int>(c.points.size())});
+  }
+  return c;
+}
 
 // Appends one sequence to `out`.
 inline void addSequence(perception::LinePoints& out, const std::vector<Vec2>& points) {
