@@ -1,0 +1,45 @@
+#!/usr/bin/env bash
+# CPU use of the simulated team per executable, summed over its robots: CPU seconds per second of
+# wall time over SECONDS (default 30) after a 10 s warm-up, in a private network namespace.
+#
+#   bench/team/team_cpu.sh [LAUNCH] [SECONDS] [BIN_DIR]
+#   bench/team/team_cpu.sh sim_team 30 build/bin
+#
+# LAUNCH is a preset name or a launch file (fieldline-launch's argument). CPU time, not wall time,
+# so other load on the machine matters less (it still changes caches and scheduling).
+set -eu
+launch=${1:-sim_team}
+seconds=${2:-30}
+bin=$(realpath "${3:-build/bin}")
+root=$(cd "$(dirname "$0")/../.." && pwd)
+[ -f "$launch" ] && launch=$(realpath "$launch")
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+ns="unshare -n"
+unshare -n true 2>/dev/null || ns="unshare -rn"
+$ns bash -c "
+  set -eu
+  ip link set lo up; ip link set lo multicast on; ip route add 224.0.0.0/4 dev lo
+  export FIELDLINE_ROOT='$root'
+  '$bin/fieldline-launch' '$launch' --duration $((seconds + 20)) --no-table > '$work/launch.log' 2>&1 &
+  launcher=\$!
+  # Every child's executable, pid and CPU ticks (user + system) so far.
+  snapshot() {
+    for pid in \$(pgrep -P \$launcher); do
+      exe=\$(basename \"\$(readlink /proc/\$pid/exe)\" 2>/dev/null) || continue
+      ticks=\$(awk '{print \$14 + \$15}' /proc/\$pid/stat 2>/dev/null) || continue
+      echo \"\$exe \$pid \$ticks\"
+    done
+  }
+  sleep 10
+  snapshot > '$work/before'
+  sleep $seconds
+  snapshot > '$work/after'
+  kill -TERM \$launcher; wait \$launcher || true
+"
+# Processes present in both snapshots (a restarted one is left out, not misread).
+join -j 2 <(sort -k2 "$work/before") <(sort -k2 "$work/after") |
+  awk -v s="$seconds" -v hz="$(getconf CLK_TCK)" '
+    { cpu[$2] += ($5 - $3) / hz / s; total += ($5 - $3) / hz / s }
+    END { for (e in cpu) printf "%-32s %.3f cpu-s/s\n", e, cpu[e]; printf "%-32s %.3f cpu-s/s\n", "total", total }' |
+  sort
