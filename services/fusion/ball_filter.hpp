@@ -51,6 +51,12 @@ struct BallFilterParams {
   // hidden behind a robot is not reported meanwhile). 0: off, m.
   double unseen_range_m = 0.0;
   int unseen_frames = 3;
+  // BallTracker: a frame is fused again with the robot's newest pose for its time until it is
+  // this old (0: fused once, at the first estimate after it arrived), s.
+  double settle_s = 0.0;
+  // BallTracker: the pose at a frame's time takes the next line frame's correction into account
+  // (`smoothedPose`), once that frame has arrived.
+  bool smooth_pose = false;
 };
 
 enum class BallRejection : std::uint8_t {
