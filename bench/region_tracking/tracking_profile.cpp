@@ -445,6 +445,38 @@ void printLineDiff(const Options& options, rt::SimCamera& sim, const Sequence& s
     long long missing = 0, extra = 0;
     int max_missing = 0, max_extra = 0;
     std::array<long long, 4> missing_by_range{}, extra_by_range{};
+    std::array<long long, 4> missing_by_rim{}, extra_by_rim{};
+  };
+  // How far each cell is from the outer rim (cells next to the mask connected to the outside):
+  // 4-connected steps, so that a point missing "at the rim" can be told from one further in.
+  const rt::CellGrid& grid = exact.grid();
+  const std::vector<rt::MaskEdge> edges = rt::maskEdges(grid, exact.dontTouch());
+  std::vector<int> rimSteps(grid.cellCount(), -1);
+  std::vector<int> queue;
+  for (int c = 0; c < grid.cellCount(); ++c) {
+    if (edges[c] == rt::MaskEdge::kOuter) {
+      rimSteps[c] = 0;
+      queue.push_back(c);
+    }
+  }
+  for (std::size_t head = 0; head < queue.size(); ++head) {
+    const int c = queue[head], x = c % grid.width, y = c / grid.width;
+    for (const auto& [nx, ny] : {std::pair{x + 1, y}, {x - 1, y}, {x, y + 1}, {x, y - 1}}) {
+      if (grid.contains(nx, ny) && rimSteps[grid.index(nx, ny)] < 0) {
+        rimSteps[grid.index(nx, ny)] = rimSteps[c] + 1;
+        queue.push_back(grid.index(nx, ny));
+      }
+    }
+  }
+  constexpr std::array<int, 4> kRimLimits = {2, 4, 8, 1 << 30};  // cells
+  auto rimBin = [&](const rt::LinePoint& p) {
+    const int x = std::clamp(static_cast<int>(p.u) / grid.cell_size, 0, grid.width - 1);
+    const int y = std::clamp(static_cast<int>(p.v) / grid.cell_size, 0, grid.height - 1);
+    const int steps = rimSteps[grid.index(x, y)];
+    int bin = 0;
+    while (steps >= kRimLimits[bin])
+      ++bin;
+    return bin;
   };
   std::array<Count, 2> counts;
   long long exactPoints = 0, testedPoints = 0;
@@ -471,9 +503,10 @@ void printLineDiff(const Options& options, rt::SimCamera& sim, const Sequence& s
       ++bin;
     return bin;
   };
-  // Points of `a` with no point of `b` within `tolerance` px: counted, by range.
+  // Points of `a` with no point of `b` within `tolerance` px: counted, by range and by cells
+  // from the outer rim.
   auto unmatched = [&](const rt::LinePoints& a, const rt::LinePoints& b, double tolerance,
-                       std::array<long long, 4>& byRange) {
+                       std::array<long long, 4>& byRange, std::array<long long, 4>& byRim) {
     int n = 0;
     for (const rt::LinePoint& p : a.points) {
       const bool found = std::any_of(b.points.begin(), b.points.end(), [&](const rt::LinePoint& q) {
@@ -482,6 +515,7 @@ void printLineDiff(const Options& options, rt::SimCamera& sim, const Sequence& s
       if (!found) {
         ++n;
         ++byRange[rangeBin(p)];
+        ++byRim[rimBin(p)];
       }
     }
     return n;
@@ -511,8 +545,10 @@ void printLineDiff(const Options& options, rt::SimCamera& sim, const Sequence& s
     identicalFrames += identical ? 1 : 0;
     for (std::size_t t = 0; t < kTolerancePx.size(); ++t) {
       Count& c = counts[t];
-      const int missing = unmatched(exactLines, testedLines, kTolerancePx[t], c.missing_by_range);
-      const int extra = unmatched(testedLines, exactLines, kTolerancePx[t], c.extra_by_range);
+      const int missing =
+          unmatched(exactLines, testedLines, kTolerancePx[t], c.missing_by_range, c.missing_by_rim);
+      const int extra =
+          unmatched(testedLines, exactLines, kTolerancePx[t], c.extra_by_range, c.extra_by_rim);
       c.missing += missing;
       c.extra += extra;
       c.max_missing = std::max(c.max_missing, missing);
@@ -551,6 +587,16 @@ void printLineDiff(const Options& options, rt::SimCamera& sim, const Sequence& s
         kTolerancePx[t], c.missing / n, c.max_missing, c.extra / n, c.max_extra,
         c.missing_by_range[0], c.missing_by_range[1], c.missing_by_range[2], c.missing_by_range[3],
         c.extra_by_range[0], c.extra_by_range[1], c.extra_by_range[2], c.extra_by_range[3]);
+  }
+  std::printf(
+      "\n| tolerance | missing by cells from the outer rim 0-1 / 2-3 / 4-7 / 8+ | extra by cells "
+      "from the rim |\n|---|---|---|\n");
+  for (std::size_t t = 0; t < kTolerancePx.size(); ++t) {
+    const Count& c = counts[t];
+    std::printf("| %.0f px | %lld / %lld / %lld / %lld | %lld / %lld / %lld / %lld |\n",
+                kTolerancePx[t], c.missing_by_rim[0], c.missing_by_rim[1], c.missing_by_rim[2],
+                c.missing_by_rim[3], c.extra_by_rim[0], c.extra_by_rim[1], c.extra_by_rim[2],
+                c.extra_by_rim[3]);
   }
 }
 
