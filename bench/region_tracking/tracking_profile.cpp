@@ -38,6 +38,7 @@
 #include "common/config/config.hpp"
 #include "common/geometry/geometry.hpp"
 #include "services/camera/realism.hpp"
+#include "services/feature_recognition/recognizer.hpp"
 #include "services/region_tracking/baselines.hpp"
 #include "services/region_tracking/frame_processor.hpp"
 
@@ -192,6 +193,7 @@ struct Options {
   bool no_breakdown = false;
   bool digest = false;
   bool line_diff = false;
+  bool phase_shift = false;
   int max_seed_regions = -1;
   int mask_edge_every = 0;
   int mask_edge_inner = -1;
@@ -261,6 +263,10 @@ struct Options {
     app.add_flag("--line-diff", line_diff,
                  "compare the line points with those of the same config at mask_edge_every 1 "
                  "on the same frames");
+    app.add_flag("--phase-shift", phase_shift,
+                 "with --line-diff: the tested tracker sees the first frame twice, so its rim "
+                 "cells are due in the other frames (keep --frames below the re-initialisation "
+                 "period, 300)");
   }
 };
 
@@ -488,6 +494,35 @@ void printLineDiff(const Options& options, rt::SimCamera& sim, const Sequence& s
       sim.field, {options.speed, options.omega_deg * std::numbers::pi / 180, 30.0}, options.frames);
   std::array<std::vector<double>, 2> modelErrors;
   std::array<long long, 2> wrongPoints{};
+  // What feature recognition makes of each run's points: features by kind, pose hypotheses
+  // within 0.5 m and 10 deg of the true pose (or its twin across the centre) and the others
+  // (false), as fieldline-eval-features counts them, but on the moving sequence.
+  fieldline::feature_recognition::FeatureRecognizer recognizer(sim.field);
+  fieldline::perception::FieldFeatures features;
+  constexpr int kKinds = 7;
+  std::array<std::array<long long, kKinds>, 2> featuresByKind{};
+  std::array<long long, 2> goodHypotheses{}, falseHypotheses{};
+  std::array<int, 2> framesWithGood{};
+  auto addFeatures = [&](const rt::LinePoints& lines, int run, int frame) {
+    recognizer.recognize(lines, features);
+    for (const auto& f : features.features)
+      ++featuresByKind[run][std::clamp(static_cast<int>(f.kind), 0, kKinds - 1)];
+    const fieldline::geometry::Pose2& truth = poses[frame];
+    const fieldline::geometry::Pose2 twin{-truth.x, -truth.y,
+                                          fieldline::geometry::normalizeAngle(truth.phi + M_PI)};
+    bool good = false;
+    for (const auto& h : features.hypotheses) {
+      bool near = false;
+      for (const fieldline::geometry::Pose2& t : {truth, twin}) {
+        near = near ||
+               (std::hypot(h.pose.x - t.x, h.pose.y - t.y) <= 0.5 &&
+                std::abs(fieldline::geometry::angleDiff(h.pose.phi, t.phi)) <= 10.0 * M_PI / 180.0);
+      }
+      (near ? goodHypotheses : falseHypotheses)[run] += 1;
+      good = good || near;
+    }
+    framesWithGood[run] += good ? 1 : 0;
+  };
   auto addModelErrors = [&](const rt::LinePoints& lines, int run, int frame) {
     for (const rt::LinePoint& p : lines.points) {
       const double e =
@@ -520,6 +555,11 @@ void printLineDiff(const Options& options, rt::SimCamera& sim, const Sequence& s
     }
     return n;
   };
+  if (options.phase_shift) {
+    std::copy(sequence[0].begin(), sequence[0].end(), delivered.begin());
+    tested.classifier().setFrame(sim.renderer->view(delivered));
+    tested.tracker().track(tested.classifier());
+  }
   for (int i = 0; i < options.frames; ++i) {
     std::copy(sequence[i].begin(), sequence[i].end(), delivered.begin());
     const camera::FrameView frame = sim.renderer->view(delivered);
@@ -531,6 +571,8 @@ void printLineDiff(const Options& options, rt::SimCamera& sim, const Sequence& s
     tested.lineDetector().detect(frame, tested.tracker().contours(), testedLines);
     addModelErrors(exactLines, 0, i);
     addModelErrors(testedLines, 1, i);
+    addFeatures(exactLines, 0, i);
+    addFeatures(testedLines, 1, i);
     exactCells += exact.tracker().stats().cells_classified;
     testedCells += tested.tracker().stats().cells_classified;
     ++frames;
@@ -576,6 +618,14 @@ void printLineDiff(const Options& options, rt::SimCamera& sim, const Sequence& s
       "points further than 10 cm per frame %.3f / %.3f\n\n",
       quantile(modelErrors[0], 0.5), quantile(modelErrors[1], 0.5), quantile(modelErrors[0], 0.95),
       quantile(modelErrors[1], 0.95), wrongPoints[0] / n, wrongPoints[1] / n);
+  std::printf(
+      "features, exact / tested: centre circles %lld / %lld, penalty corners %lld / %lld, field "
+      "corners %lld / %lld, T junctions %lld / %lld, straight lines %lld / %lld; frames with a "
+      "correct pose hypothesis %d / %d; hypotheses correct %lld / %lld, false %lld / %lld\n\n",
+      featuresByKind[0][1], featuresByKind[1][1], featuresByKind[0][2], featuresByKind[1][2],
+      featuresByKind[0][3], featuresByKind[1][3], featuresByKind[0][4], featuresByKind[1][4],
+      featuresByKind[0][5], featuresByKind[1][5], framesWithGood[0], framesWithGood[1],
+      goodHypotheses[0], goodHypotheses[1], falseHypotheses[0], falseHypotheses[1]);
   std::printf(
       "| tolerance | missing per frame (max) | extra per frame (max) | missing by range <2 / 2-4 / "
       "4-6 / >6 m | extra by range |\n|---|---|---|---|---|\n");
