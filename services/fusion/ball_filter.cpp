@@ -22,6 +22,8 @@ const char* toString(BallRejection r) {
       return "ball_too_far";
     case BallRejection::kOutlier:
       return "ball_outlier";
+    case BallRejection::kPoseUnconfirmed:
+      return "ball_pose_unconfirmed";
   }
   return "unknown";
 }
@@ -68,6 +70,7 @@ BallRejection BallFilter::update(const perception::BallSighting& s, const EkfSta
     return BallRejection::kNotFinite;
   }
   if (initialized_ && s.utime < utime_) return BallRejection::kOutOfOrder;
+  if (!poseConfirmed(s.utime, robot)) return BallRejection::kPoseUnconfirmed;
   const Eigen::Vector2d local(s.x, s.y);
   const double range = local.norm();
   if (range > params_.max_range_m) return BallRejection::kTooFar;
@@ -129,23 +132,33 @@ BallRejection BallFilter::update(const perception::BallSighting& s, const EkfSta
   return BallRejection::kNone;
 }
 
-void BallFilter::missed(Utime t, const EkfState& robot) {
+bool BallFilter::poseConfirmed(Utime t, const EkfState& robot) const {
+  if (params_.pose_max_unconfirmed_s <= 0.0) return true;
+  if (robot.last_correction_utime == 0) return false;  // never corrected: dead reckoning only
+  if (robot.last_correction_utime >= t) return true;
+  return static_cast<double>(t - robot.last_correction_utime) * 1e-6 <=
+         params_.pose_max_unconfirmed_s;
+}
+
+BallRejection BallFilter::missed(Utime t, const EkfState& robot) {
   if (params_.unseen_range_m <= 0.0 || !initialized_ || contradicted_ || t < utime_ ||
       !robot.x.allFinite()) {
-    return;
+    return BallRejection::kNone;
   }
+  if (!poseConfirmed(t, robot)) return BallRejection::kPoseUnconfirmed;
   Eigen::Vector4d x = x_;
   Eigen::Matrix4d p = p_;
   predict(t, x, p);
   const double range = std::hypot(x[0] - robot.x[0], x[1] - robot.x[1]);
   if (!(range <= params_.unseen_range_m)) {
     missed_in_row_ = 0;
-    return;
+    return BallRejection::kNone;
   }
   if (++missed_in_row_ >= params_.unseen_frames) {
     contradicted_ = true;
     ++unseen_invalidations_;
   }
+  return BallRejection::kNone;
 }
 
 bool BallFilter::fitRow(Utime t, const Eigen::Vector2d& z, const Eigen::Matrix2d& r,
