@@ -70,7 +70,10 @@ BallRejection BallFilter::update(const perception::BallSighting& s, const EkfSta
     return BallRejection::kNotFinite;
   }
   if (initialized_ && s.utime < utime_) return BallRejection::kOutOfOrder;
-  if (!poseConfirmed(s.utime, robot)) return BallRejection::kPoseUnconfirmed;
+  // A pose not confirmed lately may be off by a radian (a robot twisted in a collision, its
+  // frames gated): its sighting may agree and be fused, but it neither starts the filter nor
+  // disagrees (no outlier, no contradiction, no restart).
+  const bool confirmed = poseConfirmed(s.utime, robot);
   const Eigen::Vector2d local(s.x, s.y);
   const double range = local.norm();
   if (range > params_.max_range_m) return BallRejection::kTooFar;
@@ -92,6 +95,7 @@ BallRejection BallFilter::update(const perception::BallSighting& s, const EkfSta
   r += j * robot.p.topLeftCorner<3, 3>() * j.transpose();
 
   if (!initialized_) {
+    if (!confirmed) return BallRejection::kPoseUnconfirmed;
     restart(s.utime, z, r);
     return BallRejection::kNone;
   }
@@ -102,6 +106,7 @@ BallRejection BallFilter::update(const perception::BallSighting& s, const EkfSta
   const Eigen::Matrix2d sm = p.topLeftCorner<2, 2>() + r;
   const double m2 = y.dot(sm.inverse() * y);
   if (!(m2 <= params_.gate2)) {
+    if (!confirmed) return BallRejection::kPoseUnconfirmed;
     const bool confident = s.sigma_radial <= params_.restart_max_sigma_m &&
                            s.sigma_tangential <= params_.restart_max_sigma_m;
     const bool far =

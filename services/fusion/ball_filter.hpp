@@ -40,10 +40,12 @@ struct BallFilterParams {
   // else or bounced off a robot, and the sighting is better than the old estimate. 0: off, m.
   double restart_distance_m = 0.0;
   double restart_max_sigma_m = 0.15;
-  // A sighting (or a frame without the ball) is only used when the robot's pose at its time was
-  // confirmed by an accepted line correction at most this long before: while the frames are
-  // gated (a robot twisted in a collision), the pose's heading can be off by a radian and the
-  // sighting lands metres away, where three in a row would restart the ball. 0: off, s.
+  // The robot's pose at a sighting's time counts as confirmed when an accepted line correction
+  // was at most this long before. While the frames are gated (a robot twisted in a collision),
+  // the heading can be off by a radian and a sighting lands metres away, where three in a row
+  // restarted the ball. A sighting with an unconfirmed pose is fused only when it agrees with the
+  // prediction; otherwise, and for starting the filter or a frame without the ball
+  // (unseen_range_m), it is refused (kPoseUnconfirmed). 0: off, s.
   double pose_max_unconfirmed_s = 0.0;
   // When the filter restarts after outliers, a straight path fitted through the row of outliers
   // (those at most `pair_max_age_s` older) and the restarting sighting gives the velocity, if

@@ -366,7 +366,7 @@ TEST(BallFilter, SightingsWithAPoseNotConfirmedLatelyAreRefused) {
   EXPECT_EQ(refused_off, 0);
 }
 
-TEST(BallFilter, APoseNeverCorrectedIsNotConfirmed) {
+TEST(BallFilter, AnUnconfirmedPoseNeitherStartsNorContradicts) {
   BallFilterParams params;
   params.pose_max_unconfirmed_s = 0.15;
   BallFilter f(params);
@@ -378,6 +378,17 @@ TEST(BallFilter, APoseNeverCorrectedIsNotConfirmed) {
   EXPECT_FALSE(f.initialized());
   s.last_correction_utime = kStart - 100'000;
   EXPECT_EQ(f.update(sightingOf({2.0, 2.0}, robot, kStart, rng), s), BallRejection::kNone);
+  // Started: a sighting that agrees is fused with a pose confirmed 0.3 s before, one that
+  // disagrees is refused (no outlier: the pose may be what is wrong).
+  EkfState old = robotAt(robot, kStart + 200'000);
+  old.last_correction_utime = kStart - 100'000;
+  EXPECT_EQ(f.update(sightingOf({2.0, 2.0}, robot, kStart + 200'000, rng), old),
+            BallRejection::kNone);
+  EXPECT_EQ(f.estimate(kStart + 200'000).last_seen_utime, kStart + 200'000);
+  old.utime = kStart + 233'333;
+  EXPECT_EQ(f.update(sightingOf({-1.0, 2.0}, robot, kStart + 233'333, rng), old),
+            BallRejection::kPoseUnconfirmed);
+  EXPECT_TRUE(f.estimate(kStart + 233'333).valid);
   // A frame without the ball: with a pose confirmed 0.2 s before it is not used (it would
   // invalidate the estimate), with one confirmed 0.1 s before it is.
   params.unseen_range_m = 6.0;
