@@ -62,7 +62,8 @@ void BallFilter::predict(Utime t, Eigen::Vector4d& x, Eigen::Matrix4d& p) const 
   p = f * p * f.transpose() + qm;
 }
 
-BallRejection BallFilter::update(const perception::BallSighting& s, const EkfState& robot) {
+BallRejection BallFilter::update(const perception::BallSighting& s, const EkfState& robot,
+                                 bool confirmed_after) {
   if (!s.visible) return BallRejection::kNotVisible;
   if (!std::isfinite(s.x) || !std::isfinite(s.y) || !std::isfinite(s.sigma_radial) ||
       !std::isfinite(s.sigma_tangential) || s.sigma_radial <= 0.0 || s.sigma_tangential <= 0.0 ||
@@ -71,9 +72,10 @@ BallRejection BallFilter::update(const perception::BallSighting& s, const EkfSta
   }
   if (initialized_ && s.utime < utime_) return BallRejection::kOutOfOrder;
   // A pose not confirmed lately may be off by a radian (a robot twisted in a collision, its
-  // frames gated): its sighting may agree and be fused, but it neither starts the filter nor
-  // disagrees (no outlier, no contradiction, no restart).
-  const bool confirmed = poseConfirmed(s.utime, robot);
+  // frames gated): its sighting may agree and be fused; one that disagrees makes the estimate
+  // invalid (invalid_after_outlier) but neither starts the filter, counts as an outlier nor
+  // restarts it.
+  const bool confirmed = confirmed_after && poseConfirmed(s.utime, robot);
   const Eigen::Vector2d local(s.x, s.y);
   const double range = local.norm();
   if (range > params_.max_range_m) return BallRejection::kTooFar;
@@ -106,7 +108,11 @@ BallRejection BallFilter::update(const perception::BallSighting& s, const EkfSta
   const Eigen::Matrix2d sm = p.topLeftCorner<2, 2>() + r;
   const double m2 = y.dot(sm.inverse() * y);
   if (!(m2 <= params_.gate2)) {
-    if (!confirmed) return BallRejection::kPoseUnconfirmed;
+    if (!confirmed) {
+      // Withholding the estimate is safe whichever is wrong, moving it is not.
+      contradicted_ = params_.invalid_after_outlier;
+      return BallRejection::kPoseUnconfirmed;
+    }
     const bool confident = s.sigma_radial <= params_.restart_max_sigma_m &&
                            s.sigma_tangential <= params_.restart_max_sigma_m;
     const bool far =

@@ -44,9 +44,13 @@ struct BallFilterParams {
   // was at most this long before. While the frames are gated (a robot twisted in a collision),
   // the heading can be off by a radian and a sighting lands metres away, where three in a row
   // restarted the ball. A sighting with an unconfirmed pose is fused only when it agrees with the
-  // prediction; otherwise, and for starting the filter or a frame without the ball
-  // (unseen_range_m), it is refused (kPoseUnconfirmed). 0: off, s.
+  // prediction; otherwise (it only makes the estimate invalid, invalid_after_outlier), and for
+  // starting the filter or a frame without the ball (unseen_range_m), it is refused
+  // (kPoseUnconfirmed). 0: off, s.
   double pose_max_unconfirmed_s = 0.0;
+  // BallTracker: the pose is confirmed only when the next accepted correction after the sighting
+  // (within pose_max_unconfirmed_s) moved the heading by at most this, rad.
+  double pose_max_correction_rad = 0.1;
   // When the filter restarts after outliers, a straight path fitted through the row of outliers
   // (those at most `pair_max_age_s` older) and the restarting sighting gives the velocity, if
   // the sightings lie on it and it is at most `pair_max_speed` m/s: the ball rolls on as they say
@@ -89,8 +93,11 @@ class BallFilter {
  public:
   explicit BallFilter(BallFilterParams params = {});
 
-  // Fuses a visible sighting with the robot's state at the sighting's utime.
-  BallRejection update(const perception::BallSighting& sighting, const EkfState& robot);
+  // Fuses a visible sighting with the robot's state at the sighting's utime. `confirmed_after`:
+  // the next line frame after the sighting confirmed the pose (BallTracker), see
+  // pose_max_unconfirmed_s.
+  BallRejection update(const perception::BallSighting& sighting, const EkfState& robot,
+                       bool confirmed_after = true);
   // A frame at `t` that did not see the ball, the robot's state at that time (unseen_range_m).
   // Returns kPoseUnconfirmed when the pose was not used (pose_max_unconfirmed_s), else kNone.
   BallRejection missed(Utime t, const EkfState& robot);

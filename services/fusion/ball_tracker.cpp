@@ -56,7 +56,32 @@ void BallTracker::apply(BallFilter& f, const perception::BallSighting& s, const 
     if (count) ++refusals_["ball_no_pose"];
     return;
   }
-  const BallRejection r = f.update(s, *robot);
+  // The line corrections after the sighting confirm its pose when one came within
+  // pose_max_unconfirmed_s and none of those turned the heading by more than
+  // pose_max_correction_rad (a twisted robot's frames are gated until a reset turns it back by up
+  // to a radian).
+  bool confirmed_after = true;
+  if (params_.pose_max_unconfirmed_s > 0.0) {
+    const Utime horizon =
+        s.utime + static_cast<Utime>(std::llround(params_.pose_max_unconfirmed_s * 1e6));
+    // Every correction in (utime, horizon], newest first, must hardly turn the heading: the
+    // state at it against the state just before it (which names the correction before).
+    confirmed_after = false;
+    std::optional<EkfState> later = pose_at(horizon);
+    for (int i = 0; i < 32 && later && later->last_correction_utime > s.utime; ++i) {
+      const Utime c = later->last_correction_utime;
+      const std::optional<EkfState> at = pose_at(c);
+      std::optional<EkfState> before = pose_at(c - 1);
+      if (!at || !before ||
+          std::abs(geometry::angleDiff(at->x[2], before->x[2])) > params_.pose_max_correction_rad) {
+        confirmed_after = false;
+        break;
+      }
+      confirmed_after = true;  // at least one correction within the horizon, none turned
+      later = std::move(before);
+    }
+  }
+  const BallRejection r = f.update(s, *robot, confirmed_after);
   if (count && r != BallRejection::kNone) ++refusals_[toString(r)];
 }
 

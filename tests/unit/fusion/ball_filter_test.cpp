@@ -369,6 +369,7 @@ TEST(BallFilter, SightingsWithAPoseNotConfirmedLatelyAreRefused) {
 TEST(BallFilter, AnUnconfirmedPoseNeitherStartsNorContradicts) {
   BallFilterParams params;
   params.pose_max_unconfirmed_s = 0.15;
+  params.invalid_after_outlier = true;
   BallFilter f(params);
   std::mt19937 rng(10);
   const geometry::Pose2 robot{1.0, 1.0, 0.3};
@@ -379,7 +380,7 @@ TEST(BallFilter, AnUnconfirmedPoseNeitherStartsNorContradicts) {
   s.last_correction_utime = kStart - 100'000;
   EXPECT_EQ(f.update(sightingOf({2.0, 2.0}, robot, kStart, rng), s), BallRejection::kNone);
   // Started: a sighting that agrees is fused with a pose confirmed 0.3 s before, one that
-  // disagrees is refused (no outlier: the pose may be what is wrong).
+  // disagrees is refused (no outlier, no restart: the pose may be what is wrong).
   EkfState old = robotAt(robot, kStart + 200'000);
   old.last_correction_utime = kStart - 100'000;
   EXPECT_EQ(f.update(sightingOf({2.0, 2.0}, robot, kStart + 200'000, rng), old),
@@ -388,7 +389,8 @@ TEST(BallFilter, AnUnconfirmedPoseNeitherStartsNorContradicts) {
   old.utime = kStart + 233'333;
   EXPECT_EQ(f.update(sightingOf({-1.0, 2.0}, robot, kStart + 233'333, rng), old),
             BallRejection::kPoseUnconfirmed);
-  EXPECT_TRUE(f.estimate(kStart + 233'333).valid);
+  EXPECT_FALSE(f.estimate(kStart + 233'333).valid);  // withheld, not moved
+  EXPECT_NEAR(f.estimate(kStart + 233'333).x, 2.0, 0.1);
   // A frame without the ball: with a pose confirmed 0.2 s before it is not used (it would
   // invalidate the estimate), with one confirmed 0.1 s before it is.
   params.unseen_range_m = 6.0;
