@@ -159,6 +159,10 @@ void loadBall(const config::Node& n, FusionConfig& c) {
   p.velocity_from_pair = n.getOr<bool>("velocity_from_pair", p.velocity_from_pair);
   p.pair_max_age_s = n.getOr<double>("pair_max_age_s", p.pair_max_age_s, 0.001, 5.0);
   p.pair_max_speed = n.getOr<double>("pair_max_speed", p.pair_max_speed, 0.1, 100.0);
+  p.restart_speed_sigma =
+      n.getOr<double>("restart_speed_sigma", p.restart_speed_sigma, 0.01, 100.0);
+  p.settle_s = n.getOr<double>("settle_s", p.settle_s, 0.0, 1.0);
+  p.smooth_pose = n.getOr<bool>("smooth_pose", p.smooth_pose);
   c.ball_rate_hz = n.getOr<double>("rate_hz", c.ball_rate_hz, 1.0, 200.0);
   n.rejectUnknownKeys();
 }

@@ -1,5 +1,6 @@
 #include "services/fusion/fusion_node.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <numbers>
@@ -81,6 +82,9 @@ void FusionNode::onOdometry(const odometry_t& m) {
 void FusionNode::onLines(const line_contours_t& m) {
   msg::fromMessage(m, lines_);
   localizer_.addLines(lines_.points, m.header.utime, node_.now());
+  const auto at = std::upper_bound(line_times_.begin(), line_times_.end(), m.header.utime);
+  if (at == line_times_.begin() || *std::prev(at) != m.header.utime)
+    line_times_.insert(at, m.header.utime);
   reportNewRejections();
   updateMetrics();
 }
@@ -98,30 +102,28 @@ void FusionNode::onObstacles(const obstacle_observations_t& m) {
 }
 
 void FusionNode::onBall(const ball_observation_t& m) {
-  const perception::BallSighting sighting = msg::fromMessage(m);
-  if (!sighting.visible) {
-    if (const auto robot = localizer_.stateAt(sighting.utime)) ball_.missed(sighting.utime, *robot);
-    return;
-  }
-  const auto robot = localizer_.stateAt(sighting.utime);
-  if (!robot) {
-    ++ball_rejections_["ball_no_pose"];
-    return;
-  }
-  const BallRejection r = ball_.update(sighting, *robot);
+  const BallRejection r = ball_.add(msg::fromMessage(m));
   if (r == BallRejection::kNone) return;
   const std::string kind = toString(r);
-  if (r == BallRejection::kNotFinite || r == BallRejection::kOutOfOrder) {
-    node_.reportError(kind, "VISION_BALL refused: " + kind);
-  } else {
-    ++ball_rejections_[kind];
-  }
+  node_.reportError(kind, "VISION_BALL refused: " + kind);
 }
 
 void FusionNode::publishBall() {
-  const perception::BallEstimate e = ball_.estimate(node_.now());
+  const Utime now = node_.now();
+  // Line frames older than the window cannot correct a pose any more.
+  const Utime keep_from = now - static_cast<Utime>(2e6);
+  while (!line_times_.empty() && line_times_.front() < keep_from)
+    line_times_.pop_front();
+  const PoseAt filtered = [this](Utime t) { return localizer_.stateAt(t); };
+  const PoseAt pose_at =
+      options_.ball.smooth_pose
+          ? PoseAt([this, &filtered](Utime t) { return smoothedPose(filtered, line_times_, t); })
+          : filtered;
+  const perception::BallEstimate e = ball_.estimate(now, pose_at);
   msg::toMessage(e, ball_msg_);
   if (node_.publish(bus::channels::kBallState, ball_msg_)) ++ball_states_;
+  for (const auto& [kind, n] : ball_.refusals())
+    node_.setMetric(kind + "_count", static_cast<double>(n));
 }
 
 void FusionNode::reportNewRejections() {
@@ -157,9 +159,11 @@ void FusionNode::updateMetrics() {
   node_.setMetric("gyro_steps", static_cast<double>(localizer_.counters().gyro_steps));
   node_.setMetric("gyro_bias_deg_s", localizer_.gyroBias() * 180.0 / std::numbers::pi);
   node_.setMetric("twist_searches", static_cast<double>(localizer_.counters().twist_searches));
-  node_.setMetric("ball_restarts_far", static_cast<double>(ball_.restartsFar()));
-  node_.setMetric("ball_unseen_invalidations", static_cast<double>(ball_.unseenInvalidations()));
-  node_.setMetric("ball_restarts_with_velocity", static_cast<double>(ball_.restartsWithVelocity()));
+  node_.setMetric("ball_restarts_far", static_cast<double>(ball_.committed().restartsFar()));
+  node_.setMetric("ball_unseen_invalidations",
+                  static_cast<double>(ball_.committed().unseenInvalidations()));
+  node_.setMetric("ball_restarts_with_velocity",
+                  static_cast<double>(ball_.committed().restartsWithVelocity()));
 }
 
 }  // namespace fieldline::fusion
