@@ -157,8 +157,8 @@ bool BallFilter::fitRow(Utime t, const Eigen::Vector2d& z, const Eigen::Matrix2d
       row.push_back(o);
     }
   }
-  if (row.empty()) return false;
   row.push_back(Outlier{t, z, r});
+  if (row.size() < 2 || static_cast<int>(row.size()) < params_.fit_min_sightings) return false;
   // Weighted least squares of a straight path through the row, per axis: position at t and
   // velocity, each sighting weighted by its mean variance.
   Eigen::Matrix2d normal = Eigen::Matrix2d::Zero();

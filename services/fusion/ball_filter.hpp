@@ -49,6 +49,9 @@ struct BallFilterParams {
   // may roll at several m/s, and the next sighting must not be an outlier for that, m/s.
   double restart_speed_sigma = 2.0;
   double pair_max_age_s = 0.25;
+  // Sightings (the row's and the restarting one) the path needs; from 3 on, they must lie on
+  // it (two sightings always make a path, a false one included).
+  int fit_min_sightings = 2;
   double pair_max_speed = 12.0;
   // The omni camera sees all around: `unseen_frames` frames in a row without the ball while the
   // estimate lies within `unseen_range_m` of the robot make the estimate invalid until a sighting

@@ -158,6 +158,7 @@ void loadBall(const config::Node& n, FusionConfig& c) {
       n.getOr<double>("restart_max_sigma_m", p.restart_max_sigma_m, 0.001, 10.0);
   p.velocity_from_pair = n.getOr<bool>("velocity_from_pair", p.velocity_from_pair);
   p.pair_max_age_s = n.getOr<double>("pair_max_age_s", p.pair_max_age_s, 0.001, 5.0);
+  p.fit_min_sightings = n.getOr<int>("fit_min_sightings", p.fit_min_sightings, 2, 100);
   p.pair_max_speed = n.getOr<double>("pair_max_speed", p.pair_max_speed, 0.1, 100.0);
   p.restart_speed_sigma =
       n.getOr<double>("restart_speed_sigma", p.restart_speed_sigma, 0.01, 100.0);

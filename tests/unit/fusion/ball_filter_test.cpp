@@ -232,6 +232,16 @@ TEST(BallFilter, ARestartAfterOutliersTakesTheVelocityOfThePair) {
   seen(at_rest, 5, {1.0, 0.6});
   seen(at_rest, 6, {1.0, 0.7});
   EXPECT_NEAR(at_rest.estimate(kStart + 6 * 33'333).vy, 0.0, 1e-12);
+  // Nor when the path must be checked by a third sighting.
+  params.velocity_from_pair = true;
+  params.fit_min_sightings = 3;
+  BallFilter unchecked(params);
+  for (int k = 0; k < 5; ++k)
+    seen(unchecked, k, {1.0, 0.0});
+  seen(unchecked, 5, {1.0, 0.6});
+  seen(unchecked, 6, {1.0, 0.7});
+  EXPECT_EQ(unchecked.restartsWithVelocity(), 0u);
+  EXPECT_NEAR(unchecked.estimate(kStart + 6 * 33'333).vy, 0.0, 1e-12);
 }
 
 TEST(BallFilter, ABallStartedAtRestLearnsItsVelocityWhenItRolls) {
