@@ -22,6 +22,8 @@ const char* toString(BallRejection r) {
       return "ball_too_far";
     case BallRejection::kOutlier:
       return "ball_outlier";
+    case BallRejection::kPoseUnconfirmed:
+      return "ball_pose_unconfirmed";
   }
   return "unknown";
 }
@@ -68,6 +70,10 @@ BallRejection BallFilter::update(const perception::BallSighting& s, const EkfSta
     return BallRejection::kNotFinite;
   }
   if (initialized_ && s.utime < utime_) return BallRejection::kOutOfOrder;
+  // A pose not confirmed lately may be off by a radian (a robot twisted in a collision, its
+  // frames gated): its sighting may agree and be fused, but it neither starts the filter nor
+  // disagrees (no outlier, no contradiction, no restart).
+  const bool confirmed = poseConfirmed(s.utime, robot);
   const Eigen::Vector2d local(s.x, s.y);
   const double range = local.norm();
   if (range > params_.max_range_m) return BallRejection::kTooFar;
@@ -89,6 +95,7 @@ BallRejection BallFilter::update(const perception::BallSighting& s, const EkfSta
   r += j * robot.p.topLeftCorner<3, 3>() * j.transpose();
 
   if (!initialized_) {
+    if (!confirmed) return BallRejection::kPoseUnconfirmed;
     restart(s.utime, z, r);
     return BallRejection::kNone;
   }
@@ -99,6 +106,7 @@ BallRejection BallFilter::update(const perception::BallSighting& s, const EkfSta
   const Eigen::Matrix2d sm = p.topLeftCorner<2, 2>() + r;
   const double m2 = y.dot(sm.inverse() * y);
   if (!(m2 <= params_.gate2)) {
+    if (!confirmed) return BallRejection::kPoseUnconfirmed;
     const bool confident = s.sigma_radial <= params_.restart_max_sigma_m &&
                            s.sigma_tangential <= params_.restart_max_sigma_m;
     const bool far =
@@ -129,23 +137,33 @@ BallRejection BallFilter::update(const perception::BallSighting& s, const EkfSta
   return BallRejection::kNone;
 }
 
-void BallFilter::missed(Utime t, const EkfState& robot) {
+bool BallFilter::poseConfirmed(Utime t, const EkfState& robot) const {
+  if (params_.pose_max_unconfirmed_s <= 0.0) return true;
+  if (robot.last_correction_utime == 0) return false;  // never corrected: dead reckoning only
+  if (robot.last_correction_utime >= t) return true;
+  return static_cast<double>(t - robot.last_correction_utime) * 1e-6 <=
+         params_.pose_max_unconfirmed_s;
+}
+
+BallRejection BallFilter::missed(Utime t, const EkfState& robot) {
   if (params_.unseen_range_m <= 0.0 || !initialized_ || contradicted_ || t < utime_ ||
       !robot.x.allFinite()) {
-    return;
+    return BallRejection::kNone;
   }
+  if (!poseConfirmed(t, robot)) return BallRejection::kPoseUnconfirmed;
   Eigen::Vector4d x = x_;
   Eigen::Matrix4d p = p_;
   predict(t, x, p);
   const double range = std::hypot(x[0] - robot.x[0], x[1] - robot.x[1]);
   if (!(range <= params_.unseen_range_m)) {
     missed_in_row_ = 0;
-    return;
+    return BallRejection::kNone;
   }
   if (++missed_in_row_ >= params_.unseen_frames) {
     contradicted_ = true;
     ++unseen_invalidations_;
   }
+  return BallRejection::kNone;
 }
 
 bool BallFilter::fitRow(Utime t, const Eigen::Vector2d& z, const Eigen::Matrix2d& r,

@@ -40,6 +40,13 @@ struct BallFilterParams {
   // else or bounced off a robot, and the sighting is better than the old estimate. 0: off, m.
   double restart_distance_m = 0.0;
   double restart_max_sigma_m = 0.15;
+  // The robot's pose at a sighting's time counts as confirmed when an accepted line correction
+  // was at most this long before. While the frames are gated (a robot twisted in a collision),
+  // the heading can be off by a radian and a sighting lands metres away, where three in a row
+  // restarted the ball. A sighting with an unconfirmed pose is fused only when it agrees with the
+  // prediction; otherwise, and for starting the filter or a frame without the ball
+  // (unseen_range_m), it is refused (kPoseUnconfirmed). 0: off, s.
+  double pose_max_unconfirmed_s = 0.0;
   // When the filter restarts after outliers, a straight path fitted through the row of outliers
   // (those at most `pair_max_age_s` older) and the restarting sighting gives the velocity, if
   // the sightings lie on it and it is at most `pair_max_speed` m/s: the ball rolls on as they say
@@ -74,6 +81,7 @@ enum class BallRejection : std::uint8_t {
   kOutOfOrder,
   kTooFar,
   kOutlier,
+  kPoseUnconfirmed,
 };
 const char* toString(BallRejection r);
 
@@ -84,7 +92,10 @@ class BallFilter {
   // Fuses a visible sighting with the robot's state at the sighting's utime.
   BallRejection update(const perception::BallSighting& sighting, const EkfState& robot);
   // A frame at `t` that did not see the ball, the robot's state at that time (unseen_range_m).
-  void missed(Utime t, const EkfState& robot);
+  // Returns kPoseUnconfirmed when the pose was not used (pose_max_unconfirmed_s), else kNone.
+  BallRejection missed(Utime t, const EkfState& robot);
+  // Whether the robot's pose at `t` was confirmed recently enough (pose_max_unconfirmed_s).
+  bool poseConfirmed(Utime t, const EkfState& robot) const;
   // Times the estimate was made invalid by frames that should have seen it.
   std::uint64_t unseenInvalidations() const { return unseen_invalidations_; }
   // The estimate at `t` (moved on with friction); valid only within max_age of the last sighting.

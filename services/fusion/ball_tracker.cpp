@@ -47,7 +47,9 @@ void BallTracker::apply(BallFilter& f, const perception::BallSighting& s, const 
                         bool count) {
   const std::optional<EkfState> robot = pose_at(s.utime);
   if (!s.visible) {
-    if (robot) f.missed(s.utime, *robot);
+    if (robot && f.missed(s.utime, *robot) != BallRejection::kNone && count) {
+      ++refusals_["ball_missed_pose_unconfirmed"];
+    }
     return;
   }
   if (!robot) {

@@ -156,6 +156,8 @@ void loadBall(const config::Node& n, FusionConfig& c) {
   p.restart_distance_m = n.getOr<double>("restart_distance_m", p.restart_distance_m, 0.0, 50.0);
   p.restart_max_sigma_m =
       n.getOr<double>("restart_max_sigma_m", p.restart_max_sigma_m, 0.001, 10.0);
+  p.pose_max_unconfirmed_s =
+      n.getOr<double>("pose_max_unconfirmed_s", p.pose_max_unconfirmed_s, 0.0, 10.0);
   p.velocity_from_pair = n.getOr<bool>("velocity_from_pair", p.velocity_from_pair);
   p.pair_max_age_s = n.getOr<double>("pair_max_age_s", p.pair_max_age_s, 0.001, 5.0);
   p.fit_min_sightings = n.getOr<int>("fit_min_sightings", p.fit_min_sightings, 2, 100);

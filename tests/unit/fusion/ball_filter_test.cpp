@@ -311,5 +311,99 @@ TEST(BallFilter, ARestartFitsItsVelocityThroughTheRowOfOutliersOnlyWhenTheyAgree
   EXPECT_NEAR(g.estimate(kStart + 7 * 33'333).vx, 0.0, 1e-12);
 }
 
+// A robot twisted in a collision: its heading estimate is 1 rad off for 0.33 s while its line
+// frames are gated (no accepted correction). Its sightings of a ball at rest land 2.9 m away;
+// with pose_max_unconfirmed_s they are refused and the estimate stays, without, three in a row
+// restart the ball there (live match of the sixth round, robot 1 at 30.3 s).
+TEST(BallFilter, SightingsWithAPoseNotConfirmedLatelyAreRefused) {
+  const geometry::Vec2 ball(3.0, 0.0);
+  const geometry::Pose2 estimated{0.0, 0.0, 0.0};
+  const geometry::Pose2 twisted{0.0, 0.0, 1.0};  // the true pose during the twist
+  auto run = [&](double max_unconfirmed_s, int& refused) {
+    BallFilterParams params;
+    params.pose_max_unconfirmed_s = max_unconfirmed_s;
+    params.invalid_after_outlier = true;
+    params.unseen_range_m = 6.0;
+    params.unseen_frames = 1;
+    BallFilter f(params);
+    std::mt19937 rng(9);
+    refused = 0;
+    Utime corrected = 0;
+    for (int k = 0; k < 30; ++k) {
+      const Utime t = kStart + k * 33'333;
+      const bool twist = k >= 10 && k < 20;
+      if (!twist) corrected = t;  // every frame outside the twist is an accepted correction
+      EkfState robot = robotAt(estimated, t);
+      robot.last_correction_utime = corrected;
+      if (f.update(sightingOf(ball, twist ? twisted : estimated, t, rng), robot) ==
+          BallRejection::kPoseUnconfirmed) {
+        ++refused;
+      }
+      if (k == 19) {
+        const auto e = f.estimate(t + 1);
+        if (max_unconfirmed_s > 0.0) {
+          // The first twisted sighting (33 ms after the last correction) was an outlier: the
+          // estimate is not reported, but it stays where the ball is.
+          EXPECT_FALSE(e.valid);
+          EXPECT_NEAR(e.x, ball.x(), 0.1);
+          EXPECT_NEAR(e.y, ball.y(), 0.1);
+        } else {
+          EXPECT_TRUE(e.valid);
+          EXPECT_GT(std::hypot(e.x - ball.x(), e.y - ball.y()), 2.0);
+        }
+      }
+    }
+    return f.estimate(kStart + 29 * 33'333);
+  };
+  int refused = 0;
+  const auto on = run(0.05, refused);
+  EXPECT_EQ(refused, 9);
+  EXPECT_TRUE(on.valid);
+  EXPECT_NEAR(on.x, ball.x(), 0.05);
+  EXPECT_NEAR(on.y, ball.y(), 0.05);
+  int refused_off = 0;
+  run(0.0, refused_off);
+  EXPECT_EQ(refused_off, 0);
+}
+
+TEST(BallFilter, AnUnconfirmedPoseNeitherStartsNorContradicts) {
+  BallFilterParams params;
+  params.pose_max_unconfirmed_s = 0.15;
+  BallFilter f(params);
+  std::mt19937 rng(10);
+  const geometry::Pose2 robot{1.0, 1.0, 0.3};
+  EkfState s = robotAt(robot, kStart);
+  EXPECT_EQ(f.update(sightingOf({2.0, 2.0}, robot, kStart, rng), s),
+            BallRejection::kPoseUnconfirmed);
+  EXPECT_FALSE(f.initialized());
+  s.last_correction_utime = kStart - 100'000;
+  EXPECT_EQ(f.update(sightingOf({2.0, 2.0}, robot, kStart, rng), s), BallRejection::kNone);
+  // Started: a sighting that agrees is fused with a pose confirmed 0.3 s before, one that
+  // disagrees is refused (no outlier: the pose may be what is wrong).
+  EkfState old = robotAt(robot, kStart + 200'000);
+  old.last_correction_utime = kStart - 100'000;
+  EXPECT_EQ(f.update(sightingOf({2.0, 2.0}, robot, kStart + 200'000, rng), old),
+            BallRejection::kNone);
+  EXPECT_EQ(f.estimate(kStart + 200'000).last_seen_utime, kStart + 200'000);
+  old.utime = kStart + 233'333;
+  EXPECT_EQ(f.update(sightingOf({-1.0, 2.0}, robot, kStart + 233'333, rng), old),
+            BallRejection::kPoseUnconfirmed);
+  EXPECT_TRUE(f.estimate(kStart + 233'333).valid);
+  // A frame without the ball: with a pose confirmed 0.2 s before it is not used (it would
+  // invalidate the estimate), with one confirmed 0.1 s before it is.
+  params.unseen_range_m = 6.0;
+  params.unseen_frames = 1;
+  BallFilter g(params);
+  ASSERT_EQ(g.update(sightingOf({2.0, 2.0}, robot, kStart, rng), s), BallRejection::kNone);
+  EkfState later = robotAt(robot, kStart + 100'000);
+  later.last_correction_utime = kStart - 100'000;
+  EXPECT_EQ(g.missed(kStart + 100'000, later), BallRejection::kPoseUnconfirmed);
+  EXPECT_TRUE(g.estimate(kStart + 100'000).valid);
+  later.last_correction_utime = kStart;
+  EXPECT_EQ(g.missed(kStart + 100'000, later), BallRejection::kNone);
+  EXPECT_FALSE(g.estimate(kStart + 100'000).valid);
+  EXPECT_STREQ(toString(BallRejection::kPoseUnconfirmed), "ball_pose_unconfirmed");
+}
+
 }  // namespace
 }  // namespace fieldline::fusion

@@ -3,6 +3,7 @@
 // the smoothed pose spreads the next line frame's correction back over the interval.
 #include "services/fusion/ball_tracker.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <map>
 
@@ -133,6 +134,36 @@ TEST(BallTracker, RefusesBadFramesAtOnceAndCountsCommittedRefusals) {
   ASSERT_EQ(tracker.add(sightingOf({30.0, 1.0}, {}, kStart + 3 * kFrame)), BallRejection::kNone);
   EXPECT_TRUE(tracker.estimate(kStart + 3 * kFrame, still).valid);
   EXPECT_EQ(tracker.refusals().at("ball_too_far"), 1u);
+}
+
+// Frames whose pose was not confirmed by a line correction lately are counted when they are
+// committed, the visible and the unseen ones apart, and change nothing.
+TEST(BallTracker, CountsFramesWithAnUnconfirmedPose) {
+  BallFilterParams params;
+  params.pose_max_unconfirmed_s = 0.05;
+  params.unseen_range_m = 6.0;
+  params.unseen_frames = 1;
+  BallTracker tracker(params);
+  // Corrected at every frame up to kStart + 2 frames, then no more.
+  const PoseAt pose = [](Utime t) {
+    EkfState s = robotAt({}, t);
+    s.last_correction_utime = std::min(t, kStart + 2 * kFrame);
+    return std::optional<EkfState>(s);
+  };
+  for (int k = 0; k < 3; ++k) {
+    ASSERT_EQ(tracker.add(sightingOf({1.0, 1.0}, {}, kStart + k * kFrame)), BallRejection::kNone);
+  }
+  // Far away and hidden, both 0.1 s after the last correction.
+  ASSERT_EQ(tracker.add(sightingOf({-2.0, 1.0}, {}, kStart + 5 * kFrame)), BallRejection::kNone);
+  perception::BallSighting hidden;
+  hidden.utime = kStart + 6 * kFrame;
+  ASSERT_EQ(tracker.add(hidden), BallRejection::kNone);
+  const auto e = tracker.estimate(kStart + 6 * kFrame, pose);  // settle_s 0: all committed
+  EXPECT_TRUE(e.valid);
+  EXPECT_NEAR(e.x, 1.0, 1e-6);
+  EXPECT_NEAR(e.y, 1.0, 1e-6);
+  EXPECT_EQ(tracker.refusals().at("ball_pose_unconfirmed"), 1u);
+  EXPECT_EQ(tracker.refusals().at("ball_missed_pose_unconfirmed"), 1u);
 }
 
 TEST(BallTracker, TheSmoothedPoseSpreadsTheNextCorrectionBack) {
