@@ -116,6 +116,7 @@ LineDetector::LineDetector(const camera::ColourTable& table, const FloorLookup& 
       params_.turn_span > 100 ||
       !(params_.refine_range_m >= 0.0 && params_.refine_range_m <= 100.0) ||
       !(params_.refine_min_range_m >= 0.0 && params_.refine_min_range_m <= 100.0) ||
+      !(params_.refine_spacing_m >= 0.0 && params_.refine_spacing_m <= 10.0) ||
       params_.refine_samples < 1 || params_.refine_samples > 64 || params_.refine_reach < 1 ||
       params_.refine_reach > 16 || !(params_.refine_turn > 0.0 && params_.refine_turn <= 3.1)) {
     throw std::invalid_argument("line detector: invalid parameters");
@@ -676,10 +677,10 @@ void LineDetector::detect(const camera::FrameView& frame, const ContourSet& cont
     }
 
     if (byDistance) sampleByDistance(n, sample_positions_);
-    const int samples = byDistance ? static_cast<int>(sample_positions_.size()) : n / spacing;
-    hits_.assign(samples, Hit{false, {}});
     // Indices among the smoothed corners: no division per sample but at the contour's ends.
     const int sampleStep = spacing / stride, tangentReach = k / stride;
+    const int samples = byDistance ? static_cast<int>(sample_positions_.size()) : n / spacing;
+    hits_.assign(samples, Hit{false, {}});
     // Tangent (difference of the smoothed corners tangentReach before and after) at `centre`.
     auto tangentAt = [&](int centre, float& tu, float& tv) {
       int ahead = centre + tangentReach, behind = centre - tangentReach;
@@ -753,6 +754,7 @@ void LineDetector::detect(const camera::FrameView& frame, const ContourSet& cont
         if (range2 > maxRange2 || range2 < minRange2) continue;
         const Hit& before = hits_[s == 0 ? samples - 1 : s - 1];
         const Hit& after = hits_[s + 1 == samples ? 0 : s + 1];
+        if (!before.found && !after.found && !params_.refine_isolated) continue;
         bool event = !before.found || !after.found;
         if (!event) {
           const float ax = hit.point.x - before.point.x, ay = hit.point.y - before.point.y;
@@ -768,13 +770,25 @@ void LineDetector::detect(const camera::FrameView& frame, const ContourSet& cont
       }
       if (any) {
         merged_hits_.clear();
-        const int extra = params_.refine_samples;
+        const float perMetre = params_.refine_spacing_m > 0.0
+                                   ? static_cast<float>(1.0 / params_.refine_spacing_m)
+                                   : 0.0f;
         for (int s = 0; s < samples; ++s) {
           merged_hits_.push_back(hits_[s]);
           if (!refine_interval_[s]) continue;
           const float a = static_cast<float>(s * sampleStep);
           const float b = s + 1 == samples ? static_cast<float>(smoothed)
                                            : static_cast<float>((s + 1) * sampleStep);
+          int extra = params_.refine_samples;
+          if (perMetre > 0.0f) {
+            // The interval's floor length: its chord through the floor's Jacobian at its middle.
+            const int ia = static_cast<int>(a), ib = s + 1 == samples ? 0 : static_cast<int>(b);
+            const float du = smooth_u_[ib] - smooth_u_[ia], dv = smooth_v_[ib] - smooth_v_[ia];
+            const float metres =
+                floorLength(smooth_u_[ia] + 0.5f * du, smooth_v_[ia] + 0.5f * dv, du, dv);
+            extra = std::min(extra, static_cast<int>(metres * perMetre));
+            if (extra <= 0) continue;
+          }
           const std::size_t first = merged_hits_.size();
           merged_hits_.resize(first + extra, Hit{false, {}});
           for (int t = 1; t <= extra; ++t) {

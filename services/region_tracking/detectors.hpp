@@ -94,8 +94,9 @@ struct LineDetectorParams {
   // pixels and at least `ridge_min_levels` above it (0 = off: only runs of the line colour).
   double ridge_contrast = 1.3;
   int ridge_min_levels = 16;
-  // The detector runs at every n-th contour corner (when sample_spacing_m is 0).
-  int sample_spacing = 2;
+  // The detector runs at every n-th contour corner (when sample_spacing_m is 0), then the
+  // refinement below.
+  int sample_spacing = 4;
   // Sampling by distance on the field instead (0 = off): the detector runs every this many
   // metres of floor along the smoothed contour, at fractional positions between its corners
   // where a corner step spans more floor than that (far from the robot) and every few corners
@@ -124,11 +125,17 @@ struct LineDetectorParams {
   // than `refine_turn` rad) gets `refine_samples` more scans in each of the `refine_reach`
   // sample intervals on both sides of it, evenly between the samples. The scans follow the
   // lines that need them (a penalty area's corners 2-4 m away) instead of every contour's turns.
-  double refine_range_m = 0.0;
+  double refine_range_m = 4.5;
   double refine_min_range_m = 0.0;
-  int refine_samples = 3;
-  int refine_reach = 1;
+  int refine_samples = 4;
+  // With refine_spacing_m > 0: an interval gets only as many of its refine_samples scans as
+  // put them this far apart on the floor (fewer near the robot, where a pixel is less floor).
+  double refine_spacing_m = 0.1;
+  int refine_reach = 2;
   double refine_turn = 0.5;
+  // Whether a line point without a line point at either neighbouring sample (a lone point:
+  // clutter more often than a line) is refined too.
+  bool refine_isolated = false;
   // Passes of 0.25/0.5/0.25 smoothing of the contour before tangents are taken.
   int smoothing_passes = 3;
   // Tangent from the points this many corners before and after.

@@ -97,6 +97,9 @@ VisionParams loadVisionParams(const config::Node& node) {
       lines.getOr<double>("refine_min_range_m", lineDefaults.refine_min_range_m, 0.0, 100.0);
   params.lines.refine_samples =
       lines.getOr<int>("refine_samples", lineDefaults.refine_samples, 1, 64);
+  params.lines.refine_spacing_m =
+      lines.getOr<double>("refine_spacing_m", lineDefaults.refine_spacing_m, 0.0, 10.0);
+  params.lines.refine_isolated = lines.getOr<bool>("refine_isolated", lineDefaults.refine_isolated);
   params.lines.refine_reach = lines.getOr<int>("refine_reach", lineDefaults.refine_reach, 1, 16);
   params.lines.refine_turn =
       lines.getOr<double>("refine_turn", lineDefaults.refine_turn, 0.01, 3.1);

@@ -65,8 +65,12 @@ struct Options {
   double turn_reach_m = -1.0;
   double turn_range_m = -1.0;
   // The line detector's refinement (sampling by index; negative = the default's).
-  double refine_range_m = -1.0, refine_min_range_m = -1.0, refine_turn = -1.0;
+  double refine_range_m = -1.0, refine_min_range_m = -1.0, refine_turn = -1.0,
+         refine_spacing_m = -1.0;
   int refine_samples = 0, refine_reach = 0;
+  bool refine_isolated = false;
+  // The recogniser's line_end_alone_side_points (negative = its default).
+  int alone_side_points = -1;
   bool clutter = true;
   int opponents = 3;
   // Clutter knobs (with --no-clutter all are off).
@@ -83,6 +87,8 @@ struct Options {
   int occlusion_frames = 0;
   std::string pose;
   int frame = -1;
+  // Only the frames from this one on of the --frames path (to look into a part of a long run).
+  int first_frame = 0;
   std::string image;
   std::string dump;
   bool progress = false;
@@ -687,7 +693,10 @@ void occlusionSeries(const Options& options, region_tracking::SimCamera& sim,
 
 int run(const Options& options) {
   region_tracking::SimCamera sim = region_tracking::SimCamera::load(options.camera, options.field);
-  feature_recognition::FeatureRecognizer recognizer(sim.field);
+  feature_recognition::RecognitionParams recognition_params;
+  if (options.alone_side_points >= 0)
+    recognition_params.line_end_alone_side_points = options.alone_side_points;
+  feature_recognition::FeatureRecognizer recognizer(sim.field, recognition_params);
   region_tracking::VisionParams vision_params = region_tracking::defaultVisionParams();
   if (options.sample_spacing > 0) {
     vision_params.lines.sample_spacing = options.sample_spacing;
@@ -703,6 +712,9 @@ int run(const Options& options) {
   if (options.refine_min_range_m >= 0.0)
     vision_params.lines.refine_min_range_m = options.refine_min_range_m;
   if (options.refine_turn > 0.0) vision_params.lines.refine_turn = options.refine_turn;
+  if (options.refine_isolated) vision_params.lines.refine_isolated = true;
+  if (options.refine_spacing_m >= 0.0)
+    vision_params.lines.refine_spacing_m = options.refine_spacing_m;
   if (options.refine_samples > 0) vision_params.lines.refine_samples = options.refine_samples;
   if (options.refine_reach > 0) vision_params.lines.refine_reach = options.refine_reach;
   region_tracking::FrameProcessor processor(sim.mirror, sim.table, vision_params);
@@ -760,7 +772,7 @@ int run(const Options& options) {
     check_csv.open(options.check_csv);
     check_csv << "frame,kind,share,points,others_share,others,accepted,error_m,error_deg\n";
   }
-  for (int f = 0; f < static_cast<int>(path.size()); ++f) {
+  for (int f = options.first_frame; f < static_cast<int>(path.size()); ++f) {
     const Pose2& pose = path[f];
     const camera::SimScene scene =
         sceneFor(pose, static_cast<std::uint64_t>(f), options, sim.field);
@@ -956,6 +968,10 @@ void addOptions(CLI::App& app, Options& options) {
                  "Only turns within this distance of the robot count, m (default: "
                  "vision_default.yaml's)")
       ->check(CLI::Range(0.0, 100.0));
+  app.add_option("--alone-side-points", options.alone_side_points,
+                 "The recogniser's line_end_alone_side_points (a line end without a parallel "
+                 "partner is a corner when its other line shows this many points; 0 = off)")
+      ->check(CLI::Range(0, 100));
   app.add_option("--refine-range-m", options.refine_range_m,
                  "The line detector's refinement around line ends and turns (sampling by index): "
                  "line points up to this far count, m (0 = off; default: vision_default.yaml's)")
@@ -966,6 +982,12 @@ void addOptions(CLI::App& app, Options& options) {
   app.add_option("--refine-samples", options.refine_samples,
                  "Refinement: scans added per refined sample interval")
       ->check(CLI::Range(1, 64));
+  app.add_option("--refine-spacing-m", options.refine_spacing_m,
+                 "Refinement: at most as many scans per interval as put them this far apart on "
+                 "the floor, m (0 = always --refine-samples)")
+      ->check(CLI::Range(0.0, 10.0));
+  app.add_flag("--refine-isolated", options.refine_isolated,
+               "Refinement: also around line points without a neighbouring one");
   app.add_option("--refine-reach", options.refine_reach,
                  "Refinement: sample intervals refined on each side of a line's end or turn")
       ->check(CLI::Range(1, 16));
@@ -1002,6 +1024,9 @@ void addOptions(CLI::App& app, Options& options) {
                  "Frames of the occlusion series (seed fig. 4.60); 0 = none")
       ->check(CLI::Range(0, 10'000'000))
       ->capture_default_str();
+  app.add_option("--first-frame", options.first_frame,
+                 "Start at this frame of the --frames path (the frames before it are skipped)")
+      ->check(CLI::Range(0, 10'000'000));
   app.add_option("--frame", options.frame,
                  "Evaluate only this frame of the --frames path (with its clutter) in detail")
       ->check(CLI::Range(0, 10'000'000));
