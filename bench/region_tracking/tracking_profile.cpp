@@ -18,11 +18,16 @@
 //       (every point's image and floor position bit for bit, the sequences) and the pixels the
 //       line detector read: equal before and after a speed change of the line detector
 //       (--blur 1.2 renders the frames through the optics blur, where the ridge rule finds lines)
+//   fieldline-profile-tracking --mask-edge-every 2 --line-diff
+//       the line points of the vision config with tracker.mask_edge_every 2 against the same
+//       config with 1 (exact) on the same frames: points missing and extra, per frame, by range
 #include <algorithm>
 #include <array>
 #include <bit>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
+#include <numbers>
 #include <string>
 #include <vector>
 
@@ -31,7 +36,9 @@
 
 #include "bench/region_tracking/bench_sequence.hpp"
 #include "common/config/config.hpp"
+#include "common/geometry/geometry.hpp"
 #include "services/camera/realism.hpp"
+#include "services/feature_recognition/recognizer.hpp"
 #include "services/region_tracking/baselines.hpp"
 #include "services/region_tracking/frame_processor.hpp"
 
@@ -50,21 +57,23 @@ struct Breakdown {
   double green_owned = 0;      // green, in a tracked green region at the end of the frame
   double green_untracked = 0;  // green but not tracked
   double white = 0;
-  double other_tracked = 0;  // another tracked class (goal, ball, obstacle colours)
-  double other = 0;          // unknown / untracked classes
-  double next_to_mask = 0;   // touched cells with a don't-touch (or out-of-grid) neighbour
+  double other_tracked = 0;       // another tracked class (goal, ball, obstacle colours)
+  double other = 0;               // unknown / untracked classes
+  double next_to_mask = 0;        // touched cells with a don't-touch (or out-of-grid) neighbour
+  double next_to_mask_inner = 0;  // of those, at the inner edge (the robot's body)
   // The least any exact shrink-and-grow classifies in a frame where nothing moved: the cells of
   // the tracked regions with a neighbour outside their region (shrink re-checks them) and the
   // touchable cells outside next to a region (grow must see they did not join it).
   double boundary_band = 0;
-  double boundary_band_at_mask = 0;  // the part of the band next to the don't-touch mask
+  double boundary_band_at_mask = 0;   // the part of the band next to the don't-touch mask
+  double boundary_band_at_inner = 0;  // of that, at the inner edge (rt::MaskEdge::kInner)
   double touchable_cells = 0;
   double cells = 0;
   double drops_processed = 0;
 };
 
 void addBreakdown(const rt::FrameProcessor& processor, rt::FrameCellClassifier& classifier,
-                  Breakdown& b) {
+                  const std::vector<rt::MaskEdge>& edges, Breakdown& b) {
   const rt::RegionTracker& tracker = processor.tracker();
   const rt::CellGrid& grid = processor.grid();
   const std::vector<std::uint8_t>& mask = processor.dontTouch();
@@ -98,6 +107,7 @@ void addBreakdown(const rt::FrameProcessor& processor, rt::FrameCellClassifier& 
         if (band) {
           ++b.boundary_band;
           if (atMask) ++b.boundary_band_at_mask;
+          if (edges[grid.index(x, y)] == rt::MaskEdge::kInner) ++b.boundary_band_at_inner;
         }
       }
       if (!tracker.classifiedInLastFrame(x, y)) continue;
@@ -113,6 +123,7 @@ void addBreakdown(const rt::FrameProcessor& processor, rt::FrameCellClassifier& 
         ++b.other;
       }
       if (atMask) ++b.next_to_mask;
+      if (edges[grid.index(x, y)] == rt::MaskEdge::kInner) ++b.next_to_mask_inner;
     }
   }
 }
@@ -181,15 +192,26 @@ struct Options {
   int frames = 240, repeat = 1, line_repeat = 1;
   bool no_breakdown = false;
   bool digest = false;
+  bool line_diff = false;
+  bool phase_shift = false;
   int max_seed_regions = -1;
+  int mask_edge_every = 0;
+  int mask_edge_inner = -1;
+  std::string vision_config;
 
-  // The vision parameters of the run: the defaults, with --max-seed-regions.
+  // The vision parameters of the run: the defaults (or --vision-config), with
+  // --max-seed-regions, --mask-edge-every and --mask-edge-inner.
   rt::VisionParams params() const {
-    rt::VisionParams p = rt::defaultVisionParams();
+    rt::VisionParams p =
+        vision_config.empty()
+            ? rt::defaultVisionParams()
+            : rt::loadVisionParams(fieldline::config::Node::loadFile(vision_config));
     if (max_seed_regions >= 0) {
       for (rt::ClassTracking& c : p.tracker.classes)
         c.max_seed_regions = max_seed_regions;
     }
+    if (mask_edge_every > 0) p.tracker.mask_edge_every = mask_edge_every;
+    if (mask_edge_inner >= 0) p.tracker.mask_edge_inner = mask_edge_inner != 0;
     return p;
   }
 
@@ -227,6 +249,24 @@ struct Options {
                    "seed only this many of the largest regions in an initial search (the seed: "
                    "10; 0: every region; default: the vision config's)")
         ->check(CLI::Range(0, 1000));
+    app.add_option("--vision-config", vision_config,
+                   "vision parameters (services/region_tracking/vision_default.yaml format); "
+                   "default: the built-in defaults");
+    app.add_option("--mask-edge-every", mask_edge_every,
+                   "classify the cells next to the don't-touch mask every n-th frame "
+                   "(tracker.mask_edge_every; 1: every frame, exact; default: the config's)")
+        ->check(CLI::Range(1, 16));
+    app.add_option("--mask-edge-inner", mask_edge_inner,
+                   "1: the cadence also at the inner edge (the robot's body), 0: the outer rim "
+                   "only (tracker.mask_edge_inner; default: the config's)")
+        ->check(CLI::Range(0, 1));
+    app.add_flag("--line-diff", line_diff,
+                 "compare the line points with those of the same config at mask_edge_every 1 "
+                 "on the same frames");
+    app.add_flag("--phase-shift", phase_shift,
+                 "with --line-diff: the tested tracker sees the first frame twice, so its rim "
+                 "cells are due in the other frames (keep --frames below the re-initialisation "
+                 "period, 300)");
   }
 };
 
@@ -253,6 +293,7 @@ int runMethod(const Options& options, rt::SimCamera& sim, const Sequence& sequen
   rt::CmvisionSegmenter cmvision(processor.grid(), classes, processor.dontTouch());
   rt::OpenCvSegmenter opencv(processor.grid(), classes, processor.dontTouch());
   rt::LinePoints lines;
+  const std::vector<rt::MaskEdge> edges = rt::maskEdges(processor.grid(), processor.dontTouch());
   int measured = 0;
   for (int run = 0; run < options.repeat; ++run) {
     for (int i = 0; i < options.frames; ++i) {
@@ -279,7 +320,7 @@ int runMethod(const Options& options, rt::SimCamera& sim, const Sequence& sequen
       }
       if (options.digest) digests.tracker.add(processor.tracker());
       if (options.no_breakdown || options.digest || i == 0) continue;
-      addBreakdown(processor, processor.classifier(), breakdown);
+      addBreakdown(processor, processor.classifier(), edges, breakdown);
       ++measured;
     }
   }
@@ -308,9 +349,11 @@ void printBreakdown(const Options& options, const Breakdown& breakdown, int meas
   row("another tracked class", breakdown.other_tracked);
   row("other (unknown, untracked class)", breakdown.other);
   row("(next to the don't-touch mask)", breakdown.next_to_mask);
+  row("(of those, at the inner edge: the robot's body)", breakdown.next_to_mask_inner);
   std::printf("\n| boundary band of the final regions | cells | of the image |\n|---|---|---|\n");
   row("band (a still frame classifies exactly these)", breakdown.boundary_band);
   row("(next to the don't-touch mask)", breakdown.boundary_band_at_mask);
+  row("(of those, at the inner edge: the robot's body)", breakdown.boundary_band_at_inner);
   std::printf("\ndrops processed per frame: %.0f\n", breakdown.drops_processed / n);
 }
 
@@ -388,6 +431,225 @@ void printTimes(const Options& options, rt::SimCamera& sim, const Sequence& sequ
               median(all_times));
 }
 
+// --line-diff: the line points of the options' params (the tested cadence) against the same
+// params with mask_edge_every 1 (exact), on the same frames, each processor tracking on its own.
+// A point is missing when the exact run has it and the tested one has no point within the
+// tolerance in the image (extra: the other way round); 1 px is the same point, 5 px allows for a
+// sample taken one cell corner further along the same line (the sampling follows the contour
+// from its start, which moves when the contour changes anywhere).
+void printLineDiff(const Options& options, rt::SimCamera& sim, const Sequence& sequence) {
+  rt::VisionParams exactParams = options.params();
+  exactParams.tracker.mask_edge_every = 1;
+  const rt::VisionParams testedParams = options.params();
+  rt::FrameProcessor exact(sim.mirror, sim.table, exactParams);
+  rt::FrameProcessor tested(sim.mirror, sim.table, testedParams);
+  std::vector<std::uint8_t> delivered(sequence[0].size());
+  rt::LinePoints exactLines, testedLines;
+  constexpr std::array<double, 2> kTolerancePx = {1.0, 5.0};
+  constexpr std::array<double, 4> kRangeLimits = {2.0, 4.0, 6.0, 1e9};  // m
+  struct Count {
+    long long missing = 0, extra = 0;
+    int max_missing = 0, max_extra = 0;
+    std::array<long long, 4> missing_by_range{}, extra_by_range{};
+    std::array<long long, 4> missing_by_rim{}, extra_by_rim{};
+  };
+  // How far each cell is from the outer rim (cells next to the mask connected to the outside):
+  // 4-connected steps, so that a point missing "at the rim" can be told from one further in.
+  const rt::CellGrid& grid = exact.grid();
+  const std::vector<rt::MaskEdge> edges = rt::maskEdges(grid, exact.dontTouch());
+  std::vector<int> rimSteps(grid.cellCount(), -1);
+  std::vector<int> queue;
+  for (int c = 0; c < grid.cellCount(); ++c) {
+    if (edges[c] == rt::MaskEdge::kOuter) {
+      rimSteps[c] = 0;
+      queue.push_back(c);
+    }
+  }
+  for (std::size_t head = 0; head < queue.size(); ++head) {
+    const int c = queue[head], x = c % grid.width, y = c / grid.width;
+    for (const auto& [nx, ny] : {std::pair{x + 1, y}, {x - 1, y}, {x, y + 1}, {x, y - 1}}) {
+      if (grid.contains(nx, ny) && rimSteps[grid.index(nx, ny)] < 0) {
+        rimSteps[grid.index(nx, ny)] = rimSteps[c] + 1;
+        queue.push_back(grid.index(nx, ny));
+      }
+    }
+  }
+  constexpr std::array<int, 4> kRimLimits = {2, 4, 8, 1 << 30};  // cells
+  auto rimBin = [&](const rt::LinePoint& p) {
+    const int x = std::clamp(static_cast<int>(p.u) / grid.cell_size, 0, grid.width - 1);
+    const int y = std::clamp(static_cast<int>(p.v) / grid.cell_size, 0, grid.height - 1);
+    const int steps = rimSteps[grid.index(x, y)];
+    int bin = 0;
+    while (steps >= kRimLimits[bin])
+      ++bin;
+    return bin;
+  };
+  std::array<Count, 2> counts;
+  long long exactPoints = 0, testedPoints = 0;
+  int identicalFrames = 0, frames = 0;
+  long long exactCells = 0, testedCells = 0;
+  // Against the field model (the true pose of each frame): each point's distance to the nearest
+  // line centre; points further than 10 cm are wrong.
+  const std::vector<fieldline::geometry::Pose2> poses = rt::motionPoses(
+      sim.field, {options.speed, options.omega_deg * std::numbers::pi / 180, 30.0}, options.frames);
+  std::array<std::vector<double>, 2> modelErrors;
+  std::array<long long, 2> wrongPoints{};
+  // What feature recognition makes of each run's points: features by kind, pose hypotheses
+  // within 0.5 m and 10 deg of the true pose (or its twin across the centre) and the others
+  // (false), as fieldline-eval-features counts them, but on the moving sequence.
+  fieldline::feature_recognition::FeatureRecognizer recognizer(sim.field);
+  fieldline::perception::FieldFeatures features;
+  constexpr int kKinds = 7;
+  std::array<std::array<long long, kKinds>, 2> featuresByKind{};
+  std::array<long long, 2> goodHypotheses{}, falseHypotheses{};
+  std::array<int, 2> framesWithGood{};
+  auto addFeatures = [&](const rt::LinePoints& lines, int run, int frame) {
+    recognizer.recognize(lines, features);
+    for (const auto& f : features.features)
+      ++featuresByKind[run][std::clamp(static_cast<int>(f.kind), 0, kKinds - 1)];
+    const fieldline::geometry::Pose2& truth = poses[frame];
+    const fieldline::geometry::Pose2 twin{-truth.x, -truth.y,
+                                          fieldline::geometry::normalizeAngle(truth.phi + M_PI)};
+    bool good = false;
+    for (const auto& h : features.hypotheses) {
+      bool near = false;
+      for (const fieldline::geometry::Pose2& t : {truth, twin}) {
+        near = near ||
+               (std::hypot(h.pose.x - t.x, h.pose.y - t.y) <= 0.5 &&
+                std::abs(fieldline::geometry::angleDiff(h.pose.phi, t.phi)) <= 10.0 * M_PI / 180.0);
+      }
+      (near ? goodHypotheses : falseHypotheses)[run] += 1;
+      good = good || near;
+    }
+    framesWithGood[run] += good ? 1 : 0;
+  };
+  auto addModelErrors = [&](const rt::LinePoints& lines, int run, int frame) {
+    for (const rt::LinePoint& p : lines.points) {
+      const double e =
+          sim.field.distance(fieldline::geometry::pointRobotToField(poses[frame], {p.x, p.y}));
+      modelErrors[run].push_back(e);
+      wrongPoints[run] += e > 0.10 ? 1 : 0;
+    }
+  };
+  auto rangeBin = [&](const rt::LinePoint& p) {
+    const double range = std::hypot(p.x, p.y);
+    int bin = 0;
+    while (range >= kRangeLimits[bin])
+      ++bin;
+    return bin;
+  };
+  // Points of `a` with no point of `b` within `tolerance` px: counted, by range and by cells
+  // from the outer rim.
+  auto unmatched = [&](const rt::LinePoints& a, const rt::LinePoints& b, double tolerance,
+                       std::array<long long, 4>& byRange, std::array<long long, 4>& byRim) {
+    int n = 0;
+    for (const rt::LinePoint& p : a.points) {
+      const bool found = std::any_of(b.points.begin(), b.points.end(), [&](const rt::LinePoint& q) {
+        return std::hypot(p.u - q.u, p.v - q.v) <= tolerance;
+      });
+      if (!found) {
+        ++n;
+        ++byRange[rangeBin(p)];
+        ++byRim[rimBin(p)];
+      }
+    }
+    return n;
+  };
+  if (options.phase_shift) {
+    std::copy(sequence[0].begin(), sequence[0].end(), delivered.begin());
+    tested.classifier().setFrame(sim.renderer->view(delivered));
+    tested.tracker().track(tested.classifier());
+  }
+  for (int i = 0; i < options.frames; ++i) {
+    std::copy(sequence[i].begin(), sequence[i].end(), delivered.begin());
+    const camera::FrameView frame = sim.renderer->view(delivered);
+    for (rt::FrameProcessor* p : {&exact, &tested}) {
+      p->classifier().setFrame(frame);
+      p->tracker().track(p->classifier());
+    }
+    exact.lineDetector().detect(frame, exact.tracker().contours(), exactLines);
+    tested.lineDetector().detect(frame, tested.tracker().contours(), testedLines);
+    addModelErrors(exactLines, 0, i);
+    addModelErrors(testedLines, 1, i);
+    addFeatures(exactLines, 0, i);
+    addFeatures(testedLines, 1, i);
+    exactCells += exact.tracker().stats().cells_classified;
+    testedCells += tested.tracker().stats().cells_classified;
+    ++frames;
+    exactPoints += static_cast<long long>(exactLines.points.size());
+    testedPoints += static_cast<long long>(testedLines.points.size());
+    const bool identical =
+        exactLines.points.size() == testedLines.points.size() &&
+        std::equal(exactLines.points.begin(), exactLines.points.end(), testedLines.points.begin(),
+                   [](const rt::LinePoint& a, const rt::LinePoint& b) {
+                     return a.u == b.u && a.v == b.v && a.x == b.x && a.y == b.y;
+                   });
+    identicalFrames += identical ? 1 : 0;
+    for (std::size_t t = 0; t < kTolerancePx.size(); ++t) {
+      Count& c = counts[t];
+      const int missing =
+          unmatched(exactLines, testedLines, kTolerancePx[t], c.missing_by_range, c.missing_by_rim);
+      const int extra =
+          unmatched(testedLines, exactLines, kTolerancePx[t], c.extra_by_range, c.extra_by_rim);
+      c.missing += missing;
+      c.extra += extra;
+      c.max_missing = std::max(c.max_missing, missing);
+      c.max_extra = std::max(c.max_extra, extra);
+    }
+  }
+  const double n = frames;
+  std::printf(
+      "%s, %.1f m/s %.0f deg/s, %d frames: line points with mask_edge_every %d (inner edge "
+      "%s) against 1\n\n",
+      options.camera_preset.c_str(), options.speed, options.omega_deg, frames,
+      testedParams.tracker.mask_edge_every, testedParams.tracker.mask_edge_inner ? "too" : "not");
+  std::printf("cells classified per frame: %.1f exact, %.1f tested\n", exactCells / n,
+              testedCells / n);
+  std::printf(
+      "line points per frame: %.1f exact, %.1f tested; frames with identical points: %d\n\n",
+      exactPoints / n, testedPoints / n, identicalFrames);
+  for (std::vector<double>& e : modelErrors)
+    std::sort(e.begin(), e.end());
+  auto quantile = [](const std::vector<double>& v, double q) {
+    return v.empty() ? 0.0 : v[static_cast<std::size_t>(q * static_cast<double>(v.size() - 1))];
+  };
+  std::printf(
+      "distance to the model lines, exact / tested: median %.4f / %.4f m, p95 %.4f / %.4f m; "
+      "points further than 10 cm per frame %.3f / %.3f\n\n",
+      quantile(modelErrors[0], 0.5), quantile(modelErrors[1], 0.5), quantile(modelErrors[0], 0.95),
+      quantile(modelErrors[1], 0.95), wrongPoints[0] / n, wrongPoints[1] / n);
+  std::printf(
+      "features, exact / tested: centre circles %lld / %lld, penalty corners %lld / %lld, field "
+      "corners %lld / %lld, T junctions %lld / %lld, straight lines %lld / %lld; frames with a "
+      "correct pose hypothesis %d / %d; hypotheses correct %lld / %lld, false %lld / %lld\n\n",
+      featuresByKind[0][1], featuresByKind[1][1], featuresByKind[0][2], featuresByKind[1][2],
+      featuresByKind[0][3], featuresByKind[1][3], featuresByKind[0][4], featuresByKind[1][4],
+      featuresByKind[0][5], featuresByKind[1][5], framesWithGood[0], framesWithGood[1],
+      goodHypotheses[0], goodHypotheses[1], falseHypotheses[0], falseHypotheses[1]);
+  std::printf(
+      "| tolerance | missing per frame (max) | extra per frame (max) | missing by range <2 / 2-4 / "
+      "4-6 / >6 m | extra by range |\n|---|---|---|---|---|\n");
+  for (std::size_t t = 0; t < kTolerancePx.size(); ++t) {
+    const Count& c = counts[t];
+    std::printf(
+        "| %.0f px | %.3f (%d) | %.3f (%d) | %lld / %lld / %lld / %lld | %lld / %lld / "
+        "%lld / %lld |\n",
+        kTolerancePx[t], c.missing / n, c.max_missing, c.extra / n, c.max_extra,
+        c.missing_by_range[0], c.missing_by_range[1], c.missing_by_range[2], c.missing_by_range[3],
+        c.extra_by_range[0], c.extra_by_range[1], c.extra_by_range[2], c.extra_by_range[3]);
+  }
+  std::printf(
+      "\n| tolerance | missing by cells from the outer rim 0-1 / 2-3 / 4-7 / 8+ | extra by cells "
+      "from the rim |\n|---|---|---|\n");
+  for (std::size_t t = 0; t < kTolerancePx.size(); ++t) {
+    const Count& c = counts[t];
+    std::printf("| %.0f px | %lld / %lld / %lld / %lld | %lld / %lld / %lld / %lld |\n",
+                kTolerancePx[t], c.missing_by_rim[0], c.missing_by_rim[1], c.missing_by_rim[2],
+                c.missing_by_rim[3], c.extra_by_rim[0], c.extra_by_rim[1], c.extra_by_rim[2],
+                c.extra_by_rim[3]);
+  }
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -411,6 +673,10 @@ int main(int argc, char** argv) {
     }
     const Sequence sequence =
         rt::bench::renderSequence(sim, options.speed, options.omega_deg, options.frames);
+    if (options.line_diff) {
+      printLineDiff(options, sim, sequence);
+      return;
+    }
     Breakdown breakdown;
     Digests digests;
     const int measured = runMethod(options, sim, sequence, breakdown, digests);

@@ -1,6 +1,7 @@
 #include "services/fusion/ball_filter.hpp"
 
 #include <cmath>
+#include <vector>
 
 #include <Eigen/Geometry>
 #include <Eigen/LU>
@@ -43,6 +44,12 @@ void BallFilter::predict(Utime t, Eigen::Vector4d& x, Eigen::Matrix4d& p) const 
   f(0, 2) = f(1, 3) = travel;
   f(2, 2) = f(3, 3) = ratio;
   x = f * x;
+  // The covariance moves with the constant-velocity Jacobian: friction takes a fixed amount of
+  // speed, so a faster or slower ball along its path slows down alike (derivative 1), and a ball
+  // at rest may start to roll at any time. (The friction matrix itself has zero velocity terms
+  // at rest: a ball restarted at rest could never learn a velocity from its sightings.)
+  f(0, 2) = f(1, 3) = dt;
+  f(2, 2) = f(3, 3) = 1.0;
   const double q = params_.acceleration_density * params_.acceleration_density;
   Eigen::Matrix4d qm = Eigen::Matrix4d::Zero();
   for (int i = 0; i < 2; ++i) {
@@ -102,13 +109,13 @@ BallRejection BallFilter::update(const perception::BallSighting& s, const EkfSta
       return BallRejection::kNone;
     }
     contradicted_ = params_.invalid_after_outlier;
-    last_outlier_ = Outlier{s.utime, z, r};
+    outliers_.push_back(Outlier{s.utime, z, r});
     return BallRejection::kOutlier;
   }
   outliers_in_row_ = 0;
   missed_in_row_ = 0;
   contradicted_ = false;
-  last_outlier_.reset();
+  outliers_.clear();
   Eigen::Matrix<double, 2, 4> h = Eigen::Matrix<double, 2, 4>::Zero();
   h(0, 0) = h(1, 1) = 1.0;
   const Eigen::Matrix<double, 4, 2> k = p * h.transpose() * sm.inverse();
@@ -141,21 +148,59 @@ void BallFilter::missed(Utime t, const EkfState& robot) {
   }
 }
 
+bool BallFilter::fitRow(Utime t, const Eigen::Vector2d& z, const Eigen::Matrix2d& r,
+                        Eigen::Vector2d& v, Eigen::Matrix2d& pv, Eigen::Matrix2d& pxv) const {
+  // The outliers of the row that are recent enough, and the sighting that restarts.
+  std::vector<Outlier> row;
+  for (const Outlier& o : outliers_) {
+    if (o.utime < t && static_cast<double>(t - o.utime) * 1e-6 <= params_.pair_max_age_s) {
+      row.push_back(o);
+    }
+  }
+  row.push_back(Outlier{t, z, r});
+  if (row.size() < 2 || static_cast<int>(row.size()) < params_.fit_min_sightings) return false;
+  // Weighted least squares of a straight path through the row, per axis: position at t and
+  // velocity, each sighting weighted by its mean variance.
+  Eigen::Matrix2d normal = Eigen::Matrix2d::Zero();
+  Eigen::Matrix2d rhs = Eigen::Matrix2d::Zero();  // column per axis
+  for (const Outlier& o : row) {
+    const double dt = static_cast<double>(o.utime - t) * 1e-6;
+    const double w = 2.0 / o.r.trace();
+    const Eigen::Vector2d a(1.0, dt);
+    normal += w * a * a.transpose();
+    rhs.col(0) += w * a * o.z.x();
+    rhs.col(1) += w * a * o.z.y();
+  }
+  if (std::abs(normal.determinant()) < 1e-18) return false;
+  const Eigen::Matrix2d cov = normal.inverse();  // (position, velocity) of one axis
+  const Eigen::Matrix2d sol = cov * rhs;
+  const Eigen::Vector2d vel(sol(1, 0), sol(1, 1));
+  if (!(vel.norm() <= params_.pair_max_speed)) return false;
+  // The sightings must lie on that path (false sightings in a row do not make a kick).
+  double chi2 = 0.0;
+  for (const Outlier& o : row) {
+    const double dt = static_cast<double>(o.utime - t) * 1e-6;
+    const Eigen::Vector2d res = o.z - Eigen::Vector2d(sol(0, 0), sol(0, 1)) - vel * dt;
+    chi2 += res.dot(o.r.inverse() * res);
+  }
+  // chi^2 with 2 (n - 2) degrees of freedom at 99.9 %, roughly 4 + 7 per extra sighting.
+  if (row.size() > 2 && chi2 > 4.0 + 7.0 * static_cast<double>(2 * (row.size() - 2))) return false;
+  v = vel;
+  // The fit's velocity variance, plus the deceleration the interval hides.
+  const double span = static_cast<double>(t - row.front().utime) * 1e-6;
+  const double slack = params_.rolling_deceleration + params_.acceleration_density;
+  pv = Eigen::Matrix2d::Identity() * (cov(1, 1) + slack * slack * span);
+  pxv = Eigen::Matrix2d::Identity() * cov(0, 1);
+  return true;
+}
+
 void BallFilter::restart(Utime t, const Eigen::Vector2d& z, const Eigen::Matrix2d& r) {
   Eigen::Vector2d v = Eigen::Vector2d::Zero();
-  Eigen::Matrix2d pv = Eigen::Matrix2d::Identity() * 4.0;
+  Eigen::Matrix2d pv =
+      Eigen::Matrix2d::Identity() * (params_.restart_speed_sigma * params_.restart_speed_sigma);
   Eigen::Matrix2d pxv = Eigen::Matrix2d::Zero();
-  if (params_.velocity_from_pair && initialized_ && last_outlier_ && last_outlier_->utime < t) {
-    const double dt = static_cast<double>(t - last_outlier_->utime) * 1e-6;
-    const Eigen::Vector2d pair = (z - last_outlier_->z) / dt;
-    if (dt <= params_.pair_max_age_s && pair.norm() <= params_.pair_max_speed) {
-      ++restarts_with_velocity_;
-      v = pair;
-      // Both sightings' errors over the interval, plus the deceleration the interval hides.
-      const double slack = params_.rolling_deceleration + params_.acceleration_density;
-      pv = (r + last_outlier_->r) / (dt * dt) + Eigen::Matrix2d::Identity() * (slack * slack * dt);
-      pxv = r / dt;
-    }
+  if (params_.velocity_from_pair && initialized_ && fitRow(t, z, r, v, pv, pxv)) {
+    ++restarts_with_velocity_;
   }
   initialized_ = true;
   x_ << z, v;
@@ -169,7 +214,7 @@ void BallFilter::restart(Utime t, const Eigen::Vector2d& z, const Eigen::Matrix2
   outliers_in_row_ = 0;
   missed_in_row_ = 0;
   contradicted_ = false;
-  last_outlier_.reset();
+  outliers_.clear();
 }
 
 perception::BallEstimate BallFilter::estimate(Utime t) const {

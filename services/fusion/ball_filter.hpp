@@ -6,6 +6,7 @@
 
 #include <cstdint>
 #include <optional>
+#include <vector>
 
 #include <Eigen/Core>
 
@@ -39,11 +40,18 @@ struct BallFilterParams {
   // else or bounced off a robot, and the sighting is better than the old estimate. 0: off, m.
   double restart_distance_m = 0.0;
   double restart_max_sigma_m = 0.15;
-  // When the filter restarts after outliers, the outlier before (at most `pair_max_age_s` older,
-  // implying at most `pair_max_speed` m/s) gives the velocity: the ball rolls on as the two
-  // sightings say instead of starting from rest. false: restart at rest.
+  // When the filter restarts after outliers, a straight path fitted through the row of outliers
+  // (those at most `pair_max_age_s` older) and the restarting sighting gives the velocity, if
+  // the sightings lie on it and it is at most `pair_max_speed` m/s: the ball rolls on as they say
+  // instead of starting from rest (a kick, a bounce). false: restart at rest.
   bool velocity_from_pair = false;
+  // Velocity standard deviation of a filter (re)started at rest: a ball just kicked or bounced
+  // may roll at several m/s, and the next sighting must not be an outlier for that, m/s.
+  double restart_speed_sigma = 2.0;
   double pair_max_age_s = 0.25;
+  // Sightings (the row's and the restarting one) the path needs; from 3 on, they must lie on
+  // it (two sightings always make a path, a false one included).
+  int fit_min_sightings = 2;
   double pair_max_speed = 12.0;
   // The omni camera sees all around: `unseen_frames` frames in a row without the ball while the
   // estimate lies within `unseen_range_m` of the robot make the estimate invalid until a sighting
@@ -51,6 +59,12 @@ struct BallFilterParams {
   // hidden behind a robot is not reported meanwhile). 0: off, m.
   double unseen_range_m = 0.0;
   int unseen_frames = 3;
+  // BallTracker: a frame is fused again with the robot's newest pose for its time until it is
+  // this old (0: fused once, at the first estimate after it arrived), s.
+  double settle_s = 0.0;
+  // BallTracker: the pose at a frame's time takes the next line frame's correction into account
+  // (`smoothedPose`), once that frame has arrived.
+  bool smooth_pose = false;
 };
 
 enum class BallRejection : std::uint8_t {
@@ -86,6 +100,11 @@ class BallFilter {
   // (Re)starts at a sighting `z` (field frame, covariance `r`) at `t`, with the velocity from the
   // previous outlier when params allow.
   void restart(Utime t, const Eigen::Vector2d& z, const Eigen::Matrix2d& r);
+  // Velocity (and its covariance, and the position-velocity covariance) of a straight path
+  // through the row of outliers (those at most pair_max_age_s old) and `z`; false when there
+  // are none, the path is faster than pair_max_speed, or the sightings do not lie on it.
+  bool fitRow(Utime t, const Eigen::Vector2d& z, const Eigen::Matrix2d& r, Eigen::Vector2d& v,
+              Eigen::Matrix2d& pv, Eigen::Matrix2d& pxv) const;
 
   BallFilterParams params_;
   bool initialized_ = false;
@@ -99,13 +118,13 @@ class BallFilter {
   bool contradicted_ = false;
   Eigen::Vector4d x_ = Eigen::Vector4d::Zero();
   Eigen::Matrix4d p_ = Eigen::Matrix4d::Identity();
-  // The newest outlier sighting (field frame), for the velocity of a restart.
+  // The outlier sightings in a row (field frame), for the velocity of a restart.
   struct Outlier {
     Utime utime = 0;
     Eigen::Vector2d z = Eigen::Vector2d::Zero();
     Eigen::Matrix2d r = Eigen::Matrix2d::Identity();
   };
-  std::optional<Outlier> last_outlier_;
+  std::vector<Outlier> outliers_;
   std::uint64_t restarts_far_ = 0;
   std::uint64_t restarts_with_velocity_ = 0;
 };

@@ -1,7 +1,9 @@
 #include "services/fusion/fusion_node.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <numbers>
 #include <stdexcept>
 
 #include "common/msg/estimates.hpp"
@@ -53,18 +55,24 @@ void FusionNode::onOdometry(const odometry_t& m) {
   sample.has_currents = (m.status & odometry_t::STATUS_CURRENTS) != 0;
   for (std::size_t i = 0; i < 3; ++i)
     sample.wheel_current[i] = m.wheel_current[i];
+  sample.has_gyro = (m.status & odometry_t::STATUS_GYRO) != 0;
+  sample.gyro_dphi = m.gyro_dphi;
   localizer_.addOdometry(sample, node_.now());
 
-  // The estimate at this odometry's time, whatever happened to the sample.
+  // The estimate at this odometry's time, whatever happened to the sample: the time layer 1
+  // stamped it with (the controller's clock on ours: the sampling instant, without the serial
+  // link's jitter that the bridge's receive-time stamp carries).
+  const Utime t =
+      localizer_.lastOdometryStamp() > 0 ? localizer_.lastOdometryStamp() : m.header.utime;
   perception::RobotEstimate e = localizer_.estimate(node_.now());
-  if (const auto s = localizer_.stateAt(m.header.utime)) {
+  if (const auto s = localizer_.stateAt(t)) {
     e.pose = s->pose();
     e.vx = s->x[3];
     e.vy = s->x[4];
     e.omega = s->x[5];
     e.covariance = localizer_.reportedCovariance(*s);
   }
-  e.utime = m.header.utime;
+  e.utime = t;
   msg::toMessage(e, state_msg_);
   if (node_.publish(bus::channels::kRobotState, state_msg_)) ++robot_states_;
   reportNewRejections();
@@ -74,6 +82,9 @@ void FusionNode::onOdometry(const odometry_t& m) {
 void FusionNode::onLines(const line_contours_t& m) {
   msg::fromMessage(m, lines_);
   localizer_.addLines(lines_.points, m.header.utime, node_.now());
+  const auto at = std::upper_bound(line_times_.begin(), line_times_.end(), m.header.utime);
+  if (at == line_times_.begin() || *std::prev(at) != m.header.utime)
+    line_times_.insert(at, m.header.utime);
   reportNewRejections();
   updateMetrics();
 }
@@ -91,30 +102,28 @@ void FusionNode::onObstacles(const obstacle_observations_t& m) {
 }
 
 void FusionNode::onBall(const ball_observation_t& m) {
-  const perception::BallSighting sighting = msg::fromMessage(m);
-  if (!sighting.visible) {
-    if (const auto robot = localizer_.stateAt(sighting.utime)) ball_.missed(sighting.utime, *robot);
-    return;
-  }
-  const auto robot = localizer_.stateAt(sighting.utime);
-  if (!robot) {
-    ++ball_rejections_["ball_no_pose"];
-    return;
-  }
-  const BallRejection r = ball_.update(sighting, *robot);
+  const BallRejection r = ball_.add(msg::fromMessage(m));
   if (r == BallRejection::kNone) return;
   const std::string kind = toString(r);
-  if (r == BallRejection::kNotFinite || r == BallRejection::kOutOfOrder) {
-    node_.reportError(kind, "VISION_BALL refused: " + kind);
-  } else {
-    ++ball_rejections_[kind];
-  }
+  node_.reportError(kind, "VISION_BALL refused: " + kind);
 }
 
 void FusionNode::publishBall() {
-  const perception::BallEstimate e = ball_.estimate(node_.now());
+  const Utime now = node_.now();
+  // Line frames older than the window cannot correct a pose any more.
+  const Utime keep_from = now - static_cast<Utime>(2e6);
+  while (!line_times_.empty() && line_times_.front() < keep_from)
+    line_times_.pop_front();
+  const PoseAt filtered = [this](Utime t) { return localizer_.stateAt(t); };
+  const PoseAt pose_at =
+      options_.ball.smooth_pose
+          ? PoseAt([this, &filtered](Utime t) { return smoothedPose(filtered, line_times_, t); })
+          : filtered;
+  const perception::BallEstimate e = ball_.estimate(now, pose_at);
   msg::toMessage(e, ball_msg_);
   if (node_.publish(bus::channels::kBallState, ball_msg_)) ++ball_states_;
+  for (const auto& [kind, n] : ball_.refusals())
+    node_.setMetric(kind + "_count", static_cast<double>(n));
 }
 
 void FusionNode::reportNewRejections() {
@@ -147,10 +156,14 @@ void FusionNode::updateMetrics() {
   node_.setMetric("contact_slips", static_cast<double>(localizer_.counters().contact_slips));
   node_.setMetric("contact_frames", static_cast<double>(localizer_.counters().contact_frames));
   node_.setMetric("current_contacts", static_cast<double>(localizer_.counters().current_contacts));
+  node_.setMetric("gyro_steps", static_cast<double>(localizer_.counters().gyro_steps));
+  node_.setMetric("gyro_bias_deg_s", localizer_.gyroBias() * 180.0 / std::numbers::pi);
   node_.setMetric("twist_searches", static_cast<double>(localizer_.counters().twist_searches));
-  node_.setMetric("ball_restarts_far", static_cast<double>(ball_.restartsFar()));
-  node_.setMetric("ball_unseen_invalidations", static_cast<double>(ball_.unseenInvalidations()));
-  node_.setMetric("ball_restarts_with_velocity", static_cast<double>(ball_.restartsWithVelocity()));
+  node_.setMetric("ball_restarts_far", static_cast<double>(ball_.committed().restartsFar()));
+  node_.setMetric("ball_unseen_invalidations",
+                  static_cast<double>(ball_.committed().unseenInvalidations()));
+  node_.setMetric("ball_restarts_with_velocity",
+                  static_cast<double>(ball_.committed().restartsWithVelocity()));
 }
 
 }  // namespace fieldline::fusion

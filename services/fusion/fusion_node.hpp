@@ -6,6 +6,7 @@
 #pragma once
 
 #include <cstdint>
+#include <deque>
 #include <map>
 #include <string>
 
@@ -19,6 +20,7 @@
 #include "common/perception/obstacles.hpp"
 #include "common/robot/robot_params.hpp"
 #include "services/fusion/ball_filter.hpp"
+#include "services/fusion/ball_tracker.hpp"
 #include "services/fusion/localizer.hpp"
 
 namespace fieldline::fusion {
@@ -54,12 +56,13 @@ class FusionNode {
   bus::Node& node_;
   FusionNodeOptions options_;
   Localizer localizer_;
-  BallFilter ball_;
+  BallTracker ball_;
+  // utimes of the recent line frames (ascending): the corrections smoothedPose spreads back.
+  std::deque<Utime> line_times_;
   perception::LinePoints lines_;
   perception::FieldFeatures features_;
   perception::ObstacleSightings obstacles_;
   std::map<std::string, std::uint64_t> reported_;
-  std::map<std::string, std::uint64_t> ball_rejections_;
   robot_state_t state_msg_{};
   ball_state_t ball_msg_{};
   std::int64_t robot_states_ = 0;

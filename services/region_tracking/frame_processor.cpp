@@ -27,6 +27,9 @@ VisionParams defaultVisionParams() {
   VisionParams params;
   params.tracker.cell_size = 4;
   params.tracker.reinitialise_period_frames = 300;
+  // The outer rim of the view checked every 2nd frame (docs/region_tracking.md, "Bounded
+  // staleness at the rim"); the inner edge every frame.
+  params.tracker.mask_edge_every = 2;
   const ClassId green = classIdOf(ColourClass::kGreen);
   params.tracker.classes.push_back({.class_id = green,
                                     .search_when_lost = true,

@@ -18,6 +18,8 @@ TrackerConfig loadTrackerConfig(
     node.fail("cell_size", "must be 1, 2, 4 or 8");
   }
   config.reinitialise_period_frames = node.get<int>("reinitialise_period_frames", 0, 1000000);
+  config.mask_edge_every = node.getOr<int>("mask_edge_every", 1, 1, 16);
+  config.mask_edge_inner = node.getOr<bool>("mask_edge_inner", false);
   auto classAt = [&](const config::Node& entry, const std::string& key) {
     const std::optional<ClassId> id = classByName(entry.get<std::string>(key));
     if (!id || *id == kNoClass) entry.fail(key, "unknown colour class");
@@ -51,6 +53,60 @@ TrackerConfig loadTrackerConfig(
   return config;
 }
 
+std::vector<MaskEdge> maskEdges(const CellGrid& grid, std::span<const std::uint8_t> dontTouch) {
+  std::vector<MaskEdge> edges(grid.cellCount(), MaskEdge::kNone);
+  if (!dontTouch.empty() && static_cast<int>(dontTouch.size()) != grid.cellCount()) {
+    throw std::invalid_argument("mask edges: the don't-touch mask must have one byte per cell");
+  }
+  auto blocked = [&](int x, int y) {
+    return !grid.contains(x, y) || (!dontTouch.empty() && dontTouch[grid.index(x, y)] != 0);
+  };
+  // The blocked cells connected to the outside: flood from the blocked cells on the border.
+  std::vector<std::uint8_t> outer(grid.cellCount(), 0);
+  std::vector<int> stack;
+  auto visit = [&](int x, int y) {
+    if (grid.contains(x, y) && blocked(x, y) && !outer[grid.index(x, y)]) {
+      outer[grid.index(x, y)] = 1;
+      stack.push_back(grid.index(x, y));
+    }
+  };
+  for (int x = 0; x < grid.width; ++x) {
+    visit(x, 0);
+    visit(x, grid.height - 1);
+  }
+  for (int y = 0; y < grid.height; ++y) {
+    visit(0, y);
+    visit(grid.width - 1, y);
+  }
+  while (!stack.empty()) {
+    const int cell = stack.back();
+    stack.pop_back();
+    const int x = cell % grid.width, y = cell / grid.width;
+    for (int dy = -1; dy <= 1; ++dy) {
+      for (int dx = -1; dx <= 1; ++dx)
+        visit(x + dx, y + dy);
+    }
+  }
+  const int dx[4] = {0, 1, 0, -1}, dy[4] = {-1, 0, 1, 0};
+  for (int y = 0; y < grid.height; ++y) {
+    for (int x = 0; x < grid.width; ++x) {
+      if (blocked(x, y)) continue;
+      MaskEdge edge = MaskEdge::kNone;
+      for (int side = 0; side < 4; ++side) {
+        const int nx = x + dx[side], ny = y + dy[side];
+        if (!blocked(nx, ny)) continue;
+        if (!grid.contains(nx, ny) || outer[grid.index(nx, ny)]) {
+          edge = MaskEdge::kOuter;
+          break;
+        }
+        edge = MaskEdge::kInner;
+      }
+      edges[grid.index(x, y)] = edge;
+    }
+  }
+  return edges;
+}
+
 RegionTracker::RegionTracker(const CellGrid& grid, const TrackerConfig& config,
                              std::vector<std::uint8_t> dontTouch)
     : grid_(grid),
@@ -73,6 +129,9 @@ RegionTracker::RegionTracker(const CellGrid& grid, const TrackerConfig& config,
   }
   if (!dontTouch.empty() && static_cast<int>(dontTouch.size()) != grid.cellCount()) {
     throw std::invalid_argument("region tracker: don't-touch mask must have one byte per cell");
+  }
+  if (config.mask_edge_every < 1) {
+    throw std::invalid_argument("region tracker: mask_edge_every must be at least 1");
   }
   // V starts as the frame of blocked cells around the grid plus the don't-touch cells.
   for (int y = 0; y < grid.height; ++y) {
@@ -136,6 +195,17 @@ RegionTracker::RegionTracker(const CellGrid& grid, const TrackerConfig& config,
       }
     }
   }
+  if (config.mask_edge_every > 1) {
+    const std::vector<MaskEdge> edges = maskEdges(grid, dontTouch);
+    for (int y = 0; y < grid.height; ++y) {
+      for (int x = 0; x < grid.width; ++x) {
+        const MaskEdge edge = edges[grid.index(x, y)];
+        if (edge == MaskEdge::kOuter || (edge == MaskEdge::kInner && config.mask_edge_inner)) {
+          deferrable_.push_back({layout_.index(x, y), (x + y) % config.mask_edge_every});
+        }
+      }
+    }
+  }
   scratch_queue_.reserve(grid.cellCount());
   seed_candidates_.reserve(grid.cellCount());
   contours_.points.reserve(4 * grid.cellCount() / 8 + 64);
@@ -168,6 +238,14 @@ ClassId RegionTracker::classifyNow(CellIndex cell) {
   return class_id;
 }
 
+void RegionTracker::deferMaskEdge() {
+  const int due = static_cast<int>(frame_count_ % config_.mask_edge_every);
+  const auto deferred = static_cast<std::uint16_t>((stamp_ << 8) | kBlocked);
+  for (const DeferrableCell& d : deferrable_) {
+    if (d.phase != due) classified_[d.cell] = deferred;
+  }
+}
+
 void RegionTracker::touchFor(TouchReason reason) {
   // The cells classified since the last switch were classified for the last reason. (Counting
   // here, not per cell, keeps the per-cell path to one counter.)
@@ -190,6 +268,7 @@ const TrackingStats& RegionTracker::track(const CellClassifier& classifier) {
     reinitialise();
     stats_.reinitialised = true;
   }
+  deferMaskEdge();
   auto totalCells = [this] {
     int sum = 0;
     for (const ClassState& state : classes_)
@@ -277,8 +356,10 @@ void RegionTracker::shrink(ClassState& state) {
   while (dropCount > 0) {
     const CellIndex drop = drops[--dropCount];
     ++processed;
-    if (classOf(drop) == id) {
-      // Still the region's class: the drop stops here and will seed the growing.
+    const ClassId now = classOf(drop);
+    if (now == id || now == kBlocked) {
+      // Still the region's class (or a mask-edge cell not due this frame, kept until it is):
+      // the drop stops here and will seed the growing.
       stopped[stoppedCount++] = drop;
       continue;
     }
@@ -357,7 +438,9 @@ void RegionTracker::grow(ClassState& state) {
 
 void RegionTracker::seedPending(ClassState& state) {
   for (const CellIndex seed : state.pending_seeds) {
-    if (visited_[seed] == kNoClass && classOf(seed) == state.tracking.class_id) claim(state, seed);
+    if (visited_[seed] == kNoClass && classOfDue(seed) == state.tracking.class_id) {
+      claim(state, seed);
+    }
   }
   state.pending_seeds.clear();
 }
@@ -367,7 +450,9 @@ void RegionTracker::seedAtViewEdge(ClassState& state) {
   for (std::size_t i = static_cast<std::size_t>(frame_count_) % stride; i < view_edge_.size();
        i += stride) {
     const CellIndex cell = view_edge_[i];
-    if (visited_[cell] == kNoClass && classOf(cell) == state.tracking.class_id) claim(state, cell);
+    if (visited_[cell] == kNoClass && classOfDue(cell) == state.tracking.class_id) {
+      claim(state, cell);
+    }
   }
 }
 
@@ -403,7 +488,7 @@ void RegionTracker::initialSearch(ClassState& state) {
   for (int y = 0; y < grid_.height; ++y) {
     for (int x = 0; x < grid_.width; ++x) {
       const CellIndex start = layout_.index(x, y);
-      if (scratch_mark_[start] || visited_[start] != kNoClass || classOf(start) != id) continue;
+      if (scratch_mark_[start] || visited_[start] != kNoClass || classOfDue(start) != id) continue;
       // Flood the region on the scratch marks to measure its size.
       int size = 0;
       scratch_mark_[start] = 1;
@@ -414,7 +499,7 @@ void RegionTracker::initialSearch(ClassState& state) {
         ++size;
         for (const int offset : neighbour_) {
           const CellIndex next = cell + offset;
-          if (!scratch_mark_[next] && visited_[next] == kNoClass && classOf(next) == id) {
+          if (!scratch_mark_[next] && visited_[next] == kNoClass && classOfDue(next) == id) {
             scratch_mark_[next] = 1;
             scratch_queue_.push_back(next);
           }

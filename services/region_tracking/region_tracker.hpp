@@ -74,9 +74,29 @@ struct TrackerConfig {
   std::vector<ClassTracking> classes;
   // Forget everything and search again every this many frames (0: never; the seed uses 300).
   int reinitialise_period_frames = 300;
+  // Bounded staleness at the edge of the view (not in the seed). Cells next to the don't-touch
+  // mask are on every region's boundary, so an exact tracker classifies them every frame; with
+  // n > 1 each is classified only every n-th frame, in interleaved sets ((x + y) mod n against
+  // the frame counter), so a change there is seen at most n - 1 frames late. 1: every frame
+  // (exact). Applies to the outer rim (cells next to the mask around the mirror's edge or the
+  // grid's border: the far field) and, with mask_edge_inner, also to the inner edge (next to the
+  // robot's own body in the image centre: the near field).
+  int mask_edge_every = 1;
+  bool mask_edge_inner = false;
 };
 
-// Reads keys cell_size, reinitialise_period_frames and a list `classes` of maps {class,
+// Where a touchable cell meets the don't-touch mask.
+enum class MaskEdge : std::uint8_t {
+  kNone,   // no blocked neighbour
+  kOuter,  // next to a blocked cell connected to the outside of the grid (the mirror's rim)
+  kInner,  // next only to blocked cells enclosed by touchable ones (the robot's body)
+};
+// One entry per cell, row-major. Blocked cells are connected through their 8 neighbours; the
+// outside of the grid is blocked. `dontTouch`: one byte per cell or empty (nothing blocked).
+std::vector<MaskEdge> maskEdges(const CellGrid& grid, std::span<const std::uint8_t> dontTouch);
+
+// Reads keys cell_size, reinitialise_period_frames, mask_edge_every, mask_edge_inner (both
+// optional) and a list `classes` of maps {class,
 // search_when_lost, max_seed_regions, min_seed_cells, seed_from_boundary_of, view_edge_stride,
 // search_inside_parent_stride}
 // (all but class optional, defaults as in ClassTracking); class names are
@@ -160,7 +180,9 @@ class RegionTracker {
   // True if the last track() computed the class of cell (x, y): the cells it accessed.
   bool classifiedInLastFrame(int x, int y) const {
     // Stamps start at 1 with the first frame: before it, no cell was classified.
-    return frame_count_ > 0 && (classified_[layout_.index(x, y)] >> 8) == stamp_;
+    // (A deferred mask-edge cell carries the stamp with class kBlocked: not classified.)
+    const std::uint16_t entry = classified_[layout_.index(x, y)];
+    return frame_count_ > 0 && (entry >> 8) == stamp_ && (entry & 0xFF) != kBlocked;
   }
 
  private:
@@ -209,13 +231,21 @@ class RegionTracker {
   };
   static constexpr int kNeverSeen = 1 << 30;
 
-  // The class of a cell in the current frame, computed at most once per frame.
+  // The class of a cell in the current frame, computed at most once per frame. kBlocked for a
+  // mask-edge cell not due this frame (mask_edge_every): shrink keeps it, grow does not enter it.
   ClassId classOf(CellIndex cell) {
     const std::uint32_t entry = classified_[cell];
     if ((entry >> 8) == stamp_) return static_cast<ClassId>(entry & 0xFF);
     return classifyNow(cell);
   }
   ClassId classifyNow(CellIndex cell);
+  // classOf, but a deferred mask-edge cell is classified all the same (seeding, initial search).
+  ClassId classOfDue(CellIndex cell) {
+    const ClassId class_id = classOf(cell);
+    return class_id == kBlocked ? classifyNow(cell) : class_id;
+  }
+  // Marks the mask-edge cells not due this frame as classified, with class kBlocked.
+  void deferMaskEdge();
   // From now on cells are classified for `reason` (books the cells since the last call).
   void touchFor(TouchReason reason);
   ClassState* stateOf(ClassId class_id);
@@ -242,6 +272,13 @@ class RegionTracker {
   std::vector<ClassState> classes_;
   // Touchable cells with a don't-touch or out-of-grid neighbour: where new content enters.
   std::vector<CellIndex> view_edge_;
+  // The mask-edge cells under the cadence (mask_edge_every > 1) and their phase, (x + y) mod n:
+  // a cell is due in the frames whose counter mod n equals its phase.
+  struct DeferrableCell {
+    CellIndex cell;
+    int phase;
+  };
+  std::vector<DeferrableCell> deferrable_;
   // By class id: index into classes_, and the class whose boundary seeds it (kNoClass: none).
   std::array<int, 256> class_slot_;
   std::array<ClassId, 256> seed_parent_;

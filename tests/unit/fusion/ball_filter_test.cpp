@@ -16,8 +16,8 @@ constexpr Utime kStart = 1'800'000'000'000'000;
 EkfState robotAt(const geometry::Pose2& pose, Utime t) {
   EkfState s;
   s.utime = t;
-  s.x << pose.x, pose.y, pose.phi, 0, 0, 0;
-  s.p = Matrix6d::Identity() * 1e-4;
+  s.x << pose.x, pose.y, pose.phi, 0, 0, 0, 0;
+  s.p = StateMatrix::Identity() * 1e-4;
   return s;
 }
 
@@ -232,6 +232,83 @@ TEST(BallFilter, ARestartAfterOutliersTakesTheVelocityOfThePair) {
   seen(at_rest, 5, {1.0, 0.6});
   seen(at_rest, 6, {1.0, 0.7});
   EXPECT_NEAR(at_rest.estimate(kStart + 6 * 33'333).vy, 0.0, 1e-12);
+  // Nor when the path must be checked by a third sighting.
+  params.velocity_from_pair = true;
+  params.fit_min_sightings = 3;
+  BallFilter unchecked(params);
+  for (int k = 0; k < 5; ++k)
+    seen(unchecked, k, {1.0, 0.0});
+  seen(unchecked, 5, {1.0, 0.6});
+  seen(unchecked, 6, {1.0, 0.7});
+  EXPECT_EQ(unchecked.restartsWithVelocity(), 0u);
+  EXPECT_NEAR(unchecked.estimate(kStart + 6 * 33'333).vy, 0.0, 1e-12);
+}
+
+TEST(BallFilter, ABallStartedAtRestLearnsItsVelocityWhenItRolls) {
+  // The friction model has no velocity terms at rest; the covariance must not inherit that, or a
+  // ball (re)started at rest could not be followed once it rolls: its sightings were outliers.
+  BallFilterParams params;
+  params.acceleration_density = 1.0;
+  BallFilter f(params);
+  const geometry::Pose2 robot{0.0, 0.0, 0.0};
+  const auto exact = [&](const geometry::Vec2& ball, Utime t) {
+    perception::BallSighting s;
+    s.utime = t;
+    s.visible = true;
+    const geometry::Vec2 local = geometry::pointFieldToRobot(robot, ball);
+    s.x = local.x();
+    s.y = local.y();
+    s.sigma_radial = 0.03;
+    s.sigma_tangential = 0.03;
+    return f.update(s, robotAt(robot, t));
+  };
+  // (Re)started at rest by its first sighting, it already rolls at 4 m/s along x (kicked).
+  ASSERT_EQ(exact({2.0, 0.0}, kStart), BallRejection::kNone);
+  double x = 2.0, v = 4.0;
+  for (int k = 1; k < 7; ++k) {
+    v -= 0.4 * 0.033333;
+    x += v * 0.033333;
+    EXPECT_EQ(exact({x, 0.0}, kStart + k * 33'333), BallRejection::kNone) << k;
+  }
+  const auto e = f.estimate(kStart + 6 * 33'333);
+  EXPECT_TRUE(e.valid);
+  EXPECT_NEAR(e.vx, v, 0.4);
+  EXPECT_NEAR(e.x, x, 0.05);
+}
+
+TEST(BallFilter, ARestartFitsItsVelocityThroughTheRowOfOutliersOnlyWhenTheyAgree) {
+  BallFilterParams params;
+  params.restart_after_outliers = 3;
+  params.velocity_from_pair = true;
+  const geometry::Pose2 robot{0.0, 0.0, 0.0};
+  std::mt19937 rng(9);
+  auto seen = [&](BallFilter& f, int k, const geometry::Vec2& ball) {
+    const Utime t = kStart + k * 33'333;
+    perception::BallSighting s = sightingOf(ball, robot, t, rng);
+    s.x = geometry::pointFieldToRobot(robot, ball).x();
+    s.y = geometry::pointFieldToRobot(robot, ball).y();
+    return f.update(s, robotAt(robot, t));
+  };
+  BallFilter f(params);
+  for (int k = 0; k < 5; ++k)
+    seen(f, k, {1.0, 0.0});
+  // Bounced away at 4 m/s along -x from (0.3, 0.5): three sightings on that path.
+  EXPECT_EQ(seen(f, 5, {0.3, 0.5}), BallRejection::kOutlier);
+  EXPECT_EQ(seen(f, 6, {0.3 - 4.0 * 0.033333, 0.5}), BallRejection::kOutlier);
+  EXPECT_EQ(seen(f, 7, {0.3 - 8.0 * 0.033333, 0.5}), BallRejection::kNone);
+  EXPECT_EQ(f.restartsWithVelocity(), 1u);
+  const auto e = f.estimate(kStart + 7 * 33'333);
+  EXPECT_NEAR(e.vx, -4.0, 0.05);
+  EXPECT_NEAR(e.vy, 0.0, 0.05);
+  // Three outliers that do not lie on one path (false sightings): restart at rest.
+  BallFilter g(params);
+  for (int k = 0; k < 5; ++k)
+    seen(g, k, {1.0, 0.0});
+  seen(g, 5, {0.3, 0.5});
+  seen(g, 6, {1.6, -0.7});
+  EXPECT_EQ(seen(g, 7, {-0.5, 0.9}), BallRejection::kNone);
+  EXPECT_EQ(g.restartsWithVelocity(), 0u);
+  EXPECT_NEAR(g.estimate(kStart + 7 * 33'333).vx, 0.0, 1e-12);
 }
 
 }  // namespace

@@ -50,7 +50,9 @@ TEST(FusionConfig, ContactAndBallRestartKeys) {
   const FusionConfig c = loadFusionConfig(config::Node::loadString(
       "contact:\n  distance_m: 0.35\n  hold_s: 0.25\n  heading_density: 0.7\n"
       "  search_steps: 2\n  search_always: true\n  search_min_points: 40\n"
-      "ball:\n  restart_distance_m: 0.8\n  velocity_from_pair: true\n  pair_max_age_s: 0.1\n"));
+      "ball:\n  restart_distance_m: 0.8\n  velocity_from_pair: true\n  pair_max_age_s: 0.1\n"
+      "  settle_s: 0.25\n  smooth_pose: true\n  restart_speed_sigma: 3.5\n"
+      "  fit_min_sightings: 4\n"));
   EXPECT_DOUBLE_EQ(c.localizer.filter.contact.distance_m, 0.35);
   EXPECT_EQ(c.localizer.filter.contact.hold_us, 250'000);
   EXPECT_DOUBLE_EQ(c.localizer.filter.contact.heading_density, 0.7);
@@ -61,6 +63,10 @@ TEST(FusionConfig, ContactAndBallRestartKeys) {
   EXPECT_DOUBLE_EQ(c.ball.restart_distance_m, 0.8);
   EXPECT_TRUE(c.ball.velocity_from_pair);
   EXPECT_DOUBLE_EQ(c.ball.pair_max_age_s, 0.1);
+  EXPECT_DOUBLE_EQ(c.ball.settle_s, 0.25);
+  EXPECT_TRUE(c.ball.smooth_pose);
+  EXPECT_DOUBLE_EQ(c.ball.restart_speed_sigma, 3.5);
+  EXPECT_EQ(c.ball.fit_min_sightings, 4);
   // The shipped file takes contact from the motor currents, not from the camera.
   const FusionConfig shipped = loadFusionConfigPreset("default");
   EXPECT_GT(shipped.localizer.current_contact.force_threshold_n, 0.0);

@@ -537,6 +537,143 @@ TEST(RegionTracker, SeedsRegionsEnteringAtTheEdgeOfTheView) {
   EXPECT_EQ(plain.regionCells(1), 100);
 }
 
+// A 40x30 view for the mask-edge cadence: a blocked frame two cells wide around it (the outer
+// rim, connected to the outside of the grid) and a blocked 4x4 square in its middle (the inner
+// edge, like the robot's own body).
+std::vector<std::uint8_t> ringMask(int width, int height) {
+  std::vector<std::uint8_t> mask(width * height, 0);
+  for (int y = 0; y < height; ++y) {
+    for (int x = 0; x < width; ++x) {
+      const bool rim = x < 2 || y < 2 || x >= width - 2 || y >= height - 2;
+      const bool body = x >= 18 && x < 22 && y >= 13 && y < 17;
+      mask[y * width + x] = rim || body;
+    }
+  }
+  return mask;
+}
+
+TEST(RegionTracker, MaskEdgesTellTheOuterRimFromTheInnerEdge) {
+  const CellGrid grid{40, 30, 1};
+  const std::vector<MaskEdge> edges = maskEdges(grid, ringMask(40, 30));
+  EXPECT_EQ(edges[grid.index(0, 0)], MaskEdge::kNone);  // blocked itself
+  EXPECT_EQ(edges[grid.index(10, 2)], MaskEdge::kOuter);
+  EXPECT_EQ(edges[grid.index(2, 2)], MaskEdge::kOuter);
+  EXPECT_EQ(edges[grid.index(37, 20)], MaskEdge::kOuter);
+  EXPECT_EQ(edges[grid.index(10, 3)], MaskEdge::kNone);
+  EXPECT_EQ(edges[grid.index(19, 12)], MaskEdge::kInner);
+  EXPECT_EQ(edges[grid.index(22, 14)], MaskEdge::kInner);
+  EXPECT_EQ(edges[grid.index(22, 12)], MaskEdge::kNone);  // only diagonal to the body
+  int outer = 0, inner = 0;
+  for (const MaskEdge e : edges) {
+    outer += e == MaskEdge::kOuter;
+    inner += e == MaskEdge::kInner;
+  }
+  EXPECT_EQ(outer, 2 * 36 + 2 * 24);
+  EXPECT_EQ(inner, 4 * 4);
+  // Without a mask only the grid's border is an edge, the outer one.
+  const std::vector<MaskEdge> open = maskEdges(CellGrid{5, 4, 1}, {});
+  EXPECT_EQ(open[0], MaskEdge::kOuter);
+  EXPECT_EQ(open[6], MaskEdge::kNone);
+}
+
+// Frames until every cell of a line entering the view in frame `start` has left the green
+// region (0: seen in the frame it appeared), for a line of class 2 at column `column`, rows
+// [row0, row1), in a view of green (class 1). The tracker's owners must then equal those of the
+// exact tracker (mask_edge_every 1) on the same frames.
+int framesUntilTheLineIsSeen(int every, bool inner, int start, int column, int row0, int row1) {
+  ClassGrid field(40, 30, 1);
+  const std::vector<std::uint8_t> mask = ringMask(40, 30);
+  ClassGrid withLine = field;
+  withLine.fillRect(column, row0, column + 1, row1, 2);
+  TrackerConfig config = configFor({1});
+  config.mask_edge_every = every;
+  config.mask_edge_inner = inner;
+  TrackerConfig exactConfig = configFor({1});
+  RegionTracker tracker(gridOf(field), config, mask);
+  RegionTracker exact(gridOf(field), exactConfig, mask);
+  for (int frame = 0; frame < start; ++frame) {
+    tracker.track(ClassMapClassifier(field.cells, field.width));
+    exact.track(ClassMapClassifier(field.cells, field.width));
+  }
+  for (int late = 0; late < 10; ++late) {
+    tracker.track(ClassMapClassifier(withLine.cells, withLine.width));
+    exact.track(ClassMapClassifier(withLine.cells, withLine.width));
+    bool seen = true;
+    for (int y = row0; y < row1; ++y)
+      seen = seen && tracker.ownerOf(column, y) == kNoClass;
+    if (seen) {
+      EXPECT_EQ(tracker.visited(), exact.visited()) << "every " << every << " start " << start;
+      return late;
+    }
+  }
+  return 10;
+}
+
+TEST(RegionTracker, ALineEnteringAcrossTheMaskEdgeIsTrackedWithinNFrames) {
+  for (const int every : {1, 2, 3}) {
+    int latest = 0, latestInner = 0, latestInnerToo = 0;
+    for (int start = 3; start < 9; ++start) {
+      // Across the outer rim: a line from the top edge of the view down to row 8.
+      const int late = framesUntilTheLineIsSeen(every, false, start, 10, 2, 9);
+      EXPECT_LE(late, every - 1) << "every " << every << " start " << start;
+      latest = std::max(latest, late);
+      // Across the inner edge (from the body up to row 5): seen at once unless asked.
+      latestInner = std::max(latestInner, framesUntilTheLineIsSeen(every, false, start, 19, 5, 13));
+      latestInnerToo =
+          std::max(latestInnerToo, framesUntilTheLineIsSeen(every, true, start, 19, 5, 13));
+    }
+    // The bound is reached: in some phase the line is seen exactly n - 1 frames late.
+    EXPECT_EQ(latest, every - 1) << "every " << every;
+    EXPECT_EQ(latestInner, 0) << "every " << every;
+    EXPECT_EQ(latestInnerToo, every - 1) << "every " << every;
+  }
+}
+
+TEST(RegionTracker, EveryMaskEdgeCellOfTheBandIsClassifiedOnceInNFrames) {
+  ClassGrid g(40, 30, 1);
+  g.fillRect(10, 0, 12, 30, 2);  // a line across the whole view
+  const std::vector<std::uint8_t> mask = ringMask(40, 30);
+  const std::vector<MaskEdge> edges = maskEdges(gridOf(g), mask);
+  for (const int every : {1, 2, 4}) {
+    TrackerConfig config = configFor({1});
+    config.mask_edge_every = every;
+    RegionTracker tracker(gridOf(g), config, mask);
+    RegionTracker exact(gridOf(g), configFor({1}), mask);
+    tracker.track(ClassMapClassifier(g.cells, g.width));
+    exact.track(ClassMapClassifier(g.cells, g.width));
+    std::vector<int> asked(g.cells.size(), 0);
+    int classified = 0;
+    for (int frame = 1; frame <= every; ++frame) {
+      RecordingClassifier classifier(g);
+      classified += tracker.track(classifier).cells_classified;
+      exact.track(ClassMapClassifier(g.cells, g.width));
+      for (std::size_t i = 0; i < asked.size(); ++i) {
+        EXPECT_LE(classifier.asked()[i], 1);
+        asked[i] += classifier.asked()[i];
+      }
+      // Nothing moves: the regions stay exact.
+      EXPECT_EQ(tracker.visited(), exact.visited());
+    }
+    // Every cell the exact tracker classifies each frame (the band), within n frames; the
+    // cells off the mask's edge every frame.
+    int rimBand = 0;
+    for (int y = 0; y < 30; ++y) {
+      for (int x = 0; x < 40; ++x) {
+        if (!exact.classifiedInLastFrame(x, y)) continue;
+        const int i = y * 40 + x;
+        if (edges[i] == MaskEdge::kOuter) {
+          ++rimBand;
+          EXPECT_EQ(asked[i], 1) << "every " << every << " cell " << x << "," << y;
+        } else {
+          EXPECT_EQ(asked[i], every) << "every " << every << " cell " << x << "," << y;
+        }
+      }
+    }
+    // The rim is where the saving is: (n - 1) / n of its band cells per frame.
+    EXPECT_EQ(classified, every * exact.stats().cells_classified - (every - 1) * rimBand);
+  }
+}
+
 TEST(RegionTracker, RejectsBadConfiguration) {
   const CellGrid grid{10, 10, 1};
   EXPECT_THROW(RegionTracker(grid, configFor({1, 1})), std::invalid_argument);
@@ -550,6 +687,9 @@ TEST(RegionTracker, RejectsBadConfiguration) {
   EXPECT_THROW(RegionTracker(grid, orphan), std::invalid_argument);
   EXPECT_THROW(RegionTracker(grid, configFor({1}), std::vector<std::uint8_t>(5, 0)),
                std::invalid_argument);
+  TrackerConfig noCadence = configFor({1});
+  noCadence.mask_edge_every = 0;
+  EXPECT_THROW(RegionTracker(grid, noCadence), std::invalid_argument);
   RegionTracker tracker(grid, configFor({1}));
   EXPECT_THROW(tracker.addSeed(2, 1, 1), std::invalid_argument);
   EXPECT_THROW(tracker.addSeed(1, 10, 1), std::out_of_range);
@@ -566,6 +706,7 @@ TEST(RegionTracker, LoadsItsConfigFromYaml) {
   const auto node = config::Node::loadString(R"(
 cell_size: 4
 reinitialise_period_frames: 300
+mask_edge_every: 2
 classes:
   - {class: green, max_seed_regions: 10, min_seed_cells: 4}
   - {class: orange, search_when_lost: false, seed_from_boundary_of: green,
@@ -574,6 +715,8 @@ classes:
   const TrackerConfig config = loadTrackerConfig(node, byName);
   EXPECT_EQ(config.cell_size, 4);
   EXPECT_EQ(config.reinitialise_period_frames, 300);
+  EXPECT_EQ(config.mask_edge_every, 2);
+  EXPECT_FALSE(config.mask_edge_inner);
   ASSERT_EQ(config.classes.size(), 2u);
   EXPECT_EQ(config.classes[1].class_id, 4);
   EXPECT_FALSE(config.classes[1].search_when_lost);
@@ -591,6 +734,8 @@ classes:
     ADD_FAILURE() << "accepted: " << yaml;
   };
   fails("cell_size: 3\nreinitialise_period_frames: 1\nclasses: []\n", "cell_size");
+  fails("cell_size: 4\nreinitialise_period_frames: 1\nmask_edge_every: 0\nclasses: []\n",
+        "mask_edge_every");
   fails("cell_size: 4\nreinitialise_period_frames: 1\nclasses:\n  - {class: green, colour: 2}\n",
         "colour");
   fails("cell_size: 4\nreinitialise_period_frames: 1\nclasses:\n  - {class: purple}\n",

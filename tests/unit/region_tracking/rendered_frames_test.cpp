@@ -2,7 +2,9 @@
 // camera, 4x4 cells): line points on the model's lines, the ball, obstacles.
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <optional>
+#include <utility>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -270,6 +272,79 @@ TEST_F(RenderedFrames, TheSmallGreenRegionInsideTheGoalAreaIsTracked) {
   EXPECT_LE(goal_area_cells, 60);  // small: not merged with the field around it
 }
 
+// The default vision classifies the cells on the mirror's outer rim every 2nd frame
+// (tracker.mask_edge_every): on a rendered drive (1 m/s, turning at 90 and at 400 deg/s) its
+// regions differ from the exact tracker's only near the rim, it classifies fewer cells, and its
+// line points are the exact tracker's but for a few at the rim.
+TEST_F(RenderedFrames, TheRimCadenceDiffersFromTheExactTrackerOnlyNearTheRim) {
+  for (const double omegaDeg : {90.0, 400.0}) {
+    const VisionParams cadence = defaultVisionParams();
+    ASSERT_EQ(cadence.tracker.mask_edge_every, 2);
+    VisionParams exactParams = cadence;
+    exactParams.tracker.mask_edge_every = 1;
+    FrameProcessor tested(sim_->mirror, sim_->table, cadence);
+    FrameProcessor exact(sim_->mirror, sim_->table, exactParams);
+    const CellGrid& grid = exact.grid();
+    // Cells from the outer rim, in 4-connected steps.
+    const std::vector<MaskEdge> edges = maskEdges(grid, exact.dontTouch());
+    std::vector<int> rimSteps(grid.cellCount(), -1), queue;
+    for (int c = 0; c < grid.cellCount(); ++c) {
+      if (edges[c] == MaskEdge::kOuter) {
+        rimSteps[c] = 0;
+        queue.push_back(c);
+      }
+    }
+    for (std::size_t head = 0; head < queue.size(); ++head) {
+      const int c = queue[head], x = c % grid.width, y = c / grid.width;
+      for (const auto& [nx, ny] : {std::pair{x + 1, y}, {x - 1, y}, {x, y + 1}, {x, y - 1}}) {
+        if (grid.contains(nx, ny) && rimSteps[grid.index(nx, ny)] < 0) {
+          rimSteps[grid.index(nx, ny)] = rimSteps[c] + 1;
+          queue.push_back(grid.index(nx, ny));
+        }
+      }
+    }
+    const std::vector<geometry::Pose2> poses =
+        motionPoses(sim_->field, {1.0, omegaDeg * M_PI / 180, 30.0}, 60);
+    camera::SimScene scene;
+    VisionResult testedResult, exactResult;
+    long long testedCells = 0, exactCells = 0, points = 0, unmatched = 0;
+    int differingFrames = 0, deepest = 0;
+    for (int i = 0; i < 60; ++i) {
+      scene.robot = poses[i];
+      scene.frame_number = static_cast<std::uint64_t>(i);
+      const camera::FrameView frame = sim_->render(scene);
+      tested.process(frame, true, testedResult);
+      exact.process(frame, true, exactResult);
+      testedCells += testedResult.tracking.cells_classified;
+      exactCells += exactResult.tracking.cells_classified;
+      bool differs = false;
+      for (int c = 0; c < grid.cellCount(); ++c) {
+        const int x = c % grid.width, y = c / grid.width;
+        if (tested.tracker().ownerOf(x, y) == exact.tracker().ownerOf(x, y)) continue;
+        differs = true;
+        deepest = std::max(deepest, rimSteps[c]);
+      }
+      differingFrames += differs ? 1 : 0;
+      for (const LinePoint& p : testedResult.lines.points) {
+        ++points;
+        const bool near = std::any_of(
+            exactResult.lines.points.begin(), exactResult.lines.points.end(),
+            [&](const LinePoint& q) { return std::hypot(p.u - q.u, p.v - q.v) <= 5.0; });
+        unmatched += near ? 0 : 1;
+      }
+    }
+    SCOPED_TRACE(omegaDeg);
+    EXPECT_GT(differingFrames, 0);  // the cadence is not a no-op
+    EXPECT_LE(deepest, 8);          // differences stay near the rim (8 cells = 32 px)
+    EXPECT_LT(testedCells, exactCells * 0.97);
+    EXPECT_LT(static_cast<double>(unmatched), 0.01 * static_cast<double>(points));
+    std::printf(
+        "%.0f deg/s: %d of 60 frames differ, at most %d cells from the rim; cells %lld "
+        "vs %lld; %lld of %lld line points not within 5 px of an exact one\n",
+        omegaDeg, differingFrames, deepest, testedCells, exactCells, unmatched, points);
+  }
+}
+
 TEST(MotionPoses, MoveAtTheGivenSpeedsAndStayInsideTheField) {
   for (const std::string preset : {"msl", "fu2004"}) {
     const field::FieldModel field = field::loadFieldPreset(preset);
@@ -294,6 +369,8 @@ TEST(VisionParams, TheShippedYamlHoldsTheDefaults) {
   const VisionParams defaults = defaultVisionParams();
   EXPECT_EQ(loaded.tracker.cell_size, defaults.tracker.cell_size);
   EXPECT_EQ(loaded.tracker.reinitialise_period_frames, defaults.tracker.reinitialise_period_frames);
+  EXPECT_EQ(loaded.tracker.mask_edge_every, defaults.tracker.mask_edge_every);
+  EXPECT_EQ(loaded.tracker.mask_edge_inner, defaults.tracker.mask_edge_inner);
   ASSERT_EQ(loaded.tracker.classes.size(), defaults.tracker.classes.size());
   for (std::size_t i = 0; i < loaded.tracker.classes.size(); ++i) {
     const ClassTracking& a = loaded.tracker.classes[i];
