@@ -8,6 +8,7 @@ static_assert(perception::kOdometryMotorFault == odometry_t::STATUS_MOTOR_FAULT)
 static_assert(perception::kOdometryFramesLost == odometry_t::STATUS_FRAMES_LOST);
 static_assert(perception::kOdometryResync == odometry_t::STATUS_RESYNC);
 static_assert(perception::kOdometryCurrents == odometry_t::STATUS_CURRENTS);
+static_assert(perception::kOdometryGyro == odometry_t::STATUS_GYRO);
 
 perception::OdometryReading fromMessage(const odometry_t& m) {
   perception::OdometryReading r;
@@ -22,6 +23,7 @@ perception::OdometryReading fromMessage(const odometry_t& m) {
   r.status = m.status;
   for (std::size_t i = 0; i < 3; ++i)
     r.wheel_current[i] = m.wheel_current[i];
+  r.gyro_dphi = m.gyro_dphi;
   return r;
 }
 
@@ -39,6 +41,7 @@ void toMessage(const perception::OdometryReading& r, odometry_t& m) {
   m.status = r.status;
   for (std::size_t i = 0; i < 3; ++i)
     m.wheel_current[i] = r.wheel_current[i];
+  m.gyro_dphi = r.gyro_dphi;
 }
 
 }  // namespace fieldline::msg

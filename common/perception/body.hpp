@@ -16,6 +16,7 @@ inline constexpr std::int32_t kOdometryMotorFault = 2;
 inline constexpr std::int32_t kOdometryFramesLost = 4;
 inline constexpr std::int32_t kOdometryResync = 8;
 inline constexpr std::int32_t kOdometryCurrents = 16;
+inline constexpr std::int32_t kOdometryGyro = 32;
 
 // One odometry sample of the motor controller.
 struct OdometryReading {
@@ -35,6 +36,9 @@ struct OdometryReading {
   std::int32_t status = 0;
   // Mean motor current per wheel over the sample period [A]; valid with kOdometryCurrents.
   std::array<float, 3> wheel_current{};
+  // Rotation since the previous sample from the controller's gyro [rad CCW], raw (bias and scale
+  // error included); valid with kOdometryGyro.
+  double gyro_dphi = 0.0;
 };
 
 // Who sent a motion command; values equal motion_command_t's SOURCE_ constants.

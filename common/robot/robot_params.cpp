@@ -70,6 +70,24 @@ RobotParams loadRobotParams(const config::Node& root) {
       motor.getOr<double>("torque_constant", p.motor.torque_constant, 1e-4, 10.0);
   motor.rejectUnknownKeys();
 
+  if (const auto gyro = root.childIf("gyro")) {
+    GyroParams& g = p.gyro;
+    g.present = true;
+    g.sample_rate = gyro->get<double>("sample_rate", 1.0, 100000.0);
+    g.bandwidth = gyro->get<double>("bandwidth", 1.0, 50000.0);
+    g.noise_density = gyro->get<double>("noise_density", 0.0, 0.1);
+    g.bias_sigma = gyro->get<double>("bias_sigma", 0.0, 1.0);
+    g.bias_walk = gyro->get<double>("bias_walk", 0.0, 0.1);
+    g.scale_sigma = gyro->get<double>("scale_sigma", 0.0, 0.2);
+    g.range = gyro->get<double>("range", 1.0, 1000.0);
+    g.lsb = gyro->get<double>("lsb", 0.0, 1.0);
+    if (g.bandwidth > 0.5 * g.sample_rate) {
+      gyro->fail("bandwidth",
+                 "must be at most half the sample_rate (" + std::to_string(g.sample_rate) + " Hz)");
+    }
+    gyro->rejectUnknownKeys();
+  }
+
   const auto sim = root.child("simulation");
   p.simulation.wheel_radius_error = perWheel(sim, "wheel_radius_error", 0.2);
   p.simulation.wheel_angle_error = perWheel(sim, "wheel_angle_error", 0.2);

@@ -35,6 +35,33 @@ struct MotorParams {
   double torque_constant = 0.0255;
 };
 
+// The yaw-rate gyro on the motor controller board (a MEMS part), as its data sheet describes it:
+// the firmware integrates its rate samples into an angle (docs/serial-protocol.md), fusion takes
+// its error model for the heading's process noise, and the firmware emulator draws the errors of
+// one start from it. Absent in the robot file (`gyro:` missing): the robot has none, `present`
+// false, and every consumer uses the wheels' heading.
+struct GyroParams {
+  bool present = false;
+  // Output data rate of the rate samples the firmware integrates [Hz] (the emulator samples at
+  // every physics step instead, 400 Hz).
+  double sample_rate = 1000.0;
+  // Bandwidth of the gyro's low-pass filter [Hz]: the white noise of one rate sample is
+  // noise_density * sqrt(bandwidth).
+  double bandwidth = 200.0;
+  // Rate noise density [rad/s/sqrt(Hz)] (= angle random walk, rad/sqrt(s)).
+  double noise_density = 2.6e-4;
+  // Spread of the constant bias, drawn once per start [rad/s, one sigma].
+  double bias_sigma = 5.2e-3;
+  // Bias random walk [rad/s per sqrt(s)].
+  double bias_walk = 8.7e-5;
+  // Spread of the scale-factor error, drawn once per start [1, one sigma].
+  double scale_sigma = 0.005;
+  // Measurement range: rates beyond +-range saturate [rad/s].
+  double range = 69.8;
+  // One LSB of a rate sample [rad/s]; 0: not quantised.
+  double lsb = 2.13e-3;
+};
+
 // How the simulated robot differs from its nominal model: odometry does not know these.
 struct SimulationErrors {
   // True radius = nominal * (1 + error), per wheel.
@@ -68,6 +95,7 @@ struct RobotParams {
   int pulses_per_motor_revolution = 0;
   int gear_ratio = 0;
   MotorParams motor;
+  GyroParams gyro;
   SimulationErrors simulation;
 
   // Encoder ticks per wheel revolution (768 on the seed's robot).

@@ -11,8 +11,9 @@ namespace {
 constexpr std::size_t kHelloBody = 9;
 constexpr std::size_t kCommandBody = 10;
 constexpr std::size_t kOdometryBody = 30;
-// ... with the wheel currents' tail.
-constexpr std::size_t kOdometryCurrentsBody = 36;
+// ... with the wheel currents' tail (6 bytes) and/or the gyro's tail (4 bytes, after the currents).
+constexpr std::size_t kOdometryCurrentsTail = 6;
+constexpr std::size_t kOdometryGyroTail = 4;
 constexpr std::size_t kErrorBody = 5;
 constexpr std::size_t kHeaderSize = 2;
 constexpr std::size_t kCrcSize = 4;
@@ -86,6 +87,7 @@ void writeBody(const OdometrySample& m, Writer& w) {
     for (const auto c : *m.current_ma)
       w.i16(c);
   }
+  if (m.gyro_angle_urad) w.i32(*m.gyro_angle_urad);
 }
 void writeBody(const ErrorReport& m, Writer& w) {
   w.u8(static_cast<std::uint8_t>(m.code));
@@ -205,9 +207,12 @@ std::variant<Message, Reject> parsePayload(std::span<const std::uint8_t> payload
       return Message{m};
     }
     case MessageType::kOdometry: {
-      if (body_size != kOdometryBody && body_size != kOdometryCurrentsBody) {
-        return Reject::kLength;
-      }
+      const std::size_t tail = body_size - std::min(body_size, kOdometryBody);
+      const bool currents =
+          tail == kOdometryCurrentsTail || tail == kOdometryCurrentsTail + kOdometryGyroTail;
+      const bool gyro =
+          tail == kOdometryGyroTail || tail == kOdometryCurrentsTail + kOdometryGyroTail;
+      if (body_size < kOdometryBody || (tail != 0 && !currents && !gyro)) return Reject::kLength;
       OdometrySample m;
       m.seq = r.u32();
       m.controller_time_us = r.u64();
@@ -215,12 +220,13 @@ std::variant<Message, Reject> parsePayload(std::span<const std::uint8_t> payload
         t = r.i32();
       m.status = r.u16();
       m.last_command_seq = r.u32();
-      if (body_size == kOdometryCurrentsBody) {
+      if (currents) {
         std::array<std::int16_t, 3> current{};
         for (auto& c : current)
           c = r.i16();
         m.current_ma = current;
       }
+      if (gyro) m.gyro_angle_urad = r.i32();
       return Message{m};
     }
     case MessageType::kError: {

@@ -75,6 +75,11 @@ struct OdometrySample {
   // direction: an optional tail of the body (a controller without current sensing sends the
   // 30-byte body, one with it 36 bytes; docs/serial-protocol.md).
   std::optional<std::array<std::int16_t, 3>> current_ma;
+  // The yaw-rate gyro's integrated angle since the controller started [µrad CCW], wrapping as
+  // int32 like the ticks, so a lost frame loses no rotation: the host takes the difference. An
+  // optional tail after the currents (4 more bytes: 34-byte body without currents, 40 with them;
+  // docs/serial-protocol.md).
+  std::optional<std::int32_t> gyro_angle_urad;
 
   bool operator==(const OdometrySample&) const = default;
 };
@@ -101,7 +106,7 @@ double fromQ15(std::int16_t value);
 
 // Largest payload (version + type + body + CRC) of any message, and of its COBS frame with the
 // delimiter. Anything longer on the wire is garbage.
-inline constexpr std::size_t kMaxPayloadSize = 2 + 36 + 4;
+inline constexpr std::size_t kMaxPayloadSize = 2 + 40 + 4;
 inline constexpr std::size_t kMaxFrameSize = kMaxPayloadSize + kMaxPayloadSize / 254 + 2;
 
 // Appends the complete frame (COBS bytes and the 0x00 delimiter) for `message` to `out`.

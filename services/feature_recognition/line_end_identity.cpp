@@ -31,7 +31,7 @@ void candidateLineEnds(const LineStructure& structure, const field::FieldModel& 
           }
         }
       }
-      if (!partner) continue;
+      if (!partner && params.line_end_alone_side_points <= 0) continue;
       // The ends of each run of the group (a line seen in parts ends where a part ends).
       for (const LineRun& run : groups[g].runs) {
         if (run.count < params.min_corner_line_points || run.length() < params.min_front_line) {
@@ -44,6 +44,7 @@ void candidateLineEnds(const LineStructure& structure, const field::FieldModel& 
           end.length = run.length();
           end.axis = axis;
           end.group = g;
+          end.partner = partner;
           if (end.position.norm() > params.line_end_range) continue;
           const bool explained = std::any_of(taken.begin(), taken.end(), [&](const Vec2& t) {
             return (t - end.position).norm() < params.junction_distance;
@@ -125,11 +126,12 @@ bool identifyLineEnd(const LineEnd& end, const std::vector<ModelJunction>& model
   }
   out.side_points = side_points;
   const double share = out.identity.fit.share();
-  out.identified = out.identity.fit.points >= params.identity_min_points &&
-                   share >= params.identity_min_share &&
-                   out.identity.rival_share <= share - params.identity_margin &&
-                   out.shifted_share <= share - params.line_end_shift_margin &&
-                   side_points >= params.line_end_min_side_points;
+  out.identified =
+      out.identity.fit.points >= params.identity_min_points && share >= params.identity_min_share &&
+      out.identity.rival_share <= share - params.identity_margin &&
+      out.shifted_share <= share - params.line_end_shift_margin &&
+      side_points >=
+          (end.partner ? params.line_end_min_side_points : params.line_end_alone_side_points);
   return out.identified;
 }
 

@@ -29,11 +29,15 @@ struct LineEnd {
   double length = 0.0;
   // The line group it belongs to: (axis, index).
   int axis = 0, group = -1;
+  // Whether the group has a parallel partner at one of the area's spacings; without one the
+  // corner's other line must show line_end_alone_side_points points.
+  bool partner = true;
 };
 
 // The ends of the structure's line groups that may be corners: groups with at least
 // min_corner_line_points points and min_front_line long, with a parallel group (of as many
-// points) at one of the spacings of the penalty area's lines (within spacing_tolerance), ends
+// points) at one of the spacings of the penalty area's lines (within spacing_tolerance) or, when
+// line_end_alone_side_points > 0, without one (LineEnd::partner false), ends
 // within line_end_range of the robot and further than junction_distance from every point in
 // `taken` (ends already explained by a junction or a corner).
 void candidateLineEnds(const LineStructure& structure, const field::FieldModel& field,

@@ -8,13 +8,18 @@
 namespace fieldline::fusion {
 namespace {
 
-void symmetrize(Matrix6d& p) {
+void symmetrize(StateMatrix& p) {
   p = 0.5 * (p + p.transpose()).eval();
 }
 
+// The gyro bias's random walk over dt.
+void addBiasWalk(StateMatrix& p, double dt, const ProcessNoise& n) {
+  p(kGyroBias, kGyroBias) += n.gyro_bias_walk * n.gyro_bias_walk * dt;
+}
+
 // Velocity random walk (white acceleration) over dt for a 6-state of pose and velocity.
-Matrix6d accelerationNoise(double dt, const ProcessNoise& n, bool with_position) {
-  Matrix6d q = Matrix6d::Zero();
+StateMatrix accelerationNoise(double dt, const ProcessNoise& n, bool with_position) {
+  StateMatrix q = StateMatrix::Zero();
   const double qa[3] = {n.linear_acceleration * n.linear_acceleration,
                         n.linear_acceleration * n.linear_acceleration,
                         n.angular_acceleration * n.angular_acceleration};
@@ -52,11 +57,12 @@ ProcessNoise ProcessNoise::fromMotorModel(const robot::MotorModel& motor,
 void predictConstantVelocity(EkfState& s, Utime t, const ProcessNoise& noise) {
   if (t <= s.utime) return;
   const double dt = static_cast<double>(t - s.utime) * 1e-6;
-  Matrix6d f = Matrix6d::Identity();
+  StateMatrix f = StateMatrix::Identity();
   f(0, 3) = f(1, 4) = f(2, 5) = dt;
   s.x = (f * s.x).eval();
   s.x[2] = geometry::normalizeAngle(s.x[2]);
   s.p = (f * s.p * f.transpose()).eval() + accelerationNoise(dt, noise, true);
+  addBiasWalk(s.p, dt, noise);
   symmetrize(s.p);
   s.utime = t;
 }
@@ -69,14 +75,18 @@ void predictOdometry(EkfState& s, const OdometryStep& step, const ProcessNoise& 
   const double fraction =
       static_cast<double>(step.t_end - s.utime) / static_cast<double>(step.t_end - step.t_start);
   const double dt = static_cast<double>(step.t_end - s.utime) * 1e-6;
-  const geometry::Movement m = robot::arcMovement(fraction * step.integrated);
+  Eigen::Vector3d part = fraction * step.integrated;
+  // The gyro's rotation less its bias over the part of the step.
+  if (step.gyro) part.z() -= s.x[kGyroBias] * dt;
+  const geometry::Movement m = robot::arcMovement(part);
   const double phi = s.x[2];
   const double c = std::cos(phi), sn = std::sin(phi);
 
-  Matrix6d f = Matrix6d::Identity();
+  StateMatrix f = StateMatrix::Identity();
   f(0, 2) = -sn * m.dx - c * m.dy;
   f(1, 2) = c * m.dx - sn * m.dy;
-  Eigen::Matrix<double, 6, 3> g = Eigen::Matrix<double, 6, 3>::Zero();
+  if (step.gyro) f(2, kGyroBias) = -dt;
+  Eigen::Matrix<double, kStateSize, 3> g = Eigen::Matrix<double, kStateSize, 3>::Zero();
   g(0, 0) = c;
   g(0, 1) = -sn;
   g(1, 0) = sn;
@@ -88,8 +98,10 @@ void predictOdometry(EkfState& s, const OdometryStep& step, const ProcessNoise& 
   s.x[2] = geometry::normalizeAngle(phi + m.dphi);
   s.p = (f * s.p * f.transpose()).eval() + fraction * g * step.covariance * g.transpose() +
         accelerationNoise(dt, noise, false);
+  addBiasWalk(s.p, dt, noise);
   symmetrize(s.p);
   s.utime = step.t_end;
+  s.gyro = step.gyro;
 
   if (!step.has_velocity) return;
   // The step's mean velocity, in the field frame at the middle of the step's heading change.
@@ -108,14 +120,16 @@ void predictOdometry(EkfState& s, const OdometryStep& step, const ProcessNoise& 
   r(1, 1) += noise.odometry_velocity_sigma * noise.odometry_velocity_sigma;
   r(2, 2) += noise.odometry_omega_sigma * noise.odometry_omega_sigma;
 
-  Eigen::Matrix<double, 3, 6> h = Eigen::Matrix<double, 3, 6>::Zero();
-  h.rightCols<3>().setIdentity();
-  const Eigen::Vector3d y = z - s.x.tail<3>();
-  const Eigen::Matrix3d sm = s.p.bottomRightCorner<3, 3>() + r;
-  const Eigen::Matrix<double, 6, 3> k = s.p * h.transpose() * sm.inverse();
+  Eigen::Matrix<double, 3, kStateSize> h = Eigen::Matrix<double, 3, kStateSize>::Zero();
+  h.block<3, 3>(0, 3).setIdentity();
+  // The gyro measures the rotation rate plus its bias.
+  if (step.gyro) h(2, kGyroBias) = 1.0;
+  const Eigen::Vector3d y = z - h * s.x;
+  const Eigen::Matrix3d sm = h * s.p * h.transpose() + r;
+  const Eigen::Matrix<double, kStateSize, 3> k = s.p * h.transpose() * sm.inverse();
   s.x += k * y;
   s.x[2] = geometry::normalizeAngle(s.x[2]);
-  const Matrix6d ikh = Matrix6d::Identity() - k * h;
+  const StateMatrix ikh = StateMatrix::Identity() - k * h;
   s.p = (ikh * s.p * ikh.transpose()).eval() + k * r * k.transpose();
   symmetrize(s.p);
 }
@@ -129,7 +143,8 @@ UpdateResult updatePose(EkfState& s, const PoseMeasurement& z, double gate2,
   result.mahalanobis2 = y.dot(sm_inv * y);
   if (!std::isfinite(result.mahalanobis2)) return result;
   if (gate2 > 0.0 && result.mahalanobis2 > gate2) {
-    const bool within = y.head<2>().norm() <= slip.max_m && std::abs(y[2]) <= slip.max_rad;
+    const double max_rad = s.gyro ? slip.max_rad_gyro : slip.max_rad;
+    const bool within = y.head<2>().norm() <= slip.max_m && std::abs(y[2]) <= max_rad;
     if (!z.may_reveal_slip || slip.inflation <= 0.0 || !within) return result;
     // Odometry missed a movement: the pose is as uncertain as the disagreement says.
     s.p.topLeftCorner<3, 3>() += slip.inflation * y.cwiseAbs2().asDiagonal().toDenseMatrix();
@@ -137,13 +152,13 @@ UpdateResult updatePose(EkfState& s, const PoseMeasurement& z, double gate2,
     sm_inv = sm.inverse();
     result.slip = true;
   }
-  Eigen::Matrix<double, 3, 6> h = Eigen::Matrix<double, 3, 6>::Zero();
+  Eigen::Matrix<double, 3, kStateSize> h = Eigen::Matrix<double, 3, kStateSize>::Zero();
   h.leftCols<3>().setIdentity();
-  const Eigen::Matrix<double, 6, 3> k = s.p * h.transpose() * sm_inv;
-  const Vector6d dx = k * y;
+  const Eigen::Matrix<double, kStateSize, 3> k = s.p * h.transpose() * sm_inv;
+  const StateVector dx = k * y;
   s.x += dx;
   s.x[2] = geometry::normalizeAngle(s.x[2]);
-  const Matrix6d ikh = Matrix6d::Identity() - k * h;
+  const StateMatrix ikh = StateMatrix::Identity() - k * h;
   s.p = (ikh * s.p * ikh.transpose()).eval() + k * z.covariance * k.transpose();
   symmetrize(s.p);
   result.accepted = true;

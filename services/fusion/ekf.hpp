@@ -1,11 +1,15 @@
-// The extended Kalman filter of seed 4.5-4.6 on the state (x, y, phi, vx, vy, omega): position
-// and heading in the field frame, velocity in the field frame. Plain functions on a state so the
-// delayed-measurement history (history.hpp) can checkpoint and replay them.
+// The extended Kalman filter of seed 4.5-4.6 on the state (x, y, phi, vx, vy, omega, b): position
+// and heading in the field frame, velocity in the field frame, and the bias b of the controller's
+// yaw-rate gyro. Plain functions on a state so the delayed-measurement history (history.hpp) can
+// checkpoint and replay them.
 //
 // Process: between samples the velocity is held (the filter does not see the commands) and the
 // motor model (eq. 4.45-4.47) bounds how fast it can change: its largest acceleration, projected
 // through W(phi)^-1, sets the velocity's process noise. Odometry moves the pose by layer 1's
-// movement (a control input with its own covariance) and measures the velocity. Pose
+// movement (a control input with its own covariance) and measures the velocity. A step whose
+// heading comes from the gyro (OdometryStep::gyro) turns the heading by the gyro's rotation
+// minus b times its duration; b is a random walk, learnt from the line frames' headings (without
+// gyro steps it is coupled to nothing and changes nothing). Pose
 // measurements (layers 2 and 3) update with the Joseph form, the heading innovation wrapped,
 // behind a Mahalanobis gate.
 #pragma once
@@ -20,14 +24,20 @@
 
 namespace fieldline::fusion {
 
-using Vector6d = Eigen::Matrix<double, 6, 1>;
-using Matrix6d = Eigen::Matrix<double, 6, 6>;
+inline constexpr int kStateSize = 7;
+// Index of the gyro bias in the state.
+inline constexpr int kGyroBias = 6;
+using StateVector = Eigen::Matrix<double, kStateSize, 1>;
+using StateMatrix = Eigen::Matrix<double, kStateSize, kStateSize>;
 
 struct EkfState {
   Utime utime = 0;
-  // x, y [m], phi [rad] in (-pi, pi], vx, vy [m/s] field frame, omega [rad/s].
-  Vector6d x = Vector6d::Zero();
-  Matrix6d p = Matrix6d::Identity();
+  // x, y [m], phi [rad] in (-pi, pi], vx, vy [m/s] field frame, omega [rad/s], gyro bias [rad/s].
+  StateVector x = StateVector::Zero();
+  StateMatrix p = StateMatrix::Identity();
+  // The last odometry step turned the heading by the gyro (the contact noise's heading density
+  // depends on it).
+  bool gyro = false;
   // Time of the last accepted pose measurement (0: none yet) and the size of its correction.
   Utime last_correction_utime = 0;
   double last_correction_m = 0.0;
@@ -47,6 +57,8 @@ struct ProcessNoise {
   // Velocity measured from odometry: extra standard deviation, m/s and rad/s.
   double odometry_velocity_sigma = 0.05;
   double odometry_omega_sigma = 0.1;
+  // The gyro bias's random walk, rad/s per sqrt(s) (robot file `gyro.bias_walk`).
+  double gyro_bias_walk = 0.0;
 
   // Acceleration noise from the motor model: a wheel accelerates at most alpha / m (full
   // command from standstill, eq. 4.45-4.46); W(phi)^-1 (eq. 4.47) turns that into the body.
@@ -73,6 +85,9 @@ struct PoseMeasurement {
 struct SlipModel {
   double max_m = 0.5;
   double max_rad = 0.5;
+  // ... instead of max_rad while the heading comes from the gyro (EkfState::gyro): it sees a
+  // twist, so a frame whose heading disagrees beyond this is a wrong match, not a slip.
+  double max_rad_gyro = 0.5;
   // 0: no slip handling.
   double inflation = 2.0;
 };
@@ -91,6 +106,9 @@ struct ContactModel {
   // Extra position and heading noise while in contact, m/sqrt(s) and rad/sqrt(s).
   double position_density = 0.0;
   double heading_density = 0.0;
+  // The heading's extra noise in contact when the heading comes from the gyro, which sees the
+  // twist the wheels miss (what is left: saturation, the stamps), rad/sqrt(s).
+  double gyro_heading_density = 0.0;
 };
 
 struct UpdateResult {

@@ -48,6 +48,10 @@ void loadOdometry(const config::Node& n, OdometryNoise& p) {
   p.max_interval_s = n.getOr<double>("max_interval_s", p.max_interval_s, 0.005, 10.0);
   p.max_speed_factor = n.getOr<double>("max_speed_factor", p.max_speed_factor, 1.0, 100.0);
   p.offset_creep_us = n.getOr<std::int64_t>("offset_creep_us", p.offset_creep_us, 0, 100'000);
+  p.use_gyro = n.getOr<bool>("use_gyro", p.use_gyro);
+  p.gyro_max_rate = n.getOr<double>("gyro_max_rate", p.gyro_max_rate, 0.0, 1000.0);
+  p.gyro_heading_density =
+      n.getOr<double>("gyro_heading_density", p.gyro_heading_density, 0.0, 10.0);
   n.rejectUnknownKeys();
 }
 
@@ -109,6 +113,7 @@ void loadCalibration(const config::Node& n, LocalizerParams& p) {
   SlipModel& slip = p.filter.slip;
   slip.max_m = n.getOr<double>("slip_max_m", slip.max_m, 0.0, 10.0);
   slip.max_rad = n.getOr<double>("slip_max_rad", slip.max_rad, 0.0, 3.2);
+  slip.max_rad_gyro = n.getOr<double>("slip_max_rad_gyro", slip.max_rad_gyro, 0.0, 3.2);
   slip.inflation = n.getOr<double>("slip_inflation", slip.inflation, 0.0, 100.0);
   n.rejectUnknownKeys();
 }
@@ -117,12 +122,15 @@ void loadContact(const config::Node& n, LocalizerParams& l) {
   ContactModel& p = l.filter.contact;
   l.contact_search_steps = n.getOr<int>("search_steps", l.contact_search_steps, 0, 20);
   l.twist_search_always = n.getOr<bool>("search_always", l.twist_search_always);
+  l.twist_search_with_gyro = n.getOr<bool>("search_with_gyro", l.twist_search_with_gyro);
   l.contact_search_min_points = static_cast<std::size_t>(
       n.getOr<int>("search_min_points", static_cast<int>(l.contact_search_min_points), 1, 100000));
   p.distance_m = n.getOr<double>("distance_m", p.distance_m, 0.0, 5.0);
   p.hold_us = micros(n.getOr<double>("hold_s", seconds(p.hold_us), 0.0, 5.0));
   p.position_density = n.getOr<double>("position_density", p.position_density, 0.0, 10.0);
   p.heading_density = n.getOr<double>("heading_density", p.heading_density, 0.0, 10.0);
+  p.gyro_heading_density =
+      n.getOr<double>("gyro_heading_density", p.gyro_heading_density, 0.0, 10.0);
   CurrentContactParams& c = l.current_contact;
   c.force_threshold_n = n.getOr<double>("current_force_n", c.force_threshold_n, 0.0, 1e4);
   c.samples = n.getOr<int>("current_samples", c.samples, 1, 100);

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <numbers>
 #include <stdexcept>
 
 #include "common/msg/estimates.hpp"
@@ -54,18 +55,24 @@ void FusionNode::onOdometry(const odometry_t& m) {
   sample.has_currents = (m.status & odometry_t::STATUS_CURRENTS) != 0;
   for (std::size_t i = 0; i < 3; ++i)
     sample.wheel_current[i] = m.wheel_current[i];
+  sample.has_gyro = (m.status & odometry_t::STATUS_GYRO) != 0;
+  sample.gyro_dphi = m.gyro_dphi;
   localizer_.addOdometry(sample, node_.now());
 
-  // The estimate at this odometry's time, whatever happened to the sample.
+  // The estimate at this odometry's time, whatever happened to the sample: the time layer 1
+  // stamped it with (the controller's clock on ours: the sampling instant, without the serial
+  // link's jitter that the bridge's receive-time stamp carries).
+  const Utime t =
+      localizer_.lastOdometryStamp() > 0 ? localizer_.lastOdometryStamp() : m.header.utime;
   perception::RobotEstimate e = localizer_.estimate(node_.now());
-  if (const auto s = localizer_.stateAt(m.header.utime)) {
+  if (const auto s = localizer_.stateAt(t)) {
     e.pose = s->pose();
     e.vx = s->x[3];
     e.vy = s->x[4];
     e.omega = s->x[5];
     e.covariance = localizer_.reportedCovariance(*s);
   }
-  e.utime = m.header.utime;
+  e.utime = t;
   msg::toMessage(e, state_msg_);
   if (node_.publish(bus::channels::kRobotState, state_msg_)) ++robot_states_;
   reportNewRejections();
@@ -149,6 +156,8 @@ void FusionNode::updateMetrics() {
   node_.setMetric("contact_slips", static_cast<double>(localizer_.counters().contact_slips));
   node_.setMetric("contact_frames", static_cast<double>(localizer_.counters().contact_frames));
   node_.setMetric("current_contacts", static_cast<double>(localizer_.counters().current_contacts));
+  node_.setMetric("gyro_steps", static_cast<double>(localizer_.counters().gyro_steps));
+  node_.setMetric("gyro_bias_deg_s", localizer_.gyroBias() * 180.0 / std::numbers::pi);
   node_.setMetric("twist_searches", static_cast<double>(localizer_.counters().twist_searches));
   node_.setMetric("ball_restarts_far", static_cast<double>(ball_.committed().restartsFar()));
   node_.setMetric("ball_unseen_invalidations",

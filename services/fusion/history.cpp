@@ -167,12 +167,14 @@ double DelayedFilter::contactSeconds(Utime a, Utime b) const {
 
 void DelayedFilter::addContactNoise(EkfState& s, Utime a, Utime b) const {
   const ContactModel& c = params_.contact;
-  if (c.position_density <= 0.0 && c.heading_density <= 0.0) return;
+  // The gyro sees the twist of a contact; the wheels do not.
+  const double heading = s.gyro ? c.gyro_heading_density : c.heading_density;
+  if (c.position_density <= 0.0 && heading <= 0.0) return;
   const double dt = contactSeconds(a, b);
   if (dt <= 0.0) return;
   s.p(0, 0) += c.position_density * c.position_density * dt;
   s.p(1, 1) += c.position_density * c.position_density * dt;
-  s.p(2, 2) += c.heading_density * c.heading_density * dt;
+  s.p(2, 2) += heading * heading * dt;
 }
 
 DelayedFilter::Applied DelayedFilter::replayFrom(Utime t, int target_kind) {

@@ -61,6 +61,11 @@ geometry::Pose2 symmetricTwin(const geometry::Pose2& p) {
   return {-p.x, -p.y, geometry::normalizeAngle(p.phi + std::numbers::pi)};
 }
 
+FilterParams Localizer::withGyro(FilterParams params, const robot::RobotParams& robot) {
+  params.noise.gyro_bias_walk = robot.gyro.present ? robot.gyro.bias_walk : 0.0;
+  return params;
+}
+
 Localizer::Localizer(const robot::RobotParams& robot, LocalizerParams params,
                      MatcherFunctions matcher)
     : robot_(robot),
@@ -68,7 +73,7 @@ Localizer::Localizer(const robot::RobotParams& robot, LocalizerParams params,
       matcher_(std::move(matcher)),
       odometry_(robot, params.odometry),
       currents_(robot, params.current_contact),
-      filter_(params.filter),
+      filter_(withGyro(params.filter, robot)),
       dead_reckoning_(deadReckoningLimits()) {}
 
 bool Localizer::addOdometry(const OdometrySample& sample, Utime now) {
@@ -81,6 +86,8 @@ bool Localizer::addOdometry(const OdometrySample& sample, Utime now) {
   }
   const OdometryLayer::Result r = odometry_.update(sample);
   if (r.rejection != OdometryRejection::kNone) count(toString(r.rejection));
+  if (r.gyro_rejection) count(r.gyro_rejection);
+  if (r.step && r.step->gyro) ++counters_.gyro_steps;
   if (!r.step) {
     if (r.rejection != OdometryRejection::kNone && r.rejection != OdometryRejection::kDuplicate) {
       // The dead-reckoning reference restarts: older hypotheses cannot be moved across the break.
@@ -143,7 +150,7 @@ Eigen::Matrix3d Localizer::reportedCovariance(const EkfState& s) const {
   const double fm = params_.state_floor_m * params_.state_floor_m;
   const double fr = params_.state_floor_rad * params_.state_floor_rad;
   const double st = params_.stamp_sigma_s * params_.stamp_sigma_s;
-  const Eigen::Vector3d v = s.x.tail<3>();
+  const Eigen::Vector3d v = s.x.segment<3>(3);
   c += st * v * v.transpose();
   c(0, 0) += fm;
   c(1, 1) += fm;
@@ -176,7 +183,10 @@ void Localizer::trackLines(std::span<const perception::LinePoint> points, Utime 
   // Twisted in contact beyond what the matcher reaches from the estimate: search the heading.
   const bool contact = filter_.inContact(utime);
   bool twist_found = false;
-  if (params_.contact_search_steps > 0 && (contact || params_.twist_search_always) &&
+  // With the gyro's heading the robot cannot have turned unseen: no heading search (unless
+  // asked for).
+  const bool may_search = !guess->gyro || params_.twist_search_with_gyro;
+  if (params_.contact_search_steps > 0 && may_search && (contact || params_.twist_search_always) &&
       !(c.valid && c.cost <= params_.accept_cost_m) &&
       points.size() >= params_.contact_search_min_points) {
     if (const auto found = searchHeadings(points, guess->pose(), params_.contact_search_steps)) {
@@ -238,8 +248,9 @@ void Localizer::trackLines(std::span<const perception::LinePoint> points, Utime 
         s.utime = utime;
         s.x.head<3>() << c.pose.x, c.pose.y, c.pose.phi;
         s.p.topLeftCorner<3, 3>() = correctionCovariance(c);
-        s.p.topRightCorner<3, 3>().setZero();
-        s.p.bottomLeftCorner<3, 3>().setZero();
+        // The pose restarts from the frame; velocity and gyro bias keep what was learnt.
+        s.p.topRightCorner<3, kStateSize - 3>().setZero();
+        s.p.bottomLeftCorner<kStateSize - 3, 3>().setZero();
         s.last_correction_utime = utime;
         filter_.initialize(s);
         good = true;
@@ -481,13 +492,21 @@ void Localizer::commit(const Hypothesis& h) {
   EkfState s;
   s.utime = h.utime;
   const geometry::Vec2 v = geometry::rotate(last_velocity_.head<2>(), h.pose.phi);
-  s.x << h.pose.x, h.pose.y, h.pose.phi, v.x(), v.y(), last_velocity_.z();
-  s.p = Matrix6d::Zero();
+  s.x.head<6>() << h.pose.x, h.pose.y, h.pose.phi, v.x(), v.y(), last_velocity_.z();
+  s.p = StateMatrix::Zero();
   s.p.topLeftCorner<3, 3>() = floored(h.covariance);
   s.p(0, 0) = std::max(s.p(0, 0), params_.commit_sigma_m * params_.commit_sigma_m);
   s.p(1, 1) = std::max(s.p(1, 1), params_.commit_sigma_m * params_.commit_sigma_m);
   s.p(2, 2) = std::max(s.p(2, 2), params_.commit_sigma_rad * params_.commit_sigma_rad);
-  s.p.bottomRightCorner<3, 3>() = Eigen::Vector3d(0.25, 0.25, 0.5).asDiagonal();
+  s.p.block<3, 3>(3, 3) = Eigen::Vector3d(0.25, 0.25, 0.5).asDiagonal();
+  // The gyro bias learnt before a loss stays (the gyro did not change); the first commit starts
+  // from the robot file's spread of a start's bias.
+  if (filter_.initialized()) {
+    s.x[kGyroBias] = filter_.current().x[kGyroBias];
+    s.p(kGyroBias, kGyroBias) = filter_.current().p(kGyroBias, kGyroBias);
+  } else {
+    s.p(kGyroBias, kGyroBias) = robot_.gyro.bias_sigma * robot_.gyro.bias_sigma;
+  }
   s.last_correction_utime = h.utime;
   filter_.initialize(s);
   mode_ = LocalizationStatus::kTracking;

@@ -125,6 +125,8 @@ struct LocalizerParams {
   // searched, contact seen or not.
   int contact_search_steps = 0;
   bool twist_search_always = false;
+  // The search also while the heading comes from the gyro (which sees a twist).
+  bool twist_search_with_gyro = false;
   // Frames with fewer points are not searched (a few points fit some heading by chance).
   std::size_t contact_search_min_points = 30;
   // Contact evidence from the motor currents in ODOMETRY (current_contact.hpp); off by default.
@@ -155,6 +157,8 @@ struct LocalizerCounters {
   std::uint64_t contact_frames = 0;
   // Odometry samples whose currents showed a contact (CurrentContactDetector).
   std::uint64_t current_contacts = 0;
+  // Odometry steps whose heading came from the gyro.
+  std::uint64_t gyro_steps = 0;
 };
 
 class Localizer {
@@ -163,7 +167,10 @@ class Localizer {
 
   // Layer 1. Returns false when the sample gave no movement (first, refused). Its currents, when
   // it carries them, are contact evidence (LocalizerParams::current_contact); bad currents are
-  // refused and counted ("current_not_finite", "current_absurd"), the ticks still count.
+  // refused and counted ("current_not_finite", "current_absurd"), the ticks still count. Its
+  // gyro rotation, when it carries one and the robot has a gyro, turns the heading
+  // (OdometryNoise::use_gyro); a non-finite or absurd one is counted ("gyro_not_finite",
+  // "gyro_absurd") and the wheels' heading is used.
   bool addOdometry(const OdometrySample& sample, Utime now);
   // Layer 2 (and hypothesis testing while lost) on one frame's line points at its utime.
   void addLines(std::span<const perception::LinePoint> points, Utime utime, Utime now);
@@ -196,6 +203,13 @@ class Localizer {
   std::size_t hypothesisCount() const { return hypotheses_.size(); }
   const LocalizerCounters& counters() const { return counters_; }
   const DelayedFilter& filter() const { return filter_; }
+  // The physical time layer 1 gave the most recent odometry sample (controller clock on the host
+  // clock, OdometryLayer::lastStamp).
+  Utime lastOdometryStamp() const { return odometry_.lastStamp(); }
+  // The filter's estimate of the gyro's bias [rad/s] (0 while no pose is known).
+  double gyroBias() const { return filter_.initialized() ? filter_.current().x[kGyroBias] : 0.0; }
+  // The filter's params with the gyro's bias walk from the robot file.
+  static FilterParams withGyro(FilterParams params, const robot::RobotParams& robot);
 
  private:
   struct Hypothesis {

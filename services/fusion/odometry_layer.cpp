@@ -27,6 +27,20 @@ OdometryLayer::OdometryLayer(const robot::RobotParams& params, OdometryNoise noi
     : params_(params), noise_(noise), odometry_(params) {
   for (int i = 0; i < robot::kWheelCount; ++i)
     radii_[i] = params.wheels[static_cast<std::size_t>(i)].radius;
+  gyro_max_rate_ = noise_.gyro_max_rate > 0.0 ? noise_.gyro_max_rate : 1.05 * params.gyro.range;
+}
+
+double OdometryLayer::gyroVariance(double dphi, double dt_s) const {
+  const robot::GyroParams& g = params_.gyro;
+  // White rate noise integrates to an angle random walk; each rate sample's quantisation error
+  // (uniform over one LSB) too; the scale error is a fraction of the turn.
+  const double white = g.noise_density * g.noise_density * std::max(dt_s, 0.0);
+  const double quantisation =
+      g.lsb * g.lsb / 12.0 * std::max(dt_s, 0.0) / std::max(g.sample_rate, 1.0);
+  const double scale = g.scale_sigma * dphi;
+  const double extra =
+      noise_.gyro_heading_density * noise_.gyro_heading_density * std::max(dt_s, 0.0);
+  return white + quantisation + scale * scale + extra;
 }
 
 OdometryStep OdometryLayer::stepFor(const std::array<std::int64_t, robot::kWheelCount>& tick_delta,
@@ -82,29 +96,55 @@ OdometryLayer::Result OdometryLayer::update(const OdometrySample& input) {
   Result result;
   OdometrySample sample = input;
   sample.utime = stamp(input);
-  if (sample.resync) {
+  last_stamp_ = sample.utime;
+  const auto restart = [&] {
     last_ = sample;
+    pending_gyro_ = 0.0;
+    pending_gyro_valid_ = true;
+  };
+  if (sample.resync) {
+    restart();
     result.rejection = OdometryRejection::kResync;
     return result;
   }
   if (!last_) {
-    last_ = sample;
+    restart();
     return result;
   }
   if (sample.utime == last_->utime) {
     result.rejection = OdometryRejection::kDuplicate;
     return result;
   }
+  // The gyro's value: used only when the robot has a gyro, fusion is told to use it, and it is
+  // finite and within what the gyro can measure over the time since the reference.
+  bool gyro_ok = false;
+  if (sample.has_gyro && noise_.use_gyro && params_.gyro.present) {
+    const double since = std::abs(static_cast<double>(sample.utime - last_->utime)) * 1e-6;
+    if (!std::isfinite(sample.gyro_dphi)) {
+      result.gyro_rejection = "gyro_not_finite";
+    } else if (std::abs(sample.gyro_dphi) > gyro_max_rate_ * std::max(since, 0.02)) {
+      result.gyro_rejection = "gyro_absurd";
+    } else {
+      gyro_ok = true;
+    }
+  }
   if (sample.utime < last_->utime) {
     // Stamps jitter with the arrival time: the reference stays, and the next sample's tick
-    // difference covers this one's movement. Time far backwards (controller restart, clock
-    // step) starts over from this sample.
+    // difference covers this one's movement (and its gyro rotation is kept for that step). Time
+    // far backwards (controller restart, clock step) starts over from this sample.
     if (static_cast<double>(last_->utime - sample.utime) * 1e-6 > noise_.max_interval_s) {
-      last_ = sample;
+      restart();
+    } else {
+      pending_gyro_ += gyro_ok ? sample.gyro_dphi : 0.0;
+      pending_gyro_valid_ = pending_gyro_valid_ && gyro_ok;
     }
     result.rejection = OdometryRejection::kOutOfOrder;
     return result;
   }
+  const double gyro_dphi = pending_gyro_ + (gyro_ok ? sample.gyro_dphi : 0.0);
+  const bool use_gyro = pending_gyro_valid_ && gyro_ok;
+  pending_gyro_ = 0.0;
+  pending_gyro_valid_ = true;
   std::array<std::int64_t, robot::kWheelCount> delta{};
   for (int i = 0; i < robot::kWheelCount; ++i) {
     const auto w = static_cast<std::size_t>(i);
@@ -117,6 +157,14 @@ OdometryLayer::Result OdometryLayer::update(const OdometrySample& input) {
   OdometryStep step = stepFor(delta, dt);
   step.t_start = previous.utime;
   step.t_end = sample.utime;
+  if (use_gyro) {
+    // The heading from the gyro, independent of the wheels' translation.
+    step.gyro = true;
+    step.integrated.z() = gyro_dphi;
+    step.covariance.row(2).setZero();
+    step.covariance.col(2).setZero();
+    step.covariance(2, 2) = gyroVariance(gyro_dphi, dt);
+  }
 
   // A jump no wheel can make in this time (counter glitch, garbled frame) is not a movement.
   const double tick_m = 2.0 * std::numbers::pi / odometry_.ticksPerRevolution();

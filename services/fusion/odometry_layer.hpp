@@ -44,6 +44,16 @@ struct OdometryNoise {
   // does not. The sample is stamped controller time + the smallest offset seen, which creeps up
   // by this much per sample so that a slow clock drift is followed, µs.
   std::int64_t offset_creep_us = 2;
+  // With the controller's gyro (odometry_t STATUS_GYRO) the heading increment of a step is the
+  // gyro's, with the noise of its error model (the robot file's `gyro:` section); the wheels still
+  // give the translation. False: the wheels' heading, as without a gyro.
+  bool use_gyro = true;
+  // A gyro increment faster than this is absurd (counted, the step falls back to the wheels'
+  // heading), rad/s; 0: 1.05 times the gyro's range.
+  double gyro_max_rate = 0.0;
+  // Extra white noise on the gyro's heading increments beyond its data sheet (stamp jitter,
+  // the simulator's twist between rate samples), rad/sqrt(s).
+  double gyro_heading_density = 0.0;
 };
 
 // One odometry sample as the controller sends it (the few fields of odometry_t fusion needs).
@@ -58,6 +68,10 @@ struct OdometrySample {
   // STATUS_CURRENTS), for contact detection (current_contact.hpp); unchecked here.
   bool has_currents = false;
   std::array<double, 3> wheel_current{};
+  // The gyro's rotation since the controller's previous sample [rad] (odometry_t STATUS_GYRO),
+  // raw: bias and scale error still in it. Checked here.
+  bool has_gyro = false;
+  double gyro_dphi = 0.0;
 };
 
 // The movement between two samples, ready for the filter.
@@ -71,6 +85,9 @@ struct OdometryStep {
   Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
   // False after a gap: the interval is too long to read a velocity from.
   bool has_velocity = true;
+  // integrated.z() is the gyro's raw rotation (the filter subtracts its bias estimate), and
+  // the covariance's heading row and column are the gyro's error model.
+  bool gyro = false;
 
   double duration() const { return static_cast<double>(t_end - t_start) * 1e-6; }
 };
@@ -87,10 +104,16 @@ class OdometryLayer {
     std::optional<OdometryStep> step;
     // Why the sample gave no step (kNone for the very first sample: it only sets the reference).
     OdometryRejection rejection = OdometryRejection::kNone;
+    // Set when the sample's gyro value was refused ("gyro_not_finite", "gyro_absurd"): the
+    // step then takes the wheels' heading.
+    const char* gyro_rejection = nullptr;
   };
   Result update(const OdometrySample& sample);
   // The stamp the layer uses for a sample (controller time on the host clock when known).
   Utime stamp(const OdometrySample& sample);
+  // The stamp update() gave the most recent sample (0 before the first): the physical time of
+  // its sampling, without the serial link's jitter.
+  Utime lastStamp() const { return last_stamp_; }
 
   // The step and its covariance for a tick difference over `dt_s` seconds (tests, tools; the
   // slip densities need the interval, dt_s <= 0 leaves them out).
@@ -99,6 +122,9 @@ class OdometryLayer {
 
   // Forgets the reference; the next sample starts over.
   void reset() { last_.reset(); }
+  // The gyro's variance of a heading increment `dphi` over `dt_s` seconds (white noise, scale
+  // error; its bias is the filter's), rad^2.
+  double gyroVariance(double dphi, double dt_s) const;
   const robot::OmniKinematics& kinematics() const { return odometry_.kinematics(); }
 
  private:
@@ -107,9 +133,15 @@ class OdometryLayer {
   robot::WheelOdometry odometry_;
   Eigen::Vector3d radii_;
   std::optional<OdometrySample> last_;
+  // Gyro rotation of samples after the reference that gave no step of their own (stamps out of
+  // order), and whether every sample since the reference carried a valid one.
+  double pending_gyro_ = 0.0;
+  bool pending_gyro_valid_ = true;
+  double gyro_max_rate_ = 0.0;
   // Host time minus controller time, minimum-filtered.
   std::optional<std::int64_t> controller_offset_;
   std::int64_t last_controller_utime_ = 0;
+  Utime last_stamp_ = 0;
 };
 
 }  // namespace fieldline::fusion

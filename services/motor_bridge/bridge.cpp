@@ -183,6 +183,15 @@ void BridgeCore::onBytes(std::span<const std::uint8_t> bytes, Utime now,
         samples_lost_ += gap - 1;
       }
       o.movement = *odometry_.update(sample->ticks);
+      if (sample->gyro_angle_urad && last_sample_->gyro_angle_urad) {
+        // The gyro's angle accumulates and wraps like the ticks: the difference modulo 2^32
+        // covers lost samples too.
+        const auto d =
+            static_cast<std::int32_t>(static_cast<std::uint32_t>(*sample->gyro_angle_urad) -
+                                      static_cast<std::uint32_t>(*last_sample_->gyro_angle_urad));
+        o.gyro_dphi = static_cast<double>(d) * 1e-6;
+        o.status |= perception::kOdometryGyro;
+      }
       const double dt =
           static_cast<double>(sample->controller_time_us - last_sample_->controller_time_us) * 1e-6;
       o.vx = o.movement.dx / dt;
@@ -194,6 +203,8 @@ void BridgeCore::onBytes(std::span<const std::uint8_t> bytes, Utime now,
         count("odometry_implausible");
         o.movement = {};
         o.vx = o.vy = o.omega = 0.0;
+        o.gyro_dphi = 0.0;
+        o.status &= ~perception::kOdometryGyro;
         o.status |= perception::kOdometryResync;
         odometry_.reset();
         odometry_.update(sample->ticks);

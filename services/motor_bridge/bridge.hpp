@@ -4,7 +4,8 @@
 //     command rate the current command (or zero once it expired) goes out as a frame;
 //   - bytes in: decoded; odometry samples become Odometry outputs stamped with the physical
 //     sampling time (receive time minus the controller latency), with the movement since the
-//     previous sample from the wheel kinematics; malformed frames are counted, never forwarded.
+//     previous sample from the wheel kinematics, and the gyro's rotation since the previous
+//     sample when the controller sends its angle; malformed frames are counted, never forwarded.
 #pragma once
 
 #include <cstdint>

@@ -113,7 +113,12 @@ LineDetector::LineDetector(const camera::ColourTable& table, const FloorLookup& 
       !(params_.turn_reach_m >= 0.0 && params_.turn_reach_m <= 100.0) ||
       !(params_.turn_range_m >= 0.0 && params_.turn_range_m <= 100.0) ||
       !(params_.turn_angle > 0.0 && params_.turn_angle <= 1.5) || params_.turn_span < 1 ||
-      params_.turn_span > 100) {
+      params_.turn_span > 100 ||
+      !(params_.refine_range_m >= 0.0 && params_.refine_range_m <= 100.0) ||
+      !(params_.refine_min_range_m >= 0.0 && params_.refine_min_range_m <= 100.0) ||
+      !(params_.refine_spacing_m >= 0.0 && params_.refine_spacing_m <= 10.0) ||
+      params_.refine_samples < 1 || params_.refine_samples > 64 || params_.refine_reach < 1 ||
+      params_.refine_reach > 16 || !(params_.refine_turn > 0.0 && params_.refine_turn <= 3.1)) {
     throw std::invalid_argument("line detector: invalid parameters");
   }
   // The longest white run a line can give at a pixel: its width at the pixel's finest floor
@@ -631,6 +636,7 @@ void LineDetector::detect(const camera::FrameView& frame, const ContourSet& cont
   }
   out.clear();
   pixels_read_ = 0;
+  scans_ = 0;
   const bool yuyv = frame.format == camera::PixelFormat::kYuyv;
   const ClassId field = classIdOf(params_.field_colour);
   const int spacing = params_.sample_spacing;
@@ -657,6 +663,7 @@ void LineDetector::detect(const camera::FrameView& frame, const ContourSet& cont
     // tangents (the seed smooths before taking differences, section 3.3). Only the corners
     // that are sampled or give a sample's tangent are smoothed: every `stride`-th one.
     const bool byDistance = params_.sample_spacing_m > 0.0;
+    const bool refine = !byDistance && params_.refine_range_m > 0.0;
     const int stride = !byDistance && n % std::gcd(spacing, k) == 0 ? std::gcd(spacing, k) : 1;
     const int smoothed = n / stride;
     smooth_u_.resize(smoothed);
@@ -670,10 +677,10 @@ void LineDetector::detect(const camera::FrameView& frame, const ContourSet& cont
     }
 
     if (byDistance) sampleByDistance(n, sample_positions_);
-    const int samples = byDistance ? static_cast<int>(sample_positions_.size()) : n / spacing;
-    hits_.assign(samples, Hit{false, {}});
     // Indices among the smoothed corners: no division per sample but at the contour's ends.
     const int sampleStep = spacing / stride, tangentReach = k / stride;
+    const int samples = byDistance ? static_cast<int>(sample_positions_.size()) : n / spacing;
+    hits_.assign(samples, Hit{false, {}});
     // Tangent (difference of the smoothed corners tangentReach before and after) at `centre`.
     auto tangentAt = [&](int centre, float& tu, float& tv) {
       int ahead = centre + tangentReach, behind = centre - tangentReach;
@@ -682,40 +689,47 @@ void LineDetector::detect(const camera::FrameView& frame, const ContourSet& cont
       tu = smooth_u_[ahead] - smooth_u_[behind];
       tv = smooth_v_[ahead] - smooth_v_[behind];
     };
-    for (int s = 0; s < samples; ++s) {
-      float tu, tv, originU, originV;
-      if (byDistance) {
-        // Between smoothed corners: the curve and its tangent interpolated linearly.
-        const float position = sample_positions_[s];
-        const int centre = static_cast<int>(position);
-        const int after = centre + 1 == smoothed ? 0 : centre + 1;
-        const float f = position - static_cast<float>(centre);
-        float tu1, tv1;
-        tangentAt(centre, tu, tv);
-        tangentAt(after, tu1, tv1);
-        tu += f * (tu1 - tu);
-        tv += f * (tv1 - tv);
-        originU = smooth_u_[centre] + f * (smooth_u_[after] - smooth_u_[centre]);
-        originV = smooth_v_[centre] + f * (smooth_v_[after] - smooth_v_[centre]);
-      } else {
-        const int centre = s * sampleStep;
-        tangentAt(centre, tu, tv);
-        originU = smooth_u_[centre];
-        originV = smooth_v_[centre];
-      }
-      if (tu * tu + tv * tv < 1e-6f) continue;
+    // One scan from (originU, originV) across the tangent (tu, tv); the hit's image position.
+    auto scanAcross = [&](float originU, float originV, float tu, float tv, Hit& hit) {
+      if (tu * tu + tv * tv < 1e-6f) return;
       // The region lies to the right of the walking direction on screen: outward is left. The
       // walk needs only the normal's direction; scan() normalises it when it finds a line.
       const float normalU = tv;
       const float normalV = -tu;
       float lineU = 0, lineV = 0;
-      const bool hit = yuyv ? scan<camera::PixelFormat::kYuyv>(frame, originU, originV, normalU,
-                                                               normalV, lineU, lineV)
-                            : scan<camera::PixelFormat::kBgr>(frame, originU, originV, normalU,
-                                                              normalV, lineU, lineV);
-      if (!hit) continue;
-      hits_[s] = {true, {lineU, lineV, 0.0f, 0.0f}};
+      ++scans_;
+      const bool found = yuyv ? scan<camera::PixelFormat::kYuyv>(frame, originU, originV, normalU,
+                                                                 normalV, lineU, lineV)
+                              : scan<camera::PixelFormat::kBgr>(frame, originU, originV, normalU,
+                                                                normalV, lineU, lineV);
+      if (!found) return;
+      hit = {true, {lineU, lineV, 0.0f, 0.0f}};
       floor_.prefetch(lineU, lineV);
+    };
+    // A scan at a fractional position among the smoothed corners (index + fraction of the step
+    // after it): the curve and its tangent interpolated linearly.
+    auto scanAt = [&](float position, Hit& hit) {
+      int centre = static_cast<int>(position);
+      const float f = position - static_cast<float>(centre);
+      if (centre >= smoothed) centre -= smoothed;
+      const int after = centre + 1 == smoothed ? 0 : centre + 1;
+      float tu, tv, tu1, tv1;
+      tangentAt(centre, tu, tv);
+      tangentAt(after, tu1, tv1);
+      tu += f * (tu1 - tu);
+      tv += f * (tv1 - tv);
+      scanAcross(smooth_u_[centre] + f * (smooth_u_[after] - smooth_u_[centre]),
+                 smooth_v_[centre] + f * (smooth_v_[after] - smooth_v_[centre]), tu, tv, hit);
+    };
+    for (int s = 0; s < samples; ++s) {
+      if (byDistance) {
+        scanAt(sample_positions_[s], hits_[s]);
+      } else {
+        const int centre = s * sampleStep;
+        float tu, tv;
+        tangentAt(centre, tu, tv);
+        scanAcross(smooth_u_[centre], smooth_v_[centre], tu, tv, hits_[s]);
+      }
     }
     // The floor points, now that their table entries are on the way (the table is large, and
     // looking each up right after its scan waited on memory for every point).
@@ -723,12 +737,81 @@ void LineDetector::detect(const camera::FrameView& frame, const ContourSet& cont
       if (hit.found)
         hit.found = floor_.floorPoint(hit.point.u, hit.point.v, hit.point.x, hit.point.y);
     }
+    std::vector<Hit>* sequenceHits = &hits_;
+    if (refine && samples >= 3) {
+      // Pass 2: the intervals around line points where their line ends or turns, within range.
+      refine_interval_.assign(samples, 0);
+      bool any = false;
+      const float maxRange2 = static_cast<float>(params_.refine_range_m * params_.refine_range_m);
+      const float minRange2 =
+          static_cast<float>(params_.refine_min_range_m * params_.refine_min_range_m);
+      const float cosTurn = static_cast<float>(std::cos(params_.refine_turn));
+      const int reach = params_.refine_reach;
+      for (int s = 0; s < samples; ++s) {
+        const Hit& hit = hits_[s];
+        if (!hit.found) continue;
+        const float range2 = hit.point.x * hit.point.x + hit.point.y * hit.point.y;
+        if (range2 > maxRange2 || range2 < minRange2) continue;
+        const Hit& before = hits_[s == 0 ? samples - 1 : s - 1];
+        const Hit& after = hits_[s + 1 == samples ? 0 : s + 1];
+        if (!before.found && !after.found && !params_.refine_isolated) continue;
+        bool event = !before.found || !after.found;
+        if (!event) {
+          const float ax = hit.point.x - before.point.x, ay = hit.point.y - before.point.y;
+          const float bx = after.point.x - hit.point.x, by = after.point.y - hit.point.y;
+          const float dot = ax * bx + ay * by;
+          event = dot <= cosTurn * std::sqrt((ax * ax + ay * ay) * (bx * bx + by * by));
+        }
+        if (!event) continue;
+        any = true;
+        // Intervals s - reach .. s + reach - 1 (interval i runs from sample i to sample i + 1).
+        for (int i = s - reach; i < s + reach; ++i)
+          refine_interval_[((i % samples) + samples) % samples] = 1;
+      }
+      if (any) {
+        merged_hits_.clear();
+        const float perMetre = params_.refine_spacing_m > 0.0
+                                   ? static_cast<float>(1.0 / params_.refine_spacing_m)
+                                   : 0.0f;
+        for (int s = 0; s < samples; ++s) {
+          merged_hits_.push_back(hits_[s]);
+          if (!refine_interval_[s]) continue;
+          const float a = static_cast<float>(s * sampleStep);
+          const float b = s + 1 == samples ? static_cast<float>(smoothed)
+                                           : static_cast<float>((s + 1) * sampleStep);
+          int extra = params_.refine_samples;
+          if (perMetre > 0.0f) {
+            // The interval's floor length: its chord through the floor's Jacobian at its middle.
+            const int ia = static_cast<int>(a), ib = s + 1 == samples ? 0 : static_cast<int>(b);
+            const float du = smooth_u_[ib] - smooth_u_[ia], dv = smooth_v_[ib] - smooth_v_[ia];
+            const float metres =
+                floorLength(smooth_u_[ia] + 0.5f * du, smooth_v_[ia] + 0.5f * dv, du, dv);
+            extra = std::min(extra, static_cast<int>(metres * perMetre));
+            if (extra <= 0) continue;
+          }
+          const std::size_t first = merged_hits_.size();
+          merged_hits_.resize(first + extra, Hit{false, {}});
+          for (int t = 1; t <= extra; ++t) {
+            scanAt(a + (b - a) * static_cast<float>(t) / static_cast<float>(extra + 1),
+                   merged_hits_[first + t - 1]);
+          }
+          for (std::size_t i = first; i < merged_hits_.size(); ++i) {
+            Hit& hit = merged_hits_[i];
+            if (hit.found)
+              hit.found = floor_.floorPoint(hit.point.u, hit.point.v, hit.point.x, hit.point.y);
+          }
+        }
+        sequenceHits = &merged_hits_;
+      }
+    }
+    const std::vector<Hit>& ordered = *sequenceHits;
+    const int total = static_cast<int>(ordered.size());
 
     // Group hits into sequences along the contour, starting after a miss so that a sequence
     // crossing the contour's start is not cut in two.
     int firstMiss = -1;
-    for (int s = 0; s < samples && firstMiss < 0; ++s) {
-      if (!hits_[s].found) firstMiss = s;
+    for (int s = 0; s < total && firstMiss < 0; ++s) {
+      if (!ordered[s].found) firstMiss = s;
     }
     const int begin = firstMiss < 0 ? 0 : firstMiss;
     int sequenceStart = -1;
@@ -742,8 +825,8 @@ void LineDetector::detect(const camera::FrameView& frame, const ContourSet& cont
       }
       sequenceStart = -1;
     };
-    for (int step = 0; step < samples; ++step) {
-      const Hit& hit = hits_[(begin + step) % samples];
+    for (int step = 0; step < total; ++step) {
+      const Hit& hit = ordered[(begin + step) % total];
       if (hit.found) {
         if (sequenceStart < 0) sequenceStart = static_cast<int>(out.points.size());
         out.points.push_back(hit.point);

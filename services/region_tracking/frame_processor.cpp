@@ -94,6 +94,18 @@ VisionParams loadVisionParams(const config::Node& node) {
       lines.getOr<double>("turn_range_m", lineDefaults.turn_range_m, 0.0, 100.0);
   params.lines.turn_angle = lines.getOr<double>("turn_angle", lineDefaults.turn_angle, 0.01, 1.5);
   params.lines.turn_span = lines.getOr<int>("turn_span", lineDefaults.turn_span, 1, 100);
+  params.lines.refine_range_m =
+      lines.getOr<double>("refine_range_m", lineDefaults.refine_range_m, 0.0, 100.0);
+  params.lines.refine_min_range_m =
+      lines.getOr<double>("refine_min_range_m", lineDefaults.refine_min_range_m, 0.0, 100.0);
+  params.lines.refine_samples =
+      lines.getOr<int>("refine_samples", lineDefaults.refine_samples, 1, 64);
+  params.lines.refine_spacing_m =
+      lines.getOr<double>("refine_spacing_m", lineDefaults.refine_spacing_m, 0.0, 10.0);
+  params.lines.refine_isolated = lines.getOr<bool>("refine_isolated", lineDefaults.refine_isolated);
+  params.lines.refine_reach = lines.getOr<int>("refine_reach", lineDefaults.refine_reach, 1, 16);
+  params.lines.refine_turn =
+      lines.getOr<double>("refine_turn", lineDefaults.refine_turn, 0.01, 3.1);
   params.lines.smoothing_passes = lines.get<int>("smoothing_passes", 0, 20);
   params.lines.tangent_half_span = lines.get<int>("tangent_half_span", 1, 20);
   params.lines.min_contour_points = lines.get<int>("min_contour_points", 4, 100000);

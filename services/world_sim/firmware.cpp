@@ -7,6 +7,29 @@ namespace fieldline::world_sim {
 
 namespace proto = serial;
 
+GyroModel::GyroModel(const robot::GyroParams& params, std::uint64_t seed)
+    : params_(params), rng_(seed) {
+  bias_ = params_.bias_sigma * normal_(rng_);
+  scale_error_ = params_.scale_sigma * normal_(rng_);
+}
+
+void GyroModel::step(double true_rate, double dt) {
+  if (!(dt > 0.0)) return;
+  bias_ += params_.bias_walk * std::sqrt(dt) * normal_(rng_);
+  // One rate sample: its white noise is the density over the sensor's bandwidth, which cannot
+  // exceed half the rate the samples come at.
+  const double bandwidth = std::min(params_.bandwidth, 0.5 / dt);
+  double rate = (1.0 + scale_error_) * true_rate + bias_ +
+                params_.noise_density * std::sqrt(bandwidth) * normal_(rng_);
+  if (std::abs(rate) >= params_.range) {
+    rate = std::copysign(params_.range, rate);
+    ++saturated_;
+  }
+  if (params_.lsb > 0.0) rate = std::round(rate / params_.lsb) * params_.lsb;
+  angle_ += rate * dt;
+  ++samples_;
+}
+
 FirmwareEmulator::FirmwareEmulator(const robot::RobotParams& params, std::uint64_t clock_offset_us,
                                    CurrentModel currents)
     : params_(params),
@@ -14,6 +37,12 @@ FirmwareEmulator::FirmwareEmulator(const robot::RobotParams& params, std::uint64
       currents_(currents),
       noise_rng_(clock_offset_us ^ 0x5eed'c0ffeeULL) {
   messages_.reserve(16);
+  // Its own random stream: the currents' noise stays what it was without a gyro.
+  if (params.gyro.present) gyro_.emplace(params.gyro, clock_offset_us ^ 0x6e70'0bad'cafeULL);
+}
+
+void FirmwareEmulator::gyroStep(double true_rate, double dt) {
+  if (gyro_) gyro_->step(true_rate, dt);
 }
 
 Eigen::Vector3d FirmwareEmulator::wheelCurrents(const robot::RobotParams& params,
@@ -121,6 +150,11 @@ void FirmwareEmulator::sample(double t, const robot::TickCounts& ticks,
     }
     last_wheels_ = *wheels;
     last_wheels_t_ = t;
+  }
+  if (gyro_) {
+    // Microradians since the start, wrapping as int32 (the host takes differences).
+    const auto urad = static_cast<std::int64_t>(std::llround(gyro_->angle() * 1e6));
+    s.gyro_angle_urad = static_cast<std::int32_t>(static_cast<std::uint32_t>(urad));
   }
   proto::encode(s, out);
   ++sample_seq_;

@@ -51,6 +51,39 @@ struct WheelState {
   Eigen::Vector3d slip = Eigen::Vector3d::Zero();
 };
 
+// The controller's yaw-rate gyro, emulated from the simulator's true body rotation rate
+// (RobotTruth::omega, so the twist of a collision that the wheels miss is in it) with the error
+// model of the robot file's `gyro:` section (robot::GyroParams): a scale-factor error and a
+// constant bias drawn once per start, a bias random walk, white rate noise of
+// noise_density * sqrt(bandwidth) per rate sample, saturation at +-range and quantisation to the
+// LSB. The firmware integrates every rate sample (one per physics step) into an angle and sends
+// the accumulated angle with each odometry sample: the host's difference is the rotation over
+// the period, not one rate sample.
+class GyroModel {
+ public:
+  GyroModel(const robot::GyroParams& params, std::uint64_t seed);
+  // One rate sample of `dt` seconds while the body turns at `true_rate` [rad/s].
+  void step(double true_rate, double dt);
+  // The integrated angle since the start [rad].
+  double angle() const { return angle_; }
+  // This start's errors: bias [rad/s] (now, after its random walk) and scale error [1].
+  double bias() const { return bias_; }
+  double scaleError() const { return scale_error_; }
+  std::uint64_t samples() const { return samples_; }
+  // Rate samples that hit the range.
+  std::uint64_t saturated() const { return saturated_; }
+
+ private:
+  robot::GyroParams params_;
+  std::mt19937_64 rng_;
+  std::normal_distribution<double> normal_{0.0, 1.0};
+  double bias_ = 0.0;
+  double scale_error_ = 0.0;
+  double angle_ = 0.0;
+  std::uint64_t samples_ = 0;
+  std::uint64_t saturated_ = 0;
+};
+
 struct FirmwareStats {
   std::uint64_t commands_accepted = 0;
   std::uint64_t samples_sent = 0;
@@ -80,6 +113,10 @@ class FirmwareEmulator {
   static Eigen::Vector3d wheelCurrents(const robot::RobotParams& params, const CurrentModel& model,
                                        const WheelState& previous, const WheelState& now, double dt,
                                        const Eigen::Vector3d& unit_noise);
+  // One physics step of `dt` seconds at the body's true rotation rate [rad/s]: the gyro (when the
+  // robot has one) takes its rate sample and integrates it.
+  void gyroStep(double true_rate, double dt);
+  const std::optional<GyroModel>& gyro() const { return gyro_; }
   // The serial line was replaced: forget a partial frame.
   void lineReset() { decoder_.reset(); }
 
@@ -100,6 +137,7 @@ class FirmwareEmulator {
   double last_wheels_t_ = 0.0;
   std::mt19937_64 noise_rng_;
   std::normal_distribution<double> normal_{0.0, 1.0};
+  std::optional<GyroModel> gyro_;
   serial::Decoder decoder_;
   std::vector<serial::Message> messages_;
   std::deque<Pending> pending_;

@@ -94,6 +94,8 @@ void SerialLines::afterStep(const World& world) {
   const double t = world.time();
   for (std::size_t i = 0; i < lines_.size(); ++i) {
     auto& line = lines_[i];
+    // The controller's gyro samples the body's true rotation rate at every physics step.
+    line.firmware->gyroStep(world.robots()[i].omega, world.stepSeconds());
     if (t + 1e-9 < line.next_sample) continue;
     line.next_sample += sample_period_;
     std::vector<std::uint8_t> frame;

@@ -166,7 +166,7 @@ void write(std::string& out, const odometry_t& m, const JsonOptions& options) {
   o.addArray("ticks", m.ticks).add("controller_utime", m.controller_utime);
   o.add("dx", m.dx).add("dy", m.dy).add("dphi", m.dphi);
   o.add("vx", m.vx).add("vy", m.vy).add("omega", m.omega).add("status", m.status);
-  o.addArray("wheel_current", m.wheel_current);
+  o.addArray("wheel_current", m.wheel_current).add("gyro_dphi", m.gyro_dphi);
 }
 
 void write(std::string& out, const motion_command_t& m, const JsonOptions& options) {

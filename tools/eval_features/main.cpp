@@ -64,6 +64,13 @@ struct Options {
   double turn_spacing_m = -1.0;
   double turn_reach_m = -1.0;
   double turn_range_m = -1.0;
+  // The line detector's refinement (sampling by index; negative = the default's).
+  double refine_range_m = -1.0, refine_min_range_m = -1.0, refine_turn = -1.0,
+         refine_spacing_m = -1.0;
+  int refine_samples = 0, refine_reach = 0;
+  bool refine_isolated = false;
+  // The recogniser's line_end_alone_side_points (negative = its default).
+  int alone_side_points = -1;
   bool clutter = true;
   int opponents = 3;
   // Clutter knobs (with --no-clutter all are off).
@@ -80,6 +87,8 @@ struct Options {
   int occlusion_frames = 0;
   std::string pose;
   int frame = -1;
+  // Only the frames from this one on of the --frames path (to look into a part of a long run).
+  int first_frame = 0;
   std::string image;
   std::string dump;
   bool progress = false;
@@ -684,7 +693,10 @@ void occlusionSeries(const Options& options, region_tracking::SimCamera& sim,
 
 int run(const Options& options) {
   region_tracking::SimCamera sim = region_tracking::SimCamera::load(options.camera, options.field);
-  feature_recognition::FeatureRecognizer recognizer(sim.field);
+  feature_recognition::RecognitionParams recognition_params;
+  if (options.alone_side_points >= 0)
+    recognition_params.line_end_alone_side_points = options.alone_side_points;
+  feature_recognition::FeatureRecognizer recognizer(sim.field, recognition_params);
   region_tracking::VisionParams vision_params = region_tracking::defaultVisionParams();
   if (options.sample_spacing > 0) {
     vision_params.lines.sample_spacing = options.sample_spacing;
@@ -696,6 +708,15 @@ int run(const Options& options) {
   if (options.turn_spacing_m >= 0.0) vision_params.lines.turn_spacing_m = options.turn_spacing_m;
   if (options.turn_reach_m >= 0.0) vision_params.lines.turn_reach_m = options.turn_reach_m;
   if (options.turn_range_m >= 0.0) vision_params.lines.turn_range_m = options.turn_range_m;
+  if (options.refine_range_m >= 0.0) vision_params.lines.refine_range_m = options.refine_range_m;
+  if (options.refine_min_range_m >= 0.0)
+    vision_params.lines.refine_min_range_m = options.refine_min_range_m;
+  if (options.refine_turn > 0.0) vision_params.lines.refine_turn = options.refine_turn;
+  if (options.refine_isolated) vision_params.lines.refine_isolated = true;
+  if (options.refine_spacing_m >= 0.0)
+    vision_params.lines.refine_spacing_m = options.refine_spacing_m;
+  if (options.refine_samples > 0) vision_params.lines.refine_samples = options.refine_samples;
+  if (options.refine_reach > 0) vision_params.lines.refine_reach = options.refine_reach;
   region_tracking::FrameProcessor processor(sim.mirror, sim.table, vision_params);
   region_tracking::VisionResult vision;
   perception::FieldFeatures features;
@@ -733,6 +754,8 @@ int run(const Options& options) {
   double line_points = 0.0;
   // Line points by range from the robot: within 2 m, 2-4 m, beyond 4 m.
   std::array<double, 3> line_points_by_range{};
+  // The line detector's work in the frame's second pass (its cost): scans and pixels read.
+  double line_scans = 0.0, line_pixels = 0.0;
   std::ofstream check_csv, misses_csv, circle_misses_csv;
   if (!options.circle_misses_csv.empty()) {
     circle_misses_csv.open(options.circle_misses_csv);
@@ -749,13 +772,15 @@ int run(const Options& options) {
     check_csv.open(options.check_csv);
     check_csv << "frame,kind,share,points,others_share,others,accepted,error_m,error_deg\n";
   }
-  for (int f = 0; f < static_cast<int>(path.size()); ++f) {
+  for (int f = options.first_frame; f < static_cast<int>(path.size()); ++f) {
     const Pose2& pose = path[f];
     const camera::SimScene scene =
         sceneFor(pose, static_cast<std::uint64_t>(f), options, sim.field);
     visionOf(sim, processor, scene, vision);
     recognizer.recognize(vision.lines, features);
     line_points += static_cast<double>(vision.lines.points.size());
+    line_scans += processor.lineDetector().scans();
+    line_pixels += processor.lineDetector().pixelsRead();
     for (const perception::LinePoint& p : vision.lines.points) {
       const double range = std::hypot(p.x, p.y);
       ++line_points_by_range[range < 2.0 ? 0 : range < kViewDistance ? 1 : 2];
@@ -841,6 +866,9 @@ int run(const Options& options) {
   const double heading_median = median(heading_errors);
   const double points_per_frame =
       line_points / static_cast<double>(std::max<std::size_t>(records.size(), 1));
+  const double frames_counted = static_cast<double>(std::max<std::size_t>(records.size(), 1));
+  line_scans /= frames_counted;
+  line_pixels /= frames_counted;
   for (double& count : line_points_by_range) {
     count /= static_cast<double>(std::max<std::size_t>(records.size(), 1));
   }
@@ -884,13 +912,16 @@ int run(const Options& options) {
          << ",\n  \"line_points_per_frame\": " << points_per_frame
          << ",\n  \"line_points_per_frame_within_2m\": " << line_points_by_range[0]
          << ",\n  \"line_points_per_frame_2_to_4m\": " << line_points_by_range[1]
-         << ",\n  \"line_points_per_frame_beyond_4m\": " << line_points_by_range[2] << "\n}\n";
+         << ",\n  \"line_points_per_frame_beyond_4m\": " << line_points_by_range[2]
+         << ",\n  \"line_scans_per_frame\": " << line_scans
+         << ",\n  \"line_pixels_per_frame\": " << line_pixels << "\n}\n";
   }
   if (options.occlusion_frames > 0) occlusionSeries(options, sim, processor, recognizer);
 
   std::cout << "line_points_per_frame=" << points_per_frame
             << " within_2m=" << line_points_by_range[0] << " 2_to_4m=" << line_points_by_range[1]
-            << " beyond_4m=" << line_points_by_range[2] << "\n";
+            << " beyond_4m=" << line_points_by_range[2] << " scans=" << line_scans
+            << " pixels_read=" << line_pixels << "\n";
   // The corners within 4 m that the camera can see at all (see seeable()): the rest stand behind
   // an opponent, in the robot's own reflection or beyond the mirror's useful radius. Both rates
   // are reported; corner_rate in the last line counts every corner within 4 m.
@@ -937,6 +968,32 @@ void addOptions(CLI::App& app, Options& options) {
                  "Only turns within this distance of the robot count, m (default: "
                  "vision_default.yaml's)")
       ->check(CLI::Range(0.0, 100.0));
+  app.add_option("--alone-side-points", options.alone_side_points,
+                 "The recogniser's line_end_alone_side_points (a line end without a parallel "
+                 "partner is a corner when its other line shows this many points; 0 = off)")
+      ->check(CLI::Range(0, 100));
+  app.add_option("--refine-range-m", options.refine_range_m,
+                 "The line detector's refinement around line ends and turns (sampling by index): "
+                 "line points up to this far count, m (0 = off; default: vision_default.yaml's)")
+      ->check(CLI::Range(0.0, 100.0));
+  app.add_option("--refine-min-range-m", options.refine_min_range_m,
+                 "Refinement: line points at least this far count, m")
+      ->check(CLI::Range(0.0, 100.0));
+  app.add_option("--refine-samples", options.refine_samples,
+                 "Refinement: scans added per refined sample interval")
+      ->check(CLI::Range(1, 64));
+  app.add_option("--refine-spacing-m", options.refine_spacing_m,
+                 "Refinement: at most as many scans per interval as put them this far apart on "
+                 "the floor, m (0 = always --refine-samples)")
+      ->check(CLI::Range(0.0, 10.0));
+  app.add_flag("--refine-isolated", options.refine_isolated,
+               "Refinement: also around line points without a neighbouring one");
+  app.add_option("--refine-reach", options.refine_reach,
+                 "Refinement: sample intervals refined on each side of a line's end or turn")
+      ->check(CLI::Range(1, 16));
+  app.add_option("--refine-turn", options.refine_turn,
+                 "Refinement: a line turns where its direction changes by more than this, rad")
+      ->check(CLI::Range(0.01, 3.1));
   app.add_flag("!--no-clutter", options.clutter, "No opponents or clutter");
   app.add_option("--opponents", options.opponents, "Opponents around the robot per frame")
       ->check(CLI::Range(0, 20))
@@ -967,6 +1024,9 @@ void addOptions(CLI::App& app, Options& options) {
                  "Frames of the occlusion series (seed fig. 4.60); 0 = none")
       ->check(CLI::Range(0, 10'000'000))
       ->capture_default_str();
+  app.add_option("--first-frame", options.first_frame,
+                 "Start at this frame of the --frames path (the frames before it are skipped)")
+      ->check(CLI::Range(0, 10'000'000));
   app.add_option("--frame", options.frame,
                  "Evaluate only this frame of the --frames path (with its clutter) in detail")
       ->check(CLI::Range(0, 10'000'000));

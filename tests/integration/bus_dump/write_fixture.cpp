@@ -135,10 +135,11 @@ int main(int argc, char** argv) {
     odometry.vy = -0.390625;
     odometry.omega = 0.05;
     odometry.status = int{odometry_t::STATUS_FRAMES_LOST} | int{odometry_t::STATUS_RESYNC} |
-                      int{odometry_t::STATUS_CURRENTS};
+                      int{odometry_t::STATUS_CURRENTS} | int{odometry_t::STATUS_GYRO};
     odometry.wheel_current[0] = 1.25f;
     odometry.wheel_current[1] = -0.5f;
     odometry.wheel_current[2] = 0.0f;
+    odometry.gyro_dphi = 0.0009765625;
     log.write(ch::kOdometry, logTime(5), odometry);
 
     motion_command_t command{};

@@ -2,7 +2,8 @@
 // (too few for a line) is found from the end of its front line (none at all: refused) (the goal
 // line beside it, the rest of the frame placing it); the same end with nothing but parallel lines
 // around it is refused (the other points do not fix the position along the line); ends without a
-// parallel partner at the area's spacings are no candidates.
+// parallel partner at the area's spacings are no candidates unless line_end_alone_side_points
+// asks for more points on the side line instead.
 #include "services/feature_recognition/line_end_identity.hpp"
 
 #include <cmath>
@@ -119,6 +120,18 @@ TEST(LineEndIdentity, GoalAreaCornerWithoutItsSideLineIsFoundFromTheFrontLineEnd
   EXPECT_LT(identity.shifted_share, identity.identity.fit.share() - 0.1);
   EXPECT_GE(identity.side_points, 1);
 
+  // An end without a parallel partner (line_end_alone_side_points) needs that many points on
+  // the side line.
+  LineEnd alone = end;
+  alone.partner = false;
+  RecognitionParams alone_params;
+  alone_params.line_end_alone_side_points = identity.side_points;
+  LineEndIdentity alone_identity;
+  EXPECT_TRUE(identifyLineEnd(alone, models, pointsOf(frame), check, alone_params, alone_identity));
+  alone_params.line_end_alone_side_points = identity.side_points + 1;
+  EXPECT_FALSE(
+      identifyLineEnd(alone, models, pointsOf(frame), check, alone_params, alone_identity));
+
   // Without a single point where the side line should be, the end is not taken for a corner.
   const perception::LinePoints bare = without(full, truth, area.corner, area.side_end, 0.06);
   LineEndIdentity bare_identity;
@@ -202,6 +215,18 @@ TEST(LineEndIdentity, CandidateEndsNeedAParallelPartnerAtTheAreasSpacings) {
   // An end already explained by a junction is no candidate.
   candidateLineEnds(structure, field, {Vec2(1.0, 1.5)}, RecognitionParams{}, ends);
   EXPECT_EQ(ends.size(), 3u);
+
+  // With line_end_alone_side_points, a line without a partner gives its ends too, marked.
+  structure.groups[0][2] = groupAt(4.3, -1.0, 1.0);  // 3.3 and 2.55 m from the others
+  candidateLineEnds(structure, field, {}, RecognitionParams{}, ends);
+  EXPECT_EQ(ends.size(), 4u);
+  RecognitionParams alone;
+  alone.line_end_alone_side_points = 2;
+  candidateLineEnds(structure, field, {}, alone, ends);
+  ASSERT_EQ(ends.size(), 6u);
+  for (const LineEnd& e : ends)
+    EXPECT_EQ(e.partner, e.group < 2);
+  structure.groups[0][2] = groupAt(4.9, -1.0, 1.0);
 
   // A group seen in two runs (a collinear fragment 2 m beyond the line's end): the line's end
   // is where its run ends, not at the fragment; the fragment (3 points) gives no ends.

@@ -16,8 +16,8 @@ constexpr Utime kStart = 1'800'000'000'000'000;
 EkfState robotAt(const geometry::Pose2& pose, Utime t) {
   EkfState s;
   s.utime = t;
-  s.x << pose.x, pose.y, pose.phi, 0, 0, 0;
-  s.p = Matrix6d::Identity() * 1e-4;
+  s.x << pose.x, pose.y, pose.phi, 0, 0, 0, 0;
+  s.p = StateMatrix::Identity() * 1e-4;
   return s;
 }
 

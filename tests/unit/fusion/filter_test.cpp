@@ -3,6 +3,7 @@
 // nothing, and the filter follows a pose measured with noise.
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numbers>
 #include <random>
 #include <vector>
@@ -11,6 +12,7 @@
 
 #include "common/robot/robot_params.hpp"
 #include "services/fusion/history.hpp"
+#include "services/fusion/localizer.hpp"
 #include "services/fusion/odometry_layer.hpp"
 
 namespace fieldline::fusion {
@@ -128,8 +130,9 @@ struct Input {
 };
 
 // A robot turning and accelerating for 3 s: odometry at 50 Hz (8 ms late), line measurements at
-// 10 Hz and feature measurements at 5 Hz, each late by a random 0..150 ms.
-std::vector<Input> makeInputs(std::mt19937& rng) {
+// 10 Hz and feature measurements at 5 Hz, each late by a random 0..150 ms. With `gyro` the
+// odometry carries a gyro rotation with a bias of 0.004 rad/s.
+std::vector<Input> makeInputs(std::mt19937& rng, bool gyro = false) {
   const auto p = params();
   OdometryLayer layer(p);
   std::array<double, 3> rem{};
@@ -144,7 +147,11 @@ std::vector<Input> makeInputs(std::mt19937& rng) {
     const robot::Twist twist{0.8 + 0.3 * std::sin(t), 0.2 * std::cos(2 * t), 0.6 * std::sin(t)};
     ticks = advanceTicks(ticks, layer.kinematics(), p, twist, 0.02, rem);
     const Utime utime = kStart + k * 20'000;
-    const auto r = layer.update({utime, ticks, false});
+    OdometrySample sample{utime, ticks, false};
+    sample.has_gyro = gyro;
+    sample.gyro_dphi = (twist.omega + 0.004) * 0.02;
+    const auto r = layer.update(sample);
+    EXPECT_EQ(r.step->gyro, gyro);
     truth = geometry::applyMovement(truth, robot::arcMovement(twist.vector() * 0.02));
     Input in;
     in.arrival = utime + 8'000;
@@ -169,8 +176,8 @@ std::vector<Input> makeInputs(std::mt19937& rng) {
 EkfState startState() {
   EkfState s;
   s.utime = kStart;
-  s.x << -1.0, 0.5, 0.2, 0.0, 0.0, 0.0;
-  s.p = (Vector6d() << 0.01, 0.01, 0.01, 0.1, 0.1, 0.1).finished().asDiagonal();
+  s.x << -1.0, 0.5, 0.2, 0.0, 0.0, 0.0, 0.0;
+  s.p = (StateVector() << 0.01, 0.01, 0.01, 0.1, 0.1, 0.1, 1e-6).finished().asDiagonal();
   return s;
 }
 
@@ -189,7 +196,8 @@ Utime timeOf(const Input& in) {
 TEST(DelayedFilter, LateMeasurementsGiveTheInOrderStateExactly) {
   for (unsigned seed = 1; seed <= 20; ++seed) {
     std::mt19937 rng(seed);
-    std::vector<Input> inputs = makeInputs(rng);
+    // Half the runs with the gyro's heading and its bias state.
+    std::vector<Input> inputs = makeInputs(rng, seed % 2 == 0);
 
     // In order of physical time, each input known when it happened.
     std::vector<Input> by_time = inputs;
@@ -527,6 +535,152 @@ TEST(DelayedFilter, ContactGrowsThePoseNoiseOverTheTimeItCovers) {
   EXPECT_EQ(touched.addContact(kStart - 500'000, kStart + 1'000'000), Rejection::kTooOld);
   EXPECT_LT((touched.current().p - before.p).cwiseAbs().maxCoeff(), 1e-15);
   EXPECT_EQ(touched.rejections()[static_cast<std::size_t>(Rejection::kDuplicate)], 1u);
+}
+
+}  // namespace
+}  // namespace fieldline::fusion
+
+namespace fieldline::fusion {
+namespace {
+
+TEST(OdometryLayer, TheGyroGivesTheHeadingAndBadValuesFallBackToTheWheels) {
+  const auto p = params();
+  ASSERT_TRUE(p.gyro.present);
+  OdometryLayer layer(p);
+  std::array<double, 3> rem{};
+  robot::TickCounts ticks{0, 0, 0};
+  layer.update({kStart, ticks, false});
+  Utime t = kStart;
+  // Forward at 1 m/s with the wheels showing no turn; the gyro says 0.05 rad per 20 ms.
+  const auto next = [&](bool has_gyro, double gyro_dphi) {
+    ticks = advanceTicks(ticks, layer.kinematics(), p, {1.0, 0.0, 0.0}, 0.02, rem);
+    t += 20'000;
+    OdometrySample s{t, ticks, false};
+    s.has_gyro = has_gyro;
+    s.gyro_dphi = gyro_dphi;
+    return layer.update(s);
+  };
+  auto r = next(true, 0.05);
+  ASSERT_TRUE(r.step);
+  EXPECT_TRUE(r.step->gyro);
+  EXPECT_EQ(r.gyro_rejection, nullptr);
+  EXPECT_DOUBLE_EQ(r.step->integrated.z(), 0.05);
+  EXPECT_NEAR(r.step->integrated.x(), 0.02, 5e-4);
+  // The heading's noise is the gyro's error model, independent of the wheels' translation.
+  EXPECT_DOUBLE_EQ(r.step->covariance(2, 2), layer.gyroVariance(0.05, 0.02));
+  EXPECT_EQ(r.step->covariance(0, 2), 0.0);
+  EXPECT_EQ(r.step->covariance(2, 1), 0.0);
+  const double wheel_var = layer.stepFor({0, 0, 0}, 0.02).covariance(2, 2);
+  EXPECT_LT(r.step->covariance(2, 2), wheel_var);
+
+  // Non-finite and absurd (beyond the gyro's range) values: counted, the wheels' heading used.
+  r = next(true, std::numeric_limits<double>::quiet_NaN());
+  ASSERT_TRUE(r.step);
+  EXPECT_STREQ(r.gyro_rejection, "gyro_not_finite");
+  EXPECT_FALSE(r.step->gyro);
+  EXPECT_NEAR(r.step->integrated.z(), 0.0, 1e-3);
+  r = next(true, 5.0);  // 250 rad/s
+  ASSERT_TRUE(r.step);
+  EXPECT_STREQ(r.gyro_rejection, "gyro_absurd");
+  EXPECT_FALSE(r.step->gyro);
+  // Without STATUS_GYRO: the wheels, nothing counted.
+  r = next(false, 0.05);
+  EXPECT_FALSE(r.step->gyro);
+  EXPECT_EQ(r.gyro_rejection, nullptr);
+
+  // A sample stamped before the reference gives no step, but its rotation is not lost: the next
+  // step carries both.
+  r = next(true, 0.03);
+  ASSERT_TRUE(r.step->gyro);
+  OdometrySample early{t - 5'000, ticks, false};
+  early.has_gyro = true;
+  early.gyro_dphi = 0.01;
+  EXPECT_EQ(layer.update(early).rejection, OdometryRejection::kOutOfOrder);
+  r = next(true, 0.02);
+  ASSERT_TRUE(r.step);
+  EXPECT_TRUE(r.step->gyro);
+  EXPECT_NEAR(r.step->integrated.z(), 0.03, 1e-12);
+
+  // use_gyro false: the wheels, as without a gyro.
+  OdometryNoise wheels_only;
+  wheels_only.use_gyro = false;
+  OdometryLayer off(p, wheels_only);
+  off.update({kStart, {0, 0, 0}, false});
+  OdometrySample s{kStart + 20'000, {0, 0, 0}, false};
+  s.has_gyro = true;
+  s.gyro_dphi = 0.05;
+  const auto w = off.update(s);
+  ASSERT_TRUE(w.step);
+  EXPECT_FALSE(w.step->gyro);
+  EXPECT_EQ(w.step->integrated.z(), 0.0);
+  // And a robot file without a gyro section: the wheels too.
+  auto no_gyro = p;
+  no_gyro.gyro.present = false;
+  OdometryLayer bare(no_gyro);
+  bare.update({kStart, {0, 0, 0}, false});
+  EXPECT_FALSE(bare.update(s).step->gyro);
+}
+
+// A robot standing on its wheels and twisted at 0.5 rad/s (a collision): the wheels see nothing,
+// the gyro sees the turn; the filter's heading follows the gyro between line frames.
+TEST(DelayedFilter, AGyroFollowsATwistTheWheelsMiss) {
+  const auto p = params();
+  OdometryLayer with_gyro(p);
+  OdometryLayer wheels(p);
+  DelayedFilter fg(Localizer::withGyro(FilterParams{}, p));
+  DelayedFilter fw;
+  fg.initialize(startState());
+  fw.initialize(startState());
+  with_gyro.update({kStart, {0, 0, 0}, false});
+  wheels.update({kStart, {0, 0, 0}, false});
+  for (int k = 1; k <= 25; ++k) {
+    OdometrySample s{kStart + k * 20'000, {0, 0, 0}, false};
+    s.has_gyro = true;
+    s.gyro_dphi = 0.5 * 0.02;
+    EXPECT_EQ(fg.addOdometry(*with_gyro.update(s).step, s.utime), Rejection::kNone);
+    EXPECT_EQ(fw.addOdometry(*wheels.update({s.utime, s.ticks, false}).step, s.utime),
+              Rejection::kNone);
+  }
+  const double truth = startState().x[2] + 0.25;
+  EXPECT_NEAR(fg.current().x[2], truth, 1e-3);
+  EXPECT_NEAR(fw.current().x[2], startState().x[2], 1e-3);
+  EXPECT_TRUE(fg.current().gyro);
+  EXPECT_FALSE(fw.current().gyro);
+}
+
+// Turning at 0.5 rad/s with a gyro biased by 0.006 rad/s (0.34 deg/s): the bias state learns it
+// from line frames at 10 Hz (heading sigma 0.4 deg), and the heading stays right.
+TEST(DelayedFilter, LearnsTheGyroBiasFromTheLineFrames) {
+  const auto p = params();
+  OdometryLayer layer(p);
+  DelayedFilter f(Localizer::withGyro(FilterParams{}, p));
+  EkfState start = startState();
+  start.p(kGyroBias, kGyroBias) = p.gyro.bias_sigma * p.gyro.bias_sigma;
+  f.initialize(start);
+  layer.update({kStart, {0, 0, 0}, false});
+  std::mt19937 rng(3);
+  const double sigma = 0.007;
+  std::normal_distribution<double> noise(0.0, sigma);
+  const double bias = 0.006;
+  double heading = start.x[2];
+  for (int k = 1; k <= 1500; ++k) {  // 30 s
+    const Utime utime = kStart + k * 20'000;
+    OdometrySample s{utime, {0, 0, 0}, false};
+    s.has_gyro = true;
+    s.gyro_dphi = (0.5 + bias) * 0.02;
+    heading += 0.5 * 0.02;
+    ASSERT_EQ(f.addOdometry(*layer.update(s).step, utime), Rejection::kNone);
+    if (k % 5 == 0) {
+      PoseMeasurement z;
+      z.utime = utime;
+      z.pose = {start.x[0], start.x[1], geometry::normalizeAngle(heading + noise(rng))};
+      z.covariance = Eigen::Vector3d(1e-4, 1e-4, sigma * sigma).asDiagonal();
+      f.addPose(MeasurementSource::kLines, z, utime);
+    }
+  }
+  EXPECT_NEAR(f.current().x[kGyroBias], bias, 0.001);
+  EXPECT_LT(std::sqrt(f.current().p(kGyroBias, kGyroBias)), 0.002);
+  EXPECT_NEAR(geometry::angleDiff(f.current().x[2], heading), 0.0, 3.0 * sigma);
 }
 
 }  // namespace

@@ -40,6 +40,8 @@ struct Rig {
   std::mt19937 rng{4};
   // Sent with every ODOMETRY when set (STATUS_CURRENTS).
   std::optional<std::array<float, 3>> currents;
+  // Sent with every ODOMETRY when set (STATUS_GYRO): the gyro's rotation over the period.
+  std::optional<double> gyro_dphi;
 
   static FusionNodeOptions options() {
     FusionNodeOptions o;
@@ -72,6 +74,10 @@ struct Rig {
       o.status |= odometry_t::STATUS_CURRENTS;
       for (std::size_t k = 0; k < 3; ++k)
         o.wheel_current[k] = (*currents)[k];
+    }
+    if (gyro_dphi) {
+      o.status |= odometry_t::STATUS_GYRO;
+      o.gyro_dphi = *gyro_dphi;
     }
     sensors.publish(bus::channels::kOdometry, o);
     if (lines && i % 5 == 0) {
@@ -293,6 +299,34 @@ TEST(FusionNode, WheelCurrentsAtTheFrictionLimitAreContactEvidence) {
   rig.period(67, false, false);
   EXPECT_EQ(rig.fusion_bus.status().errorCount("current_absurd"), 1);
   EXPECT_EQ(rig.states.size(), states + 2);
+}
+
+TEST(FusionNode, TheGyroTurnsTheEstimateAndBadGyroValuesAreCounted) {
+  Rig rig;
+  rig.gyro_dphi = 0.0;
+  for (int i = 0; i < 60; ++i)
+    rig.period(i, true, false);
+  ASSERT_EQ(rig.states.back().status, robot_state_t::STATUS_TRACKING);
+  EXPECT_GT(rig.fusion.localizer().counters().gyro_steps, 50u);
+  const double phi0 = rig.states.back().phi;
+  // Twisted at 1 rad/s for 0.2 s without line frames while the wheels stand still: the gyro
+  // turns the estimate by 0.2 rad.
+  rig.gyro_dphi = 0.02;
+  for (int i = 60; i < 70; ++i)
+    rig.period(i, false, false);
+  EXPECT_NEAR(geometry::angleDiff(rig.states.back().phi, phi0), 0.2, 0.01);
+  // NaN and absurd gyro values: errors in SERVICE_STATUS, the wheels' heading used, a
+  // ROBOT_STATE for each sample all the same.
+  const std::size_t states = rig.states.size();
+  const double phi1 = rig.states.back().phi;
+  rig.gyro_dphi = std::nan("");
+  rig.period(70, false, false);
+  rig.gyro_dphi = 3.0;  // 150 rad/s, beyond the gyro's range
+  rig.period(71, false, false);
+  EXPECT_EQ(rig.fusion_bus.status().errorCount("gyro_not_finite"), 1);
+  EXPECT_EQ(rig.fusion_bus.status().errorCount("gyro_absurd"), 1);
+  EXPECT_EQ(rig.states.size(), states + 2);
+  EXPECT_NEAR(geometry::angleDiff(rig.states.back().phi, phi1), 0.0, 0.01);
 }
 
 }  // namespace

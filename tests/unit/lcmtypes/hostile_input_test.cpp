@@ -94,6 +94,9 @@ struct Sample<odometry_t> {
     m.header = header();
     m.ticks[0] = 10;
     m.dx = 0.01;
+    // The gyro's tail is the message's last field: a cut through it must be refused too.
+    m.status = odometry_t::STATUS_GYRO;
+    m.gyro_dphi = 0.002;
     return m;
   }
   static std::vector<WireLength> lengths() { return {}; }

@@ -17,15 +17,18 @@ TEST(OdometryMsg, RoundTripKeepsEveryField) {
   r.vx = 0.5;
   r.vy = -0.1;
   r.omega = 1.5;
-  r.status =
-      perception::kOdometryResync | perception::kOdometryWatchdog | perception::kOdometryCurrents;
+  r.status = perception::kOdometryResync | perception::kOdometryWatchdog |
+             perception::kOdometryCurrents | perception::kOdometryGyro;
   r.wheel_current = {1.25f, -0.5f, 3.0f};
+  r.gyro_dphi = -0.0123;
   odometry_t m{};
   toMessage(r, m);
   EXPECT_EQ(m.header.utime, r.utime);
   EXPECT_EQ(m.status, static_cast<std::int32_t>(odometry_t::STATUS_RESYNC) |
                           static_cast<std::int32_t>(odometry_t::STATUS_WATCHDOG) |
-                          static_cast<std::int32_t>(odometry_t::STATUS_CURRENTS));
+                          static_cast<std::int32_t>(odometry_t::STATUS_CURRENTS) |
+                          static_cast<std::int32_t>(odometry_t::STATUS_GYRO));
+  EXPECT_DOUBLE_EQ(m.gyro_dphi, -0.0123);
   EXPECT_FLOAT_EQ(m.wheel_current[1], -0.5f);
   const auto back = fromMessage(m);
   EXPECT_EQ(back.utime, r.utime);
@@ -39,6 +42,7 @@ TEST(OdometryMsg, RoundTripKeepsEveryField) {
   EXPECT_DOUBLE_EQ(back.omega, 1.5);
   EXPECT_EQ(back.status, r.status);
   EXPECT_EQ(back.wheel_current, r.wheel_current);
+  EXPECT_DOUBLE_EQ(back.gyro_dphi, -0.0123);
 }
 
 TEST(MotionCommandMsg, RoundTripAndUnknownSource) {

@@ -114,6 +114,67 @@ TEST(Bridge, WheelCurrentsAreForwardedInAmperes) {
   EXPECT_FLOAT_EQ(out[1].wheel_current[2], 0.0f);
 }
 
+TEST(Bridge, TheGyroAngleBecomesTheRotationSinceThePreviousSampleAcrossWrapAndLoss) {
+  const auto params = robot::loadRobotPreset("fu2004");
+  BridgeCore bridge(params);
+  std::vector<OdometryOutput> out;
+  serial::OdometrySample s;
+  const auto send = [&](std::uint32_t seq, std::optional<std::int32_t> angle) {
+    s.seq = seq;
+    s.controller_time_us = 1'000 + 20'000ULL * seq;
+    s.gyro_angle_urad = angle;
+    bridge.onBytes(serial::encode(s), kT0 + 20'000 * seq, out);
+  };
+  const std::int32_t near_max = std::numeric_limits<std::int32_t>::max() - 1'000;
+  send(0, near_max);                                        // the first sample: no difference yet
+  send(1, std::numeric_limits<std::int32_t>::min() + 999);  // +2000 µrad across the wrap
+  send(3, std::numeric_limits<std::int32_t>::min() + 499);  // sample 2 lost: -500 µrad over both
+  send(4, {});                                              // a sample without the tail
+  send(5, 12);                                              // no reference: no difference
+  send(6, 10);
+  ASSERT_EQ(out.size(), 6u);
+  EXPECT_EQ(out[0].status & perception::kOdometryGyro, 0);
+  EXPECT_TRUE(out[1].status & perception::kOdometryGyro);
+  EXPECT_NEAR(out[1].gyro_dphi, 2000e-6, 1e-12);
+  EXPECT_TRUE(out[2].status & perception::kOdometryFramesLost);
+  EXPECT_NEAR(out[2].gyro_dphi, -500e-6, 1e-12);
+  EXPECT_EQ(out[3].status & perception::kOdometryGyro, 0);
+  EXPECT_EQ(out[3].gyro_dphi, 0.0);
+  EXPECT_EQ(out[4].status & perception::kOdometryGyro, 0);
+  EXPECT_TRUE(out[5].status & perception::kOdometryGyro);
+  EXPECT_NEAR(out[5].gyro_dphi, -2e-6, 1e-12);
+}
+
+TEST(Bridge, TheEmulatedGyroSeesATurnTheWheelsDoNotShow) {
+  auto params = robot::loadRobotPreset("fu2004");
+  ASSERT_TRUE(params.gyro.present);
+  // An ideal gyro apart from its quantisation, to compare with the true angle.
+  params.gyro.noise_density = params.gyro.bias_sigma = params.gyro.bias_walk = 0.0;
+  params.gyro.scale_sigma = 0.0;
+  BridgeCore bridge(params);
+  world_sim::FirmwareEmulator firmware(params, 5'000);
+  std::vector<std::uint8_t> wire;
+  std::vector<OdometryOutput> out;
+  double t = 0.0;
+  const double dt = 0.0025;
+  for (int sample = 1; sample <= 3; ++sample) {
+    for (int k = 0; k < 8; ++k) {
+      firmware.gyroStep(sample == 1 ? 0.0 : 2.0, dt);  // twisted at 2 rad/s, wheels still
+      t += dt;
+    }
+    wire.clear();
+    firmware.sample(t, {0, 0, 0}, wire);
+    bridge.onBytes(wire, kT0 + static_cast<Utime>(std::llround(t * 1e6)), out);
+  }
+  ASSERT_EQ(out.size(), 3u);
+  for (std::size_t i = 1; i < 3; ++i) {
+    EXPECT_TRUE(out[i].status & perception::kOdometryGyro);
+    EXPECT_EQ(out[i].movement.dphi, 0.0);
+    // 2 rad/s for 20 ms, to the LSB's and the microradian's rounding.
+    EXPECT_NEAR(out[i].gyro_dphi, 0.04, params.gyro.lsb * 0.02 + 2e-6);
+  }
+}
+
 TEST(Bridge, MalformedFramesAreCountedNeverForwarded) {
   const auto params = robot::loadRobotPreset("fu2004");
   BridgeCore bridge(params);

@@ -40,6 +40,8 @@ Message randomMessage(std::mt19937& rng) {
                                                    static_cast<std::int16_t>(i16(rng)),
                                                    static_cast<std::int16_t>(i16(rng))};
       }
+      // Half carry the gyro's angle (34 or 40 bytes with the currents).
+      if (rng() % 2) s.gyro_angle_urad = static_cast<std::int32_t>(u32(rng));
       return s;
     }
     default:
@@ -163,6 +165,63 @@ TEST(Protocol, OdometryCarriesCurrentsInAnOptionalTail) {
   d.feed(frameFromPayload(payload), out);
   EXPECT_EQ(d.stats().length_errors, 1u);
   EXPECT_EQ(out.size(), 2u);
+}
+
+TEST(Protocol, OdometryCarriesTheGyroAngleInATailAfterTheCurrents) {
+  OdometrySample s;
+  s.seq = 9;
+  s.controller_time_us = 123'456;
+  s.ticks = {-4, 5, 6};
+  s.status = kStatusReset;
+  s.last_command_seq = 2;
+  const Bytes plain = encode(s);
+  s.gyro_angle_urad = -2'000'000'123;
+  const Bytes gyro_only = encode(s);
+  s.current_ma = std::array<std::int16_t, 3>{-1, 0, 1};
+  const Bytes both = encode(s);
+  EXPECT_EQ(gyro_only.size(), plain.size() + 4);
+  EXPECT_EQ(both.size(), plain.size() + 10);
+
+  // The 30-byte body of a controller without either tail, written by hand as an old firmware
+  // sends it: still decoded, with neither tail.
+  Bytes old_payload{kVersion, 0x20};
+  const auto le = [&](std::uint64_t v, int bytes) {
+    for (int i = 0; i < bytes; ++i)
+      old_payload.push_back(static_cast<std::uint8_t>(v >> (8 * i)));
+  };
+  le(9, 4);
+  le(123'456, 8);
+  le(static_cast<std::uint32_t>(-4), 4);
+  le(5, 4);
+  le(6, 4);
+  le(kStatusReset, 2);
+  le(2, 4);
+  ASSERT_EQ(old_payload.size(), 2u + 30u);
+  EXPECT_EQ(frameFromPayload(old_payload), plain);
+
+  Decoder d;
+  std::vector<Message> out;
+  d.feed(frameFromPayload(old_payload), out);
+  d.feed(gyro_only, out);
+  d.feed(both, out);
+  ASSERT_EQ(out.size(), 3u);
+  const auto& old_sample = std::get<OdometrySample>(out[0]);
+  EXPECT_FALSE(old_sample.gyro_angle_urad);
+  EXPECT_FALSE(old_sample.current_ma);
+  EXPECT_EQ(old_sample.ticks, (std::array<std::int32_t, 3>{-4, 5, 6}));
+  const auto& g = std::get<OdometrySample>(out[1]);
+  ASSERT_TRUE(g.gyro_angle_urad);
+  EXPECT_EQ(*g.gyro_angle_urad, -2'000'000'123);
+  EXPECT_FALSE(g.current_ma);
+  EXPECT_EQ(std::get<OdometrySample>(out[2]), s);
+  // Lengths of no layout (30 + 2, 30 + 8) are refused and counted.
+  for (std::size_t body : {32u, 38u}) {
+    Bytes payload{kVersion, 0x20};
+    payload.resize(2 + body, 0);
+    d.feed(frameFromPayload(payload), out);
+  }
+  EXPECT_EQ(d.stats().length_errors, 2u);
+  EXPECT_EQ(out.size(), 3u);
 }
 
 TEST(Protocol, WellFormedButWrongFramesAreCountedByReason) {

@@ -397,6 +397,13 @@ TEST(VisionParams, TheShippedYamlHoldsTheDefaults) {
   EXPECT_EQ(loaded.lines.ridge_contrast, defaults.lines.ridge_contrast);
   EXPECT_EQ(loaded.lines.ridge_min_levels, defaults.lines.ridge_min_levels);
   EXPECT_EQ(loaded.lines.sample_spacing, defaults.lines.sample_spacing);
+  EXPECT_DOUBLE_EQ(loaded.lines.refine_range_m, defaults.lines.refine_range_m);
+  EXPECT_DOUBLE_EQ(loaded.lines.refine_min_range_m, defaults.lines.refine_min_range_m);
+  EXPECT_EQ(loaded.lines.refine_samples, defaults.lines.refine_samples);
+  EXPECT_DOUBLE_EQ(loaded.lines.refine_spacing_m, defaults.lines.refine_spacing_m);
+  EXPECT_EQ(loaded.lines.refine_reach, defaults.lines.refine_reach);
+  EXPECT_DOUBLE_EQ(loaded.lines.refine_turn, defaults.lines.refine_turn);
+  EXPECT_EQ(loaded.lines.refine_isolated, defaults.lines.refine_isolated);
   EXPECT_EQ(loaded.lines.smoothing_passes, defaults.lines.smoothing_passes);
   EXPECT_EQ(loaded.lines.tangent_half_span, defaults.lines.tangent_half_span);
   EXPECT_EQ(loaded.lines.min_contour_points, defaults.lines.min_contour_points);

@@ -2,6 +2,7 @@
 #include <fcntl.h>
 #include <unistd.h>
 
+#include <cmath>
 #include <filesystem>
 
 #include <gtest/gtest.h>
@@ -120,6 +121,103 @@ TEST(Firmware, SamplesCarryTicksClockStatusAndTheLastCommand) {
   const auto errors = decode(reply);
   ASSERT_EQ(errors.size(), 1u);
   EXPECT_EQ(std::get<proto::ErrorReport>(errors[0]).code, proto::ErrorCode::kBadFrame);
+}
+
+TEST(Gyro, BiasAndScaleOfAStartFollowTheirSpreadAndStayPut) {
+  const auto params = robot::loadRobotPreset("fu2004").gyro;
+  ASSERT_TRUE(params.present);
+  // Over many starts (seeds) the drawn biases and scale errors have the configured spread.
+  double bias2 = 0.0, scale2 = 0.0;
+  const int starts = 2000;
+  for (int i = 0; i < starts; ++i) {
+    const GyroModel g(params, 1000 + static_cast<std::uint64_t>(i));
+    bias2 += g.bias() * g.bias();
+    scale2 += g.scaleError() * g.scaleError();
+  }
+  EXPECT_NEAR(std::sqrt(bias2 / starts), params.bias_sigma, 0.1 * params.bias_sigma);
+  EXPECT_NEAR(std::sqrt(scale2 / starts), params.scale_sigma, 0.1 * params.scale_sigma);
+
+  // One start standing still for 60 s: the mean rate is the bias (it walks only a little: the
+  // walk over 60 s is bias_walk * sqrt(60) one sigma), and the angle grows by it.
+  GyroModel g(params, 77);
+  const double bias0 = g.bias();
+  const double dt = 0.0025;
+  for (int k = 0; k < 24'000; ++k)
+    g.step(0.0, dt);
+  const double walk = params.bias_walk * std::sqrt(60.0);
+  EXPECT_NEAR(g.angle() / 60.0, bias0, 4.0 * walk + 1e-5);
+  EXPECT_NEAR(g.bias(), bias0, 5.0 * walk);
+  EXPECT_EQ(g.saturated(), 0u);
+  EXPECT_EQ(g.samples(), 24'000u);
+}
+
+TEST(Gyro, WhiteNoiseIntegratesToItsAngleRandomWalk) {
+  auto params = robot::loadRobotPreset("fu2004").gyro;
+  params.bias_sigma = params.bias_walk = params.scale_sigma = 0.0;
+  params.lsb = 0.0;
+  params.noise_density = 0.01;  // large, so that the test measures it quickly
+  // Increments over 20 ms periods of 8 rate samples at 400 Hz: each rate sample has the density
+  // times sqrt(bandwidth) (200 Hz) of noise, so a period's angle has that times 2.5 ms * sqrt(8).
+  GyroModel g(params, 5);
+  const int periods = 5000;
+  double sum2 = 0.0, previous = 0.0;
+  for (int p = 0; p < periods; ++p) {
+    for (int k = 0; k < 8; ++k)
+      g.step(0.0, 0.0025);
+    const double d = g.angle() - previous;
+    previous = g.angle();
+    sum2 += d * d;
+  }
+  const double expected = 0.01 * std::sqrt(200.0) * 0.0025 * std::sqrt(8.0);
+  EXPECT_NEAR(std::sqrt(sum2 / periods), expected, 0.05 * expected);
+}
+
+TEST(Gyro, ScaleErrorSaturationAndQuantisation) {
+  auto params = robot::loadRobotPreset("fu2004").gyro;
+  params.noise_density = params.bias_sigma = params.bias_walk = 0.0;
+  params.scale_sigma = 0.01;
+  GyroModel g(params, 11);
+  const double scale = g.scaleError();
+  ASSERT_NE(scale, 0.0);
+  // 3 rad/s for 1 s: the angle is off by the scale error (to the LSB's rounding).
+  for (int k = 0; k < 400; ++k)
+    g.step(3.0, 0.0025);
+  EXPECT_NEAR(g.angle(), 3.0 * (1.0 + scale), 0.5 * params.lsb);
+  // Every rate sample is a whole number of LSBs: the angle over one sample is too.
+  const double before = g.angle();
+  g.step(0.123456, 0.0025);
+  const double lsbs = (g.angle() - before) / 0.0025 / params.lsb;
+  EXPECT_NEAR(lsbs, std::round(lsbs), 1e-6);
+  // Beyond the range the rate saturates and is counted: a 0.5 rad jump within one 2.5 ms step
+  // (200 rad/s) gives at most range * dt.
+  const double at = g.angle();
+  g.step(200.0, 0.0025);
+  EXPECT_EQ(g.saturated(), 1u);
+  EXPECT_NEAR(g.angle() - at, params.range * 0.0025, params.lsb * 0.0025);
+  g.step(-200.0, 0.0025);
+  EXPECT_EQ(g.saturated(), 2u);
+  EXPECT_NEAR(g.angle(), at, 2.0 * params.lsb * 0.0025);
+}
+
+TEST(Firmware, SamplesCarryTheGyroAngleOnlyWhenTheRobotHasOne) {
+  auto params = robot::loadRobotPreset("fu2004");
+  FirmwareEmulator with(params, 1'000);
+  params.gyro.present = false;
+  FirmwareEmulator without(params, 1'000);
+  std::vector<std::uint8_t> a, b;
+  for (int k = 0; k < 8; ++k) {
+    with.gyroStep(1.0, 0.0025);
+    without.gyroStep(1.0, 0.0025);
+  }
+  with.sample(0.02, {0, 0, 0}, a);
+  without.sample(0.02, {0, 0, 0}, b);
+  const auto sa = std::get<proto::OdometrySample>(decode(a).at(0));
+  const auto sb = std::get<proto::OdometrySample>(decode(b).at(0));
+  ASSERT_TRUE(sa.gyro_angle_urad);
+  EXPECT_NEAR(*sa.gyro_angle_urad * 1e-6, with.gyro()->angle(), 1e-6);
+  EXPECT_NEAR(*sa.gyro_angle_urad * 1e-6, 0.02, 0.02 * 0.03 + 0.001);  // 1 rad/s for 20 ms
+  EXPECT_FALSE(sb.gyro_angle_urad);
+  EXPECT_FALSE(without.gyro());
 }
 
 TEST(Firmware, AnswersAHostHello) {
