@@ -453,27 +453,11 @@ void printLineDiff(const Options& options, rt::SimCamera& sim, const Sequence& s
     std::array<long long, 4> missing_by_range{}, extra_by_range{};
     std::array<long long, 4> missing_by_rim{}, extra_by_rim{};
   };
-  // How far each cell is from the outer rim (cells next to the mask connected to the outside):
-  // 4-connected steps, so that a point missing "at the rim" can be told from one further in.
+  // How far each cell is from the outer rim, so that a point missing "at the rim" can be told
+  // from one further in.
   const rt::CellGrid& grid = exact.grid();
-  const std::vector<rt::MaskEdge> edges = rt::maskEdges(grid, exact.dontTouch());
-  std::vector<int> rimSteps(grid.cellCount(), -1);
-  std::vector<int> queue;
-  for (int c = 0; c < grid.cellCount(); ++c) {
-    if (edges[c] == rt::MaskEdge::kOuter) {
-      rimSteps[c] = 0;
-      queue.push_back(c);
-    }
-  }
-  for (std::size_t head = 0; head < queue.size(); ++head) {
-    const int c = queue[head], x = c % grid.width, y = c / grid.width;
-    for (const auto& [nx, ny] : {std::pair{x + 1, y}, {x - 1, y}, {x, y + 1}, {x, y - 1}}) {
-      if (grid.contains(nx, ny) && rimSteps[grid.index(nx, ny)] < 0) {
-        rimSteps[grid.index(nx, ny)] = rimSteps[c] + 1;
-        queue.push_back(grid.index(nx, ny));
-      }
-    }
-  }
+  const std::vector<int> rimSteps =
+      rt::stepsFromOuterRim(grid, rt::maskEdges(grid, exact.dontTouch()));
   constexpr std::array<int, 4> kRimLimits = {2, 4, 8, 1 << 30};  // cells
   auto rimBin = [&](const rt::LinePoint& p) {
     const int x = std::clamp(static_cast<int>(p.u) / grid.cell_size, 0, grid.width - 1);

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 #include "common/config/config.hpp"
 
@@ -51,6 +52,30 @@ TrackerConfig loadTrackerConfig(
   }
   node.rejectUnknownKeys();
   return config;
+}
+
+std::vector<int> stepsFromOuterRim(const CellGrid& grid, const std::vector<MaskEdge>& edges) {
+  if (static_cast<int>(edges.size()) != grid.cellCount()) {
+    throw std::invalid_argument("steps from the rim: the mask edges must have one entry per cell");
+  }
+  std::vector<int> steps(grid.cellCount(), -1);
+  std::vector<int> queue;
+  for (int c = 0; c < grid.cellCount(); ++c) {
+    if (edges[c] == MaskEdge::kOuter) {
+      steps[c] = 0;
+      queue.push_back(c);
+    }
+  }
+  for (std::size_t head = 0; head < queue.size(); ++head) {
+    const int c = queue[head], x = c % grid.width, y = c / grid.width;
+    for (const auto& [nx, ny] : {std::pair{x + 1, y}, {x - 1, y}, {x, y + 1}, {x, y - 1}}) {
+      if (grid.contains(nx, ny) && steps[grid.index(nx, ny)] < 0) {
+        steps[grid.index(nx, ny)] = steps[c] + 1;
+        queue.push_back(grid.index(nx, ny));
+      }
+    }
+  }
+  return steps;
 }
 
 std::vector<MaskEdge> maskEdges(const CellGrid& grid, std::span<const std::uint8_t> dontTouch) {

@@ -94,6 +94,9 @@ enum class MaskEdge : std::uint8_t {
 // One entry per cell, row-major. Blocked cells are connected through their 8 neighbours; the
 // outside of the grid is blocked. `dontTouch`: one byte per cell or empty (nothing blocked).
 std::vector<MaskEdge> maskEdges(const CellGrid& grid, std::span<const std::uint8_t> dontTouch);
+// 4-connected steps of every cell from the nearest kOuter cell of `edges` (0 on the rim, -1 where
+// no rim cell is reachable): tells a change at the rim from one further in (the rim cadence).
+std::vector<int> stepsFromOuterRim(const CellGrid& grid, const std::vector<MaskEdge>& edges);
 
 // Reads keys cell_size, reinitialise_period_frames, mask_edge_every, mask_edge_inner (both
 // optional) and a list `classes` of maps {class,

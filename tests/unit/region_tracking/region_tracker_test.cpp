@@ -570,6 +570,12 @@ TEST(RegionTracker, MaskEdgesTellTheOuterRimFromTheInnerEdge) {
   }
   EXPECT_EQ(outer, 2 * 36 + 2 * 24);
   EXPECT_EQ(inner, 4 * 4);
+  // Steps from the rim: 0 on it, counted inwards in 4-connected steps.
+  const std::vector<int> steps = stepsFromOuterRim(grid, edges);
+  EXPECT_EQ(steps[grid.index(10, 2)], 0);
+  EXPECT_EQ(steps[grid.index(10, 3)], 1);
+  EXPECT_EQ(steps[grid.index(10, 6)], 4);
+  EXPECT_THROW(stepsFromOuterRim(grid, {}), std::invalid_argument);
   // Without a mask only the grid's border is an edge, the outer one.
   const std::vector<MaskEdge> open = maskEdges(CellGrid{5, 4, 1}, {});
   EXPECT_EQ(open[0], MaskEdge::kOuter);

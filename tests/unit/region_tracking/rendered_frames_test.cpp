@@ -286,23 +286,7 @@ TEST_F(RenderedFrames, TheRimCadenceDiffersFromTheExactTrackerOnlyNearTheRim) {
     FrameProcessor exact(sim_->mirror, sim_->table, exactParams);
     const CellGrid& grid = exact.grid();
     // Cells from the outer rim, in 4-connected steps.
-    const std::vector<MaskEdge> edges = maskEdges(grid, exact.dontTouch());
-    std::vector<int> rimSteps(grid.cellCount(), -1), queue;
-    for (int c = 0; c < grid.cellCount(); ++c) {
-      if (edges[c] == MaskEdge::kOuter) {
-        rimSteps[c] = 0;
-        queue.push_back(c);
-      }
-    }
-    for (std::size_t head = 0; head < queue.size(); ++head) {
-      const int c = queue[head], x = c % grid.width, y = c / grid.width;
-      for (const auto& [nx, ny] : {std::pair{x + 1, y}, {x - 1, y}, {x, y + 1}, {x, y - 1}}) {
-        if (grid.contains(nx, ny) && rimSteps[grid.index(nx, ny)] < 0) {
-          rimSteps[grid.index(nx, ny)] = rimSteps[c] + 1;
-          queue.push_back(grid.index(nx, ny));
-        }
-      }
-    }
+    const std::vector<int> rimSteps = stepsFromOuterRim(grid, maskEdges(grid, exact.dontTouch()));
     const std::vector<geometry::Pose2> poses =
         motionPoses(sim_->field, {1.0, omegaDeg * M_PI / 180, 30.0}, 60);
     camera::SimScene scene;
