@@ -47,7 +47,6 @@ void loadOdometry(const config::Node& n, OdometryNoise& p) {
       n.getOr<double>("rotation_sigma_per_m", p.rotation_sigma_per_m, 0.0, 1.0);
   p.max_interval_s = n.getOr<double>("max_interval_s", p.max_interval_s, 0.005, 10.0);
   p.max_speed_factor = n.getOr<double>("max_speed_factor", p.max_speed_factor, 1.0, 100.0);
-  p.offset_creep_us = n.getOr<std::int64_t>("offset_creep_us", p.offset_creep_us, 0, 100'000);
   p.use_gyro = n.getOr<bool>("use_gyro", p.use_gyro);
   p.gyro_max_rate = n.getOr<double>("gyro_max_rate", p.gyro_max_rate, 0.0, 1000.0);
   p.gyro_heading_density =

@@ -59,11 +59,10 @@ void FusionNode::onOdometry(const odometry_t& m) {
   sample.gyro_dphi = m.gyro_dphi;
   localizer_.addOdometry(sample, node_.now());
 
-  // The estimate at this odometry's time, whatever happened to the sample: the time layer 1
-  // stamped it with (the controller's clock on ours: the sampling instant, without the serial
-  // link's jitter that the bridge's receive-time stamp carries).
-  const Utime t =
-      localizer_.lastOdometryStamp() > 0 ? localizer_.lastOdometryStamp() : m.header.utime;
+  // The estimate at this odometry's physical time, whatever happened to the sample: its
+  // header.utime, the bridge's stamp from the controller's clock (without the serial link's
+  // jitter).
+  const Utime t = m.header.utime;
   perception::RobotEstimate e = localizer_.estimate(node_.now());
   if (const auto s = localizer_.stateAt(t)) {
     e.pose = s->pose();

@@ -225,9 +225,6 @@ class Localizer {
   std::size_t hypothesisCount() const { return hypotheses_.size(); }
   const LocalizerCounters& counters() const { return counters_; }
   const DelayedFilter& filter() const { return filter_; }
-  // The physical time layer 1 gave the most recent odometry sample (controller clock on the host
-  // clock, OdometryLayer::lastStamp).
-  Utime lastOdometryStamp() const { return odometry_.lastStamp(); }
   // The filter's estimate of the gyro's bias [rad/s] (0 while no pose is known).
   double gyroBias() const { return filter_.initialized() ? filter_.current().x[kGyroBias] : 0.0; }
   // The filter's params with the gyro's bias walk from the robot file.

@@ -78,24 +78,11 @@ OdometryStep OdometryLayer::stepFor(const std::array<std::int64_t, robot::kWheel
   return step;
 }
 
-Utime OdometryLayer::stamp(const OdometrySample& sample) {
-  if (sample.controller_utime <= 0) return sample.utime;
-  const std::int64_t offset = sample.utime - sample.controller_utime;
-  // A controller restart (its clock ran backwards) or a step of the host clock: start over.
-  if (!controller_offset_ || sample.controller_utime < last_controller_utime_ ||
-      std::abs(offset - *controller_offset_) > 200'000) {
-    controller_offset_ = offset;
-  } else {
-    controller_offset_ = std::min(*controller_offset_ + noise_.offset_creep_us, offset);
-  }
-  last_controller_utime_ = sample.controller_utime;
-  return sample.controller_utime + *controller_offset_;
-}
-
 OdometryLayer::Result OdometryLayer::update(const OdometrySample& input) {
   Result result;
-  OdometrySample sample = input;
-  sample.utime = stamp(input);
+  // The bridge stamps the sample with its physical time (the controller's clock mapped onto the
+  // host's, ControllerClockMap): taken as it is.
+  const OdometrySample& sample = input;
   last_stamp_ = sample.utime;
   const auto restart = [&] {
     last_ = sample;

@@ -3,8 +3,9 @@
 // W(phi)^-1, eq. 4.35), with a covariance that grows with the distance driven and the angle
 // turned. Samples must come in time order; a sample that cannot be trusted (time running
 // backwards, a jump no wheel can make, a controller resync) is refused with its reason and
-// restarts the reference, so a bad sample never becomes a movement. Samples are stamped with the
-// controller's own clock mapped onto the host's (the link's jitter filtered out) when known.
+// restarts the reference, so a bad sample never becomes a movement. A sample's utime is the
+// bridge's stamp: the controller's own clock mapped onto the host's (common/time/
+// controller_clock.hpp), without the serial link's jitter.
 #pragma once
 
 #include <array>
@@ -40,10 +41,6 @@ struct OdometryNoise {
   double max_interval_s = 0.25;
   // Wheel speeds above this multiple of the robot's top wheel speed are an odometry jump.
   double max_speed_factor = 3.0;
-  // The host stamps (arrival minus latency) jitter with the serial link; the controller's clock
-  // does not. The sample is stamped controller time + the smallest offset seen, which creeps up
-  // by this much per sample so that a slow clock drift is followed, µs.
-  std::int64_t offset_creep_us = 2;
   // With the controller's gyro (odometry_t STATUS_GYRO) the heading increment of a step is the
   // gyro's, with the noise of its error model (the robot file's `gyro:` section); the wheels still
   // give the translation. False: the wheels' heading, as without a gyro.
@@ -109,10 +106,8 @@ class OdometryLayer {
     const char* gyro_rejection = nullptr;
   };
   Result update(const OdometrySample& sample);
-  // The stamp the layer uses for a sample (controller time on the host clock when known).
-  Utime stamp(const OdometrySample& sample);
-  // The stamp update() gave the most recent sample (0 before the first): the physical time of
-  // its sampling, without the serial link's jitter.
+  // The utime of the most recent sample update() saw (0 before the first): the physical time of
+  // its sampling, as the bridge stamped it.
   Utime lastStamp() const { return last_stamp_; }
 
   // The step and its covariance for a tick difference over `dt_s` seconds (tests, tools; the
@@ -138,9 +133,6 @@ class OdometryLayer {
   double pending_gyro_ = 0.0;
   bool pending_gyro_valid_ = true;
   double gyro_max_rate_ = 0.0;
-  // Host time minus controller time, minimum-filtered.
-  std::optional<std::int64_t> controller_offset_;
-  std::int64_t last_controller_utime_ = 0;
   Utime last_stamp_ = 0;
 };
 

@@ -29,6 +29,7 @@ std::string deviceForRobot(const std::string& device, int robot) {
 BridgeCore::BridgeCore(const robot::RobotParams& params)
     : params_(params),
       latency_us_(static_cast<Utime>(std::llround(params.controller_latency * 1e6))),
+      clock_(ControllerClockMap::Params{.latency_us = latency_us_}),
       odometry_(params) {}
 
 bool BridgeCore::onCommand(const CommandInput& command, Utime now) {
@@ -114,12 +115,12 @@ void BridgeCore::onBytes(std::span<const std::uint8_t> bytes, Utime now,
   add(proto::Reject::kVersion, before.version_errors, after.version_errors);
   add(proto::Reject::kUnknownType, before.unknown_type_errors, after.unknown_type_errors);
   add(proto::Reject::kOversize, before.oversize_errors, after.oversize_errors);
-  // Samples that arrive together (the bridge was busy) are stamped by their own controller
-  // time relative to the newest one, not all with the receive time.
-  std::uint64_t newest_controller_us = 0;
+  // Every sample of this read feeds the clock mapping before any is stamped: samples that
+  // arrive together (the bridge was busy) are stamped by their own controller time, and the
+  // newest of them carries the read's least delay.
   for (const auto& m : messages_) {
     if (const auto* sample = std::get_if<proto::OdometrySample>(&m)) {
-      newest_controller_us = std::max(newest_controller_us, sample->controller_time_us);
+      clock_.observe(static_cast<std::int64_t>(sample->controller_time_us), now);
     }
   }
   for (const auto& m : messages_) {
@@ -142,9 +143,7 @@ void BridgeCore::onBytes(std::span<const std::uint8_t> bytes, Utime now,
       continue;
     }
     OdometryOutput o;
-    const std::uint64_t behind_us = newest_controller_us - sample->controller_time_us;
-    o.utime = now - latency_us_ -
-              (behind_us < kMaxBatchSpanUs ? static_cast<Utime>(behind_us) : Utime{0});
+    o.utime = clock_.stamp(static_cast<std::int64_t>(sample->controller_time_us)).value_or(now);
     o.ticks = sample->ticks;
     o.controller_utime = static_cast<std::int64_t>(sample->controller_time_us);
     if (sample->status & proto::kStatusWatchdog) o.status |= perception::kOdometryWatchdog;

@@ -3,7 +3,9 @@
 //   - motion commands in: NaN rejected, values clamped to [-1, 1], expired ones ignored; at the
 //     command rate the current command (or zero once it expired) goes out as a frame;
 //   - bytes in: decoded; odometry samples become Odometry outputs stamped with the physical
-//     sampling time (receive time minus the controller latency), with the movement since the
+//     sampling time: the controller's own time mapped onto the host clock (ControllerClockMap:
+//     the low envelope of receive - controller time, minus the controller latency), so the serial
+//     link's jitter stays out of the stamp; with the movement since the
 //     previous sample from the wheel kinematics, and the gyro's rotation since the previous
 //     sample when the controller sends its angle; malformed frames are counted, never forwarded.
 #pragma once
@@ -21,6 +23,7 @@
 #include "common/robot/wheel_odometry.hpp"
 #include "common/serial/protocol.hpp"
 #include "common/time/clock.hpp"
+#include "common/time/controller_clock.hpp"
 
 namespace fieldline::motor_bridge {
 
@@ -55,8 +58,6 @@ class BridgeCore {
   static constexpr Utime kMaxCommandLifetimeUs = 500'000;
   // A seq jump beyond this (1 s of samples at 50 Hz) means the controller restarted: resync.
   static constexpr std::uint32_t kMaxSampleGap = 50;
-  // Samples of one read spanning more than this are not back-dated (a stalled controller clock).
-  static constexpr std::uint64_t kMaxBatchSpanUs = 1'000'000;
   // Movement faster than this times the robot's top speed is corrupt, not real.
   static constexpr double kImplausibleFactor = 2.0;
 
@@ -82,6 +83,10 @@ class BridgeCore {
   // The controller's Hello, once received.
   const std::optional<serial::Hello>& controllerHello() const { return controller_hello_; }
   std::uint64_t samplesLost() const { return samples_lost_; }
+  // The controller clock's mapping onto the host's: times it started over (a controller restart,
+  // a step of the host clock), and its current offset host - controller, µs.
+  std::uint64_t clockRestarts() const { return clock_.restarts(); }
+  std::optional<std::int64_t> clockOffset() const { return clock_.envelope(); }
   bool commandActive(Utime now) const;
   // The command the controller is being sent, after clamping (zero if none).
   const CommandInput& currentCommand() const { return current_; }
@@ -91,6 +96,7 @@ class BridgeCore {
 
   robot::RobotParams params_;
   Utime latency_us_;
+  ControllerClockMap clock_;
   serial::Decoder decoder_;
   std::vector<serial::Message> messages_;
   robot::WheelOdometry odometry_;

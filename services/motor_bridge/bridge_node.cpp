@@ -113,6 +113,7 @@ void BridgeNode::publishMetrics() {
   node_.setMetric("serial_reconnects", static_cast<double>(link_.stats().opens));
   node_.setMetric("serial_frames_dropped", static_cast<double>(link_.stats().frames_dropped));
   node_.setMetric("odometry_samples_lost", static_cast<double>(core_.samplesLost()));
+  node_.setMetric("controller_clock_restarts", static_cast<double>(core_.clockRestarts()));
   node_.setMetric("command_active", core_.commandActive(node_.now()) ? 1.0 : 0.0);
 }
 

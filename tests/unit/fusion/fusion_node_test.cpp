@@ -69,6 +69,10 @@ struct Rig {
     clock.advance(20'000);
     odometry_t o{};
     o.header.utime = clock.now() - 8'000;
+    // A controller clock that disagrees with the header by a few ms from sample to sample: the
+    // header (the bridge's stamp) is the physical time fusion uses, the controller's is not
+    // mapped again.
+    o.controller_utime = 1'000'000 + 20'000 * i + (i % 3) * 3'000;
     o.ticks[0] = o.ticks[1] = o.ticks[2] = tick;
     if (currents) {
       o.status |= odometry_t::STATUS_CURRENTS;

@@ -294,5 +294,23 @@ TEST_F(BridgeHostile, SamplesReadTogetherKeepTheirOwnTimes) {
   EXPECT_EQ(out[0].utime, kT0 - 8'000 - 40'000);
 }
 
+TEST_F(BridgeHostile, TheLinksJitterStaysOutOfTheStamps) {
+  // Samples every 20 ms of the controller's clock, each read 0-7 ms late (a busy host, the
+  // line's buffering): the stamps are the controller's 20 ms apart once the fastest read was seen
+  // (the low envelope of receive - controller time), not the jittered read times.
+  const Utime latency = static_cast<Utime>(std::llround(params.controller_latency * 1e6));
+  const Utime late[] = {5'000, 0, 7'000, 2'000, 6'000, 1'000, 3'000};
+  for (int k = 0; k < 60; ++k) {
+    const Utime taken = kT0 + 20'000 * k;
+    sample(0.02 * (k + 1), {k, -k, 0}, taken + latency + late[k % 7]);
+  }
+  ASSERT_EQ(out.size(), 60u);
+  for (std::size_t k = 8; k < out.size(); ++k) {
+    EXPECT_EQ(out[k].utime - out[k - 1].utime, 20'000) << k;
+    EXPECT_EQ(out[k].utime, kT0 + 20'000 * static_cast<Utime>(k)) << k;
+  }
+  EXPECT_EQ(bridge.clockRestarts(), 0u);
+}
+
 }  // namespace
 }  // namespace fieldline::motor_bridge
