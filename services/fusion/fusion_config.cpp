@@ -71,6 +71,7 @@ void loadLocalizer(const config::Node& n, LocalizerParams& p) {
   p.commit_margin_m = n.getOr<double>("commit_margin_m", p.commit_margin_m, 0.0, 1.0);
   p.trust_frames = n.getOr<int>("trust_frames", p.trust_frames, 0, 1000);
   p.twin_margin_m = n.getOr<double>("twin_margin_m", p.twin_margin_m, 0.0, 30.0);
+  p.twin_margin_sigmas = n.getOr<double>("twin_margin_sigmas", p.twin_margin_sigmas, 0.0, 100.0);
   p.max_waiting_frames = static_cast<std::size_t>(
       n.getOr<int>("max_waiting_frames", static_cast<int>(p.max_waiting_frames), 1, 1000));
   p.feature_gate_m = n.getOr<double>("feature_gate_m", p.feature_gate_m, 0.0, 20.0);

@@ -343,6 +343,7 @@ void Localizer::becomeLost(Utime utime) {
       Hypothesis ref;
       ref.utime = utime;
       ref.pose = s->pose();
+      ref.covariance = s->p.topLeftCorner<3, 3>();
       reference_ = ref;
     }
   }
@@ -542,7 +543,13 @@ Localizer::Hypothesis Localizer::resolveTwin(const Hypothesis& h, const Hypothes
     };
     const double dh = distance(h.pose);
     const double dt = distance(mirrored.pose);
-    ambiguous_ = std::abs(dh - dt) < params_.twin_margin_m;
+    // The reference is only as good as the filter was at the loss.
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> es(
+        reference_->covariance.topLeftCorner<2, 2>());
+    const double sigma =
+        es.info() == Eigen::Success ? std::sqrt(std::max(0.0, es.eigenvalues()[1])) : 1e9;
+    const double margin = std::max(params_.twin_margin_m, params_.twin_margin_sigmas * sigma);
+    ambiguous_ = std::abs(dh - dt) < margin;
     if (ambiguous_) ++counters_.ambiguous_commits;
     return distance(h.pose) <= distance(mirrored.pose) ? h : mirrored;
   }

@@ -86,6 +86,10 @@ struct LocalizerParams {
   // when the reference cannot be carried to the hypothesis's time (older than the dead
   // reckoning's history), the commit is reported as ambiguous.
   double twin_margin_m = 0.5;
+  // ... or this many standard deviations of the reference's position (the filter's covariance
+  // at the loss: long odometry-only stretches and contacts make it uncertain), whichever is
+  // larger.
+  double twin_margin_sigmas = 3.0;
   // A line or feature frame newer than the newest odometry waits until odometry reaches its time
   // (a starved motor bridge delivers seconds of samples late, at once): matched earlier, it would
   // be matched against a pose the held velocity extrapolated, which a turn makes wrong, and could

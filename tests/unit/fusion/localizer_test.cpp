@@ -138,6 +138,23 @@ TEST(Localizer, NoticesBeingCarriedOffAndRecovers) {
   EXPECT_EQ(d.localizer.counters().ambiguous_commits, 1u);  // the start-up commit only
 }
 
+TEST(Localizer, AnUncertainReferenceLeavesTheTwinAmbiguous) {
+  // The carry-off of the test above, with a reference only trusted to within a thousand of its
+  // sigmas: continuity cannot decide, and the commit says so.
+  LocalizerParams params;
+  params.twin_margin_sigmas = 1000.0;
+  Drive d({-4.0, 2.0, 0.5}, params);
+  d.run(1.0, {0.2, 0.0, 0.0});
+  ASSERT_EQ(d.localizer.mode(), perception::LocalizationStatus::kTracking);
+  d.truth = {-2.0, -1.0, -0.8};
+  d.history.clear();
+  d.run(2.0, {0.2, 0.0, 0.1});
+  ASSERT_EQ(d.localizer.mode(), perception::LocalizationStatus::kTracking);
+  EXPECT_GE(d.localizer.counters().lost, 1u);
+  EXPECT_TRUE(d.localizer.ambiguous());
+  EXPECT_EQ(d.localizer.counters().ambiguous_commits, 2u);
+}
+
 TEST(Localizer, AStallNearTheCentreDoesNotFlipToTheTwin) {
   // Near the centre spot, where the twin is a metre away. The motor bridge starves for 2 s while
   // the robot turns (the frames keep coming, matched against a pose odometry no longer moves),
