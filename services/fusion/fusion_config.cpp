@@ -70,6 +70,10 @@ void loadLocalizer(const config::Node& n, LocalizerParams& p) {
   p.slip_pinned_chi2 = n.getOr<double>("slip_pinned_chi2", p.slip_pinned_chi2, 0.0, 1e6);
   p.commit_frames = n.getOr<int>("commit_frames", p.commit_frames, 1, 100);
   p.commit_margin_m = n.getOr<double>("commit_margin_m", p.commit_margin_m, 0.0, 1.0);
+  p.trust_frames = n.getOr<int>("trust_frames", p.trust_frames, 0, 1000);
+  p.twin_margin_m = n.getOr<double>("twin_margin_m", p.twin_margin_m, 0.0, 30.0);
+  p.max_waiting_frames = static_cast<std::size_t>(
+      n.getOr<int>("max_waiting_frames", static_cast<int>(p.max_waiting_frames), 1, 1000));
   p.feature_gate_m = n.getOr<double>("feature_gate_m", p.feature_gate_m, 0.0, 20.0);
   p.feature_gate_rad = n.getOr<double>("feature_gate_rad", p.feature_gate_rad, 0.0, 4.0);
   p.contradict_m = n.getOr<double>("contradict_m", p.contradict_m, 0.0, 30.0);

@@ -149,6 +149,12 @@ void FusionNode::updateMetrics() {
   node_.setMetric("ambiguous", localizer_.ambiguous() ? 1.0 : 0.0);
   node_.setMetric("hypotheses", static_cast<double>(localizer_.hypothesisCount()));
   node_.setMetric("lost_count", static_cast<double>(localizer_.counters().lost));
+  node_.setMetric("ambiguous_commits",
+                  static_cast<double>(localizer_.counters().ambiguous_commits));
+  node_.setMetric("twin_resets_refused",
+                  static_cast<double>(localizer_.counters().twin_resets_refused));
+  node_.setMetric("frames_waited_for_odometry",
+                  static_cast<double>(localizer_.counters().frames_waited));
   node_.setMetric("replays", static_cast<double>(localizer_.filter().replays()));
   node_.setMetric("gate_resets", static_cast<double>(localizer_.counters().resets));
   node_.setMetric("slips", static_cast<double>(localizer_.counters().slips));

@@ -18,8 +18,9 @@ bool near(const geometry::Pose2& a, const geometry::Pose2& b, double d_m, double
 
 TimedChannelLimits deadReckoningLimits() {
   TimedChannelLimits limits;
-  // Two seconds of 50 Hz odometry: hypotheses are moved over at most that.
-  limits.capacity = 128;
+  // Ten seconds of 50 Hz odometry: hypotheses are moved over at most that, and the continuity
+  // reference of a loss (which may predate an unconfirmed commit) as well.
+  limits.capacity = 512;
   limits.future_tolerance_us = 500'000;
   return limits;
 }
@@ -94,6 +95,7 @@ bool Localizer::addOdometry(const OdometrySample& sample, Utime now) {
       dead_reckoning_.clear();
     }
     if (dead_reckoning_.empty()) dead_reckoning_.insert(sample.utime, odometry_pose_, now);
+    if (!waiting_.empty()) processWaiting(now);
     return false;
   }
   const OdometryStep& step = *r.step;
@@ -105,6 +107,7 @@ bool Localizer::addOdometry(const OdometrySample& sample, Utime now) {
   dead_reckoning_.insert(step.t_end, odometry_pose_, now);
 
   const Rejection rejection = filter_.addOdometry(step, now);
+  if (!waiting_.empty()) processWaiting(now);
   if (rejection != Rejection::kNone) {
     count(std::string("odometry_") + toString(rejection));
     return false;
@@ -169,6 +172,41 @@ void Localizer::addLines(std::span<const perception::LinePoint> points, Utime ut
     count("lines_from_future");
     return;
   }
+  if (utime > newestOdometry() || !waiting_.empty()) {
+    WaitingFrame w;
+    w.utime = utime;
+    w.points.assign(points.begin(), points.end());
+    waiting_.push_back(std::move(w));
+    ++counters_.frames_waited;
+    processWaiting(now);
+    return;
+  }
+  processLines(points, utime, now);
+}
+
+void Localizer::processWaiting(Utime now) {
+  std::stable_sort(waiting_.begin(), waiting_.end(),
+                   [](const WaitingFrame& a, const WaitingFrame& b) { return a.utime < b.utime; });
+  while (waiting_.size() > params_.max_waiting_frames) {
+    count(waiting_.front().features ? "features_odometry_stalled" : "lines_odometry_stalled");
+    waiting_.erase(waiting_.begin());
+  }
+  const Utime reached = newestOdometry();
+  std::size_t done = 0;
+  while (done < waiting_.size() && waiting_[done].utime <= reached) {
+    WaitingFrame& w = waiting_[done];
+    if (w.features) {
+      processFeatures(*w.features, w.utime, now);
+    } else {
+      processLines(w.points, w.utime, now);
+    }
+    ++done;
+  }
+  waiting_.erase(waiting_.begin(), waiting_.begin() + static_cast<std::ptrdiff_t>(done));
+}
+
+void Localizer::processLines(std::span<const perception::LinePoint> points, Utime utime,
+                             Utime now) {
   if (mode_ == LocalizationStatus::kTracking) {
     trackLines(points, utime, now);
   } else {
@@ -248,6 +286,7 @@ void Localizer::trackLines(std::span<const perception::LinePoint> points, Utime 
         if (contact && !pinned && !confirmed && !twisted) ++counters_.contact_slips;
       }
       good = true;
+      ++good_since_commit_;
       gated_in_row_ = 0;
       gated_offset_.reset();
     } else {
@@ -259,6 +298,22 @@ void Localizer::trackLines(std::span<const perception::LinePoint> points, Utime 
       }
       // Frames that match the field well but disagree with an overconfident filter (a slip the
       // odometry did not see): after a few in a row, the frames are right.
+      const geometry::Pose2 twin = symmetricTwin(guess->pose());
+      const auto poseDistance = [](const geometry::Pose2& a, const geometry::Pose2& b) {
+        return std::hypot(a.x - b.x, a.y - b.y) + 0.2 * std::abs(geometry::angleDiff(a.phi, b.phi));
+      };
+      if (r.rejection == Rejection::kGated && gated_in_row_ + 1 >= params_.gated_frames_reset &&
+          poseDistance(c.pose, twin) < poseDistance(c.pose, guess->pose())) {
+        // The frames say the robot stands nearer the estimate's symmetric twin: that is no slip
+        // a reset may follow, the symmetry cannot tell it from the estimate. Search instead
+        // (continuity decides there).
+        ++counters_.twin_resets_refused;
+        gated_in_row_ = 0;
+        gated_offset_.reset();
+        becomeLost(utime);
+        searchLines(points, utime);
+        return;
+      }
       if (r.rejection == Rejection::kGated && ++gated_in_row_ >= params_.gated_frames_reset) {
         gated_in_row_ = 0;
         gated_offset_.reset();
@@ -300,13 +355,17 @@ void Localizer::becomeLost(Utime utime) {
   bad_frames_ = 0;
   contradictions_ = 0;
   hypotheses_.clear();
-  reference_.reset();
   weighted_heading_offset_.reset();
-  if (const auto s = filter_.stateAt(utime)) {
-    Hypothesis ref;
-    ref.utime = utime;
-    ref.pose = s->pose();
-    reference_ = ref;
+  // A commit that was never confirmed by line frames is no reference: the one before it stays
+  // (carried by odometry when used). The very first commit has nothing before it.
+  if (good_since_commit_ >= params_.trust_frames || !reference_) {
+    reference_.reset();
+    if (const auto s = filter_.stateAt(utime)) {
+      Hypothesis ref;
+      ref.utime = utime;
+      ref.pose = s->pose();
+      reference_ = ref;
+    }
   }
 }
 
@@ -485,21 +544,31 @@ Localizer::Hypothesis Localizer::resolveTwin(const Hypothesis& h, const Hypothes
   // The twin fits the lines as well by symmetry, whether or not it is among the hypotheses.
   Hypothesis mirrored = twin ? *twin : h;
   if (!twin) mirrored.pose = symmetricTwin(h.pose);
+  const auto motion =
+      reference_ ? motionBetween(reference_->utime, h.utime) : std::optional<geometry::Movement>{};
+  if (reference_ && !motion) {
+    // The reference cannot be carried here (the dead reckoning broke or is too short): nothing
+    // resolves the twin.
+    ambiguous_ = true;
+    ++counters_.ambiguous_commits;
+    return h;
+  }
   if (reference_) {
     // Continuity: the pose before the loss, carried by odometry to now.
-    geometry::Pose2 ref = reference_->pose;
-    if (const auto motion = motionBetween(reference_->utime, h.utime)) {
-      ref = geometry::applyMovement(ref, *motion);
-    }
+    const geometry::Pose2 ref = geometry::applyMovement(reference_->pose, *motion);
     // Mostly position: a robot carried off is often turned as well, rarely moved half a field.
     const auto distance = [&](const geometry::Pose2& p) {
       return std::hypot(p.x - ref.x, p.y - ref.y) +
              0.2 * std::abs(geometry::angleDiff(p.phi, ref.phi));
     };
-    ambiguous_ = false;
+    const double dh = distance(h.pose);
+    const double dt = distance(mirrored.pose);
+    ambiguous_ = std::abs(dh - dt) < params_.twin_margin_m;
+    if (ambiguous_) ++counters_.ambiguous_commits;
     return distance(h.pose) <= distance(mirrored.pose) ? h : mirrored;
   }
   ambiguous_ = true;
+  ++counters_.ambiguous_commits;
   if (params_.start_prior == StartPrior::kNone) return h;
   // Robots enter the field in their own half (x < 0), facing the opponent goal when on the line.
   const auto own = [](const geometry::Pose2& p) {
@@ -534,6 +603,11 @@ void Localizer::commit(const Hypothesis& h) {
   hypotheses_.clear();
   bad_frames_ = 0;
   contradictions_ = 0;
+  // Gated frames of the track before the loss say nothing about this pose (a reset from them
+  // right after the commit jumped away from it).
+  gated_in_row_ = 0;
+  gated_offset_.reset();
+  good_since_commit_ = 0;
 }
 
 void Localizer::addFeatures(const perception::FieldFeatures& features, Utime utime, Utime now) {
@@ -542,6 +616,19 @@ void Localizer::addFeatures(const perception::FieldFeatures& features, Utime uti
     count("features_from_future");
     return;
   }
+  if (utime > newestOdometry() || !waiting_.empty()) {
+    WaitingFrame w;
+    w.utime = utime;
+    w.features = features;
+    waiting_.push_back(std::move(w));
+    ++counters_.frames_waited;
+    processWaiting(now);
+    return;
+  }
+  processFeatures(features, utime, now);
+}
+
+void Localizer::processFeatures(const perception::FieldFeatures& features, Utime utime, Utime now) {
   if (mode_ != LocalizationStatus::kTracking) {
     for (const perception::PoseHypothesis& ph : features.hypotheses) {
       if (!geometry::isFinite(ph.pose) || !(ph.sigma_xy > 0) || !(ph.sigma_phi > 0)) {

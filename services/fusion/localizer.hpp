@@ -82,6 +82,21 @@ struct LocalizerParams {
   double heading_confirm_rad = 0.05;
   // Frames a hypothesis must have been tested on before committing to it.
   int commit_frames = 2;
+  // Twin guard. A committed pose becomes the continuity reference of the next loss only after
+  // this many accepted line corrections since the commit: a pose lost again before that was
+  // never confirmed, and the reference stays the one from before it (carried by odometry).
+  int trust_frames = 5;
+  // The twin is resolved by continuity only when the hypothesis and its twin differ in their
+  // distance to the reference by at least this (position m + 0.2 m/rad heading); otherwise, or
+  // when the reference cannot be carried to the hypothesis's time (older than the dead
+  // reckoning's history), the commit is reported as ambiguous.
+  double twin_margin_m = 0.5;
+  // A line or feature frame newer than the newest odometry waits until odometry reaches its time
+  // (a starved motor bridge delivers seconds of samples late, at once): matched earlier, it would
+  // be matched against a pose the held velocity extrapolated, which a turn makes wrong, and could
+  // lose the robot or commit it to a wrong place. At most this many frames wait; beyond, the
+  // oldest is dropped (counted "lines_odometry_stalled", "features_odometry_stalled").
+  std::size_t max_waiting_frames = 40;
   // The best hypothesis must beat every other (but its twin) by this mean cost, m.
   double commit_margin_m = 0.02;
   // Layer 3: a feature hypothesis within these of the estimate is fused, m / rad.
@@ -160,6 +175,12 @@ struct LocalizerCounters {
   std::uint64_t pinned_slips = 0;
   // ... or because the robot was in contact (ContactModel).
   std::uint64_t contact_slips = 0;
+  // Commits where nothing resolved the twin (ambiguous() was set), and gated resets refused
+  // because the frame's pose lay nearer the estimate's twin than the estimate.
+  std::uint64_t ambiguous_commits = 0;
+  std::uint64_t twin_resets_refused = 0;
+  // Frames that waited for odometry to reach their time (max_waiting_frames).
+  std::uint64_t frames_waited = 0;
   // Frames whose correction came from the twist search (contact_search_steps).
   std::uint64_t twist_searches = 0;
   // Frames whose heading was weighted down against the gyro's, and frames whose heading a
@@ -207,7 +228,8 @@ class Localizer {
   Eigen::Matrix3d reportedCovariance(const EkfState& s) const;
 
   perception::LocalizationStatus mode() const { return mode_; }
-  // True while the committed pose was chosen over its twin by the start-up prior only.
+  // True while the committed pose was chosen over its twin by the start-up prior only, or when
+  // no trusted reference told them apart (LocalizerParams::twin_margin_m).
   bool ambiguous() const { return ambiguous_; }
   // Mean matching cost of the last line frame at the estimate, m (negative: none yet).
   double lastCost() const { return last_cost_; }
@@ -238,6 +260,14 @@ class Localizer {
   void count(const std::string& reason) { ++counters_.rejected[reason]; }
   // Movement (robot frame at t1) from t1 to t2 by dead reckoning.
   std::optional<geometry::Movement> motionBetween(Utime t1, Utime t2) const;
+  void processLines(std::span<const perception::LinePoint> points, Utime utime, Utime now);
+  void processFeatures(const perception::FieldFeatures& features, Utime utime, Utime now);
+  // Newest odometry time known (0: none).
+  Utime newestOdometry() const {
+    return dead_reckoning_.empty() ? 0 : dead_reckoning_.newest().utime;
+  }
+  // Frames waiting for odometry, processed in time order once it reaches them.
+  void processWaiting(Utime now);
   void trackLines(std::span<const perception::LinePoint> points, Utime utime, Utime now);
   void searchLines(std::span<const perception::LinePoint> points, Utime utime);
   void coarseSearch(std::span<const perception::LinePoint> points, Utime utime);
@@ -273,6 +303,14 @@ class Localizer {
   std::vector<Hypothesis> hypotheses_;
   // The last trusted pose (when tracking was lost), for continuity.
   std::optional<Hypothesis> reference_;
+  struct WaitingFrame {
+    Utime utime = 0;
+    std::vector<perception::LinePoint> points;
+    std::optional<perception::FieldFeatures> features;
+  };
+  std::vector<WaitingFrame> waiting_;
+  // Accepted line corrections since the last commit (LocalizerParams::trust_frames).
+  int good_since_commit_ = 0;
   int bad_frames_ = 0;
   int contradictions_ = 0;
   int gated_in_row_ = 0;

@@ -55,6 +55,24 @@ void addOptions(CLI::App& app, replay::ReplayRunOptions& options, std::string& r
                "(--truth: this robot's centre closer to another robot's or an opponent's than "
                "the two radii) fed as contact evidence, to measure what a perfect contact signal "
                "could give");
+  app.add_option("--stall", options.stall_s,
+                 "Analysis: inject stalls of this many seconds (a starved process); what happens "
+                 "to each channel's inputs within a stall: --stall-hold, --stall-drop "
+                 "(default 0: no stalls)")
+      ->check(CLI::Range(0.0, 60.0));
+  app.add_option("--stall-every", options.stall_every_s, "Seconds from one stall to the next")
+      ->capture_default_str();
+  app.add_option("--stall-start", options.stall_start_s,
+                 "Seconds after the log's first input of the first stall")
+      ->capture_default_str();
+  app.add_option("--stall-hold", options.stall_hold,
+                 "Channels whose inputs within a stall are delivered together at its end (a "
+                 "starved receiver or motor bridge), e.g. ODOMETRY")
+      ->delimiter(',');
+  app.add_option("--stall-drop", options.stall_drop,
+                 "Channels whose inputs within a stall are dropped (a starved camera), e.g. "
+                 "VISION_LINES,FIELD_FEATURES")
+      ->delimiter(',');
   app.add_option("--camera", options.camera, "region_tracking: camera preset")
       ->capture_default_str();
 }

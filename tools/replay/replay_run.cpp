@@ -135,6 +135,54 @@ std::int64_t writeOracleContactLog(const ReplayRunOptions& options, int robot_id
   return contacts;
 }
 
+// stall_s: writes `scratch` with the fed channels of `input` as a starved process receives them
+// (ReplayRunOptions::stall_hold, stall_drop), in log-time order.
+void writeStalledLog(const ReplayRunOptions& options, const std::string& input,
+                     const std::vector<std::string>& fed, const std::string& scratch,
+                     ReplayRunResult& result) {
+  bus::LogReader in(input);
+  bus::LogWriter out(scratch);
+  StallSchedule schedule{.every_s = options.stall_every_s,
+                         .start_s = options.stall_start_s,
+                         .length_s = options.stall_s};
+  bus::LogEvent e;
+  bool have_first = false;
+  std::int64_t last_stall = -1;
+  std::vector<bus::LogEvent> held;
+  Utime held_until = 0;
+  const auto flush = [&] {
+    for (const auto& h : held)
+      out.write(h.channel, held_until, h.data.data(), static_cast<int>(h.data.size()));
+    held.clear();
+  };
+  while (in.nextEvent(e)) {
+    if (!contains(fed, e.channel)) continue;
+    if (!have_first) {
+      schedule.first = e.timestamp;
+      have_first = true;
+    }
+    if (!held.empty() && e.timestamp >= held_until) flush();
+    const std::int64_t stall = schedule.stallAt(e.timestamp);
+    if (stall >= 0 && stall != last_stall) {
+      ++result.stalls;
+      last_stall = stall;
+    }
+    if (stall >= 0 && contains(options.stall_drop, e.channel)) {
+      ++result.stall_dropped;
+      continue;
+    }
+    if (stall >= 0 && contains(options.stall_hold, e.channel)) {
+      ++result.stall_held;
+      held_until = schedule.stallEnd(stall);
+      held.push_back(e);
+      continue;
+    }
+    out.write(e.channel, e.timestamp, e.data.data(), static_cast<int>(e.data.size()));
+  }
+  flush();
+  out.flush();
+}
+
 // Fixed per node kind: a random id would make two replays differ.
 std::int64_t publisherId(const std::string& node) {
   const auto it = std::find(kRunnableNodes.begin(), kRunnableNodes.end(), node);
@@ -142,6 +190,19 @@ std::int64_t publisherId(const std::string& node) {
 }
 
 }  // namespace
+
+std::int64_t StallSchedule::stallAt(Utime t) const {
+  if (!(length_s > 0.0) || !(every_s > 0.0)) return -1;
+  const double since = static_cast<double>(t - first) * 1e-6 - start_s;
+  if (since < 0.0) return -1;
+  const auto k = static_cast<std::int64_t>(std::floor(since / every_s));
+  return since - static_cast<double>(k) * every_s < length_s ? k : -1;
+}
+
+Utime StallSchedule::stallEnd(std::int64_t k) const {
+  return first + static_cast<Utime>(
+                     std::llround((start_s + static_cast<double>(k) * every_s + length_s) * 1e6));
+}
 
 bool touchesAnotherRobot(const world_state_t& world, int robot_id) {
   const auto n = static_cast<std::size_t>(std::max(0, world.num_robots));
@@ -302,6 +363,19 @@ ReplayRunResult runReplay(const ReplayRunOptions& options) {
     input_path = oracle_path;
   }
 
+  std::string stalled_path;
+  if (options.stall_s > 0.0) {
+    if (!(options.stall_every_s > options.stall_s) || options.stall_start_s < 0.0) {
+      throw ReplayArgumentError("stalls need stall_every > stall_s > 0 and stall_start >= 0");
+    }
+    if (options.stall_hold.empty() && options.stall_drop.empty()) {
+      throw ReplayArgumentError("stalls need channels to hold or drop");
+    }
+    stalled_path = (options.out_path.empty() ? options.log_path : options.out_path) + ".stalled";
+    writeStalledLog(options, input_path, fed, stalled_path, result);
+    input_path = stalled_path;
+  }
+
   bus::Replay replay(clock, memq, {.channels = fed});
   for (auto& node : nodes)
     replay.add(*node);
@@ -310,6 +384,7 @@ ReplayRunResult runReplay(const ReplayRunOptions& options) {
   const bus::ReplayStats stats = replay.run(log);
   if (writer) writer->flush();
   if (!oracle_path.empty()) std::filesystem::remove(oracle_path);
+  if (!stalled_path.empty()) std::filesystem::remove(stalled_path);
 
   result.skipped = stats.skipped;
   result.out_of_order = stats.out_of_order;
@@ -399,6 +474,10 @@ std::string summaryLine(const ReplayRunResult& result) {
   if (result.truth_merged > 0) line << " | SIM_WORLD merged " << result.truth_merged;
   if (result.live_written > 0) line << " | live events " << result.live_written;
   if (result.oracle_contacts > 0) line << " | oracle contacts " << result.oracle_contacts;
+  if (result.stalls > 0) {
+    line << " | stalls " << result.stalls << " held " << result.stall_held << " dropped "
+         << result.stall_dropped;
+  }
   return line.str();
 }
 

@@ -9,11 +9,14 @@
 
 #include <cstdint>
 #include <map>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <vector>
 
 #include <fieldline/world_state_t.hpp>
+
+#include "common/time/clock.hpp"
 
 namespace fieldline::replay {
 
@@ -60,6 +63,18 @@ struct ReplayRunOptions {
   // VISION_OBSTACLES frame stamped with that sample's time holding one obstacle at the body
   // (distance 0): the path real contact evidence takes. Needs truth_path.
   bool oracle_contact = false;
+  // Analysis: stalls injected as a starved process sees them. Every `stall_every_s` seconds of
+  // log time, starting `stall_start_s` after the first fed event, for `stall_s` seconds the
+  // events of `stall_hold` channels are held and delivered together at the stall's end (arrival
+  // time = the end, order kept: the queued datagrams reach a process that got no CPU, or a
+  // starved motor bridge reads the serial line's backlog), those of `stall_drop` channels are
+  // dropped (a starved camera renders no frames), the others pass unchanged. A channel not fed
+  // is ignored. stall_s 0: off.
+  double stall_every_s = 10.0;
+  double stall_start_s = 5.0;
+  double stall_s = 0.0;
+  std::vector<std::string> stall_hold;
+  std::vector<std::string> stall_drop;
 };
 
 struct ReplayRunResult {
@@ -81,6 +96,22 @@ struct ReplayRunResult {
   std::int64_t live_written = 0;
   // oracle_contact: SIM_WORLD samples of this robot in contact (each one fed as evidence).
   std::int64_t oracle_contacts = 0;
+  // stall_s: stalls injected, inputs held by them, inputs dropped by them.
+  std::int64_t stalls = 0;
+  std::int64_t stall_held = 0;
+  std::int64_t stall_dropped = 0;
+};
+
+// The stall times of ReplayRunOptions. `first` is the log's first fed event time.
+struct StallSchedule {
+  Utime first = 0;
+  double every_s = 10.0;
+  double start_s = 5.0;
+  double length_s = 0.0;
+  // The stall an event received at `t` falls into (0, 1, ...), or -1.
+  std::int64_t stallAt(Utime t) const;
+  // The end of stall `k`, log time.
+  Utime stallEnd(std::int64_t k) const;
 };
 
 // oracle_contact's test: true when robot `robot_id` of `world` touches another robot or an

@@ -32,6 +32,10 @@ struct Drive {
   std::mt19937 rng{11};
   int step = 0;
   bool lines = true;
+  // While set, odometry samples are kept back (a starved motor bridge) and delivered together
+  // by release().
+  bool hold_odometry = false;
+  std::vector<OdometrySample> held;
 
   Drive(const geometry::Pose2& start, LocalizerParams params = {},
         MatcherFunctions matcher = world().functions())
@@ -56,7 +60,11 @@ struct Drive {
         ticks[w] += static_cast<std::int32_t>(whole);
       }
       truth = geometry::applyMovement(truth, robot::arcMovement(twist.vector() * 0.02));
-      localizer.addOdometry({t, ticks, false}, t + 8'000);
+      if (hold_odometry) {
+        held.push_back({t, ticks, false});
+      } else {
+        localizer.addOdometry({t, ticks, false}, t + 8'000);
+      }
       if (lines && step % 5 == 0) {
         // The frame was exposed 80 ms ago: its points are what the robot saw then. Keep the
         // truth of then.
@@ -70,6 +78,17 @@ struct Drive {
   }
   std::vector<std::pair<Utime, geometry::Pose2>> history;
 
+  void release() {
+    hold_odometry = false;
+    for (const OdometrySample& s : held)
+      localizer.addOdometry(s, t + 8'000);
+    held.clear();
+  }
+  // Distance of the estimate from the truth's point-symmetric twin.
+  double twinError() const {
+    const auto e = localizer.estimate(t + 8'000);
+    return std::hypot(e.pose.x + truth.x, e.pose.y + truth.y);
+  }
   double error() const {
     const auto e = localizer.estimate(t + 8'000);
     return std::hypot(e.pose.x - truth.x, e.pose.y - truth.y);
@@ -115,7 +134,60 @@ TEST(Localizer, NoticesBeingCarriedOffAndRecovers) {
   d.run(1.5, {0.2, 0.0, 0.1});
   ASSERT_EQ(d.localizer.mode(), perception::LocalizationStatus::kTracking);
   EXPECT_LT(d.error(), 0.1);
-  EXPECT_FALSE(d.localizer.ambiguous());  // continuity chose the half
+  EXPECT_FALSE(d.localizer.ambiguous());                    // continuity chose the half
+  EXPECT_EQ(d.localizer.counters().ambiguous_commits, 1u);  // the start-up commit only
+}
+
+TEST(Localizer, AStallNearTheCentreDoesNotFlipToTheTwin) {
+  // Near the centre spot, where the twin is a metre away. The motor bridge starves for 2 s while
+  // the robot turns (the frames keep coming, matched against a pose odometry no longer moves),
+  // then its samples arrive at once; then the camera starves for 2 s. No moment on the twin.
+  Drive d({-0.5, 0.2, 0.3});
+  d.run(1.5, {0.2, 0.0, 0.3});
+  ASSERT_EQ(d.localizer.mode(), perception::LocalizationStatus::kTracking);
+  const robot::Twist turning{0.3, 0.1, 1.2};
+  d.hold_odometry = true;
+  for (int i = 0; i < 100; ++i) {
+    d.run(0.02, turning);
+    if (i % 10 == 9) {
+      // What ROBOT_STATE would say now (layer 1 has not moved since the stall began).
+      EXPECT_GT(d.twinError(), 0.25) << "during the odometry stall, step " << i;
+    }
+  }
+  d.release();
+  d.lines = false;
+  d.run(2.0, turning);
+  d.lines = true;
+  for (int i = 0; i < 150; ++i) {
+    d.run(0.02, {0.3, 0.0, -0.5});
+    if (d.localizer.mode() == perception::LocalizationStatus::kTracking) {
+      EXPECT_GT(d.twinError(), 0.25) << "after the stalls, step " << i;
+    }
+  }
+  ASSERT_EQ(d.localizer.mode(), perception::LocalizationStatus::kTracking);
+  EXPECT_LT(d.error(), 0.15);
+}
+
+TEST(Localizer, CarriedOffWithNoOdometryToCarryTheReferenceIsAmbiguous) {
+  // The controller resynced (the dead reckoning restarts), then the robot was carried off: no
+  // pose before the loss can be carried to the new one, so nothing tells the twins apart.
+  Drive d({-4.0, 2.0, 0.5});
+  d.run(1.0, {0.2, 0.0, 0.0});
+  ASSERT_EQ(d.localizer.mode(), perception::LocalizationStatus::kTracking);
+  d.run(1.0, {0.2, 0.0, 0.0});
+  const std::uint64_t ambiguous_before = d.localizer.counters().ambiguous_commits;
+  d.truth = {2.5, -1.5, 2.0};
+  d.history.clear();
+  for (int i = 0; i < 50 && d.localizer.counters().lost == 0; ++i)
+    d.run(0.02, {0.2, 0.0, 0.0});
+  ASSERT_EQ(d.localizer.counters().lost, 1u);
+  // The resync: every pose before it is unreachable.
+  d.localizer.addOdometry({d.t + 1'000, d.ticks, true}, d.t + 9'000);
+  d.run(2.0, {0.2, 0.0, 0.1});
+  ASSERT_EQ(d.localizer.mode(), perception::LocalizationStatus::kTracking);
+  EXPECT_TRUE(d.localizer.ambiguous());
+  EXPECT_GT(d.localizer.counters().ambiguous_commits, ambiguous_before);
+  EXPECT_LT(std::min(d.error(), d.twinError()), 0.1);
 }
 
 TEST(Localizer, FusesConsistentFeaturesAndRefusesBadOnes) {
@@ -137,6 +209,8 @@ TEST(Localizer, FusesConsistentFeaturesAndRefusesBadOnes) {
 // an offset (field frame) and given another covariance.
 struct Injected {
   bool armed = false;
+  // Further calls injected after the first.
+  int repeat = 0;
   Eigen::Vector3d offset = Eigen::Vector3d::Zero();
   Eigen::Matrix3d covariance = Eigen::Matrix3d::Identity();
 };
@@ -146,7 +220,7 @@ MatcherFunctions injecting(Injected& inject) {
   f.correct = [&inject](std::span<const perception::LinePoint> p, const geometry::Pose2& g) {
     PoseCorrection c = world().correct(p, g);
     if (inject.armed) {
-      inject.armed = false;
+      inject.armed = inject.repeat-- > 0;
       c.pose.x += inject.offset.x();
       c.pose.y += inject.offset.y();
       c.pose.phi = geometry::normalizeAngle(c.pose.phi + inject.offset.z());
@@ -265,6 +339,28 @@ TEST(Localizer, AFrameStampSpreadsThePoseAlongTheMotion) {
   EXPECT_NEAR(std::sqrt(c(2, 2)), 0.016, 1e-12);
   EXPECT_NEAR(c(0, 2), 0.012 * 0.016, 1e-12);
   EXPECT_TRUE(stampSpread({3.0, 0.0, 4.0}, 0.0).isZero());
+}
+
+TEST(Localizer, FramesNearTheEstimatesTwinAreNoResetToFollow) {
+  // Three well-matching frames in a row put the robot near the twin of the estimate, beyond the
+  // gate (the symmetry makes them look as good as the truth). Before the guard the third reset
+  // the filter onto them; now the robot searches, and continuity keeps it on its half.
+  Injected inject;
+  const geometry::Pose2 start{-0.45, -0.3, 0.4};
+  inject.offset = {0.8, 0.5, std::numbers::pi - 0.3};
+  inject.covariance = Eigen::Vector3d(0.02 * 0.02, 0.02 * 0.02, 0.01 * 0.01).asDiagonal();
+  Drive d(start, {}, injecting(inject));
+  d.run(1.5, {0.2, 0.0, 0.0});
+  ASSERT_EQ(d.localizer.mode(), perception::LocalizationStatus::kTracking);
+  inject.armed = true;
+  inject.repeat = 2;
+  while (inject.armed)
+    d.run(0.02, {0.2, 0.0, 0.0});
+  EXPECT_EQ(d.localizer.counters().resets, 0u);
+  EXPECT_EQ(d.localizer.counters().twin_resets_refused, 1u);
+  d.run(1.5, {0.2, 0.0, 0.0});
+  ASSERT_EQ(d.localizer.mode(), perception::LocalizationStatus::kTracking);
+  EXPECT_LT(d.error(), 0.1);
 }
 
 }  // namespace

@@ -307,6 +307,49 @@ TEST(ReplayTool, OracleContactIsTheTruthsTouchingAsEvidence) {
   std::filesystem::remove(options.out_path);
 }
 
+TEST(ReplayTool, StallsHoldAndDropInputsAsAStarvedProcessSeesThem) {
+  StallSchedule schedule{.first = 1'000'000, .every_s = 10.0, .start_s = 5.0, .length_s = 2.0};
+  EXPECT_EQ(schedule.stallAt(5'900'000), -1);
+  EXPECT_EQ(schedule.stallAt(6'000'000), 0);
+  EXPECT_EQ(schedule.stallAt(7'999'999), 0);
+  EXPECT_EQ(schedule.stallAt(8'000'000), -1);
+  EXPECT_EQ(schedule.stallAt(16'500'000), 1);
+  EXPECT_EQ(schedule.stallEnd(0), 8'000'000);
+  EXPECT_EQ(schedule.stallEnd(1), 18'000'000);
+
+  ReplayRunOptions options;
+  options.log_path = kFixture;
+  options.out_path = tempPath("stall_out");
+  options.run = {"fusion"};
+  const ReplayRunResult plain = runReplay(options);
+  options.stall_s = 0.5;
+  options.stall_every_s = 2.0;
+  options.stall_start_s = 1.0;
+  options.stall_hold = {"ODOMETRY"};
+  options.stall_drop = {"VISION_LINES"};
+  const ReplayRunResult stalled = runReplay(options);
+  EXPECT_GE(stalled.stalls, 2);
+  // Held odometry still arrives, every sample of it, and gives its ROBOT_STATE.
+  EXPECT_GT(stalled.stall_held, 20);
+  EXPECT_EQ(stalled.in.at("ODOMETRY"), plain.in.at("ODOMETRY"));
+  EXPECT_EQ(stalled.out.at("ROBOT_STATE"), plain.out.at("ROBOT_STATE"));
+  // Dropped frames never reach fusion.
+  EXPECT_GT(stalled.stall_dropped, 2);
+  EXPECT_EQ(stalled.in.at("VISION_LINES"), plain.in.at("VISION_LINES") - stalled.stall_dropped);
+  EXPECT_EQ(stalled.out_of_order, plain.out_of_order);
+  EXPECT_FALSE(std::filesystem::exists(options.out_path + ".stalled"));
+  EXPECT_NE(summaryLine(stalled).find("stalls"), std::string::npos);
+
+  // A stall that holds and drops nothing, or longer than its period, is refused.
+  options.stall_hold.clear();
+  options.stall_drop.clear();
+  EXPECT_THROW(runReplay(options), ReplayArgumentError);
+  options.stall_hold = {"ODOMETRY"};
+  options.stall_s = 3.0;
+  EXPECT_THROW(runReplay(options), ReplayArgumentError);
+  std::filesystem::remove(options.out_path);
+}
+
 TEST(ReplayTool, BadArgumentsAreRefused) {
   EXPECT_EQ(parseRunList("feature_recognition,fusion"),
             (std::vector<std::string>{"feature_recognition", "fusion"}));
