@@ -138,7 +138,17 @@ UpdateResult updatePose(EkfState& s, const PoseMeasurement& z, double gate2,
                         const SlipModel& slip) {
   UpdateResult result;
   Eigen::Vector3d y(z.pose.x - s.x[0], z.pose.y - s.x[1], geometry::angleDiff(z.pose.phi, s.x[2]));
-  Eigen::Matrix3d sm = s.p.topLeftCorner<3, 3>() + z.covariance;
+  result.heading_innovation = y[2];
+  Eigen::Matrix3d r = z.covariance;
+  if (s.gyro && z.robust_heading && slip.gyro_heading_chi2 > 0.0) {
+    // Huber weight on the heading alone: the variance that puts the disagreement on the bound.
+    const double var = s.p(2, 2) + r(2, 2);
+    if (y[2] * y[2] > slip.gyro_heading_chi2 * var) {
+      r(2, 2) += y[2] * y[2] / slip.gyro_heading_chi2 - var;
+      result.heading_weighted_down = true;
+    }
+  }
+  Eigen::Matrix3d sm = s.p.topLeftCorner<3, 3>() + r;
   Eigen::Matrix3d sm_inv = sm.inverse();
   result.mahalanobis2 = y.dot(sm_inv * y);
   if (!std::isfinite(result.mahalanobis2)) return result;
@@ -146,9 +156,12 @@ UpdateResult updatePose(EkfState& s, const PoseMeasurement& z, double gate2,
     const double max_rad = s.gyro ? slip.max_rad_gyro : slip.max_rad;
     const bool within = y.head<2>().norm() <= slip.max_m && std::abs(y[2]) <= max_rad;
     if (!z.may_reveal_slip || slip.inflation <= 0.0 || !within) return result;
-    // Odometry missed a movement: the pose is as uncertain as the disagreement says.
-    s.p.topLeftCorner<3, 3>() += slip.inflation * y.cwiseAbs2().asDiagonal().toDenseMatrix();
-    sm = s.p.topLeftCorner<3, 3>() + z.covariance;
+    // Odometry missed a movement: the pose is as uncertain as the disagreement says (the
+    // position only when the heading was weighted down against the gyro's).
+    Eigen::Vector3d widen = y.cwiseAbs2();
+    if (result.heading_weighted_down) widen[2] = 0.0;
+    s.p.topLeftCorner<3, 3>() += slip.inflation * widen.asDiagonal().toDenseMatrix();
+    sm = s.p.topLeftCorner<3, 3>() + r;
     sm_inv = sm.inverse();
     result.slip = true;
   }
@@ -159,7 +172,7 @@ UpdateResult updatePose(EkfState& s, const PoseMeasurement& z, double gate2,
   s.x += dx;
   s.x[2] = geometry::normalizeAngle(s.x[2]);
   const StateMatrix ikh = StateMatrix::Identity() - k * h;
-  s.p = (ikh * s.p * ikh.transpose()).eval() + k * z.covariance * k.transpose();
+  s.p = (ikh * s.p * ikh.transpose()).eval() + k * r * k.transpose();
   symmetrize(s.p);
   result.accepted = true;
   result.correction_m = dx.head<2>().norm();

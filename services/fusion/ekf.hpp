@@ -76,6 +76,9 @@ struct PoseMeasurement {
   // state beyond the gate but within SlipModel's limits, the robot slipped or was pushed (a
   // collision odometry cannot see), and the state's pose covariance is widened before the update.
   bool may_reveal_slip = false;
+  // Its heading may be weighted down when it alone disagrees with a gyro heading
+  // (SlipModel::gyro_heading_chi2); false for a heading that two frames agree on.
+  bool robust_heading = false;
 };
 
 // What a trusted measurement that contradicts the state is taken to mean: the pose moved in a way
@@ -90,6 +93,13 @@ struct SlipModel {
   double max_rad_gyro = 0.5;
   // 0: no slip handling.
   double inflation = 2.0;
+  // While the heading comes from the gyro (EkfState::gyro), a measurement with robust_heading
+  // whose heading alone disagrees beyond this (squared, with the state's and its own heading
+  // variance, 1 dof) has its heading variance raised until it sits on this bound (a Huber weight):
+  // a single frame's heading error of several degrees (2 % of the frames of a recorded match,
+  // uncorrelated from frame to frame) no longer turns the gyro's heading, and its position still
+  // counts, also as a slip (which then widens the position only). 0: off.
+  double gyro_heading_chi2 = 0.0;
 };
 
 // Contact with another robot, as the robot's own camera tells it (an obstacle's near edge close to
@@ -120,6 +130,10 @@ struct UpdateResult {
   double correction_rad = 0.0;
   // The gate was passed only after widening the covariance for a slip (SlipModel).
   bool slip = false;
+  // The measurement's heading was weighted down against the gyro's (SlipModel::gyro_heading_chi2).
+  bool heading_weighted_down = false;
+  // The measurement's heading disagreement, rad (measurement minus state).
+  double heading_innovation = 0.0;
 };
 
 // Moves the state to `t` with the velocity held (no odometry for the interval).

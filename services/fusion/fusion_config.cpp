@@ -114,11 +114,15 @@ void loadCalibration(const config::Node& n, LocalizerParams& p) {
   p.state_floor_m = n.getOr<double>("state_floor_m", p.state_floor_m, 0.0, 5.0);
   p.state_floor_rad = n.getOr<double>("state_floor_rad", p.state_floor_rad, 0.0, 3.2);
   p.stamp_sigma_s = n.getOr<double>("stamp_sigma_s", p.stamp_sigma_s, 0.0, 1.0);
+  p.correction_stamp_sigma_s =
+      n.getOr<double>("correction_stamp_sigma_s", p.correction_stamp_sigma_s, 0.0, 1.0);
   SlipModel& slip = p.filter.slip;
   slip.max_m = n.getOr<double>("slip_max_m", slip.max_m, 0.0, 10.0);
   slip.max_rad = n.getOr<double>("slip_max_rad", slip.max_rad, 0.0, 3.2);
   slip.max_rad_gyro = n.getOr<double>("slip_max_rad_gyro", slip.max_rad_gyro, 0.0, 3.2);
   slip.inflation = n.getOr<double>("slip_inflation", slip.inflation, 0.0, 100.0);
+  slip.gyro_heading_chi2 = n.getOr<double>("gyro_heading_chi2", slip.gyro_heading_chi2, 0.0, 1e6);
+  p.heading_confirm_rad = n.getOr<double>("heading_confirm_rad", p.heading_confirm_rad, 0.0, 3.2);
   n.rejectUnknownKeys();
 }
 

@@ -137,8 +137,11 @@ Eigen::Matrix3d Localizer::floored(const Eigen::Matrix3d& c) const {
   return out;
 }
 
-Eigen::Matrix3d Localizer::correctionCovariance(const PoseCorrection& c) const {
+Eigen::Matrix3d Localizer::correctionCovariance(const PoseCorrection& c,
+                                                const Eigen::Vector3d& velocity) const {
   Eigen::Matrix3d out = floored(params_.correction_inflation * c.covariance);
+  // A frame stamped off by dt sees the pose the robot had dt away: (vx, vy, omega) * dt.
+  out += stampSpread(velocity, params_.correction_stamp_sigma_s);
   const double cost = std::max(0.0, c.cost);
   const double s_m = params_.correction_cost_gain * cost;
   const double s_rad = params_.correction_cost_gain_rad * cost;
@@ -148,13 +151,15 @@ Eigen::Matrix3d Localizer::correctionCovariance(const PoseCorrection& c) const {
   return out;
 }
 
+Eigen::Matrix3d stampSpread(const Eigen::Vector3d& velocity, double sigma_s) {
+  return sigma_s * sigma_s * velocity * velocity.transpose();
+}
+
 Eigen::Matrix3d Localizer::reportedCovariance(const EkfState& s) const {
   Eigen::Matrix3d c = s.p.topLeftCorner<3, 3>();
   const double fm = params_.state_floor_m * params_.state_floor_m;
   const double fr = params_.state_floor_rad * params_.state_floor_rad;
-  const double st = params_.stamp_sigma_s * params_.stamp_sigma_s;
-  const Eigen::Vector3d v = s.x.segment<3>(3);
-  c += st * v * v.transpose();
+  c += stampSpread(s.x.segment<3>(3), params_.stamp_sigma_s);
   c(0, 0) += fm;
   c(1, 1) += fm;
   c(2, 2) += fr;
@@ -235,7 +240,7 @@ void Localizer::trackLines(std::span<const perception::LinePoint> points, Utime 
   }
   bool good = false;
   if (c.valid && c.cost <= params_.accept_cost_m) {
-    PoseMeasurement z{utime, c.pose, correctionCovariance(c)};
+    PoseMeasurement z{utime, c.pose, correctionCovariance(c, guess->x.segment<3>(3))};
     const Eigen::Vector3d offset(c.pose.x - guess->pose().x, c.pose.y - guess->pose().y,
                                  geometry::normalizeAngle(c.pose.phi - guess->pose().phi));
     const bool confirmed =
@@ -258,7 +263,21 @@ void Localizer::trackLines(std::span<const perception::LinePoint> points, Utime 
     // In contact (the robot's camera saw an obstacle at its body) a push or twist is expected:
     // the frame is taken at once.
     z.may_reveal_slip = confirmed || twisted || pinned || contact || twist_found;
+    // The gyro's heading is trusted over a single frame's; two frames that agree on a heading
+    // disagreement are taken.
+    const bool heading_confirmed =
+        weighted_heading_offset_ &&
+        std::abs(geometry::normalizeAngle(offset[2] - *weighted_heading_offset_)) <=
+            params_.heading_confirm_rad;
+    z.robust_heading = !heading_confirmed;
     const auto r = filter_.addPose(MeasurementSource::kLines, z, now);
+    if (heading_confirmed) ++counters_.headings_confirmed;
+    if (r.update.heading_weighted_down) {
+      ++counters_.headings_weighted_down;
+      weighted_heading_offset_ = offset[2];
+    } else {
+      weighted_heading_offset_.reset();
+    }
     if (r.rejection == Rejection::kNone) {
       ++counters_.corrections;
       if (r.update.slip) {
@@ -302,7 +321,7 @@ void Localizer::trackLines(std::span<const perception::LinePoint> points, Utime 
         EkfState s = *guess;
         s.utime = utime;
         s.x.head<3>() << c.pose.x, c.pose.y, c.pose.phi;
-        s.p.topLeftCorner<3, 3>() = correctionCovariance(c);
+        s.p.topLeftCorner<3, 3>() = correctionCovariance(c, guess->x.segment<3>(3));
         // The pose restarts from the frame; velocity and gyro bias keep what was learnt.
         s.p.topRightCorner<3, kStateSize - 3>().setZero();
         s.p.bottomLeftCorner<kStateSize - 3, 3>().setZero();
@@ -314,6 +333,7 @@ void Localizer::trackLines(std::span<const perception::LinePoint> points, Utime 
   } else {
     count(c.valid ? "lines_poor_match" : "lines_too_few_points");
     gated_offset_.reset();
+    weighted_heading_offset_.reset();
   }
   // Only frames with enough points can contradict: an empty view says nothing. A frame with
   // plenty of points that gives no valid correction from the estimate (too few of them near any
@@ -335,6 +355,7 @@ void Localizer::becomeLost(Utime utime) {
   bad_frames_ = 0;
   contradictions_ = 0;
   hypotheses_.clear();
+  weighted_heading_offset_.reset();
   // A commit that was never confirmed by line frames is no reference: the one before it stays
   // (carried by odometry when used). The very first commit has nothing before it.
   if (good_since_commit_ >= params_.trust_frames || !reference_) {

@@ -75,6 +75,11 @@ struct LocalizerParams {
   // frame's covariance) the frame is a slip at once. Ratio 0: off.
   double slip_pinned_ratio = 2.0;
   double slip_pinned_chi2 = 10.83;
+  // A frame whose heading was weighted down against the gyro's (SlipModel::gyro_heading_chi2)
+  // is confirmed by the next frame when that one disagrees in heading by the same within this:
+  // the next frame's heading is taken in full (a heading the gyro lost, e.g. saturated in a
+  // collision, is put right). rad.
+  double heading_confirm_rad = 0.05;
   // Frames a hypothesis must have been tested on before committing to it.
   int commit_frames = 2;
   // Twin guard. A committed pose becomes the continuity reference of the next loss only after
@@ -114,6 +119,10 @@ struct LocalizerParams {
   // Added position sigma per metre of mean matching cost (1), heading sigma per metre (rad/m).
   double correction_cost_gain = 0.0;
   double correction_cost_gain_rad = 0.0;
+  // Uncertainty of a frame's stamp, s: its pose is the one the robot had up to this much before
+  // or after, so the covariance grows by this squared times (vx, vy, omega)(vx, vy, omega)^T at
+  // the frame's time (frames taken while turning fast are several degrees off more often).
+  double correction_stamp_sigma_s = 0.0;
   // Uncertainty of a pose committed after global localization (start-up, kidnap): the
   // hypothesis's covariance floored by these, m and rad.
   double commit_sigma_m = 0.05;
@@ -178,6 +187,10 @@ struct LocalizerCounters {
   std::uint64_t frames_waited = 0;
   // Frames whose correction came from the twist search (contact_search_steps).
   std::uint64_t twist_searches = 0;
+  // Frames whose heading was weighted down against the gyro's, and frames whose heading a
+  // second frame confirmed (SlipModel::gyro_heading_chi2, heading_confirm_rad).
+  std::uint64_t headings_weighted_down = 0;
+  std::uint64_t headings_confirmed = 0;
   // VISION_OBSTACLES frames that showed an obstacle touching the robot.
   std::uint64_t contact_frames = 0;
   // Odometry samples whose currents showed a contact (CurrentContactDetector).
@@ -271,7 +284,9 @@ class Localizer {
   Hypothesis resolveTwin(const Hypothesis& h, const Hypothesis* twin);
   Eigen::Matrix3d floored(const Eigen::Matrix3d& c) const;
   // A layer-2 correction's covariance as the filter takes it (LocalizerParams calibration).
-  Eigen::Matrix3d correctionCovariance(const PoseCorrection& c) const;
+  // `velocity`: the robot's (vx, vy, omega) at the frame's time (field frame).
+  Eigen::Matrix3d correctionCovariance(const PoseCorrection& c,
+                                       const Eigen::Vector3d& velocity) const;
 
   robot::RobotParams robot_;
   LocalizerParams params_;
@@ -303,10 +318,17 @@ class Localizer {
   // Disagreement (frame correction - estimate) of the previous line frame when the gate refused
   // it; empty after an accepted or unmatched frame.
   std::optional<Eigen::Vector3d> gated_offset_;
+  // Heading disagreement of the previous line frame when its heading was weighted down; empty
+  // otherwise.
+  std::optional<double> weighted_heading_offset_;
   double last_cost_ = -1.0;
   Utime last_lines_arrival_ = 0;
   LocalizerCounters counters_;
 };
+
+// The spread of a pose seen at a stamp off by a zero-mean error of `sigma_s` seconds while the
+// robot moves with `velocity` (vx, vy, omega): sigma_s^2 * velocity * velocity^T.
+Eigen::Matrix3d stampSpread(const Eigen::Vector3d& velocity, double sigma_s);
 
 // The pose the field's point symmetry maps `p` to: (-x, -y, phi + pi).
 geometry::Pose2 symmetricTwin(const geometry::Pose2& p);

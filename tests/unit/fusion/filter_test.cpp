@@ -684,5 +684,95 @@ TEST(DelayedFilter, LearnsTheGyroBiasFromTheLineFrames) {
   EXPECT_NEAR(geometry::angleDiff(f.current().x[2], heading), 0.0, 3.0 * sigma);
 }
 
+// Seventh round: with the gyro's heading, a frame whose heading alone disagrees is weighted down
+// to the Huber bound (SlipModel::gyro_heading_chi2); its position still counts in full.
+TEST(UpdatePose, TheGyroHeadingOutweighsOneFrameHeadingButNotItsPosition) {
+  const auto state = [](bool gyro) {
+    EkfState s = startState();
+    s.gyro = gyro;
+    s.p.topLeftCorner<3, 3>() = Eigen::Vector3d(1e-4, 1e-4, 1e-4).asDiagonal();
+    return s;
+  };
+  PoseMeasurement z;
+  z.utime = kStart;
+  const EkfState s0 = state(true);
+  // 1 cm off in x, 0.1 rad (5.7 degrees) off in heading; the frame's heading sigma 0.015 rad.
+  z.pose = {s0.x[0] + 0.01, s0.x[1], s0.x[2] + 0.1};
+  z.covariance = Eigen::Vector3d(1e-4, 1e-4, 0.015 * 0.015).asDiagonal();
+  z.robust_heading = true;
+  SlipModel slip;
+  slip.gyro_heading_chi2 = 9.0;
+  const double gate2 = 16.27;
+
+  EkfState robust = state(true);
+  const UpdateResult r = updatePose(robust, z, gate2, slip);
+  EXPECT_TRUE(r.accepted);
+  EXPECT_TRUE(r.heading_weighted_down);
+  EXPECT_FALSE(r.slip);
+  EXPECT_NEAR(r.heading_innovation, 0.1, 1e-12);
+  // The heading's variance was raised until the disagreement sits on the bound: the heading
+  // moves by P * chi2 / y (0.009 rad), not by the Kalman share of the full 0.1 rad.
+  EXPECT_NEAR(geometry::angleDiff(robust.x[2], s0.x[2]), 1e-4 * 9.0 / 0.1, 1e-9);
+  // The position takes its usual share (equal variances: half way).
+  EXPECT_NEAR(robust.x[0], s0.x[0] + 0.005, 1e-9);
+
+  // The same frame without the weight (off, no gyro, or a heading confirmed by a second frame):
+  // the whole disagreement counts and the gate refuses it.
+  SlipModel off = slip;
+  off.gyro_heading_chi2 = 0.0;
+  EkfState plain = state(true);
+  EXPECT_FALSE(updatePose(plain, z, gate2, off).accepted);
+  EkfState wheels = state(false);
+  const UpdateResult w = updatePose(wheels, z, gate2, slip);
+  EXPECT_FALSE(w.accepted);
+  EXPECT_FALSE(w.heading_weighted_down);
+  PoseMeasurement confirmed = z;
+  confirmed.robust_heading = false;
+  EkfState taken = state(true);
+  EXPECT_FALSE(updatePose(taken, confirmed, gate2, slip).accepted);
+  // A heading within the bound is not touched: the same result as without the weight.
+  PoseMeasurement small = z;
+  small.pose.phi = s0.x[2] + 0.02;
+  EkfState a = state(true);
+  EkfState b = state(true);
+  const UpdateResult ra = updatePose(a, small, gate2, slip);
+  updatePose(b, small, gate2, off);
+  EXPECT_FALSE(ra.heading_weighted_down);
+  EXPECT_TRUE(a.x.isApprox(b.x, 1e-12));
+  EXPECT_TRUE(a.p.isApprox(b.p, 1e-12));
+}
+
+TEST(UpdatePose, APushWithAWrongFrameHeadingWidensThePositionOnly) {
+  EkfState s = startState();
+  s.gyro = true;
+  s.p.topLeftCorner<3, 3>() = Eigen::Vector3d(1e-4, 1e-4, 1e-4).asDiagonal();
+  const EkfState s0 = s;
+  PoseMeasurement z;
+  z.utime = kStart;
+  // Pushed 30 cm; the frame's heading is 0.2 rad off as well.
+  z.pose = {s0.x[0] + 0.3, s0.x[1], s0.x[2] + 0.2};
+  z.covariance = Eigen::Vector3d(1e-4, 1e-4, 0.015 * 0.015).asDiagonal();
+  z.robust_heading = true;
+  z.may_reveal_slip = true;
+  SlipModel slip;
+  slip.max_m = 1.0;
+  slip.max_rad_gyro = 1.2;
+  slip.gyro_heading_chi2 = 9.0;
+  const UpdateResult r = updatePose(s, z, 16.27, slip);
+  ASSERT_TRUE(r.accepted);
+  EXPECT_TRUE(r.slip);
+  EXPECT_TRUE(r.heading_weighted_down);
+  // The position follows the frame most of the way; the heading hardly moves and stays certain.
+  EXPECT_GT(s.x[0], s0.x[0] + 0.29);
+  EXPECT_LT(std::abs(geometry::angleDiff(s.x[2], s0.x[2])), 0.006);
+  EXPECT_LE(s.p(2, 2), s0.p(2, 2));
+  // Without the weight the slip widens the heading too and the heading follows the frame.
+  EkfState t = s0;
+  z.robust_heading = false;
+  const UpdateResult q = updatePose(t, z, 16.27, slip);
+  ASSERT_TRUE(q.slip);
+  EXPECT_GT(geometry::angleDiff(t.x[2], s0.x[2]), 0.15);
+}
+
 }  // namespace
 }  // namespace fieldline::fusion

@@ -32,12 +32,16 @@ TEST(FusionConfig, ThePresetLoads) {
 TEST(FusionConfig, AbsentKeysKeepTheDefaultsAndGivenOnesApply) {
   const FusionConfig c = loadFusionConfig(config::Node::loadString(
       "filter:\n  window_s: 0.5\ncalibration:\n  slip_inflation: 0\n  stamp_sigma_s: 0.004\n"
+      "  correction_stamp_sigma_s: 0.003\n  gyro_heading_chi2: 6.5\n  heading_confirm_rad: 0.07\n"
       "localizer:\n  start_prior: none\nball:\n  max_age_s: 2.5\nmatcher:\n"
       "  method: force_field\n"));
   const FusionConfig defaults;
   EXPECT_EQ(c.localizer.filter.window_us, 500'000);
   EXPECT_DOUBLE_EQ(c.localizer.filter.slip.inflation, 0.0);
   EXPECT_DOUBLE_EQ(c.localizer.stamp_sigma_s, 0.004);
+  EXPECT_DOUBLE_EQ(c.localizer.correction_stamp_sigma_s, 0.003);
+  EXPECT_DOUBLE_EQ(c.localizer.filter.slip.gyro_heading_chi2, 6.5);
+  EXPECT_DOUBLE_EQ(c.localizer.heading_confirm_rad, 0.07);
   EXPECT_EQ(c.localizer.start_prior, StartPrior::kNone);
   EXPECT_DOUBLE_EQ(c.ball.max_age_s, 2.5);
   EXPECT_EQ(c.matcher.method, MatchMethod::kForceField);

@@ -347,6 +347,17 @@ TEST(Localizer, InContactAFrameBeyondTheGateIsTakenAtOnce) {
   EXPECT_EQ(c.contact_frames, 1u);
 }
 
+TEST(Localizer, AFrameStampSpreadsThePoseAlongTheMotion) {
+  // 4 ms of stamp error while turning at 4 rad/s and driving 3 m/s along x: 1.6 cm and 0.016 rad,
+  // fully correlated.
+  const Eigen::Matrix3d c = stampSpread({3.0, 0.0, 4.0}, 0.004);
+  EXPECT_NEAR(std::sqrt(c(0, 0)), 0.012, 1e-12);
+  EXPECT_NEAR(c(1, 1), 0.0, 1e-15);
+  EXPECT_NEAR(std::sqrt(c(2, 2)), 0.016, 1e-12);
+  EXPECT_NEAR(c(0, 2), 0.012 * 0.016, 1e-12);
+  EXPECT_TRUE(stampSpread({3.0, 0.0, 4.0}, 0.0).isZero());
+}
+
 TEST(Localizer, FramesNearTheEstimatesTwinAreNoResetToFollow) {
   // Three well-matching frames in a row put the robot near the twin of the estimate, beyond the
   // gate (the symmetry makes them look as good as the truth). Before the guard the third reset
