@@ -84,7 +84,7 @@ processes = lines("probe.jsonl")
 # (a process added later) must flow. The latency of camera-derived messages is at least the
 # configured 60 ms by construction (exposure stamping).
 nominal = {"SIM_WORLD": 100, "CAMERA_IMAGE": 30, "VISION_BALL": 30, "VISION_OBSTACLES": 30,
-           "VISION_LINES": 10, "ODOMETRY": 50, "MOTION_COMMAND": 50, "FIELD_FEATURES": 10,
+           "VISION_LINES": 30, "ODOMETRY": 50, "MOTION_COMMAND": 50, "FIELD_FEATURES": 30,
            "ROBOT_STATE": 50, "BALL_STATE": 30, "TEAM_STATE": 10}
 MAX_LOST_SHARE = 0.01
 expected = {(p["bus"], c) for p in processes for c in p["outputs"]}
