@@ -56,6 +56,18 @@ void candidateLineEnds(const LineStructure& structure, const field::FieldModel& 
   }
 }
 
+int pointsAlong(const std::vector<Vec2>& points, const Vec2& from, const Vec2& direction,
+                double reach) {
+  int count = 0;
+  for (const Vec2& p : points) {
+    const Vec2 d = p - from;
+    const double t = d.dot(direction);
+    if (t < 0.1 || t > reach) continue;
+    if (std::abs(direction.x() * d.y() - direction.y() * d.x()) <= 0.1 + 0.02 * p.norm()) ++count;
+  }
+  return count;
+}
+
 bool identifyLineEnd(const LineEnd& end, const std::vector<ModelJunction>& models,
                      const std::vector<Vec2>& points, const ModelCheck& check,
                      const RecognitionParams& params, LineEndIdentity& out) {
@@ -110,28 +122,38 @@ bool identifyLineEnd(const LineEnd& end, const std::vector<ModelJunction>& model
       out.shifted_share = std::max(out.shifted_share, check.fit(others, pose).share());
     }
   }
-  // Evidence of the corner's other line: a few points where the model puts it.
-  int side_points = 0;
+  // Evidence of the corner's other line: a few points where the model puts it. And the L, not
+  // a T: across the seen line, where the model has no leg at this corner (at a penalty corner
+  // the side line does not continue beyond the front line), the points must not show a line
+  // either (at the halfway line's end the touch line runs on to both sides).
   const ModelJunction& model = models[out.identity.model];
-  for (std::size_t l = 0; l < model.legs.size(); ++l) {
-    const Vec2 leg = geometry::rotate(model.legs[l], -robot.phi);
-    if (std::abs(leg.dot(end.into)) > 0.5) continue;  // the seen line's own leg
-    const double reach = std::min(params.line_end_side_reach, model.leg_lengths[l]);
-    for (const Vec2& p : points) {
-      const Vec2 d = p - out.corner;
-      const double t = d.dot(leg);
-      if (t < 0.1 || t > reach) continue;
-      if (std::abs(leg.x() * d.y() - leg.y() * d.x()) <= 0.1 + 0.02 * p.norm()) ++side_points;
+  const Vec2 across_line(-end.into.y(), end.into.x());
+  for (double sign : {-1.0, 1.0}) {
+    const Vec2 direction = sign * across_line;
+    double reach = -1.0;  // no model leg this way
+    for (std::size_t l = 0; l < model.legs.size(); ++l) {
+      const Vec2 leg = geometry::rotate(model.legs[l], -robot.phi);
+      if (leg.dot(direction) > 0.5)
+        reach = std::min(params.line_end_side_reach, model.leg_lengths[l]);
+    }
+    const int count = pointsAlong(points, out.corner, direction,
+                                  reach > 0.0 ? reach : params.line_end_side_reach);
+    if (reach > 0.0) {
+      out.side_points += count;
+    } else {
+      out.beyond_points += count;
     }
   }
-  out.side_points = side_points;
+  const int side_points = out.side_points;
   const double share = out.identity.fit.share();
   out.identified =
       out.identity.fit.points >= params.identity_min_points && share >= params.identity_min_share &&
       out.identity.rival_share <= share - params.identity_margin &&
       out.shifted_share <= share - params.line_end_shift_margin &&
       side_points >=
-          (end.partner ? params.line_end_min_side_points : params.line_end_alone_side_points);
+          (end.partner ? params.line_end_min_side_points : params.line_end_alone_side_points) &&
+      (params.line_end_max_beyond_points < 0 ||
+       out.beyond_points <= params.line_end_max_beyond_points);
   return out.identified;
 }
 

@@ -22,6 +22,12 @@ ModelCheck::ModelCheck(const field::FieldModel& field, const RecognitionParams& 
         "ModelCheck: tolerance and range must be positive, shares in [0, 1], max_points >= 1, "
         "min_other_points >= 0");
   }
+  if (params.model_check_goal_shadow) {
+    for (const field::Goal& g : field.goals()) {
+      goal_boxes_.push_back({g.mouth_centre.x(), g.mouth_centre.y(), g.outward.x(), g.outward.y(),
+                             -tolerance_, g.depth + tolerance_, g.width / 2 + tolerance_});
+    }
+  }
   columns_ = grid_.columns();
   rows_ = grid_.rows();
   origin_x_ = grid_.origin().x();
@@ -57,6 +63,31 @@ bool ModelCheck::fits(double qx, double qy, double range) const {
   return units * kUnit <= limit;
 }
 
+bool ModelCheck::inGoalShadow(double rx, double ry, double qx, double qy) const {
+  for (const GoalBox& b : goal_boxes_) {
+    // Along (a) and across (c) the goal, from its mouth centre.
+    const double ar = (rx - b.cx) * b.ux + (ry - b.cy) * b.uy;
+    const double aq = (qx - b.cx) * b.ux + (qy - b.cy) * b.uy;
+    if (std::max(ar, aq) < b.from) continue;  // both in front of the goal: the usual case
+    const double cr = -(rx - b.cx) * b.uy + (ry - b.cy) * b.ux;
+    const double cq = -(qx - b.cx) * b.uy + (qy - b.cy) * b.ux;
+    // The segment r + t (q - r), t in [0, 1], against the slabs of the box.
+    double t0 = 0.0, t1 = 1.0;
+    auto clip = [&](double p, double d, double lo, double hi) {
+      if (std::abs(d) < 1e-12) return p >= lo && p <= hi;
+      double ta = (lo - p) / d, tb = (hi - p) / d;
+      if (ta > tb) std::swap(ta, tb);
+      t0 = std::max(t0, ta);
+      t1 = std::min(t1, tb);
+      return t0 <= t1;
+    };
+    if (clip(ar, aq - ar, b.from, b.to) && clip(cr, cq - cr, -b.half_width, b.half_width)) {
+      return true;
+    }
+  }
+  return false;
+}
+
 ModelFit ModelCheck::fit(const std::vector<geometry::Vec2>& points,
                          const geometry::Pose2& robot) const {
   return fit(points, robot, max_points_);
@@ -75,6 +106,7 @@ ModelFit ModelCheck::fit(const std::vector<geometry::Vec2>& points, const geomet
     const double range = p.norm();
     if (!(range <= range_)) continue;
     const geometry::Vec2 q(robot.x + c * p.x() - s * p.y(), robot.y + s * p.x() + c * p.y());
+    if (!goal_boxes_.empty() && inGoalShadow(robot.x, robot.y, q.x(), q.y())) continue;
     ++out.points;
     if (fits(q.x(), q.y(), range)) ++out.inliers;
   }

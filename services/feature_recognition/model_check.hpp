@@ -41,7 +41,8 @@ class ModelCheck {
   // unusable parameters.
   ModelCheck(const field::FieldModel& field, const RecognitionParams& params);
 
-  // How well `points` (robot frame, m) fit the field's lines with the robot at `robot`.
+  // How well `points` (robot frame, m) fit the field's lines with the robot at `robot`. With
+  // model_check_goal_shadow, points in a goal's shadow are not counted at all.
   ModelFit fit(const std::vector<geometry::Vec2>& points, const geometry::Pose2& robot) const;
   // As fit(), but on at most `max_points` of them (evenly thinned): a cheaper estimate of the
   // share when many poses are compared.
@@ -74,6 +75,14 @@ class ModelCheck {
   // True if the field point q (found at `range` from the robot) is within the tolerance of a
   // model line: the bilinear interpolation of the compact grid, the exact grid outside it.
   bool fits(double qx, double qy, double range) const;
+  // The goals' footprints (model_check_goal_shadow): mouth centre, unit outward and across,
+  // the extent along outward and the half width across, grown by the tolerance.
+  struct GoalBox {
+    double cx, cy, ux, uy, from, to, half_width;
+  };
+  std::vector<GoalBox> goal_boxes_;
+  // True if the segment from the robot (rx, ry) to the field point (qx, qy) crosses a goal box.
+  bool inGoalShadow(double rx, double ry, double qx, double qy) const;
   double tolerance_;
   double tolerance_per_m_;
   double range_;

@@ -162,6 +162,68 @@ TEST(LineEndIdentity, GoalAreaCornerWithoutItsSideLineIsFoundFromTheFrontLineEnd
   EXPECT_FALSE(cornerFound(false));
 }
 
+// An L, not a T: the same goal-area corner, but with a line crossing the front line's end (the
+// side line continued 0.6 m beyond the corner, as the touch line runs on at the halfway line's
+// end) is no corner once line_end_max_beyond_points is set; the bare corner has nothing there.
+TEST(LineEndIdentity, ASideLineThatContinuesBeyondTheCornerMakesATNotACorner) {
+  const field::FieldModel field = field::loadFieldPreset("msl");
+  const GoalArea area = goalAreaOf(field);
+  const Pose2 truth{8.2, 0.6, 0.3};
+  const perception::LinePoints full = test::frameAt(field, truth, 4.5, 0.12, 0.005);
+  const Vec2 side_cut = area.corner + 0.3 * (area.side_end - area.corner).normalized();
+  const perception::LinePoints corner_frame = without(full, truth, side_cut, area.side_end, 0.06);
+  const ModelCheck check(field, RecognitionParams{});
+  const std::vector<ModelJunction> models = modelJunctions(field);
+  LineEnd end;
+  end.position = geometry::pointFieldToRobot(truth, area.corner);
+  end.into = geometry::rotate(Vec2(0.0, -1.0), -truth.phi);
+  end.length = 2.0;
+  RecognitionParams params;
+  params.line_end_max_beyond_points = 1;
+  LineEndIdentity identity;
+  ASSERT_TRUE(identifyLineEnd(end, models, pointsOf(corner_frame), check, params, identity));
+  EXPECT_EQ(identity.beyond_points, 0);
+  EXPECT_GE(identity.side_points, 2);
+
+  // The side line continued beyond the corner, away from the goal (field -x): points every
+  // 0.12 m from 0.12 to 0.6 m, as a line crossing there would show.
+  perception::LinePoints t_frame = corner_frame;
+  std::vector<Vec2> beyond;
+  for (double t = 0.12; t <= 0.6 + 1e-9; t += 0.12) {
+    beyond.push_back(geometry::pointFieldToRobot(truth, area.corner - Vec2(t, 0.0)));
+  }
+  test::addSequence(t_frame, beyond);
+  LineEndIdentity t_identity;
+  EXPECT_FALSE(identifyLineEnd(end, models, pointsOf(t_frame), check, params, t_identity));
+  EXPECT_EQ(t_identity.beyond_points, 5);
+  // Without the test the same end is taken for the corner (the crossing line's points are too
+  // few to move the model check).
+  LineEndIdentity untested;
+  EXPECT_TRUE(
+      identifyLineEnd(end, models, pointsOf(t_frame), check, RecognitionParams{}, untested));
+  // One stray point there (a fragment of clutter) is allowed.
+  perception::LinePoints stray_frame = corner_frame;
+  test::addSequence(stray_frame, {beyond[2]});
+  LineEndIdentity stray_identity;
+  EXPECT_TRUE(identifyLineEnd(end, models, pointsOf(stray_frame), check, params, stray_identity));
+  EXPECT_EQ(stray_identity.beyond_points, 1);
+}
+
+// pointsAlong counts the points on a ray from 0.1 m to its reach, within 0.1 m + 2 cm per metre
+// of range of it.
+TEST(LineEndIdentity, PointsAlongARayCountOnlyThoseNearItWithinItsReach) {
+  const Vec2 from(2.0, 0.0), direction(0.0, 1.0);
+  const std::vector<Vec2> points = {{2.0, 0.05},   // before 0.1 m
+                                    {2.0, 0.2},    // on it
+                                    {2.13, 0.4},   // 0.13 m aside, range 2.17 m: tolerance 0.143 m
+                                    {2.16, 0.4},   // 0.16 m aside: beyond the tolerance
+                                    {2.0, 0.7},    // beyond the reach
+                                    {2.0, -0.3}};  // the other way
+  EXPECT_EQ(pointsAlong(points, from, direction, 0.6), 2);
+  EXPECT_EQ(pointsAlong(points, from, direction, 0.8), 3);
+  EXPECT_EQ(pointsAlong(points, from, -direction, 0.6), 1);
+}
+
 TEST(LineEndIdentity, AnEndAmongParallelLinesOnlyIsRefused) {
   const field::FieldModel field = field::loadFieldPreset("msl");
   const GoalArea area = goalAreaOf(field);
