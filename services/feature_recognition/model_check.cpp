@@ -25,7 +25,7 @@ ModelCheck::ModelCheck(const field::FieldModel& field, const RecognitionParams& 
   if (params.model_check_goal_shadow) {
     for (const field::Goal& g : field.goals()) {
       goal_boxes_.push_back({g.mouth_centre.x(), g.mouth_centre.y(), g.outward.x(), g.outward.y(),
-                             -tolerance_, g.depth + tolerance_, g.width / 2 + tolerance_});
+                             0.0, g.depth + tolerance_, g.width / 2 + tolerance_});
     }
   }
   columns_ = grid_.columns();
@@ -70,6 +70,8 @@ bool ModelCheck::inGoalShadow(double rx, double ry, double qx, double qy) const 
     const double aq = (qx - b.cx) * b.ux + (qy - b.cy) * b.uy;
     if (std::max(ar, aq) < b.from) continue;  // both in front of the goal: the usual case
     const double cr = -(rx - b.cx) * b.uy + (ry - b.cy) * b.ux;
+    // A robot in the goal (or at its mouth) sees the goal's parts all around: no shadow.
+    if (ar >= b.from - tolerance_ && std::abs(cr) <= b.half_width) continue;
     const double cq = -(qx - b.cx) * b.uy + (qy - b.cy) * b.ux;
     // The segment r + t (q - r), t in [0, 1], against the slabs of the box.
     double t0 = 0.0, t1 = 1.0;

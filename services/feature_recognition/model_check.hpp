@@ -76,7 +76,8 @@ class ModelCheck {
   // model line: the bilinear interpolation of the compact grid, the exact grid outside it.
   bool fits(double qx, double qy, double range) const;
   // The goals' footprints (model_check_goal_shadow): mouth centre, unit outward and across,
-  // the extent along outward and the half width across, grown by the tolerance.
+  // the extent along outward (from the mouth, the goal line's outer edge) and the half width
+  // across, grown by the tolerance beyond the back and the sides.
   struct GoalBox {
     double cx, cy, ux, uy, from, to, half_width;
   };

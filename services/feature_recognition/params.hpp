@@ -118,9 +118,10 @@ struct RecognitionParams {
   int model_check_max_points = 1000;
   // Distance grid: node spacing and margin beyond the field's lines, m.
   // The goals' shadow: a point whose ray from the robot passes through a goal of the pose
-  // checked (the goal's footprint, grown by model_check_tolerance) may be the goal itself (its
-  // posts and frame, white in msl, seen as line points beyond the goal line); such points count
-  // as neither fitting nor not fitting.
+  // checked (the goal's footprint from the mouth on, grown by model_check_tolerance at its
+  // sides and back) may be the goal itself (its posts and frame, white in msl, seen as line
+  // points beyond the goal line); such points count as neither fitting nor not fitting. Not for
+  // a robot within model_check_tolerance of the goal's mouth or in it.
   bool model_check_goal_shadow = false;
   double model_check_cell = 0.05;
   double model_check_margin = 2.0;
