@@ -68,6 +68,22 @@ int pointsAlong(const std::vector<Vec2>& points, const Vec2& from, const Vec2& d
   return count;
 }
 
+int pointsOffLegs(const std::vector<Vec2>& points, const Vec2& corner,
+                  const std::vector<Vec2>& legs, double from, double reach) {
+  int count = 0;
+  for (const Vec2& p : points) {
+    const Vec2 d = p - corner;
+    const double r = d.norm();
+    if (r < from || r > reach) continue;
+    const double tolerance = 0.1 + 0.02 * p.norm();
+    const bool on_leg = std::any_of(legs.begin(), legs.end(), [&](const Vec2& leg) {
+      return d.dot(leg) >= 0.0 && std::abs(leg.x() * d.y() - leg.y() * d.x()) <= tolerance;
+    });
+    if (!on_leg) ++count;
+  }
+  return count;
+}
+
 bool identifyLineEnd(const LineEnd& end, const std::vector<ModelJunction>& models,
                      const std::vector<Vec2>& points, const ModelCheck& check,
                      const RecognitionParams& params, LineEndIdentity& out) {
@@ -122,28 +138,24 @@ bool identifyLineEnd(const LineEnd& end, const std::vector<ModelJunction>& model
       out.shifted_share = std::max(out.shifted_share, check.fit(others, pose).share());
     }
   }
-  // Evidence of the corner's other line: a few points where the model puts it. And the L, not
-  // a T: across the seen line, where the model has no leg at this corner (at a penalty corner
-  // the side line does not continue beyond the front line), the points must not show a line
-  // either (at the halfway line's end the touch line runs on to both sides).
+  // Evidence of the corner's other line: a few points where the model puts it (across the seen
+  // line, where the model's other leg runs).
   const ModelJunction& model = models[out.identity.model];
-  const Vec2 across_line(-end.into.y(), end.into.x());
-  for (double sign : {-1.0, 1.0}) {
-    const Vec2 direction = sign * across_line;
-    double reach = -1.0;  // no model leg this way
-    for (std::size_t l = 0; l < model.legs.size(); ++l) {
-      const Vec2 leg = geometry::rotate(model.legs[l], -robot.phi);
-      if (leg.dot(direction) > 0.5)
-        reach = std::min(params.line_end_side_reach, model.leg_lengths[l]);
-    }
-    const int count = pointsAlong(points, out.corner, direction,
-                                  reach > 0.0 ? reach : params.line_end_side_reach);
-    if (reach > 0.0) {
-      out.side_points += count;
-    } else {
-      out.beyond_points += count;
-    }
+  thread_local std::vector<Vec2> legs;
+  legs.clear();
+  for (const Vec2& leg : model.legs)
+    legs.push_back(geometry::rotate(leg, -robot.phi));
+  for (std::size_t l = 0; l < legs.size(); ++l) {
+    if (std::abs(legs[l].dot(end.into)) > 0.5) continue;  // the seen line's own leg
+    out.side_points += pointsAlong(points, out.corner, legs[l],
+                                   std::min(params.line_end_side_reach, model.leg_lengths[l]));
   }
+  // An L, not a T or a bend: around the corner (line_end_side_reach), off the model's legs, the
+  // points must show nothing either. At a penalty corner both lines end there; at the halfway
+  // line's end the touch line runs on to both sides, and a flat piece of the centre circle that
+  // looks like a line ending goes on curving away from its "corner".
+  out.beyond_points = pointsOffLegs(points, out.corner, legs, params.line_end_beyond_from,
+                                    params.line_end_side_reach);
   const int side_points = out.side_points;
   const double share = out.identity.fit.share();
   out.identified =

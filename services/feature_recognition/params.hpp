@@ -164,10 +164,11 @@ struct RecognitionParams {
   // frames (the halfway line's end at a touch line read as a penalty corner, 10.9 m off).
   int line_end_alone_side_points = 0;
   double line_end_side_reach = 0.6;
-  // An L, not a T: the corner's side line continued beyond the corner (across the seen line,
-  // where the model has no line) may show at most this many points, counted as the side
-  // points are (negative = not tested).
+  // An L, not a T: within line_end_side_reach of the corner, off its two lines (pointsOffLegs),
+  // at most this many points (negative = not tested): at a penalty corner nothing else is near.
   int line_end_max_beyond_points = -1;
+  // ... counted from this distance of the corner on, m.
+  double line_end_beyond_from = 0.1;
   // Both lines of an L placed by junction_identity are at least this long, m.
   double min_identity_leg = 0.35;
 

@@ -76,6 +76,7 @@ struct Options {
   // model_check_goal_shadow (0 off, 1 on, -1 its default).
   int max_beyond_points = -2;
   int goal_shadow = -1;
+  double beyond_from = -1.0;
   // Frames to run from first_frame (0 = to the end of the path).
   int count = 0;
   // Every this many frames, the frame is also evaluated by a freshly built pipeline (camera,
@@ -717,6 +718,7 @@ feature_recognition::RecognitionParams recognitionParamsOf(const Options& option
   if (options.max_beyond_points >= -1)
     recognition_params.line_end_max_beyond_points = options.max_beyond_points;
   if (options.goal_shadow >= 0) recognition_params.model_check_goal_shadow = options.goal_shadow;
+  if (options.beyond_from >= 0.0) recognition_params.line_end_beyond_from = options.beyond_from;
   return recognition_params;
 }
 
@@ -1069,6 +1071,8 @@ void addOptions(CLI::App& app, Options& options) {
                  "The recogniser's line_end_max_beyond_points (an L, not a T: at most this many "
                  "points on the corner's side line beyond the corner; -1 = not tested)")
       ->check(CLI::Range(-1, 100));
+  app.add_option("--beyond-from", options.beyond_from, "The recogniser's line_end_beyond_from (m)")
+      ->check(CLI::Range(0.0, 10.0));
   app.add_option("--goal-shadow", options.goal_shadow,
                  "The recogniser's model_check_goal_shadow (1: points in a goal's shadow count "
                  "neither as fitting nor as not fitting; 0: they count)")
