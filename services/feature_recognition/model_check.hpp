@@ -82,8 +82,15 @@ class ModelCheck {
     double cx, cy, ux, uy, from, to, half_width;
   };
   std::vector<GoalBox> goal_boxes_;
-  // True if the segment from the robot (rx, ry) to the field point (qx, qy) crosses a goal box.
-  bool inGoalShadow(double rx, double ry, double qx, double qy) const;
+  // A goal box seen from the robot: the robot's position along and across it, and whether the
+  // robot is in or at the goal (then it casts no shadow).
+  struct GoalView {
+    double ar = 0.0, cr = 0.0;
+    bool none = true;
+  };
+  GoalView goalView(const GoalBox& box, double rx, double ry) const;
+  // True if the segment from the robot to the field point (qx, qy) crosses the goal box.
+  bool inGoalShadow(const GoalBox& box, const GoalView& view, double qx, double qy) const;
   double tolerance_;
   double tolerance_per_m_;
   double range_;
