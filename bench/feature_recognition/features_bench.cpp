@@ -74,8 +74,9 @@ const Recorded& rendered320() {
   return data;
 }
 
-void recognizeFrames(benchmark::State& state, const Recorded& data) {
-  feature_recognition::FeatureRecognizer recognizer(data.field);
+void recognizeFrames(benchmark::State& state, const Recorded& data,
+                     const feature_recognition::RecognitionParams& params = {}) {
+  feature_recognition::FeatureRecognizer recognizer(data.field, params);
   perception::FieldFeatures out;
   std::size_t i = 0;
   for (auto _ : state) {
@@ -91,6 +92,21 @@ void BM_RecognizeRecordedMatch640(benchmark::State& state) {
   recognizeFrames(state, recordedMatch());
 }
 BENCHMARK(BM_RecognizeRecordedMatch640)->Unit(benchmark::kMicrosecond);
+
+// The recogniser with the rules of features9f (line ends without a partner when their side
+// line shows 2 points, not at a T, the goals' shadow in the model check).
+feature_recognition::RecognitionParams features9fParams() {
+  feature_recognition::RecognitionParams params;
+  params.line_end_alone_side_points = 2;
+  params.line_end_max_beyond_points = 1;
+  params.model_check_goal_shadow = true;
+  return params;
+}
+
+void BM_RecognizeRecordedMatch640Features9f(benchmark::State& state) {
+  recognizeFrames(state, recordedMatch(), features9fParams());
+}
+BENCHMARK(BM_RecognizeRecordedMatch640Features9f)->Unit(benchmark::kMicrosecond);
 
 void BM_RecognizeRendered320(benchmark::State& state) {
   recognizeFrames(state, rendered320());

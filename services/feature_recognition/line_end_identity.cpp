@@ -56,6 +56,34 @@ void candidateLineEnds(const LineStructure& structure, const field::FieldModel& 
   }
 }
 
+int pointsAlong(const std::vector<Vec2>& points, const Vec2& from, const Vec2& direction,
+                double reach) {
+  int count = 0;
+  for (const Vec2& p : points) {
+    const Vec2 d = p - from;
+    const double t = d.dot(direction);
+    if (t < 0.1 || t > reach) continue;
+    if (std::abs(direction.x() * d.y() - direction.y() * d.x()) <= 0.1 + 0.02 * p.norm()) ++count;
+  }
+  return count;
+}
+
+int pointsOffLegs(const std::vector<Vec2>& points, const Vec2& corner,
+                  const std::vector<Vec2>& legs, double from, double reach) {
+  int count = 0;
+  for (const Vec2& p : points) {
+    const Vec2 d = p - corner;
+    const double r = d.norm();
+    if (r < from || r > reach) continue;
+    const double tolerance = 0.1 + 0.02 * p.norm();
+    const bool on_leg = std::any_of(legs.begin(), legs.end(), [&](const Vec2& leg) {
+      return d.dot(leg) >= 0.0 && std::abs(leg.x() * d.y() - leg.y() * d.x()) <= tolerance;
+    });
+    if (!on_leg) ++count;
+  }
+  return count;
+}
+
 bool identifyLineEnd(const LineEnd& end, const std::vector<ModelJunction>& models,
                      const std::vector<Vec2>& points, const ModelCheck& check,
                      const RecognitionParams& params, LineEndIdentity& out) {
@@ -110,28 +138,34 @@ bool identifyLineEnd(const LineEnd& end, const std::vector<ModelJunction>& model
       out.shifted_share = std::max(out.shifted_share, check.fit(others, pose).share());
     }
   }
-  // Evidence of the corner's other line: a few points where the model puts it.
-  int side_points = 0;
+  // Evidence of the corner's other line: a few points where the model puts it (across the seen
+  // line, where the model's other leg runs).
   const ModelJunction& model = models[out.identity.model];
-  for (std::size_t l = 0; l < model.legs.size(); ++l) {
-    const Vec2 leg = geometry::rotate(model.legs[l], -robot.phi);
-    if (std::abs(leg.dot(end.into)) > 0.5) continue;  // the seen line's own leg
-    const double reach = std::min(params.line_end_side_reach, model.leg_lengths[l]);
-    for (const Vec2& p : points) {
-      const Vec2 d = p - out.corner;
-      const double t = d.dot(leg);
-      if (t < 0.1 || t > reach) continue;
-      if (std::abs(leg.x() * d.y() - leg.y() * d.x()) <= 0.1 + 0.02 * p.norm()) ++side_points;
-    }
+  thread_local std::vector<Vec2> legs;
+  legs.clear();
+  for (const Vec2& leg : model.legs)
+    legs.push_back(geometry::rotate(leg, -robot.phi));
+  for (std::size_t l = 0; l < legs.size(); ++l) {
+    if (std::abs(legs[l].dot(end.into)) > 0.5) continue;  // the seen line's own leg
+    out.side_points += pointsAlong(points, out.corner, legs[l],
+                                   std::min(params.line_end_side_reach, model.leg_lengths[l]));
   }
-  out.side_points = side_points;
+  // An L, not a T or a bend: around the corner (line_end_side_reach), off the model's legs, the
+  // points must show nothing either. At a penalty corner both lines end there; at the halfway
+  // line's end the touch line runs on to both sides, and a flat piece of the centre circle that
+  // looks like a line ending goes on curving away from its "corner".
+  out.beyond_points = pointsOffLegs(points, out.corner, legs, params.line_end_beyond_from,
+                                    params.line_end_side_reach);
+  const int side_points = out.side_points;
   const double share = out.identity.fit.share();
   out.identified =
       out.identity.fit.points >= params.identity_min_points && share >= params.identity_min_share &&
       out.identity.rival_share <= share - params.identity_margin &&
       out.shifted_share <= share - params.line_end_shift_margin &&
       side_points >=
-          (end.partner ? params.line_end_min_side_points : params.line_end_alone_side_points);
+          (end.partner ? params.line_end_min_side_points : params.line_end_alone_side_points) &&
+      (params.line_end_max_beyond_points < 0 ||
+       out.beyond_points <= params.line_end_max_beyond_points);
   return out.identified;
 }
 

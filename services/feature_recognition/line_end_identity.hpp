@@ -52,10 +52,24 @@ struct LineEndIdentity {
   // other points (the line's last point is not the corner: the points stop up to a sample
   // spacing short of it).
   Vec2 corner = Vec2::Zero();
-  // Points on the first line_end_side_reach metres of the corner's other line.
+  // Points on the first line_end_side_reach metres of the corner's other line, and those as near
+  // the corner but on none of its lines (pointsOffLegs: a T or a curve shows some there, an L
+  // does not).
   int side_points = 0;
+  int beyond_points = 0;
   bool identified = false;
 };
+
+// The points 0.1 m to `reach` from `from` along the unit `direction`, within 0.1 m + 2 cm per
+// metre of range of that ray (robot frame).
+int pointsAlong(const std::vector<Vec2>& points, const Vec2& from, const Vec2& direction,
+                double reach);
+
+// The points between `from` and `reach` from `corner` that are not on one of its `legs` (unit
+// directions from the corner; within 0.1 m + 2 cm per metre of range of the ray): what an L
+// corner's surroundings should not show (robot frame).
+int pointsOffLegs(const std::vector<Vec2>& points, const Vec2& corner,
+                  const std::vector<Vec2>& legs, double from, double reach);
 
 // Places `end` on the field (see the file comment); `models` from modelJunctions(). Returns false
 // at once (cheaply) when no model penalty corner fits the other points well enough to be worth

@@ -1,6 +1,7 @@
 #include "services/feature_recognition/model_check.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <stdexcept>
 
@@ -21,6 +22,12 @@ ModelCheck::ModelCheck(const field::FieldModel& field, const RecognitionParams& 
     throw std::invalid_argument(
         "ModelCheck: tolerance and range must be positive, shares in [0, 1], max_points >= 1, "
         "min_other_points >= 0");
+  }
+  if (params.model_check_goal_shadow) {
+    for (const field::Goal& g : field.goals()) {
+      goal_boxes_.push_back({g.mouth_centre.x(), g.mouth_centre.y(), g.outward.x(), g.outward.y(),
+                             0.0, g.depth + tolerance_, g.width / 2 + tolerance_});
+    }
   }
   columns_ = grid_.columns();
   rows_ = grid_.rows();
@@ -57,6 +64,34 @@ bool ModelCheck::fits(double qx, double qy, double range) const {
   return units * kUnit <= limit;
 }
 
+ModelCheck::GoalView ModelCheck::goalView(const GoalBox& b, double rx, double ry) const {
+  GoalView v;
+  v.ar = (rx - b.cx) * b.ux + (ry - b.cy) * b.uy;
+  v.cr = -(rx - b.cx) * b.uy + (ry - b.cy) * b.ux;
+  // A robot in the goal (or at its mouth) sees the goal's parts all around: no shadow.
+  v.none = v.ar >= b.from - tolerance_ && std::abs(v.cr) <= b.half_width;
+  return v;
+}
+
+bool ModelCheck::inGoalShadow(const GoalBox& b, const GoalView& v, double qx, double qy) const {
+  if (v.none) return false;
+  // Along (a) and across (c) the goal, from its mouth centre.
+  const double aq = (qx - b.cx) * b.ux + (qy - b.cy) * b.uy;
+  if (std::max(v.ar, aq) < b.from) return false;  // both in front of the goal: the usual case
+  const double cq = -(qx - b.cx) * b.uy + (qy - b.cy) * b.ux;
+  // The segment r + t (q - r), t in [0, 1], against the slabs of the box.
+  double t0 = 0.0, t1 = 1.0;
+  auto clip = [&](double p, double d, double lo, double hi) {
+    if (std::abs(d) < 1e-12) return p >= lo && p <= hi;
+    double ta = (lo - p) / d, tb = (hi - p) / d;
+    if (ta > tb) std::swap(ta, tb);
+    t0 = std::max(t0, ta);
+    t1 = std::min(t1, tb);
+    return t0 <= t1;
+  };
+  return clip(v.ar, aq - v.ar, b.from, b.to) && clip(v.cr, cq - v.cr, -b.half_width, b.half_width);
+}
+
 ModelFit ModelCheck::fit(const std::vector<geometry::Vec2>& points,
                          const geometry::Pose2& robot) const {
   return fit(points, robot, max_points_);
@@ -70,11 +105,30 @@ ModelFit ModelCheck::fit(const std::vector<geometry::Vec2>& points, const geomet
   const std::size_t limit = static_cast<std::size_t>(std::clamp(max_points, 1, max_points_));
   const std::size_t step = std::max<std::size_t>(1, (n + limit - 1) / limit);
   const double c = std::cos(robot.phi), s = std::sin(robot.phi);
+  // The goals as seen from the robot (model_check_goal_shadow; the field has at most two).
+  // Only goals whose mouth is within the check's range can shadow a point.
+  std::array<GoalView, 2> views;
+  std::array<const GoalBox*, 2> boxes{};
+  std::size_t goals = 0;
+  for (const GoalBox& b : goal_boxes_) {
+    const GoalView v = goalView(b, robot.x, robot.y);
+    if (v.none || b.from - v.ar > range_ || goals == views.size()) continue;
+    views[goals] = v;
+    boxes[goals++] = &b;
+  }
   for (std::size_t i = 0; i < n; i += step) {
     const geometry::Vec2& p = points[i];
     const double range = p.norm();
     if (!(range <= range_)) continue;
     const geometry::Vec2 q(robot.x + c * p.x() - s * p.y(), robot.y + s * p.x() + c * p.y());
+    bool shadowed = false;
+    for (std::size_t g = 0; g < goals && !shadowed; ++g) {
+      const GoalBox& b = *boxes[g];
+      // The cheap part inline: both the robot and the point in front of the goal's mouth.
+      if (views[g].ar < b.from && (q.x() - b.cx) * b.ux + (q.y() - b.cy) * b.uy < b.from) continue;
+      shadowed = inGoalShadow(b, views[g], q.x(), q.y());
+    }
+    if (shadowed) continue;
     ++out.points;
     if (fits(q.x(), q.y(), range)) ++out.inliers;
   }

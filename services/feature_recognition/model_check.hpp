@@ -41,7 +41,8 @@ class ModelCheck {
   // unusable parameters.
   ModelCheck(const field::FieldModel& field, const RecognitionParams& params);
 
-  // How well `points` (robot frame, m) fit the field's lines with the robot at `robot`.
+  // How well `points` (robot frame, m) fit the field's lines with the robot at `robot`. With
+  // model_check_goal_shadow, points in a goal's shadow are not counted at all.
   ModelFit fit(const std::vector<geometry::Vec2>& points, const geometry::Pose2& robot) const;
   // As fit(), but on at most `max_points` of them (evenly thinned): a cheaper estimate of the
   // share when many poses are compared.
@@ -74,6 +75,22 @@ class ModelCheck {
   // True if the field point q (found at `range` from the robot) is within the tolerance of a
   // model line: the bilinear interpolation of the compact grid, the exact grid outside it.
   bool fits(double qx, double qy, double range) const;
+  // The goals' footprints (model_check_goal_shadow): mouth centre, unit outward and across,
+  // the extent along outward (from the mouth, the goal line's outer edge) and the half width
+  // across, grown by the tolerance beyond the back and the sides.
+  struct GoalBox {
+    double cx, cy, ux, uy, from, to, half_width;
+  };
+  std::vector<GoalBox> goal_boxes_;
+  // A goal box seen from the robot: the robot's position along and across it, and whether the
+  // robot is in or at the goal (then it casts no shadow).
+  struct GoalView {
+    double ar = 0.0, cr = 0.0;
+    bool none = true;
+  };
+  GoalView goalView(const GoalBox& box, double rx, double ry) const;
+  // True if the segment from the robot to the field point (qx, qy) crosses the goal box.
+  bool inGoalShadow(const GoalBox& box, const GoalView& view, double qx, double qy) const;
   double tolerance_;
   double tolerance_per_m_;
   double range_;

@@ -117,6 +117,12 @@ struct RecognitionParams {
   // At most this many points are looked up per hypothesis (evenly thinned beyond).
   int model_check_max_points = 1000;
   // Distance grid: node spacing and margin beyond the field's lines, m.
+  // The goals' shadow: a point whose ray from the robot passes through a goal of the pose
+  // checked (the goal's footprint from the mouth on, grown by model_check_tolerance at its
+  // sides and back) may be the goal itself (its posts and frame, white in msl, seen as line
+  // points beyond the goal line); such points count as neither fitting nor not fitting. Not for
+  // a robot within model_check_tolerance of the goal's mouth or in it.
+  bool model_check_goal_shadow = false;
   double model_check_cell = 0.05;
   double model_check_margin = 2.0;
 
@@ -158,6 +164,11 @@ struct RecognitionParams {
   // frames (the halfway line's end at a touch line read as a penalty corner, 10.9 m off).
   int line_end_alone_side_points = 0;
   double line_end_side_reach = 0.6;
+  // An L, not a T: within line_end_side_reach of the corner, off its two lines (pointsOffLegs),
+  // at most this many points (negative = not tested): at a penalty corner nothing else is near.
+  int line_end_max_beyond_points = -1;
+  // ... counted from this distance of the corner on, m.
+  double line_end_beyond_from = 0.1;
   // Both lines of an L placed by junction_identity are at least this long, m.
   double min_identity_leg = 0.35;
 

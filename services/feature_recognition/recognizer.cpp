@@ -220,6 +220,8 @@ InputCheck FeatureRecognizer::recognize(const perception::LinePoints& in,
       c.others = identity.identity.fit;
       c.rival_share = identity.identity.rival_share;
       c.shifted_share = identity.shifted_share;
+      c.side_points = identity.side_points;
+      c.beyond_points = identity.beyond_points;
       c.accepted = identity.identified && model_check_.accepts(c.fit, c.others);
       checked_.push_back(c);
       if (!c.accepted) continue;

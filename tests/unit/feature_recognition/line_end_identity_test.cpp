@@ -162,6 +162,115 @@ TEST(LineEndIdentity, GoalAreaCornerWithoutItsSideLineIsFoundFromTheFrontLineEnd
   EXPECT_FALSE(cornerFound(false));
 }
 
+// An L, not a T: the same goal-area corner, but with a line crossing the front line's end (the
+// side line continued 0.6 m beyond the corner, as the touch line runs on at the halfway line's
+// end) is no corner once line_end_max_beyond_points is set; the bare corner has nothing there.
+TEST(LineEndIdentity, ASideLineThatContinuesBeyondTheCornerMakesATNotACorner) {
+  const field::FieldModel field = field::loadFieldPreset("msl");
+  const GoalArea area = goalAreaOf(field);
+  const Pose2 truth{8.2, 0.6, 0.3};
+  const perception::LinePoints full = test::frameAt(field, truth, 4.5, 0.12, 0.005);
+  const Vec2 side_cut = area.corner + 0.3 * (area.side_end - area.corner).normalized();
+  const perception::LinePoints corner_frame = without(full, truth, side_cut, area.side_end, 0.06);
+  const ModelCheck check(field, RecognitionParams{});
+  const std::vector<ModelJunction> models = modelJunctions(field);
+  LineEnd end;
+  end.position = geometry::pointFieldToRobot(truth, area.corner);
+  end.into = geometry::rotate(Vec2(0.0, -1.0), -truth.phi);
+  end.length = 2.0;
+  RecognitionParams params;
+  params.line_end_max_beyond_points = 1;
+  LineEndIdentity identity;
+  ASSERT_TRUE(identifyLineEnd(end, models, pointsOf(corner_frame), check, params, identity));
+  EXPECT_EQ(identity.beyond_points, 0);
+  EXPECT_GE(identity.side_points, 2);
+
+  // The side line continued beyond the corner, away from the goal (field -x): points every
+  // 0.12 m from 0.12 to 0.6 m, as a line crossing there would show.
+  perception::LinePoints t_frame = corner_frame;
+  std::vector<Vec2> beyond;
+  for (double t = 0.12; t <= 0.6 + 1e-9; t += 0.12) {
+    beyond.push_back(geometry::pointFieldToRobot(truth, area.corner - Vec2(t, 0.0)));
+  }
+  test::addSequence(t_frame, beyond);
+  LineEndIdentity t_identity;
+  EXPECT_FALSE(identifyLineEnd(end, models, pointsOf(t_frame), check, params, t_identity));
+  // (Those within the front line's tolerance of the corner count as on it.)
+  EXPECT_GE(t_identity.beyond_points, 3);
+  // Without the test the same end is taken for the corner (the crossing line's points are too
+  // few to move the model check).
+  LineEndIdentity untested;
+  EXPECT_TRUE(
+      identifyLineEnd(end, models, pointsOf(t_frame), check, RecognitionParams{}, untested));
+  // One stray point there (a fragment of clutter) is allowed.
+  perception::LinePoints stray_frame = corner_frame;
+  test::addSequence(stray_frame, {beyond[2]});
+  LineEndIdentity stray_identity;
+  EXPECT_TRUE(identifyLineEnd(end, models, pointsOf(stray_frame), check, params, stray_identity));
+  EXPECT_EQ(stray_identity.beyond_points, 1);
+}
+
+// The geometries of the false hypotheses of 100,000 frames: (frame 87411) the robot by a touch
+// line near the halfway line, whose end at the touch line was read as a penalty corner (the
+// touch line's points on its one side as the side line); the touch line's other side shows
+// there. (Frame 91998) the flat top of the centre circle seen as a line ending where the circle
+// turns away, read as a corner: the circle's points beyond that "corner" show there. At a true
+// penalty corner nothing does.
+TEST(LineEndIdentity, PointsOffTheLegsTellALFromATAndFromTheCircle) {
+  const field::FieldModel field = field::loadFieldPreset("msl");
+  const double half_width = field.width() / 2;
+  auto legsAt = [](const Pose2& pose, const std::vector<Vec2>& field_legs) {
+    std::vector<Vec2> out;
+    for (const Vec2& leg : field_legs)
+      out.push_back(geometry::rotate(leg, -pose.phi));
+    return out;
+  };
+  // Frame 87411: the halfway line (x = 0) meets the touch line (y = W/2).
+  const Pose2 at_touch_line{2.26, half_width - 1.64, 2.515};
+  const auto touch_frame = pointsOf(test::frameAt(field, at_touch_line, 4.5, 0.12, 0.005));
+  const Vec2 t_point = geometry::pointFieldToRobot(at_touch_line, {0.0, half_width});
+  // Read as a corner: the halfway line into the field, the touch line toward +x as its side.
+  const auto t_legs = legsAt(at_touch_line, {Vec2(0.0, -1.0), Vec2(1.0, 0.0)});
+  EXPECT_GE(pointsOffLegs(touch_frame, t_point, t_legs, 0.1, 0.6), 3);
+  // As the T it is (the touch line both ways): nothing off its legs.
+  const auto true_legs = legsAt(at_touch_line, {Vec2(0.0, -1.0), Vec2(1.0, 0.0), Vec2(-1.0, 0.0)});
+  EXPECT_EQ(pointsOffLegs(touch_frame, t_point, true_legs, 0.1, 0.6), 0);
+
+  // Frame 91998: the centre circle's top (0, r) seen 4.2 m away; its flat middle 1.1 m long ends
+  // 0.55 m from the top, where the circle turns away from the tangent.
+  const double r = field.dimensions().centre_circle_radius;
+  const Pose2 above_circle{0.82, r + 4.16, -3.04};
+  const auto circle_frame = pointsOf(test::frameAt(field, above_circle, 4.8, 0.12, 0.005));
+  const Vec2 flat_end = geometry::pointFieldToRobot(above_circle, {-0.6, r});
+  const auto arc_legs = legsAt(above_circle, {Vec2(1.0, 0.0), Vec2(0.0, 1.0)});
+  EXPECT_GE(pointsOffLegs(circle_frame, flat_end, arc_legs, 0.1, 0.6), 2);
+
+  // A penalty-area corner seen from 3 m: only its two lines there.
+  const auto& d = field.dimensions();
+  const Vec2 corner(field.length() / 2 - d.penalty_area_depth, d.penalty_area_width / 2);
+  const Pose2 before_area{corner.x() - 2.0, corner.y() - 2.2, 0.7};
+  const auto area_frame = pointsOf(test::frameAt(field, before_area, 4.5, 0.12, 0.005));
+  const auto corner_legs = legsAt(before_area, {Vec2(0.0, -1.0), Vec2(1.0, 0.0)});
+  EXPECT_EQ(pointsOffLegs(area_frame, geometry::pointFieldToRobot(before_area, corner), corner_legs,
+                          0.1, 0.6),
+            0);
+}
+
+// pointsAlong counts the points on a ray from 0.1 m to its reach, within 0.1 m + 2 cm per metre
+// of range of it.
+TEST(LineEndIdentity, PointsAlongARayCountOnlyThoseNearItWithinItsReach) {
+  const Vec2 from(2.0, 0.0), direction(0.0, 1.0);
+  const std::vector<Vec2> points = {{2.0, 0.05},   // before 0.1 m
+                                    {2.0, 0.2},    // on it
+                                    {2.13, 0.4},   // 0.13 m aside, range 2.17 m: tolerance 0.143 m
+                                    {2.16, 0.4},   // 0.16 m aside: beyond the tolerance
+                                    {2.0, 0.7},    // beyond the reach
+                                    {2.0, -0.3}};  // the other way
+  EXPECT_EQ(pointsAlong(points, from, direction, 0.6), 2);
+  EXPECT_EQ(pointsAlong(points, from, direction, 0.8), 3);
+  EXPECT_EQ(pointsAlong(points, from, -direction, 0.6), 1);
+}
+
 TEST(LineEndIdentity, AnEndAmongParallelLinesOnlyIsRefused) {
   const field::FieldModel field = field::loadFieldPreset("msl");
   const GoalArea area = goalAreaOf(field);

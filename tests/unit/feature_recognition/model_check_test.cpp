@@ -77,6 +77,53 @@ TEST(ModelCheck, ClutterLowersTheShareAndPointsOutOfRangeAreIgnored) {
   EXPECT_FALSE(check.accepts(check.fit(points, truth)));
 }
 
+// The goals' shadow (model_check_goal_shadow): points that the goal's posts and frame would give
+// (behind the goal line, on rays through the goal) count neither way; the same points seen
+// elsewhere, or with the option off, are misfits; a robot standing in the goal has no shadow.
+TEST(ModelCheck, PointsInTheGoalsShadowCountNeitherWay) {
+  const field::FieldModel field = field::loadFieldPreset("msl");
+  const field::Goal& goal = field.goals()[1];  // the opponent's, at +x
+  const double mouth = goal.mouth_centre.x();
+  RecognitionParams params;
+  params.model_check_goal_shadow = true;
+  const ModelCheck with(field, params);
+  const ModelCheck without(field, RecognitionParams{});
+  const Pose2 robot{mouth - 1.0, 0.3, 0.2};
+  const std::vector<Vec2> lines = pointsOf(test::frameAt(field, robot, 5.0, 0.1, 0.005));
+  const ModelFit clean = with.fit(lines, robot);
+  // The goal's back frame and a post, seen as line points on the floor beyond them.
+  std::vector<Vec2> goal_points;
+  for (double y = -goal.width / 2; y <= goal.width / 2 + 1e-9; y += 0.1) {
+    goal_points.push_back(geometry::pointFieldToRobot(robot, {mouth + goal.depth + 0.3, y}));
+  }
+  goal_points.push_back(geometry::pointFieldToRobot(robot, {mouth + 0.5, goal.width / 2 + 0.1}));
+  std::vector<Vec2> points = lines;
+  points.insert(points.end(), goal_points.begin(), goal_points.end());
+  const ModelFit shadowed = with.fit(points, robot);
+  EXPECT_EQ(shadowed.points, clean.points);
+  EXPECT_EQ(shadowed.inliers, clean.inliers);
+  const ModelFit counted = without.fit(points, robot);
+  EXPECT_EQ(counted.points,
+            without.fit(lines, robot).points + static_cast<int>(goal_points.size()));
+  EXPECT_LT(counted.share(), clean.share() - 0.05);
+  // The goal line's own points in front of the mouth still count (and fit).
+  EXPECT_GT(clean.share(), 0.97);
+  EXPECT_EQ(clean.points, without.fit(lines, robot).points);
+
+  // The same points in front of the goal line (no goal on their rays) are misfits.
+  std::vector<Vec2> field_points = lines;
+  for (const Vec2& p : goal_points) {
+    field_points.push_back(p - Vec2(goal.depth + 1.5, 0.0));
+  }
+  const ModelFit in_field = with.fit(field_points, robot);
+  EXPECT_EQ(in_field.points, clean.points + static_cast<int>(goal_points.size()));
+
+  // A robot in the goal's mouth sees the goal all around it: nothing is left out.
+  const Pose2 in_goal{mouth + 0.2, 0.0, 0.0};
+  const std::vector<Vec2> from_goal = pointsOf(test::frameAt(field, in_goal, 5.0, 0.1, 0.005));
+  EXPECT_EQ(with.fit(from_goal, in_goal).points, without.fit(from_goal, in_goal).points);
+}
+
 TEST(ModelCheck, BoundedWorkAndBadParameters) {
   const field::FieldModel field = field::loadFieldPreset("fu2004");
   RecognitionParams params;
