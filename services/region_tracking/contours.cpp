@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <bit>
+#include <stdexcept>
 
 namespace fieldline::region_tracking {
 
@@ -33,14 +34,20 @@ constexpr std::array<std::array<std::int8_t, 16>, 4> kNextDirection = [] {
 }  // namespace
 
 ConnectivityGrid::ConnectivityGrid(const CellGrid& grid)
+    : ConnectivityGrid(grid, PaddedLayout(grid)) {}
+
+ConnectivityGrid::ConnectivityGrid(const CellGrid& grid, const PaddedLayout& layout)
     : grid_(grid),
-      layout_(grid),
+      layout_(layout),
       corner_offset_{0, 1, layout_.width + 1, layout_.width},
       step_{1, layout_.width, -1, -layout_.width},
       bits_(layout_.size(), 0),
       // A contour takes each edge once: at most the four sides of every cell.
       walk_points_(std::make_unique_for_overwrite<ContourPoint[]>(
           4 * static_cast<std::size_t>(layout_.size()))) {
+  if (layout.width < grid.width + 2 || layout.height != grid.height + 2) {
+    throw std::invalid_argument("connectivity grid: the layout does not fit the grid");
+  }
   for (int direction = 0; direction < 4; ++direction) {
     for (int available = 0; available < 16; ++available) {
       const int next = kNextDirection[direction][available];

@@ -135,14 +135,13 @@ std::vector<MaskEdge> maskEdges(const CellGrid& grid, std::span<const std::uint8
 RegionTracker::RegionTracker(const CellGrid& grid, const TrackerConfig& config,
                              std::vector<std::uint8_t> dontTouch)
     : grid_(grid),
-      layout_(grid),
+      layout_(grid, PaddedLayout::kPowerOfTwoPitch),
       neighbour_{layout_.neighbour(0), layout_.neighbour(1), layout_.neighbour(2),
                  layout_.neighbour(3)},
       config_(config),
       visited_(layout_.size(), kBlocked),
-      connectivity_(grid),
+      connectivity_(grid, layout_),
       classified_(layout_.size(), 0),
-      width_inverse_(~std::uint64_t{0} / static_cast<std::uint64_t>(layout_.width) + 1),
       scratch_mark_(layout_.size(), 0) {
   class_slot_.fill(-1);
   seed_parent_.fill(kNoClass);
