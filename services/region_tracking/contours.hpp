@@ -130,8 +130,11 @@ class ConnectivityGrid {
   void clear();
 
  private:
-  void extractAround(int cell, ClassId class_id, ContourSet& out);
-  // Bit k set: side k of the cell at padded index `cell` is a boundary edge not yet followed.
+  // Follows the contours of the sides `sides` (bits, as sidesLeft gives them, nonzero) of a cell
+  // and of its other sides they leave. Out of line: most cells have no side left.
+  [[gnu::noinline]] void extractAround(int cell, unsigned sides, ClassId class_id, ContourSet& out);
+  // Bit k set: side k of the cell at padded index `cell` is a boundary edge not yet followed
+  // (corner_offset_[0] is 0).
   unsigned sidesLeft(int cell) const {
     return (bits_[cell + corner_offset_[0]] & 1u) | (bits_[cell + corner_offset_[1]] & 2u) |
            (bits_[cell + corner_offset_[2]] & 4u) | (bits_[cell + corner_offset_[3]] & 8u);
