@@ -254,14 +254,6 @@ int RegionTracker::regionCells(ClassId class_id) const {
   return slot < 0 ? 0 : classes_[slot].cells;
 }
 
-ClassId RegionTracker::classifyNow(CellIndex cell) {
-  const Cell at = coordinatesOf(cell);
-  const ClassId class_id = classifier_->classify(at.x, at.y);
-  classified_[cell] = static_cast<std::uint16_t>((stamp_ << 8) | class_id);
-  ++stats_.cells_classified;
-  return class_id;
-}
-
 void RegionTracker::deferMaskEdge() {
   const int due = static_cast<int>(frame_count_ % config_.mask_edge_every);
   const auto deferred = static_cast<std::uint16_t>((stamp_ << 8) | kBlocked);

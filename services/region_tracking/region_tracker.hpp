@@ -241,7 +241,14 @@ class RegionTracker {
     if ((entry >> 8) == stamp_) return static_cast<ClassId>(entry & 0xFF);
     return classifyNow(cell);
   }
-  ClassId classifyNow(CellIndex cell);
+  // Inlined into the hot loops: the call would add a frame to the classifier's own.
+  [[gnu::always_inline]] ClassId classifyNow(CellIndex cell) {
+    const Cell at = coordinatesOf(cell);
+    const ClassId class_id = classifier_->classify(at.x, at.y);
+    classified_[cell] = static_cast<std::uint16_t>((stamp_ << 8) | class_id);
+    ++stats_.cells_classified;
+    return class_id;
+  }
   // classOf, but a deferred mask-edge cell is classified all the same (seeding, initial search).
   ClassId classOfDue(CellIndex cell) {
     const ClassId class_id = classOf(cell);
