@@ -74,6 +74,7 @@ void loadLocalizer(const config::Node& n, LocalizerParams& p) {
   p.twin_margin_sigmas = n.getOr<double>("twin_margin_sigmas", p.twin_margin_sigmas, 0.0, 100.0);
   p.max_waiting_frames = static_cast<std::size_t>(
       n.getOr<int>("max_waiting_frames", static_cast<int>(p.max_waiting_frames), 1, 1000));
+  p.max_wait_us = micros(n.getOr<double>("max_wait_s", seconds(p.max_wait_us), 0.05, 5.0));
   p.feature_gate_m = n.getOr<double>("feature_gate_m", p.feature_gate_m, 0.0, 20.0);
   p.feature_gate_rad = n.getOr<double>("feature_gate_rad", p.feature_gate_rad, 0.0, 4.0);
   p.contradict_m = n.getOr<double>("contradict_m", p.contradict_m, 0.0, 30.0);

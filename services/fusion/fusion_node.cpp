@@ -35,6 +35,9 @@ FusionNode::FusionNode(bus::Node& node, FusionNodeOptions options, MatcherFuncti
     throw std::invalid_argument("fusion: ball_rate_hz must be in (0, 1000]");
   }
   node_.subscribe(bus::channels::kOdometry, [this](const odometry_t& m) { onOdometry(m); });
+  // The filter runs on odometry at 50 Hz: without it (bridge dead, serial unplugged) the frames
+  // are fused on the held velocity and SERVICE_STATUS says WARN "ODOMETRY silent".
+  node_.requireInput(bus::channels::kOdometry, 25.0);
   node_.subscribe(bus::channels::kVisionLines, [this](const line_contours_t& m) { onLines(m); });
   node_.subscribe(bus::channels::kFieldFeatures,
                   [this](const field_features_t& m) { onFeatures(m); });
@@ -154,6 +157,7 @@ void FusionNode::updateMetrics() {
                   static_cast<double>(localizer_.counters().twin_resets_refused));
   node_.setMetric("frames_waited_for_odometry",
                   static_cast<double>(localizer_.counters().frames_waited));
+  node_.setMetric("odometry_silent", localizer_.odometrySilent(node_.now()) ? 1.0 : 0.0);
   node_.setMetric("replays", static_cast<double>(localizer_.filter().replays()));
   node_.setMetric("gate_resets", static_cast<double>(localizer_.counters().resets));
   node_.setMetric("slips", static_cast<double>(localizer_.counters().slips));

@@ -78,6 +78,7 @@ Localizer::Localizer(const robot::RobotParams& robot, LocalizerParams params,
       dead_reckoning_(deadReckoningLimits()) {}
 
 bool Localizer::addOdometry(const OdometrySample& sample, Utime now) {
+  last_odometry_arrival_ = std::max(last_odometry_arrival_, now);
   const CurrentContactDetector::Result contact = currents_.add(sample);
   if (!contact.rejection.empty()) count(contact.rejection);
   if (contact.contact) {
@@ -172,7 +173,7 @@ void Localizer::addLines(std::span<const perception::LinePoint> points, Utime ut
     count("lines_from_future");
     return;
   }
-  if (utime > newestOdometry() || !waiting_.empty()) {
+  if ((utime > newestOdometry() && !odometrySilent(now)) || !waiting_.empty()) {
     WaitingFrame w;
     w.utime = utime;
     w.points.assign(points.begin(), points.end());
@@ -187,13 +188,13 @@ void Localizer::addLines(std::span<const perception::LinePoint> points, Utime ut
 void Localizer::processWaiting(Utime now) {
   std::stable_sort(waiting_.begin(), waiting_.end(),
                    [](const WaitingFrame& a, const WaitingFrame& b) { return a.utime < b.utime; });
-  while (waiting_.size() > params_.max_waiting_frames) {
-    count(waiting_.front().features ? "features_odometry_stalled" : "lines_odometry_stalled");
-    waiting_.erase(waiting_.begin());
-  }
+  // Ready: odometry reached the frame, or it waited its time, or odometry is silent (then the
+  // filter predicts with the held velocity rather than never fusing a frame again).
   const Utime reached = newestOdometry();
+  const bool silent = odometrySilent(now);
   std::size_t done = 0;
-  while (done < waiting_.size() && waiting_[done].utime <= reached) {
+  while (done < waiting_.size() && (waiting_[done].utime <= reached || silent ||
+                                    now - waiting_[done].utime > params_.max_wait_us)) {
     WaitingFrame& w = waiting_[done];
     if (w.features) {
       processFeatures(*w.features, w.utime, now);
@@ -203,6 +204,11 @@ void Localizer::processWaiting(Utime now) {
     ++done;
   }
   waiting_.erase(waiting_.begin(), waiting_.begin() + static_cast<std::ptrdiff_t>(done));
+  // Only what is still waiting is trimmed.
+  while (waiting_.size() > params_.max_waiting_frames) {
+    count(waiting_.front().features ? "features_odometry_stalled" : "lines_odometry_stalled");
+    waiting_.erase(waiting_.begin());
+  }
 }
 
 void Localizer::processLines(std::span<const perception::LinePoint> points, Utime utime,
@@ -623,7 +629,7 @@ void Localizer::addFeatures(const perception::FieldFeatures& features, Utime uti
     count("features_from_future");
     return;
   }
-  if (utime > newestOdometry() || !waiting_.empty()) {
+  if ((utime > newestOdometry() && !odometrySilent(now)) || !waiting_.empty()) {
     WaitingFrame w;
     w.utime = utime;
     w.features = features;

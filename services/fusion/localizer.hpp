@@ -99,8 +99,14 @@ struct LocalizerParams {
   // (a starved motor bridge delivers seconds of samples late, at once): matched earlier, it would
   // be matched against a pose the held velocity extrapolated, which a turn makes wrong, and could
   // lose the robot or commit it to a wrong place. At most this many frames wait; beyond, the
-  // oldest is dropped (counted "lines_odometry_stalled", "features_odometry_stalled").
+  // oldest is dropped (counted "lines_odometry_stalled", "features_odometry_stalled"). The
+  // wait is bounded in time too (max_wait_us), so 40 frames hold 0.4 s of 30 Hz lines plus 30 Hz
+  // features with room to spare.
   std::size_t max_waiting_frames = 40;
+  // A waiting frame older than this (of `now`), or any frame while no odometry arrived for this
+  // long (bridge dead, serial unplugged), is processed at once, the filter predicting with the
+  // held velocity: without odometry the pose still gets vision's corrections, µs.
+  Utime max_wait_us = 400'000;
   // The best hypothesis must beat every other (but its twin) by this mean cost, m.
   double commit_margin_m = 0.02;
   // Layer 3: a feature hypothesis within these of the estimate is fused, m / rad.
@@ -232,6 +238,10 @@ class Localizer {
   Eigen::Matrix3d reportedCovariance(const EkfState& s) const;
 
   perception::LocalizationStatus mode() const { return mode_; }
+  // True when no odometry sample arrived for LocalizerParams::max_wait_us (or none ever).
+  bool odometrySilent(Utime now) const {
+    return last_odometry_arrival_ == 0 || now - last_odometry_arrival_ > params_.max_wait_us;
+  }
   // True while the committed pose was chosen over its twin by the start-up prior only, or when
   // no trusted reference told them apart (LocalizerParams::twin_margin_m).
   bool ambiguous() const { return ambiguous_; }
@@ -323,6 +333,8 @@ class Localizer {
   std::optional<double> weighted_heading_offset_;
   double last_cost_ = -1.0;
   Utime last_lines_arrival_ = 0;
+  // Arrival (`now`) of the newest odometry sample (0: none yet).
+  Utime last_odometry_arrival_ = 0;
   LocalizerCounters counters_;
 };
 

@@ -96,6 +96,7 @@ void BridgeCore::onConnected() {
   decoder_.reset();
   last_sample_.reset();
   resync_ = true;
+  clock_.reset();
 }
 
 void BridgeCore::onBytes(std::span<const std::uint8_t> bytes, Utime now,
@@ -115,14 +116,6 @@ void BridgeCore::onBytes(std::span<const std::uint8_t> bytes, Utime now,
   add(proto::Reject::kVersion, before.version_errors, after.version_errors);
   add(proto::Reject::kUnknownType, before.unknown_type_errors, after.unknown_type_errors);
   add(proto::Reject::kOversize, before.oversize_errors, after.oversize_errors);
-  // Every sample of this read feeds the clock mapping before any is stamped: samples that
-  // arrive together (the bridge was busy) are stamped by their own controller time, and the
-  // newest of them carries the read's least delay.
-  for (const auto& m : messages_) {
-    if (const auto* sample = std::get_if<proto::OdometrySample>(&m)) {
-      clock_.observe(static_cast<std::int64_t>(sample->controller_time_us), now);
-    }
-  }
   for (const auto& m : messages_) {
     if (const auto* hello = std::get_if<proto::Hello>(&m)) {
       if (hello->role == proto::Role::kController) {
@@ -131,19 +124,63 @@ void BridgeCore::onBytes(std::span<const std::uint8_t> bytes, Utime now,
           count("controller_ticks_mismatch");
         }
       }
-      continue;
-    }
-    if (const auto* err = std::get_if<proto::ErrorReport>(&m)) {
+    } else if (const auto* err = std::get_if<proto::ErrorReport>(&m)) {
       count("controller_error_" + std::to_string(static_cast<int>(err->code)));
-      continue;
-    }
-    const auto* sample = std::get_if<proto::OdometrySample>(&m);
-    if (!sample) {
+    } else if (!std::get_if<proto::OdometrySample>(&m)) {
       count("unexpected_message");
+    }
+  }
+  // The bridge's checks first: only samples that pass them feed the clock mapping (a replayed
+  // or stale frame must not restart it), and a resync (the reset flag, a discontinuity) starts
+  // the mapping over. Every sample of one stretch feeds it before any of the stretch is stamped:
+  // samples that arrive together (the bridge was busy) are stamped by their own controller time,
+  // and the newest of them carries the read's least delay.
+  checked_.clear();
+  std::optional<proto::OdometrySample> last = last_sample_;
+  std::size_t unstamped = 0;
+  const auto stampStretch = [&] {
+    for (; unstamped < checked_.size(); ++unstamped) {
+      Checked& c = checked_[unstamped];
+      c.utime = clock_.stamp(static_cast<std::int64_t>(c.sample->controller_time_us)).value_or(now);
+    }
+  };
+  for (const auto& m : messages_) {
+    const auto* sample = std::get_if<proto::OdometrySample>(&m);
+    if (!sample) continue;
+    if (sample->controller_time_us > kMaxControllerTimeUs) {
+      count("odometry_controller_time_absurd");  // CRC-valid but no clock runs for 285 years
       continue;
     }
+    if (last && sample->seq == last->seq &&
+        sample->controller_time_us == last->controller_time_us) {
+      count("odometry_duplicate");  // the same frame twice (a replaying line)
+      continue;
+    }
+    bool resync = resync_ || !last || (sample->status & proto::kStatusReset) != 0;
+    if (!resync) {
+      const std::uint32_t gap = sample->seq - last->seq;  // wraps like the counter
+      // A controller that restarted without us seeing its reset flag: seq or clock jumped back
+      // (a huge unsigned gap), stood still, or leapt far ahead. Its ticks no longer continue ours.
+      if (gap == 0 || gap > kMaxSampleGap ||
+          sample->controller_time_us <= last->controller_time_us) {
+        count("odometry_discontinuity");
+        resync = true;
+      }
+    }
+    resync_ = false;
+    if (resync) {
+      stampStretch();
+      clock_.reset();
+    }
+    clock_.observe(static_cast<std::int64_t>(sample->controller_time_us), now);
+    checked_.push_back({sample, resync, now});
+    last = *sample;
+  }
+  stampStretch();
+  for (const Checked& c : checked_) {
+    const proto::OdometrySample* sample = c.sample;
     OdometryOutput o;
-    o.utime = clock_.stamp(static_cast<std::int64_t>(sample->controller_time_us)).value_or(now);
+    o.utime = c.utime;
     o.ticks = sample->ticks;
     o.controller_utime = static_cast<std::int64_t>(sample->controller_time_us);
     if (sample->status & proto::kStatusWatchdog) o.status |= perception::kOdometryWatchdog;
@@ -154,27 +191,10 @@ void BridgeCore::onBytes(std::span<const std::uint8_t> bytes, Utime now,
         o.wheel_current[i] = static_cast<float>((*sample->current_ma)[i]) * 1e-3f;
       o.status |= perception::kOdometryCurrents;
     }
-    if (last_sample_ && sample->seq == last_sample_->seq &&
-        sample->controller_time_us == last_sample_->controller_time_us) {
-      count("odometry_duplicate");  // the same frame twice (a replaying line)
-      continue;
-    }
-    if (sample->status & proto::kStatusReset) resync_ = true;
-    if (!resync_ && last_sample_) {
-      const std::uint32_t gap = sample->seq - last_sample_->seq;  // wraps like the counter
-      // A controller that restarted without us seeing its reset flag: seq or clock jumped back
-      // (a huge unsigned gap), stood still, or leapt far ahead. Its ticks no longer continue ours.
-      if (gap == 0 || gap > kMaxSampleGap ||
-          sample->controller_time_us <= last_sample_->controller_time_us) {
-        count("odometry_discontinuity");
-        resync_ = true;
-      }
-    }
-    if (resync_ || !last_sample_) {
+    if (c.resync) {
       o.status |= perception::kOdometryResync;
       odometry_.reset();
       odometry_.update(sample->ticks);
-      resync_ = false;
     } else {
       const std::uint32_t gap = sample->seq - last_sample_->seq;
       if (gap != 1) {

@@ -58,6 +58,9 @@ class BridgeCore {
   static constexpr Utime kMaxCommandLifetimeUs = 500'000;
   // A seq jump beyond this (1 s of samples at 50 Hz) means the controller restarted: resync.
   static constexpr std::uint32_t kMaxSampleGap = 50;
+  // A controller time beyond this (2^53 µs, 285 years) is refused
+  // ("odometry_controller_time_absurd"): it would overflow the signed clock arithmetic.
+  static constexpr std::uint64_t kMaxControllerTimeUs = std::uint64_t{1} << 53;
   // Movement faster than this times the robot's top speed is corrupt, not real.
   static constexpr double kImplausibleFactor = 2.0;
 
@@ -105,6 +108,13 @@ class BridgeCore {
   std::uint32_t command_seq_ = 0;
   std::optional<serial::OdometrySample> last_sample_;
   bool resync_ = true;
+  // The samples of one read that passed the checks, with their resync and stamp.
+  struct Checked {
+    const serial::OdometrySample* sample;
+    bool resync;
+    Utime utime;
+  };
+  std::vector<Checked> checked_;
   std::uint64_t samples_lost_ = 0;
   std::optional<serial::Hello> controller_hello_;
   std::map<std::string, std::uint64_t> counters_;

@@ -185,6 +185,37 @@ TEST(Localizer, AStallNearTheCentreDoesNotFlipToTheTwin) {
   EXPECT_LT(d.error(), 0.15);
 }
 
+TEST(Localizer, LinesWithoutOdometryAreStillFused) {
+  // The motor bridge dies (serial unplugged): no odometry at all, the camera goes on. The frames
+  // must not wait for odometry forever: after LocalizerParams::max_wait_us of silence they are
+  // fused on the held velocity, so the pose follows the robot the wheels no longer report.
+  Drive d({-2.0, -1.0, 0.0});
+  d.run(1.0, {});
+  ASSERT_EQ(d.localizer.mode(), perception::LocalizationStatus::kTracking);
+  const std::uint64_t corrections = d.localizer.counters().corrections;
+  d.hold_odometry = true;
+  d.run(3.0, {0.3, 0.0, 0.0});
+  EXPECT_TRUE(d.localizer.odometrySilent(d.t + 8'000));
+  EXPECT_GE(d.localizer.counters().corrections, corrections + 15);
+  EXPECT_EQ(d.localizer.counters().rejected.count("lines_odometry_stalled"), 0u);
+  EXPECT_LT(d.error(), 0.2);
+}
+
+TEST(Localizer, FramesWithNoOdometryEverAreSearched) {
+  // No odometry ever (the bridge never came up): the frames are searched, not kept waiting.
+  LocalizerParams params;
+  Localizer localizer(world().robot, params, world().functions());
+  std::mt19937 rng{5};
+  const geometry::Pose2 truth{-3.0, 1.2, 0.4};
+  for (int i = 1; i <= 3; ++i) {
+    const Utime t = kStart + i * 100'000;
+    localizer.addLines(world().view(truth, rng), t - 80'000, t);
+  }
+  EXPECT_TRUE(localizer.odometrySilent(kStart + 300'000));
+  EXPECT_NE(localizer.mode(), perception::LocalizationStatus::kUnknown);  // searched
+  EXPECT_EQ(localizer.counters().rejected.count("lines_odometry_stalled"), 0u);
+}
+
 TEST(Localizer, CarriedOffWithNoOdometryToCarryTheReferenceIsAmbiguous) {
   // The controller resynced (the dead reckoning restarts), then the robot was carried off: no
   // pose before the loss can be carried to the new one, so nothing tells the twins apart.

@@ -312,5 +312,50 @@ TEST_F(BridgeHostile, TheLinksJitterStaysOutOfTheStamps) {
   EXPECT_EQ(bridge.clockRestarts(), 0u);
 }
 
+TEST_F(BridgeHostile, AReplayedOldFrameDoesNotRestartTheClockMapping) {
+  // A replaying line delivers an old frame among the good ones: the bridge resyncs on it (its
+  // checks), the clock mapping starts over without counting a controller restart, and the good
+  // samples after it keep their physical times.
+  const Utime latency = static_cast<Utime>(std::llround(params.controller_latency * 1e6));
+  std::vector<std::uint8_t> old_frame;
+  for (int k = 0; k < 10; ++k) {
+    std::vector<std::uint8_t> wire;
+    firmware.sample(0.02 * (k + 1), {k, -k, 0}, wire);
+    if (k == 2) old_frame = wire;
+    bridge.onBytes(wire, kT0 + 20'000 * k + latency, out);
+  }
+  bridge.onBytes(old_frame, kT0 + 20'000 * 10 + latency, out);
+  for (int k = 10; k < 15; ++k)
+    sample(0.02 * (k + 1), {k, -k, 0}, kT0 + 20'000 * k + latency);
+  EXPECT_EQ(bridge.clockRestarts(), 0u);
+  EXPECT_GE(bridge.counters().at("odometry_discontinuity"), 1u);
+  ASSERT_EQ(out.size(), 16u);
+  for (std::size_t i = 11; i < out.size(); ++i)
+    EXPECT_EQ(out[i].utime, kT0 + 20'000 * static_cast<Utime>(i - 1)) << i;
+}
+
+TEST_F(BridgeHostile, AReconnectStartsTheClockMappingOver) {
+  sample(0.02, {0, 0, 0}, kT0);
+  ASSERT_TRUE(bridge.clockOffset().has_value());
+  bridge.onConnected();
+  EXPECT_FALSE(bridge.clockOffset().has_value());
+  EXPECT_EQ(bridge.clockRestarts(), 0u);
+}
+
+TEST_F(BridgeHostile, AnImplausibleControllerTimeIsRefusedBeforeTheClockMapping) {
+  // CRC-valid, but 2^63 µs would overflow the signed clock arithmetic.
+  serial::OdometrySample bad;
+  bad.seq = 1;
+  bad.controller_time_us = std::uint64_t{1} << 63;
+  std::vector<std::uint8_t> wire{serial::kDelimiter};
+  serial::encode(bad, wire);
+  bridge.onBytes(wire, kT0, out);
+  EXPECT_TRUE(out.empty());
+  EXPECT_EQ(bridge.counters().at("odometry_controller_time_absurd"), 1u);
+  EXPECT_FALSE(bridge.clockOffset().has_value());
+  sample(0.02, {0, 0, 0}, kT0 + 20'000);  // the next good sample goes through
+  ASSERT_EQ(out.size(), 1u);
+}
+
 }  // namespace
 }  // namespace fieldline::motor_bridge
