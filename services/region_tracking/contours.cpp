@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <bit>
+#include <stdexcept>
 
 namespace fieldline::region_tracking {
 
@@ -33,14 +34,20 @@ constexpr std::array<std::array<std::int8_t, 16>, 4> kNextDirection = [] {
 }  // namespace
 
 ConnectivityGrid::ConnectivityGrid(const CellGrid& grid)
+    : ConnectivityGrid(grid, PaddedLayout(grid)) {}
+
+ConnectivityGrid::ConnectivityGrid(const CellGrid& grid, const PaddedLayout& layout)
     : grid_(grid),
-      layout_(grid),
+      layout_(layout),
       corner_offset_{0, 1, layout_.width + 1, layout_.width},
       step_{1, layout_.width, -1, -layout_.width},
       bits_(layout_.size(), 0),
       // A contour takes each edge once: at most the four sides of every cell.
       walk_points_(std::make_unique_for_overwrite<ContourPoint[]>(
           4 * static_cast<std::size_t>(layout_.size()))) {
+  if (layout.width < grid.width + 2 || layout.height != grid.height + 2) {
+    throw std::invalid_argument("connectivity grid: the layout does not fit the grid");
+  }
   for (int direction = 0; direction < 4; ++direction) {
     for (int available = 0; available < 16; ++available) {
       const int next = kNextDirection[direction][available];
@@ -59,22 +66,31 @@ void ConnectivityGrid::clear() {
 
 void ConnectivityGrid::extractContours(std::span<const Cell> cells, ClassId class_id,
                                        ContourSet& out) {
-  for (const Cell cell : cells)
-    extractAround(layout_.index(cell.x, cell.y), class_id, out);
-}
-
-void ConnectivityGrid::extractContoursAt(std::span<const std::int32_t> cells, ClassId class_id,
-                                         ContourSet& out) {
-  for (const std::int32_t cell : cells)
-    extractAround(cell, class_id, out);
+  for (const Cell cell : cells) {
+    const int index = layout_.index(cell.x, cell.y);
+    const unsigned sides = sidesLeft(index);
+    if (sides != 0) extractAround(index, sides, class_id, out);
+  }
 }
 
 // Each boundary cell is checked once: a contour through it is followed completely and its
 // edges removed, so the next edge found on a later cell always starts a new contour. Most cells
 // have no edge left (the contours through them were followed from an earlier cell), so the four
-// sides are tested in one go and the cell is left with one well-predicted branch.
-void ConnectivityGrid::extractAround(int cell, ClassId class_id, ContourSet& out) {
-  unsigned sides = sidesLeft(cell);
+// sides are tested in one go, here in the loop with the grid and the corner offsets in
+// registers, and only a cell with an edge left costs a call.
+void ConnectivityGrid::extractContoursAt(std::span<const std::int32_t> cells, ClassId class_id,
+                                         ContourSet& out) {
+  const std::uint8_t* const bits = bits_.data();
+  const int right = corner_offset_[1], downRight = corner_offset_[2], down = corner_offset_[3];
+  for (const std::int32_t cell : cells) {
+    const std::uint8_t* const corner = bits + cell;
+    const unsigned sides =
+        (corner[0] & 1u) | (corner[right] & 2u) | (corner[downRight] & 4u) | (corner[down] & 8u);
+    if (sides != 0) extractAround(cell, sides, class_id, out);
+  }
+}
+
+void ConnectivityGrid::extractAround(int cell, unsigned sides, ClassId class_id, ContourSet& out) {
   while (sides != 0) {
     const int side = std::countr_zero(sides);
     followContour(cell + corner_offset_[side], side, class_id, out);

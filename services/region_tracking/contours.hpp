@@ -25,11 +25,24 @@ struct Cell {
 
 // Cell (x, y) of a grid stored with a frame of one extra cell on every side, row-major: the
 // neighbours of every real cell exist, so walking from cell to cell needs no bounds checks.
+// `width` is the row pitch of the storage: the grid's width + 2, or with kPowerOfTwoPitch the
+// next power of two at or above it, so that the coordinates of an index are a mask and a shift
+// (the cells beyond the frame on the right of each row are never used).
 struct PaddedLayout {
-  int width = 0;   // grid width + 2
-  int height = 0;  // grid height + 2
+  enum Pitch { kCompactPitch, kPowerOfTwoPitch };
+  int width = 0;         // row pitch: grid width + 2, or the power of two at or above it
+  int height = 0;        // grid height + 2
+  int pitch_shift = -1;  // log2(width) with kPowerOfTwoPitch, else -1
 
-  explicit PaddedLayout(const CellGrid& grid) : width(grid.width + 2), height(grid.height + 2) {}
+  explicit PaddedLayout(const CellGrid& grid, Pitch pitch = kCompactPitch)
+      : width(grid.width + 2), height(grid.height + 2) {
+    if (pitch == kPowerOfTwoPitch) {
+      pitch_shift = 0;
+      while (pitch_shift < 30 && (1 << pitch_shift) < width)
+        ++pitch_shift;
+      width = 1 << pitch_shift;
+    }
+  }
   int size() const { return width * height; }
   int index(int x, int y) const { return (y + 1) * width + (x + 1); }
   int x(int index) const { return index % width - 1; }
@@ -86,6 +99,9 @@ struct ContourSet {
 class ConnectivityGrid {
  public:
   explicit ConnectivityGrid(const CellGrid& grid);
+  // With the corner points in `layout` (which must be a layout of `grid`), e.g. the power-of-two
+  // pitch of the tracker's cells.
+  ConnectivityGrid(const CellGrid& grid, const PaddedLayout& layout);
 
   // Marks side `side` (0 up, 1 right, 2 down, 3 left) of cell (x, y) as a region boundary.
   void addBoundarySide(int x, int y, int side) { addBoundarySideAt(layout_.index(x, y), side); }
@@ -114,8 +130,11 @@ class ConnectivityGrid {
   void clear();
 
  private:
-  void extractAround(int cell, ClassId class_id, ContourSet& out);
-  // Bit k set: side k of the cell at padded index `cell` is a boundary edge not yet followed.
+  // Follows the contours of the sides `sides` (bits, as sidesLeft gives them, nonzero) of a cell
+  // and of its other sides they leave. Out of line: most cells have no side left.
+  [[gnu::noinline]] void extractAround(int cell, unsigned sides, ClassId class_id, ContourSet& out);
+  // Bit k set: side k of the cell at padded index `cell` is a boundary edge not yet followed
+  // (corner_offset_[0] is 0).
   unsigned sidesLeft(int cell) const {
     return (bits_[cell + corner_offset_[0]] & 1u) | (bits_[cell + corner_offset_[1]] & 2u) |
            (bits_[cell + corner_offset_[2]] & 4u) | (bits_[cell + corner_offset_[3]] & 8u);

@@ -135,14 +135,13 @@ std::vector<MaskEdge> maskEdges(const CellGrid& grid, std::span<const std::uint8
 RegionTracker::RegionTracker(const CellGrid& grid, const TrackerConfig& config,
                              std::vector<std::uint8_t> dontTouch)
     : grid_(grid),
-      layout_(grid),
+      layout_(grid, PaddedLayout::kPowerOfTwoPitch),
       neighbour_{layout_.neighbour(0), layout_.neighbour(1), layout_.neighbour(2),
                  layout_.neighbour(3)},
       config_(config),
       visited_(layout_.size(), kBlocked),
-      connectivity_(grid),
+      connectivity_(grid, layout_),
       classified_(layout_.size(), 0),
-      width_inverse_(~std::uint64_t{0} / static_cast<std::uint64_t>(layout_.width) + 1),
       scratch_mark_(layout_.size(), 0) {
   class_slot_.fill(-1);
   seed_parent_.fill(kNoClass);
@@ -253,14 +252,6 @@ std::vector<ClassId> RegionTracker::visited() const {
 int RegionTracker::regionCells(ClassId class_id) const {
   const int slot = class_slot_[class_id];
   return slot < 0 ? 0 : classes_[slot].cells;
-}
-
-ClassId RegionTracker::classifyNow(CellIndex cell) {
-  const Cell at = coordinatesOf(cell);
-  const ClassId class_id = classifier_->classify(at.x, at.y);
-  classified_[cell] = static_cast<std::uint16_t>((stamp_ << 8) | class_id);
-  ++stats_.cells_classified;
-  return class_id;
 }
 
 void RegionTracker::deferMaskEdge() {

@@ -241,7 +241,14 @@ class RegionTracker {
     if ((entry >> 8) == stamp_) return static_cast<ClassId>(entry & 0xFF);
     return classifyNow(cell);
   }
-  ClassId classifyNow(CellIndex cell);
+  // Inlined into the hot loops: the call would add a frame to the classifier's own.
+  [[gnu::always_inline]] ClassId classifyNow(CellIndex cell) {
+    const Cell at = coordinatesOf(cell);
+    const ClassId class_id = classifier_->classify(at.x, at.y);
+    classified_[cell] = static_cast<std::uint16_t>((stamp_ << 8) | class_id);
+    ++stats_.cells_classified;
+    return class_id;
+  }
   // classOf, but a deferred mask-edge cell is classified all the same (seeding, initial search).
   ClassId classOfDue(CellIndex cell) {
     const ClassId class_id = classOf(cell);
@@ -299,20 +306,12 @@ class RegionTracker {
   std::vector<std::uint16_t> classified_;
   std::uint32_t stamp_ = 0;
   static constexpr std::uint32_t kStampLimit = 1u << 8;
-  // The classifier takes grid coordinates: x and y of a padded index come from a division by
-  // the padded width done as two multiplications (Lemire, Kaser and Kurz, "Faster remainder by
-  // direct computation", 2019: exact for every 32-bit index and divisor >= 2), instead of a
-  // table of the coordinates of every cell: 4 bytes per cell less to keep in the cache.
-  std::uint64_t width_inverse_ = 0;  // 2^64 / padded width, rounded up
+  // The classifier takes grid coordinates: the layout's pitch is a power of two, so x and y of a
+  // padded index are a mask and a shift (no division per cell, no table of coordinates).
   Cell coordinatesOf(CellIndex cell) const {
     const auto index = static_cast<std::uint32_t>(cell);
-    const auto row =
-        static_cast<std::uint32_t>((static_cast<unsigned __int128>(width_inverse_) * index) >> 64);
-    const std::uint64_t fraction = width_inverse_ * index;
-    const auto column = static_cast<std::uint32_t>(
-        (static_cast<unsigned __int128>(fraction) * static_cast<std::uint32_t>(layout_.width)) >>
-        64);
-    return {static_cast<std::int16_t>(column - 1), static_cast<std::int16_t>(row - 1)};
+    return {static_cast<std::int16_t>((index & static_cast<std::uint32_t>(layout_.width - 1)) - 1),
+            static_cast<std::int16_t>((index >> layout_.pitch_shift) - 1)};
   }
 
   // Scratch for initial searches and dropRegion, kept to avoid per-frame allocation.

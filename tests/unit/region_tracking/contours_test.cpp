@@ -4,6 +4,8 @@
 
 #include <cstdlib>
 #include <random>
+#include <stdexcept>
+#include <utility>
 
 #include <gtest/gtest.h>
 
@@ -17,9 +19,10 @@ using testing::ClassGrid;
 using testing::labelComponents;
 
 // Adds every boundary side of the cells of class c and extracts the contours.
-ContourSet contoursOf(const ClassGrid& g, ClassId c, int cell_size = 1) {
+ContourSet contoursOf(const ClassGrid& g, ClassId c, int cell_size = 1,
+                      PaddedLayout::Pitch pitch = PaddedLayout::kCompactPitch) {
   const CellGrid grid{g.width, g.height, cell_size};
-  ConnectivityGrid connectivity(grid);
+  ConnectivityGrid connectivity(grid, PaddedLayout(grid, pitch));
   std::vector<Cell> boundary;
   for (int y = 0; y < g.height; ++y) {
     for (int x = 0; x < g.width; ++x) {
@@ -141,6 +144,47 @@ TEST(Contours, RandomShapesGiveClosedContoursThatSeparateExactlyTheRegion) {
       outer += c.outer ? 1 : 0;
     EXPECT_EQ(outer, regions) << "trial " << trial;
   }
+}
+
+TEST(Contours, APowerOfTwoPitchMapsEveryCellAndGivesTheSameContours) {
+  // 30 + 2 is a power of two already; 31 + 2 and 62 + 2 + ... are not.
+  for (const auto& [width, height] : {std::pair{30, 7}, {31, 9}, {63, 20}, {80, 60}, {1, 1}}) {
+    const CellGrid grid{width, height, 4};
+    const PaddedLayout compact(grid);
+    const PaddedLayout pow2(grid, PaddedLayout::kPowerOfTwoPitch);
+    EXPECT_EQ(compact.width, width + 2);
+    EXPECT_EQ(compact.pitch_shift, -1);
+    EXPECT_GE(pow2.width, width + 2);
+    EXPECT_LT(pow2.width, 2 * (width + 2));
+    EXPECT_EQ(pow2.width, 1 << pow2.pitch_shift);
+    EXPECT_EQ(pow2.height, height + 2);
+    for (int y = -1; y <= height; ++y) {
+      for (int x = -1; x <= width; ++x) {
+        const int i = pow2.index(x, y);
+        ASSERT_EQ(pow2.x(i), x);
+        ASSERT_EQ(pow2.y(i), y);
+        ASSERT_EQ((i & (pow2.width - 1)) - 1, x);
+        ASSERT_EQ((i >> pow2.pitch_shift) - 1, y);
+        ASSERT_LT(i, pow2.size());
+      }
+    }
+  }
+  std::mt19937 rng(7);
+  for (int trial = 0; trial < 20; ++trial) {
+    const ClassGrid g = testing::randomBlobs(37 + trial, 23, rng);
+    const ContourSet compact = contoursOf(g, 1, 4);
+    const ContourSet pow2 = contoursOf(g, 1, 4, PaddedLayout::kPowerOfTwoPitch);
+    ASSERT_FALSE(compact.contours.empty());
+    EXPECT_EQ(compact.points, pow2.points) << "trial " << trial;
+    ASSERT_EQ(compact.contours.size(), pow2.contours.size());
+    for (std::size_t i = 0; i < compact.contours.size(); ++i) {
+      EXPECT_EQ(compact.contours[i].begin, pow2.contours[i].begin);
+      EXPECT_EQ(compact.contours[i].end, pow2.contours[i].end);
+      EXPECT_EQ(compact.contours[i].signed_cell_area, pow2.contours[i].signed_cell_area);
+    }
+  }
+  const CellGrid grid{10, 10, 4};
+  EXPECT_THROW(ConnectivityGrid(grid, PaddedLayout(CellGrid{8, 10, 4})), std::invalid_argument);
 }
 
 TEST(Contours, TrackerBoundariesSeparateItsRegionsAndLeaveTheGridClear) {
