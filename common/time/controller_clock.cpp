@@ -11,22 +11,22 @@ void ControllerClockMap::reset() {
   high_since_.reset();
 }
 
-void ControllerClockMap::restart(std::int64_t device_us, std::int64_t offset) {
+void ControllerClockMap::restart(std::int64_t device_us, std::int64_t offset, Utime receive_us) {
   if (last_device_) ++restarts_;
   window_.clear();
-  window_.push_back({device_us, offset});
+  window_.push_back({device_us, offset, receive_us});
   high_since_.reset();
 }
 
 void ControllerClockMap::observe(std::int64_t device_us, Utime receive_us) {
   const std::int64_t offset = receive_us - device_us;
   if (!last_device_ || window_.empty()) {
-    restart(device_us, offset);
+    restart(device_us, offset, receive_us);
   } else if (device_us < *last_device_ ||
              (device_us - *last_device_) - (receive_us - last_receive_) >
                  params_.max_device_jump_us) {
     // The device restarted (its clock ran backwards, or leapt ahead of the host's).
-    restart(device_us, offset);
+    restart(device_us, offset, receive_us);
   } else {
     if (offset > window_.front().offset + params_.step_us) {
       if (!high_since_) {
@@ -36,7 +36,7 @@ void ControllerClockMap::observe(std::int64_t device_us, Utime receive_us) {
       high_min_ = std::min(high_min_, offset);
       if (receive_us - *high_since_ >= params_.confirm_us) {
         // The host clock stepped forward: every sample for a while came "late" by it.
-        restart(device_us, high_min_);
+        restart(device_us, high_min_, receive_us);
         last_device_ = device_us;
         last_receive_ = receive_us;
         return;
@@ -46,8 +46,11 @@ void ControllerClockMap::observe(std::int64_t device_us, Utime receive_us) {
     }
     while (!window_.empty() && window_.back().offset >= offset)
       window_.pop_back();
-    window_.push_back({device_us, offset});
-    while (window_.size() > 1 && window_.front().device_us < device_us - params_.window_us)
+    window_.push_back({device_us, offset, receive_us});
+    // Only an entry read before this read may take the place of an aged-out front: the
+    // samples of one late read carry the stall in their offsets (but the newest's).
+    while (window_.size() > 1 && window_.front().device_us < device_us - params_.window_us &&
+           window_[1].receive_us < receive_us)
       window_.pop_front();
   }
   last_device_ = device_us;

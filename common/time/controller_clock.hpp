@@ -16,7 +16,10 @@
 //     host time: the window starts over from them;
 //   - a starved reader: samples read together after a stall carry large offsets, but the newest
 //     of them has the ordinary one, and the envelope never rises from them. Feed all samples of
-//     one read to observe() before stamping any.
+//     one read to observe() before stamping any. Samples of one read (the same receive time)
+//     never age the entries before them out of the window: a backlog longer than the window,
+//     read in several chunks, keeps the least-delayed entry from before the stall until a later
+//     read brings an ordinary one.
 // Plain logic on times the caller passes in (no clock, no LCM).
 #pragma once
 
@@ -63,8 +66,9 @@ class ControllerClockMap {
   struct Entry {
     std::int64_t device_us;
     std::int64_t offset;
+    Utime receive_us;
   };
-  void restart(std::int64_t device_us, std::int64_t offset);
+  void restart(std::int64_t device_us, std::int64_t offset, Utime receive_us);
 
   Params params_;
   // Monotone queue: offsets strictly increasing from front to back; the front is the minimum.

@@ -1,6 +1,7 @@
 #include "services/fusion/fusion_config.hpp"
 
 #include <cmath>
+#include <string>
 
 namespace fieldline::fusion {
 namespace {
@@ -123,6 +124,13 @@ void loadCalibration(const config::Node& n, LocalizerParams& p) {
   slip.max_rad_gyro = n.getOr<double>("slip_max_rad_gyro", slip.max_rad_gyro, 0.0, 3.2);
   slip.inflation = n.getOr<double>("slip_inflation", slip.inflation, 0.0, 100.0);
   slip.gyro_heading_chi2 = n.getOr<double>("gyro_heading_chi2", slip.gyro_heading_chi2, 0.0, 1e6);
+  // The Huber bound must lie inside the gate: at or beyond it, every weighted-down heading would
+  // have been refused by the gate first.
+  if (slip.gyro_heading_chi2 > 0.0 && p.filter.gate2 > 0.0 &&
+      slip.gyro_heading_chi2 >= p.filter.gate2) {
+    n.fail("gyro_heading_chi2",
+           "must be below filter.gate_chi2 (" + std::to_string(p.filter.gate2) + "), or 0 (off)");
+  }
   p.heading_confirm_rad = n.getOr<double>("heading_confirm_rad", p.heading_confirm_rad, 0.0, 3.2);
   n.rejectUnknownKeys();
 }

@@ -170,6 +170,8 @@ void FusionNode::updateMetrics() {
   node_.setMetric("twist_searches", static_cast<double>(localizer_.counters().twist_searches));
   node_.setMetric("headings_weighted_down",
                   static_cast<double>(localizer_.counters().headings_weighted_down));
+  node_.setMetric("headings_confirmed",
+                  static_cast<double>(localizer_.counters().headings_confirmed));
   node_.setMetric("ball_restarts_far", static_cast<double>(ball_.committed().restartsFar()));
   node_.setMetric("ball_unseen_invalidations",
                   static_cast<double>(ball_.committed().unseenInvalidations()));

@@ -277,7 +277,7 @@ void Localizer::trackLines(std::span<const perception::LinePoint> points, Utime 
             params_.heading_confirm_rad;
     z.robust_heading = !heading_confirmed;
     const auto r = filter_.addPose(MeasurementSource::kLines, z, now);
-    if (heading_confirmed) ++counters_.headings_confirmed;
+    if (heading_confirmed && r.rejection == Rejection::kNone) ++counters_.headings_confirmed;
     if (r.update.heading_weighted_down) {
       ++counters_.headings_weighted_down;
       weighted_heading_offset_ = offset[2];

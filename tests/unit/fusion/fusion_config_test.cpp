@@ -103,6 +103,12 @@ TEST(FusionConfig, TyposAndBadValuesNameFileAndLine) {
   // Inconsistent thresholds.
   EXPECT_NE(errorOf("localizer:\n  accept_cost_m: 0.2\n  lost_cost_m: 0.1\n").find("lost_cost_m"),
             std::string::npos);
+  // A Huber bound on the gyro's heading at or beyond the gate (every such frame gated first).
+  const std::string huber =
+      errorOf("filter:\n  gate_chi2: 9.0\ncalibration:\n  gyro_heading_chi2: 9.0\n");
+  EXPECT_NE(huber.find("gyro_heading_chi2"), std::string::npos) << huber;
+  EXPECT_NE(huber.find("fusion.yaml:4"), std::string::npos) << huber;
+  EXPECT_EQ(errorOf("filter:\n  gate_chi2: 16.0\ncalibration:\n  gyro_heading_chi2: 9.0\n"), "");
   // The matcher's own checks.
   EXPECT_NE(errorOf("matcher:\n  outlier_distnce_m: 0.4\n"), "");
 }

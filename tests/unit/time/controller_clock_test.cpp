@@ -144,5 +144,32 @@ TEST(ControllerClock, FollowsADriftingControllerClock) {
   }
 }
 
+TEST(ControllerClock, ABacklogLongerThanTheWindowReadInTwoChunksKeepsTheStamps) {
+  // Samples every 20 ms; the reader stalls for 3 s (longer than the 2 s window), then reads the
+  // first 2.5 s of the backlog in one read and the rest 10 ms later. Every stamp is the sampling
+  // time: the first chunk is not stamped late, the second does not jump back.
+  ControllerClockMap map(params());
+  const auto sampled = [](int k) { return kOffset + 3'000'000 + 20'000 * k; };
+  Utime previous = 0;
+  const auto read = [&](int from, int to, Utime received) {
+    for (int k = from; k < to; ++k)
+      map.observe(3'000'000 + 20'000 * k, received);
+    for (int k = from; k < to; ++k) {
+      const Utime stamp = *map.stamp(3'000'000 + 20'000 * k);
+      EXPECT_EQ(stamp, sampled(k)) << k;
+      EXPECT_GT(stamp, previous) << k;
+      previous = stamp;
+    }
+  };
+  for (int k = 0; k < 100; ++k)
+    read(k, k + 1, sampled(k) + kLatency);
+  // Stalled from sample 100 on, for 3 s (150 samples).
+  read(100, 225, sampled(250) + kLatency);
+  read(225, 251, sampled(250) + kLatency + 10'000);
+  for (int k = 251; k < 400; ++k)
+    read(k, k + 1, sampled(k) + kLatency);
+  EXPECT_EQ(map.restarts(), 0u);
+}
+
 }  // namespace
 }  // namespace fieldline
