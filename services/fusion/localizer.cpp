@@ -173,7 +173,7 @@ void Localizer::addLines(std::span<const perception::LinePoint> points, Utime ut
     count("lines_from_future");
     return;
   }
-  if ((utime > newestOdometry() && !odometrySilent(now)) || !waiting_.empty()) {
+  if (mustWait(utime, now)) {
     WaitingFrame w;
     w.utime = utime;
     w.points.assign(points.begin(), points.end());
@@ -629,7 +629,7 @@ void Localizer::addFeatures(const perception::FieldFeatures& features, Utime uti
     count("features_from_future");
     return;
   }
-  if ((utime > newestOdometry() && !odometrySilent(now)) || !waiting_.empty()) {
+  if (mustWait(utime, now)) {
     WaitingFrame w;
     w.utime = utime;
     w.features = features;

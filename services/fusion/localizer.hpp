@@ -277,6 +277,11 @@ class Localizer {
   Utime newestOdometry() const {
     return dead_reckoning_.empty() ? 0 : dead_reckoning_.newest().utime;
   }
+  // A frame waits when odometry has not reached it yet (and is not silent), or behind others
+  // already waiting, so that frames are processed in time order.
+  bool mustWait(Utime utime, Utime now) const {
+    return (utime > newestOdometry() && !odometrySilent(now)) || !waiting_.empty();
+  }
   // Frames waiting for odometry, processed in time order once it reaches them.
   void processWaiting(Utime now);
   void trackLines(std::span<const perception::LinePoint> points, Utime utime, Utime now);
