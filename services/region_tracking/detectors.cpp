@@ -180,6 +180,7 @@ LineDetector::LineDetector(const camera::ColourTable& table, const FloorLookup& 
       }
       countUpTo[t - first_step_] = static_cast<std::uint8_t>(count);
     }
+    probes_[d] = walk[countUpTo[probe_step_] - 1];
   }
 
   // smoothing_passes passes of 0.25/0.5/0.25 are one binomial kernel.
@@ -263,7 +264,8 @@ bool LineDetector::floorStep(float u, float v, float du, float dv, float& dx, fl
   return true;
 }
 
-void LineDetector::sampleByDistance(int n, std::vector<float>& positions) {
+void LineDetector::sampleByDistance(const float* su, const float* sv, int n,
+                                    std::vector<float>& positions) {
   positions.clear();
   // The floor step of every corner step of the smoothed contour (step j: corner j to j + 1).
   step_x_.resize(n);
@@ -271,8 +273,8 @@ void LineDetector::sampleByDistance(int n, std::vector<float>& positions) {
   step_length_.resize(n);
   for (int j = 0; j < n; ++j) {
     const int after = j + 1 == n ? 0 : j + 1;
-    const float u = smooth_u_[j], v = smooth_v_[j];
-    const float du = smooth_u_[after] - u, dv = smooth_v_[after] - v;
+    const float u = su[j], v = sv[j];
+    const float du = su[after] - u, dv = sv[after] - v;
     floorStep(u + 0.5f * du, v + 0.5f * dv, du, dv, step_x_[j], step_y_[j]);
     step_length_[j] = std::sqrt(step_x_[j] * step_x_[j] + step_y_[j] * step_y_[j]);
   }
@@ -298,7 +300,7 @@ void LineDetector::sampleByDistance(int n, std::vector<float>& positions) {
       const float dot = bx * ax + by * ay, cross = bx * ay - by * ax;
       if ((bx != 0.0f || by != 0.0f) && (ax != 0.0f || ay != 0.0f) &&
           (dot <= 0.0f || std::abs(cross) > tanTurn * dot)) {
-        const Jacobian* near = jacobianNear(smooth_u_[j], smooth_v_[j]);
+        const Jacobian* near = jacobianNear(su[j], sv[j]);
         if (near != nullptr && near->range2 <= range2) {  // (NaN: no)
           turn_[j] = 1;
           anyTurn = true;
@@ -342,7 +344,7 @@ void LineDetector::sampleByDistance(int n, std::vector<float>& positions) {
   float next = 0.0f;   // count at which the next sample falls
   for (int j = 0; j < n; ++j) {
     const int after = j + 1 == n ? 0 : j + 1;
-    const float du = smooth_u_[after] - smooth_u_[j], dv = smooth_v_[after] - smooth_v_[j];
+    const float du = su[after] - su[j], dv = sv[after] - sv[j];
     const float pixels = std::sqrt(du * du + dv * dv);
     if (step_length_[j] <= 0.0f) continue;  // no floor there
     const float units =
@@ -358,24 +360,9 @@ void LineDetector::sampleByDistance(int n, std::vector<float>& positions) {
   }
 }
 
-void LineDetector::prepareOffsets(std::ptrdiff_t stride, camera::PixelFormat format) {
-  const bool yuyv = format == camera::PixelFormat::kYuyv;
-  const std::ptrdiff_t bytesPerPixel = yuyv ? 2 : 3;
-  if (std::abs(stride) > (std::int64_t{1} << 22)) {
-    throw std::invalid_argument("line detector: frame stride out of range");
-  }
-  walk_offsets_.resize(walks_.size());
-  for (std::size_t i = 0; i < walks_.size(); ++i) {
-    const std::ptrdiff_t offset = walks_[i].dv * stride + walks_[i].du * bytesPerPixel;
-    walk_offsets_[i] = static_cast<std::int32_t>(yuyv ? offset * 2 + (walks_[i].du & 1) : offset);
-  }
-  offsets_stride_ = stride;
-  offsets_format_ = format;
-}
-
 // Bins of equal length on the diamond |u| + |v| = 1, counter-clockwise from +u: no atan2, and
 // no bin is wider than 2 * 360 / kDirections degrees.
-int LineDetector::directionOf(float normalU, float normalV) {
+[[gnu::always_inline]] inline int LineDetector::directionOf(float normalU, float normalV) {
   const float sum = std::abs(normalU) + std::abs(normalV);
   float p;
   if (normalV >= 0.0f) {
@@ -405,7 +392,7 @@ bool LineDetector::scan(const camera::FrameView& frame, float originU, float ori
   const Step* walk = &walks_[walkAt];
   const std::uint8_t* countUpTo = &walk_count_up_to_[walkAt];
   // Boundaries along the edge of the view face unusable pixels: nothing to find there.
-  const Step probe = walk[countUpTo[probe_step_] - 1];
+  const Step probe = probes_[direction];
   if (!inFrame(ou + probe.du, ov + probe.dv) || !usable(ou + probe.du, ov + probe.dv)) {
     return false;
   }
@@ -421,16 +408,14 @@ bool LineDetector::scan(const camera::FrameView& frame, float originU, float ori
       ++within;
     count = within;
   }
-  if (frame.stride != offsets_stride_ || frame.format != offsets_format_) {
-    prepareOffsets(frame.stride, frame.format);
-  }
-  const std::int32_t* offsets = &walk_offsets_[walkAt];
 
   // Walk the normal pixel by pixel looking for: field ... [transition] line-run [transition]
   // field, keeping each pixel's brightness for the sub-pixel edges.
   constexpr int kBytesPerPixel = kFormat == camera::PixelFormat::kYuyv ? 2 : 3;
-  const std::uint8_t* origin =
-      frame.data + static_cast<std::ptrdiff_t>(ov) * frame.stride + ou * kBytesPerPixel;
+  // The origin's row; a step's pixel is found from its offsets (a multiplication costs less
+  // than a table of byte offsets per walk step, which would crowd the cache).
+  const std::ptrdiff_t stride = frame.stride;
+  const std::uint8_t* originRow = frame.data + static_cast<std::ptrdiff_t>(ov) * stride;
   const camera::ColourClass* lookup = table_.yuvLookup().data();
   // On the stack, so that storing a brightness cannot alias the colour table's pointer (which
   // would be reloaded for every pixel). Walks have at most 255 steps (8-bit offsets).
@@ -438,18 +423,20 @@ bool LineDetector::scan(const camera::FrameView& frame, float originU, float ori
   // Class of step `i` of the walk; keeps its brightness in luma[i].
   const auto classAt = [&](const int i) {
     camera::Yuv yuv;
+    const Step step = walk[i];
+    const std::uint8_t* row = originRow + step.dv * stride;
+    const int u = ou + step.du;
     if constexpr (kFormat == camera::PixelFormat::kYuyv) {
-      // The pair's Y0 U Y1 V in one read: Y at 2u (byte 0 or 2 of the pair, by the pixel's
-      // parity, that of ou + du), U and V at 1 and 3 from the pair's even pixel.
-      const std::int32_t packed = offsets[i];
-      const std::uint8_t* pixel = origin + (packed >> 1);
-      const unsigned odd = static_cast<unsigned>(ou ^ packed) & 1u;
+      // The pair's Y0 U Y1 V in one read from the pair's even pixel: Y at byte 0 or 2 by the
+      // pixel's parity, U and V at 1 and 3.
+      const unsigned odd = static_cast<unsigned>(u) & 1u;
       std::uint32_t word;
-      std::memcpy(&word, pixel - (odd << 1), sizeof word);
+      std::memcpy(&word, row + (static_cast<std::ptrdiff_t>(u - static_cast<int>(odd)) << 1),
+                  sizeof word);
       yuv = {static_cast<std::uint8_t>(word >> (odd << 4)), static_cast<std::uint8_t>(word >> 8),
              static_cast<std::uint8_t>(word >> 24)};
     } else {
-      const std::uint8_t* pixel = origin + offsets[i];
+      const std::uint8_t* pixel = row + static_cast<std::ptrdiff_t>(u) * kBytesPerPixel;
       yuv = camera::yuvFromBgr({pixel[0], pixel[1], pixel[2]});
     }
     luma[i] = yuv.y;
@@ -605,28 +592,68 @@ int LineDetector::ridgePeak(const std::uint8_t* luma, int fieldBefore, int field
   return 0.5f * (along(runEnd) + along(runEnd + 1));
 }
 
-template <int kTaps>
 void LineDetector::smoothedPoint(int i, float& u, float& v) const {
   // padded_u_[j] holds corner j - pad_; the kernel is centred on corner i.
-  const int taps = kTaps > 0 ? kTaps : static_cast<int>(smoothing_kernel_.size());
+  const int taps = static_cast<int>(smoothing_kernel_.size());
   const int reach = taps / 2;
   const float* pu = &padded_u_[i + pad_ - reach];
   const float* pv = &padded_v_[i + pad_ - reach];
   const float* weight = smoothing_kernel_.data();
   float su = 0, sv = 0;
-  if constexpr (kTaps == 7) {  // symmetric: 4 multiplications instead of 7
-    su = weight[0] * (pu[0] + pu[6]) + weight[1] * (pu[1] + pu[5]) + weight[2] * (pu[2] + pu[4]) +
-         weight[3] * pu[3];
-    sv = weight[0] * (pv[0] + pv[6]) + weight[1] * (pv[1] + pv[5]) + weight[2] * (pv[2] + pv[4]) +
-         weight[3] * pv[3];
-  } else {
-    for (int j = 0; j < taps; ++j) {
-      su += weight[j] * pu[j];
-      sv += weight[j] * pv[j];
-    }
+  for (int j = 0; j < taps; ++j) {
+    su += weight[j] * pu[j];
+    sv += weight[j] * pv[j];
   }
   u = su + kCornerToPixel;
   v = sv + kCornerToPixel;
+}
+
+void LineDetector::smoothContour(const ContourPoint* corners, int n, int stride, float* su,
+                                 float* sv) {
+  const int smoothed = n / stride;
+  if (smoothing_kernel_.size() == 7) {
+    // Three passes: the kernel is 1 6 15 20 15 6 1 over 64. Summed in integers and scaled once:
+    // the same points bit for bit as the float sums over the padded corners (every term there
+    // is a multiple of 1/64 far below 2^24, so no float operation rounds), without the copy.
+    const auto at = [&](int i) -> const ContourPoint& {
+      return corners[i < 0 ? i + n * ((-i + n - 1) / n) : (i >= n ? i % n : i)];
+    };
+    constexpr float kScale = 1.0f / 64.0f;
+    for (int j = 0; j < smoothed; ++j) {
+      const int i = j * stride;
+      int x, y;
+      if (i >= 3 && i + 3 < n) {
+        const ContourPoint* c = corners + i;
+        x = (c[-3].x + c[3].x) + 6 * (c[-2].x + c[2].x) + 15 * (c[-1].x + c[1].x) + 20 * c[0].x;
+        y = (c[-3].y + c[3].y) + 6 * (c[-2].y + c[2].y) + 15 * (c[-1].y + c[1].y) + 20 * c[0].y;
+      } else {
+        x = (at(i - 3).x + at(i + 3).x) + 6 * (at(i - 2).x + at(i + 2).x) +
+            15 * (at(i - 1).x + at(i + 1).x) + 20 * at(i).x;
+        y = (at(i - 3).y + at(i + 3).y) + 6 * (at(i - 2).y + at(i + 2).y) +
+            15 * (at(i - 1).y + at(i + 1).y) + 20 * at(i).y;
+      }
+      su[j] = static_cast<float>(x) * kScale + kCornerToPixel;
+      sv[j] = static_cast<float>(y) * kScale + kCornerToPixel;
+    }
+    return;
+  }
+  // Any other kernel: the corners with the kernel's and the tangent's reach wrapped around on
+  // both sides.
+  padded_u_.resize(n + 2 * pad_);
+  padded_v_.resize(n + 2 * pad_);
+  for (int j = 0; j < n; ++j) {
+    padded_u_[pad_ + j] = static_cast<float>(corners[j].x);
+    padded_v_[pad_ + j] = static_cast<float>(corners[j].y);
+  }
+  for (int j = 0; j < pad_; ++j) {  // the wrapped ends (the contour may be shorter than pad_)
+    const int before = ((j - pad_) % n + n) % n;
+    padded_u_[j] = static_cast<float>(corners[before].x);
+    padded_v_[j] = static_cast<float>(corners[before].y);
+    padded_u_[pad_ + n + j] = static_cast<float>(corners[j % n].x);
+    padded_v_[pad_ + n + j] = static_cast<float>(corners[j % n].y);
+  }
+  for (int j = 0; j < smoothed; ++j)
+    smoothedPoint(j * stride, su[j], sv[j]);
 }
 
 void LineDetector::detect(const camera::FrameView& frame, const ContourSet& contours,
@@ -641,119 +668,132 @@ void LineDetector::detect(const camera::FrameView& frame, const ContourSet& cont
   const ClassId field = classIdOf(params_.field_colour);
   const int spacing = params_.sample_spacing;
   const int k = params_.tangent_half_span;
+  const bool byDistance = params_.sample_spacing_m > 0.0;
+  const bool refine = !byDistance && params_.refine_range_m > 0.0;
+
+  // Tangent (difference of the smoothed corners tangent_reach before and after) at `centre`.
+  auto tangentAt = [&](const ContourWork& w, int centre, float& tu, float& tv) {
+    const float* su = &smooth_u_[w.smooth_begin];
+    const float* sv = &smooth_v_[w.smooth_begin];
+    int ahead = centre + w.tangent_reach, behind = centre - w.tangent_reach;
+    if (ahead >= w.smoothed) ahead %= w.smoothed;
+    if (behind < 0) behind = (behind % w.smoothed + w.smoothed) % w.smoothed;
+    tu = su[ahead] - su[behind];
+    tv = sv[ahead] - sv[behind];
+  };
+  // One scan from (originU, originV) across the tangent (tu, tv); the hit's image position.
+  auto scanAcross = [&](float originU, float originV, float tu, float tv, Hit& hit) {
+    if (tu * tu + tv * tv < 1e-6f) return;
+    // The region lies to the right of the walking direction on screen: outward is left. The
+    // walk needs only the normal's direction; scan() normalises it when it finds a line.
+    const float normalU = tv;
+    const float normalV = -tu;
+    float lineU = 0, lineV = 0;
+    ++scans_;
+    const bool found = yuyv ? scan<camera::PixelFormat::kYuyv>(frame, originU, originV, normalU,
+                                                               normalV, lineU, lineV)
+                            : scan<camera::PixelFormat::kBgr>(frame, originU, originV, normalU,
+                                                              normalV, lineU, lineV);
+    if (!found) return;
+    hit = {true, {lineU, lineV, 0.0f, 0.0f}};
+    floor_.prefetch(lineU, lineV);
+  };
+  // A scan at a fractional position among the smoothed corners (index + fraction of the step
+  // after it): the curve and its tangent interpolated linearly.
+  auto scanAt = [&](const ContourWork& w, float position, Hit& hit) {
+    const float* su = &smooth_u_[w.smooth_begin];
+    const float* sv = &smooth_v_[w.smooth_begin];
+    int centre = static_cast<int>(position);
+    const float f = position - static_cast<float>(centre);
+    if (centre >= w.smoothed) centre -= w.smoothed;
+    const int after = centre + 1 == w.smoothed ? 0 : centre + 1;
+    float tu, tv, tu1, tv1;
+    tangentAt(w, centre, tu, tv);
+    tangentAt(w, after, tu1, tv1);
+    tu += f * (tu1 - tu);
+    tv += f * (tv1 - tv);
+    scanAcross(su[centre] + f * (su[after] - su[centre]), sv[centre] + f * (sv[after] - sv[centre]),
+               tu, tv, hit);
+  };
+  // The floor points of hits found by scans, looked up once the table entries prefetched at
+  // each hit have had the other contours' scans to arrive (the table is large, and looking each
+  // up right after its scan waited on memory for every point).
+  auto toFloor = [&](Hit* hits, std::size_t count) {
+    for (std::size_t i = 0; i < count; ++i) {
+      Hit& hit = hits[i];
+      if (hit.found)
+        hit.found = floor_.floorPoint(hit.point.u, hit.point.v, hit.point.x, hit.point.y);
+    }
+  };
+
+  // Pass 1, every contour: its smoothed corners and the scans at its samples.
+  work_.clear();
+  smooth_u_.clear();
+  smooth_v_.clear();
+  hits_.clear();
   for (const Contour& contour : contours.contours) {
     if (contour.class_id != field || contour.size() < params_.min_contour_points) continue;
     const int n = contour.size();
     const ContourPoint* corners = &contours.points[contour.begin];
-    // The corners with the kernel's and the tangent's reach wrapped around on both sides.
-    padded_u_.resize(n + 2 * pad_);
-    padded_v_.resize(n + 2 * pad_);
-    for (int j = 0; j < n; ++j) {
-      padded_u_[pad_ + j] = static_cast<float>(corners[j].x);
-      padded_v_[pad_ + j] = static_cast<float>(corners[j].y);
-    }
-    for (int j = 0; j < pad_; ++j) {  // the wrapped ends (the contour may be shorter than pad_)
-      const int before = ((j - pad_) % n + n) % n;
-      padded_u_[j] = static_cast<float>(corners[before].x);
-      padded_v_[j] = static_cast<float>(corners[before].y);
-      padded_u_[pad_ + n + j] = static_cast<float>(corners[j % n].x);
-      padded_v_[pad_ + n + j] = static_cast<float>(corners[j % n].y);
-    }
     // The contour is a staircase of cell sides; smoothing turns it into a curve with usable
     // tangents (the seed smooths before taking differences, section 3.3). Only the corners
     // that are sampled or give a sample's tangent are smoothed: every `stride`-th one.
-    const bool byDistance = params_.sample_spacing_m > 0.0;
-    const bool refine = !byDistance && params_.refine_range_m > 0.0;
     const int stride = !byDistance && n % std::gcd(spacing, k) == 0 ? std::gcd(spacing, k) : 1;
-    const int smoothed = n / stride;
-    smooth_u_.resize(smoothed);
-    smooth_v_.resize(smoothed);
-    if (smoothing_kernel_.size() == 7) {
-      for (int j = 0; j < smoothed; ++j)
-        smoothedPoint<7>(j * stride, smooth_u_[j], smooth_v_[j]);
-    } else {
-      for (int j = 0; j < smoothed; ++j)
-        smoothedPoint<0>(j * stride, smooth_u_[j], smooth_v_[j]);
-    }
-
-    if (byDistance) sampleByDistance(n, sample_positions_);
+    ContourWork w;
+    w.smoothed = n / stride;
+    w.smooth_begin = static_cast<int>(smooth_u_.size());
+    smooth_u_.resize(w.smooth_begin + w.smoothed);
+    smooth_v_.resize(w.smooth_begin + w.smoothed);
+    float* su = &smooth_u_[w.smooth_begin];
+    float* sv = &smooth_v_[w.smooth_begin];
+    smoothContour(corners, n, stride, su, sv);
+    if (byDistance) sampleByDistance(su, sv, n, sample_positions_);
     // Indices among the smoothed corners: no division per sample but at the contour's ends.
-    const int sampleStep = spacing / stride, tangentReach = k / stride;
-    const int samples = byDistance ? static_cast<int>(sample_positions_.size()) : n / spacing;
-    hits_.assign(samples, Hit{false, {}});
-    // Tangent (difference of the smoothed corners tangentReach before and after) at `centre`.
-    auto tangentAt = [&](int centre, float& tu, float& tv) {
-      int ahead = centre + tangentReach, behind = centre - tangentReach;
-      if (ahead >= smoothed) ahead %= smoothed;
-      if (behind < 0) behind = (behind % smoothed + smoothed) % smoothed;
-      tu = smooth_u_[ahead] - smooth_u_[behind];
-      tv = smooth_v_[ahead] - smooth_v_[behind];
-    };
-    // One scan from (originU, originV) across the tangent (tu, tv); the hit's image position.
-    auto scanAcross = [&](float originU, float originV, float tu, float tv, Hit& hit) {
-      if (tu * tu + tv * tv < 1e-6f) return;
-      // The region lies to the right of the walking direction on screen: outward is left. The
-      // walk needs only the normal's direction; scan() normalises it when it finds a line.
-      const float normalU = tv;
-      const float normalV = -tu;
-      float lineU = 0, lineV = 0;
-      ++scans_;
-      const bool found = yuyv ? scan<camera::PixelFormat::kYuyv>(frame, originU, originV, normalU,
-                                                                 normalV, lineU, lineV)
-                              : scan<camera::PixelFormat::kBgr>(frame, originU, originV, normalU,
-                                                                normalV, lineU, lineV);
-      if (!found) return;
-      hit = {true, {lineU, lineV, 0.0f, 0.0f}};
-      floor_.prefetch(lineU, lineV);
-    };
-    // A scan at a fractional position among the smoothed corners (index + fraction of the step
-    // after it): the curve and its tangent interpolated linearly.
-    auto scanAt = [&](float position, Hit& hit) {
-      int centre = static_cast<int>(position);
-      const float f = position - static_cast<float>(centre);
-      if (centre >= smoothed) centre -= smoothed;
-      const int after = centre + 1 == smoothed ? 0 : centre + 1;
-      float tu, tv, tu1, tv1;
-      tangentAt(centre, tu, tv);
-      tangentAt(after, tu1, tv1);
-      tu += f * (tu1 - tu);
-      tv += f * (tv1 - tv);
-      scanAcross(smooth_u_[centre] + f * (smooth_u_[after] - smooth_u_[centre]),
-                 smooth_v_[centre] + f * (smooth_v_[after] - smooth_v_[centre]), tu, tv, hit);
-    };
-    for (int s = 0; s < samples; ++s) {
+    w.sample_step = spacing / stride;
+    w.tangent_reach = k / stride;
+    w.samples = byDistance ? static_cast<int>(sample_positions_.size()) : n / spacing;
+    w.hits_begin = static_cast<int>(hits_.size());
+    hits_.resize(hits_.size() + w.samples, Hit{false, {}});
+    Hit* hits = &hits_[w.hits_begin];
+    for (int s = 0; s < w.samples; ++s) {
       if (byDistance) {
-        scanAt(sample_positions_[s], hits_[s]);
+        scanAt(w, sample_positions_[s], hits[s]);
       } else {
-        const int centre = s * sampleStep;
+        const int centre = s * w.sample_step;
         float tu, tv;
-        tangentAt(centre, tu, tv);
-        scanAcross(smooth_u_[centre], smooth_v_[centre], tu, tv, hits_[s]);
+        tangentAt(w, centre, tu, tv);
+        scanAcross(su[centre], sv[centre], tu, tv, hits[s]);
       }
     }
-    // The floor points, now that their table entries are on the way (the table is large, and
-    // looking each up right after its scan waited on memory for every point).
-    for (Hit& hit : hits_) {
-      if (hit.found)
-        hit.found = floor_.floorPoint(hit.point.u, hit.point.v, hit.point.x, hit.point.y);
-    }
-    std::vector<Hit>* sequenceHits = &hits_;
-    if (refine && samples >= 3) {
-      // Pass 2: the intervals around line points where their line ends or turns, within range.
+    work_.push_back(w);
+  }
+  toFloor(hits_.data(), hits_.size());
+
+  // Pass 2 (refine_range_m): the intervals around line points where their line ends or turns,
+  // within range, scanned again; the hits of both passes in contour order in merged_hits_.
+  merged_hits_.clear();
+  refined_.clear();
+  if (refine) {
+    const float maxRange2 = static_cast<float>(params_.refine_range_m * params_.refine_range_m);
+    const float minRange2 =
+        static_cast<float>(params_.refine_min_range_m * params_.refine_min_range_m);
+    const float cosTurn = static_cast<float>(std::cos(params_.refine_turn));
+    const int reach = params_.refine_reach;
+    const float perMetre =
+        params_.refine_spacing_m > 0.0 ? static_cast<float>(1.0 / params_.refine_spacing_m) : 0.0f;
+    for (ContourWork& w : work_) {
+      const int samples = w.samples;
+      if (samples < 3) continue;
+      const Hit* hits = &hits_[w.hits_begin];
       refine_interval_.assign(samples, 0);
       bool any = false;
-      const float maxRange2 = static_cast<float>(params_.refine_range_m * params_.refine_range_m);
-      const float minRange2 =
-          static_cast<float>(params_.refine_min_range_m * params_.refine_min_range_m);
-      const float cosTurn = static_cast<float>(std::cos(params_.refine_turn));
-      const int reach = params_.refine_reach;
       for (int s = 0; s < samples; ++s) {
-        const Hit& hit = hits_[s];
+        const Hit& hit = hits[s];
         if (!hit.found) continue;
         const float range2 = hit.point.x * hit.point.x + hit.point.y * hit.point.y;
         if (range2 > maxRange2 || range2 < minRange2) continue;
-        const Hit& before = hits_[s == 0 ? samples - 1 : s - 1];
-        const Hit& after = hits_[s + 1 == samples ? 0 : s + 1];
+        const Hit& before = hits[s == 0 ? samples - 1 : s - 1];
+        const Hit& after = hits[s + 1 == samples ? 0 : s + 1];
         if (!before.found && !after.found && !params_.refine_isolated) continue;
         bool event = !before.found || !after.found;
         if (!event) {
@@ -768,47 +808,45 @@ void LineDetector::detect(const camera::FrameView& frame, const ContourSet& cont
         for (int i = s - reach; i < s + reach; ++i)
           refine_interval_[((i % samples) + samples) % samples] = 1;
       }
-      if (any) {
-        merged_hits_.clear();
-        const float perMetre = params_.refine_spacing_m > 0.0
-                                   ? static_cast<float>(1.0 / params_.refine_spacing_m)
-                                   : 0.0f;
-        for (int s = 0; s < samples; ++s) {
-          merged_hits_.push_back(hits_[s]);
-          if (!refine_interval_[s]) continue;
-          const float a = static_cast<float>(s * sampleStep);
-          const float b = s + 1 == samples ? static_cast<float>(smoothed)
-                                           : static_cast<float>((s + 1) * sampleStep);
-          int extra = params_.refine_samples;
-          if (perMetre > 0.0f) {
-            // The interval's floor length: its chord through the floor's Jacobian at its middle.
-            const int ia = static_cast<int>(a), ib = s + 1 == samples ? 0 : static_cast<int>(b);
-            const float du = smooth_u_[ib] - smooth_u_[ia], dv = smooth_v_[ib] - smooth_v_[ia];
-            const float metres =
-                floorLength(smooth_u_[ia] + 0.5f * du, smooth_v_[ia] + 0.5f * dv, du, dv);
-            extra = std::min(extra, static_cast<int>(metres * perMetre));
-            if (extra <= 0) continue;
-          }
-          const std::size_t first = merged_hits_.size();
-          merged_hits_.resize(first + extra, Hit{false, {}});
-          for (int t = 1; t <= extra; ++t) {
-            scanAt(a + (b - a) * static_cast<float>(t) / static_cast<float>(extra + 1),
-                   merged_hits_[first + t - 1]);
-          }
-          for (std::size_t i = first; i < merged_hits_.size(); ++i) {
-            Hit& hit = merged_hits_[i];
-            if (hit.found)
-              hit.found = floor_.floorPoint(hit.point.u, hit.point.v, hit.point.x, hit.point.y);
-          }
+      if (!any) continue;
+      const float* su = &smooth_u_[w.smooth_begin];
+      const float* sv = &smooth_v_[w.smooth_begin];
+      w.merged_begin = static_cast<int>(merged_hits_.size());
+      for (int s = 0; s < samples; ++s) {
+        merged_hits_.push_back(hits_[w.hits_begin + s]);
+        if (!refine_interval_[s]) continue;
+        const float a = static_cast<float>(s * w.sample_step);
+        const float b = s + 1 == samples ? static_cast<float>(w.smoothed)
+                                         : static_cast<float>((s + 1) * w.sample_step);
+        int extra = params_.refine_samples;
+        if (perMetre > 0.0f) {
+          // The interval's floor length: its chord through the floor's Jacobian at its middle.
+          const int ia = static_cast<int>(a), ib = s + 1 == samples ? 0 : static_cast<int>(b);
+          const float du = su[ib] - su[ia], dv = sv[ib] - sv[ia];
+          const float metres = floorLength(su[ia] + 0.5f * du, sv[ia] + 0.5f * dv, du, dv);
+          extra = std::min(extra, static_cast<int>(metres * perMetre));
+          if (extra <= 0) continue;
         }
-        sequenceHits = &merged_hits_;
+        const int first = static_cast<int>(merged_hits_.size());
+        merged_hits_.resize(first + extra, Hit{false, {}});
+        for (int t = 1; t <= extra; ++t) {
+          scanAt(w, a + (b - a) * static_cast<float>(t) / static_cast<float>(extra + 1),
+                 merged_hits_[first + t - 1]);
+        }
+        refined_.emplace_back(first, extra);
       }
+      w.merged_count = static_cast<int>(merged_hits_.size()) - w.merged_begin;
     }
-    const std::vector<Hit>& ordered = *sequenceHits;
-    const int total = static_cast<int>(ordered.size());
+    for (const auto& [first, count] : refined_)
+      toFloor(&merged_hits_[first], static_cast<std::size_t>(count));
+  }
 
-    // Group hits into sequences along the contour, starting after a miss so that a sequence
-    // crossing the contour's start is not cut in two.
+  // Group hits into sequences along each contour, starting after a miss so that a sequence
+  // crossing the contour's start is not cut in two.
+  for (const ContourWork& w : work_) {
+    const bool merged = w.merged_begin >= 0;
+    const Hit* ordered = merged ? &merged_hits_[w.merged_begin] : &hits_[w.hits_begin];
+    const int total = merged ? w.merged_count : w.samples;
     int firstMiss = -1;
     for (int s = 0; s < total && firstMiss < 0; ++s) {
       if (!ordered[s].found) firstMiss = s;

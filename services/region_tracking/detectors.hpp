@@ -4,9 +4,11 @@
 // through the mirror model.
 #pragma once
 
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <optional>
+#include <utility>
 #include <vector>
 
 #include "common/camera/colour.hpp"
@@ -194,8 +196,6 @@ class LineDetector {
   // walk's brightness.
   float risingEdge(const std::uint8_t* luma, int field, int runStart, std::uint8_t peak) const;
   float fallingEdge(const std::uint8_t* luma, int runEnd, std::uint8_t peak, int field) const;
-  // The walks' pixels as byte offsets in frames of this stride and format (walk_offsets_).
-  void prepareOffsets(std::ptrdiff_t stride, camera::PixelFormat format);
   // Position along the current normal of step `index` of the current walk (pixel centre
   // projected on the exact normal).
   float along(int index) const {
@@ -203,9 +203,8 @@ class LineDetector {
     return (step.du - walk_fraction_u_) * walk_normal_u_ +
            (step.dv - walk_fraction_v_) * walk_normal_v_;
   }
-  // Smoothed contour point `i` (0 <= i < contour size) into `u`, `v`; kTaps is the kernel's
-  // size when known at compile time (the default 3 passes), 0 otherwise.
-  template <int kTaps>
+  // Smoothed contour point `i` (0 <= i < contour size) into `u`, `v` from padded_u_, padded_v_
+  // with any kernel (smoothContour sums the default one in integers).
   void smoothedPoint(int i, float& u, float& v) const;
 
   const camera::ColourTable& table_;
@@ -239,32 +238,40 @@ class LineDetector {
   // past the cell), and of the last step less the longest run at the origin.
   int probe_step_;
   int stop_step_base_;
-  // The walks' pixels as byte offsets from the origin's pixel in frames of offsets_stride_
-  // (for YUYV twice the offset plus the parity of du: one read gives both), made by scan() when
-  // a frame of another stride or format comes.
-  std::vector<std::int32_t> walk_offsets_;
-  std::ptrdiff_t offsets_stride_ = -1;
-  camera::PixelFormat offsets_format_ = camera::PixelFormat::kYuyv;
+  // Per direction the step that probes for the view's edge (walk step probe_step_), so that a
+  // scan outside the view is refused without reading its walk.
+  std::array<Step, kDirections> probes_{};
   // Binomial kernel equal to smoothing_passes passes of 0.25/0.5/0.25.
   std::vector<float> smoothing_kernel_;
-  // Per contour scratch, reused: the contour's corners with the kernel's reach wrapped around
-  // on both sides, and the smoothed points of every `smoothed_stride_`-th corner.
+  // Scratch, reused: a contour's corners with the kernel's reach wrapped around on both sides
+  // (kernels other than the default's), and the smoothed points of every contour of the frame.
   int pad_ = 0;
   std::vector<float> padded_u_, padded_v_;
   std::vector<float> smooth_u_, smooth_v_;
-  int smoothed_stride_ = 1;
   struct Hit {
     bool found;
     LinePoint point;
   };
+  // Per frame, every scanned contour's smoothed points (smooth_u_, smooth_v_ from
+  // smooth_begin) and pass-1 hits (hits_ from hits_begin); with the refinement the hits of both
+  // passes in contour order (merged_hits_ from merged_begin, -1: not refined).
+  struct ContourWork {
+    int smooth_begin = 0, smoothed = 0, sample_step = 1, tangent_reach = 1;
+    int hits_begin = 0, samples = 0;
+    int merged_begin = -1, merged_count = 0;
+  };
+  std::vector<ContourWork> work_;
   std::vector<Hit> hits_;
-  // Refinement (refine_range_m): per pass-1 interval whether it is refined, and the hits of
-  // both passes in contour order.
+  // Refinement (refine_range_m): per pass-1 interval of a contour whether it is refined, the
+  // hits of both passes, and the ranges of merged_hits_ its scans filled (first, count).
   std::vector<std::uint8_t> refine_interval_;
   std::vector<Hit> merged_hits_;
-  // Sampling by distance: samples along the closed smoothed contour (index + fraction of the
-  // corner step after it), chosen from `sampleByDistance`.
-  void sampleByDistance(int n, std::vector<float>& positions);
+  std::vector<std::pair<int, int>> refined_;
+  // Every `stride`-th smoothed corner of the closed contour `corners` (n corners) into su, sv.
+  void smoothContour(const ContourPoint* corners, int n, int stride, float* su, float* sv);
+  // Sampling by distance: samples along the closed smoothed contour su, sv (index + fraction of
+  // the corner step after it).
+  void sampleByDistance(const float* su, const float* sv, int n, std::vector<float>& positions);
   std::vector<float> sample_positions_;
   // Per corner step of the current contour: floor step (m) and whether it is near a turn.
   std::vector<float> step_x_, step_y_, step_length_;
