@@ -1,0 +1,106 @@
+// The line detector's output pinned on rendered frames: the default sequence of the tracking
+// benchmark (1 m/s while turning at 90 deg/s, 320x240), hashed as fieldline-profile-tracking
+// --digest --method whole hashes it, so that a change meant to make the detector faster is
+// checked to keep every point bit for bit. Also: the points do not depend on the frame's
+// stride.
+#include <algorithm>
+#include <cstdint>
+#include <cstring>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "bench/region_tracking/bench_sequence.hpp"
+#include "services/region_tracking/frame_processor.hpp"
+#include "tests/support/output_digest.hpp"
+#include "tests/support/sim_frames.hpp"
+
+namespace fieldline::region_tracking {
+namespace {
+
+constexpr int kFrames = 30;
+
+class LineDigest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    sim_ = new SimCamera(SimCamera::load("omni_sim", "msl"));
+    frames_ = new std::vector<std::vector<std::uint8_t>>(
+        bench::renderSequence(*sim_, 1.0, 90.0, kFrames));
+  }
+  static void TearDownTestSuite() {
+    delete frames_;
+    frames_ = nullptr;
+    delete sim_;
+    sim_ = nullptr;
+  }
+  static SimCamera* sim_;
+  static std::vector<std::vector<std::uint8_t>>* frames_;
+};
+SimCamera* LineDigest::sim_ = nullptr;
+std::vector<std::vector<std::uint8_t>>* LineDigest::frames_ = nullptr;
+
+bool samePoints(const LinePoints& a, const LinePoints& b) {
+  if (a.points.size() != b.points.size() || a.sequences != b.sequences) return false;
+  // Bit for bit (memcmp), not within a tolerance.
+  return a.points.empty() ||
+         std::memcmp(a.points.data(), b.points.data(), a.points.size() * sizeof(LinePoint)) == 0;
+}
+
+TEST_F(LineDigest, TheBenchmarksDefaultSequenceGivesThePinnedLinePoints) {
+  FrameProcessor processor(sim_->mirror, sim_->table, defaultVisionParams());
+  OutputDigest tracker, lines;
+  long long pixelsRead = 0, scans = 0, points = 0;
+  LinePoints out;
+  for (const std::vector<std::uint8_t>& bytes : *frames_) {
+    const camera::FrameView frame = sim_->renderer->view(bytes);
+    processor.classifier().setFrame(frame);
+    processor.tracker().track(processor.classifier());
+    processor.lineDetector().detect(frame, processor.tracker().contours(), out);
+    lines.add(out);
+    tracker.add(processor.tracker());
+    pixelsRead += processor.lineDetector().pixelsRead();
+    scans += processor.lineDetector().scans();
+    points += static_cast<long long>(out.points.size());
+  }
+  // Not nothing: the detector found lines in every frame on average.
+  EXPECT_GT(points, 50 * kFrames);
+  EXPECT_GT(scans, points);
+  // Pinned from `fieldline-profile-tracking --digest --method whole --frames 30` (which prints
+  // the same three figures). When a change of the renderer, the tracker, the detector or the
+  // vision defaults alters the points on purpose, re-pin from that command and say why in the
+  // commit; a speed change must leave them as they are.
+  EXPECT_EQ(tracker.value(), 0xdf7d6243ce77b05bULL) << std::hex << tracker.value();
+  EXPECT_EQ(lines.value(), 0x0223e2ec72392aadULL) << std::hex << lines.value();
+  EXPECT_EQ(pixelsRead, 63748) << pixelsRead;
+}
+
+TEST_F(LineDigest, ThePointsDoNotDependOnTheFramesStride) {
+  FrameProcessor processor(sim_->mirror, sim_->table, defaultVisionParams());
+  const camera::FrameView first = sim_->renderer->view(frames_->front());
+  const int rowBytes = camera::FrameView::minStride(first.width, first.format);
+  const int stride = rowBytes + 68;  // padded rows, the padding not pixels of the frame
+  std::vector<std::uint8_t> padded(static_cast<std::size_t>(stride) * first.height, 0xff);
+  LinePoints tight, wide;
+  int compared = 0;
+  for (const std::vector<std::uint8_t>& bytes : *frames_) {
+    const camera::FrameView frame = sim_->renderer->view(bytes);
+    for (int v = 0; v < frame.height; ++v) {
+      std::memcpy(&padded[static_cast<std::size_t>(v) * stride], frame.data + v * frame.stride,
+                  rowBytes);
+    }
+    const camera::FrameView paddedView{padded.data(), frame.width, frame.height, stride,
+                                       frame.format};
+    processor.classifier().setFrame(frame);
+    processor.tracker().track(processor.classifier());
+    processor.lineDetector().detect(frame, processor.tracker().contours(), tight);
+    const int tightRead = processor.lineDetector().pixelsRead();
+    processor.lineDetector().detect(paddedView, processor.tracker().contours(), wide);
+    EXPECT_TRUE(samePoints(tight, wide));
+    EXPECT_EQ(processor.lineDetector().pixelsRead(), tightRead);
+    compared += static_cast<int>(tight.points.size());
+  }
+  EXPECT_GT(compared, 50 * kFrames);
+}
+
+}  // namespace
+}  // namespace fieldline::region_tracking
