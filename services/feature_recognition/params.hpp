@@ -122,7 +122,7 @@ struct RecognitionParams {
   // sides and back) may be the goal itself (its posts and frame, white in msl, seen as line
   // points beyond the goal line); such points count as neither fitting nor not fitting. Not for
   // a robot within model_check_tolerance of the goal's mouth or in it.
-  bool model_check_goal_shadow = false;
+  bool model_check_goal_shadow = true;
   double model_check_cell = 0.05;
   double model_check_margin = 2.0;
 
@@ -160,13 +160,14 @@ struct RecognitionParams {
   int line_end_min_side_points = 1;
   // A line without a parallel partner at the area's spacings (the area's other lines too far or
   // too sparse) may still end at a corner when its other line shows this many points there
-  // (0 = such ends are not tried). Off: with 2, 100,000 frames gave 6 false hypotheses in 3
-  // frames (the halfway line's end at a touch line read as a penalty corner, 10.9 m off).
-  int line_end_alone_side_points = 0;
+  // (0 = such ends are not tried). 2 needs the L test below and the refined line sampling
+  // (vision_default.yaml): without them 100,000 frames gave 6-8 false hypotheses (the halfway
+  // line's end at a touch line, pieces of the centre circle read as a penalty corner).
+  int line_end_alone_side_points = 2;
   double line_end_side_reach = 0.6;
   // An L, not a T: within line_end_side_reach of the corner, off its two lines (pointsOffLegs),
   // at most this many points (negative = not tested): at a penalty corner nothing else is near.
-  int line_end_max_beyond_points = -1;
+  int line_end_max_beyond_points = 2;
   // ... counted from this distance of the corner on, m.
   double line_end_beyond_from = 0.1;
   // Both lines of an L placed by junction_identity are at least this long, m.

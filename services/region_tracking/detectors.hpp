@@ -96,7 +96,7 @@ struct LineDetectorParams {
   int ridge_min_levels = 16;
   // The detector runs at every n-th contour corner (when sample_spacing_m is 0), then the
   // refinement below when it is on (with it, 4: about the scans of 2 without it).
-  int sample_spacing = 2;
+  int sample_spacing = 4;
   // Sampling by distance on the field instead (0 = off): the detector runs every this many
   // metres of floor along the smoothed contour, at fractional positions between its corners
   // where a corner step spans more floor than that (far from the robot) and every few corners
@@ -126,7 +126,7 @@ struct LineDetectorParams {
   // than `refine_turn` rad) gets `refine_samples` more scans in each of the `refine_reach`
   // sample intervals on both sides of it, evenly between the samples. The scans follow the
   // lines that need them (a penalty area's corners 2-4 m away) instead of every contour's turns.
-  double refine_range_m = 0.0;
+  double refine_range_m = 4.5;
   double refine_min_range_m = 0.0;
   int refine_samples = 4;
   // With refine_spacing_m > 0: an interval gets only as many of its refine_samples scans as

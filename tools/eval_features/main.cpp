@@ -1065,17 +1065,20 @@ void addOptions(CLI::App& app, Options& options) {
       ->check(CLI::Range(0.0, 100.0));
   app.add_option("--alone-side-points", options.alone_side_points,
                  "The recogniser's line_end_alone_side_points (a line end without a parallel "
-                 "partner is a corner when its other line shows this many points; 0 = off)")
+                 "partner is a corner when its other line shows this many points; 0 = off; "
+                 "default: the recogniser's, 2)")
       ->check(CLI::Range(0, 100));
   app.add_option("--max-beyond-points", options.max_beyond_points,
                  "The recogniser's line_end_max_beyond_points (an L, not a T: at most this many "
-                 "points on the corner's side line beyond the corner; -1 = not tested)")
+                 "points near the corner off its two lines; -1 = not tested; default: the "
+                 "recogniser's, 2)")
       ->check(CLI::Range(-1, 100));
   app.add_option("--beyond-from", options.beyond_from, "The recogniser's line_end_beyond_from (m)")
       ->check(CLI::Range(0.0, 10.0));
   app.add_option("--goal-shadow", options.goal_shadow,
                  "The recogniser's model_check_goal_shadow (1: points in a goal's shadow count "
-                 "neither as fitting nor as not fitting; 0: they count)")
+                 "neither as fitting nor as not fitting; 0: they count; default: the "
+                 "recogniser's, 1)")
       ->check(CLI::Range(0, 1));
   app.add_option("--count", options.count,
                  "Run only this many frames from --first-frame (0 = to the end of the path)")

@@ -197,11 +197,12 @@ TEST(LineEndIdentity, ASideLineThatContinuesBeyondTheCornerMakesATNotACorner) {
   EXPECT_FALSE(identifyLineEnd(end, models, pointsOf(t_frame), check, params, t_identity));
   // (Those within the front line's tolerance of the corner count as on it.)
   EXPECT_GE(t_identity.beyond_points, 3);
-  // Without the test the same end is taken for the corner (the crossing line's points are too
-  // few to move the model check).
+  // Without the test (-1; the default is 2) the same end is taken for the corner (the crossing
+  // line's points are too few to move the model check).
+  RecognitionParams untested_params;
+  untested_params.line_end_max_beyond_points = -1;
   LineEndIdentity untested;
-  EXPECT_TRUE(
-      identifyLineEnd(end, models, pointsOf(t_frame), check, RecognitionParams{}, untested));
+  EXPECT_TRUE(identifyLineEnd(end, models, pointsOf(t_frame), check, untested_params, untested));
   // One stray point there (a fragment of clutter) is allowed.
   perception::LinePoints stray_frame = corner_frame;
   test::addSequence(stray_frame, {beyond[2]});
@@ -315,19 +316,22 @@ TEST(LineEndIdentity, CandidateEndsNeedAParallelPartnerAtTheAreasSpacings) {
   // Two parallel lines 0.75 m apart (goal-area depth) and one 3 m away from both.
   structure.groups[0] = {groupAt(1.0, -1.0, 1.5), groupAt(1.75, -3.0, 3.0),
                          groupAt(4.9, -1.0, 1.0)};
+  // Lines without a partner give no ends (line_end_alone_side_points 0; the default is 2).
+  RecognitionParams partnered;
+  partnered.line_end_alone_side_points = 0;
   std::vector<LineEnd> ends;
-  candidateLineEnds(structure, field, {}, RecognitionParams{}, ends);
+  candidateLineEnds(structure, field, {}, partnered, ends);
   // Both ends of the first two (within 4.5 m), none of the third.
   ASSERT_EQ(ends.size(), 4u);
   for (const LineEnd& e : ends)
     EXPECT_LT(e.group, 2);
   // An end already explained by a junction is no candidate.
-  candidateLineEnds(structure, field, {Vec2(1.0, 1.5)}, RecognitionParams{}, ends);
+  candidateLineEnds(structure, field, {Vec2(1.0, 1.5)}, partnered, ends);
   EXPECT_EQ(ends.size(), 3u);
 
   // With line_end_alone_side_points, a line without a partner gives its ends too, marked.
   structure.groups[0][2] = groupAt(4.3, -1.0, 1.0);  // 3.3 and 2.55 m from the others
-  candidateLineEnds(structure, field, {}, RecognitionParams{}, ends);
+  candidateLineEnds(structure, field, {}, partnered, ends);
   EXPECT_EQ(ends.size(), 4u);
   RecognitionParams alone;
   alone.line_end_alone_side_points = 2;
@@ -341,7 +345,7 @@ TEST(LineEndIdentity, CandidateEndsNeedAParallelPartnerAtTheAreasSpacings) {
   // is where its run ends, not at the fragment; the fragment (3 points) gives no ends.
   structure.groups[0][0].line.t_max = 3.5;
   structure.groups[0][0].runs = {{-1.0, 1.5, 10}, {3.4, 3.5, 3}};
-  candidateLineEnds(structure, field, {}, RecognitionParams{}, ends);
+  candidateLineEnds(structure, field, {}, partnered, ends);
   ASSERT_EQ(ends.size(), 4u);
   EXPECT_NEAR(ends[0].position.y(), -1.0, 1e-9);
   EXPECT_NEAR(ends[1].position.y(), 1.5, 1e-9);

@@ -85,9 +85,11 @@ TEST(ModelCheck, PointsInTheGoalsShadowCountNeitherWay) {
   const field::Goal& goal = field.goals()[1];  // the opponent's, at +x
   const double mouth = goal.mouth_centre.x();
   RecognitionParams params;
-  params.model_check_goal_shadow = true;
+  params.model_check_goal_shadow = true;  // the default since features9h, named here
   const ModelCheck with(field, params);
-  const ModelCheck without(field, RecognitionParams{});
+  RecognitionParams counting;
+  counting.model_check_goal_shadow = false;
+  const ModelCheck without(field, counting);
   const Pose2 robot{mouth - 1.0, 0.3, 0.2};
   const std::vector<Vec2> lines = pointsOf(test::frameAt(field, robot, 5.0, 0.1, 0.005));
   const ModelFit clean = with.fit(lines, robot);

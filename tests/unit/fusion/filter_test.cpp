@@ -899,3 +899,48 @@ TEST(DelayedFilter, AFrameInsideAnOdometryIntervalIsCarriedByItsOdometry) {
 
 }  // namespace
 }  // namespace fieldline::fusion
+
+namespace fieldline::fusion {
+namespace {
+
+// A slip takes time: 33 ms after the last accepted correction the pose cannot be 60 cm off (a
+// frame that says so matched an aliased line), 200 ms later it can (a push at 3 m/s).
+TEST(UpdatePose, ASlipIsBoundedByTheTimeSinceTheLastCorrection) {
+  SlipModel slip;
+  slip.max_m = 1.0;
+  slip.max_speed = 4.0;
+  slip.base_m = 0.15;
+  const auto run = [&](Utime since_correction_us, double offset_m) {
+    EkfState s = startState();
+    s.p.topLeftCorner<3, 3>() = Eigen::Matrix3d::Identity() * 1e-4;
+    s.last_correction_utime = kStart - since_correction_us;
+    PoseMeasurement z;
+    z.utime = kStart;
+    z.pose = {s.x[0], s.x[1] + offset_m, s.x[2]};
+    z.covariance = Eigen::Matrix3d::Identity() * 1e-4;
+    z.may_reveal_slip = true;
+    const EkfState before = s;
+    const UpdateResult r = updatePose(s, z, 16.27, slip);
+    return std::make_tuple(r, before, s);
+  };
+  // 0.15 + 4 * 0.033 = 0.28 m: 60 cm is refused and changes nothing.
+  const auto [aliased, before, after] = run(33'000, 0.6);
+  EXPECT_FALSE(aliased.accepted);
+  EXPECT_EQ(after.x, before.x);
+  EXPECT_EQ(after.p, before.p);
+  // 25 cm within the same 33 ms is a push.
+  EXPECT_TRUE(std::get<0>(run(33'000, 0.25)).slip);
+  // 0.15 + 4 * 0.2 = 0.95 m: 60 cm after 200 ms without a correction is a push as well.
+  const auto [pushed, b2, moved] = run(200'000, 0.6);
+  EXPECT_TRUE(pushed.accepted);
+  EXPECT_TRUE(pushed.slip);
+  EXPECT_GT(moved.x[1], b2.x[1] + 0.5);
+  // Never beyond max_m, however long ago.
+  EXPECT_FALSE(std::get<0>(run(2'000'000, 1.2)).accepted);
+  // Without max_speed, max_m alone: 60 cm after 33 ms is taken.
+  slip.max_speed = 0.0;
+  EXPECT_TRUE(std::get<0>(run(33'000, 0.6)).slip);
+}
+
+}  // namespace
+}  // namespace fieldline::fusion
