@@ -143,8 +143,14 @@ struct UpdateResult {
   double heading_innovation = 0.0;
 };
 
-// Moves the state to `t` with the velocity held (no odometry for the interval).
+// Moves the state to `t` with the velocity held, for time no odometry covers (adds
+// ProcessNoise::position_density and heading_density).
 void predictConstantVelocity(EkfState& s, Utime t, const ProcessNoise& noise);
+// Moves the state to `t` inside the odometry step's interval with the part of the step between
+// s.utime and t: that fraction of its movement and of its covariance (the state is first carried
+// to t_start with the velocity if it is older; t beyond t_end is taken as t_end). No velocity
+// measurement: that comes with the step's end (predictOdometry).
+void predictOdometryPart(EkfState& s, const OdometryStep& step, Utime t, const ProcessNoise& noise);
 // Moves the state to step.t_end with the part of the odometry step after s.utime (the whole
 // step when the state is at its start; the state is first carried to t_start if it is older).
 void predictOdometry(EkfState& s, const OdometryStep& step, const ProcessNoise& noise);
