@@ -1,5 +1,6 @@
 #include "services/fusion/ekf.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include <Eigen/Cholesky>
@@ -67,14 +68,19 @@ void predictConstantVelocity(EkfState& s, Utime t, const ProcessNoise& noise) {
   s.utime = t;
 }
 
-void predictOdometry(EkfState& s, const OdometryStep& step, const ProcessNoise& noise) {
-  if (s.utime < step.t_start) predictConstantVelocity(s, step.t_start, noise);
-  if (s.utime >= step.t_end || step.t_end <= step.t_start) return;
-  // Only the part of the step after the state's time moves it (a measurement may already have
-  // carried the state into the interval).
+void predictOdometryPart(EkfState& s, const OdometryStep& step, Utime t,
+                         const ProcessNoise& noise) {
+  if (step.t_end <= step.t_start) return;
+  t = std::min(t, step.t_end);
+  if (s.utime < step.t_start) predictConstantVelocity(s, std::min(t, step.t_start), noise);
+  if (s.utime >= t) return;
+  // The step's body twist is taken as constant over the interval: the part [s.utime, t] moves
+  // by that fraction of the twist (arcs compose: a fraction a and then 1 - a of a constant twist
+  // is the whole arc) and adds that fraction of the step's covariance, so a state carried to a
+  // time inside the interval and on to its end has moved exactly as the whole step.
   const double fraction =
-      static_cast<double>(step.t_end - s.utime) / static_cast<double>(step.t_end - step.t_start);
-  const double dt = static_cast<double>(step.t_end - s.utime) * 1e-6;
+      static_cast<double>(t - s.utime) / static_cast<double>(step.t_end - step.t_start);
+  const double dt = static_cast<double>(t - s.utime) * 1e-6;
   Eigen::Vector3d part = fraction * step.integrated;
   // The gyro's rotation less its bias over the part of the step.
   if (step.gyro) part.z() -= s.x[kGyroBias] * dt;
@@ -100,8 +106,15 @@ void predictOdometry(EkfState& s, const OdometryStep& step, const ProcessNoise& 
         accelerationNoise(dt, noise, false);
   addBiasWalk(s.p, dt, noise);
   symmetrize(s.p);
-  s.utime = step.t_end;
+  s.utime = t;
   s.gyro = step.gyro;
+}
+
+void predictOdometry(EkfState& s, const OdometryStep& step, const ProcessNoise& noise) {
+  // Only the part of the step after the state's time moves it (a measurement may already have
+  // carried the state into the interval).
+  if (s.utime >= step.t_end || step.t_end <= step.t_start) return;
+  predictOdometryPart(s, step, step.t_end, noise);
 
   if (!step.has_velocity) return;
   // The step's mean velocity, in the field frame at the middle of the step's heading change.
@@ -154,7 +167,13 @@ UpdateResult updatePose(EkfState& s, const PoseMeasurement& z, double gate2,
   if (!std::isfinite(result.mahalanobis2)) return result;
   if (gate2 > 0.0 && result.mahalanobis2 > gate2) {
     const double max_rad = s.gyro ? slip.max_rad_gyro : slip.max_rad;
-    const bool within = y.head<2>().norm() <= slip.max_m && std::abs(y[2]) <= max_rad;
+    double max_m = slip.max_m;
+    if (slip.max_speed > 0.0 && s.last_correction_utime > 0) {
+      const double elapsed_s =
+          static_cast<double>(std::max<Utime>(0, z.utime - s.last_correction_utime)) * 1e-6;
+      max_m = std::min(max_m, slip.base_m + slip.max_speed * elapsed_s);
+    }
+    const bool within = y.head<2>().norm() <= max_m && std::abs(y[2]) <= max_rad;
     if (!z.may_reveal_slip || slip.inflation <= 0.0 || !within) return result;
     // Odometry missed a movement: the pose is as uncertain as the disagreement says (the
     // position only when the heading was weighted down against the gyro's).

@@ -91,6 +91,13 @@ struct SlipModel {
   // ... instead of max_rad while the heading comes from the gyro (EkfState::gyro): it sees a
   // twist, so a frame whose heading disagrees beyond this is a wrong match, not a slip.
   double max_rad_gyro = 0.5;
+  // A slip is a movement, and a movement takes time: since the state's last accepted correction
+  // the pose cannot have slipped farther than base_m + max_speed * elapsed (a push by an
+  // opponent at 3 m/s, wheels spinning against an obstacle). A frame whose disagreement is
+  // beyond that, 33 ms after the last correction, is a wrong match (an aliased line 1 m away),
+  // not a slip. max_speed 0: no time bound (max_m alone), m/s, m.
+  double max_speed = 0.0;
+  double base_m = 0.0;
   // 0: no slip handling.
   double inflation = 2.0;
   // While the heading comes from the gyro (EkfState::gyro), a measurement with robust_heading
@@ -136,8 +143,14 @@ struct UpdateResult {
   double heading_innovation = 0.0;
 };
 
-// Moves the state to `t` with the velocity held (no odometry for the interval).
+// Moves the state to `t` with the velocity held, for time no odometry covers (adds
+// ProcessNoise::position_density and heading_density).
 void predictConstantVelocity(EkfState& s, Utime t, const ProcessNoise& noise);
+// Moves the state to `t` inside the odometry step's interval with the part of the step between
+// s.utime and t: that fraction of its movement and of its covariance (the state is first carried
+// to t_start with the velocity if it is older; t beyond t_end is taken as t_end). No velocity
+// measurement: that comes with the step's end (predictOdometry).
+void predictOdometryPart(EkfState& s, const OdometryStep& step, Utime t, const ProcessNoise& noise);
 // Moves the state to step.t_end with the part of the odometry step after s.utime (the whole
 // step when the state is at its start; the state is first carried to t_start if it is older).
 void predictOdometry(EkfState& s, const OdometryStep& step, const ProcessNoise& noise);

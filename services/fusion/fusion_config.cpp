@@ -122,6 +122,8 @@ void loadCalibration(const config::Node& n, LocalizerParams& p) {
   slip.max_m = n.getOr<double>("slip_max_m", slip.max_m, 0.0, 10.0);
   slip.max_rad = n.getOr<double>("slip_max_rad", slip.max_rad, 0.0, 3.2);
   slip.max_rad_gyro = n.getOr<double>("slip_max_rad_gyro", slip.max_rad_gyro, 0.0, 3.2);
+  slip.max_speed = n.getOr<double>("slip_max_speed", slip.max_speed, 0.0, 100.0);
+  slip.base_m = n.getOr<double>("slip_base_m", slip.base_m, 0.0, 10.0);
   slip.inflation = n.getOr<double>("slip_inflation", slip.inflation, 0.0, 100.0);
   slip.gyro_heading_chi2 = n.getOr<double>("gyro_heading_chi2", slip.gyro_heading_chi2, 0.0, 1e6);
   // The Huber bound must lie inside the gate: at or beyond it, every weighted-down heading would

@@ -90,7 +90,8 @@ Rejection DelayedFilter::addOdometry(const OdometryStep& step, Utime now) {
     return count(Rejection::kDuplicate);
   }
   newest_input_ = std::max(newest_input_, step.t_end);
-  if (initialized()) replayFrom(step.t_end, -1);
+  // From the step's start: a measurement inside its interval was carried there without it.
+  if (initialized()) replayFrom(std::max(step.t_start, checkpoints_.front().utime) + 1, -1);
   prune();
   return Rejection::kNone;
 }
@@ -177,6 +178,19 @@ void DelayedFilter::addContactNoise(EkfState& s, Utime a, Utime b) const {
   s.p(2, 2) += heading * heading * dt;
 }
 
+void DelayedFilter::carryTo(EkfState& s, Utime t) const {
+  if (t <= s.utime) return;
+  const Utime from = s.utime;
+  // The odometry step whose interval holds t (the first one ending after it), when stored.
+  const std::size_t i = odometry_.indexAtOrAfter(t + 1);
+  if (i < odometry_.size() && odometry_[i].value.t_start < t) {
+    predictOdometryPart(s, odometry_[i].value, t, params_.noise);
+  } else {
+    predictConstantVelocity(s, t, params_.noise);
+  }
+  addContactNoise(s, from, s.utime);
+}
+
 DelayedFilter::Applied DelayedFilter::replayFrom(Utime t, int target_kind) {
   Applied applied;
   if (!initialized()) return applied;
@@ -218,8 +232,7 @@ DelayedFilter::Applied DelayedFilter::replayFrom(Utime t, int target_kind) {
       const PoseMeasurement& z = measurements_[m][im[m]].value;
       // A refused measurement leaves no trace, not even the split of the odometry interval.
       EkfState updated = state;
-      predictConstantVelocity(updated, z.utime, params_.noise);
-      addContactNoise(updated, state.utime, updated.utime);
+      carryTo(updated, z.utime);
       const UpdateResult u = updatePose(updated, z, params_.gate2, params_.slip);
       if (u.accepted) state = updated;
       if (kind == target_kind && z.utime == t) {
@@ -265,9 +278,7 @@ std::optional<EkfState> DelayedFilter::stateAt(Utime t) const {
   auto it = std::upper_bound(checkpoints_.begin(), checkpoints_.end(), t,
                              [](Utime v, const EkfState& s) { return v < s.utime; });
   EkfState s = *std::prev(it);
-  const Utime from = s.utime;
-  predictConstantVelocity(s, t, params_.noise);
-  addContactNoise(s, from, s.utime);
+  carryTo(s, t);
   return s;
 }
 

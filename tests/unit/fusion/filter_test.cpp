@@ -230,6 +230,52 @@ TEST(DelayedFilter, LateMeasurementsGiveTheInOrderStateExactly) {
   }
 }
 
+// The slip bound depends on the state at the frame's time (its last correction), so a late frame
+// that is refused as too far for the time it had, or taken as a slip, is decided the same way in
+// any arrival order.
+TEST(DelayedFilter, SlipDecisionsAreTheSameInAnyArrivalOrder) {
+  FilterParams params;
+  params.slip.max_m = 1.0;
+  params.slip.max_speed = 4.0;
+  params.slip.base_m = 0.15;
+  params.slip.inflation = 2.0;
+  for (unsigned seed = 1; seed <= 10; ++seed) {
+    std::mt19937 rng(seed);
+    std::vector<Input> inputs = makeInputs(rng, seed % 2 == 0);
+    // Every second line frame trusted and pushed 0.1-0.6 m off: beyond the gate, some within
+    // the time bound and some not.
+    std::uniform_real_distribution<double> off(0.1, 0.6);
+    int n = 0;
+    for (Input& in : inputs) {
+      if (in.odometry || in.source != MeasurementSource::kLines || ++n % 2 != 0) continue;
+      in.z.may_reveal_slip = true;
+      in.z.pose.x += off(rng);
+      in.z.covariance = Eigen::Matrix3d::Identity() * 1e-4;
+    }
+    const auto run = [&](bool by_arrival) {
+      std::vector<Input> order = inputs;
+      std::stable_sort(order.begin(), order.end(), [&](const Input& a, const Input& b) {
+        return by_arrival ? a.arrival < b.arrival : timeOf(a) < timeOf(b);
+      });
+      DelayedFilter f(params);
+      f.initialize(startState());
+      for (const Input& in : order)
+        feed(f, in, by_arrival ? in.arrival : timeOf(in));
+      return f;
+    };
+    const DelayedFilter in_order = run(false);
+    const DelayedFilter late = run(true);
+    EXPECT_GT(late.replays(), 0u);
+    EXPECT_LT((in_order.current().x - late.current().x).cwiseAbs().maxCoeff(), 1e-9);
+    EXPECT_LT((in_order.current().p - late.current().p).cwiseAbs().maxCoeff(), 1e-9);
+    // (The rejection counters are not compared: they count each frame's decision on arrival,
+    // and a frame that arrives before an older one may be decided again in the replay.)
+    // The bound refused some frames.
+    const auto gated = in_order.rejections()[static_cast<std::size_t>(Rejection::kGated)];
+    EXPECT_GT(gated, 0u) << "seed " << seed;
+  }
+}
+
 TEST(DelayedFilter, FollowsNoisyMeasurementsAgainstBiasedStart) {
   std::mt19937 rng(7);
   std::vector<Input> inputs = makeInputs(rng);
@@ -772,6 +818,174 @@ TEST(UpdatePose, APushWithAWrongFrameHeadingWidensThePositionOnly) {
   const UpdateResult q = updatePose(t, z, 16.27, slip);
   ASSERT_TRUE(q.slip);
   EXPECT_GT(geometry::angleDiff(t.x[2], s0.x[2]), 0.15);
+}
+
+// nees10h: a state carried to a time inside an odometry interval moves by that interval's own
+// odometry (its motion and covariance in proportion), not by the velocity and the position
+// density, and the part and the rest move exactly as the whole step.
+OdometryStep turningStep(bool gyro) {
+  const auto p = params();
+  OdometryLayer layer(p);
+  std::array<double, 3> rem{};
+  layer.update({kStart, {0, 0, 0}, false});
+  const robot::Twist twist{0.9, 0.3, 2.0};
+  OdometrySample s{kStart + 20'000,
+                   advanceTicks({0, 0, 0}, layer.kinematics(), p, twist, 0.02, rem), false};
+  s.has_gyro = gyro;
+  s.gyro_dphi = (2.0 + 0.01) * 0.02;
+  OdometryStep step = *layer.update(s).step;
+  EXPECT_EQ(step.gyro, gyro);
+  return step;
+}
+
+TEST(PredictOdometry, APartAndTheRestMoveAsTheWholeStep) {
+  ProcessNoise noise;
+  noise.position_density = 1.0;  // would dominate if it were used
+  noise.heading_density = 1.0;
+  for (bool gyro : {false, true}) {
+    OdometryStep step = turningStep(gyro);
+    step.has_velocity = false;  // the velocity update depends on P, compared loosely below
+    EkfState start = startState();
+    start.x[kGyroBias] = 0.01;
+    EkfState whole = start;
+    predictOdometry(whole, step, noise);
+    EkfState part = start;
+    const Utime mid = step.t_start + 8'000;
+    predictOdometryPart(part, step, mid, noise);
+    EXPECT_EQ(part.utime, mid);
+    EXPECT_EQ(part.gyro, gyro);
+    // 40 % of the step's covariance, rotated into the field, and nothing of the densities.
+    const double c = std::cos(start.x[2]), sn = std::sin(start.x[2]);
+    Eigen::Matrix2d rot;
+    rot << c, -sn, sn, c;
+    const Eigen::Matrix2d grown = part.p.topLeftCorner<2, 2>() - start.p.topLeftCorner<2, 2>();
+    const Eigen::Matrix2d expected =
+        0.4 * rot * step.covariance.topLeftCorner<2, 2>() * rot.transpose();
+    // F P F^T adds the heading's share (phi's 0.01 rad^2 times the lever of 40 % of the arc).
+    EXPECT_LT((grown - expected).cwiseAbs().maxCoeff(), 0.011 * 0.4 * 0.4 * 0.02 * 0.02);
+    EXPECT_LT(grown.trace(), 0.01 * noise.position_density * noise.position_density * 0.008);
+    predictOdometry(part, step, noise);
+    EXPECT_EQ(part.utime, whole.utime);
+    EXPECT_LT((part.x - whole.x).cwiseAbs().maxCoeff(), 1e-12) << "gyro " << gyro;
+    EXPECT_LT((part.p - whole.p).cwiseAbs().maxCoeff(), 1e-3 * whole.p.cwiseAbs().maxCoeff());
+    EXPECT_GT(std::hypot(whole.x[0] - start.x[0], whole.x[1] - start.x[1]), 0.015);
+  }
+}
+
+TEST(DelayedFilter, AFrameInsideAnOdometryIntervalIsCarriedByItsOdometry) {
+  const auto p = params();
+  FilterParams fp;
+  fp.noise.position_density = 0.5;  // large: a frame carried with it would show
+  fp.noise.heading_density = 0.5;
+  OdometryLayer layer(p);
+  std::array<double, 3> rem{};
+  robot::TickCounts ticks{0, 0, 0};
+  layer.update({kStart, ticks, false});
+  std::vector<OdometryStep> steps;
+  for (int k = 1; k <= 10; ++k) {
+    ticks = advanceTicks(ticks, layer.kinematics(), p, {1.0, -0.4, 1.2}, 0.02, rem);
+    steps.push_back(*layer.update({kStart + k * 20'000, ticks, false}).step);
+  }
+  // A frame 40 % into the fifth step, 3 cm and 0.02 rad off the odometry's pose.
+  const Utime t = steps[4].t_start + 8'000;
+  PoseMeasurement z;
+  z.utime = t;
+  z.covariance = Eigen::Vector3d(1e-4, 1e-4, 1e-4).asDiagonal();
+
+  // The state before the frame, by hand: the first four steps, then 40 % of the fifth.
+  DelayedFilter four(fp);
+  four.initialize(startState());
+  for (int k = 0; k < 4; ++k)
+    ASSERT_EQ(four.addOdometry(steps[static_cast<std::size_t>(k)], steps[3].t_end),
+              Rejection::kNone);
+  EkfState expected = four.current();
+  predictOdometryPart(expected, steps[4], t, fp.noise);
+  z.pose = {expected.x[0] + 0.03, expected.x[1], expected.x[2] + 0.02};
+
+  // With every step known, stateAt(t) is that state, without the position density.
+  DelayedFilter all(fp);
+  all.initialize(startState());
+  for (const OdometryStep& step : steps)
+    ASSERT_EQ(all.addOdometry(step, steps.back().t_end), Rejection::kNone);
+  const auto at = all.stateAt(t);
+  ASSERT_TRUE(at.has_value());
+  EXPECT_LT((at->x - expected.x).cwiseAbs().maxCoeff(), 1e-12);
+  EXPECT_LT((at->p - expected.p).cwiseAbs().maxCoeff(), 1e-15);
+  EkfState by_velocity = four.current();
+  predictConstantVelocity(by_velocity, t, fp.noise);
+  EXPECT_GT(by_velocity.p(0, 0) - at->p(0, 0), 0.5 * 0.5 * 0.008 * 0.9);
+  // Beyond the newest step no odometry covers the time: the velocity and the density carry it.
+  const auto beyond = all.stateAt(steps.back().t_end + 10'000);
+  ASSERT_TRUE(beyond.has_value());
+  EXPECT_GT(beyond->p(0, 0) - all.current().p(0, 0), 0.9 * 0.5 * 0.5 * 0.01);
+
+  // The frame late (after all steps) and in order (before its step): the same state exactly,
+  // and the one by hand: update at t, then the rest of the fifth step and the others.
+  const auto late = all.addPose(MeasurementSource::kLines, z, steps.back().t_end + 60'000);
+  ASSERT_EQ(late.rejection, Rejection::kNone);
+  DelayedFilter in_order(fp);
+  in_order.initialize(startState());
+  for (std::size_t k = 0; k < steps.size(); ++k) {
+    if (k == 4) {
+      ASSERT_EQ(in_order.addPose(MeasurementSource::kLines, z, t).rejection, Rejection::kNone);
+    }
+    ASSERT_EQ(in_order.addOdometry(steps[k], steps[k].t_end), Rejection::kNone);
+  }
+  EkfState hand = expected;
+  ASSERT_TRUE(updatePose(hand, z, fp.gate2, fp.slip).accepted);
+  for (std::size_t k = 4; k < steps.size(); ++k)
+    predictOdometry(hand, steps[k], fp.noise);
+  for (const EkfState* s : {&all.current(), &in_order.current()}) {
+    EXPECT_EQ(s->utime, hand.utime);
+    EXPECT_LT((s->x - hand.x).cwiseAbs().maxCoeff(), 1e-9);
+    EXPECT_LT((s->p - hand.p).cwiseAbs().maxCoeff(), 1e-9);
+  }
+  EXPECT_EQ(all.current().last_correction_utime, t);
+}
+
+}  // namespace
+}  // namespace fieldline::fusion
+
+namespace fieldline::fusion {
+namespace {
+
+// A slip takes time: 33 ms after the last accepted correction the pose cannot be 60 cm off (a
+// frame that says so matched an aliased line), 200 ms later it can (a push at 3 m/s).
+TEST(UpdatePose, ASlipIsBoundedByTheTimeSinceTheLastCorrection) {
+  SlipModel slip;
+  slip.max_m = 1.0;
+  slip.max_speed = 4.0;
+  slip.base_m = 0.15;
+  const auto run = [&](Utime since_correction_us, double offset_m) {
+    EkfState s = startState();
+    s.p.topLeftCorner<3, 3>() = Eigen::Matrix3d::Identity() * 1e-4;
+    s.last_correction_utime = kStart - since_correction_us;
+    PoseMeasurement z;
+    z.utime = kStart;
+    z.pose = {s.x[0], s.x[1] + offset_m, s.x[2]};
+    z.covariance = Eigen::Matrix3d::Identity() * 1e-4;
+    z.may_reveal_slip = true;
+    const EkfState before = s;
+    const UpdateResult r = updatePose(s, z, 16.27, slip);
+    return std::make_tuple(r, before, s);
+  };
+  // 0.15 + 4 * 0.033 = 0.28 m: 60 cm is refused and changes nothing.
+  const auto [aliased, before, after] = run(33'000, 0.6);
+  EXPECT_FALSE(aliased.accepted);
+  EXPECT_EQ(after.x, before.x);
+  EXPECT_EQ(after.p, before.p);
+  // 25 cm within the same 33 ms is a push.
+  EXPECT_TRUE(std::get<0>(run(33'000, 0.25)).slip);
+  // 0.15 + 4 * 0.2 = 0.95 m: 60 cm after 200 ms without a correction is a push as well.
+  const auto [pushed, b2, moved] = run(200'000, 0.6);
+  EXPECT_TRUE(pushed.accepted);
+  EXPECT_TRUE(pushed.slip);
+  EXPECT_GT(moved.x[1], b2.x[1] + 0.5);
+  // Never beyond max_m, however long ago.
+  EXPECT_FALSE(std::get<0>(run(2'000'000, 1.2)).accepted);
+  // Without max_speed, max_m alone: 60 cm after 33 ms is taken.
+  slip.max_speed = 0.0;
+  EXPECT_TRUE(std::get<0>(run(33'000, 0.6)).slip);
 }
 
 }  // namespace

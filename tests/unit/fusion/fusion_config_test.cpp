@@ -24,6 +24,9 @@ TEST(FusionConfig, ThePresetLoads) {
   EXPECT_GT(c.localizer.filter.gate2, 0.0);
   EXPECT_GT(c.localizer.odometry.wheel_slip_density, 0.0);
   EXPECT_GT(c.localizer.filter.slip.inflation, 0.0);
+  // Slips are bounded by the time they had (docs/fusion.md, "Eighth round").
+  EXPECT_DOUBLE_EQ(c.localizer.filter.slip.max_speed, 4.0);
+  EXPECT_DOUBLE_EQ(c.localizer.filter.slip.base_m, 0.15);
   EXPECT_EQ(c.matcher.method, MatchMethod::kRobustLeastSquares);
   EXPECT_DOUBLE_EQ(c.ball_rate_hz, 30.0);
   EXPECT_EQ(c.localizer.start_prior, StartPrior::kOwnHalf);
