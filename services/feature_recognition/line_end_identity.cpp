@@ -84,6 +84,16 @@ int pointsOffLegs(const std::vector<Vec2>& points, const Vec2& corner,
   return count;
 }
 
+int pointsOffJunction(const std::vector<Vec2>& points, const ModelJunction& model,
+                      const geometry::Pose2& robot, double from, double reach) {
+  thread_local std::vector<Vec2> legs;
+  legs.clear();
+  for (const Vec2& leg : model.legs)
+    legs.push_back(geometry::rotate(leg, -robot.phi));
+  return pointsOffLegs(points, geometry::pointFieldToRobot(robot, model.position), legs, from,
+                       reach);
+}
+
 bool identifyLineEnd(const LineEnd& end, const std::vector<ModelJunction>& models,
                      const std::vector<Vec2>& points, const ModelCheck& check,
                      const RecognitionParams& params, LineEndIdentity& out) {

@@ -71,6 +71,11 @@ int pointsAlong(const std::vector<Vec2>& points, const Vec2& from, const Vec2& d
 int pointsOffLegs(const std::vector<Vec2>& points, const Vec2& corner,
                   const std::vector<Vec2>& legs, double from, double reach);
 
+// pointsOffLegs around `model` (a model junction) placed at the robot pose `robot`: its position
+// and legs moved into the robot frame.
+int pointsOffJunction(const std::vector<Vec2>& points, const ModelJunction& model,
+                      const geometry::Pose2& robot, double from, double reach);
+
 // Places `end` on the field (see the file comment); `models` from modelJunctions(). Returns false
 // at once (cheaply) when no model penalty corner fits the other points well enough to be worth
 // the full identification.

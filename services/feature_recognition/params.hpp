@@ -116,13 +116,13 @@ struct RecognitionParams {
   double model_check_min_other_share = 0.75;
   // At most this many points are looked up per hypothesis (evenly thinned beyond).
   int model_check_max_points = 1000;
-  // Distance grid: node spacing and margin beyond the field's lines, m.
   // The goals' shadow: a point whose ray from the robot passes through a goal of the pose
   // checked (the goal's footprint from the mouth on, grown by model_check_tolerance at its
   // sides and back) may be the goal itself (its posts and frame, white in msl, seen as line
   // points beyond the goal line); such points count as neither fitting nor not fitting. Not for
   // a robot within model_check_tolerance of the goal's mouth or in it.
   bool model_check_goal_shadow = true;
+  // Distance grid: node spacing and margin beyond the field's lines, m.
   double model_check_cell = 0.05;
   double model_check_margin = 2.0;
 
@@ -172,6 +172,16 @@ struct RecognitionParams {
   double line_end_beyond_from = 0.1;
   // Both lines of an L placed by junction_identity are at least this long, m.
   double min_identity_leg = 0.35;
+  // The same L test for such an L placed at a penalty corner: at most this many points within
+  // line_end_side_reach of the model's corner (from line_end_beyond_from on) off the model
+  // junction's legs (negative = not tested). Two pieces of the centre circle meeting at an
+  // angle were once placed as a penalty corner (docs/feature_recognition.md, frame 87411).
+  int identity_max_beyond_points = 2;
+  // ... counted up to this distance of the corner, m. Short: both lines are seen, and a true
+  // corner near the robot often has a white patch or the goal line within 0.4-0.6 m (3000
+  // frames: 2-4 of 2802 corners lost with 0.4-0.6 m, none with 0.3 m, where the refined
+  // sampling still puts 3-4 points of a crossing line).
+  double identity_beyond_reach = 0.3;
 
   // --- consistency of one frame's high-level features (beyond the seed) ---
   // Features whose robot poses differ (and differ from each other's point-symmetric twin) by

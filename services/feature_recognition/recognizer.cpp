@@ -181,7 +181,14 @@ InputCheck FeatureRecognizer::recognize(const perception::LinePoints& in,
     c.fit = model_check_.fit(contours_.points, identity.robot);
     c.others = identity.fit;
     c.rival_share = identity.rival_share;
-    c.accepted = identified && model_check_.accepts(c.fit, c.others);
+    // An L, not a T or two curves meeting: nothing near the corner off its two lines.
+    c.beyond_points =
+        pointsOffJunction(contours_.points, *model, identity.robot, params_.line_end_beyond_from,
+                          params_.identity_beyond_reach);
+    c.accepted = identified &&
+                 (params_.identity_max_beyond_points < 0 ||
+                  c.beyond_points <= params_.identity_max_beyond_points) &&
+                 model_check_.accepts(c.fit, c.others);
     checked_.push_back(c);
     if (!c.accepted) continue;
     const Line& a = structure_.groups[j.bar_axis][j.bar].line;

@@ -45,8 +45,8 @@ struct CheckedFeature {
   // other points, and (line ends) the best share with the pose shifted (line_end_identity).
   double rival_share = 0.0;
   double shifted_share = 0.0;
-  // Line ends: points on the corner's other line and on its extension beyond the corner
-  // (line_end_identity; -1 for other features).
+  // Line ends: points on the corner's other line (line_end_identity); line ends and L-corners:
+  // points near the corner off its lines (pointsOffJunction). -1 for other features.
   int side_points = -1;
   int beyond_points = -1;
   bool accepted = false;

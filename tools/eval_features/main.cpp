@@ -76,6 +76,9 @@ struct Options {
   // model_check_goal_shadow (0 off, 1 on, -1 its default).
   int max_beyond_points = -2;
   int goal_shadow = -1;
+  // The recogniser's identity_max_beyond_points (below -1 = its default).
+  int identity_max_beyond = -2;
+  double identity_beyond_reach = -1.0;
   double beyond_from = -1.0;
   // Frames to run from first_frame (0 = to the end of the path).
   int count = 0;
@@ -718,6 +721,10 @@ feature_recognition::RecognitionParams recognitionParamsOf(const Options& option
   if (options.max_beyond_points >= -1)
     recognition_params.line_end_max_beyond_points = options.max_beyond_points;
   if (options.goal_shadow >= 0) recognition_params.model_check_goal_shadow = options.goal_shadow;
+  if (options.identity_max_beyond >= -1)
+    recognition_params.identity_max_beyond_points = options.identity_max_beyond;
+  if (options.identity_beyond_reach >= 0.0)
+    recognition_params.identity_beyond_reach = options.identity_beyond_reach;
   if (options.beyond_from >= 0.0) recognition_params.line_end_beyond_from = options.beyond_from;
   return recognition_params;
 }
@@ -1073,6 +1080,13 @@ void addOptions(CLI::App& app, Options& options) {
                  "points near the corner off its two lines; -1 = not tested; default: the "
                  "recogniser's, 2)")
       ->check(CLI::Range(-1, 100));
+  app.add_option("--identity-max-beyond", options.identity_max_beyond,
+                 "The recogniser's identity_max_beyond_points (the L test for L-corners placed "
+                 "by the model check, stage 8; -1 = not tested; default: the recogniser's, 2)")
+      ->check(CLI::Range(-1, 100));
+  app.add_option("--identity-beyond-reach", options.identity_beyond_reach,
+                 "The recogniser's identity_beyond_reach (m)")
+      ->check(CLI::Range(0.0, 10.0));
   app.add_option("--beyond-from", options.beyond_from, "The recogniser's line_end_beyond_from (m)")
       ->check(CLI::Range(0.0, 10.0));
   app.add_option("--goal-shadow", options.goal_shadow,

@@ -6,6 +6,7 @@
 // asks for more points on the side line instead.
 #include "services/feature_recognition/line_end_identity.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include <gtest/gtest.h>
@@ -254,6 +255,51 @@ TEST(LineEndIdentity, PointsOffTheLegsTellALFromATAndFromTheCircle) {
   const auto corner_legs = legsAt(before_area, {Vec2(0.0, -1.0), Vec2(1.0, 0.0)});
   EXPECT_EQ(pointsOffLegs(area_frame, geometry::pointFieldToRobot(before_area, corner), corner_legs,
                           0.1, 0.6),
+            0);
+}
+
+// The L test of stage 8 (identity_max_beyond_points): a penalty-area corner placed where the
+// halfway line meets the touch line (the T read as an L, the touch line's other half unseen as a
+// line) shows the touch line's points off the model corner's legs within identity_beyond_reach,
+// sampled as densely as the refinement samples near line ends (5 cm); the true corner shows none.
+TEST(LineEndIdentity, AnLPlacedAtAPenaltyCornerHasNothingNearItOffItsLegs) {
+  const field::FieldModel field = field::loadFieldPreset("msl");
+  const RecognitionParams params;
+  ASSERT_GE(params.identity_max_beyond_points, 0);  // on by default
+  const auto& d = field.dimensions();
+  const Vec2 corner(field.length() / 2 - d.penalty_area_depth, d.penalty_area_width / 2);
+  const std::vector<ModelJunction> models = modelJunctions(field);
+  const auto model = std::find_if(models.begin(), models.end(), [&](const ModelJunction& m) {
+    return m.penalty_corner && (m.position - corner).norm() < 1e-9;
+  });
+  ASSERT_NE(model, models.end());
+  auto offLegs = [&](const std::vector<Vec2>& points, const Pose2& robot) {
+    return pointsOffJunction(points, *model, robot, params.line_end_beyond_from,
+                             params.identity_beyond_reach);
+  };
+  // The true corner from 2 m.
+  const Pose2 before_area{corner.x() - 1.4, corner.y() - 1.5, 0.7};
+  const auto area_frame = pointsOf(test::frameAt(field, before_area, 4.5, 0.05, 0.005));
+  EXPECT_EQ(offLegs(area_frame, before_area), 0);
+  // The T (0, W/2) seen from 1.6 m; the pose that puts the model corner on it, its legs along
+  // the halfway line (into the field, as the corner's front line) and the touch line toward +x.
+  const Vec2 t_point(0.0, field.width() / 2);
+  const Pose2 at_touch_line{1.2, t_point.y() - 1.2, 2.5};
+  const auto touch_frame = pointsOf(test::frameAt(field, at_touch_line, 4.5, 0.05, 0.005));
+  const Vec2 shift = corner - t_point;
+  const Pose2 misread{at_touch_line.x + shift.x(), at_touch_line.y + shift.y(), at_touch_line.phi};
+  EXPECT_NEAR((geometry::pointFieldToRobot(misread, corner) -
+               geometry::pointFieldToRobot(at_touch_line, t_point))
+                  .norm(),
+              0.0, 1e-9);
+  const int t_points = offLegs(touch_frame, misread);
+  EXPECT_GT(t_points, params.identity_max_beyond_points);
+  // At the true pose the T's own legs include the touch line's other half: nothing off them.
+  const std::vector<Vec2> t_legs = {geometry::rotate(Vec2(0.0, -1.0), -at_touch_line.phi),
+                                    geometry::rotate(Vec2(1.0, 0.0), -at_touch_line.phi),
+                                    geometry::rotate(Vec2(-1.0, 0.0), -at_touch_line.phi)};
+  EXPECT_EQ(pointsOffLegs(touch_frame, geometry::pointFieldToRobot(at_touch_line, t_point), t_legs,
+                          params.line_end_beyond_from, params.identity_beyond_reach),
             0);
 }
 

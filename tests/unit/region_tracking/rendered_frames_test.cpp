@@ -272,7 +272,8 @@ TEST_F(RenderedFrames, TheSmallGreenRegionInsideTheGoalAreaIsTracked) {
   EXPECT_LE(goal_area_cells, 60);  // small: not merged with the field around it
 }
 
-// Share of `tested`'s line points with no point of `exact` within 5 px.
+// How many of `tested`'s line points have no point of `exact` within 5 px, and of how many
+// (unmatched, total).
 std::pair<long long, long long> unmatchedPoints(const LinePoints& tested, const LinePoints& exact) {
   long long unmatched = 0;
   for (const LinePoint& p : tested.points) {
