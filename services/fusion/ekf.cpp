@@ -168,8 +168,9 @@ UpdateResult updatePose(EkfState& s, const PoseMeasurement& z, double gate2,
   if (gate2 > 0.0 && result.mahalanobis2 > gate2) {
     const double max_rad = s.gyro ? slip.max_rad_gyro : slip.max_rad;
     double max_m = slip.max_m;
-    if (slip.max_speed > 0.0 && s.last_correction_utime > 0 && z.utime > s.last_correction_utime) {
-      const double elapsed_s = static_cast<double>(z.utime - s.last_correction_utime) * 1e-6;
+    if (slip.max_speed > 0.0 && s.last_correction_utime > 0) {
+      const double elapsed_s =
+          static_cast<double>(std::max<Utime>(0, z.utime - s.last_correction_utime)) * 1e-6;
       max_m = std::min(max_m, slip.base_m + slip.max_speed * elapsed_s);
     }
     const bool within = y.head<2>().norm() <= max_m && std::abs(y[2]) <= max_rad;

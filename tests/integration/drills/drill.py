@@ -325,7 +325,11 @@ def analyse(out, events, launcher_rc):
         # A step away from the truth between two consecutive estimates: what a stale or wrongly
         # timed measurement does. Steps toward the truth are vision corrections doing their job.
         prev = before[-1] if before and ev["kind"] != "fusion" else None
-        reach = t_back + int(FAULT_REACH_S * 1e6)
+        # The reach counts from the restarted process's first message (a slow start-up delays
+        # its stale inputs too), for fusion from its convergence.
+        reach = (after[0] if after else t_back) + int(FAULT_REACH_S * 1e6)
+        if ev["kind"] == "fusion" and during:
+            reach = max(reach, during[0][0] + int(FAULT_REACH_S * 1e6))
         jump = 0.0
         settle_jump, settle_at = 0.0, None
         for d in during:
@@ -355,7 +359,9 @@ def analyse(out, events, launcher_rc):
                 (r - u for r, u in camera_frames if t_back <= r < t_back + 2_000_000),
                 default=0) / 1e3, 1)
         pre = [s for r, s in fusion_status if r < t_fault]
-        post = [s for r, s in fusion_status if r >= t_back + int(SETTLE_S * 1e6) - 1_500_000]
+        # The status at the end of this fault's settle time (not a later fault's).
+        post = [s for r, s in fusion_status
+                if t_back + int(SETTLE_S * 1e6) - 1_500_000 <= r < t_back + int(SETTLE_S * 1e6)]
         refused = {}
         if pre and post and ev["kind"] != "fusion":
             def counts(s):
