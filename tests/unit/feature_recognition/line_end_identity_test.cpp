@@ -91,23 +91,43 @@ GoalArea goalAreaOf(const field::FieldModel& field) {
   return {Vec2(x, y), Vec2(field.length() / 2, y), Vec2(x, -y)};
 }
 
+// The goal-area corner's view used below: every line within 4.5 m.
+const Pose2 kGoalAreaView{8.2, 0.6, 0.3};
+
+perception::LinePoints goalAreaFrame(const field::FieldModel& field) {
+  return test::frameAt(field, kGoalAreaView, 4.5, 0.12, 0.005);
+}
+
+// The goal-area front line's end at the corner, as kGoalAreaView sees it (the line runs along
+// field -y into the corner).
+LineEnd frontLineEndAtCorner(const GoalArea& area) {
+  LineEnd end;
+  end.position = geometry::pointFieldToRobot(kGoalAreaView, area.corner);
+  end.into = geometry::rotate(Vec2(0.0, -1.0), -kGoalAreaView.phi);
+  end.length = 2.0;
+  return end;
+}
+
+// The frame with the corner's side line cut to its first 0.3 m (two or three points, too short
+// for a line).
+perception::LinePoints withShortSideLine(const perception::LinePoints& full, const GoalArea& area) {
+  const Vec2 side_cut = area.corner + 0.3 * (area.side_end - area.corner).normalized();
+  return without(full, kGoalAreaView, side_cut, area.side_end, 0.06);
+}
+
 TEST(LineEndIdentity, GoalAreaCornerWithoutItsSideLineIsFoundFromTheFrontLineEnd) {
   const field::FieldModel field = field::loadFieldPreset("msl");
   const GoalArea area = goalAreaOf(field);
-  const Pose2 truth{8.2, 0.6, 0.3};
-  const perception::LinePoints full = test::frameAt(field, truth, 4.5, 0.12, 0.005);
-  // The side line shows only its first 0.3 m (two or three points, too short for a line).
-  const Vec2 side_cut = area.corner + 0.3 * (area.side_end - area.corner).normalized();
-  const perception::LinePoints frame = without(full, truth, side_cut, area.side_end, 0.06);
+  const Pose2 truth = kGoalAreaView;
+  const perception::LinePoints full = goalAreaFrame(field);
+  // The side line shows only its first 0.3 m.
+  const perception::LinePoints frame = withShortSideLine(full, area);
   ASSERT_GT(frame.points.size(), 80u);
 
   // The stage alone, on the front line's end at the corner.
   const ModelCheck check(field, RecognitionParams{});
   const std::vector<ModelJunction> models = modelJunctions(field);
-  LineEnd end;
-  end.position = geometry::pointFieldToRobot(truth, area.corner);
-  end.into = geometry::rotate(Vec2(0.0, -1.0), -truth.phi);
-  end.length = 2.0;
+  const LineEnd end = frontLineEndAtCorner(area);
   LineEndIdentity identity;
   ASSERT_TRUE(identifyLineEnd(end, models, pointsOf(frame), check, RecognitionParams{}, identity));
   const ModelJunction& model = models[identity.identity.model];
@@ -169,16 +189,11 @@ TEST(LineEndIdentity, GoalAreaCornerWithoutItsSideLineIsFoundFromTheFrontLineEnd
 TEST(LineEndIdentity, ASideLineThatContinuesBeyondTheCornerMakesATNotACorner) {
   const field::FieldModel field = field::loadFieldPreset("msl");
   const GoalArea area = goalAreaOf(field);
-  const Pose2 truth{8.2, 0.6, 0.3};
-  const perception::LinePoints full = test::frameAt(field, truth, 4.5, 0.12, 0.005);
-  const Vec2 side_cut = area.corner + 0.3 * (area.side_end - area.corner).normalized();
-  const perception::LinePoints corner_frame = without(full, truth, side_cut, area.side_end, 0.06);
+  const Pose2 truth = kGoalAreaView;
+  const perception::LinePoints corner_frame = withShortSideLine(goalAreaFrame(field), area);
   const ModelCheck check(field, RecognitionParams{});
   const std::vector<ModelJunction> models = modelJunctions(field);
-  LineEnd end;
-  end.position = geometry::pointFieldToRobot(truth, area.corner);
-  end.into = geometry::rotate(Vec2(0.0, -1.0), -truth.phi);
-  end.length = 2.0;
+  const LineEnd end = frontLineEndAtCorner(area);
   RecognitionParams params;
   params.line_end_max_beyond_points = 1;
   LineEndIdentity identity;
@@ -322,8 +337,8 @@ TEST(LineEndIdentity, AnEndAmongParallelLinesOnlyIsRefused) {
   const field::FieldModel field = field::loadFieldPreset("msl");
   const GoalArea area = goalAreaOf(field);
   const auto& d = field.dimensions();
-  const Pose2 truth{8.2, 0.6, 0.3};
-  const perception::LinePoints full = test::frameAt(field, truth, 4.5, 0.12, 0.005);
+  const Pose2 truth = kGoalAreaView;
+  const perception::LinePoints full = goalAreaFrame(field);
   // The goal-area front line and the goal line and penalty-area front line beside it, nothing
   // else: every place along them fits the same.
   const double half = field.length() / 2;
@@ -334,10 +349,7 @@ TEST(LineEndIdentity, AnEndAmongParallelLinesOnlyIsRefused) {
                 {Vec2(half - d.penalty_area_depth, -3.0), Vec2(half - d.penalty_area_depth, 3.0)}},
                0.1);
   ASSERT_GT(frame.points.size(), 60u);
-  LineEnd end;
-  end.position = geometry::pointFieldToRobot(truth, area.corner);
-  end.into = geometry::rotate(Vec2(0.0, -1.0), -truth.phi);
-  end.length = 2.0;
+  const LineEnd end = frontLineEndAtCorner(area);
   LineEndIdentity identity;
   EXPECT_FALSE(identifyLineEnd(end, modelJunctions(field), pointsOf(frame),
                                ModelCheck(field, RecognitionParams{}), RecognitionParams{},
