@@ -282,10 +282,14 @@ void SimRenderer::buildPixelTable() {
         continue;
       }
       kind_[i] = PixelKind::kFloor;
+      // The level whose cells are about half the pixel's footprint (a third to three quarters):
+      // interpolated between their centres (renderFloor), they blur the floor over about one
+      // pixel. Cells as large as the footprint (as until bias10i) blurred a line 4.5 m away over
+      // 16 cm of floor and shifted its centre outward by a centimetre or two.
       const Vec2 mpp = mirror_.metresPerPixel(px);
       const double footprint = std::max(mpp.x(), mpp.y());
       const int level =
-          static_cast<int>(std::lround(std::log2(footprint / params_.floor_resolution)));
+          static_cast<int>(std::lround(std::log2(footprint / params_.floor_resolution))) - 1;
       level_[i] = static_cast<std::uint8_t>(std::clamp(level, 0, max_level));
       floor_pixels_.push_back(static_cast<std::int32_t>(i));
     }
@@ -307,6 +311,12 @@ void SimRenderer::renderFloor(const geometry::Pose2& pose) {
   const float s = static_cast<float>(std::sin(pose.phi));
   const float ox = static_cast<float>(pose.x - raster_origin_.x());
   const float oy = static_cast<float>(pose.y - raster_origin_.y());
+  // Each cell holds its area's mean colour at its centre; a pixel's colour is interpolated
+  // bilinearly between the four cell centres around its floor point. Taking the colour of the
+  // cell the point falls in (as until bias10i) moved a line's edges to the cells' boundaries,
+  // which are fixed on the field: every frame saw a line up to half a coarse cell (4-8 cm at
+  // 3-6 m) off, the same way, and fusion's line matching inherited a bias of 1-2 cm wherever the
+  // visible lines lie on one side of the robot (docs/fusion.md, tenth round).
   for (const std::int32_t i : floor_pixels_) {
     const float x = floor_x_[i];
     const float y = floor_y_[i];
@@ -314,12 +324,33 @@ void SimRenderer::renderFloor(const geometry::Pose2& pose) {
     const float inv = static_cast<float>(l.inv_cell);
     const float gx = (ox + c * x - s * y) * inv;
     const float gy = (oy + s * x + c * y) * inv;
-    if (gx >= 0.0f && gy >= 0.0f && gx < static_cast<float>(l.cols) &&
-        gy < static_cast<float>(l.rows)) {
-      frame_[i] = l.cells[static_cast<std::size_t>(gy) * l.cols + static_cast<std::size_t>(gx)];
-    } else {
+    if (!(gx >= 0.0f && gy >= 0.0f && gx < static_cast<float>(l.cols) &&
+          gy < static_cast<float>(l.rows))) {
       frame_[i] = outside_floor_yuv_;
+      continue;
     }
+    // Cell-centre coordinates; at the raster's edge the edge cells are repeated.
+    const float cx = gx - 0.5f, cy = gy - 0.5f;
+    const int i0 = cx < 0.0f ? -1 : static_cast<int>(cx);
+    const int j0 = cy < 0.0f ? -1 : static_cast<int>(cy);
+    const int fx = static_cast<int>((cx - static_cast<float>(i0)) * 256.0f);
+    const int fy = static_cast<int>((cy - static_cast<float>(j0)) * 256.0f);
+    const std::size_t a = static_cast<std::size_t>(std::max(i0, 0));
+    const std::size_t b = static_cast<std::size_t>(std::min(i0 + 1, l.cols - 1));
+    const std::size_t row0 = static_cast<std::size_t>(std::max(j0, 0)) * l.cols;
+    const std::size_t row1 = static_cast<std::size_t>(std::min(j0 + 1, l.rows - 1)) * l.cols;
+    const Yuv& p00 = l.cells[row0 + a];
+    const Yuv& p10 = l.cells[row0 + b];
+    const Yuv& p01 = l.cells[row1 + a];
+    const Yuv& p11 = l.cells[row1 + b];
+    const int w00 = (256 - fx) * (256 - fy), w10 = fx * (256 - fy);
+    const int w01 = (256 - fx) * fy, w11 = fx * fy;
+    auto mix = [&](std::uint8_t Yuv::*channel) {
+      return static_cast<std::uint8_t>((w00 * (p00.*channel) + w10 * (p10.*channel) +
+                                        w01 * (p01.*channel) + w11 * (p11.*channel) + 32768) >>
+                                       16);
+    };
+    frame_[i] = Yuv{mix(&Yuv::y), mix(&Yuv::u), mix(&Yuv::v)};
   }
 }
 

@@ -239,12 +239,14 @@ TEST_F(RenderedFrames, TheSmallGreenRegionInsideTheGoalAreaIsTracked) {
     processor.process(sim_->render(scene), true, result);
     EXPECT_EQ(processor.tracker().ownerOf(cx, cy), green) << "frame " << frame;
   }
-  // It is a region of its own (the goal area's lines around it), and one of many in view.
+  // It is a region of its own (the goal area's lines around it), and one of many in view (13
+  // until bias10i's renderer change, 9 since: far lines, interpolated at finer cells, no longer
+  // break into pieces that cut off small green patches).
   const std::vector<Contour>& contours = processor.tracker().contours().contours;
   int green_regions = 0;
   for (const Contour& c : contours)
     green_regions += c.outer && c.class_id == green ? 1 : 0;
-  EXPECT_GE(green_regions, 10);
+  EXPECT_GE(green_regions, 8);
   int goal_area_cells = 0;
   const std::vector<ClassId> owners = processor.tracker().visited();
   {
@@ -348,7 +350,10 @@ TEST_F(RenderedFrames, TheRimCadenceDiffersFromTheExactTrackerOnlyNearTheRim) {
     }
     SCOPED_TRACE(omegaDeg);
     EXPECT_GT(differingFrames, 0);  // the cadence is not a no-op
-    EXPECT_LE(deepest, 8);          // differences stay near the rim (8 cells = 32 px)
+    // Differences stay near the rim: 12 cells = 48 px (5 before bias10i's renderer change; since
+    // then far lines are continuous, and at 400 deg/s two frames differ 9-12 cells in, in a
+    // patch of 20 cells along a region that reaches the rim).
+    EXPECT_LE(deepest, 12);
     EXPECT_LT(testedCells, exactCells * 0.97);
     ASSERT_GT(uniformPoints, 1000);
     ASSERT_GT(points, 1000);
