@@ -193,6 +193,11 @@ void predictPush(EkfState& s, double dt_s, double contact_s, const PushModel& pu
     s.p(k, k) += q_pp;
   }
   symmetrize(s.p);
+  const double speed = std::hypot(s.x[kPush], s.x[kPush + 1]);
+  if (push.max_speed > 0.0 && speed > push.max_speed) {
+    s.x[kPush] *= push.max_speed / speed;
+    s.x[kPush + 1] *= push.max_speed / speed;
+  }
 }
 
 UpdateResult updatePose(EkfState& s, const PoseMeasurement& z, double gate2,

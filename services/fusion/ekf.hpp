@@ -148,6 +148,9 @@ struct PushModel {
   // Decay time constants in and out of contact, s (> 0).
   double contact_decay_s = 0.5;
   double free_decay_s = 0.1;
+  // The push's speed is held within this after each prediction (opponents drive at most 3 m/s;
+  // a push learnt from a wrong frame must not run away), m/s. 0: no bound.
+  double max_speed = 0.0;
 };
 
 struct UpdateResult {

@@ -644,6 +644,7 @@ TEST(OdometryLayer, TheGyroGivesTheHeadingAndBadValuesFallBackToTheWheels) {
   EXPECT_FALSE(r.step->gyro);
   // Without STATUS_GYRO: the wheels, nothing counted.
   r = next(false, 0.05);
+  ASSERT_TRUE(r.step);
   EXPECT_FALSE(r.step->gyro);
   EXPECT_EQ(r.gyro_rejection, nullptr);
 
@@ -1046,6 +1047,19 @@ TEST(PredictPush, TwoPartsGiveTheWholeAndOffChangesNothing) {
   EXPECT_NEAR(walk.p(kPush, kPush), 9.0 * 1e-3, 9.0 * 1e-3 * 0.01);
   EXPECT_NEAR(walk.p(0, 0) - startState().p(0, 0), 9.0 * 1e-9 / 3.0, 9.0 * 1e-9 * 0.01);
   EXPECT_GT(walk.p(0, kPush), 0.0);
+  // The speed is held within max_speed (the direction kept); within it nothing changes.
+  PushModel bounded = push;
+  bounded.max_speed = 1.0;
+  EkfState fast = start;
+  predictPush(fast, 0.02, 0.02, bounded);
+  EXPECT_NEAR(std::hypot(fast.x[kPush], fast.x[kPush + 1]), 1.0, 1e-12);
+  EXPECT_NEAR(fast.x[kPush] / fast.x[kPush + 1], -3.0, 1e-9);
+  bounded.max_speed = 2.0;
+  EkfState slow = start;
+  predictPush(slow, 0.02, 0.02, bounded);
+  EkfState free_run = start;
+  predictPush(free_run, 0.02, 0.02, push);
+  EXPECT_EQ(slow.x, free_run.x);
   // Off: nothing moves.
   PushModel off = push;
   off.density = 0.0;
