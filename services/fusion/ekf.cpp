@@ -115,8 +115,11 @@ void predictOdometry(EkfState& s, const OdometryStep& step, const ProcessNoise& 
   // carried the state into the interval).
   if (s.utime >= step.t_end || step.t_end <= step.t_start) return;
   predictOdometryPart(s, step, step.t_end, noise);
+  updateOdometryVelocity(s, step, noise);
+}
 
-  if (!step.has_velocity) return;
+void updateOdometryVelocity(EkfState& s, const OdometryStep& step, const ProcessNoise& noise) {
+  if (!step.has_velocity || s.utime != step.t_end || step.t_end <= step.t_start) return;
   // The step's mean velocity, in the field frame at the middle of the step's heading change.
   const double duration = step.duration();
   const double phi_mid = s.x[2] - 0.5 * step.integrated.z();
@@ -145,6 +148,56 @@ void predictOdometry(EkfState& s, const OdometryStep& step, const ProcessNoise& 
   const StateMatrix ikh = StateMatrix::Identity() - k * h;
   s.p = (ikh * s.p * ikh.transpose()).eval() + k * r * k.transpose();
   symmetrize(s.p);
+}
+
+namespace {
+
+// (1 - exp(-x)) / x, 1 at 0.
+double decayGain(double x) {
+  return x < 1e-12 ? 1.0 : -std::expm1(-x) / x;
+}
+
+// (x - 2 (1 - exp(-x)) + (1 - exp(-2x)) / 2) / x^3: the position's share of an integrated
+// Ornstein-Uhlenbeck velocity's noise; its series near 0 (the closed form cancels there).
+double pushPositionShare(double x) {
+  if (x < 1e-2) return 1.0 / 3.0 - x / 4.0 + 7.0 * x * x / 60.0;
+  return (x + 2.0 * std::expm1(-x) - 0.5 * std::expm1(-2.0 * x)) / (x * x * x);
+}
+
+}  // namespace
+
+void predictPush(EkfState& s, double dt_s, double contact_s, const PushModel& push) {
+  if (push.density <= 0.0 || !(dt_s > 0.0)) return;
+  contact_s = std::clamp(contact_s, 0.0, dt_s);
+  // The decay over the interval (its rate averaged over the contact and free parts), and the
+  // noise of the contact part.
+  const double x = contact_s / push.contact_decay_s + (dt_s - contact_s) / push.free_decay_s;
+  const double a = std::exp(-x);
+  const double g = dt_s * decayGain(x);  // position gained per m/s of push
+  const double q = push.density * push.density * contact_s;
+  const double q_uu = q * decayGain(2.0 * x);
+  const double q_pu = 0.5 * q * dt_s * decayGain(x) * decayGain(x);
+  const double q_pp = q * dt_s * dt_s * pushPositionShare(x);
+  for (int k = 0; k < 2; ++k) {
+    const int u = kPush + k;
+    s.x[k] += g * s.x[u];
+    s.x[u] *= a;
+    // P <- F P F^T with F = I + g e_k e_u^T + (a - 1) e_u e_u^T, by rows and then columns.
+    s.p.row(k) += g * s.p.row(u);
+    s.p.row(u) *= a;
+    s.p.col(k) += g * s.p.col(u);
+    s.p.col(u) *= a;
+    s.p(u, u) += q_uu;
+    s.p(k, u) += q_pu;
+    s.p(u, k) += q_pu;
+    s.p(k, k) += q_pp;
+  }
+  symmetrize(s.p);
+  const double speed = std::hypot(s.x[kPush], s.x[kPush + 1]);
+  if (push.max_speed > 0.0 && speed > push.max_speed) {
+    s.x[kPush] *= push.max_speed / speed;
+    s.x[kPush + 1] *= push.max_speed / speed;
+  }
 }
 
 UpdateResult updatePose(EkfState& s, const PoseMeasurement& z, double gate2,

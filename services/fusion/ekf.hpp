@@ -1,7 +1,9 @@
-// The extended Kalman filter of seed 4.5-4.6 on the state (x, y, phi, vx, vy, omega, b): position
-// and heading in the field frame, velocity in the field frame, and the bias b of the controller's
-// yaw-rate gyro. Plain functions on a state so the delayed-measurement history (history.hpp) can
-// checkpoint and replay them.
+// The extended Kalman filter of seed 4.5-4.6 on the state (x, y, phi, vx, vy, omega, b, ux, uy):
+// position and heading in the field frame, velocity in the field frame, the bias b of the
+// controller's yaw-rate gyro, and a push velocity (ux, uy) in the field frame: what an opponent
+// carrying the robot adds to the position while the wheels slip and see nothing (PushModel). Plain
+// functions on a state so the delayed-measurement history (history.hpp) can checkpoint and replay
+// them.
 //
 // Process: between samples the velocity is held (the filter does not see the commands) and the
 // motor model (eq. 4.45-4.47) bounds how fast it can change: its largest acceleration, projected
@@ -9,7 +11,9 @@
 // movement (a control input with its own covariance) and measures the velocity. A step whose
 // heading comes from the gyro (OdometryStep::gyro) turns the heading by the gyro's rotation
 // minus b times its duration; b is a random walk, learnt from the line frames' headings (without
-// gyro steps it is coupled to nothing and changes nothing). Pose
+// gyro steps it is coupled to nothing and changes nothing). The push velocity moves the position
+// on top of odometry; it is a random walk while the robot is in contact and decays to zero
+// outside it (predictPush), learnt from the frames' position corrections. Pose
 // measurements (layers 2 and 3) update with the Joseph form, the heading innovation wrapped,
 // behind a Mahalanobis gate.
 #pragma once
@@ -24,15 +28,18 @@
 
 namespace fieldline::fusion {
 
-inline constexpr int kStateSize = 7;
+inline constexpr int kStateSize = 9;
 // Index of the gyro bias in the state.
 inline constexpr int kGyroBias = 6;
+// Index of the push velocity's x component (y follows) in the state.
+inline constexpr int kPush = 7;
 using StateVector = Eigen::Matrix<double, kStateSize, 1>;
 using StateMatrix = Eigen::Matrix<double, kStateSize, kStateSize>;
 
 struct EkfState {
   Utime utime = 0;
-  // x, y [m], phi [rad] in (-pi, pi], vx, vy [m/s] field frame, omega [rad/s], gyro bias [rad/s].
+  // x, y [m], phi [rad] in (-pi, pi], vx, vy [m/s] field frame, omega [rad/s], gyro bias [rad/s],
+  // push velocity ux, uy [m/s] field frame.
   StateVector x = StateVector::Zero();
   StateMatrix p = StateMatrix::Identity();
   // The last odometry step turned the heading by the gyro (the contact noise's heading density
@@ -128,6 +135,24 @@ struct ContactModel {
   double gyro_heading_density = 0.0;
 };
 
+// A push (seventh round of docs/fusion.md): an opponent carries a touching robot at up to 3 m/s,
+// the wheels slip and odometry sees nothing, and every frame finds the estimate 10-15 cm off. The
+// push velocity (ux, uy) adds to the position between frames; it is an Ornstein-Uhlenbeck process
+// per axis: while in contact (ContactModel's evidence) a random walk of `density` decaying with
+// `contact_decay_s`, outside contact it decays with `free_decay_s` and gets no noise. Its
+// coupling to the position lets a frame's position correction teach it the push, so the states
+// after the frame carry the push on. density 0: off (the push stays at zero and changes nothing).
+struct PushModel {
+  // Random walk of the push velocity while in contact, m/s per sqrt(s).
+  double density = 0.0;
+  // Decay time constants in and out of contact, s (> 0).
+  double contact_decay_s = 0.5;
+  double free_decay_s = 0.1;
+  // The push's speed is held within this after each prediction (opponents drive at most 3 m/s;
+  // a push learnt from a wrong frame must not run away), m/s. 0: no bound.
+  double max_speed = 0.0;
+};
+
 struct UpdateResult {
   bool accepted = false;
   // Squared Mahalanobis distance of the innovation.
@@ -152,8 +177,17 @@ void predictConstantVelocity(EkfState& s, Utime t, const ProcessNoise& noise);
 // measurement: that comes with the step's end (predictOdometry).
 void predictOdometryPart(EkfState& s, const OdometryStep& step, Utime t, const ProcessNoise& noise);
 // Moves the state to step.t_end with the part of the odometry step after s.utime (the whole
-// step when the state is at its start; the state is first carried to t_start if it is older).
+// step when the state is at its start; the state is first carried to t_start if it is older),
+// then measures the velocity with it: predictOdometryPart to t_end and updateOdometryVelocity.
 void predictOdometry(EkfState& s, const OdometryStep& step, const ProcessNoise& noise);
+// The step's mean velocity as a measurement of (vx, vy, omega) (plus the gyro bias when its
+// heading comes from the gyro), for a state at step.t_end; nothing otherwise.
+void updateOdometryVelocity(EkfState& s, const OdometryStep& step, const ProcessNoise& noise);
+// Moves the push velocity over the `dt_s` seconds that end at s.utime (of which `contact_s` were
+// in contact) and adds its effect to the position: the exact discretisation of PushModel's
+// process with the decay rate and noise averaged over the interval (a constant rate composes: two
+// parts equal the whole). Nothing happens when the push is off.
+void predictPush(EkfState& s, double dt_s, double contact_s, const PushModel& push);
 // Updates with a pose measurement at s.utime. With gate2 > 0, a measurement whose squared
 // Mahalanobis distance exceeds it is not applied.
 UpdateResult updatePose(EkfState& s, const PoseMeasurement& z, double gate2,

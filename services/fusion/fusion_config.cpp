@@ -150,6 +150,12 @@ void loadContact(const config::Node& n, LocalizerParams& l) {
   p.heading_density = n.getOr<double>("heading_density", p.heading_density, 0.0, 10.0);
   p.gyro_heading_density =
       n.getOr<double>("gyro_heading_density", p.gyro_heading_density, 0.0, 10.0);
+  PushModel& push = l.filter.push;
+  push.density = n.getOr<double>("push_density", push.density, 0.0, 100.0);
+  push.contact_decay_s =
+      n.getOr<double>("push_contact_decay_s", push.contact_decay_s, 0.001, 100.0);
+  push.free_decay_s = n.getOr<double>("push_free_decay_s", push.free_decay_s, 0.001, 100.0);
+  push.max_speed = n.getOr<double>("push_max_speed", push.max_speed, 0.0, 100.0);
   CurrentContactParams& c = l.current_contact;
   c.force_threshold_n = n.getOr<double>("current_force_n", c.force_threshold_n, 0.0, 1e4);
   c.samples = n.getOr<int>("current_samples", c.samples, 1, 100);

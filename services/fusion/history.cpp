@@ -166,12 +166,15 @@ double DelayedFilter::contactSeconds(Utime a, Utime b) const {
   return static_cast<double>(covered) * 1e-6;
 }
 
-void DelayedFilter::addContactNoise(EkfState& s, Utime a, Utime b) const {
+void DelayedFilter::addUnseen(EkfState& s, Utime a, Utime b) const {
+  if (b <= a) return;
   const ContactModel& c = params_.contact;
   // The gyro sees the twist of a contact; the wheels do not.
   const double heading = s.gyro ? c.gyro_heading_density : c.heading_density;
-  if (c.position_density <= 0.0 && heading <= 0.0) return;
+  const bool push = params_.push.density > 0.0;
+  if (c.position_density <= 0.0 && heading <= 0.0 && !push) return;
   const double dt = contactSeconds(a, b);
+  if (push) predictPush(s, static_cast<double>(b - a) * 1e-6, dt, params_.push);
   if (dt <= 0.0) return;
   s.p(0, 0) += c.position_density * c.position_density * dt;
   s.p(1, 1) += c.position_density * c.position_density * dt;
@@ -188,7 +191,7 @@ void DelayedFilter::carryTo(EkfState& s, Utime t) const {
   } else {
     predictConstantVelocity(s, t, params_.noise);
   }
-  addContactNoise(s, from, s.utime);
+  addUnseen(s, from, s.utime);
 }
 
 DelayedFilter::Applied DelayedFilter::replayFrom(Utime t, int target_kind) {
@@ -223,9 +226,15 @@ DelayedFilter::Applied DelayedFilter::replayFrom(Utime t, int target_kind) {
     }
     if (kind < 0) break;
     if (kind == kOdometryKind) {
-      const Utime before = state.utime;
-      predictOdometry(state, odometry_[io].value, params_.noise);
-      addContactNoise(state, before, state.utime);
+      const OdometryStep& step = odometry_[io].value;
+      if (state.utime < step.t_end && step.t_start < step.t_end) {
+        // The step's motion, then what it did not see (contact, push) up to its end, then its
+        // velocity measured at the end.
+        const Utime before = state.utime;
+        predictOdometryPart(state, step, step.t_end, params_.noise);
+        addUnseen(state, before, state.utime);
+        updateOdometryVelocity(state, step, params_.noise);
+      }
       ++io;
     } else {
       const std::size_t m = static_cast<std::size_t>(kind - 1);

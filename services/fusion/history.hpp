@@ -47,6 +47,8 @@ struct FilterParams {
   SlipModel slip;
   // Contact evidence widens the pose's process noise (ContactModel).
   ContactModel contact;
+  // The push velocity's process: a random walk while contact evidence covers the time (PushModel).
+  PushModel push;
 };
 
 class DelayedFilter {
@@ -100,8 +102,9 @@ class DelayedFilter {
   Rejection checkTime(Utime utime, Utime now) const;
   // Time in [a, b] covered by contact evidence, s.
   double contactSeconds(Utime a, Utime b) const;
-  // Adds the contact noise for the interval [a, b] to the state's pose covariance.
-  void addContactNoise(EkfState& s, Utime a, Utime b) const;
+  // What the odometry does not see over the interval [a, b] that ends at s.utime: the contact
+  // noise on the pose covariance and the push velocity's process (predictPush).
+  void addUnseen(EkfState& s, Utime a, Utime b) const;
   // Carries the state (the newest processed at or before t) to `t`: inside a stored odometry
   // step's interval with that step's part up to t (its motion and covariance in proportion),
   // with the velocity only where no stored step covers t; plus the contact noise.

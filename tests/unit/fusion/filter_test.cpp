@@ -177,8 +177,8 @@ std::vector<Input> makeInputs(std::mt19937& rng, bool gyro = false) {
 EkfState startState() {
   EkfState s;
   s.utime = kStart;
-  s.x << -1.0, 0.5, 0.2, 0.0, 0.0, 0.0, 0.0;
-  s.p = (StateVector() << 0.01, 0.01, 0.01, 0.1, 0.1, 0.1, 1e-6).finished().asDiagonal();
+  s.x << -1.0, 0.5, 0.2, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0;
+  s.p = (StateVector() << 0.01, 0.01, 0.01, 0.1, 0.1, 0.1, 1e-6, 0.0, 0.0).finished().asDiagonal();
   return s;
 }
 
@@ -526,8 +526,8 @@ TEST(DelayedFilter, LateContactEvidenceGivesTheInOrderStateExactly) {
     const auto order = [](const Event& a, const Event& b) { return a.time < b.time; };
     std::stable_sort(by_time.begin(), by_time.end(), order);
     std::stable_sort(by_arrival.begin(), by_arrival.end(), order);
-    const auto run = [](const std::vector<Event>& events) {
-      DelayedFilter f(contactParams());
+    const auto run = [](const std::vector<Event>& events, const FilterParams& params) {
+      DelayedFilter f(params);
       f.initialize(startState());
       for (const Event& e : events) {
         if (e.input) {
@@ -538,11 +538,23 @@ TEST(DelayedFilter, LateContactEvidenceGivesTheInOrderStateExactly) {
       }
       return f.current();
     };
-    const EkfState a = run(by_time);
-    const EkfState b = run(by_arrival);
-    EXPECT_EQ(a.utime, b.utime);
-    EXPECT_LT((a.x - b.x).cwiseAbs().maxCoeff(), 1e-9) << "seed " << seed;
-    EXPECT_LT((a.p - b.p).cwiseAbs().maxCoeff(), 1e-9) << "seed " << seed;
+    // Without and with the push velocity (PushModel), whose process depends on the contact.
+    FilterParams with_push = contactParams();
+    with_push.push.density = 3.0;
+    for (const FilterParams& params : {contactParams(), with_push}) {
+      const EkfState a = run(by_time, params);
+      const EkfState b = run(by_arrival, params);
+      EXPECT_EQ(a.utime, b.utime);
+      EXPECT_LT((a.x - b.x).cwiseAbs().maxCoeff(), 1e-9) << "seed " << seed;
+      EXPECT_LT((a.p - b.p).cwiseAbs().maxCoeff(), 1e-9) << "seed " << seed;
+      // The push states moved with it, and only with it.
+      if (params.push.density > 0.0) {
+        EXPECT_GT(a.p(kPush, kPush), 0.0);
+      } else {
+        EXPECT_EQ(a.p(kPush, kPush), 0.0);
+        EXPECT_EQ(a.x[kPush], 0.0);
+      }
+    }
   }
 }
 
@@ -632,6 +644,7 @@ TEST(OdometryLayer, TheGyroGivesTheHeadingAndBadValuesFallBackToTheWheels) {
   EXPECT_FALSE(r.step->gyro);
   // Without STATUS_GYRO: the wheels, nothing counted.
   r = next(false, 0.05);
+  ASSERT_TRUE(r.step);
   EXPECT_FALSE(r.step->gyro);
   EXPECT_EQ(r.gyro_rejection, nullptr);
 
@@ -986,6 +999,219 @@ TEST(UpdatePose, ASlipIsBoundedByTheTimeSinceTheLastCorrection) {
   // Without max_speed, max_m alone: 60 cm after 33 ms is taken.
   slip.max_speed = 0.0;
   EXPECT_TRUE(std::get<0>(run(33'000, 0.6)).slip);
+}
+
+}  // namespace
+}  // namespace fieldline::fusion
+
+namespace fieldline::fusion {
+namespace {
+
+// push10i: the push velocity (PushModel, predictPush). Its process is the exact discretisation
+// of an Ornstein-Uhlenbeck velocity integrated into the position, so two parts of an interval
+// give the whole; off, it changes nothing.
+TEST(PredictPush, TwoPartsGiveTheWholeAndOffChangesNothing) {
+  PushModel push;
+  push.density = 3.0;
+  push.contact_decay_s = 0.5;
+  push.free_decay_s = 0.1;
+  EkfState start = startState();
+  start.x[kPush] = 1.2;
+  start.x[kPush + 1] = -0.4;
+  start.p(kPush, kPush) = 0.3;
+  start.p(kPush + 1, kPush + 1) = 0.2;
+  start.p(0, kPush) = start.p(kPush, 0) = 0.01;
+  for (double contact : {0.0, 1.0}) {
+    EkfState whole = start;
+    predictPush(whole, 0.02, 0.02 * contact, push);
+    EkfState parts = start;
+    predictPush(parts, 0.008, 0.008 * contact, push);
+    predictPush(parts, 0.012, 0.012 * contact, push);
+    EXPECT_LT((whole.x - parts.x).cwiseAbs().maxCoeff(), 1e-12) << contact;
+    EXPECT_LT((whole.p - parts.p).cwiseAbs().maxCoeff(), 1e-12) << contact;
+    // The push decays with its time constant and moves the position by its integral.
+    const double tau = contact > 0.0 ? push.contact_decay_s : push.free_decay_s;
+    const double a = std::exp(-0.02 / tau);
+    EXPECT_NEAR(whole.x[kPush], 1.2 * a, 1e-12);
+    EXPECT_NEAR(whole.x[0], start.x[0] + 1.2 * tau * (1.0 - a), 1e-12);
+    EXPECT_NEAR(whole.x[1], start.x[1] - 0.4 * tau * (1.0 - a), 1e-12);
+    // Noise only in contact: the Ornstein-Uhlenbeck variance over 20 ms.
+    const double noise = contact > 0.0 ? 9.0 * tau / 2.0 * (1.0 - a * a) : 0.0;
+    EXPECT_NEAR(whole.p(kPush, kPush), 0.3 * a * a + noise, 1e-12);
+    EXPECT_NEAR(whole.p(kPush + 1, kPush + 1), 0.2 * a * a + noise, 1e-12);
+  }
+  // From no push and no spread, a long contact gives the random walk's variance, and the
+  // position's grows as the integrated walk's (dt^3 / 3) while dt << the decay.
+  EkfState walk = startState();
+  predictPush(walk, 1e-3, 1e-3, push);
+  EXPECT_NEAR(walk.p(kPush, kPush), 9.0 * 1e-3, 9.0 * 1e-3 * 0.01);
+  EXPECT_NEAR(walk.p(0, 0) - startState().p(0, 0), 9.0 * 1e-9 / 3.0, 9.0 * 1e-9 * 0.01);
+  EXPECT_GT(walk.p(0, kPush), 0.0);
+  // The speed is held within max_speed (the direction kept); within it nothing changes.
+  PushModel bounded = push;
+  bounded.max_speed = 1.0;
+  EkfState fast = start;
+  predictPush(fast, 0.02, 0.02, bounded);
+  EXPECT_NEAR(std::hypot(fast.x[kPush], fast.x[kPush + 1]), 1.0, 1e-12);
+  EXPECT_NEAR(fast.x[kPush] / fast.x[kPush + 1], -3.0, 1e-9);
+  bounded.max_speed = 2.0;
+  EkfState slow = start;
+  predictPush(slow, 0.02, 0.02, bounded);
+  EkfState free_run = start;
+  predictPush(free_run, 0.02, 0.02, push);
+  EXPECT_EQ(slow.x, free_run.x);
+  // Off: nothing moves.
+  PushModel off = push;
+  off.density = 0.0;
+  EkfState same = start;
+  predictPush(same, 0.02, 0.02, off);
+  EXPECT_EQ(same.x, start.x);
+  EXPECT_EQ(same.p, start.p);
+}
+
+// A still robot (the wheels see nothing) carried by an opponent at 1.5 m/s in contact for 0.8 s,
+// then left standing: frames at 30 Hz see the push. The push velocity learns it from the frames'
+// corrections, so the state between frames carries the push on (the frames find it nearer than
+// without the state), and after the contact the push decays to nothing.
+struct PushRun {
+  std::vector<double> innovations;  // position disagreement of each frame before its update, m
+  double push_at_release = 0.0;     // ux at the end of the push (all frames in)
+  EkfState end;
+  DelayedFilter filter;
+};
+
+PushRun runPush(double density, bool late) {
+  FilterParams fp;
+  fp.contact.hold_us = 50'000;
+  fp.contact.position_density = 0.2;
+  fp.push.density = density;
+  fp.push.contact_decay_s = 0.5;
+  fp.push.free_decay_s = 0.1;
+  const auto p = params();
+  OdometryLayer layer(p);
+  const OdometryStep still = layer.stepFor({0, 0, 0}, 0.02);
+  PushRun run{{}, 0.0, {}, DelayedFilter(fp)};
+  DelayedFilter& f = run.filter;
+  EkfState start = startState();
+  start.p.topLeftCorner<3, 3>() = Eigen::Vector3d(1e-4, 1e-4, 1e-4).asDiagonal();
+  f.initialize(start);
+  const Utime push_from = kStart + 200'000, push_to = kStart + 1'000'000;
+  // The truth's x: pushed at 1.5 m/s between push_from and push_to.
+  const auto truth_x = [&](Utime t) {
+    const Utime a = std::clamp(t, push_from, push_to);
+    return start.x[0] + 1.5 * static_cast<double>(a - push_from) * 1e-6;
+  };
+  std::vector<PoseMeasurement> pending;
+  Utime next_frame = kStart + 10'000;
+  for (int k = 1; k <= 75; ++k) {
+    const Utime t = kStart + k * 20'000;
+    // The currents show the contact at every sample in the push.
+    if (t > push_from && t <= push_to) {
+      EXPECT_EQ(f.addContact(t - 20'000, t), Rejection::kNone);
+    }
+    OdometryStep step = still;
+    step.t_start = t - 20'000;
+    step.t_end = t;
+    EXPECT_EQ(f.addOdometry(step, t), Rejection::kNone);
+    for (; next_frame <= t; next_frame += 33'333) {
+      PoseMeasurement z;
+      z.utime = next_frame;
+      z.pose = {truth_x(next_frame), start.x[1], start.x[2]};
+      z.covariance = Eigen::Vector3d(1e-4, 1e-4, 1e-4).asDiagonal();
+      pending.push_back(z);
+    }
+    // Frames arrive 60 ms late (or at once).
+    const Utime latency = late ? 60'000 : 0;
+    while (!pending.empty() && pending.front().utime + latency <= t) {
+      const PoseMeasurement z = pending.front();
+      pending.erase(pending.begin());
+      const auto prior = f.stateAt(z.utime);
+      const auto r = f.addPose(MeasurementSource::kLines, z, t);
+      EXPECT_EQ(r.rejection, Rejection::kNone) << "frame at " << (z.utime - kStart);
+      if (z.utime > push_from + 300'000 && z.utime < push_to)
+        run.innovations.push_back(std::abs(z.pose.x - prior->x[0]));
+    }
+  }
+  // The last frames arrive after the last odometry.
+  for (const PoseMeasurement& z : pending)
+    EXPECT_EQ(f.addPose(MeasurementSource::kLines, z, z.utime + 60'000).rejection,
+              Rejection::kNone);
+  run.end = f.current();
+  run.push_at_release = f.stateAt(push_to)->x[kPush];
+  return run;
+}
+
+TEST(DelayedFilter, LearnsAPushFromTheFramesAndItDecaysAfterTheContact) {
+  for (bool late : {false, true}) {
+    const PushRun without = runPush(0.0, late);
+    const PushRun with = runPush(4.0, late);
+    ASSERT_FALSE(with.innovations.empty());
+    const auto mean = [](const std::vector<double>& v) {
+      double sum = 0.0;
+      for (double x : v)
+        sum += x;
+      return sum / static_cast<double>(v.size());
+    };
+    // Without the state each frame finds the estimate about a frame interval of push behind
+    // (1.5 m/s x 33 ms = 5 cm, less the share the contact noise lets it take); with it, the
+    // push is carried on between frames.
+    EXPECT_GT(mean(without.innovations), 0.02) << late;
+    EXPECT_LT(mean(with.innovations), 0.5 * mean(without.innovations)) << late;
+    EXPECT_NEAR(with.push_at_release, 1.5, 0.3) << late;
+    EXPECT_EQ(without.push_at_release, 0.0);
+    // Half a second after the release the push has decayed (free decay 0.1 s), and so has its
+    // spread; the robot stands where the frames put it.
+    EXPECT_LT(std::abs(with.end.x[kPush]), 0.05) << late;
+    EXPECT_LT(with.end.p(kPush, kPush), 1e-3) << late;
+    EXPECT_NEAR(with.end.x[0], -1.0 + 1.5 * 0.8, 0.02) << late;
+  }
+  // Late frames (60 ms) give exactly the state of frames processed at once.
+  const PushRun at_once = runPush(4.0, false);
+  const PushRun late = runPush(4.0, true);
+  EXPECT_LT((at_once.end.x - late.end.x).cwiseAbs().maxCoeff(), 1e-9);
+  EXPECT_LT((at_once.end.p - late.end.p).cwiseAbs().maxCoeff(), 1e-9);
+}
+
+// With a push learnt, bad inputs are still refused, counted and change nothing.
+TEST(DelayedFilter, WithAPushLearntBadInputsAreRefusedAndChangeNothing) {
+  PushRun run = runPush(4.0, true);
+  DelayedFilter& f = run.filter;
+  const EkfState before = f.current();
+  const Utime now = before.utime + 8'000;
+  const auto rejections = f.rejections();
+  PoseMeasurement good;
+  good.utime = before.utime - 50'000;
+  good.pose = f.stateAt(good.utime)->pose();
+  good.covariance = Eigen::Matrix3d::Identity() * 1e-4;
+  PoseMeasurement nan = good;
+  nan.pose.x = std::nan("");
+  EXPECT_EQ(f.addPose(MeasurementSource::kLines, nan, now).rejection, Rejection::kNotFinite);
+  PoseMeasurement future = good;
+  future.utime = now + 500'000;
+  EXPECT_EQ(f.addPose(MeasurementSource::kLines, future, now).rejection, Rejection::kFromFuture);
+  PoseMeasurement old = good;
+  old.utime = now - 1'500'000;
+  EXPECT_EQ(f.addPose(MeasurementSource::kLines, old, now).rejection, Rejection::kTooOld);
+  PoseMeasurement not_pd = good;
+  not_pd.covariance(1, 1) = -1e-4;
+  EXPECT_EQ(f.addPose(MeasurementSource::kLines, not_pd, now).rejection,
+            Rejection::kNotPositiveDefinite);
+  EXPECT_EQ(f.addContact(now + 500'000, now), Rejection::kFromFuture);
+  PoseMeasurement far = good;
+  far.pose.y += 2.0;
+  EXPECT_EQ(f.addPose(MeasurementSource::kLines, far, now).rejection, Rejection::kGated);
+  EXPECT_LT((f.current().x - before.x).cwiseAbs().maxCoeff(), 1e-12);
+  EXPECT_LT((f.current().p - before.p).cwiseAbs().maxCoeff(), 1e-12);
+  const auto& after = f.rejections();
+  const auto delta = [&](Rejection r) {
+    const auto i = static_cast<std::size_t>(r);
+    return after[i] - rejections[i];
+  };
+  EXPECT_EQ(delta(Rejection::kNotFinite), 1u);
+  EXPECT_EQ(delta(Rejection::kFromFuture), 2u);
+  EXPECT_EQ(delta(Rejection::kTooOld), 1u);
+  EXPECT_EQ(delta(Rejection::kNotPositiveDefinite), 1u);
+  EXPECT_EQ(delta(Rejection::kGated), 1u);
 }
 
 }  // namespace

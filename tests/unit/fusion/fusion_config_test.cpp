@@ -87,6 +87,20 @@ TEST(FusionConfig, ContactAndBallRestartKeys) {
   EXPECT_NE(errorOf("contact:\n  current_samples: 0\n"), "");
   EXPECT_NE(errorOf("contact:\n  distance_m: -1\n"), "");
   EXPECT_NE(errorOf("contact:\n  serch_steps: 2\n"), "");
+  // The push velocity's process (PushModel): off unless given (on in the shipped file); decay
+  // times must be positive.
+  EXPECT_DOUBLE_EQ(c.localizer.filter.push.density, 0.0);
+  EXPECT_GT(shipped.localizer.filter.push.density, 0.0);
+  EXPECT_GT(shipped.localizer.filter.push.max_speed, 0.0);
+  const FusionConfig push = loadFusionConfig(config::Node::loadString(
+      "contact:\n  push_density: 4\n  push_contact_decay_s: 0.8\n  push_free_decay_s: 0.05\n"
+      "  push_max_speed: 3\n"));
+  EXPECT_DOUBLE_EQ(push.localizer.filter.push.max_speed, 3.0);
+  EXPECT_DOUBLE_EQ(push.localizer.filter.push.density, 4.0);
+  EXPECT_DOUBLE_EQ(push.localizer.filter.push.contact_decay_s, 0.8);
+  EXPECT_DOUBLE_EQ(push.localizer.filter.push.free_decay_s, 0.05);
+  EXPECT_NE(errorOf("contact:\n  push_free_decay_s: 0\n"), "");
+  EXPECT_NE(errorOf("contact:\n  push_density: -1\n"), "");
 }
 
 TEST(FusionConfig, TyposAndBadValuesNameFileAndLine) {
