@@ -169,6 +169,10 @@ double pushPositionShare(double x) {
 void predictPush(EkfState& s, double dt_s, double contact_s, const PushModel& push) {
   if (push.density <= 0.0 || !(dt_s > 0.0)) return;
   contact_s = std::clamp(contact_s, 0.0, dt_s);
+  if (push.unconfirmed_us > 0 && s.last_correction_utime > 0 &&
+      s.utime - s.last_correction_utime > push.unconfirmed_us) {
+    contact_s = 0.0;
+  }
   // The decay over the interval (its rate averaged over the contact and free parts), and the
   // noise of the contact part.
   const double x = contact_s / push.contact_decay_s + (dt_s - contact_s) / push.free_decay_s;

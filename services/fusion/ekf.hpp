@@ -151,6 +151,10 @@ struct PushModel {
   // The push's speed is held within this after each prediction (opponents drive at most 3 m/s;
   // a push learnt from a wrong frame must not run away), m/s. 0: no bound.
   double max_speed = 0.0;
+  // Only frames tell the push: once the state's last accepted correction is older than this, the
+  // push decays as outside contact (a robot whose frames are refused or searched, twisted in a
+  // collision, ran off at the push's speed for metres), µs. 0: no limit.
+  Utime unconfirmed_us = 0;
 };
 
 struct UpdateResult {

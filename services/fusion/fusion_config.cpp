@@ -156,6 +156,8 @@ void loadContact(const config::Node& n, LocalizerParams& l) {
       n.getOr<double>("push_contact_decay_s", push.contact_decay_s, 0.001, 100.0);
   push.free_decay_s = n.getOr<double>("push_free_decay_s", push.free_decay_s, 0.001, 100.0);
   push.max_speed = n.getOr<double>("push_max_speed", push.max_speed, 0.0, 100.0);
+  push.unconfirmed_us =
+      micros(n.getOr<double>("push_unconfirmed_s", seconds(push.unconfirmed_us), 0.0, 10.0));
   CurrentContactParams& c = l.current_contact;
   c.force_threshold_n = n.getOr<double>("current_force_n", c.force_threshold_n, 0.0, 1e4);
   c.samples = n.getOr<int>("current_samples", c.samples, 1, 100);

@@ -1060,6 +1060,24 @@ TEST(PredictPush, TwoPartsGiveTheWholeAndOffChangesNothing) {
   EkfState free_run = start;
   predictPush(free_run, 0.02, 0.02, push);
   EXPECT_EQ(slow.x, free_run.x);
+  // In contact but long after the last accepted correction (unconfirmed_us): the push decays
+  // as outside contact, with no noise; within the limit contact holds.
+  PushModel confirmed_only = push;
+  confirmed_only.unconfirmed_us = 150'000;
+  EkfState stale = start;
+  stale.last_correction_utime = stale.utime - 200'000;
+  EkfState recent = stale;
+  recent.last_correction_utime = recent.utime - 100'000;
+  predictPush(stale, 0.02, 0.02, confirmed_only);
+  predictPush(recent, 0.02, 0.02, confirmed_only);
+  EkfState free_push = start;
+  predictPush(free_push, 0.02, 0.0, push);
+  EkfState contact_push = start;
+  predictPush(contact_push, 0.02, 0.02, push);
+  EXPECT_EQ(stale.x, free_push.x);
+  EXPECT_EQ(stale.p, free_push.p);
+  EXPECT_EQ(recent.x, contact_push.x);
+  EXPECT_EQ(recent.p, contact_push.p);
   // Off: nothing moves.
   PushModel off = push;
   off.density = 0.0;

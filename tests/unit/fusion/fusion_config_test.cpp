@@ -94,8 +94,9 @@ TEST(FusionConfig, ContactAndBallRestartKeys) {
   EXPECT_GT(shipped.localizer.filter.push.max_speed, 0.0);
   const FusionConfig push = loadFusionConfig(config::Node::loadString(
       "contact:\n  push_density: 4\n  push_contact_decay_s: 0.8\n  push_free_decay_s: 0.05\n"
-      "  push_max_speed: 3\n"));
+      "  push_max_speed: 3\n  push_unconfirmed_s: 0.2\n"));
   EXPECT_DOUBLE_EQ(push.localizer.filter.push.max_speed, 3.0);
+  EXPECT_EQ(push.localizer.filter.push.unconfirmed_us, 200'000);
   EXPECT_DOUBLE_EQ(push.localizer.filter.push.density, 4.0);
   EXPECT_DOUBLE_EQ(push.localizer.filter.push.contact_decay_s, 0.8);
   EXPECT_DOUBLE_EQ(push.localizer.filter.push.free_decay_s, 0.05);
