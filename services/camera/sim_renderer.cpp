@@ -282,7 +282,7 @@ void SimRenderer::buildPixelTable() {
         continue;
       }
       kind_[i] = PixelKind::kFloor;
-      // The level whose cells are about half the pixel's footprint (a third to three quarters):
+      // The level whose cells are about half the pixel's footprint (0.35 to 0.71 of it):
       // interpolated between their centres (renderFloor), they blur the floor over about one
       // pixel. Cells as large as the footprint (as until bias10i) blurred a line 4.5 m away over
       // 16 cm of floor and shifted its centre outward by a centimetre or two.

@@ -12,6 +12,7 @@
 #include <cstdio>
 #include <limits>
 #include <map>
+#include <memory>
 #include <numbers>
 #include <optional>
 #include <random>
@@ -54,6 +55,7 @@ struct Options {
   double synthetic_range = 4.0;
   double synthetic_sigma = 0.0;
   std::uint32_t seed = 1;
+  std::string grid_cache = fieldline::config::defaultCacheDirectory();
 };
 
 rt::SimCamera loadCamera(const Options& o) {
@@ -133,8 +135,13 @@ Vec2 toField(const Pose2& pose, const LinePoint& q) {
 int runMap(const Options& o, rt::SimCamera& sim, const fusion::LineMatcher& matcher) {
   const double hx = sim.field.length() / 2 + 0.5, hy = sim.field.width() / 2 + 0.5;
   std::printf("x,y,phi,points,inliers,dx_cm,dy_cm,dphi_deg,sx_cm,sy_cm,cost_cm\n");
-  for (double y = -hy; y <= hy + 1e-9; y += o.step_m) {
-    for (double x = -hx; x <= hx + 1e-9; x += o.step_m) {
+  // A grid centred on the field, so that it reaches as far beyond the lines on every side.
+  const int nx = static_cast<int>(std::floor(2 * hx / o.step_m + 1e-9));
+  const int ny = static_cast<int>(std::floor(2 * hy / o.step_m + 1e-9));
+  for (int iy = 0; iy <= ny; ++iy) {
+    const double y = (iy - 0.5 * ny) * o.step_m;
+    for (int ix = 0; ix <= nx; ++ix) {
+      const double x = (ix - 0.5 * nx) * o.step_m;
       for (int h = 0; h < o.headings; ++h) {
         const Pose2 truth{
             x, y,
@@ -237,14 +244,16 @@ int runPose(const Options& o, rt::SimCamera& sim, const fusion::LineMatcher& mat
       "# by element: element,n,mean_signed_cm,rms_cm,mean_radial_cm,mean_pixel_radial_px\n");
   for (const auto& [name, s] : by_element) {
     std::printf("# %s,%d,%.3f,%.3f,%.3f,%.3f\n", name.c_str(), s.n, 100 * s.d / s.n,
-                100 * std::sqrt(s.d2 / s.n), 100 * s.radial / s.n, s.pixel / s.pixel_n);
+                100 * std::sqrt(s.d2 / s.n), 100 * s.radial / s.n,
+                s.pixel_n > 0 ? s.pixel / s.pixel_n : 0.0);
   }
   std::printf(
       "# by range (0.5 m bins): "
       "from_m,n,mean_signed_cm,rms_cm,mean_radial_cm,mean_pixel_radial_px\n");
   for (const auto& [bin, s] : by_range) {
     std::printf("# %.1f,%d,%.3f,%.3f,%.3f,%.3f\n", bin * 0.5, s.n, 100 * s.d / s.n,
-                100 * std::sqrt(s.d2 / s.n), 100 * s.radial / s.n, s.pixel / s.pixel_n);
+                100 * std::sqrt(s.d2 / s.n), 100 * s.radial / s.n,
+                s.pixel_n > 0 ? s.pixel / s.pixel_n : 0.0);
   }
   return c.valid ? 0 : 1;
 }
@@ -276,6 +285,8 @@ int main(int argc, char** argv) {
   app.add_option("--synthetic-sigma", o.synthetic_sigma, "--synthetic: scatter per axis, m")
       ->capture_default_str();
   app.add_option("--seed", o.seed, "--synthetic: random seed")->capture_default_str();
+  app.add_option("--grid-cache", o.grid_cache, "Directory of the distance grid's cache")
+      ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
   if (o.map && !o.pose.empty()) {
     std::fprintf(stderr, "either --map or --pose\n");
@@ -283,7 +294,7 @@ int main(int argc, char** argv) {
   }
   try {
     rt::SimCamera sim = loadCamera(o);
-    const fusion::LineMatcher matcher(sim.field, fusion::MatcherParams{}, "/tmp");
+    const fusion::LineMatcher matcher(sim.field, fusion::MatcherParams{}, o.grid_cache);
     if (o.map) return runMap(o, sim, matcher);
     if (!o.pose.empty()) return runPose(o, sim, matcher);
     std::fprintf(stderr, "either --map or --pose\n");
