@@ -32,7 +32,9 @@ class FloorLookup {
   // The same in single precision for the per-point paths; false where unusable.
   bool floorPoint(float u, float v, float& x, float& y) const;
   // Starts loading the table entries floorPoint(u, v) will read (a hint, no effect otherwise).
-  void prefetch(float u, float v) const {
+  // always_inline: without it GCC 12 emitted no prefetch at all in the detector (measured with
+  // objdump), so the hint did nothing.
+  [[gnu::always_inline]] void prefetch(float u, float v) const {
     if (!(u >= 0.0f && v >= 0.0f)) return;
     const int u0 = static_cast<int>(u), v0 = static_cast<int>(v);
     if (u0 + 1 >= width_ || v0 + 1 >= height_) return;
