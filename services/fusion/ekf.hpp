@@ -51,6 +51,9 @@ struct EkfState {
   double last_correction_rad = 0.0;
 
   geometry::Pose2 pose() const { return {x[0], x[1], x[2]}; }
+  // How the robot moves over the ground, field frame (vx + ux, vy + uy, omega): the wheels'
+  // velocity plus the push an opponent gives it.
+  Eigen::Vector3d groundVelocity() const { return {x[3] + x[kPush], x[4] + x[kPush + 1], x[5]}; }
 };
 
 struct ProcessNoise {

@@ -69,9 +69,10 @@ void FusionNode::onOdometry(const odometry_t& m) {
   perception::RobotEstimate e = localizer_.estimate(node_.now());
   if (const auto s = localizer_.stateAt(t)) {
     e.pose = s->pose();
-    e.vx = s->x[3];
-    e.vy = s->x[4];
-    e.omega = s->x[5];
+    const Eigen::Vector3d v = s->groundVelocity();
+    e.vx = v.x();
+    e.vy = v.y();
+    e.omega = v.z();
     e.covariance = localizer_.reportedCovariance(*s);
   }
   e.utime = t;

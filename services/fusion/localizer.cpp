@@ -160,7 +160,7 @@ Eigen::Matrix3d Localizer::reportedCovariance(const EkfState& s) const {
   Eigen::Matrix3d c = s.p.topLeftCorner<3, 3>();
   const double fm = params_.state_floor_m * params_.state_floor_m;
   const double fr = params_.state_floor_rad * params_.state_floor_rad;
-  c += stampSpread(s.x.segment<3>(3), params_.stamp_sigma_s);
+  c += stampSpread(s.groundVelocity(), params_.stamp_sigma_s);
   c(0, 0) += fm;
   c(1, 1) += fm;
   c(2, 2) += fr;
@@ -246,7 +246,7 @@ void Localizer::trackLines(std::span<const perception::LinePoint> points, Utime 
   }
   bool good = false;
   if (c.valid && c.cost <= params_.accept_cost_m) {
-    PoseMeasurement z{utime, c.pose, correctionCovariance(c, guess->x.segment<3>(3))};
+    PoseMeasurement z{utime, c.pose, correctionCovariance(c, guess->groundVelocity())};
     const Eigen::Vector3d offset(c.pose.x - guess->pose().x, c.pose.y - guess->pose().y,
                                  geometry::normalizeAngle(c.pose.phi - guess->pose().phi));
     const bool confirmed =
@@ -327,7 +327,7 @@ void Localizer::trackLines(std::span<const perception::LinePoint> points, Utime 
         EkfState s = *guess;
         s.utime = utime;
         s.x.head<3>() << c.pose.x, c.pose.y, c.pose.phi;
-        s.p.topLeftCorner<3, 3>() = correctionCovariance(c, guess->x.segment<3>(3));
+        s.p.topLeftCorner<3, 3>() = correctionCovariance(c, guess->groundVelocity());
         // The pose restarts from the frame; velocity and gyro bias keep what was learnt.
         s.p.topRightCorner<3, kStateSize - 3>().setZero();
         s.p.bottomLeftCorner<kStateSize - 3, 3>().setZero();
@@ -732,9 +732,10 @@ perception::RobotEstimate Localizer::estimate(Utime now) const {
     const EkfState& s = filter_.current();
     e.utime = s.utime;
     e.pose = s.pose();
-    e.vx = s.x[3];
-    e.vy = s.x[4];
-    e.omega = s.x[5];
+    const Eigen::Vector3d v = s.groundVelocity();
+    e.vx = v.x();
+    e.vy = v.y();
+    e.omega = v.z();
     e.covariance = reportedCovariance(s);
     e.since_vision_us = s.last_correction_utime > 0 ? s.utime - s.last_correction_utime : 0;
   } else {

@@ -389,6 +389,25 @@ TEST(Localizer, AFrameStampSpreadsThePoseAlongTheMotion) {
   EXPECT_TRUE(stampSpread({3.0, 0.0, 4.0}, 0.0).isZero());
 }
 
+TEST(Localizer, ThePushIsPartOfTheReportedMotion) {
+  // An opponent carries the robot at 2 m/s along y while its wheels turn it at 0.5 m/s along x:
+  // the robot moves over the ground at (0.5, 2), and a stamp 4 ms off spreads its pose along
+  // that motion, not along the wheels' alone.
+  LocalizerParams params;
+  params.stamp_sigma_s = 0.004;
+  const Localizer localizer(world().robot, params, world().functions());
+  EkfState s;
+  s.p.setZero();
+  s.x[3] = 0.5;
+  s.x[5] = 1.0;
+  s.x[kPush + 1] = 2.0;
+  EXPECT_TRUE(s.groundVelocity().isApprox(Eigen::Vector3d(0.5, 2.0, 1.0)));
+  const Eigen::Matrix3d c = localizer.reportedCovariance(s);
+  EXPECT_NEAR(std::sqrt(c(1, 1)), 0.008, 1e-12);
+  EXPECT_NEAR(std::sqrt(c(0, 0)), 0.002, 1e-12);
+  EXPECT_TRUE(c.isApprox(stampSpread(s.groundVelocity(), 0.004)));
+}
+
 TEST(Localizer, FramesNearTheEstimatesTwinAreNoResetToFollow) {
   // Three well-matching frames in a row put the robot near the twin of the estimate, beyond the
   // gate (the symmetry makes them look as good as the truth). Before the guard the third reset
