@@ -371,6 +371,12 @@ void Localizer::becomeLost(Utime utime) {
       ref.utime = utime;
       ref.pose = s->pose();
       ref.covariance = s->p.topLeftCorner<3, 3>();
+      const SlipModel& slip = filter_.params().slip;
+      if (slip.max_speed > 0.0 && s->last_correction_utime > 0) {
+        const double unseen_s =
+            static_cast<double>(std::max<Utime>(0, utime - s->last_correction_utime)) * 1e-6;
+        ref.unseen_m = slip.base_m + slip.max_speed * unseen_s;
+      }
       reference_ = ref;
     }
   }
@@ -575,7 +581,8 @@ Localizer::Hypothesis Localizer::resolveTwin(const Hypothesis& h, const Hypothes
         reference_->covariance.topLeftCorner<2, 2>());
     const double sigma =
         es.info() == Eigen::Success ? std::sqrt(std::max(0.0, es.eigenvalues()[1])) : 1e9;
-    const double margin = std::max(params_.twin_margin_m, params_.twin_margin_sigmas * sigma);
+    const double margin =
+        std::max({params_.twin_margin_m, params_.twin_margin_sigmas * sigma, reference_->unseen_m});
     ambiguous_ = std::abs(dh - dt) < margin;
     if (ambiguous_) ++counters_.ambiguous_commits;
     return distance(h.pose) <= distance(mirrored.pose) ? h : mirrored;

@@ -92,8 +92,10 @@ struct LocalizerParams {
   // reckoning's history), the commit is reported as ambiguous.
   double twin_margin_m = 0.5;
   // ... or this many standard deviations of the reference's position (the filter's covariance
-  // at the loss: long odometry-only stretches and contacts make it uncertain), whichever is
-  // larger.
+  // at the loss: long odometry-only stretches and contacts make it uncertain), or the distance
+  // a push may have carried the robot unseen since the last accepted correction (the filter's
+  // SlipModel: base_m + max_speed * time; a collision during 0.6 s without frames moved a robot
+  // 0.7 m and turned it 1.2 rad while its wheels said 1.1 m the other way), whichever is larger.
   double twin_margin_sigmas = 3.0;
   // A line or feature frame newer than the newest odometry waits until odometry reaches its time
   // (a starved motor bridge delivers seconds of samples late, at once): matched earlier, it would
@@ -262,6 +264,9 @@ class Localizer {
     Utime utime = 0;
     geometry::Pose2 pose;
     Eigen::Matrix3d covariance = Eigen::Matrix3d::Identity();
+    // As a continuity reference: how far the robot may have moved unseen by odometry since the
+    // state's last accepted correction (SlipModel's bound for that time), m.
+    double unseen_m = 0.0;
     // Mean cost over the frames it was tested on.
     double cost_sum = 0.0;
     int frames = 0;

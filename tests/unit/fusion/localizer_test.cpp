@@ -185,6 +185,40 @@ TEST(Localizer, AStallNearTheCentreDoesNotFlipToTheTwin) {
   EXPECT_LT(d.error(), 0.15);
 }
 
+// A robot near the centre spot drives at 1 m/s; the camera goes blind for 0.6 s, in which a
+// collision pushes it 0.7 m and turns it 1.2 rad while its wheels go on (a live match, the
+// simulator stalled). When the frames come back the pose is lost. Returns the localizer after
+// 2 s of frames.
+Drive blindPushNearTheCentre(double slip_max_speed) {
+  LocalizerParams params;
+  params.filter.slip.max_speed = slip_max_speed;
+  params.filter.slip.base_m = 0.15;
+  Drive d({1.4, -0.3, 2.46}, params);
+  d.run(1.0, {1.0, 0.0, 0.0});
+  EXPECT_EQ(d.localizer.mode(), perception::LocalizationStatus::kTracking);
+  d.lines = false;
+  d.run(0.6, {1.0, 0.0, 0.0});
+  d.truth = {1.30, 0.33, 1.25};
+  d.history.clear();
+  d.lines = true;
+  d.run(2.0, {0.3, 0.0, 0.0});
+  return d;
+}
+
+TEST(Localizer, APushWhileBlindLeavesTheTwinAmbiguous) {
+  // Odometry carried the reference 1.1 m the wrong way, so continuity cannot tell the truth
+  // from its twin 2.7 m away: the commit must say so (before, the reference's 3 sigmas were a
+  // few centimetres and the commit was called certain).
+  const Drive d = blindPushNearTheCentre(4.0);
+  ASSERT_EQ(d.localizer.mode(), perception::LocalizationStatus::kTracking);
+  EXPECT_GE(d.localizer.counters().lost, 1u);
+  EXPECT_TRUE(d.localizer.ambiguous());
+  EXPECT_GE(d.localizer.counters().ambiguous_commits, 1u);
+  // Without the time bound of an unseen push the same commit is called certain.
+  const Drive certain = blindPushNearTheCentre(0.0);
+  EXPECT_FALSE(certain.localizer.ambiguous());
+}
+
 TEST(Localizer, LinesWithoutOdometryAreStillFused) {
   // The motor bridge dies (serial unplugged): no odometry at all, the camera goes on. The frames
   // must not wait for odometry forever: after LocalizerParams::max_wait_us of silence they are
