@@ -19,8 +19,8 @@ void addBiasWalk(StateMatrix& p, double dt, const ProcessNoise& n) {
 }
 
 // P <- (I - K H) P (I - K H)^T + K R K^T (Joseph form) without forming the 9x9 I - K H: with
-// A = P - K (H P) it is A - (A H^T) K^T + K R K^T, products of 9x3 and 3x9 only (a 150 ms late
-// measurement replays about 40 of these and the predictions below).
+// A = P - K (H P) it is A - (A H^T) K^T + K R K^T, products of 9x3 and 3x9 only (a late measurement
+// replays every update and prediction after it).
 void josephUpdate(StateMatrix& p, const Eigen::Matrix<double, kStateSize, 3>& k,
                   const Eigen::Matrix<double, 3, kStateSize>& h, const Eigen::Matrix3d& r) {
   const StateMatrix a = p - k * (h * p);
@@ -239,12 +239,7 @@ UpdateResult updatePose(EkfState& s, const PoseMeasurement& z, double gate2,
   if (!std::isfinite(result.mahalanobis2)) return result;
   if (gate2 > 0.0 && result.mahalanobis2 > gate2) {
     const double max_rad = s.gyro ? slip.max_rad_gyro : slip.max_rad;
-    double max_m = slip.max_m;
-    if (slip.max_speed > 0.0 && s.last_correction_utime > 0) {
-      const double elapsed_s =
-          static_cast<double>(std::max<Utime>(0, z.utime - s.last_correction_utime)) * 1e-6;
-      max_m = std::min(max_m, slip.base_m + slip.max_speed * elapsed_s);
-    }
+    const double max_m = std::min(slip.max_m, slip.reachBy(s, z.utime));
     const bool within = y.head<2>().norm() <= max_m && std::abs(y[2]) <= max_rad;
     if (!z.may_reveal_slip || slip.inflation <= 0.0 || !within) return result;
     // Odometry missed a movement: the pose is as uncertain as the disagreement says (the

@@ -18,6 +18,8 @@
 // behind a Mahalanobis gate.
 #pragma once
 
+#include <limits>
+
 #include <Eigen/Core>
 
 #include "common/geometry/geometry.hpp"
@@ -108,6 +110,14 @@ struct SlipModel {
   // not a slip. max_speed 0: no time bound (max_m alone), m/s, m.
   double max_speed = 0.0;
   double base_m = 0.0;
+  // The time bound: how far the pose of `s` may have slipped by `utime` since its last accepted
+  // correction, m (infinite without max_speed or before any correction).
+  double reachBy(const EkfState& s, Utime utime) const {
+    if (!(max_speed > 0.0) || s.last_correction_utime <= 0) return kNoBound;
+    const Utime elapsed = utime > s.last_correction_utime ? utime - s.last_correction_utime : 0;
+    return base_m + max_speed * static_cast<double>(elapsed) * 1e-6;
+  }
+  static constexpr double kNoBound = std::numeric_limits<double>::infinity();
   // 0: no slip handling.
   double inflation = 2.0;
   // While the heading comes from the gyro (EkfState::gyro), a measurement with robust_heading

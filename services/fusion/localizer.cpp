@@ -371,12 +371,8 @@ void Localizer::becomeLost(Utime utime) {
       ref.utime = utime;
       ref.pose = s->pose();
       ref.covariance = s->p.topLeftCorner<3, 3>();
-      const SlipModel& slip = filter_.params().slip;
-      if (slip.max_speed > 0.0 && s->last_correction_utime > 0) {
-        const double unseen_s =
-            static_cast<double>(std::max<Utime>(0, utime - s->last_correction_utime)) * 1e-6;
-        ref.unseen_m = slip.base_m + slip.max_speed * unseen_s;
-      }
+      const double reach = filter_.params().slip.reachBy(*s, utime);
+      if (reach < SlipModel::kNoBound) ref.unseen_m = reach;
       reference_ = ref;
     }
   }
