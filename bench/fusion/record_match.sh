@@ -2,9 +2,11 @@
 # Records a live match for replays (docs/fusion.md, "Third round: record once, replay many
 # times"): the simulated team runs `fieldline-eval --scenario SCENARIO --duration S` with a copy of
 # sim_team.yaml without its robot clocks (replays and eval --log take every clock as the
-# simulator's), teamcomm and the viewer, the team under nice -n -10, while one lcm-logger per bus
-# writes OUT/sim.lcm (SIM_WORLD) and OUT/robotN.lcm (ODOMETRY, VISION_LINES, FIELD_FEATURES,
-# VISION_BALL, VISION_OBSTACLES, MOTION_COMMAND, ROBOT_STATE, BALL_STATE). The live run's
+# simulator's) and the viewer, the team under nice -n -10, while one lcm-logger per bus writes
+# OUT/sim.lcm (SIM_WORLD) and OUT/robotN.lcm (ODOMETRY, VISION_LINES, FIELD_FEATURES,
+# VISION_BALL, VISION_OBSTACLES, TEAM_STATE, MOTION_COMMAND, ROBOT_STATE, BALL_STATE). Since the
+# twelfth round teamcomm runs too (fusion takes teammates' balls from TEAM_STATE); NO_TEAMCOMM=1
+# leaves it out as before. The live run's
 # summary is in OUT/live/. Runs in a private network namespace (unshare -n, or -rn without root).
 #
 #   bench/fusion/record_match.sh BIN_DIR OUT [SECONDS] [SCENARIO] [REGION_TRACKING_ARGS...]
@@ -18,10 +20,13 @@ shift $(($# < 4 ? $# : 4))
 root=$(cd "$(dirname "$0")/../.." && pwd)
 mkdir -p "$out"
 launch="$out/launch.yaml"
-# No robot clocks, no teamcomm, no viewer; region tracking's extra arguments if given.
-awk -v extra="$*" '
+# No robot clocks, no viewer (nor teamcomm with NO_TEAMCOMM=1); region tracking's extra
+# arguments if given.
+drop='viewer'
+[ "${NO_TEAMCOMM:-0}" = 1 ] && drop='teamcomm|viewer'
+awk -v extra="$*" -v drop="$drop" '
   /^robots:/ { exit }
-  /^  - name: (teamcomm|viewer)$/ { skip = 1; next }
+  $0 ~ "^  - name: (" drop ")$" { skip = 1; next }
   /^  - name: / { skip = 0 }
   skip { next }
   { print }
@@ -40,7 +45,7 @@ $ns bash -c "
   pids=()
   lcm-logger -q -f -c 'SIM_WORLD' --lcm-url=\"\$(url 7667)\" '$out/sim.lcm' & pids+=(\$!)
   for n in 1 2 3 4 5 6; do
-    lcm-logger -q -f -c 'ODOMETRY|VISION_LINES|FIELD_FEATURES|VISION_BALL|VISION_OBSTACLES|MOTION_COMMAND|ROBOT_STATE|BALL_STATE' \
+    lcm-logger -q -f -c 'ODOMETRY|VISION_LINES|FIELD_FEATURES|VISION_BALL|VISION_OBSTACLES|TEAM_STATE|MOTION_COMMAND|ROBOT_STATE|BALL_STATE' \
       --lcm-url=\"\$(url \$((7667 + n)))\" '$out/robot'\$n'.lcm' & pids+=(\$!)
   done
   sleep 0.5

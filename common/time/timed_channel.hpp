@@ -86,6 +86,12 @@ class TimedChannel {
   std::size_t size() const { return buffer_.size(); }
   bool empty() const { return buffer_.empty(); }
   void clear() { buffer_.clear(); }
+  // Applies `f` to every stored value in place; times and order stay (e.g. a change of frame).
+  template <class F>
+  void transformValues(F&& f) {
+    for (Sample& sample : buffer_)
+      f(sample.value);
+  }
   const Sample& operator[](std::size_t i) const { return buffer_[i]; }
   const Sample& oldest() const { return buffer_.front(); }
   const Sample& newest() const { return buffer_.back(); }

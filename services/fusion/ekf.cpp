@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 
 #include <Eigen/Cholesky>
 #include <Eigen/LU>
@@ -274,6 +275,26 @@ bool isPositiveDefinite(const Eigen::Matrix3d& c) {
   if ((c - c.transpose()).cwiseAbs().maxCoeff() > 1e-9 * std::max(scale, 1e-12)) return false;
   Eigen::LLT<Eigen::Matrix3d> llt(c);
   return llt.info() == Eigen::Success && c.diagonal().minCoeff() > 0.0;
+}
+
+EkfState pointMirrored(const EkfState& s) {
+  // Position, field-frame velocity and push change sign; heading turns by pi; turn rate and gyro
+  // bias are the same seen from either side.
+  StateVector sign = StateVector::Ones();
+  sign[0] = sign[1] = sign[3] = sign[4] = sign[kPush] = sign[kPush + 1] = -1.0;
+  EkfState m = s;
+  m.x = sign.cwiseProduct(s.x);
+  m.x[2] = geometry::normalizeAngle(s.x[2] + std::numbers::pi);
+  m.p = sign.asDiagonal() * s.p * sign.asDiagonal();
+  return m;
+}
+
+PoseMeasurement pointMirrored(const PoseMeasurement& z) {
+  PoseMeasurement m = z;
+  m.pose = {-z.pose.x, -z.pose.y, geometry::normalizeAngle(z.pose.phi + std::numbers::pi)};
+  const Eigen::Vector3d sign(-1.0, -1.0, 1.0);
+  m.covariance = sign.asDiagonal() * z.covariance * sign.asDiagonal();
+  return m;
 }
 
 }  // namespace fieldline::fusion

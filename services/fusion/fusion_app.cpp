@@ -86,6 +86,7 @@ int runFusion(const FusionAppOptions& options, const bus::CommonOptions& common)
   node_options.robot = robot;
   node_options.localizer = config.localizer;
   node_options.ball = config.ball;
+  node_options.team_ball_vote = config.team_ball_vote;
   node_options.ball_rate_hz = config.ball_rate_hz;
   const MatcherFunctions functions{[&](std::span<const perception::LinePoint> p,
                                        const geometry::Pose2& g) { return matcher.correct(p, g); },

@@ -199,6 +199,25 @@ void loadBall(const config::Node& n, FusionConfig& c) {
   n.rejectUnknownKeys();
 }
 
+void loadTwinByTeam(const config::Node& n, FusionConfig& c) {
+  TeamBallVoteParams& p = c.team_ball_vote;
+  c.localizer.twin_votes = n.getOr<int>("votes", c.localizer.twin_votes, 0, 1000);
+  p.agree_m = n.getOr<double>("agree_m", p.agree_m, 0.01, 5.0);
+  p.min_centre_distance_m =
+      n.getOr<double>("min_centre_distance_m", p.min_centre_distance_m, 0.02, 10.0);
+  if (p.min_centre_distance_m <= p.agree_m) {
+    n.fail("min_centre_distance_m",
+           "must be larger than agree_m (else one teammate's ball agrees "
+           "with both our ball and its mirror image)");
+  }
+  p.min_teammates = n.getOr<int>("min_teammates", p.min_teammates, 1, 5);
+  p.max_ball_age_us =
+      micros(n.getOr<double>("max_ball_age_s", seconds(p.max_ball_age_us), 0.0, 5.0));
+  p.max_picture_gap_us =
+      micros(n.getOr<double>("max_picture_gap_s", seconds(p.max_picture_gap_us), 0.0, 5.0));
+  n.rejectUnknownKeys();
+}
+
 }  // namespace
 
 FusionConfig loadFusionConfig(const config::Node& root) {
@@ -210,6 +229,7 @@ FusionConfig loadFusionConfig(const config::Node& root) {
   if (const auto n = root.childIf("calibration")) loadCalibration(*n, c.localizer);
   if (const auto n = root.childIf("contact")) loadContact(*n, c.localizer);
   if (const auto n = root.childIf("ball")) loadBall(*n, c);
+  if (const auto n = root.childIf("twin_by_team")) loadTwinByTeam(*n, c);
   if (const auto n = root.childIf("matcher")) c.matcher = loadMatcherParams(*n);
   root.rejectUnknownKeys();
   return c;

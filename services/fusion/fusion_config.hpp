@@ -12,6 +12,7 @@
 #include "services/fusion/ball_filter.hpp"
 #include "services/fusion/line_matcher.hpp"
 #include "services/fusion/localizer.hpp"
+#include "services/fusion/team_twin.hpp"
 
 namespace fieldline::fusion {
 
@@ -19,12 +20,13 @@ struct FusionConfig {
   LocalizerParams localizer;
   BallFilterParams ball;
   MatcherParams matcher;
+  TeamBallVoteParams team_ball_vote;
   // BALL_STATE messages per second.
   double ball_rate_hz = 30.0;
 };
 
 // Reads the root of a fusion config file: sections filter, process_noise, odometry, localizer,
-// calibration, contact, ball, matcher (each optional).
+// calibration, contact, ball, twin_by_team, matcher (each optional).
 FusionConfig loadFusionConfig(const config::Node& root);
 // Preset name (config/fusion/NAME.yaml) or path.
 FusionConfig loadFusionConfigPreset(const std::string& name_or_path);

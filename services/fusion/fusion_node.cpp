@@ -10,6 +10,7 @@
 #include "common/msg/field_features.hpp"
 #include "common/msg/line_contours.hpp"
 #include "common/msg/obstacle_observations.hpp"
+#include "common/msg/team_state.hpp"
 
 namespace fieldline::fusion {
 namespace {
@@ -30,7 +31,8 @@ FusionNode::FusionNode(bus::Node& node, FusionNodeOptions options, MatcherFuncti
     : node_(node),
       options_(std::move(options)),
       localizer_(options_.robot, options_.localizer, std::move(matcher)),
-      ball_(options_.ball) {
+      ball_(options_.ball),
+      team_balls_(node.robotId(), options_.team_ball_vote) {
   if (!(options_.ball_rate_hz > 0.0 && options_.ball_rate_hz <= 1000.0)) {
     throw std::invalid_argument("fusion: ball_rate_hz must be in (0, 1000]");
   }
@@ -44,6 +46,8 @@ FusionNode::FusionNode(bus::Node& node, FusionNodeOptions options, MatcherFuncti
   node_.subscribe(bus::channels::kVisionBall, [this](const ball_observation_t& m) { onBall(m); });
   node_.subscribe(bus::channels::kVisionObstacles,
                   [this](const obstacle_observations_t& m) { onObstacles(m); });
+  // Optional: a robot without teamcomm (or alone) keeps continuity and the start prior.
+  node_.subscribe(bus::channels::kTeamState, [this](const team_state_t& m) { onTeam(m); });
   node_.every(static_cast<Utime>(std::llround(1e6 / options_.ball_rate_hz)),
               [this] { publishBall(); });
 }
@@ -104,9 +108,24 @@ void FusionNode::onObstacles(const obstacle_observations_t& m) {
   reportNewRejections();
 }
 
+void FusionNode::onTeam(const team_state_t& m) {
+  team_balls_.setTeam(msg::fromMessage(m));
+  for (const auto& [kind, n] : team_balls_.refusals())
+    node_.setMetric(kind + "_count", static_cast<double>(n));
+}
+
 void FusionNode::onBall(const ball_observation_t& m) {
-  const BallRejection r = ball_.add(msg::fromMessage(m));
-  if (r == BallRejection::kNone) return;
+  const perception::BallSighting sighting = msg::fromMessage(m);
+  const BallRejection r = ball_.add(sighting);
+  if (r == BallRejection::kNone) {
+    // Our ball where our pose at its time puts it, against the teammates' balls.
+    if (!sighting.visible) return;
+    if (const auto s = localizer_.stateAt(sighting.utime)) {
+      const geometry::Vec2 ours = geometry::pointRobotToField(s->pose(), {sighting.x, sighting.y});
+      localizer_.addTwinVote(team_balls_.vote(ours, sighting.utime));
+    }
+    return;
+  }
   const std::string kind = toString(r);
   node_.reportError(kind, "VISION_BALL refused: " + kind);
 }
@@ -156,6 +175,12 @@ void FusionNode::updateMetrics() {
                   static_cast<double>(localizer_.counters().ambiguous_commits));
   node_.setMetric("twin_resets_refused",
                   static_cast<double>(localizer_.counters().twin_resets_refused));
+  node_.setMetric("twin_confirmed_by_team",
+                  static_cast<double>(localizer_.counters().twin_confirmed_by_team));
+  node_.setMetric("twin_flips_by_team",
+                  static_cast<double>(localizer_.counters().twin_flips_by_team));
+  node_.setMetric("twin_doubted_by_team",
+                  static_cast<double>(localizer_.counters().twin_doubted_by_team));
   node_.setMetric("frames_waited_for_odometry",
                   static_cast<double>(localizer_.counters().frames_waited));
   node_.setMetric("odometry_silent", localizer_.odometrySilent(node_.now()) ? 1.0 : 0.0);

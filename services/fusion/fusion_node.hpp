@@ -1,8 +1,8 @@
-// The fusion process's bus side: ODOMETRY, VISION_LINES, FIELD_FEATURES, VISION_BALL and
-// VISION_OBSTACLES (contact evidence) in; ROBOT_STATE on every odometry message (stamped with the
-// odometry's utime) and BALL_STATE at a fixed rate out. The algorithms are the Localizer and the
-// BallFilter; the node converts messages, reads time from its clock and reports refused inputs in
-// SERVICE_STATUS.
+// The fusion process's bus side: ODOMETRY, VISION_LINES, FIELD_FEATURES, VISION_BALL,
+// VISION_OBSTACLES (contact evidence) and TEAM_STATE (teammates' balls decide the twin) in;
+// ROBOT_STATE on every odometry message (stamped with the odometry's utime) and BALL_STATE at a
+// fixed rate out. The algorithms are the Localizer and the BallFilter; the node converts messages,
+// reads time from its clock and reports refused inputs in SERVICE_STATUS.
 #pragma once
 
 #include <cstdint>
@@ -13,6 +13,7 @@
 #include <fieldline/ball_state_t.hpp>
 #include <fieldline/obstacle_observations_t.hpp>
 #include <fieldline/robot_state_t.hpp>
+#include <fieldline/team_state_t.hpp>
 
 #include "common/bus/node.hpp"
 #include "common/perception/field_features.hpp"
@@ -22,6 +23,7 @@
 #include "services/fusion/ball_filter.hpp"
 #include "services/fusion/ball_tracker.hpp"
 #include "services/fusion/localizer.hpp"
+#include "services/fusion/team_twin.hpp"
 
 namespace fieldline::fusion {
 
@@ -29,6 +31,7 @@ struct FusionNodeOptions {
   robot::RobotParams robot;
   LocalizerParams localizer;
   BallFilterParams ball;
+  TeamBallVoteParams team_ball_vote;
   // BALL_STATE messages per second.
   double ball_rate_hz = 30.0;
 };
@@ -48,6 +51,7 @@ class FusionNode {
   void onFeatures(const field_features_t& m);
   void onBall(const ball_observation_t& m);
   void onObstacles(const obstacle_observations_t& m);
+  void onTeam(const team_state_t& m);
   void publishBall();
   // Reports every refusal the localizer counted since the last call.
   void reportNewRejections();
@@ -57,6 +61,7 @@ class FusionNode {
   FusionNodeOptions options_;
   Localizer localizer_;
   BallTracker ball_;
+  TeamBallVoter team_balls_;
   // utimes of the recent line frames (ascending): the corrections smoothedPose spreads back.
   std::deque<Utime> line_times_;
   perception::LinePoints lines_;

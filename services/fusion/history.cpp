@@ -74,6 +74,13 @@ void DelayedFilter::initialize(const EkfState& state) {
   prune();
 }
 
+void DelayedFilter::mirrorThroughCentre() {
+  for (EkfState& s : checkpoints_)
+    s = pointMirrored(s);
+  for (auto& channel : measurements_)
+    channel.transformValues([](PoseMeasurement& z) { z = pointMirrored(z); });
+}
+
 Rejection DelayedFilter::checkTime(Utime utime, Utime now) const {
   if (utime > now + params_.future_tolerance_us) return Rejection::kFromFuture;
   if (newest_input_ > 0 && utime < newest_input_ - params_.window_us) return Rejection::kTooOld;

@@ -59,6 +59,10 @@ class DelayedFilter {
   // it. Inputs at or before state.utime are dropped.
   void initialize(const EkfState& state);
   bool initialized() const { return !checkpoints_.empty(); }
+  // Maps the whole history through the field's point symmetry (pointMirrored): every checkpoint
+  // and stored pose measurement; odometry (robot frame) and contact evidence stay. Late inputs
+  // then replay onto the twin's history exactly as onto the original one.
+  void mirrorThroughCentre();
   // Forgets the estimate (inputs stay; a later initialize() replays them).
   void forget() { checkpoints_.clear(); }
 

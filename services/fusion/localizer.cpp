@@ -624,6 +624,43 @@ void Localizer::commit(const Hypothesis& h) {
   gated_in_row_ = 0;
   gated_offset_.reset();
   good_since_commit_ = 0;
+  same_votes_ = 0;
+  twin_votes_ = 0;
+}
+
+void Localizer::addTwinVote(TwinVote vote) {
+  if (params_.twin_votes <= 0 || vote == TwinVote::kNone) return;
+  if (mode_ != LocalizationStatus::kTracking || !filter_.initialized()) {
+    same_votes_ = twin_votes_ = 0;
+    return;
+  }
+  if (vote == TwinVote::kSame) {
+    twin_votes_ = 0;
+    if (ambiguous_ && ++same_votes_ >= params_.twin_votes) {
+      ambiguous_ = false;
+      same_votes_ = 0;
+      ++counters_.twin_confirmed_by_team;
+    }
+    return;
+  }
+  same_votes_ = 0;
+  if (++twin_votes_ < params_.twin_votes) return;
+  twin_votes_ = 0;
+  if (!ambiguous_) {
+    // Continuity had called this pose certain: the team's word alone does not move it yet.
+    ambiguous_ = true;
+    ++counters_.twin_doubted_by_team;
+    return;
+  }
+  // The whole history moves, so frames still in flight replay onto the twin's past.
+  filter_.mirrorThroughCentre();
+  // The team's answer supersedes the pose before the loss as the next loss's reference.
+  reference_.reset();
+  ambiguous_ = false;
+  gated_in_row_ = 0;
+  gated_offset_.reset();
+  weighted_heading_offset_.reset();
+  ++counters_.twin_flips_by_team;
 }
 
 void Localizer::addFeatures(const perception::FieldFeatures& features, Utime utime, Utime now) {

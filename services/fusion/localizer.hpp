@@ -27,6 +27,7 @@
 #include "services/fusion/history.hpp"
 #include "services/fusion/line_matcher.hpp"
 #include "services/fusion/odometry_layer.hpp"
+#include "services/fusion/team_twin.hpp"
 
 namespace fieldline::fusion {
 
@@ -97,6 +98,10 @@ struct LocalizerParams {
   // SlipModel: base_m + max_speed * time; a collision during 0.6 s without frames moved a robot
   // 0.7 m and turned it 1.2 rad while its wheels said 1.1 m the other way), whichever is larger.
   double twin_margin_sigmas = 3.0;
+  // Teammates' balls (TeamBallVoter) decide the twin after this many votes of one kind in a row:
+  // an ambiguous pose is confirmed, or moved to its twin; a certain pose that as many votes
+  // contradict becomes ambiguous first (it takes twice as many to move it). 0: off.
+  int twin_votes = 3;
   // A line or feature frame newer than the newest odometry waits until odometry reaches its time
   // (a starved motor bridge delivers seconds of samples late, at once): matched earlier, it would
   // be matched against a pose the held velocity extrapolated, which a turn makes wrong, and could
@@ -191,6 +196,11 @@ struct LocalizerCounters {
   // because the frame's pose lay nearer the estimate's twin than the estimate.
   std::uint64_t ambiguous_commits = 0;
   std::uint64_t twin_resets_refused = 0;
+  // What teammates' balls did to the twin (addTwinVote): confirmed an ambiguous pose, moved it to
+  // its twin, made a certain pose ambiguous.
+  std::uint64_t twin_confirmed_by_team = 0;
+  std::uint64_t twin_flips_by_team = 0;
+  std::uint64_t twin_doubted_by_team = 0;
   // Frames that waited for odometry to reach their time (max_waiting_frames).
   std::uint64_t frames_waited = 0;
   // Frames whose correction came from the twist search (contact_search_steps).
@@ -227,6 +237,10 @@ class Localizer {
   // well-matching line frame beyond the gate is taken at once as a slip. A frame with a
   // non-finite or negative distance is refused and counted ("obstacles_not_finite").
   void addObstacles(const perception::ObstacleSightings& sightings, Utime now);
+  // A vote of teammates' balls on the twin (TeamBallVoter::vote on a ball sighting, with the pose
+  // at its time), in the sightings' time order. Acts only while tracking, after
+  // LocalizerParams::twin_votes votes of one kind in a row.
+  void addTwinVote(TwinVote vote);
   // True while contact evidence covers `t`.
   bool inContact(Utime t) const { return filter_.inContact(t); }
 
@@ -321,6 +335,9 @@ class Localizer {
 
   perception::LocalizationStatus mode_ = perception::LocalizationStatus::kUnknown;
   bool ambiguous_ = false;
+  // Team ball votes of one kind in a row (addTwinVote).
+  int same_votes_ = 0;
+  int twin_votes_ = 0;
   std::vector<Hypothesis> hypotheses_;
   // The last trusted pose (when tracking was lost), for continuity.
   std::optional<Hypothesis> reference_;

@@ -34,9 +34,9 @@ std::vector<std::string> inputChannels(const std::string& node) {
   if (node == "region_tracking") return {std::string(ch::kCameraImage.name)};
   if (node == "feature_recognition") return {std::string(ch::kVisionLines.name)};
   if (node == "fusion") {
-    return {std::string(ch::kOdometry.name), std::string(ch::kVisionLines.name),
-            std::string(ch::kFieldFeatures.name), std::string(ch::kVisionBall.name),
-            std::string(ch::kVisionObstacles.name)};
+    return {std::string(ch::kOdometry.name),        std::string(ch::kVisionLines.name),
+            std::string(ch::kFieldFeatures.name),   std::string(ch::kVisionBall.name),
+            std::string(ch::kVisionObstacles.name), std::string(ch::kTeamState.name)};
   }
   throw ReplayArgumentError("unknown node '" + node + "'");
 }
@@ -307,6 +307,7 @@ ReplayRunResult runReplay(const ReplayRunOptions& options) {
       fusion_options.robot = robot::loadRobotPreset(options.robot_config);
       fusion_options.localizer = config.localizer;
       fusion_options.ball = config.ball;
+      fusion_options.team_ball_vote = config.team_ball_vote;
       fusion_options.ball_rate_hz = config.ball_rate_hz;
       fusion_options.localizer.start_prior = options.start_prior == "own_half"
                                                  ? fusion::StartPrior::kOwnHalf

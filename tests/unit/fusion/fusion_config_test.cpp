@@ -53,6 +53,23 @@ TEST(FusionConfig, AbsentKeysKeepTheDefaultsAndGivenOnesApply) {
                    defaults.localizer.filter.noise.linear_acceleration);
 }
 
+TEST(FusionConfig, TwinByTeamKeysAndTheirContradiction) {
+  const FusionConfig c = loadFusionConfig(config::Node::loadString(
+      "twin_by_team:\n  votes: 5\n  agree_m: 0.4\n  min_centre_distance_m: 1.5\n"
+      "  min_teammates: 3\n  max_ball_age_s: 0.3\n  max_picture_gap_s: 0.1\n"));
+  EXPECT_EQ(c.localizer.twin_votes, 5);
+  EXPECT_DOUBLE_EQ(c.team_ball_vote.agree_m, 0.4);
+  EXPECT_DOUBLE_EQ(c.team_ball_vote.min_centre_distance_m, 1.5);
+  EXPECT_EQ(c.team_ball_vote.min_teammates, 3);
+  EXPECT_EQ(c.team_ball_vote.max_ball_age_us, 300'000);
+  EXPECT_EQ(c.team_ball_vote.max_picture_gap_us, 100'000);
+  // One teammate's ball could agree with both our ball and its mirror image.
+  const std::string e = errorOf("twin_by_team:\n  agree_m: 0.8\n  min_centre_distance_m: 0.6\n");
+  EXPECT_NE(e.find("fusion.yaml"), std::string::npos) << e;
+  EXPECT_NE(e.find("min_centre_distance_m"), std::string::npos) << e;
+  EXPECT_NE(errorOf("twin_by_team:\n  vote: 3\n").find("vote"), std::string::npos);
+}
+
 TEST(FusionConfig, ContactAndBallRestartKeys) {
   const FusionConfig c = loadFusionConfig(config::Node::loadString(
       "contact:\n  distance_m: 0.35\n  hold_s: 0.25\n  heading_density: 0.7\n"

@@ -17,6 +17,7 @@
 #include "common/msg/field_features.hpp"
 #include "common/msg/line_contours.hpp"
 #include "common/msg/obstacle_observations.hpp"
+#include "common/msg/team_state.hpp"
 #include "common/time/clock.hpp"
 #include "tests/unit/fusion/test_world.hpp"
 
@@ -331,6 +332,36 @@ TEST(FusionNode, TheGyroTurnsTheEstimateAndBadGyroValuesAreCounted) {
   EXPECT_EQ(rig.fusion_bus.status().errorCount("gyro_absurd"), 1);
   EXPECT_EQ(rig.states.size(), states + 2);
   EXPECT_NEAR(geometry::angleDiff(rig.states.back().phi, phi1), 0.0, 0.01);
+}
+
+// TEAM_STATE: two teammates see the ball where this robot sees it, so the start-up commit (only
+// the own-half prior told the twins apart) is confirmed; without teammates it stays ambiguous.
+TEST(FusionNode, TeammatesBallsConfirmTheStartUpHalf) {
+  for (const bool with_team : {false, true}) {
+    Rig rig;
+    for (int i = 0; i < 80; ++i) {
+      if (with_team && i % 5 == 0) {
+        perception::TeamState team;
+        team.utime = rig.clock.now();
+        for (const std::size_t k : {0u, 4u}) {  // robots 1 and 5; this one is robot 3
+          perception::TeammateState& r = team.robots[k];
+          r.present = r.ball_valid = true;
+          r.ball_x = -1.0;
+          r.ball_y = 2.0;
+          r.ball_age_us = 50'000;
+        }
+        team_state_t m{};
+        msg::toMessage(team, m);
+        rig.sensors.publish(bus::channels::kTeamState, m);
+      }
+      rig.period(i, true, true);
+    }
+    ASSERT_EQ(rig.states.back().status, robot_state_t::STATUS_TRACKING);
+    const Localizer& l = rig.fusion.localizer();
+    EXPECT_EQ(l.ambiguous(), !with_team);
+    EXPECT_EQ(l.counters().twin_confirmed_by_team, with_team ? 1u : 0u);
+    EXPECT_EQ(l.counters().twin_flips_by_team, 0u);
+  }
 }
 
 }  // namespace

@@ -219,6 +219,93 @@ TEST(Localizer, APushWhileBlindLeavesTheTwinAmbiguous) {
   EXPECT_FALSE(certain.localizer.ambiguous());
 }
 
+// Teammates 2 and 3 see the ball at `ball` (field frame); this robot sees it too, every 100 ms
+// while driving slowly, and its sightings vote on its twin (TeamBallVoter) as the node's do.
+void voteWithTeam(Drive& d, const Eigen::Vector2d& teammates_ball, const Eigen::Vector2d& ball,
+                  int sightings) {
+  TeamBallVoter voter(1);
+  for (int i = 0; i < sightings; ++i) {
+    d.run(0.1, {0.2, 0.0, 0.0});
+    perception::TeamState team;
+    team.utime = d.t;
+    for (const std::size_t k : {1u, 2u}) {
+      perception::TeammateState& r = team.robots[k];
+      r.present = r.ball_valid = true;
+      r.ball_x = teammates_ball.x();
+      r.ball_y = teammates_ball.y();
+    }
+    voter.setTeam(team);
+    const auto s = d.localizer.stateAt(d.t);
+    ASSERT_TRUE(s.has_value());
+    const geometry::Vec2 seen = geometry::pointFieldToRobot(d.truth, ball);
+    d.localizer.addTwinVote(voter.vote(geometry::pointRobotToField(s->pose(), seen), d.t));
+  }
+}
+
+TEST(Localizer, TeammatesBallsMoveAnAmbiguousPoseOffItsTwin) {
+  // Put down on the opponent half: the start prior picks the twin, and says it is ambiguous.
+  Drive d({3.0, 1.2, 0.4});
+  d.run(1.2, {0.3, 0.0, 0.2});
+  ASSERT_EQ(d.localizer.mode(), perception::LocalizationStatus::kTracking);
+  ASSERT_LT(d.twinError(), 0.1);
+  ASSERT_TRUE(d.localizer.ambiguous());
+  const Eigen::Vector2d ball(2.0, -2.0);
+  // Two sightings are not enough (twin_votes 3).
+  voteWithTeam(d, ball, ball, 2);
+  EXPECT_LT(d.twinError(), 0.1);
+  voteWithTeam(d, ball, ball, 1);
+  EXPECT_LT(d.error(), 0.1);
+  EXPECT_FALSE(d.localizer.ambiguous());
+  EXPECT_EQ(d.localizer.counters().twin_flips_by_team, 1u);
+  // The lines go on tracking the moved pose.
+  const std::uint64_t lost = d.localizer.counters().lost;
+  d.run(1.5, {0.5, 0.2, 0.3});
+  EXPECT_LT(d.error(), 0.1);
+  EXPECT_EQ(d.localizer.counters().lost, lost);
+}
+
+TEST(Localizer, TeammatesBallsConfirmTheStartPrior) {
+  Drive d({-3.0, 1.2, 0.4});
+  d.run(1.2, {0.3, 0.0, 0.2});
+  ASSERT_EQ(d.localizer.mode(), perception::LocalizationStatus::kTracking);
+  ASSERT_TRUE(d.localizer.ambiguous());
+  const Eigen::Vector2d ball(-1.5, 2.5);
+  voteWithTeam(d, ball, ball, 3);
+  EXPECT_FALSE(d.localizer.ambiguous());
+  EXPECT_EQ(d.localizer.counters().twin_confirmed_by_team, 1u);
+  EXPECT_EQ(d.localizer.counters().twin_flips_by_team, 0u);
+  EXPECT_LT(d.error(), 0.1);
+  // A ball near the centre spot has no say: it cannot tell the halves apart.
+  Drive near_centre({-3.0, 1.2, 0.4});
+  near_centre.run(1.2, {0.3, 0.0, 0.2});
+  voteWithTeam(near_centre, {0.5, 0.2}, {0.5, 0.2}, 5);
+  EXPECT_TRUE(near_centre.localizer.ambiguous());
+}
+
+TEST(Localizer, ATeamThatContradictsACertainPoseMakesItAmbiguousFirst) {
+  Drive d({-4.0, 2.0, 0.5});
+  d.run(1.0, {0.2, 0.0, 0.0});
+  d.truth = {-2.0, -1.0, -0.8};  // carried off: continuity then decides the half for certain
+  d.history.clear();
+  d.run(2.0, {0.2, 0.0, 0.1});
+  ASSERT_EQ(d.localizer.mode(), perception::LocalizationStatus::kTracking);
+  ASSERT_FALSE(d.localizer.ambiguous());
+  // The teammates place the ball at the mirror image of where it is (they are on their twins).
+  const Eigen::Vector2d ball(-3.0, 0.5);
+  voteWithTeam(d, -ball, ball, 3);
+  EXPECT_TRUE(d.localizer.ambiguous());
+  EXPECT_EQ(d.localizer.counters().twin_doubted_by_team, 1u);
+  EXPECT_LT(d.error(), 0.1);  // not moved on the team's word alone
+  // Off: votes do nothing.
+  LocalizerParams off;
+  off.twin_votes = 0;
+  Drive d_off({-3.0, 1.2, 0.4}, off);
+  d_off.run(1.2, {0.3, 0.0, 0.2});
+  voteWithTeam(d_off, -ball, ball, 6);
+  EXPECT_LT(d_off.error(), 0.1);
+  EXPECT_EQ(d_off.localizer.counters().twin_doubted_by_team, 0u);
+}
+
 TEST(Localizer, LinesWithoutOdometryAreStillFused) {
   // The motor bridge dies (serial unplugged): no odometry at all, the camera goes on. The frames
   // must not wait for odometry forever: after LocalizerParams::max_wait_us of silence they are

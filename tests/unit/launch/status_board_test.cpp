@@ -242,6 +242,16 @@ TEST(HeadlineMetrics, PicksTheMetricsAPersonWatches) {
   EXPECT_EQ(headlineMetrics(s), "");
 }
 
+TEST(StatusBoard, FusionNoteShowsTheStatusAndAnAmbiguousTwin) {
+  service_status_t s{};
+  s.num_metrics = 3;
+  s.metric_name = {"ambiguous", "localization_status", "correction_cm"};
+  s.metric_value = {0.0, 2.0, 1.5};
+  EXPECT_EQ(headlineMetrics(s), "TRACKING, corr 1.5 cm");
+  s.metric_value = {1.0, 2.0, 1.5};
+  EXPECT_EQ(headlineMetrics(s), "TRACKING (twin?), corr 1.5 cm");
+}
+
 TEST(StatusBoard, TeamcommNoteShowsTeammatesOffsetUncertaintyAndRejections) {
   service_status_t s{};
   s.num_metrics = 4;

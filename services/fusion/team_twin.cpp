@@ -1,0 +1,69 @@
+#include "services/fusion/team_twin.hpp"
+
+#include <cmath>
+#include <cstdlib>
+#include <stdexcept>
+
+namespace fieldline::fusion {
+
+TeamBallVoter::TeamBallVoter(int own_robot_id, TeamBallVoteParams params)
+    : own_robot_id_(own_robot_id), params_(params) {
+  // Two teammates agreeing with both our ball and its mirror image would make a vote meaningless.
+  if (!(params_.agree_m > 0.0 && params_.min_centre_distance_m > params_.agree_m)) {
+    throw std::invalid_argument(
+        "team ball vote: agree_m must be > 0 and below min_centre_distance_m");
+  }
+  if (params_.min_teammates < 1) {
+    throw std::invalid_argument("team ball vote: min_teammates must be at least 1");
+  }
+}
+
+void TeamBallVoter::setTeam(const perception::TeamState& team) {
+  if (team.utime < picture_utime_) {
+    ++refusals_["team_state_out_of_order"];
+    return;
+  }
+  picture_utime_ = team.utime;
+  balls_.clear();
+  team_velocity_.setZero();
+  if (team.team_ball_valid && std::isfinite(team.team_ball_vx) && std::isfinite(team.team_ball_vy))
+    team_velocity_ = {team.team_ball_vx, team.team_ball_vy};
+  for (std::size_t i = 0; i < team.robots.size(); ++i) {
+    const perception::TeammateState& r = team.robots[i];
+    if (static_cast<int>(i) + 1 == own_robot_id_ || !r.present || !r.ball_valid) continue;
+    if (!std::isfinite(r.ball_x) || !std::isfinite(r.ball_y)) {
+      ++refusals_["team_ball_not_finite"];
+      continue;
+    }
+    if (r.ball_age_us < 0 || r.ball_age_us > params_.max_ball_age_us) continue;
+    balls_.emplace_back(r.ball_x, r.ball_y);
+  }
+}
+
+std::vector<Eigen::Vector2d> TeamBallVoter::teammateBalls(Utime utime) const {
+  if (balls_.empty() || std::llabs(utime - picture_utime_) > params_.max_picture_gap_us) return {};
+  const Eigen::Vector2d shift =
+      team_velocity_ * (static_cast<double>(utime - picture_utime_) * 1e-6);
+  std::vector<Eigen::Vector2d> out;
+  out.reserve(balls_.size());
+  for (const Eigen::Vector2d& b : balls_)
+    out.push_back(b + shift);
+  return out;
+}
+
+TwinVote TeamBallVoter::vote(const Eigen::Vector2d& ours, Utime utime) const {
+  if (!ours.allFinite() || ours.norm() < params_.min_centre_distance_m) return TwinVote::kNone;
+  int same = 0;
+  int twin = 0;
+  for (const Eigen::Vector2d& b : teammateBalls(utime)) {
+    if ((b - ours).norm() <= params_.agree_m) ++same;
+    if ((b + ours).norm() <= params_.agree_m) ++twin;
+  }
+  // A clear majority only (at least two to one): one teammate on its own twin, which sees the
+  // ball mirrored, must not tie the vote or decide it.
+  if (same >= params_.min_teammates && same > 2 * twin) return TwinVote::kSame;
+  if (twin >= params_.min_teammates && twin > 2 * same) return TwinVote::kTwin;
+  return TwinVote::kNone;
+}
+
+}  // namespace fieldline::fusion

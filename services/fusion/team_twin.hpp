@@ -1,0 +1,65 @@
+// Teammates' balls against the field's symmetry. A pose and its point-symmetric twin fit the
+// lines equally well, and when continuity cannot tell them apart (a push while blind, a start
+// away from the own half) the commit is ambiguous. The ball breaks the symmetry: seen from the
+// twin, our ball lands at minus where the teammates see it. TeamBallVoter turns one of our ball
+// sightings (in the field frame, with our pose at its time) into a vote: the same half, the twin,
+// or no say. The Localizer acts on a run of votes (Localizer::addTwinVote). Plain library: no
+// LCM, time as arguments.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "common/perception/team.hpp"
+#include "common/time/clock.hpp"
+
+namespace fieldline::fusion {
+
+enum class TwinVote { kNone, kSame, kTwin };
+
+struct TeamBallVoteParams {
+  // A teammate's ball within this of ours (or of its mirror image) agrees with it, m.
+  double agree_m = 0.5;
+  // Our ball must be at least this far from the centre spot: its mirror image is then twice this
+  // away, so no teammate's ball agrees with both, m.
+  double min_centre_distance_m = 1.0;
+  // Teammates whose balls must agree before a vote counts (one mislocalized teammate alone
+  // cannot decide).
+  int min_teammates = 2;
+  // A teammate's ball last seen longer ago than this (at the picture's time) is not used, µs.
+  Utime max_ball_age_us = 500'000;
+  // A team picture further than this from our sighting's time is not used, µs.
+  Utime max_picture_gap_us = 250'000;
+};
+
+class TeamBallVoter {
+ public:
+  explicit TeamBallVoter(int own_robot_id, TeamBallVoteParams params = {});
+
+  // The newest team picture (TEAM_STATE). A teammate entry with a non-finite ball is left out
+  // and counted ("team_ball_not_finite"); a picture older than the one held is refused
+  // ("team_state_out_of_order").
+  void setTeam(const perception::TeamState& team);
+  // Our ball at `utime` in the field frame, as our pose at that time puts it. The teammates'
+  // balls are carried to `utime` with the team ball's velocity.
+  TwinVote vote(const Eigen::Vector2d& ours, Utime utime) const;
+  // Teammates' balls usable at `utime` (for tests and the status line).
+  std::vector<Eigen::Vector2d> teammateBalls(Utime utime) const;
+
+  const std::map<std::string, std::uint64_t>& refusals() const { return refusals_; }
+  const TeamBallVoteParams& params() const { return params_; }
+
+ private:
+  int own_robot_id_;
+  TeamBallVoteParams params_;
+  Utime picture_utime_ = 0;
+  Eigen::Vector2d team_velocity_ = Eigen::Vector2d::Zero();
+  std::vector<Eigen::Vector2d> balls_;
+  std::map<std::string, std::uint64_t> refusals_;
+};
+
+}  // namespace fieldline::fusion
