@@ -21,6 +21,7 @@ perception::RobotEstimate fromMessage(const robot_state_t& m) {
   e.covariance = fromRowMajor<3>(m.covariance);
   e.status = static_cast<LocalizationStatus>(m.status);
   e.since_vision_us = m.since_vision_us;
+  e.twin_ambiguous = m.twin_ambiguous != 0;
   return e;
 }
 
@@ -35,6 +36,7 @@ void toMessage(const perception::RobotEstimate& e, robot_state_t& m) {
   toRowMajor<3>(e.covariance, m.covariance);
   m.status = static_cast<std::int8_t>(e.status);
   m.since_vision_us = e.since_vision_us;
+  m.twin_ambiguous = e.twin_ambiguous ? 1 : 0;
 }
 
 perception::BallEstimate fromMessage(const ball_state_t& m) {

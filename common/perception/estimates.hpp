@@ -32,6 +32,8 @@ struct RobotEstimate {
   LocalizationStatus status = LocalizationStatus::kUnknown;
   // Time since the last accepted vision correction, µs.
   std::int64_t since_vision_us = 0;
+  // The pose may be its point-symmetric twin: nothing told them apart yet.
+  bool twin_ambiguous = false;
 };
 
 struct BallEstimate {

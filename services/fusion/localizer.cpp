@@ -333,6 +333,7 @@ void Localizer::trackLines(std::span<const perception::LinePoint> points, Utime 
         s.p.bottomLeftCorner<kStateSize - 3, 3>().setZero();
         s.last_correction_utime = utime;
         filter_.initialize(s);
+        restart_utime_ = utime;
         good = true;
       }
     }
@@ -615,6 +616,7 @@ void Localizer::commit(const Hypothesis& h) {
   }
   s.last_correction_utime = h.utime;
   filter_.initialize(s);
+  restart_utime_ = h.utime;
   mode_ = LocalizationStatus::kTracking;
   hypotheses_.clear();
   bad_frames_ = 0;
@@ -701,9 +703,16 @@ void Localizer::processFeatures(const perception::FieldFeatures& features, Utime
     }
     return;
   }
+  // The features of the frame the filter restarted from (a commit or a reset from its line
+  // points, which arrive first), or of an earlier one: the restart already holds what they say.
+  // Not bad input; only beyond that is the frame too old.
+  const char* const too_old =
+      utime <= restart_utime_ && utime + params_.filter.window_us >= restart_utime_
+          ? "features_before_restart"
+          : "features_too_old";
   const auto est = filter_.stateAt(utime);
   if (!est) {
-    count("features_too_old");
+    count(too_old);
     return;
   }
   const geometry::Pose2 e = est->pose();
@@ -726,6 +735,8 @@ void Localizer::processFeatures(const perception::FieldFeatures& features, Utime
       if (r.rejection == Rejection::kNone) {
         ++counters_.feature_updates;
         fused = true;
+      } else if (r.rejection == Rejection::kTooOld) {
+        count(too_old);
       } else {
         count(std::string("features_") + toString(r.rejection));
       }
@@ -778,6 +789,7 @@ perception::RobotEstimate Localizer::estimate(Utime now) const {
     e.omega = v.z();
     e.covariance = reportedCovariance(s);
     e.since_vision_us = s.last_correction_utime > 0 ? s.utime - s.last_correction_utime : 0;
+    e.twin_ambiguous = ambiguous_;
   } else {
     e.utime = dead_reckoning_.empty() ? 0 : dead_reckoning_.newest().utime;
     if (!hypotheses_.empty()) {

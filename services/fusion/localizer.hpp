@@ -359,6 +359,8 @@ class Localizer {
   // otherwise.
   std::optional<double> weighted_heading_offset_;
   double last_cost_ = -1.0;
+  // utime the filter was last (re)started at (commit or gated reset; 0: never).
+  Utime restart_utime_ = 0;
   Utime last_lines_arrival_ = 0;
   // Arrival (`now`) of the newest odometry sample (0: none yet).
   Utime last_odometry_arrival_ = 0;

@@ -183,6 +183,7 @@ void write(std::string& out, const robot_state_t& m, const JsonOptions& options)
   o.add("vx", m.vx).add("vy", m.vy).add("omega", m.omega);
   o.addArray("covariance", m.covariance).add("status", m.status);
   o.add("since_vision_us", m.since_vision_us);
+  o.addBool("twin_ambiguous", m.twin_ambiguous);
 }
 
 void write(std::string& out, const ball_state_t& m, const JsonOptions& options) {

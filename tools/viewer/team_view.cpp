@@ -37,6 +37,7 @@ void writeRobotState(std::string& out, const Received<robot_state_t>& r, Utime n
   o.numbers("covariance", m.covariance, 9);
   o.integer("status", m.status);
   o.integer("since_vision_us", m.since_vision_us);
+  o.boolean("twin_ambiguous", m.twin_ambiguous != 0);
 }
 
 void writeBallState(std::string& out, const Received<ball_state_t>& r, Utime now) {

@@ -59,7 +59,7 @@ EXPECTED = [
     ("ROBOT_STATE", {"header": header(7), "x": 1.25, "y": -2.5, "phi": 3.141592653589793,
                      "vx": 0.5, "vy": 0.25, "omega": -0.125,
                      "covariance": [0.01, 0, 0, 0, 0.05, 0, 0, 0, 0.09], "status": 2,
-                     "since_vision_us": 33000}),
+                     "since_vision_us": 33000, "twin_ambiguous": True}),
     ("BALL_STATE", {"header": header(8), "valid": False, "x": 4.5, "y": 1.5, "vx": -1,
                     "vy": 0, "covariance": [0.04, 0.001, 0.001, 0.09],
                     "last_seen_utime": BASE + 7000}),

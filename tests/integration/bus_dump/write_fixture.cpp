@@ -163,6 +163,7 @@ int main(int argc, char** argv) {
       robot.covariance[i] = i % 4 == 0 ? 0.01 * (i + 1) : 0.0;
     robot.status = robot_state_t::STATUS_TRACKING;
     robot.since_vision_us = 33000;
+    robot.twin_ambiguous = 1;
     log.write(ch::kRobotState, logTime(7), robot);
 
     ball_state_t ball_state{};

@@ -157,6 +157,7 @@ int main(int argc, char** argv) {
     rs.covariance[i] = 0.001 * (i + 1);
   rs.status = robot_state_t::STATUS_TRACKING;
   rs.since_vision_us = 33'000;
+  rs.twin_ambiguous = 1;
   ok &= write(dir, "robot_state_t", rs);
 
   ball_state_t bs{};

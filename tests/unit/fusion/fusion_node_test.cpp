@@ -359,6 +359,8 @@ TEST(FusionNode, TeammatesBallsConfirmTheStartUpHalf) {
     ASSERT_EQ(rig.states.back().status, robot_state_t::STATUS_TRACKING);
     const Localizer& l = rig.fusion.localizer();
     EXPECT_EQ(l.ambiguous(), !with_team);
+    // ROBOT_STATE says so.
+    EXPECT_EQ(rig.states.back().twin_ambiguous != 0, !with_team);
     EXPECT_EQ(l.counters().twin_confirmed_by_team, with_team ? 1u : 0u);
     EXPECT_EQ(l.counters().twin_flips_by_team, 0u);
   }

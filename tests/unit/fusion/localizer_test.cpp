@@ -107,6 +107,27 @@ TEST(Localizer, FindsItselfFromNothingOnTheOwnHalf) {
   EXPECT_EQ(d.localizer.counters().commits, 1u);
 }
 
+TEST(Localizer, TheFeaturesOfTheFrameACommitCameFromAreNoBadInput) {
+  // Feature recognition publishes a frame's features after its line points: the commit made from
+  // the points comes first, and the features of that frame reach a filter that starts there.
+  Drive d({-3.0, 1.2, 0.4});
+  while (d.localizer.mode() != perception::LocalizationStatus::kTracking && d.step < 100)
+    d.run(0.02, {});
+  ASSERT_EQ(d.localizer.mode(), perception::LocalizationStatus::kTracking);
+  const auto& [frame_utime, frame_truth] = d.history.back();
+  perception::FieldFeatures features;
+  features.hypotheses.push_back({0, frame_truth, 0.05, 0.03});
+  d.localizer.addFeatures(features, frame_utime, d.t + 8'000);
+  const auto& rejected = d.localizer.counters().rejected;
+  EXPECT_EQ(rejected.count("features_too_old"), 0u);
+  EXPECT_EQ(rejected.at("features_before_restart"), 1u);
+  // Long after the commit, a frame from before it is too old.
+  d.run(1.5, {});
+  d.localizer.addFeatures(features, frame_utime, d.t + 8'000);
+  EXPECT_EQ(rejected.at("features_before_restart"), 1u);
+  EXPECT_GE(rejected.count("features_too_old"), 1u);
+}
+
 TEST(Localizer, TracksADriveAndReportsOdometryOnlyWhenTheLinesStop) {
   Drive d({-2.0, -1.0, 0.0});
   d.run(1.0, {});
