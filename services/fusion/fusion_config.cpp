@@ -215,6 +215,8 @@ void loadTwinByTeam(const config::Node& n, FusionConfig& c) {
       micros(n.getOr<double>("max_ball_age_s", seconds(p.max_ball_age_us), 0.0, 5.0));
   p.max_picture_gap_us =
       micros(n.getOr<double>("max_picture_gap_s", seconds(p.max_picture_gap_us), 0.0, 5.0));
+  p.evidence_window_us =
+      micros(n.getOr<double>("evidence_window_s", seconds(p.evidence_window_us), 0.0, 30.0));
   n.rejectUnknownKeys();
 }
 

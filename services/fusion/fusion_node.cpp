@@ -122,6 +122,14 @@ void FusionNode::onBall(const ball_observation_t& m) {
     if (!sighting.visible) return;
     if (const auto s = localizer_.stateAt(sighting.utime)) {
       const geometry::Vec2 ours = geometry::pointRobotToField(s->pose(), {sighting.x, sighting.y});
+      // Agreements judged with a pose that has since jumped (a commit, a reset, a move to the
+      // twin) say nothing about the new one.
+      const LocalizerCounters& c = localizer_.counters();
+      const std::uint64_t jumps = c.commits + c.resets + c.twin_flips_by_team;
+      if (jumps != pose_jumps_seen_) {
+        team_balls_.clearEvidence();
+        pose_jumps_seen_ = jumps;
+      }
       localizer_.addTwinVote(team_balls_.vote(ours, sighting.utime));
     }
     return;

@@ -62,6 +62,8 @@ class FusionNode {
   Localizer localizer_;
   BallTracker ball_;
   TeamBallVoter team_balls_;
+  // Commits, resets and moves to the twin seen so far (TeamBallVoter::clearEvidence on a change).
+  std::uint64_t pose_jumps_seen_ = 0;
   // utimes of the recent line frames (ascending): the corrections smoothedPose spreads back.
   std::deque<Utime> line_times_;
   perception::LinePoints lines_;

@@ -36,7 +36,7 @@ void TeamBallVoter::setTeam(const perception::TeamState& team) {
       continue;
     }
     if (r.ball_age_us < 0 || r.ball_age_us > params_.max_ball_age_us) continue;
-    balls_.emplace_back(r.ball_x, r.ball_y);
+    balls_.push_back({static_cast<int>(i) + 1, {r.ball_x, r.ball_y}});
   }
 }
 
@@ -46,18 +46,37 @@ std::vector<Eigen::Vector2d> TeamBallVoter::teammateBalls(Utime utime) const {
       team_velocity_ * (static_cast<double>(utime - picture_utime_) * 1e-6);
   std::vector<Eigen::Vector2d> out;
   out.reserve(balls_.size());
-  for (const Eigen::Vector2d& b : balls_)
-    out.push_back(b + shift);
+  for (const TeammateBall& b : balls_)
+    out.push_back(b.position + shift);
   return out;
 }
 
-TwinVote TeamBallVoter::vote(const Eigen::Vector2d& ours, Utime utime) const {
+void TeamBallVoter::clearEvidence() {
+  agreements_.fill({});
+}
+
+TwinVote TeamBallVoter::vote(const Eigen::Vector2d& ours, Utime utime) {
   if (!ours.allFinite() || ours.norm() < params_.min_centre_distance_m) return TwinVote::kNone;
+  const std::vector<Eigen::Vector2d> theirs = teammateBalls(utime);
+  bool agreed = false;
+  for (std::size_t i = 0; i < theirs.size(); ++i) {
+    const auto k = static_cast<std::size_t>(balls_[i].robot_id - 1);
+    // min_centre_distance_m > agree_m: at most one of the two holds.
+    if ((theirs[i] - ours).norm() <= params_.agree_m) {
+      agreements_[k] = {TwinVote::kSame, utime};
+      agreed = true;
+    } else if ((theirs[i] + ours).norm() <= params_.agree_m) {
+      agreements_[k] = {TwinVote::kTwin, utime};
+      agreed = true;
+    }
+  }
+  if (!agreed) return TwinVote::kNone;
   int same = 0;
   int twin = 0;
-  for (const Eigen::Vector2d& b : teammateBalls(utime)) {
-    if ((b - ours).norm() <= params_.agree_m) ++same;
-    if ((b + ours).norm() <= params_.agree_m) ++twin;
+  for (const Agreement& a : agreements_) {
+    if (a.utime == 0 || std::llabs(utime - a.utime) > params_.evidence_window_us) continue;
+    same += a.kind == TwinVote::kSame ? 1 : 0;
+    twin += a.kind == TwinVote::kTwin ? 1 : 0;
   }
   // A clear majority only (at least two to one): one teammate on its own twin, which sees the
   // ball mirrored, must not tie the vote or decide it.

@@ -3,10 +3,13 @@
 // away from the own half) the commit is ambiguous. The ball breaks the symmetry: seen from the
 // twin, our ball lands at minus where the teammates see it. TeamBallVoter turns one of our ball
 // sightings (in the field frame, with our pose at its time) into a vote: the same half, the twin,
-// or no say. The Localizer acts on a run of votes (Localizer::addTwinVote). Plain library: no
-// LCM, time as arguments.
+// or no say. Teammates rarely all see the ball at once (they block each other's view), so each
+// teammate's latest agreement is remembered for a while, and a vote counts the distinct teammates
+// that agreed within that window. The Localizer acts on a run of votes (Localizer::addTwinVote).
+// Plain library: no LCM, time as arguments.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <map>
 #include <string>
@@ -27,9 +30,11 @@ struct TeamBallVoteParams {
   // Our ball must be at least this far from the centre spot: its mirror image is then twice this
   // away, so no teammate's ball agrees with both, m.
   double min_centre_distance_m = 1.0;
-  // Teammates whose balls must agree before a vote counts (one mislocalized teammate alone
-  // cannot decide).
+  // Distinct teammates whose balls must have agreed (within `evidence_window_us`) before a
+  // sighting votes: one mislocalized teammate alone cannot decide.
   int min_teammates = 2;
+  // How long a teammate's latest agreement with our ball (or its mirror image) counts, µs.
+  Utime evidence_window_us = 2'000'000;
   // A teammate's ball last seen longer ago than this (at the picture's time) is not used, µs.
   Utime max_ball_age_us = 500'000;
   // A team picture further than this from our sighting's time is not used, µs.
@@ -44,9 +49,13 @@ class TeamBallVoter {
   // and counted ("team_ball_not_finite"); a picture older than the one held is refused
   // ("team_state_out_of_order").
   void setTeam(const perception::TeamState& team);
-  // Our ball at `utime` in the field frame, as our pose at that time puts it. The teammates'
-  // balls are carried to `utime` with the team ball's velocity.
-  TwinVote vote(const Eigen::Vector2d& ours, Utime utime) const;
+  // Our ball at `utime` in the field frame, as our pose at that time puts it, compared with the
+  // teammates' balls carried to `utime` with the team ball's velocity. A sighting that agrees
+  // with no teammate's ball (nor its mirror image) has no say; one that does votes by the
+  // teammates that agreed within the window, by a majority of two to one.
+  TwinVote vote(const Eigen::Vector2d& ours, Utime utime);
+  // Forgets the agreements: the pose they were judged with changed (a commit, a move to the twin).
+  void clearEvidence();
   // Teammates' balls usable at `utime` (for tests and the status line).
   std::vector<Eigen::Vector2d> teammateBalls(Utime utime) const;
 
@@ -58,7 +67,20 @@ class TeamBallVoter {
   TeamBallVoteParams params_;
   Utime picture_utime_ = 0;
   Eigen::Vector2d team_velocity_ = Eigen::Vector2d::Zero();
-  std::vector<Eigen::Vector2d> balls_;
+  struct TeammateBall {
+    int robot_id = 0;
+    Eigen::Vector2d position = Eigen::Vector2d::Zero();
+  };
+  std::vector<TeammateBall> balls_;
+  // Per robot id (index id - 1): the latest agreement of one of our sightings with its ball
+  // (kSame) or with its ball's mirror image (kTwin), and that sighting's utime (0: none). Only the
+  // latest counts: a teammate that agreed with us before we were carried off and with our mirror
+  // image after has one say, the newer.
+  struct Agreement {
+    TwinVote kind = TwinVote::kNone;
+    Utime utime = 0;
+  };
+  std::array<Agreement, perception::kTeamSize> agreements_{};
   std::map<std::string, std::uint64_t> refusals_;
 };
 

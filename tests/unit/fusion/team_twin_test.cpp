@@ -32,10 +32,35 @@ TEST(TeamBallVoter, TwoTeammatesTellTheHalf) {
   const Eigen::Vector2d ball(3.0, -1.0);
   voter.setTeam(teamSeeing(ball, {2, 4}));
   EXPECT_EQ(voter.vote(ball + Eigen::Vector2d(0.2, 0.1), kT), TwinVote::kSame);
-  // Seen from the twin our ball lands at minus where they see it.
-  EXPECT_EQ(voter.vote(-ball, kT), TwinVote::kTwin);
   // Neither: our ball is somewhere else (a false sighting, or theirs).
   EXPECT_EQ(voter.vote({0.0, 3.5}, kT), TwinVote::kNone);
+  // Seen from the twin our ball lands at minus where they see it. (The agreements just made
+  // count for the window, so they are forgotten first: the pose changed.)
+  voter.clearEvidence();
+  EXPECT_EQ(voter.vote(-ball, kT), TwinVote::kTwin);
+  // A teammate's newer agreement replaces its older one.
+  EXPECT_EQ(voter.vote(ball, kT + 10'000), TwinVote::kSame);
+}
+
+TEST(TeamBallVoter, TeammatesWhoSeeTheBallInTurnAddUpWithinTheWindow) {
+  TeamBallVoter voter(1);
+  const Eigen::Vector2d ball(-1.5, 1.0);
+  // Robot 2 sees it, then only robot 3 (they block each other's view): neither picture alone has
+  // two teammates, the window has.
+  voter.setTeam(teamSeeing(ball, {2}));
+  EXPECT_EQ(voter.vote(-ball, kT), TwinVote::kNone);
+  perception::TeamState later = teamSeeing(ball, {3});
+  later.utime = kT + 1'500'000;
+  voter.setTeam(later);
+  EXPECT_EQ(voter.vote(-ball, kT + 1'500'000), TwinVote::kTwin);
+  // Beyond the window robot 2's agreement is forgotten.
+  later.utime = kT + 2'500'000;
+  voter.setTeam(later);
+  EXPECT_EQ(voter.vote(-ball, kT + 2'500'000), TwinVote::kNone);
+  // A sighting that agrees with no teammate has no say, whatever the window holds.
+  later.utime = kT + 2'600'000;
+  voter.setTeam(later);
+  EXPECT_EQ(voter.vote({4.0, -3.0}, kT + 2'600'000), TwinVote::kNone);
 }
 
 TEST(TeamBallVoter, NoSayNearTheCentreWithOneTeammateOrASplitTeam) {
