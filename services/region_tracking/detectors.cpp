@@ -862,8 +862,9 @@ void LineDetector::detect(const camera::FrameView& frame, const ContourSet& cont
       }
       sequenceStart = -1;
     };
-    for (int step = 0; step < total; ++step) {
-      const Hit& hit = ordered[(begin + step) % total];
+    // From `begin` round to it: no division per hit.
+    for (int step = 0, at = begin; step < total; ++step, at = at + 1 == total ? 0 : at + 1) {
+      const Hit& hit = ordered[at];
       if (hit.found) {
         if (sequenceStart < 0) sequenceStart = static_cast<int>(out.points.size());
         out.points.push_back(hit.point);
