@@ -752,9 +752,8 @@ void LineDetector::detect(const camera::FrameView& frame, const ContourSet& cont
     w.sample_step = spacing / stride;
     w.tangent_reach = k / stride;
     w.samples = byDistance ? static_cast<int>(sample_positions_.size()) : n / spacing;
-    w.hits_begin = static_cast<int>(hits_.size());
-    hits_.resize(hits_.size() + w.samples, Hit{false, {}});
-    Hit* hits = &hits_[w.hits_begin];
+    w.hits_begin = hits_.size();
+    Hit* hits = hits_.appendMisses(w.samples);
     for (int s = 0; s < w.samples; ++s) {
       if (byDistance) {
         scanAt(w, sample_positions_[s], hits[s]);
@@ -767,7 +766,7 @@ void LineDetector::detect(const camera::FrameView& frame, const ContourSet& cont
     }
     work_.push_back(w);
   }
-  toFloor(hits_.data(), hits_.size());
+  toFloor(hits_.data(), static_cast<std::size_t>(hits_.size()));
 
   // Pass 2 (refine_range_m): the intervals around line points where their line ends or turns,
   // within range, scanned again; the hits of both passes in contour order in merged_hits_.
@@ -811,9 +810,9 @@ void LineDetector::detect(const camera::FrameView& frame, const ContourSet& cont
       if (!any) continue;
       const float* su = &smooth_u_[w.smooth_begin];
       const float* sv = &smooth_v_[w.smooth_begin];
-      w.merged_begin = static_cast<int>(merged_hits_.size());
+      w.merged_begin = merged_hits_.size();
       for (int s = 0; s < samples; ++s) {
-        merged_hits_.push_back(hits_[w.hits_begin + s]);
+        merged_hits_.push(hits_[w.hits_begin + s]);
         if (!refine_interval_[s]) continue;
         const float a = static_cast<float>(s * w.sample_step);
         const float b = s + 1 == samples ? static_cast<float>(w.smoothed)
@@ -827,15 +826,15 @@ void LineDetector::detect(const camera::FrameView& frame, const ContourSet& cont
           extra = std::min(extra, static_cast<int>(metres * perMetre));
           if (extra <= 0) continue;
         }
-        const int first = static_cast<int>(merged_hits_.size());
-        merged_hits_.resize(first + extra, Hit{false, {}});
+        const int first = merged_hits_.size();
+        Hit* const scanned = merged_hits_.appendMisses(extra);
         for (int t = 1; t <= extra; ++t) {
           scanAt(w, a + (b - a) * static_cast<float>(t) / static_cast<float>(extra + 1),
-                 merged_hits_[first + t - 1]);
+                 scanned[t - 1]);
         }
         refined_.emplace_back(first, extra);
       }
-      w.merged_count = static_cast<int>(merged_hits_.size()) - w.merged_begin;
+      w.merged_count = merged_hits_.size() - w.merged_begin;
     }
     for (const auto& [first, count] : refined_)
       toFloor(&merged_hits_[first], static_cast<std::size_t>(count));
@@ -863,8 +862,9 @@ void LineDetector::detect(const camera::FrameView& frame, const ContourSet& cont
       }
       sequenceStart = -1;
     };
-    for (int step = 0; step < total; ++step) {
-      const Hit& hit = ordered[(begin + step) % total];
+    // From `begin` round to it: no division per hit.
+    for (int step = 0, at = begin; step < total; ++step, at = at + 1 == total ? 0 : at + 1) {
+      const Hit& hit = ordered[at];
       if (hit.found) {
         if (sequenceStart < 0) sequenceStart = static_cast<int>(out.points.size());
         out.points.push_back(hit.point);
