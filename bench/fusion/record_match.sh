@@ -50,7 +50,7 @@ $ns bash -c "
   done
   sleep 0.5
   nice -n -10 '$bin/fieldline-eval' --scenario '$scenario' --duration '$seconds' --launch '$launch' \
-    --out '$out/live' | grep -E 'pos_mean|team_ball_mean'
+    --out '$out/live' | grep -E 'pos_mean|team_ball_mean' || true
   for p in \"\${pids[@]}\"; do kill -INT \$p; done
   wait || true
 "

@@ -241,6 +241,13 @@ void BallFilter::restart(Utime t, const Eigen::Vector2d& z, const Eigen::Matrix2
   outliers_.clear();
 }
 
+void BallFilter::mirrorThroughCentre() {
+  // Position and velocity change sign; the covariance is unchanged by a turn of pi.
+  x_ = -x_;
+  for (Outlier& o : outliers_)
+    o.z = -o.z;
+}
+
 perception::BallEstimate BallFilter::estimate(Utime t) const {
   perception::BallEstimate e;
   e.utime = t;

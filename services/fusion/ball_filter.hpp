@@ -107,6 +107,9 @@ class BallFilter {
   std::uint64_t unseenInvalidations() const { return unseen_invalidations_; }
   // The estimate at `t` (moved on with friction); valid only within max_age of the last sighting.
   perception::BallEstimate estimate(Utime t) const;
+  // Maps the estimate (and the outliers kept for a restart) through the field's point symmetry:
+  // the robot's pose was moved to its twin, and every sighting fused so far with it.
+  void mirrorThroughCentre();
   bool initialized() const { return initialized_; }
   // Restarts at a confident far sighting, and restarts with the velocity of an outlier pair.
   std::uint64_t restartsFar() const { return restarts_far_; }

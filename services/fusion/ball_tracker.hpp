@@ -47,6 +47,9 @@ class BallTracker {
   const std::map<std::string, std::uint64_t>& refusals() const { return refusals_; }
   // The filter of the committed frames (its restart and invalidation counters).
   const BallFilter& committed() const { return committed_; }
+  // The robot's pose was moved to its twin: the committed estimate follows (the pending frames
+  // are in the robot frame and take the new poses anyway).
+  void mirrorThroughCentre() { committed_.mirrorThroughCentre(); }
   std::size_t pending() const { return pending_.size(); }
 
  private:

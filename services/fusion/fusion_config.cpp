@@ -201,7 +201,9 @@ void loadBall(const config::Node& n, FusionConfig& c) {
 
 void loadTwinByTeam(const config::Node& n, FusionConfig& c) {
   TeamBallVoteParams& p = c.team_ball_vote;
-  c.localizer.twin_votes = n.getOr<int>("votes", c.localizer.twin_votes, 0, 1000);
+  c.localizer.twin_vote_run = n.getOr<int>("votes", c.localizer.twin_vote_run, 0, 1000);
+  c.localizer.twin_vote_gap_us =
+      micros(n.getOr<double>("vote_gap_s", seconds(c.localizer.twin_vote_gap_us), 0.0, 60.0));
   p.agree_m = n.getOr<double>("agree_m", p.agree_m, 0.01, 5.0);
   p.min_centre_distance_m =
       n.getOr<double>("min_centre_distance_m", p.min_centre_distance_m, 0.02, 10.0);
@@ -210,6 +212,8 @@ void loadTwinByTeam(const config::Node& n, FusionConfig& c) {
            "must be larger than agree_m (else one teammate's ball agrees "
            "with both our ball and its mirror image)");
   }
+  p.max_sighting_sigma_m =
+      n.getOr<double>("max_sighting_sigma_m", p.max_sighting_sigma_m, 0.001, 10.0);
   p.min_teammates = n.getOr<int>("min_teammates", p.min_teammates, 1, 5);
   p.max_ball_age_us =
       micros(n.getOr<double>("max_ball_age_s", seconds(p.max_ball_age_us), 0.0, 5.0));

@@ -32,7 +32,7 @@ FusionNode::FusionNode(bus::Node& node, FusionNodeOptions options, MatcherFuncti
       options_(std::move(options)),
       localizer_(options_.robot, options_.localizer, std::move(matcher)),
       ball_(options_.ball),
-      team_balls_(node.robotId(), options_.team_ball_vote) {
+      twin_voter_(node.robotId(), options_.team_ball_vote) {
   if (!(options_.ball_rate_hz > 0.0 && options_.ball_rate_hz <= 1000.0)) {
     throw std::invalid_argument("fusion: ball_rate_hz must be in (0, 1000]");
   }
@@ -109,9 +109,12 @@ void FusionNode::onObstacles(const obstacle_observations_t& m) {
 }
 
 void FusionNode::onTeam(const team_state_t& m) {
-  team_balls_.setTeam(msg::fromMessage(m));
-  for (const auto& [kind, n] : team_balls_.refusals())
-    node_.setMetric(kind + "_count", static_cast<double>(n));
+  twin_voter_.setTeam(msg::fromMessage(m));
+  for (const auto& [kind, n] : twin_voter_.refusals()) {
+    std::uint64_t& seen = reported_[kind];
+    for (; seen < n; ++seen)
+      node_.reportError(kind, "TEAM_STATE entry refused: " + kind);
+  }
 }
 
 void FusionNode::onBall(const ball_observation_t& m) {
@@ -125,12 +128,15 @@ void FusionNode::onBall(const ball_observation_t& m) {
       // Agreements judged with a pose that has since jumped (a commit, a reset, a move to the
       // twin) say nothing about the new one.
       const LocalizerCounters& c = localizer_.counters();
-      const std::uint64_t jumps = c.commits + c.resets + c.twin_flips_by_team;
-      if (jumps != pose_jumps_seen_) {
-        team_balls_.clearEvidence();
-        pose_jumps_seen_ = jumps;
+      const auto jumps = [&c] { return c.commits + c.resets + c.twin_flips_by_team; };
+      if (jumps() != pose_jumps_seen_) {
+        twin_voter_.clearEvidence();
+        pose_jumps_seen_ = jumps();
       }
-      localizer_.addTwinVote(team_balls_.vote(ours, sighting.utime));
+      const std::uint64_t flips = c.twin_flips_by_team;
+      const double sigma = std::max(sighting.sigma_radial, sighting.sigma_tangential);
+      localizer_.addTwinVote(twin_voter_.vote(ours, sigma, sighting.utime), sighting.utime);
+      if (c.twin_flips_by_team != flips) ball_.mirrorThroughCentre();
     }
     return;
   }

@@ -61,7 +61,7 @@ class FusionNode {
   FusionNodeOptions options_;
   Localizer localizer_;
   BallTracker ball_;
-  TeamBallVoter team_balls_;
+  TeamBallVoter twin_voter_;
   // Commits, resets and moves to the twin seen so far (TeamBallVoter::clearEvidence on a change).
   std::uint64_t pose_jumps_seen_ = 0;
   // utimes of the recent line frames (ascending): the corrections smoothedPose spreads back.

@@ -334,6 +334,7 @@ void Localizer::trackLines(std::span<const perception::LinePoint> points, Utime 
         s.last_correction_utime = utime;
         filter_.initialize(s);
         restart_utime_ = utime;
+        same_run_ = twin_run_ = 0;
         good = true;
       }
     }
@@ -626,30 +627,33 @@ void Localizer::commit(const Hypothesis& h) {
   gated_in_row_ = 0;
   gated_offset_.reset();
   good_since_commit_ = 0;
-  same_votes_ = 0;
-  twin_votes_ = 0;
+  same_run_ = twin_run_ = 0;
 }
 
-void Localizer::addTwinVote(TwinVote vote) {
-  if (params_.twin_votes <= 0 || vote == TwinVote::kNone) return;
+void Localizer::addTwinVote(TwinVote vote, Utime utime) {
+  if (params_.twin_vote_run <= 0 || vote == TwinVote::kNone) return;
   if (mode_ != LocalizationStatus::kTracking || !filter_.initialized()) {
-    same_votes_ = twin_votes_ = 0;
+    same_run_ = twin_run_ = 0;
     return;
   }
+  // Votes far apart are no run.
+  if (utime - last_vote_utime_ > params_.twin_vote_gap_us) same_run_ = twin_run_ = 0;
+  last_vote_utime_ = utime;
   if (vote == TwinVote::kSame) {
-    twin_votes_ = 0;
-    if (ambiguous_ && ++same_votes_ >= params_.twin_votes) {
+    twin_run_ = 0;
+    if (ambiguous_ && ++same_run_ >= params_.twin_vote_run) {
       ambiguous_ = false;
-      same_votes_ = 0;
+      same_run_ = 0;
       ++counters_.twin_confirmed_by_team;
     }
     return;
   }
-  same_votes_ = 0;
-  if (++twin_votes_ < params_.twin_votes) return;
-  twin_votes_ = 0;
+  same_run_ = 0;
+  if (++twin_run_ < params_.twin_vote_run) return;
+  twin_run_ = 0;
   if (!ambiguous_) {
-    // Continuity had called this pose certain: the team's word alone does not move it yet.
+    // Continuity had called this pose certain: a first run only makes it ambiguous, a second one
+    // moves it (with one vote per team picture, six pictures at least: 0.6 s at 10 Hz).
     ambiguous_ = true;
     ++counters_.twin_doubted_by_team;
     return;
@@ -789,7 +793,7 @@ perception::RobotEstimate Localizer::estimate(Utime now) const {
     e.omega = v.z();
     e.covariance = reportedCovariance(s);
     e.since_vision_us = s.last_correction_utime > 0 ? s.utime - s.last_correction_utime : 0;
-    e.twin_ambiguous = ambiguous_;
+    e.twin_ambiguous = ambiguous_ && mode_ == LocalizationStatus::kTracking;
   } else {
     e.utime = dead_reckoning_.empty() ? 0 : dead_reckoning_.newest().utime;
     if (!hypotheses_.empty()) {

@@ -5,7 +5,8 @@
 // the features and from a coarse search over the field, tests them against the following frames'
 // line points and commits to one (SEARCHING -> TRACKING). The field's symmetric twin of a pose
 // fits the lines equally well: continuity with the last trusted estimate decides, or a start-up
-// prior, and the result is reported as ambiguous when only the prior decided.
+// prior, and the result is reported as ambiguous when only the prior decided; teammates' balls
+// (addTwinVote) then confirm it or move it to its twin.
 //
 // Plain library: the matcher comes in as two functions, time as arguments.
 #pragma once
@@ -98,10 +99,13 @@ struct LocalizerParams {
   // SlipModel: base_m + max_speed * time; a collision during 0.6 s without frames moved a robot
   // 0.7 m and turned it 1.2 rad while its wheels said 1.1 m the other way), whichever is larger.
   double twin_margin_sigmas = 3.0;
-  // Teammates' balls (TeamBallVoter) decide the twin after this many votes of one kind in a row:
-  // an ambiguous pose is confirmed, or moved to its twin; a certain pose that as many votes
-  // contradict becomes ambiguous first (it takes twice as many to move it). 0: off.
-  int twin_votes = 3;
+  // Teammates' balls (TeamBallVoter, at most one vote per team picture) decide the twin after
+  // this many votes of one kind in a row: an ambiguous pose is confirmed, or moved to its twin; a
+  // certain pose that as many votes contradict becomes ambiguous first (it takes a second run to
+  // move it). 0: off.
+  int twin_vote_run = 3;
+  // A vote more than this after the one before starts a new run, µs.
+  Utime twin_vote_gap_us = 2'000'000;
   // A line or feature frame newer than the newest odometry waits until odometry reaches its time
   // (a starved motor bridge delivers seconds of samples late, at once): matched earlier, it would
   // be matched against a pose the held velocity extrapolated, which a turn makes wrong, and could
@@ -239,8 +243,8 @@ class Localizer {
   void addObstacles(const perception::ObstacleSightings& sightings, Utime now);
   // A vote of teammates' balls on the twin (TeamBallVoter::vote on a ball sighting, with the pose
   // at its time), in the sightings' time order. Acts only while tracking, after
-  // LocalizerParams::twin_votes votes of one kind in a row.
-  void addTwinVote(TwinVote vote);
+  // LocalizerParams::twin_vote_run votes of one kind in a row. `utime`: the sighting's.
+  void addTwinVote(TwinVote vote, Utime utime);
   // True while contact evidence covers `t`.
   bool inContact(Utime t) const { return filter_.inContact(t); }
 
@@ -259,7 +263,9 @@ class Localizer {
     return last_odometry_arrival_ == 0 || now - last_odometry_arrival_ > params_.max_wait_us;
   }
   // True while the committed pose was chosen over its twin by the start-up prior only, or when
-  // no trusted reference told them apart (LocalizerParams::twin_margin_m).
+  // no trusted reference told them apart (LocalizerParams::twin_margin_m), or teammates' balls
+  // contradicted a certain pose; until teammates' balls confirm or move it (addTwinVote) or the
+  // next commit.
   bool ambiguous() const { return ambiguous_; }
   // Mean matching cost of the last line frame at the estimate, m (negative: none yet).
   double lastCost() const { return last_cost_; }
@@ -335,9 +341,10 @@ class Localizer {
 
   perception::LocalizationStatus mode_ = perception::LocalizationStatus::kUnknown;
   bool ambiguous_ = false;
-  // Team ball votes of one kind in a row (addTwinVote).
-  int same_votes_ = 0;
-  int twin_votes_ = 0;
+  // Team ball votes of one kind in a row (addTwinVote), and the utime of the newest vote.
+  int same_run_ = 0;
+  int twin_run_ = 0;
+  Utime last_vote_utime_ = 0;
   std::vector<Hypothesis> hypotheses_;
   // The last trusted pose (when tracking was lost), for continuity.
   std::optional<Hypothesis> reference_;

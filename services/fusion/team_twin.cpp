@@ -8,6 +8,9 @@ namespace fieldline::fusion {
 
 TeamBallVoter::TeamBallVoter(int own_robot_id, TeamBallVoteParams params)
     : own_robot_id_(own_robot_id), params_(params) {
+  if (own_robot_id < 1 || own_robot_id > perception::kTeamSize) {
+    throw std::invalid_argument("team ball vote: own robot id must be in 1..6");
+  }
   // Two teammates agreeing with both our ball and its mirror image would make a vote meaningless.
   if (!(params_.agree_m > 0.0 && params_.min_centre_distance_m > params_.agree_m)) {
     throw std::invalid_argument(
@@ -26,8 +29,13 @@ void TeamBallVoter::setTeam(const perception::TeamState& team) {
   picture_utime_ = team.utime;
   balls_.clear();
   team_velocity_.setZero();
-  if (team.team_ball_valid && std::isfinite(team.team_ball_vx) && std::isfinite(team.team_ball_vy))
-    team_velocity_ = {team.team_ball_vx, team.team_ball_vy};
+  if (team.team_ball_valid) {
+    if (std::isfinite(team.team_ball_vx) && std::isfinite(team.team_ball_vy)) {
+      team_velocity_ = {team.team_ball_vx, team.team_ball_vy};
+    } else {
+      ++refusals_["team_velocity_not_finite"];
+    }
+  }
   for (std::size_t i = 0; i < team.robots.size(); ++i) {
     const perception::TeammateState& r = team.robots[i];
     if (static_cast<int>(i) + 1 == own_robot_id_ || !r.present || !r.ball_valid) continue;
@@ -35,7 +43,11 @@ void TeamBallVoter::setTeam(const perception::TeamState& team) {
       ++refusals_["team_ball_not_finite"];
       continue;
     }
-    if (r.ball_age_us < 0 || r.ball_age_us > params_.max_ball_age_us) continue;
+    if (r.ball_age_us < 0) {
+      ++refusals_["team_ball_age_negative"];
+      continue;
+    }
+    if (r.ball_age_us > params_.max_ball_age_us) continue;
     balls_.push_back({static_cast<int>(i) + 1, {r.ball_x, r.ball_y}});
   }
 }
@@ -55,8 +67,9 @@ void TeamBallVoter::clearEvidence() {
   agreements_.fill({});
 }
 
-TwinVote TeamBallVoter::vote(const Eigen::Vector2d& ours, Utime utime) {
+TwinVote TeamBallVoter::vote(const Eigen::Vector2d& ours, double sigma_m, Utime utime) {
   if (!ours.allFinite() || ours.norm() < params_.min_centre_distance_m) return TwinVote::kNone;
+  if (!(sigma_m <= params_.max_sighting_sigma_m)) return TwinVote::kNone;
   const std::vector<Eigen::Vector2d> theirs = teammateBalls(utime);
   bool agreed = false;
   for (std::size_t i = 0; i < theirs.size(); ++i) {
@@ -70,7 +83,7 @@ TwinVote TeamBallVoter::vote(const Eigen::Vector2d& ours, Utime utime) {
       agreed = true;
     }
   }
-  if (!agreed) return TwinVote::kNone;
+  if (!agreed || voted_picture_utime_ == picture_utime_) return TwinVote::kNone;
   int same = 0;
   int twin = 0;
   for (const Agreement& a : agreements_) {
@@ -78,11 +91,13 @@ TwinVote TeamBallVoter::vote(const Eigen::Vector2d& ours, Utime utime) {
     same += a.kind == TwinVote::kSame ? 1 : 0;
     twin += a.kind == TwinVote::kTwin ? 1 : 0;
   }
-  // A clear majority only (at least two to one): one teammate on its own twin, which sees the
-  // ball mirrored, must not tie the vote or decide it.
-  if (same >= params_.min_teammates && same > 2 * twin) return TwinVote::kSame;
-  if (twin >= params_.min_teammates && twin > 2 * same) return TwinVote::kTwin;
-  return TwinVote::kNone;
+  // A clear majority only (more than two to one): one teammate on its own twin, which sees the
+  // ball mirrored, must not decide the vote; with two against it, it vetoes.
+  TwinVote v = TwinVote::kNone;
+  if (same >= params_.min_teammates && same > 2 * twin) v = TwinVote::kSame;
+  if (twin >= params_.min_teammates && twin > 2 * same) v = TwinVote::kTwin;
+  if (v != TwinVote::kNone) voted_picture_utime_ = picture_utime_;
+  return v;
 }
 
 }  // namespace fieldline::fusion

@@ -33,6 +33,9 @@ struct TeamBallVoteParams {
   // Distinct teammates whose balls must have agreed (within `evidence_window_us`) before a
   // sighting votes: one mislocalized teammate alone cannot decide.
   int min_teammates = 2;
+  // A sighting of ours with a larger standard deviation (the larger of radial and tangential)
+  // has no say: its place could agree by chance, m.
+  double max_sighting_sigma_m = 0.25;
   // How long a teammate's latest agreement with our ball (or its mirror image) counts, µs.
   Utime evidence_window_us = 2'000'000;
   // A teammate's ball last seen longer ago than this (at the picture's time) is not used, µs.
@@ -43,17 +46,23 @@ struct TeamBallVoteParams {
 
 class TeamBallVoter {
  public:
+  // `own_robot_id` in 1..perception::kTeamSize (our own entry of a picture is not a teammate);
+  // throws std::invalid_argument otherwise or for inconsistent params.
   explicit TeamBallVoter(int own_robot_id, TeamBallVoteParams params = {});
 
-  // The newest team picture (TEAM_STATE). A teammate entry with a non-finite ball is left out
-  // and counted ("team_ball_not_finite"); a picture older than the one held is refused
-  // ("team_state_out_of_order").
+  // The newest team picture (TEAM_STATE). Bad input is counted by kind and changes nothing: a
+  // picture older than the one held is refused ("team_state_out_of_order"); a teammate entry
+  // with a non-finite ball or a negative age is left out ("team_ball_not_finite",
+  // "team_ball_age_negative"); a non-finite team ball velocity is not used
+  // ("team_velocity_not_finite").
   void setTeam(const perception::TeamState& team);
-  // Our ball at `utime` in the field frame, as our pose at that time puts it, compared with the
-  // teammates' balls carried to `utime` with the team ball's velocity. A sighting that agrees
-  // with no teammate's ball (nor its mirror image) has no say; one that does votes by the
-  // teammates that agreed within the window, by a majority of two to one.
-  TwinVote vote(const Eigen::Vector2d& ours, Utime utime);
+  // Our ball at `utime` in the field frame, as our pose at that time puts it, with the larger of
+  // its sighting's standard deviations, compared with the teammates' balls carried to `utime`
+  // with the team ball's velocity. A sighting less sure than max_sighting_sigma_m has no say, nor
+  // one that agrees with no teammate's ball (nor its mirror image); one that does votes by the
+  // teammates that agreed within the window, by more than two to one. At most one vote per team
+  // picture: the teammates' evidence changes with the picture, not with our frame rate.
+  TwinVote vote(const Eigen::Vector2d& ours, double sigma_m, Utime utime);
   // Forgets the agreements: the pose they were judged with changed (a commit, a move to the twin).
   void clearEvidence();
   // Teammates' balls usable at `utime` (for tests and the status line).
@@ -66,6 +75,8 @@ class TeamBallVoter {
   int own_robot_id_;
   TeamBallVoteParams params_;
   Utime picture_utime_ = 0;
+  // The picture of the last vote (at most one per picture).
+  Utime voted_picture_utime_ = -1;
   Eigen::Vector2d team_velocity_ = Eigen::Vector2d::Zero();
   struct TeammateBall {
     int robot_id = 0;

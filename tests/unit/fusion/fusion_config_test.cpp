@@ -57,7 +57,7 @@ TEST(FusionConfig, TwinByTeamKeysAndTheirContradiction) {
   const FusionConfig c = loadFusionConfig(config::Node::loadString(
       "twin_by_team:\n  votes: 5\n  agree_m: 0.4\n  min_centre_distance_m: 1.5\n"
       "  min_teammates: 3\n  max_ball_age_s: 0.3\n  max_picture_gap_s: 0.1\n"));
-  EXPECT_EQ(c.localizer.twin_votes, 5);
+  EXPECT_EQ(c.localizer.twin_vote_run, 5);
   EXPECT_DOUBLE_EQ(c.team_ball_vote.agree_m, 0.4);
   EXPECT_DOUBLE_EQ(c.team_ball_vote.min_centre_distance_m, 1.5);
   EXPECT_EQ(c.team_ball_vote.min_teammates, 3);

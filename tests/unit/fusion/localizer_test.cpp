@@ -259,7 +259,8 @@ void voteWithTeam(Drive& d, const Eigen::Vector2d& teammates_ball, const Eigen::
     const auto s = d.localizer.stateAt(d.t);
     ASSERT_TRUE(s.has_value());
     const geometry::Vec2 seen = geometry::pointFieldToRobot(d.truth, ball);
-    d.localizer.addTwinVote(voter.vote(geometry::pointRobotToField(s->pose(), seen), d.t));
+    d.localizer.addTwinVote(voter.vote(geometry::pointRobotToField(s->pose(), seen), 0.05, d.t),
+                            d.t);
   }
 }
 
@@ -271,7 +272,7 @@ TEST(Localizer, TeammatesBallsMoveAnAmbiguousPoseOffItsTwin) {
   ASSERT_LT(d.twinError(), 0.1);
   ASSERT_TRUE(d.localizer.ambiguous());
   const Eigen::Vector2d ball(2.0, -2.0);
-  // Two sightings are not enough (twin_votes 3).
+  // Two sightings are not enough (twin_vote_run 3).
   voteWithTeam(d, ball, ball, 2);
   EXPECT_LT(d.twinError(), 0.1);
   voteWithTeam(d, ball, ball, 1);
@@ -316,10 +317,26 @@ TEST(Localizer, ATeamThatContradictsACertainPoseMakesItAmbiguousFirst) {
   voteWithTeam(d, -ball, ball, 3);
   EXPECT_TRUE(d.localizer.ambiguous());
   EXPECT_EQ(d.localizer.counters().twin_doubted_by_team, 1u);
-  EXPECT_LT(d.error(), 0.1);  // not moved on the team's word alone
+  EXPECT_LT(d.error(), 0.1);  // not moved by a first run
+  EXPECT_TRUE(d.localizer.estimate(d.t + 8'000).twin_ambiguous);
+  // A second run moves it (here wrongly: the team was wrong).
+  voteWithTeam(d, -ball, ball, 3);
+  EXPECT_EQ(d.localizer.counters().twin_flips_by_team, 1u);
+  EXPECT_LT(d.twinError(), 0.1);
+  EXPECT_FALSE(d.localizer.ambiguous());
+  // Votes further apart than twin_vote_gap_us make no run.
+  Drive far_apart({-4.0, 2.0, 0.5});
+  far_apart.run(1.2, {0.2, 0.0, 0.0});
+  ASSERT_EQ(far_apart.localizer.mode(), perception::LocalizationStatus::kTracking);
+  for (int i = 0; i < 4; ++i) {
+    voteWithTeam(far_apart, -ball, ball, 1);
+    far_apart.run(2.1, {});
+  }
+  EXPECT_EQ(far_apart.localizer.counters().twin_flips_by_team, 0u);
+  EXPECT_LT(far_apart.error(), 0.1);
   // Off: votes do nothing.
   LocalizerParams off;
-  off.twin_votes = 0;
+  off.twin_vote_run = 0;
   Drive d_off({-3.0, 1.2, 0.4}, off);
   d_off.run(1.2, {0.3, 0.0, 0.2});
   voteWithTeam(d_off, -ball, ball, 6);
