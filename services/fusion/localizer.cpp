@@ -720,34 +720,47 @@ void Localizer::processFeatures(const perception::FieldFeatures& features, Utime
     return;
   }
   const geometry::Pose2 e = est->pose();
-  bool fused = false;
+  // One measurement per frame (the filter keeps one per utime and channel, gated or not: a second
+  // hypothesis of the same frame was refused as a duplicate, and counted as bad input): the
+  // hypothesis nearest the estimate among those within the feature gate.
+  const perception::PoseHypothesis* nearest = nullptr;
+  double nearest_distance = 0.0;
   bool all_far = true;
   for (const perception::PoseHypothesis& ph : features.hypotheses) {
     if (!geometry::isFinite(ph.pose) || !(ph.sigma_xy > 0) || !(ph.sigma_phi > 0)) {
       count("features_not_finite");
       continue;
     }
-    const bool close = near(ph.pose, e, params_.feature_gate_m, params_.feature_gate_rad);
-    if (close && !fused) {
-      PoseMeasurement z;
-      z.utime = utime;
-      z.pose = ph.pose;
-      z.covariance = Eigen::Vector3d(ph.sigma_xy * ph.sigma_xy, ph.sigma_xy * ph.sigma_xy,
-                                     ph.sigma_phi * ph.sigma_phi)
-                         .asDiagonal();
-      const auto r = filter_.addPose(MeasurementSource::kFeatures, z, now);
-      if (r.rejection == Rejection::kNone) {
-        ++counters_.feature_updates;
-        fused = true;
-      } else if (r.rejection == Rejection::kTooOld) {
-        count(too_old);
-      } else {
-        count(std::string("features_") + toString(r.rejection));
+    if (near(ph.pose, e, params_.feature_gate_m, params_.feature_gate_rad)) {
+      const double distance = std::hypot(ph.pose.x - e.x, ph.pose.y - e.y) +
+                              0.2 * std::abs(geometry::angleDiff(ph.pose.phi, e.phi));
+      if (!nearest || distance < nearest_distance) {
+        nearest = &ph;
+        nearest_distance = distance;
       }
     }
     const double d = std::min(std::hypot(ph.pose.x - e.x, ph.pose.y - e.y),
                               std::hypot(-ph.pose.x - e.x, -ph.pose.y - e.y));
     if (d <= params_.contradict_m || ph.sigma_xy > 0.3) all_far = false;
+  }
+  bool fused = false;
+  if (nearest) {
+    PoseMeasurement z;
+    z.utime = utime;
+    z.pose = nearest->pose;
+    z.covariance = Eigen::Vector3d(nearest->sigma_xy * nearest->sigma_xy,
+                                   nearest->sigma_xy * nearest->sigma_xy,
+                                   nearest->sigma_phi * nearest->sigma_phi)
+                       .asDiagonal();
+    const auto r = filter_.addPose(MeasurementSource::kFeatures, z, now);
+    if (r.rejection == Rejection::kNone) {
+      ++counters_.feature_updates;
+      fused = true;
+    } else if (r.rejection == Rejection::kTooOld) {
+      count(too_old);
+    } else {
+      count(std::string("features_") + toString(r.rejection));
+    }
   }
   contradictions_ = (!fused && all_far) ? contradictions_ + 1 : 0;
 }

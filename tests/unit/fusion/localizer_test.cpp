@@ -128,6 +128,27 @@ TEST(Localizer, TheFeaturesOfTheFrameACommitCameFromAreNoBadInput) {
   EXPECT_GE(rejected.count("features_too_old"), 1u);
 }
 
+TEST(Localizer, AFrameWithSeveralCloseFeatureHypothesesIsOneMeasurement) {
+  // Feature recognition often gives a frame several hypotheses near the estimate (a circle and a
+  // corner). The first used to be tried, and when the gate refused it (it stays stored), the
+  // next one of the same frame was refused as a duplicate and counted as bad input.
+  Drive d({-3.0, 1.2, 0.4});
+  d.run(1.5, {});
+  ASSERT_EQ(d.localizer.mode(), perception::LocalizationStatus::kTracking);
+  // A frame odometry has passed (a newer one would wait for it).
+  const auto& [frame_utime, frame_truth] = d.history[d.history.size() - 2];
+  perception::FieldFeatures features;
+  geometry::Pose2 off = frame_truth;
+  off.x += 0.4;  // within the feature gate, far beyond the filter's: gated
+  features.hypotheses.push_back({0, off, 0.01, 0.01});
+  features.hypotheses.push_back({1, frame_truth, 0.05, 0.03});
+  d.localizer.addFeatures(features, frame_utime + 1, d.t + 8'000);
+  const auto& rejected = d.localizer.counters().rejected;
+  EXPECT_EQ(rejected.count("features_duplicate"), 0u);
+  EXPECT_EQ(rejected.count("features_gated"), 0u);  // the nearer one was taken
+  EXPECT_GE(d.localizer.counters().feature_updates, 1u);
+}
+
 TEST(Localizer, TracksADriveAndReportsOdometryOnlyWhenTheLinesStop) {
   Drive d({-2.0, -1.0, 0.0});
   d.run(1.0, {});
