@@ -203,7 +203,7 @@ void loadTwinByTeam(const config::Node& n, FusionConfig& c) {
   TeamBallVoteParams& p = c.team_ball_vote;
   c.localizer.twin_vote_run = n.getOr<int>("votes", c.localizer.twin_vote_run, 0, 1000);
   c.localizer.twin_vote_gap_us =
-      micros(n.getOr<double>("vote_gap_s", seconds(c.localizer.twin_vote_gap_us), 0.0, 60.0));
+      micros(n.getOr<double>("vote_gap_s", seconds(c.localizer.twin_vote_gap_us), 0.1, 60.0));
   p.agree_m = n.getOr<double>("agree_m", p.agree_m, 0.01, 5.0);
   p.min_centre_distance_m =
       n.getOr<double>("min_centre_distance_m", p.min_centre_distance_m, 0.02, 10.0);

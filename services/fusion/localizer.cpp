@@ -653,7 +653,7 @@ void Localizer::addTwinVote(TwinVote vote, Utime utime) {
   twin_run_ = 0;
   if (!ambiguous_) {
     // Continuity had called this pose certain: a first run only makes it ambiguous, a second one
-    // moves it (with one vote per team picture, six pictures at least: 0.6 s at 10 Hz).
+    // moves it (with one vote per team picture, six pictures at least: 0.5 s at 10 Hz).
     ambiguous_ = true;
     ++counters_.twin_doubted_by_team;
     return;

@@ -4,6 +4,7 @@
 #include "services/fusion/ball_filter.hpp"
 
 #include <cmath>
+#include <numbers>
 #include <random>
 
 #include <gtest/gtest.h>
@@ -33,6 +34,33 @@ perception::BallSighting sightingOf(const geometry::Vec2& ball_field, const geom
   s.sigma_radial = 0.05;
   s.sigma_tangential = 0.03;
   return s;
+}
+
+TEST(BallFilter, FollowsTheRobotOntoItsTwin) {
+  // The robot's pose was moved to its symmetric twin: the ball fused with the old poses moves
+  // through the centre spot too, velocity and all, and the next sightings (with the new pose)
+  // agree with it.
+  BallFilter filter;
+  std::mt19937 rng(3);
+  const geometry::Pose2 robot{-2.0, 1.0, 0.5};
+  Utime t = kStart;
+  for (int k = 0; k < 20; ++k, t += 33'333) {
+    const geometry::Vec2 ball(-1.0 + 0.5 * 0.033333 * k, 2.0);  // rolling at 0.5 m/s along x
+    filter.update(sightingOf(ball, robot, t, rng), robotAt(robot, t));
+  }
+  const auto before = filter.estimate(t);
+  filter.mirrorThroughCentre();
+  const auto after = filter.estimate(t);
+  EXPECT_NEAR(after.x, -before.x, 1e-12);
+  EXPECT_NEAR(after.y, -before.y, 1e-12);
+  EXPECT_NEAR(after.vx, -before.vx, 1e-12);
+  EXPECT_NEAR(after.vy, -before.vy, 1e-12);
+  EXPECT_TRUE(after.valid);
+  // The truth seen from the twin pose is the mirrored ball: an inlier.
+  const geometry::Pose2 twin{2.0, -1.0, 0.5 + std::numbers::pi};
+  const geometry::Vec2 mirrored(-(-1.0 + 0.5 * 0.033333 * 20), -2.0);
+  EXPECT_EQ(filter.update(sightingOf(mirrored, twin, t, rng), robotAt(twin, t)),
+            BallRejection::kNone);
 }
 
 TEST(BallFilter, FollowsARollingBallInTheFieldFrame) {

@@ -56,13 +56,19 @@ TEST(FusionConfig, AbsentKeysKeepTheDefaultsAndGivenOnesApply) {
 TEST(FusionConfig, TwinByTeamKeysAndTheirContradiction) {
   const FusionConfig c = loadFusionConfig(config::Node::loadString(
       "twin_by_team:\n  votes: 5\n  agree_m: 0.4\n  min_centre_distance_m: 1.5\n"
-      "  min_teammates: 3\n  max_ball_age_s: 0.3\n  max_picture_gap_s: 0.1\n"));
+      "  min_teammates: 3\n  max_ball_age_s: 0.3\n  max_picture_gap_s: 0.1\n"
+      "  vote_gap_s: 1.5\n  max_sighting_sigma_m: 0.2\n  evidence_window_s: 3.0\n"));
   EXPECT_EQ(c.localizer.twin_vote_run, 5);
   EXPECT_DOUBLE_EQ(c.team_ball_vote.agree_m, 0.4);
   EXPECT_DOUBLE_EQ(c.team_ball_vote.min_centre_distance_m, 1.5);
   EXPECT_EQ(c.team_ball_vote.min_teammates, 3);
   EXPECT_EQ(c.team_ball_vote.max_ball_age_us, 300'000);
   EXPECT_EQ(c.team_ball_vote.max_picture_gap_us, 100'000);
+  EXPECT_EQ(c.localizer.twin_vote_gap_us, 1'500'000);
+  EXPECT_DOUBLE_EQ(c.team_ball_vote.max_sighting_sigma_m, 0.2);
+  EXPECT_EQ(c.team_ball_vote.evidence_window_us, 3'000'000);
+  // A gap of 0 would silently turn the votes off.
+  EXPECT_NE(errorOf("twin_by_team:\n  vote_gap_s: 0\n").find("vote_gap_s"), std::string::npos);
   // One teammate's ball could agree with both our ball and its mirror image.
   const std::string e = errorOf("twin_by_team:\n  agree_m: 0.8\n  min_centre_distance_m: 0.6\n");
   EXPECT_NE(e.find("fusion.yaml"), std::string::npos) << e;

@@ -147,6 +147,10 @@ TEST(Localizer, AFrameWithSeveralCloseFeatureHypothesesIsOneMeasurement) {
   EXPECT_EQ(rejected.count("features_duplicate"), 0u);
   EXPECT_EQ(rejected.count("features_gated"), 0u);  // the nearer one was taken
   EXPECT_GE(d.localizer.counters().feature_updates, 1u);
+  // The off hypothesis alone is refused by the gate: the pair above is the case that failed.
+  features.hypotheses.pop_back();
+  d.localizer.addFeatures(features, frame_utime + 2, d.t + 8'000);
+  EXPECT_EQ(rejected.at("features_gated"), 1u);
 }
 
 TEST(Localizer, TracksADriveAndReportsOdometryOnlyWhenTheLinesStop) {
@@ -349,6 +353,7 @@ TEST(Localizer, ATeamThatContradictsACertainPoseMakesItAmbiguousFirst) {
   Drive far_apart({-4.0, 2.0, 0.5});
   far_apart.run(1.2, {0.2, 0.0, 0.0});
   ASSERT_EQ(far_apart.localizer.mode(), perception::LocalizationStatus::kTracking);
+  ASSERT_TRUE(far_apart.localizer.ambiguous());  // one run of 3 would move it
   for (int i = 0; i < 4; ++i) {
     voteWithTeam(far_apart, -ball, ball, 1);
     far_apart.run(2.1, {});
