@@ -277,6 +277,10 @@ bool isPositiveDefinite(const Eigen::Matrix3d& c) {
   return llt.info() == Eigen::Success && c.diagonal().minCoeff() > 0.0;
 }
 
+geometry::Pose2 symmetricTwin(const geometry::Pose2& p) {
+  return {-p.x, -p.y, geometry::normalizeAngle(p.phi + std::numbers::pi)};
+}
+
 EkfState pointMirrored(const EkfState& s) {
   // Position, field-frame velocity and push change sign; heading turns by pi; turn rate and gyro
   // bias are the same seen from either side.
@@ -284,14 +288,14 @@ EkfState pointMirrored(const EkfState& s) {
   sign[0] = sign[1] = sign[3] = sign[4] = sign[kPush] = sign[kPush + 1] = -1.0;
   EkfState m = s;
   m.x = sign.cwiseProduct(s.x);
-  m.x[2] = geometry::normalizeAngle(s.x[2] + std::numbers::pi);
+  m.x[2] = symmetricTwin(s.pose()).phi;
   m.p = sign.asDiagonal() * s.p * sign.asDiagonal();
   return m;
 }
 
 PoseMeasurement pointMirrored(const PoseMeasurement& z) {
   PoseMeasurement m = z;
-  m.pose = {-z.pose.x, -z.pose.y, geometry::normalizeAngle(z.pose.phi + std::numbers::pi)};
+  m.pose = symmetricTwin(z.pose);
   const Eigen::Vector3d sign(-1.0, -1.0, 1.0);
   m.covariance = sign.asDiagonal() * z.covariance * sign.asDiagonal();
   return m;

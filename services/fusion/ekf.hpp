@@ -212,7 +212,9 @@ UpdateResult updatePose(EkfState& s, const PoseMeasurement& z, double gate2,
 // True if `c` is symmetric (to rounding) and positive definite.
 bool isPositiveDefinite(const Eigen::Matrix3d& c);
 
-// The field's point symmetry through the centre spot (x, y, phi) -> (-x, -y, phi + pi) applied to
+// The pose the field's point symmetry through the centre spot maps `p` to: (-x, -y, phi + pi).
+geometry::Pose2 symmetricTwin(const geometry::Pose2& p);
+// The same symmetry applied to
 // a state (field-frame velocities and push negated, turn rate and gyro bias kept, the covariance
 // transformed alike) and to a pose measurement: a history mapped this way is exactly the one the
 // filter would have had with the twin's measurements.

@@ -58,10 +58,6 @@ Disagreement classifyDisagreement(const Eigen::Vector2d& d, const Eigen::Matrix2
 
 }  // namespace
 
-geometry::Pose2 symmetricTwin(const geometry::Pose2& p) {
-  return {-p.x, -p.y, geometry::normalizeAngle(p.phi + std::numbers::pi)};
-}
-
 FilterParams Localizer::withGyro(FilterParams params, const robot::RobotParams& robot) {
   params.noise.gyro_bias_walk = robot.gyro.present ? robot.gyro.bias_walk : 0.0;
   return params;

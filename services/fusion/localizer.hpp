@@ -378,7 +378,4 @@ class Localizer {
 // robot moves with `velocity` (vx, vy, omega): sigma_s^2 * velocity * velocity^T.
 Eigen::Matrix3d stampSpread(const Eigen::Vector3d& velocity, double sigma_s);
 
-// The pose the field's point symmetry maps `p` to: (-x, -y, phi + pi).
-geometry::Pose2 symmetricTwin(const geometry::Pose2& p);
-
 }  // namespace fieldline::fusion

@@ -52,14 +52,17 @@ void TeamBallVoter::setTeam(const perception::TeamState& team) {
   }
 }
 
+std::optional<Eigen::Vector2d> TeamBallVoter::shiftTo(Utime utime) const {
+  if (std::llabs(utime - picture_utime_) > params_.max_picture_gap_us) return {};
+  return team_velocity_ * (static_cast<double>(utime - picture_utime_) * 1e-6);
+}
+
 std::vector<Eigen::Vector2d> TeamBallVoter::teammateBalls(Utime utime) const {
-  if (balls_.empty() || std::llabs(utime - picture_utime_) > params_.max_picture_gap_us) return {};
-  const Eigen::Vector2d shift =
-      team_velocity_ * (static_cast<double>(utime - picture_utime_) * 1e-6);
   std::vector<Eigen::Vector2d> out;
-  out.reserve(balls_.size());
-  for (const TeammateBall& b : balls_)
-    out.push_back(b.position + shift);
+  if (const auto shift = shiftTo(utime)) {
+    for (const TeammateBall& b : balls_)
+      out.push_back(b.position + *shift);
+  }
   return out;
 }
 
@@ -70,15 +73,17 @@ void TeamBallVoter::clearEvidence() {
 TwinVote TeamBallVoter::vote(const Eigen::Vector2d& ours, double sigma_m, Utime utime) {
   if (!ours.allFinite() || ours.norm() < params_.min_centre_distance_m) return TwinVote::kNone;
   if (!(sigma_m <= params_.max_sighting_sigma_m)) return TwinVote::kNone;
-  const std::vector<Eigen::Vector2d> theirs = teammateBalls(utime);
+  const auto shift = shiftTo(utime);
+  if (!shift) return TwinVote::kNone;
   bool agreed = false;
-  for (std::size_t i = 0; i < theirs.size(); ++i) {
-    const auto k = static_cast<std::size_t>(balls_[i].robot_id - 1);
+  for (const TeammateBall& b : balls_) {
+    const Eigen::Vector2d theirs = b.position + *shift;
+    const auto k = static_cast<std::size_t>(b.robot_id - 1);
     // min_centre_distance_m > agree_m: at most one of the two holds.
-    if ((theirs[i] - ours).norm() <= params_.agree_m) {
+    if ((theirs - ours).norm() <= params_.agree_m) {
       agreements_[k] = {TwinVote::kSame, utime};
       agreed = true;
-    } else if ((theirs[i] + ours).norm() <= params_.agree_m) {
+    } else if ((theirs + ours).norm() <= params_.agree_m) {
       agreements_[k] = {TwinVote::kTwin, utime};
       agreed = true;
     }

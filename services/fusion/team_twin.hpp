@@ -12,6 +12,7 @@
 #include <array>
 #include <cstdint>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -65,13 +66,17 @@ class TeamBallVoter {
   TwinVote vote(const Eigen::Vector2d& ours, double sigma_m, Utime utime);
   // Forgets the agreements: the pose they were judged with changed (a commit, a move to the twin).
   void clearEvidence();
-  // Teammates' balls usable at `utime` (for tests and the status line).
+  // Teammates' balls usable at `utime` (for tests).
   std::vector<Eigen::Vector2d> teammateBalls(Utime utime) const;
 
   const std::map<std::string, std::uint64_t>& refusals() const { return refusals_; }
   const TeamBallVoteParams& params() const { return params_; }
 
  private:
+  // How far the teammates' balls move from the picture's time to `utime` (the team ball's
+  // velocity); empty when the picture is too far from `utime`.
+  std::optional<Eigen::Vector2d> shiftTo(Utime utime) const;
+
   int own_robot_id_;
   TeamBallVoteParams params_;
   Utime picture_utime_ = 0;
