@@ -18,6 +18,8 @@ constexpr std::size_t kBallBytes = 44;
 constexpr std::size_t kObstacleBytes = 12;
 constexpr std::uint8_t kFlagPose = 1;
 constexpr std::uint8_t kFlagBall = 2;
+// In the pose's status byte: the twin flag; bits 2..6 stay 0 (status is 0..3).
+constexpr unsigned kStatusTwinBit = 0x80;
 // Times are µs since the epoch: beyond 2^62 µs (146,000 years) nothing is plausible.
 constexpr std::int64_t kMaxUtime = std::int64_t{1} << 62;
 
@@ -192,7 +194,7 @@ std::vector<std::uint8_t> encodePacket(const TeamPacket& p, const TeamKey& key) 
       w.f32(v);
     for (float v : q.covariance)
       w.f32(v);
-    w.u8(q.status);
+    w.u8(static_cast<std::uint8_t>(q.status | (q.twin_ambiguous ? kStatusTwinBit : 0u)));
     w.i64(q.since_vision_us);
   }
   if (p.ball) {
@@ -267,7 +269,9 @@ DecodeResult decodePacket(std::span<const std::uint8_t> bytes, const TeamKey& ke
       *v = r.f32();
     for (float& v : q.covariance)
       v = r.f32();
-    q.status = r.u8();
+    const std::uint8_t status = r.u8();
+    q.status = status & static_cast<std::uint8_t>(~kStatusTwinBit);
+    q.twin_ambiguous = (status & kStatusTwinBit) != 0;
     q.since_vision_us = r.i64();
   }
   if (flags & kFlagBall) {

@@ -15,7 +15,8 @@
 
 namespace fieldline::teamcomm {
 
-inline constexpr std::uint8_t kProtocolVersion = 1;
+// Version 2: the pose's status byte carries the twin flag (bit 7), which version 1 refused.
+inline constexpr std::uint8_t kProtocolVersion = 2;
 inline constexpr int kMaxRobots = 6;
 inline constexpr int kMaxObstacles = 10;
 inline constexpr std::size_t kMaxPacketBytes = 1400;
@@ -43,6 +44,9 @@ struct PacketPose {
   // Upper triangle of the (x, y, phi) covariance: xx, xy, xphi, yy, yphi, phiphi.
   std::array<float, 6> covariance{};
   std::uint8_t status = 0;  // perception::LocalizationStatus, 0..3
+  // The pose may be its field-symmetric twin (RobotEstimate::twin_ambiguous): the sender's
+  // field-frame ball is then no better (bit 7 of the status byte on the wire).
+  bool twin_ambiguous = false;
   std::int64_t since_vision_us = 0;
 };
 

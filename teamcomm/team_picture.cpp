@@ -92,12 +92,15 @@ perception::TeamState TeamPicture::picture(Utime now, TeamBallResult* team_ball)
     out.y = robot.pose.y + robot.vy * dt;
     out.phi = geometry::normalizeAngle(robot.pose.phi + robot.omega * dt);
     const double grown = options_.robot_speed_sigma_mps * dt;
+    out.twin_ambiguous = robot.twin_ambiguous;
     out.sigma_xy = static_cast<float>(std::sqrt(
         std::max(0.0, 0.5 * (robot.covariance(0, 0) + robot.covariance(1, 1))) + grown * grown));
 
     const perception::BallEstimate& ball = report->ball;
     const Utime ball_age = now - ball.last_seen_utime;
-    // A ball in the field frame is only as good as the pose it was placed with.
+    // A ball in the field frame is only as good as the pose it was placed with. (A pose flagged
+    // as possibly its symmetric twin still gives its ball: at start-up every robot is, and the
+    // team confirms the poses with each other's balls; fusion's twin vote weighs the flag.)
     const bool localized = robot.status == perception::LocalizationStatus::kTracking;
     if (!ball.valid || !localized || ball_age > options_.ball_timeout_us) continue;
     out.ball_valid = true;

@@ -42,6 +42,7 @@ PacketPose toPacket(const perception::RobotEstimate& e) {
     if (!std::isfinite(v)) v = static_cast<float>(kMaxVariance);
   }
   p.status = static_cast<std::uint8_t>(std::clamp<int>(static_cast<int>(e.status), 0, 3));
+  p.twin_ambiguous = e.twin_ambiguous;
   p.since_vision_us = std::max<std::int64_t>(0, e.since_vision_us);
   return p;
 }
@@ -233,6 +234,7 @@ void TeamcommNode::onDatagram(std::span<const std::uint8_t> bytes, Utime age_us)
     const auto& c = q.covariance;
     r.covariance << c[0], c[1], c[2], c[1], c[3], c[4], c[2], c[4], c[5];
     r.status = static_cast<perception::LocalizationStatus>(q.status);
+    r.twin_ambiguous = q.twin_ambiguous;
     r.since_vision_us = q.since_vision_us;
   } else if (const Report* previous = picture_.report(p.robot_id)) {
     // Heard, but its estimate is not fresh: the last pose it sent, ageing.

@@ -262,9 +262,10 @@ std::optional<std::string> validate(const team_state_t& m) {
                               "robot_sigma_xy", m.robot_sigma_xy)("robot_age_us", m.robot_age_us)(
                               "ball_valid", m.ball_valid)("ball_x", m.ball_x)("ball_y", m.ball_y)(
                               "ball_age_us", m.ball_age_us)("clock_offset_us", m.clock_offset_us)(
-                              "round_trip_us", m.round_trip_us)(
-                              "packets_received", m.packets_received)("packets_rejected",
-                                                                      m.packets_rejected)
+                              "round_trip_us", m.round_trip_us)("packets_received",
+                                                                m.packets_received)(
+                              "packets_rejected", m.packets_rejected)("robot_twin_ambiguous",
+                                                                      m.robot_twin_ambiguous)
                        .result();
                  },
                  [&] { return finiteArray("robot_x", m.robot_x); },

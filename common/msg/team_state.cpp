@@ -14,7 +14,7 @@ perception::TeamState fromMessage(const team_state_t& m) {
        m.robot_x.size(), m.robot_y.size(), m.robot_phi.size(), m.robot_sigma_xy.size(),
        m.robot_age_us.size(), m.ball_valid.size(), m.ball_x.size(), m.ball_y.size(),
        m.ball_age_us.size(), m.clock_offset_us.size(), m.round_trip_us.size(),
-       m.packets_received.size(), m.packets_rejected.size()});
+       m.packets_received.size(), m.packets_rejected.size(), m.robot_twin_ambiguous.size()});
   for (std::size_t i = 0; i < n; ++i) {
     perception::TeammateState& r = s.robots[i];
     r.present = m.present[i];
@@ -31,6 +31,7 @@ perception::TeamState fromMessage(const team_state_t& m) {
     r.round_trip_us = m.round_trip_us[i];
     r.packets_received = m.packets_received[i];
     r.packets_rejected = m.packets_rejected[i];
+    r.twin_ambiguous = m.robot_twin_ambiguous[i];
   }
   s.team_ball_valid = m.team_ball_valid;
   s.team_ball_x = m.team_ball_x;
@@ -59,6 +60,7 @@ void toMessage(const perception::TeamState& s, team_state_t& m) {
   m.round_trip_us.resize(n);
   m.packets_received.resize(n);
   m.packets_rejected.resize(n);
+  m.robot_twin_ambiguous.resize(n);
   for (int i = 0; i < n; ++i) {
     const perception::TeammateState& r = s.robots[static_cast<std::size_t>(i)];
     m.present[i] = r.present;
@@ -75,6 +77,7 @@ void toMessage(const perception::TeamState& s, team_state_t& m) {
     m.round_trip_us[i] = r.round_trip_us;
     m.packets_received[i] = r.packets_received;
     m.packets_rejected[i] = r.packets_rejected;
+    m.robot_twin_ambiguous[i] = r.twin_ambiguous;
   }
   m.team_ball_valid = s.team_ball_valid;
   m.team_ball_x = s.team_ball_x;

@@ -24,6 +24,9 @@ struct TeammateState {
   float sigma_xy = 0.0f;
   // Age of the pose estimate at the picture's time, µs.
   std::int64_t robot_age_us = 0;
+  // The pose may be its symmetric twin through the centre spot: nothing has told the two apart
+  // yet (its ROBOT_STATE.twin_ambiguous, carried by the team packet). Its ball may be mirrored.
+  bool twin_ambiguous = false;
   // The robot reports a ball seen recently enough to use.
   bool ball_valid = false;
   // Its ball in the field frame predicted to the picture's time, m.

@@ -135,7 +135,8 @@ void FusionNode::onBall(const ball_observation_t& m) {
       }
       const std::uint64_t flips = c.twin_flips_by_team;
       const double sigma = std::max(sighting.sigma_radial, sighting.sigma_tangential);
-      localizer_.addTwinVote(twin_voter_.vote(ours, sigma, sighting.utime), sighting.utime);
+      localizer_.addTwinVote(twin_voter_.vote(ours, sigma, sighting.utime, !localizer_.ambiguous()),
+                             sighting.utime);
       if (c.twin_flips_by_team != flips) ball_.mirrorThroughCentre();
     }
     return;

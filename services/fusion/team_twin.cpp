@@ -48,7 +48,7 @@ void TeamBallVoter::setTeam(const perception::TeamState& team) {
       continue;
     }
     if (r.ball_age_us > params_.max_ball_age_us) continue;
-    balls_.push_back({static_cast<int>(i) + 1, {r.ball_x, r.ball_y}});
+    balls_.push_back({static_cast<int>(i) + 1, {r.ball_x, r.ball_y}, r.twin_ambiguous});
   }
 }
 
@@ -70,7 +70,8 @@ void TeamBallVoter::clearEvidence() {
   agreements_.fill({});
 }
 
-TwinVote TeamBallVoter::vote(const Eigen::Vector2d& ours, double sigma_m, Utime utime) {
+TwinVote TeamBallVoter::vote(const Eigen::Vector2d& ours, double sigma_m, Utime utime,
+                             bool pose_certain) {
   if (!ours.allFinite() || ours.norm() < params_.min_centre_distance_m) return TwinVote::kNone;
   if (!(sigma_m <= params_.max_sighting_sigma_m)) return TwinVote::kNone;
   const auto shift = shiftTo(utime);
@@ -81,10 +82,10 @@ TwinVote TeamBallVoter::vote(const Eigen::Vector2d& ours, double sigma_m, Utime 
     const auto k = static_cast<std::size_t>(b.robot_id - 1);
     // min_centre_distance_m > agree_m: at most one of the two holds.
     if ((theirs - ours).norm() <= params_.agree_m) {
-      agreements_[k] = {TwinVote::kSame, utime};
+      agreements_[k] = {TwinVote::kSame, utime, b.twin_ambiguous};
       agreed = true;
     } else if ((theirs + ours).norm() <= params_.agree_m) {
-      agreements_[k] = {TwinVote::kTwin, utime};
+      agreements_[k] = {TwinVote::kTwin, utime, b.twin_ambiguous};
       agreed = true;
     }
   }
@@ -93,6 +94,7 @@ TwinVote TeamBallVoter::vote(const Eigen::Vector2d& ours, double sigma_m, Utime 
   int twin = 0;
   for (const Agreement& a : agreements_) {
     if (a.utime == 0 || std::llabs(utime - a.utime) > params_.evidence_window_us) continue;
+    if (pose_certain && a.twin_ambiguous) continue;
     same += a.kind == TwinVote::kSame ? 1 : 0;
     twin += a.kind == TwinVote::kTwin ? 1 : 0;
   }

@@ -63,7 +63,12 @@ class TeamBallVoter {
   // one that agrees with no teammate's ball (nor its mirror image); one that does votes by the
   // teammates that agreed within the window, by more than two to one. At most one vote per team
   // picture: the teammates' evidence changes with the picture, not with our frame rate.
-  TwinVote vote(const Eigen::Vector2d& ours, double sigma_m, Utime utime);
+  // `pose_certain`: our pose is not ambiguous. Then teammates that report their own pose as
+  // possibly its twin (TEAM_STATE robot_twin_ambiguous) do not count: their balls may be
+  // mirrored, and only robots sure of their poses may doubt a certain one. An ambiguous pose
+  // hears every teammate (at start-up all are ambiguous and confirm each other).
+  TwinVote vote(const Eigen::Vector2d& ours, double sigma_m, Utime utime,
+                bool pose_certain = false);
   // Forgets the agreements: the pose they were judged with changed (a commit, a move to the twin).
   void clearEvidence();
   // Teammates' balls usable at `utime` (for tests).
@@ -86,6 +91,7 @@ class TeamBallVoter {
   struct TeammateBall {
     int robot_id = 0;
     Eigen::Vector2d position = Eigen::Vector2d::Zero();
+    bool twin_ambiguous = false;  // the teammate's pose may be its twin
   };
   std::vector<TeammateBall> balls_;
   // Per robot id (index id - 1): the latest agreement of one of our sightings with its ball
@@ -95,6 +101,7 @@ class TeamBallVoter {
   struct Agreement {
     TwinVote kind = TwinVote::kNone;
     Utime utime = 0;
+    bool twin_ambiguous = false;  // the teammate's pose was possibly its twin then
   };
   std::array<Agreement, perception::kTeamSize> agreements_{};
   std::map<std::string, std::uint64_t> refusals_;

@@ -96,9 +96,9 @@ int main(int argc, char** argv) {
   team::TeamPacket minimal{.team_id = 7, .robot_id = 2, .sequence = 1000, .send_utime = 5'000'000};
   team::TeamPacket full = minimal;
   full.links = {{1, 4'000'000, 4'100'000}, {3, 4'500'000, 4'600'000}};
-  full.pose = team::PacketPose{4'900'000, 1.5f,   -2.0f, 0.3f,
-                               0.1f,      0.0f,   0.2f,  {0.01f, 0.0f, 0.0f, 0.01f, 0.0f, 0.002f},
-                               2,         100'000};
+  full.pose = team::PacketPose{4'900'000, 1.5f, -2.0f,  0.3f,
+                               0.1f,      0.0f, 0.2f,   {0.01f, 0.0f, 0.0f, 0.01f, 0.0f, 0.002f},
+                               2,         true, 100'000};
   full.ball = team::PacketBall{4'950'000, 4'950'000, 3.0f, 1.0f, -0.5f, 0.0f, {0.02f, 0.0f, 0.02f}};
   full.obstacles = {{2.0f, 2.0f, 0.25f}, {-3.0f, 1.0f, 0.25f}};
   int n = 0;

@@ -206,6 +206,7 @@ void write(std::string& out, const team_state_t& m, const JsonOptions& options) 
   o.addArray("round_trip_us", m.round_trip_us);
   o.addArray("packets_received", m.packets_received);
   o.addArray("packets_rejected", m.packets_rejected);
+  o.addBoolArray("robot_twin_ambiguous", m.robot_twin_ambiguous);
   o.addBool("team_ball_valid", m.team_ball_valid);
   o.add("team_ball_x", m.team_ball_x).add("team_ball_y", m.team_ball_y);
   o.add("team_ball_vx", m.team_ball_vx).add("team_ball_vy", m.team_ball_vy);

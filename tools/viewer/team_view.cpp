@@ -59,13 +59,15 @@ void writeTeamState(std::string& out, const Received<team_state_t>& r, Utime now
   Object o(out);
   writeHeader(o, m.header, now, r.received);
   o.integer("num_robots", m.num_robots);
-  {
-    std::string& present = o.key("present");
-    present += '[';
+  const auto booleans = [&](const char* name, const std::vector<std::int8_t>& values) {
+    std::string& text = o.key(name);
+    text += '[';
     for (std::size_t i = 0; i < n; ++i)
-      present += (i > 0 ? "," : "") + std::string(m.present[i] ? "true" : "false");
-    present += ']';
-  }
+      text += (i > 0 ? "," : "") + std::string(values[i] ? "true" : "false");
+    text += ']';
+  };
+  booleans("present", m.present);
+  booleans("robot_twin_ambiguous", m.robot_twin_ambiguous);
   o.numbers("robot_x", m.robot_x.data(), n);
   o.numbers("robot_y", m.robot_y.data(), n);
   o.numbers("robot_phi", m.robot_phi.data(), n);

@@ -197,6 +197,7 @@ int main(int argc, char** argv) {
     team.round_trip_us = {800, 0};
     team.packets_received = {500, 0};
     team.packets_rejected = {3, 0};
+    team.robot_twin_ambiguous = {1, 0};
     team.team_ball_valid = 1;
     team.team_ball_x = 3.0;
     team.team_ball_y = -1.0;

@@ -189,6 +189,7 @@ int main(int argc, char** argv) {
   ts.round_trip_us = {800, 1200};
   ts.packets_received = {500, 3};
   ts.packets_rejected = {1, 2};
+  ts.robot_twin_ambiguous = {false, true};
   ts.team_ball_valid = true;
   ts.team_ball_x = 3.1;
   ts.team_ball_y = 0.4;

@@ -71,6 +71,36 @@ TEST(TeamBallVoter, TeammatesWhoSeeTheBallInTurnAddUpWithinTheWindow) {
   EXPECT_EQ(voter.vote({4.0, -3.0}, kSigma, kT + 2'600'000), TwinVote::kNone);
 }
 
+TEST(TeamBallVoter, OnlyTeammatesSureOfTheirPosesCanDoubtACertainPose) {
+  const Eigen::Vector2d ball(3.0, -1.0);
+  // Robots 2 and 3 may be on their own twins (their ROBOT_STATE says twin_ambiguous): they see
+  // the ball mirrored, at -ball, where our certain pose puts it at +ball.
+  perception::TeamState unsure = teamSeeing(-ball, {2, 3});
+  unsure.robots[1].twin_ambiguous = unsure.robots[2].twin_ambiguous = true;
+  TeamBallVoter certain(1);
+  certain.setTeam(unsure);
+  EXPECT_EQ(certain.vote(ball, kSigma, kT, /*pose_certain=*/true), TwinVote::kNone);
+  // An ambiguous pose hears them (at start-up every robot is ambiguous, and they confirm or move
+  // each other with their balls).
+  TeamBallVoter ambiguous(1);
+  ambiguous.setTeam(unsure);
+  EXPECT_EQ(ambiguous.vote(ball, kSigma, kT, /*pose_certain=*/false), TwinVote::kTwin);
+  // Teammates sure of their poses can doubt a certain one (the localizer then needs two runs).
+  certain.setTeam(teamSeeing(-ball, {2, 3}, kT + 100'000));
+  EXPECT_EQ(certain.vote(ball, kSigma, kT + 100'000, true), TwinVote::kTwin);
+  // The flag is judged as it was at each agreement: a teammate unsure then does not count for a
+  // certain pose later in the window, one sure then does.
+  TeamBallVoter mixed(1);
+  perception::TeamState first = teamSeeing(-ball, {2});
+  first.robots[1].twin_ambiguous = true;
+  mixed.setTeam(first);
+  EXPECT_EQ(mixed.vote(ball, kSigma, kT, true), TwinVote::kNone);
+  mixed.setTeam(teamSeeing(-ball, {3}, kT + 500'000));
+  EXPECT_EQ(mixed.vote(ball, kSigma, kT + 500'000, true), TwinVote::kNone);  // robot 3 alone
+  mixed.setTeam(teamSeeing(-ball, {4}, kT + 900'000));
+  EXPECT_EQ(mixed.vote(ball, kSigma, kT + 900'000, true), TwinVote::kTwin);  // robots 3 and 4
+}
+
 TEST(TeamBallVoter, NoSayNearTheCentreWithOneTeammateOrASplitTeam) {
   TeamBallVoter voter(1);
   // Near the centre spot a ball and its mirror image are within reach of one another.

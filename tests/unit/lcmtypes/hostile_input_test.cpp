@@ -210,6 +210,7 @@ struct Sample<team_state_t> {
     m.ball_valid = {false, false};
     m.ball_x = m.ball_y = {0, 0};
     m.packets_received = m.packets_rejected = {3, 4};
+    m.robot_twin_ambiguous = {false, true};
     return m;
   }
   static std::vector<WireLength> lengths() { return {{"num_robots", kBody, 2}}; }

@@ -8,6 +8,8 @@
 #include <numbers>
 #include <random>
 
+#include <sodium.h>
+
 #include "teamcomm/packet.hpp"
 #include "teamcomm/packet_gate.hpp"
 #include "teamcomm/team_key.hpp"
@@ -45,6 +47,7 @@ TeamPacket fullPacket(bool upper) {
   q.covariance = {upper ? 1e4f : 0.0f, s * 1e4f, -s * 1e4f,
                   upper ? 1e4f : 0.0f, s * 1e4f, upper ? 1e4f : 0.0f};
   q.status = upper ? 3 : 0;
+  q.twin_ambiguous = upper;
   q.since_vision_us = upper ? (std::int64_t{1} << 62) - 1 : 0;
   PacketBall& b = p.ball.emplace();
   b.utime = upper ? (std::int64_t{1} << 62) - 1 : 0;
@@ -83,6 +86,7 @@ void expectSame(const TeamPacket& a, const TeamPacket& b) {
     EXPECT_EQ(x.omega, y.omega);
     EXPECT_EQ(x.covariance, y.covariance);
     EXPECT_EQ(x.status, y.status);
+    EXPECT_EQ(x.twin_ambiguous, y.twin_ambiguous);
     EXPECT_EQ(x.since_vision_us, y.since_vision_us);
   }
   ASSERT_EQ(a.ball.has_value(), b.ball.has_value());
@@ -218,6 +222,50 @@ TEST(teamcomm_codec, NamesTheReasonForSizeMagicAndVersion) {
   other = bytes;
   other[4] = kProtocolVersion + 1;
   EXPECT_EQ(decodePacket(other, key).reason, Reject::kVersion);
+}
+
+// The pose's status byte: 26 header bytes, 17 per link, then the pose's utime (8) and 12 f32.
+std::size_t statusOffset(std::size_t links) {
+  return 26 + 17 * links + 8 + 12 * 4;
+}
+
+// Signs `bytes` again after a test changed them (as a sender with the team key would).
+void sign(std::vector<std::uint8_t>& bytes, const TeamKey& key) {
+  const std::size_t body = bytes.size() - kMacBytes;
+  crypto_auth(bytes.data() + body, bytes.data(), body, key.bytes.data());
+}
+
+TEST(teamcomm_codec, CarriesTheTwinFlagInBitSevenOfTheStatusByte) {
+  const TeamKey key = testKey(9);
+  TeamPacket p = fullPacket(false);
+  p.pose->status = 2;  // tracking
+  for (const bool twin : {false, true}) {
+    p.pose->twin_ambiguous = twin;
+    const auto bytes = encodePacket(p, key);
+    EXPECT_EQ(bytes[statusOffset(p.links.size())], twin ? 0x82 : 0x02);
+    const DecodeResult r = decodePacket(bytes, key);
+    ASSERT_TRUE(r.packet) << rejectName(r.reason);
+    EXPECT_EQ(r.packet->pose->status, 2);
+    EXPECT_EQ(r.packet->pose->twin_ambiguous, twin);
+  }
+}
+
+TEST(teamcomm_codec, RefusesReservedStatusBitsAndTheFirstVersion) {
+  const TeamKey key = testKey(10);
+  const TeamPacket p = fullPacket(false);
+  const auto good = encodePacket(p, key);
+  // Bits 2..6 of the status byte are reserved: a signed packet using one is out of range.
+  for (const std::uint8_t status : {0x04, 0x40, 0xC2, 0xFF}) {
+    auto bytes = good;
+    bytes[statusOffset(p.links.size())] = status;
+    sign(bytes, key);
+    EXPECT_EQ(decodePacket(bytes, key).reason, Reject::kRange) << int{status};
+  }
+  // Version 1 had no twin flag (and refused bit 7): a robot still sending it is named as such.
+  auto old = good;
+  old[4] = 1;
+  sign(old, key);
+  EXPECT_EQ(decodePacket(old, key).reason, Reject::kVersion);
 }
 
 TEST(teamcomm_key, ParsesWhatItFormatsAndNamesTheLineOfAnError) {

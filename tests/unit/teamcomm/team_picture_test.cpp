@@ -131,6 +131,26 @@ TEST(teamcomm_picture, UsesOnlyFreshBallsFromLocalizedRobotsAndPredictsThem) {
   EXPECT_NEAR(s.team_ball_covariance(0, 0), 0.01 + 0.0025 + 0.04, 1e-9);
 }
 
+TEST(teamcomm_picture, SaysWhichRobotsMayBeOnTheirTwinAndKeepsTheirBalls) {
+  // At start-up every robot's pose is ambiguous (only the own-half prior chose it): their balls
+  // still make the team ball, and the flag goes with each robot for fusion's twin vote to weigh.
+  TeamPicture picture(1);
+  for (int id : {2, 3}) {
+    Report r = report(1.0, 0.5 * id, kT0);
+    r.robot.twin_ambiguous = id == 3;
+    seeBall(r, 2.0 + 0.02 * id, 1.0, 0.1);
+    picture.setReport(id, r);
+  }
+  TeamBallResult ball;
+  const perception::TeamState s = picture.picture(kT0 + 20'000, &ball);
+  EXPECT_FALSE(s.robots[1].twin_ambiguous);
+  EXPECT_TRUE(s.robots[2].twin_ambiguous);
+  EXPECT_TRUE(s.robots[2].ball_valid);
+  EXPECT_EQ(ball.used, (std::vector<int>{2, 3}));
+  // A robot that is not present says nothing, the flag included.
+  EXPECT_FALSE(picture.picture(kT0 + 2'000'000).robots[2].twin_ambiguous);
+}
+
 TEST(teamcomm_picture, WhenTwoDisagreeTheMoreCertainWins) {
   TeamPicture picture(1);
   Report a = report(0.0, 0.0, kT0);
@@ -164,6 +184,7 @@ TEST(teamcomm_team_state, MessageCarriesEveryField) {
     r.round_trip_us = 4000 + i;
     r.packets_received = 100 * i;
     r.packets_rejected = 7 * i;
+    r.twin_ambiguous = i % 2 == 1;
   }
   s.team_ball_valid = true;
   s.team_ball_x = 1.5;
@@ -192,6 +213,7 @@ TEST(teamcomm_team_state, MessageCarriesEveryField) {
     EXPECT_EQ(a.round_trip_us, b.round_trip_us);
     EXPECT_EQ(a.packets_received, b.packets_received);
     EXPECT_EQ(a.packets_rejected, b.packets_rejected);
+    EXPECT_EQ(a.twin_ambiguous, b.twin_ambiguous);
   }
   EXPECT_EQ(back.team_ball_valid, true);
   EXPECT_EQ(back.team_ball_x, 1.5);

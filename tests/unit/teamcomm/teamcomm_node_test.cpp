@@ -225,6 +225,27 @@ TEST(teamcomm_node, ThreeRobotsShareThePictureAndLearnEachOthersClocks) {
   EXPECT_NEAR(e->drift_ppm, 50.0, 25.0);
 }
 
+TEST(teamcomm_node, TeammatesLearnWhenARobotMayBeOnItsTwin) {
+  Team team({{0, 0.0}, {120'000, 10.0}, {-80'000, 0.0}});
+  team.run(2.0);
+  ASSERT_FALSE(team.robots[0]->states.back().robots[2].twin_ambiguous);
+  // Robot 3's fusion now says its pose may be the symmetric twin (ROBOT_STATE.twin_ambiguous).
+  team.robots[2]->pose.twin_ambiguous = true;
+  team.run(1.0);
+  for (std::size_t i = 0; i < 3; ++i) {
+    const perception::TeamState& s = team.robots[i]->states.back();
+    EXPECT_TRUE(s.robots[2].twin_ambiguous) << "robot " << i + 1;
+    EXPECT_TRUE(s.robots[2].ball_valid) << "robot " << i + 1;
+    const std::size_t sure = i == 0 ? 1 : 0;  // a robot sure of its pose, not robot i itself
+    EXPECT_FALSE(s.robots[sure].twin_ambiguous) << "robot " << i + 1;
+    EXPECT_EQ(team.robots[i]->team.counters().rejectedTotal(), 0);
+  }
+  // Resolved: the flag clears.
+  team.robots[2]->pose.twin_ambiguous = false;
+  team.run(1.0);
+  EXPECT_FALSE(team.robots[0]->states.back().robots[2].twin_ambiguous);
+}
+
 TEST(teamcomm_node, ForgedReplayedAndBrokenPacketsChangeNothing) {
   Team team({{0, 0.0}, {250'000, 20.0}});
   team.run(3.0);
