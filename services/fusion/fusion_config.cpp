@@ -99,6 +99,11 @@ void loadLocalizer(const config::Node& n, LocalizerParams& p) {
   if (p.lost_cost_m < p.accept_cost_m) {
     n.fail("lost_cost_m", "must be at least accept_cost_m");
   }
+  // A hypothesis close enough to be fused must not also count as contradicting the estimate.
+  if (p.contradict_m < p.feature_gate_m) {
+    n.fail(n.has("contradict_m") ? "contradict_m" : "feature_gate_m",
+           "contradict_m must be at least feature_gate_m");
+  }
 }
 
 void loadCalibration(const config::Node& n, LocalizerParams& p) {
