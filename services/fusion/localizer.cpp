@@ -717,8 +717,10 @@ void Localizer::processFeatures(const perception::FieldFeatures& features, Utime
   }
   const geometry::Pose2 e = est->pose();
   // One measurement per frame (the filter keeps one per utime and channel, gated or not: a second
-  // hypothesis of the same frame was refused as a duplicate, and counted as bad input): the
-  // hypothesis nearest the estimate among those within the feature gate.
+  // hypothesis of the same frame was refused as a duplicate, and counted as bad input): among
+  // those within the feature gate, the hypothesis nearest the estimate in the metric of the
+  // innovation's covariance (estimate's plus hypothesis's), the one the filter finds likeliest.
+  const Eigen::Matrix3d estimate_covariance = est->p.topLeftCorner<3, 3>();
   const perception::PoseHypothesis* nearest = nullptr;
   double nearest_distance = 0.0;
   bool all_far = true;
@@ -728,8 +730,15 @@ void Localizer::processFeatures(const perception::FieldFeatures& features, Utime
       continue;
     }
     if (near(ph.pose, e, params_.feature_gate_m, params_.feature_gate_rad)) {
-      const double distance = std::hypot(ph.pose.x - e.x, ph.pose.y - e.y) +
-                              0.2 * std::abs(geometry::angleDiff(ph.pose.phi, e.phi));
+      const Eigen::Vector3d innovation(ph.pose.x - e.x, ph.pose.y - e.y,
+                                       geometry::angleDiff(ph.pose.phi, e.phi));
+      const Eigen::Matrix3d s =
+          estimate_covariance + Eigen::Vector3d(ph.sigma_xy * ph.sigma_xy,
+                                                ph.sigma_xy * ph.sigma_xy,
+                                                ph.sigma_phi * ph.sigma_phi)
+                                    .asDiagonal()
+                                    .toDenseMatrix();
+      const double distance = innovation.dot(s.ldlt().solve(innovation));
       if (!nearest || distance < nearest_distance) {
         nearest = &ph;
         nearest_distance = distance;

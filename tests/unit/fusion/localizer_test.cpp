@@ -153,6 +153,34 @@ TEST(Localizer, AFrameWithSeveralCloseFeatureHypothesesIsOneMeasurement) {
   EXPECT_EQ(rejected.at("features_gated"), 1u);
 }
 
+TEST(Localizer, OfSeveralHypothesesTheLikeliestByTheCovariancesIsFused) {
+  // Two hypotheses within the feature gate: one 5 cm off but turned by 0.3 rad, one 12 cm off
+  // with the right heading. By metres (plus 0.2 m per rad, the old choice) the turned one is
+  // nearer, and the filter's gate refuses it; by the innovation's covariance (a tracking
+  // estimate's heading is good to a few hundredths of a radian) the other is far likelier.
+  Drive d({-3.0, 1.2, 0.4});
+  d.run(1.5, {});
+  ASSERT_EQ(d.localizer.mode(), perception::LocalizationStatus::kTracking);
+  const auto& [frame_utime, frame_truth] = d.history[d.history.size() - 2];
+  geometry::Pose2 turned = frame_truth;
+  turned.x += 0.05;
+  turned.phi += 0.3;
+  geometry::Pose2 shifted = frame_truth;
+  shifted.y += 0.12;
+  perception::FieldFeatures features;
+  features.hypotheses.push_back({0, turned, 0.05, 0.03});
+  features.hypotheses.push_back({1, shifted, 0.05, 0.03});
+  const auto updates = d.localizer.counters().feature_updates;
+  d.localizer.addFeatures(features, frame_utime + 1, d.t + 8'000);
+  const auto& rejected = d.localizer.counters().rejected;
+  EXPECT_EQ(rejected.count("features_gated"), 0u);
+  EXPECT_EQ(d.localizer.counters().feature_updates, updates + 1);
+  // The turned one alone is refused by the filter's gate.
+  features.hypotheses.pop_back();
+  d.localizer.addFeatures(features, frame_utime + 2, d.t + 8'000);
+  EXPECT_EQ(rejected.at("features_gated"), 1u);
+}
+
 TEST(Localizer, TracksADriveAndReportsOdometryOnlyWhenTheLinesStop) {
   Drive d({-2.0, -1.0, 0.0});
   d.run(1.0, {});
