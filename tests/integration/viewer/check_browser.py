@@ -97,6 +97,18 @@ def published(path=robot3_path):
     return messages
 
 
+# The viewer starts with the team: chromium opened before its server listened showed an error page
+# under the viewer's address and never loaded the viewer (one run in six or seven).
+deadline = time.monotonic() + 30
+while True:
+    try:
+        with urllib.request.urlopen(f"http://127.0.0.1:{port}/", timeout=2):
+            break
+    except OSError:
+        if time.monotonic() > deadline:
+            sys.exit(f"FAIL: the viewer did not answer on port {port} within 30 s")
+        time.sleep(0.2)
+
 browser = subprocess.Popen(
     [chromium, "--headless", "--no-sandbox", "--disable-gpu", "--hide-scrollbars",
      f"--remote-debugging-port={DEVTOOLS_PORT}", f"--user-data-dir={work_dir}/profile",
@@ -108,9 +120,13 @@ try:
     while devtools is None and time.monotonic() < deadline:
         try:
             with urllib.request.urlopen(f"http://127.0.0.1:{DEVTOOLS_PORT}/json", timeout=2) as r:
-                pages = [t for t in json.load(r) if t.get("type") == "page"]
+                # The viewer's own page (chromium may list a blank one first).
+                pages = [t for t in json.load(r) if t.get("type") == "page" and
+                         t.get("url", "").startswith(f"http://127.0.0.1:{port}/")]
             if pages:
                 devtools = DevTools(pages[0]["webSocketDebuggerUrl"])
+            else:
+                time.sleep(0.5)
         except OSError:
             time.sleep(0.5)
     if devtools is None:
@@ -183,7 +199,7 @@ if not same:
                     f"({len(messages)} heard)")
 else:
     msg = same[0]["message"]
-    for key in ("x", "y", "phi", "status"):
+    for key in ("x", "y", "phi", "status", "twin_ambiguous"):
         if msg[key] != mine[key]:
             failures.append(f"drawn {key} {mine[key]!r}, published {msg[key]!r}")
 before = [m for m in messages if m["receive_utime"] <= drawn["utime"]]

@@ -137,12 +137,13 @@ function drawState(v) {
       drawEllipse(v, rs.x, rs.y, k[0], k[1], k[4], colour);
       drawRobot(v, rs.x, rs.y, rs.phi, radius, STATUS_COLOURS[rs.status] || "#888", colour, false);
       drawn.push({ id: robot.id, x: rs.x, y: rs.y, phi: rs.phi, status: rs.status,
-                   utime: rs.utime, seq: rs.seq });
+                   twin_ambiguous: rs.twin_ambiguous, utime: rs.utime, seq: rs.seq });
       ctx.fillStyle = "#000000";
       ctx.font = "bold 12px sans-serif";
       ctx.textAlign = "center";
       ctx.textBaseline = "middle";
-      ctx.fillText(String(robot.id), v.px(rs.x), v.py(rs.y));
+      // "3?": the pose may be its symmetric twin through the centre spot (nothing told them apart).
+      ctx.fillText(String(robot.id) + (rs.twin_ambiguous ? "?" : ""), v.px(rs.x), v.py(rs.y));
       const lines = robot.vision_lines;
       if (robot.id === selected && lines) {
         // Robot-frame points placed at the estimated pose: a wrong estimate shows at once.
