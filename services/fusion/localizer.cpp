@@ -718,11 +718,13 @@ void Localizer::processFeatures(const perception::FieldFeatures& features, Utime
   const geometry::Pose2 e = est->pose();
   // One measurement per frame (the filter keeps one per utime and channel, gated or not: a second
   // hypothesis of the same frame was refused as a duplicate, and counted as bad input): among
-  // those within the feature gate, the hypothesis nearest the estimate in the metric of the
-  // innovation's covariance (estimate's plus hypothesis's), the one the filter finds likeliest.
+  // those within the feature gate, the likeliest given the estimate: the smallest negative log
+  // likelihood of its innovation (Mahalanobis distance squared plus ln det of the innovation's
+  // covariance, the estimate's plus the hypothesis's), so a vague hypothesis does not win over a
+  // precise one merely by being vague.
   const Eigen::Matrix3d estimate_covariance = est->p.topLeftCorner<3, 3>();
-  const perception::PoseHypothesis* nearest = nullptr;
-  double nearest_distance = 0.0;
+  const perception::PoseHypothesis* likeliest = nullptr;
+  double likeliest_cost = 0.0;
   bool all_far = true;
   for (const perception::PoseHypothesis& ph : features.hypotheses) {
     if (!geometry::isFinite(ph.pose) || !(ph.sigma_xy > 0) || !(ph.sigma_phi > 0)) {
@@ -732,16 +734,15 @@ void Localizer::processFeatures(const perception::FieldFeatures& features, Utime
     if (near(ph.pose, e, params_.feature_gate_m, params_.feature_gate_rad)) {
       const Eigen::Vector3d innovation(ph.pose.x - e.x, ph.pose.y - e.y,
                                        geometry::angleDiff(ph.pose.phi, e.phi));
-      const Eigen::Matrix3d s =
-          estimate_covariance + Eigen::Vector3d(ph.sigma_xy * ph.sigma_xy,
-                                                ph.sigma_xy * ph.sigma_xy,
-                                                ph.sigma_phi * ph.sigma_phi)
-                                    .asDiagonal()
-                                    .toDenseMatrix();
-      const double distance = innovation.dot(s.ldlt().solve(innovation));
-      if (!nearest || distance < nearest_distance) {
-        nearest = &ph;
-        nearest_distance = distance;
+      Eigen::Matrix3d s = estimate_covariance;
+      s.diagonal() += Eigen::Vector3d(ph.sigma_xy * ph.sigma_xy, ph.sigma_xy * ph.sigma_xy,
+                                      ph.sigma_phi * ph.sigma_phi);
+      const Eigen::LDLT<Eigen::Matrix3d> ldlt(s);
+      const double cost =
+          innovation.dot(ldlt.solve(innovation)) + ldlt.vectorD().array().log().sum();
+      if (!likeliest || cost < likeliest_cost) {
+        likeliest = &ph;
+        likeliest_cost = cost;
       }
     }
     const double d = std::min(std::hypot(ph.pose.x - e.x, ph.pose.y - e.y),
@@ -749,13 +750,13 @@ void Localizer::processFeatures(const perception::FieldFeatures& features, Utime
     if (d <= params_.contradict_m || ph.sigma_xy > 0.3) all_far = false;
   }
   bool fused = false;
-  if (nearest) {
+  if (likeliest) {
     PoseMeasurement z;
     z.utime = utime;
-    z.pose = nearest->pose;
-    z.covariance = Eigen::Vector3d(nearest->sigma_xy * nearest->sigma_xy,
-                                   nearest->sigma_xy * nearest->sigma_xy,
-                                   nearest->sigma_phi * nearest->sigma_phi)
+    z.pose = likeliest->pose;
+    z.covariance = Eigen::Vector3d(likeliest->sigma_xy * likeliest->sigma_xy,
+                                   likeliest->sigma_xy * likeliest->sigma_xy,
+                                   likeliest->sigma_phi * likeliest->sigma_phi)
                        .asDiagonal();
     const auto r = filter_.addPose(MeasurementSource::kFeatures, z, now);
     if (r.rejection == Rejection::kNone) {

@@ -124,7 +124,8 @@ struct LocalizerParams {
   double feature_gate_m = 0.6;
   double feature_gate_rad = 0.4;
   // A confident feature hypothesis further than this from the estimate (and its twin) contradicts
-  // it, m.
+  // it, m; at least feature_gate_m (the config refuses less: a fused hypothesis would count as a
+  // contradiction).
   double contradict_m = 1.0;
   // Calibration of a layer-2 correction's covariance (the matcher's Hessian is optimistic where
   // the points are few, unevenly spread or partly mismatched): the Hessian's covariance times

@@ -94,7 +94,7 @@ TwinVote TeamBallVoter::vote(const Eigen::Vector2d& ours, double sigma_m, Utime 
   int twin = 0;
   for (const Agreement& a : agreements_) {
     if (a.utime == 0 || std::llabs(utime - a.utime) > params_.evidence_window_us) continue;
-    if (pose_certain && a.twin_ambiguous) continue;
+    if (pose_certain && a.twin_ambiguous && a.kind == TwinVote::kTwin) continue;
     same += a.kind == TwinVote::kSame ? 1 : 0;
     twin += a.kind == TwinVote::kTwin ? 1 : 0;
   }

@@ -63,12 +63,12 @@ class TeamBallVoter {
   // one that agrees with no teammate's ball (nor its mirror image); one that does votes by the
   // teammates that agreed within the window, by more than two to one. At most one vote per team
   // picture: the teammates' evidence changes with the picture, not with our frame rate.
-  // `pose_certain`: our pose is not ambiguous. Then teammates that report their own pose as
-  // possibly its twin (TEAM_STATE robot_twin_ambiguous) do not count: their balls may be
-  // mirrored, and only robots sure of their poses may doubt a certain one. An ambiguous pose
-  // hears every teammate (at start-up all are ambiguous and confirm each other).
-  TwinVote vote(const Eigen::Vector2d& ours, double sigma_m, Utime utime,
-                bool pose_certain = false);
+  // `pose_certain`: our pose is not ambiguous. Then a teammate that reports its own pose as
+  // possibly its twin (TEAM_STATE robot_twin_ambiguous) does not count against ours (its ball
+  // may be mirrored: only robots sure of their poses may doubt a certain one); its agreement
+  // with our ball still counts for it. An ambiguous pose hears every teammate (at start-up all
+  // are ambiguous and confirm each other).
+  TwinVote vote(const Eigen::Vector2d& ours, double sigma_m, Utime utime, bool pose_certain);
   // Forgets the agreements: the pose they were judged with changed (a commit, a move to the twin).
   void clearEvidence();
   // Teammates' balls usable at `utime` (for tests).

@@ -145,10 +145,15 @@ TEST(FusionConfig, TyposAndBadValuesNameFileAndLine) {
   EXPECT_NE(errorOf("localizer:\n  accept_cost_m: 0.2\n  lost_cost_m: 0.1\n").find("lost_cost_m"),
             std::string::npos);
   // A feature hypothesis close enough to be fused cannot contradict the estimate.
+  // The error names the key that was set, on its line.
   const std::string gate = errorOf("localizer:\n  feature_gate_m: 1.2\n");
-  EXPECT_NE(gate.find("feature_gate_m"), std::string::npos) << gate;
-  EXPECT_NE(gate.find("contradict_m must be at least"), std::string::npos) << gate;
-  EXPECT_NE(errorOf("localizer:\n  contradict_m: 0.5\n").find("contradict_m"), std::string::npos);
+  EXPECT_NE(gate.find("fusion.yaml:2: localizer.feature_gate_m: contradict_m must be at least"),
+            std::string::npos)
+      << gate;
+  const std::string contradict =
+      errorOf("localizer:\n  feature_gate_m: 0.5\n  contradict_m: 0.4\n");
+  EXPECT_NE(contradict.find("fusion.yaml:3: localizer.contradict_m"), std::string::npos)
+      << contradict;
   EXPECT_EQ(errorOf("localizer:\n  feature_gate_m: 1.2\n  contradict_m: 1.5\n"), "");
   // A Huber bound on the gyro's heading at or beyond the gate (every such frame gated first).
   const std::string huber =

@@ -366,5 +366,44 @@ TEST(FusionNode, TeammatesBallsConfirmTheStartUpHalf) {
   }
 }
 
+// Once the half is confirmed, teammates that flag their own poses as possibly the twin and see the
+// ball mirrored cannot doubt it; teammates sure of their poses can.
+TEST(FusionNode, OnlyTeammatesSureOfTheirPosesDoubtACertainHalf) {
+  Rig rig;
+  const auto publishTeam = [&rig](double ball_x, double ball_y, bool flagged) {
+    perception::TeamState team;
+    team.utime = rig.clock.now();
+    for (const std::size_t k : {0u, 4u}) {  // robots 1 and 5; this one is robot 3
+      perception::TeammateState& r = team.robots[k];
+      r.present = r.ball_valid = true;
+      r.twin_ambiguous = flagged;
+      r.ball_x = ball_x;
+      r.ball_y = ball_y;
+      r.ball_age_us = 50'000;
+    }
+    team_state_t m{};
+    msg::toMessage(team, m);
+    rig.sensors.publish(bus::channels::kTeamState, m);
+  };
+  int i = 0;
+  for (; i < 80; ++i) {
+    if (i % 5 == 0) publishTeam(-1.0, 2.0, false);
+    rig.period(i, true, true);
+  }
+  const Localizer& l = rig.fusion.localizer();
+  ASSERT_FALSE(l.ambiguous());
+  for (; i < 200; ++i) {
+    if (i % 5 == 0) publishTeam(1.0, -2.0, true);
+    rig.period(i, true, true);
+  }
+  EXPECT_FALSE(l.ambiguous());
+  EXPECT_EQ(l.counters().twin_doubted_by_team, 0u);
+  for (; i < 320; ++i) {
+    if (i % 5 == 0) publishTeam(1.0, -2.0, false);
+    rig.period(i, true, true);
+  }
+  EXPECT_GE(l.counters().twin_doubted_by_team, 1u);
+}
+
 }  // namespace
 }  // namespace fieldline::fusion

@@ -181,6 +181,29 @@ TEST(Localizer, OfSeveralHypothesesTheLikeliestByTheCovariancesIsFused) {
   EXPECT_EQ(rejected.at("features_gated"), 1u);
 }
 
+TEST(Localizer, AVagueHypothesisDoesNotWinOverAPreciseOne) {
+  // A precise hypothesis 10 cm off and a vague one (1 m, 0.5 rad) 30 cm off: by the Mahalanobis
+  // distance alone the vague one is nearer; the likelihood (which counts the covariance's size)
+  // prefers the precise one. The pair gives exactly what the precise one alone gives.
+  const auto fused = [](bool with_vague) {
+    Drive d({-3.0, 1.2, 0.4});
+    d.run(1.5, {});
+    const auto& [frame_utime, frame_truth] = d.history[d.history.size() - 2];
+    geometry::Pose2 precise = frame_truth, vague = frame_truth;
+    precise.y += 0.10;
+    vague.y -= 0.30;
+    perception::FieldFeatures features;
+    if (with_vague) features.hypotheses.push_back({0, vague, 1.0, 0.5});
+    features.hypotheses.push_back({1, precise, 0.05, 0.03});
+    d.localizer.addFeatures(features, frame_utime + 1, d.t + 8'000);
+    return d.localizer.estimate(d.t).pose;
+  };
+  const geometry::Pose2 pair = fused(true), alone = fused(false);
+  EXPECT_EQ(pair.x, alone.x);
+  EXPECT_EQ(pair.y, alone.y);
+  EXPECT_EQ(pair.phi, alone.phi);
+}
+
 TEST(Localizer, TracksADriveAndReportsOdometryOnlyWhenTheLinesStop) {
   Drive d({-2.0, -1.0, 0.0});
   d.run(1.0, {});
@@ -312,8 +335,8 @@ void voteWithTeam(Drive& d, const Eigen::Vector2d& teammates_ball, const Eigen::
     const auto s = d.localizer.stateAt(d.t);
     ASSERT_TRUE(s.has_value());
     const geometry::Vec2 seen = geometry::pointFieldToRobot(d.truth, ball);
-    d.localizer.addTwinVote(voter.vote(geometry::pointRobotToField(s->pose(), seen), 0.05, d.t),
-                            d.t);
+    const geometry::Vec2 ours = geometry::pointRobotToField(s->pose(), seen);
+    d.localizer.addTwinVote(voter.vote(ours, 0.05, d.t, !d.localizer.ambiguous()), d.t);
   }
 }
 

@@ -35,22 +35,22 @@ TEST(TeamBallVoter, TwoTeammatesTellTheHalf) {
   const Eigen::Vector2d ball(3.0, -1.0);
   voter.setTeam(teamSeeing(ball, {2, 4}));
   // Neither: our ball is somewhere else (a false sighting, or theirs).
-  EXPECT_EQ(voter.vote({0.0, 3.5}, kSigma, kT), TwinVote::kNone);
-  EXPECT_EQ(voter.vote(ball + Eigen::Vector2d(0.2, 0.1), kSigma, kT), TwinVote::kSame);
+  EXPECT_EQ(voter.vote({0.0, 3.5}, kSigma, kT, false), TwinVote::kNone);
+  EXPECT_EQ(voter.vote(ball + Eigen::Vector2d(0.2, 0.1), kSigma, kT, false), TwinVote::kSame);
   // One vote per picture: the teammates' evidence is the same until the next one.
-  EXPECT_EQ(voter.vote(ball, kSigma, kT + 30'000), TwinVote::kNone);
+  EXPECT_EQ(voter.vote(ball, kSigma, kT + 30'000, false), TwinVote::kNone);
   // Seen from the twin our ball lands at minus where they see it. (The agreements just made
   // count for the window, so they are forgotten first: the pose changed.)
   voter.clearEvidence();
   voter.setTeam(teamSeeing(ball, {2, 4}, kT + 100'000));
-  EXPECT_EQ(voter.vote(-ball, kSigma, kT + 100'000), TwinVote::kTwin);
+  EXPECT_EQ(voter.vote(-ball, kSigma, kT + 100'000, false), TwinVote::kTwin);
   // A teammate's newer agreement replaces its older one.
   voter.setTeam(teamSeeing(ball, {2, 4}, kT + 200'000));
-  EXPECT_EQ(voter.vote(ball, kSigma, kT + 200'000), TwinVote::kSame);
+  EXPECT_EQ(voter.vote(ball, kSigma, kT + 200'000, false), TwinVote::kSame);
   // A sighting less sure than max_sighting_sigma_m has no say.
   voter.setTeam(teamSeeing(ball, {2, 4}, kT + 300'000));
-  EXPECT_EQ(voter.vote(ball, 0.4, kT + 300'000), TwinVote::kNone);
-  EXPECT_EQ(voter.vote(ball, std::numeric_limits<double>::quiet_NaN(), kT + 300'000),
+  EXPECT_EQ(voter.vote(ball, 0.4, kT + 300'000, false), TwinVote::kNone);
+  EXPECT_EQ(voter.vote(ball, std::numeric_limits<double>::quiet_NaN(), kT + 300'000, false),
             TwinVote::kNone);
 }
 
@@ -60,15 +60,15 @@ TEST(TeamBallVoter, TeammatesWhoSeeTheBallInTurnAddUpWithinTheWindow) {
   // Robot 2 sees it, then only robot 3 (they block each other's view): neither picture alone has
   // two teammates, the window has.
   voter.setTeam(teamSeeing(ball, {2}));
-  EXPECT_EQ(voter.vote(-ball, kSigma, kT), TwinVote::kNone);
+  EXPECT_EQ(voter.vote(-ball, kSigma, kT, false), TwinVote::kNone);
   voter.setTeam(teamSeeing(ball, {3}, kT + 1'500'000));
-  EXPECT_EQ(voter.vote(-ball, kSigma, kT + 1'500'000), TwinVote::kTwin);
+  EXPECT_EQ(voter.vote(-ball, kSigma, kT + 1'500'000, false), TwinVote::kTwin);
   // Beyond the window robot 2's agreement is forgotten.
   voter.setTeam(teamSeeing(ball, {3}, kT + 2'500'000));
-  EXPECT_EQ(voter.vote(-ball, kSigma, kT + 2'500'000), TwinVote::kNone);
+  EXPECT_EQ(voter.vote(-ball, kSigma, kT + 2'500'000, false), TwinVote::kNone);
   // A sighting that agrees with no teammate has no say, whatever the window holds.
   voter.setTeam(teamSeeing(ball, {2, 3}, kT + 2'600'000));
-  EXPECT_EQ(voter.vote({4.0, -3.0}, kSigma, kT + 2'600'000), TwinVote::kNone);
+  EXPECT_EQ(voter.vote({4.0, -3.0}, kSigma, kT + 2'600'000, false), TwinVote::kNone);
 }
 
 TEST(TeamBallVoter, OnlyTeammatesSureOfTheirPosesCanDoubtACertainPose) {
@@ -99,21 +99,32 @@ TEST(TeamBallVoter, OnlyTeammatesSureOfTheirPosesCanDoubtACertainPose) {
   EXPECT_EQ(mixed.vote(ball, kSigma, kT + 500'000, true), TwinVote::kNone);  // robot 3 alone
   mixed.setTeam(teamSeeing(-ball, {4}, kT + 900'000));
   EXPECT_EQ(mixed.vote(ball, kSigma, kT + 900'000, true), TwinVote::kTwin);  // robots 3 and 4
+  // A teammate unsure of its own pose that sees the ball where we do still counts for us: three
+  // such veto two sure teammates that see it mirrored.
+  TeamBallVoter vetoed(1);
+  perception::TeamState with = teamSeeing(ball, {2, 3, 4});
+  for (const std::size_t k : {1u, 2u, 3u})
+    with.robots[k].twin_ambiguous = true;
+  const perception::TeamState against = teamSeeing(-ball, {5, 6}, kT + 100'000);
+  vetoed.setTeam(with);
+  EXPECT_EQ(vetoed.vote(ball, kSigma, kT, true), TwinVote::kSame);
+  vetoed.setTeam(against);
+  EXPECT_EQ(vetoed.vote(ball, kSigma, kT + 100'000, true), TwinVote::kNone);
 }
 
 TEST(TeamBallVoter, NoSayNearTheCentreWithOneTeammateOrASplitTeam) {
   TeamBallVoter voter(1);
   // Near the centre spot a ball and its mirror image are within reach of one another.
   voter.setTeam(teamSeeing({0.4, 0.3}, {2, 3, 4}));
-  EXPECT_EQ(voter.vote({0.4, 0.3}, kSigma, kT), TwinVote::kNone);
+  EXPECT_EQ(voter.vote({0.4, 0.3}, kSigma, kT, false), TwinVote::kNone);
   // One teammate alone does not decide.
   TeamBallVoter alone(1);
   alone.setTeam(teamSeeing({3.0, 1.0}, {2}));
-  EXPECT_EQ(alone.vote({3.0, 1.0}, kSigma, kT), TwinVote::kNone);
+  EXPECT_EQ(alone.vote({3.0, 1.0}, kSigma, kT, false), TwinVote::kNone);
   // Our own entry (robot 1) is not a teammate.
   TeamBallVoter self(1);
   self.setTeam(teamSeeing({3.0, 1.0}, {1, 2}));
-  EXPECT_EQ(self.vote({3.0, 1.0}, kSigma, kT), TwinVote::kNone);
+  EXPECT_EQ(self.vote({3.0, 1.0}, kSigma, kT, false), TwinVote::kNone);
   // Two for one side and one for the other (a teammate on its own twin): no clear majority.
   TeamBallVoter split_voter(1);
   perception::TeamState split = teamSeeing({3.0, 1.0}, {2, 3});
@@ -121,12 +132,12 @@ TEST(TeamBallVoter, NoSayNearTheCentreWithOneTeammateOrASplitTeam) {
   split.robots[4].ball_x = -3.0;
   split.robots[4].ball_y = -1.0;
   split_voter.setTeam(split);
-  EXPECT_EQ(split_voter.vote({3.0, 1.0}, kSigma, kT), TwinVote::kNone);
+  EXPECT_EQ(split_voter.vote({3.0, 1.0}, kSigma, kT, false), TwinVote::kNone);
   // Three to one is.
   split.robots[5] = split.robots[1];
   split.utime = kT + 100'000;
   split_voter.setTeam(split);
-  EXPECT_EQ(split_voter.vote({3.0, 1.0}, kSigma, kT + 100'000), TwinVote::kSame);
+  EXPECT_EQ(split_voter.vote({3.0, 1.0}, kSigma, kT + 100'000, false), TwinVote::kSame);
 }
 
 TEST(TeamBallVoter, StaleBallsAndDistantPicturesHaveNoSay) {
@@ -134,11 +145,11 @@ TEST(TeamBallVoter, StaleBallsAndDistantPicturesHaveNoSay) {
   perception::TeamState team = teamSeeing({3.0, 1.0}, {2, 3});
   team.robots[2].ball_age_us = 900'000;  // over max_ball_age_us
   voter.setTeam(team);
-  EXPECT_EQ(voter.vote({3.0, 1.0}, kSigma, kT), TwinVote::kNone);
+  EXPECT_EQ(voter.vote({3.0, 1.0}, kSigma, kT, false), TwinVote::kNone);
   TeamBallVoter fresh(1);
   fresh.setTeam(teamSeeing({3.0, 1.0}, {2, 3}));
-  EXPECT_EQ(fresh.vote({3.0, 1.0}, kSigma, kT + 400'000), TwinVote::kNone);
-  EXPECT_EQ(fresh.vote({3.0, 1.0}, kSigma, kT + 100'000), TwinVote::kSame);
+  EXPECT_EQ(fresh.vote({3.0, 1.0}, kSigma, kT + 400'000, false), TwinVote::kNone);
+  EXPECT_EQ(fresh.vote({3.0, 1.0}, kSigma, kT + 100'000, false), TwinVote::kSame);
 }
 
 TEST(TeamBallVoter, CarriesTheTeammatesBallsWithTheTeamBallsVelocity) {
@@ -147,8 +158,8 @@ TEST(TeamBallVoter, CarriesTheTeammatesBallsWithTheTeamBallsVelocity) {
   team.team_ball_valid = true;
   team.team_ball_vx = -4.0;  // a kicked ball: 0.8 m in the 0.2 s to our sighting
   voter.setTeam(team);
-  EXPECT_EQ(voter.vote({3.0, 1.0}, kSigma, kT + 200'000), TwinVote::kNone);
-  EXPECT_EQ(voter.vote({2.2, 1.0}, kSigma, kT + 200'000), TwinVote::kSame);
+  EXPECT_EQ(voter.vote({3.0, 1.0}, kSigma, kT + 200'000, false), TwinVote::kNone);
+  EXPECT_EQ(voter.vote({2.2, 1.0}, kSigma, kT + 200'000, false), TwinVote::kSame);
 }
 
 TEST(TeamBallVoter, RefusesBadPicturesCountsThemAndChangesNothing) {
@@ -157,7 +168,7 @@ TEST(TeamBallVoter, RefusesBadPicturesCountsThemAndChangesNothing) {
   // An older picture after a newer one: refused, the newer one stays.
   voter.setTeam(teamSeeing({-3.0, -1.0}, {2, 3}, kT - 1));
   EXPECT_EQ(voter.refusals().at("team_state_out_of_order"), 1u);
-  EXPECT_EQ(voter.vote({3.0, 1.0}, kSigma, kT), TwinVote::kSame);
+  EXPECT_EQ(voter.vote({3.0, 1.0}, kSigma, kT, false), TwinVote::kSame);
   // A NaN ball and a negative age are left out and counted; the others still vote.
   perception::TeamState bad = teamSeeing({3.0, 1.0}, {2, 3, 4, 5}, kT + 100'000);
   bad.robots[3].ball_x = std::numeric_limits<double>::quiet_NaN();
@@ -170,10 +181,11 @@ TEST(TeamBallVoter, RefusesBadPicturesCountsThemAndChangesNothing) {
   EXPECT_EQ(voter.refusals().at("team_velocity_not_finite"), 1u);
   EXPECT_EQ(voter.teammateBalls(kT + 150'000).size(), 2u);
   EXPECT_EQ(voter.teammateBalls(kT + 150'000)[0], Eigen::Vector2d(3.0, 1.0));  // not carried
-  EXPECT_EQ(voter.vote({3.0, 1.0}, kSigma, kT + 100'000), TwinVote::kSame);
+  EXPECT_EQ(voter.vote({3.0, 1.0}, kSigma, kT + 100'000, false), TwinVote::kSame);
   // And our own NaN has no say.
-  EXPECT_EQ(voter.vote({std::numeric_limits<double>::quiet_NaN(), 1.0}, kSigma, kT + 100'000),
-            TwinVote::kNone);
+  EXPECT_EQ(
+      voter.vote({std::numeric_limits<double>::quiet_NaN(), 1.0}, kSigma, kT + 100'000, false),
+      TwinVote::kNone);
 }
 
 TEST(TeamBallVoter, RefusesBadSettingsAndRobotIds) {
