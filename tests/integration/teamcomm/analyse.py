@@ -20,6 +20,12 @@ def truth(i, j, t):
     return (offsets[j] - offsets[i]) + (drifts[j] - drifts[i]) * 1e-6 * (t - reference)
 
 
+def picture_time(r, utime):
+    """System time of robot r's clock reading utime (the inverse of its offset and drift)."""
+    d = drifts[r] * 1e-6
+    return (utime - offsets[r] + d * reference) / (1 + d)
+
+
 def p95(values):
     values = sorted(values)
     return values[min(len(values) - 1, int(0.95 * len(values)))] if values else float("nan")
@@ -67,14 +73,18 @@ print(f"teammate age at 30 % loss: p95 {p95(ages) / 1e3:.1f} ms, max {max(ages) 
 if not ages or p95(ages) > 250_000:
     failures.append(f"age p95 {p95(ages)} us >= 250 ms under loss")
 
-# 3. The partition {1,2,3} | {4,5,6} from 22 s is reported, and healed within 1 s of 25 s.
+# 3. The partition {1,2,3} | {4,5,6} from 22 s is reported, and healed within 1 s of 25 s. Judged
+# at each picture's own time (its stamp on the robot's clock, taken back to system time), not at
+# its arrival at the probe: on a loaded machine the probe read pictures up to a second late, and
+# pictures from before the partition arrived inside it.
 for r, recs in states.items():
     side = {1, 2, 3} if r <= 3 else {4, 5, 6}
-    during = [s for s in recs if at(23) <= s["t"] <= at(24.9)]
+    during = [s for s in recs if at(23) <= picture_time(r, s["utime"]) <= at(24.9)]
     bad = [s for s in during if any(s["present"][j - 1] != (j in side) for j in range(1, 7))]
     if not during or bad:
         failures.append(f"robot {r}: partition not reported ({len(bad)} of {len(during)} wrong)")
-    healed = next((s["t"] for s in recs if s["t"] >= at(25) and sum(s["present"]) == 6), None)
+    healed = next((picture_time(r, s["utime"]) for s in recs
+                   if picture_time(r, s["utime"]) >= at(25) and sum(s["present"]) == 6), None)
     if healed is None or healed - at(25) > 1_000_000:
         failures.append(f"robot {r}: not healed within 1 s ({healed and (healed - at(25)) / 1e6} s)")
     else:
