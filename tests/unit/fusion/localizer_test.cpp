@@ -7,6 +7,7 @@
 #include <cmath>
 #include <numbers>
 #include <random>
+#include <tuple>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -128,29 +129,51 @@ TEST(Localizer, TheFeaturesOfTheFrameACommitCameFromAreNoBadInput) {
   EXPECT_GE(rejected.count("features_too_old"), 1u);
 }
 
+// A drive tracking for 1.5 s and a frame odometry has passed (a newer one would wait for it):
+// feed() gives that frame feature hypotheses, each call at its own utime (the filter keeps one
+// measurement per utime), placed relative to the frame's true pose.
+struct FeatureFrame {
+  FeatureFrame() : d({-3.0, 1.2, 0.4}) {
+    d.run(1.5, {});
+    EXPECT_EQ(d.localizer.mode(), perception::LocalizationStatus::kTracking);
+    std::tie(utime, truth) = d.history[d.history.size() - 2];
+  }
+  struct Offset {
+    double dx = 0, dy = 0, dphi = 0, sigma_xy = 0.05, sigma_phi = 0.03;
+  };
+  void feed(std::initializer_list<Offset> offsets) {
+    perception::FieldFeatures features;
+    int id = 0;
+    for (const Offset& o : offsets) {
+      features.hypotheses.push_back(
+          {id++, {truth.x + o.dx, truth.y + o.dy, truth.phi + o.dphi}, o.sigma_xy, o.sigma_phi});
+    }
+    d.localizer.addFeatures(features, utime + ++fed, d.t + 8'000);
+  }
+  std::size_t rejected(const std::string& kind) const {
+    const auto& r = d.localizer.counters().rejected;
+    return r.count(kind) ? r.at(kind) : 0;
+  }
+  Drive d;
+  Utime utime = 0;
+  geometry::Pose2 truth;
+  int fed = 0;
+};
+
 TEST(Localizer, AFrameWithSeveralCloseFeatureHypothesesIsOneMeasurement) {
   // Feature recognition often gives a frame several hypotheses near the estimate (a circle and a
   // corner). The first used to be tried, and when the gate refused it (it stays stored), the
   // next one of the same frame was refused as a duplicate and counted as bad input.
-  Drive d({-3.0, 1.2, 0.4});
-  d.run(1.5, {});
-  ASSERT_EQ(d.localizer.mode(), perception::LocalizationStatus::kTracking);
-  // A frame odometry has passed (a newer one would wait for it).
-  const auto& [frame_utime, frame_truth] = d.history[d.history.size() - 2];
-  perception::FieldFeatures features;
-  geometry::Pose2 off = frame_truth;
-  off.x += 0.4;  // within the feature gate, far beyond the filter's: gated
-  features.hypotheses.push_back({0, off, 0.01, 0.01});
-  features.hypotheses.push_back({1, frame_truth, 0.05, 0.03});
-  d.localizer.addFeatures(features, frame_utime + 1, d.t + 8'000);
-  const auto& rejected = d.localizer.counters().rejected;
-  EXPECT_EQ(rejected.count("features_duplicate"), 0u);
-  EXPECT_EQ(rejected.count("features_gated"), 0u);  // the nearer one was taken
-  EXPECT_GE(d.localizer.counters().feature_updates, 1u);
+  FeatureFrame f;
+  // 0.4 m off: within the feature gate, far beyond the filter's, so gated.
+  const FeatureFrame::Offset off{.dx = 0.4, .sigma_xy = 0.01, .sigma_phi = 0.01};
+  f.feed({off, {}});
+  EXPECT_EQ(f.rejected("features_duplicate"), 0u);
+  EXPECT_EQ(f.rejected("features_gated"), 0u);  // the nearer one was taken
+  EXPECT_GE(f.d.localizer.counters().feature_updates, 1u);
   // The off hypothesis alone is refused by the gate: the pair above is the case that failed.
-  features.hypotheses.pop_back();
-  d.localizer.addFeatures(features, frame_utime + 2, d.t + 8'000);
-  EXPECT_EQ(rejected.at("features_gated"), 1u);
+  f.feed({off});
+  EXPECT_EQ(f.rejected("features_gated"), 1u);
 }
 
 TEST(Localizer, OfSeveralHypothesesTheLikeliestByTheCovariancesIsFused) {
@@ -158,50 +181,31 @@ TEST(Localizer, OfSeveralHypothesesTheLikeliestByTheCovariancesIsFused) {
   // with the right heading. By metres (plus 0.2 m per rad, the old choice) the turned one is
   // nearer, and the filter's gate refuses it; by the innovation's covariance (a tracking
   // estimate's heading is good to a few hundredths of a radian) the other is far likelier.
-  Drive d({-3.0, 1.2, 0.4});
-  d.run(1.5, {});
-  ASSERT_EQ(d.localizer.mode(), perception::LocalizationStatus::kTracking);
-  const auto& [frame_utime, frame_truth] = d.history[d.history.size() - 2];
-  geometry::Pose2 turned = frame_truth;
-  turned.x += 0.05;
-  turned.phi += 0.3;
-  geometry::Pose2 shifted = frame_truth;
-  shifted.y += 0.12;
-  perception::FieldFeatures features;
-  features.hypotheses.push_back({0, turned, 0.05, 0.03});
-  features.hypotheses.push_back({1, shifted, 0.05, 0.03});
-  const auto updates = d.localizer.counters().feature_updates;
-  d.localizer.addFeatures(features, frame_utime + 1, d.t + 8'000);
-  const auto& rejected = d.localizer.counters().rejected;
-  EXPECT_EQ(rejected.count("features_gated"), 0u);
-  EXPECT_EQ(d.localizer.counters().feature_updates, updates + 1);
+  FeatureFrame f;
+  const FeatureFrame::Offset turned{.dx = 0.05, .dphi = 0.3};
+  const auto updates = f.d.localizer.counters().feature_updates;
+  f.feed({turned, {.dy = 0.12}});
+  EXPECT_EQ(f.rejected("features_gated"), 0u);
+  EXPECT_EQ(f.d.localizer.counters().feature_updates, updates + 1);
   // The turned one alone is refused by the filter's gate.
-  features.hypotheses.pop_back();
-  d.localizer.addFeatures(features, frame_utime + 2, d.t + 8'000);
-  EXPECT_EQ(rejected.at("features_gated"), 1u);
+  f.feed({turned});
+  EXPECT_EQ(f.rejected("features_gated"), 1u);
 }
 
 TEST(Localizer, AVagueHypothesisDoesNotWinOverAPreciseOne) {
   // A precise hypothesis 10 cm off and a vague one (1 m, 0.5 rad) 30 cm off: by the Mahalanobis
   // distance alone the vague one is nearer; the likelihood (which counts the covariance's size)
   // prefers the precise one. The pair gives exactly what the precise one alone gives.
-  const auto fused = [](bool with_vague) {
-    Drive d({-3.0, 1.2, 0.4});
-    d.run(1.5, {});
-    const auto& [frame_utime, frame_truth] = d.history[d.history.size() - 2];
-    geometry::Pose2 precise = frame_truth, vague = frame_truth;
-    precise.y += 0.10;
-    vague.y -= 0.30;
-    perception::FieldFeatures features;
-    if (with_vague) features.hypotheses.push_back({0, vague, 1.0, 0.5});
-    features.hypotheses.push_back({1, precise, 0.05, 0.03});
-    d.localizer.addFeatures(features, frame_utime + 1, d.t + 8'000);
-    return d.localizer.estimate(d.t).pose;
-  };
-  const geometry::Pose2 pair = fused(true), alone = fused(false);
-  EXPECT_EQ(pair.x, alone.x);
-  EXPECT_EQ(pair.y, alone.y);
-  EXPECT_EQ(pair.phi, alone.phi);
+  const FeatureFrame::Offset precise{.dy = 0.10};
+  const FeatureFrame::Offset vague{.dy = -0.30, .sigma_xy = 1.0, .sigma_phi = 0.5};
+  FeatureFrame pair, alone;
+  pair.feed({vague, precise});
+  alone.feed({precise});
+  const geometry::Pose2 a = pair.d.localizer.estimate(pair.d.t).pose;
+  const geometry::Pose2 b = alone.d.localizer.estimate(alone.d.t).pose;
+  EXPECT_EQ(a.x, b.x);
+  EXPECT_EQ(a.y, b.y);
+  EXPECT_EQ(a.phi, b.phi);
 }
 
 TEST(Localizer, TracksADriveAndReportsOdometryOnlyWhenTheLinesStop) {
