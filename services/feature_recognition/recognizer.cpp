@@ -15,6 +15,7 @@ FeatureRecognizer::FeatureRecognizer(const field::FieldModel& field, Recognition
     : field_(field),
       params_(params),
       model_check_(field, params),
+      unseen_(field, params),
       model_junctions_(modelJunctions(field)) {}
 
 bool FeatureRecognizer::passesModelCheck(FeatureKind kind, const Pose2& local, const Pose2& mark,
@@ -33,35 +34,65 @@ bool FeatureRecognizer::passesModelCheck(FeatureKind kind, const Pose2& local, c
     c.others = model_check_.fit(others_, c.robot);
     c.accepted = model_check_.accepts(c.fit, c.others);
   }
+  c.accepted = c.accepted && passesUnseen(c);
   checked_.push_back(c);
   return c.accepted;
 }
 
+bool FeatureRecognizer::passesUnseen(CheckedFeature& c) {
+  if (params_.unseen_max_stretch < 0.0) return true;
+  if (!unseen_indexed_) {  // once per frame, and only in frames with a feature to check
+    unseen_.index(contours_.points);
+    unseen_indexed_ = true;
+  }
+  c.unseen = unseen_.longestUnseen(c.robot);
+  return unseen_.accepts(c.unseen);
+}
+
 void FeatureRecognizer::dropInconsistent(perception::FieldFeatures& out) {
-  if (high_level_.size() < 2) return;
+  if (high_level_.empty()) return;
   auto share = [&](const std::pair<int, int>& h) { return checked_[h.second].fit.share(); };
   const auto best =
       *std::max_element(high_level_.begin(), high_level_.end(),
                         [&](const std::pair<int, int>& a, const std::pair<int, int>& b) {
                           return share(a) < share(b);
                         });
+  const auto agree = [&](const Pose2& a, const Pose2& b) {
+    const bool same = (a.position() - b.position()).norm() <= params_.consistency_distance &&
+                      std::abs(geometry::angleDiff(a.phi, b.phi)) <= params_.consistency_angle;
+    const bool twin =
+        (a.position() + b.position()).norm() <= params_.consistency_distance &&
+        std::abs(geometry::angleDiff(a.phi + std::numbers::pi, b.phi)) <= params_.consistency_angle;
+    return same || twin;
+  };
+  // A refused feature whose pose fits all the points clearly better than an accepted one's (it
+  // was refused for too few points of its own, not for its fit) speaks against that pose.
+  const auto vetoed = [&](const CheckedFeature& accepted) {
+    if (params_.consistency_veto_margin < 0.0) return false;
+    for (const CheckedFeature& c : checked_) {
+      if (c.accepted || c.inconsistent) continue;
+      if (c.fit.share() >= accepted.fit.share() + params_.consistency_veto_margin &&
+          !agree(c.robot, accepted.robot)) {
+        return true;
+      }
+    }
+    return false;
+  };
   const Pose2& pose = checked_[best.second].robot;
   std::vector<int> new_index(out.features.size());
   std::vector<bool> drop(out.features.size(), false);
   bool any = false;
   for (const auto& h : high_level_) {
-    const Pose2& other = checked_[h.second].robot;
-    const bool same =
-        (other.position() - pose.position()).norm() <= params_.consistency_distance &&
-        std::abs(geometry::angleDiff(other.phi, pose.phi)) <= params_.consistency_angle;
-    const bool twin = (other.position() + pose.position()).norm() <= params_.consistency_distance &&
-                      std::abs(geometry::angleDiff(other.phi + std::numbers::pi, pose.phi)) <=
-                          params_.consistency_angle;
-    if (same || twin) continue;
+    CheckedFeature& c = checked_[h.second];
+    if (agree(c.robot, pose) && !vetoed(c)) continue;
     drop[h.first] = true;
+    any = true;
+  }
+  // Marked afterwards: a feature dropped here must not veto another.
+  for (const auto& h : high_level_) {
+    if (!drop[h.first]) continue;
     checked_[h.second].accepted = false;
     checked_[h.second].inconsistent = true;
-    any = true;
   }
   if (!any) return;
   int kept = 0;
@@ -102,6 +133,7 @@ InputCheck FeatureRecognizer::recognize(const perception::LinePoints& in,
   }
   penalty_found_ = findPenaltyArea(structure_, field_, params_, penalty_);
   findJunctions(structure_, params_, junctions_);
+  unseen_indexed_ = false;
 
   // High-level features with their poses.
   if (circle_.found && circle_.oriented) {
@@ -189,6 +221,7 @@ InputCheck FeatureRecognizer::recognize(const perception::LinePoints& in,
                  (params_.identity_max_beyond_points < 0 ||
                   c.beyond_points <= params_.identity_max_beyond_points) &&
                  model_check_.accepts(c.fit, c.others);
+    c.accepted = c.accepted && passesUnseen(c);
     checked_.push_back(c);
     if (!c.accepted) continue;
     const Line& a = structure_.groups[j.bar_axis][j.bar].line;
@@ -229,7 +262,7 @@ InputCheck FeatureRecognizer::recognize(const perception::LinePoints& in,
       c.shifted_share = identity.shifted_share;
       c.side_points = identity.side_points;
       c.beyond_points = identity.beyond_points;
-      c.accepted = identity.identified && model_check_.accepts(c.fit, c.others);
+      c.accepted = identity.identified && model_check_.accepts(c.fit, c.others) && passesUnseen(c);
       checked_.push_back(c);
       if (!c.accepted) continue;
       const Line& line = structure_.groups[end.axis][end.group].line;

@@ -28,6 +28,7 @@
 #include "services/feature_recognition/line_end_identity.hpp"
 #include "services/feature_recognition/model_check.hpp"
 #include "services/feature_recognition/penalty_area.hpp"
+#include "services/feature_recognition/unseen_lines.hpp"
 
 namespace fieldline::feature_recognition {
 
@@ -49,6 +50,10 @@ struct CheckedFeature {
   // points near the corner off its lines (pointsOffJunction). -1 for other features.
   int side_points = -1;
   int beyond_points = -1;
+  // The longest stretch of model line (m) the pose puts in clear view near the robot without a
+  // point near it (unseen_lines.hpp); 0 when not tested (the check off, or the feature refused
+  // before it).
+  double unseen = 0.0;
   bool accepted = false;
   // Refused after passing: another high-level feature of the frame fits the points better and
   // implies a different pose (one robot has one pose, up to the field's point symmetry).
@@ -81,6 +86,7 @@ class FeatureRecognizer {
   const field::FieldModel& field_;
   RecognitionParams params_;
   ModelCheck model_check_;
+  UnseenLines unseen_;
   std::vector<ModelJunction> model_junctions_;
   // Number of L-corners and T-junctions the field's lines form (quantities of those features).
   int field_corners_ = 12;
@@ -99,6 +105,9 @@ class FeatureRecognizer {
   // returns it.
   bool passesModelCheck(perception::FeatureKind kind, const geometry::Pose2& local,
                         const geometry::Pose2& mark, const std::vector<Segment2>* own);
+  // True if the pose of `c` leaves no long stretch of line unseen (records c.unseen).
+  bool passesUnseen(CheckedFeature& c);
+  bool unseen_indexed_ = false;
   std::vector<Vec2> others_;
   // The high-level features of the frame so far: (index into the output's features, index into
   // checked_).

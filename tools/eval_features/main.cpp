@@ -80,6 +80,11 @@ struct Options {
   int identity_max_beyond = -2;
   double identity_beyond_reach = -1.0;
   double beyond_from = -1.0;
+  // The recogniser's unseen_max_stretch and unseen_range (below -1 / 0: its defaults).
+  double max_unseen = -2.0;
+  double unseen_range = 0.0;
+  // The recogniser's consistency_veto_margin (below -1: its default).
+  double veto_margin = -2.0;
   // Frames to run from first_frame (0 = to the end of the path).
   int count = 0;
   // Every this many frames, the frame is also evaluated by a freshly built pipeline (camera,
@@ -412,8 +417,8 @@ int detailFrame(const Options& options, region_tracking::SimCamera& sim,
               << " points=" << c.fit.points << " others_share=" << c.others.share()
               << " others=" << c.others.points << " rival=" << c.rival_share
               << " shifted=" << c.shifted_share << " side_points=" << c.side_points
-              << " beyond_points=" << c.beyond_points << " accepted=" << c.accepted
-              << " error_m=" << position << "\n";
+              << " beyond_points=" << c.beyond_points << " unseen=" << c.unseen
+              << " accepted=" << c.accepted << " error_m=" << position << "\n";
   }
   for (const CornerSite& site : cornerSites(sim.field)) {
     const double d = (site.position - pose.position()).norm();
@@ -726,6 +731,9 @@ feature_recognition::RecognitionParams recognitionParamsOf(const Options& option
   if (options.identity_beyond_reach >= 0.0)
     recognition_params.identity_beyond_reach = options.identity_beyond_reach;
   if (options.beyond_from >= 0.0) recognition_params.line_end_beyond_from = options.beyond_from;
+  if (options.max_unseen >= -1.0) recognition_params.unseen_max_stretch = options.max_unseen;
+  if (options.unseen_range > 0.0) recognition_params.unseen_range = options.unseen_range;
+  if (options.veto_margin >= -1.0) recognition_params.consistency_veto_margin = options.veto_margin;
   return recognition_params;
 }
 
@@ -856,7 +864,7 @@ int run(const Options& options) {
   if (!options.check_csv.empty()) {
     check_csv.open(options.check_csv);
     check_csv << "frame,kind,share,points,others_share,others,accepted,error_m,error_deg,"
-                 "rival_share,shifted_share,side_points,beyond_points\n";
+                 "rival_share,shifted_share,side_points,beyond_points,unseen_m\n";
   }
   long fresh_checked = 0, fresh_differ = 0;
   const int last_frame = options.count > 0 ? std::min(static_cast<int>(path.size()),
@@ -932,7 +940,7 @@ int run(const Options& options) {
                   << c.fit.points << "," << c.others.share() << "," << c.others.points << ","
                   << c.accepted << "," << position << "," << heading * 180 / kPi << ","
                   << c.rival_share << "," << c.shifted_share << "," << c.side_points << ","
-                  << c.beyond_points << "\n";
+                  << c.beyond_points << "," << c.unseen << "\n";
       }
     }
     if (r.false_hypotheses > 0) {
@@ -1087,6 +1095,19 @@ void addOptions(CLI::App& app, Options& options) {
   app.add_option("--identity-beyond-reach", options.identity_beyond_reach,
                  "The recogniser's identity_beyond_reach (m)")
       ->check(CLI::Range(0.0, 10.0));
+  app.add_option("--max-unseen", options.max_unseen,
+                 "The recogniser's unseen_max_stretch: a pose that puts a longer stretch of line "
+                 "in clear view near the robot without a line point near it is refused (m; -1 = "
+                 "not tested; default: the recogniser's)")
+      ->check(CLI::Range(-1.0, 100.0));
+  app.add_option("--veto-margin", options.veto_margin,
+                 "The recogniser's consistency_veto_margin: an accepted pose is dropped when a "
+                 "refused one that implies another pose fits all points better by this share "
+                 "(-1 = not tested; default: the recogniser's)")
+      ->check(CLI::Range(-1.0, 1.0));
+  app.add_option("--unseen-range", options.unseen_range,
+                 "The recogniser's unseen_range: the unseen-lines test looks this far (m)")
+      ->check(CLI::Range(0.1, 20.0));
   app.add_option("--beyond-from", options.beyond_from, "The recogniser's line_end_beyond_from (m)")
       ->check(CLI::Range(0.0, 10.0));
   app.add_option("--goal-shadow", options.goal_shadow,
