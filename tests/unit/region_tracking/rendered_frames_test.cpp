@@ -295,7 +295,8 @@ std::pair<long long, long long> unmatchedPoints(const LinePoints& tested, const 
 // depends on the contour only: at most 1 % of the points move) and the default, every 4th corner
 // refined around line ends and turns (features9h): the refined scans are placed by their
 // neighbours' results, so a point moved by a stale rim cell moves the scans around it too
-// (measured 1.25 % / 2.1 % at 90 / 400 deg/s; at most 3 %).
+// (measured 1.25 % / 2.1 % at 90 / 400 deg/s with the refinement's reach of 2 intervals; 2.4 % /
+// 3.0 % with today's 1, where as many points move among fewer: at most 4 %).
 TEST_F(RenderedFrames, TheRimCadenceDiffersFromTheExactTrackerOnlyNearTheRim) {
   for (const double omegaDeg : {90.0, 400.0}) {
     const VisionParams cadence = defaultVisionParams();
@@ -358,7 +359,7 @@ TEST_F(RenderedFrames, TheRimCadenceDiffersFromTheExactTrackerOnlyNearTheRim) {
     ASSERT_GT(uniformPoints, 1000);
     ASSERT_GT(points, 1000);
     EXPECT_LT(static_cast<double>(uniformUnmatched), 0.01 * static_cast<double>(uniformPoints));
-    EXPECT_LT(static_cast<double>(unmatched), 0.03 * static_cast<double>(points));
+    EXPECT_LT(static_cast<double>(unmatched), 0.04 * static_cast<double>(points));
     std::printf(
         "%.0f deg/s: %d of 60 frames differ, at most %d cells from the rim; cells %lld "
         "vs %lld; line points not within 5 px of an exact one: %lld of %lld (every 2nd corner), "
