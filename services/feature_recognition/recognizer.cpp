@@ -51,12 +51,6 @@ bool FeatureRecognizer::passesUnseen(CheckedFeature& c) {
 
 void FeatureRecognizer::dropInconsistent(perception::FieldFeatures& out) {
   if (high_level_.empty()) return;
-  auto share = [&](const std::pair<int, int>& h) { return checked_[h.second].fit.share(); };
-  const auto best =
-      *std::max_element(high_level_.begin(), high_level_.end(),
-                        [&](const std::pair<int, int>& a, const std::pair<int, int>& b) {
-                          return share(a) < share(b);
-                        });
   const auto agree = [&](const Pose2& a, const Pose2& b) {
     const bool same = (a.position() - b.position()).norm() <= params_.consistency_distance &&
                       std::abs(geometry::angleDiff(a.phi, b.phi)) <= params_.consistency_angle;
@@ -65,12 +59,13 @@ void FeatureRecognizer::dropInconsistent(perception::FieldFeatures& out) {
         std::abs(geometry::angleDiff(a.phi + std::numbers::pi, b.phi)) <= params_.consistency_angle;
     return same || twin;
   };
-  // A refused feature whose pose fits all the points clearly better than an accepted one's (it
-  // was refused for too few points of its own, not for its fit) speaks against that pose.
+  // A feature refused by its own tests (too few points of its own, a rival, the L test), not by
+  // what its pose leaves unseen, whose pose fits all the points clearly better than an accepted
+  // one's speaks against that pose.
   const auto vetoed = [&](const CheckedFeature& accepted) {
     if (params_.consistency_veto_margin < 0.0) return false;
     for (const CheckedFeature& c : checked_) {
-      if (c.accepted || c.inconsistent) continue;
+      if (c.accepted || c.inconsistent || !unseen_.accepts(c.unseen)) continue;
       if (c.fit.share() >= accepted.fit.share() + params_.consistency_veto_margin &&
           !agree(c.robot, accepted.robot)) {
         return true;
@@ -78,33 +73,41 @@ void FeatureRecognizer::dropInconsistent(perception::FieldFeatures& out) {
     }
     return false;
   };
-  const Pose2& pose = checked_[best.second].robot;
-  std::vector<int> new_index(out.features.size());
-  std::vector<bool> drop(out.features.size(), false);
+  drop_.assign(out.features.size(), 0);
+  new_index_.resize(out.features.size());
+  // Vetoed features first; of the others, the one that fits the most points sets the pose.
+  int best = -1;
   bool any = false;
-  for (const auto& h : high_level_) {
-    CheckedFeature& c = checked_[h.second];
-    if (agree(c.robot, pose) && !vetoed(c)) continue;
-    drop[h.first] = true;
+  for (const auto& [feature, check] : high_level_) {
+    if (vetoed(checked_[check])) {
+      drop_[feature] = 1;
+      any = true;
+    } else if (best < 0 || checked_[check].fit.share() > checked_[best].fit.share()) {
+      best = check;
+    }
+  }
+  for (const auto& [feature, check] : high_level_) {
+    if (drop_[feature] || agree(checked_[check].robot, checked_[best].robot)) continue;
+    drop_[feature] = 1;
     any = true;
   }
   // Marked afterwards: a feature dropped here must not veto another.
-  for (const auto& h : high_level_) {
-    if (!drop[h.first]) continue;
-    checked_[h.second].accepted = false;
-    checked_[h.second].inconsistent = true;
+  for (const auto& [feature, check] : high_level_) {
+    if (!drop_[feature]) continue;
+    checked_[check].accepted = false;
+    checked_[check].inconsistent = true;
   }
   if (!any) return;
   int kept = 0;
   for (std::size_t f = 0; f < out.features.size(); ++f) {
-    new_index[f] = drop[f] ? -1 : kept;
-    if (!drop[f]) out.features[kept++] = out.features[f];
+    new_index_[f] = drop_[f] ? -1 : kept;
+    if (!drop_[f]) out.features[kept++] = out.features[f];
   }
   out.features.resize(static_cast<std::size_t>(kept));
   std::erase_if(out.hypotheses,
-                [&](const perception::PoseHypothesis& h) { return drop[h.feature]; });
+                [&](const perception::PoseHypothesis& h) { return drop_[h.feature] != 0; });
   for (auto& h : out.hypotheses)
-    h.feature = new_index[h.feature];
+    h.feature = new_index_[h.feature];
 }
 
 InputCheck FeatureRecognizer::recognize(const perception::LinePoints& in,

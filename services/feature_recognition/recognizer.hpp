@@ -114,6 +114,8 @@ class FeatureRecognizer {
   std::vector<std::pair<int, int>> high_level_;
   // Drops the high-level features whose pose disagrees with the best fitting one's.
   void dropInconsistent(perception::FieldFeatures& out);
+  std::vector<unsigned char> drop_;  // per output feature (kept from frame to frame)
+  std::vector<int> new_index_;
 };
 
 }  // namespace fieldline::feature_recognition

@@ -30,14 +30,16 @@ UnseenLines::UnseenLines(const field::FieldModel& field, const RecognitionParams
   }
   for (const field::LineSegment& s : field.segments()) {
     const int n = std::max(1, static_cast<int>(std::ceil(s.length() / step_)));
-    elements_.push_back({static_cast<int>(samples_.size()), n, 0.5 * (s.a + s.b), 0.5 * s.length(),
-                         true, s.a, s.b});
+    elements_.push_back({static_cast<int>(samples_.size()), n, s.length() / n, 0.5 * (s.a + s.b),
+                         0.5 * s.length(), true, false, s.a, s.b});
     for (int i = 0; i <= n; ++i)
       samples_.push_back(s.a + (s.b - s.a) * (static_cast<double>(i) / n));
   }
   for (const field::LineArc& a : field.arcs()) {
     const int n = std::max(1, static_cast<int>(std::ceil(a.radius * a.sweep / step_)));
-    elements_.push_back({static_cast<int>(samples_.size()), n, a.centre, a.radius, false});
+    const bool closed = a.sweep >= 2.0 * std::numbers::pi - 1e-9;
+    elements_.push_back({static_cast<int>(samples_.size()), n, a.radius * a.sweep / n, a.centre,
+                         a.radius, false, closed});
     for (int i = 0; i <= n; ++i)
       samples_.push_back(a.pointAt(a.start_angle + a.sweep * (static_cast<double>(i) / n)));
   }
@@ -48,16 +50,17 @@ UnseenLines::UnseenLines(const field::FieldModel& field, const RecognitionParams
   has_point_.assign(near_.size(), 0);
   // The stamp of "a point near": the cells whose centres lie within cover_ of the point's cell
   // centre, as a half width per row.
-  const int reach = static_cast<int>(std::floor(cover_ / cell_ + 1e-9));
+  const double radius = cover_ / cell_;
+  const int reach = static_cast<int>(std::floor(radius + 1e-9));
   for (int dj = -reach; dj <= reach; ++dj) {
-    stamp_.push_back(static_cast<int>(std::floor(std::sqrt(reach * reach - dj * dj) + 1e-9)));
+    stamp_.push_back(static_cast<int>(std::floor(std::sqrt(radius * radius - dj * dj) + 1e-9)));
   }
   bins_ = static_cast<int>(std::ceil(2.0 * std::numbers::pi / params.unseen_bearing_bin));
   furthest_.assign(static_cast<std::size_t>(bins_), 0.0f);
 }
 
 namespace {
-// atan2 within 1e-5 rad (a minimax polynomial on [0, 1] and the octant's symmetries): the
+// atan2 within 2e-4 rad (a minimax polynomial on [0, 1] and the octant's symmetries): the
 // bearing bins need no more, and libm's atan2 was a fifth of the check's time.
 inline float quickAtan2(float y, float x) {
   const float ax = std::abs(x), ay = std::abs(y);
@@ -119,6 +122,7 @@ bool UnseenLines::clearTo(double x, double y, double range) const {
 }
 
 double UnseenLines::longestUnseen(const geometry::Pose2& robot) const {
+  if (!geometry::isFinite(robot)) return 0.0;
   const double c = std::cos(robot.phi), s = std::sin(robot.phi);
   const double min2 = min_range_ * min_range_, max2 = range_ * range_;
   const Vec2 at = robot.position();
@@ -128,20 +132,21 @@ double UnseenLines::longestUnseen(const geometry::Pose2& robot) const {
     if ((e.centre - at).norm() > range_ + e.radius) continue;
     // Of a segment, only its samples within range (a chord of the range's circle): those
     // before and after it would only end runs.
-    int first = 0, last = e.intervals;
+    int first = 0, last = e.closed ? e.intervals - 1 : e.intervals;  // a circle's seam once
     if (e.straight) {
       const Vec2 d = e.b - e.a, f = e.a - at;
       const double qa = d.squaredNorm(), qb = 2.0 * f.dot(d), qc = f.squaredNorm() - max2;
       const double disc = qb * qb - 4.0 * qa * qc;
-      if (disc < 0.0) continue;
+      if (!(disc >= 0.0) || !(qa > 0.0)) continue;
       const double root = std::sqrt(disc);
       const double t0 = (-qb - root) / (2.0 * qa), t1 = (-qb + root) / (2.0 * qa);
+      if (t1 < 0.0 || t0 > 1.0) continue;
       // One sample of slack each way: the range test below stays the judge.
-      first = std::max(0, static_cast<int>(std::floor(t0 * e.intervals)) - 1);
-      last = std::min(e.intervals, static_cast<int>(std::ceil(t1 * e.intervals)) + 1);
-      if (first > last) continue;
+      first = std::max(0, static_cast<int>(std::floor(std::max(t0, 0.0) * e.intervals)) - 1);
+      last =
+          std::min(e.intervals, static_cast<int>(std::ceil(std::min(t1, 1.0) * e.intervals)) + 1);
     }
-    double run = 0.0;
+    double run = 0.0, leading = -1.0;  // leading: the run from the first sample (closed arcs)
     for (int k = e.begin + first; k <= e.begin + last; ++k) {
       const double dx = samples_[k].x() - robot.x, dy = samples_[k].y() - robot.y;
       const double x = c * dx + s * dy, y = -s * dx + c * dy;
@@ -149,9 +154,12 @@ double UnseenLines::longestUnseen(const geometry::Pose2& robot) const {
       // The cheap tests first: most samples are out of range or have a point near them.
       const bool unseen =
           range2 >= min2 && range2 <= max2 && !nearAt(x, y) && clearTo(x, y, std::sqrt(range2));
-      run = unseen ? run + step_ : 0.0;
+      if (!unseen && leading < 0.0) leading = run;
+      run = unseen ? run + e.spacing : 0.0;
       longest = std::max(longest, run);
     }
+    // A closed circle's run may go on across its seam: its end joins its start.
+    if (e.closed) longest = std::max(longest, leading < 0.0 ? run : run + leading);
   }
   return longest;
 }

@@ -33,14 +33,16 @@ class UnseenLines {
   }
 
  private:
-  // The model's lines as samples `step_` apart (field frame), element by element: samples
+  // The model's lines as samples at most `step_` apart (field frame), element by element: samples
   // begin .. begin + intervals, within a circle (centre, radius); a segment also keeps its ends.
   struct Element {
     int begin = 0;
     int intervals = 0;
+    double spacing = 0.0;  // m between its samples
     geometry::Vec2 centre = geometry::Vec2::Zero();
     double radius = 0.0;
     bool straight = false;
+    bool closed = false;  // a full circle: its last sample is its first
     geometry::Vec2 a = geometry::Vec2::Zero(), b = geometry::Vec2::Zero();
   };
   std::vector<geometry::Vec2> samples_;

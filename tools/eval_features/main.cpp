@@ -1106,8 +1106,9 @@ void addOptions(CLI::App& app, Options& options) {
                  "(-1 = not tested; default: the recogniser's)")
       ->check(CLI::Range(-1.0, 1.0));
   app.add_option("--unseen-range", options.unseen_range,
-                 "The recogniser's unseen_range: the unseen-lines test looks this far (m)")
-      ->check(CLI::Range(0.1, 20.0));
+                 "The recogniser's unseen_range: the unseen-lines test looks this far (m; beyond "
+                 "its unseen_min_range, 0.6)")
+      ->check(CLI::Range(0.7, 20.0));
   app.add_option("--beyond-from", options.beyond_from, "The recogniser's line_end_beyond_from (m)")
       ->check(CLI::Range(0.0, 10.0));
   app.add_option("--goal-shadow", options.goal_shadow,
