@@ -15,8 +15,7 @@ constexpr double kCell = 0.1;   // m, the cells of the "a point near" map
 }  // namespace
 
 UnseenLines::UnseenLines(const field::FieldModel& field, const RecognitionParams& params)
-    : step_(kStep),
-      range_(params.unseen_range),
+    : range_(params.unseen_range),
       min_range_(params.unseen_min_range),
       cover_(params.unseen_cover),
       beyond_(params.unseen_beyond),
@@ -29,14 +28,14 @@ UnseenLines::UnseenLines(const field::FieldModel& field, const RecognitionParams
         "positive, unseen_min_range in [0, unseen_range), unseen_beyond >= 0");
   }
   for (const field::LineSegment& s : field.segments()) {
-    const int n = std::max(1, static_cast<int>(std::ceil(s.length() / step_)));
+    const int n = std::max(1, static_cast<int>(std::ceil(s.length() / kStep)));
     elements_.push_back({static_cast<int>(samples_.size()), n, s.length() / n, 0.5 * (s.a + s.b),
                          0.5 * s.length(), true, false, s.a, s.b});
     for (int i = 0; i <= n; ++i)
       samples_.push_back(s.a + (s.b - s.a) * (static_cast<double>(i) / n));
   }
   for (const field::LineArc& a : field.arcs()) {
-    const int n = std::max(1, static_cast<int>(std::ceil(a.radius * a.sweep / step_)));
+    const int n = std::max(1, static_cast<int>(std::ceil(a.radius * a.sweep / kStep)));
     const bool closed = a.sweep >= 2.0 * std::numbers::pi - 1e-9;
     elements_.push_back({static_cast<int>(samples_.size()), n, a.radius * a.sweep / n, a.centre,
                          a.radius, false, closed});

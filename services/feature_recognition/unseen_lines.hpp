@@ -33,7 +33,7 @@ class UnseenLines {
   }
 
  private:
-  // The model's lines as samples at most `step_` apart (field frame), element by element: samples
+  // The model's lines as samples at most 5 cm apart (field frame), element by element: samples
   // begin .. begin + intervals, within a circle (centre, radius); a segment also keeps its ends.
   struct Element {
     int begin = 0;
@@ -47,7 +47,6 @@ class UnseenLines {
   };
   std::vector<geometry::Vec2> samples_;
   std::vector<Element> elements_;
-  double step_;
   double range_, min_range_, cover_, beyond_, max_stretch_;
   // Points near: a robot-frame map of cells, a cell near a point when its centre lies within
   // cover_ of the point's cell's centre (set to the frame's generation).

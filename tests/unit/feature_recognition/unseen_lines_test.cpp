@@ -88,6 +88,28 @@ TEST(UnseenLines, AShiftedPoseLeavesItsLinesUnseen) {
   EXPECT_GT(unseen.longestUnseen({s.robot.x - 0.6, s.robot.y, s.robot.phi}), 1.2);
 }
 
+TEST(UnseenLines, AStretchAcrossTheCentreCirclesSeamIsOneStretch) {
+  const Scene s;
+  const auto circle = std::find_if(s.field.arcs().begin(), s.field.arcs().end(),
+                                   [](const field::LineArc& a) { return a.sweep > 6.28; });
+  ASSERT_NE(circle, s.field.arcs().end());
+  // 1.5 m outside the circle where its samples begin and end, facing its centre; the circle's
+  // points gone, the halfway line beyond it still seen.
+  const Vec2 out(std::cos(circle->start_angle), std::sin(circle->start_angle));
+  const Vec2 at = circle->centre + (circle->radius + 1.5) * out;
+  const Pose2 robot{at.x(), at.y(), std::atan2(-out.y(), -out.x())};
+  auto points = frameAt(s.field, robot);
+  std::erase_if(points, [&](const Vec2& p) {
+    const Vec2 q = geometry::pointRobotToField(robot, p);
+    return std::abs((q - circle->centre).norm() - circle->radius) < 0.1;
+  });
+  UnseenLines unseen(s.field, checking());
+  unseen.index(points);
+  // The arc within 3 m of the robot is 4.1 m long (r = 2 m), half of it on each side of the
+  // seam: counted as one stretch (without joining the seam: 2.5 m, the longer half).
+  EXPECT_GT(unseen.longestUnseen(robot), 3.0);
+}
+
 TEST(UnseenLines, OffAcceptsEverythingAndBadParametersAreRefused) {
   const Scene s;
   RecognitionParams off;
