@@ -46,8 +46,21 @@ bool fitCircle(const std::vector<Vec2>& pts, Vec2& centre, double& radius) {
   return true;
 }
 
-// Circle fit that drops points more than `gate` px off, twice.
-bool robustCircle(const std::vector<Vec2>& pts, Vec2& centre, double& radius,
+// Image radius along image direction `dir` from `from` to the circle (centre, radius).
+double circleAlongRay(const Vec2& from, const Vec2& dir, const Vec2& centre, double radius) {
+  const Vec2 f = from - centre;
+  const double b = f.dot(dir);
+  const double disc = b * b - (f.squaredNorm() - radius * radius);
+  return disc < 0.0 ? kNaN : -b + std::sqrt(disc);
+}
+
+double wrapAngle(double a) {
+  return std::remainder(a, 2.0 * kPi);
+}
+
+}  // namespace
+
+bool fitCircleRobust(const std::vector<Vec2>& pts, Vec2& centre, double& radius,
                   std::vector<bool>& keep, double gate) {
   keep.assign(pts.size(), true);
   std::vector<Vec2> used = pts;
@@ -66,46 +79,8 @@ bool robustCircle(const std::vector<Vec2>& pts, Vec2& centre, double& radius,
   return fitCircle(used, centre, radius);
 }
 
-// Image radius along image direction `dir` from `from` to the circle (centre, radius).
-double circleAlongRay(const Vec2& from, const Vec2& dir, const Vec2& centre, double radius) {
-  const Vec2 f = from - centre;
-  const double b = f.dot(dir);
-  const double disc = b * b - (f.squaredNorm() - radius * radius);
-  return disc < 0.0 ? kNaN : -b + std::sqrt(disc);
-}
-
-double wrapAngle(double a) {
-  return std::remainder(a, 2.0 * kPi);
-}
-
-}  // namespace
 
 // --- images and curves ---
-
-double GreyImage::sample(double u, double v) const {
-  if (!(u >= 0.0 && v >= 0.0 && u <= width - 1 && v <= height - 1)) return kNaN;
-  const int u0 = std::min(static_cast<int>(u), width - 2);
-  const int v0 = std::min(static_cast<int>(v), height - 2);
-  const double fu = u - u0;
-  const double fv = v - v0;
-  const auto at = [this](int x, int y) {
-    return static_cast<double>(pixels[static_cast<std::size_t>(y) * width + x]);
-  };
-  return (1 - fv) * ((1 - fu) * at(u0, v0) + fu * at(u0 + 1, v0)) +
-         fv * ((1 - fu) * at(u0, v0 + 1) + fu * at(u0 + 1, v0 + 1));
-}
-
-GreyImage greyFromFrame(const camera::FrameView& frame) {
-  if (!frame.valid()) throw std::invalid_argument("mirror calibration: invalid frame");
-  GreyImage g{frame.width, frame.height, {}};
-  g.pixels.resize(static_cast<std::size_t>(frame.width) * frame.height);
-  for (int v = 0; v < frame.height; ++v) {
-    for (int u = 0; u < frame.width; ++u) {
-      g.pixels[static_cast<std::size_t>(v) * frame.width + u] = readYuv(frame, u, v).y;
-    }
-  }
-  return g;
-}
 
 MonotoneCurve::MonotoneCurve(std::vector<double> x, std::vector<double> y)
     : x_(std::move(x)), y_(std::move(y)) {
@@ -273,7 +248,7 @@ std::vector<TracedRing> traceRings(const std::vector<RingPeak>& peaks, int rays,
     if (static_cast<double>(pts.size()) < min_share * rays) break;
     TracedRing ring;
     std::vector<bool> keep;
-    if (!robustCircle(pts, ring.centre, ring.radius, keep, 2.0)) break;
+    if (!fitCircleRobust(pts, ring.centre, ring.radius, keep, 2.0)) break;
     for (std::size_t i = 0; i < pts.size(); ++i) {
       if (keep[i]) ring.pixels.push_back(pts[i]);
     }
@@ -367,61 +342,7 @@ double RingFit::ringRadius(int ring, double bearing) const {
       axisDistanceToRing(distances[static_cast<std::size_t>(ring)], bearing, axis_offset));
 }
 
-namespace {
-
-struct FitState {
-  Vec2 centre;
-  Vec2 offset;
-  std::vector<double> radii;
-};
-
-bool increasing(const std::vector<double>& v) {
-  if (v.empty() || !(v[0] > 0.0)) return false;
-  for (std::size_t i = 1; i < v.size(); ++i)
-    if (!(v[i] > v[i - 1])) return false;
-  return true;
-}
-
-// Residuals r_obs - r_pred of the points (NaN-free only if the state is valid).
-bool residuals(const FitState& s, const std::vector<RingPoint>& pts,
-               const std::vector<double>& distances, const camera::MirrorParams& base,
-               const std::vector<bool>& use, Eigen::VectorXd& out) {
-  if (!increasing(s.radii)) return false;
-  std::vector<double> x{0.0};
-  std::vector<double> y{0.0};
-  x.insert(x.end(), distances.begin(), distances.end());
-  y.insert(y.end(), s.radii.begin(), s.radii.end());
-  const MonotoneCurve curve(x, y);
-  out.resize(static_cast<Eigen::Index>(pts.size()));
-  for (std::size_t i = 0; i < pts.size(); ++i) {
-    if (!use[i]) {
-      out(static_cast<Eigen::Index>(i)) = 0.0;
-      continue;
-    }
-    const double b = axisBearing(pts[i].pixel, s.centre, base.heading_angle, base.mirrored);
-    const double t =
-        axisDistanceToRing(distances[static_cast<std::size_t>(pts[i].ring)], b, s.offset);
-    if (!std::isfinite(t)) return false;
-    out(static_cast<Eigen::Index>(i)) = (pts[i].pixel - s.centre).norm() - curve(t);
-  }
-  return true;
-}
-
-FitState unpack(const Eigen::VectorXd& x, bool offset) {
-  FitState s;
-  s.centre = Vec2(x(0), x(1));
-  s.offset = offset ? Vec2(x(2), x(3)) : Vec2::Zero();
-  for (Eigen::Index i = 4; i < x.size(); ++i)
-    s.radii.push_back(x(i));
-  return s;
-}
-
-using ResidualFn = std::function<bool(const Eigen::VectorXd&, Eigen::VectorXd&)>;
-
-// Levenberg-Marquardt with Huber weights (threshold `huber`) and a numeric Jacobian (step
-// steps[k] for parameter k; 0 holds it fixed). A step that makes `f` fail (an invalid state) is
-// treated as a worse one.
-Eigen::VectorXd levenbergMarquardt(Eigen::VectorXd x, const ResidualFn& f,
+Eigen::VectorXd levenbergMarquardt(Eigen::VectorXd x, const ResidualFunction& f,
                                    const std::vector<double>& steps, double huber, int iterations) {
   const Eigen::Index np = x.size();
   double lambda = 1e-3;
@@ -486,6 +407,58 @@ Eigen::VectorXd levenbergMarquardt(Eigen::VectorXd x, const ResidualFn& f,
   }
   return x;
 }
+
+
+namespace {
+
+struct FitState {
+  Vec2 centre;
+  Vec2 offset;
+  std::vector<double> radii;
+};
+
+bool increasing(const std::vector<double>& v) {
+  if (v.empty() || !(v[0] > 0.0)) return false;
+  for (std::size_t i = 1; i < v.size(); ++i)
+    if (!(v[i] > v[i - 1])) return false;
+  return true;
+}
+
+// Residuals r_obs - r_pred of the points (NaN-free only if the state is valid).
+bool residuals(const FitState& s, const std::vector<RingPoint>& pts,
+               const std::vector<double>& distances, const camera::MirrorParams& base,
+               const std::vector<bool>& use, Eigen::VectorXd& out) {
+  if (!increasing(s.radii)) return false;
+  std::vector<double> x{0.0};
+  std::vector<double> y{0.0};
+  x.insert(x.end(), distances.begin(), distances.end());
+  y.insert(y.end(), s.radii.begin(), s.radii.end());
+  const MonotoneCurve curve(x, y);
+  out.resize(static_cast<Eigen::Index>(pts.size()));
+  for (std::size_t i = 0; i < pts.size(); ++i) {
+    if (!use[i]) {
+      out(static_cast<Eigen::Index>(i)) = 0.0;
+      continue;
+    }
+    const double b = axisBearing(pts[i].pixel, s.centre, base.heading_angle, base.mirrored);
+    const double t =
+        axisDistanceToRing(distances[static_cast<std::size_t>(pts[i].ring)], b, s.offset);
+    if (!std::isfinite(t)) return false;
+    out(static_cast<Eigen::Index>(i)) = (pts[i].pixel - s.centre).norm() - curve(t);
+  }
+  return true;
+}
+
+FitState unpack(const Eigen::VectorXd& x, bool offset) {
+  FitState s;
+  s.centre = Vec2(x(0), x(1));
+  s.offset = offset ? Vec2(x(2), x(3)) : Vec2::Zero();
+  for (Eigen::Index i = 4; i < x.size(); ++i)
+    s.radii.push_back(x(i));
+  return s;
+}
+
+using ResidualFn = ResidualFunction;
 
 Eigen::VectorXd solve(const Eigen::VectorXd& x, const std::vector<RingPoint>& pts,
                       const std::vector<double>& distances, const camera::MirrorParams& base,

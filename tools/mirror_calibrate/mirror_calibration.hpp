@@ -22,30 +22,35 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
+
+#include <Eigen/Core>
 
 #include "common/camera/frame.hpp"
 #include "common/camera/mirror_model.hpp"
 #include "common/field/field_model.hpp"
 #include "common/geometry/geometry.hpp"
+#include "tools/calibration_common/grey_image.hpp"
 
 namespace fieldline::calibration {
 
 using camera::Vec2;
 
-// A grey (luma) image, row-major.
-struct GreyImage {
-  int width = 0;
-  int height = 0;
-  std::vector<std::uint8_t> pixels;
+// Circle through `pts` (Kasa fit) that drops points more than `gate` px off (three rounds);
+// keep[i] says which were kept. False for fewer than 5 points or a degenerate fit.
+bool fitCircleRobust(const std::vector<Vec2>& pts, Vec2& centre, double& radius,
+                     std::vector<bool>& keep, double gate);
 
-  // Bilinear sample at (u, v) (pixel centres at integers); NaN outside the image.
-  double sample(double u, double v) const;
-};
-// The luma plane of a frame (YUYV, BGR or grey).
-GreyImage greyFromFrame(const camera::FrameView& frame);
+// Residuals of a state; false when the state is not valid (e.g. knots out of order).
+using ResidualFunction = std::function<bool(const Eigen::VectorXd&, Eigen::VectorXd&)>;
+// Levenberg-Marquardt with Huber weights (threshold `huber`) and a numeric Jacobian (step
+// steps[k] for parameter k; 0 holds it fixed). A step that makes `f` fail (an invalid state) is
+// treated as a worse one. Throws std::invalid_argument when the start is not valid.
+Eigen::VectorXd levenbergMarquardt(Eigen::VectorXd x, const ResidualFunction& f,
+                                   const std::vector<double>& steps, double huber, int iterations);
 
 // A monotone cubic (Fritsch-Carlson) through knots with strictly increasing x and
 // non-decreasing y; linear beyond the ends (with the end slopes). Throws std::invalid_argument
