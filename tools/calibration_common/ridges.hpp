@@ -30,12 +30,12 @@ struct RidgeParams {
 };
 
 struct Ridge {
-  camera::Vec2 pixel = camera::Vec2::Zero();   // sub-pixel centre across the ridge
+  camera::Vec2 pixel = camera::Vec2::Zero();    // sub-pixel centre across the ridge
   camera::Vec2 normal = camera::Vec2::UnitX();  // the direction it was crossed in (unit)
-  double half_width = 0.0;  // the flank distance that found it, px
-  double width = 0.0;       // extent above half height, px
-  double peak = 0.0;        // luma at the centre (lightly smoothed)
-  double flank = 0.0;       // luma of the brighter flank
+  double half_width = 0.0;                      // the flank distance that found it, px
+  double width = 0.0;                           // extent above half height, px
+  double peak = 0.0;                            // luma at the centre (lightly smoothed)
+  double flank = 0.0;                           // luma of the brighter flank
 };
 
 // Every ridge crossing in the annulus: one point per crossing of a ridge along the direction

@@ -4,12 +4,14 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
-#include <sstream>
 #include <numbers>
 #include <optional>
+#include <sstream>
 #include <stdexcept>
 
 #include <fmt/core.h>
+
+#include <opencv2/imgproc.hpp>
 
 #include "common/camera/image_io.hpp"
 #include "common/config/config.hpp"
@@ -241,8 +243,8 @@ void writeTable(const AppOptions& o, const camera::ColourTable& table,
 
 void printCheck(const cal::TableCheck& check) {
   fmt::print("check: the tracker's line points with this table, fitted to the field:\n");
-  fmt::print("{:>6s} {:>7s} {:>26s} {:>10s} {:>10s}\n", "frame", "points",
-             "pose x,y,phi (m, deg)", "median cm", "on lines");
+  fmt::print("{:>6s} {:>7s} {:>26s} {:>10s} {:>10s}\n", "frame", "points", "pose x,y,phi (m, deg)",
+             "median cm", "on lines");
   for (std::size_t i = 0; i < check.frames.size(); ++i) {
     const cal::FrameCheck& f = check.frames[i];
     fmt::print("{:6d} {:7d} {:>26s} {:10.1f} {:9.1f}%\n", i + 1, f.line_points,
@@ -251,9 +253,10 @@ void printCheck(const cal::TableCheck& check) {
                            : std::string("-"),
                f.median_cm, 100 * f.fit_share);
   }
-  fmt::print("all: {} line points, {:.1f} % within 15 cm of a line; median luma white {:.0f}, "
-             "green {:.0f}\n",
-             check.line_points, 100 * check.fit_share, check.white_luma, check.green_luma);
+  fmt::print(
+      "all: {} line points, {:.1f} % within 15 cm of a line; median luma white {:.0f}, "
+      "green {:.0f}\n",
+      check.line_points, 100 * check.fit_share, check.white_luma, check.green_luma);
 }
 
 void refuseOnProblems(const cal::TableCheck& check) {
@@ -271,14 +274,10 @@ int calibrateFromFrames(const AppOptions& o, const camera::MirrorModel& mirror,
                         const std::vector<camera::FrameView>& frames) {
   cal::ImageFitParams params;
   params.light_range = {o.light_range[0], o.light_range[1]};
-  cal::ImageCalibration c = cal::calibrateFromImages(mirror, field, frames, {}, params);
-  cal::TableCheck first = cal::checkTable(mirror, field, frames, c.table, params);
-  std::vector<Pose2> poses;
-  for (const cal::FrameCheck& f : first.frames) {
-    if (f.localized && f.fit_share >= params.min_fit_share) poses.push_back(f.pose);
-  }
-  const bool posed = poses.size() == frames.size();
-  if (posed) c = cal::calibrateFromImages(mirror, field, frames, poses, params);
+  const cal::FramesCalibration result = cal::calibrateColours(mirror, field, frames, params);
+  const cal::ImageCalibration& c = result.calibration;
+  const int localized = result.posed;
+  const bool posed = localized > 0;
   fmt::print(
       "floor: median y,u,v {:.0f},{:.0f},{:.0f} ({:.0f} % of the floor annulus; chroma sigma "
       "{:.1f} levels; luma p1-p99 {:.0f}-{:.0f}), {} samples\n",
@@ -286,37 +285,54 @@ int calibrateFromFrames(const AppOptions& o, const camera::MirrorModel& mirror,
       c.floor.chroma_sigma, c.floor.luma[0], c.floor.luma[1], c.samples.floor.size());
   fmt::print(
       "lines: {} of {} ridges with floor on both sides, {} samples, luma p5-p95 {:.0f}-{:.0f}, "
-      "white point u,v {:.0f},{:.0f}; floor/white luma boundary {:.0f}\n",
+      "white point u,v {:.0f},{:.0f}; where their chroma is the floor's: floor up to luma {:.0f}, "
+      "white from {:.0f}\n",
       c.line_ridges, c.ridges, c.samples.line.size(), c.line_luma[0], c.line_luma[1],
-      c.white_point[0], c.white_point[1], c.luma_boundary);
+      c.white_point[0], c.white_point[1], c.luma_boundary, c.white_from);
   if (!posed) {
-    fmt::print("ball and robots: not searched ({} of {} frames fitted the field with the first "
-               "table)\n",
-               poses.size(), frames.size());
+    fmt::print("ball and robots: not searched (no frame fitted the field with the first table)\n");
   } else if (c.ball_found) {
-    fmt::print("ball: found in {} of {} frames at field ({:.2f}, {:.2f}), {} samples -> orange\n",
-               c.ball_frames, frames.size(), c.ball_field.x(), c.ball_field.y(),
-               c.samples.ball.size());
+    fmt::print(
+        "ball: found in {} of the {} frames that fitted the field, at field ({:.2f}, "
+        "{:.2f}), {} samples -> orange\n",
+        c.ball_frames, localized, c.ball_field.x(), c.ball_field.y(), c.samples.ball.size());
   } else {
-    fmt::print("ball: none found in the frames: the table has no ball (orange) class; put a "
-               "ball 1-3 m from the robot and calibrate again for its colour\n");
+    fmt::print(
+        "ball: none found in the frames: the table has no ball (orange) class; put a "
+        "ball 1-3 m from the robot and calibrate again for its colour\n");
   }
   if (posed) {
     fmt::print("robots: {}\n", c.robots_found
-                                    ? fmt::format("{} dark samples -> black", c.samples.robot.size())
-                                    : std::string("none in the field: no black class"));
+                                   ? fmt::format("{} dark samples -> black", c.samples.robot.size())
+                                   : std::string("none in the field: no black class"));
   }
-  fmt::print("carpet median y,u,v {:.0f},{:.0f},{:.0f} (adaptation: reference [{:.0f}, {:.0f}, "
-             "{:.0f}])\n",
-             c.floor.median[0], c.floor.median[1], c.floor.median[2], c.floor.median[0],
-             c.floor.median[1], c.floor.median[2]);
-  const cal::TableCheck check = cal::checkTable(mirror, field, frames, c.table, params);
+  fmt::print(
+      "carpet median y,u,v {:.0f},{:.0f},{:.0f} (adaptation: reference [{:.0f}, {:.0f}, "
+      "{:.0f}])\n",
+      c.floor.median[0], c.floor.median[1], c.floor.median[2], c.floor.median[0], c.floor.median[1],
+      c.floor.median[2]);
+  const cal::TableCheck& check = result.check;
   printCheck(check);
   if (!o.debug_png.empty()) {
+    // Per frame: the frame | its classes with the tracker's line points (red: on a field line at
+    // the fitted pose, yellow: off the lines).
+    std::vector<cv::Mat> rows;
+    for (std::size_t i = 0; i < frames.size(); ++i) {
+      cv::Mat classes = camera::classificationImage(frames[i], c.table);
+      const cal::FrameCheck& f = check.frames[i];
+      for (std::size_t k = 0; k < f.lines.points.size(); ++k) {
+        const bool on = k < f.on_line.size() && f.on_line[k];
+        cv::circle(classes,
+                   cv::Point(static_cast<int>(std::lround(f.lines.points[k].u)),
+                             static_cast<int>(std::lround(f.lines.points[k].v))),
+                   1, on ? cv::Scalar(0, 0, 255) : cv::Scalar(0, 255, 255), cv::FILLED);
+      }
+      cv::Mat row;
+      cv::hconcat(std::vector<cv::Mat>{camera::toBgrImage(frames[i]), classes}, row);
+      rows.push_back(row);
+    }
     cv::Mat out;
-    cv::hconcat(std::vector<cv::Mat>{camera::toBgrImage(frames[0]),
-                                     camera::classificationImage(frames[0], c.table)},
-                out);
+    cv::vconcat(rows, out);
     camera::writeImage(o.debug_png, out);
   }
   refuseOnProblems(check);
@@ -492,8 +508,8 @@ int runApp(const AppOptions& o) {
     return calibrateFromFrames(o, mirror, field, views);
   }
   // Known poses: the field model predicts carpet and line pixels (docs/calibration.md).
-  camera::ColourTable base = camera::loadColourTablePreset(
-      o.base.empty() ? config.model.colour_table : o.base);
+  camera::ColourTable base =
+      camera::loadColourTablePreset(o.base.empty() ? config.model.colour_table : o.base);
   const std::vector<cal::UserMask> masks = readMasks(o, posed[0].frame);
   const cal::Calibration calibration =
       cal::calibrate(mirror, field, posed, masks, base.boxes(), params);
@@ -514,8 +530,8 @@ int runApp(const AppOptions& o) {
   printCheck(check);
   refuseOnProblems(check);
   if (!o.out.empty()) {
-    writeTable(o, table, o.lut || table.fromLookupTable() ? std::vector<camera::YuvBox>{}
-                                                          : calibration.boxes,
+    writeTable(o, table,
+               o.lut || table.fromLookupTable() ? std::vector<camera::YuvBox>{} : calibration.boxes,
                fmt::format("Colour table from fieldline-colour-calibrate ({} frame(s), camera "
                            "{}, field {}).\nWhite and green fitted from the field model's "
                            "prediction at the given pose(s); other classes kept.",

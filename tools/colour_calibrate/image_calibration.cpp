@@ -12,6 +12,7 @@
 
 #include "services/fusion/line_matcher.hpp"
 #include "services/region_tracking/frame_processor.hpp"
+#include "tools/calibration_common/floor_colour.hpp"
 #include "tools/calibration_common/grey_image.hpp"
 #include "tools/calibration_common/ridges.hpp"
 #include "tools/calibration_common/staged_output.hpp"
@@ -63,15 +64,6 @@ PixelGeometry geometryOf(const camera::MirrorModel& mirror) {
   return g;
 }
 
-std::vector<Yuv> yuvPlane(const camera::FrameView& f) {
-  std::vector<Yuv> out(static_cast<std::size_t>(f.width) * f.height);
-  for (int v = 0; v < f.height; ++v) {
-    for (int u = 0; u < f.width; ++u)
-      out[static_cast<std::size_t>(v) * f.width + u] = camera::readYuv(f, u, v);
-  }
-  return out;
-}
-
 struct Blob {
   std::vector<int> pixels;
   Vec2 centroid = Vec2::Zero();
@@ -97,7 +89,8 @@ struct Cone {
 Cone coneOf(const std::vector<Yuv>& s, double wu, double wv, const std::array<double, 2>& light,
             double min_radius, double low_pct, double high_pct) {
   std::vector<double> ys, qu, qv;
-  for (const Yuv& c : s) ys.push_back(c.y);
+  for (const Yuv& c : s)
+    ys.push_back(c.y);
   const double ymed = percentileOf(ys, 50.0);
   for (const Yuv& c : s) {
     if (c.y < ymed || c.y < 8) continue;  // the brighter half: noise dominates dark ratios
@@ -135,7 +128,7 @@ perception::LinePoints trackLines(const camera::MirrorModel& mirror,
 ImageCalibration calibrateFromImages(const camera::MirrorModel& mirror,
                                      const field::FieldModel& field,
                                      const std::vector<camera::FrameView>& frames,
-                                     const std::vector<geometry::Pose2>& poses,
+                                     const std::vector<std::optional<geometry::Pose2>>& poses,
                                      const ImageFitParams& params) {
   if (frames.empty()) throw std::invalid_argument("colour calibration: no frames");
   for (const camera::FrameView& f : frames) {
@@ -148,6 +141,7 @@ ImageCalibration calibrateFromImages(const camera::MirrorModel& mirror,
   if (!poses.empty() && poses.size() != frames.size()) {
     throw std::invalid_argument("colour calibration: one pose per frame, or none");
   }
+  auto hasPose = [&](std::size_t f) { return !poses.empty() && poses[f].has_value(); };
   const int w = mirror.width(), h = mirror.height();
   const std::size_t n = static_cast<std::size_t>(w) * h;
   const PixelGeometry geo = geometryOf(mirror);
@@ -156,85 +150,32 @@ ImageCalibration calibrateFromImages(const camera::MirrorModel& mirror,
     planes.push_back(yuvPlane(f));
   ImageCalibration out;
 
-  // --- the floor: the dominant chroma in the annulus ---
-  std::vector<double> hist(256 * 256, 0.0);
-  long annulus = 0;
-  for (const auto& plane : planes) {
-    for (std::size_t i = 0; i < n; i += 2) {
-      const double d = geo.distance[i];
-      if (!(d >= params.floor_from_m && d <= params.floor_to_m)) continue;
-      hist[static_cast<std::size_t>(plane[i].u) * 256 + plane[i].v] += 1.0;
-      ++annulus;
-    }
+  // --- the floor: the dominant colour in the annulus ---
+  std::vector<std::uint8_t> annulus(n, 0);
+  for (std::size_t i = 0; i < n; ++i) {
+    annulus[i] = geo.distance[i] >= params.floor_from_m && geo.distance[i] <= params.floor_to_m;
   }
-  if (annulus < 200) {
-    throw Refusal(fmt::format(
-        "the camera model shows almost no floor between {} and {} m: check --camera",
-        params.floor_from_m, params.floor_to_m));
+  const FloorColour floorColour = findFloorColour(planes, annulus, 2);
+  if (floorColour.pixels < 200) {
+    throw Refusal(
+        fmt::format("the camera model shows almost no floor between {} and {} m: check --camera",
+                    params.floor_from_m, params.floor_to_m));
   }
-  double bestMass = -1.0;
-  int mu = 128, mv = 128;
-  for (int u = 2; u < 254; ++u) {
-    for (int v = 2; v < 254; ++v) {
-      double mass = 0.0;
-      for (int du = -2; du <= 2; ++du)
-        for (int dv = -2; dv <= 2; ++dv)
-          mass += hist[static_cast<std::size_t>(u + du) * 256 + (v + dv)];
-      if (mass > bestMass) {
-        bestMass = mass;
-        mu = u;
-        mv = v;
-      }
-    }
-  }
-  // Spread: chroma distances from the mode are Rayleigh for a round cluster (median 1.18 sigma).
-  double sigma = 6.0;
-  double fu = mu, fv = mv;
-  for (int it = 0; it < 4; ++it) {
-    const double reach = std::max(6.0, 3.5 * sigma);
-    std::vector<double> d, us, vs;
-    for (const auto& plane : planes) {
-      for (std::size_t i = 0; i < n; i += 2) {
-        const double dist = geo.distance[i];
-        if (!(dist >= params.floor_from_m && dist <= params.floor_to_m)) continue;
-        const double c = chromaDistance(plane[i], fu, fv);
-        if (c > reach) continue;
-        d.push_back(c);
-        us.push_back(plane[i].u);
-        vs.push_back(plane[i].v);
-      }
-    }
-    if (d.size() < 50) break;
-    sigma = std::max(1.0, percentileOf(d, 50.0) / 1.1774);
-    fu = percentileOf(us, 50.0);
-    fv = percentileOf(vs, 50.0);
-  }
-  const double nearFloor = std::max(4.0, 3.0 * sigma);
-  long nearCount = 0;
-  for (const auto& plane : planes) {
-    for (std::size_t i = 0; i < n; i += 2) {
-      const double d = geo.distance[i];
-      if (d >= params.floor_from_m && d <= params.floor_to_m &&
-          chromaDistance(plane[i], fu, fv) <= nearFloor) {
-        ++nearCount;
-      }
-    }
-  }
-  out.floor.chroma_sigma = sigma;
-  out.floor.share = static_cast<double>(nearCount) / static_cast<double>(annulus);
+  out.floor.chroma_sigma = floorColour.chroma_sigma;
+  out.floor.share = floorColour.share;
   if (out.floor.share < params.min_floor_share) {
     throw Refusal(fmt::format(
-        "no dominant floor colour around the robot: the commonest chroma (U {:.0f}, V {:.0f}) "
-        "holds {:.0f} % of the pixels between {} and {} m (at least {:.0f} % expected): an "
-        "empty or dark frame, or the robot not on the carpet",
-        fu, fv, 100 * out.floor.share, params.floor_from_m, params.floor_to_m,
+        "no dominant floor colour around the robot: the commonest colour (U {:.0f}, V {:.0f}, "
+        "luma {:.0f}-{:.0f}) holds {:.0f} % of the pixels between {} and {} m (at least {:.0f} % "
+        "expected): an empty or dark frame, or the robot not on the carpet",
+        floorColour.u, floorColour.v, floorColour.luma_lo, floorColour.luma_hi,
+        100 * out.floor.share, params.floor_from_m, params.floor_to_m,
         100 * params.min_floor_share));
   }
-  auto isFloorChroma = [&](const Yuv& c) { return chromaDistance(c, fu, fv) <= nearFloor; };
+  auto isFloor = [&](const Yuv& c) { return floorColour.contains(c); };
 
   // --- lines: narrow bright ridges with floor on both sides ---
-  std::vector<std::vector<std::uint8_t>> ridgeMask(frames.size(),
-                                                   std::vector<std::uint8_t>(n, 0));
+  std::vector<std::vector<std::uint8_t>> ridgeMask(frames.size(), std::vector<std::uint8_t>(n, 0));
   RidgeParams rp;
   rp.centre = mirror.params().centre;
   rp.min_radius = mirror.params().self_radius + 2.0;
@@ -259,9 +200,10 @@ ImageCalibration calibrateFromImages(const camera::MirrorModel& mirror,
       bool flanksFloor = true;
       for (int side : {-1, 1}) {
         const Vec2 q = r.pixel + side * (r.half_width + 1.0) * r.normal;
-        const int qu = static_cast<int>(std::lround(q.x())), qv = static_cast<int>(std::lround(q.y()));
+        const int qu = static_cast<int>(std::lround(q.x())),
+                  qv = static_cast<int>(std::lround(q.y()));
         if (qu < 0 || qv < 0 || qu >= w || qv >= h ||
-            !isFloorChroma(planes[f][static_cast<std::size_t>(qv) * w + qu])) {
+            !isFloor(planes[f][static_cast<std::size_t>(qv) * w + qu])) {
           flanksFloor = false;
         }
       }
@@ -272,7 +214,8 @@ ImageCalibration calibrateFromImages(const camera::MirrorModel& mirror,
       const double cut = r.flank + 0.75 * (r.peak - r.flank);
       for (double t = -r.half_width; t <= r.half_width + 1e-9; t += 1.0) {
         const Vec2 q = r.pixel + t * r.normal;
-        const int qu = static_cast<int>(std::lround(q.x())), qv = static_cast<int>(std::lround(q.y()));
+        const int qu = static_cast<int>(std::lround(q.x())),
+                  qv = static_cast<int>(std::lround(q.y()));
         if (qu < 0 || qv < 0 || qu >= w || qv >= h) continue;
         const std::size_t qi = static_cast<std::size_t>(qv) * w + qu;
         if (planes[f][qi].y >= cut) out.samples.line.push_back(planes[f][qi]);
@@ -281,7 +224,8 @@ ImageCalibration calibrateFromImages(const camera::MirrorModel& mirror,
       const double reach = r.width / 2 + 2.0;
       for (double t = -reach; t <= reach + 1e-9; t += 0.5) {
         const Vec2 q = r.pixel + t * r.normal;
-        const int qu = static_cast<int>(std::lround(q.x())), qv = static_cast<int>(std::lround(q.y()));
+        const int qu = static_cast<int>(std::lround(q.x())),
+                  qv = static_cast<int>(std::lround(q.y()));
         if (qu < 0 || qv < 0 || qu >= w || qv >= h) continue;
         for (int du = -1; du <= 1; ++du) {
           for (int dv = -1; dv <= 1; ++dv) {
@@ -300,14 +244,15 @@ ImageCalibration calibrateFromImages(const camera::MirrorModel& mirror,
     for (std::size_t i = 0; i < n; ++i) {
       const double d = geo.distance[i];
       if (!(d >= params.floor_from_m && d <= params.max_line_distance)) continue;
-      if (ridgeMask[f][i] || !isFloorChroma(planes[f][i])) continue;
+      if (ridgeMask[f][i] || !isFloor(planes[f][i])) continue;
       out.samples.floor.push_back(planes[f][i]);
     }
   }
   if (static_cast<int>(out.samples.floor.size()) < params.min_floor_samples) {
-    throw Refusal(fmt::format("only {} floor pixels found (at least {}): the frames show too "
-                              "little floor",
-                              out.samples.floor.size(), params.min_floor_samples));
+    throw Refusal(
+        fmt::format("only {} floor pixels found (at least {}): the frames show too "
+                    "little floor",
+                    out.samples.floor.size(), params.min_floor_samples));
   }
   std::vector<double> fy, fus, fvs;
   for (const Yuv& c : out.samples.floor) {
@@ -346,14 +291,15 @@ ImageCalibration calibrateFromImages(const camera::MirrorModel& mirror,
     const double hx = field.length() / 2 + 0.3, hy = field.width() / 2 + 0.3;
     std::vector<Blob> balls;
     for (std::size_t f = 0; f < frames.size(); ++f) {
+      if (!hasPose(f)) continue;
       std::vector<std::uint8_t> other(n, 0);
       for (std::size_t i = 0; i < n; ++i) {
         if (!std::isfinite(geo.distance[i]) || geo.distance[i] > 6.0) continue;
-        const Vec2 fp = geometry::pointRobotToField(poses[f], geo.robot[i]);
+        const Vec2 fp = geometry::pointRobotToField(*poses[f], geo.robot[i]);
         if (std::abs(fp.x()) > hx || std::abs(fp.y()) > hy) continue;
         const Yuv& c = planes[f][i];
-        if (isFloorChroma(c) && c.y <= out.floor.luma[1] * 1.3) continue;  // floor
-        if (ridgeMask[f][i]) continue;                                      // a line
+        if (isFloor(c)) continue;       // floor
+        if (ridgeMask[f][i]) continue;  // a line
         other[i] = 1;
       }
       // Connected blobs (4-neighbours).
@@ -416,20 +362,20 @@ ImageCalibration calibrateFromImages(const camera::MirrorModel& mirror,
         const Vec2 tangent(-radial.y(), radial.x());
         double extentR = 0.0, extentT = 0.0;
         {
-          const auto a = mirror.robotPointToImage({c2.x() - 0.11 * radial.x(),
-                                                   c2.y() - 0.11 * radial.y(), 0.11});
-          const auto z = mirror.robotPointToImage({c2.x() + 0.11 * radial.x(),
-                                                   c2.y() + 0.11 * radial.y(), 0.11});
-          const auto l = mirror.robotPointToImage({c2.x() - 0.11 * tangent.x(),
-                                                   c2.y() - 0.11 * tangent.y(), 0.11});
-          const auto r = mirror.robotPointToImage({c2.x() + 0.11 * tangent.x(),
-                                                   c2.y() + 0.11 * tangent.y(), 0.11});
+          const auto a = mirror.robotPointToImage(
+              {c2.x() - 0.11 * radial.x(), c2.y() - 0.11 * radial.y(), 0.11});
+          const auto z = mirror.robotPointToImage(
+              {c2.x() + 0.11 * radial.x(), c2.y() + 0.11 * radial.y(), 0.11});
+          const auto l = mirror.robotPointToImage(
+              {c2.x() - 0.11 * tangent.x(), c2.y() - 0.11 * tangent.y(), 0.11});
+          const auto r = mirror.robotPointToImage(
+              {c2.x() + 0.11 * tangent.x(), c2.y() + 0.11 * tangent.y(), 0.11});
           if (!a || !z || !l || !r) continue;
           extentR = (*a - *z).norm();
           extentT = (*l - *r).norm();
         }
-        const double expectedArea = std::numbers::pi / 4.0 * std::max(1.0, extentR) *
-                                    std::max(1.0, extentT);
+        const double expectedArea =
+            std::numbers::pi / 4.0 * std::max(1.0, extentR) * std::max(1.0, extentT);
         const double ratio = m / expectedArea;
         const double aspect = static_cast<double>(std::max(maxU - minU, maxV - minV) + 1) /
                               static_cast<double>(std::min(maxU - minU, maxV - minV) + 1);
@@ -443,7 +389,7 @@ ImageCalibration calibrateFromImages(const camera::MirrorModel& mirror,
     std::vector<Vec2> at;
     for (const Blob& b : balls) {
       const auto c = mirror.imageToRobotAtHeight(b.centroid, 0.11);
-      at.push_back(geometry::pointRobotToField(poses[static_cast<std::size_t>(b.frame)],
+      at.push_back(geometry::pointRobotToField(*poses[static_cast<std::size_t>(b.frame)],
                                                Vec2(c->x(), c->y())));
     }
     int bestVotes = 0;
@@ -451,7 +397,8 @@ ImageCalibration calibrateFromImages(const camera::MirrorModel& mirror,
     for (std::size_t i = 0; i < balls.size(); ++i) {
       std::vector<bool> framesSeen(frames.size(), false);
       for (std::size_t j = 0; j < balls.size(); ++j) {
-        if ((at[i] - at[j]).norm() < 0.4) framesSeen[static_cast<std::size_t>(balls[j].frame)] = true;
+        if ((at[i] - at[j]).norm() < 0.4)
+          framesSeen[static_cast<std::size_t>(balls[j].frame)] = true;
       }
       const int votes = static_cast<int>(std::count(framesSeen.begin(), framesSeen.end(), true));
       if (votes > bestVotes) {
@@ -459,7 +406,10 @@ ImageCalibration calibrateFromImages(const camera::MirrorModel& mirror,
         bestIndex = i;
       }
     }
-    const int needed = std::max(1, static_cast<int>(frames.size()) / 3);
+    int posed = 0;
+    for (std::size_t f = 0; f < frames.size(); ++f)
+      posed += hasPose(f) ? 1 : 0;
+    const int needed = std::max(1, posed / 3);
     if (bestVotes >= needed) {
       out.ball_found = true;
       out.ball_frames = bestVotes;
@@ -470,13 +420,15 @@ ImageCalibration calibrateFromImages(const camera::MirrorModel& mirror,
         // The inside of the blob (its rim mixes with the floor): pixels whose 4 neighbours are
         // in the blob too.
         std::vector<std::uint8_t> in(n, 0);
-        for (int p : b.pixels) in[static_cast<std::size_t>(p)] = 1;
+        for (int p : b.pixels)
+          in[static_cast<std::size_t>(p)] = 1;
         for (int p : b.pixels) {
           const int pu = p % w, pv = p / w;
           if (pu < 1 || pv < 1 || pu >= w - 1 || pv >= h - 1) continue;
           if (in[static_cast<std::size_t>(p - 1)] && in[static_cast<std::size_t>(p + 1)] &&
               in[static_cast<std::size_t>(p - w)] && in[static_cast<std::size_t>(p + w)]) {
-            out.samples.ball.push_back(planes[static_cast<std::size_t>(b.frame)][static_cast<std::size_t>(p)]);
+            out.samples.ball.push_back(
+                planes[static_cast<std::size_t>(b.frame)][static_cast<std::size_t>(p)]);
           }
         }
       }
@@ -489,29 +441,18 @@ ImageCalibration calibrateFromImages(const camera::MirrorModel& mirror,
   Cone floorCone = coneOf(out.samples.floor, wu, wv, light, 4.0, 0.5, 99.5);
   Cone whiteCone = coneOf(out.samples.line, wu, wv, {light[0], 10.0}, 6.0, 2.0, 100.0);
   whiteCone.y_hi = 255.0;
-  // Where floor and white share chroma, luma decides: the boundary that misclassifies the
-  // fewest samples of each (relative to their counts).
-  {
-    std::vector<double> a = fy, b = ly;
-    std::sort(a.begin(), a.end());
-    std::sort(b.begin(), b.end());
-    double bestErr = 2.0;
-    double boundary = 0.5 * (a.back() + b.front());
-    for (int y = 1; y < 256; ++y) {
-      const double floorAbove =
-          static_cast<double>(a.end() - std::lower_bound(a.begin(), a.end(), y)) / a.size();
-      const double lineBelow =
-          static_cast<double>(std::lower_bound(b.begin(), b.end(), y) - b.begin()) / b.size();
-      if (floorAbove + lineBelow < bestErr - 1e-12) {
-        bestErr = floorAbove + lineBelow;
-        boundary = y;
-      }
-    }
-    // With a gap between them, the middle of the gap (geometric).
-    const double top = percentileOf(fy, 99.5), bottom = percentileOf(ly, 1.0);
-    if (top < bottom) boundary = std::sqrt(top * bottom);
-    out.luma_boundary = boundary;
-  }
+  // Where floor and white share chroma (a grey carpet, a washed-out camera), luma decides: floor
+  // up to the brightest floor pixels (so that the bright side of an unevenly lit carpet does not
+  // turn white and break the green regions with false lines), white from there on; a gap of
+  // unclassified luma between them where the lines' dim edges and far lines are as bright as the
+  // brightest floor (the tracker's ridge rule finds lines through unclassified pixels).
+  const double floorTop = percentileOf(fy, 99.8) + 2.0;
+  const double whiteBottom = std::max(floorTop + 4.0, percentileOf(ly, 2.0));
+  out.luma_boundary = floorTop;
+  out.white_from = whiteBottom;
+  // A line is brighter than the floor beside it: nothing darker than the brightest floor is white
+  // (a grey floor beyond the carpet, a grey wall), whatever its chroma.
+  whiteCone.y_lo = std::max(whiteCone.y_lo, floorTop + 2.0);
   std::optional<Cone> ballCone;
   if (out.ball_found) {
     ballCone = coneOf(out.samples.ball, wu, wv, light, 5.0, 1.0, 99.0);
@@ -536,7 +477,9 @@ ImageCalibration calibrateFromImages(const camera::MirrorModel& mirror,
         const bool inFloor = floorCone.contains(y, u, v, wu, wv);
         const bool inWhite = whiteCone.contains(y, u, v, wu, wv);
         if (inFloor && inWhite) {
-          c = y < out.luma_boundary ? ColourClass::kGreen : ColourClass::kWhite;
+          c = y <= floorTop      ? ColourClass::kGreen
+              : y >= whiteBottom ? ColourClass::kWhite
+                                 : ColourClass::kUnknown;
         } else if (inFloor) {
           c = ColourClass::kGreen;
         } else if (inWhite) {
@@ -578,6 +521,7 @@ TableCheck checkTable(const camera::MirrorModel& mirror, const field::FieldModel
           const double e = field.distance(geometry::pointRobotToField(fc.pose, Vec2(p.x, p.y)));
           d.push_back(e);
           near += e <= params.fit_distance_m ? 1 : 0;
+          fc.on_line.push_back(e <= params.fit_distance_m);
         }
         fc.median_cm = 100.0 * percentileOf(d, 50.0);
         fc.fit_share = static_cast<double>(near) / static_cast<double>(d.size());
@@ -593,6 +537,7 @@ TableCheck checkTable(const camera::MirrorModel& mirror, const field::FieldModel
         if (c == ColourClass::kGreen) greenY.push_back(camera::readYuv(frames[f], u, v).y);
       }
     }
+    fc.lines = lines;
     check.frames.push_back(fc);
   }
   check.fit_share = total > 0 ? static_cast<double>(within) / static_cast<double>(total) : 0.0;
@@ -622,6 +567,28 @@ TableCheck checkTable(const camera::MirrorModel& mirror, const field::FieldModel
     }
   }
   return check;
+}
+
+FramesCalibration calibrateColours(const camera::MirrorModel& mirror,
+                                   const field::FieldModel& field,
+                                   const std::vector<camera::FrameView>& frames,
+                                   const ImageFitParams& params) {
+  FramesCalibration out;
+  out.calibration = calibrateFromImages(mirror, field, frames, {}, params);
+  const TableCheck first = checkTable(mirror, field, frames, out.calibration.table, params);
+  std::vector<std::optional<geometry::Pose2>> poses;
+  for (const FrameCheck& f : first.frames) {
+    const bool fits = f.localized && f.fit_share >= params.min_fit_share;
+    poses.push_back(fits ? std::optional<geometry::Pose2>(f.pose) : std::nullopt);
+    out.posed += fits ? 1 : 0;
+  }
+  if (out.posed > 0) {
+    out.calibration = calibrateFromImages(mirror, field, frames, poses, params);
+    out.check = checkTable(mirror, field, frames, out.calibration.table, params);
+  } else {
+    out.check = first;
+  }
+  return out;
 }
 
 }  // namespace fieldline::calibration

@@ -55,7 +55,7 @@ struct ImageFitParams {
 };
 
 // The floor's colour as found.
-struct FloorColour {
+struct FloorReport {
   std::array<double, 3> median{0, 128, 128};  // Y, U, V
   double chroma_sigma = 0.0;                  // levels
   double share = 0.0;                         // of the annulus' pixels
@@ -68,13 +68,15 @@ struct ClassSamples {
 
 // What the calibration found and the table it made (before the check).
 struct ImageCalibration {
-  FloorColour floor;
+  FloorReport floor;
   std::array<double, 2> white_point{128, 128};  // the lines' chroma (U, V)
   std::array<double, 2> line_luma{0, 0};        // p5, p95 of the line samples
-  double luma_boundary = 0.0;  // floor below, white above where their chromas overlap
+  // Where floor and white share chroma: floor up to luma_boundary, white from white_from.
+  double luma_boundary = 0.0;
+  double white_from = 0.0;
   ClassSamples samples;
-  int ridges = 0;         // ridge crossings found
-  int line_ridges = 0;    // of them accepted as lines
+  int ridges = 0;       // ridge crossings found
+  int line_ridges = 0;  // of them accepted as lines
   bool ball_found = false;
   geometry::Vec2 ball_field = geometry::Vec2::Zero();  // where the ball lies, field frame
   int ball_frames = 0;
@@ -87,8 +89,10 @@ struct FrameCheck {
   int line_points = 0;
   bool localized = false;
   geometry::Pose2 pose;
-  double median_cm = 0.0;   // median distance of the points to the field's lines at the pose
-  double fit_share = 0.0;   // share within fit_distance_m
+  double median_cm = 0.0;        // median distance of the points to the field's lines at the pose
+  double fit_share = 0.0;        // share within fit_distance_m
+  perception::LinePoints lines;  // the tracker's line points
+  std::vector<bool> on_line;     // per point: within fit_distance_m at the pose
 };
 
 struct TableCheck {
@@ -102,13 +106,14 @@ struct TableCheck {
 };
 
 // Floor, lines and (with poses from a first check) ball and robots, and the table. `poses`:
-// empty, or one per frame (from checkTable of a first table). Throws Refusal
+// empty, or one per frame (from checkTable of a first table; nullopt: that frame is not used for
+// the ball and robots). Throws Refusal
 // (tools/calibration_common/staged_output.hpp) when the frames show no dominant floor colour or
 // no bright ridges on it, std::invalid_argument for frames of another size than the mirror's.
 ImageCalibration calibrateFromImages(const camera::MirrorModel& mirror,
                                      const field::FieldModel& field,
                                      const std::vector<camera::FrameView>& frames,
-                                     const std::vector<geometry::Pose2>& poses,
+                                     const std::vector<std::optional<geometry::Pose2>>& poses,
                                      const ImageFitParams& params);
 
 // Tracks every frame with the table (the region tracker's default parameters), fits each
@@ -116,6 +121,20 @@ ImageCalibration calibrateFromImages(const camera::MirrorModel& mirror,
 TableCheck checkTable(const camera::MirrorModel& mirror, const field::FieldModel& field,
                       const std::vector<camera::FrameView>& frames,
                       const camera::ColourTable& table, const ImageFitParams& params);
+
+// The whole procedure: a first table (floor and lines), its check (which gives each frame's pose
+// where its line points fit the field), the ball and robots from the frames that fitted, the
+// final table and its check. Throws Refusal like calibrateFromImages; the check's problems are
+// the caller's to act on.
+struct FramesCalibration {
+  ImageCalibration calibration;
+  TableCheck check;
+  int posed = 0;  // frames that fitted the field with the first table
+};
+FramesCalibration calibrateColours(const camera::MirrorModel& mirror,
+                                   const field::FieldModel& field,
+                                   const std::vector<camera::FrameView>& frames,
+                                   const ImageFitParams& params);
 
 // The tracker's line points of one frame with a table (three passes, lines on the last).
 perception::LinePoints trackLines(const camera::MirrorModel& mirror,

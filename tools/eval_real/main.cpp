@@ -4,8 +4,8 @@
 #include <exception>
 #include <string>
 
-#include <CLI/CLI.hpp>
 #include <fmt/core.h>
+#include <CLI/CLI.hpp>
 
 #include "tools/eval_real/venue_cases.hpp"
 
@@ -17,7 +17,8 @@ int main(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
   try {
     const auto v = fieldline::venue::renderVenue(fieldline::venue::loadVenueCase(venueCase));
-    for (const std::string& p : fieldline::venue::writeVenue(v, folder)) fmt::print("wrote {}\n", p);
+    for (const std::string& p : fieldline::venue::writeVenue(v, folder))
+      fmt::print("wrote {}\n", p);
     return 0;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "fieldline-eval-real: %s\n", e.what());

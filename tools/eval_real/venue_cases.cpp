@@ -89,9 +89,12 @@ VenueCase loadVenueCase(const config::Node& root) {
   c.render = camera::loadRenderParams(cam.child("render"));
   if (const std::optional<config::Node> colours = root.childIf("colours")) {
     const std::vector<std::pair<std::string, camera::Bgr*>> keys = {
-        {"carpet_bgr", &c.render.carpet},   {"line_bgr", &c.render.line},
-        {"outside_floor_bgr", &c.render.outside_floor}, {"hall_bgr", &c.render.hall},
-        {"ball_bgr", &c.render.ball},       {"robot_bgr", &c.render.robot},
+        {"carpet_bgr", &c.render.carpet},
+        {"line_bgr", &c.render.line},
+        {"outside_floor_bgr", &c.render.outside_floor},
+        {"hall_bgr", &c.render.hall},
+        {"ball_bgr", &c.render.ball},
+        {"robot_bgr", &c.render.robot},
         {"goal_white_bgr", &c.render.goal_white}};
     for (const auto& [key, target] : keys) {
       if (colours->has(key)) *target = loadBgr(*colours, key);
@@ -149,8 +152,7 @@ camera::MirrorModel venueMirror(const VenueCase& c) {
     const double towards = c.mirror.tilt_bearing_deg * kDeg;
     // Up to where the steepest sector's angle stays 0.05 rad short of the horizon, at most the
     // mirror's edge.
-    const double end =
-        std::min(p.outer_radius, (kPi / 2 - 0.05 - std::abs(tilt)) / c.mirror.rate);
+    const double end = std::min(p.outer_radius, (kPi / 2 - 0.05 - std::abs(tilt)) / c.mirror.rate);
     camera::CalibrationTableParams t;
     const double start = std::max(1.0, p.self_radius);
     for (double r = start; r < end; r += 1.0)

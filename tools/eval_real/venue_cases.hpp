@@ -58,9 +58,9 @@ struct VenueCase {
   VenueMirror mirror;
   camera::RenderParams render;  // the camera's, with the case's colours and realism
   std::vector<VenueSpot> spots;
-  std::optional<Vec2> ball;   // on the floor, field frame
-  std::vector<Vec2> robots;   // other robots, field frame
-  int people = 0;             // people standing in the hall beyond the lines
+  std::optional<Vec2> ball;  // on the floor, field frame
+  std::vector<Vec2> robots;  // other robots, field frame
+  int people = 0;            // people standing in the hall beyond the lines
   std::uint32_t seed = 1;
 };
 

@@ -159,54 +159,6 @@ void printReport(const RingCalibration& c) {
   row("all", c.table.total);
 }
 
-// Per matched ring: the distance the finished table gives at the ring's points, against the
-// ring's true distance: the median relative error over all its points and the worst sector's.
-struct RingCheck {
-  double distance = 0.0;
-  int points = 0;
-  double median_percent = 0.0;
-  double worst_sector_percent = 0.0;
-};
-
-std::vector<RingCheck> checkRings(const RingCalibration& c, int sectors) {
-  const camera::MirrorModel model(c.mirror);
-  std::vector<RingCheck> out(c.distances.size());
-  std::vector<std::vector<std::vector<double>>> bySector(
-      c.distances.size(), std::vector<std::vector<double>>(static_cast<std::size_t>(sectors)));
-  std::vector<std::vector<double>> all(c.distances.size());
-  for (std::size_t i = 0; i < c.points.size(); ++i) {
-    if (!c.fit.inlier.empty() && !c.fit.inlier[i]) continue;
-    const RingPoint& p = c.points[i];
-    const double b = model.bearingOf(p.pixel);
-    const double t = axisDistanceToRing(c.distances[static_cast<std::size_t>(p.ring)], b,
-                                        c.mirror.axis_offset);
-    const double d = c.mirror.distance.floorDistance(model.radiusOf(p.pixel), b);
-    if (!std::isfinite(t) || !std::isfinite(d)) continue;
-    const double e = 100.0 * (d - t) / t;
-    all[static_cast<std::size_t>(p.ring)].push_back(e);
-    const int s = std::clamp(
-        static_cast<int>(std::floor((b + std::numbers::pi) / (2 * std::numbers::pi) * sectors)),
-        0, sectors - 1);
-    bySector[static_cast<std::size_t>(p.ring)][static_cast<std::size_t>(s)].push_back(e);
-  }
-  auto med = [](std::vector<double> v) {
-    std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
-    return v[v.size() / 2];
-  };
-  for (std::size_t k = 0; k < c.distances.size(); ++k) {
-    out[k].distance = c.distances[k];
-    out[k].points = static_cast<int>(all[k].size());
-    if (all[k].empty()) continue;
-    out[k].median_percent = std::abs(med(all[k]));
-    for (const auto& v : bySector[k]) {
-      if (v.size() >= 5) {
-        out[k].worst_sector_percent = std::max(out[k].worst_sector_percent, std::abs(med(v)));
-      }
-    }
-  }
-  return out;
-}
-
 geometry::Pose2 parsePose(const std::string& text) {
   const std::vector<double> p = numbers(text, 3, "--pose");
   return {p[0], p[1], p[2]};
@@ -250,33 +202,33 @@ void printPoseFreeReport(const PoseFreeCalibration& c) {
   fmt::print("centre ({:.2f}, {:.2f}) px (sigma {:.2f} px)\n", c.mirror.centre.x(),
              c.mirror.centre.y(), c.centre_sigma_px);
   fmt::print("axis offset ({:.3f}, {:.3f}) m: {}\n", c.offset.x(), c.offset.y(), c.offset_note);
-  fmt::print("tilt: the horizon {:.2f} px further out toward image angle {:.0f}°\n", c.tilt_px.norm(),
-             std::atan2(c.tilt_px.y(), c.tilt_px.x()) * 180.0 / std::numbers::pi);
+  fmt::print("tilt: the horizon {:.2f} px further out toward image angle {:.0f}°\n",
+             c.tilt_px.norm(), std::atan2(c.tilt_px.y(), c.tilt_px.x()) * 180.0 / std::numbers::pi);
   fmt::print("knots (radius px: distance m, line pixels):");
   for (std::size_t k = 0; k < c.knot_distances.size(); ++k) {
     fmt::print(" {:.1f}: {:.2f} ({})", c.knot_radii[k], c.knot_distances[k], c.knot_support[k]);
   }
-  fmt::print("\ntable up to {:.2f} m ({:.1f} px); {} line pixels used, rms {:.2f} px / {:.1f} cm, "
-             "{:.1f} % of the ridge pixels in range on lines\n",
-             c.table_end_m, c.mirror.useful_radius, c.used, c.rms_px, c.rms_cm,
-             100 * c.on_lines);
+  fmt::print(
+      "\ntable up to {:.2f} m ({:.1f} px); {} line pixels used, rms {:.2f} px / {:.1f} cm, "
+      "{:.1f} % of the ridge pixels in range on lines\n",
+      c.table_end_m, c.mirror.useful_radius, c.used, c.rms_px, c.rms_cm, 100 * c.on_lines);
+  fmt::print("line width: {:.2f} times the field's (median over {} near line pixels)\n",
+             c.line_width_ratio, c.width_samples);
 }
 
 // Writes the camera preset only after reading it back through the camera service's loader and
 // checking what was read; returns the exit code.
 int writePreset(const MirrorCalibrateOptions& o, const camera::CameraConfig& config,
                 const camera::MirrorParams& mirror, double min_reach, const std::string& comment) {
-  const std::string yaml =
-      cameraYaml(mirror, colourTableFor(o.out, config.model.colour_table),
-                 config.pipeline.frame_rate, config.pipeline.exposure, config.pipeline.latency,
-                 comment);
+  const std::string yaml = cameraYaml(mirror, colourTableFor(o.out, config.model.colour_table),
+                                      config.pipeline.frame_rate, config.pipeline.exposure,
+                                      config.pipeline.latency, comment);
   StagedFiles staged;
   staged.stage(o.out, yaml);
   // The loader the camera service uses, resolving paths against where the file will be.
   const camera::CameraConfig loaded =
       camera::loadCameraConfig(config::Node::loadString(yaml, o.out));
-  const std::vector<std::string> problems =
-      mirrorProblems(loaded.model.mirror.params(), min_reach);
+  const std::vector<std::string> problems = mirrorProblems(loaded.model.mirror.params(), min_reach);
   if (!problems.empty()) {
     std::string why;
     for (const std::string& p : problems)
@@ -290,13 +242,86 @@ int writePreset(const MirrorCalibrateOptions& o, const camera::CameraConfig& con
 
 }  // namespace
 
+std::vector<RingCheck> checkRings(const RingCalibration& c, int sectors) {
+  const camera::MirrorModel model(c.mirror);
+  std::vector<RingCheck> out(c.distances.size());
+  std::vector<std::vector<std::vector<double>>> bySector(
+      c.distances.size(), std::vector<std::vector<double>>(static_cast<std::size_t>(sectors)));
+  std::vector<std::vector<double>> all(c.distances.size());
+  for (std::size_t i = 0; i < c.points.size(); ++i) {
+    if (!c.fit.inlier.empty() && !c.fit.inlier[i]) continue;
+    const RingPoint& p = c.points[i];
+    const double b = model.bearingOf(p.pixel);
+    const double t =
+        axisDistanceToRing(c.distances[static_cast<std::size_t>(p.ring)], b, c.mirror.axis_offset);
+    const double d = c.mirror.distance.floorDistance(model.radiusOf(p.pixel), b);
+    if (!std::isfinite(t) || !std::isfinite(d)) continue;
+    const double e = 100.0 * (d - t) / t;
+    all[static_cast<std::size_t>(p.ring)].push_back(e);
+    const int s = std::clamp(
+        static_cast<int>(std::floor((b + std::numbers::pi) / (2 * std::numbers::pi) * sectors)), 0,
+        sectors - 1);
+    bySector[static_cast<std::size_t>(p.ring)][static_cast<std::size_t>(s)].push_back(e);
+  }
+  auto med = [](std::vector<double> v) {
+    std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
+    return v[v.size() / 2];
+  };
+  // Each inner ring left out: the curve through (0, 0) and the other rings' radii, read at its
+  // radius.
+  for (std::size_t k = 0; k + 1 < c.distances.size(); ++k) {
+    std::vector<double> r{0.0}, d{0.0};
+    for (std::size_t j = 0; j < c.distances.size(); ++j) {
+      if (j == k) continue;
+      r.push_back(c.fit.radii[j]);
+      d.push_back(c.distances[j]);
+    }
+    const double at = MonotoneCurve(r, d)(c.fit.radii[k]);
+    out[k].held_out_percent = 100.0 * std::abs(at - c.distances[k]) / c.distances[k];
+  }
+  for (std::size_t k = 0; k < c.distances.size(); ++k) {
+    out[k].distance = c.distances[k];
+    out[k].points = static_cast<int>(all[k].size());
+    if (all[k].empty()) continue;
+    out[k].median_percent = std::abs(med(all[k]));
+    for (const auto& v : bySector[k]) {
+      if (v.size() >= 5) {
+        out[k].worst_sector_percent = std::max(out[k].worst_sector_percent, std::abs(med(v)));
+      }
+    }
+  }
+  return out;
+}
+
+camera::MirrorParams ringBaseFor(const GreyImage& image, camera::MirrorParams base,
+                                 double min_radius, double max_radius) {
+  if (image.width == base.width && image.height == base.height) return base;
+  // Another camera: the base scaled to the image's size, its distance function only a shape
+  // (the rings fix it); the search reaches from the scaled reflection to the rim.
+  base = scaleMirrorTo(base, image.width, image.height);
+  base.centre = Vec2((image.width - 1) / 2.0, (image.height - 1) / 2.0);
+  base.outer_radius = std::min(image.width, image.height) / 2.0 - 2.0;
+  base.useful_radius = base.outer_radius;
+  if (const std::optional<Rim> rim = findMirrorRim(image, base.centre, 0.5 * base.outer_radius,
+                                                   std::hypot(image.width, image.height) / 2.0)) {
+    base.centre = rim->centre;
+    base.outer_radius = base.useful_radius = rim->radius - 2.0;
+  }
+  if (min_radius > 0.0) base.self_radius = min_radius;
+  if (max_radius > 0.0) base.outer_radius = base.useful_radius = max_radius;
+  return base;
+}
+
 std::string colourTableFor(const std::string& out_path, const std::string& colour_table) {
   namespace fs = std::filesystem;
   const bool isPath = colour_table.find('/') != std::string::npos ||
                       (colour_table.size() > 5 && colour_table.ends_with(".yaml"));
   if (!isPath) return colour_table;
   const fs::path folder = fs::absolute(fs::path(out_path)).parent_path();
-  return fs::absolute(fs::path(colour_table)).lexically_normal().lexically_relative(folder).string();
+  return fs::absolute(fs::path(colour_table))
+      .lexically_normal()
+      .lexically_relative(folder)
+      .string();
 }
 
 std::vector<std::string> mirrorProblems(const camera::MirrorParams& m, double min_reach) {
@@ -321,9 +346,9 @@ std::vector<std::string> mirrorProblems(const camera::MirrorParams& m, double mi
     for (std::size_t i = 1; i < d.size(); ++i) {
       const double slope = (d[i] - d[i - 1]) / (t->radii[i] - t->radii[i - 1]);
       if (!(slope > 1e-5)) {
-        out.push_back(fmt::format(
-            "sector {:.0f}°: distances do not increase between {:.1f} and {:.1f} px", bearing,
-            t->radii[i - 1], t->radii[i]));
+        out.push_back(
+            fmt::format("sector {:.0f}°: distances do not increase between {:.1f} and {:.1f} px",
+                        bearing, t->radii[i - 1], t->radii[i]));
         break;
       }
       if (slope < 0.5 * lastSlope || slope > 4.0 * lastSlope) {
@@ -335,9 +360,10 @@ std::vector<std::string> mirrorProblems(const camera::MirrorParams& m, double mi
       lastSlope = slope;
     }
     if (d.back() < min_reach) {
-      out.push_back(fmt::format("sector {:.0f}°: the table reaches only {:.2f} m (at least {:g} "
-                                "m expected)",
-                                bearing, d.back(), min_reach));
+      out.push_back(
+          fmt::format("sector {:.0f}°: the table reaches only {:.2f} m (at least {:g} "
+                      "m expected)",
+                      bearing, d.back(), min_reach));
     }
   }
   return out;
@@ -394,6 +420,9 @@ void MirrorCalibrateOptions::addTo(CLI::App& app) {
   app.add_option("--out", out,
                  "Write the camera YAML here (only when the calibration passes its checks)");
   app.add_option("--debug-png", debug_png, "Write the rings found and the fitted table here");
+  app.add_flag("--verbose", verbose,
+               "Print the search's candidate mirrors, each frame's candidate poses and every "
+               "round of the joint fit (frames of the field)");
 }
 
 namespace {
@@ -416,7 +445,7 @@ int runLines(const MirrorCalibrateOptions& o, const camera::CameraConfig& config
     truth.emplace(v.mirror);
     for (std::size_t i = 0; i < v.frames.size(); ++i) {
       frames.push_back({greyFromFrame(v.view(i)), v.frames[i].spot, std::nullopt,
-                        fmt::format("frame_{:02d}", i)});
+                        fmt::format("frame_{:02d}", i), yuvPlane(v.view(i))});
       truePoses.push_back(v.frames[i].pose);
     }
   } else if (o.render_lines) {
@@ -435,7 +464,7 @@ int runLines(const MirrorCalibrateOptions& o, const camera::CameraConfig& config
         renderFieldFrames(*truth, field, camera::renderParamsOf(config, "--render-lines"), poses,
                           realismSetting(o.realism).realism);
     for (std::size_t i = 0; i < rendered.size(); ++i) {
-      frames.push_back({rendered[i].image, -1, rendered[i].pose, fmt::format("render_{}", i)});
+      frames.push_back({rendered[i].image, -1, rendered[i].pose, fmt::format("render_{}", i), {}});
       truePoses.push_back(rendered[i].pose);
     }
   } else {
@@ -447,14 +476,16 @@ int runLines(const MirrorCalibrateOptions& o, const camera::CameraConfig& config
     for (std::size_t i = 0; i < o.lines.size(); ++i) {
       std::optional<geometry::Pose2> pose;
       if (!o.poses.empty()) pose = parsePose(o.poses[i]);
-      frames.push_back({greyFromMat(camera::readBgrImage(o.lines[i])), -1, pose, o.lines[i]});
+      const cv::Mat bgr = camera::readBgrImage(o.lines[i]);
+      frames.push_back({greyFromMat(bgr), -1, pose, o.lines[i], yuvPlane(camera::viewOfBgr(bgr))});
     }
     for (std::size_t s = 0; s < o.spots.size(); ++s) {
       const std::vector<std::string> files = splitList(o.spots[s]);
       if (files.empty()) throw std::invalid_argument("--spot: no frames in '" + o.spots[s] + "'");
       for (const std::string& f : files) {
-        frames.push_back(
-            {greyFromMat(camera::readBgrImage(f)), static_cast<int>(s), std::nullopt, f});
+        const cv::Mat bgr = camera::readBgrImage(f);
+        frames.push_back({greyFromMat(bgr), static_cast<int>(s), std::nullopt, f,
+                          yuvPlane(camera::viewOfBgr(bgr))});
       }
     }
   }
@@ -462,6 +493,7 @@ int runLines(const MirrorCalibrateOptions& o, const camera::CameraConfig& config
   params.sectors = o.sectors;
   params.radius_step = o.radius_step;
   params.offset = offsetMode(o);
+  params.verbose = o.verbose;
   const PoseFreeCalibration c = calibrateAtUnknownPose(frames, field, base, params);
   printPoseFreeReport(c);
   if (truth) {
@@ -482,25 +514,7 @@ int runLines(const MirrorCalibrateOptions& o, const camera::CameraConfig& config
         100 * e.floor_point_m, 100 * worst);
   }
   // The quality a useful calibration has; below it nothing is written.
-  std::vector<std::string> weak;
-  if (c.rms_px > 1.0) weak.push_back(fmt::format("rms {:.2f} px to the lines (at most 1)", c.rms_px));
-  if (c.on_lines < 0.35) {
-    weak.push_back(fmt::format("only {:.0f} % of the ridge pixels lie on field lines (at least "
-                               "35 %): frames of another field?",
-                               100 * c.on_lines));
-  }
-  for (const FramePose& f : c.frames) {
-    if (f.on_lines < 0.25 || f.points < 60) {
-      weak.push_back(fmt::format("{}: {} line pixels, {:.0f} % of its ridges on lines: it does "
-                                 "not show field '{}'",
-                                 f.name, f.points, 100 * f.on_lines, field.name()));
-    }
-  }
-  if (c.table_end_m < 3.0) {
-    weak.push_back(fmt::format("the line pixels reach only {:g} m (a table to 3 m or more is "
-                               "needed): frames with lines further out",
-                               c.table_end_m));
-  }
+  const std::vector<std::string> weak = weaknesses(c, field.name());
   if (!weak.empty()) {
     std::string why;
     for (const std::string& w : weak)
@@ -510,8 +524,8 @@ int runLines(const MirrorCalibrateOptions& o, const camera::CameraConfig& config
   if (!o.out.empty()) {
     std::string poses;
     for (const FramePose& f : c.frames)
-      poses += fmt::format("\n  {}: {:.3f}, {:.3f}, {:.4f}", f.name, f.pose.x, f.pose.y,
-                           f.pose.phi);
+      poses +=
+          fmt::format("\n  {}: {:.3f}, {:.3f}, {:.4f}", f.name, f.pose.x, f.pose.y, f.pose.phi);
     return writePreset(
         o, config, c.mirror, 3.0,
         fmt::format("Written by fieldline-mirror-calibrate from {} field frame(s), poses "
@@ -556,24 +570,7 @@ int runMirrorCalibrate(const MirrorCalibrateOptions& o) {
     image = greyFromMat(camera::readBgrImage(o.rings));
     if (o.distances.empty()) throw std::invalid_argument("--rings needs --distances");
     distances = parseDistances(o.distances);
-    if (image.width != base.width || image.height != base.height) {
-      // Another camera: the base scaled to the image's size, its distance function only a
-      // shape (the rings fix it); the search reaches from the scaled reflection to the rim.
-      base = scaleMirrorTo(base, image.width, image.height);
-      base.centre = Vec2((image.width - 1) / 2.0, (image.height - 1) / 2.0);
-      base.outer_radius = std::min(image.width, image.height) / 2.0 - 2.0;
-      base.useful_radius = base.outer_radius;
-      if (const std::optional<Rim> rim =
-              findMirrorRim(image, base.centre, 0.5 * base.outer_radius,
-                            std::hypot(image.width, image.height) / 2.0)) {
-        base.centre = rim->centre;
-        base.outer_radius = base.useful_radius = rim->radius - 2.0;
-        fmt::print("mirror rim: centre ({:.1f}, {:.1f}) px, radius {:.1f} px\n", rim->centre.x(),
-                   rim->centre.y(), rim->radius);
-      }
-      if (o.min_radius > 0.0) base.self_radius = o.min_radius;
-      if (o.max_radius > 0.0) base.outer_radius = base.useful_radius = o.max_radius;
-    }
+    base = ringBaseFor(image, base, o.min_radius, o.max_radius);
   }
   RingCalibrationParams params;
   params.search.min_radius = o.min_radius > 0.0 ? o.min_radius : base.self_radius;
@@ -585,14 +582,19 @@ int runMirrorCalibrate(const MirrorCalibrateOptions& o) {
   const RingCalibration c = calibrateFromRings(image, distances, base, params);
   printReport(c);
   const std::vector<RingCheck> rings = checkRings(c, o.sectors);
-  fmt::print("{:>9s} {:>7s} {:>13s} {:>13s}\n", "ring (m)", "points", "median err %",
-             "worst sector %");
+  fmt::print("{:>9s} {:>7s} {:>13s} {:>15s} {:>14s}\n", "ring (m)", "points", "median err %",
+             "worst sector %", "held out %");
   double worstRing = 0.0;
   for (const RingCheck& r : rings) {
-    fmt::print("{:9g} {:7d} {:13.2f} {:13.2f}\n", r.distance, r.points, r.median_percent,
-               r.worst_sector_percent);
+    fmt::print("{:9g} {:7d} {:13.2f} {:15.2f} {:>14s}\n", r.distance, r.points, r.median_percent,
+               r.worst_sector_percent,
+               std::isfinite(r.held_out_percent) ? fmt::format("{:.2f}", r.held_out_percent)
+                                                 : std::string("-"));
     worstRing = std::max(worstRing, r.worst_sector_percent);
   }
+  fmt::print(
+      "(held out: the ring's distance read from the curve through the other rings, the "
+      "outermost excepted)\n");
   const camera::MirrorModel fitted(c.mirror);
   if (truth) {
     const MirrorError e = compareMirrors(*truth, fitted, 5.0);

@@ -2,12 +2,14 @@
 // line). docs/mirror_calibration.md shows the commands.
 #pragma once
 
+#include <limits>
 #include <string>
 #include <vector>
 
 #include <CLI/CLI.hpp>
 
 #include "common/camera/mirror_model.hpp"
+#include "tools/mirror_calibrate/mirror_calibration.hpp"
 #include "tools/mirror_calibrate/pose_free.hpp"
 
 namespace fieldline::calibration {
@@ -46,6 +48,7 @@ struct MirrorCalibrateOptions {
   // Outputs.
   std::string out;
   std::string debug_png;
+  bool verbose = false;
 
   void addTo(CLI::App& app);
 };
@@ -59,6 +62,24 @@ int runMirrorCalibrate(const MirrorCalibrateOptions& options);
 // of the previous one or grows more than fourfold), a table that ends before `min_reach` m, an
 // axis offset beyond 0.25 m.
 std::vector<std::string> mirrorProblems(const camera::MirrorParams& mirror, double min_reach);
+
+// Per matched ring: the distance the finished table gives at the ring's points against the
+// ring's true distance (the median relative error over all its points, and the worst sector's),
+// and, for every ring but the outermost, the distance the curve through the other rings gives at
+// its radius (how well the rings pin the distance function between them).
+struct RingCheck {
+  double distance = 0.0;
+  int points = 0;
+  double median_percent = 0.0;
+  double worst_sector_percent = 0.0;
+  double held_out_percent = std::numeric_limits<double>::quiet_NaN();
+};
+std::vector<RingCheck> checkRings(const RingCalibration& c, int sectors);
+
+// The base camera for a ring image of another size: scaled, centred on the mirror's rim where it
+// is seen (else the image's middle), searched from min_radius to max_radius when given (> 0).
+camera::MirrorParams ringBaseFor(const GreyImage& image, camera::MirrorParams base,
+                                 double min_radius, double max_radius);
 
 // The colour_table value to write into a preset at `out_path` so that it names the same table as
 // `colour_table` does for the loader (a preset name stays a name; a path becomes relative to the

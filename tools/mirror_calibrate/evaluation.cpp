@@ -103,8 +103,8 @@ MirrorError compareMirrors(const camera::MirrorModel& truth, const camera::Mirro
         e.distance_percent =
             std::max(e.distance_percent, 100.0 * std::abs(fa->norm() - ta->norm()) / ta->norm());
       }
-      e.floor_point_m = std::max(
-          e.floor_point_m, (truth.axisToRobot(*ta) - fitted.axisToRobot(*fa)).norm());
+      e.floor_point_m =
+          std::max(e.floor_point_m, (truth.axisToRobot(*ta) - fitted.axisToRobot(*fa)).norm());
     }
   }
   return e;

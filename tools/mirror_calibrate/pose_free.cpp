@@ -1,7 +1,6 @@
 #include "tools/mirror_calibrate/pose_free.hpp"
 
 #include <algorithm>
-#include <cstdlib>
 #include <cmath>
 #include <limits>
 #include <map>
@@ -36,8 +35,10 @@ double median(std::vector<double> v) {
 struct LinePx {
   Vec2 pixel = Vec2::Zero();
   int frame = 0;
-  double radius = 0.0;   // from the current centre, px
-  double bearing = 0.0;  // axis frame, rad
+  double width = 0.0;           // the ridge's width (above half height), px
+  Vec2 across = Vec2::UnitX();  // the direction it was measured in (image)
+  double radius = 0.0;          // from the current centre, px
+  double bearing = 0.0;         // axis frame, rad
   // Association of the current round.
   Vec2 closest = Vec2::Zero();
   Vec2 normal = Vec2::UnitX();
@@ -61,7 +62,8 @@ class CostRaster {
     for (int j = 0; j < rows_; ++j) {
       for (int i = 0; i < cols_; ++i) {
         const double d = grid.distance(origin_ + cell * Vec2(i, j));
-        cost_[static_cast<std::size_t>(j) * cols_ + i] = static_cast<float>(std::min(d * d, t2) / t2);
+        cost_[static_cast<std::size_t>(j) * cols_ + i] =
+            static_cast<float>(std::min(d * d, t2) / t2);
       }
     }
   }
@@ -121,22 +123,27 @@ Pose2 refinePose(const std::vector<Vec2>& pts, Pose2 pose, const field::Distance
   return pose;
 }
 
-Pose2 twinOf(const Pose2& p) { return {-p.x, -p.y, geometry::normalizeAngle(p.phi + kPi)}; }
+Pose2 twinOf(const Pose2& p) {
+  return {-p.x, -p.y, geometry::normalizeAngle(p.phi + kPi)};
+}
 
 struct Candidate {
   double k = 1.0;  // radius scale
   double s = 1.0;  // distance scale
 };
 
-// Robot-frame floor points of ridge pixels under a candidate mirror (centre, no offset).
+// Robot-frame floor points of a frame's ridge pixels within `max_radius` of the centre under a
+// candidate mirror (no offset). The same pixels for every candidate, so that a candidate cannot
+// fit better by mapping the awkward ones out of range: a pixel the candidate puts beyond
+// `max_distance` (or nowhere) stays, far off every line.
 std::vector<Vec2> candidatePoints(const std::vector<LinePx>& px, int frame, const Candidate& c,
                                   const camera::MirrorParams& base, double max_radius,
                                   double max_distance, std::size_t limit) {
   std::vector<Vec2> all;
   for (const LinePx& p : px) {
     if (p.frame != frame || p.radius > max_radius) continue;
-    const double d = c.s * base.distance.floorDistance(p.radius / c.k, p.bearing);
-    if (!std::isfinite(d) || d > max_distance || d < 0.2) continue;
+    double d = c.s * base.distance.floorDistance(p.radius / c.k, p.bearing);
+    if (!std::isfinite(d) || d > max_distance) d = 1000.0;
     all.emplace_back(d * std::cos(p.bearing), d * std::sin(p.bearing));
   }
   if (all.size() <= limit || limit == 0) return all;
@@ -378,9 +385,8 @@ PoseFreeCalibration calibrateAtUnknownPose(const std::vector<UnposedFrame>& fram
     std::vector<Vec2> centres;
     std::vector<double> radii;
     for (const UnposedFrame& f : frames) {
-      if (const std::optional<Rim> rim =
-              findMirrorRim(f.image, base.centre, 0.5 * base.outer_radius,
-                            std::hypot(w, h) / 2.0)) {
+      if (const std::optional<Rim> rim = findMirrorRim(
+              f.image, base.centre, 0.5 * base.outer_radius, std::hypot(w, h) / 2.0)) {
         if (rim->radius > 0.75 * base.outer_radius && rim->radius < 1.3 * base.outer_radius) {
           centres.push_back(rim->centre);
           radii.push_back(rim->radius);
@@ -402,28 +408,78 @@ PoseFreeCalibration calibrateAtUnknownPose(const std::vector<UnposedFrame>& fram
     }
   }
 
-  // --- 2. ridges ---
-  std::vector<LinePx> pixels;
+  // --- 2. ridges on the floor ---
+  // The floor's colour: the dominant colour near the robot (an annulus of image radii inside
+  // which any omni-directional camera shows floor). Lines are ridges with floor on both sides;
+  // ridges in the hall (people, walls, robots' tops) are not.
+  std::vector<std::vector<camera::Yuv>> planes;
+  for (const UnposedFrame& f : frames) {
+    if (f.colour.size() == f.image.pixels.size()) {
+      planes.push_back(f.colour);
+    } else {
+      std::vector<camera::Yuv> grey(f.image.pixels.size());
+      for (std::size_t i = 0; i < grey.size(); ++i)
+        grey[i] = camera::Yuv{f.image.pixels[i], 128, 128};
+      planes.push_back(std::move(grey));
+    }
+  }
+  {
+    std::vector<std::uint8_t> near(static_cast<std::size_t>(w) * h, 0);
+    for (int v = 0; v < h; ++v) {
+      for (int u = 0; u < w; ++u) {
+        const double r = (Vec2(u, v) - centre).norm();
+        near[static_cast<std::size_t>(v) * w + u] =
+            r >= 1.3 * base.self_radius + 2.0 && r <= 0.55 * usableRadius;
+      }
+    }
+    out.floor = findFloorColour(planes, near, 2);
+  }
   RidgeParams rp = params.ridges;
   rp.centre = centre;
   rp.min_radius = std::max(rp.min_radius, 1.15 * base.self_radius + 2.0);
   rp.max_radius = std::min(rp.max_radius, usableRadius);
+  std::vector<LinePx> pixels;
   std::vector<int> perFrame(static_cast<std::size_t>(nf), 0);
-  for (int f = 0; f < nf; ++f) {
-    for (const Ridge& r : findRidges(frames[static_cast<std::size_t>(f)].image, rp)) {
-      LinePx p;
-      p.pixel = r.pixel;
-      p.frame = f;
-      pixels.push_back(p);
-      ++perFrame[static_cast<std::size_t>(f)];
+  auto collect = [&]() {
+    pixels.clear();
+    std::fill(perFrame.begin(), perFrame.end(), 0);
+    for (int f = 0; f < nf; ++f) {
+      const std::vector<camera::Yuv>& plane = planes[static_cast<std::size_t>(f)];
+      for (const Ridge& r : findRidges(frames[static_cast<std::size_t>(f)].image, rp)) {
+        bool onFloor = true;
+        for (int side : {-1, 1}) {
+          const Vec2 q = r.pixel + side * (r.half_width + 1.0) * r.normal;
+          const int qu = static_cast<int>(std::lround(q.x()));
+          const int qv = static_cast<int>(std::lround(q.y()));
+          if (qu < 0 || qv < 0 || qu >= w || qv >= h) {
+            onFloor = false;
+            continue;
+          }
+          // The floor's chroma, and its luma within a factor of 1.5 either way of what it is
+          // near the robot (vignetting and uneven light darken the far floor).
+          const camera::Yuv& c = plane[static_cast<std::size_t>(qv) * w + qu];
+          onFloor = onFloor && out.floor.chromaMatches(c) && c.y >= out.floor.luma_lo / 1.5 &&
+                    c.y <= out.floor.luma_hi * 1.5;
+        }
+        if (!onFloor) continue;
+        LinePx p;
+        p.pixel = r.pixel;
+        p.frame = f;
+        p.width = r.width;
+        p.across = r.normal;
+        pixels.push_back(p);
+        ++perFrame[static_cast<std::size_t>(f)];
+      }
     }
-  }
+  };
+  collect();
   out.ridge_pixels = static_cast<int>(pixels.size());
   for (int f = 0; f < nf; ++f) {
     if (perFrame[static_cast<std::size_t>(f)] < 100) {
       throw Refusal(fmt::format(
-          "{}: only {} bright ridges (line pixels) between {:.0f} and {:.0f} px from the centre: "
-          "an empty, dark or overexposed frame, or no field lines in view",
+          "{}: only {} bright ridges with floor on both sides (line pixels) between {:.0f} and "
+          "{:.0f} px from the centre: an empty, dark or overexposed frame, or no field lines in "
+          "view",
           frames[static_cast<std::size_t>(f)].name, perFrame[static_cast<std::size_t>(f)],
           rp.min_radius, rp.max_radius));
     }
@@ -445,7 +501,12 @@ PoseFreeCalibration calibrateAtUnknownPose(const std::vector<UnposedFrame>& fram
       candidates.push_back({k, s});
   }
   out.search.candidates = static_cast<int>(candidates.size());
-  const double searchRadius = 0.85 * usableRadius;
+  // The pixels every candidate is scored on: out to where the base camera sees
+  // search_max_distance (at most 85 % of the usable radius).
+  const double searchRadius = std::min(
+      0.85 * usableRadius, std::isfinite(base.distance.imageRadius(params.search_max_distance, 0.0))
+                               ? base.distance.imageRadius(params.search_max_distance, 0.0)
+                               : usableRadius);
   // Frames the candidates are compared on first: those with the most ridges.
   std::vector<int> order(static_cast<std::size_t>(nf));
   for (int f = 0; f < nf; ++f)
@@ -459,10 +520,10 @@ PoseFreeCalibration calibrateAtUnknownPose(const std::vector<UnposedFrame>& fram
     double total = 0.0;
     for (int f : use) {
       const std::vector<Vec2> coarse =
-          candidatePoints(pixels, f, c, base, searchRadius, params.search_max_distance,
+          candidatePoints(pixels, f, c, base, searchRadius, 4.0 * params.search_max_distance,
                           static_cast<std::size_t>(params.search_points));
-      const std::vector<Vec2> dense = candidatePoints(pixels, f, c, base, searchRadius,
-                                                      params.search_max_distance, 400);
+      const std::vector<Vec2> dense =
+          candidatePoints(pixels, f, c, base, searchRadius, 4.0 * params.search_max_distance, 400);
       std::vector<ScoredPose> found = searchPoses(coarse, dense, raster, grid, field, params, keep);
       total += found.empty() ? 1.0 : found.front().cost;
       if (poses) (*poses)[static_cast<std::size_t>(f)] = std::move(found);
@@ -496,7 +557,7 @@ PoseFreeCalibration calibrateAtUnknownPose(const std::vector<UnposedFrame>& fram
       second = std::min(second, score);
     }
   }
-  if (std::getenv("FIELDLINE_CALIB_DEBUG")) {
+  if (params.verbose) {
     for (int f = 0; f < nf; ++f) {
       fmt::print(stderr, "frame {}:", f);
       for (const ScoredPose& p : winnerPoses[static_cast<std::size_t>(f)])
@@ -506,6 +567,7 @@ PoseFreeCalibration calibrateAtUnknownPose(const std::vector<UnposedFrame>& fram
     }
     for (auto& [sc, i] : firstScores)
       fmt::print(stderr, "cand k{:.2f} s{:.2f}: {:.3f}\n", candidates[i].k, candidates[i].s, sc);
+    fmt::print(stderr, "winner k{:.2f} s{:.2f}: {:.3f}\n", winner.k, winner.s, best);
   }
   out.search.radius_scale = winner.k;
   out.search.distance_scale = winner.s;
@@ -540,9 +602,10 @@ PoseFreeCalibration calibrateAtUnknownPose(const std::vector<UnposedFrame>& fram
       ++index;
     }
   }
-  const int nspots = static_cast<int>(std::count_if(groups.begin(), groups.end(), [&](const auto& g) {
-    return spotOf[static_cast<std::size_t>(g[0])] >= 0;
-  }));
+  const int nspots =
+      static_cast<int>(std::count_if(groups.begin(), groups.end(), [&](const auto& g) {
+        return spotOf[static_cast<std::size_t>(g[0])] >= 0;
+      }));
   // The poses of a group: every candidate pose (and twin) of every member as the anchor, the
   // others take their candidate nearest to it; the best total wins. `alternative`: the best
   // total with the group elsewhere (1 m or more from it and from its twin): a group whose
@@ -603,15 +666,14 @@ PoseFreeCalibration calibrateAtUnknownPose(const std::vector<UnposedFrame>& fram
   };
   std::vector<Pose2> start(static_cast<std::size_t>(nf));
   std::vector<bool> active(static_cast<std::size_t>(nf), false);
+  // Groups by how well the search placed them: the joint fit starts from one of them.
+  std::vector<std::pair<double, std::size_t>> seeds;
   {
     std::vector<GroupPoses> linked;
     for (const std::vector<int>& g : groups)
       linked.push_back(linkGroup(g, winnerPoses));
-    std::size_t bestGroup = 0;
     for (std::size_t gi = 0; gi < groups.size(); ++gi) {
       const GroupPoses& lp = linked[gi];
-      if (lp.total < linked[bestGroup].total) bestGroup = gi;
-      const bool confident = lp.alternative > 1.5 * lp.total + 0.02;
       for (std::size_t i = 0; i < groups[gi].size(); ++i) {
         const int f = groups[gi][i];
         if (frames[static_cast<std::size_t>(f)].pose) {
@@ -619,19 +681,12 @@ PoseFreeCalibration calibrateAtUnknownPose(const std::vector<UnposedFrame>& fram
           active[static_cast<std::size_t>(f)] = true;
         } else if (!lp.poses.empty()) {
           start[static_cast<std::size_t>(f)] = lp.poses[i];
-          active[static_cast<std::size_t>(f)] = confident;
         }
       }
+      if (!lp.poses.empty()) seeds.emplace_back(lp.total, gi);
     }
-    // At least the best group starts the fit.
-    if (std::none_of(active.begin(), active.end(), [](bool a) { return a; })) {
-      for (std::size_t i = 0; i < groups[bestGroup].size(); ++i) {
-        if (linked[bestGroup].poses.empty()) break;
-        start[static_cast<std::size_t>(groups[bestGroup][i])] = linked[bestGroup].poses[i];
-        active[static_cast<std::size_t>(groups[bestGroup][i])] = true;
-      }
-    }
-    if (std::none_of(active.begin(), active.end(), [](bool a) { return a; })) {
+    std::sort(seeds.begin(), seeds.end());
+    if (seeds.empty() && std::none_of(active.begin(), active.end(), [](bool a) { return a; })) {
       throw Refusal("no pose on the field fits the frames' line pixels");
     }
   }
@@ -720,7 +775,8 @@ PoseFreeCalibration calibrateAtUnknownPose(const std::vector<UnposedFrame>& fram
   }
 
   auto curve = [&](const Eigen::VectorXd& v) {
-    return curveOf(kr, std::vector<double>(v.data() + kFirstKnot, v.data() + kFirstKnot + layout.knots));
+    return curveOf(
+        kr, std::vector<double>(v.data() + kFirstKnot, v.data() + kFirstKnot + layout.knots));
   };
   auto knotsValid = [&](const Eigen::VectorXd& v) {
     for (int k = 0; k < layout.knots; ++k) {
@@ -732,18 +788,26 @@ PoseFreeCalibration calibrateAtUnknownPose(const std::vector<UnposedFrame>& fram
   };
   // Smoothness: the log of the metres per pixel changes steadily from knot to knot (a kink costs
   // what a pixel of misfit costs, per `smoothness` of its second difference).
-  const int priors = layout.knots - 2;
+  // Smoothness (knots - 2 terms) and a pull toward the search's curve (knots terms, log ratio
+  // 0.4 per unit: only a collapse of the scale feels it, which would otherwise pile every pixel
+  // onto one line).
+  const int priors = 2 * layout.knots - 2;
+  const Eigen::VectorXd knotStart = x.segment(kFirstKnot, layout.knots);
   auto smoothness = [&](const double* d, Eigen::VectorXd& res, Eigen::Index at) {
     std::vector<double> logSlope;
     for (int k = 0; k < layout.knots; ++k) {
       const double r0 = k == 0 ? 0.0 : kr[static_cast<std::size_t>(k - 1)];
       const double d0 = k == 0 ? 0.0 : d[k - 1];
-      logSlope.push_back(std::log(std::max(1e-9, (d[k] - d0) / (kr[static_cast<std::size_t>(k)] - r0))));
+      logSlope.push_back(
+          std::log(std::max(1e-9, (d[k] - d0) / (kr[static_cast<std::size_t>(k)] - r0))));
     }
     for (int k = 1; k + 1 < layout.knots; ++k) {
       res(at + k - 1) = params.smoothness * (logSlope[static_cast<std::size_t>(k + 1)] -
                                              2 * logSlope[static_cast<std::size_t>(k)] +
                                              logSlope[static_cast<std::size_t>(k - 1)]);
+    }
+    for (int k = 0; k < layout.knots; ++k) {
+      res(at + layout.knots - 2 + k) = std::log(std::max(1e-9, d[k]) / knotStart(k)) / 0.4;
     }
   };
   // The radius a pixel's distance is read at: its image radius plus the tilt's share.
@@ -820,7 +884,8 @@ PoseFreeCalibration calibrateAtUnknownPose(const std::vector<UnposedFrame>& fram
     for (int sp = 0; sp < nspots; ++sp) {
       bool any = false;
       for (int f = 0; f < nf; ++f) {
-        any = any || (spotOf[static_cast<std::size_t>(f)] == sp && active[static_cast<std::size_t>(f)]);
+        any = any ||
+              (spotOf[static_cast<std::size_t>(f)] == sp && active[static_cast<std::size_t>(f)]);
       }
       if (!any) {
         steps[static_cast<std::size_t>(layout.spot_index[static_cast<std::size_t>(sp)])] = 0.0;
@@ -836,17 +901,24 @@ PoseFreeCalibration calibrateAtUnknownPose(const std::vector<UnposedFrame>& fram
       if (round == 2) {
         // Ridges searched again around the better centre (the annulus moves with it).
         rp.centre = Vec2(x(0), x(1));
-        pixels.clear();
-        for (int f = 0; f < nf; ++f) {
-          for (const Ridge& r : findRidges(frames[static_cast<std::size_t>(f)].image, rp)) {
-            LinePx p;
-            p.pixel = r.pixel;
-            p.frame = f;
-            pixels.push_back(p);
-          }
-        }
+        collect();
       }
       used = associate(x, params.rounds[round]);
+      // Where the near field shows few lines, the round reaches further out.
+      for (double extra = 0.5; used < 12 * layout.size && extra <= 3.0; extra += 0.5) {
+        FitRound wider = params.rounds[round];
+        wider.max_distance_m += extra;
+        used = associate(x, wider);
+      }
+      if (params.verbose) {
+        fmt::print(stderr, "round {}: {} used; active", round, used);
+        for (int f = 0; f < nf; ++f)
+          fmt::print(stderr, " {}", active[static_cast<std::size_t>(f)] ? 1 : 0);
+        fmt::print(stderr, "; knots");
+        for (int k = 0; k < layout.knots; ++k)
+          fmt::print(stderr, " {:.2f}", x(layout.knot(k)));
+        fmt::print(stderr, "\n");
+      }
       if (used < 12 * layout.size) {
         throw Refusal(fmt::format(
             "only {} line pixels within {:.1f} px of a field line in round {} (of {} ridge "
@@ -856,30 +928,107 @@ PoseFreeCalibration calibrateAtUnknownPose(const std::vector<UnposedFrame>& fram
       x = levenbergMarquardt(x, residuals, steps, params.huber_px, params.iterations);
     }
   };
-  runRounds(0);
+  // The seed: frames with known poses, else the group (a spot, or a frame) whose own fit puts
+  // the largest share of its ridge pixels on the lines (of the three the search placed best).
+  auto shareOnLines = [&]() {
+    const MonotoneCurve c = curve(x);
+    const Vec2 ctr(x(0), x(1));
+    int inRange = 0;
+    for (const LinePx& p : pixels) {
+      if (!active[static_cast<std::size_t>(p.frame)]) continue;
+      const double d = c(tiltedRadius(x, p.pixel, ctr));
+      if (d > 0.15 && d <= maxDistance) ++inRange;
+    }
+    return inRange > 0 ? static_cast<double>(used) / inRange : 0.0;
+  };
+  if (std::none_of(active.begin(), active.end(), [](bool a) { return a; })) {
+    const Eigen::VectorXd x0 = x;
+    double bestShare = -1.0;
+    Eigen::VectorXd bestX = x0;
+    std::vector<bool> bestActive;
+    std::vector<LinePx> bestPixels;
+    for (std::size_t t = 0; t < std::min<std::size_t>(3, seeds.size()); ++t) {
+      x = x0;
+      std::fill(active.begin(), active.end(), false);
+      for (int f : groups[seeds[t].second])
+        active[static_cast<std::size_t>(f)] = true;
+      double share = -1.0;
+      try {
+        runRounds(0);
+        used = associate(x, params.rounds.back());
+        share = shareOnLines();
+      } catch (const Refusal&) {
+        share = -1.0;
+      }
+      if (params.verbose) {
+        fmt::print(stderr, "seed group {}: on lines {:.3f}\n", seeds[t].second, share);
+      }
+      if (share > bestShare) {
+        bestShare = share;
+        bestX = x;
+        bestActive = active;
+        bestPixels = pixels;
+      }
+    }
+    if (bestShare < 0.0) {
+      throw Refusal(fmt::format(
+          "no spot or frame fits field '{}' on its own: the frames do not show the field well "
+          "enough (stand where several lines are within 3 m)",
+          field.name()));
+    }
+    x = bestX;
+    active = bestActive;
+    pixels = bestPixels;
+  } else {
+    runRounds(0);
+  }
   // The frames left out (their place was ambiguous under the search's rough mirror): their poses
   // searched again with the fitted mirror and every line pixel up to its range, then all frames
   // fitted together.
+  // A frame's line pixels as robot-frame points under the current state (at most `limit`,
+  // evenly spread).
+  auto robotPoints = [&](int f, std::size_t limit) {
+    const MonotoneCurve c = curve(x);
+    const Vec2 ctr(x(0), x(1));
+    const Vec2 offset(x(2), x(3));
+    const double reach =
+        std::min(params.rounds.back().max_distance_m, x(layout.knot(layout.knots - 1)));
+    std::vector<Vec2> pts;
+    for (const LinePx& p : pixels) {
+      if (p.frame != f) continue;
+      const double d = c(tiltedRadius(x, p.pixel, ctr));
+      if (!(d > 0.2) || d > reach) continue;
+      const double b = axisBearing(p.pixel, ctr, base.heading_angle, base.mirrored);
+      pts.push_back(offset + d * Vec2(std::cos(b), std::sin(b)));
+    }
+    if (pts.size() <= limit) return pts;
+    std::vector<Vec2> some;
+    for (std::size_t i = 0; i < limit; ++i)
+      some.push_back(pts[i * pts.size() / limit]);
+    return some;
+  };
+  // A frame turned on a spot: its heading scanned at the spot's position (1 degree steps).
+  auto headingAt = [&](int f, const Vec2& at) {
+    const std::vector<Vec2> pts = robotPoints(f, 400);
+    double bestCost = 2.0, bestPhi = 0.0;
+    for (int deg = 0; deg < 360; ++deg) {
+      const double phi = deg * kPi / 180.0;
+      const double c = poseCost(pts, Pose2{at.x(), at.y(), phi}, grid, 0.15);
+      if (c < bestCost) {
+        bestCost = c;
+        bestPhi = phi;
+      }
+    }
+    return geometry::normalizeAngle(bestPhi);
+  };
   std::vector<int> waiting;
   for (int f = 0; f < nf; ++f) {
     if (!active[static_cast<std::size_t>(f)]) waiting.push_back(f);
   }
   if (!waiting.empty()) {
-    const MonotoneCurve c = curve(x);
-    const Vec2 ctr(x(0), x(1));
-    const Vec2 offset(x(2), x(3));
-    const double reach = std::min(params.rounds.back().max_distance_m, x(layout.knot(layout.knots - 1)));
     std::vector<std::vector<ScoredPose>> found(static_cast<std::size_t>(nf));
     for (int f : waiting) {
-      std::vector<Vec2> pts;
-      for (const LinePx& p : pixels) {
-        if (p.frame != f) continue;
-        const double r = tiltedRadius(x, p.pixel, ctr);
-        const double d = c(r);
-        if (!(d > 0.2) || d > reach) continue;
-        const double b = axisBearing(p.pixel, ctr, base.heading_angle, base.mirrored);
-        pts.push_back(offset + d * Vec2(std::cos(b), std::sin(b)));
-      }
+      const std::vector<Vec2> pts = robotPoints(f, 100000);
       std::vector<Vec2> coarse;
       const std::size_t want = static_cast<std::size_t>(2 * params.search_points);
       for (std::size_t i = 0; i < want && !pts.empty(); ++i)
@@ -894,13 +1043,46 @@ PoseFreeCalibration calibrateAtUnknownPose(const std::vector<UnposedFrame>& fram
       if (active[static_cast<std::size_t>(g[0])]) continue;
       const GroupPoses lp = linkGroup(g, found);
       if (lp.poses.empty()) continue;
+      Vec2 at = Vec2::Zero();
+      for (const Pose2& p : lp.poses)
+        at += p.position();
+      at /= static_cast<double>(lp.poses.size());
       for (std::size_t i = 0; i < g.size(); ++i) {
         start[static_cast<std::size_t>(g[i])] = lp.poses[i];
+        // At a spot every frame stands at the spot's position: only its heading is searched.
+        if (g.size() > 1)
+          start[static_cast<std::size_t>(g[i])] = {at.x(), at.y(), headingAt(g[i], at)};
         active[static_cast<std::size_t>(g[i])] = true;
       }
       setPoses(g);
     }
     runRounds(1);
+  }
+  // A frame at a spot that still fits badly (its own candidates misled the linking): its heading
+  // scanned again at the spot's fitted position, and the last rounds run again.
+  {
+    used = associate(x, params.rounds.back());
+    std::vector<int> inRange(static_cast<std::size_t>(nf), 0),
+        onLine(static_cast<std::size_t>(nf), 0);
+    const MonotoneCurve c = curve(x);
+    const Vec2 ctr(x(0), x(1));
+    for (const LinePx& p : pixels) {
+      const double d = c(tiltedRadius(x, p.pixel, ctr));
+      if (!(d > 0.15) || d > maxDistance) continue;
+      ++inRange[static_cast<std::size_t>(p.frame)];
+      onLine[static_cast<std::size_t>(p.frame)] += p.use ? 1 : 0;
+    }
+    bool repaired = false;
+    for (int f = 0; f < nf; ++f) {
+      const int spot = spotOf[static_cast<std::size_t>(f)];
+      if (spot < 0 || frames[static_cast<std::size_t>(f)].pose) continue;
+      if (onLine[static_cast<std::size_t>(f)] >= 0.45 * inRange[static_cast<std::size_t>(f)])
+        continue;
+      const int si = layout.spot_index[static_cast<std::size_t>(spot)];
+      x(layout.frame_index[static_cast<std::size_t>(f)]) = headingAt(f, Vec2(x(si), x(si + 1)));
+      repaired = true;
+    }
+    if (repaired) runRounds(params.rounds.size() >= 3 ? params.rounds.size() - 3 : 0);
   }
   for (int f = 0; f < nf; ++f) {
     if (!active[static_cast<std::size_t>(f)]) {
@@ -980,8 +1162,8 @@ PoseFreeCalibration calibrateAtUnknownPose(const std::vector<UnposedFrame>& fram
       used = associate(x, params.rounds.back());
       cov = covariance(x);
     } else {
-      out.offset_note = fmt::format("fitted, standard deviation {:.1f} / {:.1f} cm", 100 * sx,
-                                    100 * sy);
+      out.offset_note =
+          fmt::format("fitted, standard deviation {:.1f} / {:.1f} cm", 100 * sx, 100 * sy);
     }
   } else {
     out.offset_note =
@@ -1008,11 +1190,22 @@ PoseFreeCalibration calibrateAtUnknownPose(const std::vector<UnposedFrame>& fram
       }
     }
   }
+  // The table reaches as far as the knots are supported without a hole (two knots in a row
+  // without line pixels leave the distance function there to the smoothness prior alone). Near the
+  // robot there are often no lines: no hole counts before the first supported knot, nor among
+  // the first three.
   std::size_t lastSupported = 0;
+  int unsupportedInARow = 0;
+  bool started = false;
   for (std::size_t k = 0; k < kr.size(); ++k) {
-    if (out.knot_support[k] >= params.min_knot_support &&
-        x(layout.knot(static_cast<int>(k))) <= params.max_table_distance) {
+    const bool supported = out.knot_support[k] >= params.min_knot_support &&
+                           x(layout.knot(static_cast<int>(k))) <= params.max_table_distance;
+    if (supported) {
       lastSupported = k;
+      unsupportedInARow = 0;
+      started = true;
+    } else if (started && k >= 3 && ++unsupportedInARow >= 2) {
+      break;
     }
   }
   out.knot_radii = kr;
@@ -1130,7 +1323,8 @@ PoseFreeCalibration calibrateAtUnknownPose(const std::vector<UnposedFrame>& fram
     ++inRange;
     ++fin[static_cast<std::size_t>(p.frame)];
     if (!p.use) continue;
-    const double e = field.distance(geometry::pointRobotToField(poseOf(x, layout, p.frame), *robot));
+    const double e =
+        field.distance(geometry::pointRobotToField(poseOf(x, layout, p.frame), *robot));
     const double mpp = model.metresPerPixel(p.pixel).x();
     if (!(mpp > 0.0)) continue;
     px2 += (e / mpp) * (e / mpp);
@@ -1143,6 +1337,38 @@ PoseFreeCalibration calibrateAtUnknownPose(const std::vector<UnposedFrame>& fram
   out.rms_px = n > 0 ? std::sqrt(px2 / n) : 0.0;
   out.rms_cm = n > 0 ? 100.0 * std::sqrt(m2 / n) : 0.0;
   out.on_lines = inRange > 0 ? static_cast<double>(n) / inRange : 0.0;
+  // The lines' width: each near line pixel's ridge width against the width the field's line has
+  // in the image there (its two edges mapped through the finished model). A field of another
+  // size seen through a mirror stretched to fit it shows lines of the wrong width.
+  {
+    std::vector<double> ratios;
+    for (const LinePx& p : pixels) {
+      if (!p.use) continue;
+      const Pose2 pose = poseOf(x, layout, p.frame);
+      const field::FieldModel::Closest cl = field.closestPoint(p.closest);
+      const double half =
+          0.5 * (cl.is_arc ? field.arcs()[static_cast<std::size_t>(cl.element)].width
+                           : field.segments()[static_cast<std::size_t>(cl.element)].width);
+      const std::optional<Vec2> a =
+          model.robotToImage(geometry::pointFieldToRobot(pose, p.closest - half * p.normal));
+      const std::optional<Vec2> b =
+          model.robotToImage(geometry::pointFieldToRobot(pose, p.closest + half * p.normal));
+      if (!a || !b) continue;
+      const Vec2 span = *b - *a;
+      // Measured along the ridge's direction: the image width across the line, seen at the
+      // angle between that direction and the line's normal in the image.
+      const double cosine = std::abs(span.normalized().dot(p.across));
+      if (span.norm() < 3.0 || cosine < 0.7) continue;
+      ratios.push_back(p.width * cosine / span.norm());
+    }
+    out.width_samples = static_cast<int>(ratios.size());
+    if (ratios.size() >= 30) {
+      std::nth_element(ratios.begin(),
+                       ratios.begin() + static_cast<std::ptrdiff_t>(ratios.size() / 2),
+                       ratios.end());
+      out.line_width_ratio = ratios[ratios.size() / 2];
+    }
+  }
   for (int f = 0; f < nf; ++f) {
     FramePose fp;
     fp.name = frames[static_cast<std::size_t>(f)].name;
@@ -1165,6 +1391,40 @@ PoseFreeCalibration calibrateAtUnknownPose(const std::vector<UnposedFrame>& fram
     out.frames.push_back(fp);
   }
   return out;
+}
+
+std::vector<std::string> weaknesses(const PoseFreeCalibration& c, const std::string& field_name) {
+  std::vector<std::string> weak;
+  if (c.rms_px > 1.0) {
+    weak.push_back(fmt::format("rms {:.2f} px to the lines (at most 1)", c.rms_px));
+  }
+  if (c.on_lines < 0.6) {
+    weak.push_back(
+        fmt::format("only {:.0f} % of the ridge pixels lie on field lines (at least "
+                    "60 %): frames of another field?",
+                    100 * c.on_lines));
+  }
+  for (const FramePose& f : c.frames) {
+    if (f.on_lines < 0.45 || f.points < 60) {
+      weak.push_back(
+          fmt::format("{}: {} line pixels, {:.0f} % of its ridges on lines: it does "
+                      "not show field '{}'",
+                      f.name, f.points, 100 * f.on_lines, field_name));
+    }
+  }
+  if (c.width_samples >= 30 && (c.line_width_ratio < 0.85 || c.line_width_ratio > 1.25)) {
+    weak.push_back(fmt::format(
+        "the lines are {:.2f} times as wide as field '{}' paints them (median of {} near line "
+        "pixels): frames of another field, or a mirror scaled to fit the wrong one",
+        c.line_width_ratio, field_name, c.width_samples));
+  }
+  if (c.table_end_m < 3.0) {
+    weak.push_back(
+        fmt::format("the line pixels reach only {:.2f} m (a table to 3 m or more is "
+                    "needed): frames with lines further out",
+                    c.table_end_m));
+  }
+  return weak;
 }
 
 }  // namespace fieldline::calibration

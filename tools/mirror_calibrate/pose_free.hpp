@@ -36,6 +36,7 @@
 #include "common/camera/mirror_model.hpp"
 #include "common/field/field_model.hpp"
 #include "common/geometry/geometry.hpp"
+#include "tools/calibration_common/floor_colour.hpp"
 #include "tools/calibration_common/grey_image.hpp"
 #include "tools/calibration_common/ridges.hpp"
 
@@ -48,6 +49,9 @@ struct UnposedFrame {
   int spot = -1;
   std::optional<geometry::Pose2> pose;
   std::string name;  // for messages
+  // The frame's colours (one per pixel), when it has them: lines are ridges with the floor's
+  // colour on both sides. Empty: luma only.
+  std::vector<camera::Yuv> colour;
 };
 
 enum class OffsetMode { kAuto, kFit, kZero };
@@ -62,8 +66,8 @@ struct PoseFreeParams {
   // Candidate mirrors: the base distance function D(r) becomes s * D(r / k) for every radius
   // scale k and distance scale s.
   std::vector<double> radius_scales{0.86, 0.93, 1.0, 1.08, 1.16};
-  std::vector<double> distance_scales{0.55, 0.63, 0.72, 0.82, 0.92, 1.0, 1.1, 1.22, 1.36, 1.52,
-                                      1.7};
+  std::vector<double> distance_scales{0.55, 0.63, 0.72, 0.82, 0.92, 1.0,
+                                      1.1,  1.22, 1.36, 1.52, 1.7};
   // The pose lattice of the search, m and degrees; the points it is scored with (line pixels up
   // to search_max_distance under the candidate) and their truncation distance, m.
   double search_position_step = 0.5;
@@ -76,9 +80,9 @@ struct PoseFreeParams {
   int search_survivors = 6;
   // Knots of the distance function at these fractions of the usable image radius (denser
   // toward the rim, where the distance grows fastest); their floor distances are fitted. The
-  // table ends at the last knot with min_knot_support line pixels since the one before it (and
-  // at most max_table_distance).
-  std::vector<double> knot_fractions{0.12, 0.22, 0.32, 0.42, 0.51, 0.6,  0.68, 0.75,
+  // table ends at the last knot with min_knot_support line pixels since the one before, or
+  // before two knots in a row without (beyond the third), and at most at max_table_distance.
+  std::vector<double> knot_fractions{0.12, 0.22, 0.32, 0.42, 0.51,  0.6,   0.68, 0.75,
                                      0.81, 0.86, 0.9,  0.93, 0.955, 0.975, 0.99};
   int min_knot_support = 25;
   double max_table_distance = 9.0;
@@ -99,15 +103,17 @@ struct PoseFreeParams {
   int sectors = 8;
   double sector_prior_px = 1.0;
   double radius_step = 2.0;
+  // Print the search's candidates and every round's state to stderr.
+  bool verbose = false;
 };
 
 struct FramePose {
   std::string name;
   int spot = -1;
-  geometry::Pose2 pose;    // the robot's centre, field frame
-  geometry::Pose2 twin;    // the field's symmetric twin (fits exactly as well)
+  geometry::Pose2 pose;  // the robot's centre, field frame
+  geometry::Pose2 twin;  // the field's symmetric twin (fits exactly as well)
   Eigen::Vector3d sigma = Eigen::Vector3d::Zero();  // x, y (m), phi (rad), 1 sigma
-  int points = 0;          // line pixels of this frame used in the last round
+  int points = 0;  // line pixels of this frame used in the last round
   double rms_px = 0.0;
   // Share of this frame's line pixels (within the final range) that lie on a field line.
   double on_lines = 0.0;
@@ -115,13 +121,14 @@ struct FramePose {
 
 struct SearchReport {
   double radius_scale = 1.0, distance_scale = 1.0;
-  double score = 0.0;         // mean truncated cost of the winner (0 perfect, 1 nothing fits)
-  double runner_up = 0.0;     // of the best other candidate
+  double score = 0.0;      // mean truncated cost of the winner (0 perfect, 1 nothing fits)
+  double runner_up = 0.0;  // of the best other candidate
   int candidates = 0;
 };
 
 struct PoseFreeCalibration {
   camera::MirrorParams mirror;  // what would be written
+  FloorColour floor;            // the floor's colour near the robot
   bool rim_found = false;
   camera::Vec2 rim_centre = camera::Vec2::Zero();
   double rim_radius = 0.0;
@@ -141,7 +148,11 @@ struct PoseFreeCalibration {
   int ridge_pixels = 0;      // found in all frames
   int used = 0;              // on lines in the last round
   double rms_px = 0.0, rms_cm = 0.0;
-  double on_lines = 0.0;     // used / ridge pixels within the final range
+  double on_lines = 0.0;  // used / ridge pixels within the final range
+  // Median of the near line pixels' ridge width over the width the field's line has in the
+  // image there (about 1 for frames of this field), and how many pixels it is over.
+  double line_width_ratio = 0.0;
+  int width_samples = 0;
 };
 
 // The base camera's parameters for an image of another size: every pixel quantity scaled by the
@@ -166,5 +177,11 @@ PoseFreeCalibration calibrateAtUnknownPose(const std::vector<UnposedFrame>& fram
                                            const field::FieldModel& field,
                                            const camera::MirrorParams& base,
                                            const PoseFreeParams& params);
+
+// Why a calibration is not good enough to write (empty: it is): rms above 1 px, fewer than 60 %
+// of the ridge pixels in range on the lines, a frame with fewer than 60 line pixels or 45 % on
+// lines (a frame that does not show the field), lines of another width than the field's (0.85 to
+// 1.25 times), a table that reaches less than 3 m.
+std::vector<std::string> weaknesses(const PoseFreeCalibration& c, const std::string& field_name);
 
 }  // namespace fieldline::calibration
