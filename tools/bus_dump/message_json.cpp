@@ -163,6 +163,7 @@ void write(std::string& out, const field_features_t& m, const JsonOptions& optio
 void write(std::string& out, const odometry_t& m, const JsonOptions& options) {
   Object o(out);
   addHeader(o, m.header, options);
+  o.add("wheel_count", m.wheel_count);
   o.addArray("ticks", m.ticks).add("controller_utime", m.controller_utime);
   o.add("dx", m.dx).add("dy", m.dy).add("dphi", m.dphi);
   o.add("vx", m.vx).add("vy", m.vy).add("omega", m.omega).add("status", m.status);
