@@ -60,6 +60,10 @@ void LogReader::rewind() {
   std::fseek(impl_->stream(), 0, SEEK_SET);
 }
 
+void LogReader::seek(std::int64_t offset) {
+  ::fseeko(impl_->stream(), static_cast<off_t>(offset), SEEK_SET);
+}
+
 std::int64_t LogReader::rejectedTotal() const {
   return std::accumulate(rejected_by_kind_.begin(), rejected_by_kind_.end(), std::int64_t{0},
                          [](std::int64_t sum, const auto& kv) { return sum + kv.second; });
@@ -163,7 +167,7 @@ bool LogReader::nextEvent(LogEvent& event) {
 bool LogReader::accept(const LogEvent& event) {
   auto rejection =
       checkEncoded(event.channel, event.data.data(), static_cast<int>(event.data.size()),
-                   event.timestamp, options_.future_tolerance_us);
+                   truthToOwn(options_.clock, event.timestamp), options_.future_tolerance_us);
   if (!rejection) return true;
   reject(event, std::move(*rejection));
   return false;

@@ -26,6 +26,7 @@
 #include "common/bus/channels.hpp"
 #include "common/bus/checked_decode.hpp"
 #include "common/time/clock.hpp"
+#include "common/time/offset_clock.hpp"
 
 namespace fieldline::bus {
 
@@ -60,6 +61,10 @@ struct LogReaderOptions {
   // A message whose utime is beyond the event's log time plus this is rejected as from the
   // future (the same tolerance as bus::NodeOptions).
   Utime future_tolerance_us = 500'000;
+  // The publishing robot's clock against the log's time (the recording machine's clock, see
+  // tools/recording/clock_model.hpp): the future check compares a message's utime with the log
+  // time as that robot's clock read it. Zero: the robot stamped with the recorder's clock.
+  ClockError clock;
   // Events larger than this are taken as damage (a 4K BGR frame is 25 MB).
   std::int32_t max_event_bytes = 64 * 1024 * 1024;
 };
@@ -90,7 +95,8 @@ class LogReader {
       if (e.channel != channel.name) continue;
       auto rejection = decodeChecked(msg, e.data.data(), static_cast<int>(e.data.size()));
       if (!rejection) {
-        rejection = checkNotFromFuture(msg.header, e.timestamp, options_.future_tolerance_us);
+        rejection = checkNotFromFuture(msg.header, truthToOwn(options_.clock, e.timestamp),
+                                       options_.future_tolerance_us);
       }
       if (!rejection) return true;
       reject(e, std::move(*rejection));
@@ -103,6 +109,11 @@ class LogReader {
 
   // Back to the first event (counts are kept).
   void rewind();
+  // Continues at byte `offset` of the file (an event's LogEvent::offset).
+  void seek(std::int64_t offset);
+  // The clock the future check reads the log time on (LogReaderOptions::clock).
+  void setClock(const ClockError& clock) { options_.clock = clock; }
+  const ClockError& clock() const { return options_.clock; }
 
   const std::string& path() const { return path_; }
   // Rejected events and damaged stretches so far, by kind ("damaged", "truncated", "decode",

@@ -3,12 +3,16 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <set>
 #include <sstream>
 
+#include <fmt/format.h>
+
 #include <fieldline/obstacle_observations_t.hpp>
+#include <fieldline/robot_state_t.hpp>
 #include <fieldline/service_status_t.hpp>
 
 #include "common/bus/channels.hpp"
@@ -81,8 +85,9 @@ std::optional<int> firstRobotId(bus::LogReader& log, bus::Channel<Msg> channel) 
 }
 
 int detectRobotId(const std::string& path) {
-  // A reader of its own: its rejection counts must not add to the replay's.
-  bus::LogReader log(path);
+  // A reader of its own: its rejection counts must not add to the replay's. The robot's clock is
+  // not known yet: no future check.
+  bus::LogReader log(path, {.future_tolerance_us = std::numeric_limits<Utime>::max() / 4});
   if (auto id = firstRobotId(log, ch::kOdometry)) return *id;
   if (auto id = firstRobotId(log, ch::kVisionLines)) return *id;
   if (auto id = firstRobotId(log, ch::kCameraImage)) return *id;
@@ -99,7 +104,7 @@ bool contains(const std::vector<std::string>& list, const std::string& item) {
 // every SIM_WORLD sample of the truth log in which the robot touches another robot. Returns the
 // number of such samples.
 std::int64_t writeOracleContactLog(const ReplayRunOptions& options, int robot_id,
-                                   const std::vector<std::string>& fed,
+                                   const ClockError& clock, const std::vector<std::string>& fed,
                                    const std::string& scratch) {
   const std::string evidence_path = scratch + ".contacts";
   std::int64_t contacts = 0;
@@ -120,8 +125,9 @@ std::int64_t writeOracleContactLog(const ReplayRunOptions& options, int robot_id
     m.y = {0.0f};
     while (truth.next(ch::kSimWorld, world, &event)) {
       if (!touchesAnotherRobot(world, robot_id)) continue;
-      m.header.utime = world.header.utime;
-      m.header.utime_published = std::max(world.header.utime, event.timestamp);
+      // The simulator's time is the log's; the evidence is stamped on the robot's clock.
+      m.header.utime = truthToOwn(clock, world.header.utime);
+      m.header.utime_published = truthToOwn(clock, std::max(world.header.utime, event.timestamp));
       m.header.seq = contacts++;
       out.write(ch::kVisionObstacles, event.timestamp, m);
     }
@@ -243,6 +249,22 @@ ReplayRunResult runReplay(const ReplayRunOptions& options) {
                               " is not 1..6");
   }
 
+  // The robot's clock against the log's: given, else fitted to the log's traffic.
+  if (options.clock) {
+    result.clock.error = *options.clock;
+    result.clock.source = recording::ClockSource::kGiven;
+    if (result.clock.error.reference_us == 0) {
+      // A drift given without a reference counts from the log's first event.
+      bus::LogReader first(options.log_path);
+      bus::LogEvent event;
+      if (first.nextEvent(event)) result.clock.error.reference_us = event.timestamp;
+    }
+  } else {
+    const auto models = recording::estimateClocks(options.log_path);
+    if (const auto it = models.find(result.robot_id); it != models.end()) result.clock = it->second;
+  }
+  result.clock.robot_id = result.robot_id;
+
   // Fed: what some run node reads, unless a run node produces it.
   std::vector<std::string> produced;
   std::vector<std::string> fed;
@@ -335,9 +357,13 @@ ReplayRunResult runReplay(const ReplayRunOptions& options) {
 
   // Counts what crosses memq: fed channels are inputs, produced ones outputs.
   auto watcher = makeNode("replay_recorder");
-  watcher->subscribeAllRaw([&](const std::string& channel, const void*, int) {
+  robot_state_t state;
+  watcher->subscribeAllRaw([&](const std::string& channel, const void* data, int size) {
     if (contains(produced, channel)) {
       ++result.out[channel];
+      if (channel == ch::kRobotState.name && state.decode(data, 0, size) == size &&
+          state.status == robot_state_t::STATUS_TRACKING)
+        ++result.tracking_states;
     } else if (contains(fed, channel)) {
       ++result.in[channel];
     }
@@ -352,6 +378,8 @@ ReplayRunResult runReplay(const ReplayRunOptions& options) {
     writer = std::make_unique<bus::LogWriter>(replay_path);
     recorder = std::make_unique<bus::LogRecorder>(
         *watcher, *writer, std::vector<std::string_view>(produced.begin(), produced.end()));
+    // Written at the log's time, so the outputs line up with the recording (and its truth).
+    recorder->setLogClock(result.clock.error);
   }
 
   std::string input_path = options.log_path;
@@ -360,7 +388,8 @@ ReplayRunResult runReplay(const ReplayRunOptions& options) {
     if (options.truth_path.empty()) throw ReplayArgumentError("oracle_contact needs a truth log");
     if (!contains(options.run, "fusion")) throw ReplayArgumentError("oracle_contact needs fusion");
     oracle_path = (options.out_path.empty() ? options.log_path : options.out_path) + ".oracle";
-    result.oracle_contacts = writeOracleContactLog(options, result.robot_id, fed, oracle_path);
+    result.oracle_contacts =
+        writeOracleContactLog(options, result.robot_id, result.clock.error, fed, oracle_path);
     input_path = oracle_path;
   }
 
@@ -377,11 +406,11 @@ ReplayRunResult runReplay(const ReplayRunOptions& options) {
     input_path = stalled_path;
   }
 
-  bus::Replay replay(clock, memq, {.channels = fed});
+  bus::Replay replay(clock, memq, {.channels = fed, .clock = result.clock.error});
   for (auto& node : nodes)
     replay.add(*node);
   replay.add(*watcher);
-  bus::LogReader log(input_path);
+  bus::LogReader log(input_path, {.clock = result.clock.error});
   const bus::ReplayStats stats = replay.run(log);
   if (writer) writer->flush();
   if (!oracle_path.empty()) std::filesystem::remove(oracle_path);
@@ -390,13 +419,21 @@ ReplayRunResult runReplay(const ReplayRunOptions& options) {
   result.skipped = stats.skipped;
   result.out_of_order = stats.out_of_order;
   result.rejected = log.rejectedByKind();
+  for (const bus::LogRejection& r : log.recentRejections()) {
+    result.refusal_examples["reader/" + r.reason.kind] = fmt::format(
+        "{}{}event {}: {}", r.channel, r.channel.empty() ? "" : " ", r.event_number, r.reason.text);
+  }
   for (std::size_t i = 0; i < nodes.size(); ++i) {
     // Every error kind the node reported (refused inputs, the nodes' own checks).
     const service_status_t status = nodes[i]->status().takeStatus(clock.now());
     for (int e = 0; e < status.num_errors; ++e) {
       const auto k = static_cast<std::size_t>(e);
-      result.node_errors[node_names[i] + "/" + status.error_kind[k]] = status.error_count[k];
+      const std::string kind = node_names[i] + "/" + status.error_kind[k];
+      result.node_errors[kind] = status.error_count[k];
     }
+    // A node keeps the text of its last error only.
+    if (!status.last_error.empty())
+      result.refusal_examples[node_names[i] + "/last"] = status.last_error;
   }
   if (watcher->status().errorCount("log_write") > 0) {
     throw bus::LogError("writing " + options.out_path + ": " + watcher->status().lastError());
@@ -455,6 +492,89 @@ std::int64_t mergeLogs(const std::vector<MergeSource>& sources, const std::strin
   return out.eventsWritten();
 }
 
+std::int64_t ReplayRunResult::fedTotal() const {
+  std::int64_t n = 0;
+  for (const auto& [channel, count] : in)
+    n += count;
+  return n;
+}
+
+std::int64_t ReplayRunResult::refusedTotal() const {
+  std::int64_t n = 0;
+  for (const auto& [kind, count] : rejected)
+    n += count;
+  for (const auto& [kind, count] : node_errors)
+    n += count;
+  return n;
+}
+
+namespace {
+
+double refusedShare(const ReplayRunResult& result) {
+  // Events the reader refused never reached the nodes: they count among the inputs.
+  std::int64_t reader = 0;
+  for (const auto& [kind, count] : result.rejected)
+    reader += count;
+  const std::int64_t offered = result.fedTotal() + reader;
+  return offered > 0 ? static_cast<double>(result.refusedTotal()) / static_cast<double>(offered)
+                     : 0.0;
+}
+
+}  // namespace
+
+std::string refusalReport(const ReplayRunResult& result) {
+  const std::int64_t refused = result.refusedTotal();
+  if (refused == 0) return {};
+  std::int64_t reader = 0;
+  for (const auto& [kind, count] : result.rejected)
+    reader += count;
+  std::string text = fmt::format("refused {} of {} inputs ({:.2f} %):", refused,
+                                 result.fedTotal() + reader, 100.0 * refusedShare(result));
+  const auto line = [&](const std::string& kind, std::int64_t count) {
+    text += fmt::format("\n  {} {}", kind, count);
+    const auto it = result.refusal_examples.find(kind);
+    if (it != result.refusal_examples.end() && !it->second.empty()) text += ": " + it->second;
+  };
+  for (const auto& [kind, count] : result.rejected)
+    line("reader/" + kind, count);
+  for (const auto& [kind, count] : result.node_errors)
+    line(kind, count);
+  for (const auto& [kind, example] : result.refusal_examples) {
+    if (kind.size() > 5 && kind.compare(kind.size() - 5, 5, "/last") == 0)
+      text += fmt::format("\n  {} error: {}", kind.substr(0, kind.size() - 5), example);
+  }
+  return text;
+}
+
+std::vector<std::string> failures(const ReplayRunResult& result, const ReplayRunOptions& options) {
+  std::vector<std::string> why;
+  const double share = refusedShare(result);
+  std::int64_t outputs = 0;
+  for (const auto& [channel, count] : result.out)
+    outputs += count;
+  if (result.fedTotal() == 0) {
+    why.push_back("no input reached the nodes (nothing in the log on the channels they read)");
+  }
+  if (share > options.max_refused_share) {
+    why.push_back(
+        fmt::format("{:.1f} % of the inputs were refused (at most {:.1f} % allowed; "
+                    "see the kinds above)",
+                    100.0 * share, 100.0 * options.max_refused_share));
+  }
+  if (std::find(options.run.begin(), options.run.end(), "fusion") != options.run.end()) {
+    if (result.tracking_states == 0) {
+      const auto it = result.out.find(std::string(ch::kRobotState.name));
+      why.push_back(
+          fmt::format("fusion published no valid estimate ({} ROBOT_STATE, none of "
+                      "them tracking)",
+                      it == result.out.end() ? 0 : it->second));
+    }
+  } else if (outputs == 0) {
+    why.push_back("the nodes published nothing");
+  }
+  return why;
+}
+
 std::string summaryLine(const ReplayRunResult& result) {
   std::ostringstream line;
   line << "replay robot " << result.robot_id << ": in";
@@ -479,6 +599,9 @@ std::string summaryLine(const ReplayRunResult& result) {
     line << " | stalls " << result.stalls << " held " << result.stall_held << " dropped "
          << result.stall_dropped;
   }
+  if (result.out.count(std::string(ch::kRobotState.name)) > 0)
+    line << " | tracking " << result.tracking_states;
+  line << " | clock " << result.clock.describe();
   return line.str();
 }
 
