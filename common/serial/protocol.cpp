@@ -240,6 +240,7 @@ std::variant<Message, Reject> parsePayload(std::span<const std::uint8_t> payload
       m.seq = r.u32();
       m.controller_time_us = r.u64();
       if (counted) r.u8();
+      m.ticks.clear();
       for (std::size_t i = 0; i < wheels; ++i)
         m.ticks.push_back(r.i32());
       m.status = r.u16();

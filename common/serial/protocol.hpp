@@ -78,8 +78,8 @@ struct OdometrySample {
   std::uint32_t seq = 0;
   // Controller clock at sampling [µs since the controller started].
   std::uint64_t controller_time_us = 0;
-  // Accumulated encoder ticks per wheel (3 or 4 wheels), wrapping as int32.
-  PerWheel<std::int32_t> ticks;
+  // Accumulated encoder ticks per wheel (3 or 4 wheels; three unless set), wrapping as int32.
+  PerWheel<std::int32_t> ticks{0, 0, 0};
   std::uint16_t status = 0;
   // seq of the last valid command the controller accepted (0 before the first).
   std::uint32_t last_command_seq = 0;

@@ -156,11 +156,10 @@ void FirmwareEmulator::sample(double t, const robot::TickCounts& ticks,
         noise[i] = normal_(noise_rng_);
       const robot::WheelVector amps =
           wheelCurrents(params_, currents_, *last_wheels_, *wheels, t - last_wheels_t_, noise);
-      serial::PerWheel<std::int16_t> ma;
+      auto& ma = s.current_ma.emplace();
       for (int i = 0; i < n; ++i)
         ma.push_back(static_cast<std::int16_t>(
             std::lround(std::clamp(amps[i] * 1e3, -32767.0, 32767.0))));
-      s.current_ma = ma;
     }
     last_wheels_ = *wheels;
     last_wheels_t_ = t;

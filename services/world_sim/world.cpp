@@ -338,6 +338,11 @@ void World::step() {
   for (auto& r : robots_)
     r.contact_steps += r.in_contact ? 1 : 0;
   ++steps_;
+  // The normal distribution draws in pairs and keeps the second: a step with an odd number of
+  // draws (four wheels, a collision's twist) would carry it into the next, which a snapshot (the
+  // engine's state only) cannot restore. Dropped at every step's end, so a restored world goes on
+  // bit for bit; with an even number of draws nothing is kept and nothing changes.
+  normal_.reset();
 }
 
 void World::runUntil(double t) {

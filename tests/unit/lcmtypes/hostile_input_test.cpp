@@ -97,7 +97,7 @@ struct Sample<odometry_t> {
     m.wheel_current = {0.5f, 0.0f, -0.5f, 1.0f};
     m.dx = 0.01;
     // The gyro's tail is the message's last field: a cut through it must be refused too.
-    m.status = odometry_t::STATUS_GYRO | odometry_t::STATUS_CURRENTS;
+    m.status = int{odometry_t::STATUS_GYRO} | int{odometry_t::STATUS_CURRENTS};
     m.gyro_dphi = 0.002;
     return m;
   }

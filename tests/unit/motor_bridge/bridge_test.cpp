@@ -106,7 +106,7 @@ TEST(Bridge, WheelCurrentsAreForwardedInAmperes) {
   bridge.onBytes(serial::encode(s), kT0, out);  // no currents
   s.seq = 1;
   s.controller_time_us = 21'000;
-  s.current_ma = std::array<std::int16_t, 3>{1500, -250, 0};
+  s.current_ma = serial::PerWheel<std::int16_t>{1500, -250, 0};
   bridge.onBytes(serial::encode(s), kT0 + 20'000, out);
   ASSERT_EQ(out.size(), 2u);
   EXPECT_EQ(out[0].status & perception::kOdometryCurrents, 0);

@@ -32,6 +32,7 @@ Message randomMessage(std::mt19937& rng) {
       s.controller_time_us = (static_cast<std::uint64_t>(u32(rng)) << 32) | u32(rng);
       // Three wheels (type 0x20) or four (0x21).
       const std::size_t wheels = rng() % 2 ? 3 : 4;
+      s.ticks.clear();
       for (std::size_t i = 0; i < wheels; ++i)
         s.ticks.push_back(static_cast<std::int32_t>(u32(rng)));
       s.status = static_cast<std::uint16_t>(u32(rng));

@@ -80,7 +80,7 @@ TEST(World, TicksToWheelRotationsToMotionMatchTheTruthWithinATickWithoutSlip) {
   const double rad_per_tick = 2.0 * kPi / params.ticksPerWheelRevolution();
   const double tick_travel = rad_per_tick * params.wheels[0].radius;  // 0.33 mm
   const robot::TickCounts last = world.ticks(0);
-  std::array<std::int64_t, 3> delta{};
+  robot::TickDeltas delta(3, 0);
   for (int i = 0; i < 3; ++i) {
     // Each counter is the wheel's rotation, floored to whole ticks.
     EXPECT_LT(std::abs(last[i] * rad_per_tick - truth.wheel_angles[i]), rad_per_tick);
@@ -149,8 +149,9 @@ TEST(World, FourWheelsWithoutSlipOdometryFollowsAFigureEight) {
   EXPECT_LT(std::abs(geometry::angleDiff(odo[0].pose().phi, truth.phi)), 0.005);
   const auto ref = robot::Trajectory(s.robots[0].trajectory, {}).at(world.time());
   EXPECT_LT((ref.pose.position() - truth.position()).norm(), 0.1);
-  // Without errors the four wheels agree: no slip.
-  EXPECT_LT(world.robots()[0].wheel_slip.cwiseAbs().maxCoeff(), 1e-9);
+  // Without errors the four wheels agree: only the millimetres of the slip's chord-for-arc
+  // bookkeeping over 24 m (as with three wheels).
+  EXPECT_LT(world.robots()[0].wheel_slip.cwiseAbs().maxCoeff(), 0.005);
 }
 
 TEST(World, FourWheelsWithTheirErrorsFightAndDrift) {
@@ -166,7 +167,7 @@ TEST(World, FourWheelsWithTheirErrorsFightAndDrift) {
   EXPECT_LT(position_error, 5.0);
   // The wheels' true radii and angles differ, and the body follows their best fit: each wheel
   // slips by what the fit does not explain.
-  EXPECT_GT(world.robots()[0].wheel_slip.cwiseAbs().maxCoeff(), 1e-3);
+  EXPECT_GT(world.robots()[0].wheel_slip.cwiseAbs().maxCoeff(), 0.01);
   // A snapshot of a four-wheeled world continues it bit for bit.
   const WorldSnapshot snap = decodeSnapshot(encodeSnapshot(world.snapshot()));
   ASSERT_EQ(snap.robots[0].wheel_angles.size(), 4);
