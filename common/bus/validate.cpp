@@ -221,7 +221,9 @@ std::optional<std::string> validate(const odometry_t& m) {
         return {};
       },
       [&] { return Sized("wheel_count", m.wheel_count)("ticks", m.ticks).result(); },
-      [&] { return Sized("wheel_count", m.wheel_count)("wheel_current", m.wheel_current).result(); },
+      [&] {
+        return Sized("wheel_count", m.wheel_count)("wheel_current", m.wheel_current).result();
+      },
       [&]() -> Problem {
         if (m.wheel_count == 0 && (m.status & odometry_t::STATUS_CURRENTS) != 0) {
           return "STATUS_CURRENTS without wheels (wheel_count = 0)";

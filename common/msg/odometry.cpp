@@ -16,9 +16,8 @@ perception::OdometryReading fromMessage(const odometry_t& m) {
   perception::OdometryReading r;
   r.utime = m.header.utime;
   // validate() keeps wheel_count within 0..4 and the arrays at its size.
-  const auto wheels =
-      std::min<std::size_t>(static_cast<std::size_t>(std::max<int>(m.wheel_count, 0)),
-                            perception::kMaxOdometryWheels);
+  const auto wheels = std::min<std::size_t>(
+      static_cast<std::size_t>(std::max<int>(m.wheel_count, 0)), perception::kMaxOdometryWheels);
   for (std::size_t i = 0; i < wheels && i < m.ticks.size(); ++i)
     r.ticks.push_back(m.ticks[i]);
   r.controller_utime = m.controller_utime;

@@ -53,7 +53,7 @@ struct NormalizedCommand {
 // speed, all wheels are scaled down together so the direction of motion is kept.
 // Inputs outside [-1, 1] are clamped; non-finite inputs give zero commands.
 WheelVector wheelCommands(const NormalizedCommand& command, const RobotParams& params,
-                              const OmniKinematics& kinematics);
+                          const OmniKinematics& kinematics);
 
 // The body twist a command asks for (clamped as above), before wheel saturation.
 Twist desiredTwist(const NormalizedCommand& command, const RobotParams& params);

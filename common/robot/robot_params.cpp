@@ -59,8 +59,9 @@ RobotParams loadRobotParams(const config::Node& root) {
   // Wheels that cannot produce every body twist (two of three parallel, all on one line) make
   // odometry and the controller's mapping meaningless: refused here, with the file's line.
   if (!wheelLayoutRegular(p.wheels)) {
-    root.fail("wheels", "singular layout: these wheels cannot produce every body twist (parallel "
-                        "drive directions or all on one line)");
+    root.fail("wheels",
+              "singular layout: these wheels cannot produce every body twist (parallel "
+              "drive directions or all on one line)");
   }
 
   const auto enc = root.child("encoder");

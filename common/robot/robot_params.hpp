@@ -6,8 +6,8 @@
 #include <cstdint>
 #include <string>
 
-#include <boost/container/static_vector.hpp>
 #include <Eigen/Core>
+#include <boost/container/static_vector.hpp>
 
 #include "common/config/config.hpp"
 

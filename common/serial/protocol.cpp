@@ -82,8 +82,7 @@ void writeBody(const VelocityCommand& m, Writer& w) {
 }
 void writeBody(const OdometrySample& m, Writer& w) {
   if (m.ticks.size() < kMinWheels || (m.current_ma && m.current_ma->size() != m.ticks.size())) {
-    throw std::invalid_argument("odometry sample: " + std::to_string(m.ticks.size()) +
-                                " wheels, " +
+    throw std::invalid_argument("odometry sample: " + std::to_string(m.ticks.size()) + " wheels, " +
                                 std::to_string(m.current_ma ? m.current_ma->size() : 0) +
                                 " currents (3 or 4 wheels, a current for each)");
   }

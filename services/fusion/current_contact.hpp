@@ -2,11 +2,11 @@
 // another one makes its wheels slip, and the controller's current rises to the friction limit,
 // beyond what the wheel's own acceleration needs. Per odometry sample the detector predicts each
 // wheel's current from its acceleration (mean wheel speeds from the ticks of the neighbouring
-// samples, the wheel's share of the robot's mass (a third, a quarter with four wheels), wheel radius, gear, torque constant) and flags
-// contact when the rest, as a force at the wheel, exceeds a threshold on some wheel in
-// `samples` consecutive samples. The periods are measured on the controller's clock when the
-// samples carry it (the host's receive times jitter with its load; the currents are averaged
-// over the controller's periods). Plain logic: no clock, no LCM.
+// samples, the wheel's share of the robot's mass (a third, a quarter with four wheels), wheel
+// radius, gear, torque constant) and flags contact when the rest, as a force at the wheel, exceeds
+// a threshold on some wheel in `samples` consecutive samples. The periods are measured on the
+// controller's clock when the samples carry it (the host's receive times jitter with its load; the
+// currents are averaged over the controller's periods). Plain logic: no clock, no LCM.
 #pragma once
 
 #include <cstdint>

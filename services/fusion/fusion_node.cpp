@@ -18,9 +18,9 @@ namespace {
 // Refusals that mean bad input (counted as errors); the rest (a poor match, a gated
 // measurement) are the filter doing its job and show as metrics.
 bool isBadInput(const std::string& reason) {
-  for (const char* kind : {"from_future", "too_old", "not_finite", "not_positive_definite",
-                           "duplicate", "odometry_jump", "odometry_out_of_order", "absurd",
-                           "wheel_count"}) {
+  for (const char* kind :
+       {"from_future", "too_old", "not_finite", "not_positive_definite", "duplicate",
+        "odometry_jump", "odometry_out_of_order", "absurd", "wheel_count"}) {
     if (reason.find(kind) != std::string::npos) return true;
   }
   return false;
@@ -63,7 +63,8 @@ void FusionNode::onOdometry(const odometry_t& m) {
   sample.resync = (m.status & odometry_t::STATUS_RESYNC) != 0;
   sample.controller_utime = m.controller_utime;
   sample.has_currents = (m.status & odometry_t::STATUS_CURRENTS) != 0;
-  if (sample.has_currents) sample.wheel_current.assign(m.wheel_current.begin(), m.wheel_current.end());
+  if (sample.has_currents)
+    sample.wheel_current.assign(m.wheel_current.begin(), m.wheel_current.end());
   sample.has_gyro = (m.status & odometry_t::STATUS_GYRO) != 0;
   sample.gyro_dphi = m.gyro_dphi;
   localizer_.addOdometry(sample, node_.now());

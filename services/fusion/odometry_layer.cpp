@@ -172,8 +172,7 @@ OdometryLayer::Result OdometryLayer::update(const OdometrySample& input) {
       delta.push_back(robot::tickDelta(sample.ticks[w], last_->ticks[w]));
     ground = odometry_.wheelRotations(delta).cwiseProduct(kinematics().radii());
   } else {
-    integrated =
-        robot::integratedTwist(geometry::concatenate(pending_movement_, sample.movement));
+    integrated = robot::integratedTwist(geometry::concatenate(pending_movement_, sample.movement));
     ground = m * integrated;
   }
   pending_movement_ = {};

@@ -4,11 +4,11 @@
 // covariance that grows with the distance driven and the angle turned: each wheel's ground travel
 // is uncertain by its own slip and tick quantisation, carried through the same inverse. A
 // controller without ticks (odometry_t wheel_count 0) gives its own movement instead; the same
-// per-wheel model then applies to the wheel travel that movement implies. Samples must come in time order; a sample that cannot be trusted (time running
-// backwards, a jump no wheel can make, a controller resync) is refused with its reason and
-// restarts the reference, so a bad sample never becomes a movement. A sample's utime is the
-// bridge's stamp: the controller's own clock mapped onto the host's (common/time/
-// controller_clock.hpp), without the serial link's jitter.
+// per-wheel model then applies to the wheel travel that movement implies. Samples must come in time
+// order; a sample that cannot be trusted (time running backwards, a jump no wheel can make, a
+// controller resync) is refused with its reason and restarts the reference, so a bad sample never
+// becomes a movement. A sample's utime is the bridge's stamp: the controller's own clock mapped
+// onto the host's (common/time/ controller_clock.hpp), without the serial link's jitter.
 #pragma once
 
 #include <cstdint>

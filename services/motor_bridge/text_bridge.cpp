@@ -56,8 +56,8 @@ void TextBridgeCore::onLine(std::string_view line, Utime now) {
   } else if (const auto* v = std::get_if<text::VelocityLine>(&parsed)) {
     if (std::hypot(v->vx, v->vy) > kImplausibleFactor * params_.max_speed ||
         std::abs(v->omega) > kImplausibleFactor * params_.max_omega) {
-      reject("text_implausible", "velocity beyond what the robot can drive: '" +
-                                     std::string(line) + "'");
+      reject("text_implausible",
+             "velocity beyond what the robot can drive: '" + std::string(line) + "'");
       return;
     }
     s.controller_time_us = v->controller_time_us;
@@ -141,9 +141,8 @@ void TextBridgeCore::emit(const Sample& s, std::vector<perception::OdometryReadi
 void TextBridgeCore::onBytes(std::span<const std::uint8_t> bytes, Utime now,
                              std::vector<perception::OdometryReading>& out) {
   pending_.clear();
-  splitter_.feed(
-      std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()),
-      [&](std::string_view line) { onLine(line, now); });
+  splitter_.feed(std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()),
+                 [&](std::string_view line) { onLine(line, now); });
   if (splitter_.overlong() > overlong_reported_) {
     counters_["text_overlong"] += splitter_.overlong() - overlong_reported_;
     overlong_reported_ = splitter_.overlong();

@@ -54,11 +54,11 @@ robot::WheelVector FirmwareEmulator::wheelCurrents(const robot::RobotParams& par
                                                    const robot::WheelVector& unit_noise) {
   constexpr double kGravity = 9.81;
   const int wheels = params.wheelCount();
-  for (const robot::WheelVector* v : {&previous.speeds, &previous.slip, &now.speeds, &now.slip,
-                                      &unit_noise}) {
+  for (const robot::WheelVector* v :
+       {&previous.speeds, &previous.slip, &now.speeds, &now.slip, &unit_noise}) {
     if (v->size() != wheels) {
-      throw std::invalid_argument("wheel currents: " + std::to_string(v->size()) +
-                                  " values for " + std::to_string(wheels) + " wheels");
+      throw std::invalid_argument("wheel currents: " + std::to_string(v->size()) + " values for " +
+                                  std::to_string(wheels) + " wheels");
     }
   }
   const double share = params.mass / wheels;
@@ -158,8 +158,8 @@ void FirmwareEmulator::sample(double t, const robot::TickCounts& ticks,
           wheelCurrents(params_, currents_, *last_wheels_, *wheels, t - last_wheels_t_, noise);
       auto& ma = s.current_ma.emplace();
       for (int i = 0; i < n; ++i)
-        ma.push_back(static_cast<std::int16_t>(
-            std::lround(std::clamp(amps[i] * 1e3, -32767.0, 32767.0))));
+        ma.push_back(
+            static_cast<std::int16_t>(std::lround(std::clamp(amps[i] * 1e3, -32767.0, 32767.0))));
     }
     last_wheels_ = *wheels;
     last_wheels_t_ = t;

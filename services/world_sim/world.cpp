@@ -216,8 +216,7 @@ void World::stepRobot(std::size_t index) {
   const double tau = motor_.timeConstant();
   const double decay = std::exp(-dt_ / tau);
   const robot::WheelVector target = r.wheel_commands * (motor_.alpha() / motor_.beta());
-  const robot::WheelVector travel =
-      target * dt_ + (r.wheel_speeds - target) * tau * (1.0 - decay);
+  const robot::WheelVector travel = target * dt_ + (r.wheel_speeds - target) * tau * (1.0 - decay);
   r.wheel_speeds = target + (r.wheel_speeds - target) * decay;
   const Eigen::Index wheels = travel.size();
   for (Eigen::Index i = 0; i < wheels; ++i) {

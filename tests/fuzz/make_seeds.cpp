@@ -64,8 +64,8 @@ int main(int argc, char** argv) {
       serial::OdometrySample{42, 123456789, {1, -2, 3}, serial::kStatusReset, 7},
       serial::ErrorReport{serial::ErrorCode::kUnknownType, 0x99},
       // Four wheels (type 0x21) with both tails.
-      serial::OdometrySample{43, 123476789, {1, -2, 3, -4}, 0, 8, {{100, -200, 300, -400}},
-                             123456}};
+      serial::OdometrySample{
+          43, 123476789, {1, -2, 3, -4}, 0, 8, {{100, -200, 300, -400}}, 123456}};
   std::vector<std::uint8_t> all{5};
   for (std::size_t i = 0; i < messages.size(); ++i) {
     std::vector<std::uint8_t> one{static_cast<std::uint8_t>(63)};

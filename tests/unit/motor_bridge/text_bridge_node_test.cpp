@@ -62,7 +62,8 @@ class TextBridgeNodeTest : public ::testing::Test {
   std::unique_ptr<world_sim::PseudoTerminal> pty;
   SimulatedClock clock{1'800'000'000'000'000};
   std::shared_ptr<bus::Connection> memq = bus::Connection::open("memq://");
-  bus::Node bridge_bus{{.process = "text_bridge", .robot_id = 1, .status_period_us = 0}, clock, memq};
+  bus::Node bridge_bus{
+      {.process = "text_bridge", .robot_id = 1, .status_period_us = 0}, clock, memq};
   bus::Node fusion_bus{{.process = "fusion", .robot_id = 1, .status_period_us = 0}, clock, memq};
   bus::Node listener{{.process = "listener", .robot_id = 1, .status_period_us = 0}, clock, memq};
   robot::RobotParams params = robot::loadRobotPreset("four_wheel");

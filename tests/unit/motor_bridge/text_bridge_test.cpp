@@ -33,9 +33,9 @@ TEST(TextProtocol, LinesParseOrSayWhatIsWrong) {
   ASSERT_TRUE(std::holds_alternative<text::VelocityLine>(s));
   EXPECT_DOUBLE_EQ(std::get<text::VelocityLine>(s).omega, 0.1);
   EXPECT_TRUE(std::holds_alternative<text::Comment>(text::parseLine("# firmware 2.1 ready")));
-  for (const char* bad : {"", "X 1 2 3", "O", "O 12", "O -5 1 2 3", "O 1 2 3 4 5 6",
-                          "O 1 2 3 2147483648", "O 1 2 x 3", "S 1 0.5 0.5", "S 1 nan 0 0",
-                          "S 1 inf 0 0", "O 1.5 1 2 3"}) {
+  for (const char* bad :
+       {"", "X 1 2 3", "O", "O 12", "O -5 1 2 3", "O 1 2 3 4 5 6", "O 1 2 3 2147483648",
+        "O 1 2 x 3", "S 1 0.5 0.5", "S 1 nan 0 0", "S 1 inf 0 0", "O 1.5 1 2 3"}) {
     const auto r = text::parseLine(bad);
     ASSERT_TRUE(std::holds_alternative<text::LineError>(r)) << bad;
     EXPECT_NE(std::get<text::LineError>(r).what.find(bad), std::string::npos);

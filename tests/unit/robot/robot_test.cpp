@@ -360,8 +360,9 @@ TEST(WheelOdometry, FourWheelsOneMetreSidewaysAndWrongCounts) {
 }
 
 TEST(ArcMovement, IntegratedTwistInvertsTheArc) {
-  for (const Eigen::Vector3d& v : {Eigen::Vector3d(0.3, -0.2, 0.0), Eigen::Vector3d(1.0, 0.5, 1.2),
-                                  Eigen::Vector3d(-0.4, 0.1, -2.5), Eigen::Vector3d(0, 0, 1e-12)}) {
+  for (const Eigen::Vector3d& v :
+       {Eigen::Vector3d(0.3, -0.2, 0.0), Eigen::Vector3d(1.0, 0.5, 1.2),
+        Eigen::Vector3d(-0.4, 0.1, -2.5), Eigen::Vector3d(0, 0, 1e-12)}) {
     EXPECT_TRUE(integratedTwist(arcMovement(v)).isApprox(v, 1e-12)) << v.transpose();
   }
 }

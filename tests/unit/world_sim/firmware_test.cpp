@@ -54,7 +54,8 @@ TEST(Firmware, CurrentsAreTheAccelerationAndTheFrictionOfTheSlip) {
   WheelState before{zero, zero};
   WheelState after{zero, zero};
   after.speeds = Eigen::Vector3d(0.1, -0.1, 0.0);  // +-5 m/s^2 over 20 ms
-  robot::WheelVector amps = FirmwareEmulator::wheelCurrents(params, model, before, after, 0.02, zero);
+  robot::WheelVector amps =
+      FirmwareEmulator::wheelCurrents(params, model, before, after, 0.02, zero);
   EXPECT_NEAR(amps[0], share * 5.0 * per_newton, 1e-9);
   EXPECT_NEAR(amps[1], -share * 5.0 * per_newton, 1e-9);
   EXPECT_NEAR(amps[2], 0.0, 1e-12);
