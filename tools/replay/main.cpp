@@ -9,6 +9,7 @@
 
 #include "common/bus/cli.hpp"
 #include "common/bus/log_file.hpp"
+#include "tools/recording/upgrade.hpp"
 #include "tools/replay/replay_run.hpp"
 
 using namespace fieldline;
@@ -28,14 +29,15 @@ void addOptions(CLI::App& app, replay::ReplayRunOptions& options, std::string& r
                  "Robot id of the log (default: taken from its first ODOMETRY / VISION_LINES / "
                  "CAMERA_IMAGE)")
       ->check(CLI::Range(1, 6));
-  app.add_option("--field", options.field, "Field preset (msl, fu2004) or YAML path")
-      ->capture_default_str();
+  app.add_option("--field", options.field,
+                 "Field preset (msl, fu2004) or YAML path (default: the recording's field, else "
+                 "msl)");
   app.add_option("--robot-config", options.robot_config, "fusion: robot preset or YAML path")
       ->capture_default_str();
   app.add_option("--fusion-config", options.fusion_config,
                  "fusion: settings preset (config/fusion/NAME.yaml) or YAML path, as "
-                 "fieldline-fusion --config")
-      ->capture_default_str();
+                 "fieldline-fusion --config (default: the settings the recording says fusion "
+                 "ran with, else default)");
   app.add_option("--matcher", options.matcher,
                  "fusion: layer 2 method, lsq or force_field (default: the settings file's)")
       ->check(CLI::IsMember({"lsq", "force_field"}));
@@ -136,6 +138,8 @@ int main(int argc, char** argv) {
     return 2;
   }
 
+  // Recordings made with older message types are read as today's (docs/replay.md).
+  recording::installLogUpgrades();
   return bus::runMain("replay", [&]() -> int {
     try {
       const replay::ReplayRunResult result = replay::runReplay(options);
