@@ -71,8 +71,13 @@ void BusRecording::writeInfo(Utime log_time) {
   }
   writer_->write(bus::channels::kRecordingInfo, log_time, info_);
   ++info_.header.seq;
-  file_bytes_ += kEventOverhead + info_.getEncodedSize();
+  file_bytes_ += infoBytes();
   next_info_ = log_time + static_cast<Utime>(options_.info_period_s * 1e6);
+}
+
+std::int64_t BusRecording::infoBytes() const {
+  return kEventOverhead + static_cast<std::int64_t>(bus::channels::kRecordingInfo.name.size()) +
+         info_.getEncodedSize();
 }
 
 void BusRecording::observe(Utime log_time, const void* data, int size) {
@@ -105,10 +110,14 @@ void BusRecording::write(std::string_view channel, Utime log_time, const void* d
     return;
   }
   const std::int64_t bytes = kEventOverhead + static_cast<std::int64_t>(channel.size()) + size;
+  const bool info_due = file_bytes_ == 0 || log_time >= next_info_;
+  const std::int64_t info_bytes = info_due ? infoBytes() : 0;
   if (options_.max_file_bytes > 0 && file_bytes_ > 0 &&
-      file_bytes_ + bytes > options_.max_file_bytes)
-    startFile(log_time);
-  if (file_bytes_ == 0 || log_time >= next_info_) writeInfo(log_time);
+      file_bytes_ + info_bytes + bytes > options_.max_file_bytes) {
+    startFile(log_time);  // which starts with the description
+  } else if (info_due) {
+    writeInfo(log_time);
+  }
   writer_->write(channel, log_time, data, size);
   file_bytes_ += bytes;
   bytes_total_ += bytes;

@@ -70,6 +70,8 @@ class BusRecording {
   bool recorded(std::string_view channel) const;
   void startFile(Utime log_time);
   void observe(Utime log_time, const void* data, int size);
+  // The size of the description in a file, event framing included.
+  std::int64_t infoBytes() const;
 
   std::string dir_;
   std::string name_;

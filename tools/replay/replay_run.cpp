@@ -547,7 +547,7 @@ ReplayRunResult runReplay(const ReplayRunOptions& options) {
   const std::vector<std::string> truth_channels{std::string(ch::kSimWorld.name)};
   if (!options.truth_path.empty() && !options.out_path.empty()) {
     writer.reset();
-    std::int64_t outputs = 0;
+    std::int64_t outputs = 1;  // the output's RECORDING_INFO
     for (const auto& [channel, count] : result.out)
       outputs += count;
     result.truth_merged =

@@ -128,7 +128,7 @@ try:
             plotted = json.loads(text)
             break
         time.sleep(0.5)
-    if not plotted or "error" in plotted:
+    if not plotted or "load_error" in plotted:
         sys.exit(f"FAIL: the page did not plot the recording: {plotted}")
     error_points = {d["label"]: d["points"] for d in plotted.get("error", [])}
     print(f"error plot: {error_points}")

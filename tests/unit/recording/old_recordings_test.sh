@@ -37,6 +37,6 @@ done
 grep -q 'upgraded robot_state_t v1 [1-9]' "$out/main_428ac34.dump" 2> /dev/null ||
   grep -q 'of robot_state_t v1 upgraded' "$out/main_428ac34.dump" ||
   { echo "FAIL: main_428ac34's ROBOT_STATE was not upgraded"; fail=1; }
-grep -q 'upgraded team_state_t v1 [1-9]' "$out/main_428ac34.txt" ||
+grep -q 'upgraded.* team_state_t v1 [1-9]' "$out/main_428ac34.txt" ||
   { echo "FAIL: main_428ac34's TEAM_STATE was not upgraded on its way to fusion"; fail=1; }
 exit "$fail"

@@ -12,12 +12,15 @@
   const STATUS_LABELS = ["unknown", "searching", "tracking", "odometry only"];
   // One chart per series of /recording.json: its key(s), title and y unit.
   const PLOTS = [
-    { id: "error", keys: ["error"], title: "position error against the truth", unit: "m" },
+    // Logarithmic where centimetres while tracking and metres while lost share a plot.
+    { id: "error", keys: ["error"], title: "position error against the truth", unit: "m",
+      log: true },
     { id: "heading", keys: ["heading_error"], title: "heading error against the truth",
-      unit: "deg" },
-    { id: "sigma", keys: ["sigma"], title: "reported position sigma", unit: "m" },
+      unit: "deg", log: true },
+    { id: "sigma", keys: ["sigma"], title: "reported position sigma", unit: "m", log: true },
     { id: "status", keys: ["status"], title: "localization status", unit: "", stepped: true },
-    { id: "ball", keys: ["ball_error"], title: "ball error against the truth", unit: "m" },
+    { id: "ball", keys: ["ball_error"], title: "ball error against the truth", unit: "m",
+      log: true },
     { id: "rate", keys: ["rate"], title: "ROBOT_STATE rate", unit: "Hz" },
     { id: "latency", keys: ["latency", "lines_latency"], title: "latency (solid: ROBOT_STATE, " +
       "dashed: VISION_LINES)", unit: "ms" },
@@ -100,7 +103,8 @@
           if (!points.length) return;
           datasets.push({
             label: `robot ${robot.id}` + (k > 0 ? " lines" : ""),
-            data: points.map(([x, y]) => ({ x, y })),
+            // A logarithmic axis has no place for 0.
+            data: points.filter(([, y]) => !plot.log || y > 0).map(([x, y]) => ({ x, y })),
             borderColor: PLOT_COLOURS[robot.id] || "#333333",
             backgroundColor: PLOT_COLOURS[robot.id] || "#333333",
             borderDash: k > 0 ? [4, 3] : [],
@@ -135,8 +139,11 @@
           scales: {
             x: { type: "linear", min: 0, max: duration,
                  title: { display: true, text: "time since the recording's start [s]" } },
-            y: { title: { display: !!plot.unit, text: plot.unit ? `[${plot.unit}]` : "" },
-                 ticks: yTicks, beginAtZero: true },
+            y: plot.log
+              ? { type: "logarithmic",
+                  title: { display: true, text: `[${plot.unit}], log scale` } }
+              : { title: { display: !!plot.unit, text: plot.unit ? `[${plot.unit}]` : "" },
+                  ticks: yTicks, beginAtZero: true },
           },
           onClick: (event, elements, chart) => {
             // A click on a plot moves the playhead there.
@@ -175,12 +182,16 @@
       if (!doc) return;  // a live view
       recording = doc;
       window.fieldlineRecording = doc;
+      // Recordings hold no camera view (fieldline-record --images keeps frames for a replay of
+      // region tracking, not for the page).
+      document.getElementById("camera").style.display = "none";
+      document.getElementById("camera-caption").style.display = "none";
       buildTimeline((doc.end_utime - doc.start_utime) / 1e6);
       await loadScript("/lib/chart.min.js");
       buildPlots();
       follow();
     })
     .catch((error) => {
-      document.getElementById("plotted").textContent = JSON.stringify({ error: String(error) });
+      document.getElementById("plotted").textContent = JSON.stringify({ load_error: String(error) });
     });
 })();
