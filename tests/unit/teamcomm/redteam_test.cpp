@@ -4,8 +4,9 @@
 // - redteam_clock_step (finding 2): robot 1 was never present again at its teammates after any
 //   of the steps ("present 0 %" for the rest of the run), and their SERVICE_STATUS reason was
 //   "robot 1 sequence N", not the clock.
-// - redteam_kernel_drops (finding 9): no kernel_drops metric and state ok after a flood the
-//   kernel dropped thousands of datagrams of.
+// - redteam_kernel_drops (finding 9): after a flood the kernel dropped thousands of datagrams of,
+//   no kernel_drops metric, and the reason named only the refused junk ("200-byte datagram
+//   claiming robot 90").
 #include <arpa/inet.h>
 #include <netinet/in.h>
 #include <sys/socket.h>
@@ -113,22 +114,29 @@ TEST(redteam_clock_step, ARobotRestartedOnAClock2sAheadOrBehindIsSeenAgainWithin
 
 // Finding 9: a flood the kernel drops datagrams of shows in SERVICE_STATUS.
 TEST(redteam_kernel_drops, AFloodsKernelDropsShowInTheStatus) {
-  // A free port on the loopback interface.
-  int probe = ::socket(AF_INET, SOCK_DGRAM, 0);
-  ASSERT_GE(probe, 0);
-  sockaddr_in any{};
-  any.sin_family = AF_INET;
-  any.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  ASSERT_EQ(::bind(probe, reinterpret_cast<sockaddr*>(&any), sizeof any), 0);
-  socklen_t len = sizeof any;
-  ASSERT_EQ(::getsockname(probe, reinterpret_cast<sockaddr*>(&any), &len), 0);
-  const std::uint16_t port = ntohs(any.sin_port);
-  ::close(probe);
+  // Free ports on the loopback interface: the link's, and its peer's (nobody listens there, so
+  // the node does not hear its own packets).
+  const auto freePort = [] {
+    const int probe = ::socket(AF_INET, SOCK_DGRAM, 0);
+    sockaddr_in any{};
+    any.sin_family = AF_INET;
+    any.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    socklen_t len = sizeof any;
+    if (probe < 0 || ::bind(probe, reinterpret_cast<sockaddr*>(&any), sizeof any) != 0 ||
+        ::getsockname(probe, reinterpret_cast<sockaddr*>(&any), &len) != 0) {
+      return std::uint16_t{0};
+    }
+    ::close(probe);
+    return ntohs(any.sin_port);
+  };
+  const std::uint16_t port = freePort(), peer = freePort();
+  ASSERT_NE(port, 0);
+  ASSERT_NE(peer, 0);
 
   UdpOptions udp;
   udp.group.clear();
   udp.port = port;
-  udp.peers = {"127.0.0.1:" + std::to_string(port)};
+  udp.peers = {"127.0.0.1:" + std::to_string(peer)};
   std::unique_ptr<PacketLink> link = openUdpLink(udp);
   SimulatedClock clock(kT0);
   auto bus = bus::Connection::open("memq://");
