@@ -39,6 +39,8 @@ struct BallSample {
   Utime utime = 0;
   bool valid = false;
   double x = 0, y = 0;
+  // Position covariance the robot reported, m^2 (zero: none).
+  Eigen::Matrix2d covariance = Eigen::Matrix2d::Zero();
 };
 
 struct EvalOptions {

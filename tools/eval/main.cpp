@@ -138,8 +138,10 @@ struct Collector {
   }
 
   void onBallState(const ball_state_t& m) {
-    balls.push_back(
-        {m.header.robot_id, trueTime(m.header.robot_id, m.header.utime), m.valid != 0, m.x, m.y});
+    eval::BallSample b{m.header.robot_id, trueTime(m.header.robot_id, m.header.utime), m.valid != 0,
+                       m.x, m.y};
+    b.covariance << m.covariance[0], m.covariance[1], m.covariance[2], m.covariance[3];
+    balls.push_back(b);
   }
 
   void onTeamState(const team_state_t& m) {
@@ -149,6 +151,8 @@ struct Collector {
     t.team_ball_valid = m.team_ball_valid;
     t.team_ball_x = m.team_ball_x;
     t.team_ball_y = m.team_ball_y;
+    t.team_ball_covariance << m.team_ball_covariance[0], m.team_ball_covariance[1],
+        m.team_ball_covariance[2], m.team_ball_covariance[3];
     const eval::TeamBallOptions defaults;
     for (int i = 0; i < m.num_robots && i < 6; ++i) {
       const auto k = static_cast<std::size_t>(i);
