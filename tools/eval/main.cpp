@@ -226,9 +226,17 @@ void dispatch(Collector& collector, const std::string& channel, const void* data
 std::string collectFromLog(EvalArgs& a, Collector& collector) {
   if (!std::filesystem::exists(a.log)) throw std::invalid_argument("no such log: " + a.log);
   if (a.out_dir.empty()) a.out_dir = "eval/" + std::filesystem::path(a.log).stem().string();
-  if (a.field_name.empty()) a.field_name = "msl";
   std::filesystem::create_directories(a.out_dir);
   const std::vector<std::string> logs = recording::recordingFiles(a.log);
+  // The plots' field: the recording's own (RECORDING_INFO), else msl.
+  for (const std::string& path : logs) {
+    if (!a.field_name.empty()) break;
+    if (const auto info = recording::readRecordingInfo(path); info && !info->field_yaml.empty()) {
+      a.field_name = a.out_dir + "/field.yaml";
+      std::ofstream(a.field_name) << info->field_yaml;
+    }
+  }
+  if (a.field_name.empty()) a.field_name = "msl";
   for (const std::string& path : logs) {
     // The recording's own clock model (RECORDING_INFO), else one fitted to the file's traffic.
     std::map<int, recording::RobotClockModel> models = recording::estimateClocks(path);
