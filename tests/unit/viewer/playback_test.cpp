@@ -11,6 +11,7 @@
 #include "common/bus/channels.hpp"
 #include "common/bus/log_file.hpp"
 #include "common/config/config.hpp"
+#include "tools/recording/upgrade.hpp"
 #include "tools/viewer/playback.hpp"
 #include "tools/viewer/recording_view.hpp"
 
@@ -18,6 +19,8 @@ namespace fieldline::viewer {
 namespace {
 
 const std::string kRecording = config::projectRoot() + "/tests/data/recordings/main_9085e4b";
+// As fieldline-viewer --log does: older message versions are read as today's.
+[[maybe_unused]] const bool kUpgradesInstalled = (recording::installLogUpgrades(), true);
 
 // The `name` number of the first object holding `"key":` after `from` in `json`.
 double numberAfter(const std::string& json, const std::string& key, std::size_t from = 0) {
