@@ -134,8 +134,7 @@ int main(int argc, char** argv) {
   od.vx = 0.5;
   od.vy = -0.1;
   od.omega = 0.15;
-  od.status = static_cast<std::int32_t>(odometry_t::STATUS_RESYNC) +
-              odometry_t::STATUS_FRAMES_LOST + odometry_t::STATUS_CURRENTS;
+  od.status = static_cast<std::int32_t>(odometry_t::STATUS_RESYNC) + odometry_t::STATUS_FRAMES_LOST;
   ok &= write(dir, "odometry_t", od);
 
   motion_command_t mc{};

@@ -164,7 +164,7 @@ TEST_F(TextBridgeNodeTest, FusionTracksAFourWheeledRobotOnTheAdaptersOdometry) {
   EXPECT_LT(std::hypot(last.x - truth.x, last.y - truth.y), 0.05);
   EXPECT_LT(std::abs(geometry::angleDiff(last.phi, truth.phi)), 0.03);
   // The velocity fusion reports is the driven one (robot frame: forward and turning).
-  const geometry::Vec2 body = geometry::rotate({last.vx, last.vy}, -last.phi);
+  const geometry::Vec2 body = geometry::rotate(geometry::Vec2(last.vx, last.vy), -last.phi);
   EXPECT_NEAR(body.x(), twist.vx, 0.05);
   EXPECT_NEAR(body.y(), twist.vy, 0.05);
   EXPECT_NEAR(last.omega, twist.omega, 0.05);

@@ -59,6 +59,9 @@ std::vector<std::uint8_t> odometry(Utime log, std::int64_t seq) {
   m.header.utime = m.header.utime_published - 8000;
   m.header.seq = seq;
   m.header.robot_id = 2;
+  m.wheel_count = 3;
+  m.ticks = {1, 2, 3};
+  m.wheel_current = {0.0f, 0.0f, 0.0f};
   return encode(m);
 }
 
