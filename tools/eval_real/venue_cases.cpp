@@ -135,6 +135,10 @@ VenueCase loadVenueCase(const config::Node& root) {
   }
   c.people = root.getOr<int>("people", 0, 0, 100);
   c.seed = static_cast<std::uint32_t>(root.getOr<int>("seed", 1, 0, 1 << 30));
+  if (const std::optional<config::Node> expect = root.childIf("expect")) {
+    for (const std::string& key : expect->keys())
+      c.expect[key] = expect->get<double>(key);
+  }
   root.rejectUnknownKeys();
   return c;
 }

@@ -12,6 +12,7 @@
 #pragma once
 
 #include <cstdint>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -62,6 +63,9 @@ struct VenueCase {
   std::vector<Vec2> robots;  // other robots, field frame
   int people = 0;            // people standing in the hall beyond the lines
   std::uint32_t seed = 1;
+  // What fieldline-eval-real requires of the case's figures (`expect:` in the manifest): names
+  // as eval_real.hpp lists them, each a bound.
+  std::map<std::string, double> expect;
 };
 
 // Reads a manifest; throws config::Error naming file:line for anything wrong. Field and camera
