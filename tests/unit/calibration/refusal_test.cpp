@@ -29,21 +29,21 @@ namespace fs = std::filesystem;
 class Refusals : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("calibration_refusal_" + std::to_string(getpid()));
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
+    dir = fs::temp_directory_path() / ("calibration_refusal_" + std::to_string(getpid()));
+    fs::remove_all(dir);
+    fs::create_directories(dir);
   }
-  void TearDown() override { fs::remove_all(dir_); }
+  void TearDown() override { fs::remove_all(dir); }
 
   // The case's frames written as PNG into the test folder.
   std::vector<std::string> frames(const std::string& manifest) {
     const venue::RenderedVenue v =
         venue::renderVenue(venue::loadVenueCase(config::projectRoot() + "/" + manifest));
-    return venue::writeVenue(v, (dir_ / v.spec.name).string());
+    return venue::writeVenue(v, (dir / v.spec.name).string());
   }
   // Nothing but the inputs in the folder: no output, no staging folder.
   void expectNothingWritten() {
-    for (const auto& entry : fs::recursive_directory_iterator(dir_)) {
+    for (const auto& entry : fs::recursive_directory_iterator(dir)) {
       const std::string name = entry.path().filename().string();
       EXPECT_TRUE(name.starts_with("frame_") || name == "truth.yaml" ||
                   (entry.is_directory() && !name.starts_with(".fieldline-staging")))
@@ -51,13 +51,13 @@ class Refusals : public ::testing::Test {
     }
     EXPECT_FALSE(fs::exists(out()));
   }
-  std::string out() const { return (dir_ / "out.yaml").string(); }
+  std::string out() const { return (dir / "out.yaml").string(); }
 
-  fs::path dir_;
+  fs::path dir;
 };
 
 TEST_F(Refusals, AnEmptyFrame) {
-  const std::string empty = (dir_ / "frame_empty.png").string();
+  const std::string empty = (dir / "frame_empty.png").string();
   camera::writeImage(empty, cv::Mat(240, 320, CV_8UC3, cv::Scalar(0, 0, 0)));
   MirrorCalibrateOptions m;
   m.lines = {empty};

@@ -26,14 +26,14 @@ using geometry::Vec2;
 class EvalReal : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("eval_real_test_" + std::to_string(getpid()));
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
+    dir = fs::temp_directory_path() / ("eval_real_test_" + std::to_string(getpid()));
+    fs::remove_all(dir);
+    fs::create_directories(dir);
   }
-  void TearDown() override { fs::remove_all(dir_); }
+  void TearDown() override { fs::remove_all(dir); }
 
   std::string write(const std::string& name, const std::string& text) {
-    const fs::path p = dir_ / name;
+    const fs::path p = dir / name;
     std::ofstream(p) << text;
     return p.string();
   }
@@ -45,7 +45,7 @@ class EvalReal : public ::testing::Test {
     return write(name, text);
   }
 
-  fs::path dir_;
+  fs::path dir;
 };
 
 // The lines of msl within 5 m of a pose, as the robot would see them (robot frame).
@@ -117,7 +117,7 @@ TEST_F(EvalReal, FieldFramePointsAreMeasuredAgainstTheirField) {
 }
 
 TEST_F(EvalReal, ARingImageWithoutRingsFailsWithTheToolsReason) {
-  camera::writeImage((dir_ / "blank.png").string(),
+  camera::writeImage((dir / "blank.png").string(),
                      cv::Mat(460, 460, CV_8UC3, cv::Scalar(40, 40, 40)));
   const CaseResult r =
       runCase(write("rings.yaml",
