@@ -113,6 +113,48 @@ Cone coneOf(const std::vector<Yuv>& s, double wu, double wv, const std::array<do
   return cone;
 }
 
+// The image area of a ball of `radius` resting on the floor at robot-frame `centre`: the convex
+// hull of its surface's points projected through the mirror. A ball is seen from above and
+// beside, so its image reaches well beyond its disc at mid height (twice its area at 2 m for the
+// shipped mirror). Zero when part of it is not imaged.
+double ballImageArea(const camera::MirrorModel& mirror, const Vec2& centre, double radius) {
+  std::vector<Vec2> pts;
+  for (int i = 0; i <= 8; ++i) {
+    const double lat = std::numbers::pi * (i / 8.0 - 0.5);
+    for (int k = 0; k < 16; ++k) {
+      const double lon = 2.0 * std::numbers::pi * k / 16.0;
+      const std::optional<Vec2> p = mirror.robotPointToImage(
+          {centre.x() + radius * std::cos(lat) * std::cos(lon),
+           centre.y() + radius * std::cos(lat) * std::sin(lon), radius + radius * std::sin(lat)});
+      if (!p) return 0.0;
+      pts.push_back(*p);
+    }
+  }
+  // Monotone chain hull, then the shoelace area.
+  std::sort(pts.begin(), pts.end(), [](const Vec2& a, const Vec2& b) {
+    return a.x() < b.x() || (a.x() == b.x() && a.y() < b.y());
+  });
+  const auto cross = [](const Vec2& o, const Vec2& a, const Vec2& b) {
+    return (a - o).x() * (b - o).y() - (a - o).y() * (b - o).x();
+  };
+  std::vector<Vec2> hull(2 * pts.size());
+  std::size_t h = 0;
+  for (std::size_t i = 0; i < pts.size(); ++i) {
+    while (h >= 2 && cross(hull[h - 2], hull[h - 1], pts[i]) <= 0)
+      --h;
+    hull[h++] = pts[i];
+  }
+  for (std::size_t i = pts.size() - 1, lower = h + 1; i-- > 0;) {
+    while (h >= lower && cross(hull[h - 2], hull[h - 1], pts[i]) <= 0)
+      --h;
+    hull[h++] = pts[i];
+  }
+  double area = 0.0;
+  for (std::size_t i = 0; i + 1 < h; ++i)
+    area += hull[i].x() * hull[i + 1].y() - hull[i + 1].x() * hull[i].y();
+  return std::abs(area) / 2.0;
+}
+
 }  // namespace
 
 perception::LinePoints trackLines(const camera::MirrorModel& mirror,
@@ -353,29 +395,13 @@ ImageCalibration calibrateFromImages(const camera::MirrorModel& mirror,
           }
           continue;
         }
-        // A ball: colourful, not dark, about a ball's disc for its distance, compact.
+        // A ball: colourful, not dark, about a ball's image for its distance, compact.
         if (b.chroma < 15.0 || b.mean_y < 0.5 * out.floor.median[0]) continue;
         const std::optional<camera::Vec3> centre = mirror.imageToRobotAtHeight(b.centroid, 0.11);
         if (!centre) continue;
         const Vec2 c2(centre->x(), centre->y());
-        const Vec2 radial = c2.norm() > 1e-6 ? Vec2(c2.normalized()) : Vec2::UnitX();
-        const Vec2 tangent(-radial.y(), radial.x());
-        double extentR = 0.0, extentT = 0.0;
-        {
-          const auto a = mirror.robotPointToImage(
-              {c2.x() - 0.11 * radial.x(), c2.y() - 0.11 * radial.y(), 0.11});
-          const auto z = mirror.robotPointToImage(
-              {c2.x() + 0.11 * radial.x(), c2.y() + 0.11 * radial.y(), 0.11});
-          const auto l = mirror.robotPointToImage(
-              {c2.x() - 0.11 * tangent.x(), c2.y() - 0.11 * tangent.y(), 0.11});
-          const auto r = mirror.robotPointToImage(
-              {c2.x() + 0.11 * tangent.x(), c2.y() + 0.11 * tangent.y(), 0.11});
-          if (!a || !z || !l || !r) continue;
-          extentR = (*a - *z).norm();
-          extentT = (*l - *r).norm();
-        }
-        const double expectedArea =
-            std::numbers::pi / 4.0 * std::max(1.0, extentR) * std::max(1.0, extentT);
+        const double expectedArea = std::max(1.0, ballImageArea(mirror, c2, 0.11));
+        if (expectedArea <= 1.0) continue;
         const double ratio = m / expectedArea;
         const double aspect = static_cast<double>(std::max(maxU - minU, maxV - minV) + 1) /
                               static_cast<double>(std::min(maxU - minU, maxV - minV) + 1);
@@ -385,7 +411,12 @@ ImageCalibration calibrateFromImages(const camera::MirrorModel& mirror,
         balls.push_back(b);
       }
     }
-    // One ball lies at one field position: the blob position seen in the most frames wins.
+    // One ball lies at one field position: the blob position seen in the most frames wins. The
+    // field is symmetric, so a frame localized at its pose's twin sees the ball at the twin
+    // position (-x, -y): both count for the same ball.
+    const auto sameBall = [](const Vec2& a, const Vec2& b) {
+      return (a - b).norm() < 0.4 || (a + b).norm() < 0.4;
+    };
     std::vector<Vec2> at;
     for (const Blob& b : balls) {
       const auto c = mirror.imageToRobotAtHeight(b.centroid, 0.11);
@@ -397,8 +428,7 @@ ImageCalibration calibrateFromImages(const camera::MirrorModel& mirror,
     for (std::size_t i = 0; i < balls.size(); ++i) {
       std::vector<bool> framesSeen(frames.size(), false);
       for (std::size_t j = 0; j < balls.size(); ++j) {
-        if ((at[i] - at[j]).norm() < 0.4)
-          framesSeen[static_cast<std::size_t>(balls[j].frame)] = true;
+        if (sameBall(at[i], at[j])) framesSeen[static_cast<std::size_t>(balls[j].frame)] = true;
       }
       const int votes = static_cast<int>(std::count(framesSeen.begin(), framesSeen.end(), true));
       if (votes > bestVotes) {
@@ -413,9 +443,17 @@ ImageCalibration calibrateFromImages(const camera::MirrorModel& mirror,
     if (bestVotes >= needed) {
       out.ball_found = true;
       out.ball_frames = bestVotes;
-      out.ball_field = at[bestIndex];
+      // Where the ball lies: the mean of its sightings (twins turned back).
+      Vec2 sum = Vec2::Zero();
+      int sightings = 0;
       for (std::size_t j = 0; j < balls.size(); ++j) {
-        if ((at[bestIndex] - at[j]).norm() >= 0.4) continue;
+        if (!sameBall(at[bestIndex], at[j])) continue;
+        sum += (at[bestIndex] - at[j]).norm() < 0.4 ? at[j] : Vec2(-at[j]);
+        ++sightings;
+      }
+      out.ball_field = sum / sightings;
+      for (std::size_t j = 0; j < balls.size(); ++j) {
+        if (!sameBall(at[bestIndex], at[j])) continue;
         const Blob& b = balls[j];
         // The inside of the blob (its rim mixes with the floor): pixels whose 4 neighbours are
         // in the blob too.

@@ -45,7 +45,8 @@ struct ImageFitParams {
   std::array<double, 2> light_range{0.65, 1.5};
   int min_floor_samples = 500;
   int min_line_samples = 60;
-  // Ball search: blobs whose area is within these factors of a ball's disc at their distance.
+  // Ball search: blobs whose area is within these factors of a ball's image at their distance
+  // (its surface projected through the mirror).
   double ball_area_low = 0.3;
   double ball_area_high = 2.5;
   // The check: a frame's line points fit the field when this share lies within fit_distance.
