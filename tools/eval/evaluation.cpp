@@ -303,8 +303,12 @@ std::string plotScript(const Summary& s, const std::string& dir, double half_len
   // estimate and the truth.
   for (const int r : robots) {
     gp += fmt::format("$R{} << EOD\n", r);
+    const Matched* previous = nullptr;
     for (const Matched& m : s.matched) {
       if (m.robot != r) continue;
+      // A jump of the estimate (a relocalization) breaks its line instead of drawing across.
+      if (previous && std::hypot(m.x - previous->x, m.y - previous->y) > 0.5) gp += "\n";
+      previous = &m;
       gp += fmt::format("{:.3f} {:.4f} {:.3f} {:.2f} {:.4f} {:.4f} {:.4f} {:.4f}\n", m.t,
                         m.pos_error, m.heading_error * 180.0 / std::numbers::pi, m.latency_ms, m.x,
                         m.y, m.true_x, m.true_y);
@@ -320,7 +324,7 @@ std::string plotScript(const Summary& s, const std::string& dir, double half_len
     }
     return list.empty() ? std::string("NaN notitle") : list;
   };
-  gp += "set terminal pngcairo size 1100,700 font 'sans,10'\n";
+  gp += "set terminal pngcairo noenhanced size 1100,700 font 'sans,10'\n";
   gp += "set grid\nset key outside right top\n";
   // Errors over time: position (m) and heading (deg).
   gp += fmt::format("set output '{}/errors.png'\n", dir);
@@ -335,18 +339,18 @@ std::string plotScript(const Summary& s, const std::string& dir, double half_len
   gp += "unset multiplot\nunset logscale y\n";
   // Latency over time.
   gp += fmt::format("set output '{}/latency.png'\n", dir);
-  gp += "set title 'ROBOT_STATE latency (utime\\_published - utime)'\n";
+  gp += "set title 'ROBOT_STATE latency (utime_published - utime)'\n";
   gp += "set xlabel 'time since the first estimate [s]'\nset ylabel 'latency [ms]'\n";
   gp += "plot " + plotEach("1:4", "points pt 7 ps 0.3") + "\n";
   // Trajectories on the field: truth dashed grey, estimates coloured.
   gp += fmt::format("set output '{}/trajectories.png'\n", dir);
-  gp += "set title 'Trajectories in the field frame (grey: truth)'\n";
+  gp += "set title 'Trajectories in the field frame (wide grey: truth, under the estimates)'\n";
   gp += "set size ratio -1\nset xlabel 'x [m]'\nset ylabel 'y [m]'\n";
   gp += fmt::format("set xrange [{:.2f}:{:.2f}]\nset yrange [{:.2f}:{:.2f}]\n", -half_length,
                     half_length, -half_width, half_width);
   std::string truth;
   for (const int r : robots)
-    truth += fmt::format("$R{} using 7:8 with lines dt 2 lc rgb '#999999' notitle, ", r);
+    truth += fmt::format("$R{} using 7:8 with lines lw 5 lc rgb '#cccccc' notitle, ", r);
   gp += "plot " + truth + plotEach("5:6", "lines") + "\n";
   gp += "unset output\n";
   return gp;

@@ -17,9 +17,11 @@ using namespace fieldline;
 namespace {
 
 void addOptions(CLI::App& app, replay::ReplayRunOptions& options, std::string& run) {
-  app.add_option("log", options.log_path, "The recorded log of one robot's bus")
+  app.add_option("log", options.log_path,
+                 "The recorded log of one robot's bus, or a recording's directory with --robot "
+                 "(its robotN.lcm and robotN_partNNN.lcm in order; its sim.lcm as --truth)")
       ->required()
-      ->check(CLI::ExistingFile);
+      ->check(CLI::ExistingPath);
   app.add_option("--run", run,
                  "Nodes to run, comma-separated: region_tracking, feature_recognition, fusion")
       ->capture_default_str();

@@ -89,13 +89,17 @@ std::optional<int> firstRobotId(bus::LogReader& log, bus::Channel<Msg> channel) 
 }
 
 int detectRobotId(const std::string& path) {
+  // The recording says whose bus it is.
+  if (const auto info = recording::readRecordingInfo(path);
+      info && info->bus_robot_id >= 1 && info->bus_robot_id <= 6)
+    return info->bus_robot_id;
   // A reader of its own: its rejection counts must not add to the replay's. The robot's clock is
   // not known yet: no future check.
   bus::LogReader log(path, {.future_tolerance_us = std::numeric_limits<Utime>::max() / 4});
   if (auto id = firstRobotId(log, ch::kOdometry)) return *id;
   if (auto id = firstRobotId(log, ch::kVisionLines)) return *id;
   if (auto id = firstRobotId(log, ch::kCameraImage)) return *id;
-  throw ReplayArgumentError("no ODOMETRY, VISION_LINES or CAMERA_IMAGE in " + path +
+  throw ReplayArgumentError("no RECORDING_INFO, ODOMETRY, VISION_LINES or CAMERA_IMAGE in " + path +
                             " to take the robot id from; give --robot");
 }
 
@@ -290,7 +294,58 @@ bool touchesAnotherRobot(const world_state_t& world, int robot_id) {
   return false;
 }
 
+namespace {
+
+ReplayRunResult runReplayOfFile(const ReplayRunOptions& options);
+
+}  // namespace
+
 ReplayRunResult runReplay(const ReplayRunOptions& options) {
+  if (!std::filesystem::is_directory(options.log_path)) return runReplayOfFile(options);
+  // A recording's directory: the robot's files in order (robotN.lcm, robotN_part002.lcm, ...)
+  // as one log, and the simulator's sim.lcm as the truth unless another is given.
+  if (options.robot_id == 0) {
+    throw ReplayArgumentError("a recording's directory needs the robot to replay (--robot N)");
+  }
+  const std::string name = "robot" + std::to_string(options.robot_id);
+  std::vector<std::string> parts;
+  for (const std::string& file : recording::recordingFiles(options.log_path)) {
+    const std::string stem = std::filesystem::path(file).stem().string();
+    if (stem == name || stem.rfind(name + "_part", 0) == 0) parts.push_back(file);
+  }
+  if (parts.empty()) {
+    throw ReplayArgumentError("no " + name + ".lcm in " + options.log_path);
+  }
+  ReplayRunOptions one = options;
+  one.log_path = parts.front();
+  std::string joined;
+  if (parts.size() > 1) {
+    // LCM logs concatenate: the parts one after the other are one log.
+    joined = (std::filesystem::temp_directory_path() /
+              fmt::format("fieldline_replay_{}_{}.lcm", name, ::getpid()))
+                 .string();
+    std::ofstream out(joined, std::ios::binary);
+    for (const std::string& part : parts)
+      out << std::ifstream(part, std::ios::binary).rdbuf();
+    one.log_path = joined;
+  }
+  const std::string sim = (std::filesystem::path(options.log_path) / "sim.lcm").string();
+  if (one.truth_path.empty() && std::filesystem::exists(sim)) one.truth_path = sim;
+  ReplayRunResult result;
+  try {
+    result = runReplayOfFile(one);
+  } catch (...) {
+    if (!joined.empty()) std::filesystem::remove(joined);
+    throw;
+  }
+  if (!joined.empty()) std::filesystem::remove(joined);
+  result.parts = static_cast<int>(parts.size());
+  return result;
+}
+
+namespace {
+
+ReplayRunResult runReplayOfFile(const ReplayRunOptions& options) {
   if (options.run.empty()) throw ReplayArgumentError("no node to run");
   for (const auto& name : options.run)
     inputChannels(name);  // names are known
@@ -563,6 +618,8 @@ ReplayRunResult runReplay(const ReplayRunOptions& options) {
   return result;
 }
 
+}  // namespace
+
 std::int64_t mergeLogs(const std::vector<MergeSource>& sources, const std::string& out_path) {
   struct Cursor {
     std::unique_ptr<bus::LogReader> reader;
@@ -683,7 +740,9 @@ std::vector<std::string> failures(const ReplayRunResult& result, const ReplayRun
 
 std::string summaryLine(const ReplayRunResult& result) {
   std::ostringstream line;
-  line << "replay robot " << result.robot_id << ": in";
+  line << "replay robot " << result.robot_id;
+  if (result.parts > 1) line << " (" << result.parts << " files)";
+  line << ": in";
   for (const auto& [channel, n] : result.in)
     line << ' ' << channel << ' ' << n;
   line << " | out";

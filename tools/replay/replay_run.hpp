@@ -32,6 +32,8 @@ inline const std::vector<std::string> kRunnableNodes{"region_tracking", "feature
                                                      "fusion"};
 
 struct ReplayRunOptions {
+  // One robot's log, or a recording's directory (then robot_id says whose files; its sim.lcm is
+  // the truth unless truth_path is given).
   std::string log_path;
   // Written (truncated) with the run nodes' outputs; empty: nothing is written.
   std::string out_path;
@@ -110,6 +112,8 @@ struct ReplayRunResult {
   std::int64_t stalls = 0;
   std::int64_t stall_held = 0;
   std::int64_t stall_dropped = 0;
+  // Files of the recording replayed as one log (a recording split by size).
+  int parts = 1;
   // The robot's clock the replay ran on, and how it was found.
   recording::RobotClockModel clock;
   // The field and fusion settings the replay ran with, and where they came from ("msl (the
