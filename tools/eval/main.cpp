@@ -31,6 +31,7 @@
 #include "common/time/offset_clock.hpp"
 #include "tools/eval/evaluation.hpp"
 #include "tools/eval/team_ball.hpp"
+#include "tools/launch/launch_file.hpp"
 #include "tools/launch/robot_clocks.hpp"
 
 using namespace fieldline;
@@ -43,34 +44,24 @@ std::string selfDirectory() {
   return ec ? std::string{} : p.parent_path().string();
 }
 
-// The launch file with the scenario given to the simulator and the pilots.
-std::string scenarioLaunchFile(const std::string& launch, const std::string& scenario,
+// The launch file to run (its `scenario` setting gives the scenario to the simulator and the
+// pilots: the launcher gets --set scenario=NAME). A copy with the scenario in its first line goes
+// into out_dir/launch.yaml, for the record.
+std::string scenarioLaunchFile(const std::string& launch_name, const std::string& scenario,
                                const std::string& out_dir) {
-  std::ifstream in(config::resolvePreset("launch", launch));
-  if (!in) throw std::runtime_error("cannot read launch file " + launch);
-  std::ostringstream text;
-  std::string line;
-  bool in_world_sim = false;
-  bool in_pilot = false;
-  while (std::getline(in, line)) {
-    if (line.find("- name:") != std::string::npos) {
-      in_world_sim = line.find("world_sim") != std::string::npos;
-      in_pilot = line.find("pilot") != std::string::npos;
-    }
-    if (in_pilot && line.find("args:") != std::string::npos) {
-      // args: [a, b] -> args: [a, b, --scenario, NAME]
-      const auto close = line.rfind(']');
-      if (close != std::string::npos) line.insert(close, ", --scenario, " + scenario);
-      in_pilot = false;
-    }
-    text << line << '\n';
-    if (in_world_sim && line.find("executable:") != std::string::npos) {
-      text << "    args: [--scenario, " << scenario << "]\n";
-      in_world_sim = false;
-    }
+  const std::string path = config::resolvePreset("launch", launch_name);
+  const launch::LaunchFile file = launch::loadLaunchFile(path);
+  if (!file.settings.contains("scenario")) {
+    throw config::Error(path +
+                        ": no `scenario` setting to give the simulator and the pilots the "
+                        "scenario (sim_team.yaml: `settings: {scenario: default}`, used as "
+                        "{scenario} in their args)");
   }
-  const std::string path = out_dir + "/launch.yaml";
-  std::ofstream(path) << text.str();
+  std::ifstream in(path);
+  std::ostringstream text;
+  text << "# fieldline-eval ran " << path << " with --set scenario=" << scenario << "\n"
+       << in.rdbuf();
+  std::ofstream(out_dir + "/launch.yaml") << text.str();
   return path;
 }
 
@@ -241,8 +232,10 @@ std::string collectFromTeam(EvalArgs& a, Collector& collector, const Clock& cloc
   if (child == 0) {
     std::FILE* f = std::freopen(launch_log.c_str(), "w", stdout);
     if (f) dup2(fileno(stdout), STDERR_FILENO);
-    execl(launcher.c_str(), launcher.c_str(), launch_file.c_str(), "--robots", robots_arg.c_str(),
-          "--duration", duration_arg.c_str(), "--no-table", static_cast<char*>(nullptr));
+    const std::string scenario_arg = "scenario=" + a.scenario;
+    execl(launcher.c_str(), launcher.c_str(), launch_file.c_str(), "--set", scenario_arg.c_str(),
+          "--robots", robots_arg.c_str(), "--duration", duration_arg.c_str(), "--no-table",
+          static_cast<char*>(nullptr));
     _exit(127);
   }
   std::fprintf(stderr, "running %s with %d robot(s) for %.0f s (log: %s)\n", sc.name.c_str(),

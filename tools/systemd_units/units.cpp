@@ -26,12 +26,13 @@ std::string restartValue(launch::RestartPolicy policy) {
   return "no";
 }
 
-// Robot numbers an entry runs for, with `all` expanded to 1..team.
-std::set<int> robotsOf(const launch::ProcessEntry& entry, int team) {
+// Robot numbers an entry runs for, with `all` expanded to 1..team (this robot only when the
+// file says which robot this machine is).
+std::set<int> robotsOf(const launch::ProcessEntry& entry, const launch::LaunchDefaults& defaults,
+                       int team) {
   std::set<int> robots(entry.robots.begin(), entry.robots.end());
-  if (entry.all_robots)
-    for (int r = 1; r <= team; ++r)
-      robots.insert(r);
+  for (const int r : launch::entryRobots(entry, defaults, team))
+    robots.insert(r);
   return robots;
 }
 
@@ -114,7 +115,7 @@ std::map<std::string, std::string> generateUnits(const launch::LaunchFile& file,
 
   for (const auto& entry : file.processes) {
     checkName(entry.name);
-    const std::set<int> robots = robotsOf(entry, team);
+    const std::set<int> robots = robotsOf(entry, file.defaults, team);
     if (robots.empty()) continue;
     const std::string unit = "fieldline-" + entry.name + "@";
     for (const int r : robots)
