@@ -50,11 +50,15 @@ std::string selfDirectory() {
   return ec ? std::string{} : p.parent_path().string();
 }
 
-// The launch file to run (its `scenario` setting gives the scenario to the simulator and the
-// pilots: the launcher gets --set scenario=NAME). A copy with the scenario in its first line goes
-// into out_dir/launch.yaml, for the record.
+// The launch file to run. Its `scenario` setting gives the scenario to the simulator and the
+// pilots, its `robot_config` setting (where it has one; sim_team.yaml does) the scenario's robot
+// file to every process that models the robot's body (motor bridge, fusion, pilot), so a scenario
+// with a four-wheeled robot runs four wheels end to end. Both are set in this process's
+// environment (FIELDLINE_SCENARIO, FIELDLINE_ROBOT_CONFIG), where the launcher and the recorder
+// read them. A copy with the values in its first line goes into out_dir/launch.yaml, for the
+// record.
 std::string scenarioLaunchFile(const std::string& launch_name, const std::string& scenario,
-                               const std::string& out_dir) {
+                               const std::string& robot, const std::string& out_dir) {
   const std::string path = config::resolvePreset("launch", launch_name);
   const launch::LaunchFile file = launch::loadLaunchFile(path);
   if (!file.settings.contains("scenario")) {
@@ -63,9 +67,13 @@ std::string scenarioLaunchFile(const std::string& launch_name, const std::string
                         "scenario (sim_team.yaml: `settings: {scenario: default}`, used as "
                         "{scenario} in their args)");
   }
+  setenv(launch::settingVariable("scenario").c_str(), scenario.c_str(), 1);
+  setenv(launch::settingVariable("robot_config").c_str(), robot.c_str(), 1);
   std::ifstream in(path);
   std::ostringstream text;
-  text << "# fieldline-eval ran " << path << " with --set scenario=" << scenario << "\n"
+  text << "# fieldline-eval ran " << path << " with scenario=" << scenario
+       << (file.settings.contains("robot_config") ? " robot_config=" + robot : std::string())
+       << "\n"
        << in.rdbuf();
   std::ofstream(out_dir + "/launch.yaml") << text.str();
   return path;
@@ -287,7 +295,7 @@ std::string collectFromTeam(EvalArgs& a, Collector& collector, const Clock& cloc
   if (a.field_name.empty()) a.field_name = sc.field;
   if (a.out_dir.empty()) a.out_dir = "eval/" + sc.name;
   std::filesystem::create_directories(a.out_dir);
-  const std::string launch_file = scenarioLaunchFile(a.launch, a.scenario, a.out_dir);
+  const std::string launch_file = scenarioLaunchFile(a.launch, a.scenario, sc.robot, a.out_dir);
   // The robots' clocks count their drift from this time; the launcher takes it from here.
   const Utime clock_reference = clock.now();
   setenv(kClockReferenceVariable, std::to_string(clock_reference).c_str(), 1);
@@ -329,10 +337,8 @@ std::string collectFromTeam(EvalArgs& a, Collector& collector, const Clock& cloc
   if (child == 0) {
     std::FILE* f = std::freopen(launch_log.c_str(), "w", stdout);
     if (f) dup2(fileno(stdout), STDERR_FILENO);
-    const std::string scenario_arg = "scenario=" + a.scenario;
-    execl(launcher.c_str(), launcher.c_str(), launch_file.c_str(), "--set", scenario_arg.c_str(),
-          "--robots", robots_arg.c_str(), "--duration", duration_arg.c_str(), "--no-table",
-          static_cast<char*>(nullptr));
+    execl(launcher.c_str(), launcher.c_str(), launch_file.c_str(), "--robots", robots_arg.c_str(),
+          "--duration", duration_arg.c_str(), "--no-table", static_cast<char*>(nullptr));
     _exit(127);
   }
   std::fprintf(stderr, "running %s with %d robot(s) for %.0f s (log: %s)\n", sc.name.c_str(),
