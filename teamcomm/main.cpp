@@ -1,6 +1,7 @@
 // fieldline-teamcomm: the team link of one robot. Sends its ROBOT_STATE and BALL_STATE to the
 // teammates in authenticated UDP packets, receives theirs, estimates their clock offsets and
 // publishes the team picture as TEAM_STATE.
+#include <net/if.h>
 #include <spdlog/spdlog.h>
 
 #include <CLI/CLI.hpp>
@@ -70,7 +71,16 @@ int main(int argc, char** argv) {
     }
     const RobotClock clock = bus::robotClockFromEnvironment();
 
-    if (common.check_args) return 0;
+    if (common.check_args) {
+      // The network interface is this process's device.
+      if (!cfg.udp.interface.empty() && ::if_nametoindex(cfg.udp.interface.c_str()) == 0) {
+        std::cerr << "teamcomm: " << cfg.udp.interface
+                  << ": no such network interface; list them with ip link (transport.interface "
+                     "in the team config)\n";
+        return 2;
+      }
+      return 0;
+    }
     std::unique_ptr<teamcomm::PacketLink> link;
     try {
       link = teamcomm::openUdpLink(cfg.udp);

@@ -65,8 +65,9 @@ int main(int argc, char** argv) {
   options.bus_route = !no_bus_route;
 
   return bus::runMain("systemd_units", [&]() -> int {
-    const launch::LaunchFile file =
-        launch::loadLaunchFile(config::resolvePreset("launch", launch_path));
+    // Settings from the environment too (FIELDLINE_CAMERA_DEVICE=... for real_robot.yaml).
+    const launch::LaunchFile file = launch::loadLaunchFile(
+        config::resolvePreset("launch", launch_path), {.environment = launch::processEnvironment});
     std::map<std::string, std::string> files;
     try {
       files = systemd_units::generateUnits(file, options);

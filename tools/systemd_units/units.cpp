@@ -32,12 +32,13 @@ std::string restartValue(launch::RestartPolicy policy) {
   return "no";
 }
 
-// Robot numbers an entry runs for, with `all` expanded to 1..team.
-std::set<int> robotsOf(const launch::ProcessEntry& entry, int team) {
+// Robot numbers an entry runs for, with `all` expanded to 1..team (this robot only when the
+// file says which robot this machine is).
+std::set<int> robotsOf(const launch::ProcessEntry& entry, const launch::LaunchDefaults& defaults,
+                       int team) {
   std::set<int> robots(entry.robots.begin(), entry.robots.end());
-  if (entry.all_robots)
-    for (int r = 1; r <= team; ++r)
-      robots.insert(r);
+  for (const int r : launch::entryRobots(entry, defaults, team))
+    robots.insert(r);
   return robots;
 }
 
@@ -147,7 +148,7 @@ std::map<std::string, std::string> generateUnits(const launch::LaunchFile& file,
   int highest_robot = team;
   for (const auto& entry : file.processes) {
     checkName(entry.name);
-    std::set<int> robots = robotsOf(entry, team);
+    std::set<int> robots = robotsOf(entry, file.defaults, team);
     if (robots.empty()) continue;
     const bool sim = robots.count(launch::kSimRobot) > 0;
     if (sim && robots.size() > 1) {
@@ -195,7 +196,7 @@ std::map<std::string, std::string> generateUnits(const launch::LaunchFile& file,
         file.path, group, group);
   }
   for (const auto& entry : file.processes) {
-    const std::set<int> robots = robotsOf(entry, team);
+    const std::set<int> robots = robotsOf(entry, file.defaults, team);
     if (robots.empty()) continue;
     const bool sim = robots.count(launch::kSimRobot) > 0;
     const std::string target = sim ? "fieldline-sim.target" : "fieldline-robot@%i.target";
