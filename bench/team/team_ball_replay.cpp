@@ -55,8 +55,9 @@ const Timed* newestAt(const std::vector<Timed>& v, Utime t) {
 struct Score {
   double sum = 0.0;
   std::size_t n = 0;
-  std::size_t nees_n = 0, nees_in = 0;
+  std::size_t nees_n = 0, nees_in = 0, nees_low = 0;
   double nees_sum = 0.0;
+  std::vector<double> nees_all;
   void add(const Eigen::Vector2d& error, const Eigen::Matrix2d& covariance) {
     sum += error.norm();
     ++n;
@@ -65,6 +66,8 @@ struct Score {
       ++nees_n;
       nees_sum += nees;
       if (nees >= kNees2Low && nees <= kNees2High) ++nees_in;
+      if (nees < kNees2Low) ++nees_low;
+      nees_all.push_back(nees);
     }
   }
   double mean() const { return n ? sum / static_cast<double>(n) : -1.0; }
@@ -72,6 +75,15 @@ struct Score {
     return nees_n ? static_cast<double>(nees_in) / static_cast<double>(nees_n) : -1.0;
   }
   double neesMean() const { return nees_n ? nees_sum / static_cast<double>(nees_n) : -1.0; }
+  // "below band 3 %, NEES p50 1.2 p95 6.0"
+  std::string neesSpread() const {
+    if (nees_all.empty()) return "no NEES";
+    std::vector<double> v = nees_all;
+    std::sort(v.begin(), v.end());
+    return fmt::format("below band {:.0f} %, NEES p50 {:.2f} p95 {:.1f}",
+                       100.0 * static_cast<double>(nees_low) / static_cast<double>(nees_n),
+                       v[v.size() / 2], v[v.size() * 95 / 100]);
+  }
 };
 
 }  // namespace
@@ -97,6 +109,15 @@ int main(int argc, char** argv) {
   teamcomm::PictureOptions picture;
   app.add_option("--gate-chi2", picture.gate_chi2, "Team ball consistency gate")
       ->capture_default_str();
+  app.add_option("--ball-speed-sigma", picture.ball_speed_sigma_mps,
+                 "Unmodelled ball speed while predicting a ball to the picture's time, m/s")
+      ->capture_default_str();
+  double max_prediction_s = 0.5;
+  app.add_option("--max-prediction", max_prediction_s, "Predictions reach at most this far, s")
+      ->capture_default_str();
+  app.add_option("--min-ball-variance", picture.min_ball_variance,
+                 "Floor of a ball's position variance, m^2")
+      ->capture_default_str();
   std::string csv_path;
   app.add_option("--csv", csv_path,
                  "Write every scored own ball (robot, t, error, range, speeds, sigma, pose error) "
@@ -110,6 +131,7 @@ int main(int argc, char** argv) {
                  "Write every scored team picture (observer, t, team ball error and sigma, each "
                  "robot's ball error and range) here");
   CLI11_PARSE(app, argc, argv);
+  picture.max_prediction_us = static_cast<Utime>(max_prediction_s * 1e6);
 
   // Truth.
   std::vector<eval::TruthSample> truth;
@@ -335,13 +357,14 @@ int main(int argc, char** argv) {
     if (s.n >= 30 && (best < 0 || s.mean() < own[best].mean())) best = id;
   }
   for (const auto& [id, s] : own) {
-    std::printf("own ball robot %d: mean %.4f m (%zu), NEES in band %.3f, mean NEES %.2f\n", id,
-                s.mean(), s.n, s.inBand(), s.neesMean());
+    std::printf("own ball robot %d: mean %.4f m (%zu), NEES in band %.3f, mean NEES %.2f, %s\n",
+                id, s.mean(), s.n, s.inBand(), s.neesMean(), s.neesSpread().c_str());
   }
   std::printf(
       "team_ball_mean_m=%.4f best_own_ball_mean_m=%.4f (robot %d) team_ball_nees_in_band=%.3f "
-      "mean NEES %.2f valid %.3f used %.2f rejected %.2f per picture\n",
+      "mean NEES %.2f (%s) valid %.3f used %.2f rejected %.2f per picture\n",
       team.mean(), best >= 0 ? own[best].mean() : -1.0, best, team.inBand(), team.neesMean(),
+      team.neesSpread().c_str(),
       pictures ? static_cast<double>(valid_pictures) / static_cast<double>(pictures) : 0.0,
       team.n ? static_cast<double>(used_total) / static_cast<double>(team.n) : 0.0,
       team.n ? static_cast<double>(rejected_total) / static_cast<double>(team.n) : 0.0);
