@@ -34,7 +34,16 @@ bool printable(std::string_view name) {
   return !name.empty();
 }
 
+LogUpgrade& installedUpgrade() {
+  static LogUpgrade upgrade;
+  return upgrade;
+}
+
 }  // namespace
+
+void setLogUpgrade(LogUpgrade upgrade) {
+  installedUpgrade() = std::move(upgrade);
+}
 
 // ---------------------------------------------------------------------------------------------
 struct LogReader::Impl {
@@ -48,7 +57,10 @@ struct LogReader::Impl {
 };
 
 LogReader::LogReader(const std::string& path, LogReaderOptions options)
-    : path_(path), options_(options), impl_(std::make_unique<Impl>(path)) {
+    : path_(path),
+      options_(options),
+      impl_(std::make_unique<Impl>(path)),
+      upgrade_(installedUpgrade()) {
   if (!impl_->file.good()) {
     throw LogError("cannot open LCM log '" + path + "': " + std::strerror(errno));
   }
@@ -160,6 +172,9 @@ bool LogReader::nextEvent(LogEvent& event) {
     event.data.assign(bytes, bytes + e->datalen);
     event.offset = start;
     ++events_read_;
+    if (upgrade_) {
+      if (const auto name = upgrade_(event)) ++upgraded_[*name];
+    }
     return true;
   }
 }

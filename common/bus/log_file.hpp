@@ -16,8 +16,10 @@
 
 #include <cstdint>
 #include <deque>
+#include <functional>
 #include <map>
 #include <memory>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <string_view>
@@ -47,6 +49,13 @@ struct LogEvent {
   // Byte offset of the event in the file.
   std::int64_t offset = 0;
 };
+
+// Turns an event of an older version of its message type into today's (the project's upgrades:
+// tools/recording/upgrade.hpp); returns the upgrade's name ("team_state_t v1"), or nothing when
+// the event needs none. Installed once per process with setLogUpgrade().
+using LogUpgrade = std::function<std::optional<std::string>(LogEvent& event)>;
+// Every LogReader created afterwards upgrades old events as it reads them, before any check.
+void setLogUpgrade(LogUpgrade upgrade);
 
 // An event (or a damaged stretch of the file) that was not delivered.
 struct LogRejection {
@@ -124,6 +133,8 @@ class LogReader {
   const std::deque<LogRejection>& recentRejections() const { return recent_; }
   // Intact events read so far.
   std::int64_t eventsRead() const { return events_read_; }
+  // Events of older message versions upgraded while reading, by upgrade ("team_state_t v1").
+  const std::map<std::string, std::int64_t>& upgradedByKind() const { return upgraded_; }
 
  private:
   void reject(const LogEvent& event, Rejection reason);
@@ -137,6 +148,8 @@ class LogReader {
   std::map<std::string, std::int64_t> rejected_by_kind_;
   std::deque<LogRejection> recent_;
   std::int64_t events_read_ = 0;
+  LogUpgrade upgrade_;
+  std::map<std::string, std::int64_t> upgraded_;
 };
 
 // Writes an LCM log that lcm-logplayer, lcm-spy and LogReader read.

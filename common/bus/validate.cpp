@@ -356,4 +356,29 @@ std::optional<std::string> validate(const world_state_t& m) {
       });
 }
 
+std::optional<std::string> validate(const recording_info_t& m) {
+  if (auto p = validate(m.header)) return p;
+  return firstOf(
+      [&] { return Sized("num_channels", m.num_channels)("channels", m.channels).result(); },
+      [&]() -> Problem {
+        if (m.format_version < 1) return fmt::format("format_version {} < 1", m.format_version);
+        if (m.bus_robot_id < 0 || m.bus_robot_id > 99)
+          return fmt::format("bus_robot_id {} outside 0..99", m.bus_robot_id);
+        if (m.clock_model < recording_info_t::CLOCK_NONE ||
+            m.clock_model > recording_info_t::CLOCK_ESTIMATED)
+          return fmt::format("clock_model {} is not one of the CLOCK_ constants", m.clock_model);
+        if (!std::isfinite(m.clock_drift_ppm) || std::fabs(m.clock_drift_ppm) > 1000.0)
+          return fmt::format("clock_drift_ppm {} outside +-1000", m.clock_drift_ppm);
+        // Offsets beyond an hour are no clock error but a wrong date.
+        if (m.clock_offset_us < -3'600'000'000 || m.clock_offset_us > 3'600'000'000)
+          return fmt::format("clock_offset_us {} beyond +-1 h", m.clock_offset_us);
+        if (m.image_every < 0) return fmt::format("image_every {} < 0", m.image_every);
+        if (m.file_index < 0) return fmt::format("file_index {} < 0", m.file_index);
+        if (m.max_file_bytes < 0) return fmt::format("max_file_bytes {} < 0", m.max_file_bytes);
+        if (m.clock_observed_messages < 0)
+          return fmt::format("clock_observed_messages {} < 0", m.clock_observed_messages);
+        return {};
+      });
+}
+
 }  // namespace fieldline::bus

@@ -85,6 +85,9 @@ int main(int argc, char** argv) {
   writeLcmSeed(lcm_dir, i++, stamped<fieldline::team_state_t>());
   writeLcmSeed(lcm_dir, i++, stamped<fieldline::service_status_t>());
   writeLcmSeed(lcm_dir, i++, stamped<fieldline::world_state_t>());
+  fieldline::recording_info_t info = stamped<fieldline::recording_info_t>();
+  info.format_version = fieldline::recording_info_t::FORMAT_VERSION;
+  writeLcmSeed(lcm_dir, i++, info);
 
   // Team packets as fuzz_team_packet reads them: a flag byte (bit 0: the target puts magic,
   // version and a valid MAC around the rest), then the packet's body without those.

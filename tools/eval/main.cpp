@@ -36,6 +36,8 @@
 #include "tools/eval/team_ball.hpp"
 #include "tools/launch/robot_clocks.hpp"
 #include "tools/recording/clock_model.hpp"
+#include "tools/recording/recording_info.hpp"
+#include "tools/recording/upgrade.hpp"
 
 using namespace fieldline;
 
@@ -164,6 +166,7 @@ struct Collector {
 struct EvalArgs {
   std::string scenario = "figure_eight";
   std::string log;
+  std::string record_dir;
   std::string launch = "sim_team";
   std::string out_dir;
   std::string field_name;
@@ -180,6 +183,9 @@ void addOptions(CLI::App& app, EvalArgs& a) {
                  "Evaluate a recording instead of running the team: an LCM log with SIM_WORLD and "
                  "ROBOT_STATE (e.g. fieldline-replay --truth's output), or a recording's "
                  "directory (sim.lcm, robot1.lcm, ...); each robot's clock is taken out");
+  app.add_option("--record", a.record_dir,
+                 "Also record the run (fieldline-record --team) into this directory, to replay "
+                 "and evaluate it later with --log");
   app.add_option("--duration", a.duration, "Seconds to run (default: the scenario's, else 30)")
       ->check(CLI::Range(3.0, 3600.0));
   app.add_option("--robots", a.robots, "Team size (default: the scenario's highest robot number)")
@@ -213,25 +219,6 @@ void dispatch(Collector& collector, const std::string& channel, const void* data
   }
 }
 
-// The logs of a recording: a file as it is; a directory's *.lcm files, the simulator's sim.lcm
-// first (the truth must be in before the estimates are matched with it), then the others in name
-// order.
-std::vector<std::string> recordingLogs(const std::string& path) {
-  if (!std::filesystem::is_directory(path)) return {path};
-  std::vector<std::string> logs;
-  for (const auto& entry : std::filesystem::directory_iterator(path)) {
-    if (entry.is_regular_file() && entry.path().extension() == ".lcm")
-      logs.push_back(entry.path().string());
-  }
-  std::sort(logs.begin(), logs.end(), [](const std::string& a, const std::string& b) {
-    const bool sim_a = std::filesystem::path(a).filename() == "sim.lcm";
-    const bool sim_b = std::filesystem::path(b).filename() == "sim.lcm";
-    return sim_a != sim_b ? sim_a : a < b;
-  });
-  if (logs.empty()) throw std::invalid_argument("no *.lcm log in " + path);
-  return logs;
-}
-
 // Reads a recorded log (or a recording's directory) into the collector; returns the source's
 // name. Every robot's stamps are converted to the log's time (the simulator's, where SIM_WORLD
 // was recorded on the same machine) with its clock model, fitted to the traffic of its log as
@@ -239,11 +226,23 @@ std::vector<std::string> recordingLogs(const std::string& path) {
 std::string collectFromLog(EvalArgs& a, Collector& collector) {
   if (!std::filesystem::exists(a.log)) throw std::invalid_argument("no such log: " + a.log);
   if (a.out_dir.empty()) a.out_dir = "eval/" + std::filesystem::path(a.log).stem().string();
-  if (a.field_name.empty()) a.field_name = "msl";
   std::filesystem::create_directories(a.out_dir);
-  const std::vector<std::string> logs = recordingLogs(a.log);
+  const std::vector<std::string> logs = recording::recordingFiles(a.log);
+  // The plots' field: the recording's own (RECORDING_INFO), else msl.
   for (const std::string& path : logs) {
-    for (const auto& [robot, model] : recording::estimateClocks(path)) {
+    if (!a.field_name.empty()) break;
+    if (const auto info = recording::readRecordingInfo(path); info && !info->field_yaml.empty()) {
+      a.field_name = a.out_dir + "/field.yaml";
+      std::ofstream(a.field_name) << info->field_yaml;
+    }
+  }
+  if (a.field_name.empty()) a.field_name = "msl";
+  for (const std::string& path : logs) {
+    // The recording's own clock model (RECORDING_INFO), else one fitted to the file's traffic.
+    std::map<int, recording::RobotClockModel> models = recording::estimateClocks(path);
+    if (const auto info = recording::readRecordingInfo(path))
+      models[info->bus_robot_id] = recording::clockOf(*info);
+    for (const auto& [robot, model] : models) {
       if (robot == 0) continue;  // the simulator keeps the true time
       collector.clocks.by_robot[robot] = model.error;
       std::fprintf(stderr, "%s: robot %d's clock: %s\n", path.c_str(), robot,
@@ -314,6 +313,26 @@ std::string collectFromTeam(EvalArgs& a, Collector& collector, const Clock& cloc
 
   const std::string robots_arg = std::to_string(a.robots);
   const std::string duration_arg = std::to_string(a.duration);
+  // The recorder starts before the team and hears everything the evaluation hears.
+  pid_t recorder = -1;
+  if (!a.record_dir.empty()) {
+    std::string robot_list;
+    for (int r = 1; r <= a.robots; ++r)
+      robot_list += (r > 1 ? "," : "") + std::to_string(r);
+    const std::string record_log = a.out_dir + "/record.log";
+    const std::string record_bin = selfDirectory() + "/fieldline-record";
+    recorder = fork();
+    if (recorder < 0) throw std::runtime_error("fork failed");
+    if (recorder == 0) {
+      std::FILE* f = std::freopen(record_log.c_str(), "w", stdout);
+      if (f) dup2(fileno(stdout), STDERR_FILENO);
+      execl(record_bin.c_str(), record_bin.c_str(), "--team", "--robots", robot_list.c_str(),
+            "--launch", launch_file.c_str(), "-o", a.record_dir.c_str(),
+            static_cast<char*>(nullptr));
+      _exit(127);
+    }
+    std::fprintf(stderr, "recording into %s (log: %s)\n", a.record_dir.c_str(), record_log.c_str());
+  }
   const pid_t child = fork();
   if (child < 0) throw std::runtime_error("fork failed");
   if (child == 0) {
@@ -336,6 +355,15 @@ std::string collectFromTeam(EvalArgs& a, Collector& collector, const Clock& cloc
     node.spinOnce(10);
   if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) {
     std::fprintf(stderr, "launcher ended with status %d (see %s)\n", status, launch_log.c_str());
+  }
+  if (recorder > 0) {
+    kill(recorder, SIGINT);
+    int record_status = 0;
+    waitpid(recorder, &record_status, 0);
+    if (!WIFEXITED(record_status) || WEXITSTATUS(record_status) != 0) {
+      std::fprintf(stderr, "recorder ended with status %d (see %s/record.log)\n", record_status,
+                   a.out_dir.c_str());
+    }
   }
   return "scenario " + sc.name;
 }
@@ -366,7 +394,10 @@ int report(const EvalArgs& a, const Collector& collector, const std::string& sou
   const field::FieldModel field = field::loadFieldPreset(a.field_name);
   const geometry::Vec2 half = field.carpetHalfExtent();
   std::ofstream(a.out_dir + "/summary.json") << eval::summaryJson(summary, source);
-  eval::writePlots(summary, a.out_dir, half.x(), half.y());
+  if (!eval::writePlots(summary, a.out_dir, half.x(), half.y())) {
+    std::fprintf(stderr, "the plots were not drawn (is gnuplot installed? see %s/plots.log)\n",
+                 a.out_dir.c_str());
+  }
   writeCsvs(summary, a.out_dir);
   std::fprintf(stderr,
                "%zu truth samples, %zu robot states (%zu scored), %zu ball states; kidnaps %d "
@@ -408,5 +439,6 @@ int main(int argc, char** argv) {
   EvalArgs args;
   addOptions(app, args);
   FIELDLINE_PARSE(app, argc, argv);
+  recording::installLogUpgrades();
   return bus::runMain("eval", [&]() -> int { return run(args); });
 }

@@ -9,6 +9,7 @@
 
 #include "common/bus/cli.hpp"
 #include "common/bus/log_file.hpp"
+#include "tools/recording/upgrade.hpp"
 #include "tools/replay/replay_run.hpp"
 
 using namespace fieldline;
@@ -16,9 +17,11 @@ using namespace fieldline;
 namespace {
 
 void addOptions(CLI::App& app, replay::ReplayRunOptions& options, std::string& run) {
-  app.add_option("log", options.log_path, "The recorded log of one robot's bus")
+  app.add_option("log", options.log_path,
+                 "The recorded log of one robot's bus, or a recording's directory with --robot "
+                 "(its robotN.lcm and robotN_partNNN.lcm in order; its sim.lcm as --truth)")
       ->required()
-      ->check(CLI::ExistingFile);
+      ->check(CLI::ExistingPath);
   app.add_option("--run", run,
                  "Nodes to run, comma-separated: region_tracking, feature_recognition, fusion")
       ->capture_default_str();
@@ -28,14 +31,15 @@ void addOptions(CLI::App& app, replay::ReplayRunOptions& options, std::string& r
                  "Robot id of the log (default: taken from its first ODOMETRY / VISION_LINES / "
                  "CAMERA_IMAGE)")
       ->check(CLI::Range(1, 6));
-  app.add_option("--field", options.field, "Field preset (msl, fu2004) or YAML path")
-      ->capture_default_str();
+  app.add_option("--field", options.field,
+                 "Field preset (msl, fu2004) or YAML path (default: the recording's field, else "
+                 "msl)");
   app.add_option("--robot-config", options.robot_config, "fusion: robot preset or YAML path")
       ->capture_default_str();
   app.add_option("--fusion-config", options.fusion_config,
                  "fusion: settings preset (config/fusion/NAME.yaml) or YAML path, as "
-                 "fieldline-fusion --config")
-      ->capture_default_str();
+                 "fieldline-fusion --config (default: the settings the recording says fusion "
+                 "ran with, else default)");
   app.add_option("--matcher", options.matcher,
                  "fusion: layer 2 method, lsq or force_field (default: the settings file's)")
       ->check(CLI::IsMember({"lsq", "force_field"}));
@@ -136,6 +140,8 @@ int main(int argc, char** argv) {
     return 2;
   }
 
+  // Recordings made with older message types are read as today's (docs/replay.md).
+  recording::installLogUpgrades();
   return bus::runMain("replay", [&]() -> int {
     try {
       const replay::ReplayRunResult result = replay::runReplay(options);

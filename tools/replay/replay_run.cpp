@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <limits>
 #include <memory>
 #include <optional>
@@ -10,6 +11,7 @@
 #include <sstream>
 
 #include <fmt/format.h>
+#include <unistd.h>
 
 #include <fieldline/obstacle_observations_t.hpp>
 #include <fieldline/robot_state_t.hpp>
@@ -21,6 +23,7 @@
 #include "common/bus/replay.hpp"
 #include "common/camera/colour.hpp"
 #include "common/camera/mirror_model.hpp"
+#include "common/config/config.hpp"
 #include "common/field/field_model.hpp"
 #include "common/robot/robot_params.hpp"
 #include "common/time/clock.hpp"
@@ -29,6 +32,7 @@
 #include "services/fusion/fusion_node.hpp"
 #include "services/fusion/line_matcher.hpp"
 #include "services/region_tracking/tracking_node.hpp"
+#include "tools/recording/recording_info.hpp"
 
 namespace fieldline::replay {
 
@@ -189,6 +193,58 @@ void writeStalledLog(const ReplayRunOptions& options, const std::string& input,
   out.flush();
 }
 
+// The log time of the log's first event (0 for an empty log).
+Utime firstLogTime(const std::string& path) {
+  bus::LogReader log(path);
+  bus::LogEvent event;
+  return log.nextEvent(event) ? event.timestamp : 0;
+}
+
+std::string readFile(const std::string& path) {
+  std::ifstream in(path);
+  std::ostringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+// The RECORDING_INFO of a replay's output: the robot and its clock, the field and the settings
+// the nodes ran with, this build's version.
+recording_info_t replayInfo(const ReplayRunOptions& options, const ReplayRunResult& result,
+                            const std::string& field_file, const std::string& fusion_file) {
+  recording_info_t info{};
+  info.format_version = recording_info_t::FORMAT_VERSION;
+  info.bus_robot_id = static_cast<std::int8_t>(result.robot_id);
+  info.clock_model = result.clock.source == recording::ClockSource::kEstimated
+                         ? recording_info_t::CLOCK_ESTIMATED
+                     : result.clock.error.offset_us == 0 && result.clock.error.drift_ppm == 0.0
+                         ? recording_info_t::CLOCK_NONE
+                         : recording_info_t::CLOCK_CONFIGURED;
+  info.clock_offset_us = result.clock.error.offset_us;
+  info.clock_drift_ppm = result.clock.error.drift_ppm;
+  info.clock_reference_us = result.clock.error.reference_us;
+  info.host = "fieldline-replay";
+  info.version = recording::buildVersion();
+  info.field_name = result.field;
+  info.field_yaml = readFile(config::resolvePreset("field", field_file));
+  std::string run;
+  for (const auto& name : options.run)
+    run += (run.empty() ? "" : ", ") + name;
+  info.settings_yaml = fmt::format("replay_of: {}\nrun: [{}]\nfusion_config_name: {}\n",
+                                   options.log_path, run, result.fusion_config);
+  if (std::find(options.run.begin(), options.run.end(), "fusion") != options.run.end()) {
+    std::string text = readFile(config::resolvePreset("fusion", fusion_file));
+    std::string indented;
+    std::istringstream lines(text);
+    for (std::string line; std::getline(lines, line);)
+      indented += "  " + line + "\n";
+    info.settings_yaml += "fusion_config: |\n" + indented;
+  }
+  info.header.robot_id = info.bus_robot_id;
+  info.header.utime = result.clock.ownAt(firstLogTime(options.log_path));
+  info.header.utime_published = info.header.utime;
+  return info;
+}
+
 // Fixed per node kind: a random id would make two replays differ.
 std::int64_t publisherId(const std::string& node) {
   const auto it = std::find(kRunnableNodes.begin(), kRunnableNodes.end(), node);
@@ -234,7 +290,58 @@ bool touchesAnotherRobot(const world_state_t& world, int robot_id) {
   return false;
 }
 
+namespace {
+
+ReplayRunResult runReplayOfFile(const ReplayRunOptions& options);
+
+}  // namespace
+
 ReplayRunResult runReplay(const ReplayRunOptions& options) {
+  if (!std::filesystem::is_directory(options.log_path)) return runReplayOfFile(options);
+  // A recording's directory: the robot's files in order (robotN.lcm, robotN_part002.lcm, ...)
+  // as one log, and the simulator's sim.lcm as the truth unless another is given.
+  if (options.robot_id == 0) {
+    throw ReplayArgumentError("a recording's directory needs the robot to replay (--robot N)");
+  }
+  const std::string name = "robot" + std::to_string(options.robot_id);
+  std::vector<std::string> parts;
+  for (const std::string& file : recording::recordingFiles(options.log_path)) {
+    const std::string stem = std::filesystem::path(file).stem().string();
+    if (stem == name || stem.rfind(name + "_part", 0) == 0) parts.push_back(file);
+  }
+  if (parts.empty()) {
+    throw ReplayArgumentError("no " + name + ".lcm in " + options.log_path);
+  }
+  ReplayRunOptions one = options;
+  one.log_path = parts.front();
+  std::string joined;
+  if (parts.size() > 1) {
+    // LCM logs concatenate: the parts one after the other are one log.
+    joined = (std::filesystem::temp_directory_path() /
+              fmt::format("fieldline_replay_{}_{}.lcm", name, ::getpid()))
+                 .string();
+    std::ofstream out(joined, std::ios::binary);
+    for (const std::string& part : parts)
+      out << std::ifstream(part, std::ios::binary).rdbuf();
+    one.log_path = joined;
+  }
+  const std::string sim = (std::filesystem::path(options.log_path) / "sim.lcm").string();
+  if (one.truth_path.empty() && std::filesystem::exists(sim)) one.truth_path = sim;
+  ReplayRunResult result;
+  try {
+    result = runReplayOfFile(one);
+  } catch (...) {
+    if (!joined.empty()) std::filesystem::remove(joined);
+    throw;
+  }
+  if (!joined.empty()) std::filesystem::remove(joined);
+  result.parts = static_cast<int>(parts.size());
+  return result;
+}
+
+namespace {
+
+ReplayRunResult runReplayOfFile(const ReplayRunOptions& options) {
   if (options.run.empty()) throw ReplayArgumentError("no node to run");
   for (const auto& name : options.run)
     inputChannels(name);  // names are known
@@ -249,7 +356,12 @@ ReplayRunResult runReplay(const ReplayRunOptions& options) {
                               " is not 1..6");
   }
 
-  // The robot's clock against the log's: given, else fitted to the log's traffic.
+  // What the recording says of itself (fieldline-record's RECORDING_INFO), if anything.
+  const std::optional<recording_info_t> info = recording::readRecordingInfo(options.log_path);
+  const bool info_fits = info && info->bus_robot_id == result.robot_id;
+
+  // The robot's clock against the log's: given, else the recording's, else fitted to the log's
+  // traffic.
   if (options.clock) {
     result.clock.error = *options.clock;
     result.clock.source = recording::ClockSource::kGiven;
@@ -259,6 +371,8 @@ ReplayRunResult runReplay(const ReplayRunOptions& options) {
       bus::LogEvent event;
       if (first.nextEvent(event)) result.clock.error.reference_us = event.timestamp;
     }
+  } else if (info_fits) {
+    result.clock = recording::clockOf(*info);
   } else {
     const auto models = recording::estimateClocks(options.log_path);
     if (const auto it = models.find(result.robot_id); it != models.end()) result.clock = it->second;
@@ -285,8 +399,47 @@ ReplayRunResult runReplay(const ReplayRunOptions& options) {
                                        clock, memq);
   };
 
+  // The settings: given, else the recording's (written to scratch files the loaders read), else
+  // the processes' defaults.
+  std::vector<std::string> scratch_files;
+  const auto recorded = [&](const std::string& text, const std::string& what) {
+    const std::string path =
+        (std::filesystem::temp_directory_path() /
+         fmt::format("fieldline_replay_{}_{}_{}.yaml", what, ::getpid(), scratch_files.size()))
+            .string();
+    std::ofstream(path) << text;
+    scratch_files.push_back(path);
+    return path;
+  };
+  std::string field_source = options.field;
+  result.field = options.field;
+  if (field_source.empty() && info_fits && !info->field_yaml.empty()) {
+    field_source = recorded(info->field_yaml, "field");
+    result.field = info->field_name + " (the recording's)";
+  } else if (field_source.empty()) {
+    field_source = result.field = "msl";
+  }
+  std::string fusion_source = options.fusion_config;
+  result.fusion_config = options.fusion_config;
+  const std::string recorded_fusion =
+      info_fits ? recording::settingsValue(info->settings_yaml, "fusion_config") : std::string{};
+  if (fusion_source.empty() && !recorded_fusion.empty()) {
+    fusion_source = recorded(recorded_fusion, "fusion");
+    result.fusion_config =
+        recording::settingsValue(info->settings_yaml, "fusion_config_name") + " (the recording's)";
+  } else if (fusion_source.empty()) {
+    fusion_source = result.fusion_config = "default";
+  }
+  struct RemoveScratch {
+    std::vector<std::string>& files;
+    ~RemoveScratch() {
+      for (const auto& f : files)
+        std::filesystem::remove(f);
+    }
+  } remove_scratch{scratch_files};
+
   // The algorithms' state, created as the processes' main() create it.
-  const field::FieldModel field = field::loadFieldPreset(options.field);
+  const field::FieldModel field = field::loadFieldPreset(field_source);
   std::unique_ptr<fusion::LineMatcher> matcher;
   std::vector<std::unique_ptr<bus::Node>> nodes;
   std::vector<std::string> node_names;
@@ -311,7 +464,7 @@ ReplayRunResult runReplay(const ReplayRunOptions& options) {
       features = std::make_unique<feature_recognition::FeatureNode>(node, field);
     } else {
       // As fieldline-fusion: the settings file, then the options that override it.
-      fusion::FusionConfig config = fusion::loadFusionConfigPreset(options.fusion_config);
+      fusion::FusionConfig config = fusion::loadFusionConfigPreset(fusion_source);
       if (options.matcher.empty()) {
         // the settings file's method
       } else if (options.matcher == "lsq") {
@@ -376,6 +529,9 @@ ReplayRunResult runReplay(const ReplayRunOptions& options) {
                                       : options.out_path + ".outputs";
   if (!options.out_path.empty()) {
     writer = std::make_unique<bus::LogWriter>(replay_path);
+    // The output describes itself like a recording: whose, on which clock, run how.
+    writer->write(ch::kRecordingInfo, firstLogTime(options.log_path),
+                  replayInfo(options, result, field_source, fusion_source));
     recorder = std::make_unique<bus::LogRecorder>(
         *watcher, *writer, std::vector<std::string_view>(produced.begin(), produced.end()));
     // Written at the log's time, so the outputs line up with the recording (and its truth).
@@ -419,6 +575,7 @@ ReplayRunResult runReplay(const ReplayRunOptions& options) {
   result.skipped = stats.skipped;
   result.out_of_order = stats.out_of_order;
   result.rejected = log.rejectedByKind();
+  result.upgraded = log.upgradedByKind();
   for (const bus::LogRejection& r : log.recentRejections()) {
     result.refusal_examples["reader/" + r.reason.kind] = fmt::format(
         "{}{}event {}: {}", r.channel, r.channel.empty() ? "" : " ", r.event_number, r.reason.text);
@@ -441,7 +598,7 @@ ReplayRunResult runReplay(const ReplayRunOptions& options) {
   const std::vector<std::string> truth_channels{std::string(ch::kSimWorld.name)};
   if (!options.truth_path.empty() && !options.out_path.empty()) {
     writer.reset();
-    std::int64_t outputs = 0;
+    std::int64_t outputs = 1;  // the output's RECORDING_INFO
     for (const auto& [channel, count] : result.out)
       outputs += count;
     result.truth_merged =
@@ -456,6 +613,8 @@ ReplayRunResult runReplay(const ReplayRunOptions& options) {
   }
   return result;
 }
+
+}  // namespace
 
 std::int64_t mergeLogs(const std::vector<MergeSource>& sources, const std::string& out_path) {
   struct Cursor {
@@ -577,7 +736,9 @@ std::vector<std::string> failures(const ReplayRunResult& result, const ReplayRun
 
 std::string summaryLine(const ReplayRunResult& result) {
   std::ostringstream line;
-  line << "replay robot " << result.robot_id << ": in";
+  line << "replay robot " << result.robot_id;
+  if (result.parts > 1) line << " (" << result.parts << " files)";
+  line << ": in";
   for (const auto& [channel, n] : result.in)
     line << ' ' << channel << ' ' << n;
   line << " | out";
@@ -601,7 +762,13 @@ std::string summaryLine(const ReplayRunResult& result) {
   }
   if (result.out.count(std::string(ch::kRobotState.name)) > 0)
     line << " | tracking " << result.tracking_states;
-  line << " | clock " << result.clock.describe();
+  if (!result.upgraded.empty()) {
+    line << " | upgraded";
+    for (const auto& [name, n] : result.upgraded)
+      line << ' ' << name << ' ' << n;
+  }
+  line << " | clock " << result.clock.describe() << " | field " << result.field;
+  if (!result.fusion_config.empty()) line << ", fusion settings " << result.fusion_config;
   return line.str();
 }
 

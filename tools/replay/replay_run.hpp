@@ -32,19 +32,22 @@ inline const std::vector<std::string> kRunnableNodes{"region_tracking", "feature
                                                      "fusion"};
 
 struct ReplayRunOptions {
+  // One robot's log, or a recording's directory (then robot_id says whose files; its sim.lcm is
+  // the truth unless truth_path is given).
   std::string log_path;
   // Written (truncated) with the run nodes' outputs; empty: nothing is written.
   std::string out_path;
   std::vector<std::string> run;
   // 1..6; 0: the robot id of the first ODOMETRY / VISION_LINES / CAMERA_IMAGE in the log.
   int robot_id = 0;
-  // As the processes take them (their --help).
-  std::string field = "msl";
+  // As the processes take them (their --help). Empty field and fusion_config: the recording's own
+  // (RECORDING_INFO's field and fusion settings), else msl and default.
+  std::string field;
   std::string robot_config = "fu2004";
   std::string camera = "omni_sim";
   // fusion: settings preset (config/fusion/NAME.yaml) or path, as fieldline-fusion --config;
   // matcher (when not empty) and start_prior override it.
-  std::string fusion_config = "default";
+  std::string fusion_config;
   std::string matcher;
   std::string start_prior = "own_half";
   // Distance grid cache of the line matcher; empty: built in memory.
@@ -93,6 +96,8 @@ struct ReplayRunResult {
   // Log events of channels not fed (the replaced outputs, channels no run node reads).
   std::int64_t skipped = 0;
   std::int64_t out_of_order = 0;
+  // Log events of older message versions upgraded while reading, by upgrade (upgrade.hpp).
+  std::map<std::string, std::int64_t> upgraded;
   // Log events refused by the reader's checks, by kind (log_file.hpp).
   std::map<std::string, std::int64_t> rejected;
   // Errors the run nodes reported (refused inputs), by "node/kind".
@@ -107,8 +112,14 @@ struct ReplayRunResult {
   std::int64_t stalls = 0;
   std::int64_t stall_held = 0;
   std::int64_t stall_dropped = 0;
+  // Files of the recording replayed as one log (a recording split by size).
+  int parts = 1;
   // The robot's clock the replay ran on, and how it was found.
   recording::RobotClockModel clock;
+  // The field and fusion settings the replay ran with, and where they came from ("msl (the
+  // recording's)").
+  std::string field;
+  std::string fusion_config;
   // The last reason given: per kind of the reader ("reader/future_utime"), per node the node's
   // last error ("fusion/last").
   std::map<std::string, std::string> refusal_examples;

@@ -20,6 +20,7 @@ header_t header(std::int64_t seq) {
   h.utime_published = h.utime + 250;
   h.seq = seq;
   h.robot_id = 2;
+  h.publisher_id = 0x5eed00 + seq;
   return h;
 }
 
@@ -236,6 +237,7 @@ int main(int argc, char** argv) {
     status.num_metrics = 1;
     status.metric_name = {"fps"};
     status.metric_value = {30.0};
+    status.state_reason = "ODOMETRY silent 2.1 s";
     log.write(ch::kServiceStatus, logTime(10), status);
 
     world_state_t world{};

@@ -11,7 +11,7 @@ public class DecodeCheck {
   static final String[] TYPES = {
     "header_t", "image_t", "line_contours_t", "ball_observation_t", "obstacle_observations_t",
     "field_features_t", "odometry_t", "motion_command_t", "robot_state_t", "ball_state_t",
-    "team_state_t", "service_status_t", "world_state_t"};
+    "team_state_t", "service_status_t", "world_state_t", "recording_info_t"};
 
   public static void main(String[] args) throws Exception {
     String dir = args[0];
