@@ -98,8 +98,16 @@ int main(int argc, char** argv) {
   double settle_s = 5.0;
   app.add_option("--settle", settle_s, "Seconds after the first state not scored")
       ->capture_default_str();
+  bool publish_on_ball = false;
+  app.add_flag("--publish-on-ball", publish_on_ball,
+               "Each picture at the first own BALL_STATE after its tick");
   double send_rate_hz = 20.0, publish_rate_hz = 10.0, delay_ms = 1.5, fresh_s = 0.3;
   app.add_option("--send-rate", send_rate_hz, "Team packets per second")->capture_default_str();
+  double max_send_rate_hz = 30.0;
+  app.add_option("--max-send-rate", max_send_rate_hz,
+                 "At most this many per second, a new ball at once (= --send-rate: on the timer "
+                 "only)")
+      ->capture_default_str();
   app.add_option("--publish-rate", publish_rate_hz, "Team pictures per second")
       ->capture_default_str();
   app.add_option("--delay-ms", delay_ms, "Network delay of a team packet, ms")
@@ -282,11 +290,33 @@ int main(int argc, char** argv) {
   std::map<int, Utime> phase;
   for (const auto& [id, r] : logs)
     phase[id] = std::uniform_int_distribution<Utime>(0, send_period - 1)(rng);
+  // Each robot's send times as teamcomm schedules them: a send period after the last packet, or
+  // at once for a new valid BALL_STATE when the last is at least the shortest interval old.
+  const Utime shortest = static_cast<Utime>(1e6 / max_send_rate_hz) - 5'000;
+  std::map<int, std::vector<Utime>> sends;
+  for (const auto& [id, r] : logs) {
+    std::vector<Utime>& out = sends[id];
+    Utime last = start + phase[id] - send_period;
+    std::size_t next_ball = 0;
+    for (Utime t = start + phase[id]; t <= end; t += 5'000) {
+      while (next_ball < r.balls.size() && r.balls[next_ball].received <= t) {
+        const Timed& b = r.balls[next_ball++];
+        if (max_send_rate_hz > send_rate_hz && b.ball.valid && b.received - last >= shortest) {
+          last = b.received;
+          out.push_back(last);
+        }
+      }
+      if (t - last >= send_period) {
+        last = t;
+        out.push_back(last);
+      }
+    }
+  }
   Score team;
   std::FILE* pictures_csv =
       pictures_path.empty() ? nullptr : std::fopen(pictures_path.c_str(), "w");
   if (pictures_csv) {
-    std::fprintf(pictures_csv, "observer,t,team_err,team_sigma");
+    std::fprintf(pictures_csv, "observer,t,ball_speed,team_err,team_sigma");
     for (int i = 1; i <= perception::kTeamSize; ++i)
       std::fprintf(pictures_csv, ",err%d,range%d", i, i);
     std::fprintf(pictures_csv, "\n");
@@ -294,7 +324,16 @@ int main(int argc, char** argv) {
   std::size_t used_total = 0, rejected_total = 0, valid_pictures = 0, pictures = 0;
   for (const auto& [observer, own_log] : logs) {
     teamcomm::TeamPicture tp(observer, picture);
-    for (Utime now = start + phase[observer] % publish_period; now <= end; now += publish_period) {
+    for (Utime tick = start + phase[observer] % publish_period; tick <= end;
+         tick += publish_period) {
+      // The picture at the tick, or (--publish-on-ball) at the first own BALL_STATE after it.
+      Utime now = tick;
+      if (publish_on_ball) {
+        const auto next = std::lower_bound(own_log.balls.begin(), own_log.balls.end(), tick,
+                                           [](const Timed& e, Utime x) { return e.received < x; });
+        if (next != own_log.balls.end() && next->received - tick < publish_period)
+          now = next->received;
+      }
       for (const auto& [id, r] : logs) {
         teamcomm::Report report;
         if (id == observer) {
@@ -308,7 +347,9 @@ int main(int argc, char** argv) {
           if (const Timed* ball = newestAt(r.balls, now)) report.ball = ball->ball;
         } else {
           // The teammate's newest packet that has arrived: sent on its send clock.
-          const Utime sent = ((now - delay - phase[id]) / send_period) * send_period + phase[id];
+          const auto after = std::upper_bound(sends[id].begin(), sends[id].end(), now - delay);
+          if (after == sends[id].begin()) continue;
+          const Utime sent = *std::prev(after);
           const Timed* pose = newestAt(r.robots, sent);
           if (pose && sent - pose->received <= fresh) {
             report.robot = pose->robot;
@@ -335,9 +376,11 @@ int main(int argc, char** argv) {
       used_total += result.used.size();
       rejected_total += result.rejected.size();
       if (pictures_csv) {
-        std::fprintf(pictures_csv, "%d,%.3f,%.4f,%.4f", observer,
-                     static_cast<double>(now - start) / 1e6, (result.position - t).norm(),
-                     std::sqrt(0.5 * result.covariance.trace()));
+        Eigen::Vector2d later;
+        ballAt(now + 50'000, later);
+        std::fprintf(pictures_csv, "%d,%.3f,%.3f,%.4f,%.4f", observer,
+                     static_cast<double>(now - start) / 1e6, (later - t).norm() / 0.05,
+                     (result.position - t).norm(), std::sqrt(0.5 * result.covariance.trace()));
         for (const perception::TeammateState& m : state.robots) {
           if (m.ball_valid) {
             std::fprintf(pictures_csv, ",%.4f,%.3f", std::hypot(m.ball_x - t.x(), m.ball_y - t.y()),
@@ -357,8 +400,8 @@ int main(int argc, char** argv) {
     if (s.n >= 30 && (best < 0 || s.mean() < own[best].mean())) best = id;
   }
   for (const auto& [id, s] : own) {
-    std::printf("own ball robot %d: mean %.4f m (%zu), NEES in band %.3f, mean NEES %.2f, %s\n",
-                id, s.mean(), s.n, s.inBand(), s.neesMean(), s.neesSpread().c_str());
+    std::printf("own ball robot %d: mean %.4f m (%zu), NEES in band %.3f, mean NEES %.2f, %s\n", id,
+                s.mean(), s.n, s.inBand(), s.neesMean(), s.neesSpread().c_str());
   }
   std::printf(
       "team_ball_mean_m=%.4f best_own_ball_mean_m=%.4f (robot %d) team_ball_nees_in_band=%.3f "
