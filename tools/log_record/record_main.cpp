@@ -189,9 +189,10 @@ int record(Options& o, const bus::CommonOptions& common) {
         node.setMetric(fmt::format("refused_{}_robot{}", kind, b.robot), static_cast<double>(n));
       const auto& observed = b.file->observedClock();
       if (b.robot == 0 || !observed) continue;
-      const Utime now = clock.now();
+      // Compared where the traffic was, not extrapolated to now.
+      const Utime at = b.file->observedAt();
       const double disagreement_ms =
-          static_cast<double>(observed->ownAt(now) - truthToOwn(b.clock, now)) * 1e-3;
+          static_cast<double>(observed->ownAt(at) - truthToOwn(b.clock, at)) * 1e-3;
       node.setMetric(fmt::format("clock_check_ms_robot{}", b.robot), disagreement_ms);
       // More than the delivery delay: the clock model written into the recording is wrong.
       if (std::abs(disagreement_ms) > 20.0) {

@@ -66,7 +66,7 @@ void BusRecording::writeInfo(Utime log_time) {
   info_.header.utime = truthToOwn(clock_, log_time);
   info_.header.utime_published = info_.header.utime;
   if (observed_) {
-    info_.clock_observed_offset_us = observed_->ownAt(log_time) - log_time;
+    info_.clock_observed_offset_us = observed_->ownAt(observed_at_) - observed_at_;
     info_.clock_observed_messages = static_cast<std::int32_t>(observed_->samples);
   }
   writer_->write(bus::channels::kRecordingInfo, log_time, info_);
@@ -86,9 +86,11 @@ void BusRecording::observe(Utime log_time, const void* data, int size) {
   recent_.push_back({log_time, header->utime_published});
   if (recent_.size() >= kObservedSamples) {
     observed_ = fitClock(recent_);
+    observed_at_ = log_time;
     recent_.erase(recent_.begin(), recent_.begin() + kObservedSamples / 2);
-  } else if (!observed_ && recent_.size() % 200 == 0) {
+  } else if (recent_.size() % (observed_ ? 500 : 200) == 0) {
     observed_ = fitClock(recent_);
+    observed_at_ = log_time;
   }
 }
 

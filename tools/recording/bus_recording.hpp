@@ -55,6 +55,9 @@ class BusRecording {
 
   // The clock check: the envelope of utime_published - log time over the recent traffic.
   const std::optional<RobotClockModel>& observedClock() const { return observed_; }
+  // The log time of the newest message the observed clock rests on: where it is to be compared
+  // (a fit extrapolated beyond its data says nothing of the clock).
+  Utime observedAt() const { return observed_at_; }
 
   const std::string& currentPath() const { return path_; }
   std::int64_t eventsWritten() const { return events_written_; }
@@ -92,6 +95,7 @@ class BusRecording {
   std::int64_t images_skipped_ = 0;
   std::vector<StampSample> recent_;
   std::optional<RobotClockModel> observed_;
+  Utime observed_at_ = 0;
 };
 
 // The file name of part `index` (0: NAME.lcm, 1: NAME_part002.lcm, ...).

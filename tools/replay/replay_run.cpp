@@ -89,13 +89,17 @@ std::optional<int> firstRobotId(bus::LogReader& log, bus::Channel<Msg> channel) 
 }
 
 int detectRobotId(const std::string& path) {
+  // The recording says whose bus it is.
+  if (const auto info = recording::readRecordingInfo(path);
+      info && info->bus_robot_id >= 1 && info->bus_robot_id <= 6)
+    return info->bus_robot_id;
   // A reader of its own: its rejection counts must not add to the replay's. The robot's clock is
   // not known yet: no future check.
   bus::LogReader log(path, {.future_tolerance_us = std::numeric_limits<Utime>::max() / 4});
   if (auto id = firstRobotId(log, ch::kOdometry)) return *id;
   if (auto id = firstRobotId(log, ch::kVisionLines)) return *id;
   if (auto id = firstRobotId(log, ch::kCameraImage)) return *id;
-  throw ReplayArgumentError("no ODOMETRY, VISION_LINES or CAMERA_IMAGE in " + path +
+  throw ReplayArgumentError("no RECORDING_INFO, ODOMETRY, VISION_LINES or CAMERA_IMAGE in " + path +
                             " to take the robot id from; give --robot");
 }
 

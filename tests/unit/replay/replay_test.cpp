@@ -403,6 +403,31 @@ TEST(ReplayTool, ARecordingsDirectoryIsItsRobotsPartsInOrderWithTheTruth) {
   std::filesystem::remove(parts.out_path);
 }
 
+TEST(ReplayTool, ARecordingThatHeardNothingFailsWithTheReason) {
+  // fieldline-record's file of a bus that carried nothing: only its description.
+  const std::string empty = tempPath("replay_nothing");
+  {
+    bus::LogWriter out(empty);
+    recording_info_t info{};
+    info.format_version = recording_info_t::FORMAT_VERSION;
+    info.bus_robot_id = 4;
+    info.header.robot_id = 4;
+    info.header.utime = info.header.utime_published = 1'796'000'000'000'000;
+    out.write(bus::channels::kRecordingInfo, info.header.utime, info);
+  }
+  ReplayRunOptions options;
+  options.log_path = empty;
+  options.run = {"fusion"};
+  const ReplayRunResult result = runReplay(options);
+  EXPECT_EQ(result.robot_id, 4);  // whose bus: the recording says
+  EXPECT_EQ(result.fedTotal(), 0);
+  const std::vector<std::string> why = failures(result, options);
+  ASSERT_EQ(why.size(), 2u);
+  EXPECT_NE(why[0].find("no input reached the nodes"), std::string::npos);
+  EXPECT_NE(why[1].find("no valid estimate"), std::string::npos);
+  std::filesystem::remove(empty);
+}
+
 TEST(ReplayTool, BadArgumentsAreRefused) {
   EXPECT_EQ(parseRunList("feature_recognition,fusion"),
             (std::vector<std::string>{"feature_recognition", "fusion"}));
