@@ -227,6 +227,11 @@ ProcessEntry parseProcess(const config::Node& n, const LaunchDefaults& defaults,
 // (the process is left out).
 bool changeIncluded(const config::Node& n, const EntryContext& context, ProcessEntry& p) {
   const bool enabled = n.getOr<bool>("enabled", true);
+  // Another program in the process's place (a team's own motor controller adapter).
+  if (n.has("executable")) {
+    p.executable = n.get<std::string>("executable");
+    if (p.executable.empty()) n.fail("executable", "must not be empty");
+  }
   if (n.has("robots")) {
     p.all_robots = false;
     p.robots.clear();
@@ -407,15 +412,10 @@ LaunchFile parseLaunchFile(const config::Node& root, const LaunchOverrides& over
                                        [&](const ProcessEntry& p) { return p.name == name; });
     const bool from_include =
         std::find(file.included.begin(), file.included.end(), name) != file.included.end();
-    if (from_include && !entry.has("executable")) {
+    if (from_include) {
       if (!changed.insert(name).second) entry.fail("name", "'" + name + "' is changed twice");
       if (!changeIncluded(entry, context, *included)) disabled.insert(name);
       continue;
-    }
-    if (from_include) {
-      entry.fail("executable", "'" + name + "' is included from " + included->file + ":" +
-                                   std::to_string(included->line) +
-                                   "; leave out executable: to change it here");
     }
     ProcessEntry p = parseProcess(entry, file.defaults, context);
     if (!names.insert(p.name).second) entry.fail("name", "'" + p.name + "' is used twice");

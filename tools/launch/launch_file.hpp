@@ -23,8 +23,8 @@
 //       env: {KEY: value}           # optional extra environment
 //       main_channel: CAMERA_IMAGE  # optional: the channel whose rate the status table shows
 //       optional: true              # optional: skip with a warning when not built (else an error)
-//     - name: pilot                 # an included process without `executable:`: changes it;
-//       args: [--steer, state]      # args are added after its own, other keys replace its own
+//     - name: pilot                 # an included process's name: changes it; args are added
+//       args: [--steer, state]      # after its own, other keys (executable too) replace its own
 //     - name: viewer                # `enabled: false` leaves an included process out
 //       enabled: false
 //   robots:                         # optional: a clock per robot (robot_clocks.hpp)

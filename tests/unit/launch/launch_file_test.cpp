@@ -329,18 +329,22 @@ TEST_F(IncludeFiles, ANameThatIsNoSettingIsAnErrorAtItsLine) {
             std::string::npos);
 }
 
-TEST_F(IncludeFiles, AnIncludedNameWithAnExecutableIsAnError) {
-  const std::string e = errorOfFile(R"(include: robot.yaml
+TEST_F(IncludeFiles, AnIncludedProcessMayRunAnotherExecutableButIsChangedOnlyOnce) {
+  const LaunchFile f = load(R"(include: robot.yaml
 settings: {field: msl}
 processes:
   - name: camera
     executable: my-camera
-    robots: all
 )");
-  EXPECT_NE(e.find("main.yaml:5: processes[0].executable: 'camera' is included from"),
-            std::string::npos)
-      << e;
-  EXPECT_NE(e.find("robot.yaml:3; leave out executable: to change it here"), std::string::npos)
+  EXPECT_EQ(f.processes[0].executable, "my-camera");
+  EXPECT_EQ(f.processes[0].args, (std::vector<std::string>{"--field", "msl"}));
+  const std::string e = errorOfFile(R"(include: robot.yaml
+settings: {field: msl}
+processes:
+  - {name: camera, args: [-a]}
+  - {name: camera, args: [-b]}
+)");
+  EXPECT_NE(e.find("main.yaml:5: processes[1].name: 'camera' is changed twice"), std::string::npos)
       << e;
 }
 
