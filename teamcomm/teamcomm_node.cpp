@@ -105,9 +105,12 @@ TeamcommNode::TeamcommNode(bus::Node& node, PacketLink& link, TeamcommOptions op
     own_robot_received_ = node_.now();
   });
   node_.subscribe(bus::channels::kBallState, [this](const ball_state_t& m) {
+    const bool was_valid = own_ball_ && own_ball_->valid;
     own_ball_ = msg::fromMessage(m);
     own_ball_received_ = node_.now();
-    maybeSend(own_ball_->valid);
+    // A ball seen, or one just lost (kicked away, put back: teammates must stop using it), goes
+    // out at once.
+    maybeSend(own_ball_->valid || was_valid);
   });
   // What the camera saw, placed on the field with the newest pose (obstacles without a pose
   // near the frame's time are not sent).

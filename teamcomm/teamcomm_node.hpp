@@ -27,9 +27,10 @@ namespace fieldline::teamcomm {
 struct TeamcommOptions {
   std::uint8_t team_id = 1;
   TeamKey key;
-  // Team packets per second (10..30) at least, and at most: a new ball estimate (BALL_STATE) goes
-  // out at once when the last packet is at least 1/max_send_rate_hz old, so teammates' balls are
-  // not a send period older than they need be (a kicked ball moves 15 cm in 50 ms).
+  // Team packets per second (10..30) at least, and at most: a new ball estimate (BALL_STATE, valid
+  // or just become invalid) goes out at once when the last packet is at least 1/max_send_rate_hz
+  // old, so teammates' balls are not a send period older than they need be (a kicked ball moves
+  // 15 cm in 50 ms, and a ball put back elsewhere must leave the team ball at once).
   double send_rate_hz = 20.0;
   double max_send_rate_hz = 30.0;
   // TEAM_STATE per second.

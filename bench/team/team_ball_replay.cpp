@@ -298,10 +298,13 @@ int main(int argc, char** argv) {
     std::vector<Utime>& out = sends[id];
     Utime last = start + phase[id] - send_period;
     std::size_t next_ball = 0;
+    bool was_valid = false;
     for (Utime t = start + phase[id]; t <= end; t += 5'000) {
       while (next_ball < r.balls.size() && r.balls[next_ball].received <= t) {
         const Timed& b = r.balls[next_ball++];
-        if (max_send_rate_hz > send_rate_hz && b.ball.valid && b.received - last >= shortest) {
+        const bool news = b.ball.valid || was_valid;
+        was_valid = b.ball.valid;
+        if (max_send_rate_hz > send_rate_hz && news && b.received - last >= shortest) {
           last = b.received;
           out.push_back(last);
         }
