@@ -370,7 +370,9 @@ std::vector<std::string> manifestsIn(const std::string& folder) {
   std::vector<std::string> out;
   if (!fs::is_directory(folder)) return out;
   for (const auto& entry : fs::directory_iterator(folder)) {
-    if (entry.path().extension() == ".yaml") out.push_back(entry.path().string());
+    // Canonical: a manifest's relative paths then pass a symlinked folder (build/share/fieldline
+    // links into the source tree) the way the file system does.
+    if (entry.path().extension() == ".yaml") out.push_back(fs::canonical(entry.path()).string());
   }
   std::sort(out.begin(), out.end());
   return out;
