@@ -588,7 +588,9 @@ SectorTable sectorTable(const RingFit& fit, const std::vector<RingPoint>& points
   // Up to the outermost ring of any sector, extrapolating the others by at most 3 px.
   end = std::min(farthest, end + 3.0);
   SectorTable out;
-  for (double rad = radius_step; rad < end - 1e-9; rad += radius_step)
+  // Knots every radius_step, none within half a pixel of the last (the loader's check refuses
+  // knots closer than that: at 640x480 the outermost ring fell 0.3 px beyond a step).
+  for (double rad = radius_step; rad < end - 0.5; rad += radius_step)
     out.table.radii.push_back(rad);
   out.table.radii.push_back(end);
   for (int s = 0; s < sectors; ++s) {
