@@ -214,6 +214,7 @@ void parseEntryOptions(const config::Node& n, const EntryContext& context, Proce
   }
   acceptEmpty(n, "main_channel");
   if (n.has("optional")) p.optional = n.get<bool>("optional");
+  acceptEmpty(n, "optional");
 }
 
 ProcessEntry parseProcess(const config::Node& n, const LaunchDefaults& defaults,
