@@ -32,6 +32,10 @@ int main(int argc, char** argv) {
   app.add_option("--team-config", team_config,
                  "Team preset in config/team/ or a YAML path (team id, key file, transport)")
       ->capture_default_str();
+  std::string key_file;
+  app.add_option("--key-file", key_file,
+                 "The team key file, instead of the team config's key_file (systemd hands the "
+                 "robot's key over as a credential: --key-file %d/team.key)");
   int port = 0;
   app.add_option("--port", port, "Override the UDP port of the team config")
       ->check(CLI::Range(1, 65535));
@@ -60,7 +64,8 @@ int main(int argc, char** argv) {
       throw config::Error("--robot must be 1..6 for teamcomm");
     }
     try {
-      cfg.node.key = teamcomm::loadConfiguredKey(cfg.key_file);
+      cfg.node.key = key_file.empty() ? teamcomm::loadConfiguredKey(cfg.key_file)
+                                      : teamcomm::loadTeamKey(key_file);
     } catch (const teamcomm::KeyError& e) {
       throw config::Error(std::string("team key: ") + e.what());
     }

@@ -97,24 +97,25 @@ TEST(Y4mPlanes, FourTwoZeroUsesEachChromaRowTwiceAndMonoIsGrey) {
 class Y4mPipe : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = std::filesystem::temp_directory_path() / ("y4m_test_" + std::to_string(::getpid()));
-    std::filesystem::create_directories(dir_);
-    path_ = (dir_ / "camera.fifo").string();
+    scratch_dir =
+        std::filesystem::temp_directory_path() / ("y4m_test_" + std::to_string(::getpid()));
+    std::filesystem::create_directories(scratch_dir);
+    pipe_path = (scratch_dir / "camera.fifo").string();
   }
-  void TearDown() override { std::filesystem::remove_all(dir_); }
-  std::filesystem::path dir_;
-  std::string path_;
+  void TearDown() override { std::filesystem::remove_all(scratch_dir); }
+  std::filesystem::path scratch_dir;
+  std::string pipe_path;
 };
 
 TEST_F(Y4mPipe, FramesArriveUnchangedAndTheReaderSeesThemAsACameraWould) {
   const int w = 16, h = 8;
-  Y4mPipeWriter writer(path_, w, h, 30.0);  // makes the pipe
-  EXPECT_TRUE(isNamedPipe(path_));
+  Y4mPipeWriter writer(pipe_path, w, h, 30.0);  // makes the pipe
+  EXPECT_TRUE(isNamedPipe(pipe_path));
   // Nobody reads yet: dropped, not blocked.
   const std::vector<std::uint8_t> first = testYuyv(w, h, 1);
   EXPECT_EQ(writer.write(first.data(), w * 2), Y4mPipeWriter::Result::kNoReader);
 
-  Y4mPipeSource source(path_, 2.0);
+  Y4mPipeSource source(pipe_path, 2.0);
   EXPECT_EQ(source.kind(), SourceKind::kVideo);
   SourceFrame frame;
   for (int k = 0; k < 3; ++k) {
@@ -132,18 +133,18 @@ TEST_F(Y4mPipe, FramesArriveUnchangedAndTheReaderSeesThemAsACameraWould) {
 }
 
 TEST_F(Y4mPipe, ASilentPipeAndAClosedOneEndTheStreamWithTheReason) {
-  ASSERT_EQ(::mkfifo(path_.c_str(), 0600), 0);
+  ASSERT_EQ(::mkfifo(pipe_path.c_str(), 0600), 0);
   {
     // No writer ever: next() gives up after its timeout, it does not take the pipe for ended.
-    Y4mPipeSource source(path_, 0.2);
+    Y4mPipeSource source(pipe_path, 0.2);
     SourceFrame frame;
     EXPECT_FALSE(source.next(frame));
     EXPECT_NE(source.lastError().find("no frame for 0.2 s"), std::string::npos)
         << source.lastError();
   }
-  Y4mPipeSource source(path_, 2.0);
+  Y4mPipeSource source(pipe_path, 2.0);
   {
-    Y4mPipeWriter writer(path_, 4, 2, 30.0);
+    Y4mPipeWriter writer(pipe_path, 4, 2, 30.0);
     const std::vector<std::uint8_t> sent = testYuyv(4, 2, 3);
     ASSERT_EQ(writer.write(sent.data(), 8), Y4mPipeWriter::Result::kWritten);
   }
@@ -156,8 +157,8 @@ TEST_F(Y4mPipe, ASilentPipeAndAClosedOneEndTheStreamWithTheReason) {
 
 TEST_F(Y4mPipe, AReaderThatFallsBehindLosesFramesAndOneThatReturnsGetsAHeader) {
   const int w = 64, h = 48;  // 6 kB frames: many fit the pipe
-  Y4mPipeWriter writer(path_, w, h, 30.0);
-  auto reader = std::make_unique<Y4mPipeSource>(path_, 2.0);
+  Y4mPipeWriter writer(pipe_path, w, h, 30.0);
+  auto reader = std::make_unique<Y4mPipeSource>(pipe_path, 2.0);
   const std::vector<std::uint8_t> sent = testYuyv(w, h, 5);
   int written = 0, dropped = 0;
   for (int k = 0; k < 400; ++k) {
@@ -172,7 +173,7 @@ TEST_F(Y4mPipe, AReaderThatFallsBehindLosesFramesAndOneThatReturnsGetsAHeader) {
   // The reader goes away with frames unread and a new one comes: it starts at a header.
   reader.reset();
   EXPECT_EQ(writer.write(sent.data(), w * 2), Y4mPipeWriter::Result::kNoReader);
-  reader = std::make_unique<Y4mPipeSource>(path_, 2.0);
+  reader = std::make_unique<Y4mPipeSource>(pipe_path, 2.0);
   ASSERT_EQ(writer.write(sent.data(), w * 2), Y4mPipeWriter::Result::kWritten);
   ASSERT_TRUE(reader->next(frame)) << reader->lastError();
   EXPECT_EQ(frame.bytes, sent);
@@ -180,8 +181,8 @@ TEST_F(Y4mPipe, AReaderThatFallsBehindLosesFramesAndOneThatReturnsGetsAHeader) {
 }
 
 TEST_F(Y4mPipe, AFileThatIsNoPipeIsRefused) {
-  std::ofstream(path_) << "x";
-  EXPECT_THROW(Y4mPipeWriter(path_, 4, 2, 30.0), std::runtime_error);
+  std::ofstream(pipe_path) << "x";
+  EXPECT_THROW(Y4mPipeWriter(pipe_path, 4, 2, 30.0), std::runtime_error);
 }
 
 }  // namespace

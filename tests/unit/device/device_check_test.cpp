@@ -21,19 +21,19 @@ bool contains(const std::string& text, const std::string& part) {
 class DeviceCheck : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = std::filesystem::temp_directory_path() /
-           ("device_check_test_" + std::to_string(::getpid()));
-    std::filesystem::create_directories(dir_);
-    file_ = (dir_ / "frame.png").string();
-    std::ofstream(file_) << "not a device";
-    fifo_ = (dir_ / "camera.fifo").string();
-    ASSERT_EQ(::mkfifo(fifo_.c_str(), 0600), 0);
+    scratch_dir = std::filesystem::temp_directory_path() /
+                  ("device_check_test_" + std::to_string(::getpid()));
+    std::filesystem::create_directories(scratch_dir);
+    plain_file = (scratch_dir / "frame.png").string();
+    std::ofstream(plain_file) << "not a device";
+    fifo_path = (scratch_dir / "camera.fifo").string();
+    ASSERT_EQ(::mkfifo(fifo_path.c_str(), 0600), 0);
   }
-  void TearDown() override { std::filesystem::remove_all(dir_); }
+  void TearDown() override { std::filesystem::remove_all(scratch_dir); }
 
-  std::filesystem::path dir_;
-  std::string file_;
-  std::string fifo_;
+  std::filesystem::path scratch_dir;
+  std::string plain_file;
+  std::string fifo_path;
 };
 
 TEST_F(DeviceCheck, AMissingCameraIsNamedWithHowToListCameras) {
@@ -50,15 +50,15 @@ TEST_F(DeviceCheck, AMissingCameraIsNamedWithHowToListCameras) {
 }
 
 TEST_F(DeviceCheck, ACameraMustBeAV4l2CaptureDeviceOrAPipe) {
-  EXPECT_TRUE(contains(checkCamera(file_),
+  EXPECT_TRUE(contains(checkCamera(plain_file),
                        "not a camera device (a regular file); a video file "
                        "is --source video"))
-      << checkCamera(file_);
+      << checkCamera(plain_file);
   // A character device that is no V4L2 device.
   EXPECT_TRUE(contains(checkCamera("/dev/null"), "/dev/null: not a V4L2 device"))
       << checkCamera("/dev/null");
   // A named pipe stands in for a camera (the rehearsal's renderer writes into it).
-  EXPECT_EQ(checkCamera(fifo_), "");
+  EXPECT_EQ(checkCamera(fifo_path), "");
 }
 
 TEST_F(DeviceCheck, AMissingSerialDeviceIsNamedWithHowToFindIt) {
@@ -67,9 +67,9 @@ TEST_F(DeviceCheck, AMissingSerialDeviceIsNamedWithHowToFindIt) {
                        "/dev/nosuch: no such device; is the controller plugged in and "
                        "powered? list serial devices with ls -l /dev/serial/by-id/"))
       << p;
-  EXPECT_TRUE(contains(checkSerial(file_), "not a serial device (a regular file)"))
-      << checkSerial(file_);
-  EXPECT_TRUE(contains(checkSerial(fifo_), "not a serial device (a named pipe)"));
+  EXPECT_TRUE(contains(checkSerial(plain_file), "not a serial device (a regular file)"))
+      << checkSerial(plain_file);
+  EXPECT_TRUE(contains(checkSerial(fifo_path), "not a serial device (a named pipe)"));
 }
 
 TEST_F(DeviceCheck, APseudoTerminalPasses) {
@@ -79,29 +79,30 @@ TEST_F(DeviceCheck, APseudoTerminalPasses) {
   ASSERT_EQ(::openpty(&controller, &terminal, name, nullptr, nullptr), 0);
   EXPECT_EQ(checkSerial(name), "") << name;
   // The simulator's link to it (outside /dev) is checked like the device when it exists...
-  const std::string link = (dir_ / "robot1.tty").string();
+  const std::string link = (scratch_dir / "robot1.tty").string();
   std::filesystem::create_symlink(name, link);
   EXPECT_EQ(checkSerial(link), "");
   ::close(terminal);
   ::close(controller);
   // ... and is no problem before the simulator made it.
-  EXPECT_EQ(checkSerial((dir_ / "robot2.tty").string()), "");
+  EXPECT_EQ(checkSerial((scratch_dir / "robot2.tty").string()), "");
 }
 
 TEST_F(DeviceCheck, PermissionProblemsNameTheGroup) {
   if (::geteuid() == 0) GTEST_SKIP() << "root may open anything";
-  ::chmod(fifo_.c_str(), 0);
-  EXPECT_TRUE(contains(checkCamera(fifo_), "permission denied; add the user to the video group"));
+  ::chmod(fifo_path.c_str(), 0);
+  EXPECT_TRUE(
+      contains(checkCamera(fifo_path), "permission denied; add the user to the video group"));
 }
 
 TEST_F(DeviceCheck, InputFilesAndFolders) {
-  EXPECT_EQ(checkInputFile(file_, "video file", false), "");
-  EXPECT_EQ(checkInputFile(dir_.string(), "image folder", true), "");
-  EXPECT_TRUE(contains(checkInputFile(dir_.string(), "video file", false),
+  EXPECT_EQ(checkInputFile(plain_file, "video file", false), "");
+  EXPECT_EQ(checkInputFile(scratch_dir.string(), "image folder", true), "");
+  EXPECT_TRUE(contains(checkInputFile(scratch_dir.string(), "video file", false),
                        "a folder, not the video file expected"));
-  EXPECT_TRUE(contains(checkInputFile(file_, "image folder", true),
+  EXPECT_TRUE(contains(checkInputFile(plain_file, "image folder", true),
                        "a regular file, not the image folder expected"));
-  EXPECT_TRUE(contains(checkInputFile((dir_ / "none.avi").string(), "video file", false),
+  EXPECT_TRUE(contains(checkInputFile((scratch_dir / "none.avi").string(), "video file", false),
                        "none.avi: no such video file"));
 }
 

@@ -210,9 +210,9 @@ TEST(LaunchFile, ShippedLaunchFilesParse) {
 class IncludeFiles : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = std::filesystem::temp_directory_path() /
-           ("launch_include_test_" + std::to_string(::getpid()));
-    std::filesystem::create_directories(dir_);
+    scratch_dir = std::filesystem::temp_directory_path() /
+                  ("launch_include_test_" + std::to_string(::getpid()));
+    std::filesystem::create_directories(scratch_dir);
     write("robot.yaml", R"(# shared
 processes:
   - name: camera
@@ -225,10 +225,10 @@ processes:
     main_channel: MOTION_COMMAND
 )");
   }
-  void TearDown() override { std::filesystem::remove_all(dir_); }
+  void TearDown() override { std::filesystem::remove_all(scratch_dir); }
 
   std::string write(const std::string& name, const std::string& text) {
-    const std::string path = (dir_ / name).string();
+    const std::string path = (scratch_dir / name).string();
     std::ofstream(path) << text;
     return path;
   }
@@ -244,7 +244,7 @@ processes:
     return "no error";
   }
 
-  std::filesystem::path dir_;
+  std::filesystem::path scratch_dir;
 };
 
 TEST_F(IncludeFiles, IncludedProcessesComeFirstAndAreChangedByName) {
@@ -260,11 +260,11 @@ processes:
     restart: never
     env: {MODE: "{field}"}
 )");
-  EXPECT_EQ(f.include_path, (dir_ / "robot.yaml").string());
+  EXPECT_EQ(f.include_path, (scratch_dir / "robot.yaml").string());
   EXPECT_EQ(f.included, (std::vector<std::string>{"camera", "pilot"}));
   ASSERT_EQ(f.processes.size(), 3u);
   EXPECT_EQ(f.processes[0].name, "camera");
-  EXPECT_EQ(f.processes[0].file, (dir_ / "robot.yaml").string());
+  EXPECT_EQ(f.processes[0].file, (scratch_dir / "robot.yaml").string());
   EXPECT_EQ(f.processes[0].line, 3);
   EXPECT_EQ(f.processes[0].args, (std::vector<std::string>{"--field", "msl"}));
   EXPECT_EQ(f.processes[0].restart, RestartPolicy::kAlways);  // the including file's defaults
@@ -274,7 +274,7 @@ processes:
   EXPECT_EQ(f.processes[1].env.at("MODE"), "msl");
   EXPECT_EQ(f.processes[1].main_channel, "MOTION_COMMAND");
   EXPECT_EQ(f.processes[2].name, "world_sim");
-  EXPECT_EQ(f.processes[2].file, (dir_ / "main.yaml").string());
+  EXPECT_EQ(f.processes[2].file, (scratch_dir / "main.yaml").string());
 }
 
 TEST_F(IncludeFiles, SettingsComeFromTheFileTheEnvironmentAndSetInThatOrder) {
@@ -314,9 +314,10 @@ processes:
 TEST_F(IncludeFiles, ANameThatIsNoSettingIsAnErrorAtItsLine) {
   // {field} in the included file, no such setting in the including one.
   const std::string e = errorOfFile("include: robot.yaml\nsettings: {camera: x}\n");
-  EXPECT_NE(e.find((dir_ / "robot.yaml").string() + ":6: processes[0].args: {field} is not a "
-                                                    "setting of"),
-            std::string::npos)
+  EXPECT_NE(
+      e.find((scratch_dir / "robot.yaml").string() + ":6: processes[0].args: {field} is not a "
+                                                     "setting of"),
+      std::string::npos)
       << e;
   EXPECT_NE(e.find("(its settings: camera)"), std::string::npos) << e;
   const std::string unknown_set =
