@@ -8,31 +8,108 @@
 
 namespace fieldline::teamcomm {
 
+const char* toString(RoundTripUse u) {
+  switch (u) {
+    case RoundTripUse::kAdded:
+      return "added";
+    case RoundTripUse::kRefused:
+      return "refused";
+    case RoundTripUse::kHeld:
+      return "held";
+    case RoundTripUse::kStep:
+      return "step";
+  }
+  return "unknown";
+}
+
 ClockOffsetEstimator::ClockOffsetEstimator(OffsetOptions options) : options_(options) {}
 
-bool ClockOffsetEstimator::add(const RoundTrip& rt) {
+bool ClockOffsetEstimator::plausible(const RoundTrip& rt) const {
   const Utime round_trip =
       (rt.t4_our_receive - rt.t1_our_send) - (rt.t3_their_send - rt.t2_their_receive);
   // The teammate's hold time and our round trip are both measured on steady-ish clocks; a
   // negative round trip beyond stamping noise means the echo is not ours to trust.
-  if (round_trip < -static_cast<Utime>(2 * options_.min_sigma_us) ||
-      round_trip > options_.max_round_trip_us || rt.t3_their_send < rt.t2_their_receive ||
-      rt.t4_our_receive < rt.t1_our_send) {
-    return false;
+  return round_trip >= -static_cast<Utime>(2 * options_.min_sigma_us) &&
+         round_trip <= options_.max_round_trip_us && rt.t3_their_send >= rt.t2_their_receive &&
+         rt.t4_our_receive >= rt.t1_our_send;
+}
+
+bool ClockOffsetEstimator::agreesWithFit(const Sample& s) const {
+  const double dt = static_cast<double>(s.when - reference_);
+  const double line = intercept_us_ + slope_ * dt;
+  // The fit is off by at most half its smallest round trip; beyond its newest round trip the
+  // drift may be off by up to twice the plausible maximum.
+  const double tolerance = 0.5 * static_cast<double>(min_round_trip_us_) + options_.step_slack_us +
+                           2.0 * options_.min_sigma_us +
+                           2.0 * options_.max_drift_ppm * 1e-6 * std::abs(dt);
+  return s.backward_us - tolerance <= line && line <= s.forward_us + tolerance;
+}
+
+RoundTripUse ClockOffsetEstimator::add(const RoundTrip& rt) {
+  if (!plausible(rt)) return RoundTripUse::kRefused;
+  const Utime round_trip =
+      (rt.t4_our_receive - rt.t1_our_send) - (rt.t3_their_send - rt.t2_their_receive);
+  const Sample sample{
+      rt.t4_our_receive, rt.t1_our_send, static_cast<double>(rt.t2_their_receive - rt.t1_our_send),
+      static_cast<double>(rt.t3_their_send - rt.t4_our_receive), std::max<Utime>(round_trip, 0)};
+  // The window as of this round trip: a teammate silent for longer starts afresh.
+  const Utime newest = samples_.empty() ? sample.when : std::max(sample.when, samples_.back().when);
+  const std::size_t before = samples_.size();
+  while (!samples_.empty() && samples_.front().when < newest - options_.window_us) {
+    samples_.pop_front();
   }
-  samples_.push_back(
-      {rt.t4_our_receive, rt.t1_our_send, static_cast<double>(rt.t2_their_receive - rt.t1_our_send),
-       static_cast<double>(rt.t3_their_send - rt.t4_our_receive), std::max<Utime>(round_trip, 0)});
+  if (samples_.size() != before) refit();
+
+  if (fitted_ && !agreesWithFit(sample)) {
+    held_.push_back(sample);
+    // Held round trips must agree with each other: the oldest go until the rest share an offset.
+    const auto common = [this] {
+      double lowest_forward = std::numeric_limits<double>::max();
+      double highest_backward = std::numeric_limits<double>::lowest();
+      for (const Sample& h : held_) {
+        lowest_forward = std::min(lowest_forward, h.forward_us);
+        highest_backward = std::max(highest_backward, h.backward_us);
+      }
+      const double span = static_cast<double>(held_.back().when - held_.front().when);
+      const double tolerance = options_.step_slack_us + 2.0 * options_.min_sigma_us +
+                               2.0 * options_.max_drift_ppm * 1e-6 * span;
+      return highest_backward - tolerance <= lowest_forward + tolerance;
+    };
+    while (held_.size() > 1 &&
+           (!common() || held_.front().when < sample.when - options_.window_us)) {
+      held_.pop_front();
+    }
+    if (static_cast<int>(held_.size()) < options_.step_confirmations) return RoundTripUse::kHeld;
+    const double old_line = intercept_us_ + slope_ * static_cast<double>(sample.when - reference_);
+    samples_.assign(held_.begin(), held_.end());
+    held_.clear();
+    refit();
+    ++steps_;
+    last_step_ = ClockStep{sample.when, intercept_us_ - old_line};
+    after_step_ = true;
+    return RoundTripUse::kStep;
+  }
+  held_.clear();
+  samples_.push_back(sample);
   // Samples arrive in our time order; anything that claims otherwise is sorted in.
   for (std::size_t i = samples_.size() - 1; i > 0 && samples_[i].when < samples_[i - 1].when; --i) {
     std::swap(samples_[i], samples_[i - 1]);
   }
-  const Utime newest = samples_.back().when;
-  while (!samples_.empty() && samples_.front().when < newest - options_.window_us) {
-    samples_.pop_front();
-  }
   refit();
-  return true;
+  return RoundTripUse::kAdded;
+}
+
+bool ClockOffsetEstimator::converging() const {
+  if (!after_step_) return false;
+  return samples_.empty() ||
+         samples_.back().when - samples_.front().when < options_.min_fit_span_us;
+}
+
+void ClockOffsetEstimator::reset() {
+  samples_.clear();
+  held_.clear();
+  fitted_ = false;
+  after_step_ = true;
 }
 
 namespace {

@@ -8,9 +8,17 @@
 // (so drift is a line fit too), taken separately for each direction so the best packet each way
 // need not fall in the same round trip. Their mean is the offset line, exact when the smallest
 // delays are equal both ways.
+//
+// A clock can step (NTP, a reboot, a restarted robot whose clock differs): a round trip whose
+// offset interval [t3 - t4, t2 - t1] misses the fitted line by more than the fit's own error
+// contradicts it. One such round trip is held aside (a bad stamp must not bend the fit); three in
+// a row that agree with each other are a step: the window restarts from them, the step is
+// counted and its size kept, and the estimate says it is converging until its round trips span
+// `min_fit_span_us` again.
 // Plain library: no clock, no I/O.
 #pragma once
 
+#include <cstdint>
 #include <deque>
 #include <optional>
 
@@ -36,6 +44,31 @@ struct OffsetOptions {
   Utime min_fit_span_us = 3'000'000;
   // Drifts beyond this are implausible for a quartz clock and are clamped, ppm.
   double max_drift_ppm = 500.0;
+  // Round trips in a row that contradict the fit (and agree with each other) to call it a step.
+  int step_confirmations = 3;
+  // A round trip contradicts the fit when its interval misses the line by more than the fit's
+  // error bound (half the smallest round trip) plus this, µs.
+  double step_slack_us = 1000.0;
+};
+
+// What became of a round trip given to the estimator.
+enum class RoundTripUse : std::uint8_t {
+  // Part of the fit now.
+  kAdded = 0,
+  // Impossible (negative beyond the stamping noise, a negative hold time) or too long.
+  kRefused,
+  // It contradicts the fit: held aside as evidence of a clock step.
+  kHeld,
+  // It confirmed a step: the fit restarted from the held round trips and this one.
+  kStep,
+};
+const char* toString(RoundTripUse u);
+
+struct ClockStep {
+  // When it was confirmed (t4 of the confirming round trip, our clock).
+  Utime confirmed_utime = 0;
+  // New offset minus the old fit's, at that time, µs.
+  double size_us = 0.0;
 };
 
 struct OffsetEstimate {
@@ -53,15 +86,27 @@ class ClockOffsetEstimator {
  public:
   explicit ClockOffsetEstimator(OffsetOptions options = {});
 
-  // Adds a round trip; returns false (and ignores it) when it is impossible (negative round trip
-  // beyond the stamping noise) or too long.
-  bool add(const RoundTrip& rt);
+  // Adds a round trip (or holds it aside, or confirms a step with it, see RoundTripUse).
+  RoundTripUse add(const RoundTrip& rt);
   // The estimate at `now_ours`, or nothing before the first usable round trip.
   std::optional<OffsetEstimate> estimate(Utime now_ours) const;
   // A teammate's time converted to ours (and back), using the estimate at that time.
   std::optional<Utime> toOurs(Utime their_utime) const;
   std::optional<Utime> toTheirs(Utime our_utime) const;
   std::size_t samples() const { return samples_.size(); }
+  // Whether the round trip would be used (kAdded, kHeld or kStep) without adding it.
+  bool plausible(const RoundTrip& rt) const;
+  // Steps confirmed so far, and the last one.
+  std::uint64_t steps() const { return steps_; }
+  std::optional<ClockStep> lastStep() const { return last_step_; }
+  // Round trips held aside now (contradicting the fit, not yet a step).
+  std::size_t held() const { return held_.size(); }
+  // After a step: the fit's round trips do not yet span min_fit_span_us (no drift yet, few
+  // samples). False before any step and once they do.
+  bool converging() const;
+  // Forgets everything but the step count (e.g. the teammate's packets were refused as stale
+  // for too long and no round trip came to say why).
+  void reset();
 
  private:
   struct Sample {
@@ -72,9 +117,16 @@ class ClockOffsetEstimator {
     Utime round_trip_us = 0;
   };
   void refit();
+  // Whether `s`'s offset interval contains the fitted line within its error and the slack.
+  bool agreesWithFit(const Sample& s) const;
 
   OffsetOptions options_;
   std::deque<Sample> samples_;
+  // Contradicting round trips in a row, oldest first.
+  std::deque<Sample> held_;
+  std::uint64_t steps_ = 0;
+  std::optional<ClockStep> last_step_;
+  bool after_step_ = false;
   // Line offset(t) = intercept + slope * (t - reference), refitted on every add.
   bool fitted_ = false;
   Utime reference_ = 0;

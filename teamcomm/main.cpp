@@ -46,6 +46,15 @@ int main(int argc, char** argv) {
         config::Node::loadFile(config::resolvePreset("team", team_config)));
     cfg.node.expect_own_echo = !cfg.udp.group.empty() && cfg.udp.loopback;
     if (port != 0) cfg.udp.port = static_cast<std::uint16_t>(port);
+    // The robot's own LCM bus on the team port: the team link would hear the bus's traffic.
+    if (const auto bus_port = teamcomm::udpmPort(common.bus_url);
+        bus_port && *bus_port == cfg.udp.port) {
+      throw config::Error("the team port " + std::to_string(cfg.udp.port) +
+                          " is this robot's bus port too (" + common.bus_url +
+                          "): change the team config's transport.port or the bus's port");
+    }
+    for (const std::string& w : cfg.warnings)
+      spdlog::warn("{}", w);
     if (common.robot < 1 || common.robot > teamcomm::kMaxRobots) {
       throw config::Error("--robot must be 1..6 for teamcomm");
     }

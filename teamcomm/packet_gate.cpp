@@ -7,7 +7,8 @@ namespace fieldline::teamcomm {
 PacketGate::PacketGate(GateOptions options) : options_(options) {}
 
 std::optional<Reject> PacketGate::admit(const TeamPacket& packet, Utime receive_utime,
-                                        std::optional<double> sender_offset_us) {
+                                        std::optional<double> sender_offset_us,
+                                        bool fresh_by_echo) {
   if (packet.team_id != options_.team_id) return Reject::kTeam;
   Sender& s = senders_.at(packet.robot_id);
   // How long ago the packet was sent, in our clock (a bound on the offset before it is known).
@@ -20,6 +21,13 @@ std::optional<Reject> PacketGate::admit(const TeamPacket& packet, Utime receive_
     }
   } else if (std::abs(age_us) > static_cast<double>(options_.max_clock_difference_us)) {
     return Reject::kStale;
+  }
+  if (s.last_sequence && packet.sequence <= *s.last_sequence && fresh_by_echo &&
+      *s.last_sequence - packet.sequence >= 64) {
+    // A new process of the sender, started on a clock set back: nothing old can echo our packet.
+    s.last_sequence.reset();
+    s.seen = 0;
+    ++s.restarts;
   }
   if (s.last_sequence && packet.sequence <= *s.last_sequence) {
     const std::uint64_t back = *s.last_sequence - packet.sequence;
@@ -49,6 +57,17 @@ std::optional<Reject> PacketGate::admit(const TeamPacket& packet, Utime receive_
   s.seen |= 1;
   s.last_sequence = packet.sequence;
   return std::nullopt;
+}
+
+bool PacketGate::newer(int robot_id, std::uint64_t sequence) const {
+  if (robot_id < 1 || robot_id > kMaxRobots) return false;
+  const Sender& s = senders_[static_cast<std::size_t>(robot_id)];
+  return !s.last_sequence || sequence > *s.last_sequence;
+}
+
+std::int64_t PacketGate::restarts(int robot_id) const {
+  if (robot_id < 1 || robot_id > kMaxRobots) return 0;
+  return senders_[static_cast<std::size_t>(robot_id)].restarts;
 }
 
 std::int64_t PacketGate::lost(int robot_id) const {

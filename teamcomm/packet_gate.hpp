@@ -31,9 +31,18 @@ class PacketGate {
 
   // Admits or refuses an authenticated packet that arrived at `receive_utime` (our clock).
   // `sender_offset_us` is the sender's clock minus ours when known. An admitted packet moves
-  // the sender's sequence number and uses up one of its rate tokens.
+  // the sender's sequence number and uses up one of its rate tokens. `fresh_by_echo`: the
+  // packet echoes one of our own recent packets, so it was made after that one whatever its
+  // stamps say; such a packet far behind the sender's sequence (more than the replay window) is
+  // the sender restarted with its clock set back, and its sequence is followed from there
+  // (counted in restarts()) instead of refusing it as a replay until the old numbers are passed.
   std::optional<Reject> admit(const TeamPacket& packet, Utime receive_utime,
-                              std::optional<double> sender_offset_us);
+                              std::optional<double> sender_offset_us, bool fresh_by_echo = false);
+
+  // Whether `sequence` is beyond the newest admitted from `robot_id` (or none was admitted).
+  bool newer(int robot_id, std::uint64_t sequence) const;
+  // Sequence restarts accepted from `robot_id` (see admit).
+  std::int64_t restarts(int robot_id) const;
 
   // Packets lost between admitted ones from `robot_id` (gaps in the sequence numbers).
   std::int64_t lost(int robot_id) const;
@@ -46,6 +55,7 @@ class PacketGate {
     double tokens = 0.0;
     Utime last_refill = 0;
     std::int64_t lost = 0;
+    std::int64_t restarts = 0;
   };
   GateOptions options_;
   std::array<Sender, kMaxRobots + 1> senders_{};

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <stdexcept>
 
+#include <fmt/format.h>
+
 #include "common/msg/estimates.hpp"
 #include "common/msg/obstacle_observations.hpp"
 #include "common/msg/team_state.hpp"
@@ -94,6 +96,8 @@ TeamcommNode::TeamcommNode(bus::Node& node, PacketLink& link, TeamcommOptions op
   // Grows across restarts (the clock moves on faster than we send), so receivers' replay checks
   // accept a restarted robot at once.
   next_sequence_ = static_cast<std::uint64_t>(std::max<Utime>(0, node_.now()));
+  // The link counts its drops from its opening, about now.
+  kernel_drops_.emplace_back(node_.now(), 0);
   node_.subscribe(bus::channels::kRobotState, [this](const robot_state_t& m) {
     own_robot_ = msg::fromMessage(m);
     own_robot_received_ = node_.now();
@@ -148,6 +152,15 @@ void TeamcommNode::sendPacket() {
   }
   // Stamped last, as close to the send as we can.
   p.send_utime = node_.now();
+  // Kept ascending (a step back of our own clock starts the list afresh).
+  if (!recent_sends_.empty() && recent_sends_.back() > p.send_utime) recent_sends_.clear();
+  recent_sends_.push_back(p.send_utime);
+  // Echoes come back within a round trip; keep twice the longest one counted (and a bound).
+  while (!recent_sends_.empty() &&
+         (recent_sends_.size() > 256 ||
+          recent_sends_.front() < p.send_utime - 2 * options_.offset.max_round_trip_us)) {
+    recent_sends_.pop_front();
+  }
   std::vector<std::uint8_t> bytes;
   try {
     bytes = encodePacket(p, options_.key);
@@ -201,22 +214,79 @@ void TeamcommNode::onDatagram(std::span<const std::uint8_t> bytes, Utime age_us)
     return;
   }
   Teammate& mate = mates_[static_cast<std::size_t>(p.robot_id - 1)];
-  const auto estimate = mate.offset.estimate(received);
-  const std::optional<double> offset =
-      estimate ? std::optional<double>(estimate->offset_us) : std::nullopt;
-  if (auto refused = gate_.admit(p, received, offset)) {
-    reject(*refused, p.robot_id,
-           "robot " + std::to_string(p.robot_id) + " sequence " + std::to_string(p.sequence));
+  mate.last_authenticated = received;
+  const std::optional<RoundTrip> trip = echoedRoundTrip(p, received);
+  const auto offsetAt = [&mate](Utime t) -> std::optional<double> {
+    const auto e = mate.offset.estimate(t);
+    return e ? std::optional<double>(e->offset_us) : std::nullopt;
+  };
+  std::optional<Reject> refused = gate_.admit(p, received, offsetAt(received), trip.has_value());
+  if (refused == Reject::kStale && trip) {
+    // Stale by its stamps, yet made after our recent packet: the sender's clock has stepped
+    // (or ours). Its round trips say by how much; once a few agree, the offset restarts from
+    // them and the packet is judged again.
+    if (mate.offset.add(*trip) == RoundTripUse::kStep) {
+      ++counters_.clock_steps;
+      const ClockStep step = *mate.offset.lastStep();
+      node_.reportError("clock_step", fmt::format("robot {}'s clock stepped by {:+.3f} s (round "
+                                                  "trips); its offset restarts from them",
+                                                  p.robot_id, step.size_us / 1e6));
+      refused = gate_.admit(p, received, offsetAt(received), true);
+    }
+  }
+  if (refused == Reject::kStale && mate.stale_since >= 0 &&
+      received - mate.stale_since >= options_.offset_reset_after_stale_us &&
+      mate.offset.estimate(received)) {
+    // No round trip has told a step from a replay (none echoed us, or none was plausible): judge
+    // its packets as before the first round trip (the sequence check still refuses replays)
+    // until round trips re-seed the offset.
+    ++counters_.offset_resets;
+    mate.offset.reset();
+    node_.reportError(
+        "offset_reset",
+        fmt::format("robot {}: every packet refused as stale for {:.1f} s; its "
+                    "clock offset is forgotten and re-learnt",
+                    p.robot_id, static_cast<double>(received - mate.stale_since) / 1e6));
+    refused = gate_.admit(p, received, std::nullopt, false);
+  }
+  if (refused) {
+    std::string detail =
+        "robot " + std::to_string(p.robot_id) + " sequence " + std::to_string(p.sequence);
+    if (*refused == Reject::kStale) {
+      // By how much its send time misses ours (positive: sent in our future).
+      const auto offset = offsetAt(received);
+      mate.stale_by_us = static_cast<double>(p.send_utime - received) - offset.value_or(0.0);
+      if (mate.stale_since < 0) mate.stale_since = received;
+      // Echoed all the same when it is new (not a replay): its step shows in the round trips our
+      // packets then make with it, on both sides (a teammate that refuses ours as stale echoes
+      // them for us). An echo naming none of its recent packets is refused over there.
+      if (gate_.newer(p.robot_id, p.sequence)) {
+        mate.heard = true;
+        mate.last_send_utime = p.send_utime;
+        mate.last_receive_utime = received;
+      }
+      detail = fmt::format(
+          "robot {}'s packet sent {:.3f} s {} it arrived {}", p.robot_id,
+          std::abs(mate.stale_by_us) / 1e6, mate.stale_by_us > 0 ? "after" : "before",
+          offset ? "by its clock offset estimate (a clock step?)" : "(no clock offset known yet)");
+    }
+    reject(*refused, p.robot_id, detail);
     return;
   }
+  if (gate_.restarts(p.robot_id) != mate.sequence_restarts) {
+    counters_.sequence_restarts += gate_.restarts(p.robot_id) - mate.sequence_restarts;
+    mate.sequence_restarts = gate_.restarts(p.robot_id);
+    node_.reportError("sequence_restart",
+                      fmt::format("robot {} restarted with a lower sequence number (a clock set "
+                                  "back): followed from {}",
+                                  p.robot_id, p.sequence));
+  }
+  mate.stale_since = -1;
   ++counters_.accepted;
   ++mate.received;
   // The round trip: our packet (t1, our clock) reached the teammate at t2 (its clock); it sent
   // this one at t3 (its clock) and we received it at t4.
-  for (const LinkEcho& echo : p.links) {
-    if (echo.robot_id != node_.robotId()) continue;
-    mate.offset.add({echo.their_send_utime, echo.our_receive_utime, p.send_utime, received});
-  }
+  if (trip) mate.offset.add(*trip);
   mate.heard = true;
   mate.last_send_utime = p.send_utime;
   mate.last_receive_utime = received;
@@ -259,6 +329,17 @@ void TeamcommNode::onDatagram(std::span<const std::uint8_t> bytes, Utime age_us)
   picture_.setReport(p.robot_id, report);
 }
 
+std::optional<RoundTrip> TeamcommNode::echoedRoundTrip(const TeamPacket& p, Utime received) const {
+  for (const LinkEcho& echo : p.links) {
+    if (echo.robot_id != node_.robotId()) continue;
+    if (!std::binary_search(recent_sends_.begin(), recent_sends_.end(), echo.their_send_utime)) {
+      return std::nullopt;
+    }
+    return RoundTrip{echo.their_send_utime, echo.our_receive_utime, p.send_utime, received};
+  }
+  return std::nullopt;
+}
+
 Utime TeamcommNode::toOurClock(const Teammate& mate, Utime their_utime, Utime their_send_utime,
                                Utime our_receive_utime) const {
   if (auto ours = mate.offset.toOurs(their_utime)) return *ours;
@@ -292,12 +373,70 @@ void TeamcommNode::publishTeamState() {
     }
     if (out.present) ++present;
   }
+  updateClockWarnings(now);
+  updateKernelDrops(now);
   msg::toMessage(state, team_state_msg_);
   node_.publish(bus::channels::kTeamState, team_state_msg_);
   node_.setMetric("teammates_present", present);
   node_.setMetric("offset_uncertainty_ms", worst_uncertainty_ms);
   node_.setMetric("packets_rejected", static_cast<double>(counters_.rejectedTotal()));
   node_.setMetric("team_ball_rejected", static_cast<double>(ball.rejected.size()));
+  node_.setMetric("clock_steps", static_cast<double>(counters_.clock_steps));
+  node_.setMetric("offset_resets", static_cast<double>(counters_.offset_resets));
+}
+
+void TeamcommNode::updateKernelDrops(Utime now) {
+  const std::int64_t total = link_.kernelDrops();
+  if (total < 0) return;
+  node_.setMetric("kernel_drops", static_cast<double>(total));
+  constexpr Utime kWindow_us = 2'000'000;
+  kernel_drops_.emplace_back(now, total);
+  while (kernel_drops_.size() > 1 &&
+         (kernel_drops_.front().first < now - kWindow_us || kernel_drops_.front().first > now)) {
+    kernel_drops_.pop_front();
+  }
+  const std::int64_t recent = total - kernel_drops_.front().second;
+  std::string reason;
+  if (recent > 0) {
+    reason = fmt::format(
+        "team socket: the kernel dropped {} datagrams in {:.1f} s ({} since start; receive "
+        "buffer full: a flood, or this node too slow)",
+        recent, static_cast<double>(now - kernel_drops_.front().first) / 1e6, total);
+  }
+  node_.status().setWarning("kernel_drops", reason);
+}
+
+void TeamcommNode::updateClockWarnings(Utime now) {
+  for (int id = 1; id <= kMaxRobots; ++id) {
+    if (id == node_.robotId()) continue;
+    const Teammate& m = mates_[static_cast<std::size_t>(id - 1)];
+    std::string reason;
+    // Only while it is still sending: a teammate that went away is the picture's to report.
+    const bool sending = m.last_authenticated >= 0 &&
+                         now - m.last_authenticated <= options_.picture.present_timeout_us;
+    if (!sending) {
+      // nothing
+    } else if (m.stale_since >= 0) {
+      reason = fmt::format(
+          "robot {}: every packet refused as stale for {:.1f} s (sent {:.3f} s {} it arrived by "
+          "its clock offset: a clock step?)",
+          id, static_cast<double>(now - m.stale_since) / 1e6, std::abs(m.stale_by_us) / 1e6,
+          m.stale_by_us > 0 ? "after" : "before");
+    } else if (m.offset.converging()) {
+      if (const auto step = m.offset.lastStep()) {
+        reason = fmt::format(
+            "robot {}'s clock stepped by {:+.3f} s {:.1f} s ago; its offset is "
+            "re-converging",
+            id, step->size_us / 1e6, static_cast<double>(now - step->confirmed_utime) / 1e6);
+      } else {
+        reason = fmt::format(
+            "robot {}'s clock offset is re-learnt after its packets were refused "
+            "as stale",
+            id);
+      }
+    }
+    node_.status().setWarning("clock_robot" + std::to_string(id), reason);
+  }
 }
 
 }  // namespace fieldline::teamcomm

@@ -8,6 +8,7 @@
 
 #include <array>
 #include <cstdint>
+#include <deque>
 #include <map>
 #include <optional>
 #include <string>
@@ -37,6 +38,10 @@ struct TeamcommOptions {
   // Our own packets come back (multicast loopback): ignore fresh ones. Otherwise any packet
   // with our robot id is a replay.
   bool expect_own_echo = true;
+  // A teammate whose every packet was refused as stale for this long, with no round trip to say
+  // why, has its clock offset forgotten: its packets are then judged as before the first round
+  // trip (gate.max_clock_difference_us) while new round trips re-seed the offset, µs.
+  Utime offset_reset_after_stale_us = 2'000'000;
   GateOptions gate;
   OffsetOptions offset;
   PictureOptions picture;
@@ -49,6 +54,12 @@ struct LinkCounters {
   std::int64_t accepted = 0;
   std::int64_t own_echo = 0;
   std::array<std::int64_t, kRejectKinds> rejected{};
+  // Teammates' clock steps confirmed by round trips, offsets forgotten after refusing a
+  // teammate as stale for too long, and sequence restarts accepted (a restart on a clock set
+  // back).
+  std::int64_t clock_steps = 0;
+  std::int64_t offset_resets = 0;
+  std::int64_t sequence_restarts = 0;
   std::int64_t rejectedTotal() const;
 };
 
@@ -73,11 +84,26 @@ class TeamcommNode {
     bool heard = false;
     std::int32_t received = 0;
     std::int32_t rejected = 0;
+    // Since when (our clock) every packet of it was refused as stale (-1: its last was
+    // accepted), and by how much the last one missed, µs (positive: sent in our future).
+    Utime stale_since = -1;
+    double stale_by_us = 0.0;
+    // Our clock at its last authenticated packet, accepted or not.
+    Utime last_authenticated = -1;
+    // The gate's sequence restarts of it already reported.
+    std::int64_t sequence_restarts = 0;
   };
 
   void sendPacket();
   void onDatagram(std::span<const std::uint8_t> bytes, Utime age_us);
   void reject(Reject reason, int claimed_robot, const std::string& detail);
+  // The round trip a packet's echo of our own packet makes, when the echo names one of our
+  // recent packets (which also proves the packet was made after it).
+  std::optional<RoundTrip> echoedRoundTrip(const TeamPacket& p, Utime received) const;
+  // What the status says about teammates' clocks (stale refusals, steps re-converging).
+  void updateClockWarnings(Utime now);
+  // The kernel's drops on the team socket: a metric, and a warning while they grow.
+  void updateKernelDrops(Utime now);
   void publishTeamState();
   // A teammate's time on our clock: through its offset when known, else relative to its send
   // time (which ignores the network delay).
@@ -98,6 +124,10 @@ class TeamcommNode {
   std::vector<PacketObstacle> own_obstacles_;
   Utime own_obstacles_received_ = 0;
   std::uint64_t next_sequence_ = 0;
+  // Send times (our clock) of our recent packets, oldest first: what a teammate's echo must name.
+  std::deque<Utime> recent_sends_;
+  // (our clock, the link's kernel drop total) over the last seconds.
+  std::deque<std::pair<Utime, std::int64_t>> kernel_drops_;
   LinkCounters counters_;
   team_state_t team_state_msg_{};
 };

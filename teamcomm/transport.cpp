@@ -66,6 +66,14 @@ class UdpLink final : public PacketLink {
     const int on = 1;
     // Without them (never seen on Linux) the age is 0 and arrival is stamped when read.
     (void)::setsockopt(fd, SOL_SOCKET, SO_TIMESTAMPNS, &on, sizeof on);
+    // The kernel's count of datagrams dropped for a full receive buffer comes with every datagram
+    // read (SO_RXQ_OVFL), so a flood shows in the status instead of only in /proc/net/snmp.
+    (void)::setsockopt(fd, SOL_SOCKET, SO_RXQ_OVFL, &on, sizeof on);
+    // Only the groups this socket joined: with the default (IP_MULTICAST_ALL on) a socket bound
+    // to the port also hears any other group joined on this host at that port, e.g. an LCM bus
+    // put on the team port by mistake.
+    const int off = 0;
+    (void)::setsockopt(fd, IPPROTO_IP, IP_MULTICAST_ALL, &off, sizeof off);
     // Room for a burst (or a flood) while the node is busy; capped by net.core.rmem_max.
     socket_.set_option(asio::socket_base::receive_buffer_size(1 << 20), ec);
     socket_.bind(udp::endpoint(udp::v4(), o.port), ec);
@@ -120,7 +128,7 @@ class UdpLink final : public PacketLink {
     // Bounded, so a flood cannot keep the node from its timers.
     for (int n = 0; n < 256; ++n) {
       iovec iov{buffer_.data(), buffer_.size()};
-      std::array<char, CMSG_SPACE(sizeof(timespec))> control{};
+      std::array<char, CMSG_SPACE(sizeof(timespec)) + CMSG_SPACE(sizeof(std::uint32_t))> control{};
       msghdr msg{};
       msg.msg_iov = &iov;
       msg.msg_iovlen = 1;
@@ -135,6 +143,12 @@ class UdpLink final : public PacketLink {
           std::memcpy(&ts, CMSG_DATA(c), sizeof ts);
           const Utime stamp = static_cast<Utime>(ts.tv_sec) * kMicrosPerSecond + ts.tv_nsec / 1000;
           age = std::max<Utime>(0, systemNowUs() - stamp);
+        } else if (c->cmsg_level == SOL_SOCKET && c->cmsg_type == SO_RXQ_OVFL) {
+          std::uint32_t dropped = 0;
+          std::memcpy(&dropped, CMSG_DATA(c), sizeof dropped);
+          // The kernel's counter is 32 bits and wraps; keep a 64-bit total.
+          kernel_drops_ += static_cast<std::uint32_t>(dropped - last_drop_counter_);
+          last_drop_counter_ = dropped;
         }
       }
       // A datagram larger than the buffer is truncated by the kernel: hand over one byte more than
@@ -146,6 +160,7 @@ class UdpLink final : public PacketLink {
   }
 
   int fileDescriptor() const override { return const_cast<udp::socket&>(socket_).native_handle(); }
+  std::int64_t kernelDrops() const override { return kernel_drops_; }
 
  private:
   asio::io_context io_;
@@ -153,6 +168,8 @@ class UdpLink final : public PacketLink {
   std::vector<udp::endpoint> destinations_;
   // One byte beyond the protocol's 1,400-byte limit, so oversize is detectable.
   std::array<std::uint8_t, 1401> buffer_{};
+  std::uint32_t last_drop_counter_ = 0;
+  std::int64_t kernel_drops_ = 0;
 };
 
 }  // namespace

@@ -32,6 +32,9 @@ class PacketLink {
       const std::function<void(std::span<const std::uint8_t> bytes, Utime age_us)>& on_packet) = 0;
   // The descriptor to wait on for arrivals (-1 when there is none).
   virtual int fileDescriptor() const { return -1; }
+  // Datagrams the system dropped before we could read them (a full receive buffer: a flood, or
+  // a node too slow), since the link was opened; -1 when the link cannot tell.
+  virtual std::int64_t kernelDrops() const { return -1; }
 };
 
 struct UdpOptions {

@@ -13,6 +13,7 @@
 #include <fieldline/motion_command_t.hpp>
 #include <fieldline/obstacle_observations_t.hpp>
 #include <fieldline/odometry_t.hpp>
+#include <fieldline/recording_info_t.hpp>
 #include <fieldline/robot_state_t.hpp>
 #include <fieldline/service_status_t.hpp>
 #include <fieldline/team_state_t.hpp>
@@ -43,14 +44,17 @@ inline constexpr Channel<team_state_t> kTeamState{"TEAM_STATE"};
 inline constexpr Channel<service_status_t> kServiceStatus{"SERVICE_STATUS"};
 // Simulator bus only: ground truth.
 inline constexpr Channel<world_state_t> kSimWorld{"SIM_WORLD"};
+// Recordings only (never on a bus): what fieldline-record writes into each file about it.
+inline constexpr Channel<recording_info_t> kRecordingInfo{"RECORDING_INFO"};
 }  // namespace channels
 
 // Every channel name, for tools that list or record them.
-inline constexpr std::array<std::string_view, 12> kAllChannelNames{
+inline constexpr std::array<std::string_view, 13> kAllChannelNames{
     channels::kCameraImage.name,     channels::kVisionLines.name,   channels::kVisionBall.name,
     channels::kVisionObstacles.name, channels::kFieldFeatures.name, channels::kOdometry.name,
     channels::kMotionCommand.name,   channels::kRobotState.name,    channels::kBallState.name,
-    channels::kTeamState.name,       channels::kServiceStatus.name, channels::kSimWorld.name};
+    channels::kTeamState.name,       channels::kServiceStatus.name, channels::kSimWorld.name,
+    channels::kRecordingInfo.name};
 
 // The rate each channel is published at in normal operation (docs: the channel table), Hz; 0 for
 // channels without a fixed rate. A process requires its inputs at a fraction of this

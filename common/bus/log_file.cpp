@@ -34,7 +34,16 @@ bool printable(std::string_view name) {
   return !name.empty();
 }
 
+LogUpgrade& installedUpgrade() {
+  static LogUpgrade upgrade;
+  return upgrade;
+}
+
 }  // namespace
+
+void setLogUpgrade(LogUpgrade upgrade) {
+  installedUpgrade() = std::move(upgrade);
+}
 
 // ---------------------------------------------------------------------------------------------
 struct LogReader::Impl {
@@ -48,7 +57,10 @@ struct LogReader::Impl {
 };
 
 LogReader::LogReader(const std::string& path, LogReaderOptions options)
-    : path_(path), options_(options), impl_(std::make_unique<Impl>(path)) {
+    : path_(path),
+      options_(options),
+      impl_(std::make_unique<Impl>(path)),
+      upgrade_(installedUpgrade()) {
   if (!impl_->file.good()) {
     throw LogError("cannot open LCM log '" + path + "': " + std::strerror(errno));
   }
@@ -58,6 +70,10 @@ LogReader::~LogReader() = default;
 
 void LogReader::rewind() {
   std::fseek(impl_->stream(), 0, SEEK_SET);
+}
+
+void LogReader::seek(std::int64_t offset) {
+  ::fseeko(impl_->stream(), static_cast<off_t>(offset), SEEK_SET);
 }
 
 std::int64_t LogReader::rejectedTotal() const {
@@ -156,6 +172,9 @@ bool LogReader::nextEvent(LogEvent& event) {
     event.data.assign(bytes, bytes + e->datalen);
     event.offset = start;
     ++events_read_;
+    if (upgrade_) {
+      if (const auto name = upgrade_(event)) ++upgraded_[*name];
+    }
     return true;
   }
 }
@@ -163,7 +182,7 @@ bool LogReader::nextEvent(LogEvent& event) {
 bool LogReader::accept(const LogEvent& event) {
   auto rejection =
       checkEncoded(event.channel, event.data.data(), static_cast<int>(event.data.size()),
-                   event.timestamp, options_.future_tolerance_us);
+                   truthToOwn(options_.clock, event.timestamp), options_.future_tolerance_us);
   if (!rejection) return true;
   reject(event, std::move(*rejection));
   return false;

@@ -16,8 +16,10 @@
 
 #include <cstdint>
 #include <deque>
+#include <functional>
 #include <map>
 #include <memory>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <string_view>
@@ -26,6 +28,7 @@
 #include "common/bus/channels.hpp"
 #include "common/bus/checked_decode.hpp"
 #include "common/time/clock.hpp"
+#include "common/time/offset_clock.hpp"
 
 namespace fieldline::bus {
 
@@ -47,6 +50,13 @@ struct LogEvent {
   std::int64_t offset = 0;
 };
 
+// Turns an event of an older version of its message type into today's (the project's upgrades:
+// tools/recording/upgrade.hpp); returns the upgrade's name ("team_state_t v1"), or nothing when
+// the event needs none. Installed once per process with setLogUpgrade().
+using LogUpgrade = std::function<std::optional<std::string>(LogEvent& event)>;
+// Every LogReader created afterwards upgrades old events as it reads them, before any check.
+void setLogUpgrade(LogUpgrade upgrade);
+
 // An event (or a damaged stretch of the file) that was not delivered.
 struct LogRejection {
   // The event's number; -1 for damage that has none.
@@ -60,6 +70,10 @@ struct LogReaderOptions {
   // A message whose utime is beyond the event's log time plus this is rejected as from the
   // future (the same tolerance as bus::NodeOptions).
   Utime future_tolerance_us = 500'000;
+  // The publishing robot's clock against the log's time (the recording machine's clock, see
+  // tools/recording/clock_model.hpp): the future check compares a message's utime with the log
+  // time as that robot's clock read it. Zero: the robot stamped with the recorder's clock.
+  ClockError clock;
   // Events larger than this are taken as damage (a 4K BGR frame is 25 MB).
   std::int32_t max_event_bytes = 64 * 1024 * 1024;
 };
@@ -90,7 +104,8 @@ class LogReader {
       if (e.channel != channel.name) continue;
       auto rejection = decodeChecked(msg, e.data.data(), static_cast<int>(e.data.size()));
       if (!rejection) {
-        rejection = checkNotFromFuture(msg.header, e.timestamp, options_.future_tolerance_us);
+        rejection = checkNotFromFuture(msg.header, truthToOwn(options_.clock, e.timestamp),
+                                       options_.future_tolerance_us);
       }
       if (!rejection) return true;
       reject(e, std::move(*rejection));
@@ -103,6 +118,11 @@ class LogReader {
 
   // Back to the first event (counts are kept).
   void rewind();
+  // Continues at byte `offset` of the file (an event's LogEvent::offset).
+  void seek(std::int64_t offset);
+  // The clock the future check reads the log time on (LogReaderOptions::clock).
+  void setClock(const ClockError& clock) { options_.clock = clock; }
+  const ClockError& clock() const { return options_.clock; }
 
   const std::string& path() const { return path_; }
   // Rejected events and damaged stretches so far, by kind ("damaged", "truncated", "decode",
@@ -113,6 +133,8 @@ class LogReader {
   const std::deque<LogRejection>& recentRejections() const { return recent_; }
   // Intact events read so far.
   std::int64_t eventsRead() const { return events_read_; }
+  // Events of older message versions upgraded while reading, by upgrade ("team_state_t v1").
+  const std::map<std::string, std::int64_t>& upgradedByKind() const { return upgraded_; }
 
  private:
   void reject(const LogEvent& event, Rejection reason);
@@ -126,6 +148,8 @@ class LogReader {
   std::map<std::string, std::int64_t> rejected_by_kind_;
   std::deque<LogRejection> recent_;
   std::int64_t events_read_ = 0;
+  LogUpgrade upgrade_;
+  std::map<std::string, std::int64_t> upgraded_;
 };
 
 // Writes an LCM log that lcm-logplayer, lcm-spy and LogReader read.

@@ -37,8 +37,9 @@ bool Replay::step(LogReader& log) {
       continue;
     }
     if (!log.accept(event_)) continue;
-    if (!started_ || event_.timestamp >= clock_.now()) {
-      clock_.set(event_.timestamp);
+    const Utime own = truthToOwn(options_.clock, event_.timestamp);
+    if (!started_ || own >= clock_.now()) {
+      clock_.set(own);
       started_ = true;
     } else {
       ++stats_.out_of_order;
@@ -66,7 +67,7 @@ LogRecorder::LogRecorder(Node& node, LogWriter& writer, std::vector<std::string_
       [this](const std::string& channel, const void* data, int size) {
         if (std::find(channels_.begin(), channels_.end(), channel) == channels_.end()) return;
         try {
-          writer_.write(channel, node_.now(), data, size);
+          writer_.write(channel, ownToTruth(log_clock_, node_.now()), data, size);
           ++recorded_;
         } catch (const LogError& e) {
           // Called from LCM's dispatch: an exception must not cross it.

@@ -28,6 +28,7 @@
 #include "common/bus/log_file.hpp"
 #include "common/bus/node.hpp"
 #include "common/time/clock.hpp"
+#include "common/time/offset_clock.hpp"
 
 namespace fieldline::bus {
 
@@ -35,6 +36,10 @@ struct ReplayOptions {
   // Channels fed from the log; empty means every channel. A replay that recomputes VISION_*
   // from the images names only CAMERA_IMAGE, so the log's own VISION_* are not fed back.
   std::vector<std::string> channels;
+  // The robot's clock against the log's time (tools/recording/clock_model.hpp): the nodes' clock
+  // is set to each event's log time as the robot's clock read it, so they run on the clock their
+  // messages were stamped with. Zero: the log's time itself.
+  ClockError clock;
 };
 
 struct ReplayStats {
@@ -78,16 +83,20 @@ class Replay {
 };
 
 // Records what `node` receives on the named channels into a log, stamped with the node's clock
-// (so a replay's recording is the same file every time).
+// (so a replay's recording is the same file every time), or with that time converted back to the
+// recorded log's clock (setLogClock), so the output lines up with the recording it came from.
 class LogRecorder {
  public:
   LogRecorder(Node& node, LogWriter& writer, std::vector<std::string_view> channels,
               BusId bus = kPrimaryBus);
 
   std::int64_t recorded() const { return recorded_; }
+  // The node's clock is this robot clock of the log's time: events are written at log time.
+  void setLogClock(const ClockError& clock) { log_clock_ = clock; }
 
  private:
   Node& node_;
+  ClockError log_clock_;
   LogWriter& writer_;
   std::vector<std::string> channels_;
   std::int64_t recorded_ = 0;

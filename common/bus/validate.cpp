@@ -212,12 +212,32 @@ std::optional<std::string> validate(const field_features_t& m) {
 
 std::optional<std::string> validate(const odometry_t& m) {
   if (auto p = validate(m.header)) return p;
-  return finite({{"dx", m.dx},
-                 {"dy", m.dy},
-                 {"dphi", m.dphi},
-                 {"vx", m.vx},
-                 {"vy", m.vy},
-                 {"omega", m.omega}});
+  return firstOf(
+      [&]() -> Problem {
+        // Three or four wheels, or none from a controller that reports only its movement.
+        if (m.wheel_count != 0 && m.wheel_count != 3 && m.wheel_count != 4) {
+          return fmt::format("wheel_count = {} (0, 3 or 4)", m.wheel_count);
+        }
+        return {};
+      },
+      [&] { return Sized("wheel_count", m.wheel_count)("ticks", m.ticks).result(); },
+      [&] {
+        return Sized("wheel_count", m.wheel_count)("wheel_current", m.wheel_current).result();
+      },
+      [&]() -> Problem {
+        if (m.wheel_count == 0 && (m.status & odometry_t::STATUS_CURRENTS) != 0) {
+          return "STATUS_CURRENTS without wheels (wheel_count = 0)";
+        }
+        return {};
+      },
+      [&] {
+        return finite({{"dx", m.dx},
+                       {"dy", m.dy},
+                       {"dphi", m.dphi},
+                       {"vx", m.vx},
+                       {"vy", m.vy},
+                       {"omega", m.omega}});
+      });
 }
 
 std::optional<std::string> validate(const motion_command_t& m) {
@@ -353,6 +373,31 @@ std::optional<std::string> validate(const world_state_t& m) {
                        {"ball_vy", m.ball_vy},
                        {"ball_radius", m.ball_radius},
                        {"robot_radius", m.robot_radius}});
+      });
+}
+
+std::optional<std::string> validate(const recording_info_t& m) {
+  if (auto p = validate(m.header)) return p;
+  return firstOf(
+      [&] { return Sized("num_channels", m.num_channels)("channels", m.channels).result(); },
+      [&]() -> Problem {
+        if (m.format_version < 1) return fmt::format("format_version {} < 1", m.format_version);
+        if (m.bus_robot_id < 0 || m.bus_robot_id > 99)
+          return fmt::format("bus_robot_id {} outside 0..99", m.bus_robot_id);
+        if (m.clock_model < recording_info_t::CLOCK_NONE ||
+            m.clock_model > recording_info_t::CLOCK_ESTIMATED)
+          return fmt::format("clock_model {} is not one of the CLOCK_ constants", m.clock_model);
+        if (!std::isfinite(m.clock_drift_ppm) || std::fabs(m.clock_drift_ppm) > 1000.0)
+          return fmt::format("clock_drift_ppm {} outside +-1000", m.clock_drift_ppm);
+        // Offsets beyond an hour are no clock error but a wrong date.
+        if (m.clock_offset_us < -3'600'000'000 || m.clock_offset_us > 3'600'000'000)
+          return fmt::format("clock_offset_us {} beyond +-1 h", m.clock_offset_us);
+        if (m.image_every < 0) return fmt::format("image_every {} < 0", m.image_every);
+        if (m.file_index < 0) return fmt::format("file_index {} < 0", m.file_index);
+        if (m.max_file_bytes < 0) return fmt::format("max_file_bytes {} < 0", m.max_file_bytes);
+        if (m.clock_observed_messages < 0)
+          return fmt::format("clock_observed_messages {} < 0", m.clock_observed_messages);
+        return {};
       });
 }
 

@@ -22,5 +22,6 @@ std::optional<std::string> validate(const ball_state_t& m);
 std::optional<std::string> validate(const team_state_t& m);
 std::optional<std::string> validate(const service_status_t& m);
 std::optional<std::string> validate(const world_state_t& m);
+std::optional<std::string> validate(const recording_info_t& m);
 
 }  // namespace fieldline::bus

@@ -4,6 +4,8 @@
 // would check it; bad ones are reported on stderr with the reason and counted, never printed.
 #include <algorithm>
 #include <cstdio>
+#include <filesystem>
+#include <fstream>
 #include <map>
 #include <optional>
 #include <string>
@@ -19,6 +21,7 @@
 #include "common/bus/urls.hpp"
 #include "tools/bus_dump/message_json.hpp"
 #include "tools/json/json_text.hpp"
+#include "tools/recording/upgrade.hpp"
 
 using namespace fieldline;
 
@@ -26,7 +29,9 @@ namespace {
 
 struct Settings {
   std::vector<std::string> channels;  // empty: all
-  std::int64_t count = 0;             // 0: no limit
+  // Not empty: one CSV file per channel in this directory instead of JSON lines.
+  std::string csv_dir;
+  std::int64_t count = 0;  // 0: no limit
   std::optional<double> duration_s;
   bus_dump::JsonOptions json;
 };
@@ -44,6 +49,10 @@ class Dumper {
   // Prints one checked message; one that does not decode is counted as rejected instead.
   void print(std::string_view channel, std::string_view time_key, Utime time,
              std::optional<std::int64_t> event_number, const void* data, int size) {
+    if (!settings_.csv_dir.empty()) {
+      printCsv(channel, time, data, size);
+      return;
+    }
     line_.clear();
     line_ += "{\"channel\":";
     json::appendString(line_, channel);
@@ -56,6 +65,29 @@ class Dumper {
     line_ += "}\n";
     std::fwrite(line_.data(), 1, line_.size(), stdout);
     std::fflush(stdout);  // lines go to pipes and scripts as they come
+    ++printed_;
+  }
+
+  // One row in the channel's CSV file (DIR/CHANNEL.csv, its header line written first).
+  void printCsv(std::string_view channel, Utime time, const void* data, int size) {
+    auto it = csv_.find(std::string(channel));
+    if (it == csv_.end()) {
+      const std::string path = settings_.csv_dir + "/" + std::string(channel) + ".csv";
+      it = csv_.emplace(std::string(channel), std::ofstream(path)).first;
+      line_.clear();
+      if (!it->second || !bus_dump::appendCsvHeader(line_, channel)) {
+        reject(channel, "csv", "cannot write " + path);
+        csv_.erase(it);
+        return;
+      }
+      it->second << line_ << '\n';
+    }
+    line_.clear();
+    if (!bus_dump::appendCsvRow(line_, channel, time, data, size, settings_.json)) {
+      reject(channel, "decode", "does not decode after passing the checks");
+      return;
+    }
+    it->second << line_ << '\n';
     ++printed_;
   }
 
@@ -82,6 +114,7 @@ class Dumper {
  private:
   const Settings& settings_;
   std::string line_;
+  std::map<std::string, std::ofstream> csv_;
   std::int64_t printed_ = 0;
   std::map<std::string, std::int64_t> rejected_;
 };
@@ -122,6 +155,10 @@ int dumpLog(const std::string& path, const Settings& settings) {
   }
   reportNew();  // damage at the end of the file
   dumper.summary();
+  for (const auto& [name, n] : log.upgradedByKind()) {
+    std::fprintf(stderr, "bus_dump: %lld events of %s upgraded to today's type\n",
+                 static_cast<long long>(n), name.c_str());
+  }
   return 0;
 }
 
@@ -184,6 +221,10 @@ struct Options {
                  "Bus only: dump until interrupted (a bus dump needs --count, --duration or this)");
     app.add_flag("--image-data", settings.json.image_data,
                  "Print image_t pixel bytes as a JSON array instead of size and hash");
+    app.add_option("--csv", settings.csv_dir,
+                   "Write one CSV file per channel into this directory (created) instead of JSON "
+                   "lines: DIR/ROBOT_STATE.csv, ... with log_utime (or the receive time) and one "
+                   "column per field");
   }
 
   // Throws CLI::ValidationError when the combination is not allowed.
@@ -208,9 +249,12 @@ int main(int argc, char** argv) {
       "message with \"channel\", \"log_utime\" and \"event\" (log) or \"receive_utime\" (bus), "
       "and \"message\" holding every field by name (arrays as JSON arrays; image pixels as size "
       "and FNV-1a hash unless --image-data). Messages are checked as a node checks them; bad "
-      "ones are reported on stderr and counted, never printed. Examples:\n"
+      "ones are reported on stderr and counted, never printed. The writers are generated from "
+      "lcmtypes/ at build time: every field of every type. --csv DIR writes a CSV file per "
+      "channel instead. Examples:\n"
       "  fieldline-bus-dump --log run.lcmlog --channel ROBOT_STATE | jq .message.x\n"
-      "  fieldline-bus-dump --robot 2 --channel ODOMETRY --count 10"};
+      "  fieldline-bus-dump --robot 2 --channel ODOMETRY --count 10\n"
+      "  fieldline-bus-dump --log rec/robot2.lcm --csv rec/robot2_csv"};
   Options o;
   o.addTo(app);
   try {
@@ -221,7 +265,9 @@ int main(int argc, char** argv) {
     return app.exit(e) == 0 ? 0 : 2;
   }
   if (o.duration->count() > 0) o.settings.duration_s = o.duration_s;
+  if (!o.settings.csv_dir.empty()) std::filesystem::create_directories(o.settings.csv_dir);
 
+  recording::installLogUpgrades();
   return bus::runMain("bus_dump", [&]() -> int {
     if (!o.log_path.empty()) return dumpLog(o.log_path, o.settings);
     const std::string bus_url = !o.url.empty() ? o.url

@@ -2,19 +2,24 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
+#include <fstream>
 #include <limits>
 #include <numbers>
+#include <set>
 #include <sstream>
 
 #include <fmt/format.h>
 #include <Eigen/LU>
-#include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
 
 #include "common/geometry/geometry.hpp"
 
 namespace fieldline::eval {
 namespace {
+
+// One colour per robot number (1..6) in the plots.
+constexpr const char* kPlotColours[] = {"#e74c3c", "#3498db", "#9b59b6",
+                                        "#1abc9c", "#e67e22", "#7f8c8d"};
 
 // Chi-square with 3 degrees of freedom: the central 95 % of single-sample NEES values.
 constexpr double kNeesLow = 0.2158;
@@ -288,78 +293,76 @@ std::string summaryJson(const Summary& s, const std::string& source) {
   return o.str();
 }
 
-void writePlots(const Summary& s, const std::string& dir, double half_length, double half_width) {
-  const cv::Scalar colours[] = {{0, 0, 220},   {0, 160, 0},   {220, 0, 0},
-                                {0, 160, 220}, {200, 0, 200}, {120, 120, 0}};
-  // Trajectories on the field: truth thin grey, estimate coloured per robot.
-  {
-    const double scale = 50.0;  // px per m
-    const int w = static_cast<int>(2 * half_length * scale) + 40;
-    const int h = static_cast<int>(2 * half_width * scale) + 40;
-    cv::Mat img(h, w, CV_8UC3, cv::Scalar(40, 110, 40));
-    auto px = [&](double x, double y) {
-      return cv::Point(static_cast<int>(w / 2 + x * scale), static_cast<int>(h / 2 - y * scale));
-    };
-    cv::rectangle(img, px(-half_length, half_width), px(half_length, -half_width),
-                  cv::Scalar(255, 255, 255), 1);
-    cv::line(img, px(0, -half_width), px(0, half_width), cv::Scalar(255, 255, 255), 1);
-    for (std::size_t i = 1; i < s.matched.size(); ++i) {
-      const Matched& a = s.matched[i - 1];
-      const Matched& b = s.matched[i];
-      if (a.robot != b.robot) continue;
-      cv::line(img, px(a.true_x, a.true_y), px(b.true_x, b.true_y), cv::Scalar(200, 200, 200), 1);
+std::string plotScript(const Summary& s, const std::string& dir, double half_length,
+                       double half_width) {
+  std::set<int> robots;
+  for (const Matched& m : s.matched)
+    robots.insert(m.robot);
+  std::string gp;
+  // The samples as gnuplot data blocks, one per robot: t, error, heading error, latency, the
+  // estimate and the truth.
+  for (const int r : robots) {
+    gp += fmt::format("$R{} << EOD\n", r);
+    const Matched* previous = nullptr;
+    for (const Matched& m : s.matched) {
+      if (m.robot != r) continue;
+      // A jump of the estimate (a relocalization) breaks its line instead of drawing across.
+      if (previous && std::hypot(m.x - previous->x, m.y - previous->y) > 0.5) gp += "\n";
+      previous = &m;
+      gp += fmt::format("{:.3f} {:.4f} {:.3f} {:.2f} {:.4f} {:.4f} {:.4f} {:.4f}\n", m.t,
+                        m.pos_error, m.heading_error * 180.0 / std::numbers::pi, m.latency_ms, m.x,
+                        m.y, m.true_x, m.true_y);
     }
-    for (std::size_t i = 1; i < s.matched.size(); ++i) {
-      const Matched& a = s.matched[i - 1];
-      const Matched& b = s.matched[i];
-      if (a.robot != b.robot || std::hypot(a.x - b.x, a.y - b.y) > 0.5) continue;
-      cv::line(img, px(a.x, a.y), px(b.x, b.y), colours[(b.robot - 1 + 6) % 6], 1, cv::LINE_AA);
-    }
-    cv::imwrite(dir + "/trajectories.png", img);
+    gp += "EOD\n";
   }
-  // Position error over time per robot (0..0.3 m).
-  {
-    const int w = 1000, h = 400;
-    cv::Mat img(h, w, CV_8UC3, cv::Scalar(255, 255, 255));
-    double t_max = 1.0;
-    for (const Matched& m : s.matched)
-      t_max = std::max(t_max, m.t);
-    auto px = [&](double t, double e) {
-      return cv::Point(static_cast<int>(40 + t / t_max * (w - 50)),
-                       static_cast<int>(h - 20 - std::min(e, 0.3) / 0.3 * (h - 40)));
-    };
-    for (double e = 0.0; e <= 0.3001; e += 0.05) {
-      cv::line(img, px(0, e), px(t_max, e), cv::Scalar(220, 220, 220), 1);
-      cv::putText(img, fmt::format("{:.2f}", e), cv::Point(2, px(0, e).y + 4),
-                  cv::FONT_HERSHEY_PLAIN, 0.8, cv::Scalar(0, 0, 0));
+  const auto plotEach = [&](const std::string& columns, const std::string& style) {
+    std::string list;
+    for (const int r : robots) {
+      list += fmt::format("{}$R{} using {} with {} lw 1.2 lc rgb '{}' title 'robot {}'",
+                          list.empty() ? "" : ", ", r, columns, style,
+                          kPlotColours[static_cast<std::size_t>((r - 1 + 6) % 6)], r);
     }
-    for (std::size_t i = 1; i < s.matched.size(); ++i) {
-      const Matched& a = s.matched[i - 1];
-      const Matched& b = s.matched[i];
-      if (a.robot != b.robot) continue;
-      cv::line(img, px(a.t, a.pos_error), px(b.t, b.pos_error), colours[(b.robot - 1 + 6) % 6], 1);
-    }
-    cv::putText(img, "position error [m] over time [s], per robot", cv::Point(50, 15),
-                cv::FONT_HERSHEY_PLAIN, 1.0, cv::Scalar(0, 0, 0));
-    cv::imwrite(dir + "/errors.png", img);
-  }
-  // Latency histogram (published - utime of ROBOT_STATE), 0..50 ms in 1 ms bins.
-  {
-    std::vector<int> bins(50, 0);
-    for (const Matched& m : s.matched)
-      ++bins[static_cast<std::size_t>(std::clamp(m.latency_ms, 0.0, 49.0))];
-    const int peak = std::max(1, *std::max_element(bins.begin(), bins.end()));
-    const int w = 520, h = 300;
-    cv::Mat img(h, w, CV_8UC3, cv::Scalar(255, 255, 255));
-    for (int i = 0; i < 50; ++i) {
-      const int bar = bins[static_cast<std::size_t>(i)] * (h - 50) / peak;
-      cv::rectangle(img, cv::Point(10 + i * 10, h - 20 - bar), cv::Point(18 + i * 10, h - 20),
-                    cv::Scalar(180, 80, 0), cv::FILLED);
-    }
-    cv::putText(img, "ROBOT_STATE latency, 0..50 ms (1 ms bins)", cv::Point(10, 15),
-                cv::FONT_HERSHEY_PLAIN, 1.0, cv::Scalar(0, 0, 0));
-    cv::imwrite(dir + "/latency.png", img);
-  }
+    return list.empty() ? std::string("NaN notitle") : list;
+  };
+  gp += "set terminal pngcairo noenhanced size 1100,700 font 'sans,10'\n";
+  gp += "set grid\nset key outside right top\n";
+  // Errors over time: position (m) and heading (deg).
+  gp += fmt::format("set output '{}/errors.png'\n", dir);
+  gp += "set multiplot layout 2,1 title 'Localization error against the simulator''s truth'\n";
+  // Logarithmic: centimetres while tracking and metres while lost in one picture.
+  gp += "set logscale y\n";
+  gp += "set xlabel 'time since the first estimate [s]'\n";
+  gp += "set ylabel 'position error [m] (log scale)'\n";
+  gp += "plot " + plotEach("1:($2 > 0 ? $2 : 1/0)", "lines") + "\n";
+  gp += "set ylabel 'heading error [deg] (log scale)'\n";
+  gp += "plot " + plotEach("1:($3 > 0 ? $3 : 1/0)", "lines") + "\n";
+  gp += "unset multiplot\nunset logscale y\n";
+  // Latency over time.
+  gp += fmt::format("set output '{}/latency.png'\n", dir);
+  gp += "set title 'ROBOT_STATE latency (utime_published - utime)'\n";
+  gp += "set xlabel 'time since the first estimate [s]'\nset ylabel 'latency [ms]'\n";
+  gp += "plot " + plotEach("1:4", "points pt 7 ps 0.3") + "\n";
+  // Trajectories on the field: truth dashed grey, estimates coloured.
+  gp += fmt::format("set output '{}/trajectories.png'\n", dir);
+  gp += "set title 'Trajectories in the field frame (wide grey: truth, under the estimates)'\n";
+  gp += "set size ratio -1\nset xlabel 'x [m]'\nset ylabel 'y [m]'\n";
+  gp += fmt::format("set xrange [{:.2f}:{:.2f}]\nset yrange [{:.2f}:{:.2f}]\n", -half_length,
+                    half_length, -half_width, half_width);
+  std::string truth;
+  for (const int r : robots)
+    truth += fmt::format("$R{} using 7:8 with lines lw 5 lc rgb '#cccccc' notitle, ", r);
+  gp += "plot " + truth + plotEach("5:6", "lines") + "\n";
+  gp += "unset output\n";
+  return gp;
+}
+
+bool writePlots(const Summary& s, const std::string& dir, double half_length, double half_width) {
+  const std::string script = dir + "/plots.gp";
+  std::ofstream(script) << plotScript(s, dir, half_length, half_width);
+  // gnuplot (Debian's gnuplot-nox, scripts/setup) draws them; without it the script stays.
+  const std::string command = "gnuplot '" + script + "' 2> '" + dir + "/plots.log'";
+  const int rc = std::system(command.c_str());
+  return rc == 0;
 }
 
 }  // namespace fieldline::eval

@@ -39,6 +39,8 @@ struct BallSample {
   Utime utime = 0;
   bool valid = false;
   double x = 0, y = 0;
+  // Position covariance the robot reported, m^2 (zero: none).
+  Eigen::Matrix2d covariance = Eigen::Matrix2d::Zero();
 };
 
 struct EvalOptions {
@@ -107,7 +109,14 @@ Summary evaluate(const std::vector<TruthSample>& truth, std::vector<StateSample>
 // The one line the issue asks for.
 std::string summaryLine(const Summary& s);
 std::string summaryJson(const Summary& s, const std::string& source);
-// trajectories.png, errors.png, latency.png in `dir`; `half_length`/`half_width` of the field.
-void writePlots(const Summary& s, const std::string& dir, double half_length, double half_width);
+// The gnuplot script that draws errors.png (position and heading error over time), latency.png
+// (ROBOT_STATE latency over time) and trajectories.png (estimates and truth on the field) into
+// `dir`, with the samples in it: time axes, units and a legend per robot.
+std::string plotScript(const Summary& s, const std::string& dir, double half_length,
+                       double half_width);
+// Writes `dir`/plots.gp and runs gnuplot on it (Debian's gnuplot-nox, scripts/setup); false when
+// gnuplot failed or is missing (its messages in `dir`/plots.log). `half_length`/`half_width`: the
+// field's.
+bool writePlots(const Summary& s, const std::string& dir, double half_length, double half_width);
 
 }  // namespace fieldline::eval

@@ -10,6 +10,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -23,7 +24,9 @@
 #include <spdlog/spdlog.h>
 #include <CLI/CLI.hpp>
 
+#include "common/bus/checked_decode.hpp"
 #include "common/bus/cli.hpp"
+#include "common/bus/log_file.hpp"
 #include "common/bus/node.hpp"
 #include "common/config/config.hpp"
 #include "common/field/field_model.hpp"
@@ -32,6 +35,9 @@
 #include "tools/eval/evaluation.hpp"
 #include "tools/eval/team_ball.hpp"
 #include "tools/launch/robot_clocks.hpp"
+#include "tools/recording/clock_model.hpp"
+#include "tools/recording/recording_info.hpp"
+#include "tools/recording/upgrade.hpp"
 
 using namespace fieldline;
 
@@ -43,30 +49,60 @@ std::string selfDirectory() {
   return ec ? std::string{} : p.parent_path().string();
 }
 
-// The launch file with the scenario given to the simulator and the pilots.
+// The launch file with the scenario given to the simulator and the pilots, and the scenario's
+// robot file to every process that models the robot's body (motor bridge, fusion, pilot), so a
+// scenario with a four-wheeled robot runs four wheels end to end.
 std::string scenarioLaunchFile(const std::string& launch, const std::string& scenario,
-                               const std::string& out_dir) {
+                               const std::string& robot, const std::string& out_dir) {
   std::ifstream in(config::resolvePreset("launch", launch));
   if (!in) throw std::runtime_error("cannot read launch file " + launch);
   std::ostringstream text;
   std::string line;
   bool in_world_sim = false;
   bool in_pilot = false;
+  bool in_body = false;
+  const auto insertArgs = [](std::string& args_line, const std::string& extra) {
+    // args: [a, b] -> args: [a, b, EXTRA]
+    const auto close = args_line.rfind(']');
+    if (close == std::string::npos) return false;
+    const bool empty = args_line.find_first_not_of(" [", args_line.find('[')) == close;
+    args_line.insert(close, (empty ? "" : ", ") + extra);
+    return true;
+  };
+  const std::string robot_args = "--robot-config, " + robot;
   while (std::getline(in, line)) {
     if (line.find("- name:") != std::string::npos) {
       in_world_sim = line.find("world_sim") != std::string::npos;
       in_pilot = line.find("pilot") != std::string::npos;
+      in_body = in_pilot || line.find("motor_bridge") != std::string::npos ||
+                line.find("fusion") != std::string::npos;
     }
-    if (in_pilot && line.find("args:") != std::string::npos) {
-      // args: [a, b] -> args: [a, b, --scenario, NAME]
-      const auto close = line.rfind(']');
-      if (close != std::string::npos) line.insert(close, ", --scenario, " + scenario);
-      in_pilot = false;
+    if (line.find("args:") != std::string::npos && (in_pilot || in_body)) {
+      std::string extra = in_body ? robot_args : "";
+      if (in_pilot) extra += ", --scenario, " + scenario;
+      if (insertArgs(line, extra)) in_pilot = in_body = false;
     }
     text << line << '\n';
-    if (in_world_sim && line.find("executable:") != std::string::npos) {
-      text << "    args: [--scenario, " << scenario << "]\n";
-      in_world_sim = false;
+    if (line.find("executable:") != std::string::npos) {
+      if (in_world_sim) {
+        text << "    args: [--scenario, " << scenario << "]\n";
+        in_world_sim = false;
+      } else if (in_body && !in_pilot) {
+        // A body process without an args line of its own (the motor bridge) gets one, unless
+        // its entry has one further down (then that one is extended).
+        const std::streampos mark = in.tellg();
+        std::string rest;
+        bool has_args = false;
+        while (std::getline(in, rest) && rest.find("- name:") == std::string::npos) {
+          if (rest.find("args:") != std::string::npos) has_args = true;
+        }
+        in.clear();
+        in.seekg(mark);
+        if (!has_args) {
+          text << "    args: [" << robot_args << "]\n";
+          in_body = false;
+        }
+      }
     }
   }
   const std::string path = out_dir + "/launch.yaml";
@@ -80,60 +116,62 @@ struct Collector {
   std::vector<eval::BallSample> balls;
   std::map<int, Utime> first_lines;
   std::vector<eval::TeamSample> teams;
-  // The robots' clocks (launch file): their stamps are converted to the true time.
+  // The robots' clocks (launch file, or a recording's clock models): their stamps are converted
+  // to the true time.
   launch::RobotClocks clocks;
   Utime trueTime(int robot, Utime own) const { return ownToTruth(clocks.of(robot), own); }
 
   void subscribe(bus::Node& node, bus::BusId sim_bus, const std::vector<bus::BusId>& robot_buses) {
     node.subscribe(
-        bus::channels::kSimWorld,
-        [this](const world_state_t& w) {
-          eval::TruthSample t;
-          t.utime = w.header.utime;
-          for (int i = 0; i < w.num_robots; ++i) {
-            const auto k = static_cast<std::size_t>(i);
-            t.robots[w.robot_id[k]] = {w.robot_x[k], w.robot_y[k], w.robot_phi[k],
-                                       w.robot_kidnaps[k]};
-          }
-          t.ball_x = w.ball_x;
-          t.ball_y = w.ball_y;
-          if (truth.empty() || t.utime > truth.back().utime) truth.push_back(std::move(t));
-        },
-        sim_bus);
+        bus::channels::kSimWorld, [this](const world_state_t& w) { onSimWorld(w); }, sim_bus);
     for (const bus::BusId b : robot_buses) {
       node.subscribe(
-          bus::channels::kRobotState,
-          [this](const robot_state_t& m) {
-            eval::StateSample s;
-            s.robot = m.header.robot_id;
-            s.utime = trueTime(s.robot, m.header.utime);
-            s.published = trueTime(s.robot, m.header.utime_published);
-            s.x = m.x;
-            s.y = m.y;
-            s.phi = m.phi;
-            for (int r = 0; r < 3; ++r)
-              for (int c = 0; c < 3; ++c)
-                s.covariance(r, c) = m.covariance[3 * r + c];
-            s.status = m.status;
-            states.push_back(s);
-          },
-          b);
+          bus::channels::kRobotState, [this](const robot_state_t& m) { onRobotState(m); }, b);
       node.subscribe(
-          bus::channels::kVisionLines,
-          [this](const line_contours_t& m) {
-            first_lines.try_emplace(m.header.robot_id, trueTime(m.header.robot_id, m.header.utime));
-          },
-          b);
+          bus::channels::kVisionLines, [this](const line_contours_t& m) { onLines(m); }, b);
       node.subscribe(
-          bus::channels::kBallState,
-          [this](const ball_state_t& m) {
-            balls.push_back({m.header.robot_id, trueTime(m.header.robot_id, m.header.utime),
-                             m.valid != 0, m.x, m.y});
-          },
-          b);
+          bus::channels::kBallState, [this](const ball_state_t& m) { onBallState(m); }, b);
       node.subscribe(
           bus::channels::kTeamState, [this](const team_state_t& m) { onTeamState(m); }, b);
     }
+  }
+
+  void onSimWorld(const world_state_t& w) {
+    eval::TruthSample t;
+    t.utime = w.header.utime;
+    for (int i = 0; i < w.num_robots; ++i) {
+      const auto k = static_cast<std::size_t>(i);
+      t.robots[w.robot_id[k]] = {w.robot_x[k], w.robot_y[k], w.robot_phi[k], w.robot_kidnaps[k]};
+    }
+    t.ball_x = w.ball_x;
+    t.ball_y = w.ball_y;
+    if (truth.empty() || t.utime > truth.back().utime) truth.push_back(std::move(t));
+  }
+
+  void onRobotState(const robot_state_t& m) {
+    eval::StateSample s;
+    s.robot = m.header.robot_id;
+    s.utime = trueTime(s.robot, m.header.utime);
+    s.published = trueTime(s.robot, m.header.utime_published);
+    s.x = m.x;
+    s.y = m.y;
+    s.phi = m.phi;
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c)
+        s.covariance(r, c) = m.covariance[3 * r + c];
+    s.status = m.status;
+    states.push_back(s);
+  }
+
+  void onLines(const line_contours_t& m) {
+    first_lines.try_emplace(m.header.robot_id, trueTime(m.header.robot_id, m.header.utime));
+  }
+
+  void onBallState(const ball_state_t& m) {
+    eval::BallSample b{m.header.robot_id, trueTime(m.header.robot_id, m.header.utime), m.valid != 0,
+                       m.x, m.y};
+    b.covariance << m.covariance[0], m.covariance[1], m.covariance[2], m.covariance[3];
+    balls.push_back(b);
   }
 
   void onTeamState(const team_state_t& m) {
@@ -143,6 +181,8 @@ struct Collector {
     t.team_ball_valid = m.team_ball_valid;
     t.team_ball_x = m.team_ball_x;
     t.team_ball_y = m.team_ball_y;
+    t.team_ball_covariance << m.team_ball_covariance[0], m.team_ball_covariance[1],
+        m.team_ball_covariance[2], m.team_ball_covariance[3];
     const eval::TeamBallOptions defaults;
     for (int i = 0; i < m.num_robots && i < 6; ++i) {
       const auto k = static_cast<std::size_t>(i);
@@ -156,6 +196,7 @@ struct Collector {
 struct EvalArgs {
   std::string scenario = "figure_eight";
   std::string log;
+  std::string record_dir;
   std::string launch = "sim_team";
   std::string out_dir;
   std::string field_name;
@@ -168,7 +209,13 @@ struct EvalArgs {
 void addOptions(CLI::App& app, EvalArgs& a) {
   app.add_option("--scenario", a.scenario, "Scenario preset (config/scenarios) or YAML path")
       ->capture_default_str();
-  app.add_option("--log", a.log, "Evaluate a recorded LCM log instead of running the team");
+  app.add_option("--log", a.log,
+                 "Evaluate a recording instead of running the team: an LCM log with SIM_WORLD and "
+                 "ROBOT_STATE (e.g. fieldline-replay --truth's output), or a recording's "
+                 "directory (sim.lcm, robot1.lcm, ...); each robot's clock is taken out");
+  app.add_option("--record", a.record_dir,
+                 "Also record the run (fieldline-record --team) into this directory, to replay "
+                 "and evaluate it later with --log");
   app.add_option("--duration", a.duration, "Seconds to run (default: the scenario's, else 30)")
       ->check(CLI::Range(3.0, 3600.0));
   app.add_option("--robots", a.robots, "Team size (default: the scenario's highest robot number)")
@@ -183,26 +230,86 @@ void addOptions(CLI::App& app, EvalArgs& a) {
       ->capture_default_str();
 }
 
-// Reads a recorded log into the collector; returns the source's name.
-std::string collectFromLog(EvalArgs& a, Collector& collector, const Clock& clock) {
+// Decodes a checked event of the channels the evaluation reads into the collector.
+void dispatch(Collector& collector, const std::string& channel, const void* data, int size) {
+  namespace ch = bus::channels;
+  const auto as = [&](auto msg, auto handler) {
+    if (msg.decode(data, 0, size) == size) handler(msg);
+  };
+  if (channel == ch::kSimWorld.name) {
+    as(world_state_t{}, [&](const world_state_t& m) { collector.onSimWorld(m); });
+  } else if (channel == ch::kRobotState.name) {
+    as(robot_state_t{}, [&](const robot_state_t& m) { collector.onRobotState(m); });
+  } else if (channel == ch::kVisionLines.name) {
+    as(line_contours_t{}, [&](const line_contours_t& m) { collector.onLines(m); });
+  } else if (channel == ch::kBallState.name) {
+    as(ball_state_t{}, [&](const ball_state_t& m) { collector.onBallState(m); });
+  } else if (channel == ch::kTeamState.name) {
+    as(team_state_t{}, [&](const team_state_t& m) { collector.onTeamState(m); });
+  }
+}
+
+// Reads a recorded log (or a recording's directory) into the collector; returns the source's
+// name. Every robot's stamps are converted to the log's time (the simulator's, where SIM_WORLD
+// was recorded on the same machine) with its clock model, fitted to the traffic of its log as
+// fieldline-replay fits it: the live evaluation converts with the launch file's clocks.
+std::string collectFromLog(EvalArgs& a, Collector& collector) {
   if (!std::filesystem::exists(a.log)) throw std::invalid_argument("no such log: " + a.log);
   if (a.out_dir.empty()) a.out_dir = "eval/" + std::filesystem::path(a.log).stem().string();
-  if (a.field_name.empty()) a.field_name = "msl";
   std::filesystem::create_directories(a.out_dir);
-  bus::Node node({.process = "eval",
-                  .robot_id = 0,
-                  .url = "file://" + std::filesystem::absolute(a.log).string() + "?speed=0",
-                  .future_tolerance_us = std::numeric_limits<Utime>::max() / 4,
-                  // A log is read long after it was recorded: its messages are not stale.
-                  .max_age_us = std::numeric_limits<Utime>::max() / 4,
-                  .status_period_us = 0},
-                 clock);
-  collector.subscribe(node, bus::kPrimaryBus, {bus::kPrimaryBus});
-  // The log plays as fast as it can be read; a second without messages is its end.
-  int idle_ms = 0;
-  while (idle_ms < 1000 && !bus::stopSignalReceived()) {
-    idle_ms = node.spinOnce(100) > 0 ? 0 : idle_ms + 100;
+  const std::vector<std::string> logs = recording::recordingFiles(a.log);
+  // The plots' field: the recording's own (RECORDING_INFO), else msl.
+  for (const std::string& path : logs) {
+    if (!a.field_name.empty()) break;
+    if (const auto info = recording::readRecordingInfo(path); info && !info->field_yaml.empty()) {
+      a.field_name = a.out_dir + "/field.yaml";
+      std::ofstream(a.field_name) << info->field_yaml;
+    }
   }
+  if (a.field_name.empty()) a.field_name = "msl";
+  for (const std::string& path : logs) {
+    // The recording's own clock model (RECORDING_INFO), else one fitted to the file's traffic.
+    std::map<int, recording::RobotClockModel> models = recording::estimateClocks(path);
+    if (const auto info = recording::readRecordingInfo(path))
+      models[info->bus_robot_id] = recording::clockOf(*info);
+    for (const auto& [robot, model] : models) {
+      if (robot == 0) continue;  // the simulator keeps the true time
+      collector.clocks.by_robot[robot] = model.error;
+      std::fprintf(stderr, "%s: robot %d's clock: %s\n", path.c_str(), robot,
+                   model.describe().c_str());
+    }
+  }
+  std::map<std::string, std::int64_t> rejected;
+  std::int64_t read = 0;
+  for (const std::string& path : logs) {
+    bus::LogReader log(path);
+    bus::LogEvent e;
+    while (log.nextEvent(e) && !bus::stopSignalReceived()) {
+      const void* data = e.data.data();
+      const int size = static_cast<int>(e.data.size());
+      const auto header = recording::peekHeader(data, size);
+      // Checked as a node checks live traffic, "now" being the log time on the sender's clock.
+      const ClockError clock = header ? collector.clocks.of(header->robot_id) : ClockError{};
+      if (auto r = bus::checkEncoded(e.channel, data, size, truthToOwn(clock, e.timestamp),
+                                     500 * kMicrosPerMilli)) {
+        if (r->kind == "unknown_channel") continue;
+        if (++rejected[r->kind] <= 5) {
+          std::fprintf(stderr, "%s: event %lld refused (%s): %s\n", path.c_str(),
+                       static_cast<long long>(e.number), r->kind.c_str(), r->text.c_str());
+        }
+        continue;
+      }
+      ++read;
+      dispatch(collector, e.channel, data, size);
+    }
+    for (const auto& [kind, n] : log.rejectedByKind())
+      rejected[kind] += n;
+  }
+  std::string kinds;
+  for (const auto& [kind, n] : rejected)
+    kinds += fmt::format(" {} {}", kind, n);
+  std::fprintf(stderr, "%zu log(s): %lld messages read, refused:%s\n", logs.size(),
+               static_cast<long long>(read), kinds.empty() ? " none" : kinds.c_str());
   return a.log;
 }
 
@@ -219,7 +326,7 @@ std::string collectFromTeam(EvalArgs& a, Collector& collector, const Clock& cloc
   if (a.field_name.empty()) a.field_name = sc.field;
   if (a.out_dir.empty()) a.out_dir = "eval/" + sc.name;
   std::filesystem::create_directories(a.out_dir);
-  const std::string launch_file = scenarioLaunchFile(a.launch, a.scenario, a.out_dir);
+  const std::string launch_file = scenarioLaunchFile(a.launch, a.scenario, sc.robot, a.out_dir);
   // The robots' clocks count their drift from this time; the launcher takes it from here.
   const Utime clock_reference = clock.now();
   setenv(kClockReferenceVariable, std::to_string(clock_reference).c_str(), 1);
@@ -236,6 +343,26 @@ std::string collectFromTeam(EvalArgs& a, Collector& collector, const Clock& cloc
 
   const std::string robots_arg = std::to_string(a.robots);
   const std::string duration_arg = std::to_string(a.duration);
+  // The recorder starts before the team and hears everything the evaluation hears.
+  pid_t recorder = -1;
+  if (!a.record_dir.empty()) {
+    std::string robot_list;
+    for (int r = 1; r <= a.robots; ++r)
+      robot_list += (r > 1 ? "," : "") + std::to_string(r);
+    const std::string record_log = a.out_dir + "/record.log";
+    const std::string record_bin = selfDirectory() + "/fieldline-record";
+    recorder = fork();
+    if (recorder < 0) throw std::runtime_error("fork failed");
+    if (recorder == 0) {
+      std::FILE* f = std::freopen(record_log.c_str(), "w", stdout);
+      if (f) dup2(fileno(stdout), STDERR_FILENO);
+      execl(record_bin.c_str(), record_bin.c_str(), "--team", "--robots", robot_list.c_str(),
+            "--launch", launch_file.c_str(), "-o", a.record_dir.c_str(),
+            static_cast<char*>(nullptr));
+      _exit(127);
+    }
+    std::fprintf(stderr, "recording into %s (log: %s)\n", a.record_dir.c_str(), record_log.c_str());
+  }
   const pid_t child = fork();
   if (child < 0) throw std::runtime_error("fork failed");
   if (child == 0) {
@@ -258,6 +385,15 @@ std::string collectFromTeam(EvalArgs& a, Collector& collector, const Clock& cloc
     node.spinOnce(10);
   if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) {
     std::fprintf(stderr, "launcher ended with status %d (see %s)\n", status, launch_log.c_str());
+  }
+  if (recorder > 0) {
+    kill(recorder, SIGINT);
+    int record_status = 0;
+    waitpid(recorder, &record_status, 0);
+    if (!WIFEXITED(record_status) || WEXITSTATUS(record_status) != 0) {
+      std::fprintf(stderr, "recorder ended with status %d (see %s/record.log)\n", record_status,
+                   a.out_dir.c_str());
+    }
   }
   return "scenario " + sc.name;
 }
@@ -288,7 +424,10 @@ int report(const EvalArgs& a, const Collector& collector, const std::string& sou
   const field::FieldModel field = field::loadFieldPreset(a.field_name);
   const geometry::Vec2 half = field.carpetHalfExtent();
   std::ofstream(a.out_dir + "/summary.json") << eval::summaryJson(summary, source);
-  eval::writePlots(summary, a.out_dir, half.x(), half.y());
+  if (!eval::writePlots(summary, a.out_dir, half.x(), half.y())) {
+    std::fprintf(stderr, "the plots were not drawn (is gnuplot installed? see %s/plots.log)\n",
+                 a.out_dir.c_str());
+  }
   writeCsvs(summary, a.out_dir);
   std::fprintf(stderr,
                "%zu truth samples, %zu robot states (%zu scored), %zu ball states; kidnaps %d "
@@ -314,7 +453,7 @@ int run(EvalArgs a) {
   SystemClock clock;
   Collector collector;
   const std::string source =
-      a.log.empty() ? collectFromTeam(a, collector, clock) : collectFromLog(a, collector, clock);
+      a.log.empty() ? collectFromTeam(a, collector, clock) : collectFromLog(a, collector);
   return report(a, collector, source);
 }
 
@@ -330,5 +469,6 @@ int main(int argc, char** argv) {
   EvalArgs args;
   addOptions(app, args);
   FIELDLINE_PARSE(app, argc, argv);
+  recording::installLogUpgrades();
   return bus::runMain("eval", [&]() -> int { return run(args); });
 }

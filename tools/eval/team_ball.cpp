@@ -2,13 +2,29 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <sstream>
 
 #include <fmt/format.h>
+#include <Eigen/LU>
 
 namespace fieldline::eval {
 
 namespace {
+
+// Chi-square with 2 degrees of freedom: the central 95 % of single-sample NEES values.
+constexpr double kNees2Low = 0.0506;
+constexpr double kNees2High = 7.3778;
+
+// NEES of a position error against its covariance; nothing without a usable covariance.
+std::optional<double> nees2(const Eigen::Vector2d& error, const Eigen::Matrix2d& covariance) {
+  if (!(covariance.determinant() > 0.0) || !covariance.allFinite()) return std::nullopt;
+  return error.dot(covariance.inverse() * error);
+}
+
+bool inBand(double nees) {
+  return nees >= kNees2Low && nees <= kNees2High;
+}
 
 // The true ball at `t` (any robot's truth sample carries it); false outside the truth.
 bool ballAt(const std::vector<TruthSample>& truth, Utime t, double& x, double& y) {
@@ -32,23 +48,45 @@ TeamBallSummary evaluateTeamBall(const std::vector<TruthSample>& truth,
 
   // The team ball of every robot.
   double sum = 0;
+  std::size_t nees_n = 0, nees_in = 0;
+  double nees_sum = 0;
   for (const TeamSample& t : teams) {
     if (t.utime < start || !t.team_ball_valid) continue;
     double bx = 0, by = 0;
     if (!ballAt(truth, t.utime, bx, by)) continue;
-    sum += std::hypot(t.team_ball_x - bx, t.team_ball_y - by);
+    const Eigen::Vector2d error(t.team_ball_x - bx, t.team_ball_y - by);
+    sum += error.norm();
     ++s.team_samples;
+    if (const auto n = nees2(error, t.team_ball_covariance)) {
+      ++nees_n;
+      nees_sum += *n;
+      if (inBand(*n)) ++nees_in;
+    }
   }
   if (s.team_samples > 0) s.team_ball_mean_m = sum / static_cast<double>(s.team_samples);
+  if (nees_n > 0) {
+    s.team_ball_nees_in_band = static_cast<double>(nees_in) / static_cast<double>(nees_n);
+    s.team_ball_nees_mean = nees_sum / static_cast<double>(nees_n);
+  }
 
   // Every robot's own ball, over the same span.
   std::map<int, double> own_sum;
+  std::map<int, std::pair<std::size_t, std::size_t>> own_nees;  // (in band, with a covariance)
   for (const BallSample& b : balls) {
     if (!b.valid || b.utime < start || b.utime > end) continue;
     double bx = 0, by = 0;
     if (!ballAt(truth, b.utime, bx, by)) continue;
-    own_sum[b.robot] += std::hypot(b.x - bx, b.y - by);
+    const Eigen::Vector2d error(b.x - bx, b.y - by);
+    own_sum[b.robot] += error.norm();
     ++s.own_ball_samples[b.robot];
+    if (const auto n = nees2(error, b.covariance)) {
+      ++own_nees[b.robot].second;
+      if (inBand(*n)) ++own_nees[b.robot].first;
+    }
+  }
+  for (const auto& [robot, counts] : own_nees) {
+    s.own_ball_nees_in_band[robot] =
+        static_cast<double>(counts.first) / static_cast<double>(counts.second);
   }
   for (const auto& [robot, total] : own_sum) {
     const std::size_t n = s.own_ball_samples[robot];
@@ -101,21 +139,26 @@ TeamBallSummary evaluateTeamBall(const std::vector<TruthSample>& truth,
 }
 
 std::string teamBallLine(const TeamBallSummary& s) {
+  std::string own;
+  for (const auto& [robot, mean] : s.own_ball_mean_m)
+    own += fmt::format(" {}={:.4f}", robot, mean);
   return fmt::format(
       "team_ball_mean_m={:.4f} best_own_ball_mean_m={:.4f} (robot {}) "
-      "team_ball_valid_share={:.3f} ({} steps with the ball seen)",
-      s.team_ball_mean_m, s.best_own_ball_mean_m, s.best_own_robot, s.team_ball_valid_share,
-      s.steps_any_sees);
+      "team_ball_nees_in_band={:.3f} team_ball_valid_share={:.3f} ({} steps with the ball seen) "
+      "own_ball_mean_m:{}",
+      s.team_ball_mean_m, s.best_own_ball_mean_m, s.best_own_robot, s.team_ball_nees_in_band,
+      s.team_ball_valid_share, s.steps_any_sees, own.empty() ? " none" : own);
 }
 
 std::string teamBallJson(const TeamBallSummary& s) {
   std::ostringstream o;
   o << fmt::format(
-      "{{\"team_samples\": {}, \"team_ball_mean_m\": {:.5f}, \"best_own_robot\": {}, "
+      "{{\"team_samples\": {}, \"team_ball_mean_m\": {:.5f}, \"team_ball_nees_in_band\": "
+      "{:.4f}, \"team_ball_nees_mean\": {:.3f}, \"best_own_robot\": {}, "
       "\"best_own_ball_mean_m\": {:.5f}, \"steps_any_sees\": {}, \"team_ball_valid_share\": "
       "{:.4f},\n",
-      s.team_samples, s.team_ball_mean_m, s.best_own_robot, s.best_own_ball_mean_m,
-      s.steps_any_sees, s.team_ball_valid_share);
+      s.team_samples, s.team_ball_mean_m, s.team_ball_nees_in_band, s.team_ball_nees_mean,
+      s.best_own_robot, s.best_own_ball_mean_m, s.steps_any_sees, s.team_ball_valid_share);
   const auto map = [&o](const char* name, const auto& m, bool last) {
     o << "  \"" << name << "\": {";
     bool first = true;
@@ -126,6 +169,7 @@ std::string teamBallJson(const TeamBallSummary& s) {
     o << (last ? "}\n" : "},\n");
   };
   map("own_ball_mean_m", s.own_ball_mean_m, false);
+  map("own_ball_nees_in_band", s.own_ball_nees_in_band, false);
   map("sees_share", s.sees_share, true);
   o << "}\n";
   return o.str();

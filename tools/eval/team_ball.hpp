@@ -9,6 +9,8 @@
 #include <string>
 #include <vector>
 
+#include <Eigen/Core>
+
 #include "tools/eval/evaluation.hpp"
 
 namespace fieldline::eval {
@@ -20,6 +22,8 @@ struct TeamSample {
   Utime utime = 0;
   bool team_ball_valid = false;
   double team_ball_x = 0, team_ball_y = 0;
+  // The team ball's position covariance, m^2 (zero: none).
+  Eigen::Matrix2d team_ball_covariance = Eigen::Matrix2d::Zero();
   // Robot r (index r-1) sees the ball: its entry has a valid ball last seen within the window.
   std::array<bool, 6> sees{};
 };
@@ -40,9 +44,15 @@ struct TeamBallSummary {
   std::size_t team_samples = 0;
   // Mean distance of the team ball (all robots' TEAM_STATE, valid) from the true ball, m.
   double team_ball_mean_m = -1;
+  // Share of those team balls whose NEES (error against the reported covariance, 2 dof) lies in
+  // the central 95 % band of chi-square (0.051-7.38), and their mean NEES (2 when consistent).
+  double team_ball_nees_in_band = -1;
+  double team_ball_nees_mean = -1;
   // Per robot: mean error of its own valid BALL_STATE, m, and the number of samples.
   std::map<int, double> own_ball_mean_m;
   std::map<int, std::size_t> own_ball_samples;
+  // Per robot: the same NEES band share of its own ball.
+  std::map<int, double> own_ball_nees_in_band;
   // The robot with the smallest own mean (-1: none had enough samples) and that mean.
   int best_own_robot = -1;
   double best_own_ball_mean_m = -1;
@@ -59,7 +69,8 @@ TeamBallSummary evaluateTeamBall(const std::vector<TruthSample>& truth,
                                  std::vector<TeamSample> teams,
                                  const TeamBallOptions& options = {});
 
-// "team_ball_mean_m=0.0086 best_own_ball_mean_m=0.0141 (robot 2) team_ball_valid_share=1.000"
+// "team_ball_mean_m=0.0086 best_own_ball_mean_m=0.0141 (robot 2) team_ball_nees_in_band=0.912
+// team_ball_valid_share=1.000 (312 steps with the ball seen) own_ball_mean_m: 1=0.0141 ..."
 std::string teamBallLine(const TeamBallSummary& s);
 // A JSON object with every figure.
 std::string teamBallJson(const TeamBallSummary& s);

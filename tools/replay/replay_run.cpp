@@ -3,12 +3,18 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <set>
 #include <sstream>
 
+#include <fmt/format.h>
+#include <unistd.h>
+
 #include <fieldline/obstacle_observations_t.hpp>
+#include <fieldline/robot_state_t.hpp>
 #include <fieldline/service_status_t.hpp>
 
 #include "common/bus/channels.hpp"
@@ -17,6 +23,7 @@
 #include "common/bus/replay.hpp"
 #include "common/camera/colour.hpp"
 #include "common/camera/mirror_model.hpp"
+#include "common/config/config.hpp"
 #include "common/field/field_model.hpp"
 #include "common/robot/robot_params.hpp"
 #include "common/time/clock.hpp"
@@ -25,6 +32,7 @@
 #include "services/fusion/fusion_node.hpp"
 #include "services/fusion/line_matcher.hpp"
 #include "services/region_tracking/tracking_node.hpp"
+#include "tools/recording/recording_info.hpp"
 
 namespace fieldline::replay {
 
@@ -81,12 +89,17 @@ std::optional<int> firstRobotId(bus::LogReader& log, bus::Channel<Msg> channel) 
 }
 
 int detectRobotId(const std::string& path) {
-  // A reader of its own: its rejection counts must not add to the replay's.
-  bus::LogReader log(path);
+  // The recording says whose bus it is.
+  if (const auto info = recording::readRecordingInfo(path);
+      info && info->bus_robot_id >= 1 && info->bus_robot_id <= 6)
+    return info->bus_robot_id;
+  // A reader of its own: its rejection counts must not add to the replay's. The robot's clock is
+  // not known yet: no future check.
+  bus::LogReader log(path, {.future_tolerance_us = std::numeric_limits<Utime>::max() / 4});
   if (auto id = firstRobotId(log, ch::kOdometry)) return *id;
   if (auto id = firstRobotId(log, ch::kVisionLines)) return *id;
   if (auto id = firstRobotId(log, ch::kCameraImage)) return *id;
-  throw ReplayArgumentError("no ODOMETRY, VISION_LINES or CAMERA_IMAGE in " + path +
+  throw ReplayArgumentError("no RECORDING_INFO, ODOMETRY, VISION_LINES or CAMERA_IMAGE in " + path +
                             " to take the robot id from; give --robot");
 }
 
@@ -99,7 +112,7 @@ bool contains(const std::vector<std::string>& list, const std::string& item) {
 // every SIM_WORLD sample of the truth log in which the robot touches another robot. Returns the
 // number of such samples.
 std::int64_t writeOracleContactLog(const ReplayRunOptions& options, int robot_id,
-                                   const std::vector<std::string>& fed,
+                                   const ClockError& clock, const std::vector<std::string>& fed,
                                    const std::string& scratch) {
   const std::string evidence_path = scratch + ".contacts";
   std::int64_t contacts = 0;
@@ -120,8 +133,9 @@ std::int64_t writeOracleContactLog(const ReplayRunOptions& options, int robot_id
     m.y = {0.0f};
     while (truth.next(ch::kSimWorld, world, &event)) {
       if (!touchesAnotherRobot(world, robot_id)) continue;
-      m.header.utime = world.header.utime;
-      m.header.utime_published = std::max(world.header.utime, event.timestamp);
+      // The simulator's time is the log's; the evidence is stamped on the robot's clock.
+      m.header.utime = truthToOwn(clock, world.header.utime);
+      m.header.utime_published = truthToOwn(clock, std::max(world.header.utime, event.timestamp));
       m.header.seq = contacts++;
       out.write(ch::kVisionObstacles, event.timestamp, m);
     }
@@ -183,6 +197,58 @@ void writeStalledLog(const ReplayRunOptions& options, const std::string& input,
   out.flush();
 }
 
+// The log time of the log's first event (0 for an empty log).
+Utime firstLogTime(const std::string& path) {
+  bus::LogReader log(path);
+  bus::LogEvent event;
+  return log.nextEvent(event) ? event.timestamp : 0;
+}
+
+std::string readFile(const std::string& path) {
+  std::ifstream in(path);
+  std::ostringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+// The RECORDING_INFO of a replay's output: the robot and its clock, the field and the settings
+// the nodes ran with, this build's version.
+recording_info_t replayInfo(const ReplayRunOptions& options, const ReplayRunResult& result,
+                            const std::string& field_file, const std::string& fusion_file) {
+  recording_info_t info{};
+  info.format_version = recording_info_t::FORMAT_VERSION;
+  info.bus_robot_id = static_cast<std::int8_t>(result.robot_id);
+  info.clock_model = result.clock.source == recording::ClockSource::kEstimated
+                         ? recording_info_t::CLOCK_ESTIMATED
+                     : result.clock.error.offset_us == 0 && result.clock.error.drift_ppm == 0.0
+                         ? recording_info_t::CLOCK_NONE
+                         : recording_info_t::CLOCK_CONFIGURED;
+  info.clock_offset_us = result.clock.error.offset_us;
+  info.clock_drift_ppm = result.clock.error.drift_ppm;
+  info.clock_reference_us = result.clock.error.reference_us;
+  info.host = "fieldline-replay";
+  info.version = recording::buildVersion();
+  info.field_name = result.field;
+  info.field_yaml = readFile(config::resolvePreset("field", field_file));
+  std::string run;
+  for (const auto& name : options.run)
+    run += (run.empty() ? "" : ", ") + name;
+  info.settings_yaml = fmt::format("replay_of: {}\nrun: [{}]\nfusion_config_name: {}\n",
+                                   options.log_path, run, result.fusion_config);
+  if (std::find(options.run.begin(), options.run.end(), "fusion") != options.run.end()) {
+    std::string text = readFile(config::resolvePreset("fusion", fusion_file));
+    std::string indented;
+    std::istringstream lines(text);
+    for (std::string line; std::getline(lines, line);)
+      indented += "  " + line + "\n";
+    info.settings_yaml += "fusion_config: |\n" + indented;
+  }
+  info.header.robot_id = info.bus_robot_id;
+  info.header.utime = result.clock.ownAt(firstLogTime(options.log_path));
+  info.header.utime_published = info.header.utime;
+  return info;
+}
+
 // Fixed per node kind: a random id would make two replays differ.
 std::int64_t publisherId(const std::string& node) {
   const auto it = std::find(kRunnableNodes.begin(), kRunnableNodes.end(), node);
@@ -228,7 +294,58 @@ bool touchesAnotherRobot(const world_state_t& world, int robot_id) {
   return false;
 }
 
+namespace {
+
+ReplayRunResult runReplayOfFile(const ReplayRunOptions& options);
+
+}  // namespace
+
 ReplayRunResult runReplay(const ReplayRunOptions& options) {
+  if (!std::filesystem::is_directory(options.log_path)) return runReplayOfFile(options);
+  // A recording's directory: the robot's files in order (robotN.lcm, robotN_part002.lcm, ...)
+  // as one log, and the simulator's sim.lcm as the truth unless another is given.
+  if (options.robot_id == 0) {
+    throw ReplayArgumentError("a recording's directory needs the robot to replay (--robot N)");
+  }
+  const std::string name = "robot" + std::to_string(options.robot_id);
+  std::vector<std::string> parts;
+  for (const std::string& file : recording::recordingFiles(options.log_path)) {
+    const std::string stem = std::filesystem::path(file).stem().string();
+    if (stem == name || stem.rfind(name + "_part", 0) == 0) parts.push_back(file);
+  }
+  if (parts.empty()) {
+    throw ReplayArgumentError("no " + name + ".lcm in " + options.log_path);
+  }
+  ReplayRunOptions one = options;
+  one.log_path = parts.front();
+  std::string joined;
+  if (parts.size() > 1) {
+    // LCM logs concatenate: the parts one after the other are one log.
+    joined = (std::filesystem::temp_directory_path() /
+              fmt::format("fieldline_replay_{}_{}.lcm", name, ::getpid()))
+                 .string();
+    std::ofstream out(joined, std::ios::binary);
+    for (const std::string& part : parts)
+      out << std::ifstream(part, std::ios::binary).rdbuf();
+    one.log_path = joined;
+  }
+  const std::string sim = (std::filesystem::path(options.log_path) / "sim.lcm").string();
+  if (one.truth_path.empty() && std::filesystem::exists(sim)) one.truth_path = sim;
+  ReplayRunResult result;
+  try {
+    result = runReplayOfFile(one);
+  } catch (...) {
+    if (!joined.empty()) std::filesystem::remove(joined);
+    throw;
+  }
+  if (!joined.empty()) std::filesystem::remove(joined);
+  result.parts = static_cast<int>(parts.size());
+  return result;
+}
+
+namespace {
+
+ReplayRunResult runReplayOfFile(const ReplayRunOptions& options) {
   if (options.run.empty()) throw ReplayArgumentError("no node to run");
   for (const auto& name : options.run)
     inputChannels(name);  // names are known
@@ -242,6 +359,29 @@ ReplayRunResult runReplay(const ReplayRunOptions& options) {
     throw ReplayArgumentError("the log's robot id " + std::to_string(result.robot_id) +
                               " is not 1..6");
   }
+
+  // What the recording says of itself (fieldline-record's RECORDING_INFO), if anything.
+  const std::optional<recording_info_t> info = recording::readRecordingInfo(options.log_path);
+  const bool info_fits = info && info->bus_robot_id == result.robot_id;
+
+  // The robot's clock against the log's: given, else the recording's, else fitted to the log's
+  // traffic.
+  if (options.clock) {
+    result.clock.error = *options.clock;
+    result.clock.source = recording::ClockSource::kGiven;
+    if (result.clock.error.reference_us == 0) {
+      // A drift given without a reference counts from the log's first event.
+      bus::LogReader first(options.log_path);
+      bus::LogEvent event;
+      if (first.nextEvent(event)) result.clock.error.reference_us = event.timestamp;
+    }
+  } else if (info_fits) {
+    result.clock = recording::clockOf(*info);
+  } else {
+    const auto models = recording::estimateClocks(options.log_path);
+    if (const auto it = models.find(result.robot_id); it != models.end()) result.clock = it->second;
+  }
+  result.clock.robot_id = result.robot_id;
 
   // Fed: what some run node reads, unless a run node produces it.
   std::vector<std::string> produced;
@@ -263,8 +403,47 @@ ReplayRunResult runReplay(const ReplayRunOptions& options) {
                                        clock, memq);
   };
 
+  // The settings: given, else the recording's (written to scratch files the loaders read), else
+  // the processes' defaults.
+  std::vector<std::string> scratch_files;
+  const auto recorded = [&](const std::string& text, const std::string& what) {
+    const std::string path =
+        (std::filesystem::temp_directory_path() /
+         fmt::format("fieldline_replay_{}_{}_{}.yaml", what, ::getpid(), scratch_files.size()))
+            .string();
+    std::ofstream(path) << text;
+    scratch_files.push_back(path);
+    return path;
+  };
+  std::string field_source = options.field;
+  result.field = options.field;
+  if (field_source.empty() && info_fits && !info->field_yaml.empty()) {
+    field_source = recorded(info->field_yaml, "field");
+    result.field = info->field_name + " (the recording's)";
+  } else if (field_source.empty()) {
+    field_source = result.field = "msl";
+  }
+  std::string fusion_source = options.fusion_config;
+  result.fusion_config = options.fusion_config;
+  const std::string recorded_fusion =
+      info_fits ? recording::settingsValue(info->settings_yaml, "fusion_config") : std::string{};
+  if (fusion_source.empty() && !recorded_fusion.empty()) {
+    fusion_source = recorded(recorded_fusion, "fusion");
+    result.fusion_config =
+        recording::settingsValue(info->settings_yaml, "fusion_config_name") + " (the recording's)";
+  } else if (fusion_source.empty()) {
+    fusion_source = result.fusion_config = "default";
+  }
+  struct RemoveScratch {
+    std::vector<std::string>& files;
+    ~RemoveScratch() {
+      for (const auto& f : files)
+        std::filesystem::remove(f);
+    }
+  } remove_scratch{scratch_files};
+
   // The algorithms' state, created as the processes' main() create it.
-  const field::FieldModel field = field::loadFieldPreset(options.field);
+  const field::FieldModel field = field::loadFieldPreset(field_source);
   std::unique_ptr<fusion::LineMatcher> matcher;
   std::vector<std::unique_ptr<bus::Node>> nodes;
   std::vector<std::string> node_names;
@@ -289,7 +468,7 @@ ReplayRunResult runReplay(const ReplayRunOptions& options) {
       features = std::make_unique<feature_recognition::FeatureNode>(node, field);
     } else {
       // As fieldline-fusion: the settings file, then the options that override it.
-      fusion::FusionConfig config = fusion::loadFusionConfigPreset(options.fusion_config);
+      fusion::FusionConfig config = fusion::loadFusionConfigPreset(fusion_source);
       if (options.matcher.empty()) {
         // the settings file's method
       } else if (options.matcher == "lsq") {
@@ -335,9 +514,13 @@ ReplayRunResult runReplay(const ReplayRunOptions& options) {
 
   // Counts what crosses memq: fed channels are inputs, produced ones outputs.
   auto watcher = makeNode("replay_recorder");
-  watcher->subscribeAllRaw([&](const std::string& channel, const void*, int) {
+  robot_state_t state;
+  watcher->subscribeAllRaw([&](const std::string& channel, const void* data, int size) {
     if (contains(produced, channel)) {
       ++result.out[channel];
+      if (channel == ch::kRobotState.name && state.decode(data, 0, size) == size &&
+          state.status == robot_state_t::STATUS_TRACKING)
+        ++result.tracking_states;
     } else if (contains(fed, channel)) {
       ++result.in[channel];
     }
@@ -350,8 +533,13 @@ ReplayRunResult runReplay(const ReplayRunOptions& options) {
                                       : options.out_path + ".outputs";
   if (!options.out_path.empty()) {
     writer = std::make_unique<bus::LogWriter>(replay_path);
+    // The output describes itself like a recording: whose, on which clock, run how.
+    writer->write(ch::kRecordingInfo, firstLogTime(options.log_path),
+                  replayInfo(options, result, field_source, fusion_source));
     recorder = std::make_unique<bus::LogRecorder>(
         *watcher, *writer, std::vector<std::string_view>(produced.begin(), produced.end()));
+    // Written at the log's time, so the outputs line up with the recording (and its truth).
+    recorder->setLogClock(result.clock.error);
   }
 
   std::string input_path = options.log_path;
@@ -360,7 +548,8 @@ ReplayRunResult runReplay(const ReplayRunOptions& options) {
     if (options.truth_path.empty()) throw ReplayArgumentError("oracle_contact needs a truth log");
     if (!contains(options.run, "fusion")) throw ReplayArgumentError("oracle_contact needs fusion");
     oracle_path = (options.out_path.empty() ? options.log_path : options.out_path) + ".oracle";
-    result.oracle_contacts = writeOracleContactLog(options, result.robot_id, fed, oracle_path);
+    result.oracle_contacts =
+        writeOracleContactLog(options, result.robot_id, result.clock.error, fed, oracle_path);
     input_path = oracle_path;
   }
 
@@ -377,11 +566,11 @@ ReplayRunResult runReplay(const ReplayRunOptions& options) {
     input_path = stalled_path;
   }
 
-  bus::Replay replay(clock, memq, {.channels = fed});
+  bus::Replay replay(clock, memq, {.channels = fed, .clock = result.clock.error});
   for (auto& node : nodes)
     replay.add(*node);
   replay.add(*watcher);
-  bus::LogReader log(input_path);
+  bus::LogReader log(input_path, {.clock = result.clock.error});
   const bus::ReplayStats stats = replay.run(log);
   if (writer) writer->flush();
   if (!oracle_path.empty()) std::filesystem::remove(oracle_path);
@@ -390,13 +579,22 @@ ReplayRunResult runReplay(const ReplayRunOptions& options) {
   result.skipped = stats.skipped;
   result.out_of_order = stats.out_of_order;
   result.rejected = log.rejectedByKind();
+  result.upgraded = log.upgradedByKind();
+  for (const bus::LogRejection& r : log.recentRejections()) {
+    result.refusal_examples["reader/" + r.reason.kind] = fmt::format(
+        "{}{}event {}: {}", r.channel, r.channel.empty() ? "" : " ", r.event_number, r.reason.text);
+  }
   for (std::size_t i = 0; i < nodes.size(); ++i) {
     // Every error kind the node reported (refused inputs, the nodes' own checks).
     const service_status_t status = nodes[i]->status().takeStatus(clock.now());
     for (int e = 0; e < status.num_errors; ++e) {
       const auto k = static_cast<std::size_t>(e);
-      result.node_errors[node_names[i] + "/" + status.error_kind[k]] = status.error_count[k];
+      const std::string kind = node_names[i] + "/" + status.error_kind[k];
+      result.node_errors[kind] = status.error_count[k];
     }
+    // A node keeps the text of its last error only.
+    if (!status.last_error.empty())
+      result.refusal_examples[node_names[i] + "/last"] = status.last_error;
   }
   if (watcher->status().errorCount("log_write") > 0) {
     throw bus::LogError("writing " + options.out_path + ": " + watcher->status().lastError());
@@ -404,7 +602,7 @@ ReplayRunResult runReplay(const ReplayRunOptions& options) {
   const std::vector<std::string> truth_channels{std::string(ch::kSimWorld.name)};
   if (!options.truth_path.empty() && !options.out_path.empty()) {
     writer.reset();
-    std::int64_t outputs = 0;
+    std::int64_t outputs = 1;  // the output's RECORDING_INFO
     for (const auto& [channel, count] : result.out)
       outputs += count;
     result.truth_merged =
@@ -419,6 +617,8 @@ ReplayRunResult runReplay(const ReplayRunOptions& options) {
   }
   return result;
 }
+
+}  // namespace
 
 std::int64_t mergeLogs(const std::vector<MergeSource>& sources, const std::string& out_path) {
   struct Cursor {
@@ -455,9 +655,94 @@ std::int64_t mergeLogs(const std::vector<MergeSource>& sources, const std::strin
   return out.eventsWritten();
 }
 
+std::int64_t ReplayRunResult::fedTotal() const {
+  std::int64_t n = 0;
+  for (const auto& [channel, count] : in)
+    n += count;
+  return n;
+}
+
+std::int64_t ReplayRunResult::refusedTotal() const {
+  std::int64_t n = 0;
+  for (const auto& [kind, count] : rejected)
+    n += count;
+  for (const auto& [kind, count] : node_errors)
+    n += count;
+  return n;
+}
+
+namespace {
+
+double refusedShare(const ReplayRunResult& result) {
+  // Events the reader refused never reached the nodes: they count among the inputs.
+  std::int64_t reader = 0;
+  for (const auto& [kind, count] : result.rejected)
+    reader += count;
+  const std::int64_t offered = result.fedTotal() + reader;
+  return offered > 0 ? static_cast<double>(result.refusedTotal()) / static_cast<double>(offered)
+                     : 0.0;
+}
+
+}  // namespace
+
+std::string refusalReport(const ReplayRunResult& result) {
+  const std::int64_t refused = result.refusedTotal();
+  if (refused == 0) return {};
+  std::int64_t reader = 0;
+  for (const auto& [kind, count] : result.rejected)
+    reader += count;
+  std::string text = fmt::format("refused {} of {} inputs ({:.2f} %):", refused,
+                                 result.fedTotal() + reader, 100.0 * refusedShare(result));
+  const auto line = [&](const std::string& kind, std::int64_t count) {
+    text += fmt::format("\n  {} {}", kind, count);
+    const auto it = result.refusal_examples.find(kind);
+    if (it != result.refusal_examples.end() && !it->second.empty()) text += ": " + it->second;
+  };
+  for (const auto& [kind, count] : result.rejected)
+    line("reader/" + kind, count);
+  for (const auto& [kind, count] : result.node_errors)
+    line(kind, count);
+  for (const auto& [kind, example] : result.refusal_examples) {
+    if (kind.size() > 5 && kind.compare(kind.size() - 5, 5, "/last") == 0)
+      text += fmt::format("\n  {} error: {}", kind.substr(0, kind.size() - 5), example);
+  }
+  return text;
+}
+
+std::vector<std::string> failures(const ReplayRunResult& result, const ReplayRunOptions& options) {
+  std::vector<std::string> why;
+  const double share = refusedShare(result);
+  std::int64_t outputs = 0;
+  for (const auto& [channel, count] : result.out)
+    outputs += count;
+  if (result.fedTotal() == 0) {
+    why.push_back("no input reached the nodes (nothing in the log on the channels they read)");
+  }
+  if (share > options.max_refused_share) {
+    why.push_back(
+        fmt::format("{:.1f} % of the inputs were refused (at most {:.1f} % allowed; "
+                    "see the kinds above)",
+                    100.0 * share, 100.0 * options.max_refused_share));
+  }
+  if (std::find(options.run.begin(), options.run.end(), "fusion") != options.run.end()) {
+    if (result.tracking_states == 0) {
+      const auto it = result.out.find(std::string(ch::kRobotState.name));
+      why.push_back(
+          fmt::format("fusion published no valid estimate ({} ROBOT_STATE, none of "
+                      "them tracking)",
+                      it == result.out.end() ? 0 : it->second));
+    }
+  } else if (outputs == 0) {
+    why.push_back("the nodes published nothing");
+  }
+  return why;
+}
+
 std::string summaryLine(const ReplayRunResult& result) {
   std::ostringstream line;
-  line << "replay robot " << result.robot_id << ": in";
+  line << "replay robot " << result.robot_id;
+  if (result.parts > 1) line << " (" << result.parts << " files)";
+  line << ": in";
   for (const auto& [channel, n] : result.in)
     line << ' ' << channel << ' ' << n;
   line << " | out";
@@ -479,6 +764,15 @@ std::string summaryLine(const ReplayRunResult& result) {
     line << " | stalls " << result.stalls << " held " << result.stall_held << " dropped "
          << result.stall_dropped;
   }
+  if (result.out.count(std::string(ch::kRobotState.name)) > 0)
+    line << " | tracking " << result.tracking_states;
+  if (!result.upgraded.empty()) {
+    line << " | upgraded";
+    for (const auto& [name, n] : result.upgraded)
+      line << ' ' << name << ' ' << n;
+  }
+  line << " | clock " << result.clock.describe() << " | field " << result.field;
+  if (!result.fusion_config.empty()) line << ", fusion settings " << result.fusion_config;
   return line.str();
 }
 

@@ -17,6 +17,7 @@
 #include <fieldline/world_state_t.hpp>
 
 #include "common/time/clock.hpp"
+#include "tools/recording/clock_model.hpp"
 
 namespace fieldline::replay {
 
@@ -31,19 +32,22 @@ inline const std::vector<std::string> kRunnableNodes{"region_tracking", "feature
                                                      "fusion"};
 
 struct ReplayRunOptions {
+  // One robot's log, or a recording's directory (then robot_id says whose files; its sim.lcm is
+  // the truth unless truth_path is given).
   std::string log_path;
   // Written (truncated) with the run nodes' outputs; empty: nothing is written.
   std::string out_path;
   std::vector<std::string> run;
   // 1..6; 0: the robot id of the first ODOMETRY / VISION_LINES / CAMERA_IMAGE in the log.
   int robot_id = 0;
-  // As the processes take them (their --help).
-  std::string field = "msl";
+  // As the processes take them (their --help). Empty field and fusion_config: the recording's own
+  // (RECORDING_INFO's field and fusion settings), else msl and default.
+  std::string field;
   std::string robot_config = "fu2004";
   std::string camera = "omni_sim";
   // fusion: settings preset (config/fusion/NAME.yaml) or path, as fieldline-fusion --config;
   // matcher (when not empty) and start_prior override it.
-  std::string fusion_config = "default";
+  std::string fusion_config;
   std::string matcher;
   std::string start_prior = "own_half";
   // Distance grid cache of the line matcher; empty: built in memory.
@@ -75,6 +79,12 @@ struct ReplayRunOptions {
   double stall_s = 0.0;
   std::vector<std::string> stall_hold;
   std::vector<std::string> stall_drop;
+  // The robot's clock against the log's time. Unset: the recording's own (RECORDING_INFO), else
+  // fitted to the log's traffic (recording/clock_model.hpp). The nodes run on the robot's clock,
+  // the outputs are written at the log's time.
+  std::optional<ClockError> clock;
+  // The replay fails (exit code 1) when more than this share of the fed inputs was refused.
+  double max_refused_share = 0.02;
 };
 
 struct ReplayRunResult {
@@ -86,6 +96,8 @@ struct ReplayRunResult {
   // Log events of channels not fed (the replaced outputs, channels no run node reads).
   std::int64_t skipped = 0;
   std::int64_t out_of_order = 0;
+  // Log events of older message versions upgraded while reading, by upgrade (upgrade.hpp).
+  std::map<std::string, std::int64_t> upgraded;
   // Log events refused by the reader's checks, by kind (log_file.hpp).
   std::map<std::string, std::int64_t> rejected;
   // Errors the run nodes reported (refused inputs), by "node/kind".
@@ -100,6 +112,23 @@ struct ReplayRunResult {
   std::int64_t stalls = 0;
   std::int64_t stall_held = 0;
   std::int64_t stall_dropped = 0;
+  // Files of the recording replayed as one log (a recording split by size).
+  int parts = 1;
+  // The robot's clock the replay ran on, and how it was found.
+  recording::RobotClockModel clock;
+  // The field and fusion settings the replay ran with, and where they came from ("msl (the
+  // recording's)").
+  std::string field;
+  std::string fusion_config;
+  // The last reason given: per kind of the reader ("reader/future_utime"), per node the node's
+  // last error ("fusion/last").
+  std::map<std::string, std::string> refusal_examples;
+  // ROBOT_STATE published with STATUS_TRACKING: the valid estimates.
+  std::int64_t tracking_states = 0;
+  // Events fed to the nodes (the sum of `in`), and those refused by the reader's checks or the
+  // nodes (the sum of `rejected` and `node_errors`).
+  std::int64_t fedTotal() const;
+  std::int64_t refusedTotal() const;
 };
 
 // The stall times of ReplayRunOptions. `first` is the log's first fed event time.
@@ -142,5 +171,15 @@ std::int64_t mergeLogs(const std::vector<MergeSource>& sources, const std::strin
 
 // One line: "replay robot 1: in ODOMETRY 1500 VISION_LINES 300 ... | out ROBOT_STATE 1500 ...".
 std::string summaryLine(const ReplayRunResult& result);
+
+// What the replay refused and why, one line per kind ("refused 3017 of 3120 inputs (96.7 %):"
+// then "  reader/future_utime 3017: VISION_LINES: utime ... is 512 ms in the future"); empty
+// when nothing was refused.
+std::string refusalReport(const ReplayRunResult& result);
+
+// Why the replay failed, one sentence per reason: more than `max_refused_share` of the fed
+// inputs refused, nothing fed, fusion run but no ROBOT_STATE tracking, no output at all. Empty:
+// the replay did its job.
+std::vector<std::string> failures(const ReplayRunResult& result, const ReplayRunOptions& options);
 
 }  // namespace fieldline::replay

@@ -2,11 +2,13 @@
 // bus and the simulator's and serves the page, GET /state.json, GET /camera.json?robot=N and the
 // WebSocket /ws. Read-only: anything but GET gets 405.
 #include <iostream>
+#include <limits>
 
 #include <spdlog/spdlog.h>
 #include <CLI/CLI.hpp>
 
 #include "common/field/field_model.hpp"
+#include "tools/viewer/playback.hpp"
 #include "tools/viewer/viewer_cli.hpp"
 
 using namespace fieldline;
@@ -27,9 +29,21 @@ int main(int argc, char** argv) {
     if (cli.common.check_args) return 0;
     SystemClock clock;
     bus::installStopSignals();
+    if (!cli.log.empty()) {
+      // A recording instead of the buses (docs/viewer.md, "Watching a recording").
+      return viewer::runPlayback(cli.log, cli.web, viewer::fieldJson(field),
+                                 {.play = cli.play, .speed = cli.speed});
+    }
     const std::string primary = viewer::viewerPrimaryUrl(cli.viewer);
-    bus::Node node({.process = "viewer", .robot_id = 0, .url = primary}, clock);
+    bus::NodeOptions node_options{.process = "viewer", .robot_id = 0, .url = primary};
+    if (cli.replay_bus) {
+      // A replay's messages carry the stamps of the recording: neither old nor new is refused.
+      node_options.max_age_us = node_options.future_tolerance_us =
+          std::numeric_limits<Utime>::max() / 4;
+    }
+    bus::Node node(node_options, clock);
     viewer::WebServer server(cli.web, viewer::fieldJson(field));
+    server.setRoute(viewer::pageRoute(cli.web.web_dir));
     viewer::ViewerNode viewer(node, cli.viewer, server);
     // Scripts (scripts/demo, the tests) read the address from this line.
     spdlog::info("serving http://{}:{}/ ({} robots{}, field {})", cli.web.address, server.port(),

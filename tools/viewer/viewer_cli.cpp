@@ -30,6 +30,18 @@ ViewerCommandLine::ViewerCommandLine(CLI::App& app, const std::string& web_dir)
   app.add_option("--web-dir", web_dir_, "Directory with index.html and viewer.js")
       ->check(CLI::ExistingDirectory)
       ->capture_default_str();
+  app.add_option("--log", log,
+                 "Play a recording instead of watching the buses: a recording's directory "
+                 "(fieldline-record, scripts/demo --record) or one LCM log; the page gets a "
+                 "timeline (play, pause, speed, scrubbing) and plots over time")
+      ->check(CLI::ExistingPath);
+  app.add_flag("--play", play, "--log: start playing at once");
+  app.add_option("--speed", speed, "--log: playback speed")
+      ->check(CLI::Range(0.01, 100.0))
+      ->capture_default_str();
+  app.add_flag("--replay-bus", replay_bus,
+               "The buses carry a replay (lcm-logplayer, fieldline-replay's output played back): "
+               "messages are shown however old their stamps are");
   app.add_option("--base-port", viewer.address.base_port,
                  "Port of the simulator's bus; robot N's is this + N")
       ->check(CLI::Range(1, 65535 - 6))

@@ -17,6 +17,13 @@ struct ViewerCommandLine {
   ViewerOptions viewer;
   std::string field = "msl";
   bus::CommonOptions common;
+  // --log: play this recording (a directory or a log) instead of watching the buses.
+  std::string log;
+  bool play = false;
+  double speed = 1.0;
+  // --replay-bus: the buses carry a replay (lcm-logplayer, a replay's output): old stamps are not
+  // stale and the robots' clocks may be anywhere.
+  bool replay_bus = false;
 
   // `web_dir`: where the page is served from unless --web-dir says otherwise.
   ViewerCommandLine(CLI::App& app, const std::string& web_dir);

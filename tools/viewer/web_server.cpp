@@ -94,6 +94,12 @@ struct WebServer::Impl {
     if (camera && camera_robot == robot) return *camera;
     return fmt::format("{{\"robot\":{},\"frame\":null,\"lines\":null,\"ball\":null}}", robot);
   }
+  std::mutex route_mutex;
+  Route route;
+  Route currentRoute() {
+    std::lock_guard lock(route_mutex);
+    return route;
+  }
   std::optional<std::string> readWebFile(const std::string& name) const {
     std::ifstream in(options.web_dir / name, std::ios::binary);
     if (!in) return std::nullopt;
@@ -256,6 +262,20 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
       }
       body = server.cameraFor(robot);
       type = "application/json";
+    } else if (const Route route = server.currentRoute()) {
+      std::optional<RouteReply> reply;
+      try {
+        reply = route(target, query);
+      } catch (const std::invalid_argument& e) {
+        sendError(http::status::bad_request, std::string(e.what()) + "\n", version, keep_alive);
+        return;
+      }
+      if (!reply) {
+        sendError(http::status::not_found, "not found\n", version, keep_alive);
+        return;
+      }
+      body = std::move(reply->body);
+      type = std::move(reply->content_type);
     } else {
       sendError(http::status::not_found, "not found\n", version, keep_alive);
       return;
@@ -376,6 +396,11 @@ void WebServer::publishCamera(int robot, std::string camera_json) {
   std::lock_guard lock(impl_->latest_mutex);
   impl_->camera = std::move(camera);
   impl_->camera_robot = robot;
+}
+
+void WebServer::setRoute(Route route) {
+  std::lock_guard lock(impl_->route_mutex);
+  impl_->route = std::move(route);
 }
 
 int WebServer::cameraWanted(double within_s) const {

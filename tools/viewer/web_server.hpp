@@ -10,7 +10,9 @@
 #include <atomic>
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 
 namespace fieldline::viewer {
@@ -28,6 +30,17 @@ struct WebServerOptions {
   int max_connections = 64;
 };
 
+// What a route of WebServer::setRoute() answers to a GET: the body and its content type.
+struct RouteReply {
+  std::string body;
+  std::string content_type = "application/json";
+};
+// Answers GETs of paths the server has no page of its own for (a recording's playback, the chart
+// library): nothing is 404; a std::invalid_argument thrown is 400 with its text. Runs on the
+// server thread.
+using Route =
+    std::function<std::optional<RouteReply>(const std::string& path, const std::string& query)>;
+
 class WebServer {
  public:
   // Binds and listens (throws std::runtime_error naming address and port if it cannot) and
@@ -44,6 +57,8 @@ class WebServer {
   // The robot of the latest GET /camera.json?robot=N if it came within `within_s` seconds, else
   // 0: a page shows that robot's camera.
   int cameraWanted(double within_s) const;
+  // Routes further GET paths to `route` (from any thread).
+  void setRoute(Route route);
 
   unsigned short port() const;
   // WebSocket clients connected now.

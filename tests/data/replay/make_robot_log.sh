@@ -3,8 +3,9 @@
 # except CAMERA_IMAGE (ODOMETRY, VISION_*, FIELD_FEATURES, ROBOT_STATE, ... about 0.7 MB) for
 # 10 s of the simulated team (sim_team.yaml, one robot) after its first 3 s, recorded with
 # lcm-logger in a private network namespace. The launch file is sim_team.yaml without its
-# `robots:` clock section: a replay runs every node on the log's time, so robot 1's clock must be
-# the simulator's (with its offset every ODOMETRY would be from the future).
+# `robots:` clock section (made when a replay ran on the log's time; it now runs on the robot's
+# own clock, docs/replay.md, so a fixture with offsets would replay too: this one keeps the
+# simulator's clock so that its stamps compare directly with the truth).
 #
 #   tests/data/replay/make_robot_log.sh build/bin [SECONDS]
 #

@@ -14,7 +14,7 @@ BASE = 1_700_000_000_000_000
 
 def header(seq, robot_id=2):
     return {"utime": BASE + seq * 1000, "utime_published": BASE + seq * 1000 + 250,
-            "seq": seq, "robot_id": robot_id}
+            "seq": seq, "robot_id": robot_id, "publisher_id": 0x5eed00 + seq}
 
 
 def fnv1a64(data):
@@ -26,9 +26,9 @@ def fnv1a64(data):
 
 
 IMAGE_BYTES = [0, 1, 2, 3, 250, 251, 252, 253]
-ODOMETRY = {"ticks": [100, -200, 2147483647], "controller_utime": 9876543210,
+ODOMETRY = {"wheel_count": 4, "ticks": [100, -200, 2147483647, -5], "controller_utime": 9876543210,
             "dx": 0.015625, "dy": -0.0078125, "dphi": 0.001, "vx": 0.78125, "vy": -0.390625,
-            "omega": 0.05, "status": 60, "wheel_current": [1.25, -0.5, 0],
+            "omega": 0.05, "status": 60, "wheel_current": [1.25, -0.5, 0, 0.75],
             "gyro_dphi": 0.0009765625}
 
 EXPECTED = [
@@ -85,7 +85,8 @@ EXPECTED = [
                         "processing_max_ms": 1, "num_errors": 1, "error_kind": ["decode"],
                         "error_count": [2], "last_error": "undecodable message of 3 bytes",
                         "last_error_utime": BASE + 5000, "num_metrics": 1,
-                        "metric_name": ["fps"], "metric_value": [30]}),
+                        "metric_name": ["fps"], "metric_value": [30],
+                        "state_reason": "ODOMETRY silent 2.1 s"}),
     ("SIM_WORLD", {"header": header(11, robot_id=0), "field": "msl", "scenario": "kidnap",
                    "num_robots": 1, "robot_id": [2], "robot_x": [1], "robot_y": [-1],
                    "robot_phi": [0.5], "robot_vx": [0.25], "robot_vy": [0],

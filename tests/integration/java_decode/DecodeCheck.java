@@ -11,7 +11,7 @@ public class DecodeCheck {
   static final String[] TYPES = {
     "header_t", "image_t", "line_contours_t", "ball_observation_t", "obstacle_observations_t",
     "field_features_t", "odometry_t", "motion_command_t", "robot_state_t", "ball_state_t",
-    "team_state_t", "service_status_t", "world_state_t"};
+    "team_state_t", "service_status_t", "world_state_t", "recording_info_t"};
 
   public static void main(String[] args) throws Exception {
     String dir = args[0];
@@ -42,7 +42,8 @@ public class DecodeCheck {
     }
     fieldline.odometry_t o = new fieldline.odometry_t(
         Files.readAllBytes(Paths.get(dir, "odometry_t.bin")));
-    if (o.ticks[2] != 2147483000 || o.dx != 0.01 || o.status != 12) {
+    if (o.wheel_count != 4 || o.ticks.length != 4 || o.ticks[2] != 2147483000 || o.ticks[3] != -7
+        || o.wheel_current[3] != 2.0f || o.dx != 0.01 || o.status != 12) {
       System.out.println("odometry_t: field values WRONG");
       ++failures;
     }

@@ -123,9 +123,10 @@ int main(int argc, char** argv) {
 
   odometry_t od{};
   od.header = header(7);
-  od.ticks[0] = 1000;
-  od.ticks[1] = -2000;
-  od.ticks[2] = 2147483000;
+  // Four wheels: the arrays are sized by wheel_count.
+  od.wheel_count = 4;
+  od.ticks = {1000, -2000, 2147483000, -7};
+  od.wheel_current = {1.5f, -0.25f, 0.0f, 2.0f};
   od.controller_utime = 987654321;
   od.dx = 0.01;
   od.dy = -0.002;
@@ -253,6 +254,28 @@ int main(int argc, char** argv) {
   ws.ball_vy = -1.0;
   ws.ball_radius = 0.11f;
   ok &= write(dir, "world_state_t", ws);
+
+  recording_info_t ri{};
+  ri.header = header(14);
+  ri.format_version = recording_info_t::FORMAT_VERSION;
+  ri.bus_robot_id = 2;
+  ri.clock_model = recording_info_t::CLOCK_CONFIGURED;
+  ri.clock_offset_us = -447000;
+  ri.clock_drift_ppm = -21.0;
+  ri.clock_reference_us = 1'700'000'000'000'000;
+  ri.clock_observed_offset_us = -446900;
+  ri.clock_observed_messages = 1500;
+  ri.host = "laptop";
+  ri.version = "v0.1-12-gabcdef";
+  ri.field_name = "msl";
+  ri.field_yaml = "length: 22.0";
+  ri.settings_yaml = "launch_file: sim_team.yaml";
+  ri.num_channels = 2;
+  ri.channels = {"ODOMETRY", "ROBOT_STATE"};
+  ri.image_every = 10;
+  ri.file_index = 3;
+  ri.max_file_bytes = 500 << 20;
+  ok &= write(dir, "recording_info_t", ri);
 
   std::cout << (ok ? "wrote 13 types to " : "FAILED writing to ") << dir << "\n";
   return ok ? 0 : 1;

@@ -2,6 +2,7 @@
 // decode (string escaping is tools/json's, tested in tests/unit/json).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <string>
@@ -71,4 +72,52 @@ TEST(MessageJson, RefusesBytesThatDoNotDecodeAndUnknownChannels) {
                                            static_cast<int>(bytes.size()), {}));
   EXPECT_FALSE(bus_dump::appendMessageJson(out, "NOT_A_CHANNEL", bytes.data(),
                                            static_cast<int>(bytes.size()), {}));
+}
+
+TEST(MessageJson, EveryFieldIsWrittenAsTheTypesSayIncludingTheNewestOnes) {
+  // The writers are generated from lcmtypes/: fields the hand-kept ones forgot are in.
+  service_status_t status{};
+  status.process = "fusion";
+  status.state_reason = "ODOMETRY silent 2.1 s";
+  status.header.publisher_id = 1234;
+  const auto bytes = encode(status);
+  std::string out;
+  ASSERT_TRUE(bus_dump::appendMessageJson(out, bus::channels::kServiceStatus.name, bytes.data(),
+                                          static_cast<int>(bytes.size()), {}));
+  EXPECT_NE(out.find("\"state_reason\":\"ODOMETRY silent 2.1 s\""), std::string::npos) << out;
+  EXPECT_NE(out.find("\"publisher_id\":1234"), std::string::npos) << out;
+}
+
+TEST(MessageCsv, AHeaderLineAndOneRowPerMessage) {
+  robot_state_t state{};
+  state.header.utime = 1'700'000'000'000'123;
+  state.header.seq = 5;
+  state.x = 1.5;
+  state.covariance[8] = 0.25;
+  state.status = robot_state_t::STATUS_TRACKING;
+  state.twin_ambiguous = 1;
+  const auto bytes = encode(state);
+  std::string header;
+  ASSERT_TRUE(bus_dump::appendCsvHeader(header, bus::channels::kRobotState.name));
+  EXPECT_EQ(header.rfind("log_utime,header.utime,header.utime_published,header.seq,", 0), 0u)
+      << header;
+  EXPECT_NE(header.find(",covariance[0],"), std::string::npos);
+  EXPECT_NE(header.find(",covariance[8],status,since_vision_us,twin_ambiguous"), std::string::npos);
+  std::string row;
+  ASSERT_TRUE(bus_dump::appendCsvRow(row, bus::channels::kRobotState.name, 42, bytes.data(),
+                                     static_cast<int>(bytes.size()), {}));
+  EXPECT_EQ(row.rfind("42,1700000000000123,0,5,", 0), 0u) << row;
+  EXPECT_EQ(row.substr(row.size() - 11), ",0.25,2,0,1") << row;
+  // As many cells as columns.
+  EXPECT_EQ(std::count(row.begin(), row.end(), ','), std::count(header.begin(), header.end(), ','));
+  // A variable-length array is one quoted cell holding a JSON array.
+  line_contours_t lines{};
+  lines.num_points = 2;
+  lines.u = lines.v = lines.x = lines.y = {1.5f, 2.0f};
+  const auto line_bytes = encode(lines);
+  std::string line_row;
+  ASSERT_TRUE(bus_dump::appendCsvRow(line_row, bus::channels::kVisionLines.name, 1,
+                                     line_bytes.data(), static_cast<int>(line_bytes.size()), {}));
+  EXPECT_NE(line_row.find(",\"[1.5,2]\","), std::string::npos) << line_row;
+  EXPECT_FALSE(bus_dump::appendCsvHeader(header, "NOT_A_CHANNEL"));
 }

@@ -1,4 +1,4 @@
-// Hostile bytes for every one of the 13 message types: truncated buffers, and for every array count
+// Hostile bytes for every one of the 14 message types: truncated buffers, and for every array count
 // and string length on the wire a negative, an absurd and (strings) a zero value. The hardened
 // decoders (cmake/harden_lcm_decode.py) refuse each without throwing or allocating, the node
 // counts each as a "decode" error and calls no handler, and the next good message arrives intact
@@ -92,14 +92,17 @@ struct Sample<odometry_t> {
   static odometry_t make() {
     odometry_t m{};
     m.header = header();
-    m.ticks[0] = 10;
+    m.wheel_count = 4;
+    m.ticks = {10, -20, 30, -40};
+    m.wheel_current = {0.5f, 0.0f, -0.5f, 1.0f};
     m.dx = 0.01;
     // The gyro's tail is the message's last field: a cut through it must be refused too.
-    m.status = odometry_t::STATUS_GYRO;
+    m.status = int{odometry_t::STATUS_GYRO} | int{odometry_t::STATUS_CURRENTS};
     m.gyro_dphi = 0.002;
     return m;
   }
-  static std::vector<WireLength> lengths() { return {}; }
+  // wheel_count sizes both arrays.
+  static std::vector<WireLength> lengths() { return {{"wheel_count", kBody, 4}}; }
 };
 
 template <>
@@ -284,6 +287,37 @@ struct Sample<service_status_t> {
   }
 };
 
+template <>
+struct Sample<recording_info_t> {
+  static constexpr auto kChannel = channels::kRecordingInfo;
+  static recording_info_t make() {
+    recording_info_t m{};
+    m.header = header();
+    m.format_version = recording_info_t::FORMAT_VERSION;
+    m.bus_robot_id = 1;
+    m.host = "h";
+    m.version = "v";
+    m.field_name = "f";
+    m.field_yaml = "y";
+    m.settings_yaml = "s";
+    m.num_channels = 1;
+    m.channels = {"A"};
+    return m;
+  }
+  // format_version 4, bus_robot_id 1, clock_model 1, four int64/double 32, observed messages 4;
+  // then five strings of 4 + 2 bytes.
+  static std::vector<WireLength> lengths() {
+    constexpr std::size_t strings_at = kBody + 42;
+    return {{"host", strings_at, 2, true},
+            {"version", strings_at + 6, 2, true},
+            {"field_name", strings_at + 12, 2, true},
+            {"field_yaml", strings_at + 18, 2, true},
+            {"settings_yaml", strings_at + 24, 2, true},
+            {"num_channels", strings_at + 30, 1},
+            {"channels[0]", strings_at + 34, 2, true}};
+  }
+};
+
 template <typename Msg>
 std::vector<std::uint8_t> encode(const Msg& m) {
   std::vector<std::uint8_t> buf(static_cast<std::size_t>(m.getEncodedSize()));
@@ -351,7 +385,7 @@ class HostileInputEveryType : public ::testing::Test {
 using AllMessageTypes =
     ::testing::Types<ball_observation_t, ball_state_t, field_features_t, image_t, line_contours_t,
                      motion_command_t, obstacle_observations_t, odometry_t, robot_state_t,
-                     service_status_t, team_state_t, world_state_t>;
+                     recording_info_t, service_status_t, team_state_t, world_state_t>;
 TYPED_TEST_SUITE(HostileInputEveryType, AllMessageTypes);
 
 TYPED_TEST(HostileInputEveryType, TheSampleIsValidAndItsLengthOffsetsAreRight) {
@@ -408,8 +442,8 @@ TEST(HostileInputHeader, EveryTruncationIsRefused) {
   EXPECT_EQ(back.seq, 7);
 }
 
-// Every type in lcmtypes/ is covered above: 12 message types and header_t.
-static_assert(std::tuple_size_v<decltype(kAllChannelNames)> == 12);
+// Every type in lcmtypes/ is covered above: 13 message types and header_t.
+static_assert(std::tuple_size_v<decltype(kAllChannelNames)> == 13);
 
 }  // namespace
 }  // namespace fieldline::bus

@@ -21,12 +21,15 @@
 #include "common/bus/channels.hpp"
 #include "common/bus/log_file.hpp"
 #include "common/config/config.hpp"
+#include "tools/recording/upgrade.hpp"
 #include "tools/replay/replay_run.hpp"
 
 namespace fieldline::replay {
 namespace {
 
 const std::string kFixture = config::projectRoot() + "/tests/data/replay/robot1_bus.lcmlog";
+// As fieldline-replay does: recordings made with older message types are read as today's.
+[[maybe_unused]] const bool kUpgradesInstalled = (recording::installLogUpgrades(), true);
 
 std::string tempPath(const std::string& name) {
   return (std::filesystem::temp_directory_path() /
@@ -89,6 +92,9 @@ TEST(ReplayTool, TwoReplaysWriteByteIdenticalOutputs) {
   std::map<std::string, std::int64_t> counted;
   while (out.nextChecked(event))
     ++counted[event.channel];
+  // The output describes itself like a recording: the robot, its clock, the settings.
+  EXPECT_EQ(counted["RECORDING_INFO"], 1);
+  counted.erase("RECORDING_INFO");
   EXPECT_EQ(counted, a.out);
   EXPECT_EQ(out.rejectedTotal(), 0);
   std::filesystem::remove(first);
@@ -350,6 +356,76 @@ TEST(ReplayTool, StallsHoldAndDropInputsAsAStarvedProcessSeesThem) {
   options.stall_s = 3.0;
   EXPECT_THROW(runReplay(options), ReplayArgumentError);
   std::filesystem::remove(options.out_path);
+}
+
+TEST(ReplayTool, ARecordingsDirectoryIsItsRobotsPartsInOrderWithTheTruth) {
+  // The before-fixture (robot 1, clock 312 ms ahead, and the simulator's sim.lcm) as a recording
+  // split by size: robot1.lcm and robot1_part002.lcm, half of the events each.
+  const std::string before = config::projectRoot() + "/tests/data/recordings/main_9085e4b";
+  const std::string dir = tempPath("replay_parts");
+  std::filesystem::create_directories(dir);
+  std::filesystem::copy_file(before + "/sim.lcm", dir + "/sim.lcm");
+  {
+    bus::LogReader in(before + "/robot1.lcm");
+    std::vector<bus::LogEvent> events;
+    bus::LogEvent e;
+    while (in.nextEvent(e))
+      events.push_back(e);
+    bus::LogWriter first(dir + "/robot1.lcm");
+    bus::LogWriter second(dir + "/robot1_part002.lcm");
+    for (std::size_t i = 0; i < events.size(); ++i) {
+      (i < events.size() / 2 ? first : second)
+          .write(events[i].channel, events[i].timestamp, events[i].data.data(),
+                 static_cast<int>(events[i].data.size()));
+    }
+  }
+  ReplayRunOptions whole;
+  whole.log_path = before + "/robot1.lcm";
+  whole.run = {"fusion"};
+  const ReplayRunResult a = runReplay(whole);
+  ReplayRunOptions parts = whole;
+  parts.log_path = dir;
+  parts.robot_id = 1;
+  parts.out_path = tempPath("replay_parts_out");
+  const ReplayRunResult b = runReplay(parts);
+  EXPECT_EQ(b.parts, 2);
+  EXPECT_EQ(b.in, a.in);
+  EXPECT_EQ(b.out, a.out);
+  EXPECT_EQ(b.refusedTotal(), 0);
+  EXPECT_GT(b.truth_merged, 400);  // sim.lcm's SIM_WORLD, taken as the truth
+  EXPECT_NE(summaryLine(b).find("(2 files)"), std::string::npos);
+  // Whose files: the robot must be named.
+  parts.robot_id = 0;
+  EXPECT_THROW(runReplay(parts), ReplayArgumentError);
+  parts.robot_id = 4;
+  EXPECT_THROW(runReplay(parts), ReplayArgumentError);
+  std::filesystem::remove_all(dir);
+  std::filesystem::remove(parts.out_path);
+}
+
+TEST(ReplayTool, ARecordingThatHeardNothingFailsWithTheReason) {
+  // fieldline-record's file of a bus that carried nothing: only its description.
+  const std::string empty = tempPath("replay_nothing");
+  {
+    bus::LogWriter out(empty);
+    recording_info_t info{};
+    info.format_version = recording_info_t::FORMAT_VERSION;
+    info.bus_robot_id = 4;
+    info.header.robot_id = 4;
+    info.header.utime = info.header.utime_published = 1'796'000'000'000'000;
+    out.write(bus::channels::kRecordingInfo, info.header.utime, info);
+  }
+  ReplayRunOptions options;
+  options.log_path = empty;
+  options.run = {"fusion"};
+  const ReplayRunResult result = runReplay(options);
+  EXPECT_EQ(result.robot_id, 4);  // whose bus: the recording says
+  EXPECT_EQ(result.fedTotal(), 0);
+  const std::vector<std::string> why = failures(result, options);
+  ASSERT_EQ(why.size(), 2u);
+  EXPECT_NE(why[0].find("no input reached the nodes"), std::string::npos);
+  EXPECT_NE(why[1].find("no valid estimate"), std::string::npos);
+  std::filesystem::remove(empty);
 }
 
 TEST(ReplayTool, BadArgumentsAreRefused) {

@@ -138,19 +138,65 @@ TEST(teamcomm_clock_offset, IgnoresImpossibleRoundTripsAndForgetsOldOnes) {
   ClockOffsetEstimator est({.window_us = 5'000'000});
   EXPECT_FALSE(est.estimate(kT0));
   // Negative round trip: the echo does not match our send.
-  EXPECT_FALSE(est.add({kT0, kT0 + 5000, kT0 + 50'000, kT0 + 10'000}));
+  EXPECT_EQ(est.add({kT0, kT0 + 5000, kT0 + 50'000, kT0 + 10'000}), RoundTripUse::kRefused);
   // Round trip of 2 s: queueing, not clock information.
-  EXPECT_FALSE(est.add({kT0, kT0 + 1000, kT0 + 2000, kT0 + 2'000'000}));
+  EXPECT_EQ(est.add({kT0, kT0 + 1000, kT0 + 2000, kT0 + 2'000'000}), RoundTripUse::kRefused);
   // Hold time negative.
-  EXPECT_FALSE(est.add({kT0, kT0 + 5000, kT0 + 4000, kT0 + 6000}));
-  EXPECT_TRUE(est.add({kT0, kT0 + 2000, kT0 + 3000, kT0 + 2000}));  // offset +1500, rtt 1000
+  EXPECT_EQ(est.add({kT0, kT0 + 5000, kT0 + 4000, kT0 + 6000}), RoundTripUse::kRefused);
+  EXPECT_EQ(est.add({kT0, kT0 + 2000, kT0 + 3000, kT0 + 2000}),
+            RoundTripUse::kAdded);  // offset +1500, rtt 1000
   EXPECT_NEAR(est.estimate(kT0)->offset_us, 1500.0, 1e-9);
   EXPECT_EQ(est.estimate(kT0)->min_round_trip_us, 1000);
   // Ten seconds later a clock that has jumped by 0.2 s: the old sample has left the window.
   const Utime later = kT0 + 10'000'000;
-  EXPECT_TRUE(est.add({later, later + 202'000, later + 203'000, later + 4000}));
+  EXPECT_EQ(est.add({later, later + 202'000, later + 203'000, later + 4000}), RoundTripUse::kAdded);
   EXPECT_EQ(est.samples(), 1u);
   EXPECT_NEAR(est.estimate(later)->offset_us, 200'500.0, 1e-9);
+}
+
+// A round trip with symmetric 1 ms delays at our time `t` against a teammate `offset` ahead.
+RoundTrip tripAt(Utime t, Utime offset) {
+  return {t - 2000, t - 1000 + offset, t - 1000 + offset + 100, t + 100};
+}
+
+TEST(teamcomm_clock_offset, OneBadRoundTripIsHeldAsideAndForgotten) {
+  ClockOffsetEstimator est;
+  for (Utime t = kT0; t < kT0 + 2'000'000; t += 50'000)
+    ASSERT_EQ(est.add(tripAt(t, 300'000)), RoundTripUse::kAdded);
+  // A teammate's stamp off by 0.5 s once: held, not fitted.
+  EXPECT_EQ(est.add(tripAt(kT0 + 2'000'000, 800'000)), RoundTripUse::kHeld);
+  EXPECT_EQ(est.held(), 1u);
+  EXPECT_NEAR(est.estimate(kT0 + 2'000'000)->offset_us, 300'000.0, 1.0);
+  // The next good one clears it.
+  EXPECT_EQ(est.add(tripAt(kT0 + 2'050'000, 300'000)), RoundTripUse::kAdded);
+  EXPECT_EQ(est.held(), 0u);
+  EXPECT_EQ(est.steps(), 0u);
+  // Two contradicting ones that disagree with each other are no step either.
+  EXPECT_EQ(est.add(tripAt(kT0 + 2'100'000, 800'000)), RoundTripUse::kHeld);
+  EXPECT_EQ(est.add(tripAt(kT0 + 2'150'000, -900'000)), RoundTripUse::kHeld);
+  EXPECT_EQ(est.held(), 1u);  // the older went: the two share no offset
+  EXPECT_FALSE(est.converging());
+}
+
+TEST(teamcomm_clock_offset, ThreeAgreeingContradictionsAreAStepAndTheFitRestarts) {
+  for (const Utime step : {Utime{2'000'000}, Utime{-2'000'000}, Utime{20'000}}) {
+    ClockOffsetEstimator est;
+    Utime t = kT0;
+    for (; t < kT0 + 5'000'000; t += 50'000)
+      ASSERT_EQ(est.add(tripAt(t, 300'000)), RoundTripUse::kAdded);
+    EXPECT_EQ(est.add(tripAt(t, 300'000 + step)), RoundTripUse::kHeld) << step;
+    EXPECT_EQ(est.add(tripAt(t + 50'000, 300'000 + step)), RoundTripUse::kHeld) << step;
+    EXPECT_EQ(est.add(tripAt(t + 100'000, 300'000 + step)), RoundTripUse::kStep) << step;
+    EXPECT_EQ(est.steps(), 1u);
+    EXPECT_EQ(est.samples(), 3u);
+    EXPECT_NEAR(est.lastStep()->size_us, static_cast<double>(step), 1.0);
+    EXPECT_NEAR(est.estimate(t + 100'000)->offset_us, 300'000.0 + static_cast<double>(step), 1.0);
+    // Converging until the new window spans the drift fit's 3 s.
+    EXPECT_TRUE(est.converging());
+    for (t += 150'000; t < kT0 + 8'200'000; t += 50'000)
+      ASSERT_EQ(est.add(tripAt(t, 300'000 + step)), RoundTripUse::kAdded);
+    EXPECT_FALSE(est.converging());
+  }
 }
 
 }  // namespace

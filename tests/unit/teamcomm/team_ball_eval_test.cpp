@@ -79,5 +79,31 @@ TEST(teamcomm_team_ball_eval, AMissingOrInvalidTeamBallWhileTheBallIsSeenCounts)
   EXPECT_LT(evaluateTeamBall(r.truth, r.balls, {}).team_ball_mean_m, 0.0);  // nothing to score
 }
 
+TEST(teamcomm_team_ball_eval, TheTeamBallsAndOwnBallsConsistency) {
+  Samples r = makeSamples();
+  // The team ball is 1 cm off: with a 1 cm sigma its NEES is 1 (in the band), robot 3 claims
+  // 1 mm (NEES 100, out of it); no covariance (robot 2 before 10 s) is not scored for NEES.
+  for (TeamSample& t : r.teams) {
+    const double sigma = t.robot == 3 ? 0.001 : 0.01;
+    if (!(t.robot == 2 && t.utime < kT0 + 10'000'000))
+      t.team_ball_covariance = Eigen::Matrix2d::Identity() * sigma * sigma;
+  }
+  // Own balls: robot 1 (2 cm off) says 2 cm, robot 2 (5 cm off) says 1 cm (NEES 25).
+  for (BallSample& b : r.balls) {
+    const double sigma = b.robot == 2 ? 0.01 : 0.02;
+    b.covariance = Eigen::Matrix2d::Identity() * sigma * sigma;
+  }
+  const TeamBallSummary s = evaluateTeamBall(r.truth, r.balls, r.teams);
+  // Scored from 5 s: robot 1 15 s in the band, robot 2 10 s (from 10 s), robot 3 10 s out of it
+  // (its team ball is invalid from 15 s).
+  EXPECT_NEAR(s.team_ball_nees_in_band, 250.0 / 350.0, 0.01);
+  EXPECT_NEAR(s.team_ball_nees_mean, (250.0 * 1.0 + 100.0 * 100.0) / 350.0, 0.5);
+  EXPECT_DOUBLE_EQ(s.own_ball_nees_in_band.at(1), 1.0);
+  EXPECT_DOUBLE_EQ(s.own_ball_nees_in_band.at(2), 0.0);
+  const std::string line = teamBallLine(s);
+  EXPECT_NE(line.find("team_ball_nees_in_band=0.71"), std::string::npos) << line;
+  EXPECT_NE(line.find("own_ball_mean_m: 1=0.0200 2=0.0500 3=0.3000"), std::string::npos) << line;
+}
+
 }  // namespace
 }  // namespace fieldline::eval

@@ -1,0 +1,53 @@
+#!/usr/bin/env bash
+# A recording in the viewer, in Debian's headless chromium (docs/viewer.md, "Watching a
+# recording"): 12 s of three robots of the simulated team (their clock offsets on) recorded with
+# fieldline-record --team in a private network namespace, then played with fieldline-viewer --log.
+# check_playback.py scrubs the page's timeline to a chosen time and checks that the robots drawn
+# are exactly the ROBOT_STATE each robot's recording holds as last received by that time, and that
+# the error-against-truth plot has points for every robot. Skips (exit 77) without chromium.
+#
+#   playback_browser_test.sh BIN_DIR [SCREENSHOT.png]    # e.g. docs/images/viewer_playback.png
+set -u
+bin=$(realpath "$1")
+screenshot=${2:-}
+here=$(cd "$(dirname "$0")" && pwd)
+root=$(cd "$here/../../.." && pwd)
+chromium=$(command -v chromium || command -v chromium-browser || true)
+if [ -z "$chromium" ]; then
+  echo "SKIP: chromium is not installed (scripts/setup installs Debian's chromium)"
+  exit 77
+fi
+out=$(mktemp -d)
+viewer=""
+trap '[ -n "$viewer" ] && kill "$viewer" 2> /dev/null; rm -rf "$out"' EXIT
+[ -n "$screenshot" ] && screenshot=$(realpath -m "$screenshot")
+export FIELDLINE_ROOT="$root"
+ns="unshare -n"
+unshare -n true 2>/dev/null || ns="unshare -rn"
+$ns bash -c "
+  ip link set lo up; ip link set lo multicast on; ip route add 224.0.0.0/4 dev lo
+  export FIELDLINE_CLOCK_REFERENCE_US=\$(date +%s%6N)
+  '$bin/fieldline-record' --team --robots 1,2,3 -o '$out/rec' > '$out/record.log' 2>&1 &
+  recorder=\$!
+  '$bin/fieldline-launch' sim_team --robots 3 --duration 12 --no-table > '$out/launch.log' 2>&1
+  kill -INT \$recorder; wait \$recorder
+"
+cat "$out/record.log" | grep -v '^\[' | tail -n 4
+for r in 1 2 3; do
+  "$bin/fieldline-bus-dump" --log "$out/rec/robot$r.lcm" --channel ROBOT_STATE \
+      > "$out/robot$r.jsonl" 2> /dev/null
+done
+"$bin/fieldline-viewer" --log "$out/rec" --port 0 > "$out/viewer.log" 2>&1 &
+viewer=$!
+port=""
+for _ in $(seq 1 100); do
+  port=$(sed -n 's|.*serving http://127.0.0.1:\([0-9]*\)/.*|\1|p' "$out/viewer.log" | head -n 1)
+  [ -n "$port" ] && break
+  sleep 0.2
+done
+if [ -z "$port" ]; then
+  echo "FAIL: the viewer did not start"; cat "$out/viewer.log"; exit 1
+fi
+grep 'recording' "$out/viewer.log" | head -n 1
+timeout 100 python3 "$here/check_playback.py" "$chromium" "$port" "$out" "$screenshot" \
+    "$out/robot1.jsonl" "$out/robot2.jsonl" "$out/robot3.jsonl"
