@@ -26,17 +26,13 @@ struct DimensionProblem {
 // overlap nor leave the field. Keys are the preset's (see loadFieldModel).
 std::optional<DimensionProblem> checkDimensions(const FieldDimensions& d) {
   const auto positive = [](double v) { return std::isfinite(v) && v > 0.0; };
+  // 0 means "the field has none" for the optional elements.
+  const auto absentOrPositive = [](double v) { return std::isfinite(v) && v >= 0.0; };
   const std::pair<const char*, double> required[] = {
       {"length", d.length},
       {"width", d.width},
       {"line_width", d.line_width},
       {"boundary_line_width", d.boundary_line_width},
-      {"centre_circle_radius", d.centre_circle_radius},
-      {"corner_arc_radius", d.corner_arc_radius},
-      {"penalty_area.depth", d.penalty_area_depth},
-      {"penalty_area.width", d.penalty_area_width},
-      {"goal_area.depth", d.goal_area_depth},
-      {"goal_area.width", d.goal_area_width},
       {"goals.width", d.goal_width},
       {"goals.depth", d.goal_depth},
       {"goals.height", d.goal_height},
@@ -44,32 +40,80 @@ std::optional<DimensionProblem> checkDimensions(const FieldDimensions& d) {
   for (const auto& [key, value] : required) {
     if (!positive(value)) return DimensionProblem{key, "must be positive (at line centres)"};
   }
+  const std::pair<const char*, double> optional[] = {
+      {"centre_circle_radius", d.centre_circle_radius},
+      {"corner_arc_radius", d.corner_arc_radius},
+      {"penalty_area.depth", d.penalty_area_depth},
+      {"penalty_area.width", d.penalty_area_width},
+      {"goal_area.depth", d.goal_area_depth},
+      {"goal_area.width", d.goal_area_width},
+      {"penalty_arc.radius", d.penalty_arc_radius},
+  };
+  for (const auto& [key, value] : optional) {
+    if (!absentOrPositive(value)) {
+      return DimensionProblem{key, "must be positive at line centres (or absent)"};
+    }
+  }
   if (!std::isfinite(d.border_width) || d.border_width < 0.0) {
     return DimensionProblem{"border_width", "must not be negative"};
+  }
+  const bool penalty_area = d.penalty_area_depth > 0.0;
+  const bool goal_area = d.goal_area_depth > 0.0;
+  if ((d.penalty_area_width > 0.0) != penalty_area) {
+    return DimensionProblem{"penalty_area.width", "depth and width must both be given"};
+  }
+  if ((d.goal_area_width > 0.0) != goal_area) {
+    return DimensionProblem{"goal_area.width", "depth and width must both be given"};
   }
   const double half_length = d.length / 2.0;
   const double half_width = d.width / 2.0;
   if (d.width > d.length) return DimensionProblem{"width", "must not exceed the length"};
-  if (d.penalty_area_width >= d.width) {
-    return DimensionProblem{"penalty_area.width", "must be less than the field width"};
+  // The area reaching furthest into the field, and the circle's reach from the centre.
+  const double circle = d.centre_circle_radius;
+  if (penalty_area) {
+    if (d.penalty_area_width >= d.width) {
+      return DimensionProblem{"penalty_area.width", "must be less than the field width"};
+    }
+    if (d.penalty_area_depth + circle >= half_length) {
+      return DimensionProblem{"penalty_area.depth",
+                              "penalty area reaches the centre circle or the halfway line (depth "
+                              "+ circle radius must be less than half the length)"};
+    }
   }
-  if (d.goal_area_width >= d.penalty_area_width) {
-    return DimensionProblem{"goal_area.width", "must be less than the penalty area width"};
+  if (goal_area) {
+    if (penalty_area && d.goal_area_width >= d.penalty_area_width) {
+      return DimensionProblem{"goal_area.width", "must be less than the penalty area width"};
+    }
+    if (penalty_area && d.goal_area_depth >= d.penalty_area_depth) {
+      return DimensionProblem{"goal_area.depth", "must be less than the penalty area depth"};
+    }
+    if (d.goal_area_width >= d.width) {
+      return DimensionProblem{"goal_area.width", "must be less than the field width"};
+    }
+    if (d.goal_area_depth + circle >= half_length) {
+      return DimensionProblem{"goal_area.depth",
+                              "goal area reaches the centre circle or the halfway line"};
+    }
   }
-  if (d.goal_area_depth >= d.penalty_area_depth) {
-    return DimensionProblem{"goal_area.depth", "must be less than the penalty area depth"};
-  }
-  if (d.penalty_area_depth + d.centre_circle_radius >= half_length) {
-    return DimensionProblem{"penalty_area.depth",
-                            "penalty area reaches the centre circle (depth + circle radius must be "
-                            "less than half the length)"};
-  }
-  if (d.centre_circle_radius >= half_width) {
+  if (circle >= half_width) {
     return DimensionProblem{"centre_circle_radius", "must be less than half the field width"};
   }
-  if (d.corner_arc_radius >= half_width - d.penalty_area_width / 2.0 ||
-      d.corner_arc_radius >= half_length - d.penalty_area_depth) {
-    return DimensionProblem{"corner_arc_radius", "corner arc reaches the penalty area lines"};
+  if (d.corner_arc_radius > 0.0) {
+    // The widest area (or the goal) decides how close to the corner a line comes.
+    double side_clear = half_width - d.goal_width / 2.0;
+    double end_clear = half_length - circle;
+    if (penalty_area) {
+      side_clear = half_width - d.penalty_area_width / 2.0;
+      end_clear = half_length - d.penalty_area_depth;
+    } else if (goal_area) {
+      side_clear = half_width - d.goal_area_width / 2.0;
+      end_clear = half_length - d.goal_area_depth;
+    }
+    if (d.corner_arc_radius >= side_clear || d.corner_arc_radius >= end_clear) {
+      return DimensionProblem{"corner_arc_radius",
+                              "corner arc reaches the penalty area lines (or the goal, the "
+                              "halfway line)"};
+    }
   }
   if (d.goal_width >= d.width) {
     return DimensionProblem{"goals.width", "must be less than the field width"};
@@ -81,6 +125,29 @@ std::optional<DimensionProblem> checkDimensions(const FieldDimensions& d) {
     if (!positive(d.penalty_mark_distance) || d.penalty_mark_distance >= half_length) {
       return DimensionProblem{"penalty_marks.distance",
                               "must be positive and less than half the length"};
+    }
+  }
+  if (d.penalty_arc_radius > 0.0) {
+    const double r = d.penalty_arc_radius;
+    const double front = d.penalty_area_depth - d.penalty_arc_centre_distance;
+    if (!penalty_area) {
+      return DimensionProblem{"penalty_arc.radius", "a penalty arc needs a penalty area"};
+    }
+    if (!positive(d.penalty_arc_centre_distance) || d.penalty_arc_centre_distance >= half_length) {
+      return DimensionProblem{"penalty_arc.centre_distance",
+                              "must be positive and less than half the length"};
+    }
+    if (std::abs(front) >= r) {
+      return DimensionProblem{"penalty_arc.radius",
+                              "the arc does not reach beyond the penalty area's front line"};
+    }
+    if (std::sqrt(r * r - front * front) >= d.penalty_area_width / 2.0) {
+      return DimensionProblem{"penalty_arc.radius",
+                              "the arc meets the front line outside the penalty area"};
+    }
+    if (d.penalty_arc_centre_distance + r + circle >= half_length) {
+      return DimensionProblem{"penalty_arc.radius",
+                              "the arc reaches the centre circle or the halfway line"};
     }
   }
   return std::nullopt;
@@ -157,12 +224,17 @@ FieldModel::FieldModel(const FieldDimensions& dimensions) : dims_(dimensions) {
   segment(hl, -hw, hl, hw, bw);
   segment(0.0, -hw, 0.0, hw, lw);
   // Front lines of the penalty and goal areas.
-  segment(-hl + pd, -pw, -hl + pd, pw, lw);
-  segment(hl - pd, -pw, hl - pd, pw, lw);
-  segment(-hl + gd, -gw, -hl + gd, gw, lw);
-  segment(hl - gd, -gw, hl - gd, gw, lw);
+  if (hasPenaltyAreas()) {
+    segment(-hl + pd, -pw, -hl + pd, pw, lw);
+    segment(hl - pd, -pw, hl - pd, pw, lw);
+  }
+  if (hasGoalAreas()) {
+    segment(-hl + gd, -gw, -hl + gd, gw, lw);
+    segment(hl - gd, -gw, hl - gd, gw, lw);
+  }
   // Side lines of the penalty area, then of the goal area: own +y, opponent +y, own -y, opp -y.
   for (const auto& [depth, half] : {std::pair{pd, pw}, std::pair{gd, gw}}) {
+    if (depth <= 0.0) continue;
     segment(-hl, half, -hl + depth, half, lw);
     segment(hl - depth, half, hl, half, lw);
     segment(-hl, -half, -hl + depth, -half, lw);
@@ -171,11 +243,23 @@ FieldModel::FieldModel(const FieldDimensions& dimensions) : dims_(dimensions) {
 
   // Corner quarter circles, each sweeping into the field, then the centre circle.
   const double a = dims_.corner_arc_radius;
-  arcs_.push_back(LineArc{Vec2(-hl, hw), a, -kPi / 2.0, kPi / 2.0, lw});
-  arcs_.push_back(LineArc{Vec2(hl, hw), a, kPi, kPi / 2.0, lw});
-  arcs_.push_back(LineArc{Vec2(hl, -hw), a, kPi / 2.0, kPi / 2.0, lw});
-  arcs_.push_back(LineArc{Vec2(-hl, -hw), a, 0.0, kPi / 2.0, lw});
-  arcs_.push_back(LineArc{Vec2::Zero(), dims_.centre_circle_radius, 0.0, kTwoPi, lw});
+  if (hasCornerArcs()) {
+    arcs_.push_back(LineArc{Vec2(-hl, hw), a, -kPi / 2.0, kPi / 2.0, lw});
+    arcs_.push_back(LineArc{Vec2(hl, hw), a, kPi, kPi / 2.0, lw});
+    arcs_.push_back(LineArc{Vec2(hl, -hw), a, kPi / 2.0, kPi / 2.0, lw});
+    arcs_.push_back(LineArc{Vec2(-hl, -hw), a, 0.0, kPi / 2.0, lw});
+  }
+  if (hasCentreCircle()) {
+    arcs_.push_back(LineArc{Vec2::Zero(), dims_.centre_circle_radius, 0.0, kTwoPi, lw});
+  }
+  if (hasPenaltyArcs()) {
+    // The part of the circle in front of the front line: half-angle alpha about the axis.
+    const double r = dims_.penalty_arc_radius;
+    const double cd = dims_.penalty_arc_centre_distance;
+    const double alpha = std::acos(std::clamp((pd - cd) / r, -1.0, 1.0));
+    arcs_.push_back(LineArc{Vec2(-hl + cd, 0.0), r, -alpha, 2.0 * alpha, lw});
+    arcs_.push_back(LineArc{Vec2(hl - cd, 0.0), r, kPi - alpha, 2.0 * alpha, lw});
+  }
 
   // The goal mouth sits on the outer edge of the goal line.
   const double mouth_x = hl + bw / 2.0;
@@ -192,6 +276,12 @@ FieldModel::FieldModel(const FieldDimensions& dimensions) : dims_(dimensions) {
 Vec2 FieldModel::carpetHalfExtent() const {
   const double outside = dims_.boundary_line_width / 2.0 + dims_.border_width;
   return Vec2(dims_.length / 2.0 + outside, dims_.width / 2.0 + outside);
+}
+
+bool FieldModel::insideLines(const Vec2& p, double margin) const {
+  const double outside = dims_.boundary_line_width / 2.0 + margin;
+  return std::abs(p.x()) <= dims_.length / 2.0 + outside &&
+         std::abs(p.y()) <= dims_.width / 2.0 + outside;
 }
 
 FieldModel::Closest FieldModel::closestPoint(const Vec2& p) const {
@@ -266,18 +356,26 @@ FieldModel loadFieldModel(const config::Node& root) {
   d.line_width = root.get<double>("line_width", 0.005, 0.5);
   d.boundary_line_width = root.getOr<double>("boundary_line_width", d.line_width, 0.005, 0.5);
   d.border_width = root.get<double>("border_width", 0.0, 20.0);
-  d.centre_circle_radius = root.get<double>("centre_circle_radius", 0.05, 20.0);
-  d.corner_arc_radius = root.get<double>("corner_arc_radius", 0.05, 20.0);
+  // Optional elements: an absent key means the field does not have it.
+  if (root.has("centre_circle_radius")) {
+    d.centre_circle_radius = root.get<double>("centre_circle_radius", 0.05, 50.0);
+  }
+  if (root.has("corner_arc_radius")) {
+    d.corner_arc_radius = root.get<double>("corner_arc_radius", 0.05, 20.0);
+  }
 
-  const config::Node penalty_area = root.child("penalty_area");
-  d.penalty_area_depth = penalty_area.get<double>("depth", 0.05, 50.0);
-  d.penalty_area_width = penalty_area.get<double>("width", 0.1, 100.0);
-  penalty_area.rejectUnknownKeys();
-
-  const config::Node goal_area = root.child("goal_area");
-  d.goal_area_depth = goal_area.get<double>("depth", 0.05, 50.0);
-  d.goal_area_width = goal_area.get<double>("width", 0.1, 100.0);
-  goal_area.rejectUnknownKeys();
+  const std::optional<config::Node> penalty_area = root.childIf("penalty_area");
+  if (penalty_area) {
+    d.penalty_area_depth = penalty_area->get<double>("depth", 0.05, 50.0);
+    d.penalty_area_width = penalty_area->get<double>("width", 0.1, 100.0);
+    penalty_area->rejectUnknownKeys();
+  }
+  const std::optional<config::Node> goal_area = root.childIf("goal_area");
+  if (goal_area) {
+    d.goal_area_depth = goal_area->get<double>("depth", 0.05, 50.0);
+    d.goal_area_width = goal_area->get<double>("width", 0.1, 100.0);
+    goal_area->rejectUnknownKeys();
+  }
 
   const std::optional<config::Node> marks = root.childIf("penalty_marks");
   if (marks) {
@@ -285,6 +383,19 @@ FieldModel loadFieldModel(const config::Node& root) {
     d.penalty_mark_distance = marks->get<double>("distance", 0.1, 50.0);
     d.penalty_mark_diameter = marks->get<double>("diameter", 0.01, 1.0);
     marks->rejectUnknownKeys();
+  }
+
+  const std::optional<config::Node> penalty_arc = root.childIf("penalty_arc");
+  if (penalty_arc) {
+    d.penalty_arc_radius = penalty_arc->get<double>("radius", 0.05, 50.0);
+    if (penalty_arc->has("centre_distance")) {
+      d.penalty_arc_centre_distance = penalty_arc->get<double>("centre_distance", 0.05, 50.0);
+    } else if (marks) {
+      d.penalty_arc_centre_distance = d.penalty_mark_distance;
+    } else {
+      penalty_arc->fail("centre_distance", "required when the field has no penalty marks");
+    }
+    penalty_arc->rejectUnknownKeys();
   }
 
   const config::Node goals = root.child("goals");
@@ -303,13 +414,21 @@ FieldModel loadFieldModel(const config::Node& root) {
     const double bw = d.boundary_line_width;
     d.length -= bw;
     d.width -= bw;
-    d.penalty_area_depth -= (bw + lw) / 2.0;
-    d.penalty_area_width -= lw;
-    d.goal_area_depth -= (bw + lw) / 2.0;
-    d.goal_area_width -= lw;
-    d.centre_circle_radius -= lw / 2.0;
-    d.corner_arc_radius -= lw / 2.0;
-    d.penalty_mark_distance -= bw / 2.0;
+    // Absent elements (0) stay absent.
+    const auto inward = [](double& value, double by) {
+      if (value > 0.0) value -= by;
+    };
+    inward(d.penalty_area_depth, (bw + lw) / 2.0);
+    inward(d.penalty_area_width, lw);
+    inward(d.goal_area_depth, (bw + lw) / 2.0);
+    inward(d.goal_area_width, lw);
+    inward(d.centre_circle_radius, lw / 2.0);
+    inward(d.corner_arc_radius, lw / 2.0);
+    inward(d.penalty_mark_distance, bw / 2.0);
+    // The arc's radius runs to its outer edge, its centre from the goal line's outer edge (as
+    // the penalty mark's).
+    inward(d.penalty_arc_radius, lw / 2.0);
+    inward(d.penalty_arc_centre_distance, bw / 2.0);
   }
 
   if (const auto problem = checkDimensions(d)) {
@@ -318,8 +437,9 @@ FieldModel loadFieldModel(const config::Node& root) {
     if (dot == std::string::npos) root.fail(key, problem->what);
     const std::string section = key.substr(0, dot);
     const std::string leaf = key.substr(dot + 1);
-    if (section == "penalty_area") penalty_area.fail(leaf, problem->what);
-    if (section == "goal_area") goal_area.fail(leaf, problem->what);
+    if (section == "penalty_area" && penalty_area) penalty_area->fail(leaf, problem->what);
+    if (section == "goal_area" && goal_area) goal_area->fail(leaf, problem->what);
+    if (section == "penalty_arc" && penalty_arc) penalty_arc->fail(leaf, problem->what);
     if (section == "goals") goals.fail(leaf, problem->what);
     if (section == "penalty_marks" && marks) marks->fail(leaf, problem->what);
     root.fail(key, problem->what);

@@ -3,17 +3,21 @@
 // spot, x toward the opponent goal, y left; metres, radians), plus goals, penalty marks and the
 // carpet up to the barrier. Closest point and distance queries follow eq. 4.74-4.78.
 //
-// Element order (same for every preset, numbered as in table 4.4 minus one):
-//   segments  0, 1  touch lines (y = +W/2, y = -W/2), x from -L/2 to +L/2
-//             2, 3  goal lines (x = -L/2, x = +L/2), y from -W/2 to +W/2
-//             4     halfway line (x = 0)
-//             5, 6  penalty area front lines (own -x, opponent +x)
-//             7, 8  goal area front lines (own, opponent)
-//             9-12  penalty area side lines: own +y, opponent +y, own -y, opponent -y
-//            13-16  goal area side lines, same order
-//   arcs      0-3   corner quarter circles at (-L/2,+W/2), (+L/2,+W/2), (+L/2,-W/2), (-L/2,-W/2)
-//             4     centre circle
-// where L = length() and W = width() run between line centres.
+// Element order (the seed's table 4.4 for a field that has every element; an element the field
+// does not have is left out and the ones after it move up):
+//   segments  touch lines (y = +W/2, y = -W/2), x from -L/2 to +L/2
+//             goal lines (x = -L/2, x = +L/2), y from -W/2 to +W/2
+//             halfway line (x = 0)
+//             penalty area front lines (own -x, opponent +x)        if hasPenaltyAreas()
+//             goal area front lines (own, opponent)                 if hasGoalAreas()
+//             penalty area side lines: own +y, opponent +y, own -y, opponent -y
+//             goal area side lines, same order
+//   arcs      corner quarter circles at (-L/2,+W/2), (+L/2,+W/2), (+L/2,-W/2), (-L/2,-W/2)
+//                                                                    if hasCornerArcs()
+//             centre circle                                          if hasCentreCircle()
+//             penalty arcs ("D"): own, opponent                      if hasPenaltyArcs()
+// where L = length() and W = width() run between line centres. The fu2004 and msl presets have
+// the seed's 17 segments and 5 arcs.
 //
 // A FieldModel is immutable after construction and safe to share between threads.
 #pragma once
@@ -83,14 +87,20 @@ struct FieldDimensions {
   double boundary_line_width = 0.0;
   // Carpet from the outer edge of the boundary lines to the barrier.
   double border_width = 0.0;
+  // 0: the field has no centre circle / no corner arcs.
   double centre_circle_radius = 0.0;
   double corner_arc_radius = 0.0;
   // Penalty and goal area: depth from the goal line's centre to the front line's centre, width
-  // between the side lines' centres.
+  // between the side lines' centres. Depth and width 0: the field has no such area.
   double penalty_area_depth = 0.0;
   double penalty_area_width = 0.0;
   double goal_area_depth = 0.0;
   double goal_area_width = 0.0;
+  // Penalty arc ("D" of older and lab fields): the part of a circle of this radius around a
+  // point penalty_arc_centre_distance from the goal line's centre that lies in front of the
+  // penalty area's front line. Radius 0: none (needs a penalty area).
+  double penalty_arc_radius = 0.0;
+  double penalty_arc_centre_distance = 0.0;
   // Penalty mark centre, from the goal line's centre; no marks when has_penalty_marks is false.
   bool has_penalty_marks = false;
   double penalty_mark_distance = 0.0;
@@ -135,6 +145,15 @@ class FieldModel {
   const std::vector<Goal>& goals() const { return goals_; }
   // Penalty mark centres (own, opponent); empty if the field has none.
   const std::vector<Vec2>& penaltyMarks() const { return penalty_marks_; }
+  // Which optional elements the field has (FieldDimensions: a zero size means none).
+  bool hasCentreCircle() const { return dims_.centre_circle_radius > 0.0; }
+  bool hasCornerArcs() const { return dims_.corner_arc_radius > 0.0; }
+  bool hasPenaltyAreas() const { return dims_.penalty_area_depth > 0.0; }
+  bool hasGoalAreas() const { return dims_.goal_area_depth > 0.0; }
+  bool hasPenaltyArcs() const { return dims_.penalty_arc_radius > 0.0; }
+  // True for a point on the field's carpet between (and on) the touch and goal lines' outer
+  // edges, plus `margin` (m) all round (negative: inside).
+  bool insideLines(const Vec2& p, double margin = 0.0) const;
 
   // The closest point on any line centre (eq. 4.74-4.78). Throws std::invalid_argument for a
   // non-finite point.
@@ -161,7 +180,7 @@ Vec2 closestPointOnArc(const LineArc& arc, const Vec2& p);
 // Reads a field preset (see config/field/*.yaml and docs/field.md). Throws config::Error naming
 // file:line and key path for a missing, unknown or out-of-range key or inconsistent dimensions.
 FieldModel loadFieldModel(const config::Node& root);
-// Loads a preset by name ("msl", "fu2004") or by path to a YAML file.
+// Loads a preset by name ("msl", "fu2004", "cnc_lab", ...) or by path to a YAML file.
 FieldModel loadFieldPreset(const std::string& name_or_path);
 
 }  // namespace fieldline::field

@@ -64,6 +64,7 @@ std::vector<ModelJunction> modelJunctions(const field::FieldModel& field) {
       addLegs(segs[j], uj, sj);
       // The corners of the penalty and goal areas.
       for (int inner = 0; inner < 2; ++inner) {
+        if (!(inner ? field.hasGoalAreas() : field.hasPenaltyAreas())) continue;
         const double cx = field.length() / 2 - (inner ? d.goal_area_depth : d.penalty_area_depth);
         const double cy = (inner ? d.goal_area_width : d.penalty_area_width) / 2;
         if (m.legs.size() == 2 && std::abs(std::abs(x.x()) - cx) < 1e-6 &&

@@ -26,6 +26,7 @@ void candidateLineEnds(const LineStructure& structure, const field::FieldModel& 
       for (int h = 0; h < static_cast<int>(groups.size()) && !partner; ++h) {
         if (h == g || groups[h].line.count < params.min_corner_line_points) continue;
         for (double spacing : spacings) {
+          if (spacing <= 0.0) continue;  // the field has no such area
           if (std::abs(std::abs(groups[h].t - groups[g].t) - spacing) <= params.spacing_tolerance) {
             partner = true;
           }

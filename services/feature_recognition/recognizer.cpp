@@ -121,7 +121,10 @@ InputCheck FeatureRecognizer::recognize(const perception::LinePoints& in,
   penalty_found_ = false;
   const InputCheck check = prepareContours(in, params_, contours_);
   classifyPieces(contours_, params_, classified_);
-  findCircle(contours_, classified_, field_.dimensions().centre_circle_radius, params_, circle_);
+  // A field without a centre circle (or without penalty and goal areas) has none to find.
+  if (field_.hasCentreCircle()) {
+    findCircle(contours_, classified_, field_.dimensions().centre_circle_radius, params_, circle_);
+  }
   buildLineStructure(contours_, classified_.lines,
                      circle_.found ? circle_.pieces : std::vector<int>{}, params_, structure_);
   if (circle_.found && structure_.found) {
@@ -134,7 +137,8 @@ InputCheck FeatureRecognizer::recognize(const perception::LinePoints& in,
     }
     findOrientationLine(candidates, params_, circle_);
   }
-  penalty_found_ = findPenaltyArea(structure_, field_, params_, penalty_);
+  penalty_found_ = field_.hasPenaltyAreas() && field_.hasGoalAreas() &&
+                   findPenaltyArea(structure_, field_, params_, penalty_);
   findJunctions(structure_, params_, junctions_);
   unseen_indexed_ = false;
 

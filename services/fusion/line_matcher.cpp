@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
+#include <optional>
 #include <queue>
 #include <stdexcept>
 #include <string>
@@ -11,6 +12,7 @@
 #include <vector>
 
 #include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
 #include <Eigen/LU>
 
 #include "services/fusion/line_grid.hpp"
@@ -18,10 +20,12 @@
 namespace fieldline::fusion {
 namespace {
 
-// A usable line point in the robot frame.
+// A usable line point in the robot frame, and its weight by range (MatcherParams::
+// range_weight_m; 1 without).
 struct RobotPoint {
   double x;
   double y;
+  double w = 1.0;
 };
 
 void requirePositive(double value, const char* name) {
@@ -43,6 +47,26 @@ void validate(const MatcherParams& p) {
   requirePositive(p.force_cap_m, "force_cap_m");
   requirePositive(p.unobservable_sigma_m, "unobservable_sigma_m");
   requirePositive(p.unobservable_sigma_rad, "unobservable_sigma_rad");
+  requirePositive(p.max_valid_cost_m, "max_valid_cost_m");
+  requirePositive(p.runner_up_distinct_m, "runner_up_distinct_m");
+  requirePositive(p.runner_up_distinct_rad, "runner_up_distinct_rad");
+  const auto nonNegative = [](double v, const char* name) {
+    if (!(std::isfinite(v) && v >= 0.0)) {
+      throw std::invalid_argument(std::string("MatcherParams: ") + name + " must not be negative");
+    }
+  };
+  nonNegative(p.correlation_length_m, "correlation_length_m");
+  nonNegative(p.range_weight_m, "range_weight_m");
+  nonNegative(p.runner_up_offset_m, "runner_up_offset_m");
+  nonNegative(p.runner_up_offset_rad, "runner_up_offset_rad");
+  nonNegative(p.sigma_floor_m, "sigma_floor_m");
+  nonNegative(p.sigma_floor_rad, "sigma_floor_rad");
+  nonNegative(p.camera_scale_sigma, "camera_scale_sigma");
+  nonNegative(p.camera_tilt_sigma, "camera_tilt_sigma");
+  nonNegative(p.camera_axis_sigma_m, "camera_axis_sigma_m");
+  if (!(p.min_inlier_fraction >= 0.0 && p.min_inlier_fraction <= 1.0)) {
+    throw std::invalid_argument("MatcherParams: min_inlier_fraction must be in [0, 1]");
+  }
   // Off the grid then means further than the outlier distance from every line.
   if (!(std::isfinite(p.grid_margin_m) && p.grid_margin_m >= p.outlier_distance_m)) {
     throw std::invalid_argument("MatcherParams: grid_margin_m must be at least outlier_distance_m");
@@ -60,17 +84,20 @@ LineGridSettings gridSettings(const MatcherParams& p) {
   return LineGridSettings{p.grid_cell_m, p.grid_margin_m, p.force_decay_per_m, p.force_cap_m};
 }
 
-// Finite points within range; the rest are skipped.
+// Finite points within range; the rest are skipped. With `range_weight` (m, > 0) a point at
+// range r weighs 1 / (1 + (r / range_weight)^2).
 void usablePoints(std::span<const perception::LinePoint> points, double max_range,
-                  std::vector<RobotPoint>& out) {
+                  double range_weight, std::vector<RobotPoint>& out) {
   out.clear();
   out.reserve(points.size());
   const double max_squared = max_range * max_range;
+  const double inverse_squared = range_weight > 0.0 ? 1.0 / (range_weight * range_weight) : 0.0;
   for (const perception::LinePoint& q : points) {
     const double x = q.x, y = q.y;
     if (!(std::isfinite(x) && std::isfinite(y))) continue;
-    if (x * x + y * y > max_squared) continue;
-    out.push_back({x, y});
+    const double r2 = x * x + y * y;
+    if (r2 > max_squared) continue;
+    out.push_back({x, y, 1.0 / (1.0 + r2 * inverse_squared)});
   }
 }
 
@@ -92,7 +119,25 @@ MatcherParams loadMatcherParams(const config::Node& n) {
   p.outlier_distance_m = n.getOr<double>("outlier_distance_m", p.outlier_distance_m, 0.01, 2.0);
   p.max_point_range_m = n.getOr<double>("max_point_range_m", p.max_point_range_m, 0.1, 30.0);
   p.point_sigma_m = n.getOr<double>("point_sigma_m", p.point_sigma_m, 1e-4, 1.0);
+  p.correlation_length_m =
+      n.getOr<double>("correlation_length_m", p.correlation_length_m, 0.0, 5.0);
+  p.range_weight_m = n.getOr<double>("range_weight_m", p.range_weight_m, 0.0, 100.0);
+  p.camera_scale_sigma = n.getOr<double>("camera_scale_sigma", p.camera_scale_sigma, 0.0, 0.5);
+  p.camera_tilt_sigma = n.getOr<double>("camera_tilt_sigma", p.camera_tilt_sigma, 0.0, 0.5);
+  p.camera_axis_sigma_m = n.getOr<double>("camera_axis_sigma_m", p.camera_axis_sigma_m, 0.0, 1.0);
   p.min_inliers = n.getOr<int>("min_inliers", p.min_inliers, 3, 100000);
+  p.min_inlier_fraction = n.getOr<double>("min_inlier_fraction", p.min_inlier_fraction, 0.0, 1.0);
+  p.max_valid_cost_m = n.getOr<double>("max_valid_cost_m", p.max_valid_cost_m, 0.001, 10.0);
+  p.runner_up_offset_m = n.getOr<double>("runner_up_offset_m", p.runner_up_offset_m, 0.0, 5.0);
+  p.runner_up_offset_rad =
+      n.getOr<double>("runner_up_offset_rad", p.runner_up_offset_rad, 0.0, 3.2);
+  p.runner_up_distinct_m =
+      n.getOr<double>("runner_up_distinct_m", p.runner_up_distinct_m, 1e-3, 5.0);
+  p.runner_up_distinct_rad =
+      n.getOr<double>("runner_up_distinct_rad", p.runner_up_distinct_rad, 1e-3, 3.2);
+  p.shape_check = n.getOr<bool>("shape_check", p.shape_check);
+  p.sigma_floor_m = n.getOr<double>("sigma_floor_m", p.sigma_floor_m, 0.0, 1.0);
+  p.sigma_floor_rad = n.getOr<double>("sigma_floor_rad", p.sigma_floor_rad, 0.0, 1.0);
   p.max_iterations = n.getOr<int>("max_iterations", p.max_iterations, 1, 10000);
   p.converged_step = n.getOr<double>("converged_step", p.converged_step, 1e-9, 0.1);
   p.loss_scale_m = n.getOr<double>("loss_scale_m", p.loss_scale_m, 1e-3, 2.0);
@@ -182,7 +227,8 @@ struct LineMatcher::Impl {
     int inliers = 0;
     // The Cauchy cost sums logs; a product of up to 64 factors (each at most
     // 1 + (outlier / scale)^2) and one log per 64 points is much cheaper and as exact.
-    const bool cauchy = params.loss == RobustLoss::kCauchy;
+    // (With range weights each point's cost is weighted: no product trick.)
+    const bool cauchy = params.loss == RobustLoss::kCauchy && params.range_weight_m <= 0.0;
     const double inverse_scale_squared = 1.0 / (params.loss_scale_m * params.loss_scale_m);
     double cauchy_product = 1.0, cauchy_logs = 0.0;
     int in_product = 0;
@@ -192,7 +238,7 @@ struct LineMatcher::Impl {
       const double oy = s * q.x + c * q.y;
       double d, gx, gy;
       if (!grid.distanceGradient(pose.x + ox, pose.y + oy, d, gx, gy) || d > outlier) {
-        cost += outlier_rho;
+        cost += q.w * outlier_rho;
         seed_sum += outlier;
         continue;
       }
@@ -209,8 +255,8 @@ struct LineMatcher::Impl {
           in_product = 0;
         }
       } else {
-        w = weight(d);
-        cost += rho(d);
+        w = q.w * weight(d);
+        cost += q.w * rho(d);
       }
       // d(distance)/d(x, y, phi): the gradient, and the gradient along the point's turn.
       const double j2 = gy * ox - gx * oy;
@@ -350,42 +396,311 @@ struct LineMatcher::Impl {
     return sum / static_cast<double>(points.size());
   }
 
+  // The configured method from `start`; the linearization at its answer in `at`.
+  geometry::Pose2 optimize(const std::vector<RobotPoint>& points, const geometry::Pose2& start,
+                           int& iterations, Linearization& at) const {
+    geometry::Pose2 pose;
+    if (params.method == MatchMethod::kForceField) {
+      pose = forceField(points, start, iterations);
+      at = linearize(points, pose);
+    } else {
+      pose = leastSquares(points, start, iterations, at);
+    }
+    pose.phi = geometry::normalizeAngle(pose.phi);
+    return pose;
+  }
+
+  // Each point's weight as one of the group of points in its cell (correlation_length_m square,
+  // robot frame): 1 / (points in the cell). Neighbouring points share their error (a mirror
+  // slightly off, a tilted camera, a blurred edge move them together), so a group says about as
+  // much as one point, however densely the line was sampled.
+  void cellWeights(const std::vector<RobotPoint>& points, std::vector<double>& weights) const {
+    weights.assign(points.size(), 1.0);
+    const double cell = params.correlation_length_m;
+    if (cell <= 0.0) return;
+    std::vector<std::int64_t> keys(points.size());
+    for (std::size_t i = 0; i < points.size(); ++i) {
+      // Points lie within max_point_range_m (<= 30 m): the cell indices fit 31 bits each.
+      const auto kx = static_cast<std::int64_t>(std::floor(points[i].x / cell)) + (1 << 30);
+      const auto ky = static_cast<std::int64_t>(std::floor(points[i].y / cell)) + (1 << 30);
+      keys[i] = (kx << 32) | ky;
+    }
+    std::vector<std::int64_t> sorted = keys;
+    std::sort(sorted.begin(), sorted.end());
+    for (std::size_t i = 0; i < points.size(); ++i) {
+      const auto range = std::equal_range(sorted.begin(), sorted.end(), keys[i]);
+      weights[i] = 1.0 / static_cast<double>(range.second - range.first);
+    }
+  }
+
+  // The cell-weighted robust cost (outliers at the outlier cost).
+  double weightedCost(const std::vector<RobotPoint>& points, const std::vector<double>& weights,
+                      const geometry::Pose2& pose) const {
+    const double c = std::cos(pose.phi), s = std::sin(pose.phi);
+    const double outlier_rho = rho(params.outlier_distance_m);
+    double sum = 0.0;
+    for (std::size_t i = 0; i < points.size(); ++i) {
+      const RobotPoint& q = points[i];
+      double d;
+      const bool on = grid.distance(pose.x + c * q.x - s * q.y, pose.y + s * q.x + c * q.y, d);
+      sum += weights[i] * q.w * (on && d <= params.outlier_distance_m ? rho(d) : outlier_rho);
+    }
+    return sum;
+  }
+
+  // The cell-weighted normal equations at `pose` and the inliers' weighted residuals.
+  struct WeightedFit {
+    Eigen::Matrix3d information = Eigen::Matrix3d::Zero();
+    double weight_sum = 0.0;
+    double weighted_squares = 0.0;
+    // Sum of the inliers' cell weights: the independent groups that matched.
+    double independent = 0.0;
+    // J^T W (d distance / d camera parameter) for the distance function's scale and the two
+    // components of a tilt (cos, sin of the bearing).
+    Eigen::Vector3d scale = Eigen::Vector3d::Zero();
+    Eigen::Vector3d tilt_cos = Eigen::Vector3d::Zero();
+    Eigen::Vector3d tilt_sin = Eigen::Vector3d::Zero();
+  };
+  WeightedFit weightedFit(const std::vector<RobotPoint>& points, const std::vector<double>& weights,
+                          const geometry::Pose2& pose) const {
+    WeightedFit out;
+    const double c = std::cos(pose.phi), s = std::sin(pose.phi);
+    for (std::size_t i = 0; i < points.size(); ++i) {
+      const RobotPoint& q = points[i];
+      const double ox = c * q.x - s * q.y;
+      const double oy = s * q.x + c * q.y;
+      double d, gx, gy;
+      if (!grid.distanceGradient(pose.x + ox, pose.y + oy, d, gx, gy) ||
+          d > params.outlier_distance_m) {
+        continue;
+      }
+      const double w = weights[i] * q.w * weight(d);
+      const Eigen::Vector3d j(gx, gy, gy * ox - gx * oy);
+      out.information += w * j * j.transpose();
+      out.weight_sum += w;
+      out.weighted_squares += w * d * d;
+      out.independent += weights[i];
+      // A longer distance function moves the point outward along its ray: the distance changes
+      // by the gradient along the offset; a tilt does so by the cosine of the bearing.
+      const double radial = gx * ox + gy * oy;
+      const double range = std::hypot(q.x, q.y);
+      out.scale += w * radial * j;
+      if (range > 0.0) {
+        out.tilt_cos += w * radial * (q.x / range) * j;
+        out.tilt_sin += w * radial * (q.y / range) * j;
+      }
+    }
+    return out;
+  }
+
+  // The camera's calibration errors (MatcherParams::camera_*), through the fit: a parameter
+  // error e moves the answer by -H^-1 J^T W (dd/de) e, whatever the residuals say.
+  void addCameraErrors(const WeightedFit& fit, double scale, const Eigen::Matrix3d& prior,
+                       Eigen::Matrix3d& covariance) const {
+    const Eigen::LDLT<Eigen::Matrix3d> solver(fit.information + scale * prior);
+    const auto addResponse = [&](const Eigen::Vector3d& b, double sigma) {
+      if (sigma <= 0.0) return;
+      const Eigen::Vector3d response = solver.solve(b);
+      if (response.allFinite()) covariance += sigma * sigma * response * response.transpose();
+    };
+    addResponse(fit.scale, params.camera_scale_sigma);
+    addResponse(fit.tilt_cos, params.camera_tilt_sigma);
+    addResponse(fit.tilt_sin, params.camera_tilt_sigma);
+    // The axis's offset moves every point alike: the robot's position by as much.
+    covariance(0, 0) += params.camera_axis_sigma_m * params.camera_axis_sigma_m;
+    covariance(1, 1) += params.camera_axis_sigma_m * params.camera_axis_sigma_m;
+  }
+
+  // The covariance from the shape of the cost at `pose` (see the header); fills the diagnostics
+  // of `out`.
+  Eigen::Matrix3d shapeCovariance(const std::vector<RobotPoint>& points,
+                                  const std::vector<double>& weights, const geometry::Pose2& pose,
+                                  PoseCorrection& out) const {
+    const WeightedFit fit = weightedFit(points, weights, pose);
+    const double point_variance = params.point_sigma_m * params.point_sigma_m;
+    // Residual variance of a group, with the three fitted parameters taken out.
+    double residual_variance = point_variance;
+    if (fit.weight_sum > 0.0) {
+      const double dof = fit.independent > 4.0 ? fit.independent / (fit.independent - 3.0) : 4.0;
+      residual_variance = fit.weighted_squares / fit.weight_sum * dof;
+    }
+    const double inflation = std::max(1.0, residual_variance / point_variance);
+    out.residual_rms_m = fit.weight_sum > 0.0 ? std::sqrt(fit.weighted_squares / fit.weight_sum)
+                                              : params.outlier_distance_m;
+    out.residual_inflation = inflation;
+    out.independent_points = fit.independent;
+    const double scale = point_variance * inflation;
+    const Eigen::Matrix3d data = fit.information / scale;
+    Eigen::Matrix3d prior = Eigen::Matrix3d::Zero();
+    prior(0, 0) = prior(1, 1) = 1.0 / (params.unobservable_sigma_m * params.unobservable_sigma_m);
+    prior(2, 2) = 1.0 / (params.unobservable_sigma_rad * params.unobservable_sigma_rad);
+    Eigen::Matrix3d covariance = (data + prior).inverse();
+    covariance = 0.5 * (covariance + covariance.transpose()).eval();
+    out.shape_widening = 1.0;
+    if (!params.shape_check || !covariance.allFinite()) {
+      addCameraErrors(fit, scale, prior, covariance);
+      return 0.5 * (covariance + covariance.transpose()).eval();
+    }
+
+    // Along each axis: the cost 1.5 and 3 sigmas out, against the quadratic's t^2 / 2 (the cost
+    // in units of the point model is half a chi-square). Where it rises less, the axis widens
+    // (by at most 20 in sigma). An axis only the prior holds is wide already.
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(covariance);
+    Eigen::Vector3d variances = eigen.eigenvalues();
+    const double base = weightedCost(points, weights, pose) / scale;
+    for (int k = 0; k < 3; ++k) {
+      const Eigen::Vector3d axis = eigen.eigenvectors().col(k);
+      if (axis.dot(data * axis) < axis.dot(prior * axis) || !(variances[k] > 0.0)) continue;
+      const Eigen::Vector3d step = std::sqrt(variances[k]) * axis;
+      double ratio = 1.0;
+      for (const double t : {1.5, 3.0}) {
+        for (const double sign : {-1.0, 1.0}) {
+          const geometry::Pose2 probe{pose.x + sign * t * step.x(), pose.y + sign * t * step.y(),
+                                      pose.phi + sign * t * step.z()};
+          const double rise = weightedCost(points, weights, probe) / scale - base;
+          ratio = std::min(ratio, rise / (0.5 * t * t));
+        }
+      }
+      const double widening = 1.0 / std::max(ratio, 1.0 / 400.0);
+      variances[k] *= widening;
+      out.shape_widening = std::max(out.shape_widening, widening);
+    }
+    covariance = eigen.eigenvectors() * variances.asDiagonal() * eigen.eigenvectors().transpose();
+    addCameraErrors(fit, scale, prior, covariance);
+    return 0.5 * (covariance + covariance.transpose()).eval();
+  }
+
+  // The full answer from `guess`: the fit, the runner-up search, the covariance. With `analyse`
+  // false only the fit and a Hessian covariance (the global search's lattice refinement).
   PoseCorrection correct(const std::vector<RobotPoint>& points, const geometry::Pose2& guess,
-                         std::int64_t utime) const {
+                         std::int64_t utime, bool analyse = true) const {
     PoseCorrection out;
     out.utime = utime;
     out.pose = guess;
     out.points_used = static_cast<int>(points.size());
     if (!geometry::isFinite(guess)) {
       out.cost = params.outlier_distance_m;
+      out.invalid_reason = "the guess is not finite";
       return out;
     }
     Linearization at;
-    geometry::Pose2 pose;
-    if (params.method == MatchMethod::kForceField) {
-      pose = forceField(points, guess, out.iterations);
-      at = linearize(points, pose);
-    } else {
-      pose = leastSquares(points, guess, out.iterations, at);
+    geometry::Pose2 pose = optimize(points, guess, out.iterations, at);
+
+    // The runner-up: the fit restarted around the answer; a better minimum becomes the answer.
+    struct Minimum {
+      geometry::Pose2 pose;
+      Linearization at;
+    };
+    std::optional<Minimum> runner;
+    const bool search = analyse && points.size() >= 3 &&
+                        (params.runner_up_offset_m > 0.0 || params.runner_up_offset_rad > 0.0);
+    if (search) {
+      Eigen::Matrix2d position = Eigen::Matrix2d::Identity();
+      if (at.information.allFinite()) {
+        const Eigen::Matrix3d h = at.information + 1e-9 * Eigen::Matrix3d::Identity();
+        const Eigen::Matrix3d inverse = h.inverse();
+        if (inverse.allFinite()) position = inverse.topLeftCorner<2, 2>();
+      }
+      const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> axes(position);
+      std::vector<Eigen::Vector3d> offsets;
+      for (int k = 1; k >= 0 && params.runner_up_offset_m > 0.0; --k) {
+        const Eigen::Vector2d a = axes.eigenvectors().col(k) * params.runner_up_offset_m;
+        offsets.emplace_back(a.x(), a.y(), 0.0);
+        offsets.emplace_back(-a.x(), -a.y(), 0.0);
+      }
+      if (params.runner_up_offset_rad > 0.0) {
+        offsets.emplace_back(0.0, 0.0, params.runner_up_offset_rad);
+        offsets.emplace_back(0.0, 0.0, -params.runner_up_offset_rad);
+      }
+      const auto distinct = [this](const geometry::Pose2& a, const geometry::Pose2& b) {
+        return std::hypot(a.x - b.x, a.y - b.y) > params.runner_up_distinct_m ||
+               std::abs(geometry::angleDiff(a.phi, b.phi)) > params.runner_up_distinct_rad;
+      };
+      std::vector<Minimum> found;
+      for (const Eigen::Vector3d& o : offsets) {
+        int iterations = 0;
+        Minimum m;
+        m.pose =
+            optimize(points, {pose.x + o.x(), pose.y + o.y(), pose.phi + o.z()}, iterations, m.at);
+        if (!distinct(m.pose, pose)) continue;
+        const bool known = std::any_of(found.begin(), found.end(),
+                                       [&](const Minimum& f) { return !distinct(f.pose, m.pose); });
+        if (!known) found.push_back(std::move(m));
+      }
+      if (!found.empty()) {
+        auto best = std::min_element(found.begin(), found.end(), [](const auto& a, const auto& b) {
+          return a.at.robust_cost < b.at.robust_cost;
+        });
+        if (best->at.robust_cost < at.robust_cost) {
+          // A better fit: the answer moves there, the old answer is a candidate runner-up.
+          Minimum old{pose, at};
+          pose = best->pose;
+          at = best->at;
+          *best = std::move(old);
+        }
+        runner = *std::min_element(found.begin(), found.end(), [](const auto& a, const auto& b) {
+          return a.at.robust_cost < b.at.robust_cost;
+        });
+      }
     }
-    pose.phi = geometry::normalizeAngle(pose.phi);
+
     out.pose = pose;
     out.inliers = at.inliers;
     out.cost = points.empty() ? params.outlier_distance_m
                               : at.seed_sum / static_cast<double>(points.size());
 
-    // Covariance from the Hessian of the same fit at the answer, for both methods: sigma^2 (J^T W
-    // J)^-1 with a weak prior in the directions the points do not constrain.
-    const double point_variance = params.point_sigma_m * params.point_sigma_m;
-    Eigen::Matrix3d information = at.information / point_variance;
-    information(0, 0) += 1.0 / (params.unobservable_sigma_m * params.unobservable_sigma_m);
-    information(1, 1) += 1.0 / (params.unobservable_sigma_m * params.unobservable_sigma_m);
-    information(2, 2) += 1.0 / (params.unobservable_sigma_rad * params.unobservable_sigma_rad);
-    out.covariance = information.inverse();
-    out.covariance = 0.5 * (out.covariance + out.covariance.transpose()).eval();
+    Eigen::Matrix3d covariance;
+    if (analyse) {
+      std::vector<double> weights;
+      cellWeights(points, weights);
+      covariance = shapeCovariance(points, weights, pose, out);
+      if (runner) {
+        // The runner-up by its likelihood against the answer's: the second moment about the
+        // answer of the two as a mixture.
+        const double scale = params.point_sigma_m * params.point_sigma_m * out.residual_inflation;
+        const double delta = std::max(0.0, (weightedCost(points, weights, runner->pose) -
+                                            weightedCost(points, weights, pose)) /
+                                               scale);
+        const double share = 1.0 / (1.0 + std::exp(std::min(delta, 700.0)));
+        const Eigen::Vector3d apart(runner->pose.x - pose.x, runner->pose.y - pose.y,
+                                    geometry::angleDiff(runner->pose.phi, pose.phi));
+        covariance += share * apart * apart.transpose();
+        out.has_runner_up = true;
+        out.runner_up = runner->pose;
+        out.runner_up.phi = geometry::normalizeAngle(out.runner_up.phi);
+        out.runner_up_cost = runner->at.seed_sum / static_cast<double>(points.size());
+        out.runner_up_delta = delta;
+      }
+    } else {
+      // Sigma^2 (J^T W J)^-1 with a weak prior in the directions the points do not constrain.
+      const double point_variance = params.point_sigma_m * params.point_sigma_m;
+      Eigen::Matrix3d information = at.information / point_variance;
+      information(0, 0) += 1.0 / (params.unobservable_sigma_m * params.unobservable_sigma_m);
+      information(1, 1) += 1.0 / (params.unobservable_sigma_m * params.unobservable_sigma_m);
+      information(2, 2) += 1.0 / (params.unobservable_sigma_rad * params.unobservable_sigma_rad);
+      covariance = information.inverse();
+    }
+    covariance(0, 0) += params.sigma_floor_m * params.sigma_floor_m;
+    covariance(1, 1) += params.sigma_floor_m * params.sigma_floor_m;
+    covariance(2, 2) += params.sigma_floor_rad * params.sigma_floor_rad;
+    out.covariance = 0.5 * (covariance + covariance.transpose()).eval();
     const bool positive = out.covariance.allFinite() &&
                           Eigen::LLT<Eigen::Matrix3d>(out.covariance).info() == Eigen::Success;
-    out.valid = positive && geometry::isFinite(pose) && out.inliers >= params.min_inliers;
+    if (!positive) {
+      out.invalid_reason = "no positive definite covariance";
+    } else if (!geometry::isFinite(pose)) {
+      out.invalid_reason = "the fit diverged";
+    } else if (out.inliers < params.min_inliers) {
+      out.invalid_reason = "too few points near a line (" + std::to_string(out.inliers) + " < " +
+                           std::to_string(params.min_inliers) + ")";
+    } else if (out.inliers < params.min_inlier_fraction * out.points_used) {
+      out.invalid_reason = "too few of the points near a line (" + std::to_string(out.inliers) +
+                           " of " + std::to_string(out.points_used) + ")";
+    } else if (out.cost > params.max_valid_cost_m) {
+      out.invalid_reason = "mean matching cost " + std::to_string(out.cost) + " m above " +
+                           std::to_string(params.max_valid_cost_m) + " m";
+    }
+    out.valid = out.invalid_reason.empty();
     if (!positive) out.covariance = Eigen::Matrix3d::Identity();
     return out;
   }
@@ -428,21 +743,22 @@ const std::string& LineMatcher::gridSource() const {
 PoseCorrection LineMatcher::correct(std::span<const perception::LinePoint> points,
                                     const geometry::Pose2& guess, std::int64_t utime) const {
   std::vector<RobotPoint> usable;
-  usablePoints(points, impl_->params.max_point_range_m, usable);
+  usablePoints(points, impl_->params.max_point_range_m, impl_->params.range_weight_m, usable);
   return impl_->correct(usable, guess, utime);
 }
 
 double LineMatcher::cost(std::span<const perception::LinePoint> points,
                          const geometry::Pose2& pose) const {
   std::vector<RobotPoint> usable;
-  usablePoints(points, impl_->params.max_point_range_m, usable);
+  usablePoints(points, impl_->params.max_point_range_m, impl_->params.range_weight_m, usable);
   if (!geometry::isFinite(pose)) return impl_->params.outlier_distance_m;
   return impl_->seedCost(usable, pose, nullptr);
 }
 
 std::vector<PoseCorrection> LineMatcher::globalSearch(std::span<const perception::LinePoint> points,
                                                       const GlobalSearchParams& search,
-                                                      std::int64_t utime) const {
+                                                      std::int64_t utime,
+                                                      PoseCorrection* best_rejected) const {
   const Impl& m = *impl_;
   if (!(std::isfinite(search.position_step_m) && search.position_step_m >= 0.05 &&
         std::isfinite(search.heading_step_rad) && search.heading_step_rad >= 0.005 &&
@@ -450,7 +766,14 @@ std::vector<PoseCorrection> LineMatcher::globalSearch(std::span<const perception
     throw std::invalid_argument("GlobalSearchParams: steps too small or counts below one");
   }
   std::vector<RobotPoint> usable;
-  usablePoints(points, m.params.max_point_range_m, usable);
+  usablePoints(points, m.params.max_point_range_m, m.params.range_weight_m, usable);
+  if (best_rejected) {
+    *best_rejected = PoseCorrection{};
+    best_rejected->points_used = static_cast<int>(usable.size());
+    best_rejected->cost = m.params.outlier_distance_m;
+    best_rejected->invalid_reason =
+        "fewer usable points (" + std::to_string(usable.size()) + ") than min_inliers";
+  }
   if (static_cast<int>(usable.size()) < m.params.min_inliers) return {};
 
   // Score the lattice with an even subsample: the seed's cost, outliers at the outlier distance.
@@ -498,9 +821,13 @@ std::vector<PoseCorrection> LineMatcher::globalSearch(std::span<const perception
 
   std::vector<PoseCorrection> refined;
   while (!best.empty()) {
-    PoseCorrection c = m.correct(usable, best.top().second, utime);
+    PoseCorrection c = m.correct(usable, best.top().second, utime, false);
     best.pop();
-    if (c.valid) refined.push_back(c);
+    if (c.valid) {
+      refined.push_back(c);
+    } else if (best_rejected && (best_rejected->iterations == 0 || c.cost < best_rejected->cost)) {
+      *best_rejected = c;
+    }
   }
   std::sort(refined.begin(), refined.end(),
             [](const PoseCorrection& a, const PoseCorrection& b) { return a.cost < b.cost; });
@@ -513,7 +840,35 @@ std::vector<PoseCorrection> LineMatcher::globalSearch(std::span<const perception
     if (!seen) distinct.push_back(c);
     if (static_cast<int>(distinct.size()) >= search.max_results) break;
   }
-  return distinct;
+  // The answers with their full analysis (runner-up, shape of the cost), from where they are.
+  std::vector<PoseCorrection> analysed;
+  for (const PoseCorrection& c : distinct) {
+    PoseCorrection full = m.correct(usable, c.pose, utime);
+    if (full.valid) {
+      analysed.push_back(full);
+    } else if (best_rejected && full.cost < best_rejected->cost) {
+      *best_rejected = full;
+    }
+  }
+  std::sort(analysed.begin(), analysed.end(),
+            [](const PoseCorrection& a, const PoseCorrection& b) { return a.cost < b.cost; });
+  // Two answers whose runner-up search moved them to the same place are one.
+  std::vector<PoseCorrection> out;
+  for (const PoseCorrection& c : analysed) {
+    const bool seen = std::any_of(out.begin(), out.end(), [&](const PoseCorrection& d) {
+      return std::hypot(c.pose.x - d.pose.x, c.pose.y - d.pose.y) < search.distinct_m &&
+             std::abs(geometry::angleDiff(c.pose.phi, d.pose.phi)) < search.distinct_rad;
+    });
+    if (!seen) out.push_back(c);
+  }
+  // The best refused pose as fully analysed as an answer (its covariance from the shape of the
+  // cost, not the lattice refinement's Hessian): a user judges it by these figures.
+  if (best_rejected && best_rejected->iterations > 0 && best_rejected->independent_points == 0.0) {
+    const PoseCorrection full = m.correct(usable, best_rejected->pose, utime);
+    // (Its runner-up search can move it to a place that fits: that one is no refusal.)
+    if (!full.valid) *best_rejected = full;
+  }
+  return out;
 }
 
 }  // namespace fieldline::fusion

@@ -1,8 +1,13 @@
 // Layer 2 of the localization (seed 4.12, MATRIX): corrects a pose guess so that the frame's line
 // points, seen from that pose, fall onto the field's lines. Two methods on the same precomputed
 // distance grid: the seed's force field with momentum (eq. 4.81-4.90), and a robust least-squares
-// fit (Gauss-Newton / Levenberg-Marquardt with a Huber or Cauchy loss) whose covariance comes from
-// the Hessian, so a robot that sees one long line is uncertain along it.
+// fit (Gauss-Newton / Levenberg-Marquardt with a Huber or Cauchy loss). The covariance comes from
+// the shape of the cost around the answer (issue 30): the Hessian of the fit with neighbouring
+// points counted as one (their errors are correlated: a mirror slightly off moves them together),
+// inflated when the residuals are larger than the point model, widened along any direction where
+// the cost rises more slowly than the Hessian says, and stretched toward the best other local
+// minimum (an alias along the lines) as far as that one fits. A robot that sees one long line is
+// uncertain along it; a frame that fits two places is uncertain between them.
 //
 // Interface shared by the fusion filter (consumer) and the matcher (producer); the implementation
 // lives in line_matcher.cpp.
@@ -36,12 +41,46 @@ struct MatcherParams {
   double outlier_distance_m = 0.5;
   // Points beyond this range from the robot are not used (the mirror's far field is coarse), m.
   double max_point_range_m = 6.0;
-  // Standard deviation of one line point's distance to its line, m (scales the covariance).
+  // The point model: standard deviation of the distance to its line of one group of neighbouring
+  // points (a cell of correlation_length_m, whose points count as one: their errors are
+  // correlated), m. The covariance grows when the residuals are larger than this.
   double point_sigma_m = 0.05;
+  // Cell size of the groups, m (robot frame); 0: every point independent.
+  double correlation_length_m = 0.3;
+  // Far points are worth less (a pixel covers more floor, and a mirror slightly off moves them
+  // most): a point at range r weighs 1 / (1 + (r / range_weight_m)^2) in the fit and the
+  // covariance, m; 0: every point alike.
+  double range_weight_m = 0.0;
+  // How well the camera is known (the errors no residual shows: every point moves the same way):
+  // the relative error of the mirror's distance function, a tilt (distances longer by this,
+  // relative, toward one side and shorter on the other, in any direction), and where the mirror
+  // axis stands (m). The pose's response to each, through the fit, adds to the covariance.
+  double camera_scale_sigma = 0.01;
+  double camera_tilt_sigma = 0.01;
+  double camera_axis_sigma_m = 0.015;
 
   // --- added by the matcher (defaults are the tested ones) ---
-  // Fewer inliers than this at the corrected pose: the correction is not valid.
+  // Fewer inliers than this at the corrected pose, or a smaller share of the points used, or a
+  // mean matching cost above max_valid_cost_m: the correction is not valid (the points do not
+  // fit the field there).
   int min_inliers = 20;
+  double min_inlier_fraction = 0.5;
+  double max_valid_cost_m = 0.15;
+  // The search for the runner-up (the best other local minimum near the answer): the fit is
+  // started again this far from the answer along both axes of its position covariance and turned
+  // both ways (0: no search), m and rad; a minimum within runner_up_distinct_* of the answer is the
+  // answer itself. A runner-up that fits better becomes the answer.
+  double runner_up_offset_m = 0.3;
+  double runner_up_offset_rad = 0.15;
+  double runner_up_distinct_m = 0.08;
+  double runner_up_distinct_rad = 0.04;
+  // Check of the cost's shape: along each axis of the covariance the cost is probed 1.5 and 3
+  // standard deviations out both ways, and the axis widened where it rises less than the
+  // Hessian's quadratic (false: the Hessian alone).
+  bool shape_check = true;
+  // What the distance grid resolves at best (bilinear cells), added to the covariance, m and rad.
+  double sigma_floor_m = 0.003;
+  double sigma_floor_rad = 0.002;
   // Iteration limit (both methods) and the step below which they stop, m and rad.
   int max_iterations = 60;
   double converged_step = 5e-4;
@@ -99,6 +138,23 @@ struct PoseCorrection {
   int points_used = 0;
   int inliers = 0;
   int iterations = 0;
+  // The best other local minimum near the answer (an alias: the points slid along the lines),
+  // when the runner-up search found one: its pose, its mean matching cost (m) and how much worse
+  // it fits in units of the point model (half the chi-square difference of the cell-weighted
+  // cost; 0: as well as the answer). The covariance covers it by its likelihood.
+  bool has_runner_up = false;
+  geometry::Pose2 runner_up;
+  double runner_up_cost = 0.0;
+  double runner_up_delta = 0.0;
+  // How the covariance came about: the inliers' residual rms (cell-weighted, m), the factor the
+  // point variance was inflated by (>= 1), the independent groups of points (cells), the largest
+  // widening of an axis by the cost's shape (in variance, >= 1).
+  double residual_rms_m = 0.0;
+  double residual_inflation = 1.0;
+  double independent_points = 0.0;
+  double shape_widening = 1.0;
+  // Why the correction is not valid (empty when it is).
+  std::string invalid_reason;
 };
 
 class LineMatcher {
@@ -125,9 +181,13 @@ class LineMatcher {
   // correct() and distinct from the better ones. The field's symmetric twin of every answer fits
   // as well: both are returned, the caller resolves them. Empty when nothing fits (fewer than
   // min_inliers points match anywhere).
+  // With `best_rejected`, the lowest-cost refined pose that was not valid is written there (its
+  // invalid_reason says why; points_used 0 when there was none): what a tool says when nothing
+  // fits.
   std::vector<PoseCorrection> globalSearch(std::span<const perception::LinePoint> points,
                                            const GlobalSearchParams& search = {},
-                                           std::int64_t utime = 0) const;
+                                           std::int64_t utime = 0,
+                                           PoseCorrection* best_rejected = nullptr) const;
 
   // Whether the grid came from the cache ("loaded"), was built ("built") or replaced a bad cache
   // file ("rebuilt: <reason>"); for the status line.

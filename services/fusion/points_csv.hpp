@@ -10,11 +10,17 @@
 
 namespace fieldline::fusion {
 
-// Reads every point; throws std::invalid_argument "NAME:LINE: reason" for a line that is not
-// two numbers, and for more than `max_points` points. "nan" and "inf" parse (layer 2 skips them).
+// A coordinate further than this from the robot is no line point a camera saw, m.
+inline constexpr double kMaxPointCoordinateM = 1000.0;
+
+// Reads every point; throws std::invalid_argument "NAME:LINE: reason" for a line that is not two
+// numbers, for a coordinate that is not finite ("nan", "inf", 1e999) or further than
+// kMaxPointCoordinateM (1e308: a unit mistake, not a point), and for more than `max_points` points.
+// `scale` multiplies every coordinate (0.001 reads millimetres).
 perception::LinePoints readLinePointsCsv(std::istream& in, const std::string& name,
-                                         std::size_t max_points = 1000000);
-// The same from a file; throws std::invalid_argument when it cannot be opened.
-perception::LinePoints readLinePointsCsvFile(const std::string& path);
+                                         std::size_t max_points = 1000000, double scale = 1.0);
+// The same from a file; throws std::invalid_argument when it is not a readable regular file (a
+// directory, a device) or holds no point.
+perception::LinePoints readLinePointsCsvFile(const std::string& path, double scale = 1.0);
 
 }  // namespace fieldline::fusion

@@ -904,6 +904,8 @@ BallDetector::BallDetector(const camera::ColourTable& table, const camera::Mirro
     }
   }
   if (max_extent_px_ <= 0) throw std::invalid_argument("ball detector: no ball is visible");
+  const std::vector<camera::ColourClass>& cells = table_.yuvLookup();
+  has_colour_ = std::find(cells.begin(), cells.end(), params_.colour) != cells.end();
 }
 
 bool BallDetector::expectedExtent(double horizontal, double bearing, double& radialPx,
@@ -953,7 +955,8 @@ double agreement(double measured, double expected) {
 }  // namespace
 
 BallReject BallDetector::evaluate(const camera::FrameView& frame, const ContourSet& contours,
-                                  const Contour& contour, BallDetection& out) const {
+                                  const Contour& contour, BallDetection& out,
+                                  const BallRegion* region) const {
   out = BallDetection{};
   int minU = frame.width, minV = frame.height, maxU = 0, maxV = 0;
   for (const ContourPoint& p : contours.pointsOf(contour)) {
@@ -1014,6 +1017,13 @@ BallReject BallDetector::evaluate(const camera::FrameView& frame, const ContourS
   const camera::Vec2 centreXY = mirror_.axisToRobot(direction * horizontal);
   const std::optional<camera::Vec2> centrePixel = mirror_.axisToImage(direction * centreFloor);
   if (!centrePixel) return BallReject::kNoFloor;
+  // Where the field model says a ball can be: on the field, seen from fusion's pose.
+  if (region && region->field) {
+    const geometry::Vec2 onField = geometry::pointRobotToField(region->pose, centreXY);
+    if (!region->field->insideLines(onField, params_.field_margin_m + region->pose_sigma_m)) {
+      return BallReject::kOutsideField;
+    }
+  }
 
   // Size and shape: what a ball there would look like (3-D mirror model) against the pixels.
   double expectedRadial = 0, expectedTangential = 0;
@@ -1085,8 +1095,8 @@ BallReject BallDetector::evaluate(const camera::FrameView& frame, const ContourS
   return BallReject::kNone;
 }
 
-BallDetection BallDetector::detect(const camera::FrameView& frame,
-                                   const ContourSet& contours) const {
+BallDetection BallDetector::detect(const camera::FrameView& frame, const ContourSet& contours,
+                                   const BallRegion* region) const {
   BallDetection best;
   int candidates = 0, rejected = 0;
   const ClassId orange = classIdOf(params_.colour);
@@ -1094,7 +1104,7 @@ BallDetection BallDetector::detect(const camera::FrameView& frame,
   for (const Contour& contour : contours.contours) {
     if (contour.class_id != orange || !contour.outer) continue;
     ++candidates;
-    if (evaluate(frame, contours, contour, candidate) != BallReject::kNone) {
+    if (evaluate(frame, contours, contour, candidate, region) != BallReject::kNone) {
       ++rejected;
       continue;
     }

@@ -15,6 +15,8 @@
 #include "common/camera/colour.hpp"
 #include "common/camera/frame.hpp"
 #include "common/camera/mirror_model.hpp"
+#include "common/field/field_model.hpp"
+#include "common/geometry/geometry.hpp"
 #include "common/perception/line_points.hpp"
 #include "services/region_tracking/cell_grid.hpp"
 #include "services/region_tracking/contours.hpp"
@@ -352,6 +354,18 @@ struct BallParams {
   double min_carpet_share = 0.5;
   camera::ColourClass field_colour = camera::ColourClass::kGreen;
   camera::ColourClass line_colour = camera::ColourClass::kWhite;
+  // With a field and a pose (BallRegion): a ball must lie within this of the field's lines
+  // (their outer edges), plus the pose's sigma, m. A ball that rolled further out is out of play;
+  // orange things beyond the lines are not balls.
+  double field_margin_m = 0.3;
+};
+
+// Where a ball can be: on the field (field model) seen from the robot's pose, which fusion
+// knows with `pose_sigma_m` (position, m). Without one the detector judges by the image alone.
+struct BallRegion {
+  const field::FieldModel* field = nullptr;
+  geometry::Pose2 pose;
+  double pose_sigma_m = 0.0;
 };
 
 struct BallDetection {
@@ -381,8 +395,10 @@ enum class BallReject {
   kNoFloor,
   kSize,
   kFill,
-  kNotOnCarpet
+  kNotOnCarpet,
+  kOutsideField
 };
+inline constexpr int kBallRejectCount = 9;
 
 class BallDetector {
  public:
@@ -391,13 +407,18 @@ class BallDetector {
   BallDetector(const camera::ColourTable& table, const camera::MirrorModel& mirror,
                const BallParams& params);
   // Every outer contour of the ball colour in `contours` is a candidate; a candidate is a ball
-  // when its size and shape fit a ball at its distance and it lies on the carpet; the best fit
-  // wins. Candidates cut by the image's border are refused (their size cannot be checked).
-  BallDetection detect(const camera::FrameView& frame, const ContourSet& contours) const;
+  // when its size and shape fit a ball at its distance, it lies on the carpet and, with a
+  // `region`, on the field; the best fit wins. Candidates cut by the image's border are refused
+  // (their size cannot be checked). A table without the ball colour finds no ball.
+  BallDetection detect(const camera::FrameView& frame, const ContourSet& contours,
+                       const BallRegion* region = nullptr) const;
 
   // One candidate, with the reason when refused (kNone: `out` holds the detection).
   BallReject evaluate(const camera::FrameView& frame, const ContourSet& contours,
-                      const Contour& contour, BallDetection& out) const;
+                      const Contour& contour, BallDetection& out,
+                      const BallRegion* region = nullptr) const;
+  // False when the colour table has no cell of the ball's colour (no ball colour calibrated).
+  bool hasBallColour() const { return has_colour_; }
 
   // Image extents (px) of a ball whose centre is `horizontal` m away at `bearing` (robot
   // frame): radially and across the ray; false where the mirror does not see it.
@@ -410,6 +431,7 @@ class BallDetector {
   BallParams params_;
   // Regions whose bounding box is larger than this (px) are no ball anywhere in the image.
   double max_extent_px_ = 0;
+  bool has_colour_ = false;
 };
 
 struct ObstacleParams {

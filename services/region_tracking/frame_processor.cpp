@@ -123,6 +123,8 @@ VisionParams loadVisionParams(const config::Node& node) {
   params.ball.min_fill = ball.getOr<double>("min_fill", ballDefaults.min_fill, 0.0, 1.0);
   params.ball.min_carpet_share =
       ball.getOr<double>("min_carpet_share", ballDefaults.min_carpet_share, 0.0, 1.0);
+  params.ball.field_margin_m =
+      ball.getOr<double>("field_margin_m", ballDefaults.field_margin_m, 0.0, 10.0);
   ball.rejectUnknownKeys();
 
   const config::Node obstacles = node.child("obstacles");
@@ -159,7 +161,7 @@ void FrameProcessor::process(const camera::FrameView& frame, bool detectLines, V
   } else {
     out.lines.clear();
   }
-  out.ball = ball_.detect(frame, tracker_.contours());
+  out.ball = ball_.detect(frame, tracker_.contours(), ball_region_ ? &*ball_region_ : nullptr);
   obstacles_.detect(tracker_.contours(), out.obstacles);
 }
 

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <memory>
+#include <optional>
 #include <vector>
 
 #include "common/camera/colour.hpp"
@@ -54,6 +55,9 @@ class FrameProcessor {
 
   // Throws std::invalid_argument for an invalid view or a frame of another size.
   void process(const camera::FrameView& frame, bool detectLines, VisionResult& out);
+  // Where a ball can be for the following frames (fusion's pose on the field); nullopt: the
+  // ball is judged by the image alone.
+  void setBallRegion(const std::optional<BallRegion>& region) { ball_region_ = region; }
 
   const RegionTracker& tracker() const { return tracker_; }
   RegionTracker& tracker() { return tracker_; }
@@ -75,6 +79,7 @@ class FrameProcessor {
   LineDetector lines_;
   BallDetector ball_;
   ObstacleDetector obstacles_;
+  std::optional<BallRegion> ball_region_;
 };
 
 }  // namespace fieldline::region_tracking

@@ -10,6 +10,7 @@
 #include "common/camera/colour.hpp"
 #include "common/camera/mirror_model.hpp"
 #include "common/config/config.hpp"
+#include "common/field/field_model.hpp"
 #include "services/region_tracking/tracking_node.hpp"
 
 using namespace fieldline;
@@ -23,6 +24,7 @@ int main(int argc, char** argv) {
   common.addTo(app);
   std::string camera_preset = "omni_sim";
   std::string vision_config;
+  std::string field = "msl";
   int lines_every = 3;
   app.add_option("--camera", camera_preset, "Camera preset (mirror model and colour table)")
       ->capture_default_str();
@@ -30,6 +32,10 @@ int main(int argc, char** argv) {
                  "YAML with tracker, blocks, lines, ball and obstacles sections and optionally "
                  "health and adaptation (default: "
                  "built-in values, see docs/region_tracking.md)");
+  app.add_option("--field", field,
+                 "Field preset or YAML (with fusion's ROBOT_STATE: do the line points fit the "
+                 "field, can a ball be there); 'none': no field checks")
+      ->capture_default_str();
   app.add_option("--lines-every", lines_every, "Extract field lines on every n-th frame")
       ->check(CLI::Range(1, 1000))
       ->capture_default_str();
@@ -54,6 +60,9 @@ int main(int argc, char** argv) {
       }
     }
     options.lines_every_frames = lines_every;
+    if (field != "none") {
+      options.field = std::make_shared<const field::FieldModel>(field::loadFieldPreset(field));
+    }
 
     const RobotClock clock = bus::robotClockFromEnvironment();
     if (common.check_args) return 0;

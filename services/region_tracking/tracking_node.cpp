@@ -1,11 +1,14 @@
 #include "services/region_tracking/tracking_node.hpp"
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <csignal>
 #include <stdexcept>
 #include <string>
 
 #include <spdlog/spdlog.h>
+#include <Eigen/LU>
 
 #include "common/msg/estimates.hpp"
 #include "common/msg/image.hpp"
@@ -23,10 +26,41 @@ TrackingNode::TrackingNode(bus::Node& node, TrackingNodeOptions options)
     adaptation_ = std::make_unique<ColourAdaptation>(options_.colours, options_.adaptation);
   }
   node_.subscribe(bus::channels::kCameraImage, [this](const image_t& image) { onImage(image); });
+  // Optional: without fusion the field checks and the ball's field check say nothing.
+  node_.subscribe(bus::channels::kRobotState,
+                  [this](const robot_state_t& state) { onRobotState(state); });
   // Without images this process does nothing: a dead camera must show in its status.
   node_.requireInput(
       bus::channels::kCameraImage,
       bus::kRequiredRateFraction * bus::nominalRateHz(bus::channels::kCameraImage.name));
+}
+
+void TrackingNode::onRobotState(const robot_state_t& state) {
+  const perception::RobotEstimate e = msg::fromMessage(state);
+  // The newest by its own time: a late, older state does not replace a newer one.
+  if (robot_state_ && e.utime < robot_state_->utime) return;
+  robot_state_ = e;
+}
+
+std::optional<FramePose> TrackingNode::poseAt(std::int64_t utime) const {
+  if (!robot_state_ || robot_state_->status != perception::LocalizationStatus::kTracking) {
+    return std::nullopt;
+  }
+  const perception::RobotEstimate& e = *robot_state_;
+  const std::int64_t age = utime - e.utime;
+  if (age > options_.max_pose_age_us || -age > options_.max_pose_age_us) return std::nullopt;
+  const double dt = static_cast<double>(age) * 1e-6;
+  FramePose out;
+  out.pose = {e.pose.x + e.vx * dt, e.pose.y + e.vy * dt,
+              geometry::normalizeAngle(e.pose.phi + e.omega * dt)};
+  const Eigen::Matrix2d position = e.covariance.topLeftCorner<2, 2>();
+  const double trace = position.trace();
+  const double det = position.determinant();
+  // The larger eigenvalue of the position covariance.
+  const double larger = 0.5 * trace + std::sqrt(std::max(0.0, 0.25 * trace * trace - det));
+  out.sigma_m = std::sqrt(std::max(0.0, larger));
+  if (!geometry::isFinite(out.pose) || !std::isfinite(out.sigma_m)) return std::nullopt;
+  return out;
 }
 
 bool TrackingNode::prepareFor(int width, int height) {
@@ -39,7 +73,8 @@ bool TrackingNode::prepareFor(int width, int height) {
   try {
     mirror = std::make_unique<camera::MirrorModel>(options_.mirror.scaledTo(width, height));
     processor = std::make_unique<FrameProcessor>(*mirror, options_.colours, options_.vision);
-    health = std::make_unique<VisionHealth>(*mirror, options_.colours, options_.health);
+    health = std::make_unique<VisionHealth>(*mirror, options_.colours, options_.health,
+                                            options_.field.get());
   } catch (const std::invalid_argument& e) {
     node_.reportError("frame_size",
                       std::to_string(width) + "x" + std::to_string(height) + ": " + e.what());
@@ -69,6 +104,13 @@ void TrackingNode::onImage(const image_t& image) {
   // Every n-th processed frame: a rejected frame does not shift the cadence.
   const bool detectLines = frames_processed_ % options_.lines_every_frames == 0;
   // Processing time is a measurement of this computer, not of the world: steady_clock.
+  // Fusion's pose at the frame's time: where a ball can be, and (below) do the points fit.
+  const std::optional<FramePose> pose = poseAt(image.header.utime);
+  if (options_.field && pose) {
+    processor_->setBallRegion(BallRegion{options_.field.get(), pose->pose, pose->sigma_m});
+  } else {
+    processor_->setBallRegion(std::nullopt);
+  }
   const auto start = std::chrono::steady_clock::now();
   processor_->process(*view, detectLines, result_);
   const auto measuredUs =
@@ -98,9 +140,20 @@ void TrackingNode::onImage(const image_t& image) {
     adaptation_->observe(*view, processor_->tracker(), options_.colours);
     node_.setMetric("light_gain", adaptation_->appliedGain());
   }
-  health_->update(*view, result_);
+  health_->update(*view, result_, pose);
   node_.status().setWarning("vision", health_->reason());
+  // The ball's colour comes from the calibration (the table's orange cells); without any, no
+  // ball can be found, and the status says so rather than reporting an empty field.
+  node_.status().setWarning("ball_colour",
+                            processor_->ballDetector().hasBallColour()
+                                ? std::string()
+                                : "no ball colour calibrated (the colour table has no orange "
+                                  "cells): no ball can be seen");
   node_.setMetric("green_percent", 100.0 * health_->greenFraction());
+  // The field checks' figures (-1: not judged, no pose or too few facts).
+  const auto percent = [](double share) { return share < 0.0 ? -1.0 : 100.0 * share; };
+  node_.setMetric("points_off_line_percent", percent(health_->offLineShare()));
+  node_.setMetric("line_coverage_percent", percent(health_->lineCoverage()));
   node_.setMetric("processing_ms", measuredUs / 1000.0);
 }
 

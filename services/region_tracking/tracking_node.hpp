@@ -1,6 +1,8 @@
 // The region_tracking process's bus side: CAMERA_IMAGE in; VISION_BALL and VISION_OBSTACLES for
 // every frame and VISION_LINES every n-th frame out, each stamped with the frame's utime (the
-// exposure time), so fusion can line them up with odometry.
+// exposure time), so fusion can line them up with odometry. ROBOT_STATE (fusion's pose, when it
+// runs) in: with the field model it tells the vision health whether the points fit the field and
+// the ball detector where a ball can be.
 #pragma once
 
 #include <atomic>
@@ -13,10 +15,12 @@
 #include <fieldline/image_t.hpp>
 #include <fieldline/line_contours_t.hpp>
 #include <fieldline/obstacle_observations_t.hpp>
+#include <fieldline/robot_state_t.hpp>
 
 #include "common/bus/node.hpp"
 #include "common/camera/colour.hpp"
 #include "common/camera/mirror_model.hpp"
+#include "common/field/field_model.hpp"
 #include "common/perception/estimates.hpp"
 #include "common/perception/obstacles.hpp"
 #include "services/region_tracking/colour_adaptation.hpp"
@@ -33,6 +37,11 @@ struct TrackingNodeOptions {
   VisionParams vision = defaultVisionParams();
   // When the vision counts as blind or degraded (SERVICE_STATUS WARN with the reason).
   VisionHealthParams health;
+  // The field the robot plays on; null: no field checks, no ball-on-the-field check.
+  std::shared_ptr<const field::FieldModel> field;
+  // A ROBOT_STATE is used for a frame up to this far from the frame's time (extrapolated with its
+  // velocity), µs.
+  std::int64_t max_pose_age_us = 500'000;
   // Green and white follow slow changes of light (colour_adaptation.hpp); off by default.
   ColourAdaptationParams adaptation;
   // Field lines are extracted on every n-th frame (the seed's 10 Hz at 30 fps).
@@ -62,9 +71,13 @@ class TrackingNode {
   // adaptation off it is logged and ignored. Resets done so far: the metric `colour_resets`.
   void requestColourReset() { colour_reset_requested_.store(true); }
   std::int64_t colourResets() const { return colour_resets_; }
+  // Fusion's pose at `utime` (the newest ROBOT_STATE while TRACKING, moved by its velocity), when
+  // known and recent enough.
+  std::optional<FramePose> poseAt(std::int64_t utime) const;
 
  private:
   void onImage(const image_t& image);
+  void onRobotState(const robot_state_t& state);
   bool prepareFor(int width, int height);
   void publishLines(const image_t& image, const VisionResult& result, std::int32_t processingUs);
   void publishBall(const image_t& image, const BallDetection& ball);
@@ -87,6 +100,7 @@ class TrackingNode {
   std::int64_t frames_received_ = 0;
   std::int64_t frames_processed_ = 0;
   std::int64_t frames_rejected_ = 0;
+  std::optional<perception::RobotEstimate> robot_state_;
   std::atomic<bool> colour_reset_requested_{false};
   std::int64_t colour_resets_ = 0;
 };

@@ -1,7 +1,10 @@
 #include "services/region_tracking/vision_health.hpp"
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
+#include <utility>
 
 #include <fmt/format.h>
 
@@ -16,27 +19,156 @@ VisionHealthParams loadVisionHealthParams(const config::Node& n) {
       n.getOr<int>("max_line_frames_without_points", p.max_line_frames_without_points, 1, 100000);
   p.max_search_fraction = n.getOr<double>("max_search_fraction", p.max_search_fraction, 0.0, 1.0);
   p.sample_stride = n.getOr<int>("sample_stride", p.sample_stride, 1, 64);
+  p.field_window_frames = n.getOr<int>("field_window_frames", p.field_window_frames, 1, 10000);
+  p.field_range_m = n.getOr<double>("field_range_m", p.field_range_m, 0.5, 20.0);
+  p.off_line_m = n.getOr<double>("off_line_m", p.off_line_m, 0.01, 5.0);
+  p.max_off_line_share = n.getOr<double>("max_off_line_share", p.max_off_line_share, 0.0, 1.0);
+  p.max_off_field_share = n.getOr<double>("max_off_field_share", p.max_off_field_share, 0.0, 1.0);
+  p.max_green_beyond_share =
+      n.getOr<double>("max_green_beyond_share", p.max_green_beyond_share, 0.0, 1.0);
+  p.min_line_coverage = n.getOr<double>("min_line_coverage", p.min_line_coverage, 0.0, 1.0);
+  p.coverage_distance_m = n.getOr<double>("coverage_distance_m", p.coverage_distance_m, 0.01, 2.0);
+  p.min_field_points = n.getOr<int>("min_field_points", p.min_field_points, 1, 1000000);
+  p.min_beyond_samples = n.getOr<int>("min_beyond_samples", p.min_beyond_samples, 1, 1000000);
+  p.min_line_in_view_m = n.getOr<double>("min_line_in_view_m", p.min_line_in_view_m, 0.1, 1000.0);
+  p.max_pose_sigma_m = n.getOr<double>("max_pose_sigma_m", p.max_pose_sigma_m, 0.01, 10.0);
   n.rejectUnknownKeys();
   return p;
 }
 
 VisionHealth::VisionHealth(const camera::MirrorModel& mirror, const camera::ColourTable& table,
-                           const VisionHealthParams& params)
-    : table_(table), params_(params) {
+                           const VisionHealthParams& params, const field::FieldModel* field)
+    : table_(table), mirror_(mirror), field_(field), params_(params) {
   if (params_.window_frames < 1 || params_.sample_stride < 1 ||
-      params_.max_line_frames_without_points < 1) {
+      params_.max_line_frames_without_points < 1 || params_.field_window_frames < 1) {
     throw std::invalid_argument(
-        "vision health: window_frames, sample_stride and max_line_frames_without_points must be "
-        ">= 1");
+        "vision health: window_frames, field_window_frames, sample_stride and "
+        "max_line_frames_without_points must be >= 1");
   }
   const int s = params_.sample_stride;
+  const float nan = std::numeric_limits<float>::quiet_NaN();
   for (int v = s / 2; v < mirror.height(); v += s) {
     for (int u = s / 2; u < mirror.width(); u += s) {
-      if (!mirror.dontTouch(u, v)) samples_.push_back({u, v});
+      if (mirror.dontTouch(u, v)) continue;
+      const auto floor = mirror.imageToRobot(camera::Vec2(u, v));
+      samples_.push_back({u, v, floor ? static_cast<float>(floor->x()) : nan,
+                          floor ? static_cast<float>(floor->y()) : nan});
     }
   }
   if (samples_.empty()) throw std::invalid_argument("vision health: no floor pixel to sample");
+  sample_classes_.resize(samples_.size(), camera::ColourClass::kUnknown);
   window_.resize(static_cast<std::size_t>(params_.window_frames));
+  field_window_.resize(static_cast<std::size_t>(params_.field_window_frames));
+  if (field_) line_samples_ = field_->sampleLines(line_sample_m_);
+}
+
+VisionHealth::FieldFacts VisionHealth::fieldFacts(const VisionResult& result,
+                                                  const FramePose& at) const {
+  FieldFacts f;
+  f.posed = true;
+  const geometry::Pose2& pose = at.pose;
+  const double range = params_.field_range_m;
+  const double off_line = params_.off_line_m + at.sigma_m;
+  // The lines' outer edges, plus the same margin.
+  for (const perception::LinePoint& q : result.lines.points) {
+    const geometry::Vec2 robot(q.x, q.y);
+    if (!robot.allFinite() || robot.norm() > range) continue;
+    const geometry::Vec2 p = geometry::pointRobotToField(pose, robot);
+    ++f.points;
+    if (!field_->insideLines(p, off_line)) ++f.off_field;
+    if (field_->distance(p) > off_line) ++f.off_line;
+  }
+  // Floor samples that see the hall floor beyond the carpet (clear of it by the margin).
+  const geometry::Vec2 carpet = field_->carpetHalfExtent();
+  for (std::size_t i = 0; i < samples_.size(); ++i) {
+    const geometry::Vec2 robot(samples_[i].x, samples_[i].y);
+    if (!robot.allFinite() || robot.norm() > range) continue;
+    const geometry::Vec2 p = geometry::pointRobotToField(pose, robot);
+    if (std::abs(p.x()) < carpet.x() + off_line && std::abs(p.y()) < carpet.y() + off_line) {
+      continue;
+    }
+    ++f.beyond;
+    if (sample_classes_[i] == camera::ColourClass::kGreen) ++f.green_beyond;
+  }
+  // The model's line in view (within range, where the mirror sees the floor usefully) and the
+  // part of it with a line point nearby. Points are binned on a grid of the coverage distance.
+  const double cell = params_.coverage_distance_m;
+  std::vector<std::pair<int, int>> bins;
+  bins.reserve(result.lines.points.size());
+  for (const perception::LinePoint& q : result.lines.points) {
+    if (!(std::isfinite(q.x) && std::isfinite(q.y))) continue;
+    bins.emplace_back(static_cast<int>(std::floor(q.x / cell)),
+                      static_cast<int>(std::floor(q.y / cell)));
+  }
+  std::sort(bins.begin(), bins.end());
+  const auto near_point = [&](const geometry::Vec2& r) {
+    const int bx = static_cast<int>(std::floor(r.x() / cell));
+    const int by = static_cast<int>(std::floor(r.y() / cell));
+    for (int dx = -1; dx <= 1; ++dx) {
+      for (int dy = -1; dy <= 1; ++dy) {
+        if (std::binary_search(bins.begin(), bins.end(), std::pair{bx + dx, by + dy})) return true;
+      }
+    }
+    return false;
+  };
+  const double self = mirror_.params().self_radius;
+  for (const geometry::Vec2& s : line_samples_) {
+    const geometry::Vec2 robot = geometry::pointFieldToRobot(pose, s);
+    if (robot.norm() > range) continue;
+    const auto pixel = mirror_.robotToImage(robot);
+    if (!pixel || mirror_.zone(*pixel) != camera::MirrorZone::kUseful ||
+        mirror_.radiusOf(*pixel) < self + 4.0) {
+      continue;
+    }
+    f.in_view_m += line_sample_m_;
+    if (near_point(robot)) f.covered_m += line_sample_m_;
+  }
+  return f;
+}
+
+VisionHealth::FieldFacts VisionHealth::fieldSum() const {
+  FieldFacts sum;
+  for (std::size_t i = 0; i < field_filled_; ++i) {
+    const FieldFacts& f = field_window_[i];
+    if (!f.posed) continue;
+    sum.posed = true;
+    sum.points += f.points;
+    sum.off_line += f.off_line;
+    sum.off_field += f.off_field;
+    sum.beyond += f.beyond;
+    sum.green_beyond += f.green_beyond;
+    sum.in_view_m += f.in_view_m;
+    sum.covered_m += f.covered_m;
+  }
+  return sum;
+}
+
+int VisionHealth::posedLineFrames() const {
+  int n = 0;
+  for (std::size_t i = 0; i < field_filled_; ++i)
+    n += field_window_[i].posed ? 1 : 0;
+  return n;
+}
+
+double VisionHealth::offLineShare() const {
+  const FieldFacts f = fieldSum();
+  return f.points >= params_.min_field_points ? static_cast<double>(f.off_line) / f.points : -1.0;
+}
+
+double VisionHealth::offFieldShare() const {
+  const FieldFacts f = fieldSum();
+  return f.points >= params_.min_field_points ? static_cast<double>(f.off_field) / f.points : -1.0;
+}
+
+double VisionHealth::greenBeyondShare() const {
+  const FieldFacts f = fieldSum();
+  return f.beyond >= params_.min_beyond_samples ? static_cast<double>(f.green_beyond) / f.beyond
+                                                : -1.0;
+}
+
+double VisionHealth::lineCoverage() const {
+  const FieldFacts f = fieldSum();
+  return f.in_view_m >= params_.min_line_in_view_m ? f.covered_m / f.in_view_m : -1.0;
 }
 
 double VisionHealth::mean(float FrameFacts::*field) const {
@@ -62,11 +194,15 @@ double VisionHealth::searchFraction() const {
   return static_cast<double>(searched) / static_cast<double>(filled_);
 }
 
-void VisionHealth::update(const camera::FrameView& frame, const VisionResult& result) {
+void VisionHealth::update(const camera::FrameView& frame, const VisionResult& result,
+                          const std::optional<FramePose>& pose) {
   int green = 0, orange = 0, counted = 0;
-  for (const Sample& s : samples_) {
+  for (std::size_t i = 0; i < samples_.size(); ++i) {
+    const Sample& s = samples_[i];
+    sample_classes_[i] = camera::ColourClass::kUnknown;
     if (!frame.contains(s.u, s.v)) continue;
     const camera::ColourClass c = table_.classifyPixel(frame, s.u, s.v);
+    sample_classes_[i] = c;
     green += c == camera::ColourClass::kGreen ? 1 : 0;
     orange += c == camera::ColourClass::kOrange ? 1 : 0;
     ++counted;
@@ -80,6 +216,11 @@ void VisionHealth::update(const camera::FrameView& frame, const VisionResult& re
   filled_ = std::min(filled_ + 1, window_.size());
   if (result.lines_detected) {
     line_frames_without_points_ = result.lines.points.empty() ? line_frames_without_points_ + 1 : 0;
+    const bool usable = field_ && pose && geometry::isFinite(pose->pose) &&
+                        std::isfinite(pose->sigma_m) && pose->sigma_m <= params_.max_pose_sigma_m;
+    field_window_[field_next_] = usable ? fieldFacts(result, *pose) : FieldFacts{};
+    field_next_ = (field_next_ + 1) % field_window_.size();
+    field_filled_ = std::min(field_filled_ + 1, field_window_.size());
   }
 
   reason_.clear();
@@ -99,6 +240,32 @@ void VisionHealth::update(const camera::FrameView& frame, const VisionResult& re
   }
   if (line_frames_without_points_ >= params_.max_line_frames_without_points) {
     add(fmt::format("no line points in {} line frames", line_frames_without_points_));
+  }
+  // The field checks, where there are enough facts (a negative share: not enough).
+  if (const double off = offLineShare(); off > params_.max_off_line_share) {
+    add(
+        fmt::format("{:.0f} % of the line points on no line of the field at fusion's pose "
+                    "(> {:.0f} %)",
+                    100.0 * off, 100.0 * params_.max_off_line_share));
+  }
+  if (const double off = offFieldShare(); off > params_.max_off_field_share) {
+    add(fmt::format("{:.0f} % of the line points off the field at fusion's pose (> {:.0f} %)",
+                    100.0 * off, 100.0 * params_.max_off_field_share));
+  }
+  if (const double beyond = greenBeyondShare(); beyond > params_.max_green_beyond_share) {
+    add(
+        fmt::format("field colour beyond the field: {:.0f} % of the floor beyond the carpet "
+                    "(> {:.0f} %)",
+                    100.0 * beyond, 100.0 * params_.max_green_beyond_share));
+  }
+  if (const double coverage = lineCoverage();
+      coverage >= 0.0 && coverage < params_.min_line_coverage) {
+    const FieldFacts f = fieldSum();
+    add(
+        fmt::format("line points along {:.0f} % of the {:.0f} m of line the field puts in view "
+                    "(< {:.0f} %)",
+                    100.0 * coverage, f.in_view_m / std::max(1, posedLineFrames()),
+                    100.0 * params_.min_line_coverage));
   }
   // Judged on a full window only: the first frame always searches.
   const double searches = searchFraction();

@@ -10,12 +10,28 @@
 //   - re-seeding every frame: green had to be searched for in the whole frame (the tracker lost
 //     all its regions) in more than `max_search_fraction` of the window's frames.
 //
+// With a field model and fusion's pose at the frame's time (issue 30: a table that gives plenty
+// of wrong points passes every check above), on the line-detection frames:
+//   - line points on no line: the share of the points within `field_range_m` that lie further
+//     than `off_line_m` (plus the pose's sigma) from every line of the model: an estimate of
+//     1 - precision;
+//   - line points off the field: the share beyond the touch and goal lines' outer edges;
+//   - floor colour beyond the field: the share of the sampled floor pixels that see the hall
+//     floor beyond the carpet and are classified as field colour (a table whose green spans
+//     every grey);
+//   - fewer points than the field predicts: the share of the model's line length in view
+//     (within range, where the mirror sees the floor) that has a line point within
+//     `coverage_distance_m`: a table that finds a fraction of the lines.
+// Each over the last `field_window_frames` line frames that had a pose; without a pose (fusion
+// not tracking, or its pose too uncertain) the field checks say nothing.
+//
 // The grid sample is independent of the tracker's state (it sees the frame, not what the tracker
 // kept), costs about a thousand table lookups per frame, and allocates nothing per frame.
 // Plain library: no LCM, no clock.
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -23,6 +39,8 @@
 #include "common/camera/frame.hpp"
 #include "common/camera/mirror_model.hpp"
 #include "common/config/config.hpp"
+#include "common/field/field_model.hpp"
+#include "common/geometry/geometry.hpp"
 #include "services/region_tracking/frame_processor.hpp"
 
 namespace fieldline::region_tracking {
@@ -41,6 +59,36 @@ struct VisionHealthParams {
   double max_search_fraction = 0.5;
   // Spacing of the sample grid, px.
   int sample_stride = 8;
+
+  // Field checks (with a field model and a pose): line frames averaged over, the range of the
+  // points and floor samples looked at (m), and the limits.
+  int field_window_frames = 10;
+  double field_range_m = 4.0;
+  // A point further than this plus the pose's sigma from every line is on no line, m.
+  double off_line_m = 0.25;
+  // Above this share of the points on no line, or off the field: WARN.
+  double max_off_line_share = 0.2;
+  double max_off_field_share = 0.1;
+  // Above this share of the floor beyond the carpet classified as field colour: WARN.
+  double max_green_beyond_share = 0.3;
+  // Below this share of the line length in view covered by points: WARN. A model line sample
+  // counts as covered with a point within coverage_distance_m.
+  double min_line_coverage = 0.3;
+  double coverage_distance_m = 0.25;
+  // Too few facts to judge: fewer points / floor samples beyond the carpet / metres of line in
+  // view over the window than these.
+  int min_field_points = 40;
+  int min_beyond_samples = 40;
+  double min_line_in_view_m = 5.0;
+  // A pose whose position sigma is larger is not used, m.
+  double max_pose_sigma_m = 0.3;
+};
+
+// Fusion's pose at a frame's time and how sure it is.
+struct FramePose {
+  geometry::Pose2 pose;
+  // Position standard deviation (the larger axis), m.
+  double sigma_m = 0.0;
 };
 
 // Reads a `health` section (every key optional, defaults as above; unknown keys are errors).
@@ -48,12 +96,15 @@ VisionHealthParams loadVisionHealthParams(const config::Node& node);
 
 class VisionHealth {
  public:
-  // `mirror` and `table` must outlive this. Throws std::invalid_argument for bad parameters.
+  // `mirror`, `table` and `field` (may be null: no field checks) must outlive this. Throws
+  // std::invalid_argument for bad parameters.
   VisionHealth(const camera::MirrorModel& mirror, const camera::ColourTable& table,
-               const VisionHealthParams& params);
+               const VisionHealthParams& params, const field::FieldModel* field = nullptr);
 
-  // One processed frame and what the tracker made of it.
-  void update(const camera::FrameView& frame, const VisionResult& result);
+  // One processed frame and what the tracker made of it; `pose`: fusion's pose at the frame's
+  // time, when known (the field checks use it on line frames).
+  void update(const camera::FrameView& frame, const VisionResult& result,
+              const std::optional<FramePose>& pose = std::nullopt);
 
   // Empty while the vision looks healthy, else the conditions ("too little green: 2 % of the
   // floor (< 15 %); no line points in 10 line frames").
@@ -65,20 +116,48 @@ class VisionHealth {
   double searchFraction() const;
   int lineFramesWithoutPoints() const { return line_frames_without_points_; }
   int samplePixels() const { return static_cast<int>(samples_.size()); }
+  // Field checks over the window (negative: not enough facts to judge).
+  double offLineShare() const;
+  double offFieldShare() const;
+  double greenBeyondShare() const;
+  double lineCoverage() const;
+  // Line frames in the window that had a pose.
+  int posedLineFrames() const;
 
  private:
   struct Sample {
     int u, v;
+    // The floor point the pixel sees, robot frame (NaN: none).
+    float x, y;
   };
   struct FrameFacts {
     float green = 0, orange = 0;
     bool searched = false;
   };
+  // What one line frame with a pose showed of the field.
+  struct FieldFacts {
+    bool posed = false;
+    int points = 0, off_line = 0, off_field = 0;
+    int beyond = 0, green_beyond = 0;
+    double in_view_m = 0.0, covered_m = 0.0;
+  };
   double mean(float FrameFacts::*field) const;
+  FieldFacts fieldFacts(const VisionResult& result, const FramePose& pose) const;
+  FieldFacts fieldSum() const;
 
   const camera::ColourTable& table_;
+  const camera::MirrorModel& mirror_;
+  const field::FieldModel* field_;
   VisionHealthParams params_;
   std::vector<Sample> samples_;
+  // This frame's class of each sample.
+  std::vector<camera::ColourClass> sample_classes_;
+  // The model's lines, sampled every line_sample_m (field frame).
+  std::vector<geometry::Vec2> line_samples_;
+  double line_sample_m_ = 0.1;
+  std::vector<FieldFacts> field_window_;  // ring buffer of line frames
+  std::size_t field_next_ = 0;
+  std::size_t field_filled_ = 0;
   std::vector<FrameFacts> window_;  // ring buffer
   std::size_t next_ = 0;
   std::size_t filled_ = 0;

@@ -47,7 +47,7 @@ bool wholeInImage(const camera::MirrorModel& mirror, const Vec2& ball, double ra
 
 // Why the ball of a frame was missed: no candidate, or the reasons its candidates were refused.
 void countMiss(region_tracking::FrameProcessor& processor, const camera::FrameView& frame,
-               BallEvalResult& result) {
+               const region_tracking::BallRegion* region, BallEvalResult& result) {
   const region_tracking::ContourSet& contours = processor.tracker().contours();
   const region_tracking::ClassId orange = region_tracking::classIdOf(camera::ColourClass::kOrange);
   region_tracking::BallDetection detection;
@@ -55,7 +55,7 @@ void countMiss(region_tracking::FrameProcessor& processor, const camera::FrameVi
   for (const region_tracking::Contour& c : contours.contours) {
     if (c.class_id != orange || !c.outer) continue;
     ++candidates;
-    const auto reason = processor.ballDetector().evaluate(frame, contours, c, detection);
+    const auto reason = processor.ballDetector().evaluate(frame, contours, c, detection, region);
     ++result.missed_reasons[static_cast<std::size_t>(reason)];
   }
   if (candidates == 0) ++result.missed_without_candidate;
@@ -139,11 +139,23 @@ BallEvalResult evaluateBall(region_tracking::SimCamera& sim,
       sim.field, region_tracking::Motion{.speed = 1.0, .omega = 0.4}, o.frames);
   const std::vector<Vec2> balls = ballPath(o, sim.field, poses);
   sim.renderer->realism().setParams(o.realism);
-  region_tracking::FrameProcessor processor(sim.mirror, sim.table, vision);
+  const camera::ColourTable& table = o.table ? *o.table : sim.table;
+  region_tracking::FrameProcessor processor(sim.mirror, table, vision);
   region_tracking::VisionResult out;
   BallEvalResult result;
+  std::mt19937 pose_rng(o.seed + 7);
+  std::normal_distribution<double> pose_error(0.0, 1.0);
+  std::optional<region_tracking::BallRegion> region;
   for (int i = 0; i < o.frames; ++i) {
     const camera::SimScene scene = sceneFor(o, sim.field, poses, balls, i);
+    if (o.field_check) {
+      // Fusion's pose: the truth, off by its uncertainty.
+      const geometry::Pose2 pose{scene.robot.x + o.pose_sigma_m * pose_error(pose_rng),
+                                 scene.robot.y + o.pose_sigma_m * pose_error(pose_rng),
+                                 scene.robot.phi + 0.1 * o.pose_sigma_m * pose_error(pose_rng)};
+      region = region_tracking::BallRegion{&sim.field, pose, o.pose_sigma_m};
+    }
+    processor.setBallRegion(region);
     processor.process(sim.render(scene), i % 3 == 0, out);
     ++result.frames;
     result.candidates += out.ball.candidates;
@@ -164,9 +176,13 @@ BallEvalResult evaluateBall(region_tracking::SimCamera& sim,
       ++result.visible_by_metre[metre];
     }
     if (!out.ball.visible) {
-      if (visible) countMiss(processor, sim.renderer->view(sim.frame), result);
+      if (visible) {
+        countMiss(processor, sim.renderer->view(sim.frame), region ? &*region : nullptr, result);
+      }
       continue;
     }
+    const Vec2 reported = geometry::pointRobotToField(scene.robot, Vec2(out.ball.x, out.ball.y));
+    if (!sim.field.insideLines(reported)) ++result.outside_field;
     const double error = scene.ball ? (Vec2(out.ball.x, out.ball.y) - truth).norm() : -1.0;
     if (!scene.ball || error > o.false_ball_distance) {
       ++result.false_balls;
@@ -189,11 +205,11 @@ BallEvalResult evaluateBall(region_tracking::SimCamera& sim,
 
 std::string summaryLine(const BallEvalResult& r) {
   return fmt::format(
-      "frames={} false_balls={} found_rate={:.4f} err_median_m={:.4f} err_p95_m={:.4f} "
-      "visible_frames={} within_5cm_rate={:.4f} cut_frames={} cut_found={} candidates={} "
-      "rejected={}",
-      r.frames, r.false_balls, r.foundRate(), r.errorQuantile(0.5), r.errorQuantile(0.95),
-      r.visible_frames,
+      "frames={} false_balls={} outside_field={} found_rate={:.4f} err_median_m={:.4f} "
+      "err_p95_m={:.4f} visible_frames={} within_5cm_rate={:.4f} cut_frames={} cut_found={} "
+      "candidates={} rejected={}",
+      r.frames, r.false_balls, r.outside_field, r.foundRate(), r.errorQuantile(0.5),
+      r.errorQuantile(0.95), r.visible_frames,
       r.visible_frames > 0 ? static_cast<double>(r.within_5cm) / r.visible_frames : 0.0,
       r.cut_frames, r.cut_found, r.candidates, r.rejected);
 }
@@ -207,8 +223,9 @@ std::string missLine(const BallEvalResult& r) {
   for (int m = 0; m < 4; ++m) {
     line += fmt::format(" {}-{}m={}/{}", m, m + 1, r.found_by_metre[m], r.visible_by_metre[m]);
   }
-  const char* names[] = {"none",     "too_few_pixels", "too_large", "at_image_border",
-                         "no_floor", "size",           "fill",      "not_on_carpet"};
+  const char* names[] = {"none", "too_few_pixels", "too_large",     "at_image_border", "no_floor",
+                         "size", "fill",           "not_on_carpet", "outside_field"};
+  static_assert(std::size(names) == region_tracking::kBallRejectCount);
   line += fmt::format(" missed_without_candidate={} refused:", r.missed_without_candidate);
   for (std::size_t i = 1; i < r.missed_reasons.size(); ++i) {
     line += fmt::format(" {}={}", names[i], r.missed_reasons[i]);

@@ -35,6 +35,13 @@ struct BallEvalOptions {
   double visible_within = 4.0;
   // Realism knobs for the renderer (identity by default).
   camera::RealismParams realism;
+  // Where a ball can be (issue 30): the detector gets the field and the robot's pose as fusion
+  // would give it, the truth moved by a random error of this many metres (and a tenth of it in
+  // radians); false: the image alone.
+  bool field_check = true;
+  double pose_sigma_m = 0.02;
+  // The colour table to track with (a venue's calibrated one); null: the camera preset's.
+  const camera::ColourTable* table = nullptr;
 };
 
 struct BallEvalResult {
@@ -51,12 +58,14 @@ struct BallEvalResult {
   // Errors of the found ones (robot frame, m), and how many were within 5 cm.
   std::vector<double> errors;
   int within_5cm = 0;
+  // Frames reporting a ball beyond the field's lines (outer edges) at the robot's true pose.
+  int outside_field = 0;
   // Candidates looked at and refused, summed over all frames.
   long candidates = 0, rejected = 0;
   // Frames with the ball visible but not found: without any ball-coloured candidate (the
   // tracker did not see it), and the refusals among their candidates by reason (BallReject).
   int missed_without_candidate = 0;
-  std::array<int, 8> missed_reasons{};
+  std::array<int, region_tracking::kBallRejectCount> missed_reasons{};
   // Found / visible frames per metre of distance (0-1, 1-2, 2-3, 3-4 m).
   std::array<int, 4> visible_by_metre{}, found_by_metre{};
   // The first few false balls: frame number and where (robot frame).

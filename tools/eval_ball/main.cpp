@@ -1,6 +1,7 @@
 // fieldline-eval-ball: the ball detector on rendered frames with orange clutter off the field
-// and people in red at the side (issue 12). Prints one summary line; exits 1 on a false ball or
-// when the found rate is below --min-found-rate. The logic is in ball_evaluation.*.
+// and people in red at the side (issue 12), given the field and the robot's pose as fusion would
+// (issue 30). Prints one summary line; exits 1 on a false ball, a ball reported outside the
+// field, or when the found rate is below --min-found-rate. The logic is in ball_evaluation.*.
 #include <cstdio>
 #include <exception>
 #include <string>
@@ -28,10 +29,16 @@ int main(int argc, char** argv) {
       ->check(CLI::NonNegativeNumber);
   app.add_option("--min-found-rate", minFoundRate, "Exit 1 when the found rate is lower")
       ->check(CLI::Range(0.0, 1.0));
+  app.add_option("--pose-sigma", options.pose_sigma_m,
+                 "Error of the pose the detector is given (as fusion's), m")
+      ->check(CLI::Range(0.0, 2.0));
+  bool noField = false;
+  app.add_flag("--no-field", noField, "no field check: the detector judges by the image alone");
   bool noChecks = false;
   app.add_flag("--no-checks", noChecks,
                "no size, fill or carpet check (the comparison: what they buy)");
   CLI11_PARSE(app, argc, argv);
+  options.field_check = !noField;
   try {
     options.realism = calibration::realismSetting(realism).realism;
     region_tracking::SimCamera sim = region_tracking::SimCamera::load(camera, field);
@@ -46,7 +53,9 @@ int main(int argc, char** argv) {
     }
     std::printf("%s\n%s\n", eval_ball::missLine(result).c_str(),
                 eval_ball::summaryLine(result).c_str());
-    return result.false_balls > 0 || result.foundRate() < minFoundRate ? 1 : 0;
+    return result.false_balls > 0 || result.outside_field > 0 || result.foundRate() < minFoundRate
+               ? 1
+               : 0;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "fieldline-eval-ball: %s\n", e.what());
     return 2;

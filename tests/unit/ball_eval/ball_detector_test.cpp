@@ -102,6 +102,52 @@ TEST_F(BallDetectorTest, RefusesCandidatesOfTheWrongSizeAndOffTheCarpet) {
   EXPECT_GE(result.ball.rejected, 1);
 }
 
+TEST_F(BallDetectorTest, WithFusionsPoseABallBeyondTheLinesIsNoBall) {
+  // The touch line's centre is at y = 7 m, the carpet ends at 8 m: a ball at y = 7.6 m lies on
+  // the carpet but 0.5 m beyond the line's outer edge. By the image alone it is a ball; with the
+  // field and fusion's pose (2 cm sure) it is out (issue 30: no ball outside the field).
+  const geometry::Pose2 pose{-2.0, 6.0, 0.0};
+  camera::SimScene scene;
+  scene.robot = pose;
+  scene.ball = camera::SimBall{Vec2(-1.5, 7.6), 0.11};
+  const VisionResult alone = track(scene);
+  ASSERT_TRUE(alone.ball.visible) << "the image alone sees it";
+
+  FrameProcessor processor(sim_->mirror, sim_->table, defaultVisionParams());
+  processor.setBallRegion(BallRegion{&sim_->field, pose, 0.02});
+  const VisionResult out = sim_->track(processor, scene);
+  EXPECT_FALSE(out.ball.visible) << "at (" << out.ball.x << ", " << out.ball.y << ")";
+  EXPECT_GE(out.ball.rejected, 1);
+
+  // The same ball 0.4 m inside the line: a ball, with or without the field.
+  scene.ball = camera::SimBall{Vec2(-1.5, 6.6), 0.11};
+  FrameProcessor inside(sim_->mirror, sim_->table, defaultVisionParams());
+  inside.setBallRegion(BallRegion{&sim_->field, pose, 0.02});
+  const VisionResult in = sim_->track(inside, scene);
+  ASSERT_TRUE(in.ball.visible);
+  const Vec2 truth = geometry::pointFieldToRobot(pose, Vec2(-1.5, 6.6));
+  EXPECT_LE((Vec2(in.ball.x, in.ball.y) - truth).norm(), 0.05);
+}
+
+TEST_F(BallDetectorTest, ATableWithoutTheBallColourSeesNoBall) {
+  // The ball's colour comes from the calibration (the table's orange cells): a table that has
+  // none (no ball was found when it was made) finds no ball, and says so.
+  std::vector<camera::YuvBox> boxes;
+  for (const camera::YuvBox& box : sim_->table.boxes()) {
+    if (box.colour != camera::ColourClass::kOrange) boxes.push_back(box);
+  }
+  const camera::ColourTable without(boxes);
+  EXPECT_TRUE(BallDetector(sim_->table, sim_->mirror, BallParams{}).hasBallColour());
+  EXPECT_FALSE(BallDetector(without, sim_->mirror, BallParams{}).hasBallColour());
+  const geometry::Pose2 pose{0.0, -2.0, 0.0};
+  camera::SimScene scene;
+  scene.robot = pose;
+  scene.ball = camera::SimBall{geometry::pointRobotToField(pose, Vec2(1.0, 0.0)), 0.11};
+  FrameProcessor processor(sim_->mirror, without, defaultVisionParams());
+  EXPECT_FALSE(sim_->track(processor, scene).ball.visible);
+  EXPECT_TRUE(track(scene).ball.visible);
+}
+
 TEST(BallParamsTest, InvalidParametersAreRefused) {
   const SimCamera sim = SimCamera::load("omni_sim", "msl");
   auto with = [&](auto change) {

@@ -1,3 +1,4 @@
+#include <cmath>
 #include <string>
 
 #include <gtest/gtest.h>
@@ -137,6 +138,81 @@ TEST(FieldConfig, OuterEdgesAndLineCentresDescribeTheSameField) {
   for (std::size_t i = 0; i < a.arcs().size(); ++i) {
     EXPECT_NEAR(a.arcs()[i].radius, b.arcs()[i].radius, 1e-9) << i;
   }
+}
+
+TEST(FieldConfig, CircleArcsAndAreasAreOptional) {
+  // A lab field of any size: only the rectangle and the halfway line.
+  const std::string bare =
+      "name: bare\ndimensions_measured_to: outer_edges\nlength: 4.0\nwidth: 3.0\n"
+      "line_width: 0.05\nborder_width: 0.3\n"
+      "goals:\n  width: 1.0\n  depth: 0.3\n  height: 0.5\n"
+      "  own_colour: white\n  opponent_colour: white\n";
+  const FieldModel m = loadFieldModel(config::Node::loadString(bare, "bare.yaml"));
+  EXPECT_FALSE(m.hasCentreCircle());
+  EXPECT_FALSE(m.hasCornerArcs());
+  EXPECT_FALSE(m.hasPenaltyAreas());
+  EXPECT_FALSE(m.hasGoalAreas());
+  EXPECT_FALSE(m.hasPenaltyArcs());
+  EXPECT_EQ(m.segments().size(), 5u);
+  EXPECT_TRUE(m.arcs().empty());
+  EXPECT_NEAR(m.length(), 3.95, 1e-12);
+  // The centre is 1.475 m from the nearest line (the touch lines), not on a circle.
+  EXPECT_NEAR(m.distance(Vec2(0.5, 0.0)), 0.5, 1e-12);
+  EXPECT_NEAR(m.distance(Vec2(1.0, 0.0)), 0.975, 1e-12);
+
+  // The seed's field without its corner arcs and circle: 17 segments, no arc.
+  std::string no_arcs = replaced("centre_circle_radius: 1.0\n", "");
+  no_arcs.replace(no_arcs.find("corner_arc_radius: 0.4\n"), 23, "");
+  const FieldModel n = loadFieldModel(config::Node::loadString(no_arcs, "test.yaml"));
+  EXPECT_EQ(n.segments().size(), 17u);
+  EXPECT_TRUE(n.arcs().empty());
+  // Only a goal area: 5 + 6 segments.
+  std::string goal_only = replaced("penalty_area:\n  depth: 1.5\n  width: 5.0\n", "");
+  const FieldModel g = loadFieldModel(config::Node::loadString(goal_only, "test.yaml"));
+  EXPECT_TRUE(g.hasGoalAreas());
+  EXPECT_FALSE(g.hasPenaltyAreas());
+  EXPECT_EQ(g.segments().size(), 11u);
+}
+
+TEST(FieldConfig, PenaltyArcIsTheDInFrontOfThePenaltyArea) {
+  // Centre 1.0 m from the goal line, radius 0.8 m, front line at 1.5 m: the D bulges 0.3 m out.
+  const std::string d = "penalty_arc:\n  centre_distance: 1.0\n  radius: 0.8\n";
+  const FieldModel m = loadFieldModel(config::Node::loadString(kValid + d, "test.yaml"));
+  ASSERT_TRUE(m.hasPenaltyArcs());
+  ASSERT_EQ(m.arcs().size(), 7u);
+  const LineArc& own = m.arcs()[5];
+  const LineArc& opponent = m.arcs()[6];
+  EXPECT_NEAR((own.centre - Vec2(-5.0, 0.0)).norm(), 0.0, 1e-12);
+  EXPECT_NEAR((opponent.centre - Vec2(5.0, 0.0)).norm(), 0.0, 1e-12);
+  // Both ends on the front line (x = -4.5), inside the area; the apex 0.3 m beyond it.
+  const double half_chord = std::sqrt(0.8 * 0.8 - 0.5 * 0.5);
+  EXPECT_NEAR((own.startPoint() - Vec2(-4.5, -half_chord)).norm(), 0.0, 1e-12);
+  EXPECT_NEAR((own.endPoint() - Vec2(-4.5, half_chord)).norm(), 0.0, 1e-12);
+  EXPECT_NEAR((opponent.startPoint() - Vec2(4.5, half_chord)).norm(), 0.0, 1e-12);
+  EXPECT_NEAR(m.distance(Vec2(-4.2, 0.0)), 0.0, 1e-12);
+  EXPECT_NEAR(m.distance(Vec2(4.0, 0.0)), 0.2, 1e-12);
+  // Inside the area the arc is not painted: the front line is nearest.
+  EXPECT_NEAR(m.distance(Vec2(-4.7, 0.0)), 0.2, 1e-12);
+  // Its centre defaults to the penalty mark.
+  const std::string marks = "penalty_marks:\n  distance: 1.2\n  diameter: 0.1\n";
+  const FieldModel k = loadFieldModel(
+      config::Node::loadString(kValid + marks + "penalty_arc:\n  radius: 0.5\n", "test.yaml"));
+  EXPECT_NEAR(k.arcs()[5].centre.x(), -4.8, 1e-12);
+
+  EXPECT_NE(loadError(kValid + "penalty_arc:\n  radius: 0.5\n")
+                .find("test.yaml:22: penalty_arc.centre_distance: required"),
+            std::string::npos);
+  // Too small to reach beyond the front line, and one that meets it beyond the area's sides.
+  EXPECT_NE(loadError(kValid + "penalty_arc:\n  centre_distance: 1.0\n  radius: 0.4\n")
+                .find("test.yaml:23: penalty_arc.radius: the arc does not reach beyond"),
+            std::string::npos);
+  EXPECT_NE(loadError(kValid + "penalty_arc:\n  centre_distance: 1.0\n  radius: 2.9\n")
+                .find("penalty_arc.radius: the arc meets the front line outside"),
+            std::string::npos);
+  const std::string no_area = replaced("penalty_area:\n  depth: 1.5\n  width: 5.0\n", "");
+  EXPECT_NE(loadError(no_area + "penalty_arc:\n  centre_distance: 1.0\n  radius: 0.8\n")
+                .find("penalty_arc.radius: a penalty arc needs a penalty area"),
+            std::string::npos);
 }
 
 TEST(FieldConfig, PresetByPathAndMissingFile) {

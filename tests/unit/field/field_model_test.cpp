@@ -2,10 +2,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <limits>
 #include <numbers>
 #include <random>
 #include <stdexcept>
+#include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -31,18 +34,45 @@ bool hasSegment(const FieldModel& m, const Vec2& a, const Vec2& b) {
                      [&](const LineSegment& s) { return sameSegment(s, a, b); });
 }
 
-class Presets : public ::testing::TestWithParam<const char*> {};
+// Every preset in config/field (the names of its YAML files).
+std::vector<std::string> allPresets() {
+  std::vector<std::string> names;
+  for (const auto& entry :
+       std::filesystem::directory_iterator(config::projectRoot() + "/config/field")) {
+    if (entry.path().extension() == ".yaml") names.push_back(entry.path().stem().string());
+  }
+  std::sort(names.begin(), names.end());
+  return names;
+}
 
-TEST_P(Presets, HasTheSeedsSeventeenSegmentsAndFiveArcs) {
+TEST(SeedPresets, HaveTheSeedsSeventeenSegmentsAndFiveArcs) {
+  for (const char* name : {"fu2004", "msl"}) {
+    const FieldModel m = loadFieldPreset(name);
+    EXPECT_EQ(m.name(), name);
+    EXPECT_EQ(m.segments().size(), 17u);
+    EXPECT_EQ(m.arcs().size(), 5u);
+    EXPECT_EQ(m.goals().size(), 2u);
+    // Four quarter circles and one full circle.
+    for (int i = 0; i < 4; ++i)
+      EXPECT_NEAR(m.arcs()[i].sweep, kPi / 2, kTol);
+    EXPECT_NEAR(m.arcs()[4].sweep, 2 * kPi, kTol);
+  }
+}
+
+class Presets : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(Presets, NameIsTheFileNameAndElementsFollowTheOptionalParts) {
   const FieldModel m = loadFieldPreset(GetParam());
   EXPECT_EQ(m.name(), GetParam());
-  EXPECT_EQ(m.segments().size(), 17u);
-  EXPECT_EQ(m.arcs().size(), 5u);
   EXPECT_EQ(m.goals().size(), 2u);
-  // Four quarter circles and one full circle.
-  for (int i = 0; i < 4; ++i)
-    EXPECT_NEAR(m.arcs()[i].sweep, kPi / 2, kTol);
-  EXPECT_NEAR(m.arcs()[4].sweep, 2 * kPi, kTol);
+  const std::size_t segments = 5 + (m.hasPenaltyAreas() ? 6 : 0) + (m.hasGoalAreas() ? 6 : 0);
+  const std::size_t arcs =
+      (m.hasCornerArcs() ? 4 : 0) + (m.hasCentreCircle() ? 1 : 0) + (m.hasPenaltyArcs() ? 2 : 0);
+  EXPECT_EQ(m.segments().size(), segments);
+  EXPECT_EQ(m.arcs().size(), arcs);
+  // Every line lies on the carpet inside the outer edges of the touch and goal lines.
+  for (const Vec2& p : m.sampleLines(0.05))
+    EXPECT_TRUE(m.insideLines(p, 1e-9)) << p.transpose();
 }
 
 TEST_P(Presets, IsSymmetricUnderBothMirrors) {
@@ -97,7 +127,8 @@ TEST_P(Presets, SampleLinesSpacingAndCoverage) {
     total_length += a.radius * a.sweep;
   // At least one point per step of line, and not wastefully many.
   EXPECT_GE(points.size(), static_cast<std::size_t>(total_length / step));
-  EXPECT_LE(points.size(), static_cast<std::size_t>(total_length / step) + 3 * 22);
+  EXPECT_LE(points.size(), static_cast<std::size_t>(total_length / step) +
+                               3 * (m.segments().size() + m.arcs().size()));
   for (const Vec2& p : points)
     ASSERT_LT(m.distance(p), 1e-9);
   // Every point of every line is within step/2 of a sample.
@@ -109,7 +140,7 @@ TEST_P(Presets, SampleLinesSpacingAndCoverage) {
   }
 }
 
-INSTANTIATE_TEST_SUITE_P(Field, Presets, ::testing::Values("fu2004", "msl"));
+INSTANTIATE_TEST_SUITE_P(Field, Presets, ::testing::ValuesIn(allPresets()));
 
 TEST(Fu2004, ElementsMatchTable44) {
   // w = 600, h = 300, p = s = 150, g = 50, q = 250, r = 100, a = 40 cm.

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <filesystem>
 #include <limits>
+#include <map>
 #include <numbers>
 #include <random>
 #include <string>
@@ -13,6 +14,7 @@
 
 #include <gtest/gtest.h>
 #include <Eigen/Eigenvalues>
+#include <Eigen/LU>
 
 #include "common/config/config.hpp"
 #include "common/field/field_model.hpp"
@@ -54,9 +56,13 @@ std::vector<LinePoint> seenFrom(const field::FieldModel& field, const Pose2& pos
   return points;
 }
 
+// The synthetic points come from an exact camera: no calibration uncertainty in the covariance.
 MatcherParams withMethod(MatchMethod method) {
   MatcherParams p;
   p.method = method;
+  p.camera_scale_sigma = 0.0;
+  p.camera_tilt_sigma = 0.0;
+  p.camera_axis_sigma_m = 0.0;
   return p;
 }
 
@@ -137,7 +143,7 @@ TEST_P(LineMatcherTest, OneLineGivesACovarianceLongAlongIt) {
   const double sigma_along = std::sqrt(c.covariance(0, 0));
   const double sigma_across = std::sqrt(c.covariance(1, 1));
   EXPECT_GT(sigma_along, 1.0);
-  EXPECT_LT(sigma_across, 0.02);
+  EXPECT_LT(sigma_across, 0.03);
   Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eigen(c.covariance.topLeftCorner<2, 2>());
   const Vec2 major = eigen.eigenvectors().col(1);
   EXPECT_GT(std::abs(major.x()), 0.999) << major.transpose();  // the line runs along x
@@ -211,6 +217,154 @@ INSTANTIATE_TEST_SUITE_P(BothMethods, LineMatcherTest,
                            return info.param == MatchMethod::kForceField ? "ForceField"
                                                                          : "LeastSquares";
                          });
+
+TEST(LineMatcherHonesty, RepeatingThePointsDoesNotShrinkTheCovariance) {
+  // Neighbouring points count as one group: the same frame sent again and again, 10^6 points in
+  // all, says what it says once (a dense line sampling, or a tool fed 10^6 points, is no more
+  // certain; it used to claim 0.2 mm).
+  const field::FieldModel field = field::loadFieldPreset("msl");
+  const LineMatcher m(field, MatcherParams{});
+  const Pose2 truth{2.0, 1.0, -0.5};
+  const std::vector<LinePoint> once = seenFrom(field, truth, 4.0);
+  std::vector<LinePoint> many;
+  while (many.size() < 1000000)
+    many.insert(many.end(), once.begin(), once.end());
+  const Pose2 guess{truth.x + 0.1, truth.y - 0.1, truth.phi + 0.05};
+  const PoseCorrection a = m.correct(once, guess, 0);
+  const PoseCorrection b = m.correct(many, guess, 0);
+  ASSERT_TRUE(a.valid);
+  ASSERT_TRUE(b.valid);
+  for (int k = 0; k < 3; ++k)
+    EXPECT_NEAR(b.covariance(k, k), a.covariance(k, k), 0.1 * a.covariance(k, k)) << k;
+  EXPECT_NEAR(b.independent_points, a.independent_points, 1e-6);
+  // Centimetres, not the tenth of a millimetre 10^5 independent points would claim.
+  EXPECT_GT(std::sqrt(b.covariance(0, 0)), 0.005);
+  std::printf("sigma x %.4f m once, %.4f m with %zu points\n", std::sqrt(a.covariance(0, 0)),
+              std::sqrt(b.covariance(0, 0)), many.size());
+}
+
+TEST(LineMatcherHonesty, RandomPointsAreNotValidAnywhere) {
+  const field::FieldModel field = field::loadFieldPreset("msl");
+  const LineMatcher m(field, MatcherParams{});
+  std::mt19937 rng(300);
+  std::uniform_real_distribution<double> within(-6.0, 6.0);
+  std::vector<LinePoint> random;
+  while (random.size() < 300) {
+    LinePoint q;
+    q.x = static_cast<float>(within(rng));
+    q.y = static_cast<float>(within(rng));
+    if (std::hypot(q.x, q.y) <= 6.0) random.push_back(q);
+  }
+  EXPECT_TRUE(m.globalSearch(random).empty());
+  for (const Pose2& guess : {Pose2{0.0, 0.0, 0.0}, Pose2{5.0, 3.0, 1.0}, Pose2{-8.0, -4.0, 2.0}}) {
+    const PoseCorrection c = m.correct(random, guess, 0);
+    EXPECT_FALSE(c.valid) << guess.x << "," << guess.y << " cost " << c.cost;
+    EXPECT_FALSE(c.invalid_reason.empty());
+  }
+}
+
+TEST(LineMatcherHonesty, ResidualsLargerThanThePointModelWidenTheCovariance) {
+  // The same view, its points moved by errors shared by neighbours (8 cm, changing every half
+  // metre along the view: a mirror that is off by a varying amount): larger residuals, a
+  // wider covariance, and the true pose still within it.
+  const field::FieldModel field = field::loadFieldPreset("msl");
+  MatcherParams p = withMethod(MatchMethod::kRobustLeastSquares);
+  p.point_sigma_m = 0.02;
+  const LineMatcher m(field, p);
+  const Pose2 truth{-6.0, -2.5, 2.0};
+  const std::vector<LinePoint> clean = seenFrom(field, truth, 4.0);
+  std::vector<LinePoint> bent = clean;
+  std::mt19937 rng(9);
+  std::normal_distribution<double> error(0.0, 0.08);
+  std::map<std::pair<int, int>, Vec2> shared;
+  for (LinePoint& q : bent) {
+    const auto cell = std::make_pair(static_cast<int>(std::floor(q.x / 0.5)),
+                                     static_cast<int>(std::floor(q.y / 0.5)));
+    if (!shared.count(cell)) shared[cell] = Vec2(error(rng), error(rng));
+    q.x += static_cast<float>(shared[cell].x());
+    q.y += static_cast<float>(shared[cell].y());
+  }
+  const Pose2 guess{truth.x + 0.1, truth.y + 0.1, truth.phi};
+  const PoseCorrection a = m.correct(clean, guess, 0);
+  const PoseCorrection b = m.correct(bent, guess, 0);
+  ASSERT_TRUE(a.valid);
+  ASSERT_TRUE(b.valid) << b.invalid_reason;
+  EXPECT_GT(b.residual_rms_m, 2.0 * a.residual_rms_m);
+  EXPECT_GT(b.residual_inflation, 2.0);
+  EXPECT_GT(b.covariance.trace(), 4.0 * a.covariance.trace());
+  const Eigen::Vector3d e(b.pose.x - truth.x, b.pose.y - truth.y,
+                          geometry::angleDiff(b.pose.phi, truth.phi));
+  EXPECT_LT(e.dot(b.covariance.inverse() * e), 11.34);  // chi-square(3), 99 %
+}
+
+TEST(LineMatcherHonesty, AFrameThatFitsTwoPlacesNamesTheRunnerUpAndCoversIt) {
+  // A lab field with only its rectangle and halfway line. Seen from `a` (0.5 m behind the
+  // halfway line, 0.6 m from a touch line, facing +x) the points of both lines within 1.5 m; and
+  // the same points again 0.6 m further forward: seen from `b`, 0.6 m behind `a`, the copies fall
+  // on the lines, the originals 0.6 m off. Both places fit half of the frame exactly alike: the
+  // answer, whichever it is, names the other as its runner-up and covers it. (The search
+  // restarts 0.5 m out here: the default 0.3 m finds aliases up to about that far.)
+  const field::FieldModel lab = field::loadFieldModel(config::Node::loadString(
+      "name: lab\ndimensions_measured_to: line_centres\nlength: 8.0\nwidth: 3.0\n"
+      "line_width: 0.05\nborder_width: 0.5\ngoals:\n  width: 1.0\n  depth: 0.3\n"
+      "  height: 0.5\n  own_colour: white\n  opponent_colour: white\n",
+      "lab.yaml"));
+  MatcherParams p = withMethod(MatchMethod::kRobustLeastSquares);
+  p.runner_up_offset_m = 0.5;
+  // Half the frame fits either place: half the points are outliers.
+  p.min_inlier_fraction = 0.3;
+  p.max_valid_cost_m = 0.3;
+  const LineMatcher m(lab, p);
+  const Pose2 a{-0.5, 0.9, 0.0};
+  const Pose2 b{-1.1, 0.9, 0.0};
+  std::vector<LinePoint> points = seenFrom(lab, a, 1.5, 0, 1);
+  const std::size_t count = points.size();
+  for (std::size_t k = 0; k < count; ++k) {
+    LinePoint q = points[k];
+    q.x += 0.6f;
+    points.push_back(q);
+  }
+  const PoseCorrection c = m.correct(points, {-0.6, 0.92, 0.02}, 0);
+  ASSERT_TRUE(c.valid) << c.invalid_reason;
+  ASSERT_TRUE(c.has_runner_up) << c.pose.x << "," << c.pose.y;
+  const bool at_a = std::hypot(c.pose.x - a.x, c.pose.y - a.y) < 0.05;
+  const bool at_b = std::hypot(c.pose.x - b.x, c.pose.y - b.y) < 0.05;
+  ASSERT_TRUE(at_a || at_b) << c.pose.x << "," << c.pose.y;
+  const Pose2& other = at_a ? b : a;
+  EXPECT_LT(std::hypot(c.runner_up.x - other.x, c.runner_up.y - other.y), 0.05)
+      << c.runner_up.x << "," << c.runner_up.y;
+  EXPECT_LT(c.runner_up_delta, 2.0);
+  // The other place is within the covariance, and the covariance is long between them.
+  const Eigen::Vector3d e(other.x - c.pose.x, other.y - c.pose.y, 0.0);
+  EXPECT_LT(e.dot(c.covariance.inverse() * e), 9.35);
+  EXPECT_GT(std::sqrt(c.covariance(0, 0)), 3.0 * std::sqrt(c.covariance(1, 1)));
+  std::printf("answer (%.3f, %.3f), runner-up (%.3f, %.3f), delta %.2f, sigma x %.3f y %.3f m\n",
+              c.pose.x, c.pose.y, c.runner_up.x, c.runner_up.y, c.runner_up_delta,
+              std::sqrt(c.covariance(0, 0)), std::sqrt(c.covariance(1, 1)));
+}
+
+TEST(LineMatcherHonesty, ValidNeedsABoundedCostAndMostPointsNearALine) {
+  const field::FieldModel field = field::loadFieldPreset("msl");
+  const LineMatcher m(field, MatcherParams{});
+  const Pose2 truth{1.0, 0.5, 0.3};
+  std::vector<LinePoint> points = seenFrom(field, truth, 4.0);
+  const std::size_t lines = points.size();
+  // As many points again in one clump about (3, 2) on the field, 1.6 m from every line: more
+  // than half the frame fits no line.
+  std::vector<LinePoint> half = points;
+  for (std::size_t k = 0; k < lines + 10; ++k) {
+    LinePoint q;
+    q.x = 2.35f + static_cast<float>(k % 7) * 0.01f;
+    q.y = 0.84f + static_cast<float>(k % 5) * 0.01f;
+    half.push_back(q);
+  }
+  const PoseCorrection c = m.correct(half, truth, 0);
+  EXPECT_FALSE(c.valid);
+  EXPECT_NE(c.invalid_reason.find("too few of the points near a line"), std::string::npos)
+      << c.invalid_reason;
+  const PoseCorrection good = m.correct(points, truth, 0);
+  EXPECT_TRUE(good.valid) << good.invalid_reason;
+}
 
 TEST(LineMatcher, HuberLossConvergesToo) {
   const field::FieldModel field = field::loadFieldPreset("fu2004");

@@ -1,10 +1,15 @@
 // The line-point CSV reader of fieldline-localize.
 #include "services/fusion/points_csv.hpp"
 
+#include <unistd.h>
+
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 #include <gtest/gtest.h>
 
@@ -26,7 +31,52 @@ TEST(PointsCsv, ReadsPointsAndSequences) {
   EXPECT_EQ(p.sequences[0], std::make_pair(0, 2));
   EXPECT_EQ(p.sequences[1], std::make_pair(2, 4));
   EXPECT_TRUE(parse("").points.empty());
-  EXPECT_TRUE(std::isnan(parse("nan,1\n").points[0].x));
+}
+
+TEST(PointsCsv, MillimetresScaleToMetres) {
+  std::istringstream in("1500,-250\n");
+  const perception::LinePoints p = readLinePointsCsv(in, "mm.csv", 10, 0.001);
+  ASSERT_EQ(p.points.size(), 1u);
+  EXPECT_FLOAT_EQ(p.points[0].x, 1.5f);
+  EXPECT_FLOAT_EQ(p.points[0].y, -0.25f);
+}
+
+TEST(PointsCsv, NonFiniteAndAbsurdCoordinatesAreRefusedWithTheValue) {
+  const std::pair<const char*, const char*> cases[] = {
+      {"nan,1\n", "points.csv:2: x = nan is not a finite number"},
+      {"1,inf\n", "points.csv:2: y = inf is not a finite number"},
+      {"1e999,0\n", "points.csv:2: x = 1e999 is not a finite number"},
+      {"1e308,0\n", "points.csv:2: x = 1e308 is "},
+      {"0,-2000\n", "more than 1000 m: wrong units?"},
+  };
+  for (const auto& [line, message] : cases) {
+    try {
+      parse(std::string("0,0\n") + line);
+      ADD_FAILURE() << "accepted " << line;
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find(message), std::string::npos) << e.what();
+    }
+  }
+}
+
+TEST(PointsCsv, ADirectoryOrAnEmptyFileIsAnError) {
+  const auto expectError = [](const std::string& path, const std::string& message) {
+    try {
+      readLinePointsCsvFile(path);
+      ADD_FAILURE() << "accepted " << path;
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find(message), std::string::npos) << e.what();
+    }
+  };
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / ("points_csv_test_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  expectError(dir.string(), "is a directory");
+  const std::string empty = (dir / "empty.csv").string();
+  { std::ofstream(empty) << "# nothing\n\n"; }
+  expectError(empty, "no line points");
+  expectError("/dev/null", "not a regular file");
+  std::filesystem::remove_all(dir);
 }
 
 TEST(PointsCsv, BadLinesNameFileAndLine) {
