@@ -1,5 +1,7 @@
 #include "common/camera/image_io.hpp"
 
+#include "common/camera/image_header.hpp"
+
 #include <cstdio>
 #include <fstream>
 #include <iterator>
@@ -53,6 +55,7 @@ void writeImage(const std::string& path, const cv::Mat& image) {
 }
 
 cv::Mat readBgrImage(const std::string& path) {
+  checkImageSize(path);  // before decoding: a decompression bomb is refused unread
   cv::Mat image = cv::imread(path, cv::IMREAD_COLOR);
   if (image.empty()) throw std::runtime_error("cannot read image " + path);
   return image;
