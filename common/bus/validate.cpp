@@ -212,12 +212,32 @@ std::optional<std::string> validate(const field_features_t& m) {
 
 std::optional<std::string> validate(const odometry_t& m) {
   if (auto p = validate(m.header)) return p;
-  return finite({{"dx", m.dx},
-                 {"dy", m.dy},
-                 {"dphi", m.dphi},
-                 {"vx", m.vx},
-                 {"vy", m.vy},
-                 {"omega", m.omega}});
+  return firstOf(
+      [&]() -> Problem {
+        // Three or four wheels, or none from a controller that reports only its movement.
+        if (m.wheel_count != 0 && m.wheel_count != 3 && m.wheel_count != 4) {
+          return fmt::format("wheel_count = {} (0, 3 or 4)", m.wheel_count);
+        }
+        return {};
+      },
+      [&] { return Sized("wheel_count", m.wheel_count)("ticks", m.ticks).result(); },
+      [&] {
+        return Sized("wheel_count", m.wheel_count)("wheel_current", m.wheel_current).result();
+      },
+      [&]() -> Problem {
+        if (m.wheel_count == 0 && (m.status & odometry_t::STATUS_CURRENTS) != 0) {
+          return "STATUS_CURRENTS without wheels (wheel_count = 0)";
+        }
+        return {};
+      },
+      [&] {
+        return finite({{"dx", m.dx},
+                       {"dy", m.dy},
+                       {"dphi", m.dphi},
+                       {"vx", m.vx},
+                       {"vy", m.vy},
+                       {"omega", m.omega}});
+      });
 }
 
 std::optional<std::string> validate(const motion_command_t& m) {

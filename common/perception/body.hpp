@@ -2,8 +2,10 @@
 // MOTION_COMMAND (pilot or behaviour -> motor_bridge). Conversions in common/msg.
 #pragma once
 
-#include <array>
+#include <cstddef>
 #include <cstdint>
+
+#include <boost/container/static_vector.hpp>
 
 #include "common/geometry/geometry.hpp"
 
@@ -18,12 +20,18 @@ inline constexpr std::int32_t kOdometryResync = 8;
 inline constexpr std::int32_t kOdometryCurrents = 16;
 inline constexpr std::int32_t kOdometryGyro = 32;
 
+// Wheels a robot may have (3 or 4; common/robot's kMaxWheels).
+inline constexpr std::size_t kMaxOdometryWheels = 4;
+template <typename T>
+using PerWheelValues = boost::container::static_vector<T, kMaxOdometryWheels>;
+
 // One odometry sample of the motor controller.
 struct OdometryReading {
   // Physical sampling time, µs since the epoch on this robot's clock.
   std::int64_t utime = 0;
-  // Accumulated encoder ticks of the three wheels (wrapping int32).
-  std::array<std::int32_t, 3> ticks{};
+  // Accumulated encoder ticks of each wheel (wrapping int32): 3 or 4, or none from a controller
+  // that reports only its movement (odometry_t wheel_count 0).
+  PerWheelValues<std::int32_t> ticks;
   // The controller's own clock at sampling [µs].
   std::int64_t controller_utime = 0;
   // Movement since the previous sample, robot frame at that sample [m, m, rad].
@@ -34,8 +42,9 @@ struct OdometryReading {
   double omega = 0.0;
   // kOdometry* bits.
   std::int32_t status = 0;
-  // Mean motor current per wheel over the sample period [A]; valid with kOdometryCurrents.
-  std::array<float, 3> wheel_current{};
+  // Mean motor current per wheel over the sample period [A]; valid with kOdometryCurrents
+  // (then as many as ticks).
+  PerWheelValues<float> wheel_current;
   // Rotation since the previous sample from the controller's gyro [rad CCW], raw (bias and scale
   // error included); valid with kOdometryGyro.
   double gyro_dphi = 0.0;

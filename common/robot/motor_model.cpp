@@ -23,10 +23,10 @@ double MotorModel::speedAfter(double v0, double command, double dt) const {
   return target + (v0 - target) * std::exp(-dt / timeConstant());
 }
 
-Eigen::Vector3d MotorModel::speedsAfter(const Eigen::Vector3d& v0, const Eigen::Vector3d& commands,
-                                        double dt) const {
+WheelVector MotorModel::speedsAfter(const WheelVector& v0, const WheelVector& commands,
+                                    double dt) const {
   const double decay = std::exp(-dt / timeConstant());
-  const Eigen::Vector3d target = commands * (alpha_ / beta_);
+  const WheelVector target = commands * (alpha_ / beta_);
   return target + (v0 - target) * decay;
 }
 
@@ -44,9 +44,9 @@ Twist desiredTwist(const NormalizedCommand& command, const RobotParams& params) 
           clampUnit(command.omega) * params.max_omega};
 }
 
-Eigen::Vector3d wheelCommands(const NormalizedCommand& command, const RobotParams& params,
-                              const OmniKinematics& kinematics) {
-  const Eigen::Vector3d speeds = kinematics.wheelSpeeds(desiredTwist(command, params));
+WheelVector wheelCommands(const NormalizedCommand& command, const RobotParams& params,
+                          const OmniKinematics& kinematics) {
+  const WheelVector speeds = kinematics.wheelSpeeds(desiredTwist(command, params));
   const double top = params.motor.max_wheel_speed;
   const double largest = speeds.cwiseAbs().maxCoeff();
   const double scale = largest > top ? top / largest : 1.0;

@@ -31,9 +31,8 @@ class MotorModel {
   // The exact solution of m dv/dt = alpha u - beta v after `dt` seconds from speed `v0`,
   // so the result does not depend on the simulator's step size.
   double speedAfter(double v0, double command, double dt) const;
-  // The same for three wheels at once.
-  Eigen::Vector3d speedsAfter(const Eigen::Vector3d& v0, const Eigen::Vector3d& commands,
-                              double dt) const;
+  // The same for every wheel at once.
+  WheelVector speedsAfter(const WheelVector& v0, const WheelVector& commands, double dt) const;
 
  private:
   double alpha_;
@@ -51,10 +50,10 @@ struct NormalizedCommand {
 // What the controller does with a command (seed 4.5): the desired body twist
 // (vx * max_speed, vy * max_speed, omega * max_omega), the wheel speeds it needs, and from them
 // the normalised wheel commands u_i = v_i / max_wheel_speed. When a wheel would exceed its top
-// speed, all three are scaled down together so the direction of motion is kept.
+// speed, all wheels are scaled down together so the direction of motion is kept.
 // Inputs outside [-1, 1] are clamped; non-finite inputs give zero commands.
-Eigen::Vector3d wheelCommands(const NormalizedCommand& command, const RobotParams& params,
-                              const OmniKinematics& kinematics);
+WheelVector wheelCommands(const NormalizedCommand& command, const RobotParams& params,
+                          const OmniKinematics& kinematics);
 
 // The body twist a command asks for (clamped as above), before wheel saturation.
 Twist desiredTwist(const NormalizedCommand& command, const RobotParams& params);

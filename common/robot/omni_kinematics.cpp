@@ -3,39 +3,78 @@
 #include <cmath>
 #include <stdexcept>
 
+#include <string>
+
+#include <Eigen/Cholesky>
 #include <Eigen/LU>
+#include <Eigen/SVD>
 
 namespace fieldline::robot {
 
+namespace {
+
+WheelMatrix wheelMatrix(const WheelSet& wheels, double phi) {
+  WheelMatrix m(static_cast<Eigen::Index>(wheels.size()), 3);
+  for (std::size_t i = 0; i < wheels.size(); ++i) {
+    const double a = phi + wheels[i].angle;
+    m.row(static_cast<Eigen::Index>(i)) << -std::sin(a), std::cos(a), wheels[i].distance;
+  }
+  return m;
+}
+
+}  // namespace
+
+bool wheelLayoutRegular(const WheelSet& wheels) {
+  if (wheels.size() < kMinWheels || wheels.size() > kMaxWheels) return false;
+  const WheelMatrix m = wheelMatrix(wheels, 0.0);
+  if (wheels.size() == 3) {
+    // A layout with two parallel wheels (or all wheels on one line) loses a degree of freedom.
+    const Eigen::Matrix3d square = m;
+    Eigen::FullPivLU<Eigen::Matrix3d> lu(square);
+    const double cond_guard = 1e-6 * square.cwiseAbs().maxCoeff();
+    return lu.isInvertible() && std::abs(lu.determinant()) >= cond_guard;
+  }
+  // More wheels than degrees of freedom: M must still have rank 3, well conditioned.
+  const Eigen::JacobiSVD<WheelMatrix> svd(m);
+  const auto& sigma = svd.singularValues();
+  return sigma(2) >= 1e-6 * sigma(0);
+}
+
 OmniKinematics::OmniKinematics(const WheelSet& wheels) : wheels_(wheels) {
-  for (int i = 0; i < kWheelCount; ++i) {
-    const auto& w = wheels[i];
+  const auto n = static_cast<Eigen::Index>(wheels.size());
+  if (n < kMinWheels || n > kMaxWheels) {
+    throw std::invalid_argument("omni kinematics: " + std::to_string(n) +
+                                " wheels (3 or 4 supported)");
+  }
+  radii_.resize(n);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const auto& w = wheels[static_cast<std::size_t>(i)];
     if (!(w.radius > 0.0) || !(w.distance > 0.0)) {
       throw std::invalid_argument("omni kinematics: wheel radius and distance must be positive");
     }
-    m_.row(i) << -std::sin(w.angle), std::cos(w.angle), w.distance;
     radii_[i] = w.radius;
   }
-  Eigen::FullPivLU<Eigen::Matrix3d> lu(m_);
-  // A layout with two parallel wheels (or all wheels on one line) loses a degree of freedom.
-  const double cond_guard = 1e-6 * m_.cwiseAbs().maxCoeff();
-  if (!lu.isInvertible() || std::abs(lu.determinant()) < cond_guard) {
+  m_ = wheelMatrix(wheels, 0.0);
+  if (!wheelLayoutRegular(wheels)) {
     throw std::invalid_argument("omni kinematics: wheel layout is singular");
   }
-  m_inv_ = lu.inverse();
-}
-
-Eigen::Matrix3d OmniKinematics::fieldMatrix(double phi) const {
-  Eigen::Matrix3d w;
-  for (int i = 0; i < kWheelCount; ++i) {
-    const double a = phi + wheels_[i].angle;
-    w.row(i) << -std::sin(a), std::cos(a), wheels_[i].distance;
+  if (n == 3) {
+    const Eigen::Matrix3d square = m_;
+    m_inv_ = Eigen::FullPivLU<Eigen::Matrix3d>(square).inverse();
+  } else {
+    // Least squares: the twist minimising the squared differences of the wheel speeds,
+    // (M^T M)^-1 M^T (M^T M is 3x3 and positive definite for a regular layout).
+    const Eigen::Matrix3d normal = m_.transpose() * m_;
+    m_inv_ = normal.ldlt().solve(m_.transpose());
   }
-  return w;
 }
 
-Eigen::Matrix3d OmniKinematics::fieldMatrixInverse(double phi) const {
-  // W(phi) = M * diag(R(-phi), 1), so its inverse is diag(R(phi), 1) * M^-1.
+WheelMatrix OmniKinematics::fieldMatrix(double phi) const {
+  return wheelMatrix(wheels_, phi);
+}
+
+WheelMatrixInverse OmniKinematics::fieldMatrixInverse(double phi) const {
+  // W(phi) = M * diag(R(-phi), 1), so its inverse is diag(R(phi), 1) * M^+.
   Eigen::Matrix3d rot = Eigen::Matrix3d::Identity();
   rot(0, 0) = std::cos(phi);
   rot(0, 1) = -std::sin(phi);
@@ -44,16 +83,16 @@ Eigen::Matrix3d OmniKinematics::fieldMatrixInverse(double phi) const {
   return rot * m_inv_;
 }
 
-Eigen::Vector3d OmniKinematics::wheelAngularSpeeds(const Twist& twist) const {
+WheelVector OmniKinematics::wheelAngularSpeeds(const Twist& twist) const {
   return wheelSpeeds(twist).cwiseQuotient(radii_);
 }
 
-Twist OmniKinematics::twistFromAngularSpeeds(const Eigen::Vector3d& wheel_angular_speeds) const {
+Twist OmniKinematics::twistFromAngularSpeeds(const WheelVector& wheel_angular_speeds) const {
   return twist(wheel_angular_speeds.cwiseProduct(radii_));
 }
 
 geometry::Movement OmniKinematics::movementFromWheelRotations(
-    const Eigen::Vector3d& wheel_rotations) const {
+    const WheelVector& wheel_rotations) const {
   return arcMovement(m_inv_ * wheel_rotations.cwiseProduct(radii_));
 }
 
@@ -74,6 +113,25 @@ geometry::Movement arcMovement(const Eigen::Vector3d& integrated) {
   m.dx = s * sx - c * sy;
   m.dy = c * sx + s * sy;
   return m;
+}
+
+}  // namespace fieldline::robot
+
+namespace fieldline::robot {
+
+Eigen::Vector3d integratedTwist(const geometry::Movement& movement) {
+  // arcMovement maps (sx, sy) through [[s, -c], [c, s]] (s = sin th / th, c = (1 - cos th) / th);
+  // its inverse is [[s, c], [-c, s]] / (s^2 + c^2).
+  const double th = movement.dphi;
+  double s = 1.0;
+  double c = 0.5 * th;
+  if (std::abs(th) >= 1e-9) {
+    s = std::sin(th) / th;
+    c = (1.0 - std::cos(th)) / th;
+  }
+  const double norm = s * s + c * c;
+  return {(s * movement.dx + c * movement.dy) / norm, (-c * movement.dx + s * movement.dy) / norm,
+          th};
 }
 
 }  // namespace fieldline::robot

@@ -1,5 +1,5 @@
-// Wheel kinematics of a three-wheeled omni drive (seed 4.4, eq. 4.29-4.37), in the robot frame of
-// the architecture (x forward, y left).
+// Wheel kinematics of an omni drive with three or four wheels at any angles (seed 4.4, eq.
+// 4.29-4.37), in the robot frame of the architecture (x forward, y left).
 //
 // Wheel i touches the floor at L_i * (cos a_i, sin a_i) and drives along the tangent
 // (-sin a_i, cos a_i). Its contact point moves with the robot's body twist (vx, vy, omega), so
@@ -28,48 +28,67 @@ struct Twist {
   static Twist fromVector(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
 };
 
+// The robot-frame wheel matrix M: one row per wheel (3 or 4), wheel ground speeds = M * twist.
+using WheelMatrix = Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::ColMajor, kMaxWheels, 3>;
+// Its inverse: twist = M^+ * wheel ground speeds (3 x wheels).
+using WheelMatrixInverse = Eigen::Matrix<double, 3, Eigen::Dynamic, Eigen::ColMajor, 3, kMaxWheels>;
+
+// True when the wheels can produce every body twist: M has rank 3, well conditioned (not two of
+// three wheels parallel, not all on one line).
+bool wheelLayoutRegular(const WheelSet& wheels);
+
 class OmniKinematics {
  public:
-  // Throws std::invalid_argument when the wheels cannot produce every twist (singular layout).
+  // Three or four wheels. Throws std::invalid_argument when the wheels cannot produce every
+  // twist (singular layout) or their count is not 3 or 4.
   explicit OmniKinematics(const WheelSet& wheels);
 
+  int wheelCount() const { return static_cast<int>(wheels_.size()); }
+
   // Robot-frame matrix M: wheel ground speeds [m/s] = M * (vx, vy, omega).
-  const Eigen::Matrix3d& robotMatrix() const { return m_; }
-  // Its exact inverse: (vx, vy, omega) = M^-1 * wheel ground speeds.
-  const Eigen::Matrix3d& robotMatrixInverse() const { return m_inv_; }
+  const WheelMatrix& robotMatrix() const { return m_; }
+  // Its inverse: (vx, vy, omega) = M^+ * wheel ground speeds. Three wheels: the exact inverse
+  // (seed eq. 4.35). Four wheels: the least-squares inverse (M^T M)^-1 M^T, the twist whose wheel
+  // speeds are nearest to the measured ones (four wheels disagree when they slip).
+  const WheelMatrixInverse& robotMatrixInverse() const { return m_inv_; }
   // Seed eq. 4.33: wheel ground speeds = W(phi) * (xdot, ydot, phidot), velocity in the field
   // frame.
-  Eigen::Matrix3d fieldMatrix(double phi) const;
-  // Seed eq. 4.35: W(phi)^-1.
-  Eigen::Matrix3d fieldMatrixInverse(double phi) const;
+  WheelMatrix fieldMatrix(double phi) const;
+  // Seed eq. 4.35: W(phi)^-1 (least squares for four wheels).
+  WheelMatrixInverse fieldMatrixInverse(double phi) const;
 
   // Ground speed of each wheel's contact point along its drive direction [m/s].
-  Eigen::Vector3d wheelSpeeds(const Twist& twist) const { return m_ * twist.vector(); }
+  WheelVector wheelSpeeds(const Twist& twist) const { return m_ * twist.vector(); }
   // Angular speed of each wheel [rad/s] (eq. 4.36-4.37).
-  Eigen::Vector3d wheelAngularSpeeds(const Twist& twist) const;
-  // The body twist that produces the given wheel ground speeds.
-  Twist twist(const Eigen::Vector3d& wheel_speeds) const {
+  WheelVector wheelAngularSpeeds(const Twist& twist) const;
+  // The body twist that produces the given wheel ground speeds (for four wheels: the one that
+  // fits them best).
+  Twist twist(const WheelVector& wheel_speeds) const {
     return Twist::fromVector(m_inv_ * wheel_speeds);
   }
   // The body twist from wheel angular speeds [rad/s].
-  Twist twistFromAngularSpeeds(const Eigen::Vector3d& wheel_angular_speeds) const;
+  Twist twistFromAngularSpeeds(const WheelVector& wheel_angular_speeds) const;
 
   // The movement in the robot frame at the start of an interval during which the twist
   // direction stayed constant and the wheels turned by `wheel_rotations` [rad]: the exact
   // circular arc, not the straight chord.
-  geometry::Movement movementFromWheelRotations(const Eigen::Vector3d& wheel_rotations) const;
+  geometry::Movement movementFromWheelRotations(const WheelVector& wheel_rotations) const;
 
   const WheelSet& wheels() const { return wheels_; }
+  // Effective wheel radii [m].
+  const WheelVector& radii() const { return radii_; }
 
  private:
   WheelSet wheels_;
-  Eigen::Vector3d radii_;
-  Eigen::Matrix3d m_;
-  Eigen::Matrix3d m_inv_;
+  WheelVector radii_;
+  WheelMatrix m_;
+  WheelMatrixInverse m_inv_;
 };
 
 // The movement (robot frame at the start) after moving with a constant body twist whose
 // integral over the interval is `integrated` (dx, dy along the body axes, dphi): an arc.
 geometry::Movement arcMovement(const Eigen::Vector3d& integrated);
+// The inverse of arcMovement: the integrated twist of the arc that ends at `movement`.
+Eigen::Vector3d integratedTwist(const geometry::Movement& movement);
 
 }  // namespace fieldline::robot

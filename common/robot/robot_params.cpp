@@ -3,14 +3,16 @@
 #include <cmath>
 #include <numbers>
 
+#include "common/robot/omni_kinematics.hpp"
+
 namespace fieldline::robot {
 namespace {
 
-std::array<double, kWheelCount> perWheel(const config::Node& n, const std::string& key,
-                                         double limit) {
-  const auto values = n.getList<double>(key, kWheelCount);
-  std::array<double, kWheelCount> out{};
-  for (int i = 0; i < kWheelCount; ++i) {
+PerWheel<double> perWheel(const config::Node& n, const std::string& key, std::size_t wheels,
+                          double limit) {
+  const auto values = n.getList<double>(key, wheels);
+  PerWheel<double> out(wheels, 0.0);
+  for (std::size_t i = 0; i < wheels; ++i) {
     if (std::abs(values[i]) > limit) {
       n.fail(key, "element " + std::to_string(i) + " outside [-" + std::to_string(limit) + ", " +
                       std::to_string(limit) + "]");
@@ -24,7 +26,7 @@ std::array<double, kWheelCount> perWheel(const config::Node& n, const std::strin
 
 WheelSet RobotParams::trueWheels() const {
   WheelSet out = wheels;
-  for (int i = 0; i < kWheelCount; ++i) {
+  for (std::size_t i = 0; i < out.size(); ++i) {
     out[i].radius *= 1.0 + simulation.wheel_radius_error[i];
     out[i].angle += simulation.wheel_angle_error[i];
   }
@@ -43,13 +45,23 @@ RobotParams loadRobotParams(const config::Node& root) {
   p.watchdog_timeout = root.get<double>("watchdog_timeout", 0.01, 5.0);
 
   const auto wheels = root.children("wheels");
-  if (wheels.size() != kWheelCount) root.fail("wheels", "expected exactly 3 wheels");
-  for (int i = 0; i < kWheelCount; ++i) {
-    const auto& w = wheels[i];
-    p.wheels[i].angle = w.get<double>("angle", -2.0 * std::numbers::pi, 2.0 * std::numbers::pi);
-    p.wheels[i].distance = w.get<double>("distance", 0.01, 1.0);
-    p.wheels[i].radius = w.get<double>("radius", 0.005, 0.5);
+  if (wheels.size() < kMinWheels || wheels.size() > kMaxWheels) {
+    root.fail("wheels", "expected 3 or 4 wheels, found " + std::to_string(wheels.size()));
+  }
+  for (const auto& w : wheels) {
+    WheelGeometry g;
+    g.angle = w.get<double>("angle", -2.0 * std::numbers::pi, 2.0 * std::numbers::pi);
+    g.distance = w.get<double>("distance", 0.01, 1.0);
+    g.radius = w.get<double>("radius", 0.005, 0.5);
     w.rejectUnknownKeys();
+    p.wheels.push_back(g);
+  }
+  // Wheels that cannot produce every body twist (two of three parallel, all on one line) make
+  // odometry and the controller's mapping meaningless: refused here, with the file's line.
+  if (!wheelLayoutRegular(p.wheels)) {
+    root.fail("wheels",
+              "singular layout: these wheels cannot produce every body twist (parallel "
+              "drive directions or all on one line)");
   }
 
   const auto enc = root.child("encoder");
@@ -89,8 +101,8 @@ RobotParams loadRobotParams(const config::Node& root) {
   }
 
   const auto sim = root.child("simulation");
-  p.simulation.wheel_radius_error = perWheel(sim, "wheel_radius_error", 0.2);
-  p.simulation.wheel_angle_error = perWheel(sim, "wheel_angle_error", 0.2);
+  p.simulation.wheel_radius_error = perWheel(sim, "wheel_radius_error", p.wheels.size(), 0.2);
+  p.simulation.wheel_angle_error = perWheel(sim, "wheel_angle_error", p.wheels.size(), 0.2);
   p.simulation.slip_noise = sim.get<double>("slip_noise", 0.0, 1.0);
   p.simulation.rotation_noise = sim.get<double>("rotation_noise", 0.0, 1.0);
   p.simulation.collision_rotation_noise = sim.get<double>("collision_rotation_noise", 0.0, 20.0);

@@ -1,15 +1,27 @@
-// Parameters of an omni-directional robot with three wheels (seed 1.3, 4.4, 4.5, 4.8), loaded
-// from config/robot/<name>.yaml. SI units; angles in the robot frame (x forward, y left).
+// Parameters of an omni-directional robot with three or four wheels at any angles (seed 1.3,
+// 4.4, 4.5, 4.8), loaded from config/robot/<name>.yaml. SI units; angles in the robot frame
+// (x forward, y left).
 #pragma once
 
-#include <array>
+#include <cstdint>
 #include <string>
+
+#include <Eigen/Core>
+#include <boost/container/static_vector.hpp>
 
 #include "common/config/config.hpp"
 
 namespace fieldline::robot {
 
-inline constexpr int kWheelCount = 3;
+// A robot drives on three or four omni wheels (the seed's has three; NuBot and others four).
+inline constexpr int kMinWheels = 3;
+inline constexpr int kMaxWheels = 4;
+
+// One value per wheel, without heap allocation.
+template <typename T>
+using PerWheel = boost::container::static_vector<T, kMaxWheels>;
+// A column of one value per wheel (wheel speeds, rotations, commands) for the kinematics.
+using WheelVector = Eigen::Matrix<double, Eigen::Dynamic, 1, Eigen::ColMajor, kMaxWheels, 1>;
 
 // One omni wheel: where it touches the floor and how large it is. The wheel drives along the
 // tangent (-sin angle, cos angle), i.e. counter-clockwise around the robot centre.
@@ -22,7 +34,7 @@ struct WheelGeometry {
   double radius = 0.0;
 };
 
-using WheelSet = std::array<WheelGeometry, kWheelCount>;
+using WheelSet = PerWheel<WheelGeometry>;
 
 // The closed-loop motor model of seed eq. 4.45: f = alpha * u - beta * v per wheel.
 struct MotorParams {
@@ -64,10 +76,10 @@ struct GyroParams {
 
 // How the simulated robot differs from its nominal model: odometry does not know these.
 struct SimulationErrors {
-  // True radius = nominal * (1 + error), per wheel.
-  std::array<double, kWheelCount> wheel_radius_error{};
+  // True radius = nominal * (1 + error), per wheel (as many as the robot has wheels).
+  PerWheel<double> wheel_radius_error;
   // True contact-point angle = nominal + error [rad], per wheel.
-  std::array<double, kWheelCount> wheel_angle_error{};
+  PerWheel<double> wheel_angle_error;
   // Relative white noise on each wheel's contact speed [1/sqrt(s)].
   double slip_noise = 0.0;
   // Random rotation rate while driving [rad/s per m/s of speed].
@@ -91,13 +103,15 @@ struct RobotParams {
   double odometry_rate = 0.0;
   // Motors stop after this long without a valid command [s].
   double watchdog_timeout = 0.0;
-  WheelSet wheels{};
+  // Three or four wheels, in the order of the controller's ticks.
+  WheelSet wheels;
   int pulses_per_motor_revolution = 0;
   int gear_ratio = 0;
   MotorParams motor;
   GyroParams gyro;
   SimulationErrors simulation;
 
+  int wheelCount() const { return static_cast<int>(wheels.size()); }
   // Encoder ticks per wheel revolution (768 on the seed's robot).
   int ticksPerWheelRevolution() const { return pulses_per_motor_revolution * gear_ratio; }
   // The wheels as they really are in the simulator (nominal plus systematic errors).

@@ -1,6 +1,8 @@
 #include "common/robot/wheel_odometry.hpp"
 
 #include <numbers>
+#include <stdexcept>
+#include <string>
 
 namespace fieldline::robot {
 
@@ -13,27 +15,31 @@ std::int32_t tickDelta(std::int32_t newer, std::int32_t older) {
 WheelOdometry::WheelOdometry(const RobotParams& params)
     : kinematics_(params.wheels), ticks_per_revolution_(params.ticksPerWheelRevolution()) {}
 
-Eigen::Vector3d WheelOdometry::wheelRotations(
-    const std::array<std::int64_t, kWheelCount>& tick_delta) const {
+WheelVector WheelOdometry::wheelRotations(const TickDeltas& tick_delta) const {
   const double per_tick = 2.0 * std::numbers::pi / ticks_per_revolution_;
-  return Eigen::Vector3d(static_cast<double>(tick_delta[0]), static_cast<double>(tick_delta[1]),
-                         static_cast<double>(tick_delta[2])) *
-         per_tick;
+  WheelVector out(static_cast<Eigen::Index>(tick_delta.size()));
+  for (std::size_t i = 0; i < tick_delta.size(); ++i)
+    out[static_cast<Eigen::Index>(i)] = static_cast<double>(tick_delta[i]) * per_tick;
+  return out;
 }
 
-geometry::Movement WheelOdometry::movement(
-    const std::array<std::int64_t, kWheelCount>& tick_delta) const {
+geometry::Movement WheelOdometry::movement(const TickDeltas& tick_delta) const {
   return kinematics_.movementFromWheelRotations(wheelRotations(tick_delta));
 }
 
 std::optional<geometry::Movement> WheelOdometry::update(const TickCounts& accumulated) {
+  if (static_cast<int>(accumulated.size()) != kinematics_.wheelCount()) {
+    throw std::invalid_argument("wheel odometry: " + std::to_string(accumulated.size()) +
+                                " tick counts for " + std::to_string(kinematics_.wheelCount()) +
+                                " wheels");
+  }
   if (!last_) {
     last_ = accumulated;
     return std::nullopt;
   }
-  std::array<std::int64_t, kWheelCount> delta{};
-  for (int i = 0; i < kWheelCount; ++i)
-    delta[i] = tickDelta(accumulated[i], (*last_)[i]);
+  TickDeltas delta;
+  for (std::size_t i = 0; i < accumulated.size(); ++i)
+    delta.push_back(tickDelta(accumulated[i], (*last_)[i]));
   last_ = accumulated;
   const geometry::Movement m = movement(delta);
   pose_ = geometry::applyMovement(pose_, m);

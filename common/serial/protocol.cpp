@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
+#include <string>
 
 #include <boost/crc.hpp>
 
@@ -11,8 +13,10 @@ namespace {
 constexpr std::size_t kHelloBody = 9;
 constexpr std::size_t kCommandBody = 10;
 constexpr std::size_t kOdometryBody = 30;
-// ... with the wheel currents' tail (6 bytes) and/or the gyro's tail (4 bytes, after the currents).
-constexpr std::size_t kOdometryCurrentsTail = 6;
+// Type 0x21: seq, controller time, wheel count (u8), the ticks, status, last command.
+constexpr std::size_t kOdometryWheelsFixed = 4 + 8 + 1 + 2 + 4;
+// ... with the wheel currents' tail (2 bytes per wheel) and/or the gyro's tail (4 bytes, after
+// the currents).
 constexpr std::size_t kOdometryGyroTail = 4;
 constexpr std::size_t kErrorBody = 5;
 constexpr std::size_t kHeaderSize = 2;
@@ -77,8 +81,14 @@ void writeBody(const VelocityCommand& m, Writer& w) {
   w.i16(m.omega_q15);
 }
 void writeBody(const OdometrySample& m, Writer& w) {
+  if (m.ticks.size() < kMinWheels || (m.current_ma && m.current_ma->size() != m.ticks.size())) {
+    throw std::invalid_argument("odometry sample: " + std::to_string(m.ticks.size()) + " wheels, " +
+                                std::to_string(m.current_ma ? m.current_ma->size() : 0) +
+                                " currents (3 or 4 wheels, a current for each)");
+  }
   w.u32(m.seq);
   w.u64(m.controller_time_us);
+  if (m.ticks.size() != 3) w.u8(static_cast<std::uint8_t>(m.ticks.size()));
   for (const auto t : m.ticks)
     w.i32(t);
   w.u16(m.status);
@@ -101,7 +111,8 @@ MessageType typeOf(const Message& m) {
     case 1:
       return MessageType::kVelocityCommand;
     case 2:
-      return MessageType::kOdometry;
+      return std::get<OdometrySample>(m).ticks.size() == 3 ? MessageType::kOdometry
+                                                           : MessageType::kOdometryWheels;
     default:
       return MessageType::kError;
   }
@@ -206,24 +217,37 @@ std::variant<Message, Reject> parsePayload(std::span<const std::uint8_t> payload
       m.omega_q15 = r.i16();
       return Message{m};
     }
-    case MessageType::kOdometry: {
-      const std::size_t tail = body_size - std::min(body_size, kOdometryBody);
-      const bool currents =
-          tail == kOdometryCurrentsTail || tail == kOdometryCurrentsTail + kOdometryGyroTail;
-      const bool gyro =
-          tail == kOdometryGyroTail || tail == kOdometryCurrentsTail + kOdometryGyroTail;
-      if (body_size < kOdometryBody || (tail != 0 && !currents && !gyro)) return Reject::kLength;
+    case MessageType::kOdometry:
+    case MessageType::kOdometryWheels: {
+      // 0x20: three wheels; 0x21: the wheel count is the byte after the controller time.
+      const bool counted = static_cast<MessageType>(payload[1]) == MessageType::kOdometryWheels;
+      std::size_t wheels = 3;
+      std::size_t fixed = kOdometryBody;
+      if (counted) {
+        if (body_size < kOdometryWheelsFixed) return Reject::kLength;
+        wheels = payload[kHeaderSize + 12];
+        if (wheels < kMinWheels || wheels > kMaxWheels) return Reject::kLength;
+        fixed = kOdometryWheelsFixed + 4 * wheels;
+      }
+      // Optional tails: the currents (2 bytes per wheel), then the gyro (4 bytes).
+      const std::size_t currents_tail = 2 * wheels;
+      const std::size_t tail = body_size - std::min(body_size, fixed);
+      const bool currents = tail == currents_tail || tail == currents_tail + kOdometryGyroTail;
+      const bool gyro = tail == kOdometryGyroTail || tail == currents_tail + kOdometryGyroTail;
+      if (body_size < fixed || (tail != 0 && !currents && !gyro)) return Reject::kLength;
       OdometrySample m;
       m.seq = r.u32();
       m.controller_time_us = r.u64();
-      for (auto& t : m.ticks)
-        t = r.i32();
+      if (counted) r.u8();
+      m.ticks.clear();
+      for (std::size_t i = 0; i < wheels; ++i)
+        m.ticks.push_back(r.i32());
       m.status = r.u16();
       m.last_command_seq = r.u32();
       if (currents) {
-        std::array<std::int16_t, 3> current{};
-        for (auto& c : current)
-          c = r.i16();
+        PerWheel<std::int16_t> current;
+        for (std::size_t i = 0; i < wheels; ++i)
+          current.push_back(r.i16());
         m.current_ma = current;
       }
       if (gyro) m.gyro_angle_urad = r.i32();

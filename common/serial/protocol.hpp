@@ -13,6 +13,8 @@
 #include <variant>
 #include <vector>
 
+#include <boost/container/static_vector.hpp>
+
 namespace fieldline::serial {
 
 // Bumped on any incompatible change of a message layout.
@@ -22,7 +24,10 @@ inline constexpr std::uint8_t kDelimiter = 0x00;
 enum class MessageType : std::uint8_t {
   kHello = 0x01,
   kVelocityCommand = 0x10,
+  // Three wheels (the compact form every controller of version 1 sends).
   kOdometry = 0x20,
+  // Any supported number of wheels (3 or 4): the wheel count is in the body.
+  kOdometryWheels = 0x21,
   kError = 0x30,
 };
 
@@ -60,21 +65,28 @@ inline constexpr std::uint16_t kStatusMotorFault = 1 << 1;  // over-current or d
 inline constexpr std::uint16_t kStatusRxErrors = 1 << 2;    // bad frames since the last sample
 inline constexpr std::uint16_t kStatusReset = 1 << 3;  // first sample since the controller started
 
-// Controller -> host at the odometry rate (50 Hz).
+// The wheel counts a controller may report (a robot drives on three or four omni wheels).
+inline constexpr std::size_t kMinWheels = 3;
+inline constexpr std::size_t kMaxWheels = 4;
+template <typename T>
+using PerWheel = boost::container::static_vector<T, kMaxWheels>;
+
+// Controller -> host at the odometry rate (50 Hz). Three wheels go out as type 0x20, four (or
+// any count) as 0x21 with the count in the body (docs/serial-protocol.md).
 struct OdometrySample {
   // Increases by one per sample; a gap means lost samples (ticks still accumulate).
   std::uint32_t seq = 0;
   // Controller clock at sampling [µs since the controller started].
   std::uint64_t controller_time_us = 0;
-  // Accumulated encoder ticks per wheel, wrapping as int32.
-  std::array<std::int32_t, 3> ticks{};
+  // Accumulated encoder ticks per wheel (3 or 4 wheels; three unless set), wrapping as int32.
+  PerWheel<std::int32_t> ticks{0, 0, 0};
   std::uint16_t status = 0;
   // seq of the last valid command the controller accepted (0 before the first).
   std::uint32_t last_command_seq = 0;
   // Mean motor current per wheel over the sample period [mA], signed like the wheel's drive
-  // direction: an optional tail of the body (a controller without current sensing sends the
-  // 30-byte body, one with it 36 bytes; docs/serial-protocol.md).
-  std::optional<std::array<std::int16_t, 3>> current_ma;
+  // direction, one per wheel: an optional tail of the body (a three-wheeled controller without
+  // current sensing sends the 30-byte body, one with it 36 bytes; docs/serial-protocol.md).
+  std::optional<PerWheel<std::int16_t>> current_ma;
   // The yaw-rate gyro's integrated angle since the controller started [µrad CCW], wrapping as
   // int32 like the ticks, so a lost frame loses no rotation: the host takes the difference. An
   // optional tail after the currents (4 more bytes: 34-byte body without currents, 40 with them;
@@ -106,10 +118,13 @@ double fromQ15(std::int16_t value);
 
 // Largest payload (version + type + body + CRC) of any message, and of its COBS frame with the
 // delimiter. Anything longer on the wire is garbage.
-inline constexpr std::size_t kMaxPayloadSize = 2 + 40 + 4;
+// The longest body: type 0x21 with four wheels and both tails (19 + 4 * 4 + 2 * 4 + 4 bytes).
+inline constexpr std::size_t kMaxPayloadSize = 2 + 47 + 4;
 inline constexpr std::size_t kMaxFrameSize = kMaxPayloadSize + kMaxPayloadSize / 254 + 2;
 
-// Appends the complete frame (COBS bytes and the 0x00 delimiter) for `message` to `out`.
+// Appends the complete frame (COBS bytes and the 0x00 delimiter) for `message` to `out`. Throws
+// std::invalid_argument for an odometry sample without 3 or 4 ticks or with currents for
+// another number of wheels.
 void encode(const Message& message, std::vector<std::uint8_t>& out);
 std::vector<std::uint8_t> encode(const Message& message);
 

@@ -16,12 +16,11 @@ CurrentContactDetector::CurrentContactDetector(const robot::RobotParams& robot,
         "current contact: threshold >= 0, samples >= 1, max current and interval > 0");
   }
   const double ticks = robot.ticksPerWheelRevolution();
-  share_kg_ = robot.mass / 3.0;
-  for (std::size_t i = 0; i < 3; ++i) {
-    const double radius = robot.wheels[i].radius;
-    metres_per_tick_[i] = 2.0 * std::numbers::pi * radius / ticks;
+  share_kg_ = robot.mass / robot.wheelCount();
+  for (const robot::WheelGeometry& wheel : robot.wheels) {
+    metres_per_tick_.push_back(2.0 * std::numbers::pi * wheel.radius / ticks);
     // Motor torque k_t * I, through the gear to the wheel, at the wheel's radius.
-    newtons_per_amp_[i] = robot.motor.torque_constant * robot.gear_ratio / radius;
+    newtons_per_amp_.push_back(robot.motor.torque_constant * robot.gear_ratio / wheel.radius);
   }
 }
 
@@ -33,6 +32,13 @@ CurrentContactDetector::Result CurrentContactDetector::add(const OdometrySample&
     beyond_ = 0;
   };
   if (!sample.has_currents || sample.resync) {
+    restart();
+    return result;
+  }
+  if (sample.wheel_current.size() != metres_per_tick_.size() ||
+      sample.ticks.size() != metres_per_tick_.size()) {
+    // Currents or ticks for another number of wheels: nothing to compare them with.
+    result.rejection = "current_wheel_count";
     restart();
     return result;
   }
@@ -83,7 +89,7 @@ CurrentContactDetector::Result CurrentContactDetector::add(const OdometrySample&
     }
   }
   double largest = 0.0;
-  for (std::size_t i = 0; i < 3; ++i) {
+  for (std::size_t i = 0; i < metres_per_tick_.size(); ++i) {
     // Mean speeds of the three periods (tick differences wrap like the counters).
     auto speed = [&](const Entry& a, const Entry& b, double dt) {
       const auto d = static_cast<std::int32_t>(static_cast<std::uint32_t>(b.ticks[i]) -

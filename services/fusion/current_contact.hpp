@@ -2,14 +2,13 @@
 // another one makes its wheels slip, and the controller's current rises to the friction limit,
 // beyond what the wheel's own acceleration needs. Per odometry sample the detector predicts each
 // wheel's current from its acceleration (mean wheel speeds from the ticks of the neighbouring
-// samples, the wheel's third of the robot's mass, wheel radius, gear, torque constant) and flags
-// contact when the rest, as a force at the wheel, exceeds a threshold on some wheel in
-// `samples` consecutive samples. The periods are measured on the controller's clock when the
-// samples carry it (the host's receive times jitter with its load; the currents are averaged
-// over the controller's periods). Plain logic: no clock, no LCM.
+// samples, the wheel's share of the robot's mass (a third, a quarter with four wheels), wheel
+// radius, gear, torque constant) and flags contact when the rest, as a force at the wheel, exceeds
+// a threshold on some wheel in `samples` consecutive samples. The periods are measured on the
+// controller's clock when the samples carry it (the host's receive times jitter with its load; the
+// currents are averaged over the controller's periods). Plain logic: no clock, no LCM.
 #pragma once
 
-#include <array>
 #include <cstdint>
 #include <deque>
 #include <optional>
@@ -56,15 +55,15 @@ class CurrentContactDetector {
   struct Entry {
     Utime utime = 0;
     std::int64_t controller_utime = 0;
-    robot::TickCounts ticks{};
-    std::array<double, 3> current{};
+    robot::TickCounts ticks;
+    robot::PerWheel<double> current;
   };
 
   CurrentContactParams params_;
-  // Wheel ground travel per tick [m], the wheel's share of the mass [kg], newtons per ampere.
-  std::array<double, 3> metres_per_tick_{};
+  // Per wheel: ground travel per tick [m], newtons per ampere; the wheel's share of the mass [kg].
+  robot::PerWheel<double> metres_per_tick_;
   double share_kg_ = 0.0;
-  std::array<double, 3> newtons_per_amp_{};
+  robot::PerWheel<double> newtons_per_amp_;
   std::deque<Entry> history_;
   int beyond_ = 0;
   double last_residual_n_ = 0.0;

@@ -57,7 +57,7 @@ ProcessNoise ProcessNoise::fromMotorModel(const robot::MotorModel& motor,
   // Each wheel's unseen acceleration spread over +-alpha/m, as a standard deviation of half
   // that, kept for about one motor time constant.
   const double wheel_sigma = 0.5 * motor.alpha() / motor.mass();
-  const Eigen::Matrix3d& m_inv = kinematics.robotMatrixInverse();
+  const robot::WheelMatrixInverse& m_inv = kinematics.robotMatrixInverse();
   const Eigen::Matrix3d body = m_inv * (wheel_sigma * wheel_sigma) * m_inv.transpose();
   const double tau = motor.timeConstant();
   ProcessNoise n;

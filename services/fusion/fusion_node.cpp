@@ -18,8 +18,9 @@ namespace {
 // Refusals that mean bad input (counted as errors); the rest (a poor match, a gated
 // measurement) are the filter doing its job and show as metrics.
 bool isBadInput(const std::string& reason) {
-  for (const char* kind : {"from_future", "too_old", "not_finite", "not_positive_definite",
-                           "duplicate", "odometry_jump", "odometry_out_of_order", "absurd"}) {
+  for (const char* kind :
+       {"from_future", "too_old", "not_finite", "not_positive_definite", "duplicate",
+        "odometry_jump", "odometry_out_of_order", "absurd", "wheel_count"}) {
     if (reason.find(kind) != std::string::npos) return true;
   }
   return false;
@@ -60,13 +61,15 @@ FusionNode::FusionNode(bus::Node& node, FusionNodeOptions options, MatcherFuncti
 void FusionNode::onOdometry(const odometry_t& m) {
   OdometrySample sample;
   sample.utime = m.header.utime;
-  for (std::size_t i = 0; i < 3; ++i)
-    sample.ticks[i] = m.ticks[i];
+  // The bus checked wheel_count (0, 3 or 4) and the arrays' sizes; the odometry layer checks
+  // that the count is the robot file's.
+  sample.ticks.assign(m.ticks.begin(), m.ticks.end());
+  sample.movement = {m.dx, m.dy, m.dphi};
   sample.resync = (m.status & odometry_t::STATUS_RESYNC) != 0;
   sample.controller_utime = m.controller_utime;
   sample.has_currents = (m.status & odometry_t::STATUS_CURRENTS) != 0;
-  for (std::size_t i = 0; i < 3; ++i)
-    sample.wheel_current[i] = m.wheel_current[i];
+  if (sample.has_currents)
+    sample.wheel_current.assign(m.wheel_current.begin(), m.wheel_current.end());
   sample.has_gyro = (m.status & odometry_t::STATUS_GYRO) != 0;
   sample.gyro_dphi = m.gyro_dphi;
   localizer_.addOdometry(sample, node_.now());

@@ -19,14 +19,16 @@ const char* toString(OdometryRejection r) {
       return "odometry_resync";
     case OdometryRejection::kGap:
       return "odometry_gap";
+    case OdometryRejection::kWheelCount:
+      return "odometry_wheel_count";
+    case OdometryRejection::kNotFinite:
+      return "odometry_not_finite";
   }
   return "unknown";
 }
 
 OdometryLayer::OdometryLayer(const robot::RobotParams& params, OdometryNoise noise)
     : params_(params), noise_(noise), odometry_(params) {
-  for (int i = 0; i < robot::kWheelCount; ++i)
-    radii_[i] = params.wheels[static_cast<std::size_t>(i)].radius;
   gyro_max_rate_ = noise_.gyro_max_rate > 0.0 ? noise_.gyro_max_rate : 1.05 * params.gyro.range;
 }
 
@@ -43,24 +45,28 @@ double OdometryLayer::gyroVariance(double dphi, double dt_s) const {
   return white + quantisation + scale * scale + extra;
 }
 
-OdometryStep OdometryLayer::stepFor(const std::array<std::int64_t, robot::kWheelCount>& tick_delta,
-                                    double dt_s) const {
-  const Eigen::Vector3d rotations = odometry_.wheelRotations(tick_delta);
-  const Eigen::Vector3d ground = rotations.cwiseProduct(radii_);
-  const Eigen::Matrix3d& m_inv = kinematics().robotMatrixInverse();
+OdometryStep OdometryLayer::stepFor(const robot::TickDeltas& tick_delta, double dt_s) const {
+  return stepForTravel(odometry_.wheelRotations(tick_delta).cwiseProduct(kinematics().radii()),
+                       dt_s);
+}
+
+OdometryStep OdometryLayer::stepForTravel(const robot::WheelVector& ground, double dt_s) const {
+  const robot::WheelMatrixInverse& m_inv = kinematics().robotMatrixInverse();
+  const robot::WheelVector& radii = kinematics().radii();
 
   OdometryStep step;
   step.integrated = m_inv * ground;
 
   // Each wheel's ground travel is uncertain by slip (relative, and white on the contact speed)
-  // and by the tick quantisation.
+  // and by the tick quantisation; the inverse (least squares for four wheels) carries them into
+  // the body's movement.
   const double tick_m = 2.0 * std::numbers::pi / odometry_.ticksPerRevolution();
   const double per_sqrt_s = dt_s > 0.0 ? 1.0 / std::sqrt(dt_s) : 0.0;
-  Eigen::Vector3d wheel_var;
-  for (int i = 0; i < robot::kWheelCount; ++i) {
+  robot::WheelVector wheel_var(ground.size());
+  for (Eigen::Index i = 0; i < ground.size(); ++i) {
     const double slip = noise_.wheel_relative_sigma * std::abs(ground[i]);
     const double white = noise_.wheel_slip_density * std::abs(ground[i]) * per_sqrt_s;
-    const double quantisation = tick_m * radii_[i] / std::sqrt(12.0);
+    const double quantisation = tick_m * radii[i] / std::sqrt(12.0);
     wheel_var[i] = slip * slip + white * white + quantisation * quantisation;
   }
   step.covariance = m_inv * wheel_var.asDiagonal() * m_inv.transpose();
@@ -88,10 +94,30 @@ OdometryLayer::Result OdometryLayer::update(const OdometrySample& input) {
     last_ = sample;
     pending_gyro_ = 0.0;
     pending_gyro_valid_ = true;
+    pending_movement_ = {};
   };
+  // Ticks must be one per wheel of the robot file; none means the controller gives its movement.
+  const bool has_ticks = !sample.ticks.empty();
+  if (has_ticks && static_cast<int>(sample.ticks.size()) != kinematics().wheelCount()) {
+    last_.reset();
+    result.rejection = OdometryRejection::kWheelCount;
+    return result;
+  }
+  if (!has_ticks && !(std::isfinite(sample.movement.dx) && std::isfinite(sample.movement.dy) &&
+                      std::isfinite(sample.movement.dphi))) {
+    last_.reset();
+    result.rejection = OdometryRejection::kNotFinite;
+    return result;
+  }
   if (sample.resync) {
     restart();
     result.rejection = OdometryRejection::kResync;
+    return result;
+  }
+  if (last_ && last_->ticks.size() != sample.ticks.size()) {
+    // The controller switched between ticks and movements: nothing to take a difference of.
+    restart();
+    result.rejection = OdometryRejection::kWheelCount;
     return result;
   }
   if (!last_) {
@@ -124,6 +150,8 @@ OdometryLayer::Result OdometryLayer::update(const OdometrySample& input) {
     } else {
       pending_gyro_ += gyro_ok ? sample.gyro_dphi : 0.0;
       pending_gyro_valid_ = pending_gyro_valid_ && gyro_ok;
+      // Without ticks the movement is this sample's own: kept for the next step, like the gyro.
+      if (!has_ticks) pending_movement_ = geometry::concatenate(pending_movement_, sample.movement);
     }
     result.rejection = OdometryRejection::kOutOfOrder;
     return result;
@@ -132,16 +160,27 @@ OdometryLayer::Result OdometryLayer::update(const OdometrySample& input) {
   const bool use_gyro = pending_gyro_valid_ && gyro_ok;
   pending_gyro_ = 0.0;
   pending_gyro_valid_ = true;
-  std::array<std::int64_t, robot::kWheelCount> delta{};
-  for (int i = 0; i < robot::kWheelCount; ++i) {
-    const auto w = static_cast<std::size_t>(i);
-    delta[w] = robot::tickDelta(sample.ticks[w], last_->ticks[w]);
-  }
   const double dt = static_cast<double>(sample.utime - last_->utime) * 1e-6;
+  const robot::WheelMatrix& m = kinematics().robotMatrix();
+  // Each wheel's ground travel since the reference: from the ticks, or the travel the
+  // controller's movement implies (M times its integrated twist).
+  robot::WheelVector ground;
+  Eigen::Vector3d integrated = Eigen::Vector3d::Zero();
+  if (has_ticks) {
+    robot::TickDeltas delta;
+    for (std::size_t w = 0; w < sample.ticks.size(); ++w)
+      delta.push_back(robot::tickDelta(sample.ticks[w], last_->ticks[w]));
+    ground = odometry_.wheelRotations(delta).cwiseProduct(kinematics().radii());
+  } else {
+    integrated = robot::integratedTwist(geometry::concatenate(pending_movement_, sample.movement));
+    ground = m * integrated;
+  }
+  pending_movement_ = {};
   const OdometrySample previous = *last_;
   last_ = sample;
 
-  OdometryStep step = stepFor(delta, dt);
+  OdometryStep step = stepForTravel(ground, dt);
+  if (!has_ticks) step.integrated = integrated;
   step.t_start = previous.utime;
   step.t_end = sample.utime;
   if (use_gyro) {
@@ -154,15 +193,11 @@ OdometryLayer::Result OdometryLayer::update(const OdometrySample& input) {
   }
 
   // A jump no wheel can make in this time (counter glitch, garbled frame) is not a movement.
-  const double tick_m = 2.0 * std::numbers::pi / odometry_.ticksPerRevolution();
   const double max_travel =
       noise_.max_speed_factor * params_.motor.max_wheel_speed * std::max(dt, 0.02);
-  for (int i = 0; i < robot::kWheelCount; ++i) {
-    const auto w = static_cast<std::size_t>(i);
-    if (std::abs(static_cast<double>(delta[w])) * tick_m * radii_[i] > max_travel) {
-      result.rejection = OdometryRejection::kJump;
-      return result;
-    }
+  if (ground.cwiseAbs().maxCoeff() > max_travel) {
+    result.rejection = OdometryRejection::kJump;
+    return result;
   }
   if (dt > noise_.max_interval_s) {
     step.has_velocity = false;

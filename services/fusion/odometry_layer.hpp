@@ -1,14 +1,16 @@
 // Layer 1 of the localization (seed 4.8): accumulated wheel ticks -> wheel rotations (eq. 4.62,
 // 4.63) -> the body's movement through the inverse wheel matrix (M^-1, the robot-frame form of
-// W(phi)^-1, eq. 4.35), with a covariance that grows with the distance driven and the angle
-// turned. Samples must come in time order; a sample that cannot be trusted (time running
-// backwards, a jump no wheel can make, a controller resync) is refused with its reason and
-// restarts the reference, so a bad sample never becomes a movement. A sample's utime is the
-// bridge's stamp: the controller's own clock mapped onto the host's (common/time/
-// controller_clock.hpp), without the serial link's jitter.
+// W(phi)^-1, eq. 4.35; for four wheels the least-squares inverse (M^T M)^-1 M^T), with a
+// covariance that grows with the distance driven and the angle turned: each wheel's ground travel
+// is uncertain by its own slip and tick quantisation, carried through the same inverse. A
+// controller without ticks (odometry_t wheel_count 0) gives its own movement instead; the same
+// per-wheel model then applies to the wheel travel that movement implies. Samples must come in time
+// order; a sample that cannot be trusted (time running backwards, a jump no wheel can make, a
+// controller resync) is refused with its reason and restarts the reference, so a bad sample never
+// becomes a movement. A sample's utime is the bridge's stamp: the controller's own clock mapped
+// onto the host's (common/time/ controller_clock.hpp), without the serial link's jitter.
 #pragma once
 
-#include <array>
 #include <cstdint>
 #include <optional>
 
@@ -56,19 +58,24 @@ struct OdometryNoise {
 // One odometry sample as the controller sends it (the few fields of odometry_t fusion needs).
 struct OdometrySample {
   Utime utime = 0;
-  robot::TickCounts ticks{};
+  // One count per wheel of the robot file, or none from a controller that reports only its
+  // movement (then `movement` is it).
+  robot::TickCounts ticks;
   // The controller says the counters restarted (odometry_t::STATUS_RESYNC).
   bool resync = false;
   // The controller's own time of the sample, µs since it started (0: not known).
   std::int64_t controller_utime = 0;
   // The controller's mean wheel currents over the sample period [A] (odometry_t
-  // STATUS_CURRENTS), for contact detection (current_contact.hpp); unchecked here.
+  // STATUS_CURRENTS), one per wheel, for contact detection (current_contact.hpp); unchecked here.
   bool has_currents = false;
-  std::array<double, 3> wheel_current{};
+  robot::PerWheel<double> wheel_current;
   // The gyro's rotation since the controller's previous sample [rad] (odometry_t STATUS_GYRO),
   // raw: bias and scale error still in it. Checked here.
   bool has_gyro = false;
   double gyro_dphi = 0.0;
+  // The controller's own movement since its previous sample (odometry_t dx, dy, dphi); used only
+  // without ticks.
+  geometry::Movement movement;
 };
 
 // The movement between two samples, ready for the filter.
@@ -89,7 +96,19 @@ struct OdometryStep {
   double duration() const { return static_cast<double>(t_end - t_start) * 1e-6; }
 };
 
-enum class OdometryRejection { kNone, kOutOfOrder, kDuplicate, kJump, kResync, kGap };
+enum class OdometryRejection {
+  kNone,
+  kOutOfOrder,
+  kDuplicate,
+  kJump,
+  kResync,
+  kGap,
+  // Ticks for another number of wheels than the robot file's: refused (and the reference
+  // restarts), they mean nothing with this geometry.
+  kWheelCount,
+  // Without ticks, a movement that is not finite.
+  kNotFinite,
+};
 const char* toString(OdometryRejection r);
 
 class OdometryLayer {
@@ -112,8 +131,9 @@ class OdometryLayer {
 
   // The step and its covariance for a tick difference over `dt_s` seconds (tests, tools; the
   // slip densities need the interval, dt_s <= 0 leaves them out).
-  OdometryStep stepFor(const std::array<std::int64_t, robot::kWheelCount>& tick_delta,
-                       double dt_s = 0.0) const;
+  OdometryStep stepFor(const robot::TickDeltas& tick_delta, double dt_s = 0.0) const;
+  // The same for each wheel's ground travel [m] (one per wheel).
+  OdometryStep stepForTravel(const robot::WheelVector& ground, double dt_s = 0.0) const;
 
   // Forgets the reference; the next sample starts over.
   void reset() { last_.reset(); }
@@ -126,11 +146,12 @@ class OdometryLayer {
   robot::RobotParams params_;
   OdometryNoise noise_;
   robot::WheelOdometry odometry_;
-  Eigen::Vector3d radii_;
   std::optional<OdometrySample> last_;
   // Gyro rotation of samples after the reference that gave no step of their own (stamps out of
   // order), and whether every sample since the reference carried a valid one.
   double pending_gyro_ = 0.0;
+  // Without ticks: the movements of such samples, composed.
+  geometry::Movement pending_movement_;
   bool pending_gyro_valid_ = true;
   double gyro_max_rate_ = 0.0;
   Utime last_stamp_ = 0;

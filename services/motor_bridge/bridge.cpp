@@ -33,54 +33,23 @@ BridgeCore::BridgeCore(const robot::RobotParams& params)
       odometry_(params) {}
 
 bool BridgeCore::onCommand(const CommandInput& command, Utime now) {
-  if (!std::isfinite(command.vx) || !std::isfinite(command.vy) || !std::isfinite(command.omega)) {
-    count("command_nan");
-    return false;
-  }
-  if (command.deadline < now) {
-    count("command_expired");
-    return false;
-  }
-  CommandInput accepted = command;
-  if (accepted.deadline > now + kMaxCommandLifetimeUs) {
-    // A far deadline would keep the robot driving (and the controller's watchdog fed) long after
-    // its source died: no command lives longer than this here.
-    count("command_deadline_clamped");
-    accepted.deadline = now + kMaxCommandLifetimeUs;
-  }
-  const bool out_of_range =
-      std::abs(command.vx) > 1.0 || std::abs(command.vy) > 1.0 || std::abs(command.omega) > 1.0;
-  if (out_of_range) count("command_clamped");
-  current_ = {std::clamp(command.vx, -1.0, 1.0), std::clamp(command.vy, -1.0, 1.0),
-              std::clamp(command.omega, -1.0, 1.0), accepted.deadline};
-  have_command_ = true;
-  return true;
-}
-
-bool BridgeCore::commandActive(Utime now) const {
-  return have_command_ && now <= current_.deadline;
+  return commands_.onCommand(command, now);
 }
 
 std::vector<std::uint8_t> BridgeCore::commandFrame(Utime now) {
-  if (have_command_ && now > current_.deadline) {
-    // The source went quiet: stop the robot rather than keep its last wish.
-    have_command_ = false;
-    current_ = {};
-    count("command_timeout");
-  }
+  const CommandInput& current = commands_.due(now);
   proto::VelocityCommand cmd;
   cmd.seq = ++command_seq_;
-  if (have_command_) {
-    cmd.vx_q15 = proto::toQ15(current_.vx);
-    cmd.vy_q15 = proto::toQ15(current_.vy);
-    cmd.omega_q15 = proto::toQ15(current_.omega);
+  if (commands_.hasCommand()) {
+    cmd.vx_q15 = proto::toQ15(current.vx);
+    cmd.vy_q15 = proto::toQ15(current.vy);
+    cmd.omega_q15 = proto::toQ15(current.omega);
   }
   return proto::encode(cmd);
 }
 
 std::vector<std::uint8_t> BridgeCore::stopFrame() {
-  have_command_ = false;
-  current_ = {};
+  commands_.clear();
   proto::VelocityCommand cmd;
   cmd.seq = ++command_seq_;
   return proto::encode(cmd);
@@ -151,6 +120,12 @@ void BridgeCore::onBytes(std::span<const std::uint8_t> bytes, Utime now,
       count("odometry_controller_time_absurd");  // CRC-valid but no clock runs for 285 years
       continue;
     }
+    if (static_cast<int>(sample->ticks.size()) != params_.wheelCount()) {
+      // A controller for another robot (or a robot file with the wrong wheels): its ticks mean
+      // nothing with this geometry.
+      count("odometry_wheel_count_mismatch");
+      continue;
+    }
     if (last && sample->seq == last->seq &&
         sample->controller_time_us == last->controller_time_us) {
       count("odometry_duplicate");  // the same frame twice (a replaying line)
@@ -181,14 +156,14 @@ void BridgeCore::onBytes(std::span<const std::uint8_t> bytes, Utime now,
     const proto::OdometrySample* sample = c.sample;
     OdometryOutput o;
     o.utime = c.utime;
-    o.ticks = sample->ticks;
+    o.ticks.assign(sample->ticks.begin(), sample->ticks.end());
     o.controller_utime = static_cast<std::int64_t>(sample->controller_time_us);
     if (sample->status & proto::kStatusWatchdog) o.status |= perception::kOdometryWatchdog;
     if (sample->status & proto::kStatusMotorFault) o.status |= perception::kOdometryMotorFault;
     if (sample->current_ma) {
       // mA on the wire, A on the bus; any int16 is a finite current (fusion judges the size).
-      for (std::size_t i = 0; i < 3; ++i)
-        o.wheel_current[i] = static_cast<float>((*sample->current_ma)[i]) * 1e-3f;
+      for (const std::int16_t ma : *sample->current_ma)
+        o.wheel_current.push_back(static_cast<float>(ma) * 1e-3f);
       o.status |= perception::kOdometryCurrents;
     }
     if (c.resync) {

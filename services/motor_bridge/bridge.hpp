@@ -24,6 +24,7 @@
 #include "common/serial/protocol.hpp"
 #include "common/time/clock.hpp"
 #include "common/time/controller_clock.hpp"
+#include "services/motor_bridge/command_gate.hpp"
 
 namespace fieldline::motor_bridge {
 
@@ -42,20 +43,13 @@ BridgeConfig loadBridgeConfig(const config::Node& root);
 // `device` with "{robot}" replaced.
 std::string deviceForRobot(const std::string& device, int robot);
 
-struct CommandInput {
-  double vx = 0.0;
-  double vy = 0.0;
-  double omega = 0.0;
-  Utime deadline = 0;
-};
-
 // Odometry out of one sample, with the perception::kOdometry* status bits.
 using OdometryOutput = perception::OdometryReading;
 
 class BridgeCore {
  public:
   // No command drives the robot longer than this after it arrived, whatever its deadline says.
-  static constexpr Utime kMaxCommandLifetimeUs = 500'000;
+  static constexpr Utime kMaxCommandLifetimeUs = CommandGate::kMaxCommandLifetimeUs;
   // A seq jump beyond this (1 s of samples at 50 Hz) means the controller restarted: resync.
   static constexpr std::uint32_t kMaxSampleGap = 50;
   // A controller time beyond this (2^53 µs, 285 years) is refused
@@ -90,9 +84,9 @@ class BridgeCore {
   // a step of the host clock), and its current offset host - controller, µs.
   std::uint64_t clockRestarts() const { return clock_.restarts(); }
   std::optional<std::int64_t> clockOffset() const { return clock_.envelope(); }
-  bool commandActive(Utime now) const;
+  bool commandActive(Utime now) const { return commands_.active(now); }
   // The command the controller is being sent, after clamping (zero if none).
-  const CommandInput& currentCommand() const { return current_; }
+  const CommandInput& currentCommand() const { return commands_.current(); }
 
  private:
   void count(const std::string& kind) { ++counters_[kind]; }
@@ -103,8 +97,8 @@ class BridgeCore {
   serial::Decoder decoder_;
   std::vector<serial::Message> messages_;
   robot::WheelOdometry odometry_;
-  CommandInput current_;
-  bool have_command_ = false;
+  std::map<std::string, std::uint64_t> counters_;
+  CommandGate commands_{counters_};
   std::uint32_t command_seq_ = 0;
   std::optional<serial::OdometrySample> last_sample_;
   bool resync_ = true;
@@ -117,7 +111,6 @@ class BridgeCore {
   std::vector<Checked> checked_;
   std::uint64_t samples_lost_ = 0;
   std::optional<serial::Hello> controller_hello_;
-  std::map<std::string, std::uint64_t> counters_;
 };
 
 }  // namespace fieldline::motor_bridge

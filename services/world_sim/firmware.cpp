@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
+#include <string>
 
 namespace fieldline::world_sim {
 
@@ -45,16 +47,25 @@ void FirmwareEmulator::gyroStep(double true_rate, double dt) {
   if (gyro_) gyro_->step(true_rate, dt);
 }
 
-Eigen::Vector3d FirmwareEmulator::wheelCurrents(const robot::RobotParams& params,
-                                                const CurrentModel& model,
-                                                const WheelState& previous, const WheelState& now,
-                                                double dt, const Eigen::Vector3d& unit_noise) {
+robot::WheelVector FirmwareEmulator::wheelCurrents(const robot::RobotParams& params,
+                                                   const CurrentModel& model,
+                                                   const WheelState& previous,
+                                                   const WheelState& now, double dt,
+                                                   const robot::WheelVector& unit_noise) {
   constexpr double kGravity = 9.81;
-  const double share = params.mass / 3.0;
+  const int wheels = params.wheelCount();
+  for (const robot::WheelVector* v :
+       {&previous.speeds, &previous.slip, &now.speeds, &now.slip, &unit_noise}) {
+    if (v->size() != wheels) {
+      throw std::invalid_argument("wheel currents: " + std::to_string(v->size()) + " values for " +
+                                  std::to_string(wheels) + " wheels");
+    }
+  }
+  const double share = params.mass / wheels;
   const double friction_limit = model.friction_coefficient * share * kGravity;
   const double saturation = std::max(model.saturation_slip_speed, 1e-6);
-  Eigen::Vector3d current;
-  for (int i = 0; i < 3; ++i) {
+  robot::WheelVector current(wheels);
+  for (int i = 0; i < wheels; ++i) {
     const double acceleration = (now.speeds[i] - previous.speeds[i]) / dt;
     const double slip_speed = (now.slip[i] - previous.slip[i]) / dt;
     const double force =
@@ -129,7 +140,7 @@ void FirmwareEmulator::sample(double t, const robot::TickCounts& ticks,
   proto::OdometrySample s;
   s.seq = sample_seq_;
   s.controller_time_us = controllerTimeUs(t);
-  s.ticks = ticks;
+  s.ticks.assign(ticks.begin(), ticks.end());
   if (watchdogStopped(t)) s.status |= proto::kStatusWatchdog;
   if (sample_seq_ == 0) s.status |= proto::kStatusReset;
   const std::uint64_t bad = decoder_.stats().badFrames();
@@ -139,14 +150,16 @@ void FirmwareEmulator::sample(double t, const robot::TickCounts& ticks,
   if (currents_.enabled && wheels) {
     // The first sample has no period to average over: no current yet.
     if (last_wheels_ && t > last_wheels_t_) {
-      const Eigen::Vector3d noise(normal_(noise_rng_), normal_(noise_rng_), normal_(noise_rng_));
-      const Eigen::Vector3d amps =
+      const int n = params_.wheelCount();
+      robot::WheelVector noise(n);
+      for (int i = 0; i < n; ++i)
+        noise[i] = normal_(noise_rng_);
+      const robot::WheelVector amps =
           wheelCurrents(params_, currents_, *last_wheels_, *wheels, t - last_wheels_t_, noise);
-      std::array<std::int16_t, 3> ma{};
-      for (std::size_t i = 0; i < 3; ++i)
-        ma[i] = static_cast<std::int16_t>(
-            std::lround(std::clamp(amps[static_cast<Eigen::Index>(i)] * 1e3, -32767.0, 32767.0)));
-      s.current_ma = ma;
+      auto& ma = s.current_ma.emplace();
+      for (int i = 0; i < n; ++i)
+        ma.push_back(
+            static_cast<std::int16_t>(std::lround(std::clamp(amps[i] * 1e3, -32767.0, 32767.0))));
     }
     last_wheels_ = *wheels;
     last_wheels_t_ = t;

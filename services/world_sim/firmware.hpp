@@ -26,10 +26,10 @@ namespace fieldline::world_sim {
 inline constexpr std::uint16_t kEmulatorFirmwareVersion = 0x0100;
 
 // The controller's current measurement, emulated from the simulated wheel: each wheel's motor
-// delivers the force that accelerates its third of the robot (m / 3 times the wheel's
-// acceleration over the sample period) plus the floor's friction against the wheel's slip
+// delivers the force that accelerates its share of the robot (m / n for n wheels times the
+// wheel's acceleration over the sample period) plus the floor's friction against the wheel's slip
 // (surface speed minus the body's ground speed at the wheel, mean over the period), which grows
-// with the slip and saturates at the friction limit mu m g / 3. Current = force * wheel radius /
+// with the slip and saturates at the friction limit mu m g / n. Current = force * wheel radius /
 // (gear ratio * torque constant) + white measurement noise. In free driving the slip is the
 // carpet's small random slip; a robot pushed or twisted by another one slips at up to metres per
 // second and its currents sit at the friction limit.
@@ -45,10 +45,10 @@ struct CurrentModel {
 
 // What the simulator tells the emulated controller about its wheels at a sample (world.hpp).
 struct WheelState {
-  // Wheel speeds as the encoders see them [m/s].
-  Eigen::Vector3d speeds = Eigen::Vector3d::Zero();
+  // Wheel speeds as the encoders see them [m/s], one per wheel.
+  robot::WheelVector speeds;
   // Accumulated slip per wheel [m] (RobotTruth::wheel_slip).
-  Eigen::Vector3d slip = Eigen::Vector3d::Zero();
+  robot::WheelVector slip;
 };
 
 // The controller's yaw-rate gyro, emulated from the simulator's true body rotation rate
@@ -104,15 +104,17 @@ class FirmwareEmulator {
   // the watchdog has expired.
   robot::NormalizedCommand motorCommand(double t);
   bool watchdogStopped(double t) const;
-  // Appends the odometry frame for ticks sampled at `t`; with `wheels`, and the current model
-  // enabled, the frame carries the mean wheel currents since the previous sample.
+  // Appends the odometry frame for ticks sampled at `t` (one per wheel: type 0x20 for three
+  // wheels, 0x21 for four); with `wheels`, and the current model enabled, the frame carries the
+  // mean wheel currents since the previous sample.
   void sample(double t, const robot::TickCounts& ticks, std::vector<std::uint8_t>& out,
               const WheelState* wheels = nullptr);
   // The currents (CurrentModel) for wheels in state `now` after `previous`, `dt` seconds apart,
   // with noise `noise_a` (one standard normal draw per wheel) [A].
-  static Eigen::Vector3d wheelCurrents(const robot::RobotParams& params, const CurrentModel& model,
-                                       const WheelState& previous, const WheelState& now, double dt,
-                                       const Eigen::Vector3d& unit_noise);
+  static robot::WheelVector wheelCurrents(const robot::RobotParams& params,
+                                          const CurrentModel& model, const WheelState& previous,
+                                          const WheelState& now, double dt,
+                                          const robot::WheelVector& unit_noise);
   // One physics step of `dt` seconds at the body's true rotation rate [rad/s]: the gyro (when the
   // robot has one) takes its rate sample and integrates it.
   void gyroStep(double true_rate, double dt);

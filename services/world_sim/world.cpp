@@ -58,17 +58,23 @@ World::World(const scenario::Scenario& scenario, const robot::RobotParams& param
       barrier_(field.carpetHalfExtent()),
       rng_(scenario.seed) {
   if (scenario.physics_rate < 200.0) throw std::invalid_argument("world: physics below 200 Hz");
-  for (int i = 0; i < robot::kWheelCount; ++i) {
-    radius_scale_[i] = 1.0 + params_.simulation.wheel_radius_error[i];
+  const int wheels = params_.wheelCount();
+  radius_scale_.resize(wheels);
+  for (int i = 0; i < wheels; ++i) {
+    radius_scale_[i] = 1.0 + params_.simulation.wheel_radius_error[static_cast<std::size_t>(i)];
   }
   for (const auto& spec : scenario.robots) {
     RobotTruth r;
     r.id = spec.id;
     r.pose = spec.start;
+    r.wheel_commands = robot::WheelVector::Zero(wheels);
+    r.wheel_speeds = robot::WheelVector::Zero(wheels);
+    r.wheel_angles = robot::WheelVector::Zero(wheels);
+    r.wheel_slip = robot::WheelVector::Zero(wheels);
     robots_.push_back(r);
   }
   previous_poses_.resize(robots_.size());
-  surface_travel_.assign(robots_.size(), Eigen::Vector3d::Zero());
+  surface_travel_.assign(robots_.size(), robot::WheelVector::Zero(wheels));
   for (const auto& o : scenario.opponents) {
     opponent_paths_.emplace_back(o.trajectory, o.start);
     opponents_.push_back({opponent_paths_.back().at(0.0).pose, o.radius});
@@ -92,9 +98,13 @@ int World::indexOf(int id) const {
   return -1;
 }
 
-void World::setWheelCommands(std::size_t index, const Eigen::Vector3d& commands) {
+void World::setWheelCommands(std::size_t index, const robot::WheelVector& commands) {
   auto& c = robots_.at(index).wheel_commands;
-  for (int i = 0; i < robot::kWheelCount; ++i) {
+  if (commands.size() != c.size()) {
+    throw std::invalid_argument("world: " + std::to_string(commands.size()) +
+                                " wheel commands for " + std::to_string(c.size()) + " wheels");
+  }
+  for (Eigen::Index i = 0; i < c.size(); ++i) {
     c[i] = std::isfinite(commands[i]) ? std::clamp(commands[i], -1.0, 1.0) : 0.0;
   }
 }
@@ -106,10 +116,10 @@ void World::setCommand(std::size_t index, const robot::NormalizedCommand& comman
 robot::TickCounts World::ticks(std::size_t index) const {
   const auto& angles = robots_.at(index).wheel_angles;
   const double per_radian = params_.ticksPerWheelRevolution() / (2.0 * std::numbers::pi);
-  robot::TickCounts out{};
-  for (int i = 0; i < robot::kWheelCount; ++i) {
+  robot::TickCounts out;
+  for (Eigen::Index i = 0; i < angles.size(); ++i) {
     const auto count = static_cast<std::int64_t>(std::floor(angles[i] * per_radian));
-    out[i] = static_cast<std::int32_t>(static_cast<std::uint32_t>(count & 0xffffffffLL));
+    out.push_back(static_cast<std::int32_t>(static_cast<std::uint32_t>(count & 0xffffffffLL)));
   }
   return out;
 }
@@ -146,6 +156,14 @@ void World::restore(const WorldSnapshot& s) {
                                 " robots, the scenario " + std::to_string(robots_.size()));
   }
   for (std::size_t i = 0; i < robots_.size(); ++i) {
+    const auto wheels = static_cast<Eigen::Index>(params_.wheelCount());
+    const RobotTruth& r = s.robots[i];
+    if (r.wheel_commands.size() != wheels || r.wheel_speeds.size() != wheels ||
+        r.wheel_angles.size() != wheels) {
+      throw std::invalid_argument("snapshot robot " + std::to_string(r.id) + " has " +
+                                  std::to_string(r.wheel_angles.size()) + " wheels, the robot " +
+                                  std::to_string(wheels));
+    }
     if (s.robots[i].id != robots_[i].id) {
       throw std::invalid_argument("snapshot robot " + std::to_string(s.robots[i].id) +
                                   " where the scenario has robot " + std::to_string(robots_[i].id));
@@ -168,6 +186,9 @@ void World::restore(const WorldSnapshot& s) {
   ball_.radius = radius;
   for (std::size_t i = 0; i < robots_.size(); ++i) {
     robots_[i] = s.robots[i];
+    // The slip is not in a snapshot: it starts over at zero.
+    if (robots_[i].wheel_slip.size() != robots_[i].wheel_angles.size())
+      robots_[i].wheel_slip = robot::WheelVector::Zero(robots_[i].wheel_angles.size());
     previous_poses_[i] = robots_[i].pose;
   }
   for (std::size_t k = 0; k < opponents_.size(); ++k)
@@ -194,18 +215,22 @@ void World::stepRobot(std::size_t index) {
   // Exact integral of the first-order wheel response over the step.
   const double tau = motor_.timeConstant();
   const double decay = std::exp(-dt_ / tau);
-  const Eigen::Vector3d target = r.wheel_commands * (motor_.alpha() / motor_.beta());
-  const Eigen::Vector3d travel = target * dt_ + (r.wheel_speeds - target) * tau * (1.0 - decay);
+  const robot::WheelVector target = r.wheel_commands * (motor_.alpha() / motor_.beta());
+  const robot::WheelVector travel = target * dt_ + (r.wheel_speeds - target) * tau * (1.0 - decay);
   r.wheel_speeds = target + (r.wheel_speeds - target) * decay;
-  for (int i = 0; i < robot::kWheelCount; ++i) {
-    r.wheel_angles[i] += travel[i] / params_.wheels[i].radius;
+  const Eigen::Index wheels = travel.size();
+  for (Eigen::Index i = 0; i < wheels; ++i) {
+    r.wheel_angles[i] += travel[i] / params_.wheels[static_cast<std::size_t>(i)].radius;
   }
 
   // What the floor makes of it: true radii, slip noise per wheel (white, so the error of a
   // wheel's path grows with the square root of time), then the true geometry.
   const double noise_scale = sim.slip_noise / std::sqrt(dt_);
-  Eigen::Vector3d contact;
-  for (int i = 0; i < robot::kWheelCount; ++i) {
+  // More wheels than the body's three degrees of freedom fight each other: the body moves by the
+  // twist that fits their contact travel best (least squares), and each wheel slips by the rest
+  // (wheel_slip below).
+  robot::WheelVector contact(wheels);
+  for (Eigen::Index i = 0; i < wheels; ++i) {
     surface_travel_[index][i] = travel[i] * radius_scale_[i];
     contact[i] = surface_travel_[index][i] * (1.0 + noise_scale * normal_(rng_));
   }
@@ -312,6 +337,11 @@ void World::step() {
   for (auto& r : robots_)
     r.contact_steps += r.in_contact ? 1 : 0;
   ++steps_;
+  // The normal distribution draws in pairs and keeps the second: a step with an odd number of
+  // draws (four wheels, a collision's twist) would carry it into the next, which a snapshot (the
+  // engine's state only) cannot restore. Dropped at every step's end, so a restored world goes on
+  // bit for bit; with an even number of draws nothing is kept and nothing changes.
+  normal_.reset();
 }
 
 void World::runUntil(double t) {

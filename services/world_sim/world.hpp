@@ -35,17 +35,18 @@ struct RobotTruth {
   // [m/s] field frame, [rad/s].
   geometry::Vec2 velocity = geometry::Vec2::Zero();
   double omega = 0.0;
-  // Normalised wheel commands in [-1, 1] the motors currently act on.
-  Eigen::Vector3d wheel_commands = Eigen::Vector3d::Zero();
+  // One value per wheel of the robot (sized by the World). Normalised wheel commands in [-1, 1]
+  // the motors currently act on.
+  robot::WheelVector wheel_commands;
   // Wheel speed as the encoders see it: angular speed times the nominal radius [m/s].
-  Eigen::Vector3d wheel_speeds = Eigen::Vector3d::Zero();
+  robot::WheelVector wheel_speeds;
   // Total wheel rotation since the start [rad], what the encoders count.
-  Eigen::Vector3d wheel_angles = Eigen::Vector3d::Zero();
+  robot::WheelVector wheel_angles;
   // Total slip of each wheel since the start [m]: its true surface travel minus the body's
   // ground travel at the wheel along its rolling direction (after collisions). Grows with the
   // slip noise while driving and fast while another robot pushes or twists the body. An output
   // for the controller's current model (firmware.hpp); the motion does not depend on it.
-  Eigen::Vector3d wheel_slip = Eigen::Vector3d::Zero();
+  robot::WheelVector wheel_slip;
   int kidnaps = 0;
   // Collision steps so far (barrier, robots, opponents, ball).
   std::int64_t contact_steps = 0;
@@ -72,7 +73,7 @@ class World {
 
   // Sets what robot `index`'s motors act on from now: normalised wheel commands in [-1, 1]
   // (non-finite values stop the wheel).
-  void setWheelCommands(std::size_t index, const Eigen::Vector3d& commands);
+  void setWheelCommands(std::size_t index, const robot::WheelVector& commands);
   // The same through the controller's mapping of a normalised body command (robot/motor_model).
   void setCommand(std::size_t index, const robot::NormalizedCommand& command);
 
@@ -123,12 +124,12 @@ class World {
   robot::OmniKinematics nominal_;
   robot::OmniKinematics true_;
   robot::MotorModel motor_;
-  std::array<double, robot::kWheelCount> radius_scale_{};
+  robot::WheelVector radius_scale_;
   geometry::Vec2 barrier_;
   std::vector<RobotTruth> robots_;
   std::vector<geometry::Pose2> previous_poses_;
   // Each robot's true wheel surface travel in the current step [m].
-  std::vector<Eigen::Vector3d> surface_travel_;
+  std::vector<robot::WheelVector> surface_travel_;
   std::vector<OpponentTruth> opponents_;
   std::vector<robot::Trajectory> opponent_paths_;
   BallTruth ball_;

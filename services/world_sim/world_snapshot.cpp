@@ -50,7 +50,7 @@ std::string encodeSnapshot(const WorldSnapshot& s) {
     out += fmt::format("robot {} {} {} {} {} {} {}", r.id, num(r.pose.x), num(r.pose.y),
                        num(r.pose.phi), num(r.velocity.x()), num(r.velocity.y()), num(r.omega));
     for (const auto* v : {&r.wheel_commands, &r.wheel_speeds, &r.wheel_angles}) {
-      for (int i = 0; i < 3; ++i)
+      for (Eigen::Index i = 0; i < v->size(); ++i)
         out += " " + num((*v)[i]);
     }
     out += fmt::format(" {} {} {}\n", r.kidnaps, r.contact_steps, r.in_contact ? 1 : 0);
@@ -95,14 +95,30 @@ WorldSnapshot decodeSnapshot(const std::string& text) {
   for (; i < lines.size() && lines[i].rfind("robot ", 0) == 0; ++i) {
     const int line = static_cast<int>(i + 1);
     auto f = fields(lines[i], "robot", line);
+    // 7 pose values, three per wheel (command, speed, angle), 3 counters: the wheel count
+    // follows from the number of words.
+    std::size_t words = 0;
+    {
+      std::istringstream count(f.str());
+      for (std::string w; count >> w;)
+        ++words;
+    }
+    const std::size_t wheel_words = words >= 10 ? words - 10 : 0;
+    const auto wheels = static_cast<Eigen::Index>(wheel_words / 3);
+    if (wheel_words % 3 != 0 || wheels < robot::kMinWheels || wheels > robot::kMaxWheels) {
+      bad(line, "expected 7 pose values, 3 per wheel (3 or 4 wheels) and 3 counters, found " +
+                    std::to_string(words) + " values");
+    }
     RobotTruth r;
     double vx = 0, vy = 0;
     int contact = 0;
     f >> r.id >> r.pose.x >> r.pose.y >> r.pose.phi >> vx >> vy >> r.omega;
     for (auto* v : {&r.wheel_commands, &r.wheel_speeds, &r.wheel_angles}) {
-      for (int k = 0; k < 3; ++k)
+      v->resize(wheels);
+      for (Eigen::Index k = 0; k < wheels; ++k)
         f >> (*v)[k];
     }
+    r.wheel_slip = robot::WheelVector::Zero(wheels);
     readAll(f, line, r.kidnaps, r.contact_steps, contact);
     r.velocity = {vx, vy};
     r.in_contact = contact != 0;

@@ -10,6 +10,7 @@
 //   events 2 0                          # next ball kick, next kidnap
 //   ball x y vx vy
 //   robot id x y phi vx vy omega c0 c1 c2 s0 s1 s2 a0 a1 a2 kidnaps contact_steps in_contact
+//                                  (wheel commands, speeds, angles: c3, s3, a3 too with 4 wheels)
 //   rng <the random engine's state>
 //   supervisor <text>                   # optional: who started the simulator (see WorldSimNode)
 #pragma once

@@ -62,7 +62,10 @@ int main(int argc, char** argv) {
       serial::Hello{serial::Role::kController, 3, 768, 20000},
       serial::VelocityCommand{7, 1000, -2000, 300},
       serial::OdometrySample{42, 123456789, {1, -2, 3}, serial::kStatusReset, 7},
-      serial::ErrorReport{serial::ErrorCode::kUnknownType, 0x99}};
+      serial::ErrorReport{serial::ErrorCode::kUnknownType, 0x99},
+      // Four wheels (type 0x21) with both tails.
+      serial::OdometrySample{
+          43, 123476789, {1, -2, 3, -4}, 0, 8, {{100, -200, 300, -400}}, 123456}};
   std::vector<std::uint8_t> all{5};
   for (std::size_t i = 0; i < messages.size(); ++i) {
     std::vector<std::uint8_t> one{static_cast<std::uint8_t>(63)};
@@ -78,7 +81,13 @@ int main(int argc, char** argv) {
   writeLcmSeed(lcm_dir, i++, stamped<fieldline::ball_observation_t>());
   writeLcmSeed(lcm_dir, i++, stamped<fieldline::obstacle_observations_t>());
   writeLcmSeed(lcm_dir, i++, stamped<fieldline::field_features_t>());
-  writeLcmSeed(lcm_dir, i++, stamped<fieldline::odometry_t>());
+  {
+    auto odometry = stamped<fieldline::odometry_t>();
+    odometry.wheel_count = 3;
+    odometry.ticks = {1, -2, 3};
+    odometry.wheel_current = {0.5f, -0.25f, 0.0f};
+    writeLcmSeed(lcm_dir, i++, odometry);
+  }
   writeLcmSeed(lcm_dir, i++, stamped<fieldline::motion_command_t>());
   writeLcmSeed(lcm_dir, i++, stamped<fieldline::robot_state_t>());
   writeLcmSeed(lcm_dir, i++, stamped<fieldline::ball_state_t>());

@@ -49,30 +49,60 @@ std::string selfDirectory() {
   return ec ? std::string{} : p.parent_path().string();
 }
 
-// The launch file with the scenario given to the simulator and the pilots.
+// The launch file with the scenario given to the simulator and the pilots, and the scenario's
+// robot file to every process that models the robot's body (motor bridge, fusion, pilot), so a
+// scenario with a four-wheeled robot runs four wheels end to end.
 std::string scenarioLaunchFile(const std::string& launch, const std::string& scenario,
-                               const std::string& out_dir) {
+                               const std::string& robot, const std::string& out_dir) {
   std::ifstream in(config::resolvePreset("launch", launch));
   if (!in) throw std::runtime_error("cannot read launch file " + launch);
   std::ostringstream text;
   std::string line;
   bool in_world_sim = false;
   bool in_pilot = false;
+  bool in_body = false;
+  const auto insertArgs = [](std::string& args_line, const std::string& extra) {
+    // args: [a, b] -> args: [a, b, EXTRA]
+    const auto close = args_line.rfind(']');
+    if (close == std::string::npos) return false;
+    const bool empty = args_line.find_first_not_of(" [", args_line.find('[')) == close;
+    args_line.insert(close, (empty ? "" : ", ") + extra);
+    return true;
+  };
+  const std::string robot_args = "--robot-config, " + robot;
   while (std::getline(in, line)) {
     if (line.find("- name:") != std::string::npos) {
       in_world_sim = line.find("world_sim") != std::string::npos;
       in_pilot = line.find("pilot") != std::string::npos;
+      in_body = in_pilot || line.find("motor_bridge") != std::string::npos ||
+                line.find("fusion") != std::string::npos;
     }
-    if (in_pilot && line.find("args:") != std::string::npos) {
-      // args: [a, b] -> args: [a, b, --scenario, NAME]
-      const auto close = line.rfind(']');
-      if (close != std::string::npos) line.insert(close, ", --scenario, " + scenario);
-      in_pilot = false;
+    if (line.find("args:") != std::string::npos && (in_pilot || in_body)) {
+      std::string extra = in_body ? robot_args : "";
+      if (in_pilot) extra += ", --scenario, " + scenario;
+      if (insertArgs(line, extra)) in_pilot = in_body = false;
     }
     text << line << '\n';
-    if (in_world_sim && line.find("executable:") != std::string::npos) {
-      text << "    args: [--scenario, " << scenario << "]\n";
-      in_world_sim = false;
+    if (line.find("executable:") != std::string::npos) {
+      if (in_world_sim) {
+        text << "    args: [--scenario, " << scenario << "]\n";
+        in_world_sim = false;
+      } else if (in_body && !in_pilot) {
+        // A body process without an args line of its own (the motor bridge) gets one, unless
+        // its entry has one further down (then that one is extended).
+        const std::streampos mark = in.tellg();
+        std::string rest;
+        bool has_args = false;
+        while (std::getline(in, rest) && rest.find("- name:") == std::string::npos) {
+          if (rest.find("args:") != std::string::npos) has_args = true;
+        }
+        in.clear();
+        in.seekg(mark);
+        if (!has_args) {
+          text << "    args: [" << robot_args << "]\n";
+          in_body = false;
+        }
+      }
     }
   }
   const std::string path = out_dir + "/launch.yaml";
@@ -296,7 +326,7 @@ std::string collectFromTeam(EvalArgs& a, Collector& collector, const Clock& cloc
   if (a.field_name.empty()) a.field_name = sc.field;
   if (a.out_dir.empty()) a.out_dir = "eval/" + sc.name;
   std::filesystem::create_directories(a.out_dir);
-  const std::string launch_file = scenarioLaunchFile(a.launch, a.scenario, a.out_dir);
+  const std::string launch_file = scenarioLaunchFile(a.launch, a.scenario, sc.robot, a.out_dir);
   // The robots' clocks count their drift from this time; the launcher takes it from here.
   const Utime clock_reference = clock.now();
   setenv(kClockReferenceVariable, std::to_string(clock_reference).c_str(), 1);

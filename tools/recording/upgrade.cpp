@@ -1,5 +1,6 @@
 #include "tools/recording/upgrade.hpp"
 
+#include <fieldline_legacy/odometry_v1_t.hpp>
 #include <fieldline_legacy/robot_state_v1_t.hpp>
 #include <fieldline_legacy/team_state_v1_t.hpp>
 
@@ -75,12 +76,33 @@ team_state_t teamStateFromV1(const fieldline_legacy::team_state_v1_t& o) {
   return m;
 }
 
+// Issue 29 (2026-12-06): ODOMETRY gained wheel_count; ticks and wheel_current are sized by it (a
+// robot has three or four wheels). Every older controller had three.
+odometry_t odometryFromV1(const fieldline_legacy::odometry_v1_t& o) {
+  odometry_t m{};
+  m.header = o.header;
+  m.wheel_count = 3;
+  m.ticks.assign(std::begin(o.ticks), std::end(o.ticks));
+  m.controller_utime = o.controller_utime;
+  m.dx = o.dx;
+  m.dy = o.dy;
+  m.dphi = o.dphi;
+  m.vx = o.vx;
+  m.vy = o.vy;
+  m.omega = o.omega;
+  m.status = o.status;
+  m.wheel_current.assign(std::begin(o.wheel_current), std::end(o.wheel_current));
+  m.gyro_dphi = o.gyro_dphi;
+  return m;
+}
+
 }  // namespace
 
 const std::vector<Upgrade>& knownUpgrades() {
   static const std::vector<Upgrade> upgrades{
       makeUpgrade("robot_state_t v1", bus::channels::kRobotState.name, &robotStateFromV1),
       makeUpgrade("team_state_t v1", bus::channels::kTeamState.name, &teamStateFromV1),
+      makeUpgrade("odometry_t v1", bus::channels::kOdometry.name, &odometryFromV1),
   };
   return upgrades;
 }

@@ -26,9 +26,9 @@ def fnv1a64(data):
 
 
 IMAGE_BYTES = [0, 1, 2, 3, 250, 251, 252, 253]
-ODOMETRY = {"ticks": [100, -200, 2147483647], "controller_utime": 9876543210,
+ODOMETRY = {"wheel_count": 4, "ticks": [100, -200, 2147483647, -5], "controller_utime": 9876543210,
             "dx": 0.015625, "dy": -0.0078125, "dphi": 0.001, "vx": 0.78125, "vy": -0.390625,
-            "omega": 0.05, "status": 60, "wheel_current": [1.25, -0.5, 0],
+            "omega": 0.05, "status": 60, "wheel_current": [1.25, -0.5, 0, 0.75],
             "gyro_dphi": 0.0009765625}
 
 EXPECTED = [

@@ -125,9 +125,8 @@ int main(int argc, char** argv) {
 
     odometry_t odometry{};
     odometry.header = header(5);
-    odometry.ticks[0] = 100;
-    odometry.ticks[1] = -200;
-    odometry.ticks[2] = 2147483647;
+    odometry.wheel_count = 4;
+    odometry.ticks = {100, -200, 2147483647, -5};
     odometry.controller_utime = 9876543210;
     odometry.dx = 0.015625;
     odometry.dy = -0.0078125;
@@ -137,9 +136,7 @@ int main(int argc, char** argv) {
     odometry.omega = 0.05;
     odometry.status = int{odometry_t::STATUS_FRAMES_LOST} | int{odometry_t::STATUS_RESYNC} |
                       int{odometry_t::STATUS_CURRENTS} | int{odometry_t::STATUS_GYRO};
-    odometry.wheel_current[0] = 1.25f;
-    odometry.wheel_current[1] = -0.5f;
-    odometry.wheel_current[2] = 0.0f;
+    odometry.wheel_current = {1.25f, -0.5f, 0.0f, 0.75f};
     odometry.gyro_dphi = 0.0009765625;
     log.write(ch::kOdometry, logTime(5), odometry);
 

@@ -42,7 +42,8 @@ public class DecodeCheck {
     }
     fieldline.odometry_t o = new fieldline.odometry_t(
         Files.readAllBytes(Paths.get(dir, "odometry_t.bin")));
-    if (o.ticks[2] != 2147483000 || o.dx != 0.01 || o.status != 12) {
+    if (o.wheel_count != 4 || o.ticks.length != 4 || o.ticks[2] != 2147483000 || o.ticks[3] != -7
+        || o.wheel_current[3] != 2.0f || o.dx != 0.01 || o.status != 12) {
       System.out.println("odometry_t: field values WRONG");
       ++failures;
     }

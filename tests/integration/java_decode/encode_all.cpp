@@ -123,9 +123,10 @@ int main(int argc, char** argv) {
 
   odometry_t od{};
   od.header = header(7);
-  od.ticks[0] = 1000;
-  od.ticks[1] = -2000;
-  od.ticks[2] = 2147483000;
+  // Four wheels: the arrays are sized by wheel_count.
+  od.wheel_count = 4;
+  od.ticks = {1000, -2000, 2147483000, -7};
+  od.wheel_current = {1.5f, -0.25f, 0.0f, 2.0f};
   od.controller_utime = 987654321;
   od.dx = 0.01;
   od.dy = -0.002;

@@ -1,3 +1,4 @@
+#include <algorithm>
 #include <limits>
 
 #include <gtest/gtest.h>
@@ -19,6 +20,41 @@ image_t goodImage() {
   m.size = 16;
   m.data.resize(16);
   return m;
+}
+
+TEST(Validate, OdometryWheelCountAndSizes) {
+  odometry_t m{};
+  m.header.utime = 1;
+  m.wheel_count = 4;
+  m.ticks = {1, 2, 3, 4};
+  m.wheel_current = {0, 0, 0, 0};
+  EXPECT_FALSE(validate(m));
+  m.wheel_count = 3;
+  EXPECT_TRUE(validate(m));  // arrays of four
+  m.ticks.resize(3);
+  m.wheel_current.resize(3);
+  EXPECT_FALSE(validate(m));
+  // No ticks (a controller that reports its movement), but then no currents either.
+  m.wheel_count = 0;
+  m.ticks.clear();
+  m.wheel_current.clear();
+  EXPECT_FALSE(validate(m));
+  m.status = odometry_t::STATUS_CURRENTS;
+  EXPECT_TRUE(validate(m));
+  m.status = 0;
+  for (const int bad : {-1, 1, 2, 5, 100}) {
+    m.wheel_count = bad;
+    m.ticks.assign(static_cast<std::size_t>(std::max(bad, 0)), 0);
+    m.wheel_current.assign(static_cast<std::size_t>(std::max(bad, 0)), 0.0f);
+    const auto problem = validate(m);
+    ASSERT_TRUE(problem) << bad;
+    EXPECT_NE(problem->find("wheel_count"), std::string::npos) << *problem;
+  }
+  m.wheel_count = 3;
+  m.ticks.assign(3, 0);
+  m.wheel_current.assign(3, 0.0f);
+  m.dx = kNan;
+  EXPECT_TRUE(validate(m));
 }
 
 TEST(Validate, ImageSizes) {

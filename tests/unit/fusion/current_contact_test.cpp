@@ -31,8 +31,8 @@ struct Drive {
         2.0 * std::numbers::pi * robot.wheels[0].radius / robot.ticksPerWheelRevolution();
     for (std::size_t i = 0; i < 3; ++i) {
       position[i] += speed * dt + 0.5 * accel * dt * dt;
-      s.ticks[i] = static_cast<std::int32_t>(std::floor(position[i] / per_tick));
-      s.wheel_current[i] = current;
+      s.ticks.push_back(static_cast<std::int32_t>(std::floor(position[i] / per_tick)));
+      s.wheel_current.push_back(current);
     }
     s.has_currents = true;
     return s;
@@ -93,6 +93,15 @@ TEST(CurrentContact, AFrictionLimitCurrentInConsecutiveSamplesIsContact) {
   // Reported for the period that showed it: the second slipping period starts 20 ms after the
   // push began; each judgement waits for the next sample.
   EXPECT_EQ(*first, push_start + kPeriod);
+}
+
+TEST(CurrentContact, CurrentsForAnotherWheelCountAreRefused) {
+  Drive d;
+  CurrentContactDetector detector(d.robot, params());
+  OdometrySample four = d.next(0.5, 0.0, 0.0);
+  four.wheel_current.push_back(0.0);
+  four.ticks.push_back(0);
+  EXPECT_EQ(detector.add(four).rejection, "current_wheel_count");
 }
 
 TEST(CurrentContact, BadCurrentsAreRefusedAndRestartTheHistory) {

@@ -27,10 +27,10 @@ robot::RobotParams params() {
 // Ticks for a body twist held over dt, rounded like a real counter.
 robot::TickCounts advanceTicks(const robot::TickCounts& ticks, const robot::OmniKinematics& kin,
                                const robot::RobotParams& p, const robot::Twist& twist, double dt,
-                               std::array<double, 3>& remainder) {
-  const Eigen::Vector3d wheel = kin.wheelAngularSpeeds(twist) * dt;
+                               std::array<double, 4>& remainder) {
+  const robot::WheelVector wheel = kin.wheelAngularSpeeds(twist) * dt;
   robot::TickCounts out = ticks;
-  for (std::size_t i = 0; i < 3; ++i) {
+  for (std::size_t i = 0; i < ticks.size(); ++i) {
     const double exact =
         wheel[static_cast<int>(i)] / (2.0 * std::numbers::pi) * p.ticksPerWheelRevolution() +
         remainder[i];
@@ -46,7 +46,7 @@ robot::TickCounts advanceTicks(const robot::TickCounts& ticks, const robot::Omni
 TEST(OdometryLayer, StraightDriveAndWrappingCounters) {
   const auto p = params();
   OdometryLayer layer(p);
-  std::array<double, 3> rem{};
+  std::array<double, 4> rem{};
   // Counters close to the int32 limit wrap during the drive.
   robot::TickCounts ticks{2'147'483'000, -2'147'483'000, 2'147'483'600};
   layer.update({kStart, ticks, false});
@@ -66,6 +66,107 @@ TEST(OdometryLayer, StraightDriveAndWrappingCounters) {
   // Faster driving: a larger step, a larger covariance.
   const auto still = layer.stepFor({0, 0, 0});
   EXPECT_GT(last_var, still.covariance(0, 0));
+}
+
+TEST(OdometryLayer, FourWheelsLeastSquaresAndTheirCovariance) {
+  const auto p = robot::loadRobotPreset("four_wheel");
+  OdometryLayer layer(p);
+  std::array<double, 4> rem{};
+  robot::TickCounts ticks{10, -20, 30, -2'147'483'600};
+  layer.update({kStart, ticks, false});
+  Eigen::Vector3d total = Eigen::Vector3d::Zero();
+  for (int k = 1; k <= 50; ++k) {
+    ticks = advanceTicks(ticks, layer.kinematics(), p, {0.6, -0.8, 0.5}, 0.02, rem);
+    const auto r = layer.update({kStart + k * 20'000, ticks, false});
+    ASSERT_TRUE(r.step.has_value());
+    EXPECT_EQ(r.rejection, OdometryRejection::kNone);
+    total += r.step->integrated;
+  }
+  EXPECT_NEAR(total.x(), 0.6, 0.005);
+  EXPECT_NEAR(total.y(), -0.8, 0.005);
+  EXPECT_NEAR(total.z(), 0.5, 0.005);
+
+  // The covariance is the wheels' through the least-squares inverse: M^+ diag(var) M^+^T. One
+  // more wheel averages the slip: driving the same 1 m forward in 20 ms steps, four wheels at
+  // 45 degrees give a smaller position variance per metre than the seed's three.
+  robot::TickDeltas one_metre;
+  const robot::WheelVector rot = layer.kinematics().wheelAngularSpeeds({1.0, 0.0, 0.0});
+  for (Eigen::Index i = 0; i < rot.size(); ++i)
+    one_metre.push_back(std::llround(rot[i] * 768.0 / (2.0 * std::numbers::pi)));
+  const OdometryStep four = layer.stepFor(one_metre, 1.0);
+  EXPECT_NEAR(four.integrated.x(), 1.0, 0.002);
+  const robot::WheelMatrixInverse& m_inv = layer.kinematics().robotMatrixInverse();
+  robot::WheelVector ground(4);
+  for (Eigen::Index i = 0; i < 4; ++i)
+    ground[i] = static_cast<double>(one_metre[static_cast<std::size_t>(i)]) * 2.0 *
+                std::numbers::pi * 0.04 / 768.0;
+  const OdometryStep same = layer.stepForTravel(ground, 1.0);
+  EXPECT_TRUE(same.covariance.isApprox(four.covariance, 1e-12));
+  EXPECT_TRUE(same.integrated.isApprox(m_inv * ground, 1e-12));
+  OdometryLayer three_layer(params());
+  robot::TickDeltas three_metre;
+  const robot::WheelVector rot3 = three_layer.kinematics().wheelAngularSpeeds({1.0, 0.0, 0.0});
+  for (Eigen::Index i = 0; i < rot3.size(); ++i)
+    three_metre.push_back(std::llround(rot3[i] * 768.0 / (2.0 * std::numbers::pi)));
+  const OdometryStep three = three_layer.stepFor(three_metre, 1.0);
+  EXPECT_LT(four.covariance(0, 0) + four.covariance(1, 1),
+            three.covariance(0, 0) + three.covariance(1, 1));
+  EXPECT_GT(four.covariance(0, 0), 0.0);
+
+  // Ticks of three wheels for this four-wheeled robot: refused, nothing moves.
+  const auto wrong = layer.update({kStart + 60 * 20'000, robot::TickCounts{1, 2, 3}, false});
+  EXPECT_EQ(wrong.rejection, OdometryRejection::kWheelCount);
+  EXPECT_FALSE(wrong.step.has_value());
+  EXPECT_STREQ(toString(wrong.rejection), "odometry_wheel_count");
+}
+
+TEST(OdometryLayer, AControllerWithoutTicksGivesItsMovement) {
+  // wheel_count 0: the controller's own movement per sample (a velocity-only controller).
+  const auto p = params();
+  OdometryLayer layer(p);
+  OdometrySample s;
+  s.utime = kStart;
+  s.movement = {0.5, 0.5, 0.5};  // before the reference: not used
+  EXPECT_FALSE(layer.update(s).step.has_value());
+  Eigen::Vector3d total = Eigen::Vector3d::Zero();
+  for (int k = 1; k <= 50; ++k) {
+    s.utime = kStart + k * 20'000;
+    s.movement = robot::arcMovement(Eigen::Vector3d(0.02, 0.004, 0.01));
+    const auto r = layer.update(s);
+    ASSERT_TRUE(r.step.has_value());
+    EXPECT_TRUE(r.step->integrated.isApprox(Eigen::Vector3d(0.02, 0.004, 0.01), 1e-12));
+    total += r.step->integrated;
+    // The covariance of the wheel travel this movement implies.
+    const OdometryStep expected =
+        layer.stepForTravel(layer.kinematics().robotMatrix() * r.step->integrated, 0.02);
+    EXPECT_TRUE(r.step->covariance.isApprox(expected.covariance, 1e-12));
+  }
+  EXPECT_NEAR(total.x(), 1.0, 1e-9);
+  // A sample stamped before the reference keeps its movement for the next step.
+  s.utime = kStart + 50 * 20'000 - 5'000;
+  s.movement = {0.01, 0.0, 0.0};
+  EXPECT_EQ(layer.update(s).rejection, OdometryRejection::kOutOfOrder);
+  s.utime = kStart + 51 * 20'000;
+  s.movement = {0.01, 0.0, 0.0};
+  const auto r = layer.update(s);
+  ASSERT_TRUE(r.step.has_value());
+  EXPECT_NEAR(r.step->integrated.x(), 0.02, 1e-12);
+  // A non-finite movement is refused; an impossible one is a jump.
+  s.utime += 20'000;
+  s.movement.dx = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_EQ(layer.update(s).rejection, OdometryRejection::kNotFinite);
+  s.utime += 20'000;
+  s.movement = {0.0, 0.0, 0.0};
+  layer.update(s);
+  s.utime += 20'000;
+  s.movement = {5.0, 0.0, 0.0};
+  EXPECT_EQ(layer.update(s).rejection, OdometryRejection::kJump);
+  // Ticks after movements: no difference to take, the reference starts over.
+  s.utime += 20'000;
+  s.ticks = {0, 0, 0};
+  EXPECT_EQ(layer.update(s).rejection, OdometryRejection::kWheelCount);
+  s.utime += 20'000;
+  EXPECT_TRUE(layer.update(s).step.has_value());
 }
 
 TEST(OdometryLayer, RefusesJumpsBackwardsTimeAndDuplicates) {
@@ -136,7 +237,7 @@ struct Input {
 std::vector<Input> makeInputs(std::mt19937& rng, bool gyro = false) {
   const auto p = params();
   OdometryLayer layer(p);
-  std::array<double, 3> rem{};
+  std::array<double, 4> rem{};
   robot::TickCounts ticks{0, 0, 0};
   layer.update({kStart, ticks, false});
   std::vector<Input> inputs;
@@ -668,7 +769,7 @@ TEST(OdometryLayer, TheGyroGivesTheHeadingAndBadValuesFallBackToTheWheels) {
   const auto p = params();
   ASSERT_TRUE(p.gyro.present);
   OdometryLayer layer(p);
-  std::array<double, 3> rem{};
+  std::array<double, 4> rem{};
   robot::TickCounts ticks{0, 0, 0};
   layer.update({kStart, ticks, false});
   Utime t = kStart;
@@ -901,7 +1002,7 @@ TEST(UpdatePose, APushWithAWrongFrameHeadingWidensThePositionOnly) {
 OdometryStep turningStep(bool gyro) {
   const auto p = params();
   OdometryLayer layer(p);
-  std::array<double, 3> rem{};
+  std::array<double, 4> rem{};
   layer.update({kStart, {0, 0, 0}, false});
   const robot::Twist twist{0.9, 0.3, 2.0};
   OdometrySample s{kStart + 20'000,
@@ -953,7 +1054,7 @@ TEST(DelayedFilter, AFrameInsideAnOdometryIntervalIsCarriedByItsOdometry) {
   fp.noise.position_density = 0.5;  // large: a frame carried with it would show
   fp.noise.heading_density = 0.5;
   OdometryLayer layer(p);
-  std::array<double, 3> rem{};
+  std::array<double, 4> rem{};
   robot::TickCounts ticks{0, 0, 0};
   layer.update({kStart, ticks, false});
   std::vector<OdometryStep> steps;

@@ -74,7 +74,9 @@ struct Rig {
     // header (the bridge's stamp) is the physical time fusion uses, the controller's is not
     // mapped again.
     o.controller_utime = 1'000'000 + 20'000 * i + (i % 3) * 3'000;
-    o.ticks[0] = o.ticks[1] = o.ticks[2] = tick;
+    o.wheel_count = 3;
+    o.ticks = {tick, tick, tick};
+    o.wheel_current = {0.0f, 0.0f, 0.0f};
     if (currents) {
       o.status |= odometry_t::STATUS_CURRENTS;
       for (std::size_t k = 0; k < 3; ++k)
@@ -148,7 +150,9 @@ TEST(FusionNode, BadInputIsCountedAndOdometryOnlyWhenLinesStop) {
   // An odometry jump no wheel can make.
   odometry_t jump{};
   jump.header.utime = rig.clock.now() - 4'000;
-  jump.ticks[0] = 500'000;
+  jump.wheel_count = 3;
+  jump.ticks = {500'000, 0, 0};
+  jump.wheel_current = {0.0f, 0.0f, 0.0f};
   rig.sensors.publish(bus::channels::kOdometry, jump);
   rig.spin();
   EXPECT_GE(rig.fusion_bus.status().errorCount("lines_too_old"), 1);
@@ -229,7 +233,9 @@ TEST(FusionNode, EveryKindOfBadInputIsCountedAndChangesNothing) {
   // The same odometry sample twice, and a jump no wheel can make.
   odometry_t o{};
   o.header.utime = rig.clock.now() - 8'000;
-  o.ticks[0] = o.ticks[1] = o.ticks[2] = rig.tick;
+  o.wheel_count = 3;
+  o.ticks = {rig.tick, rig.tick, rig.tick};
+  o.wheel_current = {0.0f, 0.0f, 0.0f};
   rig.sensors.publish(bus::channels::kOdometry, o);
   rig.spin();
   EXPECT_GE(status.errorCount("odometry_duplicate"), 1);
@@ -239,6 +245,15 @@ TEST(FusionNode, EveryKindOfBadInputIsCountedAndChangesNothing) {
   rig.sensors.publish(bus::channels::kOdometry, jump);
   rig.spin();
   EXPECT_GE(status.errorCount("odometry_jump"), 1);
+  // Ticks of four wheels for this three-wheeled robot: refused and counted, nothing moves.
+  odometry_t four = o;
+  four.header.utime = rig.clock.now() - 2'000;
+  four.wheel_count = 4;
+  four.ticks = {rig.tick, rig.tick, rig.tick, rig.tick};
+  four.wheel_current = {0.0f, 0.0f, 0.0f, 0.0f};
+  rig.sensors.publish(bus::channels::kOdometry, four);
+  rig.spin();
+  EXPECT_GE(status.errorCount("odometry_wheel_count"), 1);
 
   // Nothing moved the estimate, and the node still runs and tracks.
   for (int i = 0; i < 5; ++i)

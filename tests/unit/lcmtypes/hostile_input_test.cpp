@@ -92,14 +92,17 @@ struct Sample<odometry_t> {
   static odometry_t make() {
     odometry_t m{};
     m.header = header();
-    m.ticks[0] = 10;
+    m.wheel_count = 4;
+    m.ticks = {10, -20, 30, -40};
+    m.wheel_current = {0.5f, 0.0f, -0.5f, 1.0f};
     m.dx = 0.01;
     // The gyro's tail is the message's last field: a cut through it must be refused too.
-    m.status = odometry_t::STATUS_GYRO;
+    m.status = int{odometry_t::STATUS_GYRO} | int{odometry_t::STATUS_CURRENTS};
     m.gyro_dphi = 0.002;
     return m;
   }
-  static std::vector<WireLength> lengths() { return {}; }
+  // wheel_count sizes both arrays.
+  static std::vector<WireLength> lengths() { return {{"wheel_count", kBody, 4}}; }
 };
 
 template <>

@@ -43,6 +43,25 @@ TEST(OdometryMsg, RoundTripKeepsEveryField) {
   EXPECT_EQ(back.status, r.status);
   EXPECT_EQ(back.wheel_current, r.wheel_current);
   EXPECT_DOUBLE_EQ(back.gyro_dphi, -0.0123);
+  EXPECT_EQ(m.wheel_count, 3);
+
+  // Four wheels; without STATUS_CURRENTS the message carries zero currents, and none come back.
+  r.ticks = {1, 2, 3, 4};
+  r.wheel_current.clear();
+  r.status = 0;
+  toMessage(r, m);
+  EXPECT_EQ(m.wheel_count, 4);
+  EXPECT_EQ(m.ticks.size(), 4u);
+  EXPECT_EQ(m.wheel_current, (std::vector<float>{0.0f, 0.0f, 0.0f, 0.0f}));
+  const auto four = fromMessage(m);
+  EXPECT_EQ(four.ticks, r.ticks);
+  EXPECT_TRUE(four.wheel_current.empty());
+  // A controller without ticks: wheel_count 0.
+  r.ticks.clear();
+  toMessage(r, m);
+  EXPECT_EQ(m.wheel_count, 0);
+  EXPECT_TRUE(m.ticks.empty());
+  EXPECT_TRUE(fromMessage(m).ticks.empty());
 }
 
 TEST(MotionCommandMsg, RoundTripAndUnknownSource) {

@@ -2,9 +2,11 @@
 // frames with physical time stamps, and malformed bytes counted but never forwarded.
 #include <cmath>
 #include <limits>
+#include <numbers>
 
 #include <gtest/gtest.h>
 
+#include "common/robot/omni_kinematics.hpp"
 #include "services/motor_bridge/bridge.hpp"
 #include "services/world_sim/firmware.hpp"
 
@@ -104,7 +106,7 @@ TEST(Bridge, WheelCurrentsAreForwardedInAmperes) {
   bridge.onBytes(serial::encode(s), kT0, out);  // no currents
   s.seq = 1;
   s.controller_time_us = 21'000;
-  s.current_ma = std::array<std::int16_t, 3>{1500, -250, 0};
+  s.current_ma = serial::PerWheel<std::int16_t>{1500, -250, 0};
   bridge.onBytes(serial::encode(s), kT0 + 20'000, out);
   ASSERT_EQ(out.size(), 2u);
   EXPECT_EQ(out[0].status & perception::kOdometryCurrents, 0);
@@ -355,6 +357,46 @@ TEST_F(BridgeHostile, AnImplausibleControllerTimeIsRefusedBeforeTheClockMapping)
   EXPECT_FALSE(bridge.clockOffset().has_value());
   sample(0.02, {0, 0, 0}, kT0 + 20'000);  // the next good sample goes through
   ASSERT_EQ(out.size(), 1u);
+}
+
+}  // namespace
+}  // namespace fieldline::motor_bridge
+
+namespace fieldline::motor_bridge {
+namespace {
+
+TEST(Bridge, FourWheelsFromTheEmulatorBecomeMovementAndAWrongCountIsRefused) {
+  const auto params = robot::loadRobotPreset("four_wheel");
+  BridgeCore bridge(params);
+  world_sim::FirmwareEmulator firmware(params, 1'000'000);
+  std::vector<OdometryOutput> out;
+  // 2 cm to the left in 20 ms (1 m/s): each wheel's ticks from the kinematics.
+  const robot::OmniKinematics k(params.wheels);
+  const robot::WheelVector rotation = k.wheelAngularSpeeds({0.0, 0.02, 0.0});
+  robot::TickCounts start{100, 200, 300, 400};
+  robot::TickCounts next = start;
+  for (std::size_t i = 0; i < 4; ++i)
+    next[i] += static_cast<std::int32_t>(
+        std::lround(rotation[static_cast<Eigen::Index>(i)] * params.ticksPerWheelRevolution() /
+                    (2.0 * std::numbers::pi)));
+  std::vector<std::uint8_t> wire;
+  firmware.sample(0.02, start, wire);
+  firmware.sample(0.04, next, wire);
+  bridge.onBytes(wire, kT0, out);
+  ASSERT_EQ(out.size(), 2u);
+  EXPECT_EQ(out[1].ticks.size(), 4u);
+  EXPECT_EQ(out[1].ticks[3], next[3]);
+  const double tick_m = 2.0 * std::numbers::pi * 0.04 / 768.0;
+  EXPECT_NEAR(out[1].movement.dy, 0.02, tick_m);
+  EXPECT_NEAR(out[1].movement.dx, 0.0, tick_m);
+  EXPECT_NEAR(out[1].vy, 1.0, tick_m / 0.02);
+
+  // A three-wheeled robot's bridge on this controller: every sample refused and counted.
+  BridgeCore three(robot::loadRobotPreset("fu2004"));
+  std::vector<OdometryOutput> none;
+  three.onBytes(wire, kT0, none);
+  EXPECT_TRUE(none.empty());
+  EXPECT_EQ(three.counters().at("odometry_wheel_count_mismatch"), 2u);
 }
 
 }  // namespace

@@ -30,15 +30,19 @@ Message randomMessage(std::mt19937& rng) {
       OdometrySample s;
       s.seq = u32(rng);
       s.controller_time_us = (static_cast<std::uint64_t>(u32(rng)) << 32) | u32(rng);
-      for (auto& t : s.ticks)
-        t = static_cast<std::int32_t>(u32(rng));
+      // Three wheels (type 0x20) or four (0x21).
+      const std::size_t wheels = rng() % 2 ? 3 : 4;
+      s.ticks.clear();
+      for (std::size_t i = 0; i < wheels; ++i)
+        s.ticks.push_back(static_cast<std::int32_t>(u32(rng)));
       s.status = static_cast<std::uint16_t>(u32(rng));
       s.last_command_seq = u32(rng);
-      // Half the samples carry wheel currents (the 36-byte body).
+      // Half the samples carry wheel currents (the 36-byte body with three wheels).
       if (rng() % 2) {
-        s.current_ma = std::array<std::int16_t, 3>{static_cast<std::int16_t>(i16(rng)),
-                                                   static_cast<std::int16_t>(i16(rng)),
-                                                   static_cast<std::int16_t>(i16(rng))};
+        PerWheel<std::int16_t> current;
+        for (std::size_t i = 0; i < wheels; ++i)
+          current.push_back(static_cast<std::int16_t>(i16(rng)));
+        s.current_ma = current;
       }
       // Half carry the gyro's angle (34 or 40 bytes with the currents).
       if (rng() % 2) s.gyro_angle_urad = static_cast<std::int32_t>(u32(rng));
@@ -148,7 +152,7 @@ TEST(Protocol, OdometryCarriesCurrentsInAnOptionalTail) {
   s.seq = 3;
   s.ticks = {1, 2, 3};
   const Bytes plain = encode(s);
-  s.current_ma = std::array<std::int16_t, 3>{1500, -32767, 7};
+  s.current_ma = PerWheel<std::int16_t>{1500, -32767, 7};
   const Bytes with = encode(s);
   // COBS adds nothing here: no run reaches 254 bytes. 6 more bytes for the three currents.
   EXPECT_EQ(with.size(), plain.size() + 6);
@@ -177,7 +181,7 @@ TEST(Protocol, OdometryCarriesTheGyroAngleInATailAfterTheCurrents) {
   const Bytes plain = encode(s);
   s.gyro_angle_urad = -2'000'000'123;
   const Bytes gyro_only = encode(s);
-  s.current_ma = std::array<std::int16_t, 3>{-1, 0, 1};
+  s.current_ma = PerWheel<std::int16_t>{-1, 0, 1};
   const Bytes both = encode(s);
   EXPECT_EQ(gyro_only.size(), plain.size() + 4);
   EXPECT_EQ(both.size(), plain.size() + 10);
@@ -208,7 +212,7 @@ TEST(Protocol, OdometryCarriesTheGyroAngleInATailAfterTheCurrents) {
   const auto& old_sample = std::get<OdometrySample>(out[0]);
   EXPECT_FALSE(old_sample.gyro_angle_urad);
   EXPECT_FALSE(old_sample.current_ma);
-  EXPECT_EQ(old_sample.ticks, (std::array<std::int32_t, 3>{-4, 5, 6}));
+  EXPECT_EQ(old_sample.ticks, (PerWheel<std::int32_t>{-4, 5, 6}));
   const auto& g = std::get<OdometrySample>(out[1]);
   ASSERT_TRUE(g.gyro_angle_urad);
   EXPECT_EQ(*g.gyro_angle_urad, -2'000'000'123);
@@ -222,6 +226,77 @@ TEST(Protocol, OdometryCarriesTheGyroAngleInATailAfterTheCurrents) {
   }
   EXPECT_EQ(d.stats().length_errors, 2u);
   EXPECT_EQ(out.size(), 3u);
+}
+
+TEST(Protocol, FourWheelsGoOutAsType0x21WithTheirCount) {
+  OdometrySample s;
+  s.seq = 0x01020304;
+  s.controller_time_us = 0x1122334455;
+  s.ticks = {-1, 2, -3, 4};
+  s.status = kStatusWatchdog;
+  s.last_command_seq = 9;
+  const Bytes plain = encode(s);
+  // Written by hand: seq, time, the count 4, four ticks, status, last command.
+  Bytes payload{kVersion, 0x21};
+  const auto le = [&](std::uint64_t v, int bytes) {
+    for (int i = 0; i < bytes; ++i)
+      payload.push_back(static_cast<std::uint8_t>(v >> (8 * i)));
+  };
+  le(0x01020304, 4);
+  le(0x1122334455, 8);
+  le(4, 1);
+  for (const std::int32_t t : {-1, 2, -3, 4})
+    le(static_cast<std::uint32_t>(t), 4);
+  le(kStatusWatchdog, 2);
+  le(9, 4);
+  ASSERT_EQ(payload.size(), 2u + 35u);
+  EXPECT_EQ(frameFromPayload(payload), plain);
+
+  s.current_ma = PerWheel<std::int16_t>{100, -200, 300, -400};
+  const Bytes currents = encode(s);
+  s.gyro_angle_urad = 77;
+  const Bytes both = encode(s);
+  EXPECT_EQ(currents.size(), plain.size() + 8);
+  EXPECT_EQ(both.size(), plain.size() + 12);
+  ASSERT_LE(both.size(), kMaxFrameSize);
+  Decoder d;
+  std::vector<Message> out;
+  d.feed(plain, out);
+  d.feed(currents, out);
+  d.feed(both, out);
+  ASSERT_EQ(out.size(), 3u);
+  EXPECT_EQ(std::get<OdometrySample>(out[0]).ticks.size(), 4u);
+  EXPECT_EQ(std::get<OdometrySample>(out[1]).current_ma->size(), 4u);
+  EXPECT_EQ(std::get<OdometrySample>(out[2]), s);
+
+  // Three wheels in the counted form (a controller that always sends 0x21) decode too.
+  Bytes three{kVersion, 0x21};
+  three.insert(three.end(), payload.begin() + 2, payload.begin() + 2 + 12);
+  three.push_back(3);
+  three.insert(three.end(), payload.begin() + 2 + 13, payload.begin() + 2 + 25);
+  three.insert(three.end(), payload.end() - 6, payload.end());
+  d.feed(frameFromPayload(three), out);
+  ASSERT_EQ(out.size(), 4u);
+  EXPECT_EQ(std::get<OdometrySample>(out[3]).ticks, (PerWheel<std::int32_t>{-1, 2, -3}));
+  // Counts outside 3..4, and a body whose length fits no layout for its count, are refused.
+  for (std::uint8_t count : {0, 2, 5, 255}) {
+    Bytes bad = payload;
+    bad[2 + 12] = count;
+    d.feed(frameFromPayload(bad), out);
+  }
+  Bytes short_one = payload;
+  short_one.pop_back();
+  d.feed(frameFromPayload(short_one), out);
+  EXPECT_EQ(d.stats().length_errors, 5u);
+  EXPECT_EQ(out.size(), 4u);
+  // A sample without 3 or 4 ticks, or with currents for another count, cannot be encoded.
+  OdometrySample two;
+  two.ticks = {1, 2};
+  EXPECT_THROW(encode(two), std::invalid_argument);
+  OdometrySample mismatch;
+  mismatch.ticks = {1, 2, 3, 4};
+  mismatch.current_ma = PerWheel<std::int16_t>{1, 2, 3};
+  EXPECT_THROW(encode(mismatch), std::invalid_argument);
 }
 
 TEST(Protocol, WellFormedButWrongFramesAreCountedByReason) {

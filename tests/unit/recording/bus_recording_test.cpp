@@ -8,9 +8,11 @@
 
 #include <gtest/gtest.h>
 #include <unistd.h>
+#include <fieldline_legacy/odometry_v1_t.hpp>
 
 #include "common/bus/channels.hpp"
 #include "common/bus/log_file.hpp"
+#include "common/bus/validate.hpp"
 #include "common/config/config.hpp"
 #include "tools/recording/bus_recording.hpp"
 #include "tools/recording/recording_info.hpp"
@@ -57,6 +59,9 @@ std::vector<std::uint8_t> odometry(Utime log, std::int64_t seq) {
   m.header.utime = m.header.utime_published - 8000;
   m.header.seq = seq;
   m.header.robot_id = 2;
+  m.wheel_count = 3;
+  m.ticks = {1, 2, 3};
+  m.wheel_current = {0.0f, 0.0f, 0.0f};
   return encode(m);
 }
 
@@ -195,6 +200,38 @@ TEST(Upgrade, AnOldRobotStateBecomesTodaysWithItsValues) {
   EXPECT_EQ(log.upgradedByKind().at("robot_state_t v1"), 201);
   EXPECT_EQ(log.upgradedByKind().at("team_state_t v1"), 40);
   bus::setLogUpgrade({});
+}
+
+TEST(Upgrade, ThreeWheelOdometryBecomesTodaysWithItsWheelCount) {
+  // The recording of main at 9085e4b holds ODOMETRY with three ticks and no wheel_count.
+  bus::LogReader raw(config::projectRoot() + "/tests/data/recordings/main_9085e4b/robot1.lcm");
+  bus::LogEvent e;
+  int found = 0;
+  while (raw.nextEvent(e)) {
+    if (e.channel != bus::channels::kOdometry.name) continue;
+    fieldline_legacy::odometry_v1_t old{};
+    ASSERT_EQ(old.decode(e.data.data(), 0, static_cast<int>(e.data.size())),
+              static_cast<int>(e.data.size()));
+    const auto applied = upgradeEvent(e);
+    ASSERT_TRUE(applied);
+    EXPECT_EQ(*applied, "odometry_t v1");
+    odometry_t today{};
+    ASSERT_EQ(today.decode(e.data.data(), 0, static_cast<int>(e.data.size())),
+              static_cast<int>(e.data.size()));
+    EXPECT_EQ(today.wheel_count, 3);
+    ASSERT_EQ(today.ticks.size(), 3u);
+    for (int i = 0; i < 3; ++i) {
+      EXPECT_EQ(today.ticks[static_cast<std::size_t>(i)], old.ticks[i]);
+      EXPECT_EQ(today.wheel_current[static_cast<std::size_t>(i)], old.wheel_current[i]);
+    }
+    EXPECT_EQ(today.header.utime, old.header.utime);
+    EXPECT_EQ(today.dx, old.dx);
+    EXPECT_EQ(today.status, old.status);
+    EXPECT_EQ(today.gyro_dphi, old.gyro_dphi);
+    EXPECT_FALSE(bus::validate(today)) << *bus::validate(today);
+    if (++found == 20) break;
+  }
+  EXPECT_EQ(found, 20);
 }
 
 }  // namespace

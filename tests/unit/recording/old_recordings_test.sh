@@ -39,4 +39,8 @@ grep -q 'upgraded robot_state_t v1 [1-9]' "$out/main_428ac34.dump" 2> /dev/null 
   { echo "FAIL: main_428ac34's ROBOT_STATE was not upgraded"; fail=1; }
 grep -q 'upgraded.* team_state_t v1 [1-9]' "$out/main_428ac34.txt" ||
   { echo "FAIL: main_428ac34's TEAM_STATE was not upgraded on its way to fusion"; fail=1; }
+# Every recording before the four-wheel change holds three-wheel ODOMETRY: upgraded on its way
+# to fusion (wheel_count 3).
+grep -q 'upgraded.* odometry_t v1 [1-9]' "$out/main_9085e4b.txt" ||
+  { echo "FAIL: main_9085e4b's ODOMETRY was not upgraded on its way to fusion"; fail=1; }
 exit "$fail"

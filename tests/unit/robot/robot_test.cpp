@@ -174,7 +174,7 @@ TEST(MotorModel, StepResponseIsTheAnalyticFirstOrderResponse) {
   for (int i = 0; i < 7; ++i)
     pieces = m.speedAfter(pieces, -0.5, 0.05);
   EXPECT_NEAR(pieces, m.speedAfter(1.0, -0.5, 0.35), 1e-12);
-  const Eigen::Vector3d three =
+  const WheelVector three =
       m.speedsAfter(Eigen::Vector3d(0.0, 1.0, -1.0), Eigen::Vector3d(1.0, 0.0, 0.5), 0.1);
   EXPECT_NEAR(three[1], m.speedAfter(1.0, 0.0, 0.1), 1e-12);
   EXPECT_NEAR(three[2], m.speedAfter(-1.0, 0.5, 0.1), 1e-12);
@@ -227,6 +227,144 @@ TEST(WheelOdometry, OneMetreForwardFromTicks) {
   odo.update({768, 768, 768});
   EXPECT_NEAR(odo.pose().phi, geometry::normalizeAngle(2.0 * kPi * 0.04 / 0.19), 1e-12);
   EXPECT_NEAR(odo.pose().x, 0.0, 1e-12);
+}
+
+RobotParams fourWheel() {
+  return loadRobotPreset("four_wheel");
+}
+
+TEST(RobotParams, LoadsAFourWheeledRobotAndRefusesOtherCounts) {
+  const auto p = fourWheel();
+  ASSERT_EQ(p.wheelCount(), 4);
+  EXPECT_NEAR(p.wheels[0].angle, kPi / 4.0, 1e-12);
+  EXPECT_NEAR(p.wheels[3].angle, -kPi / 4.0, 1e-12);
+  EXPECT_EQ(p.simulation.wheel_angle_error.size(), 4u);
+  EXPECT_EQ(p.trueWheels().size(), 4u);
+
+  const std::string head = R"(name: t
+mass: 8
+radius: 0.2
+max_speed: 3.5
+max_omega: 6
+controller_latency: 0.008
+odometry_rate: 50
+watchdog_timeout: 0.2
+wheels:
+)";
+  const std::string tail = R"(encoder: {pulses_per_motor_revolution: 64, gear_ratio: 12}
+motor: {max_wheel_speed: 4, time_constant: 0.15}
+simulation:
+  wheel_radius_error: [0, 0, 0, 0]
+  wheel_angle_error: [0, 0, 0, 0]
+  slip_noise: 0
+  rotation_noise: 0
+  collision_rotation_noise: 0
+)";
+  const std::string wheel = "  - {angle: A, distance: 0.2, radius: 0.04}\n";
+  auto wheels = [&](std::initializer_list<const char*> angles) {
+    std::string out;
+    for (const char* a : angles) {
+      std::string w = wheel;
+      w.replace(w.find('A'), 1, a);
+      out += w;
+    }
+    return out;
+  };
+  // Any angles: an uneven layout loads.
+  EXPECT_EQ(loadRobotParams(config::Node::loadString(
+                                head + wheels({"0.5", "2.0", "-2.5", "-1.2"}) + tail, "t.yaml"))
+                .wheelCount(),
+            4);
+  // Five wheels, or two, are refused with the file's line.
+  for (const auto& bad : {wheels({"0.5", "2.0", "-2.5", "-1.2", "3.0"}), wheels({"0.5", "2.0"})}) {
+    try {
+      loadRobotParams(config::Node::loadString(head + bad + tail, "t.yaml"));
+      FAIL() << "wheel count accepted";
+    } catch (const config::Error& e) {
+      EXPECT_NE(std::string(e.what()).find("3 or 4 wheels"), std::string::npos) << e.what();
+    }
+  }
+  // Four wheels that all drive along one axis (two pairs of parallel wheels on one line) cannot
+  // turn the robot sideways: refused as singular.
+  try {
+    loadRobotParams(config::Node::loadString(
+        head + wheels({"0.0", "3.141592653589793", "0.0", "3.141592653589793"}) + tail, "t.yaml"));
+    FAIL() << "singular layout accepted";
+  } catch (const config::Error& e) {
+    EXPECT_NE(std::string(e.what()).find("singular"), std::string::npos) << e.what();
+  }
+  // Per-wheel simulation errors must have one value per wheel.
+  std::string three_errors = tail;
+  three_errors.replace(three_errors.find("[0, 0, 0, 0]"), 12, "[0, 0, 0]");
+  EXPECT_THROW(loadRobotParams(config::Node::loadString(
+                   head + wheels({"0.5", "2.0", "-2.5", "-1.2"}) + three_errors, "t.yaml")),
+               config::Error);
+}
+
+TEST(OmniKinematics, FourWheelsHandComputedAndLeastSquares) {
+  const OmniKinematics k(fourWheel().wheels);
+  ASSERT_EQ(k.wheelCount(), 4);
+  // Forward at 1 m/s: every wheel at 45 degrees to the heading drives at -+sin(45 deg).
+  const WheelVector forward = k.wheelSpeeds({1.0, 0.0, 0.0});
+  ASSERT_EQ(forward.size(), 4);
+  const double s = std::sqrt(0.5);
+  EXPECT_NEAR(forward[0], -s, 1e-12);
+  EXPECT_NEAR(forward[1], -s, 1e-12);
+  EXPECT_NEAR(forward[2], s, 1e-12);
+  EXPECT_NEAR(forward[3], s, 1e-12);
+  // The least-squares inverse is a left inverse: M^+ M = I (every twist comes back exactly).
+  EXPECT_TRUE((k.robotMatrixInverse() * k.robotMatrix()).isIdentity(1e-12));
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> u(-3.0, 3.0);
+  for (int trial = 0; trial < 100; ++trial) {
+    const Twist t{u(rng), u(rng), u(rng)};
+    const Twist back = k.twist(k.wheelSpeeds(t));
+    EXPECT_NEAR(back.vx, t.vx, 1e-12);
+    EXPECT_NEAR(back.vy, t.vy, 1e-12);
+    EXPECT_NEAR(back.omega, t.omega, 1e-12);
+    // Four speeds that no rigid motion explains: the twist is the one whose wheel speeds are
+    // nearest (the residual is orthogonal to every column of M).
+    WheelVector speeds(4);
+    speeds << u(rng), u(rng), u(rng), u(rng);
+    const WheelVector residual = speeds - k.wheelSpeeds(k.twist(speeds));
+    EXPECT_LT((k.robotMatrix().transpose() * residual).norm(), 1e-12);
+  }
+  // One wheel slipping (0.1 m/s more than the others say) moves the estimate by a quarter of
+  // its error or less, where three wheels would take all of it in.
+  WheelVector slip = k.wheelSpeeds({1.0, 0.0, 0.0});
+  slip[0] += 0.1;
+  const Twist fit = k.twist(slip);
+  EXPECT_LT(std::hypot(fit.vx - 1.0, fit.vy), 0.1 * s + 1e-12);
+  // The field matrix and its inverse at a heading.
+  EXPECT_TRUE((k.fieldMatrixInverse(0.7) * k.fieldMatrix(0.7)).isIdentity(1e-12));
+}
+
+TEST(WheelOdometry, FourWheelsOneMetreSidewaysAndWrongCounts) {
+  const auto p = fourWheel();
+  WheelOdometry odo(p);
+  // 1 m left: wheel i turns by cos(a_i) / r_e rad.
+  TickCounts start{5, -6, 7, -8};
+  EXPECT_FALSE(odo.update(start).has_value());
+  TickCounts next = start;
+  for (std::size_t i = 0; i < 4; ++i)
+    next[i] += static_cast<std::int32_t>(
+        std::lround(std::cos(p.wheels[i].angle) / 0.04 / (2.0 * kPi) * 768.0));
+  const auto m = odo.update(next);
+  ASSERT_TRUE(m.has_value());
+  const double tick_travel = 2.0 * kPi * 0.04 / 768.0;
+  EXPECT_NEAR(m->dy, 1.0, 2.0 * tick_travel);
+  EXPECT_NEAR(m->dx, 0.0, 2.0 * tick_travel);
+  EXPECT_NEAR(m->dphi, 0.0, 1e-3);
+  // Three counts for four wheels are refused.
+  EXPECT_THROW(odo.update({1, 2, 3}), std::invalid_argument);
+}
+
+TEST(ArcMovement, IntegratedTwistInvertsTheArc) {
+  for (const Eigen::Vector3d& v :
+       {Eigen::Vector3d(0.3, -0.2, 0.0), Eigen::Vector3d(1.0, 0.5, 1.2),
+        Eigen::Vector3d(-0.4, 0.1, -2.5), Eigen::Vector3d(0, 0, 1e-12)}) {
+    EXPECT_TRUE(integratedTwist(arcMovement(v)).isApprox(v, 1e-12)) << v.transpose();
+  }
 }
 
 }  // namespace

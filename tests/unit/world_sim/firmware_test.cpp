@@ -50,11 +50,12 @@ TEST(Firmware, CurrentsAreTheAccelerationAndTheFrictionOfTheSlip) {
       params.wheels[0].radius / (params.gear_ratio * params.motor.torque_constant);
   const double share = params.mass / 3.0;
   const double limit = 0.5 * share * 9.81;
-  WheelState before;
-  WheelState after;
-  after.speeds = Eigen::Vector3d(0.1, -0.1, 0.0);  // +-5 m/s^2 over 20 ms
   const Eigen::Vector3d zero = Eigen::Vector3d::Zero();
-  Eigen::Vector3d amps = FirmwareEmulator::wheelCurrents(params, model, before, after, 0.02, zero);
+  WheelState before{zero, zero};
+  WheelState after{zero, zero};
+  after.speeds = Eigen::Vector3d(0.1, -0.1, 0.0);  // +-5 m/s^2 over 20 ms
+  robot::WheelVector amps =
+      FirmwareEmulator::wheelCurrents(params, model, before, after, 0.02, zero);
   EXPECT_NEAR(amps[0], share * 5.0 * per_newton, 1e-9);
   EXPECT_NEAR(amps[1], -share * 5.0 * per_newton, 1e-9);
   EXPECT_NEAR(amps[2], 0.0, 1e-12);
@@ -69,7 +70,7 @@ TEST(Firmware, CurrentsAreTheAccelerationAndTheFrictionOfTheSlip) {
   CurrentModel noisy = model;
   noisy.noise_a = 0.05;
   const Eigen::Vector3d unit(1.0, -2.0, 0.0);
-  const Eigen::Vector3d with_noise =
+  const robot::WheelVector with_noise =
       FirmwareEmulator::wheelCurrents(params, noisy, before, after, 0.02, unit);
   EXPECT_NEAR(with_noise[0] - amps[0], 0.05, 1e-12);
   EXPECT_NEAR(with_noise[1] - amps[1], -0.1, 1e-12);
@@ -77,7 +78,7 @@ TEST(Firmware, CurrentsAreTheAccelerationAndTheFrictionOfTheSlip) {
   // In frames: none in the first sample (no period yet), then mA in every one; off: none.
   FirmwareEmulator fw(params, 5'000'000, noisy);
   std::vector<std::uint8_t> out;
-  WheelState wheels;
+  WheelState wheels{zero, zero};
   fw.sample(0.02, {0, 0, 0}, out, &wheels);
   wheels.slip = Eigen::Vector3d(0.1, 0.0, 0.0);
   fw.sample(0.04, {0, 0, 0}, out, &wheels);
@@ -112,7 +113,7 @@ TEST(Firmware, SamplesCarryTicksClockStatusAndTheLastCommand) {
   EXPECT_EQ(a.seq, 0u);
   EXPECT_EQ(b.seq, 1u);
   EXPECT_EQ(a.controller_time_us, 5'020'000u);
-  EXPECT_EQ(b.ticks, (std::array<std::int32_t, 3>{10, -20, 30}));
+  EXPECT_EQ(b.ticks, (serial::PerWheel<std::int32_t>{10, -20, 30}));
   EXPECT_TRUE(a.status & proto::kStatusReset);
   EXPECT_TRUE(a.status & proto::kStatusWatchdog);
   EXPECT_FALSE(b.status & proto::kStatusWatchdog);
@@ -121,6 +122,42 @@ TEST(Firmware, SamplesCarryTicksClockStatusAndTheLastCommand) {
   const auto errors = decode(reply);
   ASSERT_EQ(errors.size(), 1u);
   EXPECT_EQ(std::get<proto::ErrorReport>(errors[0]).code, proto::ErrorCode::kBadFrame);
+}
+
+TEST(Firmware, FourWheelsSendTheirTicksAndCurrentsAsType0x21) {
+  const auto params = robot::loadRobotPreset("four_wheel");
+  const CurrentModel model{.enabled = true, .noise_a = 0.0};
+  // Each wheel carries a quarter of the mass.
+  const double per_newton =
+      params.wheels[0].radius / (params.gear_ratio * params.motor.torque_constant);
+  const robot::WheelVector zero = robot::WheelVector::Zero(4);
+  WheelState before{zero, zero};
+  WheelState after{zero, zero};
+  after.speeds << 0.1, -0.1, 0.0, 0.1;
+  const robot::WheelVector amps =
+      FirmwareEmulator::wheelCurrents(params, model, before, after, 0.02, zero);
+  ASSERT_EQ(amps.size(), 4);
+  EXPECT_NEAR(amps[3], params.mass / 4.0 * 5.0 * per_newton, 1e-9);
+  // Three wheel states for four wheels: refused.
+  const Eigen::Vector3d three = Eigen::Vector3d::Zero();
+  EXPECT_THROW(FirmwareEmulator::wheelCurrents(params, model, WheelState{three, three},
+                                               WheelState{three, three}, 0.02, zero),
+               std::invalid_argument);
+
+  FirmwareEmulator fw(params, 1'000'000, model);
+  std::vector<std::uint8_t> out;
+  fw.sample(0.02, {1, 2, 3, 4}, out, &before);
+  fw.sample(0.04, {5, 6, 7, 8}, out, &after);
+  // COBS: a code byte, then the payload's version and type (neither is zero).
+  ASSERT_GE(out.size(), 3u);
+  EXPECT_EQ(out[2], 0x21);
+  const auto msgs = decode(out);
+  ASSERT_EQ(msgs.size(), 2u);
+  const auto b = std::get<proto::OdometrySample>(msgs[1]);
+  EXPECT_EQ(b.ticks, (serial::PerWheel<std::int32_t>{5, 6, 7, 8}));
+  ASSERT_TRUE(b.current_ma);
+  EXPECT_EQ(b.current_ma->size(), 4u);
+  EXPECT_NEAR((*b.current_ma)[3] * 1e-3, amps[3], 1e-3);
 }
 
 TEST(Gyro, BiasAndScaleOfAStartFollowTheirSpreadAndStayPut) {
