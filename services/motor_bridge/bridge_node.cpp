@@ -124,8 +124,7 @@ void BridgeNode::publishMetrics() {
   node_.setMetric("odometry_samples_lost", static_cast<double>(core_.samplesLost()));
   node_.setMetric("controller_clock_restarts", static_cast<double>(core_.clockRestarts()));
   node_.setMetric("command_active", core_.commandActive(node_.now()) ? 1.0 : 0.0);
-  node_.setMetric("commands_refused_other_robot",
-                  static_cast<double>(source_.refusedOtherRobot()));
+  node_.setMetric("commands_refused_other_robot", static_cast<double>(source_.refusedOtherRobot()));
   node_.setMetric("commands_refused_second_publisher",
                   static_cast<double>(source_.refusedSecondPublisher()));
   node_.status().setWarning("command_source", source_.warning(node_.now()));

@@ -9,8 +9,7 @@ std::string publisherName(std::int64_t id) {
 }
 }  // namespace
 
-CommandSource::Result CommandSource::onCommand(int robot_id, std::int64_t publisher_id,
-                                               Utime now) {
+CommandSource::Result CommandSource::onCommand(int robot_id, std::int64_t publisher_id, Utime now) {
   Result r;
   if (robot_id != robot_id_) {
     r.verdict = Verdict::kOtherRobot;
@@ -22,9 +21,9 @@ CommandSource::Result CommandSource::onCommand(int robot_id, std::int64_t publis
   } else if (driver_ && *driver_ != publisher_id && now - driver_seen_ <= kDriverSilenceUs) {
     r.verdict = Verdict::kSecondPublisher;
     ++refused_second_publisher_;
-    r.reason = fmt::format(
-        "MOTION_COMMAND from two publishers: {} drives, {} refused ({} so far)",
-        publisherName(*driver_), publisherName(publisher_id), refused_second_publisher_);
+    r.reason = fmt::format("MOTION_COMMAND from two publishers: {} drives, {} refused ({} so far)",
+                           publisherName(*driver_), publisherName(publisher_id),
+                           refused_second_publisher_);
   } else {
     driver_ = publisher_id;
     driver_seen_ = now;

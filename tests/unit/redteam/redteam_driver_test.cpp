@@ -48,15 +48,17 @@ class redteam_second_driver : public ::testing::Test {
     c.source = motion_command_t::SOURCE_PILOT;
     return c;
   }
-  // 2 s of the pilot at 50 Hz (vx 0.39) with `attacker` sending full speed after each command;
-  // returns the largest vx the bridge sent to the controller.
+  // 2 s of the pilot at 50 Hz (vx 0.39) with `attacker` sending full speed 10 ms after each
+  // command, just before the bridge's 50 Hz tick; returns the largest vx the bridge sent to the
+  // controller.
   double drive(bus::Node& attacker) {
     int largest = 0;
     for (int k = 0; k < 100; ++k) {
-      clock.advance(20'000);
+      clock.advance(10'000);
       auto mine = command(clock.now(), 0.39);
       pilot.publish(bus::channels::kMotionCommand, mine);
       bridge_node.spinOnce(0);
+      clock.advance(10'000);
       auto theirs = command(clock.now(), 1.0);
       attacker.publish(bus::channels::kMotionCommand, theirs);
       for (int i = 0; i < 3; ++i)
@@ -89,8 +91,8 @@ class redteam_second_driver : public ::testing::Test {
 
 TEST_F(redteam_second_driver, CommandsClaimingAnotherRobotAreRefusedAndWarned) {
   for (int claimed : {2, 0}) {
-    bus::Node attacker{{.process = "attacker", .robot_id = claimed, .status_period_us = 0}, clock,
-                       memq};
+    bus::Node attacker{
+        {.process = "attacker", .robot_id = claimed, .status_period_us = 0}, clock, memq};
     const double vx = drive(attacker);
     EXPECT_NEAR(vx, 0.39, 0.01) << "robot id " << claimed;
     bridge_node.publishStatus();  // the metrics and the warning are set with it
