@@ -32,8 +32,9 @@ PilotNode::PilotNode(bus::Node& node, Pilot pilot, PilotNodeOptions options)
   });
   // The pose it steers with must flow (at half its rate, as every required input).
   if (options_.steer == SteerBy::kTruth) {
-    node_.requireInput(bus::channels::kSimWorld,
-                       bus::kRequiredRateFraction * bus::nominalRateHz(bus::channels::kSimWorld.name));
+    node_.requireInput(
+        bus::channels::kSimWorld,
+        bus::kRequiredRateFraction * bus::nominalRateHz(bus::channels::kSimWorld.name));
   } else {
     node_.requireInput(
         bus::channels::kRobotState,
