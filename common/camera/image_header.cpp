@@ -18,10 +18,9 @@ std::uint32_t bigEndian(const std::uint8_t* p, int bytes) {
 }
 
 std::int32_t littleEndian32(const std::uint8_t* p) {
-  return static_cast<std::int32_t>(static_cast<std::uint32_t>(p[0]) |
-                                   (static_cast<std::uint32_t>(p[1]) << 8) |
-                                   (static_cast<std::uint32_t>(p[2]) << 16) |
-                                   (static_cast<std::uint32_t>(p[3]) << 24));
+  return static_cast<std::int32_t>(
+      static_cast<std::uint32_t>(p[0]) | (static_cast<std::uint32_t>(p[1]) << 8) |
+      (static_cast<std::uint32_t>(p[2]) << 16) | (static_cast<std::uint32_t>(p[3]) << 24));
 }
 
 [[noreturn]] void malformed(const std::string& path, const std::string& what) {
@@ -106,8 +105,8 @@ std::optional<ImageHeaderSize> checkImageSize(const std::string& path) {
                              ")");
   }
   if (size->width > kMaxImageSide || size->height > kMaxImageSide || pixels > kMaxImagePixels) {
-    throw std::runtime_error(path + ": the header declares " + std::to_string(size->width) +
-                             " x " + std::to_string(size->height) +
+    throw std::runtime_error(path + ": the header declares " + std::to_string(size->width) + " x " +
+                             std::to_string(size->height) +
                              " pixels, more than any camera frame (at most " +
                              std::to_string(kMaxImageSide) + " a side and " +
                              std::to_string(kMaxImagePixels) + " pixels); not decoded");

@@ -1,13 +1,13 @@
 #include "common/camera/image_io.hpp"
 
-#include "common/camera/image_header.hpp"
-
 #include <cstdio>
 #include <fstream>
 #include <iterator>
 #include <stdexcept>
 
 #include <opencv2/imgcodecs.hpp>
+
+#include "common/camera/image_header.hpp"
 
 namespace fieldline::camera {
 

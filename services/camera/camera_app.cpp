@@ -177,10 +177,9 @@ int runCamera(const CameraAppOptions& options, const bus::CommonOptions& common)
   // A source that gave nothing (a corrupt video, a folder of unreadable images) is a failure,
   // whether or not it could say why (issue 34, red-team finding 10: exit code 0 after 0 frames).
   if (frames == 0) {
-    throw std::runtime_error(
-        "no frame published from " + source->describe() + ": " +
-        (source->lastError().empty() ? std::string("the source delivered none")
-                                     : source->lastError()));
+    throw std::runtime_error("no frame published from " + source->describe() + ": " +
+                             (source->lastError().empty() ? std::string("the source delivered none")
+                                                          : source->lastError()));
   }
   return 0;
 }

@@ -1,7 +1,5 @@
 #include "services/camera/sources.hpp"
 
-#include "common/camera/image_header.hpp"
-
 #include <algorithm>
 #include <cctype>
 #include <cstring>
@@ -12,6 +10,8 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/videoio.hpp>
+
+#include "common/camera/image_header.hpp"
 
 namespace fieldline::camera {
 namespace {

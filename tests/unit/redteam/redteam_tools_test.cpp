@@ -7,9 +7,10 @@
 //   this: checked here so it stays so).
 // (The INT64_MAX log stamp is redteam_future_overflow in redteam_bus_test.cpp.)
 //
-// Run against main at 6957b54 (before the fixes): the corrupt video ran without an exception
-// (exit code 0), the bomb grew the process by 190 MB (decoded), and fieldline-features exited 0
-// for NaN, an empty file and a directory.
+// Run against main at 6957b54 (before the fixes) the first three failed: the corrupt video ran
+// without an exception (exit code 0), the 8000 x 8000 bomb was decoded and published as a frame
+// without an error (5.9 s), and fieldline-features exited 0 for NaN, a directory and an empty
+// file (and 2 with "expected two numbers" for 1e308). The replay case passed there already.
 #include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -79,23 +80,30 @@ TEST_F(redteam_exit_codes, TheCameraFailsOnAVideoItCannotDecode) {
     for (int k = 0; k < 3; ++k)
       writer.write(cv::Mat(64, 96, CV_8UC3, cv::Scalar(40.0 * k, 80, 120)));
   }
-  // Corrupt every JPEG frame behind its start marker; the AVI's structure stays intact.
+  // Corrupt every JPEG frame from behind its start marker to its end marker (a decoder that
+  // tolerates a damaged header still made frames of a partly damaged one); the AVI's structure
+  // stays intact.
   std::vector<char> bytes;
   {
     std::ifstream in(path, std::ios::binary);
     bytes.assign(std::istreambuf_iterator<char>(in), {});
   }
+  const auto marker = [&](std::size_t i, unsigned char second) {
+    return static_cast<unsigned char>(bytes[i]) == 0xff &&
+           static_cast<unsigned char>(bytes[i + 1]) == second;
+  };
   int frames = 0;
-  for (std::size_t i = 0; i + 40 < bytes.size(); ++i) {
-    if (static_cast<unsigned char>(bytes[i]) == 0xff &&
-        static_cast<unsigned char>(bytes[i + 1]) == 0xd8) {
-      for (std::size_t k = i + 2; k < i + 40; ++k)
-        bytes[k] = static_cast<char>(0x5a);
-      ++frames;
-    }
+  for (std::size_t i = 0; i + 1 < bytes.size(); ++i) {
+    if (!marker(i, 0xd8)) continue;
+    std::size_t k = i + 2;
+    for (; k + 1 < bytes.size() && !marker(k, 0xd9); ++k)
+      bytes[k] = static_cast<char>(0x5a);
+    ++frames;
+    i = k;
   }
   ASSERT_EQ(frames, 3);
-  std::ofstream(path, std::ios::binary).write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+  std::ofstream(path, std::ios::binary)
+      .write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
 
   camera::CameraAppOptions options;
   options.source = "video";
