@@ -4,8 +4,8 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
-#include <sstream>
 #include <optional>
+#include <sstream>
 #include <stdexcept>
 
 #include <fmt/format.h>
@@ -129,9 +129,10 @@ void WorldSimNode::pullSerialLines(double duration) {
 void WorldSimNode::update() {
   if (finished() && !end_logged_) {
     end_logged_ = true;
-    spdlog::info("the scenario {} ended at {:.2f} s; the world goes on until the simulator is "
-                 "stopped",
-                 world_.scenario().name, world_.time());
+    spdlog::info(
+        "the scenario {} ended at {:.2f} s; the world goes on until the simulator is "
+        "stopped",
+        world_.scenario().name, world_.time());
     node_.setMetric("scenario_ended", 1.0);
   }
   // Real time only: every process stamps with its clock, and SIM_WORLD's stamps must agree

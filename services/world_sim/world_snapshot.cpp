@@ -127,7 +127,8 @@ WorldSnapshot decodeSnapshot(const std::string& text) {
   if (i >= lines.size() || lines[i].rfind("rng ", 0) != 0)
     bad(static_cast<int>(i + 1), "expected 'rng'");
   s.rng = lines[i].substr(4);
-  if (++i < lines.size() && lines[i].rfind("supervisor ", 0) == 0) s.supervisor = lines[i].substr(11);
+  if (++i < lines.size() && lines[i].rfind("supervisor ", 0) == 0)
+    s.supervisor = lines[i].substr(11);
   return s;
 }
 

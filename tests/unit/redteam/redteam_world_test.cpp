@@ -2,9 +2,10 @@
 // systemctl restart) of world_sim removed its snapshot, so the launcher's restart began the
 // scenario at t = 0 and the robots jumped 3.3-5.6 m without a log line (kill -9 resumed).
 //
-// Run against main at 6957b54 (before the fix), the first case failed: after the clean stop the
-// new simulator did not resume (world time 0). The multi-process run with SIGTERM is
-// redteam_world_sim_sigterm_resumes (tests/integration/redteam).
+// Run against main at 6957b54 (before the fix) both cases that compile there failed: after the
+// clean stop the new simulator did not resume (world time 0), and the scenario's end stopped the
+// process. The multi-process run with SIGTERM is redteam_world_sim_sigterm_resumes
+// (tests/integration/redteam).
 #include <unistd.h>
 
 #include <filesystem>
