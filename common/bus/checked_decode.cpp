@@ -79,8 +79,7 @@ std::string_view typeWithFingerprint(std::int64_t fingerprint) {
 std::optional<Rejection> checkNotFromFuture(const header_t& header, Utime now, Utime tolerance) {
   // In long double: a log's stamp or a header may be near INT64_MAX, where now + tolerance and
   // utime - now overflow (a log stamp of INT64_MAX read as "-9221575747911036 ms in the future").
-  const long double ahead =
-      static_cast<long double>(header.utime) - static_cast<long double>(now);
+  const long double ahead = static_cast<long double>(header.utime) - static_cast<long double>(now);
   if (ahead > static_cast<long double>(tolerance)) {
     return Rejection{"future_utime",
                      fmt::format("utime {} is {:.0f} ms in the future (now {})", header.utime,

@@ -103,7 +103,8 @@ class LogReader {
     while (nextEvent(e)) {
       if (e.channel != channel.name) continue;
       auto rejection = checkLogStamp(e);
-      if (!rejection) rejection = decodeChecked(msg, e.data.data(), static_cast<int>(e.data.size()));
+      if (!rejection)
+        rejection = decodeChecked(msg, e.data.data(), static_cast<int>(e.data.size()));
       if (!rejection) {
         rejection = checkNotFromFuture(msg.header, truthToOwn(options_.clock, e.timestamp),
                                        options_.future_tolerance_us);

@@ -45,8 +45,7 @@ struct SeqOutcome {
   std::int64_t previous = 0;
 
   bool suspicious() const {
-    return kind == Kind::kSuspiciousJump || kind == Kind::kDuplicate ||
-           kind == Kind::kGapRetracted;
+    return kind == Kind::kSuspiciousJump || kind == Kind::kDuplicate || kind == Kind::kGapRetracted;
   }
 };
 

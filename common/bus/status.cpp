@@ -211,8 +211,8 @@ service_status_t StatusCollector::takeStatus(Utime now) {
       append(error_reason, c.conflict_text);
     }
     if (c.suspicious_seen >= 0 && c.suspicious_seen + kSuspiciousHoldUs >= now) {
-      append(warn_reason, fmt::format("{} ({} suspicious seq since start)", c.suspicious_text,
-                                      c.suspicious));
+      append(warn_reason,
+             fmt::format("{} ({} suspicious seq since start)", c.suspicious_text, c.suspicious));
     }
     if (c.required_rate_hz <= 0) continue;
     const double rate = static_cast<double>(c.in_period) / period_s;

@@ -73,7 +73,8 @@ void printTraffic(bus_stats::TrafficCounter& counter, bool json) {
           "{{\"bus\":\"{}\",\"channel\":\"{}\",\"count\":{},\"rate_hz\":{:.2f},\"kb_per_msg\":{:."
           "1f},"
           "\"latency_p50_ms\":{:.2f},\"latency_p95_ms\":{:.2f},\"gaps\":{},\"resyncs\":{},"
-          "\"suspicious\":{},\"bad_stamps\":{},\"foreign\":{},\"undecodable\":{},\"invalid\":{}}}\n",
+          "\"suspicious\":{},\"bad_stamps\":{},\"foreign\":{},\"undecodable\":{},\"invalid\":{}}}"
+          "\n",
           key.first, key.second, t.count, rate, kb, p.p50, p.p95, t.gaps, t.resyncs, t.suspicious,
           t.bad_stamps, t.foreign, t.undecodable, t.invalid);
     } else {
