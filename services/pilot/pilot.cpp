@@ -53,7 +53,8 @@ bool Pilot::nearerThanItsTwin(Utime now) const {
   const auto distance = [&](const geometry::Pose2& p) {
     return std::hypot(p.x - ref.x, p.y - ref.y) + std::abs(geometry::angleDiff(p.phi, ref.phi));
   };
-  const geometry::Pose2 twin{-pose_->x, -pose_->y, geometry::normalizeAngle(pose_->phi + std::numbers::pi)};
+  const geometry::Pose2 twin{-pose_->x, -pose_->y,
+                             geometry::normalizeAngle(pose_->phi + std::numbers::pi)};
   return distance(*pose_) + config_.twin_margin < distance(twin);
 }
 
@@ -88,8 +89,7 @@ std::optional<robot::NormalizedCommand> Pilot::command(Utime now) {
   const double scripted_speed = reference.velocity.norm();
   reference.velocity *= clock_rate_;
   reference.omega *= clock_rate_;
-  robot::NormalizedCommand cmd =
-      robot::followTrajectory(reference, *pose_, params_, config_.gains);
+  robot::NormalizedCommand cmd = robot::followTrajectory(reference, *pose_, params_, config_.gains);
   const double limit = std::max(config_.min_speed, config_.max_speed_factor * scripted_speed);
   const double speed = std::hypot(cmd.vx, cmd.vy) * params_.max_speed;
   if (speed > limit) {

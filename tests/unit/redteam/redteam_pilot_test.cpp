@@ -3,9 +3,9 @@
 // towards it; after any stall it sprinted at about twice its speed to catch up with its
 // trajectory clock.
 //
-// Run against main at 6957b54 (before the fix) both failed: the pilot commanded omega -1.0 (full
-// rate) on the SEARCHING twin, and after a 3 s stall it commanded 1.8 m/s on a 0.8 m/s figure
-// eight (2.25 times its speed).
+// Run against main at 6957b54 (before the fix) all three failed: the pilot kept sending commands
+// (100 in 2 s) steering on the SEARCHING twin, with its state ok, and on a twin-ambiguous twin;
+// after a 3 s stall it commanded 1.54 m/s on a 0.8 m/s figure eight (1.9 times its speed).
 #include <cmath>
 #include <memory>
 #include <numbers>
@@ -71,7 +71,7 @@ TEST_F(redteam_pilot_guesses, ASearchingPoseIsNotSteeredWith) {
     publishState(twin, robot_state_t::STATUS_SEARCHING);
     tick();
   }
-  EXPECT_EQ(commands.size(), driving);  // main: 100 more, turning at full rate
+  EXPECT_EQ(commands.size(), driving);  // main: 100 more, steering towards the twin
   const service_status_t s = pilot_node.status().takeStatus(clock.now());
   EXPECT_EQ(s.state, service_status_t::STATE_WARN);
   EXPECT_NE(s.state_reason.find("SEARCHING"), std::string::npos) << s.state_reason;
@@ -128,7 +128,7 @@ TEST(redteam_pilot_sprint, AfterAStallTheRobotGoesOnAtItsSpeed) {
     ASSERT_TRUE(cmd);
     fastest = std::max(fastest, std::hypot(cmd->vx, cmd->vy) * params.max_speed);
   }
-  EXPECT_LE(fastest, 1.25 * 0.8 + 1e-9);  // main: 1.8 m/s
+  EXPECT_LE(fastest, 1.25 * 0.8 + 1e-9);  // main: 1.54 m/s
 }
 
 }  // namespace
