@@ -41,3 +41,75 @@ function(fieldline_test name)
     PROPERTIES LABELS "${ARG_LABELS}" ENVIRONMENT "FIELDLINE_ROOT=${PROJECT_SOURCE_DIR}"
     DISCOVERY_TIMEOUT 60)
 endfunction()
+
+# Installation (docs/robot-install.md). Executables go to <prefix>/bin, data to
+# <prefix>/share/fieldline. Two components:
+#   robot  what a robot and its team use (services, launcher, viewer, calibration, bus tools,
+#          replay and evaluation); the default, and the .deb `scripts/package` builds;
+#   dev    test, benchmark and attack tools: `cmake --install build --component dev` only.
+# Every executable outside tests/ must be given to fieldline_install (ctest install_classified).
+include(GNUInstallDirs)
+set(FIELDLINE_INSTALL_DATADIR ${CMAKE_INSTALL_DATADIR}/fieldline)
+set(CMAKE_INSTALL_DEFAULT_COMPONENT_NAME robot)
+
+# fieldline_install(TARGETS t1 t2 ... [DEV])
+function(fieldline_install)
+  cmake_parse_arguments(ARG "DEV" "" "TARGETS" ${ARGN})
+  if(ARG_DEV)
+    install(TARGETS ${ARG_TARGETS} RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR} COMPONENT dev
+            EXCLUDE_FROM_ALL)
+    set_target_properties(${ARG_TARGETS} PROPERTIES FIELDLINE_INSTALL_COMPONENT dev)
+  else()
+    install(TARGETS ${ARG_TARGETS} RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR} COMPONENT robot)
+    set_target_properties(${ARG_TARGETS} PROPERTIES FIELDLINE_INSTALL_COMPONENT robot)
+  endif()
+endfunction()
+
+# fieldline_data_directory(DIR AS NAME [DEV] [NO_INSTALL])
+# The folder DIR (relative to the calling CMakeLists.txt) is installed as
+# <prefix>/share/fieldline/NAME, and the build tree gets build/share/fieldline/NAME, a symlink to
+# it, so a binary finds its data at <its folder>/../share/fieldline both ways
+# (common/config dataDirectory()). NO_INSTALL: the symlink only (test data).
+function(fieldline_data_directory dir)
+  cmake_parse_arguments(ARG "DEV;NO_INSTALL" "AS" "" ${ARGN})
+  get_filename_component(source ${dir} ABSOLUTE BASE_DIR ${CMAKE_CURRENT_SOURCE_DIR})
+  set(link ${PROJECT_BINARY_DIR}/${FIELDLINE_INSTALL_DATADIR}/${ARG_AS})
+  get_filename_component(parent ${link} DIRECTORY)
+  file(MAKE_DIRECTORY ${parent})
+  if(IS_SYMLINK ${link} OR EXISTS ${link})
+    file(REMOVE ${link})
+  endif()
+  file(CREATE_LINK ${source} ${link} SYMBOLIC)
+  if(ARG_NO_INSTALL)
+    return()
+  endif()
+  if(ARG_DEV)
+    install(DIRECTORY ${source}/ DESTINATION ${FIELDLINE_INSTALL_DATADIR}/${ARG_AS} COMPONENT dev
+            EXCLUDE_FROM_ALL)
+  else()
+    install(DIRECTORY ${source}/ DESTINATION ${FIELDLINE_INSTALL_DATADIR}/${ARG_AS}
+            COMPONENT robot)
+  endif()
+endfunction()
+
+# Every executable target under DIR (recursively) that is outside tests/ and was not given to
+# fieldline_install, into OUT.
+function(fieldline_unclassified_executables dir out)
+  set(found)
+  get_property(targets DIRECTORY ${dir} PROPERTY BUILDSYSTEM_TARGETS)
+  foreach(t ${targets})
+    get_target_property(type ${t} TYPE)
+    get_target_property(component ${t} FIELDLINE_INSTALL_COMPONENT)
+    get_target_property(source_dir ${t} SOURCE_DIR)
+    if(type STREQUAL "EXECUTABLE" AND NOT component AND NOT source_dir MATCHES
+                                                        "^${PROJECT_SOURCE_DIR}/tests(/|$)")
+      list(APPEND found ${t})
+    endif()
+  endforeach()
+  get_property(subdirs DIRECTORY ${dir} PROPERTY SUBDIRECTORIES)
+  foreach(sub ${subdirs})
+    fieldline_unclassified_executables(${sub} sub_found)
+    list(APPEND found ${sub_found})
+  endforeach()
+  set(${out} ${found} PARENT_SCOPE)
+endfunction()

@@ -1,6 +1,7 @@
 // fieldline-teamcomm: the team link of one robot. Sends its ROBOT_STATE and BALL_STATE to the
 // teammates in authenticated UDP packets, receives theirs, estimates their clock offsets and
 // publishes the team picture as TEAM_STATE.
+#include <net/if.h>
 #include <spdlog/spdlog.h>
 
 #include <CLI/CLI.hpp>
@@ -31,6 +32,10 @@ int main(int argc, char** argv) {
   app.add_option("--team-config", team_config,
                  "Team preset in config/team/ or a YAML path (team id, key file, transport)")
       ->capture_default_str();
+  std::string key_file;
+  app.add_option("--key-file", key_file,
+                 "The team key file, instead of the team config's key_file (systemd hands the "
+                 "robot's key over as a credential: --key-file %d/team.key)");
   int port = 0;
   app.add_option("--port", port, "Override the UDP port of the team config")
       ->check(CLI::Range(1, 65535));
@@ -59,13 +64,23 @@ int main(int argc, char** argv) {
       throw config::Error("--robot must be 1..6 for teamcomm");
     }
     try {
-      cfg.node.key = teamcomm::loadConfiguredKey(cfg.key_file);
+      cfg.node.key = key_file.empty() ? teamcomm::loadConfiguredKey(cfg.key_file)
+                                      : teamcomm::loadTeamKey(key_file);
     } catch (const teamcomm::KeyError& e) {
       throw config::Error(std::string("team key: ") + e.what());
     }
     const RobotClock clock = bus::robotClockFromEnvironment();
 
-    if (common.check_args) return 0;
+    if (common.check_args) {
+      // The network interface is this process's device.
+      if (!cfg.udp.interface.empty() && ::if_nametoindex(cfg.udp.interface.c_str()) == 0) {
+        std::cerr << "teamcomm: " << cfg.udp.interface
+                  << ": no such network interface; list them with ip link (transport.interface "
+                     "in the team config)\n";
+        return 2;
+      }
+      return 0;
+    }
     std::unique_ptr<teamcomm::PacketLink> link;
     try {
       link = teamcomm::openUdpLink(cfg.udp);

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
+#include <tuple>
 
 #include "common/geometry/geometry.hpp"
 
@@ -15,16 +16,23 @@ struct BallCandidate {
   Eigen::Vector2d position;
   Eigen::Vector2d velocity;
   Eigen::Matrix2d covariance;
+  // Its reporter's pose may be its symmetric twin.
+  bool twin_ambiguous = false;
 };
 
 double seconds(Utime us) {
   return static_cast<double>(us) * 1e-6;
 }
 
-double mahalanobis2(const BallCandidate& a, const BallCandidate& b) {
-  const Eigen::Vector2d d = a.position - b.position;
-  const Eigen::Matrix2d s = a.covariance + b.covariance;
+double mahalanobis2(const Eigen::Vector2d& a, const Eigen::Matrix2d& ca, const Eigen::Vector2d& b,
+                    const Eigen::Matrix2d& cb) {
+  const Eigen::Vector2d d = a - b;
+  const Eigen::Matrix2d s = ca + cb;
   return d.dot(s.inverse() * d);
+}
+
+double mahalanobis2(const BallCandidate& a, const BallCandidate& b) {
+  return mahalanobis2(a.position, a.covariance, b.position, b.covariance);
 }
 
 // Covariance-weighted mean of `members` (information form).
@@ -75,7 +83,7 @@ const Report* TeamPicture::report(int robot_id) const {
   return r ? &*r : nullptr;
 }
 
-perception::TeamState TeamPicture::picture(Utime now, TeamBallResult* team_ball) const {
+perception::TeamState TeamPicture::picture(Utime now, TeamBallResult* team_ball) {
   perception::TeamState s;
   s.utime = now;
   std::vector<BallCandidate> candidates;
@@ -109,10 +117,14 @@ perception::TeamState TeamPicture::picture(Utime now, TeamBallResult* team_ball)
         seconds(std::clamp<Utime>(now - ball.utime, 0, options_.max_prediction_us));
     out.ball_x = ball.x + ball.vx * ball_dt;
     out.ball_y = ball.y + ball.vy * ball_dt;
-    BallCandidate c{i + 1, {out.ball_x, out.ball_y}, {ball.vx, ball.vy}, ball.covariance};
+    BallCandidate c{
+        i + 1, {out.ball_x, out.ball_y}, {ball.vx, ball.vy}, ball.covariance, robot.twin_ambiguous};
     const double grown_ball = options_.ball_speed_sigma_mps * ball_dt;
     c.covariance += Eigen::Matrix2d::Identity() * (grown_ball * grown_ball);
-    c.covariance += robot.covariance.topLeftCorner<2, 2>();
+    // The reporter's pose uncertainty is in the ball's covariance already: fusion's ball filter
+    // carries it into the field frame with every sighting (position, and heading times the
+    // distance). Adding it here again made the team ball worse (replays of four recorded
+    // scenarios, docs/teamcomm.md "Team ball").
     c.covariance = 0.5 * (c.covariance + c.covariance.transpose()).eval();
     c.covariance(0, 0) = std::max(c.covariance(0, 0), options_.min_ball_variance);
     c.covariance(1, 1) = std::max(c.covariance(1, 1), options_.min_ball_variance);
@@ -122,26 +134,73 @@ perception::TeamState TeamPicture::picture(Utime now, TeamBallResult* team_ball)
     candidates.push_back(c);
   }
 
-  // The largest group that agrees with one of its members wins; among equal groups the one whose
-  // fused covariance is smallest.
+  // The previous team ball carried to now, while it is recent enough to judge by.
+  std::optional<BallCandidate> track;
+  if (track_ && now >= track_->utime && now - track_->utime <= options_.track_timeout_us) {
+    const double dt = seconds(std::min<Utime>(now - track_->utime, options_.max_prediction_us));
+    const double grown = options_.ball_speed_sigma_mps * dt;
+    track = BallCandidate{0, track_->position + track_->velocity * dt, track_->velocity,
+                          track_->covariance + Eigen::Matrix2d::Identity() * (grown * grown)};
+  }
+  const auto agreesWithTrack = [&](const TeamBallResult& r) {
+    return track && mahalanobis2(r.position, r.covariance, track->position, track->covariance) <=
+                        options_.gate_chi2;
+  };
+
+  // Every group that agrees with one of its members. The largest wins; among equal ones, the one
+  // that continues the previous team ball, then the one with fewer reporters whose pose may be
+  // its twin, then the one whose fused covariance is smallest.
   TeamBallResult best;
   std::size_t best_size = 0;
+  bool best_continues = false;
+  int best_ambiguous = 0;
   for (const BallCandidate& seed : candidates) {
     std::vector<const BallCandidate*> members;
+    int ambiguous = 0;
     for (const BallCandidate& other : candidates) {
-      if (mahalanobis2(seed, other) <= options_.gate_chi2) members.push_back(&other);
+      if (mahalanobis2(seed, other) <= options_.gate_chi2) {
+        members.push_back(&other);
+        ambiguous += other.twin_ambiguous ? 1 : 0;
+      }
     }
     TeamBallResult fused = fuse(members);
-    if (members.size() > best_size ||
-        (members.size() == best_size && fused.covariance.trace() < best.covariance.trace())) {
+    const bool continues = agreesWithTrack(fused);
+    const auto rank = std::make_tuple(members.size(), continues, -ambiguous);
+    const auto best_rank = std::make_tuple(best_size, best_continues, -best_ambiguous);
+    if (rank > best_rank ||
+        (rank == best_rank && fused.covariance.trace() < best.covariance.trace())) {
       best = std::move(fused);
       best_size = members.size();
+      best_continues = continues;
+      best_ambiguous = ambiguous;
     }
   }
+  // A lone group that lies at the mirror image of the previous team ball and not at it: its
+  // reporters are on their twins (a kidnap continuity cannot resolve); none of it is used.
+  bool mirrored = false;
+  if (best.valid && best_size == 1 && track && !best_continues &&
+      mahalanobis2(-best.position, best.covariance, track->position, track->covariance) <=
+          options_.gate_chi2) {
+    mirrored = true;
+  }
   for (const BallCandidate& c : candidates) {
-    if (std::find(best.used.begin(), best.used.end(), c.robot_id) == best.used.end()) {
+    if (mirrored || std::find(best.used.begin(), best.used.end(), c.robot_id) == best.used.end()) {
       best.rejected.push_back(c.robot_id);
+      if (track &&
+          mahalanobis2(-c.position, c.covariance, track->position, track->covariance) <=
+              options_.gate_chi2 &&
+          mahalanobis2(c.position, c.covariance, track->position, track->covariance) >
+              options_.gate_chi2) {
+        best.mirrored.push_back(c.robot_id);
+      }
     }
+  }
+  if (mirrored) {
+    best.valid = false;
+    best.used.clear();
+  }
+  if (best.valid) {
+    track_ = Track{now, best.position, best.velocity, best.covariance};
   }
   s.team_ball_valid = best.valid;
   if (best.valid) {

@@ -1,7 +1,10 @@
 // The team picture: every robot's pose and ball, aged and predicted to now, and a team ball fused
 // from the robots' own ball estimates, covariance-weighted, inside a consistency gate: the
 // largest group of mutually consistent balls wins, so a mislocalized teammate's ball (confidently
-// in the wrong place) is left out rather than averaged in. Plain library: every time is on this
+// in the wrong place) is left out rather than averaged in. Among groups of equal size the one that
+// continues the previous team ball wins,
+// and a lone group whose ball is the previous team ball's mirror image through the centre spot
+// (its reporters sit on their symmetric twin) is left out. Plain library: every time is on this
 // robot's clock and comes in as an argument.
 #pragma once
 
@@ -30,6 +33,9 @@ struct PictureOptions {
   double gate_chi2 = 9.21;
   // Floor of a ball's position variance, m^2 (no estimate is better than 2 cm).
   double min_ball_variance = 0.0004;
+  // The previous team ball decides ties and exposes mirrored balls for this long after it was
+  // last fused, µs.
+  Utime track_timeout_us = 3'000'000;
 };
 
 // One robot's report, already converted to our clock.
@@ -48,6 +54,8 @@ struct TeamBallResult {
   // Robot ids (1..6) whose balls were fused, and those whose valid balls the gate left out.
   std::vector<int> used;
   std::vector<int> rejected;
+  // Of the rejected: those whose balls lay at the previous team ball's mirror image.
+  std::vector<int> mirrored;
 };
 
 class TeamPicture {
@@ -61,13 +69,22 @@ class TeamPicture {
   // The robot's latest report, or null.
   const Report* report(int robot_id) const;
 
-  // Poses, balls and team ball at `now`. Link statistics are left for the caller.
-  perception::TeamState picture(Utime now, TeamBallResult* team_ball = nullptr) const;
+  // Poses, balls and team ball at `now`. Link statistics are left for the caller. The team ball
+  // is remembered for the next picture (ties, mirror images).
+  perception::TeamState picture(Utime now, TeamBallResult* team_ball = nullptr);
 
  private:
   int own_robot_id_;
   PictureOptions options_;
   std::array<std::optional<Report>, perception::kTeamSize> reports_{};
+  // The last valid team ball.
+  struct Track {
+    Utime utime = 0;
+    Eigen::Vector2d position = Eigen::Vector2d::Zero();
+    Eigen::Vector2d velocity = Eigen::Vector2d::Zero();
+    Eigen::Matrix2d covariance = Eigen::Matrix2d::Identity();
+  };
+  std::optional<Track> track_;
 };
 
 }  // namespace fieldline::teamcomm

@@ -70,6 +70,7 @@ TeamcommConfig loadTeamcommConfig(const config::Node& root) {
   c.node.team_id = static_cast<std::uint8_t>(t.get<int>("team_id", 0, 255));
   c.key_file = t.get<std::string>("key_file");
   c.node.send_rate_hz = t.get<double>("send_rate_hz", 10.0, 30.0);
+  c.node.max_send_rate_hz = t.getOr<double>("max_send_rate_hz", 30.0, c.node.send_rate_hz, 30.0);
   c.node.publish_rate_hz = t.getOr<double>("publish_rate_hz", 10.0, 1.0, 50.0);
   c.node.poll_period_us = seconds(t.getOr<double>("poll_period_s", 0.002, 0.0005, 0.05));
   c.node.fresh_us = seconds(t.getOr<double>("fresh_s", 0.3, 0.02, 2.0));

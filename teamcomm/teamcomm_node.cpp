@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 
 #include <fmt/format.h>
@@ -87,6 +88,7 @@ TeamcommNode::TeamcommNode(bus::Node& node, PacketLink& link, TeamcommOptions op
       }()),
       picture_(node.robotId(), options_.picture) {
   if (options_.send_rate_hz < 1.0 || options_.send_rate_hz > 100.0 ||
+      options_.max_send_rate_hz < options_.send_rate_hz || options_.max_send_rate_hz > 100.0 ||
       options_.publish_rate_hz < 1.0 || options_.publish_rate_hz > 100.0 ||
       options_.poll_period_us < 100) {
     throw std::invalid_argument("teamcomm: rates or poll period out of range");
@@ -103,8 +105,12 @@ TeamcommNode::TeamcommNode(bus::Node& node, PacketLink& link, TeamcommOptions op
     own_robot_received_ = node_.now();
   });
   node_.subscribe(bus::channels::kBallState, [this](const ball_state_t& m) {
+    const bool was_valid = own_ball_ && own_ball_->valid;
     own_ball_ = msg::fromMessage(m);
     own_ball_received_ = node_.now();
+    // A ball seen, or one just lost (kicked away, put back: teammates must stop using it), goes
+    // out at once.
+    maybeSend(own_ball_->valid || was_valid);
   });
   // What the camera saw, placed on the field with the newest pose (obstacles without a pose
   // near the frame's time are not sent).
@@ -113,7 +119,9 @@ TeamcommNode::TeamcommNode(bus::Node& node, PacketLink& link, TeamcommOptions op
     own_obstacles_ = obstaclesInField(msg::toObstacleSightings(m), *own_robot_);
     own_obstacles_received_ = node_.now();
   });
-  node_.every(static_cast<Utime>(1e6 / options_.send_rate_hz), [this] { sendPacket(); });
+  // Checked often enough to keep the send rate within a few ms.
+  node_.every(std::min<Utime>(static_cast<Utime>(1e6 / options_.send_rate_hz), 5'000),
+              [this] { maybeSend(false); });
   // A socket is waited on by the node's event loop; a link without one (the in-process test
   // hub) is polled.
   if (const int fd = link_.fileDescriptor(); fd >= 0) {
@@ -127,6 +135,19 @@ TeamcommNode::TeamcommNode(bus::Node& node, PacketLink& link, TeamcommOptions op
 std::optional<OffsetEstimate> TeamcommNode::offset(int robot_id, Utime now) const {
   if (robot_id < 1 || robot_id > kMaxRobots || robot_id == node_.robotId()) return std::nullopt;
   return mates_[static_cast<std::size_t>(robot_id - 1)].offset.estimate(now);
+}
+
+void TeamcommNode::maybeSend(bool new_ball) {
+  const Utime steady = node_.clock().monotonicNow();
+  const Utime since =
+      last_send_steady_ < 0 ? std::numeric_limits<Utime>::max() : steady - last_send_steady_;
+  const Utime period = static_cast<Utime>(1e6 / options_.send_rate_hz);
+  // Less a few ms: BALL_STATE comes at about the same rate, and its jitter must not make every
+  // other one wait (at most 35 packets/s from 30 Hz; the receivers' gate allows 40).
+  const Utime shortest = static_cast<Utime>(1e6 / options_.max_send_rate_hz) - 5'000;
+  if (since < shortest || (since < period && !new_ball)) return;
+  last_send_steady_ = steady;
+  sendPacket();
 }
 
 void TeamcommNode::sendPacket() {
@@ -381,6 +402,7 @@ void TeamcommNode::publishTeamState() {
   node_.setMetric("offset_uncertainty_ms", worst_uncertainty_ms);
   node_.setMetric("packets_rejected", static_cast<double>(counters_.rejectedTotal()));
   node_.setMetric("team_ball_rejected", static_cast<double>(ball.rejected.size()));
+  node_.setMetric("team_ball_mirrored", static_cast<double>(ball.mirrored.size()));
   node_.setMetric("clock_steps", static_cast<double>(counters_.clock_steps));
   node_.setMetric("offset_resets", static_cast<double>(counters_.offset_resets));
 }

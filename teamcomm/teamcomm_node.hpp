@@ -27,8 +27,12 @@ namespace fieldline::teamcomm {
 struct TeamcommOptions {
   std::uint8_t team_id = 1;
   TeamKey key;
-  // Team packets per second (10..30).
+  // Team packets per second (10..30) at least, and at most: a new ball estimate (BALL_STATE, valid
+  // or just become invalid) goes out at once when the last packet is at least 1/max_send_rate_hz
+  // old, so teammates' balls are not a send period older than they need be (a kicked ball moves
+  // 15 cm in 50 ms, and a ball put back elsewhere must leave the team ball at once).
   double send_rate_hz = 20.0;
+  double max_send_rate_hz = 30.0;
   // TEAM_STATE per second.
   double publish_rate_hz = 10.0;
   // How often the link is read, µs (until the bus waits on the socket itself).
@@ -94,6 +98,9 @@ class TeamcommNode {
     std::int64_t sequence_restarts = 0;
   };
 
+  // Sends when the last packet is a send period old, or when `new_ball` and it is at least the
+  // shortest interval old (steady clock: a step of the clock stalls nothing).
+  void maybeSend(bool new_ball);
   void sendPacket();
   void onDatagram(std::span<const std::uint8_t> bytes, Utime age_us);
   void reject(Reject reason, int claimed_robot, const std::string& detail);
@@ -124,6 +131,8 @@ class TeamcommNode {
   std::vector<PacketObstacle> own_obstacles_;
   Utime own_obstacles_received_ = 0;
   std::uint64_t next_sequence_ = 0;
+  // Steady time of the last packet sent (-1: none yet).
+  Utime last_send_steady_ = -1;
   // Send times (our clock) of our recent packets, oldest first: what a teammate's echo must name.
   std::deque<Utime> recent_sends_;
   // (our clock, the link's kernel drop total) over the last seconds.

@@ -20,21 +20,22 @@ shift $(($# < 4 ? $# : 4))
 root=$(cd "$(dirname "$0")/../.." && pwd)
 mkdir -p "$out"
 launch="$out/launch.yaml"
-# No robot clocks, no viewer (nor teamcomm with NO_TEAMCOMM=1); region tracking's extra
-# arguments if given.
-drop='viewer'
-[ "${NO_TEAMCOMM:-0}" = 1 ] && drop='teamcomm|viewer'
-awk -v extra="$*" -v drop="$drop" '
+# No robot clocks, no viewer (nor teamcomm with NO_TEAMCOMM=1: the included process is left out
+# with `enabled: false`); region tracking's extra arguments, if given, are added to the included
+# process's.
+awk '
   /^robots:/ { exit }
-  $0 ~ "^  - name: (" drop ")$" { skip = 1; next }
+  /^  - name: viewer$/ { skip = 1; next }
   /^  - name: / { skip = 0 }
   skip { next }
-  { print }
-  /^    executable: fieldline-region-tracking$/ && extra != "" {
-    n = split(extra, a, " "); s = "    args: ["
-    for (i = 1; i <= n; i++) s = s (i > 1 ? ", " : "") "\"" a[i] "\""
-    print s "]"
-  }' "$root/config/launch/sim_team.yaml" > "$launch"
+  { print }' "$root/config/launch/sim_team.yaml" > "$launch"
+if [ "${NO_TEAMCOMM:-0}" = 1 ]; then
+  printf '  - name: teamcomm\n    enabled: false\n' >> "$launch"
+fi
+if [ $# -gt 0 ]; then
+  extra=$(printf '"%s", ' "$@")
+  printf '  - name: region_tracking\n    args: [%s]\n' "${extra%, }" >> "$launch"
+fi
 ns="unshare -n"
 unshare -n true 2>/dev/null || ns="unshare -rn"
 $ns bash -c "

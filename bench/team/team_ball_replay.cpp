@@ -55,8 +55,9 @@ const Timed* newestAt(const std::vector<Timed>& v, Utime t) {
 struct Score {
   double sum = 0.0;
   std::size_t n = 0;
-  std::size_t nees_n = 0, nees_in = 0;
+  std::size_t nees_n = 0, nees_in = 0, nees_low = 0;
   double nees_sum = 0.0;
+  std::vector<double> nees_all;
   void add(const Eigen::Vector2d& error, const Eigen::Matrix2d& covariance) {
     sum += error.norm();
     ++n;
@@ -65,6 +66,8 @@ struct Score {
       ++nees_n;
       nees_sum += nees;
       if (nees >= kNees2Low && nees <= kNees2High) ++nees_in;
+      if (nees < kNees2Low) ++nees_low;
+      nees_all.push_back(nees);
     }
   }
   double mean() const { return n ? sum / static_cast<double>(n) : -1.0; }
@@ -72,6 +75,15 @@ struct Score {
     return nees_n ? static_cast<double>(nees_in) / static_cast<double>(nees_n) : -1.0;
   }
   double neesMean() const { return nees_n ? nees_sum / static_cast<double>(nees_n) : -1.0; }
+  // "below band 3 %, NEES p50 1.2 p95 6.0"
+  std::string neesSpread() const {
+    if (nees_all.empty()) return "no NEES";
+    std::vector<double> v = nees_all;
+    std::sort(v.begin(), v.end());
+    return fmt::format("below band {:.0f} %, NEES p50 {:.2f} p95 {:.1f}",
+                       100.0 * static_cast<double>(nees_low) / static_cast<double>(nees_n),
+                       v[v.size() / 2], v[v.size() * 95 / 100]);
+  }
 };
 
 }  // namespace
@@ -86,8 +98,16 @@ int main(int argc, char** argv) {
   double settle_s = 5.0;
   app.add_option("--settle", settle_s, "Seconds after the first state not scored")
       ->capture_default_str();
+  bool publish_on_ball = false;
+  app.add_flag("--publish-on-ball", publish_on_ball,
+               "Each picture at the first own BALL_STATE after its tick");
   double send_rate_hz = 20.0, publish_rate_hz = 10.0, delay_ms = 1.5, fresh_s = 0.3;
   app.add_option("--send-rate", send_rate_hz, "Team packets per second")->capture_default_str();
+  double max_send_rate_hz = 30.0;
+  app.add_option("--max-send-rate", max_send_rate_hz,
+                 "At most this many per second, a new ball at once (= --send-rate: on the timer "
+                 "only)")
+      ->capture_default_str();
   app.add_option("--publish-rate", publish_rate_hz, "Team pictures per second")
       ->capture_default_str();
   app.add_option("--delay-ms", delay_ms, "Network delay of a team packet, ms")
@@ -96,6 +116,15 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   teamcomm::PictureOptions picture;
   app.add_option("--gate-chi2", picture.gate_chi2, "Team ball consistency gate")
+      ->capture_default_str();
+  app.add_option("--ball-speed-sigma", picture.ball_speed_sigma_mps,
+                 "Unmodelled ball speed while predicting a ball to the picture's time, m/s")
+      ->capture_default_str();
+  double max_prediction_s = 0.5;
+  app.add_option("--max-prediction", max_prediction_s, "Predictions reach at most this far, s")
+      ->capture_default_str();
+  app.add_option("--min-ball-variance", picture.min_ball_variance,
+                 "Floor of a ball's position variance, m^2")
       ->capture_default_str();
   std::string csv_path;
   app.add_option("--csv", csv_path,
@@ -110,6 +139,7 @@ int main(int argc, char** argv) {
                  "Write every scored team picture (observer, t, team ball error and sigma, each "
                  "robot's ball error and range) here");
   CLI11_PARSE(app, argc, argv);
+  picture.max_prediction_us = static_cast<Utime>(max_prediction_s * 1e6);
 
   // Truth.
   std::vector<eval::TruthSample> truth;
@@ -260,11 +290,36 @@ int main(int argc, char** argv) {
   std::map<int, Utime> phase;
   for (const auto& [id, r] : logs)
     phase[id] = std::uniform_int_distribution<Utime>(0, send_period - 1)(rng);
+  // Each robot's send times as teamcomm schedules them: a send period after the last packet, or
+  // at once for a new valid BALL_STATE when the last is at least the shortest interval old.
+  const Utime shortest = static_cast<Utime>(1e6 / max_send_rate_hz) - 5'000;
+  std::map<int, std::vector<Utime>> sends;
+  for (const auto& [id, r] : logs) {
+    std::vector<Utime>& out = sends[id];
+    Utime last = start + phase[id] - send_period;
+    std::size_t next_ball = 0;
+    bool was_valid = false;
+    for (Utime t = start + phase[id]; t <= end; t += 5'000) {
+      while (next_ball < r.balls.size() && r.balls[next_ball].received <= t) {
+        const Timed& b = r.balls[next_ball++];
+        const bool news = b.ball.valid || was_valid;
+        was_valid = b.ball.valid;
+        if (max_send_rate_hz > send_rate_hz && news && b.received - last >= shortest) {
+          last = b.received;
+          out.push_back(last);
+        }
+      }
+      if (t - last >= send_period) {
+        last = t;
+        out.push_back(last);
+      }
+    }
+  }
   Score team;
   std::FILE* pictures_csv =
       pictures_path.empty() ? nullptr : std::fopen(pictures_path.c_str(), "w");
   if (pictures_csv) {
-    std::fprintf(pictures_csv, "observer,t,team_err,team_sigma");
+    std::fprintf(pictures_csv, "observer,t,ball_speed,team_err,team_sigma");
     for (int i = 1; i <= perception::kTeamSize; ++i)
       std::fprintf(pictures_csv, ",err%d,range%d", i, i);
     std::fprintf(pictures_csv, "\n");
@@ -272,7 +327,16 @@ int main(int argc, char** argv) {
   std::size_t used_total = 0, rejected_total = 0, valid_pictures = 0, pictures = 0;
   for (const auto& [observer, own_log] : logs) {
     teamcomm::TeamPicture tp(observer, picture);
-    for (Utime now = start + phase[observer] % publish_period; now <= end; now += publish_period) {
+    for (Utime tick = start + phase[observer] % publish_period; tick <= end;
+         tick += publish_period) {
+      // The picture at the tick, or (--publish-on-ball) at the first own BALL_STATE after it.
+      Utime now = tick;
+      if (publish_on_ball) {
+        const auto next = std::lower_bound(own_log.balls.begin(), own_log.balls.end(), tick,
+                                           [](const Timed& e, Utime x) { return e.received < x; });
+        if (next != own_log.balls.end() && next->received - tick < publish_period)
+          now = next->received;
+      }
       for (const auto& [id, r] : logs) {
         teamcomm::Report report;
         if (id == observer) {
@@ -286,7 +350,9 @@ int main(int argc, char** argv) {
           if (const Timed* ball = newestAt(r.balls, now)) report.ball = ball->ball;
         } else {
           // The teammate's newest packet that has arrived: sent on its send clock.
-          const Utime sent = ((now - delay - phase[id]) / send_period) * send_period + phase[id];
+          const auto after = std::upper_bound(sends[id].begin(), sends[id].end(), now - delay);
+          if (after == sends[id].begin()) continue;
+          const Utime sent = *std::prev(after);
           const Timed* pose = newestAt(r.robots, sent);
           if (pose && sent - pose->received <= fresh) {
             report.robot = pose->robot;
@@ -313,9 +379,11 @@ int main(int argc, char** argv) {
       used_total += result.used.size();
       rejected_total += result.rejected.size();
       if (pictures_csv) {
-        std::fprintf(pictures_csv, "%d,%.3f,%.4f,%.4f", observer,
-                     static_cast<double>(now - start) / 1e6, (result.position - t).norm(),
-                     std::sqrt(0.5 * result.covariance.trace()));
+        Eigen::Vector2d later;
+        ballAt(now + 50'000, later);
+        std::fprintf(pictures_csv, "%d,%.3f,%.3f,%.4f,%.4f", observer,
+                     static_cast<double>(now - start) / 1e6, (later - t).norm() / 0.05,
+                     (result.position - t).norm(), std::sqrt(0.5 * result.covariance.trace()));
         for (const perception::TeammateState& m : state.robots) {
           if (m.ball_valid) {
             std::fprintf(pictures_csv, ",%.4f,%.3f", std::hypot(m.ball_x - t.x(), m.ball_y - t.y()),
@@ -335,13 +403,14 @@ int main(int argc, char** argv) {
     if (s.n >= 30 && (best < 0 || s.mean() < own[best].mean())) best = id;
   }
   for (const auto& [id, s] : own) {
-    std::printf("own ball robot %d: mean %.4f m (%zu), NEES in band %.3f, mean NEES %.2f\n", id,
-                s.mean(), s.n, s.inBand(), s.neesMean());
+    std::printf("own ball robot %d: mean %.4f m (%zu), NEES in band %.3f, mean NEES %.2f, %s\n", id,
+                s.mean(), s.n, s.inBand(), s.neesMean(), s.neesSpread().c_str());
   }
   std::printf(
       "team_ball_mean_m=%.4f best_own_ball_mean_m=%.4f (robot %d) team_ball_nees_in_band=%.3f "
-      "mean NEES %.2f valid %.3f used %.2f rejected %.2f per picture\n",
+      "mean NEES %.2f (%s) valid %.3f used %.2f rejected %.2f per picture\n",
       team.mean(), best >= 0 ? own[best].mean() : -1.0, best, team.inBand(), team.neesMean(),
+      team.neesSpread().c_str(),
       pictures ? static_cast<double>(valid_pictures) / static_cast<double>(pictures) : 0.0,
       team.n ? static_cast<double>(used_total) / static_cast<double>(team.n) : 0.0,
       team.n ? static_cast<double>(rejected_total) / static_cast<double>(team.n) : 0.0);

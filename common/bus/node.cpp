@@ -10,6 +10,7 @@
 #include <spdlog/spdlog.h>
 #include <lcm/lcm-cpp.hpp>
 
+#include "common/bus/systemd_notify.hpp"
 #include "common/time/offset_clock.hpp"
 
 namespace fieldline::bus {
@@ -341,12 +342,15 @@ void Node::fireTimers() {
     publishStatus();
     next_status_ = now + options_.status_period_us;
   }
+  // READY=1 once, WATCHDOG=1 when due (under a systemd unit): from the loop itself.
+  systemd::onLoop(now);
 }
 
 int Node::msUntilNextTimer(int max_ms) const {
   const Utime now = clock_.monotonicNow();
   Utime next = now + static_cast<Utime>(max_ms) * kMicrosPerMilli;
   if (options_.status_period_us > 0) next = std::min(next, next_status_);
+  if (const Utime ping = systemd::nextPingDue(); ping > 0) next = std::min(next, ping);
   for (const auto& t : timers_)
     next = std::min(next, t.next);
   // Round up: waking a little late fires the timer; waking early would only spin again.
@@ -355,6 +359,9 @@ int Node::msUntilNextTimer(int max_ms) const {
 
 void Node::publishStatus() {
   service_status_t s = status_.takeStatus(clock_.now());
+  systemd::notifyStatus(s.state == service_status_t::STATE_OK     ? "ok"
+                        : s.state == service_status_t::STATE_WARN ? "WARN " + s.state_reason
+                                                                  : "ERROR " + s.state_reason);
   publish(channels::kServiceStatus, s);
 }
 
@@ -414,6 +421,7 @@ int Node::run() {
     spinOnce(msUntilNextTimer(kMaxWaitMs));
   }
   spdlog::info("[{}] stopping", options_.process);
+  systemd::notifyStopping();
   return 0;
 }
 

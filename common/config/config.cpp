@@ -10,10 +10,7 @@
 #include <type_traits>
 
 #include "common/config/closest.hpp"
-
-#ifndef FIELDLINE_SOURCE_DIR
-#define FIELDLINE_SOURCE_DIR "."
-#endif
+#include "common/config/paths.hpp"
 
 namespace fieldline::config {
 namespace {
@@ -357,9 +354,26 @@ void runOrExit(const std::function<void()>& body) {
   }
 }
 
+std::string executableDirectory() {
+  std::error_code ec;
+  const std::filesystem::path self = std::filesystem::read_symlink("/proc/self/exe", ec);
+  return ec ? std::string() : self.parent_path().string();
+}
+
+std::string dataDirectory() {
+  // No compiled-in path: an installed tree works wherever its prefix is, and a build tree has
+  // the same shape (build/share/fieldline/* are symlinks into the source tree, made by CMake).
+  static const std::string dir = [] {
+    const std::string exe_dir = executableDirectory();
+    if (exe_dir.empty()) return std::string("share/fieldline");
+    return (std::filesystem::path(exe_dir) / ".." / kDataSubdirectory).lexically_normal().string();
+  }();
+  return dir;
+}
+
 std::string projectRoot() {
   if (const char* env = std::getenv("FIELDLINE_ROOT"); env && *env) return env;
-  return FIELDLINE_SOURCE_DIR;
+  return dataDirectory();
 }
 
 std::string resolvePreset(const std::string& category, const std::string& nameOrPath) {

@@ -1,6 +1,7 @@
 #include "services/camera/camera_app.hpp"
 
 #include <algorithm>
+#include <filesystem>
 #include <memory>
 #include <optional>
 #include <stdexcept>
@@ -12,6 +13,7 @@
 #include "common/bus/replay_bus.hpp"
 #include "common/bus/robot_clock.hpp"
 #include "common/config/config.hpp"
+#include "common/device/device_check.hpp"
 #include "common/time/clock.hpp"
 #include "common/time/offset_clock.hpp"
 #include "services/camera/camera_config.hpp"
@@ -19,6 +21,7 @@
 #include "services/camera/floor_raster_cache.hpp"
 #include "services/camera/log_source.hpp"
 #include "services/camera/sources.hpp"
+#include "services/camera/sources_y4m.hpp"
 
 namespace fieldline::camera {
 
@@ -56,10 +59,47 @@ int runLiveSource(bus::Node& node, SourceKind kind, const VideoCaptureOptions& v
   return 0;
 }
 
+// The rendered frames into a named pipe, as a camera delivers them to its driver; the status
+// says when nobody reads them or the reader falls behind.
+class PipeDelivery {
+ public:
+  PipeDelivery(bus::Node& node, const std::string& path, int width, int height, double fps)
+      : node_(node), writer_(path, width, height, fps) {}
+
+  void operator()(const image_t& frame) {
+    using Result = Y4mPipeWriter::Result;
+    const Result r = writer_.write(frame.data.data(), frame.stride);
+    if (r == Result::kWritten) {
+      node_.status().setWarning("pipe", "");
+      node_.setMetric("frames_to_pipe", static_cast<double>(++written_));
+      return;
+    }
+    node_.setMetric("frames_dropped", static_cast<double>(++dropped_));
+    node_.status().setWarning(
+        "pipe", r == Result::kNoReader ? "nobody reads " + writer_.path() + ": frames dropped"
+                : r == Result::kReaderBehind
+                    ? "the reader of " + writer_.path() + " falls behind: frames dropped"
+                    : "the reader of " + writer_.path() + " went away");
+  }
+
+ private:
+  bus::Node& node_;
+  Y4mPipeWriter writer_;
+  std::int64_t written_ = 0;
+  std::int64_t dropped_ = 0;
+};
+
 int runSim(bus::Node& node, const CameraConfig& config, const CameraAppOptions& options,
            const bus::CommonOptions& common) {
   const bus::BusId sim_bus = node.addBus(common.sim_bus_url);
   SimCameraNode sim(node, sim_bus, config, options.field, options.raster_cache);
+  std::optional<PipeDelivery> pipe;
+  if (!options.to_pipe.empty()) {
+    pipe.emplace(node, options.to_pipe, config.model.mirror.width(), config.model.mirror.height(),
+                 config.pipeline.frame_rate);
+    sim.deliverTo([&pipe](const image_t& frame) { (*pipe)(frame); });
+    spdlog::info("frames go into the named pipe {} (YUV4MPEG2), not onto the bus", options.to_pipe);
+  }
   spdlog::info("rendering {}x{} at {} Hz, latency {} ms, from SIM_WORLD on {}",
                config.model.mirror.width(), config.model.mirror.height(),
                config.pipeline.frame_rate, config.pipeline.latency * 1e3, common.sim_bus_url);
@@ -71,6 +111,25 @@ SourceKind videoSourceKind(const std::string& name) {
   if (name == "video") return SourceKind::kVideo;
   if (name == "gstreamer") return SourceKind::kGstreamer;
   throw std::runtime_error("unknown camera source '" + name + "'");
+}
+
+// What keeps the source from opening, for --check-args: "" when it can (a GStreamer pipeline and
+// the simulator are not checked here).
+std::string sourceProblem(const CameraAppOptions& options) {
+  if (!options.to_pipe.empty() && std::filesystem::exists(options.to_pipe) &&
+      !isNamedPipe(options.to_pipe)) {
+    return options.to_pipe + ": exists and is not a named pipe (--to-pipe)";
+  }
+  if (options.source == "v4l2") return device::checkCamera(options.input);
+  if (options.source == "folder")
+    return device::checkInputFile(options.input, "image folder", true);
+  if (options.source == "log") return device::checkInputFile(options.input, "log file", false);
+  if (options.source == "video") {
+    // A named pipe carries YUV4MPEG2 frames as they come.
+    if (isNamedPipe(options.input)) return "";
+    return device::checkInputFile(options.input, "video file", false);
+  }
+  return "";
 }
 
 }  // namespace
@@ -94,6 +153,10 @@ void CameraAppOptions::addTo(CLI::App& app) {
   app.add_option("--height", height, "v4l2: requested height, px")->check(CLI::Range(0, 8192));
   app.add_flag("--loop", loop, "folder/video/log: start again at the end");
   app.add_flag("--bgr", bgr, "v4l2: take OpenCV's BGR frames instead of raw YUYV");
+  app.add_option("--to-pipe", to_pipe,
+                 "sim: write the frames into this named pipe as YUV4MPEG2 (made if missing), "
+                 "each at exposure + latency as a camera delivers it, instead of publishing "
+                 "CAMERA_IMAGE: a stand-in camera device for a real robot's launch");
   app.add_option("--max-frames", max_frames,
                  "Real sources: stop after this many frames (0: no limit)");
   raster_cache = config::defaultCacheDirectory();
@@ -118,6 +181,9 @@ int runCamera(const CameraAppOptions& options, const bus::CommonOptions& common)
   if (options.fps > 0.0) config.pipeline.frame_rate = options.fps;
   // Fail at start, not when the first world state arrives.
   if (options.source == "sim") (void)renderParamsOf(config, "the simulated camera (--source sim)");
+  if (!options.to_pipe.empty() && options.source != "sim") {
+    throw config::Error("--to-pipe writes rendered frames: it needs --source sim");
+  }
   if (options.source != "sim" && options.input.empty()) {
     throw config::Error("--source " + options.source + " needs --input");
   }
@@ -129,7 +195,7 @@ int runCamera(const CameraAppOptions& options, const bus::CommonOptions& common)
                                              : options.replay_bus_url;
   }
   const RobotClock robot_clock = bus::robotClockFromEnvironment();
-  if (common.check_args) return 0;
+  if (common.check_args) return device::reportProblems("camera", {sourceProblem(options)});
   // A log with kept stamps runs at the log's time: its first frame is due now.
   std::optional<OffsetClock> log_clock;
   if (from_log && !options.restamp) {
@@ -165,7 +231,8 @@ int runCamera(const CameraAppOptions& options, const bus::CommonOptions& common)
     vc.raw_yuyv = !options.bgr;
     vc.loop = options.loop;
     const SourceKind kind = videoSourceKind(options.source);
-    if (kind != SourceKind::kVideo) {
+    // Cameras, pipelines and pipes deliver at their own pace and come back when lost.
+    if (kind != SourceKind::kVideo || isNamedPipe(options.input)) {
       run_options.pace_fps = 0.0;
       return runLiveSource(node, kind, vc, config, run_options);
     }

@@ -41,13 +41,16 @@ struct CameraAppOptions {
   bool live_bus = false;
   // log: the bus the frames go to; empty: bus::replayBusUrl(robot).
   std::string replay_bus_url;
+  // sim: write the frames into this named pipe as YUV4MPEG2 (made if missing) instead of
+  // publishing CAMERA_IMAGE: a stand-in camera device for a real robot's launch (rehearsal).
+  std::string to_pipe;
   // sim: directory of the floor raster cache (floor_raster_cache.hpp); empty: none. Set to
   // config::defaultCacheDirectory() by addTo().
   std::string raster_cache;
 
   // Adds --source, --config, --field, --input, --latency, --fps, --width, --height, --loop, --bgr,
-  // --max-frames, --raster-cache, --keep-stamps, --restamp, --live-bus and --replay-bus-url to
-  // `app`.
+  // --max-frames, --raster-cache, --keep-stamps, --restamp, --live-bus, --replay-bus-url and
+  // --to-pipe to `app`.
   void addTo(CLI::App& app);
 };
 

@@ -10,6 +10,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -43,6 +44,11 @@ class SimCameraNode {
   std::int64_t framesRendered() const { return frames_rendered_; }
   std::int64_t framesPublished() const { return frames_published_; }
 
+  // Hands each frame, when it is due (exposure + latency), to `deliver` instead of publishing
+  // it as CAMERA_IMAGE: a stand-in camera device (--to-pipe).
+  using Delivery = std::function<void(const image_t& frame)>;
+  void deliverTo(Delivery deliver) { deliver_ = std::move(deliver); }
+
  private:
   struct Pending {
     image_t image;
@@ -62,6 +68,7 @@ class SimCameraNode {
   std::string field_name_;
   std::string raster_cache_dir_;
   std::unique_ptr<SimRenderer> renderer_;
+  Delivery deliver_;
   std::optional<world_state_t> world_;
   std::vector<Pending> pending_;
   std::vector<std::uint8_t> frame_buffer_;

@@ -1,4 +1,5 @@
 #include "services/camera/sources.hpp"
+#include "services/camera/sources_y4m.hpp"
 
 #include <algorithm>
 #include <cctype>
@@ -151,7 +152,16 @@ const char* sourceKindName(SourceKind kind) {
   return "unknown";
 }
 
+bool isNamedPipe(const std::string& path) {
+  std::error_code ec;
+  return std::filesystem::is_fifo(path, ec);
+}
+
 std::unique_ptr<FrameSource> openVideoCapture(SourceKind kind, const VideoCaptureOptions& options) {
+  // A named pipe where a camera or a video is expected: YUV4MPEG2 frames (sources_y4m.hpp).
+  if ((kind == SourceKind::kV4l2 || kind == SourceKind::kVideo) && isNamedPipe(options.spec)) {
+    return std::make_unique<Y4mPipeSource>(options.spec);
+  }
   return std::make_unique<VideoCaptureSource>(kind, options);
 }
 

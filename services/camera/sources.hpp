@@ -57,6 +57,8 @@ class FrameSource {
     ++errors_;
     last_error_ = std::move(text);
   }
+  // Why the source stopped delivering (not an unusable frame: nothing is counted).
+  void noteProblem(std::string text) { last_error_ = std::move(text); }
 
  private:
   std::int64_t errors_ = 0;
@@ -77,9 +79,13 @@ struct VideoCaptureOptions {
   bool loop = false;
 };
 
-// Opens a camera (kV4l2), a video file (kVideo) or a GStreamer pipeline (kGstreamer). Throws
+// Opens a camera (kV4l2), a video file (kVideo) or a GStreamer pipeline (kGstreamer); a named
+// pipe given as camera or video is read as YUV4MPEG2 (sources_y4m.hpp). Throws
 // std::runtime_error naming the spec if it cannot be opened.
 std::unique_ptr<FrameSource> openVideoCapture(SourceKind kind, const VideoCaptureOptions& options);
+
+// Whether `path` is a named pipe (FIFO).
+bool isNamedPipe(const std::string& path);
 
 // The PNG, JPEG and BMP files of a folder in name order, as BGR frames.
 class ImageFolderSource final : public FrameSource {

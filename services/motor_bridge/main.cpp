@@ -6,6 +6,7 @@
 #include "common/bus/node.hpp"
 #include "common/bus/robot_clock.hpp"
 #include "common/config/config.hpp"
+#include "common/device/device_check.hpp"
 #include "common/robot/robot_params.hpp"
 #include "services/motor_bridge/bridge_node.hpp"
 
@@ -40,7 +41,10 @@ int main(int argc, char** argv) {
     config.device = motor_bridge::deviceForRobot(config.device, common.robot);
 
     const RobotClock clock = bus::robotClockFromEnvironment();
-    if (common.check_args) return 0;
+    // The serial device is there and usable (not opened: that resets many controllers).
+    if (common.check_args) {
+      return device::reportProblems("motor_bridge", {device::checkSerial(config.device)});
+    }
     bus::installStopSignals();
     bus::Node node({.process = "motor_bridge", .robot_id = common.robot, .url = common.bus_url},
                    clock);

@@ -1,6 +1,7 @@
 // fieldline-pilot: scripted behaviour. Follows its robot's trajectory from the scenario and
 // publishes MOTION_COMMAND at 50 Hz, steering with SIM_WORLD ground truth (--steer truth) or
-// with its own ROBOT_STATE (--steer state).
+// with its own ROBOT_STATE (--steer state). Without --scenario it holds still: it publishes no
+// command, so the motor bridge keeps the robot stopped (a real robot never drives on its own).
 #include <CLI/CLI.hpp>
 
 #include "common/bus/cli.hpp"
@@ -16,15 +17,18 @@ int main(int argc, char** argv) {
   CLI::App app{
       "Pilot: follows this robot's scripted trajectory from a scenario (figure eight, waypoint "
       "tour, rotation, standing, random play) and publishes MOTION_COMMAND at 50 Hz. Steers "
-      "with the simulator's ground truth (SIM_WORLD) or with the robot's own ROBOT_STATE."};
+      "with the simulator's ground truth (SIM_WORLD) or with the robot's own ROBOT_STATE. "
+      "Without --scenario it holds still: no MOTION_COMMAND at all, so the motor bridge keeps "
+      "the robot stopped and a behaviour module or a joystick may drive it."};
   bus::CommonOptions common;
   common.addTo(app);
-  std::string scenario_name = "default";
+  std::string scenario_name;
   std::string robot_config = "fu2004";
   std::string steer = "truth";
   pilot::PilotNodeOptions options;
-  app.add_option("--scenario", scenario_name, "Scenario preset (config/scenarios) or YAML path")
-      ->capture_default_str();
+  app.add_option("--scenario", scenario_name,
+                 "Scenario preset (config/scenarios) or YAML path whose trajectory for this robot "
+                 "to drive; without it the pilot holds still");
   app.add_option("--robot-config", robot_config, "Robot preset name or YAML path")
       ->capture_default_str();
   app.add_option("--steer", steer, "Pose to steer with: truth (SIM_WORLD) or state (ROBOT_STATE)")
@@ -42,9 +46,16 @@ int main(int argc, char** argv) {
 
   return bus::runMain("pilot", [&] {
     common.resolve("pilot");
-    pilot::Pilot pilot(scenario::loadScenarioPreset(scenario_name), common.robot,
-                       robot::loadRobotPreset(robot_config));
+    const robot::RobotParams params = robot::loadRobotPreset(robot_config);
     const RobotClock clock = bus::robotClockFromEnvironment();
+    if (scenario_name.empty()) {
+      if (common.check_args) return 0;
+      bus::installStopSignals();
+      bus::Node node({.process = "pilot", .robot_id = common.robot, .url = common.bus_url}, clock);
+      pilot::holdStill(node);
+      return node.run();
+    }
+    pilot::Pilot pilot(scenario::loadScenarioPreset(scenario_name), common.robot, params);
     if (common.check_args) return 0;
     bus::installStopSignals();
     bus::Node node({.process = "pilot", .robot_id = common.robot, .url = common.bus_url}, clock);

@@ -107,4 +107,9 @@ void PilotNode::sendCommand() {
   if (node_.publish(bus::channels::kMotionCommand, command_)) ++commands_sent_;
 }
 
+void holdStill(bus::Node& node) {
+  spdlog::info("holding still (no --scenario): no MOTION_COMMAND is sent");
+  node.setMetric("holding", 1.0);
+}
+
 }  // namespace fieldline::pilot

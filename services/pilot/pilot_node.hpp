@@ -51,4 +51,9 @@ class PilotNode {
   std::int64_t commands_sent_ = 0;
 };
 
+// A pilot without a scenario: it holds still by sending nothing (the motor bridge stops the
+// robot when commands expire, and a behaviour module or joystick on the bus may drive it). Logs
+// it once and reports the metric `holding` = 1 in SERVICE_STATUS, so the status table says so.
+void holdStill(bus::Node& node);
+
 }  // namespace fieldline::pilot

@@ -34,6 +34,7 @@
 #include "common/time/offset_clock.hpp"
 #include "tools/eval/evaluation.hpp"
 #include "tools/eval/team_ball.hpp"
+#include "tools/launch/launch_file.hpp"
 #include "tools/launch/robot_clocks.hpp"
 #include "tools/recording/clock_model.hpp"
 #include "tools/recording/recording_info.hpp"
@@ -49,64 +50,32 @@ std::string selfDirectory() {
   return ec ? std::string{} : p.parent_path().string();
 }
 
-// The launch file with the scenario given to the simulator and the pilots, and the scenario's
-// robot file to every process that models the robot's body (motor bridge, fusion, pilot), so a
-// scenario with a four-wheeled robot runs four wheels end to end.
-std::string scenarioLaunchFile(const std::string& launch, const std::string& scenario,
+// The launch file to run. Its `scenario` setting gives the scenario to the simulator and the
+// pilots, its `robot_config` setting (where it has one; sim_team.yaml does) the scenario's robot
+// file to every process that models the robot's body (motor bridge, fusion, pilot), so a scenario
+// with a four-wheeled robot runs four wheels end to end. Both are set in this process's
+// environment (FIELDLINE_SCENARIO, FIELDLINE_ROBOT_CONFIG), where the launcher and the recorder
+// read them. A copy with the values in its first line goes into out_dir/launch.yaml, for the
+// record.
+std::string scenarioLaunchFile(const std::string& launch_name, const std::string& scenario,
                                const std::string& robot, const std::string& out_dir) {
-  std::ifstream in(config::resolvePreset("launch", launch));
-  if (!in) throw std::runtime_error("cannot read launch file " + launch);
-  std::ostringstream text;
-  std::string line;
-  bool in_world_sim = false;
-  bool in_pilot = false;
-  bool in_body = false;
-  const auto insertArgs = [](std::string& args_line, const std::string& extra) {
-    // args: [a, b] -> args: [a, b, EXTRA]
-    const auto close = args_line.rfind(']');
-    if (close == std::string::npos) return false;
-    const bool empty = args_line.find_first_not_of(" [", args_line.find('[')) == close;
-    args_line.insert(close, (empty ? "" : ", ") + extra);
-    return true;
-  };
-  const std::string robot_args = "--robot-config, " + robot;
-  while (std::getline(in, line)) {
-    if (line.find("- name:") != std::string::npos) {
-      in_world_sim = line.find("world_sim") != std::string::npos;
-      in_pilot = line.find("pilot") != std::string::npos;
-      in_body = in_pilot || line.find("motor_bridge") != std::string::npos ||
-                line.find("fusion") != std::string::npos;
-    }
-    if (line.find("args:") != std::string::npos && (in_pilot || in_body)) {
-      std::string extra = in_body ? robot_args : "";
-      if (in_pilot) extra += ", --scenario, " + scenario;
-      if (insertArgs(line, extra)) in_pilot = in_body = false;
-    }
-    text << line << '\n';
-    if (line.find("executable:") != std::string::npos) {
-      if (in_world_sim) {
-        text << "    args: [--scenario, " << scenario << "]\n";
-        in_world_sim = false;
-      } else if (in_body && !in_pilot) {
-        // A body process without an args line of its own (the motor bridge) gets one, unless
-        // its entry has one further down (then that one is extended).
-        const std::streampos mark = in.tellg();
-        std::string rest;
-        bool has_args = false;
-        while (std::getline(in, rest) && rest.find("- name:") == std::string::npos) {
-          if (rest.find("args:") != std::string::npos) has_args = true;
-        }
-        in.clear();
-        in.seekg(mark);
-        if (!has_args) {
-          text << "    args: [" << robot_args << "]\n";
-          in_body = false;
-        }
-      }
-    }
+  const std::string path = config::resolvePreset("launch", launch_name);
+  const launch::LaunchFile file = launch::loadLaunchFile(path);
+  if (!file.settings.contains("scenario")) {
+    throw config::Error(path +
+                        ": no `scenario` setting to give the simulator and the pilots the "
+                        "scenario (sim_team.yaml: `settings: {scenario: default}`, used as "
+                        "{scenario} in their args)");
   }
-  const std::string path = out_dir + "/launch.yaml";
-  std::ofstream(path) << text.str();
+  setenv(launch::settingVariable("scenario").c_str(), scenario.c_str(), 1);
+  setenv(launch::settingVariable("robot_config").c_str(), robot.c_str(), 1);
+  std::ifstream in(path);
+  std::ostringstream text;
+  text << "# fieldline-eval ran " << path << " with scenario=" << scenario
+       << (file.settings.contains("robot_config") ? " robot_config=" + robot : std::string())
+       << "\n"
+       << in.rdbuf();
+  std::ofstream(out_dir + "/launch.yaml") << text.str();
   return path;
 }
 

@@ -221,7 +221,9 @@ void Launcher::addPlanHook(PlanHook hook) {
 
 void Launcher::plan() {
   path_ = config::resolvePreset("launch", options_.launch_file);
-  file_ = loadLaunchFile(path_);
+  file_ = loadLaunchFile(path_, LaunchOverrides{.settings = options_.settings,
+                                                .robot = options_.robot,
+                                                .environment = processEnvironment});
   team_size_ = options_.robots.value_or(file_.defaults.robots);
   bin_dir_ = selfDirectory();
   const char* search_path = std::getenv("PATH");
@@ -253,6 +255,11 @@ std::vector<std::string> Launcher::preflight() const {
 }
 
 int Launcher::printDryRun(const std::vector<std::string>& problems) const {
+  if (!file_.include_path.empty()) std::printf("# include: %s\n", file_.include_path.c_str());
+  for (const auto& [name, setting] : file_.settings) {
+    std::printf("# setting %s = %s (%s; %s or --set %s=...)\n", name.c_str(), setting.value.c_str(),
+                setting.origin.c_str(), settingVariable(name).c_str(), name.c_str());
+  }
   for (const std::string& note : plan_.notes)
     std::printf("# %s\n", note.c_str());
   for (const LaunchInstance& i : plan_.instances) {

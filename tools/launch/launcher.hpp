@@ -8,6 +8,7 @@
 #pragma once
 
 #include <functional>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -22,6 +23,11 @@ struct LauncherOptions {
   std::string launch_file = "sim_team";
   // Team size; default: defaults.robots of the file.
   std::optional<int> robots;
+  // This machine's robot number (`all` means this robot only); 0: the file's defaults.robot or
+  // FIELDLINE_ROBOT.
+  int robot = 0;
+  // --set NAME=VALUE: settings of the file (the environment's FIELDLINE_<NAME> is read too).
+  std::map<std::string, std::string> settings;
   // Stop everything after this many seconds (0: until Ctrl-C).
   double duration_s = 0;
   // Compact status lines instead of the live table.

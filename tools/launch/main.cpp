@@ -1,6 +1,10 @@
 // fieldline-launch: starts the processes a launch file lists, each on its robot's bus, prefixes
 // their output, restarts crashed ones with backoff, stops them all on Ctrl-C / SIGTERM and shows
 // a live status table fed by SERVICE_STATUS (tools/launch/launcher.hpp does the work).
+#include <cstdio>
+#include <string>
+#include <vector>
+
 #include <CLI/CLI.hpp>
 
 #include "common/bus/cli.hpp"
@@ -20,6 +24,16 @@ int main(int argc, char** argv) {
   app.add_option("--robots", options.robots,
                  "Team size: `all` means robots 1..N (default: defaults.robots of the file)")
       ->check(CLI::Range(1, kMaxRobot));
+  app.add_option("--robot", options.robot,
+                 "This machine is robot N (a real robot): `robots: all` means robot N only "
+                 "(default: defaults.robot of the file, or FIELDLINE_ROBOT)")
+      ->check(CLI::Range(1, kMaxRobot));
+  std::vector<std::string> settings;
+  app.add_option("--set", settings,
+                 "NAME=VALUE: a setting of the launch file (its `settings:`, used as {NAME} in "
+                 "args), e.g. --set camera_device=/dev/video2; the environment variable "
+                 "FIELDLINE_<NAME> sets it too, --set wins")
+      ->allow_extra_args(false);
   app.add_option("--duration", options.duration_s,
                  "Run this many seconds, then stop everything cleanly (0: until Ctrl-C); the exit "
                  "code is 1 if a process failed or crash-looped meanwhile")
@@ -41,5 +55,13 @@ int main(int argc, char** argv) {
   app.footer(launchFileHelp());
   FIELDLINE_PARSE(app, argc, argv);
   options.check_args = !skip_check_args;
+  for (const std::string& s : settings) {
+    const auto eq = s.find('=');
+    if (eq == std::string::npos || eq == 0) {
+      std::fprintf(stderr, "fieldline-launch: --set %s: expected NAME=VALUE\n", s.c_str());
+      return kExitBadLaunch;
+    }
+    options.settings[s.substr(0, eq)] = s.substr(eq + 1);
+  }
   return fieldline::bus::runMain("fieldline-launch", [&] { return Launcher(options).run(); });
 }

@@ -103,23 +103,24 @@ std::string selfDirectory() {
 
 LaunchPlan planLaunch(const LaunchFile& file, int team_size, const ExecutableLookup& lookup) {
   LaunchPlan plan;
-  std::set<int> robots{kSimRobot};
-  for (int r = 1; r <= team_size; ++r)
-    robots.insert(r);
+  std::vector<std::vector<int>> robots_of;
+  std::set<int> robots;
   for (const ProcessEntry& entry : file.processes) {
+    robots_of.push_back(entryRobots(entry, file.defaults, team_size));
+    robots.insert(robots_of.back().begin(), robots_of.back().end());
     for (int r : entry.robots) {
-      if (r > team_size) {
+      if (std::find(robots_of.back().begin(), robots_of.back().end(), r) ==
+          robots_of.back().end()) {
         plan.notes.push_back(entry.name + " for robot " + std::to_string(r) +
                              " left out: the team has " + std::to_string(team_size) + " robots");
       }
     }
   }
   for (int robot : robots) {
-    for (const ProcessEntry& entry : file.processes) {
-      const bool wanted =
-          (entry.all_robots && robot != kSimRobot) ||
-          std::find(entry.robots.begin(), entry.robots.end(), robot) != entry.robots.end();
-      if (!wanted) continue;
+    for (std::size_t e = 0; e < file.processes.size(); ++e) {
+      const ProcessEntry& entry = file.processes[e];
+      const std::vector<int>& wanted = robots_of[e];
+      if (std::find(wanted.begin(), wanted.end(), robot) == wanted.end()) continue;
       LaunchInstance instance;
       instance.name = entry.name;
       instance.robot = robot;

@@ -6,6 +6,7 @@
 #include <csignal>
 #include <cstring>
 #include <filesystem>
+#include <map>
 #include <set>
 
 #include <fcntl.h>
@@ -173,14 +174,18 @@ std::vector<std::string> checkExecutables(const LaunchFile& file, const LaunchPl
     if (!instance.path.empty() || instance.optional || !reported.insert(instance.name).second) {
       continue;
     }
+    std::string where = file.path;
     int line = 0;
     for (const ProcessEntry& e : file.processes) {
-      if (e.name == instance.name) line = e.line;
+      if (e.name == instance.name) {
+        where = e.file.empty() ? file.path : e.file;
+        line = e.line;
+      }
     }
     const std::string meant = config::closestMatch(instance.executable, built);
     problems.push_back(fmt::format(
-        "{}:{}: process {}: executable {} not found in {} or PATH{}", file.path, line,
-        instance.name, instance.executable, bin_dir.empty() ? "the launcher's folder" : bin_dir,
+        "{}:{}: process {}: executable {} not found in {} or PATH{}", where, line, instance.name,
+        instance.executable, bin_dir.empty() ? "the launcher's folder" : bin_dir,
         meant.empty() ? std::string(" (add `optional: true` to skip it while it is not built)")
                       : " (did you mean " + meant + "?)"));
   }
@@ -189,7 +194,8 @@ std::vector<std::string> checkExecutables(const LaunchFile& file, const LaunchPl
 
 std::vector<std::string> checkArguments(const std::vector<LaunchInstance>& instances,
                                         const PreflightOptions& options) {
-  std::vector<std::string> problems;
+  // Problems in the order of the instances (the checks end in any order).
+  std::map<const LaunchInstance*, std::string> found;
   std::vector<const LaunchInstance*> queue;
   for (const LaunchInstance& i : instances) {
     if (!i.path.empty()) queue.push_back(&i);
@@ -201,7 +207,7 @@ std::vector<std::string> checkArguments(const std::vector<LaunchInstance>& insta
            static_cast<int>(running.size()) < std::max(1, options.parallel)) {
       Check check = startCheck(*queue[next++], options.timeout_s);
       if (check.pid < 0) {
-        problems.push_back(check.instance->label() + ": " + check.output);
+        found[check.instance] = check.instance->label() + ": " + check.output;
         continue;
       }
       running.push_back(std::move(check));
@@ -229,10 +235,14 @@ std::vector<std::string> checkArguments(const std::vector<LaunchInstance>& insta
       readAvailable(*it);
       if (it->fd >= 0) ::close(it->fd);
       if (std::string problem = verdict(*it, status); !problem.empty()) {
-        problems.push_back(std::move(problem));
+        found[it->instance] = std::move(problem);
       }
       it = running.erase(it);
     }
+  }
+  std::vector<std::string> problems;
+  for (const LaunchInstance& i : instances) {
+    if (auto it = found.find(&i); it != found.end()) problems.push_back(std::move(it->second));
   }
   return problems;
 }

@@ -226,6 +226,10 @@ std::string headlineMetrics(const service_status_t& status) {
     const int v = static_cast<int>(status.metric_value[i]);
     note += v >= 0 && v <= 3 ? kNames[v] : "?";
   }
+  // A pilot without a scenario sends nothing on purpose.
+  for (std::size_t i = 0; i < n; ++i) {
+    if (status.metric_name[i] == "holding" && status.metric_value[i] > 0.5) note += "holding still";
+  }
   // ... and whether the pose may be its symmetric twin (nothing told them apart yet).
   for (std::size_t i = 0; i < n; ++i) {
     if (status.metric_name[i] == "ambiguous" && status.metric_value[i] > 0.5 && !note.empty())

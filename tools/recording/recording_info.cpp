@@ -9,6 +9,7 @@
 
 #include "common/bus/log_file.hpp"
 #include "common/config/config.hpp"
+#include "tools/launch/launch_file.hpp"
 
 namespace fieldline::recording {
 
@@ -23,11 +24,9 @@ std::string readText(const std::string& path) {
 }
 
 // The value after `flag` in a process's argument list, or empty.
-std::string argumentAfter(const YAML::Node& args, const std::string& flag) {
-  if (!args || !args.IsSequence()) return {};
+std::string argumentAfter(const std::vector<std::string>& args, const std::string& flag) {
   for (std::size_t i = 0; i + 1 < args.size(); ++i) {
-    if (args[i].IsScalar() && args[i].as<std::string>() == flag && args[i + 1].IsScalar())
-      return args[i + 1].as<std::string>();
+    if (args[i] == flag) return args[i + 1];
   }
   return {};
 }
@@ -42,18 +41,21 @@ LaunchSettings settingsForField(const std::string& field) {
 }
 
 LaunchSettings settingsFromLaunchFile(const std::string& launch_path) {
-  const std::string launch_text = readText(launch_path);
+  std::string launch_text = readText(launch_path);
   std::string field = "msl";
   std::string fusion_config = "default";
-  try {
-    const YAML::Node root = YAML::Load(launch_text);
-    for (const YAML::Node& process : root["processes"]) {
-      if (!process["name"] || process["name"].as<std::string>() != "fusion") continue;
-      if (auto f = argumentAfter(process["args"], "--field"); !f.empty()) field = f;
-      if (auto c = argumentAfter(process["args"], "--config"); !c.empty()) fusion_config = c;
-    }
-  } catch (const YAML::Exception& e) {
-    throw config::Error(launch_path + ": " + e.what());
+  // The launch file as fieldline-launch reads it (its include, its settings from the
+  // environment): fusion's arguments after the settings are filled in.
+  const launch::LaunchFile file =
+      launch::loadLaunchFile(launch_path, {.environment = launch::processEnvironment});
+  for (const launch::ProcessEntry& process : file.processes) {
+    if (process.name != "fusion") continue;
+    if (auto f = argumentAfter(process.args, "--field"); !f.empty()) field = f;
+    if (auto c = argumentAfter(process.args, "--config"); !c.empty()) fusion_config = c;
+  }
+  // The recording keeps the whole description: the included file's text follows.
+  if (!file.include_path.empty()) {
+    launch_text += "\n# ---- included: " + file.include_path + "\n" + readText(file.include_path);
   }
   LaunchSettings s = settingsForField(field);
   YAML::Emitter out;

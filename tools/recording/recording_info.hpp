@@ -19,9 +19,10 @@ namespace fieldline::recording {
 const std::string& buildVersion();
 
 // The settings of a robot's processes from a launch file: `launch_file` (its path), `launch` (its
-// text), the field fusion runs on (fusion's --field, else msl) and `fusion_config` (the text of
-// fusion's --config, else config/fusion/default.yaml). Throws config::Error for an unreadable
-// file.
+// text, and its included file's after it), the field fusion runs on (fusion's --field, else msl)
+// and `fusion_config` (the text of fusion's --config, else config/fusion/default.yaml), as
+// fieldline-launch reads the file (its settings from the environment). Throws config::Error for an
+// unreadable or invalid file.
 struct LaunchSettings {
   std::string settings_yaml;
   std::string field_name = "msl";

@@ -2,17 +2,23 @@
 
 #include <algorithm>
 #include <cctype>
+#include <filesystem>
 #include <set>
 #include <sstream>
 #include <stdexcept>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include "common/bus/urls.hpp"
+#include "tools/launch/robot_clocks.hpp"
 
 namespace fieldline::systemd_units {
 
 namespace {
+
+constexpr const char* kTeamcommExecutable = "fieldline-teamcomm";
+constexpr const char* kKeyCredential = "team.key";
 
 std::string restartValue(launch::RestartPolicy policy) {
   switch (policy) {
@@ -26,12 +32,13 @@ std::string restartValue(launch::RestartPolicy policy) {
   return "no";
 }
 
-// Robot numbers an entry runs for, with `all` expanded to 1..team.
-std::set<int> robotsOf(const launch::ProcessEntry& entry, int team) {
+// Robot numbers an entry runs for, with `all` expanded to 1..team (this robot only when the
+// file says which robot this machine is).
+std::set<int> robotsOf(const launch::ProcessEntry& entry, const launch::LaunchDefaults& defaults,
+                       int team) {
   std::set<int> robots(entry.robots.begin(), entry.robots.end());
-  if (entry.all_robots)
-    for (int r = 1; r <= team; ++r)
-      robots.insert(r);
+  for (const int r : launch::entryRobots(entry, defaults, team))
+    robots.insert(r);
   return robots;
 }
 
@@ -65,6 +72,23 @@ void checkName(const std::string& name) {
       })) {
     throw std::invalid_argument("process name '" + name + "' cannot be a unit name");
   }
+}
+
+std::string basename(const std::string& path) {
+  return std::filesystem::path(path).filename().string();
+}
+
+// fieldline's own processes run a bus::Node, which speaks sd_notify (READY=1, WATCHDOG=1).
+bool speaksNotify(const launch::ProcessEntry& entry) {
+  return basename(entry.executable).starts_with("fieldline-");
+}
+
+std::string seconds(double s) {
+  return fmt::format("{:g}s", s);
+}
+
+std::string listOf(const std::set<int>& robots) {
+  return fmt::format("{}", fmt::join(robots, ", "));
 }
 
 }  // namespace
@@ -103,22 +127,80 @@ std::string execWord(const std::string& word) {
 
 std::map<std::string, std::string> generateUnits(const launch::LaunchFile& file,
                                                  const UnitOptions& options) {
-  for (const auto* dir : {&options.bin_dir, &options.env_dir, &options.root}) {
+  for (const auto* dir : {&options.bin_dir, &options.env_dir}) {
     if (dir->empty() || dir->front() != '/') {
       throw std::invalid_argument("'" + *dir + "' is not an absolute path");
     }
   }
+  for (const auto* path : {&options.override_dir, &options.root, &options.team_key}) {
+    if (!path->empty() && path->front() != '/') {
+      throw std::invalid_argument("'" + *path + "' is not an absolute path");
+    }
+  }
+  if (options.watchdog_s < 0) throw std::invalid_argument("the watchdog period is negative");
   const int team = options.robots > 0 ? options.robots : file.defaults.robots;
-  std::map<std::string, std::string> files;
-  std::map<int, std::vector<std::string>> instances_by_robot;
 
+  // The robot-wide target is a template: every robot runs the same processes.
+  std::set<int> robot_set;
+  std::string robot_set_owner;
+  std::vector<std::string> robot_services;
+  std::vector<std::string> sim_services;
+  int highest_robot = team;
   for (const auto& entry : file.processes) {
     checkName(entry.name);
-    const std::set<int> robots = robotsOf(entry, team);
+    std::set<int> robots = robotsOf(entry, file.defaults, team);
     if (robots.empty()) continue;
+    const bool sim = robots.count(launch::kSimRobot) > 0;
+    if (sim && robots.size() > 1) {
+      throw std::invalid_argument(fmt::format(
+          "process '{}' (line {}) runs both as the simulator's (sim) and on robots: the units "
+          "cannot give one service two targets; make it two entries",
+          entry.name, entry.line));
+    }
+    if (sim) {
+      sim_services.push_back("fieldline-" + entry.name + "@0.service");
+      continue;
+    }
+    if (robot_set_owner.empty()) {
+      robot_set = robots;
+      robot_set_owner = entry.name;
+    } else if (robots != robot_set) {
+      throw std::invalid_argument(fmt::format(
+          "process '{}' (line {}) runs on robots {} but '{}' on {}: the units start the same "
+          "processes on every robot (fieldline-robot@N.target); run it on every robot or leave "
+          "it out",
+          entry.name, entry.line, listOf(robots), robot_set_owner, listOf(robot_set)));
+    }
+    highest_robot = std::max(highest_robot, *robots.rbegin());
+    robot_services.push_back("fieldline-" + entry.name + "@%i.service");
+  }
+
+  std::map<std::string, std::string> files;
+  // Buses that stay on the machine (ttl 0) need a multicast route even when no network is up
+  // (a robot booting at a venue): the bus group alone goes to the loopback interface, so the
+  // team link's multicast keeps the system's route.
+  const std::string route_unit = "fieldline-bus-route.service";
+  const bool route = options.bus_route && file.defaults.bus.ttl == 0;
+  if (route) {
+    const std::string& group = file.defaults.bus.group;
+    files[route_unit] = fmt::format(
+        "# Generated by fieldline-systemd-units from {}: the buses have ttl 0, so they stay on "
+        "this machine.\n"
+        "[Unit]\n"
+        "Description=fieldline: multicast route of the LCM bus group {} on the loopback "
+        "interface\n\n"
+        "[Service]\n"
+        "Type=oneshot\n"
+        "RemainAfterExit=yes\n"
+        "ExecStart=/bin/sh -c \"ip link set lo multicast on && ip route replace {}/32 dev lo\"\n",
+        file.path, group, group);
+  }
+  for (const auto& entry : file.processes) {
+    const std::set<int> robots = robotsOf(entry, file.defaults, team);
+    if (robots.empty()) continue;
+    const bool sim = robots.count(launch::kSimRobot) > 0;
+    const std::string target = sim ? "fieldline-sim.target" : "fieldline-robot@%i.target";
     const std::string unit = "fieldline-" + entry.name + "@";
-    for (const int r : robots)
-      instances_by_robot[r].push_back(unit + std::to_string(r) + ".service");
 
     const std::string executable = entry.executable.find('/') != std::string::npos
                                        ? entry.executable
@@ -128,6 +210,15 @@ std::map<std::string, std::string> generateUnits(const launch::LaunchFile& file,
                        "${FIELDLINE_SIM_BUS_URL}";
     for (const auto& arg : entry.args)
       exec += " " + argWord(arg);
+    const bool takes_key =
+        !options.team_key.empty() && basename(entry.executable) == kTeamcommExecutable &&
+        std::find(entry.args.begin(), entry.args.end(), "--key-file") == entry.args.end();
+    if (takes_key) exec += std::string(" --key-file %d/") + kKeyCredential;
+    const bool notify = speaksNotify(entry);
+    // The launch file's crash loop: `restarts` ends within `window_s` and it is not started
+    // again. systemd counts starts, which is the same number (the first start and a restart
+    // after each end but the last).
+    const launch::CrashLoopParams& loop = file.defaults.crash_loop;
 
     std::ostringstream text;
     text << "# Generated by fieldline-systemd-units from " << file.path << " (process '"
@@ -135,51 +226,90 @@ std::map<std::string, std::string> generateUnits(const launch::LaunchFile& file,
          << "). The instance is the robot number, 0 for the simulator's processes.\n"
          << "[Unit]\n"
          << "Description=fieldline " << entry.name << " (robot %i)\n"
-         << "PartOf=fieldline-robot%i.target\n"
-         << "After=network-online.target\n"
-         << "Wants=network-online.target\n"
-         << "# Restarts are for crashes, not for a broken installation: give up after 20 in a "
-            "minute.\n"
-         << "StartLimitIntervalSec=60\n"
-         << "StartLimitBurst=20\n\n"
-         << "[Service]\n"
-         << "Type=simple\n"
-         << "EnvironmentFile=" << options.env_dir << "/robot%i.env\n";
+         << "PartOf=" << target << "\n"
+         << "After=network-online.target time-sync.target" << (route ? " " + route_unit : "")
+         << "\n"
+         << "Wants=network-online.target" << (route ? " " + route_unit : "") << "\n"
+         << "# The launch file's crash loop: " << loop.restarts << " ends in "
+         << seconds(loop.window_s) << " and it stays failed (systemctl reset-failed, then start).\n"
+         << "StartLimitIntervalSec=" << seconds(loop.window_s) << "\n"
+         << "StartLimitBurst=" << loop.restarts << "\n\n"
+         << "[Service]\n";
+    if (notify) {
+      text << "# Ready when its event loop runs; pings the watchdog from that loop.\n"
+           << "Type=notify\n"
+           << "NotifyAccess=main\n";
+      if (options.watchdog_s > 0) text << "WatchdogSec=" << seconds(options.watchdog_s) << "\n";
+    } else {
+      text << "Type=simple\n";
+    }
+    text << "EnvironmentFile=" << options.env_dir << "/robot%i.env\n";
+    if (!options.override_dir.empty() && options.override_dir != options.env_dir) {
+      text << "EnvironmentFile=-" << options.override_dir << "/robot%i.env\n";
+    }
     for (const auto& [key, value] : entry.env)
       text << "Environment=" << execWord(key + "=" + value) << "\n";
+    if (takes_key) {
+      text << "# The team's secret, readable by root alone; the process reads systemd's copy.\n"
+           << "LoadCredential=" << kKeyCredential << ":" << options.team_key << "\n";
+    }
     if (!options.user.empty()) text << "User=" << options.user << "\n";
     text << "ExecStart=" << exec << "\n"
          << "Restart=" << restartValue(entry.restart) << "\n"
-         << "RestartSec=" << fmt::format("{:g}", file.defaults.backoff.initial_s) << "s\n"
+         << "RestartSec=" << seconds(file.defaults.backoff.initial_s) << "\n"
          << "KillSignal=SIGTERM\n"
-         << "TimeoutStopSec=" << fmt::format("{:g}", file.defaults.stop_grace_s) << "s\n"
+         << "TimeoutStopSec=" << seconds(file.defaults.stop_grace_s) << "\n"
          << "\n[Install]\n"
-         << "WantedBy=fieldline-robot%i.target\n";
+         << "WantedBy=" << target << "\n";
     files[unit + ".service"] = text.str();
   }
 
-  for (const auto& [robot, instances] : instances_by_robot) {
+  std::set<int> env_robots;
+  if (!robot_services.empty()) {
+    std::ostringstream target;
+    target << "# Generated by fieldline-systemd-units from " << file.path
+           << ". The instance is the robot number: systemctl enable --now "
+              "fieldline-robot@3.target\n"
+           << "[Unit]\n"
+           << "Description=fieldline robot %i: every process of the launch file\n";
+    for (const auto& service : robot_services)
+      target << "Wants=" << service << "\n";
+    target << "\n[Install]\nWantedBy=multi-user.target\n";
+    files["fieldline-robot@.target"] = target.str();
+    for (int r = 1; r <= highest_robot; ++r)
+      env_robots.insert(r);
+  }
+  if (!sim_services.empty()) {
     std::ostringstream target;
     target << "# Generated by fieldline-systemd-units from " << file.path << ".\n"
            << "[Unit]\n"
-           << "Description=fieldline "
-           << (robot == launch::kSimRobot ? std::string("simulator")
-                                          : fmt::format("robot {}", robot))
-           << ": every process of the launch file\n";
-    for (const auto& instance : instances)
-      target << "Wants=" << instance << "\n";
+           << "Description=fieldline simulator: the launch file's `robots: sim` processes\n";
+    for (const auto& service : sim_services)
+      target << "Wants=" << service << "\n";
     target << "\n[Install]\nWantedBy=multi-user.target\n";
-    files[fmt::format("fieldline-robot{}.target", robot)] = target.str();
+    files["fieldline-sim.target"] = target.str();
+    env_robots.insert(launch::kSimRobot);
+  }
 
-    bus::BusAddress address = file.defaults.bus;
+  for (const int robot : env_robots) {
+    const bus::BusAddress& address = file.defaults.bus;
     std::ostringstream env;
-    env << "# Generated by fieldline-systemd-units from " << file.path << ": robot " << robot
+    env << "# Generated by fieldline-systemd-units from " << file.path << ": "
+        << (robot == launch::kSimRobot ? std::string("the simulator")
+                                       : fmt::format("robot {}", robot))
         << "'s buses for fieldline-*@" << robot << ".service.\n"
         << "FIELDLINE_BUS_URL="
         << (robot == launch::kSimRobot ? bus::simBusUrl(address) : bus::robotBusUrl(robot, address))
         << "\n"
-        << "FIELDLINE_SIM_BUS_URL=" << bus::simBusUrl(address) << "\n"
-        << "FIELDLINE_ROOT=" << options.root << "\n";
+        << "FIELDLINE_SIM_BUS_URL=" << bus::simBusUrl(address) << "\n";
+    const auto clock = launch::clockEnvironment(file.clocks.of(robot));
+    if (!clock.empty()) {
+      env << "# The robot's clock error (the launch file's robots: section), from one reference "
+             "time for all its processes.\n";
+      for (const auto& [key, value] : clock)
+        env << key << "=" << value << "\n";
+    }
+    if (!options.root.empty()) env << "FIELDLINE_ROOT=" << options.root << "\n";
     files[fmt::format("robot{}.env", robot)] = env.str();
   }
   return files;

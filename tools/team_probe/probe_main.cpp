@@ -146,8 +146,13 @@ int main(int argc, char** argv) {
         errors[m.error_kind[i]] = m.error_count[i];
       for (int i = 0; i < m.num_metrics; ++i)
         metrics[m.metric_name[i]] = m.metric_value[i];
-      out << fmt::format("{{\"status_t\":{},\"state\":{},\"errors\":{}}}\n", system_clock.now(),
-                         m.state, object(errors));
+      std::string reason;
+      for (const char c : m.state_reason) {
+        if (c == '"' || c == '\\') reason += '\\';
+        if (static_cast<unsigned char>(c) >= 0x20) reason += c;
+      }
+      out << fmt::format("{{\"status_t\":{},\"state\":{},\"reason\":\"{}\",\"errors\":{}}}\n",
+                         system_clock.now(), m.state, reason, object(errors));
     });
     node.every(20'000, [&] { publishEstimates(node, pose, ball); });
     node.at(node.now() + static_cast<Utime>(o.duration_s * 1e6), [&] { node.requestStop(); });

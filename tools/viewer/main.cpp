@@ -7,6 +7,7 @@
 #include <spdlog/spdlog.h>
 #include <CLI/CLI.hpp>
 
+#include "common/config/paths.hpp"
 #include "common/field/field_model.hpp"
 #include "tools/viewer/playback.hpp"
 #include "tools/viewer/viewer_cli.hpp"
@@ -15,7 +16,9 @@ using namespace fieldline;
 
 int main(int argc, char** argv) {
   CLI::App app{"Live field view in the browser: the robots' and the simulator's buses as a page"};
-  viewer::ViewerCommandLine cli(app, FIELDLINE_VIEWER_WEB_DIR);
+  // The page ships with the binary: <prefix>/share/fieldline/web (build/share/fieldline/web in a
+  // build tree, a symlink to tools/viewer/web).
+  viewer::ViewerCommandLine cli(app, config::dataDirectory() + "/web");
   FIELDLINE_PARSE(app, argc, argv);
   if (const auto problem = cli.finish()) {
     std::cerr << *problem << "\n";

@@ -1,6 +1,7 @@
 #include "tools/viewer/viewer_cli.hpp"
 
 #include <algorithm>
+#include <filesystem>
 
 namespace fieldline::viewer {
 
@@ -52,6 +53,11 @@ std::optional<std::string> ViewerCommandLine::finish() {
   std::sort(viewer.robots.begin(), viewer.robots.end());
   if (std::adjacent_find(viewer.robots.begin(), viewer.robots.end()) != viewer.robots.end()) {
     return "--robots: a robot is listed twice";
+  }
+  if (!std::filesystem::is_regular_file(std::filesystem::path(web_dir_) / "index.html")) {
+    return "the viewer's page (index.html) is not in " + web_dir_ +
+           ": give its folder with --web-dir (installed: <prefix>/share/fieldline/web; source: "
+           "tools/viewer/web)";
   }
   web.port = static_cast<unsigned short>(port_);
   web.web_dir = web_dir_;

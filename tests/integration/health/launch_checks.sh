@@ -6,7 +6,10 @@
 #  2. a typo in a child's args (--feild) fails --dry-run: the child was run with --check-args;
 #  3. a typo in `executable:` is an error with the closest built name, not a warning;
 #  4. the shipped launch files pass --dry-run: every fieldline executable they start accepts
-#     --check-args with their arguments;
+#     --check-args with their arguments; real_robot.yaml only with its devices there (stand-ins:
+#     a named pipe for the camera, /dev/null for the serial line): without them it fails naming
+#     each missing device with its fix, and so do the camera's and the motor bridge's
+#     --check-args;
 #  5. a child that crash-loops (started with --skip-check-args) is FAILED and the launcher exits 1
 #     even though --duration ended the run (it used to exit 0 and restart forever);
 #  6. `fieldline-camera --fps 1000` exits 2, and a camera preset naming a colour table that does
@@ -90,7 +93,26 @@ has "exe\.yaml:[0-9]+: process node: executable fieldline-launch-test-nod not fo
 echo "== 4. the shipped launch files pass --dry-run (every child answers --check-args)"
 expect_rc 0 "$work/sim_team.log" "$bin/fieldline-launch" sim_team --dry-run
 has "fieldline-teamcomm --robot 6 "
-expect_rc 0 "$work/real_robot.log" "$bin/fieldline-launch" "$root/config/launch/real_robot.yaml" --dry-run
+mkfifo "$work/camera.fifo"
+expect_rc 0 "$work/real_robot.log" "$bin/fieldline-launch" "$root/config/launch/real_robot.yaml" \
+  --dry-run --set camera_device="$work/camera.fifo" --set motor_device=/dev/null
+has "^# setting camera_device = $work/camera.fifo \(--set; FIELDLINE_CAMERA_DEVICE or --set"
+has "fieldline-camera --robot 1 .* --source v4l2 --input $work/camera.fifo --config robot_640"
+echo "   ... and names each missing device with its fix"
+expect_rc 2 "$work/real_missing.log" env FIELDLINE_CAMERA_DEVICE=/dev/nosuch-video \
+  FIELDLINE_MOTOR_DEVICE=/dev/nosuch-tty "$bin/fieldline-launch" real_robot --dry-run
+has "error: r1 camera: arguments rejected \(exit code 2\): camera: /dev/nosuch-video: no such device; list cameras with v4l2-ctl --list-devices"
+has "error: r1 motor_bridge: arguments rejected \(exit code 2\): motor_bridge: /dev/nosuch-tty: no such device; .*ls -l /dev/serial/by-id/"
+has "2 problem\(s\) in .*real_robot\.yaml: nothing would start"
+if [[ ! -e /dev/video0 && ! -e /dev/ttyUSB0 ]]; then
+  expect_rc 2 "$work/real_default.log" "$bin/fieldline-launch" "$root/config/launch/real_robot.yaml" --dry-run
+  has "camera: /dev/video0: no such device"
+  has "motor_bridge: /dev/ttyUSB0: no such device"
+fi
+expect_rc 2 "$work/bridge_nosuch.log" "$bin/fieldline-motor-bridge" --check-args --device /dev/nosuch
+has "motor_bridge: /dev/nosuch: no such device"
+expect_rc 2 "$work/camera_nosuch.log" "$bin/fieldline-camera" --source v4l2 --input /dev/nosuch --check-args
+has "camera: /dev/nosuch: no such device; list cameras"
 
 echo "== 5. a crash loop is FAILED and makes the exit code 1, also with --duration"
 team "$work/loop.yaml" "" "[--feild, msl]"

@@ -94,7 +94,7 @@ def main():
         "  - name: pilot",
         "    executable: fieldline-pilot",
         "    robots: all",
-        "    args: [--steer, truth]",
+        "    args: [--steer, truth, --scenario, default]",
     ]) + "\n")
     log = open(out / "launch.log", "w")
     launcher = subprocess.Popen([bin_ / "fieldline-launch", out / "team.yaml", "--duration", "90",

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Generates the systemd units of sim_team.yaml (six robots and the simulator) and real_robot.yaml
-# with fieldline-systemd-units and checks every target and every service instance with
+# with fieldline-systemd-units and checks every target instance and every service instance with
 # `systemd-analyze verify`: exit code 0 and not one line of complaint. A deliberately broken copy
 # must draw a complaint (the check has teeth). Skips (77) without systemd-analyze.
 set -u
@@ -14,10 +14,17 @@ out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT
 fail=0
 
-verify() {  # DIR: every target and every instance the targets want
-  local dir=$1 units
-  units=$(cd "$dir" && ls *.target)
-  units="$units $(cd "$dir" && sed -n 's/^Wants=\(fieldline-.*@.*\.service\)$/\1/p' *.target)"
+verify() {  # DIR: the simulator's target, robot N's target for each robot<N>.env, what they want
+  local dir=$1 units="" robots r
+  if [ -f "$dir/fieldline-sim.target" ]; then
+    units="fieldline-sim.target $(sed -n 's/^Wants=\(.*\)$/\1/p' "$dir/fieldline-sim.target")"
+  fi
+  robots=$(cd "$dir" && ls robot*.env | sed -n 's/^robot\([1-9][0-9]*\)\.env$/\1/p')
+  for r in $robots; do
+    units="$units fieldline-robot@$r.target"
+    units="$units $(sed -n 's/^Wants=\(.*\)$/\1/p' "$dir/fieldline-robot@.target" | sed "s/%i/$r/")"
+  done
+  [ -f "$dir/fieldline-bus-route.service" ] && units="$units fieldline-bus-route.service"
   (cd "$dir" && SYSTEMD_UNIT_PATH="$dir:" systemd-analyze verify --man=no $units) \
       > "$dir.verify" 2>&1
   local rc=$?

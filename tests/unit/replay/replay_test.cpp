@@ -203,15 +203,38 @@ TEST(ReplayTool, MergedLogsAreInLogTimeOrderAndComplete) {
   const std::string merged = tempPath("replay_merged");
   const std::int64_t written =
       mergeLogs({{kFixture, {"ROBOT_STATE"}}, {kFixture, {"ODOMETRY"}}}, merged);
+  // Each source keeps its own order; the sources interleave by log time. lcm-logger's receive
+  // stamps may step back by microseconds (the fixture has a few such steps): the merge adds none.
+  const auto stepsBack = [](const std::string& path) {
+    bus::LogReader log(path);
+    bus::LogEvent event;
+    std::map<std::string, std::vector<Utime>> stamps;
+    while (log.nextChecked(event))
+      if (event.channel == "ROBOT_STATE" || event.channel == "ODOMETRY")
+        stamps[event.channel].push_back(event.timestamp);
+    return stamps;
+  };
+  const auto source = stepsBack(kFixture);
   bus::LogReader log(merged);
   bus::LogEvent event;
   std::map<std::string, std::int64_t> counted;
+  std::map<std::string, std::vector<Utime>> merged_stamps;
   Utime last = 0;
+  int merged_steps_back = 0;
   while (log.nextChecked(event)) {
     ++counted[event.channel];
-    EXPECT_GE(event.timestamp, last);
-    last = event.timestamp;
+    merged_stamps[event.channel].push_back(event.timestamp);
+    if (event.timestamp < last) ++merged_steps_back;
+    last = std::max(last, event.timestamp);
   }
+  EXPECT_EQ(merged_stamps, source);
+  int source_steps_back = 0;
+  for (const auto& [channel, stamps] : source)
+    for (std::size_t i = 1; i < stamps.size(); ++i)
+      if (stamps[i] < *std::max_element(stamps.begin(), stamps.begin() + static_cast<long>(i)))
+        ++source_steps_back;
+  // A step back inside one source can show as one step back in the merged file, nothing more.
+  EXPECT_LE(merged_steps_back, source_steps_back);
   EXPECT_EQ(counted.size(), 2u);
   EXPECT_EQ(counted["ROBOT_STATE"] + counted["ODOMETRY"], written);
   EXPECT_EQ(counted["ROBOT_STATE"], static_cast<std::int64_t>(robotStates(kFixture).size()));
@@ -225,10 +248,9 @@ TEST(ReplayTool, MergedLogsAreInLogTimeOrderAndComplete) {
   options.run = {"feature_recognition", "fusion"};
   const ReplayRunResult result = runReplay(options);
   EXPECT_EQ(result.truth_merged, 0);
-  // One ROBOT_STATE per ODOMETRY; the live log may miss the state of its first or last sample
-  // (the logger starts and stops mid-stream).
-  EXPECT_NEAR(static_cast<double>(robotStates(options.out_path).size()),
-              static_cast<double>(robotStates(kFixture).size()), 2.0);
+  // One ROBOT_STATE per ODOMETRY of the log (the live fusion, recorded on a busy machine, may
+  // have missed some of them: the live count is no measure).
+  EXPECT_EQ(robotStates(options.out_path).size(), source.at("ODOMETRY").size());
   EXPECT_EQ(robotStates(options.live_out_path), robotStates(kFixture));
   for (const auto& path : {merged, options.out_path, options.live_out_path})
     std::filesystem::remove(path);

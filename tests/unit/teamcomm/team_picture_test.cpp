@@ -127,8 +127,9 @@ TEST(teamcomm_picture, UsesOnlyFreshBallsFromLocalizedRobotsAndPredictsThem) {
   EXPECT_NEAR(s.team_ball_y, -0.4, 1e-9);
   EXPECT_NEAR(s.team_ball_vx, 1.0, 1e-9);
   EXPECT_EQ(s.robots[3].ball_age_us, 200'000);
-  // Prediction uncertainty grew: 0.1^2 + 0.05^2 (pose) + (1 m/s * 0.2 s)^2.
-  EXPECT_NEAR(s.team_ball_covariance(0, 0), 0.01 + 0.0025 + 0.04, 1e-9);
+  // Prediction uncertainty grew: 0.1^2 + (1 m/s * 0.2 s)^2 (the reporter's pose uncertainty is in
+  // its ball filter's covariance already).
+  EXPECT_NEAR(s.team_ball_covariance(0, 0), 0.01 + 0.04, 1e-9);
 }
 
 TEST(teamcomm_picture, SaysWhichRobotsMayBeOnTheirTwinAndKeepsTheirBalls) {
@@ -163,6 +164,68 @@ TEST(teamcomm_picture, WhenTwoDisagreeTheMoreCertainWins) {
   picture.picture(kT0, &ball);
   EXPECT_EQ(ball.used, std::vector<int>{2});
   EXPECT_EQ(ball.rejected, std::vector<int>{1});
+}
+
+// twin_kidnap (config/scenarios): robot 3 is carried onto its symmetric twin, keeps its pose by
+// continuity and reports the ball at its mirror image, confidently.
+TEST(teamcomm_picture, ATieGoesToTheBallThatContinuesTheTeamBall) {
+  TeamPicture picture(1);
+  Report r1 = report(-4.5, 0.0, kT0), r2 = report(-2.0, 3.0, kT0), r3 = report(-1.5, -4.0, kT0);
+  seeBall(r1, -1.5, 1.0, 0.05);
+  seeBall(r2, -1.52, 1.01, 0.05);
+  seeBall(r3, -1.49, 1.0, 0.05);
+  for (const auto& [id, r] : {std::pair{1, r1}, {2, r2}, {3, r3}})
+    picture.setReport(id, r);
+  ASSERT_TRUE(picture.picture(kT0).team_ball_valid);
+  // Robot 1 loses the ball; robot 3 is now on its twin, surer than robot 2.
+  r1.ball.valid = false;
+  seeBall(r3, 1.5, -1.0, 0.03);
+  for (const auto& [id, r] : {std::pair{1, r1}, {3, r3}})
+    picture.setReport(id, r);
+  TeamBallResult ball;
+  const perception::TeamState s = picture.picture(kT0 + 100'000, &ball);
+  ASSERT_TRUE(s.team_ball_valid);
+  EXPECT_EQ(ball.used, std::vector<int>{2});
+  EXPECT_EQ(ball.rejected, std::vector<int>{3});
+  EXPECT_EQ(ball.mirrored, std::vector<int>{3});
+  EXPECT_NEAR(s.team_ball_x, -1.52, 1e-9);
+}
+
+TEST(teamcomm_picture, ALoneBallAtTheTeamBallsMirrorImageIsLeftOut) {
+  TeamPicture picture(1);
+  Report r1 = report(-4.5, 0.0, kT0), r3 = report(-1.5, -4.0, kT0);
+  seeBall(r1, -1.5, 1.0, 0.05);
+  picture.setReport(1, r1);
+  ASSERT_TRUE(picture.picture(kT0).team_ball_valid);
+  // Only robot 3 sees the ball now, from its twin.
+  r1.ball.valid = false;
+  picture.setReport(1, r1);
+  seeBall(r3, 1.5, -1.0, 0.05);
+  picture.setReport(3, r3);
+  TeamBallResult ball;
+  EXPECT_FALSE(picture.picture(kT0 + 200'000, &ball).team_ball_valid);
+  EXPECT_EQ(ball.rejected, std::vector<int>{3});
+  EXPECT_EQ(ball.mirrored, std::vector<int>{3});
+  // A lone ball elsewhere (a kick) is the team ball at once.
+  Report r2 = report(-2.0, 3.0, kT0 + 300'000);
+  seeBall(r2, 0.5, 3.0, 0.05);
+  picture.setReport(3, report(-1.5, -4.0, kT0 + 300'000));
+  picture.setReport(2, r2);
+  EXPECT_TRUE(picture.picture(kT0 + 300'000).team_ball_valid);
+}
+
+TEST(teamcomm_picture, AMirroredBallIsTheTeamBallOnceThePreviousOneIsOld) {
+  TeamPicture picture(1);
+  Report r1 = report(-4.5, 0.0, kT0);
+  seeBall(r1, -1.5, 1.0, 0.05);
+  picture.setReport(1, r1);
+  ASSERT_TRUE(picture.picture(kT0).team_ball_valid);
+  // Nothing for longer than the previous team ball is trusted (3 s): a lone report is all there is.
+  const Utime later = kT0 + 3'500'000;
+  Report r3 = report(-1.5, -4.0, later);
+  seeBall(r3, 1.5, -1.0, 0.05);
+  picture.setReport(3, r3);
+  EXPECT_TRUE(picture.picture(later).team_ball_valid);
 }
 
 TEST(teamcomm_team_state, MessageCarriesEveryField) {

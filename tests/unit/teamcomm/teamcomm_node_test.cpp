@@ -24,11 +24,13 @@ TEST(teamcomm_node, ThreeRobotsShareThePictureAndLearnEachOthersClocks) {
   Team team({{0, 0.0}, {437'000, 50.0}, {-312'000, -40.0}});
   // Robot 3 is mislocalized by 2 m and confident: its ball lands 2 m off.
   team.robots[2]->ball.x = 4.0;
-  team.run(12.0);
+  // 20 s: over 12 s the drift fit was within 25 ppm for only four of six seeds of the hub's
+  // delays (with either send schedule); over 20 s for all of eight.
+  team.run(20.0);
   for (std::size_t i = 0; i < 3; ++i) {
     Robot& r = *team.robots[i];
     // TEAM_STATE at 10 Hz.
-    EXPECT_NEAR(static_cast<double>(r.states.size()), 120.0, 2.0) << "robot " << i + 1;
+    EXPECT_NEAR(static_cast<double>(r.states.size()), 200.0, 2.0) << "robot " << i + 1;
     const perception::TeamState& s = r.states.back();
     for (std::size_t j = 0; j < 6; ++j)
       EXPECT_EQ(s.robots[j].present, j < 3) << i << "," << j;
@@ -84,6 +86,7 @@ TEST(teamcomm_node, ForgedReplayedAndBrokenPacketsChangeNothing) {
   Robot& victim = *team.robots[0];
   const perception::TeamState before = victim.states.back();
   const std::int64_t accepted_before = victim.team.counters().accepted;
+  const std::int64_t sent_before = team.robots[1]->team.counters().sent;
   // What the attacker recorded from robot 2.
   std::vector<std::vector<std::uint8_t>> recorded;
   for (const auto& [from, bytes] : team.hub.sent_by) {
@@ -130,8 +133,11 @@ TEST(teamcomm_node, ForgedReplayedAndBrokenPacketsChangeNothing) {
             3000);
   EXPECT_EQ(c.rejected[static_cast<std::size_t>(Reject::kOversized)], 3000);
   EXPECT_GT(c.rejected[static_cast<std::size_t>(Reject::kTruncated)], 0);
-  // The real robot 2 still gets through, at its own rate.
-  EXPECT_NEAR(static_cast<double>(c.accepted - accepted_before), 62.0, 3.0);
+  // The real robot 2 still gets through, every packet it sent (25 a second: its ball estimates
+  // at 50 Hz go out at once when the last packet is at least 28 ms old).
+  const std::int64_t sent = team.robots[1]->team.counters().sent - sent_before;
+  EXPECT_GT(sent, 70);
+  EXPECT_NEAR(static_cast<double>(c.accepted - accepted_before), static_cast<double>(sent), 2.0);
   const perception::TeamState after = victim.states.back();
   EXPECT_TRUE(after.robots[1].present);
   EXPECT_EQ(after.robots[1].x, before.robots[1].x);
@@ -167,6 +173,23 @@ TEST(teamcomm_node, APartitionIsReportedAndHealsWithinASecond) {
   team.run(0.3);
   EXPECT_TRUE(team.robots[0]->states.back().robots[1].present);
   EXPECT_TRUE(team.robots[1]->states.back().robots[0].present);
+}
+
+TEST(teamcomm_node, ANewBallGoesOutAtOnceAndNoFasterThanTheMaximumRate) {
+  Team team({{0, 0.0}, {-150'000, 0.0}});
+  // Fusion publishes at 50 Hz: a valid ball makes packets at 25 Hz (one every other estimate, at
+  // least 28 ms apart), none makes them at the send rate, 20 Hz.
+  team.run(1.0);
+  Robot& r = *team.robots[0];
+  std::int64_t before = r.team.counters().sent;
+  team.run(4.0);
+  EXPECT_NEAR(static_cast<double>(r.team.counters().sent - before) / 4.0, 25.0, 0.5);
+  r.ball.valid = false;
+  team.run(1.0);
+  before = r.team.counters().sent;
+  team.run(4.0);
+  EXPECT_NEAR(static_cast<double>(r.team.counters().sent - before) / 4.0, 20.0, 0.5);
+  EXPECT_EQ(team.robots[1]->team.counters().rejectedTotal(), 0);
 }
 
 TEST(teamcomm_node, AClockStepIsFoundByTheRoundTripsOfAFewPackets) {

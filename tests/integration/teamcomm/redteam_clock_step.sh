@@ -1,0 +1,96 @@
+#!/usr/bin/env bash
+# Red-team finding 2 of issue 34, as the red team did it: in a running team of three robots
+# (fieldline-teamcomm and a probe standing in for fusion, each robot on its own bus, the team link
+# on the loopback of a private network namespace), robot 1's processes are restarted on a clock
+# 2 s ahead (+2 s), then on the true clock (-2 s), then 2 s behind (-2 s). After each step both
+# teammates must show robot 1 present with a fresh pose within 5 s, and their SERVICE_STATUS
+# reason while it is refused must name robot 1's clock, never a sequence number.
+# Failed on main at 32dcf7a: robot 1 was never present again after the first step.
+#
+#   redteam_clock_step.sh BIN_DIR SOURCE_DIR
+set -u
+bin=$(realpath "$1")
+root=$(realpath "$2")
+out=$(mktemp -d)
+trap 'rm -rf "$out"' EXIT
+ns="unshare -n"
+[ "$(id -u)" = 0 ] || ns="unshare -rn"
+if ! $ns true 2>/dev/null; then
+  echo "SKIP: needs a private network namespace (root or unprivileged user namespaces)"
+  exit 77
+fi
+
+$ns bash -s "$bin" "$root" "$out" <<'EOF'
+set -u
+bin=$1 root=$2 out=$3
+ip link set lo up; ip link set lo multicast on; ip route add 224.0.0.0/4 dev lo
+export FIELDLINE_ROOT="$root" FIELDLINE_CLOCK_REFERENCE_US=$(date +%s%6N)
+# start ROBOT OFFSET_US TAG SECONDS X: teamcomm and the probe of one robot on that clock, the robot
+# at (X, 1.5) (each of robot 1's processes at its own x, so the pictures tell them apart).
+start() {
+  FIELDLINE_CLOCK_OFFSET_US=$2 "$bin/fieldline-teamcomm" --robot $1 --team-config sim_team \
+    > "$out/teamcomm$1$3.log" 2>&1 &
+  echo $! >> "$out/teamcomm.pids"
+  echo $! > "$out/teamcomm$1.pid"
+  FIELDLINE_CLOCK_OFFSET_US=$2 "$bin/fieldline-team-probe" --robot $1 --pose "$5,1.5,0.3" \
+    --ball 2.0,-1.0 --duration $4 --out "$out/probe$1$3.jsonl" > "$out/probe$1$3.log" 2>&1 &
+  echo $! > "$out/probe$1.pid"
+}
+# step OFFSET_US TAG X: robot 1's processes restarted on another clock.
+step() {
+  kill -TERM "$(cat "$out/teamcomm1.pid")" "$(cat "$out/probe1.pid")"
+  echo "$(date +%s%6N) $1 $3" >> "$out/steps"
+  start 1 $1 $2 10 $3
+}
+start 2 0 "" 40 2.0
+start 3 0 "" 40 3.0
+start 1 0 a 8 1.0
+sleep 8; step 2000000 b 1.1
+sleep 10; step 0 c 1.2
+sleep 10; step -2000000 d 1.3
+sleep 12
+kill -TERM $(cat "$out/teamcomm.pids") 2>/dev/null
+wait
+EOF
+
+python3 - "$out" <<'EOF'
+import json, sys
+out = sys.argv[1]
+steps = [line.split() for line in open(f"{out}/steps")]
+failures = 0
+for robot in (2, 3):
+    states, statuses = [], []
+    for line in open(f"{out}/probe{robot}.jsonl"):
+        d = json.loads(line)
+        if "present" in d:
+            states.append(d)
+        elif "status_t" in d:
+            statuses.append(d)
+    previous = 0
+    for i, (when, offset, x) in enumerate(steps):
+        when, step, x = int(when), int(offset) - previous, float(x)
+        previous = int(offset)
+        end = int(steps[i + 1][0]) if i + 1 < len(steps) else float("inf")
+        back = next((s for s in states
+                     if when < s["t"] < end and s["present"][0] and s["age"][0] < 200_000
+                     and abs(s["x"][0] - x) < 0.05), None)
+        if back is None:
+            print(f"FAIL: robot {robot} never saw robot 1 again after its {step:+d} us step")
+            failures += 1
+            continue
+        delay = (back["t"] - when) / 1e6
+        reasons = sorted({s.get("reason", "") for s in statuses
+                          if when < s["status_t"] < back["t"] + 1_000_000 and s["state"] != 0})
+        bad = [r for r in reasons if "sequence" in r or ("robot 1" in r and "clock" not in r)]
+        clock = [r for r in reasons if "robot 1" in r and "clock" in r]
+        print(f"robot {robot}: robot 1 back {delay:.2f} s after its {step:+d} us step; "
+              f"reason: {(clock or reasons or ['none (ok)'])[0]}")
+        if delay > 5.0:
+            print("FAIL: more than 5 s")
+            failures += 1
+        if bad:
+            print(f"FAIL: reason not the clock: {bad}")
+            failures += 1
+print("PASS" if failures == 0 else f"FAIL: {failures}")
+sys.exit(1 if failures else 0)
+EOF
