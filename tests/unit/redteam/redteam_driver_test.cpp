@@ -9,6 +9,7 @@
 
 #include <filesystem>
 #include <memory>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -16,6 +17,7 @@
 
 #include "common/serial/protocol.hpp"
 #include "services/motor_bridge/bridge_node.hpp"
+#include "services/motor_bridge/text_bridge_node.hpp"
 #include "services/world_sim/pseudo_terminal.hpp"
 
 namespace fieldline::motor_bridge {
@@ -30,9 +32,11 @@ class redteam_second_driver : public ::testing::Test {
     config.reconnect_interval = 0.01;
     config.command_rate = 50.0;
     pty = std::make_unique<world_sim::PseudoTerminal>(config.device);
-    bridge = std::make_unique<BridgeNode>(bridge_node, params, config);
-    bridge->start();
-    ASSERT_TRUE(bridge->link().connected());
+    if (binary_bridge) {
+      bridge = std::make_unique<BridgeNode>(bridge_node, params, config);
+      bridge->start();
+      ASSERT_TRUE(bridge->link().connected());
+    }
   }
   void TearDown() override {
     bridge.reset();
@@ -87,6 +91,14 @@ class redteam_second_driver : public ::testing::Test {
   bus::Node pilot{{.process = "pilot", .robot_id = 1, .status_period_us = 0}, clock, memq};
   robot::RobotParams params = robot::loadRobotPreset("fu2004");
   std::unique_ptr<BridgeNode> bridge;
+  // The binary bridge on the line; false for the text bridge's test (both subscribe on the same
+  // memq:// bus, so only one may exist).
+  bool binary_bridge = true;
+};
+
+class redteam_second_driver_text : public redteam_second_driver {
+ protected:
+  redteam_second_driver_text() { binary_bridge = false; }
 };
 
 TEST_F(redteam_second_driver, CommandsClaimingAnotherRobotAreRefusedAndWarned) {
@@ -114,6 +126,49 @@ TEST_F(redteam_second_driver, ASecondPublisherForThisRobotIsRefusedWhileTheFirst
   EXPECT_NE(s.state, service_status_t::STATE_OK);
   EXPECT_NE(s.state_reason.find("MOTION_COMMAND"), std::string::npos) << s.state_reason;
   EXPECT_EQ(bridge_node.status().errorCount("command_second_publisher"), 100);
+}
+
+// The example text-line adapter (fieldline-text-bridge) obeys the same rule: a command claiming
+// robot 2 on robot 1's bus never reaches the controller's "V vx vy omega" lines.
+TEST_F(redteam_second_driver_text, AnotherRobotsCommandsAreRefusedToo) {
+  bus::Node text_node{
+      {.process = "text_bridge", .robot_id = 1, .status_period_us = 0}, clock, memq};
+  TextBridgeNode text_bridge(text_node, params, config);
+  text_bridge.start();
+  ASSERT_TRUE(text_bridge.link().connected());
+  bus::Node attacker{{.process = "attacker", .robot_id = 2, .status_period_us = 0}, clock, memq};
+  double fastest = 0.0;
+  std::string lines;
+  for (int k = 0; k < 50; ++k) {
+    clock.advance(10'000);
+    auto mine = command(clock.now(), 0.39);
+    pilot.publish(bus::channels::kMotionCommand, mine);
+    text_node.spinOnce(0);
+    clock.advance(10'000);
+    auto theirs = command(clock.now(), 1.0);
+    attacker.publish(bus::channels::kMotionCommand, theirs);
+    for (int i = 0; i < 3; ++i)
+      text_node.spinOnce(1);
+    std::vector<std::uint8_t> bytes;
+    pty->read(bytes);
+    lines.append(bytes.begin(), bytes.end());
+  }
+  std::istringstream in(lines);
+  std::string tag;
+  double vx = 0.0, vy = 0.0, omega = 0.0;
+  int commands = 0;
+  while (in >> tag >> vx >> vy >> omega) {
+    ASSERT_EQ(tag, "V") << lines.substr(0, 200);
+    fastest = std::max(fastest, vx);
+    ++commands;
+  }
+  ASSERT_GT(commands, 0);
+  EXPECT_NEAR(fastest, 0.39 * params.max_speed, 0.01) << lines.substr(0, 200);  // main: 1.0 x
+  EXPECT_EQ(text_node.status().errorCount("command_other_robot"), 50);
+  text_node.publishStatus();
+  const service_status_t s = text_node.status().takeStatus(clock.now());
+  EXPECT_EQ(s.state, service_status_t::STATE_WARN) << s.state_reason;
+  EXPECT_NE(s.state_reason.find("MOTION_COMMAND for robot 2"), std::string::npos) << s.state_reason;
 }
 
 // A restarted pilot (a new publisher id) takes over once the old one is silent.
