@@ -31,6 +31,10 @@ struct Channel {
 namespace channels {
 // Robot bus (one per robot).
 inline constexpr Channel<image_t> kCameraImage{"CAMERA_IMAGE"};
+// The camera's reduced stream for a viewer on another machine (every kCameraPreviewScale-th pixel
+// of every kCameraPreviewScale-th row, a few frames a second): CAMERA_IMAGE never leaves the
+// robot, this does when the bus has a ttl (docs/launch.md, "Watching from a laptop").
+inline constexpr Channel<image_t> kCameraPreview{"CAMERA_PREVIEW"};
 inline constexpr Channel<line_contours_t> kVisionLines{"VISION_LINES"};
 inline constexpr Channel<ball_observation_t> kVisionBall{"VISION_BALL"};
 inline constexpr Channel<obstacle_observations_t> kVisionObstacles{"VISION_OBSTACLES"};
@@ -48,13 +52,17 @@ inline constexpr Channel<world_state_t> kSimWorld{"SIM_WORLD"};
 inline constexpr Channel<recording_info_t> kRecordingInfo{"RECORDING_INFO"};
 }  // namespace channels
 
+// CAMERA_PREVIEW's width and height are CAMERA_IMAGE's divided by this.
+inline constexpr int kCameraPreviewScale = 4;
+
 // Every channel name, for tools that list or record them.
-inline constexpr std::array<std::string_view, 13> kAllChannelNames{
+// New channels go at the end: the fuzz corpus picks a channel by its index here.
+inline constexpr std::array<std::string_view, 14> kAllChannelNames{
     channels::kCameraImage.name,     channels::kVisionLines.name,   channels::kVisionBall.name,
     channels::kVisionObstacles.name, channels::kFieldFeatures.name, channels::kOdometry.name,
     channels::kMotionCommand.name,   channels::kRobotState.name,    channels::kBallState.name,
     channels::kTeamState.name,       channels::kServiceStatus.name, channels::kSimWorld.name,
-    channels::kRecordingInfo.name};
+    channels::kRecordingInfo.name,   channels::kCameraPreview.name};
 
 // The rate each channel is published at in normal operation (docs: the channel table), Hz; 0 for
 // channels without a fixed rate. A process requires its inputs at a fraction of this

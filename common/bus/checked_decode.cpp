@@ -8,11 +8,12 @@ namespace fieldline::bus {
 namespace {
 
 // Every channel of channels.hpp, to find a name's type at run time.
-constexpr auto kAllChannels = std::make_tuple(
-    channels::kCameraImage, channels::kVisionLines, channels::kVisionBall,
-    channels::kVisionObstacles, channels::kFieldFeatures, channels::kOdometry,
-    channels::kMotionCommand, channels::kRobotState, channels::kBallState, channels::kTeamState,
-    channels::kServiceStatus, channels::kSimWorld, channels::kRecordingInfo);
+constexpr auto kAllChannels =
+    std::make_tuple(channels::kCameraImage, channels::kVisionLines, channels::kVisionBall,
+                    channels::kVisionObstacles, channels::kFieldFeatures, channels::kOdometry,
+                    channels::kMotionCommand, channels::kRobotState, channels::kBallState,
+                    channels::kTeamState, channels::kServiceStatus, channels::kSimWorld,
+                    channels::kRecordingInfo, channels::kCameraPreview);
 
 static_assert(std::tuple_size_v<decltype(kAllChannels)> == kAllChannelNames.size(),
               "every channel of channels.hpp belongs in kAllChannels");

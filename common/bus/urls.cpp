@@ -24,6 +24,29 @@ std::string simBusUrl(const BusAddress& address) {
   return udpmUrl(address, address.base_port);
 }
 
+std::string localOnlyUrl(const std::string& url) {
+  if (url.rfind("udpm://", 0) != 0) return url;
+  const std::size_t query = url.find('?');
+  if (query == std::string::npos) return url + "?ttl=0";
+  // Options are key=value pairs joined by '&': replace the ttl pair, or add one.
+  std::string out = url.substr(0, query + 1);
+  bool had_ttl = false;
+  std::size_t from = query + 1;
+  while (from <= url.size()) {
+    std::size_t end = url.find('&', from);
+    if (end == std::string::npos) end = url.size();
+    std::string pair = url.substr(from, end - from);
+    if (pair.rfind("ttl=", 0) == 0) {
+      pair = "ttl=0";
+      had_ttl = true;
+    }
+    if (!pair.empty()) out += (out.back() == '?' ? "" : "&") + pair;
+    from = end + 1;
+  }
+  if (!had_ttl) out += (out.back() == '?' ? "" : "&") + std::string("ttl=0");
+  return out;
+}
+
 std::string replayBusUrl(int robot_id, const BusAddress& address) {
   if (robot_id < 1 || robot_id > 99) {
     throw std::invalid_argument(fmt::format("robot id {} out of range 1..99", robot_id));

@@ -23,4 +23,9 @@ std::string robotBusUrl(int robot_id, const BusAddress& address = {});
 // udpm URL of the simulator's bus (port base_port).
 std::string simBusUrl(const BusAddress& address = {});
 
+// The same udpm bus with ttl=0: what is published through it stays on this machine while the
+// bus's other traffic may leave it (the camera's full frames on a watched bus). Other URLs
+// (memq://, a udpm URL already at ttl=0) come back unchanged.
+std::string localOnlyUrl(const std::string& url);
+
 }  // namespace fieldline::bus

@@ -12,12 +12,14 @@
 #include "common/bus/node.hpp"
 #include "common/bus/replay_bus.hpp"
 #include "common/bus/robot_clock.hpp"
+#include "common/bus/urls.hpp"
 #include "common/config/config.hpp"
 #include "common/device/device_check.hpp"
 #include "common/time/clock.hpp"
 #include "common/time/offset_clock.hpp"
 #include "services/camera/camera_config.hpp"
 #include "services/camera/camera_node.hpp"
+#include "services/camera/camera_preview_node.hpp"
 #include "services/camera/floor_raster_cache.hpp"
 #include "services/camera/log_source.hpp"
 #include "services/camera/sources.hpp"
@@ -89,10 +91,23 @@ class PipeDelivery {
   std::int64_t dropped_ = 0;
 };
 
+// The bus CAMERA_IMAGE goes to: the node's own, or, when that one has a ttl (a robot watched
+// from another machine), a ttl=0 copy of it, so that 18 MB/s of frames stay on the robot.
+bus::BusId framesBus(bus::Node& node, const std::string& bus_url) {
+  const std::string local = bus::localOnlyUrl(bus_url);
+  if (local == bus_url) return bus::kPrimaryBus;
+  spdlog::info(
+      "CAMERA_IMAGE stays on this machine ({}); CAMERA_PREVIEW and the status go out "
+      "on {}",
+      local, bus_url);
+  return node.addBus(local);
+}
+
 int runSim(bus::Node& node, const CameraConfig& config, const CameraAppOptions& options,
-           const bus::CommonOptions& common) {
+           const bus::CommonOptions& common, bus::BusId frames_bus, PreviewPublisher& preview) {
   const bus::BusId sim_bus = node.addBus(common.sim_bus_url);
   SimCameraNode sim(node, sim_bus, config, options.field, options.raster_cache);
+  sim.publishOn(frames_bus, &preview);
   std::optional<PipeDelivery> pipe;
   if (!options.to_pipe.empty()) {
     pipe.emplace(node, options.to_pipe, config.model.mirror.width(), config.model.mirror.height(),
@@ -157,6 +172,12 @@ void CameraAppOptions::addTo(CLI::App& app) {
                  "sim: write the frames into this named pipe as YUV4MPEG2 (made if missing), "
                  "each at exposure + latency as a camera delivers it, instead of publishing "
                  "CAMERA_IMAGE: a stand-in camera device for a real robot's launch");
+  app.add_option("--preview-rate", preview_rate,
+                 "CAMERA_PREVIEW per second: a copy of the frames at 1/4 of their width and "
+                 "height for a viewer on another machine (0: none). CAMERA_IMAGE itself never "
+                 "leaves this machine, whatever the bus's ttl")
+      ->check(CLI::Range(0.0, 30.0))
+      ->capture_default_str();
   app.add_option("--max-frames", max_frames,
                  "Real sources: stop after this many frames (0: no limit)");
   raster_cache = config::defaultCacheDirectory();
@@ -206,12 +227,16 @@ int runCamera(const CameraAppOptions& options, const bus::CommonOptions& common)
   }
   const Clock& clock = log_clock ? static_cast<const Clock&>(*log_clock) : robot_clock;
   bus::Node node({.process = "camera", .robot_id = common.robot, .url = bus_url}, clock);
-  if (options.source == "sim") return runSim(node, config, options, common);
+  const bus::BusId frames_bus = framesBus(node, bus_url);
+  PreviewPublisher preview(node, options.preview_rate);
+  if (options.source == "sim") return runSim(node, config, options, common, frames_bus, preview);
 
   bus::installStopSignals();
   std::unique_ptr<FrameSource> source;
   FrameSourceOptions run_options;
   run_options.max_frames = options.max_frames;
+  run_options.frames_bus = frames_bus;
+  run_options.preview = &preview;
   // Folders, files and logs play at the configured rate; live cameras at their own.
   run_options.pace_fps = config.pipeline.frame_rate;
   if (options.source == "folder") {

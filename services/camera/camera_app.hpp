@@ -47,10 +47,14 @@ struct CameraAppOptions {
   // sim: directory of the floor raster cache (floor_raster_cache.hpp); empty: none. Set to
   // config::defaultCacheDirectory() by addTo().
   std::string raster_cache;
+  // CAMERA_PREVIEW messages per second (a 1/kCameraPreviewScale copy of the frames for a viewer
+  // on another machine); 0: none. The full frames never leave the machine: when the bus has a
+  // ttl, CAMERA_IMAGE goes out through a ttl=0 copy of it (bus::localOnlyUrl).
+  double preview_rate = 0.0;
 
   // Adds --source, --config, --field, --input, --latency, --fps, --width, --height, --loop, --bgr,
-  // --max-frames, --raster-cache, --keep-stamps, --restamp, --live-bus, --replay-bus-url and
-  // --to-pipe to `app`.
+  // --max-frames, --raster-cache, --keep-stamps, --restamp, --live-bus, --replay-bus-url,
+  // --to-pipe and --preview-rate to `app`.
   void addTo(CLI::App& app);
 };
 

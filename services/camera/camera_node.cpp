@@ -209,9 +209,10 @@ void SimCameraNode::publishPending(std::size_t slot) {
     deliver_(p.image);
     ++frames_published_;
     ++frames_in_period_;
-  } else if (node_.publish(bus::channels::kCameraImage, p.image)) {
+  } else if (node_.publish(bus::channels::kCameraImage, p.image, frames_bus_)) {
     ++frames_published_;
     ++frames_in_period_;
+    if (preview_ != nullptr) preview_->onFrame(p.image);
   }
   p.in_flight = false;
 }
@@ -282,9 +283,10 @@ std::int64_t runFrameSource(bus::Node& node, FrameSource& source, const Pipeline
       node.reportError("bad_frame", "a source delivered a frame with an unusable layout");
     } else {
       msg::toMessage(view, img);
-      if (node.publish(bus::channels::kCameraImage, img)) {
+      if (node.publish(bus::channels::kCameraImage, img, options.frames_bus)) {
         ++published;
         ++in_period;
+        if (options.preview != nullptr) options.preview->onFrame(img);
       }
     }
     frame.bytes.swap(img.data);

@@ -21,6 +21,7 @@
 
 #include "common/bus/node.hpp"
 #include "services/camera/camera_config.hpp"
+#include "services/camera/camera_preview_node.hpp"
 #include "services/camera/sim_renderer.hpp"
 #include "services/camera/sources.hpp"
 
@@ -49,6 +50,13 @@ class SimCameraNode {
   using Delivery = std::function<void(const image_t& frame)>;
   void deliverTo(Delivery deliver) { deliver_ = std::move(deliver); }
 
+  // Publishes CAMERA_IMAGE on `frames_bus` (default: the node's primary bus) and hands each
+  // published frame to `preview` (may be null; must outlive this node).
+  void publishOn(bus::BusId frames_bus, PreviewPublisher* preview) {
+    frames_bus_ = frames_bus;
+    preview_ = preview;
+  }
+
  private:
   struct Pending {
     image_t image;
@@ -69,6 +77,8 @@ class SimCameraNode {
   std::string raster_cache_dir_;
   std::unique_ptr<SimRenderer> renderer_;
   Delivery deliver_;
+  bus::BusId frames_bus_ = bus::kPrimaryBus;
+  PreviewPublisher* preview_ = nullptr;
   std::optional<world_state_t> world_;
   std::vector<Pending> pending_;
   std::vector<std::uint8_t> frame_buffer_;
@@ -91,6 +101,10 @@ struct FrameSourceOptions {
   // on a clock at the log's time: logClock()); pace_fps does not apply to them. False: every
   // frame is stamped receive time - latency, like a camera's.
   bool keep_stamps = false;
+  // CAMERA_IMAGE goes to this bus of the node.
+  bus::BusId frames_bus = bus::kPrimaryBus;
+  // Gets every published frame (CAMERA_PREVIEW); null: none.
+  PreviewPublisher* preview = nullptr;
 };
 
 // Publishes every frame of `source` as CAMERA_IMAGE until it ends or the node is asked to stop.

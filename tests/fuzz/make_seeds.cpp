@@ -97,6 +97,7 @@ int main(int argc, char** argv) {
   fieldline::recording_info_t info = stamped<fieldline::recording_info_t>();
   info.format_version = fieldline::recording_info_t::FORMAT_VERSION;
   writeLcmSeed(lcm_dir, i++, info);
+  writeLcmSeed(lcm_dir, i++, stamped<fieldline::image_t>());  // CAMERA_PREVIEW
 
   // Team packets as fuzz_team_packet reads them: a flag byte (bit 0: the target puts magic,
   // version and a valid MAC around the rest), then the packet's body without those.

@@ -23,7 +23,7 @@ constexpr auto kChannels = std::make_tuple(
     bus::channels::kVisionObstacles, bus::channels::kFieldFeatures, bus::channels::kOdometry,
     bus::channels::kMotionCommand, bus::channels::kRobotState, bus::channels::kBallState,
     bus::channels::kTeamState, bus::channels::kServiceStatus, bus::channels::kSimWorld,
-    bus::channels::kRecordingInfo);
+    bus::channels::kRecordingInfo, bus::channels::kCameraPreview);
 static_assert(std::tuple_size_v<decltype(kChannels)> == bus::kAllChannelNames.size(),
               "every channel of channels.hpp needs a JSON writer");
 

@@ -33,7 +33,8 @@ std::optional<std::int64_t> expectedFingerprint(const std::string& channel) {
       matches(channel, ch::kFieldFeatures, f) || matches(channel, ch::kOdometry, f) ||
       matches(channel, ch::kMotionCommand, f) || matches(channel, ch::kRobotState, f) ||
       matches(channel, ch::kBallState, f) || matches(channel, ch::kTeamState, f) ||
-      matches(channel, ch::kServiceStatus, f) || matches(channel, ch::kSimWorld, f);
+      matches(channel, ch::kServiceStatus, f) || matches(channel, ch::kSimWorld, f) ||
+      matches(channel, ch::kCameraPreview, f);
   return f;
 }
 

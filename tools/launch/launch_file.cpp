@@ -9,6 +9,7 @@
 #include <set>
 
 #include <arpa/inet.h>
+#include <net/if.h>
 #include <netinet/in.h>
 
 #include "common/bus/channels.hpp"
@@ -148,8 +149,17 @@ CrashLoopParams parseCrashLoop(const config::Node& n) {
   return c;
 }
 
-bus::BusAddress parseBus(const config::Node& n) {
+// A name the kernel could give an interface (empty: none given).
+bool isInterfaceName(const std::string& name) {
+  return name.size() < IF_NAMESIZE && name.find_first_of("/: \t") == std::string::npos;
+}
+
+bus::BusAddress parseBus(const config::Node& n, std::string& interface) {
   bus::BusAddress a;
+  interface = n.getOr<std::string>("interface", "");
+  if (!isInterfaceName(interface)) {
+    n.fail("interface", "'" + interface + "' is not a network interface name");
+  }
   a.group = n.getOr<std::string>("group", a.group);
   if (const std::string problem = checkMulticastGroup(a.group); !problem.empty()) {
     n.fail("group", problem);
@@ -174,7 +184,7 @@ LaunchDefaults parseDefaults(const config::Node& n) {
   d.stop_grace_s = n.getOr<double>("stop_grace_s", d.stop_grace_s, 0.0, 600.0);
   if (auto b = n.childIf("backoff")) d.backoff = parseBackoff(*b);
   if (auto c = n.childIf("crash_loop")) d.crash_loop = parseCrashLoop(*c);
-  if (auto b = n.childIf("bus")) d.bus = parseBus(*b);
+  if (auto b = n.childIf("bus")) d.bus = parseBus(*b, d.bus_interface);
   n.rejectUnknownKeys();
   return d;
 }
@@ -386,6 +396,21 @@ LaunchFile parseLaunchFile(const config::Node& root, const LaunchOverrides& over
   file.settings = parseSettings(root, overrides);
   if (auto d = root.childIf("defaults")) file.defaults = parseDefaults(*d);
   if (const int robot = robotOverride(overrides); robot > 0) file.defaults.robot = robot;
+  if (overrides.bus_ttl) {
+    if (*overrides.bus_ttl < 0 || *overrides.bus_ttl > 255) {
+      throw config::Error("--bus-ttl " + std::to_string(*overrides.bus_ttl) +
+                          ": 0..255 (0 keeps the buses on this machine, 1 reaches the local "
+                          "network)");
+    }
+    file.defaults.bus.ttl = *overrides.bus_ttl;
+  }
+  if (overrides.bus_interface) {
+    if (!isInterfaceName(*overrides.bus_interface)) {
+      throw config::Error("--bus-interface '" + *overrides.bus_interface +
+                          "': not a network interface name (list them with ip link)");
+    }
+    file.defaults.bus_interface = *overrides.bus_interface;
+  }
   const EntryContext context{&file.settings, file.path};
   std::set<std::string> names;
   if (root.has("include")) {

@@ -13,7 +13,9 @@
 //     stop_grace_s: 3.0             # SIGTERM, then SIGKILL after this long
 //     backoff: {initial_s: 0.5, max_s: 10.0, stable_s: 60.0}
 //     crash_loop: {restarts: 5, window_s: 30.0}   # this many ends within window_s: failed
-//     bus: {group: 239.255.76.67, base_port: 7667, ttl: 0, recv_buf_size: 4194304}
+//     bus: {group: 239.255.76.67, base_port: 7667, ttl: 0, recv_buf_size: 4194304,
+//           interface: wlan0}       # ttl > 0: robot buses leave through `interface` (a laptop
+//                                   # watches them; docs/launch.md); --bus-ttl/--bus-interface
 //   processes:
 //     - name: camera                # unique, [A-Za-z0-9_-]
 //       executable: fieldline-camera
@@ -80,6 +82,9 @@ struct LaunchDefaults {
   BackoffParams backoff;
   CrashLoopParams crash_loop;
   bus::BusAddress bus;
+  // `bus.interface`: the network interface the buses leave through when bus.ttl > 0 (the
+  // multicast route must name it: tools/launch/bus_route.hpp); empty: wherever the route says.
+  std::string bus_interface;
 };
 
 struct ProcessEntry {
@@ -131,6 +136,9 @@ struct LaunchOverrides {
   int robot = 0;
   // Reads an environment variable (nullopt: not set). Default: none is read.
   std::function<std::optional<std::string>(const std::string& name)> environment;
+  // --bus-ttl, --bus-interface: the file's bus.ttl and bus.interface for this run.
+  std::optional<int> bus_ttl;
+  std::optional<std::string> bus_interface;
 };
 
 // Reads the process's real environment, for LaunchOverrides::environment.

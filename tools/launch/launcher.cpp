@@ -18,6 +18,7 @@
 
 #include "common/bus/node.hpp"
 #include "common/config/config.hpp"
+#include "tools/launch/bus_route.hpp"
 #include "tools/launch/preflight.hpp"
 #include "tools/launch/status_board.hpp"
 #include "tools/launch/supervisor.hpp"
@@ -51,6 +52,11 @@ LAUNCH FILE (YAML; a preset name like `sim_team` means config/launch/sim_team.ya
 Every process gets `--robot N --bus-url URL --sim-bus-url URL` before its args: robot N's bus is
 udpm://GROUP:<base_port+N>, the simulator's udpm://GROUP:<base_port>. Output lines are prefixed
 `[rN name]` (`[sim name]`).
+
+WATCHING FROM ANOTHER MACHINE: `bus: {ttl: 1, interface: wlan0}` in defaults (or --bus-ttl 1
+--bus-interface wlan0) lets the buses leave through wlan0, so fieldline-viewer --no-sim and
+lcm-spy on a laptop see them; the multicast route must name that interface (checked before the
+start, with the fix). The camera's full frames stay on the robot; CAMERA_PREVIEW goes out.
 
 CHECKS (before anything starts, and all that --dry-run does): the multicast group and ports; every
 executable exists (a name not found is an error with the closest built name, unless the entry says
@@ -223,7 +229,9 @@ void Launcher::plan() {
   path_ = config::resolvePreset("launch", options_.launch_file);
   file_ = loadLaunchFile(path_, LaunchOverrides{.settings = options_.settings,
                                                 .robot = options_.robot,
-                                                .environment = processEnvironment});
+                                                .environment = processEnvironment,
+                                                .bus_ttl = options_.bus_ttl,
+                                                .bus_interface = options_.bus_interface});
   team_size_ = options_.robots.value_or(file_.defaults.robots);
   bin_dir_ = selfDirectory();
   const char* search_path = std::getenv("PATH");
@@ -232,10 +240,26 @@ void Launcher::plan() {
   });
   for (const PlanHook& hook : hooks_)
     hook(file_, plan_);
+  if (file_.defaults.bus.ttl > 0) {
+    const RouteLookup route =
+        multicastRoute(file_.defaults.bus.group, file_.defaults.bus.base_port);
+    plan_.notes.push_back(fmt::format(
+        "the buses leave this machine (ttl {}) through {}: another machine on that network may "
+        "watch them (CAMERA_IMAGE stays here; CAMERA_PREVIEW goes out)",
+        file_.defaults.bus.ttl,
+        route.interface.empty() ? "no interface (" + route.error + ")" : route.interface));
+  }
 }
 
 std::vector<std::string> Launcher::preflight() const {
   std::vector<std::string> problems = checkExecutables(file_, plan_, bin_dir_);
+  if (file_.defaults.bus.ttl > 0) {
+    // Buses meant for another machine must leave through the interface the file names.
+    if (std::string route = checkBusRoute(file_.defaults.bus, file_.defaults.bus_interface);
+        !route.empty()) {
+      problems.push_back(file_.path + ": defaults.bus: " + route);
+    }
+  }
   if (options_.dry_run) {
     // Every instance: arguments can differ per robot ({robot} in a preset name).
     for (std::string& p : checkArguments(plan_.instances))

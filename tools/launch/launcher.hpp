@@ -39,6 +39,10 @@ struct LauncherOptions {
   // Before starting, run one instance of every entry with --check-args (--dry-run runs every
   // instance, whatever this says).
   bool check_args = true;
+  // --bus-ttl, --bus-interface: the file's bus.ttl and bus.interface for this run (watching the
+  // robot from another machine: docs/launch.md).
+  std::optional<int> bus_ttl;
+  std::optional<std::string> bus_interface;
 };
 
 // Exit code for a launch file or child arguments that do not pass the checks.

@@ -34,6 +34,17 @@ int main(int argc, char** argv) {
                  "args), e.g. --set camera_device=/dev/video2; the environment variable "
                  "FIELDLINE_<NAME> sets it too, --set wins")
       ->allow_extra_args(false);
+  int bus_ttl = -1;
+  app.add_option("--bus-ttl", bus_ttl,
+                 "The buses' multicast ttl for this run (default: defaults.bus.ttl, 0: they stay "
+                 "on this machine; 1: a laptop on the robot's network may watch them with "
+                 "fieldline-viewer or lcm-spy; docs/launch.md)")
+      ->check(CLI::Range(0, 255));
+  std::string bus_interface;
+  auto* interface_option =
+      app.add_option("--bus-interface", bus_interface,
+                     "With a ttl: the network interface the buses must leave through (default: "
+                     "defaults.bus.interface); the multicast route is checked before the start");
   app.add_option("--duration", options.duration_s,
                  "Run this many seconds, then stop everything cleanly (0: until Ctrl-C); the exit "
                  "code is 1 if a process failed or crash-looped meanwhile")
@@ -55,6 +66,8 @@ int main(int argc, char** argv) {
   app.footer(launchFileHelp());
   FIELDLINE_PARSE(app, argc, argv);
   options.check_args = !skip_check_args;
+  if (bus_ttl >= 0) options.bus_ttl = bus_ttl;
+  if (interface_option->count() > 0) options.bus_interface = bus_interface;
   for (const std::string& s : settings) {
     const auto eq = s.find('=');
     if (eq == std::string::npos || eq == 0) {

@@ -59,6 +59,7 @@ void CameraView::select(int robot) {
   if (robot == selected_) return;
   selected_ = robot;
   frames_.clear();
+  previews_.clear();
   lines_.clear();
   balls_.clear();
   lines_seen_ = false;
@@ -66,23 +67,39 @@ void CameraView::select(int robot) {
   last_encoded_utime_ = 0;
 }
 
+namespace {
+
+// Keeps `image` as the newest of at most `n` frames, reusing the oldest slot's buffers once the
+// ring is full: no allocation per frame.
+void keepFrame(std::deque<image_t>& ring, const image_t& image, std::size_t n) {
+  if (ring.size() >= n) {
+    image_t slot = std::move(ring.front());
+    ring.pop_front();
+    slot = image;
+    ring.push_back(std::move(slot));
+  } else {
+    ring.push_back(image);
+  }
+}
+
+}  // namespace
+
 void CameraView::onImage(int robot, const image_t& image) {
   if (robot != selected_ || robot == 0) return;
-  // Reuse the oldest slot's buffers once the ring is full: no allocation per frame.
-  if (frames_.size() >= options_.frames_kept) {
-    image_t slot = std::move(frames_.front());
-    frames_.pop_front();
-    slot = image;
-    frames_.push_back(std::move(slot));
-  } else {
-    frames_.push_back(image);
-  }
+  keepFrame(frames_, image, options_.frames_kept);
+}
+
+void CameraView::onPreview(int robot, const image_t& preview) {
+  if (robot != selected_ || robot == 0) return;
+  if (!frames_.empty() && frames_.back().header.utime >= preview.header.utime) return;
+  keepFrame(previews_, preview, options_.frames_kept);
 }
 
 void CameraView::onLines(int robot, const line_contours_t& lines, Utime now) {
   if (robot != selected_ || robot == 0) return;
   lines_.push_back(lines);
-  keepAtMost(lines_, 4);
+  // Half a second at 30 Hz: long enough for a preview's lines to be found.
+  keepAtMost(lines_, 16);
   last_lines_received_ = now;
   lines_seen_ = true;
 }
@@ -94,7 +111,12 @@ void CameraView::onBall(int robot, const ball_observation_t& ball) {
 }
 
 std::optional<std::string> CameraView::update(Utime now) {
-  if (selected_ == 0 || frames_.empty()) return std::nullopt;
+  // The preview when it is newer than any full frame (a viewer on another machine gets only it).
+  const bool from_preview =
+      !previews_.empty() &&
+      (frames_.empty() || previews_.back().header.utime > frames_.back().header.utime);
+  const std::deque<image_t>& frames = from_preview ? previews_ : frames_;
+  if (selected_ == 0 || frames.empty()) return std::nullopt;
   const auto period = static_cast<Utime>(std::llround(kMicrosPerSecond / options_.max_rate_hz));
   if (encoded_once_ && now - last_encode_ < period) return std::nullopt;
 
@@ -103,7 +125,7 @@ std::optional<std::string> CameraView::update(Utime now) {
   const line_contours_t* lines = nullptr;
   for (auto l = lines_.rbegin(); l != lines_.rend() && !frame; ++l) {
     if (l->header.utime <= last_encoded_utime_) break;
-    for (const image_t& f : frames_) {
+    for (const image_t& f : frames) {
       if (f.header.utime == l->header.utime) {
         frame = &f;
         lines = &*l;
@@ -111,9 +133,15 @@ std::optional<std::string> CameraView::update(Utime now) {
       }
     }
   }
-  if (!frame && (!lines_seen_ || now - last_lines_received_ > options_.lines_missing_after_us) &&
-      frames_.back().header.utime > last_encoded_utime_) {
-    frame = &frames_.back();
+  // A preview whose lines went by (lines newer than it came, none of them its own) is shown
+  // without them: previews are too rare to wait for another.
+  const bool lines_went_by =
+      from_preview && !lines_.empty() && lines_.back().header.utime > frames.back().header.utime;
+  if (!frame &&
+      (!lines_seen_ || now - last_lines_received_ > options_.lines_missing_after_us ||
+       lines_went_by) &&
+      frames.back().header.utime > last_encoded_utime_) {
+    frame = &frames.back();
   }
   if (!frame) return std::nullopt;
   const ball_observation_t* ball = nullptr;
@@ -144,8 +172,14 @@ std::optional<std::string> CameraView::update(Utime now) {
       f.integer("utime", frame->header.utime);
       f.integer("seq", frame->header.seq);
       f.integer("frame_number", frame->frame_number);
-      f.integer("width", frame->width);
-      f.integer("height", frame->height);
+      // The camera's size, which the line points are in; the JPEG is the preview's when the
+      // frame came from CAMERA_PREVIEW (the page draws it at width x height).
+      const int scale = from_preview ? bus::kCameraPreviewScale : 1;
+      f.string("stream", from_preview ? "preview" : "full");
+      f.integer("width", frame->width * scale);
+      f.integer("height", frame->height * scale);
+      f.integer("image_width", frame->width);
+      f.integer("image_height", frame->height);
       f.integer("jpeg_bytes", static_cast<std::int64_t>(jpeg.size()));
       f.string("jpeg", base64(jpeg));
     }

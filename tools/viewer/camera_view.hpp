@@ -6,6 +6,11 @@
 // The tracked region boundaries themselves are not on the bus (only the line points found along
 // them are); the view shows what the tracker published, nothing recomputed.
 //
+// A viewer on another machine than the robot gets no CAMERA_IMAGE (the full frames never leave
+// the robot) but CAMERA_PREVIEW, the same frames at 1/kCameraPreviewScale of their size a few
+// times a second: shown in their place, drawn at the camera's size so the line points fit. Full
+// frames win while they come.
+//
 // Frames of the selected robot only are kept (a few, to wait for their VISION_LINES); nothing is
 // encoded faster than max_rate_hz. Plain library: no bus, no clock of its own.
 #pragma once
@@ -20,6 +25,7 @@
 #include <fieldline/image_t.hpp>
 #include <fieldline/line_contours_t.hpp>
 
+#include "common/bus/channels.hpp"
 #include "common/time/clock.hpp"
 
 namespace fieldline::viewer {
@@ -44,6 +50,8 @@ class CameraView {
 
   // Messages of robot `robot`'s bus (ignored unless it is the selected one); `now`: viewer clock.
   void onImage(int robot, const image_t& image);
+  // CAMERA_PREVIEW of robot `robot` (ignored while full frames of it are newer).
+  void onPreview(int robot, const image_t& preview);
   void onLines(int robot, const line_contours_t& lines, Utime now);
   void onBall(int robot, const ball_observation_t& ball);
 
@@ -60,7 +68,8 @@ class CameraView {
  private:
   CameraViewOptions options_;
   int selected_ = 0;
-  std::deque<image_t> frames_;  // oldest first
+  std::deque<image_t> frames_;    // oldest first
+  std::deque<image_t> previews_;  // oldest first
   std::deque<line_contours_t> lines_;
   std::deque<ball_observation_t> balls_;
   Utime last_lines_received_ = 0;

@@ -91,6 +91,11 @@ void ViewerNode::watchCamera(int robot) {
   node_.subscribe(
       bus::channels::kCameraImage, [this, robot](const image_t& m) { camera_.onImage(robot, m); },
       id);
+  // On another machine than the robot only the reduced stream arrives (docs/launch.md,
+  // "Watching from a laptop").
+  node_.subscribe(
+      bus::channels::kCameraPreview,
+      [this, robot](const image_t& m) { camera_.onPreview(robot, m); }, id);
   node_.subscribe(
       bus::channels::kVisionBall,
       [this, robot](const ball_observation_t& m) { camera_.onBall(robot, m); }, id);

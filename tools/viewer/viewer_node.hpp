@@ -1,8 +1,9 @@
 // The viewer's bus side: subscribes to every watched robot's bus and the simulator's, keeps the
 // team's picture (TeamView) and the selected robot's camera view (CameraView), and hands both to
 // the web server at the push rate. The camera's images are subscribed for a robot only once a
-// page asks for its camera (GET /camera.json?robot=N), and decoded frames of any other robot are
-// dropped at once; JPEGs are made at CameraViewOptions::max_rate_hz at most.
+// page asks for its camera (GET /camera.json?robot=N): CAMERA_IMAGE on the robot's own machine,
+// CAMERA_PREVIEW from another one (the full frames stay on the robot); decoded frames of any other
+// robot are dropped at once; JPEGs are made at CameraViewOptions::max_rate_hz at most.
 #pragma once
 
 #include <set>

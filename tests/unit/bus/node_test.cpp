@@ -250,6 +250,17 @@ TEST(BusUrls, DefaultsFollowTheArchitecture) {
   EXPECT_THROW(robotBusUrl(0), std::invalid_argument);
 }
 
+TEST(BusUrls, LocalOnlyIsTheSameBusAtTtlZero) {
+  EXPECT_EQ(localOnlyUrl(robotBusUrl(1, {.ttl = 1})),
+            "udpm://239.255.76.67:7668?ttl=0&recv_buf_size=4194304");
+  EXPECT_EQ(localOnlyUrl("udpm://239.255.76.67:7668?recv_buf_size=65536&ttl=32"),
+            "udpm://239.255.76.67:7668?recv_buf_size=65536&ttl=0");
+  EXPECT_EQ(localOnlyUrl("udpm://239.255.76.67:7668?recv_buf_size=65536"),
+            "udpm://239.255.76.67:7668?recv_buf_size=65536&ttl=0");
+  EXPECT_EQ(localOnlyUrl("udpm://239.255.76.67:7668"), "udpm://239.255.76.67:7668?ttl=0");
+  EXPECT_EQ(localOnlyUrl("memq://"), "memq://");
+}
+
 TEST(BusErrors, BadProviderIsAClearError) {
   try {
     Connection::open("nosuchprovider://x");

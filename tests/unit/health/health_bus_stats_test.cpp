@@ -34,7 +34,14 @@ odometry_t odometry(std::int64_t seq, Utime utime, Utime published) {
 TEST(HealthBusStats, FingerprintsAreTheGeneratedTypes) {
   EXPECT_EQ(expectedFingerprint("ODOMETRY"), odometry_t::getHash());
   EXPECT_EQ(expectedFingerprint("CAMERA_IMAGE"), image_t::getHash());
+  EXPECT_EQ(expectedFingerprint("CAMERA_PREVIEW"), image_t::getHash());
   EXPECT_EQ(expectedFingerprint("NOT_A_CHANNEL"), std::nullopt);
+  // Every channel a bus carries is known (RECORDING_INFO is only ever in recordings).
+  for (const std::string_view name : bus::kAllChannelNames) {
+    if (name != bus::channels::kRecordingInfo.name) {
+      EXPECT_TRUE(expectedFingerprint(std::string(name))) << name;
+    }
+  }
 }
 
 TEST(HealthBusStats, ForeignPacketsAreCountedApart) {

@@ -442,8 +442,9 @@ TEST(HostileInputHeader, EveryTruncationIsRefused) {
   EXPECT_EQ(back.seq, 7);
 }
 
-// Every type in lcmtypes/ is covered above: 13 message types and header_t.
-static_assert(std::tuple_size_v<decltype(kAllChannelNames)> == 13);
+// Every type in lcmtypes/ is covered above: 13 message types and header_t (14 channels:
+// CAMERA_PREVIEW carries an image_t like CAMERA_IMAGE).
+static_assert(std::tuple_size_v<decltype(kAllChannelNames)> == 14);
 
 }  // namespace
 }  // namespace fieldline::bus

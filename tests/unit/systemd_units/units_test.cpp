@@ -105,6 +105,23 @@ robots:
   EXPECT_EQ(generateUnits(file, {.robots = 4}).count("robot4.env"), 1u);
 }
 
+TEST(SystemdUnits, BusesWatchedFromALaptopAreRoutedToTheirInterface) {
+  const std::string processes =
+      "processes:\n  - {name: camera, executable: fieldline-camera, robots: all}\n";
+  auto files = generateUnits(parse("defaults:\n  bus: {ttl: 1, interface: wlan0}\n" + processes),
+                             {.robots = 1});
+  const std::string& route = files.at("fieldline-bus-route.service");
+  EXPECT_NE(route.find("ip link set wlan0 multicast on && ip route replace 239.255.76.67/32 dev "
+                       "wlan0"),
+            std::string::npos)
+      << route;
+  EXPECT_NE(route.find("ttl 1 and leave through wlan0"), std::string::npos) << route;
+  EXPECT_NE(files.at("robot1.env").find("ttl=1"), std::string::npos) << files.at("robot1.env");
+  // A ttl without an interface keeps the system's route: no route unit.
+  files = generateUnits(parse("defaults:\n  bus: {ttl: 1}\n" + processes), {.robots = 1});
+  EXPECT_EQ(files.count("fieldline-bus-route.service"), 0u);
+}
+
 TEST(SystemdUnits, TheTeamKeyIsACredential) {
   const auto file = parse(R"(
 processes:

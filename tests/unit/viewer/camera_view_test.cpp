@@ -183,6 +183,44 @@ TEST(CameraView, FramesThatDoNotFitTheirDataAreRefusedAndCounted) {
   EXPECT_THROW(CameraView({.max_rate_hz = 0.0}), std::invalid_argument);
 }
 
+TEST(CameraView, APreviewFromAnotherMachineIsDrawnAtTheCamerasSizeWithItsLines) {
+  CameraView view({.max_rate_hz = 30.0});
+  view.select(1);
+  // Only CAMERA_PREVIEW arrives (a 16x12 copy of a 64x48 camera's frame); the tracker's lines of
+  // that frame and of later ones it does not get.
+  view.onPreview(1, frame(kT0, 16, 12));
+  view.onLines(1, lines(kT0 - 33'000, 2), kT0);
+  EXPECT_FALSE(view.update(kT0 + 10'000));  // its lines may still come
+  view.onLines(1, lines(kT0, 4), kT0 + 20'000);
+  auto doc = view.update(kT0 + 30'000);
+  ASSERT_TRUE(doc);
+  EXPECT_NE(doc->find("\"stream\":\"preview\",\"width\":64,\"height\":48,\"image_width\":16,"
+                      "\"image_height\":12"),
+            std::string::npos)
+      << *doc;
+  EXPECT_NE(doc->find("\"lines\":{\"utime\":" + std::to_string(kT0)), std::string::npos);
+  const cv::Mat image =
+      cv::imdecode(unbase64(between(*doc, "\"jpeg\":\"", "\"")), cv::IMREAD_COLOR);
+  EXPECT_EQ(image.cols, 16);
+  EXPECT_EQ(image.rows, 12);
+  // A later preview whose lines went by (newer lines came, none of them its own): shown alone.
+  view.onPreview(1, frame(kT0 + 500'000, 16, 12));
+  view.onLines(1, lines(kT0 + 533'000, 3), kT0 + 540'000);
+  doc = view.update(kT0 + 550'000);
+  ASSERT_TRUE(doc);
+  EXPECT_EQ(between(*doc, "\"frame\":{\"utime\":", ","), std::to_string(kT0 + 500'000));
+  EXPECT_NE(doc->find("\"lines\":null"), std::string::npos);
+  // Full frames (the viewer on the robot's machine) win over previews of the same time.
+  view.onImage(1, frame(kT0 + 600'000));
+  view.onPreview(1, frame(kT0 + 600'000, 16, 12));
+  view.onLines(1, lines(kT0 + 600'000, 3), kT0 + 610'000);
+  doc = view.update(kT0 + 620'000);
+  ASSERT_TRUE(doc);
+  EXPECT_NE(doc->find("\"stream\":\"full\",\"width\":64,\"height\":48,\"image_width\":64"),
+            std::string::npos)
+      << *doc;
+}
+
 TEST(Base64, Rfc4648Vectors) {
   auto b = [](const std::string& s) {
     return base64(std::vector<std::uint8_t>(s.begin(), s.end()));

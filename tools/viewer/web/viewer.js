@@ -279,7 +279,9 @@ function drawCamera(doc, image) {
   const f = doc.frame;
   cameraCanvas.width = f.width;
   cameraCanvas.height = f.height;
-  cameraCtx.drawImage(image, 0, 0);
+  // A preview (CAMERA_PREVIEW, from another machine than the robot) is a smaller image of the
+  // same frame: drawn at the camera's size, where the line points are.
+  cameraCtx.drawImage(image, 0, 0, f.width, f.height);
   let marks = 0;
   const lines = doc.lines;
   if (lines) {
@@ -306,11 +308,13 @@ function drawCamera(doc, image) {
     cameraCtx.stroke();
   }
   document.getElementById("camera-caption").textContent =
-      `camera of robot ${doc.robot}: frame ${f.frame_number}, ` +
+      `camera of robot ${doc.robot}: frame ${f.frame_number}` +
+      (f.stream === "preview" ? ` (preview ${f.image_width}x${f.image_height})` : "") + ", " +
       (lines ? `${lines.num_points} line points` : "no VISION_LINES for this frame") +
       (ball && ball.visible ? ", ball" : "");
   document.getElementById("camera-drawn").textContent = JSON.stringify({
-    robot: doc.robot, utime: f.utime, seq: f.seq, width: f.width, height: f.height,
+    robot: doc.robot, utime: f.utime, seq: f.seq, stream: f.stream, width: f.width,
+    height: f.height,
     image_width: image.naturalWidth, image_height: image.naturalHeight,
     jpeg_bytes: f.jpeg_bytes, lines_utime: lines ? lines.utime : null,
     lines_seq: lines ? lines.seq : null, marks, ball: !!(ball && ball.visible),
