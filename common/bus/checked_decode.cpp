@@ -2,6 +2,8 @@
 
 #include <tuple>
 
+#include <fmt/format.h>
+
 namespace fieldline::bus {
 namespace {
 
@@ -16,12 +18,35 @@ constexpr auto kAllChannels =
 static_assert(std::tuple_size_v<decltype(kAllChannels)> == kAllChannelNames.size(),
               "every channel of channels.hpp belongs in kAllChannels");
 
+// Without `now`, only decoded and validated.
 template <typename Msg>
-std::optional<Rejection> checkAs(const void* data, int size, Utime now, Utime tolerance) {
+std::optional<Rejection> checkAs(const void* data, int size, std::optional<Utime> now,
+                                 Utime tolerance) {
   // One decoded object per type and thread, reused: logs are mostly big images.
   thread_local Msg msg{};
   if (auto rejection = decodeChecked(msg, data, size)) return rejection;
-  return checkNotFromFuture(msg.header, now, tolerance);
+  if (!now) return std::nullopt;
+  return checkNotFromFuture(msg.header, *now, tolerance);
+}
+
+std::optional<Rejection> checkByChannel(std::string_view channel, const void* data, int size,
+                                        std::optional<Utime> now, Utime future_tolerance) {
+  std::optional<Rejection> result;
+  bool known = false;
+  std::apply(
+      [&](const auto&... c) {
+        ((!known && c.name == channel
+              ? void((known = true,
+                      result = checkAs<typename std::remove_cvref_t<decltype(c)>::Message>(
+                          data, size, now, future_tolerance)))
+              : void()),
+         ...);
+      },
+      kAllChannels);
+  if (!known)
+    return Rejection{"unknown_channel",
+                     "no fieldline channel is named '" + std::string(channel) + "'"};
+  return result;
 }
 
 }  // namespace
@@ -53,32 +78,24 @@ std::string_view typeWithFingerprint(std::int64_t fingerprint) {
 }  // namespace detail
 
 std::optional<Rejection> checkNotFromFuture(const header_t& header, Utime now, Utime tolerance) {
-  if (header.utime > now + tolerance) {
-    return Rejection{"future_utime", "utime " + std::to_string(header.utime) + " is " +
-                                         std::to_string((header.utime - now) / kMicrosPerMilli) +
-                                         " ms in the future"};
+  // In long double: a log's stamp or a header may be near INT64_MAX, where now + tolerance and
+  // utime - now overflow (a log stamp of INT64_MAX read as "-9221575747911036 ms in the future").
+  const long double ahead = static_cast<long double>(header.utime) - static_cast<long double>(now);
+  if (ahead > static_cast<long double>(tolerance)) {
+    return Rejection{"future_utime",
+                     fmt::format("utime {} is {:.0f} ms in the future (now {})", header.utime,
+                                 static_cast<double>(ahead / 1000.0L), now)};
   }
   return std::nullopt;
 }
 
 std::optional<Rejection> checkEncoded(std::string_view channel, const void* data, int size,
                                       Utime now, Utime future_tolerance) {
-  std::optional<Rejection> result;
-  bool known = false;
-  std::apply(
-      [&](const auto&... c) {
-        ((!known && c.name == channel
-              ? void((known = true,
-                      result = checkAs<typename std::remove_cvref_t<decltype(c)>::Message>(
-                          data, size, now, future_tolerance)))
-              : void()),
-         ...);
-      },
-      kAllChannels);
-  if (!known)
-    return Rejection{"unknown_channel",
-                     "no fieldline channel is named '" + std::string(channel) + "'"};
-  return result;
+  return checkByChannel(channel, data, size, now, future_tolerance);
+}
+
+std::optional<Rejection> checkDecodes(std::string_view channel, const void* data, int size) {
+  return checkByChannel(channel, data, size, std::nullopt, 0);
 }
 
 }  // namespace fieldline::bus

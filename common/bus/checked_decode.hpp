@@ -62,5 +62,8 @@ std::optional<Rejection> checkNotFromFuture(const header_t& header, Utime now, U
 // into the type that channel carries; "unknown_channel" for a name not in the table.
 std::optional<Rejection> checkEncoded(std::string_view channel, const void* data, int size,
                                       Utime now, Utime future_tolerance);
+// decodeChecked() alone for an event on any channel of channels.hpp (no clock involved):
+// "decode", "wrong_type", "invalid" or "unknown_channel".
+std::optional<Rejection> checkDecodes(std::string_view channel, const void* data, int size);
 
 }  // namespace fieldline::bus

@@ -179,7 +179,21 @@ bool LogReader::nextEvent(LogEvent& event) {
   }
 }
 
+std::optional<Rejection> LogReader::checkLogStamp(const LogEvent& event) {
+  // A log stamp is the recorder's clock when the event arrived: one that is no time at all
+  // (before 1970, after 2100) is damage, and would overflow the clock conversions.
+  constexpr Utime kLatestPlausibleStamp = 4'102'444'800'000'000;  // 2100-01-01
+  if (event.timestamp >= 0 && event.timestamp <= kLatestPlausibleStamp) return std::nullopt;
+  return Rejection{"bad_log_stamp",
+                   fmt::format("event {} is stamped {} µs, not a time between 1970 and 2100",
+                               event.number, event.timestamp)};
+}
+
 bool LogReader::accept(const LogEvent& event) {
+  if (auto bad = checkLogStamp(event)) {
+    reject(event, std::move(*bad));
+    return false;
+  }
   auto rejection =
       checkEncoded(event.channel, event.data.data(), static_cast<int>(event.data.size()),
                    truthToOwn(options_.clock, event.timestamp), options_.future_tolerance_us);

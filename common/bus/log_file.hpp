@@ -102,7 +102,9 @@ class LogReader {
     LogEvent& e = event ? *event : scratch_;
     while (nextEvent(e)) {
       if (e.channel != channel.name) continue;
-      auto rejection = decodeChecked(msg, e.data.data(), static_cast<int>(e.data.size()));
+      auto rejection = checkLogStamp(e);
+      if (!rejection)
+        rejection = decodeChecked(msg, e.data.data(), static_cast<int>(e.data.size()));
       if (!rejection) {
         rejection = checkNotFromFuture(msg.header, truthToOwn(options_.clock, e.timestamp),
                                        options_.future_tolerance_us);
@@ -137,6 +139,8 @@ class LogReader {
   const std::map<std::string, std::int64_t>& upgradedByKind() const { return upgraded_; }
 
  private:
+  // "bad_log_stamp" for an event whose log time is no time (negative, after 2100).
+  static std::optional<Rejection> checkLogStamp(const LogEvent& event);
   void reject(const LogEvent& event, Rejection reason);
   void damage(std::int64_t offset, std::string kind, std::string text);
 

@@ -63,6 +63,24 @@ std::string publisherName(const PublisherTrack& p) {
   return fmt::format("robot {} publisher {:016x}", p.robot_id,
                      static_cast<std::uint64_t>(p.publisher_id));
 }
+std::string suspiciousText(const std::string& channel, const PublisherTrack& p,
+                           const SeqOutcome& seq, std::int64_t got) {
+  switch (seq.kind) {
+    case SeqOutcome::Kind::kSuspiciousJump:
+      return fmt::format(
+          "{}: suspicious seq from {}: {} after {}, more than it can have sent since (a forged or "
+          "corrupted seq); not counted as drops",
+          channel, publisherName(p), got, seq.previous);
+    case SeqOutcome::Kind::kDuplicate:
+      return fmt::format("{}: suspicious seq from {}: {} twice (a forged copy?)", channel,
+                         publisherName(p), got);
+    default:
+      return fmt::format(
+          "{}: suspicious seq from {}: {} arrived after {}, so the {} messages counted lost "
+          "before it were not (a forged or reordered seq); drops corrected",
+          channel, publisherName(p), got, seq.previous, -seq.drops);
+  }
+}
 }  // namespace
 
 void StatusCollector::onReceived(const std::string& channel, const Received& m, Utime now,
@@ -85,22 +103,25 @@ void StatusCollector::onReceived(const std::string& channel, const Received& m, 
                                      });
       c.publishers.erase(oldest);
     }
-    c.publishers.push_back(PublisherTrack{m.robot_id, m.publisher_id, m.seq, now});
+    c.publishers.push_back(PublisherTrack{m.robot_id, m.publisher_id, SeqTracker{}, now});
     it = c.publishers.end() - 1;
+    it->seq.onMessage(m.seq, m.utime_published);
   } else {
-    const std::int64_t last = it->last_seq;
-    // Overflow-safe: seq and last are both >= 0 (validated).
-    if (m.seq > last && m.seq - last - 1 > kMaxPlausibleGap) {
+    const SeqOutcome seq = it->seq.onMessage(m.seq, m.utime_published);
+    c.drops += seq.drops;
+    if (seq.kind == SeqOutcome::Kind::kResync) {
       ++c.resyncs;
       onError("seq_resync",
-              fmt::format("{}: seq jumped from {} to {} ({}); resynchronised, not counted as drops",
-                          channel, last, m.seq, publisherName(*it)),
+              fmt::format("{}: {}'s seq went on from {} after a jump; resynchronised, not counted "
+                          "as drops",
+                          channel, publisherName(*it), m.seq),
               now);
-    } else if (m.seq > last + 1) {
-      c.drops += m.seq - last - 1;
+    } else if (seq.suspicious()) {
+      ++c.suspicious;
+      c.suspicious_seen = now;
+      c.suspicious_text = suspiciousText(channel, *it, seq, m.seq);
+      onError("seq_suspicious", c.suspicious_text, now);
     }
-    // A step back: the sender restarted without a publisher id, or a reordered message.
-    it->last_seq = m.seq;
     it->last_seen = now;
   }
 
@@ -188,6 +209,10 @@ service_status_t StatusCollector::takeStatus(Utime now) {
   for (auto& c : channels_) {
     if (c.conflict_seen >= 0 && c.conflict_seen + kConflictWindowUs >= now) {
       append(error_reason, c.conflict_text);
+    }
+    if (c.suspicious_seen >= 0 && c.suspicious_seen + kSuspiciousHoldUs >= now) {
+      append(warn_reason,
+             fmt::format("{} ({} suspicious seq since start)", c.suspicious_text, c.suspicious));
     }
     if (c.required_rate_hz <= 0) continue;
     const double rate = static_cast<double>(c.in_period) / period_s;

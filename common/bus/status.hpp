@@ -10,6 +10,7 @@
 
 #include <fieldline/service_status_t.hpp>
 
+#include "common/bus/seq_tracker.hpp"
 #include "common/time/clock.hpp"
 
 namespace fieldline::bus {
@@ -20,7 +21,7 @@ enum class Direction : std::int8_t { kIn = 0, kOut = 1 };
 struct PublisherTrack {
   int robot_id = 0;
   std::int64_t publisher_id = 0;
-  std::int64_t last_seq = 0;
+  SeqTracker seq;
   // Receiver's clock when its last message arrived.
   Utime last_seen = 0;
 };
@@ -31,8 +32,14 @@ struct ChannelStats {
   std::int64_t total = 0;
   std::int64_t in_period = 0;
   std::int64_t drops = 0;
-  // Seq jumps too large to be losses (a forged or corrupted seq): counted once each.
+  // A sequence that really moved on after a jump too large to be losses: counted once each.
   std::int64_t resyncs = 0;
+  // Seqs no real publisher sends (seq_tracker.hpp): a jump too large for the time between two
+  // messages, a repeat, a message inside a gap counted before (those drops are taken back).
+  std::int64_t suspicious = 0;
+  // Receiver's clock of the last suspicious seq (-1: never) and what it was.
+  Utime suspicious_seen = -1;
+  std::string suspicious_text;
   std::int64_t rejected = 0;
   std::vector<float> latency_ms;  // this period's samples
   // Bounded (StatusCollector::kMaxPublishersPerChannel), least recently seen evicted.
@@ -69,14 +76,13 @@ struct Received {
 
 class StatusCollector {
  public:
-  // A seq jump beyond this is a resync (counted once), not that many lost messages: 1000 is
-  // 20 s of a 50 Hz channel.
-  static constexpr std::int64_t kMaxPlausibleGap = 1000;
   static constexpr std::size_t kMaxPublishersPerChannel = 16;
   // Publisher changes between consecutive messages within kConflictWindowUs that mean two
   // processes publish at once (a restart makes one change).
   static constexpr std::size_t kConflictSwitches = 3;
   static constexpr Utime kConflictWindowUs = 2 * kMicrosPerSecond;
+  // A suspicious seq keeps the state at WARN (naming the channel and publisher) this long.
+  static constexpr Utime kSuspiciousHoldUs = 10 * kMicrosPerSecond;
 
   StatusCollector(std::string process, int robot_id, Utime start);
 

@@ -7,6 +7,8 @@
 
 #include <opencv2/imgcodecs.hpp>
 
+#include "common/camera/image_header.hpp"
+
 namespace fieldline::camera {
 
 FrameView viewOfBgr(const cv::Mat& bgr) {
@@ -53,6 +55,7 @@ void writeImage(const std::string& path, const cv::Mat& image) {
 }
 
 cv::Mat readBgrImage(const std::string& path) {
+  checkImageSize(path);  // before decoding: a decompression bomb is refused unread
   cv::Mat image = cv::imread(path, cv::IMREAD_COLOR);
   if (image.empty()) throw std::runtime_error("cannot read image " + path);
   return image;

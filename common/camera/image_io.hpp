@@ -26,7 +26,8 @@ cv::Mat toBgrImage(const FrameView& frame);
 cv::Mat classificationImage(const FrameView& frame, const ColourTable& table);
 // Writes an image (format from the extension); throws std::runtime_error on failure.
 void writeImage(const std::string& path, const cv::Mat& image);
-// Reads a colour image as BGR; throws std::runtime_error if it cannot be read.
+// Reads a colour image as BGR; throws std::runtime_error if it cannot be read or its header
+// declares a size beyond image_header.hpp's limits (checked before decoding).
 cv::Mat readBgrImage(const std::string& path);
 
 // Image size "WIDTHxHEIGHT" (e.g. "320x240"); throws std::invalid_argument for anything else,

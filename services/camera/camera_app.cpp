@@ -266,8 +266,12 @@ int runCamera(const CameraAppOptions& options, const bus::CommonOptions& common)
   spdlog::info("publishing {} (latency {} ms)", source->describe(), config.pipeline.latency * 1e3);
   const std::int64_t frames = runFrameSource(node, *source, config.pipeline, run_options);
   spdlog::info("{} frames published, {} unusable", frames, source->errors());
-  if (frames == 0 && !source->lastError().empty()) {
-    throw std::runtime_error("no frame published: " + source->lastError());
+  // A source that gave nothing (a corrupt video, a folder of unreadable images) is a failure,
+  // whether or not it could say why (issue 34, red-team finding 10: exit code 0 after 0 frames).
+  if (frames == 0) {
+    throw std::runtime_error("no frame published from " + source->describe() + ": " +
+                             (source->lastError().empty() ? std::string("the source delivered none")
+                                                          : source->lastError()));
   }
   return 0;
 }

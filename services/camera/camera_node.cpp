@@ -101,6 +101,10 @@ SimCameraNode::SimCameraNode(bus::Node& node, bus::BusId sim_bus, CameraConfig c
   const auto period =
       static_cast<Utime>(std::llround(kMicrosPerSecond / config_.pipeline.frame_rate));
   node_.every(period, [this] { onFrameTick(); });
+  // Frames come only while the simulator's world does: without it the camera says so (WARN
+  // "CAMERA_IMAGE silent") instead of ok at 0 Hz (issue 34, red-team finding 5).
+  node_.requireOutput(bus::channels::kCameraImage,
+                      bus::kRequiredRateFraction * config_.pipeline.frame_rate);
   period_start_ = node_.now();
   node_.every(kMicrosPerSecond, [this] { reportRates(); });
 }

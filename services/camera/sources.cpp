@@ -12,6 +12,8 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/videoio.hpp>
 
+#include "common/camera/image_header.hpp"
+
 namespace fieldline::camera {
 namespace {
 
@@ -66,6 +68,15 @@ class VideoCaptureSource final : public FrameSource {
     if (!opened || !capture_.isOpened()) {
       throw std::runtime_error(
           fmt::format("cannot open {} source '{}'", sourceKindName(kind), options.spec));
+    }
+    // A video's frame size is known from its container before a frame is decoded.
+    const auto width = static_cast<std::int64_t>(capture_.get(cv::CAP_PROP_FRAME_WIDTH));
+    const auto height = static_cast<std::int64_t>(capture_.get(cv::CAP_PROP_FRAME_HEIGHT));
+    if (width > kMaxImageSide || height > kMaxImageSide || width * height > kMaxImagePixels) {
+      throw std::runtime_error(fmt::format(
+          "{} source '{}' has frames of {} x {} pixels, more than any camera frame (at most {} a "
+          "side and {} pixels)",
+          sourceKindName(kind), options.spec, width, height, kMaxImageSide, kMaxImagePixels));
     }
   }
 
@@ -178,6 +189,12 @@ bool ImageFolderSource::next(SourceFrame& out) {
       position_ = 0;
     }
     const std::string& path = files_[position_++];
+    try {
+      checkImageSize(path);  // before decoding: a decompression bomb is refused unread
+    } catch (const std::runtime_error& e) {
+      countError(e.what());
+      continue;
+    }
     const cv::Mat image = cv::imread(path, cv::IMREAD_COLOR);
     if (image.empty() || !copyFrame(image, PixelFormat::kBgr, image.cols, image.rows, out)) {
       countError("cannot read image " + path);

@@ -16,6 +16,11 @@ constexpr std::int64_t kRateWindowUs = 1'000'000;
 FeatureNode::FeatureNode(bus::Node& node, const field::FieldModel& field, RecognitionParams params)
     : node_(node), recognizer_(field, params) {
   node_.subscribe(bus::channels::kVisionLines, [this](const line_contours_t& m) { onLines(m); });
+  // Nothing to recognise without lines: WARN "VISION_LINES silent" rather than ok at 0 Hz (issue
+  // 34, red-team finding 5). Region tracking sends them at 10-30 Hz.
+  node_.requireInput(
+      bus::channels::kVisionLines,
+      bus::kRequiredRateFraction * bus::nominalRateHz(bus::channels::kVisionLines.name));
 }
 
 void FeatureNode::onLines(const line_contours_t& m) {

@@ -1,22 +1,36 @@
 #include "services/feature_recognition/points_csv.hpp"
 
 #include <charconv>
+#include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <istream>
 #include <ostream>
 #include <stdexcept>
 
+#include <fmt/format.h>
+
 namespace fieldline::feature_recognition {
 
 namespace {
 
-bool parseNumber(const char*& p, const char* end, float& out) {
+// Reads one coordinate; an empty string when it is fine, else what is wrong with it. Parsed as a
+// double first, so 1e308 is "out of range" rather than "not a number".
+std::string parseNumber(const char*& p, const char* end, float& out) {
   while (p < end && (*p == ' ' || *p == '\t' || *p == ','))
     ++p;
-  const auto [next, ec] = std::from_chars(p, end, out);
-  if (ec != std::errc()) return false;
+  double value = 0.0;
+  const auto [next, ec] = std::from_chars(p, end, value);
+  const std::string text(p, ec == std::errc::invalid_argument ? p : next);
+  if (ec == std::errc::invalid_argument) return "expected two numbers x,y (m)";
+  if (ec == std::errc::result_out_of_range || std::abs(value) > kMaxCoordinateM) {
+    return fmt::format("{} m is out of range (a line point is within {:.0f} m of the robot)", text,
+                       kMaxCoordinateM);
+  }
+  if (!std::isfinite(value)) return "'" + text + "' is not a finite number";
   p = next;
-  return true;
+  out = static_cast<float>(value);
+  return {};
 }
 
 }  // namespace
@@ -43,9 +57,11 @@ perception::LinePoints readPointsCsv(std::istream& in, const std::string& name) 
     const char* p = line.data() + first;
     const char* end = line.data() + line.size();
     perception::LinePoint point;
-    if (!parseNumber(p, end, point.x) || !parseNumber(p, end, point.y)) {
-      throw std::runtime_error(name + ":" + std::to_string(line_number) +
-                               ": expected two numbers x,y (m), got '" + line + "'");
+    std::string problem = parseNumber(p, end, point.x);
+    if (problem.empty()) problem = parseNumber(p, end, point.y);
+    if (!problem.empty()) {
+      throw std::runtime_error(name + ":" + std::to_string(line_number) + ": " + problem +
+                               ", got '" + line + "'");
     }
     while (p < end && (*p == ' ' || *p == '\t'))
       ++p;
@@ -60,9 +76,16 @@ perception::LinePoints readPointsCsv(std::istream& in, const std::string& name) 
 }
 
 perception::LinePoints readPointsCsvFile(const std::string& path) {
+  std::error_code ec;
+  // An ifstream opens a directory without complaint and reads nothing from it.
+  if (std::filesystem::is_directory(path, ec)) {
+    throw std::runtime_error(path + ": is a directory, not a file of points");
+  }
   std::ifstream file(path);
   if (!file) throw std::runtime_error(path + ": cannot open");
-  return readPointsCsv(file, path);
+  auto points = readPointsCsv(file, path);
+  if (file.bad()) throw std::runtime_error(path + ": read error");
+  return points;
 }
 
 void writePointsCsv(std::ostream& out, const perception::LinePoints& points) {

@@ -42,6 +42,11 @@ FusionNode::FusionNode(bus::Node& node, FusionNodeOptions options, MatcherFuncti
   // are fused on the held velocity and SERVICE_STATUS says WARN "ODOMETRY silent".
   node_.requireInput(bus::channels::kOdometry, 25.0);
   node_.subscribe(bus::channels::kVisionLines, [this](const line_contours_t& m) { onLines(m); });
+  // Without lines the pose is dead reckoning (ODOMETRY_ONLY): WARN "VISION_LINES silent" (issue
+  // 34, red-team finding 5: fusion said ok with the camera stopped for 20 s).
+  node_.requireInput(
+      bus::channels::kVisionLines,
+      bus::kRequiredRateFraction * bus::nominalRateHz(bus::channels::kVisionLines.name));
   node_.subscribe(bus::channels::kFieldFeatures,
                   [this](const field_features_t& m) { onFeatures(m); });
   node_.subscribe(bus::channels::kVisionBall, [this](const ball_observation_t& m) { onBall(m); });

@@ -14,6 +14,7 @@ BridgeNode::BridgeNode(bus::Node& node, const robot::RobotParams& params, Bridge
     : node_(node),
       config_(std::move(config)),
       core_(params),
+      source_(node.robotId()),
       link_(
           io_, {config_.device, config_.baud_rate, config_.reconnect_interval},
           [this](std::span<const std::uint8_t> bytes) { onBytes(bytes); },
@@ -82,6 +83,14 @@ void BridgeNode::onLinkState(bool connected) {
 }
 
 void BridgeNode::onCommand(const motion_command_t& m) {
+  const auto source = source_.onCommand(m.header.robot_id, m.header.publisher_id, node_.now());
+  if (source.verdict != CommandSource::Verdict::kAccept) {
+    node_.reportError(source.verdict == CommandSource::Verdict::kOtherRobot
+                          ? "command_other_robot"
+                          : "command_second_publisher",
+                      source.reason);
+    return;
+  }
   const auto command = msg::fromMessage(m);
   if (!core_.onCommand({command.vx, command.vy, command.omega, command.deadline_utime},
                        node_.now())) {
@@ -115,6 +124,10 @@ void BridgeNode::publishMetrics() {
   node_.setMetric("odometry_samples_lost", static_cast<double>(core_.samplesLost()));
   node_.setMetric("controller_clock_restarts", static_cast<double>(core_.clockRestarts()));
   node_.setMetric("command_active", core_.commandActive(node_.now()) ? 1.0 : 0.0);
+  node_.setMetric("commands_refused_other_robot", static_cast<double>(source_.refusedOtherRobot()));
+  node_.setMetric("commands_refused_second_publisher",
+                  static_cast<double>(source_.refusedSecondPublisher()));
+  node_.status().setWarning("command_source", source_.warning(node_.now()));
 }
 
 }  // namespace fieldline::motor_bridge

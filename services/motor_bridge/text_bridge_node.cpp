@@ -15,12 +15,22 @@ TextBridgeNode::TextBridgeNode(bus::Node& node, const robot::RobotParams& params
     : node_(node),
       config_(std::move(config)),
       core_(params),
+      source_(node.robotId()),
       link_(
           io_, {config_.device, config_.baud_rate, config_.reconnect_interval},
           [this](std::span<const std::uint8_t> bytes) { onBytes(bytes); },
           [this](bool connected) { onLinkState(connected); }) {
   if (!(config_.command_rate > 0.0)) throw std::invalid_argument("command_rate must be positive");
   node_.subscribe(bus::channels::kMotionCommand, [this](const motion_command_t& m) {
+    // Only this robot's commands, from one publisher (command_source.hpp).
+    const auto source = source_.onCommand(m.header.robot_id, m.header.publisher_id, node_.now());
+    if (source.verdict != CommandSource::Verdict::kAccept) {
+      node_.reportError(source.verdict == CommandSource::Verdict::kOtherRobot
+                            ? "command_other_robot"
+                            : "command_second_publisher",
+                        source.reason);
+      return;
+    }
     const auto command = msg::fromMessage(m);
     if (!core_.onCommand({command.vx, command.vy, command.omega, command.deadline_utime},
                          node_.now())) {
@@ -107,6 +117,10 @@ void TextBridgeNode::publishMetrics() {
   node_.setMetric("serial_reconnects", static_cast<double>(link_.stats().opens));
   node_.setMetric("controller_clock_restarts", static_cast<double>(core_.clockRestarts()));
   node_.setMetric("command_active", core_.commandActive(node_.now()) ? 1.0 : 0.0);
+  node_.setMetric("commands_refused_other_robot", static_cast<double>(source_.refusedOtherRobot()));
+  node_.setMetric("commands_refused_second_publisher",
+                  static_cast<double>(source_.refusedSecondPublisher()));
+  node_.status().setWarning("command_source", source_.warning(node_.now()));
 }
 
 }  // namespace fieldline::motor_bridge

@@ -16,6 +16,7 @@
 #include "common/bus/node.hpp"
 #include "common/robot/robot_params.hpp"
 #include "services/motor_bridge/bridge.hpp"
+#include "services/motor_bridge/command_source.hpp"
 #include "services/motor_bridge/serial_link.hpp"
 #include "services/motor_bridge/text_bridge.hpp"
 
@@ -47,6 +48,8 @@ class TextBridgeNode {
   bus::Node& node_;
   BridgeConfig config_;
   TextBridgeCore core_;
+  // Which MOTION_COMMANDs may drive the robot (its own robot id, one publisher).
+  CommandSource source_;
   boost::asio::io_context io_;
   SerialLink link_;
   std::optional<bus::Node::WatchId> line_watch_;

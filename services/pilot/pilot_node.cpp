@@ -2,6 +2,7 @@
 
 #include <stdexcept>
 
+#include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
 #include "common/msg/estimates.hpp"
@@ -27,7 +28,18 @@ PilotNode::PilotNode(bus::Node& node, Pilot pilot, PilotNodeOptions options)
     if (const auto ref = pilot_.reference(node_.now())) {
       node_.setMetric("reference_speed_mps", ref->velocity.norm());
     }
+    node_.setMetric("trajectory_time_s", pilot_.trajectoryTime());
   });
+  // The pose it steers with must flow (at half its rate, as every required input).
+  if (options_.steer == SteerBy::kTruth) {
+    node_.requireInput(
+        bus::channels::kSimWorld,
+        bus::kRequiredRateFraction * bus::nominalRateHz(bus::channels::kSimWorld.name));
+  } else {
+    node_.requireInput(
+        bus::channels::kRobotState,
+        bus::kRequiredRateFraction * bus::nominalRateHz(bus::channels::kRobotState.name));
+  }
 }
 
 void PilotNode::onWorld(const world_state_t& w) {
@@ -40,22 +52,50 @@ void PilotNode::onWorld(const world_state_t& w) {
 
 void PilotNode::onState(const robot_state_t& s) {
   const auto estimate = msg::fromMessage(s);
-  // Fusion does not know where the robot is yet: nothing to steer with.
-  if (estimate.status == perception::LocalizationStatus::kUnknown) return;
-  pilot_.onPose(estimate.pose, estimate.utime);
+  using perception::LocalizationStatus;
+  switch (estimate.status) {
+    case LocalizationStatus::kTracking:
+      pilot_.onPose(estimate.pose, estimate.utime,
+                    estimate.twin_ambiguous ? PoseQuality::kTwinAmbiguous : PoseQuality::kUsable);
+      return;
+    case LocalizationStatus::kSearching:
+      pilot_.onPose(estimate.pose, estimate.utime, PoseQuality::kUnusable,
+                    "SEARCHING (a guess of fusion's relocalization)");
+      return;
+    case LocalizationStatus::kOdometryOnly:
+      pilot_.onPose(estimate.pose, estimate.utime, PoseQuality::kUnusable,
+                    "ODOMETRY_ONLY (no vision correction lately)");
+      return;
+    case LocalizationStatus::kUnknown:
+      pilot_.onPose(estimate.pose, estimate.utime, PoseQuality::kUnusable, "UNKNOWN");
+      return;
+  }
 }
 
 void PilotNode::sendCommand() {
   const Utime now = node_.now();
   const auto cmd = pilot_.command(now);
   if (!cmd) {
-    // No fresh pose: say nothing, so the bridge lets the robot stop.
+    // No pose to steer with: say nothing, so the bridge lets the robot stop.
+    if (holding_since_ < 0) holding_since_ = now;
+    const std::string source = options_.steer == SteerBy::kTruth ? "SIM_WORLD" : "ROBOT_STATE";
     if (waiting_++ % static_cast<std::int64_t>(options_.rate * 5) == 0) {
-      spdlog::info("waiting for a pose ({})",
-                   options_.steer == SteerBy::kTruth ? "SIM_WORLD" : "ROBOT_STATE");
+      spdlog::info("holding: {} ({})", pilot_.holdReason(), source);
     }
+    // A pilot that should drive and cannot says so (a short wait, as at start-up, is no warning).
+    if (now - holding_since_ >= kHoldWarnAfterUs) {
+      node_.status().setWarning(
+          "holding", fmt::format("holding for {:.1f} s, not driving its trajectory: {} ({})",
+                                 static_cast<double>(now - holding_since_) * 1e-6,
+                                 pilot_.holdReason(), source));
+    }
+    node_.setMetric("holding", 1.0);
     return;
   }
+  holding_since_ = -1;
+  waiting_ = 0;
+  node_.status().setWarning("holding", "");
+  node_.setMetric("holding", 0.0);
   perception::MotionCommand command;
   command.utime = now;
   command.vx = cmd->vx;

@@ -1,6 +1,7 @@
 // The pilot process's bus side: the pose to steer with in (SIM_WORLD ground truth from the
 // simulator's bus, or the robot's own ROBOT_STATE), MOTION_COMMAND out at the command rate.
-// Without a fresh pose it says nothing, so the motor bridge lets the robot stop.
+// Without a fresh pose it may steer with (pilot.hpp) it says nothing, so the motor bridge lets the
+// robot stop, and after a second of that its SERVICE_STATUS is WARN with the reason.
 #pragma once
 
 #include <cstdint>
@@ -44,6 +45,9 @@ class PilotNode {
   PilotNodeOptions options_;
   motion_command_t command_{};
   std::int64_t waiting_ = 0;
+  // Since when (node clock) it has sent nothing; -1 while driving.
+  Utime holding_since_ = -1;
+  static constexpr Utime kHoldWarnAfterUs = kMicrosPerSecond;
   std::int64_t commands_sent_ = 0;
 };
 

@@ -44,15 +44,17 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(1.0, 1000.0))
       ->capture_default_str();
   app.add_option("--state-file", options.state_file,
-                 "Snapshot of the world, written every 0.1 s and removed at a clean end; a "
-                 "simulator restarted after a crash continues from it (default: "
-                 "<pty-dir>/world_sim.state)");
+                 "Snapshot of the world, written every 0.1 s and when the simulator stops; a "
+                 "simulator restarted by the same supervisor (the launcher, systemd) within "
+                 "--resume-within continues from it (default: <pty-dir>/world_sim.state)");
   app.add_option("--resume-within", options.resume_within_s,
                  "Resume only from a snapshot at most this many seconds old, s")
       ->check(CLI::Range(0.0, 3600.0))
       ->capture_default_str();
   app.add_flag("--fresh", options.fresh,
                "Start the scenario from t = 0 even when a recent snapshot exists");
+  // A new run of the launcher (another parent) starts afresh; its restarts resume.
+  options.supervisor = world_sim::supervisorIdentity();
   FIELDLINE_PARSE(app, argc, argv);
   if (options.state_file.empty()) options.state_file = options.pty_dir + "/world_sim.state";
 

@@ -3,10 +3,14 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <optional>
+#include <sstream>
 #include <stdexcept>
 
+#include <fmt/format.h>
 #include <spdlog/spdlog.h>
+#include <unistd.h>
 
 #include "common/msg/world_state.hpp"
 #include "services/world_sim/world_snapshot.hpp"
@@ -35,11 +39,24 @@ WorldSimNode::WorldSimNode(bus::Node& node, const scenario::Scenario& scenario,
   }
 }
 
+std::string supervisorIdentity() {
+  const pid_t parent = ::getppid();
+  std::ifstream stat("/proc/" + std::to_string(parent) + "/stat");
+  std::string text;
+  if (!stat || !std::getline(stat, text)) return {};
+  // Field 22 (starttime) counted after the command name, which may hold spaces and parentheses.
+  const auto close = text.rfind(')');
+  if (close == std::string::npos) return {};
+  std::istringstream fields(text.substr(close + 2));
+  std::string field;
+  for (int k = 3; k <= 22 && fields >> field; ++k) {
+    if (k == 22) return fmt::format("pid {} started {}", parent, field);
+  }
+  return {};
+}
+
 WorldSimNode::~WorldSimNode() {
-  if (options_.state_file.empty()) return;
-  std::error_code ec;
-  std::filesystem::remove(options_.state_file, ec);
-  std::filesystem::remove(options_.state_file + ".tmp", ec);
+  if (!options_.state_file.empty()) writeSnapshot();
 }
 
 void WorldSimNode::resumeFromStateFile() {
@@ -51,6 +68,14 @@ void WorldSimNode::resumeFromStateFile() {
     return;
   }
   if (!snapshot) return;
+  if (!options_.supervisor.empty() && snapshot->supervisor != options_.supervisor) {
+    spdlog::info(
+        "starting the scenario afresh: the snapshot in {} was written under another supervisor "
+        "({}; this simulator's: {}), a new run",
+        options_.state_file, snapshot->supervisor.empty() ? "none" : snapshot->supervisor,
+        options_.supervisor);
+    return;
+  }
   const double age_s = static_cast<double>(node_.now() - snapshot->saved_utime) * 1e-6;
   if (age_s > options_.resume_within_s || age_s < -1.0) {
     spdlog::info(
@@ -80,6 +105,7 @@ void WorldSimNode::resumeFromStateFile() {
 void WorldSimNode::writeSnapshot() {
   WorldSnapshot s = world_.snapshot();
   s.saved_utime = node_.now();
+  s.supervisor = options_.supervisor;
   try {
     writeSnapshotFile(options_.state_file, s);
   } catch (const std::runtime_error& e) {
@@ -101,15 +127,19 @@ void WorldSimNode::pullSerialLines(double duration) {
 }
 
 void WorldSimNode::update() {
-  if (finished()) {
-    node_.requestStop();
-    return;
+  if (finished() && !end_logged_) {
+    end_logged_ = true;
+    spdlog::info(
+        "the scenario {} ended at {:.2f} s; the world goes on until the simulator is "
+        "stopped",
+        world_.scenario().name, world_.time());
+    node_.setMetric("scenario_ended", 1.0);
   }
   // Real time only: every process stamps with its clock, and SIM_WORLD's stamps must agree
   // with theirs (faster-than-real-time runs go through fieldline-sim-drift, offline).
   const double target = static_cast<double>(node_.now() - start_) * 1e-6;
   // Step only up to the present: a state is never stamped later than it is published.
-  while (world_.time() + world_.stepSeconds() <= target && !finished()) {
+  while (world_.time() + world_.stepSeconds() <= target) {
     lines_.beforeStep(world_);
     world_.step();
     lines_.afterStep(world_);

@@ -20,15 +20,23 @@ struct WorldSimNodeOptions {
   std::string pty_dir = "/tmp/fieldline";
   // SIM_WORLD messages per simulated second.
   double world_rate = 100.0;
-  // Snapshot of the world written every snapshot_period_s (world_snapshot.hpp) and removed at
-  // a clean end; a restart after a crash continues from it. Empty: none.
+  // Snapshot of the world written every snapshot_period_s (world_snapshot.hpp) and at every stop
+  // (a crash, SIGTERM, systemctl restart); a restart continues from it. Empty: none.
   std::string state_file;
   double snapshot_period_s = 0.1;
   // A snapshot older than this (by the node's clock) is not resumed: the scenario starts over.
   double resume_within_s = 5.0;
   // Start the scenario from t = 0 whatever the state file holds.
   bool fresh = false;
+  // Who started this simulator (supervisorIdentity()): a snapshot written under another
+  // supervisor (a new run of the launcher, another team sharing the folder) is not resumed.
+  // Empty: not checked.
+  std::string supervisor;
 };
+
+// The parent process's pid and start time ("pid 1234 started 5678"), which stay the same while
+// one launcher restarts its children and change with a new run; empty when /proc is unreadable.
+std::string supervisorIdentity();
 
 class WorldSimNode {
  public:
@@ -38,7 +46,8 @@ class WorldSimNode {
   // rate. Throws std::runtime_error when a pty cannot be opened, std::invalid_argument for a
   // world rate that is not positive.
   WorldSimNode(bus::Node& node, const scenario::Scenario& scenario, WorldSimNodeOptions options);
-  // A clean end: removes the state file, so the next start is a fresh scenario.
+  // Writes a last snapshot: a restart that is not asked to be fresh continues from here (a clean
+  // stop used to remove it, and the restart began the scenario again at t = 0).
   ~WorldSimNode();
   WorldSimNode(const WorldSimNode&) = delete;
   WorldSimNode& operator=(const WorldSimNode&) = delete;
@@ -48,10 +57,13 @@ class WorldSimNode {
   // Writes the state file now (also done by a timer).
   void writeSnapshot();
 
-  // Steps the world up to the node's clock; requests the node's stop at the scenario's end.
+  // Steps the world up to the node's clock. At the scenario's end its script (kicks, kidnaps)
+  // is over and the world goes on as it is until the process is stopped: ending the process
+  // there had its supervisor restart the scenario at t = 0, every robot jumping back.
   void update();
   // Pulls every serial line for `duration` seconds (SIGUSR1 in the process).
   void pullSerialLines(double duration);
+  // The scenario's duration is over (its script ended; the world still runs).
   bool finished() const;
 
   const World& world() const { return world_; }
@@ -71,6 +83,7 @@ class WorldSimNode {
   Utime start_;
   double next_world_ = 0.0;
   bool resumed_ = false;
+  bool end_logged_ = false;
   perception::WorldTruth truth_;
   world_state_t msg_{};
 };

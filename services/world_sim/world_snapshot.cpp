@@ -56,6 +56,7 @@ std::string encodeSnapshot(const WorldSnapshot& s) {
     out += fmt::format(" {} {} {}\n", r.kidnaps, r.contact_steps, r.in_contact ? 1 : 0);
   }
   out += "rng " + s.rng + "\n";
+  if (!s.supervisor.empty()) out += "supervisor " + s.supervisor + "\n";
   return out;
 }
 
@@ -126,6 +127,8 @@ WorldSnapshot decodeSnapshot(const std::string& text) {
   if (i >= lines.size() || lines[i].rfind("rng ", 0) != 0)
     bad(static_cast<int>(i + 1), "expected 'rng'");
   s.rng = lines[i].substr(4);
+  if (++i < lines.size() && lines[i].rfind("supervisor ", 0) == 0)
+    s.supervisor = lines[i].substr(11);
   return s;
 }
 

@@ -12,6 +12,7 @@
 //   robot id x y phi vx vy omega c0 c1 c2 s0 s1 s2 a0 a1 a2 kidnaps contact_steps in_contact
 //                                  (wheel commands, speeds, angles: c3, s3, a3 too with 4 wheels)
 //   rng <the random engine's state>
+//   supervisor <text>                   # optional: who started the simulator (see WorldSimNode)
 #pragma once
 
 #include <cstddef>
@@ -36,6 +37,9 @@ struct WorldSnapshot {
   std::vector<RobotTruth> robots;
   // std::mt19937_64 state as its operator<< writes it.
   std::string rng;
+  // The process that started the simulator (its parent's pid and start time), so a restart by
+  // the same launcher resumes and a new run does not; empty when unknown.
+  std::string supervisor;
 };
 
 // Text form; encode(decode(x)) keeps every double bit for bit (17 significant digits).

@@ -57,8 +57,9 @@ bus_stats::TrafficCounter listen(int robots, bool sim, const bus::BusAddress& ad
 // One row (or JSON line) per bus and channel (the latency percentiles sort the samples).
 void printTraffic(bus_stats::TrafficCounter& counter, bool json) {
   if (!json) {
-    fmt::print("{:<5} {:<18} {:>7} {:>8} {:>9} {:>9} {:>9} {:>6} {:>7} {:>7}\n", "bus", "channel",
-               "count", "rate_hz", "kB/msg", "lat_p50", "lat_p95", "gaps", "badstmp", "foreign");
+    fmt::print("{:<5} {:<18} {:>7} {:>8} {:>9} {:>9} {:>9} {:>6} {:>7} {:>7} {:>7} {:>7}\n", "bus",
+               "channel", "count", "rate_hz", "kB/msg", "lat_p50", "lat_p95", "gaps", "badstmp",
+               "foreign", "undecod", "invalid");
   }
   for (auto& [key, t] : counter.traffic()) {
     const bus::Percentiles p = bus::percentiles(t.latency_ms);
@@ -72,13 +73,15 @@ void printTraffic(bus_stats::TrafficCounter& counter, bool json) {
           "{{\"bus\":\"{}\",\"channel\":\"{}\",\"count\":{},\"rate_hz\":{:.2f},\"kb_per_msg\":{:."
           "1f},"
           "\"latency_p50_ms\":{:.2f},\"latency_p95_ms\":{:.2f},\"gaps\":{},\"resyncs\":{},"
-          "\"bad_stamps\":{},\"foreign\":{}}}\n",
-          key.first, key.second, t.count, rate, kb, p.p50, p.p95, t.gaps, t.resyncs, t.bad_stamps,
-          t.foreign);
+          "\"suspicious\":{},\"bad_stamps\":{},\"foreign\":{},\"undecodable\":{},\"invalid\":{}}}"
+          "\n",
+          key.first, key.second, t.count, rate, kb, p.p50, p.p95, t.gaps, t.resyncs, t.suspicious,
+          t.bad_stamps, t.foreign, t.undecodable, t.invalid);
     } else {
-      fmt::print("{:<5} {:<18} {:>7} {:>8.1f} {:>9.1f} {:>9.1f} {:>9.1f} {:>6} {:>7} {:>7}\n",
-                 key.first, key.second, t.count, rate, kb, p.p50, p.p95, t.gaps, t.bad_stamps,
-                 t.foreign);
+      fmt::print(
+          "{:<5} {:<18} {:>7} {:>8.1f} {:>9.1f} {:>9.1f} {:>9.1f} {:>6} {:>7} {:>7} {:>7} {:>7}\n",
+          key.first, key.second, t.count, rate, kb, p.p50, p.p95, t.gaps, t.bad_stamps, t.foreign,
+          t.undecodable, t.invalid);
     }
   }
 }

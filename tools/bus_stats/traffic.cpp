@@ -1,6 +1,7 @@
 #include "tools/bus_stats/traffic.hpp"
 
 #include "common/bus/channels.hpp"
+#include "common/bus/checked_decode.hpp"
 #include "common/bus/node.hpp"
 
 namespace fieldline::bus_stats {
@@ -46,6 +47,10 @@ void TrafficCounter::onPacket(const std::string& bus, const std::string& channel
     ++t.foreign;
     return;
   }
+  if (const auto rejection = bus::checkDecodes(channel, data, size)) {
+    ++(rejection->kind == "invalid" ? t.invalid : t.undecodable);
+    return;
+  }
   if (t.count == 0) t.first = now;
   t.last = now;
   ++t.count;
@@ -57,14 +62,12 @@ void TrafficCounter::onPacket(const std::string& bus, const std::string& channel
     auto it = t.last_seq.find(publisher);
     if (it == t.last_seq.end()) {
       if (t.last_seq.size() >= kMaxPublishers) t.last_seq.erase(t.last_seq.begin());
-      t.last_seq.emplace(publisher, header->seq);
+      t.last_seq[publisher].onMessage(header->seq, header->utime_published);
     } else {
-      if (header->seq > it->second && header->seq - it->second - 1 > kMaxPlausibleGap) {
-        ++t.resyncs;
-      } else if (header->seq > it->second + 1) {
-        t.gaps += header->seq - it->second - 1;
-      }
-      it->second = header->seq;
+      const bus::SeqOutcome seq = it->second.onMessage(header->seq, header->utime_published);
+      t.gaps += seq.drops;
+      if (seq.kind == bus::SeqOutcome::Kind::kResync) ++t.resyncs;
+      if (seq.suspicious()) ++t.suspicious;
     }
   }
   // In long double: the difference of two untrusted int64 stamps can overflow.

@@ -184,6 +184,8 @@ int main(int argc, char** argv) {
   try {
     const field::FieldModel field = field::loadFieldPreset(field_name);
     const perception::LinePoints points = feature_recognition::readPointsCsvFile(points_path);
+    // Nothing to recognise is no answer: say so rather than print an empty result.
+    if (points.points.empty()) throw std::runtime_error(points_path + ": no line points in it");
     feature_recognition::FeatureRecognizer recognizer(field);
     perception::FieldFeatures features;
     const auto check = recognizer.recognize(points, features);

@@ -1,5 +1,6 @@
 #!/usr/bin/env python3
-"""Issue 13 finding 10, inside a private network namespace: kill -9 of the simulator.
+"""Issue 13 finding 10, inside a private network namespace: kill -9 of the simulator (and issue
+34 finding 3 with --signal TERM: a clean stop, as systemctl restart does, resumed nothing).
 
 Robot 1's motor bridge and pilot (steering by the simulator's truth, so the robot drives its
 scenario) with the simulator under fieldline-launch (restart always, 50 ms backoff), the
@@ -65,6 +66,8 @@ def main():
     p = argparse.ArgumentParser()
     p.add_argument("--bin", required=True)
     p.add_argument("--out", required=True)
+    p.add_argument("--signal", choices=["KILL", "TERM"], default="KILL",
+                   help="how world_sim is stopped")
     a = p.parse_args()
     out = pathlib.Path(a.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -111,7 +114,7 @@ def main():
         wait_for(f"robot 1 {MOVED_M} m away from its start pose", moved, 60)
         old = wait_for("the world_sim process", lambda: child_pid(launcher.pid, "fieldline-world-sim"), 10)
         kill_utime = time.time_ns() // 1000
-        os.kill(old, signal.SIGKILL)
+        os.kill(old, getattr(signal, "SIG" + a.signal))
         wait_for("a new world_sim", lambda: (child_pid(launcher.pid, "fieldline-world-sim") or old) != old, 30)
         wait_for("SIM_WORLD after the restart",
                  lambda: any(r[0] > kill_utime + 20_000 for r in poses(recording)), 30)
