@@ -19,7 +19,7 @@
 #include "common/time/offset_clock.hpp"
 #include "services/camera/camera_config.hpp"
 #include "services/camera/camera_node.hpp"
-#include "services/camera/camera_preview.hpp"
+#include "services/camera/camera_preview_node.hpp"
 #include "services/camera/floor_raster_cache.hpp"
 #include "services/camera/log_source.hpp"
 #include "services/camera/sources.hpp"

@@ -21,7 +21,7 @@
 
 #include "common/bus/node.hpp"
 #include "services/camera/camera_config.hpp"
-#include "services/camera/camera_preview.hpp"
+#include "services/camera/camera_preview_node.hpp"
 #include "services/camera/sim_renderer.hpp"
 #include "services/camera/sources.hpp"
 

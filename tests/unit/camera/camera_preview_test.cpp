@@ -1,13 +1,13 @@
-// CAMERA_PREVIEW (services/camera/camera_preview.hpp): the frame at a quarter of its size, pixel
-// for pixel from the full frame, with its exposure time; at most the configured rate, on the bus
-// it is given.
+// CAMERA_PREVIEW (services/camera/camera_preview_node.hpp): the frame at a quarter of its size,
+// pixel for pixel from the full frame, with its exposure time; at most the configured rate, on the
+// bus it is given.
 #include <gtest/gtest.h>
 
 #include <vector>
 
 #include "common/bus/node.hpp"
 #include "common/time/clock.hpp"
-#include "services/camera/camera_preview.hpp"
+#include "services/camera/camera_preview_node.hpp"
 
 namespace fieldline::camera {
 namespace {

@@ -1,4 +1,4 @@
-#include "services/camera/camera_preview.hpp"
+#include "services/camera/camera_preview_node.hpp"
 
 #include <cmath>
 #include <stdexcept>

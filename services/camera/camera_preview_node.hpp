@@ -1,6 +1,6 @@
-// CAMERA_PREVIEW: the camera's reduced stream for a viewer on another machine. Full frames
-// (CAMERA_IMAGE, 18 MB/s at 640x480 YUYV and 30 Hz) stay on the robot; a copy at
-// 1/kCameraPreviewScale of their width and height, a few times a second, goes out with the bus's
+// CAMERA_PREVIEW (a node piece: it publishes): the camera's reduced stream for a viewer on another
+// machine. Full frames (CAMERA_IMAGE, 18 MB/s at 640x480 YUYV and 30 Hz) stay on the robot; a copy
+// at 1/kCameraPreviewScale of their width and height, a few times a second, goes out with the bus's
 // ttl (docs/launch.md, "Watching from a laptop").
 #pragma once
 
