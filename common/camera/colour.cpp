@@ -9,6 +9,8 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "common/config/paths.hpp"
+
 namespace fieldline::camera {
 namespace {
 
@@ -292,11 +294,10 @@ ColourTable loadColourTable(const config::Node& root) {
     if (root.has("colours")) {
       root.fail("lookup_table", "give either colours (boxes) or lookup_table, not both");
     }
-    const std::string file = root.get<std::string>("lookup_table");
-    const std::filesystem::path path =
-        std::filesystem::path(root.file()).parent_path() / std::filesystem::path(file);
+    const std::string path =
+        config::resolveAgainst(root.file(), "", root.get<std::string>("lookup_table"));
     try {
-      return readColourLookupFile(path.string());
+      return readColourLookupFile(path);
     } catch (const std::exception& e) {
       root.fail("lookup_table", e.what());
     }

@@ -8,6 +8,7 @@
 #include <string>
 
 #include "common/camera/colour.hpp"
+#include "common/config/paths.hpp"
 
 namespace fieldline::camera {
 namespace {
@@ -384,14 +385,16 @@ CameraModel loadCameraModel(const config::Node& root) {
   } catch (const std::invalid_argument& e) {
     m.fail("", e.what());
   }
-  model.colour_table = root.get<std::string>("colour_table");
+  // A bare name is a preset (config/camera/NAME.yaml); a path is relative to this file, so a
+  // camera preset and its colour table written side by side at a venue stay together.
+  const std::string named = root.get<std::string>("colour_table");
+  model.colour_table = config::resolveAgainst(root.file(), "camera", named);
   // A preset that does not exist or does not load is this file's error, found when it is read
   // (not when region tracking first needs the table).
   try {
     (void)loadColourTablePreset(model.colour_table);
   } catch (const config::Error& e) {
-    root.fail("colour_table",
-              "colour table preset '" + model.colour_table + "' does not load: " + e.what());
+    root.fail("colour_table", "colour table preset '" + named + "' does not load: " + e.what());
   }
   return model;
 }

@@ -383,6 +383,16 @@ std::string resolvePreset(const std::string& category, const std::string& nameOr
   return projectRoot() + "/config/" + category + "/" + nameOrPath + ".yaml";
 }
 
+std::string resolveAgainst(const std::string& naming_file, const std::string& category,
+                           const std::string& value) {
+  const bool isPath = category.empty() || value.find('/') != std::string::npos ||
+                      (value.size() > 5 && value.ends_with(".yaml"));
+  if (!isPath) return value;  // a preset name: resolvePreset finds it where it is loaded
+  const std::filesystem::path path(value);
+  if (path.is_absolute() || naming_file.empty()) return value;
+  return (std::filesystem::path(naming_file).parent_path() / path).lexically_normal().string();
+}
+
 std::string defaultCacheDirectory() {
   if (const char* xdg = std::getenv("XDG_CACHE_HOME"); xdg && *xdg) {
     return std::string(xdg) + "/fieldline";

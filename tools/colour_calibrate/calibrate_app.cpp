@@ -4,14 +4,21 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <numbers>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 
 #include <fmt/core.h>
 
+#include <opencv2/imgproc.hpp>
+
 #include "common/camera/image_io.hpp"
 #include "common/config/config.hpp"
+#include "services/camera/camera_config.hpp"
+#include "tools/calibration_common/staged_output.hpp"
 #include "tools/colour_calibrate/evaluation.hpp"
+#include "tools/colour_calibrate/image_calibration.hpp"
 
 namespace fieldline::calibration {
 
@@ -170,43 +177,6 @@ int evaluate(const AppOptions& o, const cal::FitParams& params) {
   return 0;
 }
 
-std::vector<cal::PosedFrame> renderFrames(const AppOptions& o, rt::SimCamera& sim,
-                                          std::vector<std::vector<std::uint8_t>>& raw) {
-  if (!o.inputs.empty()) throw std::invalid_argument("--render and --in exclude each other");
-  if (o.settings.size() > 1) throw std::invalid_argument("--render takes one --realism");
-  if (!o.settings.empty()) {
-    sim.renderer->realism().setParams(cal::realismSetting(o.settings[0]).realism);
-  }
-  std::vector<cal::PosedFrame> posed;
-  raw.reserve(o.poses.size());
-  for (const std::string& p : o.poses) {
-    camera::SimScene scene;
-    scene.robot = parsePose(p);
-    sim.render(scene);
-    raw.push_back(sim.frame);
-    posed.push_back({sim.renderer->view(raw.back()), scene.robot});
-  }
-  return posed;
-}
-
-std::vector<cal::PosedFrame> readFrames(const AppOptions& o,
-                                        std::vector<camera::FrameFile>& files) {
-  if (o.inputs.empty()) throw std::invalid_argument("give --in frames or --render");
-  if (o.poses.size() != 1 && o.poses.size() != o.inputs.size()) {
-    throw std::invalid_argument("give one --pose, or one per --in");
-  }
-  std::optional<camera::FrameSize> size;
-  if (!o.yuyv_size.empty()) size = camera::parseFrameSize(o.yuyv_size);
-  files.reserve(o.inputs.size());
-  std::vector<cal::PosedFrame> posed;
-  for (std::size_t i = 0; i < o.inputs.size(); ++i) {
-    files.push_back(camera::readFrameFile(o.inputs[i], size));
-    posed.push_back(
-        {files.back().view(), parsePose(o.poses.size() == 1 ? o.poses[0] : o.poses[i])});
-  }
-  return posed;
-}
-
 std::vector<cal::UserMask> readMasks(const AppOptions& o, const camera::FrameView& frame) {
   std::vector<cal::UserMask> masks;
   for (const std::string& m : o.masks) {
@@ -241,32 +211,140 @@ std::vector<cal::UserMask> readMasks(const AppOptions& o, const camera::FrameVie
   return masks;
 }
 
-void writeTable(const AppOptions& o, const cal::Calibration& calibration,
-                const camera::ColourTable& table, std::size_t frames) {
-  const std::string comment = fmt::format(
-      "Colour table from fieldline-colour-calibrate ({} frame(s), camera {}, field {}).\n"
-      "White and green fitted from the field model's prediction; other classes kept.",
-      frames, o.camera_preset, o.field_preset);
-  const bool lut = o.lut || table.fromLookupTable();
-  std::ofstream file(o.out);
+// Writes the table (boxes, or a lookup table with the YAML naming it) only after loading the
+// staged files with the loader region tracking uses and comparing what it reads cell by cell.
+void writeTable(const AppOptions& o, const camera::ColourTable& table,
+                const std::vector<camera::YuvBox>& boxes, const std::string& comment) {
+  const bool lut = o.lut || table.fromLookupTable() || boxes.empty();
+  StagedFiles staged;
+  std::string yamlPath;
   if (lut) {
     const std::filesystem::path lutPath = std::filesystem::path(o.out).replace_extension(".lut");
-    camera::writeColourLookupFile(lutPath.string(), table);
+    std::ostringstream bytes;
+    camera::writeColourLookup(bytes, table);
+    staged.stage(lutPath.string(), bytes.str());
+    std::string yaml;
     std::istringstream lines(comment);
     for (std::string line; std::getline(lines, line);)
-      file << "# " << line << "\n";
-    file << "# The full lookup table (docs/calibration.md, lookup table file).\nlookup_table: "
-         << lutPath.filename().string() << "\n";
+      yaml += "# " + line + "\n";
+    yaml += "# The full lookup table (docs/calibration.md, lookup table file).\nlookup_table: " +
+            lutPath.filename().string() + "\n";
+    yamlPath = staged.stage(o.out, yaml);
   } else {
-    file << cal::colourTableYaml(calibration.boxes, comment);
+    yamlPath = staged.stage(o.out, cal::colourTableYaml(boxes, comment));
   }
-  file.close();
-  if (!file) throw std::runtime_error("cannot write " + o.out);
   // Read back through the project's loader: what was written is the table.
-  if (camera::loadColourTablePreset(o.out).yuvLookup() != table.yuvLookup()) {
-    throw std::runtime_error(o.out + " does not read back as the calibrated table");
+  if (camera::loadColourTablePreset(yamlPath).yuvLookup() != table.yuvLookup()) {
+    throw Refusal(o.out + " does not read back as the calibrated table");
   }
-  fmt::print("wrote {}{}\n", o.out, lut ? " (lookup table)" : "");
+  for (const std::string& written : staged.commit())
+    fmt::print("wrote {}{}\n", written, written.ends_with(".lut") ? " (lookup table)" : "");
+}
+
+void printCheck(const cal::TableCheck& check) {
+  fmt::print("check: the tracker's line points with this table, fitted to the field:\n");
+  fmt::print("{:>6s} {:>7s} {:>26s} {:>10s} {:>10s}\n", "frame", "points", "pose x,y,phi (m, deg)",
+             "median cm", "on lines");
+  for (std::size_t i = 0; i < check.frames.size(); ++i) {
+    const cal::FrameCheck& f = check.frames[i];
+    fmt::print("{:6d} {:7d} {:>26s} {:10.1f} {:9.1f}%\n", i + 1, f.line_points,
+               f.localized ? fmt::format("{:.2f},{:.2f},{:.1f}", f.pose.x, f.pose.y,
+                                         f.pose.phi * 180.0 / std::numbers::pi)
+                           : std::string("-"),
+               f.median_cm, 100 * f.fit_share);
+  }
+  fmt::print(
+      "all: {} line points, {:.1f} % within 15 cm of a line; median luma white {:.0f}, "
+      "green {:.0f}\n",
+      check.line_points, 100 * check.fit_share, check.white_luma, check.green_luma);
+}
+
+void refuseOnProblems(const cal::TableCheck& check) {
+  if (check.problems.empty()) return;
+  std::string why;
+  for (const std::string& p : check.problems)
+    why += "\n  " + p;
+  throw Refusal("the table fails its check:" + why);
+}
+
+// The procedure from the frames alone (no pose): floor, lines, a first check that finds the
+// poses, ball and robots, the table and its check.
+int calibrateFromFrames(const AppOptions& o, const camera::MirrorModel& mirror,
+                        const fieldline::field::FieldModel& field,
+                        const std::vector<camera::FrameView>& frames) {
+  cal::ImageFitParams params;
+  params.light_range = {o.light_range[0], o.light_range[1]};
+  const cal::FramesCalibration result = cal::calibrateColours(mirror, field, frames, params);
+  const cal::ImageCalibration& c = result.calibration;
+  const int localized = result.posed;
+  const bool posed = localized > 0;
+  fmt::print(
+      "floor: median y,u,v {:.0f},{:.0f},{:.0f} ({:.0f} % of the floor annulus; chroma sigma "
+      "{:.1f} levels; luma p1-p99 {:.0f}-{:.0f}), {} samples\n",
+      c.floor.median[0], c.floor.median[1], c.floor.median[2], 100 * c.floor.share,
+      c.floor.chroma_sigma, c.floor.luma[0], c.floor.luma[1], c.samples.floor.size());
+  fmt::print(
+      "lines: {} of {} ridges with floor on both sides, {} samples, luma p5-p95 {:.0f}-{:.0f}, "
+      "white point u,v {:.0f},{:.0f}; where their chroma is the floor's: floor up to luma {:.0f}, "
+      "white from {:.0f}\n",
+      c.line_ridges, c.ridges, c.samples.line.size(), c.line_luma[0], c.line_luma[1],
+      c.white_point[0], c.white_point[1], c.luma_boundary, c.white_from);
+  if (!posed) {
+    fmt::print("ball and robots: not searched (no frame fitted the field with the first table)\n");
+  } else if (c.ball_found) {
+    fmt::print(
+        "ball: found in {} of the {} frames that fitted the field, at field ({:.2f}, "
+        "{:.2f}), {} samples -> orange\n",
+        c.ball_frames, localized, c.ball_field.x(), c.ball_field.y(), c.samples.ball.size());
+  } else {
+    fmt::print(
+        "ball: none found in the frames: the table has no ball (orange) class; put a "
+        "ball 1-3 m from the robot and calibrate again for its colour\n");
+  }
+  if (posed) {
+    fmt::print("robots: {}\n", c.robots_found
+                                   ? fmt::format("{} dark samples -> black", c.samples.robot.size())
+                                   : std::string("none in the field: no black class"));
+  }
+  fmt::print(
+      "carpet median y,u,v {:.0f},{:.0f},{:.0f} (adaptation: reference [{:.0f}, {:.0f}, "
+      "{:.0f}])\n",
+      c.floor.median[0], c.floor.median[1], c.floor.median[2], c.floor.median[0], c.floor.median[1],
+      c.floor.median[2]);
+  const cal::TableCheck& check = result.check;
+  printCheck(check);
+  if (!o.debug_png.empty()) {
+    // Per frame: the frame | its classes with the tracker's line points (red: on a field line at
+    // the fitted pose, yellow: off the lines).
+    std::vector<cv::Mat> rows;
+    for (std::size_t i = 0; i < frames.size(); ++i) {
+      cv::Mat classes = camera::classificationImage(frames[i], c.table);
+      const cal::FrameCheck& f = check.frames[i];
+      for (std::size_t k = 0; k < f.lines.points.size(); ++k) {
+        const bool on = k < f.on_line.size() && f.on_line[k];
+        cv::circle(classes,
+                   cv::Point(static_cast<int>(std::lround(f.lines.points[k].u)),
+                             static_cast<int>(std::lround(f.lines.points[k].v))),
+                   1, on ? cv::Scalar(0, 0, 255) : cv::Scalar(0, 255, 255), cv::FILLED);
+      }
+      cv::Mat row;
+      cv::hconcat(std::vector<cv::Mat>{camera::toBgrImage(frames[i]), classes}, row);
+      rows.push_back(row);
+    }
+    cv::Mat out;
+    cv::vconcat(rows, out);
+    camera::writeImage(o.debug_png, out);
+  }
+  refuseOnProblems(check);
+  if (!o.out.empty()) {
+    writeTable(o, c.table, {},
+               fmt::format("Colour table from fieldline-colour-calibrate: {} frame(s), camera {}, "
+                           "field {}, from the frames alone.\nCheck: {} line points, {:.1f} % "
+                           "within 15 cm of the field's lines; ball class: {}.",
+                           frames.size(), o.camera_preset, o.field_preset, check.line_points,
+                           100 * check.fit_share, c.ball_found ? "from the frames" : "none"));
+  }
+  return 0;
 }
 
 }  // namespace
@@ -278,7 +356,8 @@ void AppOptions::addTo(CLI::App& app) {
   app.add_option("--in", inputs, "frame: PNG/JPEG/BMP, or raw YUYV with --yuyv (repeatable)");
   app.add_option("--yuyv", yuyv_size, "the inputs are raw YUYV 4:2:2 of this size, e.g. 320x240");
   app.add_option("--pose", poses,
-                 "robot pose x,y,phi (m, m, rad, field frame) of each --in, or one for all");
+                 "robot pose x,y,phi (m, m, rad, field frame) of each --in, or one for all, when "
+                 "known (optional: without it the colours come from the frames alone)");
   app.add_flag("--render", render, "calibrate from a frame the simulated camera renders at --pose");
   app.add_option("--realism", settings,
                  "realism setting for --render / --evaluate (clean, noise, washed, cast, blur, "
@@ -293,7 +372,9 @@ void AppOptions::addTo(CLI::App& app) {
   app.add_option("--base", base,
                  "colour table (boxes or lookup table) whose other classes are kept (default: the "
                  "camera's)");
-  app.add_option("--out", out, "colour YAML to write");
+  app.add_option("--out", out,
+                 "colour YAML to write (with OUT.lut beside it for a lookup table), only when "
+                 "the table passes its check");
   app.add_flag("--lut", lut,
                "write the full lookup table (OUT with .lut) and a YAML naming it, not boxes");
   app.add_option("--debug-png", debug_png,
@@ -373,29 +454,89 @@ int runApp(const AppOptions& o) {
   cal::FitParams params;
   params.light_range = {o.light_range[0], o.light_range[1]};
   if (o.evaluate) return evaluate(o, params);
-  rt::SimCamera sim = rt::SimCamera::load(o.camera_preset, o.field_preset);
-  if (!o.base.empty()) sim.table = camera::loadColourTablePreset(o.base);
-  if (o.poses.empty()) throw std::invalid_argument("--pose is required");
+  // Any camera preset: the mirror tool's output (no render section) as well as a simulated one.
+  const camera::CameraConfig config = camera::loadCameraConfigPreset(o.camera_preset);
+  const fieldline::field::FieldModel field = fieldline::field::loadFieldPreset(o.field_preset);
   std::vector<std::vector<std::uint8_t>> raw;
   std::vector<camera::FrameFile> files;
-  const std::vector<cal::PosedFrame> posed =
-      o.render ? renderFrames(o, sim, raw) : readFrames(o, files);
+  std::vector<cal::PosedFrame> posed;
+  std::optional<camera::SimRenderer> renderer;
+  if (o.render) {
+    if (o.poses.empty()) throw std::invalid_argument("--render needs --pose");
+    camera::RenderParams render = camera::renderParamsOf(config, "--render");
+    if (!o.settings.empty()) render.realism = cal::realismSetting(o.settings[0]).realism;
+    if (o.settings.size() > 1) throw std::invalid_argument("--render takes one --realism");
+    if (!o.inputs.empty()) throw std::invalid_argument("--render and --in exclude each other");
+    renderer.emplace(config.model.mirror, field, render);
+    raw.reserve(o.poses.size());
+    for (const std::string& p : o.poses) {
+      camera::SimScene scene;
+      scene.robot = parsePose(p);
+      raw.emplace_back();
+      renderer->render(scene, raw.back());
+      posed.push_back({renderer->view(raw.back()), scene.robot});
+    }
+  } else {
+    if (o.inputs.empty()) throw std::invalid_argument("give --in frames (or --render --pose)");
+    if (!o.poses.empty() && o.poses.size() != 1 && o.poses.size() != o.inputs.size()) {
+      throw std::invalid_argument("give no --pose, one, or one per --in");
+    }
+    std::optional<camera::FrameSize> size;
+    if (!o.yuyv_size.empty()) size = camera::parseFrameSize(o.yuyv_size);
+    files.reserve(o.inputs.size());
+    for (std::size_t i = 0; i < o.inputs.size(); ++i) {
+      files.push_back(camera::readFrameFile(o.inputs[i], size));
+      Pose2 pose;
+      if (!o.poses.empty()) pose = parsePose(o.poses.size() == 1 ? o.poses[0] : o.poses[i]);
+      posed.push_back({files.back().view(), pose});
+    }
+  }
+  const camera::MirrorModel& mirror = config.model.mirror;
+  for (const cal::PosedFrame& f : posed) {
+    if (f.frame.width != mirror.width() || f.frame.height != mirror.height()) {
+      throw std::invalid_argument(fmt::format(
+          "a frame is {}x{}, the camera preset {} is for {}x{}: give the camera's own preset "
+          "(fieldline-mirror-calibrate writes one)",
+          f.frame.width, f.frame.height, o.camera_preset, mirror.width(), mirror.height()));
+    }
+  }
+  if (!o.save_frame.empty()) camera::writeImage(o.save_frame, camera::toBgrImage(posed[0].frame));
+  if (o.poses.empty()) {
+    std::vector<camera::FrameView> views;
+    for (const cal::PosedFrame& f : posed)
+      views.push_back(f.frame);
+    return calibrateFromFrames(o, mirror, field, views);
+  }
+  // Known poses: the field model predicts carpet and line pixels (docs/calibration.md).
+  camera::ColourTable base =
+      camera::loadColourTablePreset(o.base.empty() ? config.model.colour_table : o.base);
   const std::vector<cal::UserMask> masks = readMasks(o, posed[0].frame);
   const cal::Calibration calibration =
-      cal::calibrate(sim.mirror, sim.field, posed, masks, sim.table.boxes(), params);
-  const camera::ColourTable table = finalTable(calibration, sim.table);
+      cal::calibrate(mirror, field, posed, masks, base.boxes(), params);
+  const camera::ColourTable table = finalTable(calibration, base);
   printFits(calibration);
   fmt::print(
       "carpet median y,u,v {:.0f},{:.0f},{:.0f} (adaptation: reference [{:.0f}, {:.0f}, {:.0f}])\n",
       calibration.carpet_median[0], calibration.carpet_median[1], calibration.carpet_median[2],
       calibration.carpet_median[0], calibration.carpet_median[1], calibration.carpet_median[2]);
-  printCoverage(cal::measureCoverage(sim.mirror, sim.field, posed, table, params.masks));
-  if (!o.out.empty()) writeTable(o, calibration, table, posed.size());
+  printCoverage(cal::measureCoverage(mirror, field, posed, table, params.masks));
   if (!o.debug_png.empty()) {
-    camera::writeImage(o.debug_png,
-                       debugImage(sim.mirror, sim.field, posed[0], table, params.masks));
+    camera::writeImage(o.debug_png, debugImage(mirror, field, posed[0], table, params.masks));
   }
-  if (!o.save_frame.empty()) camera::writeImage(o.save_frame, camera::toBgrImage(posed[0].frame));
+  std::vector<camera::FrameView> views;
+  for (const cal::PosedFrame& f : posed)
+    views.push_back(f.frame);
+  const cal::TableCheck check = cal::checkTable(mirror, field, views, table, cal::ImageFitParams{});
+  printCheck(check);
+  refuseOnProblems(check);
+  if (!o.out.empty()) {
+    writeTable(o, table,
+               o.lut || table.fromLookupTable() ? std::vector<camera::YuvBox>{} : calibration.boxes,
+               fmt::format("Colour table from fieldline-colour-calibrate ({} frame(s), camera "
+                           "{}, field {}).\nWhite and green fitted from the field model's "
+                           "prediction at the given pose(s); other classes kept.",
+                           posed.size(), o.camera_preset, o.field_preset));
+  }
   return 0;
 }
 

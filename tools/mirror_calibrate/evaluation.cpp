@@ -75,27 +75,36 @@ std::vector<PosedImage> renderFieldFrames(const camera::MirrorModel& mirror,
 }
 
 MirrorError compareMirrors(const camera::MirrorModel& truth, const camera::MirrorModel& fitted,
-                           double up_to) {
+                           double up_to, double from) {
   MirrorError e;
   const camera::MirrorParams& t = truth.params();
   const camera::MirrorParams& f = fitted.params();
   e.centre_px = (t.centre - f.centre).norm();
   e.offset_m = (t.axis_offset - f.axis_offset).norm();
-  const double end = t.distance.imageRadius(up_to, 0.0);
-  for (int deg = -179; deg <= 180; ++deg) {
-    const double b = deg * std::numbers::pi / 180.0;
-    // From 1 px outside the reflection (the fitted centre differs by a fraction of a pixel).
-    for (double r = t.self_radius + 1.0; r <= end; r += 0.5) {
-      const double dt = t.distance.floorDistance(r, b);
-      const double df = f.distance.floorDistance(r, b);
-      if (!std::isfinite(dt) || dt > up_to) continue;
-      e.distance_percent =
-          std::max(e.distance_percent, std::isfinite(df) ? 100.0 * std::abs(df - dt) / dt : 1e9);
-      const camera::Vec2 px = t.centre + r * truth.imageDirection(b);
-      if (truth.zone(px) == camera::MirrorZone::kOutside) continue;
-      const std::optional<camera::Vec2> a = truth.imageToRobot(px);
-      const std::optional<camera::Vec2> c = fitted.imageToRobot(px);
-      e.floor_point_m = std::max(e.floor_point_m, a && c ? (*a - *c).norm() : 1e9);
+  // Pixel by pixel (every quarter pixel): what each model says the pixel shows. The distance
+  // function is compared as the floor distance from each model's own axis, so a centre that the
+  // fit moved to make up for a tilt is not counted twice.
+  for (double v = 0.0; v <= t.height - 1; v += 0.25) {
+    for (double u = 0.0; u <= t.width - 1; u += 0.25) {
+      const camera::Vec2 px(u, v);
+      if (truth.zone(px) != camera::MirrorZone::kUseful) continue;
+      if (truth.radiusOf(px) < t.self_radius + 1.0 || fitted.radiusOf(px) < f.self_radius + 1.0) {
+        continue;
+      }
+      const std::optional<camera::Vec2> ta = truth.imageToAxis(px);
+      if (!ta || ta->norm() > up_to) continue;
+      const std::optional<camera::Vec2> fa = fitted.imageToAxis(px);
+      if (!fa) {
+        e.distance_percent = std::max(e.distance_percent, ta->norm() >= from ? 1e9 : 0.0);
+        e.floor_point_m = 1e9;
+        continue;
+      }
+      if (ta->norm() >= from) {
+        e.distance_percent =
+            std::max(e.distance_percent, 100.0 * std::abs(fa->norm() - ta->norm()) / ta->norm());
+      }
+      e.floor_point_m =
+          std::max(e.floor_point_m, (truth.axisToRobot(*ta) - fitted.axisToRobot(*fa)).norm());
     }
   }
   return e;

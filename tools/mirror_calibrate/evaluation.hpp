@@ -41,14 +41,16 @@ std::vector<PosedImage> renderFieldFrames(const camera::MirrorModel& mirror,
 struct MirrorError {
   double centre_px = 0.0;
   double offset_m = 0.0;
-  // Largest |D_fit(r, b) - D_true(r, b)| / D_true over bearings every degree and radii every
-  // 0.5 px from 1 px outside the reflection to where the true distance reaches `up_to`, %.
+  // Over every pixel (quarter-pixel steps) that the true model shows in its useful zone within
+  // `up_to` m of the axis: the largest relative difference of the floor distance from the axis
+  // that the two models give for it (only where the true one is at least `from`), %; 1e9 where
+  // the fitted model gives none.
   double distance_percent = 0.0;
-  // Largest distance between the floor points both models give for the same pixel, over the
-  // same range, m.
+  // The largest distance between the floor points (robot frame) both models give for the same
+  // pixel, m.
   double floor_point_m = 0.0;
 };
 MirrorError compareMirrors(const camera::MirrorModel& truth, const camera::MirrorModel& fitted,
-                           double up_to);
+                           double up_to, double from = 0.0);
 
 }  // namespace fieldline::calibration

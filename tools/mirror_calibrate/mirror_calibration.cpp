@@ -46,9 +46,22 @@ bool fitCircle(const std::vector<Vec2>& pts, Vec2& centre, double& radius) {
   return true;
 }
 
-// Circle fit that drops points more than `gate` px off, twice.
-bool robustCircle(const std::vector<Vec2>& pts, Vec2& centre, double& radius,
-                  std::vector<bool>& keep, double gate) {
+// Image radius along image direction `dir` from `from` to the circle (centre, radius).
+double circleAlongRay(const Vec2& from, const Vec2& dir, const Vec2& centre, double radius) {
+  const Vec2 f = from - centre;
+  const double b = f.dot(dir);
+  const double disc = b * b - (f.squaredNorm() - radius * radius);
+  return disc < 0.0 ? kNaN : -b + std::sqrt(disc);
+}
+
+double wrapAngle(double a) {
+  return std::remainder(a, 2.0 * kPi);
+}
+
+}  // namespace
+
+bool fitCircleRobust(const std::vector<Vec2>& pts, Vec2& centre, double& radius,
+                     std::vector<bool>& keep, double gate) {
   keep.assign(pts.size(), true);
   std::vector<Vec2> used = pts;
   for (int round = 0; round < 3; ++round) {
@@ -66,46 +79,7 @@ bool robustCircle(const std::vector<Vec2>& pts, Vec2& centre, double& radius,
   return fitCircle(used, centre, radius);
 }
 
-// Image radius along image direction `dir` from `from` to the circle (centre, radius).
-double circleAlongRay(const Vec2& from, const Vec2& dir, const Vec2& centre, double radius) {
-  const Vec2 f = from - centre;
-  const double b = f.dot(dir);
-  const double disc = b * b - (f.squaredNorm() - radius * radius);
-  return disc < 0.0 ? kNaN : -b + std::sqrt(disc);
-}
-
-double wrapAngle(double a) {
-  return std::remainder(a, 2.0 * kPi);
-}
-
-}  // namespace
-
 // --- images and curves ---
-
-double GreyImage::sample(double u, double v) const {
-  if (!(u >= 0.0 && v >= 0.0 && u <= width - 1 && v <= height - 1)) return kNaN;
-  const int u0 = std::min(static_cast<int>(u), width - 2);
-  const int v0 = std::min(static_cast<int>(v), height - 2);
-  const double fu = u - u0;
-  const double fv = v - v0;
-  const auto at = [this](int x, int y) {
-    return static_cast<double>(pixels[static_cast<std::size_t>(y) * width + x]);
-  };
-  return (1 - fv) * ((1 - fu) * at(u0, v0) + fu * at(u0 + 1, v0)) +
-         fv * ((1 - fu) * at(u0, v0 + 1) + fu * at(u0 + 1, v0 + 1));
-}
-
-GreyImage greyFromFrame(const camera::FrameView& frame) {
-  if (!frame.valid()) throw std::invalid_argument("mirror calibration: invalid frame");
-  GreyImage g{frame.width, frame.height, {}};
-  g.pixels.resize(static_cast<std::size_t>(frame.width) * frame.height);
-  for (int v = 0; v < frame.height; ++v) {
-    for (int u = 0; u < frame.width; ++u) {
-      g.pixels[static_cast<std::size_t>(v) * frame.width + u] = readYuv(frame, u, v).y;
-    }
-  }
-  return g;
-}
 
 MonotoneCurve::MonotoneCurve(std::vector<double> x, std::vector<double> y)
     : x_(std::move(x)), y_(std::move(y)) {
@@ -273,7 +247,7 @@ std::vector<TracedRing> traceRings(const std::vector<RingPeak>& peaks, int rays,
     if (static_cast<double>(pts.size()) < min_share * rays) break;
     TracedRing ring;
     std::vector<bool> keep;
-    if (!robustCircle(pts, ring.centre, ring.radius, keep, 2.0)) break;
+    if (!fitCircleRobust(pts, ring.centre, ring.radius, keep, 2.0)) break;
     for (std::size_t i = 0; i < pts.size(); ++i) {
       if (keep[i]) ring.pixels.push_back(pts[i]);
     }
@@ -367,61 +341,7 @@ double RingFit::ringRadius(int ring, double bearing) const {
       axisDistanceToRing(distances[static_cast<std::size_t>(ring)], bearing, axis_offset));
 }
 
-namespace {
-
-struct FitState {
-  Vec2 centre;
-  Vec2 offset;
-  std::vector<double> radii;
-};
-
-bool increasing(const std::vector<double>& v) {
-  if (v.empty() || !(v[0] > 0.0)) return false;
-  for (std::size_t i = 1; i < v.size(); ++i)
-    if (!(v[i] > v[i - 1])) return false;
-  return true;
-}
-
-// Residuals r_obs - r_pred of the points (NaN-free only if the state is valid).
-bool residuals(const FitState& s, const std::vector<RingPoint>& pts,
-               const std::vector<double>& distances, const camera::MirrorParams& base,
-               const std::vector<bool>& use, Eigen::VectorXd& out) {
-  if (!increasing(s.radii)) return false;
-  std::vector<double> x{0.0};
-  std::vector<double> y{0.0};
-  x.insert(x.end(), distances.begin(), distances.end());
-  y.insert(y.end(), s.radii.begin(), s.radii.end());
-  const MonotoneCurve curve(x, y);
-  out.resize(static_cast<Eigen::Index>(pts.size()));
-  for (std::size_t i = 0; i < pts.size(); ++i) {
-    if (!use[i]) {
-      out(static_cast<Eigen::Index>(i)) = 0.0;
-      continue;
-    }
-    const double b = axisBearing(pts[i].pixel, s.centre, base.heading_angle, base.mirrored);
-    const double t =
-        axisDistanceToRing(distances[static_cast<std::size_t>(pts[i].ring)], b, s.offset);
-    if (!std::isfinite(t)) return false;
-    out(static_cast<Eigen::Index>(i)) = (pts[i].pixel - s.centre).norm() - curve(t);
-  }
-  return true;
-}
-
-FitState unpack(const Eigen::VectorXd& x, bool offset) {
-  FitState s;
-  s.centre = Vec2(x(0), x(1));
-  s.offset = offset ? Vec2(x(2), x(3)) : Vec2::Zero();
-  for (Eigen::Index i = 4; i < x.size(); ++i)
-    s.radii.push_back(x(i));
-  return s;
-}
-
-using ResidualFn = std::function<bool(const Eigen::VectorXd&, Eigen::VectorXd&)>;
-
-// Levenberg-Marquardt with Huber weights (threshold `huber`) and a numeric Jacobian (step
-// steps[k] for parameter k; 0 holds it fixed). A step that makes `f` fail (an invalid state) is
-// treated as a worse one.
-Eigen::VectorXd levenbergMarquardt(Eigen::VectorXd x, const ResidualFn& f,
+Eigen::VectorXd levenbergMarquardt(Eigen::VectorXd x, const ResidualFunction& f,
                                    const std::vector<double>& steps, double huber, int iterations) {
   const Eigen::Index np = x.size();
   double lambda = 1e-3;
@@ -486,6 +406,57 @@ Eigen::VectorXd levenbergMarquardt(Eigen::VectorXd x, const ResidualFn& f,
   }
   return x;
 }
+
+namespace {
+
+struct FitState {
+  Vec2 centre;
+  Vec2 offset;
+  std::vector<double> radii;
+};
+
+bool increasing(const std::vector<double>& v) {
+  if (v.empty() || !(v[0] > 0.0)) return false;
+  for (std::size_t i = 1; i < v.size(); ++i)
+    if (!(v[i] > v[i - 1])) return false;
+  return true;
+}
+
+// Residuals r_obs - r_pred of the points (NaN-free only if the state is valid).
+bool residuals(const FitState& s, const std::vector<RingPoint>& pts,
+               const std::vector<double>& distances, const camera::MirrorParams& base,
+               const std::vector<bool>& use, Eigen::VectorXd& out) {
+  if (!increasing(s.radii)) return false;
+  std::vector<double> x{0.0};
+  std::vector<double> y{0.0};
+  x.insert(x.end(), distances.begin(), distances.end());
+  y.insert(y.end(), s.radii.begin(), s.radii.end());
+  const MonotoneCurve curve(x, y);
+  out.resize(static_cast<Eigen::Index>(pts.size()));
+  for (std::size_t i = 0; i < pts.size(); ++i) {
+    if (!use[i]) {
+      out(static_cast<Eigen::Index>(i)) = 0.0;
+      continue;
+    }
+    const double b = axisBearing(pts[i].pixel, s.centre, base.heading_angle, base.mirrored);
+    const double t =
+        axisDistanceToRing(distances[static_cast<std::size_t>(pts[i].ring)], b, s.offset);
+    if (!std::isfinite(t)) return false;
+    out(static_cast<Eigen::Index>(i)) = (pts[i].pixel - s.centre).norm() - curve(t);
+  }
+  return true;
+}
+
+FitState unpack(const Eigen::VectorXd& x, bool offset) {
+  FitState s;
+  s.centre = Vec2(x(0), x(1));
+  s.offset = offset ? Vec2(x(2), x(3)) : Vec2::Zero();
+  for (Eigen::Index i = 4; i < x.size(); ++i)
+    s.radii.push_back(x(i));
+  return s;
+}
+
+using ResidualFn = ResidualFunction;
 
 Eigen::VectorXd solve(const Eigen::VectorXd& x, const std::vector<RingPoint>& pts,
                       const std::vector<double>& distances, const camera::MirrorParams& base,
@@ -617,7 +588,9 @@ SectorTable sectorTable(const RingFit& fit, const std::vector<RingPoint>& points
   // Up to the outermost ring of any sector, extrapolating the others by at most 3 px.
   end = std::min(farthest, end + 3.0);
   SectorTable out;
-  for (double rad = radius_step; rad < end - 1e-9; rad += radius_step)
+  // Knots every radius_step, none within half a pixel of the last (the loader's check refuses
+  // knots closer than that: at 640x480 the outermost ring fell 0.3 px beyond a step).
+  for (double rad = radius_step; rad < end - 0.5; rad += radius_step)
     out.table.radii.push_back(rad);
   out.table.radii.push_back(end);
   for (int s = 0; s < sectors; ++s) {
@@ -762,276 +735,6 @@ RingCalibration calibrateFromRings(const GreyImage& image, const std::vector<dou
         end, base.self_radius));
   }
   out.mirror.outer_radius = std::max(base.outer_radius, out.mirror.useful_radius);
-  return out;
-}
-
-// --- (a) from field lines ---
-
-namespace {
-
-struct LinePixel {
-  Vec2 pixel = Vec2::Zero();
-  std::size_t frame = 0;
-  // Association of the current round: nearest line point and its normal, metres per pixel there.
-  Vec2 closest = Vec2::Zero();
-  Vec2 normal = Vec2::UnitX();
-  double mpp = 0.01;
-  bool use = false;
-};
-
-MonotoneCurve distanceCurve(const std::vector<double>& radii, const std::vector<double>& d) {
-  std::vector<double> x{0.0};
-  std::vector<double> y{0.0};
-  x.insert(x.end(), radii.begin(), radii.end());
-  y.insert(y.end(), d.begin(), d.end());
-  return MonotoneCurve(x, y);
-}
-
-Vec2 lineNormal(const field::FieldModel& field, const field::FieldModel::Closest& c) {
-  if (c.is_arc) {
-    const field::LineArc& a = field.arcs()[static_cast<std::size_t>(c.element)];
-    const Vec2 n = c.point - a.centre;
-    return n.norm() > 1e-9 ? Vec2(n.normalized()) : Vec2::UnitX();
-  }
-  const field::LineSegment& l = field.segments()[static_cast<std::size_t>(c.element)];
-  const Vec2 d = (l.b - l.a).normalized();
-  return {-d.y(), d.x()};
-}
-
-// The floor point in the field frame seen at `pixel` for centre, offset and distance curve.
-Vec2 fieldPointOf(const Vec2& pixel, const geometry::Pose2& pose, const Vec2& centre,
-                  const Vec2& offset, const MonotoneCurve& curve,
-                  const camera::MirrorParams& base) {
-  const double b = axisBearing(pixel, centre, base.heading_angle, base.mirrored);
-  const double d = curve((pixel - centre).norm());
-  return geometry::pointRobotToField(pose, offset + d * Vec2(std::cos(b), std::sin(b)));
-}
-
-}  // namespace
-
-LineCalibration calibrateFromLines(const std::vector<PosedImage>& frames,
-                                   const field::FieldModel& field, const camera::MirrorParams& base,
-                                   const LineFitParams& params) {
-  if (frames.empty()) throw std::invalid_argument("line calibration: no frames");
-  for (const PosedImage& f : frames) {
-    if (f.image.width != base.width || f.image.height != base.height) {
-      throw std::invalid_argument(
-          fmt::format("line calibration: a frame is {}x{} but the camera config says {}x{}",
-                      f.image.width, f.image.height, base.width, base.height));
-    }
-  }
-  if (params.sectors < 1 || params.gates_px.empty()) {
-    throw std::invalid_argument("line calibration: sectors >= 1 and one gate or more expected");
-  }
-  LineCalibration out;
-  // Start: the base mirror, its radii at the knot distances (those inside the useful radius).
-  std::vector<double> d;
-  std::vector<double> rho;
-  for (double k : params.knot_distances) {
-    const double r = base.distance.imageRadius(k, 0.0);
-    if (std::isfinite(r) && r <= base.useful_radius && (rho.empty() || r > rho.back())) {
-      d.push_back(k);
-      rho.push_back(r);
-    }
-  }
-  if (d.size() < 3) throw std::invalid_argument("line calibration: fewer than 3 knot distances");
-  const auto nk = static_cast<Eigen::Index>(d.size());
-  Eigen::VectorXd x(4 + nk);
-  x << base.centre.x(), base.centre.y(), base.axis_offset.x(), base.axis_offset.y(),
-      Eigen::Map<const Eigen::VectorXd>(rho.data(), nk);
-  std::vector<double> steps(static_cast<std::size_t>(x.size()), 1e-4);
-  steps[2] = steps[3] = params.fit_offset ? 1e-5 : 0.0;
-
-  std::vector<LinePixel> pixels;
-  RingSearchParams search = params.search;
-  search.min_radius = std::max(search.min_radius, base.self_radius + 2.0);
-  search.max_radius = std::min(search.max_radius, base.useful_radius);
-  auto collect = [&](const Vec2& centre) {
-    pixels.clear();
-    for (std::size_t i = 0; i < frames.size(); ++i) {
-      for (const RingPeak& p : findRingPeaks(frames[i].image, centre, search)) {
-        pixels.push_back({p.pixel, i, Vec2::Zero(), Vec2::UnitX(), 0.01, false});
-      }
-    }
-  };
-  auto curveOf = [&](const Eigen::VectorXd& v) {
-    return distanceCurve(std::vector<double>(v.data() + 4, v.data() + v.size()), d);
-  };
-  auto valid = [&](const Eigen::VectorXd& v) {
-    for (Eigen::Index k = 4; k < v.size(); ++k)
-      if (!(v(k) > (k == 4 ? 0.0 : v(k - 1)))) return false;
-    return true;
-  };
-  // Nearest line of every pixel under the state `v`; pixels beyond `gate` px are not used.
-  auto associate = [&](const Eigen::VectorXd& v, double gate) {
-    const MonotoneCurve curve = curveOf(v);
-    const Vec2 c(v(0), v(1));
-    const Vec2 o(v(2), v(3));
-    int used = 0;
-    for (LinePixel& p : pixels) {
-      const double r = (p.pixel - c).norm();
-      p.mpp = std::max(1e-4, curve(r + 0.5) - curve(r - 0.5));
-      const Vec2 f = fieldPointOf(p.pixel, frames[p.frame].pose, c, o, curve, base);
-      const field::FieldModel::Closest cl = field.closestPoint(f);
-      p.closest = cl.point;
-      p.normal = lineNormal(field, cl);
-      p.use = cl.distance / p.mpp <= gate;
-      used += p.use ? 1 : 0;
-    }
-    return used;
-  };
-  const ResidualFn global = [&](const Eigen::VectorXd& v, Eigen::VectorXd& res) {
-    if (!valid(v)) return false;
-    const MonotoneCurve curve = curveOf(v);
-    const Vec2 c(v(0), v(1));
-    const Vec2 o(v(2), v(3));
-    res.resize(static_cast<Eigen::Index>(pixels.size()));
-    for (std::size_t i = 0; i < pixels.size(); ++i) {
-      const LinePixel& p = pixels[i];
-      res(static_cast<Eigen::Index>(i)) =
-          p.use ? (fieldPointOf(p.pixel, frames[p.frame].pose, c, o, curve, base) - p.closest)
-                          .dot(p.normal) /
-                      p.mpp
-                : 0.0;
-    }
-    return true;
-  };
-  collect(base.centre);
-  out.candidates = static_cast<int>(pixels.size());
-  for (std::size_t round = 0; round < params.gates_px.size(); ++round) {
-    if (round == 2) collect(Vec2(x(0), x(1)));  // search again around the better centre
-    const int used = associate(x, params.gates_px[round]);
-    if (used < 20 * x.size()) {
-      throw std::invalid_argument(fmt::format(
-          "line calibration: only {} line pixels within {} px of a field line (of {} found): "
-          "check the pose, the field and the start camera config",
-          used, params.gates_px[round], pixels.size()));
-    }
-    x = levenbergMarquardt(x, global, steps, params.huber_px, params.iterations);
-  }
-  out.centre = Vec2(x(0), x(1));
-  out.axis_offset = Vec2(x(2), x(3));
-  out.knot_distances = d;
-  out.knot_radii.assign(x.data() + 4, x.data() + x.size());
-  const int finalUsed = associate(x, params.gates_px.back());
-
-  // Sectors: each its own radii, blended between neighbouring sectors as the table does.
-  const int ns = params.sectors;
-  const double width = 2.0 * kPi / ns;
-  std::vector<double> bearings;
-  for (int s = 0; s < ns; ++s)
-    bearings.push_back(ns == 1 ? 0.0 : -kPi + width * (s + 1));
-  struct Blend {
-    std::size_t lower = 0, upper = 0;
-    double w = 0.0;
-  };
-  std::vector<Blend> blends(pixels.size());
-  for (std::size_t i = 0; i < pixels.size(); ++i) {
-    if (ns == 1) continue;
-    const double b = axisBearing(pixels[i].pixel, out.centre, base.heading_angle, base.mirrored);
-    const double from = wrapAngle(b - bearings[0]) < 0.0 ? wrapAngle(b - bearings[0]) + 2 * kPi
-                                                         : wrapAngle(b - bearings[0]);
-    const auto lower = static_cast<std::size_t>(std::floor(from / width)) % ns;
-    blends[i] = {lower, (lower + 1) % ns, from / width - std::floor(from / width)};
-  }
-  Eigen::VectorXd xs(ns * nk);
-  for (int s = 0; s < ns; ++s)
-    xs.segment(s * nk, nk) = x.tail(nk);
-  const ResidualFn perSector = [&](const Eigen::VectorXd& v, Eigen::VectorXd& res) {
-    std::vector<MonotoneCurve> curves;
-    for (int s = 0; s < ns; ++s) {
-      std::vector<double> r(v.data() + s * nk, v.data() + (s + 1) * nk);
-      for (std::size_t k = 0; k < r.size(); ++k)
-        if (!(r[k] > (k == 0 ? 0.0 : r[k - 1]))) return false;
-      curves.push_back(distanceCurve(r, d));
-    }
-    res.resize(static_cast<Eigen::Index>(pixels.size()) + ns * nk);
-    for (std::size_t i = 0; i < pixels.size(); ++i) {
-      const LinePixel& p = pixels[i];
-      double r = 0.0;
-      if (p.use) {
-        const Blend& bl = blends[i];
-        const double rad = (p.pixel - out.centre).norm();
-        const double dist = (1 - bl.w) * curves[bl.lower](rad) + bl.w * curves[bl.upper](rad);
-        const double b = axisBearing(p.pixel, out.centre, base.heading_angle, base.mirrored);
-        const Vec2 f = geometry::pointRobotToField(
-            frames[p.frame].pose, out.axis_offset + dist * Vec2(std::cos(b), std::sin(b)));
-        r = (f - p.closest).dot(p.normal) / p.mpp;
-      }
-      res(static_cast<Eigen::Index>(i)) = r;
-    }
-    for (Eigen::Index k = 0; k < ns * nk; ++k) {
-      res(static_cast<Eigen::Index>(pixels.size()) + k) =
-          (v(k) - x(4 + k % nk)) / params.sector_prior_px;
-    }
-    return true;
-  };
-  if (ns > 1) {
-    xs = levenbergMarquardt(xs, perSector,
-                            std::vector<double>(static_cast<std::size_t>(xs.size()), 1e-4),
-                            params.huber_px, params.iterations);
-  }
-  // The table: common radii up to the smallest outermost knot over the sectors.
-  camera::CalibrationTableParams table;
-  double end = std::numeric_limits<double>::infinity();
-  for (int s = 0; s < ns; ++s)
-    end = std::min(end, xs(s * nk + nk - 1));
-  for (double rad = params.radius_step; rad < end - 1e-9; rad += params.radius_step)
-    table.radii.push_back(rad);
-  table.radii.push_back(end);
-  for (int s = 0; s < ns; ++s) {
-    const MonotoneCurve curve =
-        distanceCurve(std::vector<double>(xs.data() + s * nk, xs.data() + (s + 1) * nk), d);
-    std::vector<double> dist;
-    for (double rad : table.radii)
-      dist.push_back(curve(rad));
-    table.sector_bearings.push_back(bearings[static_cast<std::size_t>(s)]);
-    table.distances.push_back(dist);
-  }
-  out.mirror = base;
-  out.mirror.centre = out.centre;
-  out.mirror.axis_offset = out.axis_offset;
-  out.mirror.distance = camera::DistanceFunction(table);
-  out.mirror.useful_radius = std::min(base.useful_radius, end);
-  if (!(out.mirror.useful_radius > out.mirror.self_radius)) {
-    throw std::invalid_argument("line calibration: the fitted table ends inside the reflection");
-  }
-  out.mirror.outer_radius = std::max(base.outer_radius, out.mirror.useful_radius);
-
-  // Residuals of the finished camera model: distance of each used pixel's floor point to the
-  // nearest line, per sector.
-  const camera::MirrorModel model(out.mirror);
-  struct Acc {
-    int n = 0;
-    double px2 = 0, m2 = 0;
-  };
-  std::vector<Acc> acc(static_cast<std::size_t>(ns) + 1);
-  out.points = finalUsed;
-  for (const LinePixel& p : pixels) {
-    if (!p.use) continue;
-    const std::optional<Vec2> robot = model.imageToRobot(p.pixel);
-    if (!robot) continue;
-    const double e = field.distance(geometry::pointRobotToField(frames[p.frame].pose, *robot));
-    const double b = model.bearingOf(p.pixel);
-    std::size_t s = 0;
-    for (std::size_t k = 1; k < bearings.size(); ++k) {
-      if (std::abs(wrapAngle(b - bearings[k])) < std::abs(wrapAngle(b - bearings[s]))) s = k;
-    }
-    for (Acc* a : {&acc[s], &acc.back()}) {
-      ++a->n;
-      a->px2 += (e / p.mpp) * (e / p.mpp);
-      a->m2 += e * e;
-    }
-    if (p.frame == 0) out.used_pixels.push_back(p.pixel);
-  }
-  auto summary = [](const Acc& a, double bearing) {
-    return LineSectorResidual{bearing, a.n, a.n ? std::sqrt(a.px2 / a.n) : kNaN,
-                              a.n ? 100.0 * std::sqrt(a.m2 / a.n) : kNaN};
-  };
-  for (int s = 0; s < ns; ++s)
-    out.residuals.push_back(
-        summary(acc[static_cast<std::size_t>(s)], bearings[static_cast<std::size_t>(s)]));
-  out.total = summary(acc.back(), 0.0);
   return out;
 }
 

@@ -22,30 +22,35 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
+
+#include <Eigen/Core>
 
 #include "common/camera/frame.hpp"
 #include "common/camera/mirror_model.hpp"
 #include "common/field/field_model.hpp"
 #include "common/geometry/geometry.hpp"
+#include "tools/calibration_common/grey_image.hpp"
 
 namespace fieldline::calibration {
 
 using camera::Vec2;
 
-// A grey (luma) image, row-major.
-struct GreyImage {
-  int width = 0;
-  int height = 0;
-  std::vector<std::uint8_t> pixels;
+// Circle through `pts` (Kasa fit) that drops points more than `gate` px off (three rounds);
+// keep[i] says which were kept. False for fewer than 5 points or a degenerate fit.
+bool fitCircleRobust(const std::vector<Vec2>& pts, Vec2& centre, double& radius,
+                     std::vector<bool>& keep, double gate);
 
-  // Bilinear sample at (u, v) (pixel centres at integers); NaN outside the image.
-  double sample(double u, double v) const;
-};
-// The luma plane of a frame (YUYV, BGR or grey).
-GreyImage greyFromFrame(const camera::FrameView& frame);
+// Residuals of a state; false when the state is not valid (e.g. knots out of order).
+using ResidualFunction = std::function<bool(const Eigen::VectorXd&, Eigen::VectorXd&)>;
+// Levenberg-Marquardt with Huber weights (threshold `huber`) and a numeric Jacobian (step
+// steps[k] for parameter k; 0 holds it fixed). A step that makes `f` fail (an invalid state) is
+// treated as a worse one. Throws std::invalid_argument when the start is not valid.
+Eigen::VectorXd levenbergMarquardt(Eigen::VectorXd x, const ResidualFunction& f,
+                                   const std::vector<double>& steps, double huber, int iterations);
 
 // A monotone cubic (Fritsch-Carlson) through knots with strictly increasing x and
 // non-decreasing y; linear beyond the ends (with the end slopes). Throws std::invalid_argument
@@ -202,61 +207,12 @@ RingCalibration calibrateFromRings(const GreyImage& image, const std::vector<dou
                                    const camera::MirrorParams& base,
                                    const RingCalibrationParams& params);
 
-// --- (a) from field lines at a known pose ---
-//
-// The same unknowns from frames taken at known poses on a known field: the white line pixels
-// (bright ridges along rays, as for rings) must fall on the field's lines. Each point's floor
-// position follows from the centre, the offset and the distance curve (the monotone cubic through
-// (0, 0) and (rho_k, d_k) at fixed distances d_k); a robust Gauss-Newton (point-to-line, the
-// nearest line re-found each round with a shrinking gate) moves all of them until the points lie
-// on the lines. Then each bearing sector gets its own radii, held near the common ones by a
-// prior, and the table is sampled from them.
+// Calibration from field lines (poses known or not): pose_free.hpp.
 
 struct PosedImage {
   GreyImage image;
   geometry::Pose2 pose;  // the robot's centre in the field frame
 };
-
-struct LineFitParams {
-  RingSearchParams search;
-  // Distances (m) whose image radii are fitted; those beyond the base mirror's useful radius are
-  // left out.
-  std::vector<double> knot_distances{0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 4.0, 5.0, 6.0};
-  bool fit_offset = true;
-  // Gates (px, to the nearest line) of the association rounds.
-  std::vector<double> gates_px{6.0, 4.0, 3.0, 2.0, 2.0, 1.5};
-  double huber_px = 0.7;
-  int iterations = 15;
-  int sectors = 8;
-  // How far a sector's radii may move from the common ones before it costs one pixel of misfit.
-  double sector_prior_px = 1.0;
-  double radius_step = 2.0;
-};
-
-struct LineSectorResidual {
-  double bearing = 0.0;
-  int points = 0;
-  double rms_px = 0.0;
-  double rms_cm = 0.0;
-};
-
-struct LineCalibration {
-  Vec2 centre = Vec2::Zero();
-  Vec2 axis_offset = Vec2::Zero();
-  std::vector<double> knot_distances;
-  std::vector<double> knot_radii;  // common (round) radii
-  int points = 0;                  // line pixels used in the last round
-  int candidates = 0;              // ridge pixels found
-  std::vector<LineSectorResidual> residuals;
-  LineSectorResidual total;
-  std::vector<Vec2> used_pixels;  // of the first frame, for pictures
-  camera::MirrorParams mirror;
-};
-
-// Throws std::invalid_argument for frames of the wrong size, no frames, or too few line pixels.
-LineCalibration calibrateFromLines(const std::vector<PosedImage>& frames,
-                                   const field::FieldModel& field, const camera::MirrorParams& base,
-                                   const LineFitParams& params);
 
 // The camera preset (image, mirror with the table, colour_table, pipeline; no render section)
 // as YAML text, loadable by services/camera/camera_config.

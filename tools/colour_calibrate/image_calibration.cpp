@@ -1,0 +1,632 @@
+#include "tools/colour_calibrate/image_calibration.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <deque>
+#include <limits>
+#include <numbers>
+#include <numeric>
+#include <stdexcept>
+
+#include <fmt/core.h>
+
+#include "services/fusion/line_matcher.hpp"
+#include "services/region_tracking/frame_processor.hpp"
+#include "tools/calibration_common/floor_colour.hpp"
+#include "tools/calibration_common/grey_image.hpp"
+#include "tools/calibration_common/ridges.hpp"
+#include "tools/calibration_common/staged_output.hpp"
+
+namespace fieldline::calibration {
+namespace {
+
+using camera::ColourClass;
+using camera::Vec2;
+using camera::Yuv;
+
+double percentileOf(std::vector<double> v, double p) {
+  if (v.empty()) return std::numeric_limits<double>::quiet_NaN();
+  std::sort(v.begin(), v.end());
+  const double pos = std::clamp(p / 100.0, 0.0, 1.0) * static_cast<double>(v.size() - 1);
+  return v[static_cast<std::size_t>(std::lround(pos))];
+}
+
+double chromaDistance(const Yuv& c, double u, double v) {
+  return std::hypot(c.u - u, c.v - v);
+}
+
+// Per pixel of the image: where it looks on the floor.
+struct PixelGeometry {
+  std::vector<double> distance;  // robot-frame floor distance, NaN outside the useful zone
+  std::vector<Vec2> robot;       // robot-frame floor point
+  std::vector<double> mpp_min;   // the finer of radial and tangential metres per pixel
+};
+
+PixelGeometry geometryOf(const camera::MirrorModel& mirror) {
+  const int w = mirror.width(), h = mirror.height();
+  PixelGeometry g;
+  const std::size_t n = static_cast<std::size_t>(w) * h;
+  g.distance.assign(n, std::numeric_limits<double>::quiet_NaN());
+  g.robot.assign(n, Vec2::Zero());
+  g.mpp_min.assign(n, 0.0);
+  for (int v = 0; v < h; ++v) {
+    for (int u = 0; u < w; ++u) {
+      const std::size_t i = static_cast<std::size_t>(v) * w + u;
+      if (mirror.zone(Vec2(u, v)) != camera::MirrorZone::kUseful) continue;
+      const std::optional<Vec2> r = mirror.imageToRobot(Vec2(u, v));
+      if (!r) continue;
+      g.distance[i] = r->norm();
+      g.robot[i] = *r;
+      const Vec2 m = mirror.metresPerPixel(Vec2(u, v));
+      g.mpp_min[i] = std::min(m.x(), m.y());
+    }
+  }
+  return g;
+}
+
+struct Blob {
+  std::vector<int> pixels;
+  Vec2 centroid = Vec2::Zero();
+  double mean_y = 0.0;
+  double chroma = 0.0;  // mean distance from the white point
+  int frame = 0;
+};
+
+// A class as a cone through the white point: chroma (c - w) / Y near `ratio`, within `radius`
+// levels at luma `ref_y` (growing with luma above it, noise below), luma in [y_lo, y_hi].
+struct Cone {
+  double ru = 0.0, rv = 0.0;
+  double radius = 0.0;
+  double ref_y = 1.0;
+  double y_lo = 0.0, y_hi = 255.0;
+  bool contains(double y, double u, double v, double wu, double wv) const {
+    if (y < y_lo || y > y_hi) return false;
+    const double pu = wu + ru * y, pv = wv + rv * y;
+    return std::hypot(u - pu, v - pv) <= radius * std::max(1.0, y / ref_y);
+  }
+};
+
+Cone coneOf(const std::vector<Yuv>& s, double wu, double wv, const std::array<double, 2>& light,
+            double min_radius, double low_pct, double high_pct) {
+  std::vector<double> ys, qu, qv;
+  for (const Yuv& c : s)
+    ys.push_back(c.y);
+  const double ymed = percentileOf(ys, 50.0);
+  for (const Yuv& c : s) {
+    if (c.y < ymed || c.y < 8) continue;  // the brighter half: noise dominates dark ratios
+    qu.push_back((c.u - wu) / c.y);
+    qv.push_back((c.v - wv) / c.y);
+  }
+  Cone cone;
+  cone.ru = percentileOf(qu, 50.0);
+  cone.rv = percentileOf(qv, 50.0);
+  cone.ref_y = ymed;
+  std::vector<double> dist;
+  for (const Yuv& c : s) {
+    dist.push_back(std::hypot(c.u - (wu + cone.ru * c.y), c.v - (wv + cone.rv * c.y)) /
+                   std::max(1.0, c.y / ymed));
+  }
+  // + 2: a cell of the lookup table spans 4 levels.
+  cone.radius = std::max(min_radius, percentileOf(dist, 99.0) + 2.0);
+  cone.y_lo = std::max(0.0, percentileOf(ys, low_pct) * light[0] - 2.0);
+  cone.y_hi = std::min(255.0, percentileOf(ys, high_pct) * light[1] + 2.0);
+  return cone;
+}
+
+// The image area of a ball of `radius` resting on the floor at robot-frame `centre`: the convex
+// hull of its surface's points projected through the mirror. A ball is seen from above and
+// beside, so its image reaches well beyond its disc at mid height (twice its area at 2 m for the
+// shipped mirror). Zero when part of it is not imaged.
+double ballImageArea(const camera::MirrorModel& mirror, const Vec2& centre, double radius) {
+  std::vector<Vec2> pts;
+  for (int i = 0; i <= 8; ++i) {
+    const double lat = std::numbers::pi * (i / 8.0 - 0.5);
+    for (int k = 0; k < 16; ++k) {
+      const double lon = 2.0 * std::numbers::pi * k / 16.0;
+      const std::optional<Vec2> p = mirror.robotPointToImage(
+          {centre.x() + radius * std::cos(lat) * std::cos(lon),
+           centre.y() + radius * std::cos(lat) * std::sin(lon), radius + radius * std::sin(lat)});
+      if (!p) return 0.0;
+      pts.push_back(*p);
+    }
+  }
+  // Monotone chain hull, then the shoelace area.
+  std::sort(pts.begin(), pts.end(), [](const Vec2& a, const Vec2& b) {
+    return a.x() < b.x() || (a.x() == b.x() && a.y() < b.y());
+  });
+  const auto cross = [](const Vec2& o, const Vec2& a, const Vec2& b) {
+    return (a - o).x() * (b - o).y() - (a - o).y() * (b - o).x();
+  };
+  std::vector<Vec2> hull(2 * pts.size());
+  std::size_t h = 0;
+  for (std::size_t i = 0; i < pts.size(); ++i) {
+    while (h >= 2 && cross(hull[h - 2], hull[h - 1], pts[i]) <= 0)
+      --h;
+    hull[h++] = pts[i];
+  }
+  for (std::size_t i = pts.size() - 1, lower = h + 1; i-- > 0;) {
+    while (h >= lower && cross(hull[h - 2], hull[h - 1], pts[i]) <= 0)
+      --h;
+    hull[h++] = pts[i];
+  }
+  double area = 0.0;
+  for (std::size_t i = 0; i + 1 < h; ++i)
+    area += hull[i].x() * hull[i + 1].y() - hull[i + 1].x() * hull[i].y();
+  return std::abs(area) / 2.0;
+}
+
+}  // namespace
+
+perception::LinePoints trackLines(const camera::MirrorModel& mirror,
+                                  const camera::ColourTable& table,
+                                  const camera::FrameView& frame) {
+  region_tracking::FrameProcessor processor(mirror, table, region_tracking::defaultVisionParams());
+  region_tracking::VisionResult result;
+  for (int i = 0; i < 3; ++i)
+    processor.process(frame, i == 2, result);
+  return result.lines;
+}
+
+ImageCalibration calibrateFromImages(const camera::MirrorModel& mirror,
+                                     const field::FieldModel& field,
+                                     const std::vector<camera::FrameView>& frames,
+                                     const std::vector<std::optional<geometry::Pose2>>& poses,
+                                     const ImageFitParams& params) {
+  if (frames.empty()) throw std::invalid_argument("colour calibration: no frames");
+  for (const camera::FrameView& f : frames) {
+    if (!f.valid() || f.width != mirror.width() || f.height != mirror.height()) {
+      throw std::invalid_argument(
+          fmt::format("colour calibration: a frame is {}x{}, the camera model expects {}x{}",
+                      f.width, f.height, mirror.width(), mirror.height()));
+    }
+  }
+  if (!poses.empty() && poses.size() != frames.size()) {
+    throw std::invalid_argument("colour calibration: one pose per frame, or none");
+  }
+  auto hasPose = [&](std::size_t f) { return !poses.empty() && poses[f].has_value(); };
+  const int w = mirror.width(), h = mirror.height();
+  const std::size_t n = static_cast<std::size_t>(w) * h;
+  const PixelGeometry geo = geometryOf(mirror);
+  std::vector<std::vector<Yuv>> planes;
+  for (const camera::FrameView& f : frames)
+    planes.push_back(yuvPlane(f));
+  ImageCalibration out;
+
+  // --- the floor: the dominant colour in the annulus ---
+  std::vector<std::uint8_t> annulus(n, 0);
+  for (std::size_t i = 0; i < n; ++i) {
+    annulus[i] = geo.distance[i] >= params.floor_from_m && geo.distance[i] <= params.floor_to_m;
+  }
+  const FloorColour floorColour = findFloorColour(planes, annulus, 2);
+  if (floorColour.pixels < 200) {
+    throw Refusal(
+        fmt::format("the camera model shows almost no floor between {} and {} m: check --camera",
+                    params.floor_from_m, params.floor_to_m));
+  }
+  out.floor.chroma_sigma = floorColour.chroma_sigma;
+  out.floor.share = floorColour.share;
+  if (out.floor.share < params.min_floor_share) {
+    throw Refusal(fmt::format(
+        "no dominant floor colour around the robot: the commonest colour (U {:.0f}, V {:.0f}, "
+        "luma {:.0f}-{:.0f}) holds {:.0f} % of the pixels between {} and {} m (at least {:.0f} % "
+        "expected): an empty or dark frame, or the robot not on the carpet",
+        floorColour.u, floorColour.v, floorColour.luma_lo, floorColour.luma_hi,
+        100 * out.floor.share, params.floor_from_m, params.floor_to_m,
+        100 * params.min_floor_share));
+  }
+  auto isFloor = [&](const Yuv& c) { return floorColour.contains(c); };
+
+  // --- lines: narrow bright ridges with floor on both sides ---
+  std::vector<std::vector<std::uint8_t>> ridgeMask(frames.size(), std::vector<std::uint8_t>(n, 0));
+  RidgeParams rp;
+  rp.centre = mirror.params().centre;
+  rp.min_radius = mirror.params().self_radius + 2.0;
+  rp.max_radius = mirror.params().useful_radius;
+  rp.min_contrast = 10.0;
+  rp.min_ratio = params.min_line_ratio;
+  std::vector<double> floorLumaNear;
+  for (std::size_t f = 0; f < frames.size(); ++f) {
+    GreyImage grey{w, h, std::vector<std::uint8_t>(n)};
+    for (std::size_t i = 0; i < n; ++i)
+      grey.pixels[i] = planes[f][i].y;
+    for (const Ridge& r : findRidges(grey, rp)) {
+      ++out.ridges;
+      const int u = static_cast<int>(std::lround(r.pixel.x()));
+      const int v = static_cast<int>(std::lround(r.pixel.y()));
+      if (u < 0 || v < 0 || u >= w || v >= h) continue;
+      const std::size_t i = static_cast<std::size_t>(v) * w + u;
+      const double d = geo.distance[i];
+      if (!(d <= params.max_line_distance)) continue;
+      const double expected = field.lineWidth() / std::max(1e-4, geo.mpp_min[i]);
+      if (r.width > params.max_width_factor * expected + params.blur_px) continue;
+      bool flanksFloor = true;
+      for (int side : {-1, 1}) {
+        const Vec2 q = r.pixel + side * (r.half_width + 1.0) * r.normal;
+        const int qu = static_cast<int>(std::lround(q.x())),
+                  qv = static_cast<int>(std::lround(q.y()));
+        if (qu < 0 || qv < 0 || qu >= w || qv >= h ||
+            !isFloor(planes[f][static_cast<std::size_t>(qv) * w + qu])) {
+          flanksFloor = false;
+        }
+      }
+      if (!flanksFloor) continue;
+      ++out.line_ridges;
+      floorLumaNear.push_back(r.flank);
+      // Samples: across the ridge while at least 75 % of the way from the flank to the peak.
+      const double cut = r.flank + 0.75 * (r.peak - r.flank);
+      for (double t = -r.half_width; t <= r.half_width + 1e-9; t += 1.0) {
+        const Vec2 q = r.pixel + t * r.normal;
+        const int qu = static_cast<int>(std::lround(q.x())),
+                  qv = static_cast<int>(std::lround(q.y()));
+        if (qu < 0 || qv < 0 || qu >= w || qv >= h) continue;
+        const std::size_t qi = static_cast<std::size_t>(qv) * w + qu;
+        if (planes[f][qi].y >= cut) out.samples.line.push_back(planes[f][qi]);
+      }
+      // Around the ridge nothing is floor (its blurred edges mix with the paint).
+      const double reach = r.width / 2 + 2.0;
+      for (double t = -reach; t <= reach + 1e-9; t += 0.5) {
+        const Vec2 q = r.pixel + t * r.normal;
+        const int qu = static_cast<int>(std::lround(q.x())),
+                  qv = static_cast<int>(std::lround(q.y()));
+        if (qu < 0 || qv < 0 || qu >= w || qv >= h) continue;
+        for (int du = -1; du <= 1; ++du) {
+          for (int dv = -1; dv <= 1; ++dv) {
+            const int a = qu + du, b = qv + dv;
+            if (a >= 0 && b >= 0 && a < w && b < h)
+              ridgeMask[f][static_cast<std::size_t>(b) * w + a] = 1;
+          }
+        }
+      }
+    }
+  }
+
+  // --- floor samples: floor chroma, not on a ridge, in the annulus and beyond to the lines'
+  // range ---
+  for (std::size_t f = 0; f < frames.size(); ++f) {
+    for (std::size_t i = 0; i < n; ++i) {
+      const double d = geo.distance[i];
+      if (!(d >= params.floor_from_m && d <= params.max_line_distance)) continue;
+      if (ridgeMask[f][i] || !isFloor(planes[f][i])) continue;
+      out.samples.floor.push_back(planes[f][i]);
+    }
+  }
+  if (static_cast<int>(out.samples.floor.size()) < params.min_floor_samples) {
+    throw Refusal(
+        fmt::format("only {} floor pixels found (at least {}): the frames show too "
+                    "little floor",
+                    out.samples.floor.size(), params.min_floor_samples));
+  }
+  std::vector<double> fy, fus, fvs;
+  for (const Yuv& c : out.samples.floor) {
+    fy.push_back(c.y);
+    fus.push_back(c.u);
+    fvs.push_back(c.v);
+  }
+  out.floor.median = {percentileOf(fy, 50.0), percentileOf(fus, 50.0), percentileOf(fvs, 50.0)};
+  out.floor.luma = {percentileOf(fy, 1.0), percentileOf(fy, 99.0)};
+  if (static_cast<int>(out.samples.line.size()) < params.min_line_samples) {
+    throw Refusal(fmt::format(
+        "only {} line pixels: the frames show no narrow bright ridges on the floor ({} ridges, "
+        "{} with floor on both sides): no lines in view, or lines not brighter than the floor",
+        out.samples.line.size(), out.ridges, out.line_ridges));
+  }
+  std::vector<double> ly, lu, lv;
+  for (const Yuv& c : out.samples.line) {
+    ly.push_back(c.y);
+    lu.push_back(c.u);
+    lv.push_back(c.v);
+  }
+  out.white_point = {percentileOf(lu, 50.0), percentileOf(lv, 50.0)};
+  out.line_luma = {percentileOf(ly, 5.0), percentileOf(ly, 95.0)};
+  const double lineMedian = percentileOf(ly, 50.0);
+  const double besideMedian = percentileOf(floorLumaNear, 50.0);
+  if (!(lineMedian >= params.min_line_ratio * besideMedian)) {
+    throw Refusal(fmt::format(
+        "the lines are not brighter than the floor: line pixels median luma {:.0f}, the floor "
+        "beside them {:.0f}",
+        lineMedian, besideMedian));
+  }
+  const double wu = out.white_point[0], wv = out.white_point[1];
+
+  // --- the ball and the robots: what is neither, inside the field (needs the poses) ---
+  if (!poses.empty()) {
+    const double hx = field.length() / 2 + 0.3, hy = field.width() / 2 + 0.3;
+    std::vector<Blob> balls;
+    for (std::size_t f = 0; f < frames.size(); ++f) {
+      if (!hasPose(f)) continue;
+      std::vector<std::uint8_t> other(n, 0);
+      for (std::size_t i = 0; i < n; ++i) {
+        if (!std::isfinite(geo.distance[i]) || geo.distance[i] > 6.0) continue;
+        const Vec2 fp = geometry::pointRobotToField(*poses[f], geo.robot[i]);
+        if (std::abs(fp.x()) > hx || std::abs(fp.y()) > hy) continue;
+        const Yuv& c = planes[f][i];
+        if (isFloor(c)) continue;       // floor
+        if (ridgeMask[f][i]) continue;  // a line
+        other[i] = 1;
+      }
+      // Connected blobs (4-neighbours).
+      std::vector<int> label(n, -1);
+      for (std::size_t s = 0; s < n; ++s) {
+        if (!other[s] || label[s] >= 0) continue;
+        Blob b;
+        b.frame = static_cast<int>(f);
+        std::deque<int> queue{static_cast<int>(s)};
+        label[s] = 1;
+        while (!queue.empty()) {
+          const int p = queue.front();
+          queue.pop_front();
+          b.pixels.push_back(p);
+          const int pu = p % w, pv = p / w;
+          const int nb[4][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}};
+          for (const auto& d : nb) {
+            const int a = pu + d[0], c = pv + d[1];
+            if (a < 0 || c < 0 || a >= w || c >= h) continue;
+            const std::size_t q = static_cast<std::size_t>(c) * w + a;
+            if (other[q] && label[q] < 0) {
+              label[q] = 1;
+              queue.push_back(static_cast<int>(q));
+            }
+          }
+        }
+        if (b.pixels.size() < 6) continue;
+        double su = 0, sv = 0, sy = 0, sc = 0;
+        int minU = w, maxU = 0, minV = h, maxV = 0;
+        for (int p : b.pixels) {
+          const Yuv& c = planes[f][static_cast<std::size_t>(p)];
+          su += p % w;
+          sv += p / w;
+          sy += c.y;
+          sc += chromaDistance(c, wu, wv);
+          minU = std::min(minU, p % w);
+          maxU = std::max(maxU, p % w);
+          minV = std::min(minV, p / w);
+          maxV = std::max(maxV, p / w);
+        }
+        const double m = static_cast<double>(b.pixels.size());
+        b.centroid = Vec2(su / m, sv / m);
+        b.mean_y = sy / m;
+        b.chroma = sc / m;
+        // Dark blobs standing in the field: robots.
+        if (b.mean_y < 0.75 * out.floor.median[0] && b.pixels.size() >= 30) {
+          out.robots_found = true;
+          for (int p : b.pixels) {
+            const Yuv& c = planes[f][static_cast<std::size_t>(p)];
+            if (c.y < 0.8 * out.floor.luma[0]) out.samples.robot.push_back(c);
+          }
+          continue;
+        }
+        // A ball: colourful, not dark, about a ball's image for its distance, compact.
+        if (b.chroma < 15.0 || b.mean_y < 0.5 * out.floor.median[0]) continue;
+        const std::optional<camera::Vec3> centre = mirror.imageToRobotAtHeight(b.centroid, 0.11);
+        if (!centre) continue;
+        const Vec2 c2(centre->x(), centre->y());
+        const double expectedArea = std::max(1.0, ballImageArea(mirror, c2, 0.11));
+        if (expectedArea <= 1.0) continue;
+        const double ratio = m / expectedArea;
+        const double aspect = static_cast<double>(std::max(maxU - minU, maxV - minV) + 1) /
+                              static_cast<double>(std::min(maxU - minU, maxV - minV) + 1);
+        if (ratio < params.ball_area_low || ratio > params.ball_area_high || aspect > 3.0) {
+          continue;
+        }
+        balls.push_back(b);
+      }
+    }
+    // One ball lies at one field position: the blob position seen in the most frames wins. The
+    // field is symmetric, so a frame localized at its pose's twin sees the ball at the twin
+    // position (-x, -y): both count for the same ball.
+    const auto sameBall = [](const Vec2& a, const Vec2& b) {
+      return (a - b).norm() < 0.4 || (a + b).norm() < 0.4;
+    };
+    std::vector<Vec2> at;
+    for (const Blob& b : balls) {
+      const auto c = mirror.imageToRobotAtHeight(b.centroid, 0.11);
+      at.push_back(geometry::pointRobotToField(*poses[static_cast<std::size_t>(b.frame)],
+                                               Vec2(c->x(), c->y())));
+    }
+    int bestVotes = 0;
+    std::size_t bestIndex = 0;
+    for (std::size_t i = 0; i < balls.size(); ++i) {
+      std::vector<bool> framesSeen(frames.size(), false);
+      for (std::size_t j = 0; j < balls.size(); ++j) {
+        if (sameBall(at[i], at[j])) framesSeen[static_cast<std::size_t>(balls[j].frame)] = true;
+      }
+      const int votes = static_cast<int>(std::count(framesSeen.begin(), framesSeen.end(), true));
+      if (votes > bestVotes) {
+        bestVotes = votes;
+        bestIndex = i;
+      }
+    }
+    int posed = 0;
+    for (std::size_t f = 0; f < frames.size(); ++f)
+      posed += hasPose(f) ? 1 : 0;
+    const int needed = std::max(1, posed / 3);
+    if (bestVotes >= needed) {
+      out.ball_found = true;
+      out.ball_frames = bestVotes;
+      // Where the ball lies: the mean of its sightings (twins turned back).
+      Vec2 sum = Vec2::Zero();
+      int sightings = 0;
+      for (std::size_t j = 0; j < balls.size(); ++j) {
+        if (!sameBall(at[bestIndex], at[j])) continue;
+        sum += (at[bestIndex] - at[j]).norm() < 0.4 ? at[j] : Vec2(-at[j]);
+        ++sightings;
+      }
+      out.ball_field = sum / sightings;
+      for (std::size_t j = 0; j < balls.size(); ++j) {
+        if (!sameBall(at[bestIndex], at[j])) continue;
+        const Blob& b = balls[j];
+        // The inside of the blob (its rim mixes with the floor): pixels whose 4 neighbours are
+        // in the blob too.
+        std::vector<std::uint8_t> in(n, 0);
+        for (int p : b.pixels)
+          in[static_cast<std::size_t>(p)] = 1;
+        for (int p : b.pixels) {
+          const int pu = p % w, pv = p / w;
+          if (pu < 1 || pv < 1 || pu >= w - 1 || pv >= h - 1) continue;
+          if (in[static_cast<std::size_t>(p - 1)] && in[static_cast<std::size_t>(p + 1)] &&
+              in[static_cast<std::size_t>(p - w)] && in[static_cast<std::size_t>(p + w)]) {
+            out.samples.ball.push_back(
+                planes[static_cast<std::size_t>(b.frame)][static_cast<std::size_t>(p)]);
+          }
+        }
+      }
+      if (out.samples.ball.size() < 5) out.ball_found = false;
+    }
+  }
+
+  // --- the table ---
+  const std::array<double, 2> light = params.light_range;
+  Cone floorCone = coneOf(out.samples.floor, wu, wv, light, 4.0, 0.5, 99.5);
+  Cone whiteCone = coneOf(out.samples.line, wu, wv, {light[0], 10.0}, 6.0, 2.0, 100.0);
+  whiteCone.y_hi = 255.0;
+  // Where floor and white share chroma (a grey carpet, a washed-out camera), luma decides: floor
+  // up to the brightest floor pixels (so that the bright side of an unevenly lit carpet does not
+  // turn white and break the green regions with false lines), white from there on; a gap of
+  // unclassified luma between them where the lines' dim edges and far lines are as bright as the
+  // brightest floor (the tracker's ridge rule finds lines through unclassified pixels).
+  const double floorTop = percentileOf(fy, 99.8) + 2.0;
+  const double whiteBottom = std::max(floorTop + 4.0, percentileOf(ly, 2.0));
+  out.luma_boundary = floorTop;
+  out.white_from = whiteBottom;
+  // A line is brighter than the floor beside it: nothing darker than the brightest floor is white
+  // (a grey floor beyond the carpet, a grey wall), whatever its chroma.
+  whiteCone.y_lo = std::max(whiteCone.y_lo, floorTop + 2.0);
+  std::optional<Cone> ballCone;
+  if (out.ball_found) {
+    ballCone = coneOf(out.samples.ball, wu, wv, light, 5.0, 1.0, 99.0);
+  }
+  std::optional<Cone> blackCone;
+  if (!out.samples.robot.empty() && out.samples.robot.size() >= 20) {
+    blackCone = coneOf(out.samples.robot, wu, wv, {0.0, 1.3}, 10.0, 0.0, 99.0);
+    blackCone->y_hi = std::min(blackCone->y_hi, floorCone.y_lo - 1.0);
+  }
+  std::vector<ColourClass> cells(static_cast<std::size_t>(camera::ColourTable::kCells),
+                                 ColourClass::kUnknown);
+  const int bits = camera::ColourTable::kIndexBits;
+  const int levels = 1 << bits;
+  const double cell = 256.0 / levels;
+  for (int iy = 0; iy < levels; ++iy) {
+    const double y = (iy + 0.5) * cell;
+    for (int iu = 0; iu < levels; ++iu) {
+      const double u = (iu + 0.5) * cell;
+      for (int iv = 0; iv < levels; ++iv) {
+        const double v = (iv + 0.5) * cell;
+        ColourClass c = ColourClass::kUnknown;
+        const bool inFloor = floorCone.contains(y, u, v, wu, wv);
+        const bool inWhite = whiteCone.contains(y, u, v, wu, wv);
+        if (inFloor && inWhite) {
+          c = y <= floorTop      ? ColourClass::kGreen
+              : y >= whiteBottom ? ColourClass::kWhite
+                                 : ColourClass::kUnknown;
+        } else if (inFloor) {
+          c = ColourClass::kGreen;
+        } else if (inWhite) {
+          c = ColourClass::kWhite;
+        } else if (ballCone && ballCone->contains(y, u, v, wu, wv)) {
+          c = ColourClass::kOrange;
+        } else if (blackCone && blackCone->contains(y, u, v, wu, wv)) {
+          c = ColourClass::kBlack;
+        }
+        cells[(static_cast<std::size_t>(iy) << (2 * bits)) |
+              (static_cast<std::size_t>(iu) << bits) | static_cast<std::size_t>(iv)] = c;
+      }
+    }
+  }
+  out.table = camera::ColourTable::fromLookup(std::move(cells));
+  return out;
+}
+
+TableCheck checkTable(const camera::MirrorModel& mirror, const field::FieldModel& field,
+                      const std::vector<camera::FrameView>& frames,
+                      const camera::ColourTable& table, const ImageFitParams& params) {
+  TableCheck check;
+  const fusion::LineMatcher matcher(field, fusion::MatcherParams{});
+  std::vector<double> whiteY, greenY;
+  long within = 0, total = 0;
+  for (std::size_t f = 0; f < frames.size(); ++f) {
+    FrameCheck fc;
+    const perception::LinePoints lines = trackLines(mirror, table, frames[f]);
+    fc.line_points = static_cast<int>(lines.points.size());
+    check.line_points += fc.line_points;
+    if (fc.line_points >= 10) {
+      const std::vector<fusion::PoseCorrection> found = matcher.globalSearch(lines.points);
+      if (!found.empty()) {
+        fc.localized = true;
+        fc.pose = found.front().pose;
+        std::vector<double> d;
+        int near = 0;
+        for (const perception::LinePoint& p : lines.points) {
+          const double e = field.distance(geometry::pointRobotToField(fc.pose, Vec2(p.x, p.y)));
+          d.push_back(e);
+          near += e <= params.fit_distance_m ? 1 : 0;
+          fc.on_line.push_back(e <= params.fit_distance_m);
+        }
+        fc.median_cm = 100.0 * percentileOf(d, 50.0);
+        fc.fit_share = static_cast<double>(near) / static_cast<double>(d.size());
+        within += near;
+        total += static_cast<long>(d.size());
+      }
+    }
+    for (int v = 0; v < frames[f].height; v += 2) {
+      for (int u = 0; u < frames[f].width; u += 2) {
+        if (mirror.zone(Vec2(u, v)) != camera::MirrorZone::kUseful) continue;
+        const ColourClass c = table.classifyPixel(frames[f], u, v);
+        if (c == ColourClass::kWhite) whiteY.push_back(camera::readYuv(frames[f], u, v).y);
+        if (c == ColourClass::kGreen) greenY.push_back(camera::readYuv(frames[f], u, v).y);
+      }
+    }
+    fc.lines = lines;
+    check.frames.push_back(fc);
+  }
+  check.fit_share = total > 0 ? static_cast<double>(within) / static_cast<double>(total) : 0.0;
+  check.white_luma = whiteY.empty() ? 0.0 : percentileOf(whiteY, 50.0);
+  check.green_luma = greenY.empty() ? 0.0 : percentileOf(greenY, 50.0);
+  if (check.line_points == 0) {
+    check.problems.push_back("the table gives no line points in any frame");
+  }
+  if (greenY.empty() || whiteY.empty() || !(check.white_luma > 1.1 * check.green_luma)) {
+    check.problems.push_back(fmt::format(
+        "lines are not brighter than the floor with this table (median luma white {:.0f}, "
+        "green {:.0f})",
+        check.white_luma, check.green_luma));
+  }
+  for (std::size_t f = 0; f < check.frames.size(); ++f) {
+    const FrameCheck& fc = check.frames[f];
+    if (fc.line_points < params.min_line_points) {
+      check.problems.push_back(fmt::format("frame {}: {} line points (at least {})", f + 1,
+                                           fc.line_points, params.min_line_points));
+    } else if (!fc.localized || fc.fit_share < params.min_fit_share) {
+      check.problems.push_back(fmt::format(
+          "frame {}: its line points do not fit field '{}' ({:.0f} % within {:.0f} cm at the "
+          "best pose, at least {:.0f} %): frames of another field, or lines found where there "
+          "are none",
+          f + 1, field.name(), 100 * fc.fit_share, 100 * params.fit_distance_m,
+          100 * params.min_fit_share));
+    }
+  }
+  return check;
+}
+
+FramesCalibration calibrateColours(const camera::MirrorModel& mirror,
+                                   const field::FieldModel& field,
+                                   const std::vector<camera::FrameView>& frames,
+                                   const ImageFitParams& params) {
+  FramesCalibration out;
+  out.calibration = calibrateFromImages(mirror, field, frames, {}, params);
+  const TableCheck first = checkTable(mirror, field, frames, out.calibration.table, params);
+  std::vector<std::optional<geometry::Pose2>> poses;
+  for (const FrameCheck& f : first.frames) {
+    const bool fits = f.localized && f.fit_share >= params.min_fit_share;
+    poses.push_back(fits ? std::optional<geometry::Pose2>(f.pose) : std::nullopt);
+    out.posed += fits ? 1 : 0;
+  }
+  if (out.posed > 0) {
+    out.calibration = calibrateFromImages(mirror, field, frames, poses, params);
+    out.check = checkTable(mirror, field, frames, out.calibration.table, params);
+  } else {
+    out.check = first;
+  }
+  return out;
+}
+
+}  // namespace fieldline::calibration
