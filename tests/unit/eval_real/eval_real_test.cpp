@@ -93,8 +93,12 @@ TEST_F(EvalReal, LinePointsOfAKnownFieldMeetTheBoundAndPointsFromNowhereBreakIt)
                                 "fields: [msl, fu2004]\nexpect:\n  min_on_lines: 0.95\n");
   const CaseResult noise = runCase(bad);
   EXPECT_FALSE(noise.skipped);
+  // Layer 2's search now refuses such points outright (its `valid` needs a bounded cost and half
+  // the points near a line), or its best pose breaks the bound.
   ASSERT_EQ(noise.failed.size(), 1u) << noise.figures;
-  EXPECT_NE(noise.failed[0].find("min_on_lines"), std::string::npos) << noise.failed[0];
+  EXPECT_TRUE(noise.failed[0].find("min_on_lines") != std::string::npos ||
+              noise.failed[0].find("no field fits the points") != std::string::npos)
+      << noise.failed[0];
 }
 
 TEST_F(EvalReal, FieldFramePointsAreMeasuredAgainstTheirField) {
