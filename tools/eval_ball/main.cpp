@@ -5,11 +5,13 @@
 #include <cstdio>
 #include <exception>
 #include <string>
+#include <vector>
 
 #include <CLI/CLI.hpp>
 
 #include "tools/colour_calibrate/evaluation.hpp"
 #include "tools/eval_ball/ball_evaluation.hpp"
+#include "tools/eval_real/eval_real.hpp"
 
 int main(int argc, char** argv) {
   using namespace fieldline;
@@ -37,7 +39,30 @@ int main(int argc, char** argv) {
   bool noChecks = false;
   app.add_flag("--no-checks", noChecks,
                "no size, fill or carpet check (the comparison: what they buy)");
+  std::vector<std::string> venues;
+  app.add_option("--venue", venues,
+                 "A rendered venue case (tests/data/venue_cases/NAME.yaml; repeatable) instead: "
+                 "the mirror and colours calibrated from its frames as at a venue, then the "
+                 "detector on every frame (fieldline-eval-real's venue run; exit 1 when the ball "
+                 "is found in fewer than its min_ball_found of the frames it is in view or "
+                 "reported outside the field)");
   CLI11_PARSE(app, argc, argv);
+  if (!venues.empty()) {
+    try {
+      bool failed = false;
+      for (const std::string& venue : venues) {
+        const evalreal::CaseResult r = evalreal::runCase(venue);
+        std::printf("%s: %s\n", r.name.c_str(), r.figures.c_str());
+        for (const std::string& f : r.failed)
+          std::printf("  FAIL %s\n", f.c_str());
+        failed = failed || !r.failed.empty() || r.kind != "venue";
+      }
+      return failed ? 1 : 0;
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "fieldline-eval-ball: %s\n", e.what());
+      return 2;
+    }
+  }
   options.field_check = !noField;
   try {
     options.realism = calibration::realismSetting(realism).realism;

@@ -15,12 +15,15 @@
 //                 max_held_out_percent (an inner ring's distance from the others' curve),
 //                 rings (how many rings the tool must match)
 //   line_points:  min_on_lines (share of the points within 15 cm of a line at the best pose,
-//                 over the best field)
+//                 over the best field), no_fit (1: layer 2 must refuse the points on every field)
 //   field_points: max_median_cm (median distance of the points to the field's lines)
 //   venue:        max_distance_percent (the mirror's distance function, 1-5 m), max_pose_cm,
 //                 max_offset_cm, min_precision, min_recall (line points with the calibrated
 //                 mirror and table, scored against the truth), ball (1: the ball class must be
-//                 found at the ball, within 0.3 m or at its twin)
+//                 found at the ball, within 0.3 m or at its twin), min_ball_found (region
+//                 tracking's ball detector with that mirror and table: share of the frames with
+//                 the ball in view where it is found within 0.5 m), max_balls_outside (balls it
+//                 reports off the field)
 #pragma once
 
 #include <string>
