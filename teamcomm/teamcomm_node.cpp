@@ -104,6 +104,11 @@ TeamcommNode::TeamcommNode(bus::Node& node, PacketLink& link, TeamcommOptions op
     own_robot_ = msg::fromMessage(m);
     own_robot_received_ = node_.now();
   });
+  // Without its own pose the link sends teammates nothing useful: WARN "ROBOT_STATE silent"
+  // (issue 34, red-team finding 5: a dead input must not look ok).
+  node_.requireInput(
+      bus::channels::kRobotState,
+      bus::kRequiredRateFraction * bus::nominalRateHz(bus::channels::kRobotState.name));
   node_.subscribe(bus::channels::kBallState, [this](const ball_state_t& m) {
     const bool was_valid = own_ball_ && own_ball_->valid;
     own_ball_ = msg::fromMessage(m);

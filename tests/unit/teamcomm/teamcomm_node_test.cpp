@@ -162,6 +162,25 @@ TEST(teamcomm_node, ATeammateWhoseFusionStopsKeepsItsLastPoseAgeing) {
   EXPECT_FALSE(mate.ball_valid);
 }
 
+// Issue 34, red-team finding 5 (a dead input looked ok): the team link of a robot whose fusion
+// stopped sends its teammates an ageing pose; its own status says so, naming the channel. Failed
+// before the link required ROBOT_STATE: its status stayed ok.
+TEST(teamcomm_node, ItsOwnPoseSilentIsAWarningNamingTheChannel) {
+  Team team({{0, 0.0}, {-200'000, 0.0}});
+  team.run(3.0);
+  Robot& robot = *team.robots[1];
+  const service_status_t before = robot.node.status().takeStatus(robot.clock.now());
+  EXPECT_EQ(before.state, service_status_t::STATE_OK) << before.state_reason;
+  robot.publishing = false;
+  team.run(4.0);
+  const service_status_t after = robot.node.status().takeStatus(robot.clock.now());
+  EXPECT_EQ(after.state, service_status_t::STATE_WARN);
+  EXPECT_NE(after.state_reason.find("ROBOT_STATE silent"), std::string::npos) << after.state_reason;
+  robot.publishing = true;
+  team.run(3.0);
+  EXPECT_EQ(robot.node.status().takeStatus(robot.clock.now()).state, service_status_t::STATE_OK);
+}
+
 TEST(teamcomm_node, APartitionIsReportedAndHealsWithinASecond) {
   Team team({{0, 0.0}, {100'000, 0.0}});
   team.run(3.0);
