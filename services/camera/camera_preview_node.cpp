@@ -1,5 +1,7 @@
 #include "services/camera/camera_preview_node.hpp"
 
+#include "common/bus/validate.hpp"
+
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -8,24 +10,11 @@ namespace fieldline::camera {
 
 void reduceFrame(const image_t& in, int scale, image_t& out) {
   if (scale < 1) throw std::invalid_argument("preview: scale must be at least 1");
-  int bytes_per_pixel = 0;
-  switch (in.format) {
-    case image_t::FORMAT_YUYV:
-      bytes_per_pixel = 2;
-      break;
-    case image_t::FORMAT_BGR:
-      bytes_per_pixel = 3;
-      break;
-    case image_t::FORMAT_GRAY:
-      bytes_per_pixel = 1;
-      break;
-    default:
-      throw std::invalid_argument("preview: unknown image format " + std::to_string(in.format));
-  }
-  if (in.width <= 0 || in.height <= 0 || in.stride < in.width * bytes_per_pixel ||
-      in.data.size() < static_cast<std::size_t>(in.stride) * static_cast<std::size_t>(in.height)) {
-    throw std::invalid_argument("preview: image sizes do not fit its data");
-  }
+  // The same checks as every received image (common/bus/validate).
+  if (const auto problem = bus::validate(in)) throw std::invalid_argument("preview: " + *problem);
+  const int bytes_per_pixel = in.format == image_t::FORMAT_YUYV  ? 2
+                              : in.format == image_t::FORMAT_BGR ? 3
+                                                                 : 1;
   int width = in.width / scale;
   if (in.format == image_t::FORMAT_YUYV) width -= width % 2;
   const int height = in.height / scale;

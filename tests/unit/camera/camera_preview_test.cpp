@@ -61,10 +61,12 @@ TEST(CameraPreview, EveryFourthPixelOfEveryFourthRowKeepingItsChroma) {
 
 TEST(CameraPreview, BgrAndGreyAndBadFrames) {
   image_t bgr{};
+  bgr.header.utime = 1'000'000;
   bgr.width = 8;
   bgr.height = 4;
   bgr.stride = 24;
   bgr.format = image_t::FORMAT_BGR;
+  bgr.size = 96;
   bgr.data.resize(96);
   for (std::size_t i = 0; i < bgr.data.size(); ++i)
     bgr.data[i] = static_cast<std::uint8_t>(i);
@@ -73,11 +75,12 @@ TEST(CameraPreview, BgrAndGreyAndBadFrames) {
   ASSERT_EQ(out.width, 2);
   ASSERT_EQ(out.height, 1);
   EXPECT_EQ(out.data, (std::vector<std::uint8_t>{0, 1, 2, 12, 13, 14}));
-  image_t small = yuyvFrame(0, 4, 4);
+  image_t small = yuyvFrame(1'000'000, 4, 4);
   EXPECT_THROW(reduceFrame(small, 4, out), std::invalid_argument);  // nothing left
-  image_t cut = yuyvFrame(0, 64, 48);
+  image_t cut = yuyvFrame(1'000'000, 64, 48);
   cut.data.resize(100);
   EXPECT_THROW(reduceFrame(cut, 4, out), std::invalid_argument);
+  cut.data.resize(static_cast<std::size_t>(cut.size));
   cut.format = 9;
   EXPECT_THROW(reduceFrame(cut, 4, out), std::invalid_argument);
 }
