@@ -1,11 +1,13 @@
 #!/usr/bin/env python3
-"""Every relative link in README.md and docs/**/*.md points at a file or folder of the repository,
-and a link's #anchor into a Markdown page at one of its headings (GitHub's heading ids).
+"""The docs' links hold: every relative link in README.md and docs/**/*.md points at a file or
+folder of the repository, a link's #anchor into a Markdown page names one of its headings
+(GitHub's heading ids), and every dated log (docs/log/*.md) is linked from a page outside
+docs/log (the reference links its history).
 
 Usage: scripts/check_doc_links.py [ROOT]   (ROOT: the repository, default: this script's parent)
-Prints FILE:LINE: the link and what is missing, one per broken link; exit 1 if any, 0 if none,
+Prints FILE:LINE: the link and what is wrong, one line per problem; exit 1 if any, 0 if none,
 2 if ROOT has no README.md. Links inside fenced code blocks and inline code are not links; web
-addresses (scheme://, mailto:) and in-page anchors (#...) are not checked.
+addresses (scheme:...) and in-page anchors (#...) are not checked.
 """
 import pathlib
 import re
@@ -18,6 +20,24 @@ KNOWN_BROKEN = {
 
 LINK = re.compile(r"!?\[[^\]]*\]\(\s*<?([^)\s>]+)>?(?:\s+\"[^\"]*\")?\s*\)")
 INLINE_CODE = re.compile(r"`[^`]*`")
+SCHEME = re.compile(r"^[a-zA-Z][a-zA-Z0-9+.-]*:")
+
+
+def pages(root):
+    yield root / "README.md"
+    yield from sorted((root / "docs").rglob("*.md"))
+
+
+def link_targets(page):
+    """(line number, target) of every link outside code."""
+    fenced = False
+    for number, line in enumerate(page.read_text(encoding="utf-8").splitlines(), 1):
+        if line.lstrip().startswith(("```", "~~~")):
+            fenced = not fenced
+            continue
+        if not fenced:
+            for target in LINK.findall(INLINE_CODE.sub("", line)):
+                yield number, target
 
 
 def heading_ids(page):
@@ -36,47 +56,46 @@ def heading_ids(page):
     return ids
 
 
-def pages(root):
-    yield root / "README.md"
-    yield from sorted((root / "docs").rglob("*.md"))
-
-
-def broken_links(root, page):
-    fenced = False
-    for number, line in enumerate(page.read_text(encoding="utf-8").splitlines(), 1):
-        if line.lstrip().startswith(("```", "~~~")):
-            fenced = not fenced
+def check_page(root, page, linked):
+    """Yields (line, target, problem) for each broken link; adds every resolved file to linked."""
+    for number, target in link_targets(page):
+        if SCHEME.match(target) or target.startswith("#"):
             continue
-        if fenced:
-            continue
-        for target in LINK.findall(INLINE_CODE.sub("", line)):
-            if re.match(r"^[a-zA-Z][a-zA-Z0-9+.-]*:", target) or target.startswith("#"):
-                continue
-            path, _, anchor = target.partition("#")
-            resolved = (page.parent / path.split("?", 1)[0]).resolve()
-            if not resolved.exists():
-                yield number, target, f"{resolved} does not exist"
-            elif root.resolve() not in resolved.parents and resolved != root.resolve():
-                yield number, target, "outside the repository (a clone does not have it)"
-            elif anchor and resolved.suffix == ".md" and anchor not in heading_ids(resolved):
-                yield number, target, f"no heading with the id '{anchor}' in {path}"
+        path, _, anchor = target.partition("#")
+        resolved = (page.parent / path.split("?", 1)[0]).resolve()
+        if not resolved.exists():
+            yield number, target, f"{resolved} does not exist"
+        elif root not in resolved.parents and resolved != root:
+            yield number, target, "outside the repository (a clone does not have it)"
+        elif anchor and resolved.suffix == ".md" and anchor not in heading_ids(resolved):
+            yield number, target, f"no heading with the id '{anchor}' in {path}"
+        else:
+            linked.add(resolved)
 
 
 def main():
     root = pathlib.Path(sys.argv[1] if len(sys.argv) > 1 else pathlib.Path(__file__).parent.parent)
+    root = root.resolve()
     if not (root / "README.md").is_file():
         print(f"{root}: no README.md here: give the repository's root", file=sys.stderr)
         return 2
-    bad = 0
-    checked = 0
+    log_dir = root / "docs" / "log"
+    bad, checked, linked_from_reference = 0, 0, set()
     for page in pages(root):
         name = page.relative_to(root).as_posix()
-        for number, target, problem in broken_links(root, page):
+        linked = set()
+        for number, target, problem in check_page(root, page, linked):
             known = (name, target) in KNOWN_BROKEN
             note = " (known, being fixed)" if known else ""
             print(f"{name}:{number}: link '{target}': {problem}{note}")
             bad += 0 if known else 1
+        if log_dir not in page.parents:
+            linked_from_reference |= linked
         checked += 1
+    for log in sorted(log_dir.glob("*.md")) if log_dir.is_dir() else []:
+        if log.name != "README.md" and log not in linked_from_reference:
+            print(f"{log.relative_to(root).as_posix()}: no page outside docs/log links to this log")
+            bad += 1
     print(f"{checked} pages checked, {bad} broken links", file=sys.stderr)
     return 1 if bad else 0
 

@@ -1,6 +1,7 @@
 #!/bin/sh
-# The link check finds a broken link and a link to a heading that is not there (and names the
-# file and line), skips code and web addresses, and passes a tree whose links all resolve.
+# The link check finds a broken link, a link to a heading that is not there (naming the file and
+# line) and a log no reference page links to; it skips code and web addresses, and passes a tree
+# whose links all resolve.
 set -eu
 check=$1
 tmp=$(mktemp -d)
@@ -28,4 +29,10 @@ echo "$out" | grep -q "docs/log/day.md:4: link '../fusion.md#no-such-heading': n
 [ "$(echo "$out" | grep -c ': link ')" = 1 ] || { echo "FAIL: a good anchor was reported: $out"; exit 1; }
 sed -i 's/#no-such-heading)/#f)/' "$tmp/docs/log/day.md"
 python3 "$check" "$tmp" || { echo "FAIL: a tree whose links resolve failed"; exit 1; }
+printf '# orphan\n' >"$tmp/docs/log/orphan.md"
+if out=$(python3 "$check" "$tmp" 2>&1); then
+  echo "FAIL: a log no reference links to passed: $out"; exit 1
+fi
+echo "$out" | grep -q "docs/log/orphan.md: no page outside docs/log links to this log" ||
+  { echo "FAIL: the orphan log is not named: $out"; exit 1; }
 echo PASS
