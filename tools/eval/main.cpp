@@ -33,6 +33,7 @@
 #include "common/scenario/scenario.hpp"
 #include "common/time/offset_clock.hpp"
 #include "tools/eval/evaluation.hpp"
+#include "tools/eval/image_to_pose.hpp"
 #include "tools/eval/team_ball.hpp"
 #include "tools/launch/launch_file.hpp"
 #include "tools/launch/robot_clocks.hpp"
@@ -85,6 +86,8 @@ struct Collector {
   std::vector<eval::BallSample> balls;
   std::map<int, Utime> first_lines;
   std::vector<eval::TeamSample> teams;
+  // Image-to-pose latency (issue 32 item 4), on the robots' own stamps.
+  eval::ImageToPose image_to_pose;
   // The robots' clocks (launch file, or a recording's clock models): their stamps are converted
   // to the true time.
   launch::RobotClocks clocks;
@@ -98,6 +101,12 @@ struct Collector {
           bus::channels::kRobotState, [this](const robot_state_t& m) { onRobotState(m); }, b);
       node.subscribe(
           bus::channels::kVisionLines, [this](const line_contours_t& m) { onLines(m); }, b);
+      node.subscribe(
+          bus::channels::kCameraImage,
+          [this](const image_t& m) {
+            image_to_pose.onImage(m.header.robot_id, m.header.utime, m.header.utime_published);
+          },
+          b);
       node.subscribe(
           bus::channels::kBallState, [this](const ball_state_t& m) { onBallState(m); }, b);
       node.subscribe(
@@ -130,6 +139,7 @@ struct Collector {
         s.covariance(r, c) = m.covariance[3 * r + c];
     s.status = m.status;
     states.push_back(s);
+    image_to_pose.onState(s.robot, m.header.utime, m.since_vision_us, m.header.utime_published);
   }
 
   void onLines(const line_contours_t& m) {
@@ -404,6 +414,7 @@ int report(const EvalArgs& a, const Collector& collector, const std::string& sou
                collector.truth.size(), summary.states, summary.scored, collector.balls.size(),
                summary.kidnaps, summary.unrecovered, summary.latency_p50_ms, a.out_dir.c_str());
   std::printf("%s\n", eval::summaryLine(summary).c_str());
+  std::printf("%s\n", collector.image_to_pose.line().c_str());
   if (summary.states == 0 || collector.truth.empty()) {
     std::fprintf(stderr, "no estimates or no truth to compare\n");
     return 1;

@@ -127,9 +127,9 @@ TEST(teamcomm_picture, UsesOnlyFreshBallsFromLocalizedRobotsAndPredictsThem) {
   EXPECT_NEAR(s.team_ball_y, -0.4, 1e-9);
   EXPECT_NEAR(s.team_ball_vx, 1.0, 1e-9);
   EXPECT_EQ(s.robots[3].ball_age_us, 200'000);
-  // Prediction uncertainty grew: 0.1^2 + (1 m/s * 0.2 s)^2 (the reporter's pose uncertainty is in
-  // its ball filter's covariance already).
-  EXPECT_NEAR(s.team_ball_covariance(0, 0), 0.01 + 0.04, 1e-9);
+  // Prediction uncertainty grew: 0.1^2 + (0.3 m/s * 0.2 s)^2 (the reporter's pose uncertainty is
+  // in its ball filter's covariance already).
+  EXPECT_NEAR(s.team_ball_covariance(0, 0), 0.01 + 0.0036, 1e-9);
 }
 
 TEST(teamcomm_picture, SaysWhichRobotsMayBeOnTheirTwinAndKeepsTheirBalls) {
