@@ -81,6 +81,9 @@ bool BallDetector::expectedExtent(double horizontal, double bearing, double& rad
 }
 
 namespace {
+// An outermost orange pixel this close to the useful radius (px; the tracked regions end in
+// whole cells) may be where the measured zone ends, not the ball.
+constexpr double kFarEdgeReachPx = 3.0;
 // How well a measured extent agrees with the expected one, in (0, 1].
 double agreement(double measured, double expected) {
   return (std::min(measured, expected) + 1.0) / (std::max(measured, expected) + 1.0);
@@ -145,11 +148,32 @@ BallReject BallDetector::place(const BallPixels& pixels, const BallRegion* regio
   const double farFloor = distance.floorDistance(pixels.far_radius + 0.5, bearing);
   if (!std::isfinite(nearFloor) || !std::isfinite(farFloor)) return BallReject::kNoFloor;
   const double H = mirror_.params().reference_height;
-  // Depression angles of the two grazing rays from R; the centre ray lies midway.
-  const double centreAngle = 0.5 * (std::atan2(H, nearFloor) + std::atan2(H, farFloor));
+  out.lift = (H - params_.centre_height) / H;
+  // Depression angles of the two grazing rays from R; the centre ray lies midway. When the
+  // outermost orange pixel lies at the end of the measured zone (useful_radius), the image ends
+  // there and not the ball: its far edge is unknown, and the midway ray would put the ball short
+  // (15-35 cm at 4.5-5.5 m in omni_sim). Then the centre ray comes from the near grazing ray
+  // alone: it lies asin(radius / distance to the centre) above it.
+  const double nearAngle = std::atan2(H, nearFloor);
+  double centreAngle = 0.5 * (nearAngle + std::atan2(H, farFloor));
+  out.far_edge_cut = false;
+  if (pixels.far_radius + kFarEdgeReachPx >= mirror_.params().useful_radius) {
+    const double drop = H - params_.centre_height;
+    double nearOnly = nearAngle;
+    for (int i = 0; i < 8; ++i) {
+      nearOnly =
+          nearAngle - std::asin(std::min(1.0, params_.centre_height * std::sin(nearOnly) / drop));
+    }
+    // Cut: a ball there would reach more than a pixel further out than the orange pixels do.
+    double spanRadial = 0, spanTangential = 0;
+    if (expectedExtent(H / std::tan(nearOnly) * out.lift, bearing, spanRadial, spanTangential) &&
+        pixels.far_radius - pixels.near_radius + 1.0 < spanRadial - 1.0) {
+      out.far_edge_cut = true;
+      centreAngle = nearOnly;
+    }
+  }
   const double centreFloor = H / std::tan(centreAngle);
   out.bearing = bearing;
-  out.lift = (H - params_.centre_height) / H;
   out.horizontal = centreFloor * out.lift;
   // All of this is about the mirror axis (its rays start there): move to the robot frame last.
   const camera::Vec2 direction = camera::Vec2(std::cos(bearing), std::sin(bearing));
@@ -259,6 +283,10 @@ BallReject BallDetector::evaluate(const camera::FrameView& frame, const ContourS
   // Half a pixel of centroid error, scaled to the floor and lifted to the ball's height.
   const camera::Vec2 mpp = mirror_.metresPerPixel(where.centre_pixel);
   out.sigma_radial = 0.5 * mpp.x() * where.lift;
+  if (where.far_edge_cut) {
+    // The near edge alone: a whole pixel, the far edge no longer halves its error.
+    out.sigma_radial = mpp.x() * where.lift;
+  }
   out.sigma_tangential = 0.5 * mpp.y() * where.lift;
   out.confidence = carpetShare * std::min(shape.fill, 1.0) *
                    agreement(shape.radial_px, shape.expected_radial + 1) *

@@ -127,6 +127,8 @@ class BallDetector {
     double lift = 0;        // (reference height - centre height) / reference height
     camera::Vec2 centre_xy;
     camera::Vec2 centre_pixel;
+    // The far edge was cut by the useful radius: the centre comes from the near edge alone.
+    bool far_edge_cut = false;
   };
   BallReject place(const BallPixels& pixels, const BallRegion* region, BallPlace& out) const;
   // Size and shape against a ball at that place.
