@@ -12,14 +12,15 @@
 //             findContours
 // All use the same cells (same size, same block classifier, same don't-touch mask, same classes).
 // The first frame of each round (initial search) is left out of the times. The last line is, for
-// the default sequence (1 m/s, 90 deg/s) at 320x240 (the line before it, prefixed "640x480: ", the
-// same at 640x480),
+// the default sequence (1 m/s, 90 deg/s) at 320x240 (the lines before it, prefixed "640x480: "
+// and "1280x960: ", the same at those sizes),
 //   ratio_vs_cmvision=X ratio_vs_opencv=Y touched_fraction=Z whole_step_ratio=W
 //   per_touched_cell_vs_baseline=V
 // X, Y: median frame time of (a), (b) over the tracker's (without lines); Z: cells the tracker
 // classified over all cells; W: (a)+lines over tracker+lines; V: the tracker's median time per
 // cell it classified over (a)'s median time per cell of the grid (scene-independent: how much
-// dearer a tracked cell is than a cell of a full pass).
+// dearer a tracked cell is than a cell of a full pass). The line "scaling: ..." gives the whole
+// step's (and the tracker's) median at each larger size over its median at the size below.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -79,6 +80,7 @@ struct Sequence {
 
 struct Result {
   Sequence sequence;
+  int width = 0, height = 0;  // image, px
   int cell_size = 0;
   int frames = 0;
   Summary tracker, tracker_whole, cmvision, cmvision_whole, cmvision_masked, opencv;
@@ -108,6 +110,8 @@ Result run(rt::SimCamera& sim, const Sequence& sequence, int cell_size, int fram
            bool coldFrames, Order order, int max_seed_regions, const std::string& vision_config) {
   Result result;
   result.sequence = sequence;
+  result.width = sim.mirror.width();
+  result.height = sim.mirror.height();
   result.cell_size = cell_size;
   result.frames = frameCount;
 
@@ -288,6 +292,10 @@ double perTouchedCellVsBaseline(const Result& r) {
   return (r.tracker.median / r.touched_cells) / (r.cmvision.median / r.grid_cells);
 }
 
+std::string imageName(const Result& r) {
+  return std::to_string(r.width) + "x" + std::to_string(r.height);
+}
+
 std::string motionName(const Sequence& s) {
   char text[64];
   std::snprintf(text, sizeof text, "%.1f m/s %3.0f deg/s", s.speed, s.omega_deg);
@@ -313,7 +321,8 @@ struct Options {
         ->check(CLI::IsMember({1, 2, 4, 8}))
         ->capture_default_str();
     app.add_option("--field", field, "field preset")->capture_default_str();
-    app.add_flag("--quick", quick, "only the default sequence at both resolutions");
+    app.add_flag("--quick", quick,
+                 "only the default sequence at each size (320x240, 640x480, 1280x960)");
     app.add_flag(
         "--cold", cold,
         "process frames straight from memory (cache-cold) instead of a freshly delivered copy");
@@ -336,12 +345,13 @@ struct Options {
   }
 };
 
-// The default sequence at both sizes first; without --quick the translations and rotations.
+// The default sequence at each size; without --quick the translations and rotations (at 1280x960
+// only the default sequence: its 240 frames alone hold 590 MB).
 std::vector<Sequence> sequencesToRun(bool quick) {
   std::vector<Sequence> sequences;
-  for (const std::string camera_preset : {"omni_sim", "omni_sim_640"}) {
+  for (const std::string camera_preset : {"omni_sim", "omni_sim_640", "omni_sim_1280"}) {
     sequences.push_back({camera_preset, 1.0, 90.0, "default"});
-    if (quick) continue;
+    if (quick || camera_preset == "omni_sim_1280") continue;
     const bool full = camera_preset == "omni_sim";
     for (const double speed : full ? std::vector<double>{0.0, 0.5, 1.0, 1.5, 2.0, 2.5, 3.0}
                                    : std::vector<double>{0.0, 1.0, 3.0}) {
@@ -355,7 +365,7 @@ std::vector<Sequence> sequencesToRun(bool quick) {
   return sequences;
 }
 
-// The full table, then the summary lines of the default sequences (640x480 first, 320x240 last).
+// The full table, then the summary lines of the default sequences (largest first, 320x240 last).
 void printResults(const Options& options, const std::vector<Result>& results) {
   std::printf(
       "region tracking benchmark: field %s, %d frames per sequence at 30 Hz, %dx%d cells, "
@@ -373,17 +383,21 @@ void printResults(const Options& options, const std::vector<Result>& results) {
       "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---"
       "|"
       "\n");
-  const Result* default_results[2] = {nullptr, nullptr};  // 640x480, then 320x240
+  // The default sequences, largest image first (320x240 last, the line tools read).
+  std::vector<const Result*> default_results;
   for (const Result& r : results) {
-    const bool small = r.sequence.camera == "omni_sim";
-    if (r.sequence.kind == "default") default_results[small ? 1 : 0] = &r;
+    if (r.sequence.kind == "default") default_results.push_back(&r);
+  }
+  std::sort(default_results.begin(), default_results.end(),
+            [](const Result* a, const Result* b) { return a->width > b->width; });
+  for (const Result& r : results) {
     std::printf(
         "| %s | %s | %.0f / %.0f | %.0f / %.0f | %.0f / %.0f | %.0f / %.0f | %.0f / %.0f | "
         "%.0f / %.0f | %.1f | %.1f | %.1f | %.1f | %.1f %% | %.1f %% | %.1f | %.0f %% | %d / %d | "
         "%.0f | %d / %d | %d / %d | %d | %d | %.1f |\n",
-        small ? "320x240" : "640x480", motionName(r.sequence).c_str(), r.tracker.median,
-        r.tracker.p95, r.tracker_whole.median, r.tracker_whole.p95, r.cmvision.median,
-        r.cmvision.p95, r.cmvision_whole.median, r.cmvision_whole.p95, r.cmvision_masked.median,
+        imageName(r).c_str(), motionName(r.sequence).c_str(), r.tracker.median, r.tracker.p95,
+        r.tracker_whole.median, r.tracker_whole.p95, r.cmvision.median, r.cmvision.p95,
+        r.cmvision_whole.median, r.cmvision_whole.p95, r.cmvision_masked.median,
         r.cmvision_masked.p95, r.opencv.median, r.opencv.p95, r.cmvision.median / r.tracker.median,
         r.cmvision_masked.median / r.tracker.median, r.opencv.median / r.tracker.median,
         r.cmvision_whole.median / r.tracker_whole.median, 100 * r.touched,
@@ -396,22 +410,29 @@ void printResults(const Options& options, const std::vector<Result>& results) {
   // The medians of the default sequences with a decimal, and the line detector's share of the
   // whole step on each side (the difference of the medians).
   for (const Result* r : default_results) {
-    if (r == nullptr) continue;
     std::printf(
         "%s default: tracker %.1f us, tracker+lines %.1f us (lines %.1f), cmvision %.1f us, "
         "cmvision+lines %.1f us (lines %.1f)\n",
-        r->sequence.camera == "omni_sim" ? "320x240" : "640x480", r->tracker.median,
-        r->tracker_whole.median, r->tracker_whole.median - r->tracker.median, r->cmvision.median,
-        r->cmvision_whole.median, r->cmvision_whole.median - r->cmvision.median);
+        imageName(*r).c_str(), r->tracker.median, r->tracker_whole.median,
+        r->tracker_whole.median - r->tracker.median, r->cmvision.median, r->cmvision_whole.median,
+        r->cmvision_whole.median - r->cmvision.median);
+  }
+  // Each size against the next smaller one (same process, same load): whole step and tracker.
+  for (std::size_t i = 0; i + 1 < default_results.size(); ++i) {
+    const Result& big = *default_results[i];
+    const Result& small = *default_results[i + 1];
+    std::printf("scaling: %s over %s: whole step %.2fx, tracker %.2fx, touched %.3f -> %.3f\n",
+                imageName(big).c_str(), imageName(small).c_str(),
+                big.tracker_whole.median / small.tracker_whole.median,
+                big.tracker.median / small.tracker.median, small.touched, big.touched);
   }
   std::printf("\n");
   for (const Result* r : default_results) {
-    if (r == nullptr) continue;
     std::printf(
         "%sratio_vs_cmvision=%.2f ratio_vs_opencv=%.2f touched_fraction=%.3f "
         "whole_step_ratio=%.2f per_touched_cell_vs_baseline=%.2f\n",
-        r->sequence.camera == "omni_sim" ? "" : "640x480: ", r->cmvision.median / r->tracker.median,
-        r->opencv.median / r->tracker.median, r->touched,
+        r->width == 320 ? "" : (imageName(*r) + ": ").c_str(),
+        r->cmvision.median / r->tracker.median, r->opencv.median / r->tracker.median, r->touched,
         r->cmvision_whole.median / r->tracker_whole.median, perTouchedCellVsBaseline(*r));
   }
 }

@@ -486,3 +486,36 @@ TEST_F(RenderedFrames, RejectsFramesOfTheWrongSize) {
 
 }  // namespace
 }  // namespace fieldline::region_tracking
+
+namespace fieldline::region_tracking {
+namespace {
+
+// Today's cameras (issue 32): the same detectors at 1280x960 (omni_sim_1280) with the default
+// parameters, line points on the model's lines and the ball where it lies.
+TEST(RenderedFrames1280, LinePointsAndBallAtTodaysResolution) {
+  SimCamera sim = SimCamera::load("omni_sim_1280", "msl");
+  ASSERT_EQ(sim.mirror.width(), 1280);
+  ASSERT_EQ(sim.mirror.height(), 960);
+  const geometry::Pose2 pose{1.0, 0.5, 0.3};
+  const std::vector<Vec2> balls = {{0.6, 0.2}, {-1.5, 1.0}, {0.5, 3.0}, {3.2, -1.5}};
+  for (const Vec2& ballInRobot : balls) {
+    FrameProcessor processor(sim.mirror, sim.table, defaultVisionParams());
+    camera::SimScene scene;
+    scene.robot = pose;
+    scene.ball = camera::SimBall{geometry::pointRobotToField(pose, ballInRobot), 0.11};
+    const VisionResult result = sim.track(processor, scene, 3);
+    ASSERT_TRUE(result.ball.visible) << ballInRobot.transpose();
+    EXPECT_LE((Vec2(result.ball.x, result.ball.y) - ballInRobot).norm(), 0.05)
+        << ballInRobot.transpose();
+    std::vector<double> errors;
+    for (const LinePoint& q : result.lines.points) {
+      if (Vec2(q.x, q.y).norm() > 3.0) continue;
+      errors.push_back(sim.field.distance(geometry::pointRobotToField(pose, Vec2(q.x, q.y))));
+    }
+    ASSERT_GE(errors.size(), 40u);
+    EXPECT_LE(median(errors), 0.02);
+  }
+}
+
+}  // namespace
+}  // namespace fieldline::region_tracking
