@@ -219,6 +219,11 @@ std::string robustnessLines(const Robustness& r, const RobustnessOptions& o) {
       r.tracking_max_m, r.worst_robot, r.worst_t, o.limit_m, r.tracking_over_limit,
       r.tracking_p99_m, r.not_tracking_share, r.tracking_samples, r.certain_max_m,
       r.certain_over_limit, o.limit_m, r.twin_ambiguous_samples);
+  if (!r.vision_lines_hz.empty()) {
+    out += "\nvision_lines_hz:";
+    for (const auto& [robot, hz] : r.vision_lines_hz)
+      out += fmt::format(" {}={:.1f}", robot, hz);
+  }
   for (const FaultResult& f : r.faults) {
     std::string per_robot;
     for (const auto& [robot, s] : f.recovery_s)
@@ -252,6 +257,12 @@ std::string robustnessJson(const Robustness& r, const RobustnessOptions& o) {
   bool first = true;
   for (const auto& [robot, v] : r.not_tracking_share_by_robot) {
     j << fmt::format("{}\"{}\": {:.5f}", first ? "" : ", ", robot, v);
+    first = false;
+  }
+  j << "},\n  \"vision_lines_hz\": {";
+  first = true;
+  for (const auto& [robot, hz] : r.vision_lines_hz) {
+    j << fmt::format("{}\"{}\": {:.2f}", first ? "" : ", ", robot, hz);
     first = false;
   }
   j << "},\n  \"faults\": [";

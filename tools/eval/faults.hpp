@@ -94,6 +94,8 @@ struct Robustness {
   double not_tracking_share = 0.0;
   std::map<int, double> not_tracking_share_by_robot;
   std::vector<FaultResult> faults;
+  // VISION_LINES per second per robot over the run (filled by the caller; empty: not known).
+  std::map<int, double> vision_lines_hz;
 };
 
 // `robots`: the team's robot numbers (who a fault of every robot, or of the simulator, affects).

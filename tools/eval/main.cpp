@@ -138,8 +138,14 @@ struct Collector {
   }
 
   void onLines(const line_contours_t& m) {
-    first_lines.try_emplace(m.header.robot_id, trueTime(m.header.robot_id, m.header.utime));
+    const Utime t = trueTime(m.header.robot_id, m.header.utime);
+    first_lines.try_emplace(m.header.robot_id, t);
+    last_lines[m.header.robot_id] = t;
+    ++lines_count[m.header.robot_id];
   }
+  // VISION_LINES per robot (one per camera frame in sim_team): the frame rate the robots got.
+  std::map<int, Utime> last_lines;
+  std::map<int, std::int64_t> lines_count;
 
   void onBallState(const ball_state_t& m) {
     eval::BallSample b{m.header.robot_id, trueTime(m.header.robot_id, m.header.utime), m.valid != 0,
@@ -464,7 +470,11 @@ void reportRobustness(const EvalArgs& a, const Collector& collector, const eval:
   std::vector<int> robots;
   for (const auto& [robot, hz] : summary.robot_state_hz)
     robots.push_back(robot);
-  const eval::Robustness r = eval::evaluateRobustness(summary, events, robots);
+  eval::Robustness r = eval::evaluateRobustness(summary, events, robots);
+  for (const auto& [robot, n] : collector.lines_count) {
+    const Utime span = collector.last_lines.at(robot) - collector.first_lines.at(robot);
+    if (n > 1 && span > 0) r.vision_lines_hz[robot] = static_cast<double>(n - 1) * 1e6 / span;
+  }
   std::ofstream(a.out_dir + "/robustness.json") << eval::robustnessJson(r);
   std::printf("%s\n", eval::robustnessLines(r).c_str());
 }
