@@ -81,6 +81,9 @@ void loadLocalizer(const config::Node& n, LocalizerParams& p) {
   p.contradict_m = n.getOr<double>("contradict_m", p.contradict_m, 0.0, 30.0);
   p.vision_timeout_us =
       micros(n.getOr<double>("vision_timeout_s", seconds(p.vision_timeout_us), 0.05, 60.0));
+  p.tracking_max_sigma_m =
+      n.getOr<double>("tracking_max_sigma_m", p.tracking_max_sigma_m, 0.0, 10.0);
+  p.reset_confirm_frames = n.getOr<int>("reset_confirm_frames", p.reset_confirm_frames, 0, 100);
   p.search_step_m = n.getOr<double>("search_step_m", p.search_step_m, 0.05, 5.0);
   p.search_headings = n.getOr<int>("search_headings", p.search_headings, 4, 360);
   p.search_points = n.getOr<int>("search_points", p.search_points, 5, 10000);

@@ -86,10 +86,15 @@ void FusionNode::onOdometry(const odometry_t& m) {
     e.vy = v.y();
     e.omega = v.z();
     e.covariance = localizer_.reportedCovariance(*s);
+    e.status = localizer_.reportedStatus(e.covariance, node_.now());
   }
   e.utime = t;
   msg::toMessage(e, state_msg_);
   if (node_.publish(bus::channels::kRobotState, state_msg_)) ++robot_states_;
+  if (e.status != perception::LocalizationStatus::kTracking &&
+      localizer_.reportedStatus(Eigen::Matrix3d::Zero(), node_.now()) ==
+          perception::LocalizationStatus::kTracking)
+    ++uncertain_states_;
   reportNewRejections();
   updateMetrics();
 }
@@ -189,6 +194,7 @@ void FusionNode::updateMetrics() {
   node_.setMetric("localization_status",
                   static_cast<double>(localizer_.estimate(node_.now()).status));
   node_.setMetric("correction_cm", 100.0 * localizer_.lastCorrectionM());
+  node_.setMetric("states_too_uncertain", static_cast<double>(uncertain_states_));
   node_.setMetric("correction_deg", localizer_.lastCorrectionRad() * 180.0 / 3.141592653589793);
   node_.setMetric("match_cost_cm", 100.0 * std::max(0.0, localizer_.lastCost()));
   node_.setMetric("ambiguous", localizer_.ambiguous() ? 1.0 : 0.0);

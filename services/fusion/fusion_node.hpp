@@ -73,6 +73,9 @@ class FusionNode {
   robot_state_t state_msg_{};
   ball_state_t ball_msg_{};
   std::int64_t robot_states_ = 0;
+  // ROBOT_STATEs of a tracked pose reported ODOMETRY_ONLY for their uncertainty
+  // (LocalizerParams::tracking_max_sigma_m).
+  std::int64_t uncertain_states_ = 0;
   std::int64_t ball_states_ = 0;
 };
 

@@ -289,6 +289,7 @@ void Localizer::trackLines(std::span<const perception::LinePoint> points, Utime 
       }
       good = true;
       ++good_since_commit_;
+      if (reset_unconfirmed_ > 0) --reset_unconfirmed_;
       gated_in_row_ = 0;
       gated_offset_.reset();
     } else {
@@ -331,6 +332,7 @@ void Localizer::trackLines(std::span<const perception::LinePoint> points, Utime 
         filter_.initialize(s);
         restart_utime_ = utime;
         same_run_ = twin_run_ = 0;
+        reset_unconfirmed_ = params_.reset_confirm_frames;
         good = true;
       }
     }
@@ -623,6 +625,7 @@ void Localizer::commit(const Hypothesis& h) {
   gated_in_row_ = 0;
   gated_offset_.reset();
   good_since_commit_ = 0;
+  reset_unconfirmed_ = 0;
   same_run_ = twin_run_ = 0;
 }
 
@@ -824,11 +827,24 @@ perception::RobotEstimate Localizer::estimate(Utime now) const {
     }
     e.covariance = Eigen::Vector3d(100.0, 100.0, 10.0).asDiagonal();
   }
-  if (mode_ == LocalizationStatus::kTracking &&
-      (last_lines_arrival_ == 0 || now - last_lines_arrival_ > params_.vision_timeout_us)) {
-    e.status = LocalizationStatus::kOdometryOnly;
-  }
+  e.status = reportedStatus(e.covariance, now);
   return e;
+}
+
+perception::LocalizationStatus Localizer::reportedStatus(const Eigen::Matrix3d& covariance,
+                                                         Utime now) const {
+  if (mode_ != LocalizationStatus::kTracking) return mode_;
+  if (reset_unconfirmed_ > 0) return LocalizationStatus::kSearching;
+  if (last_lines_arrival_ == 0 || now - last_lines_arrival_ > params_.vision_timeout_us)
+    return LocalizationStatus::kOdometryOnly;
+  if (params_.tracking_max_sigma_m > 0.0) {
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> es(covariance.topLeftCorner<2, 2>());
+    const double largest = es.eigenvalues()[1];
+    // A NaN covariance promises nothing either.
+    if (!(largest <= params_.tracking_max_sigma_m * params_.tracking_max_sigma_m))
+      return LocalizationStatus::kOdometryOnly;
+  }
+  return LocalizationStatus::kTracking;
 }
 
 }  // namespace fieldline::fusion

@@ -152,6 +152,17 @@ struct LocalizerParams {
   double stamp_sigma_s = 0.0;
   // No VISION_LINES for this long: status ODOMETRY_ONLY, µs.
   Utime vision_timeout_us = 1'000'000;
+  // TRACKING promises a pose to steer on: while the reported position uncertainty (the largest
+  // standard deviation of x, y) is beyond this, the status is ODOMETRY_ONLY. A push or slip the
+  // wheels did not see widens the covariance before the next frames can correct the pose (the
+  // match at load 7-12 saw a robot 0.66 m off for 0.1 s with sigma >= 0.25 m, still TRACKING;
+  // at load 30-50 one 0.5 m off with sigma about 0.14 m): 4 sigma within 0.5 m. m; 0: off.
+  double tracking_max_sigma_m = 0.12;
+  // After a gated reset (the filter restarted from a frame that disagreed with it), the status
+  // is SEARCHING until this many later line frames were accepted: the frames that forced the
+  // reset need not agree with each other (in a collision's twist the match ran 0.53 m and
+  // 1.35 rad off with a small covariance, TRACKING, until the next frames lost it). 0: off.
+  int reset_confirm_frames = 2;
   // Coarse search: grid step, m; headings per turn; points used per pose.
   double search_step_m = 0.5;
   int search_headings = 24;
@@ -259,6 +270,10 @@ class Localizer {
   Eigen::Matrix3d reportedCovariance(const EkfState& s) const;
 
   perception::LocalizationStatus mode() const { return mode_; }
+  // The status to report with a pose of this reported covariance: mode(), ODOMETRY_ONLY when no
+  // lines arrived for vision_timeout_us or the position is more uncertain than
+  // tracking_max_sigma_m allows.
+  perception::LocalizationStatus reportedStatus(const Eigen::Matrix3d& covariance, Utime now) const;
   // True when no odometry sample arrived for LocalizerParams::max_wait_us (or none ever).
   bool odometrySilent(Utime now) const {
     return last_odometry_arrival_ == 0 || now - last_odometry_arrival_ > params_.max_wait_us;
@@ -357,6 +372,8 @@ class Localizer {
   std::vector<WaitingFrame> waiting_;
   // Accepted line corrections since the last commit (LocalizerParams::trust_frames).
   int good_since_commit_ = 0;
+  // Accepted line frames still needed to confirm a gated reset (reset_confirm_frames).
+  int reset_unconfirmed_ = 0;
   int bad_frames_ = 0;
   int contradictions_ = 0;
   int gated_in_row_ = 0;

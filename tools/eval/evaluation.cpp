@@ -133,6 +133,7 @@ Summary evaluate(const std::vector<TruthSample>& truth, std::vector<StateSample>
     m.true_y = tr.y;
     m.true_phi = tr.phi;
     m.status = st.status;
+    m.twin_ambiguous = st.twin_ambiguous;
     m.pos_error = std::hypot(st.x - tr.x, st.y - tr.y);
     m.heading_error = std::abs(geometry::angleDiff(st.phi, tr.phi));
     m.latency_ms = static_cast<double>(st.published - st.utime) * 1e-3;

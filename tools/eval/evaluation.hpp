@@ -32,6 +32,8 @@ struct StateSample {
   double x = 0, y = 0, phi = 0;
   Eigen::Matrix3d covariance = Eigen::Matrix3d::Identity();
   int status = 0;
+  // ROBOT_STATE's twin_ambiguous: the pose may be its symmetric twin, and says so.
+  bool twin_ambiguous = false;
 };
 
 struct BallSample {
@@ -60,6 +62,7 @@ struct Matched {
   double x = 0, y = 0, phi = 0, true_x = 0, true_y = 0, true_phi = 0;
   double pos_error = 0, heading_error = 0, nees = 0;
   int status = 0;
+  bool twin_ambiguous = false;
   bool recovering = false;  // between a kidnap and its recovery: not in the error figures
   double latency_ms = 0;
 };

@@ -34,6 +34,8 @@
 #include "common/time/offset_clock.hpp"
 #include "tools/eval/evaluation.hpp"
 #include "tools/eval/image_to_pose.hpp"
+#include "tools/eval/fault_runner.hpp"
+#include "tools/eval/faults.hpp"
 #include "tools/eval/team_ball.hpp"
 #include "tools/launch/launch_file.hpp"
 #include "tools/launch/robot_clocks.hpp"
@@ -88,6 +90,8 @@ struct Collector {
   std::vector<eval::TeamSample> teams;
   // Image-to-pose latency (issue 32 item 4), on the robots' own stamps.
   eval::ImageToPose image_to_pose;
+  // The faults fieldline-eval caused (--fault), on the true clock.
+  std::vector<eval::FaultRecord> faults;
   // The robots' clocks (launch file, or a recording's clock models): their stamps are converted
   // to the true time.
   launch::RobotClocks clocks;
@@ -138,13 +142,20 @@ struct Collector {
       for (int c = 0; c < 3; ++c)
         s.covariance(r, c) = m.covariance[3 * r + c];
     s.status = m.status;
+    s.twin_ambiguous = m.twin_ambiguous != 0;
     states.push_back(s);
     image_to_pose.onState(s.robot, m.header.utime, m.since_vision_us, m.header.utime_published);
   }
 
   void onLines(const line_contours_t& m) {
-    first_lines.try_emplace(m.header.robot_id, trueTime(m.header.robot_id, m.header.utime));
+    const Utime t = trueTime(m.header.robot_id, m.header.utime);
+    first_lines.try_emplace(m.header.robot_id, t);
+    last_lines[m.header.robot_id] = t;
+    ++lines_count[m.header.robot_id];
   }
+  // VISION_LINES per robot (one per camera frame in sim_team): the frame rate the robots got.
+  std::map<int, Utime> last_lines;
+  std::map<int, std::int64_t> lines_count;
 
   void onBallState(const ball_state_t& m) {
     eval::BallSample b{m.header.robot_id, trueTime(m.header.robot_id, m.header.utime), m.valid != 0,
@@ -183,7 +194,37 @@ struct EvalArgs {
   int robots = 0;
   eval::EvalOptions options;
   std::string log_level = "warn";
+  // Faults and load (faults.hpp): --fault, --cpu-hog, --camera-fps.
+  std::vector<std::string> faults;
+  int cpu_hogs = 0;
+  double camera_fps = 0.0;
 };
+
+// Faults and load for the robustness scenarios (issue 34 item 3, issue 32 item 2).
+void addFaultOptions(CLI::App& app, EvalArgs& a) {
+  app.add_option("--fault", a.faults,
+                 "A fault during the run, seconds after the team started (repeatable): "
+                 "restart:PROCESS[/ROBOT]@T (SIGTERM; the launcher restarts it), "
+                 "kill:PROCESS[/ROBOT]@T (SIGKILL), stall:ROBOT@T+D or stall:all@T+D (SIGSTOP "
+                 "the robot's or every process for D s, then SIGCONT). robustness.json and the "
+                 "report give each fault's time to recover and largest error while TRACKING")
+      ->check([](const std::string& text) {
+        try {
+          eval::parseFault(text);
+          return std::string();
+        } catch (const std::invalid_argument& e) {
+          return std::string(e.what());
+        }
+      });
+  app.add_option("--cpu-hog", a.cpu_hogs,
+                 "Busy loops (one core each) running beside the team for the whole run")
+      ->check(CLI::Range(0, 4))
+      ->capture_default_str();
+  app.add_option("--camera-fps", a.camera_fps,
+                 "Every camera's frame rate, Hz (the launch file's camera_fps setting; default: "
+                 "the camera preset's)")
+      ->check(CLI::Range(1.0, 240.0));
+}
 
 void addOptions(CLI::App& app, EvalArgs& a) {
   app.add_option("--scenario", a.scenario, "Scenario preset (config/scenarios) or YAML path")
@@ -207,6 +248,7 @@ void addOptions(CLI::App& app, EvalArgs& a) {
       ->capture_default_str();
   app.add_option("--log-level", a.log_level, "trace, debug, info, warn, error")
       ->capture_default_str();
+  addFaultOptions(app, a);
 }
 
 // Decodes a checked event of the channels the evaluation reads into the collector.
@@ -305,6 +347,18 @@ std::string collectFromTeam(EvalArgs& a, Collector& collector, const Clock& cloc
   if (a.field_name.empty()) a.field_name = sc.field;
   if (a.out_dir.empty()) a.out_dir = "eval/" + sc.name;
   std::filesystem::create_directories(a.out_dir);
+  if (a.camera_fps > 0.0) {
+    // Before scenarioLaunchFile, whose copy of the launch file records the settings.
+    const launch::LaunchFile file =
+        launch::loadLaunchFile(config::resolvePreset("launch", a.launch));
+    if (!file.settings.contains("camera_fps")) {
+      throw config::Error(a.launch +
+                          ": no `camera_fps` setting for --camera-fps (sim_team.yaml passes it "
+                          "to every camera as --fps {camera_fps})");
+    }
+    setenv(launch::settingVariable("camera_fps").c_str(), fmt::format("{}", a.camera_fps).c_str(),
+           1);
+  }
   const std::string launch_file = scenarioLaunchFile(a.launch, a.scenario, sc.robot, a.out_dir);
   // The robots' clocks count their drift from this time; the launcher takes it from here.
   const Utime clock_reference = clock.now();
@@ -353,12 +407,28 @@ std::string collectFromTeam(EvalArgs& a, Collector& collector, const Clock& cloc
   }
   std::fprintf(stderr, "running %s with %d robot(s) for %.0f s (log: %s)\n", sc.name.c_str(),
                a.robots, a.duration, launch_log.c_str());
+  std::vector<eval::FaultSpec> faults;
+  for (const std::string& f : a.faults)
+    faults.push_back(eval::parseFault(f));
+  eval::FaultRunner fault_runner(child, faults, clock, std::chrono::steady_clock::now());
+  std::vector<pid_t> hogs;
+  for (int i = 0; i < a.cpu_hogs; ++i)
+    hogs.push_back(eval::startCpuHog(a.duration + 10.0));
+  if (a.cpu_hogs > 0) std::fprintf(stderr, "%d CPU hog(s) running\n", a.cpu_hogs);
   int status = 0;
   for (;;) {
-    node.spinOnce(50);
+    node.spinOnce(faults.empty() ? 50 : 20);
+    fault_runner.poll();
     const pid_t done = waitpid(child, &status, WNOHANG);
     if (done == child) break;
     if (bus::stopSignalReceived()) kill(child, SIGTERM);
+  }
+  fault_runner.finish();
+  collector.faults = fault_runner.records();
+  for (const pid_t hog : hogs) {
+    if (hog <= 0) continue;
+    kill(hog, SIGKILL);
+    waitpid(hog, nullptr, 0);
   }
   for (int i = 0; i < 10; ++i)
     node.spinOnce(10);
@@ -381,12 +451,13 @@ std::string collectFromTeam(EvalArgs& a, Collector& collector, const Clock& cloc
 void writeCsvs(const eval::Summary& summary, const std::string& out_dir) {
   std::ofstream csv(out_dir + "/samples.csv");
   csv << "robot,t_s,x,y,phi,true_x,true_y,true_phi,pos_error_m,heading_error_rad,nees,status,"
-         "recovering,latency_ms\n";
+         "recovering,latency_ms,twin_ambiguous\n";
   for (const eval::Matched& m : summary.matched) {
     csv << fmt::format(
-        "{},{:.3f},{:.4f},{:.4f},{:.4f},{:.4f},{:.4f},{:.4f},{:.4f},{:.4f},{:.3f},{},{},{:.2f}\n",
+        "{},{:.3f},{:.4f},{:.4f},{:.4f},{:.4f},{:.4f},{:.4f},{:.4f},{:.4f},{:.3f},{},{},{:.2f},{}"
+        "\n",
         m.robot, m.t, m.x, m.y, m.phi, m.true_x, m.true_y, m.true_phi, m.pos_error, m.heading_error,
-        m.nees, m.status, m.recovering ? 1 : 0, m.latency_ms);
+        m.nees, m.status, m.recovering ? 1 : 0, m.latency_ms, m.twin_ambiguous ? 1 : 0);
   }
   std::ofstream balls(out_dir + "/balls.csv");
   balls << "robot,t_s,x,y,true_x,true_y,error_m,range_m\n";
@@ -394,6 +465,28 @@ void writeCsvs(const eval::Summary& summary, const std::string& out_dir) {
     balls << fmt::format("{},{:.3f},{:.4f},{:.4f},{:.4f},{:.4f},{:.4f},{:.3f}\n", b.robot, b.t, b.x,
                          b.y, b.true_x, b.true_y, b.error, b.range);
   }
+}
+
+// The robustness figures (faults.hpp): robustness.json and their lines.
+void reportRobustness(const EvalArgs& a, const Collector& collector, const eval::Summary& summary) {
+  Utime t0 = 0;
+  for (const eval::StateSample& s : collector.states)
+    t0 = t0 == 0 ? s.utime : std::min(t0, s.utime);
+  std::vector<eval::FaultEvent> events;
+  for (const eval::FaultRecord& r : collector.faults) {
+    events.push_back({r.spec, static_cast<double>(r.start_utime - t0) * 1e-6,
+                      static_cast<double>(r.end_utime - t0) * 1e-6, r.processes});
+  }
+  std::vector<int> robots;
+  for (const auto& [robot, hz] : summary.robot_state_hz)
+    robots.push_back(robot);
+  eval::Robustness r = eval::evaluateRobustness(summary, events, robots);
+  for (const auto& [robot, n] : collector.lines_count) {
+    const Utime span = collector.last_lines.at(robot) - collector.first_lines.at(robot);
+    if (n > 1 && span > 0) r.vision_lines_hz[robot] = static_cast<double>(n - 1) * 1e6 / span;
+  }
+  std::ofstream(a.out_dir + "/robustness.json") << eval::robustnessJson(r);
+  std::printf("%s\n", eval::robustnessLines(r).c_str());
 }
 
 // Scores what was collected, writes the files and prints the summary line(s).
@@ -419,6 +512,7 @@ int report(const EvalArgs& a, const Collector& collector, const std::string& sou
     std::fprintf(stderr, "no estimates or no truth to compare\n");
     return 1;
   }
+  reportRobustness(a, collector, summary);
   if (!collector.teams.empty()) {
     const eval::TeamBallSummary team_ball =
         eval::evaluateTeamBall(collector.truth, collector.balls, collector.teams);
@@ -430,6 +524,8 @@ int report(const EvalArgs& a, const Collector& collector, const std::string& sou
 
 int run(EvalArgs a) {
   spdlog::set_level(spdlog::level::from_str(a.log_level));
+  if (!a.log.empty() && (!a.faults.empty() || a.cpu_hogs > 0 || a.camera_fps > 0.0))
+    throw std::invalid_argument("--fault, --cpu-hog and --camera-fps need a live run, not --log");
   SystemClock clock;
   Collector collector;
   const std::string source =

@@ -1,0 +1,137 @@
+#include "tools/eval/fault_runner.hpp"
+
+#include <signal.h>
+#include <sys/prctl.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+namespace fieldline::eval {
+namespace {
+
+// The launch file's process name as its executable is called (fusion -> fieldline-fusion).
+std::string executableOf(const std::string& process) {
+  std::string name = "fieldline-" + process;
+  std::replace(name.begin(), name.end(), '_', '-');
+  return name;
+}
+
+int robotArgument(const std::vector<std::string>& argv) {
+  for (std::size_t i = 0; i + 1 < argv.size(); ++i)
+    if (argv[i] == "--robot") return std::atoi(argv[i + 1].c_str());
+  return -1;
+}
+
+}  // namespace
+
+std::vector<std::pair<pid_t, std::vector<std::string>>> launcherChildren(pid_t launcher) {
+  std::vector<std::pair<pid_t, std::vector<std::string>>> out;
+  std::error_code ec;
+  for (const auto& entry : std::filesystem::directory_iterator("/proc", ec)) {
+    const std::string name = entry.path().filename().string();
+    if (name.empty() || !std::all_of(name.begin(), name.end(), ::isdigit)) continue;
+    std::ifstream stat(entry.path() / "stat");
+    std::string text((std::istreambuf_iterator<char>(stat)), std::istreambuf_iterator<char>());
+    const auto close = text.rfind(')');
+    if (close == std::string::npos) continue;
+    std::istringstream fields(text.substr(close + 1));
+    std::string state;
+    pid_t parent = 0;
+    fields >> state >> parent;
+    if (parent != launcher || state == "Z") continue;
+    std::ifstream cmdline(entry.path() / "cmdline");
+    std::vector<std::string> argv;
+    std::string arg;
+    while (std::getline(cmdline, arg, '\0'))
+      argv.push_back(arg);
+    if (argv.empty()) continue;
+    out.emplace_back(static_cast<pid_t>(std::stol(name)), std::move(argv));
+  }
+  return out;
+}
+
+FaultRunner::FaultRunner(pid_t launcher, std::vector<FaultSpec> specs, const Clock& clock,
+                         std::chrono::steady_clock::time_point launched)
+    : launcher_(launcher), clock_(clock), launched_(launched) {
+  for (FaultSpec& s : specs)
+    pending_.push_back({std::move(s)});
+}
+
+FaultRunner::~FaultRunner() {
+  finish();
+}
+
+void FaultRunner::poll() {
+  const double elapsed =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - launched_).count();
+  for (Pending& p : pending_) {
+    if (!p.started && elapsed >= p.spec.at_s) {
+      p.started = true;
+      FaultRecord rec;
+      rec.spec = p.spec;
+      rec.start_utime = clock_.now();
+      const bool stall = p.spec.kind == FaultSpec::Kind::kStall;
+      const int signal = stall                                      ? SIGSTOP
+                         : p.spec.kind == FaultSpec::Kind::kRestart ? SIGTERM
+                                                                    : SIGKILL;
+      for (const auto& [pid, argv] : launcherChildren(launcher_)) {
+        const std::string exe = std::filesystem::path(argv[0]).filename().string();
+        const int robot = robotArgument(argv);
+        const bool match = stall ? (p.spec.robot == 0 || robot == p.spec.robot)
+                                 : exe == executableOf(p.spec.process) &&
+                                       (p.spec.robot == 0 || robot == p.spec.robot);
+        if (!match || ::kill(pid, signal) != 0) continue;
+        ++rec.processes;
+        if (stall) p.stopped.push_back(pid);
+      }
+      std::fprintf(stderr, "fault %s: %s %d process(es) at %.1f s\n", p.spec.text.c_str(),
+                   stall ? "stopped" : "signalled", rec.processes, elapsed);
+      if (!stall) {
+        rec.end_utime = rec.start_utime;
+        p.ended = true;
+      }
+      p.record = records_.size();
+      records_.push_back(rec);
+    }
+    if (p.started && !p.ended && elapsed >= p.spec.at_s + p.spec.duration_s) {
+      for (const pid_t pid : p.stopped)
+        ::kill(pid, SIGCONT);
+      p.stopped.clear();
+      p.ended = true;
+      records_[p.record].end_utime = clock_.now();
+      std::fprintf(stderr, "fault %s: continued at %.1f s\n", p.spec.text.c_str(), elapsed);
+    }
+  }
+}
+
+void FaultRunner::finish() {
+  for (Pending& p : pending_) {
+    if (!p.started || p.ended) continue;
+    for (const pid_t pid : p.stopped)
+      ::kill(pid, SIGCONT);
+    p.stopped.clear();
+    p.ended = true;
+    records_[p.record].end_utime = clock_.now();
+  }
+}
+
+pid_t startCpuHog(double seconds) {
+  const pid_t parent = ::getpid();
+  const pid_t pid = ::fork();
+  if (pid != 0) return pid;
+  ::prctl(PR_SET_PDEATHSIG, SIGKILL);
+  if (::getppid() != parent) ::_exit(0);
+  const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
+  volatile unsigned long spin = 0;
+  while (std::chrono::steady_clock::now() < end) {
+    for (int i = 0; i < 100000; ++i)
+      spin = spin + 1;
+  }
+  ::_exit(0);
+}
+
+}  // namespace fieldline::eval

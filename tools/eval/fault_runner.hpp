@@ -1,0 +1,62 @@
+// Carries out fieldline-eval's faults (faults.hpp) on the team a fieldline-launch runs: signals to
+// the launcher's own children, found in /proc by their executable and `--robot N` argument (only
+// this launcher's children: other runs on the machine are never touched), and a CPU hog.
+#pragma once
+
+#include <sys/types.h>
+
+#include <chrono>
+#include <string>
+#include <vector>
+
+#include "common/time/clock.hpp"
+#include "tools/eval/faults.hpp"
+
+namespace fieldline::eval {
+
+// A fault as it happened, on the true (system) clock.
+struct FaultRecord {
+  FaultSpec spec;
+  Utime start_utime = 0;
+  Utime end_utime = 0;
+  int processes = 0;
+};
+
+class FaultRunner {
+ public:
+  // `specs`' times count from `launched` (the launcher's start).
+  FaultRunner(pid_t launcher, std::vector<FaultSpec> specs, const Clock& clock,
+              std::chrono::steady_clock::time_point launched);
+  FaultRunner(const FaultRunner&) = delete;
+  FaultRunner& operator=(const FaultRunner&) = delete;
+  // Continues whatever is still stopped.
+  ~FaultRunner();
+  // Acts on every fault that is due; call often (every few tens of ms).
+  void poll();
+  // Continues every stalled process now (the run is ending).
+  void finish();
+  const std::vector<FaultRecord>& records() const { return records_; }
+
+ private:
+  struct Pending {
+    FaultSpec spec;
+    bool started = false;
+    bool ended = false;
+    std::vector<pid_t> stopped;
+    std::size_t record = 0;
+  };
+  pid_t launcher_;
+  const Clock& clock_;
+  std::chrono::steady_clock::time_point launched_;
+  std::vector<Pending> pending_;
+  std::vector<FaultRecord> records_;
+};
+
+// The launcher's live children as (pid, argv).
+std::vector<std::pair<pid_t, std::vector<std::string>>> launcherChildren(pid_t launcher);
+
+// A bounded busy loop on one core: a child process that spins until `seconds` have passed or
+// its parent dies, whichever is first. Returns its pid (-1: fork failed).
+pid_t startCpuHog(double seconds);
+
+}  // namespace fieldline::eval
