@@ -1,6 +1,7 @@
 // fieldline-teamcomm: the team link of one robot. Sends its ROBOT_STATE and BALL_STATE to the
 // teammates in authenticated UDP packets, receives theirs, estimates their clock offsets and
 // publishes the team picture as TEAM_STATE.
+#include <fmt/format.h>
 #include <net/if.h>
 #include <spdlog/spdlog.h>
 
@@ -71,6 +72,13 @@ int main(int argc, char** argv) {
     }
     const RobotClock clock = bus::robotClockFromEnvironment();
 
+    if (common.print_io) {
+      const std::string network =
+          cfg.udp.group.empty()
+              ? fmt::format("unicast port {} to {} peers", cfg.udp.port, cfg.udp.peers.size())
+              : fmt::format("{}:{}", cfg.udp.group, cfg.udp.port);
+      return bus::printIo(teamcomm::teamcommIo().link("udp", network, bus::Link::Direction::kBoth));
+    }
     if (common.check_args) {
       // The network interface is this process's device.
       if (!cfg.udp.interface.empty() && ::if_nametoindex(cfg.udp.interface.c_str()) == 0) {

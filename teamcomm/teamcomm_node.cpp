@@ -135,6 +135,15 @@ TeamcommNode::TeamcommNode(bus::Node& node, PacketLink& link, TeamcommOptions op
     node_.every(options_.poll_period_us, [this] { pollLink(); });
   }
   node_.every(static_cast<Utime>(1e6 / options_.publish_rate_hz), [this] { publishTeamState(); });
+  node_.declareIo(teamcommIo());
+}
+
+bus::ProcessIo teamcommIo() {
+  return bus::ProcessIo("teamcomm")
+      .reads(bus::channels::kRobotState)
+      .readsIfPresent(bus::channels::kBallState)
+      .readsIfPresent(bus::channels::kVisionObstacles)
+      .writes(bus::channels::kTeamState);
 }
 
 std::optional<OffsetEstimate> TeamcommNode::offset(int robot_id, Utime now) const {

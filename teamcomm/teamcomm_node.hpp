@@ -67,6 +67,10 @@ struct LinkCounters {
   std::int64_t rejectedTotal() const;
 };
 
+// The channels the team link reads and writes on its robot's bus (fieldline-teamcomm --print-io
+// adds the team network its main opens).
+bus::ProcessIo teamcommIo();
+
 class TeamcommNode {
  public:
   // Subscribes ROBOT_STATE, BALL_STATE and VISION_OBSTACLES on `node`'s bus and starts the send,

@@ -26,6 +26,9 @@ void CommonOptions::addTo(CLI::App& app) {
   app.add_flag("--check-args", check_args,
                "Parse the arguments and read the configuration, then exit: 0 when valid, 2 when "
                "not; starts nothing");
+  app.add_flag("--print-io", print_io,
+               "Print the channels this process reads and writes with these arguments (YAML), "
+               "then exit; starts nothing (fieldline-launch --graph draws them)");
 }
 
 void CommonOptions::resolve(const std::string& process) {

@@ -24,8 +24,12 @@ struct CommonOptions {
   // problem) before opening a bus, a device or a socket. The launcher's preflight runs every
   // child this way (tools/launch/preflight.hpp).
   bool check_args = false;
+  // --print-io: print the channels (and devices, links) this process reads and writes with these
+  // arguments, as YAML, then exit 0 before opening anything (common/bus/io.hpp); what
+  // `fieldline-launch --graph` draws.
+  bool print_io = false;
 
-  // Adds --robot, --bus-url, --sim-bus-url, --log-level and --check-args to `app`.
+  // Adds --robot, --bus-url, --sim-bus-url, --log-level, --check-args and --print-io to `app`.
   void addTo(CLI::App& app);
   // Fills the defaults and configures logging; call after parsing.
   void resolve(const std::string& process);

@@ -168,6 +168,42 @@ void Node::subscribeRaw(const std::string& channel, BusId bus, RawHandler handle
   subscriptions_.push_back(std::move(sub));
 }
 
+void Node::checkDeclaredInput(const std::string& channel) const {
+  if (io_ && !io_->readsChannel(channel)) {
+    throw std::logic_error(options_.process + " subscribes to " + channel +
+                           ", which its declaration (--print-io) does not list among its inputs");
+  }
+}
+
+bool Node::declaredOutput(const std::string& channel) {
+  if (!io_ || io_->writesChannel(channel)) return true;
+  reportError("undeclared_output",
+              channel + ": not among the outputs of " + options_.process + "'s declaration");
+  return false;
+}
+
+void Node::declareIo(ProcessIo io) {
+  // Both ways: every subscription declared, every required input subscribed (on some bus).
+  for (const auto& sub : subscriptions_) {
+    if (!sub->all && !io.readsChannel(sub->channel)) {
+      throw std::logic_error(options_.process + " subscribes to " + sub->channel +
+                             ", which its declaration (--print-io) does not list");
+    }
+  }
+  // Optional inputs may be subscribed later, when wanted (the viewer's camera streams).
+  for (const ChannelUse& input : io.inputs()) {
+    if (!input.required) continue;
+    const bool subscribed =
+        std::any_of(subscriptions_.begin(), subscriptions_.end(),
+                    [&](const auto& sub) { return sub->channel == input.channel; });
+    if (!subscribed) {
+      throw std::logic_error(options_.process + " declares the input " + input.channel +
+                             " but does not subscribe to it");
+    }
+  }
+  io_ = std::move(io);
+}
+
 void Node::subscribeAllRaw(
     std::function<void(const std::string& channel, const void* data, int size)> handler,
     BusId bus) {

@@ -37,6 +37,7 @@
 
 #include "common/bus/channels.hpp"
 #include "common/bus/checked_decode.hpp"
+#include "common/bus/io.hpp"
 #include "common/bus/status.hpp"
 #include "common/bus/urls.hpp"
 #include "common/bus/validate.hpp"
@@ -117,6 +118,7 @@ class Node {
                  std::type_identity_t<std::function<void(const Msg&)>> handler,
                  BusId bus = kPrimaryBus) {
     const std::string name(channel.name);
+    checkDeclaredInput(name);
     // The message object is reused, so big messages (images) decode without allocating; the
     // generated decoders are hardened to resize every array (cmake/harden_lcm_decode.py).
     subscribeRaw(name, bus,
@@ -143,6 +145,7 @@ class Node {
   template <typename Msg>
   bool publish(Channel<Msg> channel, Msg& msg, BusId bus = kPrimaryBus) {
     const std::string name(channel.name);
+    if (!declaredOutput(name)) return false;
     stampHeader(name, msg.header);
     if (auto problem = validate(msg)) {
       reportError("invalid_output", name + ": " + *problem);
@@ -201,6 +204,13 @@ class Node {
   void requireOutput(Channel<Msg> channel, double min_rate_hz) {
     status_.requireRate(std::string(channel.name), Direction::kOut, min_rate_hz);
   }
+  // What this process reads and writes (common/bus/io.hpp), declared after its subscriptions:
+  // throws std::logic_error when a subscription is not declared or a required input has none.
+  // From then on a subscription to an undeclared channel throws too, and a publication of an
+  // undeclared channel is counted as an "undeclared_output" error and not sent.
+  void declareIo(ProcessIo io);
+  const std::optional<ProcessIo>& io() const { return io_; }
+
   // The random id this node puts into header.publisher_id (drawn at construction).
   std::int64_t publisherId() const { return publisher_id_; }
 
@@ -236,6 +246,8 @@ class Node {
   };
 
   void subscribeRaw(const std::string& channel, BusId bus, RawHandler handler);
+  void checkDeclaredInput(const std::string& channel) const;
+  bool declaredOutput(const std::string& channel);
   bool publishRaw(const std::string& channel, const header_t& header, BusId bus);
   // Fills seq (without using it up), robot_id and utime_published.
   void stampHeader(const std::string& channel, header_t& header);
@@ -261,6 +273,7 @@ class Node {
   Utime next_status_;
   std::atomic<bool> stop_requested_{false};
   std::vector<std::pair<std::string, std::int64_t>> logged_errors_;
+  std::optional<ProcessIo> io_;
 };
 
 // Reads the header_t every fieldline message starts with, from encoded bytes of any type.

@@ -107,6 +107,7 @@ int runSim(bus::Node& node, const CameraConfig& config, const CameraAppOptions& 
            const bus::CommonOptions& common, bus::BusId frames_bus, PreviewPublisher& preview) {
   const bus::BusId sim_bus = node.addBus(common.sim_bus_url);
   SimCameraNode sim(node, sim_bus, config, options.field, options.raster_cache);
+  node.declareIo(cameraIo(options));
   sim.publishOn(frames_bus, &preview);
   std::optional<PipeDelivery> pipe;
   if (!options.to_pipe.empty()) {
@@ -196,6 +197,23 @@ void CameraAppOptions::addTo(CLI::App& app) {
                  "udpm://239.255.76.67:<7767+N>?ttl=0...)");
 }
 
+bus::ProcessIo cameraIo(const CameraAppOptions& options) {
+  bus::ProcessIo io("camera");
+  if (options.source == "sim") {
+    io.reads(bus::channels::kSimWorld);
+  } else {
+    const bool device = options.source == "v4l2" || options.source == "gstreamer";
+    io.link(device ? "camera" : options.source, options.input, bus::Link::Direction::kIn);
+  }
+  if (options.to_pipe.empty()) {
+    io.writes(bus::channels::kCameraImage);
+  } else {
+    io.link("pipe", options.to_pipe, bus::Link::Direction::kOut);
+  }
+  if (options.preview_rate > 0.0) io.writes(bus::channels::kCameraPreview);
+  return io;
+}
+
 int runCamera(const CameraAppOptions& options, const bus::CommonOptions& common) {
   CameraConfig config = loadCameraConfigPreset(options.preset);
   if (options.latency >= 0.0) config.pipeline.latency = options.latency;
@@ -216,6 +234,7 @@ int runCamera(const CameraAppOptions& options, const bus::CommonOptions& common)
                                              : options.replay_bus_url;
   }
   const RobotClock robot_clock = bus::robotClockFromEnvironment();
+  if (common.print_io) return bus::printIo(cameraIo(options));
   if (common.check_args) return device::reportProblems("camera", {sourceProblem(options)});
   // A log with kept stamps runs at the log's time: its first frame is due now.
   std::optional<OffsetClock> log_clock;
@@ -230,6 +249,7 @@ int runCamera(const CameraAppOptions& options, const bus::CommonOptions& common)
   const bus::BusId frames_bus = framesBus(node, bus_url);
   PreviewPublisher preview(node, options.preview_rate);
   if (options.source == "sim") return runSim(node, config, options, common, frames_bus, preview);
+  node.declareIo(cameraIo(options));
 
   bus::installStopSignals();
   std::unique_ptr<FrameSource> source;

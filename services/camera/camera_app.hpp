@@ -8,6 +8,7 @@
 #include <CLI/CLI.hpp>
 
 #include "common/bus/cli.hpp"
+#include "common/bus/io.hpp"
 
 namespace fieldline::camera {
 
@@ -65,5 +66,9 @@ struct CameraAppOptions {
 // std::runtime_error for a source that cannot be used (e.g. no --input), and when a finite source
 // published no frame. Returns the process's exit code.
 int runCamera(const CameraAppOptions& options, const bus::CommonOptions& common);
+
+// What the camera reads and writes with `options` (fieldline-camera --print-io): the simulator's
+// SIM_WORLD or a device, file or pipeline; CAMERA_IMAGE (or a named pipe) and CAMERA_PREVIEW.
+bus::ProcessIo cameraIo(const CameraAppOptions& options);
 
 }  // namespace fieldline::camera

@@ -21,6 +21,13 @@ FeatureNode::FeatureNode(bus::Node& node, const field::FieldModel& field, Recogn
   node_.requireInput(
       bus::channels::kVisionLines,
       bus::kRequiredRateFraction * bus::nominalRateHz(bus::channels::kVisionLines.name));
+  node_.declareIo(featureIo());
+}
+
+bus::ProcessIo featureIo() {
+  return bus::ProcessIo("feature_recognition")
+      .reads(bus::channels::kVisionLines)
+      .writes(bus::channels::kFieldFeatures);
 }
 
 void FeatureNode::onLines(const line_contours_t& m) {

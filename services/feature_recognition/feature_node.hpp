@@ -27,6 +27,9 @@
 
 namespace fieldline::feature_recognition {
 
+// What feature recognition reads and writes (fieldline-feature-recognition --print-io).
+bus::ProcessIo featureIo();
+
 class FeatureNode {
  public:
   // Subscribes VISION_LINES on `node`'s primary bus. `field` must outlive the node.

@@ -34,6 +34,7 @@ int main(int argc, char** argv) {
     common.resolve("feature_recognition");
     const field::FieldModel field = field::loadFieldPreset(field_name);
     const RobotClock clock = bus::robotClockFromEnvironment();
+    if (common.print_io) return bus::printIo(feature_recognition::featureIo());
     if (common.check_args) return 0;
     bus::installStopSignals();
     bus::Node node(

@@ -79,6 +79,7 @@ int runFusion(const FusionAppOptions& options, const bus::CommonOptions& common)
   const field::FieldModel field = field::loadFieldPreset(options.field);
   const FusionConfig config = resolveConfig(options, field);
   const robot::RobotParams robot = robot::loadRobotPreset(options.robot);
+  if (common.print_io) return bus::printIo(fusionIo());
   if (common.check_args) return 0;
 
   const LineMatcher matcher(field, config.matcher, options.grid_cache);

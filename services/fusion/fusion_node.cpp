@@ -56,6 +56,19 @@ FusionNode::FusionNode(bus::Node& node, FusionNodeOptions options, MatcherFuncti
   node_.subscribe(bus::channels::kTeamState, [this](const team_state_t& m) { onTeam(m); });
   node_.every(static_cast<Utime>(std::llround(1e6 / options_.ball_rate_hz)),
               [this] { publishBall(); });
+  node_.declareIo(fusionIo());
+}
+
+bus::ProcessIo fusionIo() {
+  return bus::ProcessIo("fusion")
+      .reads(bus::channels::kOdometry)
+      .reads(bus::channels::kVisionLines)
+      .readsIfPresent(bus::channels::kFieldFeatures)
+      .readsIfPresent(bus::channels::kVisionBall)
+      .readsIfPresent(bus::channels::kVisionObstacles)
+      .readsIfPresent(bus::channels::kTeamState)
+      .writes(bus::channels::kRobotState)
+      .writes(bus::channels::kBallState);
 }
 
 void FusionNode::onOdometry(const odometry_t& m) {

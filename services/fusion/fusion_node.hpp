@@ -36,6 +36,9 @@ struct FusionNodeOptions {
   double ball_rate_hz = 30.0;
 };
 
+// What fusion reads and writes (fieldline-fusion --print-io).
+bus::ProcessIo fusionIo();
+
 class FusionNode {
  public:
   // Subscribes on `node`'s primary bus; `matcher` is layer 2 (LineMatcher in the process).

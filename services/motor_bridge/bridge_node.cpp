@@ -29,6 +29,15 @@ BridgeNode::BridgeNode(bus::Node& node, const robot::RobotParams& params, Bridge
   node_.requireOutput(
       bus::channels::kOdometry,
       bus::kRequiredRateFraction * bus::nominalRateHz(bus::channels::kOdometry.name));
+  node_.declareIo(bridgeIo(config_.device));
+}
+
+bus::ProcessIo bridgeIo(const std::string& device) {
+  // Without commands the robot stands still, which is a job done.
+  return bus::ProcessIo("motor_bridge")
+      .readsIfPresent(bus::channels::kMotionCommand)
+      .writes(bus::channels::kOdometry)
+      .link("serial", device, bus::Link::Direction::kBoth);
 }
 
 BridgeNode::~BridgeNode() {

@@ -25,6 +25,10 @@
 
 namespace fieldline::motor_bridge {
 
+// What the motor bridge reads and writes with the controller on `device`
+// (fieldline-motor-bridge --print-io).
+bus::ProcessIo bridgeIo(const std::string& device);
+
 class BridgeNode {
  public:
   // Subscribes MOTION_COMMAND and sets the timers on `node`; opens the line with start().

@@ -41,6 +41,7 @@ int main(int argc, char** argv) {
     config.device = motor_bridge::deviceForRobot(config.device, common.robot);
 
     const RobotClock clock = bus::robotClockFromEnvironment();
+    if (common.print_io) return bus::printIo(motor_bridge::bridgeIo(config.device));
     // The serial device is there and usable (not opened: that resets many controllers).
     if (common.check_args) {
       return device::reportProblems("motor_bridge", {device::checkSerial(config.device)});

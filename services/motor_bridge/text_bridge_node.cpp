@@ -43,6 +43,14 @@ TextBridgeNode::TextBridgeNode(bus::Node& node, const robot::RobotParams& params
   node_.requireOutput(
       bus::channels::kOdometry,
       bus::kRequiredRateFraction * bus::nominalRateHz(bus::channels::kOdometry.name));
+  node_.declareIo(textBridgeIo(config_.device));
+}
+
+bus::ProcessIo textBridgeIo(const std::string& device) {
+  return bus::ProcessIo("text_bridge")
+      .readsIfPresent(bus::channels::kMotionCommand)
+      .writes(bus::channels::kOdometry)
+      .link("serial", device, bus::Link::Direction::kBoth);
 }
 
 TextBridgeNode::~TextBridgeNode() {

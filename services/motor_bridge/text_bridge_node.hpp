@@ -22,6 +22,10 @@
 
 namespace fieldline::motor_bridge {
 
+// What the text bridge reads and writes with the controller on `device`
+// (fieldline-text-bridge --print-io).
+bus::ProcessIo textBridgeIo(const std::string& device);
+
 class TextBridgeNode {
  public:
   // Subscribes MOTION_COMMAND and sets the timers on `node`; opens the line with start().

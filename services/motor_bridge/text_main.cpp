@@ -42,6 +42,7 @@ int main(int argc, char** argv) {
     config.device = motor_bridge::deviceForRobot(config.device, common.robot);
 
     const RobotClock clock = bus::robotClockFromEnvironment();
+    if (common.print_io) return bus::printIo(motor_bridge::textBridgeIo(config.device));
     if (common.check_args) return 0;
     bus::installStopSignals();
     bus::Node node({.process = "text_bridge", .robot_id = common.robot, .url = common.bus_url},

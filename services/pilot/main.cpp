@@ -48,6 +48,11 @@ int main(int argc, char** argv) {
     common.resolve("pilot");
     const robot::RobotParams params = robot::loadRobotPreset(robot_config);
     const RobotClock clock = bus::robotClockFromEnvironment();
+    const auto steer_by = steer == "truth" ? pilot::SteerBy::kTruth : pilot::SteerBy::kState;
+    if (common.print_io) {
+      return bus::printIo(
+          pilot::pilotIo(scenario_name.empty() ? std::nullopt : std::optional(steer_by)));
+    }
     if (scenario_name.empty()) {
       if (common.check_args) return 0;
       bus::installStopSignals();
@@ -59,7 +64,7 @@ int main(int argc, char** argv) {
     if (common.check_args) return 0;
     bus::installStopSignals();
     bus::Node node({.process = "pilot", .robot_id = common.robot, .url = common.bus_url}, clock);
-    options.steer = steer == "truth" ? pilot::SteerBy::kTruth : pilot::SteerBy::kState;
+    options.steer = steer_by;
     if (options.steer == pilot::SteerBy::kTruth) options.sim_bus = node.addBus(common.sim_bus_url);
     pilot::PilotNode pilot_node(node, std::move(pilot), options);
     return node.run();

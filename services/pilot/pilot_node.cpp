@@ -40,6 +40,18 @@ PilotNode::PilotNode(bus::Node& node, Pilot pilot, PilotNodeOptions options)
         bus::channels::kRobotState,
         bus::kRequiredRateFraction * bus::nominalRateHz(bus::channels::kRobotState.name));
   }
+  node_.declareIo(pilotIo(options_.steer));
+}
+
+bus::ProcessIo pilotIo(std::optional<SteerBy> driving) {
+  bus::ProcessIo io("pilot");
+  if (!driving) return io;
+  if (*driving == SteerBy::kTruth) {
+    io.reads(bus::channels::kSimWorld);
+  } else {
+    io.reads(bus::channels::kRobotState);
+  }
+  return io.writes(bus::channels::kMotionCommand);
 }
 
 void PilotNode::onWorld(const world_state_t& w) {
@@ -108,6 +120,7 @@ void PilotNode::sendCommand() {
 }
 
 void holdStill(bus::Node& node) {
+  node.declareIo(pilotIo(std::nullopt));
   spdlog::info("holding still (no --scenario): no MOTION_COMMAND is sent");
   node.setMetric("holding", 1.0);
 }

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 
 #include <fieldline/motion_command_t.hpp>
 #include <fieldline/robot_state_t.hpp>
@@ -26,6 +27,10 @@ struct PilotNodeOptions {
   // How long each command stays valid (its deadline) [s].
   double command_lifetime = 0.1;
 };
+
+// What the pilot reads and writes: steering by `steer` when it drives a scenario, nothing at
+// all when it holds still (fieldline-pilot --print-io).
+bus::ProcessIo pilotIo(std::optional<SteerBy> driving);
 
 class PilotNode {
  public:

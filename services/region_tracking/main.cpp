@@ -65,6 +65,7 @@ int main(int argc, char** argv) {
     }
 
     const RobotClock clock = bus::robotClockFromEnvironment();
+    if (common.print_io) return bus::printIo(region_tracking::trackingIo());
     if (common.check_args) return 0;
     bus::installStopSignals();
     bus::Node node({.process = "region_tracking", .robot_id = common.robot, .url = common.bus_url},

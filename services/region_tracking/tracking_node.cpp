@@ -33,6 +33,16 @@ TrackingNode::TrackingNode(bus::Node& node, TrackingNodeOptions options)
   node_.requireInput(
       bus::channels::kCameraImage,
       bus::kRequiredRateFraction * bus::nominalRateHz(bus::channels::kCameraImage.name));
+  node_.declareIo(trackingIo());
+}
+
+bus::ProcessIo trackingIo() {
+  return bus::ProcessIo("region_tracking")
+      .reads(bus::channels::kCameraImage)
+      .readsIfPresent(bus::channels::kRobotState)
+      .writes(bus::channels::kVisionLines)
+      .writes(bus::channels::kVisionBall)
+      .writes(bus::channels::kVisionObstacles);
 }
 
 void TrackingNode::onRobotState(const robot_state_t& state) {

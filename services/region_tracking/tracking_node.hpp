@@ -51,6 +51,9 @@ struct TrackingNodeOptions {
   bool report_processing_time = true;
 };
 
+// What region tracking reads and writes (fieldline-region-tracking --print-io).
+bus::ProcessIo trackingIo();
+
 class TrackingNode {
  public:
   // Subscribes CAMERA_IMAGE on `node`'s primary bus. Throws std::invalid_argument for

@@ -61,6 +61,7 @@ int main(int argc, char** argv) {
   return bus::runMain("world_sim", [&] {
     common.resolve("world_sim");
     const auto scenario = scenario::loadScenarioPreset(scenario_name);
+    if (common.print_io) return bus::printIo(world_sim::worldSimIo(scenario, options.pty_dir));
     if (common.check_args) return 0;
     SystemClock clock;
     bus::installStopSignals();

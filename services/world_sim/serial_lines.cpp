@@ -6,6 +6,10 @@
 
 namespace fieldline::world_sim {
 
+std::string serialLinkPath(const std::string& pty_dir, int robot_id) {
+  return pty_dir + "/robot" + std::to_string(robot_id) + ".tty";
+}
+
 SerialLines::SerialLines(const World& world, std::string pty_dir)
     : sample_period_(1.0 / world.robotParams().odometry_rate),
       controller_latency_(world.robotParams().controller_latency),
@@ -19,7 +23,7 @@ SerialLines::SerialLines(const World& world, std::string pty_dir)
     // Each controller has its own clock, started at a different moment.
     line.firmware = std::make_unique<FirmwareEmulator>(
         world.robotParams(), static_cast<std::uint64_t>(line.robot_id) * 7'000'000ULL);
-    line.link_path = pty_dir + "/robot" + std::to_string(line.robot_id) + ".tty";
+    line.link_path = serialLinkPath(pty_dir, line.robot_id);
     line.pty = std::make_unique<PseudoTerminal>(line.link_path);
     line.next_sample = sample_period_;
     spdlog::info("robot {}: serial line {} -> {}", line.robot_id, line.link_path,

@@ -22,6 +22,9 @@
 
 namespace fieldline::world_sim {
 
+// The path of robot `robot_id`'s serial link in `pty_dir`: <pty_dir>/robot<N>.tty.
+std::string serialLinkPath(const std::string& pty_dir, int robot_id);
+
 class SerialLines {
  public:
   // Seconds before a pty that could not be reopened is tried again.

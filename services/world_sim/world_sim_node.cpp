@@ -37,6 +37,16 @@ WorldSimNode::WorldSimNode(bus::Node& node, const scenario::Scenario& scenario,
         std::max<Utime>(1000, std::llround(options_.snapshot_period_s * kMicrosPerSecond));
     node_.every(period_us, [this] { writeSnapshot(); });
   }
+  node_.declareIo(worldSimIo(scenario, options_.pty_dir));
+}
+
+bus::ProcessIo worldSimIo(const scenario::Scenario& scenario, const std::string& pty_dir) {
+  bus::ProcessIo io("world_sim");
+  io.writes(bus::channels::kSimWorld);
+  // The motor controllers' side of each robot's serial line (a firmware emulator each).
+  for (const scenario::RobotSpec& robot : scenario.robots)
+    io.link("serial", serialLinkPath(pty_dir, robot.id), bus::Link::Direction::kBoth);
+  return io;
 }
 
 std::string supervisorIdentity() {

@@ -38,6 +38,10 @@ struct WorldSimNodeOptions {
 // one launcher restarts its children and change with a new run; empty when /proc is unreadable.
 std::string supervisorIdentity();
 
+// What the simulator reads and writes: SIM_WORLD and a serial line per robot of `scenario`
+// (fieldline-world-sim --print-io).
+bus::ProcessIo worldSimIo(const scenario::Scenario& scenario, const std::string& pty_dir);
+
 class WorldSimNode {
  public:
   // Simulated time 0 is the node's clock now, or, when options.state_file holds a recent

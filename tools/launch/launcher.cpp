@@ -19,6 +19,7 @@
 #include "common/bus/node.hpp"
 #include "common/config/config.hpp"
 #include "tools/launch/bus_route.hpp"
+#include "tools/launch/graph.hpp"
 #include "tools/launch/preflight.hpp"
 #include "tools/launch/status_board.hpp"
 #include "tools/launch/supervisor.hpp"
@@ -308,6 +309,7 @@ int Launcher::printDryRun(const std::vector<std::string>& problems) const {
 
 int Launcher::run() {
   plan();
+  if (options_.graph) return printGraph();
   const std::vector<std::string> problems = preflight();
   if (options_.dry_run) return printDryRun(problems);
   if (!problems.empty()) {
@@ -318,6 +320,23 @@ int Launcher::run() {
     return kExitBadLaunch;
   }
   return supervise();
+}
+
+int Launcher::printGraph() const {
+  std::vector<std::string> problems = checkExecutables(file_, plan_, bin_dir_);
+  // Nothing starts, so a loaded machine may take its time (a camera loads OpenCV and GStreamer).
+  const LaunchGraph graph = queryGraph(plan_, {.timeout_s = 120.0, .parallel = 4});
+  problems.insert(problems.end(), graph.problems.begin(), graph.problems.end());
+  std::printf("# %s: %zu processes for %d robots\n", path_.c_str(), plan_.instances.size(),
+              team_size_);
+  for (const std::string& s : graph.skipped)
+    std::printf("# %s: not built, left out\n", s.c_str());
+  std::printf("%s", formatGraph(graph.nodes).c_str());
+  std::fflush(stdout);
+  for (const std::string& p : problems)
+    std::fprintf(stderr, "fieldline-launch: error: %s\n", p.c_str());
+  if (!problems.empty()) return kExitBadLaunch;
+  return missingWriters(graph.nodes).empty() ? 0 : kExitProcessFailed;
 }
 
 int Launcher::supervise() {

@@ -34,6 +34,9 @@ struct LauncherOptions {
   bool no_table = false;
   // Check and print the plan, start nothing.
   bool dry_run = false;
+  // Print what every process reads and writes (their --print-io) and whether every required
+  // input has a writer; start nothing.
+  bool graph = false;
   // Seconds between compact status lines.
   double status_period_s = 5;
   // Before starting, run one instance of every entry with --check-args (--dry-run runs every
@@ -67,6 +70,8 @@ class Launcher {
   // Problems found by the checks (also printed), empty when everything may start.
   std::vector<std::string> preflight() const;
   int printDryRun(const std::vector<std::string>& problems) const;
+  // --graph: 0, 1 (a required input without a writer) or 2 (a process did not answer).
+  int printGraph() const;
   int supervise();
 
   LauncherOptions options_;

@@ -55,6 +55,10 @@ int main(int argc, char** argv) {
   app.add_flag("--dry-run", options.dry_run,
                "Check the launch file and every child's arguments (--check-args), print the "
                "command lines and exit: 0, or 2 with the problems");
+  app.add_flag("--graph", options.graph,
+               "Print the data flow: every process with the channels it reads and writes (its "
+               "own declaration, --print-io), per bus, and the links outside LCM; exit 0 when "
+               "every required input has a writer in the launch, 1 when not; starts nothing");
   app.add_flag(
       "--skip-check-args", skip_check_args,
       "Start without running one instance of each entry with --check-args first (--dry-run "

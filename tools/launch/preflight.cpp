@@ -68,12 +68,12 @@ struct Check {
   bool timed_out = false;
 };
 
-// Starts `instance` with --check-args; output (stdout and stderr) into a pipe.
-Check startCheck(const LaunchInstance& instance, double timeout_s) {
+// Starts `instance` with `option` appended; output (stdout and stderr) into a pipe.
+Check startCheck(const LaunchInstance& instance, const char* option, double timeout_s) {
   Check check;
   check.instance = &instance;
   std::vector<std::string> words = instance.argv;
-  words.emplace_back(kCheckArgsOption);
+  words.emplace_back(option);
   std::vector<char*> argv;
   for (std::string& w : words)
     argv.push_back(w.data());
@@ -143,9 +143,11 @@ void readAvailable(Check& check) {
 }
 
 // The problem a finished check reports, or "" when the arguments were accepted.
-std::string verdict(const Check& check, int wait_status) {
-  const std::string who = check.instance->label();
+std::string verdict(const LaunchInstance& instance, const ChildAnswer& check) {
+  const std::string who = instance.label();
   const std::string output = lastLines(check.output, 3);
+  const int wait_status = check.wait_status;
+  if (check.failed_to_start) return who + ": " + check.output;
   if (check.timed_out) {
     return fmt::format(
         "{}: no answer to {} within the time limit (does it start instead of "
@@ -194,8 +196,20 @@ std::vector<std::string> checkExecutables(const LaunchFile& file, const LaunchPl
 
 std::vector<std::string> checkArguments(const std::vector<LaunchInstance>& instances,
                                         const PreflightOptions& options) {
-  // Problems in the order of the instances (the checks end in any order).
-  std::map<const LaunchInstance*, std::string> found;
+  std::vector<std::string> problems;
+  for (const auto& [instance, answer] : askChildren(instances, kCheckArgsOption, options)) {
+    if (std::string problem = verdict(*instance, answer); !problem.empty()) {
+      problems.push_back(std::move(problem));
+    }
+  }
+  return problems;
+}
+
+std::vector<std::pair<const LaunchInstance*, ChildAnswer>> askChildren(
+    const std::vector<LaunchInstance>& instances, const char* option,
+    const PreflightOptions& options) {
+  // Answers in the order of the instances (the children end in any order).
+  std::map<const LaunchInstance*, ChildAnswer> found;
   std::vector<const LaunchInstance*> queue;
   for (const LaunchInstance& i : instances) {
     if (!i.path.empty()) queue.push_back(&i);
@@ -205,9 +219,9 @@ std::vector<std::string> checkArguments(const std::vector<LaunchInstance>& insta
   while (next < queue.size() || !running.empty()) {
     while (next < queue.size() &&
            static_cast<int>(running.size()) < std::max(1, options.parallel)) {
-      Check check = startCheck(*queue[next++], options.timeout_s);
+      Check check = startCheck(*queue[next++], option, options.timeout_s);
       if (check.pid < 0) {
-        found[check.instance] = check.instance->label() + ": " + check.output;
+        found[check.instance] = {.wait_status = 0, .failed_to_start = true, .output = check.output};
         continue;
       }
       running.push_back(std::move(check));
@@ -234,17 +248,17 @@ std::vector<std::string> checkArguments(const std::vector<LaunchInstance>& insta
       }
       readAvailable(*it);
       if (it->fd >= 0) ::close(it->fd);
-      if (std::string problem = verdict(*it, status); !problem.empty()) {
-        found[it->instance] = std::move(problem);
-      }
+      found[it->instance] = {
+          .wait_status = status, .timed_out = it->timed_out, .output = std::move(it->output)};
       it = running.erase(it);
     }
   }
-  std::vector<std::string> problems;
+  std::vector<std::pair<const LaunchInstance*, ChildAnswer>> answers;
   for (const LaunchInstance& i : instances) {
-    if (auto it = found.find(&i); it != found.end()) problems.push_back(std::move(it->second));
+    if (auto it = found.find(&i); it != found.end())
+      answers.emplace_back(&i, std::move(it->second));
   }
-  return problems;
+  return answers;
 }
 
 }  // namespace fieldline::launch

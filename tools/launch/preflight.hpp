@@ -34,4 +34,22 @@ std::vector<std::string> checkExecutables(const LaunchFile& file, const LaunchPl
 std::vector<std::string> checkArguments(const std::vector<LaunchInstance>& instances,
                                         const PreflightOptions& options = {});
 
+// How a child run with one option appended ended.
+struct ChildAnswer {
+  // As waitpid() reports it.
+  int wait_status = 0;
+  // It could not be started (fork or pipe failed): `output` says why.
+  bool failed_to_start = false;
+  // Killed at PreflightOptions::timeout_s.
+  bool timed_out = false;
+  // Its stdout and stderr (the last 16 kB).
+  std::string output;
+};
+
+// Runs every built instance's command line with `option` appended (--check-args, --print-io),
+// `options.parallel` at a time; the answers in the order of the instances.
+std::vector<std::pair<const LaunchInstance*, ChildAnswer>> askChildren(
+    const std::vector<LaunchInstance>& instances, const char* option,
+    const PreflightOptions& options = {});
+
 }  // namespace fieldline::launch

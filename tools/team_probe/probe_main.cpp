@@ -136,7 +136,8 @@ int main(int argc, char** argv) {
                    clock);
     std::ofstream out(o.out_path);
     node.subscribe(bus::channels::kTeamState, [&](const team_state_t& m) {
-      out << teamStateLine(msg::fromMessage(m), system_clock.now());
+      // Flushed: tests wait for what the probe heard while it runs.
+      out << teamStateLine(msg::fromMessage(m), system_clock.now()) << std::flush;
     });
     std::map<std::string, std::int64_t> errors;
     std::map<std::string, double> metrics;
@@ -152,9 +153,12 @@ int main(int argc, char** argv) {
         if (static_cast<unsigned char>(c) >= 0x20) reason += c;
       }
       out << fmt::format("{{\"status_t\":{},\"state\":{},\"reason\":\"{}\",\"errors\":{}}}\n",
-                         system_clock.now(), m.state, reason, object(errors));
+                         system_clock.now(), m.state, reason, object(errors))
+          << std::flush;
     });
     node.every(20'000, [&] { publishEstimates(node, pose, ball); });
+    // SIGTERM ends it as --duration does: with the final line.
+    bus::installStopSignals();
     node.at(node.now() + static_cast<Utime>(o.duration_s * 1e6), [&] { node.requestStop(); });
     node.run();
     out << fmt::format("{{\"final\":1,\"errors\":{},\"metrics\":{}}}\n", object(errors),

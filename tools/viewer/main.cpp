@@ -29,6 +29,11 @@ int main(int argc, char** argv) {
 
   return bus::runMain("viewer", [&] {
     const field::FieldModel field = field::loadFieldPreset(cli.field);
+    if (cli.common.print_io) {
+      return bus::printIo(viewer::viewerIo(cli.viewer)
+                              .link("http", cli.web.address + ":" + std::to_string(cli.web.port),
+                                    bus::Link::Direction::kOut));
+    }
     if (cli.common.check_args) return 0;
     SystemClock clock;
     bus::installStopSignals();

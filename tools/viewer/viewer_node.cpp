@@ -79,6 +79,25 @@ ViewerNode::ViewerNode(bus::Node& node, ViewerOptions options, WebServer& server
     keepStatuses(node_, id, view);
   }
   node_.every(static_cast<Utime>(1e6 / options_.rate_hz), [this] { tick(); });
+  node_.declareIo(viewerIo(options_));
+}
+
+bus::ProcessIo viewerIo(const ViewerOptions& options) {
+  bus::ProcessIo io("viewer");
+  if (options.sim) io.readsIfPresent(bus::channels::kSimWorld);
+  if (!options.robots.empty()) {
+    io.readsFromEveryRobot(bus::channels::kRobotState)
+        .readsFromEveryRobot(bus::channels::kBallState)
+        .readsFromEveryRobot(bus::channels::kTeamState)
+        .readsFromEveryRobot(bus::channels::kVisionLines)
+        .readsFromEveryRobot(bus::channels::kVisionBall)
+        .readsFromEveryRobot(bus::channels::kCameraImage)
+        .readsFromEveryRobot(bus::channels::kCameraPreview);
+  }
+  if (options.sim || !options.robots.empty()) {
+    io.readsFromEveryRobot(bus::channels::kServiceStatus);
+  }
+  return io;
 }
 
 void ViewerNode::watchCamera(int robot) {

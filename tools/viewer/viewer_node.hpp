@@ -37,6 +37,10 @@ struct ViewerOptions {
 // the first robot's, unless bus_url says otherwise.
 std::string viewerPrimaryUrl(const ViewerOptions& options);
 
+// What the viewer reads: every watched robot's estimates, vision, statuses and camera streams
+// (subscribed when a page shows them), and the simulator's truth (fieldline-viewer --print-io).
+bus::ProcessIo viewerIo(const ViewerOptions& options);
+
 class ViewerNode {
  public:
   // `node`'s primary bus must be viewerPrimaryUrl(options).

@@ -118,7 +118,10 @@ def main():
         wait_for("a new world_sim", lambda: (child_pid(launcher.pid, "fieldline-world-sim") or old) != old, 30)
         wait_for("SIM_WORLD after the restart",
                  lambda: any(r[0] > kill_utime + 20_000 for r in poses(recording)), 30)
-        time.sleep(1.0)
+        # The launcher's log has the new simulator's word on its snapshot (checked below).
+        log.flush()
+        wait_for("the restarted simulator's 'resumed the world'",
+                 lambda: "resumed the world" in (out / "launch.log").read_text(), 30)
     finally:
         dump.send_signal(signal.SIGINT)
         dump.wait(timeout=10)

@@ -40,16 +40,48 @@ start() {
 step() {
   kill -TERM "$(cat "$out/teamcomm1.pid")" "$(cat "$out/probe1.pid")"
   echo "$(date +%s%6N) $1 $3" >> "$out/steps"
-  start 1 $1 $2 10 $3
+  start 1 $1 $2 120 $3
 }
-start 2 0 "" 40 2.0
-start 3 0 "" 40 3.0
-start 1 0 a 8 1.0
-sleep 8; step 2000000 b 1.1
-sleep 10; step 0 c 1.2
-sleep 10; step -2000000 d 1.3
-sleep 12
-kill -TERM $(cat "$out/teamcomm.pids") 2>/dev/null
+# seen X: both teammates heard robot 1 present, with a fresh pose at x = X (its newest processes),
+# and one more status of their team link after that (the reasons the analysis reads).
+seen() {
+  python3 - "$out" "$1" <<'PY'
+import json, sys
+out, x = sys.argv[1], float(sys.argv[2])
+for robot in (2, 3):
+    back, status_after = None, False
+    try:
+        lines = open(f"{out}/probe{robot}.jsonl").read().splitlines()
+    except OSError:
+        sys.exit(1)
+    for line in lines:
+        try:
+            d = json.loads(line)
+        except ValueError:
+            continue
+        if back is None and "present" in d and d["present"][0] and d["age"][0] < 200_000 \
+                and abs(d["x"][0] - x) < 0.05:
+            back = d["t"]
+        if back is not None and d.get("status_t", 0) > back + 1_000_000:
+            status_after = True
+    if not status_after:
+        sys.exit(1)
+PY
+}
+. "$root/tests/integration/lib/wait.sh"
+start 2 0 "" 120 2.0
+start 3 0 "" 120 3.0
+start 1 0 a 120 1.0
+# Each step comes once the teammates have robot 1 back (generous bounds: the analysis below
+# judges the 5 s).
+wait_for 60 "robot 1 seen by its teammates at the start" seen 1.0
+step 2000000 b 1.1
+wait_for 30 "robot 1 back after the +2 s step" seen 1.1
+step 0 c 1.2
+wait_for 30 "robot 1 back after the -2 s step" seen 1.2
+step -2000000 d 1.3
+wait_for 30 "robot 1 back after the second -2 s step" seen 1.3
+kill -TERM $(cat "$out/teamcomm.pids") $(cat "$out/probe"*.pid) 2>/dev/null
 wait
 EOF
 

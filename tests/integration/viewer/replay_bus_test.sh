@@ -12,22 +12,37 @@ out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT
 ns="unshare -n"
 unshare -n true 2>/dev/null || ns="unshare -rn"
-FIELDLINE_ROOT="$root" $ns bash -c "
-  ip link set lo up; ip link set lo multicast on; ip route add 224.0.0.0/4 dev lo
-  for mode in live --replay-bus; do
-    flag=\$([ \$mode = live ] || echo --replay-bus)
-    '$viewer' --no-sim --robots 1 --port 8099 \$flag > '$out/viewer_'\$mode.log 2>&1 &
-    v=\$!
-    get() { python3 -c \"import sys, urllib.request; sys.stdout.write(urllib.request.urlopen('http://127.0.0.1:8099/' + sys.argv[1], timeout=5).read().decode())\" \"\$1\"; }
-    for i in \$(seq 50); do get '' > /dev/null 2>&1 && break; sleep 0.1; done
-    lcm-logplayer -l 'udpm://239.255.76.67:7668?ttl=0' '$root/tests/data/recordings/main_9085e4b/robot1.lcm' \
-        > /dev/null 2>&1 &
-    p=\$!
-    sleep 2.5
-    get state.json > '$out/state_'\$mode.json
-    kill \$p \$v; wait \$v
-  done
-"
+FIELDLINE_ROOT="$root" $ns bash -s "$viewer" "$root" "$out" <<'EOF'
+set -u
+viewer=$1 root=$2 out=$3
+. "$root/tests/integration/lib/wait.sh"
+ip link set lo up; ip link set lo multicast on; ip route add 224.0.0.0/4 dev lo
+get() {
+  python3 -c "import sys, urllib.request; sys.stdout.write(urllib.request.urlopen('http://127.0.0.1:8099/' + sys.argv[1], timeout=5).read().decode())" "$1"
+}
+# shown: the viewer's state has robot 1's ROBOT_STATE.
+shown() {
+  get state.json | python3 -c "import json, sys; sys.exit(json.load(sys.stdin)['robots'][0]['robot_state'] is None)"
+}
+for mode in live --replay-bus; do
+  flag=$([ $mode = live ] || echo --replay-bus)
+  "$viewer" --no-sim --robots 1 --port 8099 $flag > "$out/viewer_$mode.log" 2>&1 &
+  v=$!
+  wait_for 30 "the viewer's page" get ''
+  lcm-logplayer -l 'udpm://239.255.76.67:7668?ttl=0' "$root/tests/data/recordings/main_9085e4b/robot1.lcm" \
+    > /dev/null 2>&1 &
+  p=$!
+  if [ $mode = live ]; then
+    # The live viewer has heard the recording's ROBOT_STATE and refused it as stale.
+    wait_for 30 "the live viewer refusing a stale ROBOT_STATE" \
+      grep -q "stale .*ROBOT_STATE: utime_published" "$out/viewer_$mode.log"
+  else
+    wait_for 30 "the replay viewer showing ROBOT_STATE" shown
+  fi
+  get state.json > "$out/state_$mode.json"
+  kill $p $v; wait $v
+done
+EOF
 python3 - "$out" <<'PY'
 import json, sys
 out = sys.argv[1]
