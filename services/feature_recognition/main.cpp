@@ -2,6 +2,8 @@
 // circle, the penalty-area corners, L-corners, T-junctions and straight lines in every
 // VISION_LINES message and publishes them with the field poses they imply as FIELD_FEATURES,
 // stamped with the same exposure time.
+#include <iostream>
+
 #include <spdlog/spdlog.h>
 #include <CLI/CLI.hpp>
 
@@ -10,6 +12,7 @@
 #include "common/bus/robot_clock.hpp"
 #include "common/field/field_model.hpp"
 #include "services/feature_recognition/feature_node.hpp"
+#include "services/feature_recognition/settings.hpp"
 
 using namespace fieldline;
 
@@ -23,6 +26,16 @@ int main(int argc, char** argv) {
   std::string field_name = "msl";
   app.add_option("--field", field_name, "Field preset (msl, fu2004) or YAML file")
       ->capture_default_str();
+  std::string config_name = "default";
+  app.add_option("--config", config_name,
+                 "Settings: preset name (config/feature_recognition/NAME.yaml), YAML path or none "
+                 "(the code's defaults)")
+      ->capture_default_str();
+  bool print_config = false;
+  bool print_settings_table = false;
+  app.add_flag("--print-config", print_config, "Print the settings in effect as YAML and exit");
+  app.add_flag("--print-settings-table", print_settings_table,
+               "Print every setting's key, default, unit, range and why as Markdown and exit");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -33,13 +46,23 @@ int main(int argc, char** argv) {
   return bus::runMain("feature_recognition", [&] {
     common.resolve("feature_recognition");
     const field::FieldModel field = field::loadFieldPreset(field_name);
+    const feature_recognition::RecognitionParams params =
+        feature_recognition::loadRecognitionPreset(config_name);
+    if (print_settings_table) {
+      std::cout << feature_recognition::recognitionSettingsMarkdown();
+      return 0;
+    }
+    if (print_config) {
+      std::cout << feature_recognition::recognitionConfigYaml(params);
+      return 0;
+    }
     const RobotClock clock = bus::robotClockFromEnvironment();
     if (common.print_io) return bus::printIo(feature_recognition::featureIo());
     if (common.check_args) return 0;
     bus::installStopSignals();
     bus::Node node(
         {.process = "feature_recognition", .robot_id = common.robot, .url = common.bus_url}, clock);
-    feature_recognition::FeatureNode features(node, field);
+    feature_recognition::FeatureNode features(node, field, params);
     spdlog::info("recognising features on field {}", field.name());
     return node.run();
   });

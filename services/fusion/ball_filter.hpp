@@ -20,9 +20,9 @@ struct BallFilterParams {
   // Deceleration of a rolling ball, m/s^2.
   double rolling_deceleration = 0.4;
   // Unseen acceleration (kicks, bounces), white-noise density, m/s^1.5.
-  double acceleration_density = 3.0;
+  double acceleration_density = 0.3;
   // The estimate is invalid after this long without a sighting, s.
-  double max_age_s = 1.0;
+  double max_age_s = 0.5;
   // Squared Mahalanobis distance (2 dof) beyond which a sighting is an outlier.
   double gate2 = 13.8;
   // After this many outliers in a row the ball has moved for real (kicked, put back): restart.
@@ -34,7 +34,7 @@ struct BallFilterParams {
   double sighting_floor_m = 0.0;
   // An outlier makes the estimate invalid until a sighting agrees again or the filter restarts
   // (the ball was kicked or bounced: where the filter thinks it is, it is not).
-  bool invalid_after_outlier = false;
+  bool invalid_after_outlier = true;
   // A confident sighting (radial and tangential sigmas at most `restart_max_sigma_m`) further
   // than this from the prediction restarts the filter at it at once: the ball was put somewhere
   // else or bounced off a robot, and the sighting is better than the old estimate. 0: off, m.
@@ -47,7 +47,7 @@ struct BallFilterParams {
   // prediction; otherwise (it only makes the estimate invalid, invalid_after_outlier), and for
   // starting the filter or a frame without the ball (unseen_range_m), it is refused
   // (kPoseUnconfirmed). 0: off, s.
-  double pose_max_unconfirmed_s = 0.0;
+  double pose_max_unconfirmed_s = 0.15;
   // BallTracker: the pose is confirmed only when the next accepted correction after the sighting
   // (within pose_max_unconfirmed_s) moved the heading by at most this, rad.
   double pose_max_correction_rad = 0.1;
@@ -55,27 +55,27 @@ struct BallFilterParams {
   // (those at most `pair_max_age_s` older) and the restarting sighting gives the velocity, if
   // the sightings lie on it and it is at most `pair_max_speed` m/s: the ball rolls on as they say
   // instead of starting from rest (a kick, a bounce). false: restart at rest.
-  bool velocity_from_pair = false;
+  bool velocity_from_pair = true;
   // Velocity standard deviation of a filter (re)started at rest: a ball just kicked or bounced
   // may roll at several m/s, and the next sighting must not be an outlier for that, m/s.
   double restart_speed_sigma = 2.0;
   double pair_max_age_s = 0.25;
   // Sightings (the row's and the restarting one) the path needs; from 3 on, they must lie on
   // it (two sightings always make a path, a false one included).
-  int fit_min_sightings = 2;
+  int fit_min_sightings = 3;
   double pair_max_speed = 12.0;
   // The omni camera sees all around: `unseen_frames` frames in a row without the ball while the
   // estimate lies within `unseen_range_m` of the robot make the estimate invalid until a sighting
   // agrees or the filter restarts (the ball was put back or kicked away out of sight; a ball
   // hidden behind a robot is not reported meanwhile). 0: off, m.
-  double unseen_range_m = 0.0;
-  int unseen_frames = 3;
+  double unseen_range_m = 6.0;
+  int unseen_frames = 2;
   // BallTracker: a frame is fused again with the robot's newest pose for its time until it is
   // this old (0: fused once, at the first estimate after it arrived), s.
-  double settle_s = 0.0;
+  double settle_s = 0.3;
   // BallTracker: the pose at a frame's time takes the next line frame's correction into account
   // (`smoothedPose`), once that frame has arrived.
-  bool smooth_pose = false;
+  bool smooth_pose = true;
 };
 
 enum class BallRejection : std::uint8_t {

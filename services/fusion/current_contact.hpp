@@ -22,7 +22,7 @@ namespace fieldline::fusion {
 
 struct CurrentContactParams {
   // Force at a wheel beyond what its acceleration explains that counts as slipping [N]; 0: off.
-  double force_threshold_n = 0.0;
+  double force_threshold_n = 10.0;
   // Consecutive samples beyond the threshold before a contact is reported (the carpet's random
   // slip rarely lasts two samples, a push does).
   int samples = 2;

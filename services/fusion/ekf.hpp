@@ -98,18 +98,18 @@ struct PoseMeasurement {
 // limits the pose covariance grows by `inflation` times the innovation's square per axis and the
 // measurement is applied; beyond them it is refused by the gate as usual.
 struct SlipModel {
-  double max_m = 0.5;
-  double max_rad = 0.5;
+  double max_m = 1.0;
+  double max_rad = 1.2;
   // ... instead of max_rad while the heading comes from the gyro (EkfState::gyro): it sees a
   // twist, so a frame whose heading disagrees beyond this is a wrong match, not a slip.
-  double max_rad_gyro = 0.5;
+  double max_rad_gyro = 1.2;
   // A slip is a movement, and a movement takes time: since the state's last accepted correction
   // the pose cannot have slipped farther than base_m + max_speed * elapsed (a push by an
   // opponent at 3 m/s, wheels spinning against an obstacle). A frame whose disagreement is
   // beyond that, 33 ms after the last correction, is a wrong match (an aliased line 1 m away),
   // not a slip. max_speed 0: no time bound (max_m alone), m/s, m.
-  double max_speed = 0.0;
-  double base_m = 0.0;
+  double max_speed = 4.0;
+  double base_m = 0.15;
   // The time bound: how far the pose of `s` may have slipped by `utime` since its last accepted
   // correction, m (infinite without max_speed or before any correction).
   double reachBy(const EkfState& s, Utime utime) const {
@@ -126,7 +126,7 @@ struct SlipModel {
   // a single frame's heading error of several degrees (2 % of the frames of a recorded match,
   // uncorrelated from frame to frame) no longer turns the gyro's heading, and its position still
   // counts, also as a slip (which then widens the position only). 0: off.
-  double gyro_heading_chi2 = 0.0;
+  double gyro_heading_chi2 = 9.0;
 };
 
 // Contact with another robot, as the robot's own camera tells it (an obstacle's near edge close to
@@ -139,13 +139,13 @@ struct ContactModel {
   double distance_m = 0.0;
   // How long one such frame keeps the robot in contact, µs (the touching obstacle disappears
   // into the mirror's blind centre once it touches).
-  Utime hold_us = 400'000;
+  Utime hold_us = 50'000;
   // Extra position and heading noise while in contact, m/sqrt(s) and rad/sqrt(s).
-  double position_density = 0.0;
-  double heading_density = 0.0;
+  double position_density = 0.3;
+  double heading_density = 1.5;
   // The heading's extra noise in contact when the heading comes from the gyro, which sees the
   // twist the wheels miss (what is left: saturation, the stamps), rad/sqrt(s).
-  double gyro_heading_density = 0.0;
+  double gyro_heading_density = 0.3;
 };
 
 // A push (docs/fusion.md, "Contact"): an opponent carries a touching robot at up to 3 m/s,
@@ -157,17 +157,17 @@ struct ContactModel {
 // after the frame carry the push on. density 0: off (the push stays at zero and changes nothing).
 struct PushModel {
   // Random walk of the push velocity while in contact, m/s per sqrt(s).
-  double density = 0.0;
+  double density = 8.0;
   // Decay time constants in and out of contact, s (> 0).
   double contact_decay_s = 0.5;
-  double free_decay_s = 0.1;
+  double free_decay_s = 0.03;
   // The push's speed is held within this after each prediction (opponents drive at most 3 m/s;
   // a push learnt from a wrong frame must not run away), m/s. 0: no bound.
-  double max_speed = 0.0;
+  double max_speed = 3.5;
   // Only frames tell the push: once the state's last accepted correction is older than this, the
   // push decays as outside contact (a robot whose frames are refused or searched, twisted in a
   // collision, ran off at the push's speed for metres), µs. 0: no limit.
-  Utime unconfirmed_us = 0;
+  Utime unconfirmed_us = 150'000;
 };
 
 struct UpdateResult {

@@ -4,8 +4,10 @@
 
 #include <spdlog/spdlog.h>
 
+#include <iostream>
 #include "common/bus/node.hpp"
 #include "common/bus/robot_clock.hpp"
+
 #include "common/config/config.hpp"
 #include "common/field/field_model.hpp"
 #include "common/robot/robot_params.hpp"
@@ -53,9 +55,11 @@ void FusionAppOptions::addTo(CLI::App& app) {
   app.add_option("--field", field, "Field preset (msl, fu2004) or YAML path")
       ->capture_default_str();
   app.add_option("--robot-config", robot, "Robot preset name or YAML path")->capture_default_str();
-  app.add_option("--config", config,
-                 "Fusion settings: preset name (config/fusion/NAME.yaml) or YAML path; the options "
-                 "below override it where given")
+  app.add_option(
+         "--config", config,
+         "Fusion settings: preset name (config/fusion/NAME.yaml), YAML path or none (the code's "
+         "defaults); the options "
+         "below override it where given")
       ->capture_default_str();
   app.add_option("--grid-cache", grid_cache,
                  "Directory for the distance grid cache (empty string: none)")
@@ -73,11 +77,23 @@ void FusionAppOptions::addTo(CLI::App& app) {
   addOverride(app, "--ball-max-age", ball_max_age_s,
               "The ball is invalid after this long unseen, s")
       ->check(CLI::Range(0.05, 60.0));
+  app.add_flag("--print-config", print_config,
+               "Print the settings in effect (--config and the options above) as YAML and exit");
+  app.add_flag("--print-settings-table", print_settings_table,
+               "Print every setting's key, default, unit, range and why as Markdown and exit");
 }
 
 int runFusion(const FusionAppOptions& options, const bus::CommonOptions& common) {
   const field::FieldModel field = field::loadFieldPreset(options.field);
   const FusionConfig config = resolveConfig(options, field);
+  if (options.print_settings_table) {
+    std::cout << fusionSettingsMarkdown();
+    return 0;
+  }
+  if (options.print_config) {
+    std::cout << fusionConfigYaml(config);
+    return 0;
+  }
   const robot::RobotParams robot = robot::loadRobotPreset(options.robot);
   if (common.print_io) return bus::printIo(fusionIo());
   if (common.check_args) return 0;

@@ -27,9 +27,13 @@ struct FusionAppOptions {
   std::optional<double> window_s;
   std::optional<double> ball_rate_hz;
   std::optional<double> ball_max_age_s;
+  // Print the settings in effect as YAML (--print-config) or the settings' reference table as
+  // Markdown (--print-settings-table) and exit.
+  bool print_config = false;
+  bool print_settings_table = false;
 
   // Adds --field, --robot-config, --config, --grid-cache, --matcher, --start-prior, --window,
-  // --ball-rate and --ball-max-age to `app`.
+  // --ball-rate, --ball-max-age, --print-config and --print-settings-table to `app`.
   void addTo(CLI::App& app);
 };
 

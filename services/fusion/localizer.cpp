@@ -16,6 +16,25 @@ bool near(const geometry::Pose2& a, const geometry::Pose2& b, double d_m, double
          std::abs(geometry::angleDiff(a.phi, b.phi)) <= d_rad;
 }
 
+// Two search hypotheses this close are one place (the better-fitting is kept): within the
+// coarse grid's half step (search_step_m 0.5) and about a heading step (24 per turn: 0.26 rad).
+constexpr double kSamePlaceM = 0.4;
+constexpr double kSamePlaceRad = 0.3;
+// At a commit, a hypothesis this close to the best (or to its twin) is that minimum found again
+// from another seed, not a rival place that fits about as well.
+constexpr double kSameMinimumM = 0.5;
+constexpr double kSameMinimumRad = 0.35;
+// A pose distance for choosing between a pose and its twin: mostly position (a robot carried
+// off is often turned as well, rarely moved half a field), a radian counting as 0.2 m, as in
+// twin_margin_m.
+constexpr double kMetresPerRadian = 0.2;
+double poseDistance(const geometry::Pose2& a, const geometry::Pose2& b) {
+  return std::hypot(a.x - b.x, a.y - b.y) +
+         kMetresPerRadian * std::abs(geometry::angleDiff(a.phi, b.phi));
+}
+// A feature hypothesis with a position sigma above this is too vague to contradict the estimate.
+constexpr double kContradictMaxSigmaM = 0.3;
+
 TimedChannelLimits deadReckoningLimits() {
   TimedChannelLimits limits;
   // Ten seconds of 50 Hz odometry: hypotheses are moved over at most that, and the continuity
@@ -302,9 +321,6 @@ void Localizer::trackLines(std::span<const perception::LinePoint> points, Utime 
       // Frames that match the field well but disagree with an overconfident filter (a slip the
       // odometry did not see): after a few in a row, the frames are right.
       const geometry::Pose2 twin = symmetricTwin(guess->pose());
-      const auto poseDistance = [](const geometry::Pose2& a, const geometry::Pose2& b) {
-        return std::hypot(a.x - b.x, a.y - b.y) + 0.2 * std::abs(geometry::angleDiff(a.phi, b.phi));
-      };
       if (r.rejection == Rejection::kGated && gated_in_row_ + 1 >= params_.gated_frames_reset &&
           poseDistance(c.pose, twin) < poseDistance(c.pose, guess->pose())) {
         // The frames say the robot stands nearer the estimate's symmetric twin: that is no slip
@@ -380,7 +396,7 @@ void Localizer::becomeLost(Utime utime) {
 
 void Localizer::addHypothesis(const Hypothesis& h) {
   for (Hypothesis& other : hypotheses_) {
-    if (near(other.pose, h.pose, 0.4, 0.3)) {
+    if (near(other.pose, h.pose, kSamePlaceM, kSamePlaceRad)) {
       if (h.frames > 0 && h.meanCost() < other.meanCost()) other = h;
       return;
     }
@@ -538,8 +554,8 @@ void Localizer::searchLines(std::span<const perception::LinePoint> points, Utime
   const geometry::Pose2 twin_pose = symmetricTwin(best.pose);
   for (std::size_t i = 1; i < hypotheses_.size(); ++i) {
     const Hypothesis& h = hypotheses_[i];
-    if (near(h.pose, best.pose, 0.5, 0.35)) continue;
-    if (near(h.pose, twin_pose, 0.5, 0.35)) {
+    if (near(h.pose, best.pose, kSameMinimumM, kSameMinimumRad)) continue;
+    if (near(h.pose, twin_pose, kSameMinimumM, kSameMinimumRad)) {
       if (!twin) twin = &h;
       continue;
     }
@@ -565,13 +581,8 @@ Localizer::Hypothesis Localizer::resolveTwin(const Hypothesis& h, const Hypothes
   if (reference_) {
     // Continuity: the pose before the loss, carried by odometry to now.
     const geometry::Pose2 ref = geometry::applyMovement(reference_->pose, *motion);
-    // Mostly position: a robot carried off is often turned as well, rarely moved half a field.
-    const auto distance = [&](const geometry::Pose2& p) {
-      return std::hypot(p.x - ref.x, p.y - ref.y) +
-             0.2 * std::abs(geometry::angleDiff(p.phi, ref.phi));
-    };
-    const double dh = distance(h.pose);
-    const double dt = distance(mirrored.pose);
+    const double dh = poseDistance(h.pose, ref);
+    const double dt = poseDistance(mirrored.pose, ref);
     // The reference is only as good as the filter was at the loss.
     const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> es(
         reference_->covariance.topLeftCorner<2, 2>());
@@ -581,7 +592,7 @@ Localizer::Hypothesis Localizer::resolveTwin(const Hypothesis& h, const Hypothes
         std::max({params_.twin_margin_m, params_.twin_margin_sigmas * sigma, reference_->unseen_m});
     ambiguous_ = std::abs(dh - dt) < margin;
     if (ambiguous_) ++counters_.ambiguous_commits;
-    return distance(h.pose) <= distance(mirrored.pose) ? h : mirrored;
+    return dh <= dt ? h : mirrored;
   }
   ambiguous_ = true;
   ++counters_.ambiguous_commits;
@@ -750,7 +761,7 @@ void Localizer::processFeatures(const perception::FieldFeatures& features, Utime
     }
     const double d = std::min(std::hypot(ph.pose.x - e.x, ph.pose.y - e.y),
                               std::hypot(-ph.pose.x - e.x, -ph.pose.y - e.y));
-    if (d <= params_.contradict_m || ph.sigma_xy > 0.3) all_far = false;
+    if (d <= params_.contradict_m || ph.sigma_xy > kContradictMaxSigmaM) all_far = false;
   }
   bool fused = false;
   if (likeliest) {

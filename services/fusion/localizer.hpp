@@ -131,16 +131,16 @@ struct LocalizerParams {
   // the points are few, unevenly spread or partly mismatched): the Hessian's covariance times
   // `correction_inflation`, plus floors, plus standard deviations that grow with the frame's
   // matching cost (a frame that fits worse is trusted less), m and rad.
-  double correction_floor_m = 0.02;
-  double correction_floor_rad = 0.01;
-  double correction_inflation = 1.0;
+  double correction_floor_m = 0.008;
+  double correction_floor_rad = 0.015;
+  double correction_inflation = 0.6;
   // Added position sigma per metre of mean matching cost (1), heading sigma per metre (rad/m).
   double correction_cost_gain = 0.0;
   double correction_cost_gain_rad = 0.0;
   // Uncertainty of a frame's stamp, s: its pose is the one the robot had up to this much before
   // or after, so the covariance grows by this squared times (vx, vy, omega)(vx, vy, omega)^T at
   // the frame's time (frames taken while turning fast are several degrees off more often).
-  double correction_stamp_sigma_s = 0.0;
+  double correction_stamp_sigma_s = 0.008;
   // Uncertainty of a pose committed after global localization (start-up, kidnap): the
   // hypothesis's covariance floored by these, m and rad.
   double commit_sigma_m = 0.05;
@@ -149,7 +149,7 @@ struct LocalizerParams {
   // odometry stamp's uncertainty times the velocity (a pose at the wrong instant), m, rad, s.
   double state_floor_m = 0.0;
   double state_floor_rad = 0.0;
-  double stamp_sigma_s = 0.0;
+  double stamp_sigma_s = 0.003;
   // No VISION_LINES for this long: status ODOMETRY_ONLY, µs.
   Utime vision_timeout_us = 1'000'000;
   // TRACKING promises a pose to steer on: while the reported position uncertainty (the largest
@@ -180,10 +180,10 @@ struct LocalizerParams {
   // turned by multiples of local_search_step_rad, up to this many each side, and the best good
   // correction is taken at once as a slip; 0: off. With `twist_search_always` every such frame is
   // searched, contact seen or not.
-  int contact_search_steps = 0;
-  bool twist_search_always = false;
+  int contact_search_steps = 3;
+  bool twist_search_always = true;
   // The search also while the heading comes from the gyro (which sees a twist).
-  bool twist_search_with_gyro = false;
+  bool twist_search_with_gyro = true;
   // Frames with fewer points are not searched (a few points fit some heading by chance).
   std::size_t contact_search_min_points = 30;
   // Contact evidence from the motor currents in ODOMETRY (current_contact.hpp); off by default.

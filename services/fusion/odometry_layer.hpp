@@ -30,11 +30,11 @@ struct OdometryNoise {
   // Wheel slip as white noise on each wheel's contact speed, relative to that speed, 1/sqrt(s):
   // a wheel that rolls d metres in dt seconds is off by density * d / sqrt(dt) (one sigma). The
   // error of a short step is large relative to its length, and averages out over longer ones.
-  double wheel_slip_density = 0.02;
+  double wheel_slip_density = 0.017;
   // Random rotation rate while driving, rad/s per m/s of speed, as white noise (1/sqrt(s)).
   double rotation_slip_density = 0.01;
   // Extra translation noise per metre driven, m/m (floor, carpet seams).
-  double translation_sigma_per_m = 0.02;
+  double translation_sigma_per_m = 0.025;
   // Extra heading noise per radian turned and per metre driven, rad/rad and rad/m.
   double rotation_sigma_per_rad = 0.02;
   double rotation_sigma_per_m = 0.01;
@@ -52,7 +52,7 @@ struct OdometryNoise {
   double gyro_max_rate = 0.0;
   // Extra white noise on the gyro's heading increments beyond its data sheet (stamp jitter,
   // the simulator's twist between rate samples), rad/sqrt(s).
-  double gyro_heading_density = 0.0;
+  double gyro_heading_density = 0.03;
 };
 
 // One odometry sample as the controller sends it (the few fields of odometry_t fusion needs).

@@ -540,7 +540,7 @@ TableCheck checkTable(const camera::MirrorModel& mirror, const field::FieldModel
                       const std::vector<camera::FrameView>& frames,
                       const camera::ColourTable& table, const ImageFitParams& params) {
   TableCheck check;
-  const fusion::LineMatcher matcher(field, fusion::MatcherParams{});
+  const fusion::LineMatcher matcher(field, fusion::withCalibratedCamera({}));
   std::vector<double> whiteY, greenY;
   long within = 0, total = 0;
   for (std::size_t f = 0; f < frames.size(); ++f) {

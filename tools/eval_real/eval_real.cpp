@@ -182,7 +182,7 @@ void runLinePoints(const config::Node& root, CaseResult& r) {
       missing.push_back(fs::path(name).stem().string());
       continue;
     }
-    const fusion::LineMatcher matcher(*model, fusion::MatcherParams{});
+    const fusion::LineMatcher matcher(*model, fusion::withCalibratedCamera({}));
     for (const fusion::PoseCorrection& c : matcher.globalSearch(lines.points)) {
       std::vector<double> d;
       int near = 0;

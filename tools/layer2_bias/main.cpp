@@ -294,7 +294,7 @@ int main(int argc, char** argv) {
   }
   try {
     rt::SimCamera sim = loadCamera(o);
-    const fusion::LineMatcher matcher(sim.field, fusion::MatcherParams{}, o.grid_cache);
+    const fusion::LineMatcher matcher(sim.field, fusion::withCalibratedCamera({}), o.grid_cache);
     if (o.map) return runMap(o, sim, matcher);
     if (!o.pose.empty()) return runPose(o, sim, matcher);
     std::fprintf(stderr, "either --map or --pose\n");

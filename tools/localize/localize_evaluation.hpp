@@ -61,7 +61,7 @@ struct LocalizeEvalOptions {
   double guess_m = 0.3;
   double guess_rad = 0.17;
   bool global = false;
-  fusion::MatcherParams matcher;
+  fusion::MatcherParams matcher = fusion::withCalibratedCamera({});
 };
 
 struct FrameResult {

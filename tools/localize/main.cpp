@@ -219,7 +219,7 @@ int main(int argc, char** argv) {
       fields.push_back(fieldline::field::loadFieldPreset(name));
     const fieldline::perception::LinePoints points =
         fieldline::fusion::readLinePointsCsvFile(points_path, units == "mm" ? 0.001 : 1.0);
-    fieldline::fusion::MatcherParams params;
+    fieldline::fusion::MatcherParams params = fieldline::fusion::withCalibratedCamera({});
     params.method = method == "force_field" ? fieldline::fusion::MatchMethod::kForceField
                                             : fieldline::fusion::MatchMethod::kRobustLeastSquares;
     std::optional<Pose2> guess;

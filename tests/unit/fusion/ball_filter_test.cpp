@@ -2,6 +2,7 @@
 // time, a rolling ball is followed and slows down, bad sightings are refused, and an unseen ball
 // ages out.
 #include "services/fusion/ball_filter.hpp"
+#include "tests/unit/fusion/bare_params.hpp"
 
 #include <cmath>
 #include <numbers>
@@ -40,7 +41,7 @@ TEST(BallFilter, FollowsTheRobotOntoItsTwin) {
   // The robot's pose was moved to its symmetric twin: the ball fused with the old poses moves
   // through the centre spot too, velocity and all, and the next sightings (with the new pose)
   // agree with it.
-  BallFilter filter;
+  BallFilter filter(test::bareBall());
   std::mt19937 rng(3);
   const geometry::Pose2 robot{-2.0, 1.0, 0.5};
   Utime t = kStart;
@@ -64,7 +65,7 @@ TEST(BallFilter, FollowsTheRobotOntoItsTwin) {
 }
 
 TEST(BallFilter, FollowsARollingBallInTheFieldFrame) {
-  BallFilter filter;
+  BallFilter filter(test::bareBall());
   std::mt19937 rng(1);
   const geometry::Pose2 robot{1.0, -2.0, 2.0};
   geometry::Vec2 ball(2.0, 0.0);
@@ -93,7 +94,9 @@ TEST(BallFilter, FollowsARollingBallInTheFieldFrame) {
 }
 
 TEST(BallFilter, RefusesBadSightingsAndAgesOut) {
-  BallFilter filter({.max_age_s = 0.5});
+  BallFilterParams aged = test::bareBall();
+  aged.max_age_s = 0.5;
+  BallFilter filter(aged);
   std::mt19937 rng(2);
   const geometry::Pose2 robot{0.0, 0.0, 0.0};
   const geometry::Vec2 ball(1.0, 1.0);
@@ -123,7 +126,7 @@ TEST(BallFilter, RefusesBadSightingsAndAgesOut) {
 }
 
 TEST(BallFilter, RestartsWhenTheBallReallyMoved) {
-  BallFilter filter;
+  BallFilter filter(test::bareBall());
   std::mt19937 rng(3);
   const geometry::Pose2 robot{0.0, 0.0, 0.5};
   for (int k = 0; k < 5; ++k) {
@@ -141,7 +144,7 @@ TEST(BallFilter, RestartsWhenTheBallReallyMoved) {
 }
 
 TEST(BallFilter, AnOutlierMakesTheEstimateInvalidUntilASightingAgrees) {
-  BallFilterParams params;
+  BallFilterParams params = test::bareBall();
   params.invalid_after_outlier = true;
   std::mt19937 rng(4);
   const geometry::Pose2 robot{0.0, 0.0, 0.5};
@@ -158,7 +161,7 @@ TEST(BallFilter, AnOutlierMakesTheEstimateInvalidUntilASightingAgrees) {
   EXPECT_EQ(seen(kicked, 5, {-2.0, 1.0}), BallRejection::kOutlier);
   EXPECT_FALSE(kicked.estimate(kStart + 5 * 33'333).valid);
   // Without the setting the outlier leaves it valid (the old behaviour).
-  BallFilter lenient;
+  BallFilter lenient(test::bareBall());
   for (int k = 0; k < 5; ++k)
     seen(lenient, k, {1.0, 0.0});
   EXPECT_EQ(seen(lenient, 5, {-2.0, 1.0}), BallRejection::kOutlier);
@@ -166,7 +169,7 @@ TEST(BallFilter, AnOutlierMakesTheEstimateInvalidUntilASightingAgrees) {
 }
 
 TEST(BallFilter, FramesThatShouldHaveSeenTheBallMakeItInvalid) {
-  BallFilterParams params;
+  BallFilterParams params = test::bareBall();
   params.unseen_range_m = 6.0;
   params.unseen_frames = 2;
   std::mt19937 rng(6);
@@ -190,7 +193,7 @@ TEST(BallFilter, FramesThatShouldHaveSeenTheBallMakeItInvalid) {
   for (int k = 8; k < 12; ++k)
     f.missed(tick(k), robotAt(far, tick(k)));
   EXPECT_TRUE(f.estimate(tick(11)).valid);
-  BallFilter off;
+  BallFilter off(test::bareBall());
   for (int k = 0; k < 5; ++k)
     off.update(sightingOf({2.0, 1.0}, robot, tick(k), rng), robotAt(robot, tick(k)));
   for (int k = 5; k < 9; ++k)
@@ -199,7 +202,7 @@ TEST(BallFilter, FramesThatShouldHaveSeenTheBallMakeItInvalid) {
 }
 
 TEST(BallFilter, AConfidentSightingFarFromThePredictionRestartsAtIt) {
-  BallFilterParams params;
+  BallFilterParams params = test::bareBall();
   params.invalid_after_outlier = true;
   params.restart_distance_m = 0.5;
   std::mt19937 rng(5);
@@ -226,7 +229,7 @@ TEST(BallFilter, AConfidentSightingFarFromThePredictionRestartsAtIt) {
 }
 
 TEST(BallFilter, ARestartAfterOutliersTakesTheVelocityOfThePair) {
-  BallFilterParams params;
+  BallFilterParams params = test::bareBall();
   params.invalid_after_outlier = true;
   params.restart_after_outliers = 2;
   params.velocity_from_pair = true;
@@ -275,7 +278,7 @@ TEST(BallFilter, ARestartAfterOutliersTakesTheVelocityOfThePair) {
 TEST(BallFilter, ABallStartedAtRestLearnsItsVelocityWhenItRolls) {
   // The friction model has no velocity terms at rest; the covariance must not inherit that, or a
   // ball (re)started at rest could not be followed once it rolls: its sightings were outliers.
-  BallFilterParams params;
+  BallFilterParams params = test::bareBall();
   params.acceleration_density = 1.0;
   BallFilter f(params);
   const geometry::Pose2 robot{0.0, 0.0, 0.0};
@@ -305,7 +308,7 @@ TEST(BallFilter, ABallStartedAtRestLearnsItsVelocityWhenItRolls) {
 }
 
 TEST(BallFilter, ARestartFitsItsVelocityThroughTheRowOfOutliersOnlyWhenTheyAgree) {
-  BallFilterParams params;
+  BallFilterParams params = test::bareBall();
   params.restart_after_outliers = 3;
   params.velocity_from_pair = true;
   const geometry::Pose2 robot{0.0, 0.0, 0.0};
@@ -348,7 +351,7 @@ TEST(BallFilter, SightingsWithAPoseNotConfirmedLatelyAreRefused) {
   const geometry::Pose2 estimated{0.0, 0.0, 0.0};
   const geometry::Pose2 twisted{0.0, 0.0, 1.0};  // the true pose during the twist
   auto run = [&](double max_unconfirmed_s, int& refused) {
-    BallFilterParams params;
+    BallFilterParams params = test::bareBall();
     params.pose_max_unconfirmed_s = max_unconfirmed_s;
     params.invalid_after_outlier = true;
     params.unseen_range_m = 6.0;
@@ -395,7 +398,7 @@ TEST(BallFilter, SightingsWithAPoseNotConfirmedLatelyAreRefused) {
 }
 
 TEST(BallFilter, AnUnconfirmedPoseNeitherStartsNorContradicts) {
-  BallFilterParams params;
+  BallFilterParams params = test::bareBall();
   params.pose_max_unconfirmed_s = 0.15;
   params.invalid_after_outlier = true;
   BallFilter f(params);

@@ -11,6 +11,7 @@
 #include <gtest/gtest.h>
 
 #include "common/geometry/geometry.hpp"
+#include "tests/unit/fusion/bare_params.hpp"
 
 namespace fieldline::fusion {
 namespace {
@@ -41,7 +42,7 @@ perception::BallSighting sightingOf(const geometry::Vec2& ball, const geometry::
 }
 
 TEST(BallTracker, ASightingIsFusedAgainWithTheNewerPoseUntilItSettles) {
-  BallFilterParams params;
+  BallFilterParams params = test::bareBall();
   params.settle_s = 0.3;
   BallTracker tracker(params);
   const geometry::Pose2 truth{0.0, 0.0, 0.0};
@@ -69,8 +70,8 @@ TEST(BallTracker, ASightingIsFusedAgainWithTheNewerPoseUntilItSettles) {
 }
 
 TEST(BallTracker, WithoutSettlingEachFrameIsFusedOnceAsTheFilterWould) {
-  BallTracker tracker;  // settle_s 0
-  BallFilter filter;
+  BallTracker tracker(test::bareBall());  // settle_s 0
+  BallFilter filter(test::bareBall());
   const geometry::Pose2 robot{1.0, -2.0, 2.0};
   const PoseAt pose_at = [&](Utime t) { return std::optional<EkfState>(robotAt(robot, t)); };
   for (int k = 0; k < 20; ++k) {
@@ -89,7 +90,7 @@ TEST(BallTracker, WithoutSettlingEachFrameIsFusedOnceAsTheFilterWould) {
 }
 
 TEST(BallTracker, LateFramesWithinTheWindowGiveTheInOrderResult) {
-  BallFilterParams params;
+  BallFilterParams params = test::bareBall();
   params.settle_s = 0.5;
   BallTracker in_order(params);
   BallTracker shuffled(params);
@@ -114,7 +115,7 @@ TEST(BallTracker, LateFramesWithinTheWindowGiveTheInOrderResult) {
 }
 
 TEST(BallTracker, RefusesBadFramesAtOnceAndCountsCommittedRefusals) {
-  BallTracker tracker;
+  BallTracker tracker(test::bareBall());
   perception::BallSighting nan = sightingOf({1.0, 1.0}, {}, kStart);
   nan.x = std::nan("");
   EXPECT_EQ(tracker.add(nan), BallRejection::kNotFinite);
@@ -140,7 +141,7 @@ TEST(BallTracker, RefusesBadFramesAtOnceAndCountsCommittedRefusals) {
 // Frames whose pose was not confirmed by a line correction lately are counted when they are
 // committed, the visible and the unseen ones apart, and change nothing.
 TEST(BallTracker, CountsFramesWithAnUnconfirmedPose) {
-  BallFilterParams params;
+  BallFilterParams params = test::bareBall();
   params.pose_max_unconfirmed_s = 0.05;
   params.invalid_after_outlier = true;
   params.unseen_range_m = 6.0;
@@ -181,7 +182,7 @@ TEST(BallTracker, ASightingIsConfirmedOnlyWhenTheNextCorrectionHardlyTurns) {
     return std::optional<EkfState>(s);
   };
   auto run = [&](double max_turn_rad) {
-    BallFilterParams params;
+    BallFilterParams params = test::bareBall();
     params.pose_max_unconfirmed_s = 0.15;
     params.pose_max_correction_rad = max_turn_rad;
     params.invalid_after_outlier = true;

@@ -127,9 +127,11 @@ TEST(CurrentContact, BadCurrentsAreRefusedAndRestartTheHistory) {
   EXPECT_FALSE(detector.add(d.next(0.5, 0.0, huge)).contact);
 }
 
-TEST(CurrentContact, OffByDefaultAndBadSettingsAreRefused) {
+TEST(CurrentContact, OffAtZeroForceAndBadSettingsAreRefused) {
   Drive d;
-  CurrentContactDetector off(d.robot, CurrentContactParams{});
+  CurrentContactParams zero;
+  zero.force_threshold_n = 0.0;
+  CurrentContactDetector off(d.robot, zero);
   EXPECT_FALSE(off.enabled());
   for (int k = 0; k < 8; ++k)
     EXPECT_FALSE(off.add(d.next(0.5, 0.0, 30.0)).contact);

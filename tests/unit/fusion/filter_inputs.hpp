@@ -16,6 +16,7 @@
 #include "services/fusion/history.hpp"
 #include "services/fusion/localizer.hpp"
 #include "services/fusion/odometry_layer.hpp"
+#include "tests/unit/fusion/bare_params.hpp"
 
 namespace fieldline::fusion::filter_inputs {
 
@@ -58,7 +59,7 @@ struct Input {
 // odometry carries a gyro rotation with a bias of 0.004 rad/s.
 inline std::vector<Input> makeInputs(std::mt19937& rng, bool gyro = false) {
   const auto p = params();
-  OdometryLayer layer(p);
+  OdometryLayer layer(p, test::bareOdometry());
   std::array<double, 4> rem{};
   robot::TickCounts ticks{0, 0, 0};
   layer.update({kStart, ticks, false});

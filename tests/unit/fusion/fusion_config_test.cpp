@@ -2,12 +2,50 @@
 // keep the defaults, and a typo or a value out of range is an error naming file and line.
 #include "services/fusion/fusion_config.hpp"
 
+#include <fstream>
+#include <sstream>
 #include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 
 namespace fieldline::fusion {
 namespace {
+
+std::string readFile(const std::string& relative) {
+  std::ifstream in(config::projectRoot() + "/" + relative);
+  std::ostringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+std::string joined(const std::vector<std::string>& lines) {
+  std::string out;
+  for (const auto& line : lines)
+    out += line + "\n";
+  return out;
+}
+
+// What ships is what the code defaults to: the robots, the scenario tests and the unit tests
+// run the same filter.
+TEST(FusionConfig, TheShippedPresetEqualsTheDeclaredDefaults) {
+  const FusionConfig shipped = loadFusionConfigPreset("default");
+  const auto differences = fusionSettings().differences(shipped, FusionConfig{});
+  EXPECT_TRUE(differences.empty()) << "config/fusion/default.yaml vs the code's default:\n"
+                                   << joined(differences);
+  // ... and says so with every key, its why, unit and range (regenerate with
+  // `fieldline-fusion --print-config --config none > config/fusion/default.yaml`).
+  EXPECT_EQ(readFile("config/fusion/default.yaml"), fusionConfigYaml(FusionConfig{}));
+}
+
+TEST(FusionConfig, EveryDeclaredSettingIsInTheDocsTable) {
+  const std::string docs = readFile("docs/settings/fusion.md");
+  const auto missing = fusionSettings().missingFrom(docs);
+  EXPECT_TRUE(missing.empty()) << "not in docs/settings/fusion.md:\n" << joined(missing);
+  // Regenerate with `fieldline-fusion --print-settings-table > docs/settings/fusion.md`.
+  EXPECT_EQ(docs, fusionSettingsMarkdown());
+  EXPECT_GE(fusionSettings().settings().size(), 127u);
+}
 
 std::string errorOf(const std::string& text) {
   try {
@@ -86,7 +124,8 @@ TEST(FusionConfig, ContactAndBallRestartKeys) {
   EXPECT_DOUBLE_EQ(c.localizer.filter.contact.distance_m, 0.35);
   EXPECT_EQ(c.localizer.filter.contact.hold_us, 250'000);
   EXPECT_DOUBLE_EQ(c.localizer.filter.contact.heading_density, 0.7);
-  EXPECT_DOUBLE_EQ(c.localizer.filter.contact.position_density, 0.0);
+  EXPECT_DOUBLE_EQ(c.localizer.filter.contact.position_density,
+                   FusionConfig{}.localizer.filter.contact.position_density);
   EXPECT_EQ(c.localizer.contact_search_steps, 2);
   EXPECT_TRUE(c.localizer.twist_search_always);
   EXPECT_EQ(c.localizer.contact_search_min_points, 40u);
@@ -110,9 +149,8 @@ TEST(FusionConfig, ContactAndBallRestartKeys) {
   EXPECT_NE(errorOf("contact:\n  current_samples: 0\n"), "");
   EXPECT_NE(errorOf("contact:\n  distance_m: -1\n"), "");
   EXPECT_NE(errorOf("contact:\n  serch_steps: 2\n"), "");
-  // The push velocity's process (PushModel): off unless given (on in the shipped file); decay
-  // times must be positive.
-  EXPECT_DOUBLE_EQ(c.localizer.filter.push.density, 0.0);
+  // The push velocity's process (PushModel): on as shipped; decay times must be positive.
+  EXPECT_GT(c.localizer.filter.push.density, 0.0);
   EXPECT_GT(shipped.localizer.filter.push.density, 0.0);
   EXPECT_GT(shipped.localizer.filter.push.max_speed, 0.0);
   const FusionConfig push = loadFusionConfig(config::Node::loadString(

@@ -15,6 +15,7 @@
 #include "services/fusion/history.hpp"
 #include "services/fusion/localizer.hpp"
 #include "services/fusion/odometry_layer.hpp"
+#include "tests/unit/fusion/bare_params.hpp"
 #include "tests/unit/fusion/filter_inputs.hpp"
 
 namespace fieldline::fusion {
@@ -26,7 +27,7 @@ using namespace filter_inputs;
 // inserted late and out of order it gives the in-order state exactly; while it covers an interval
 // the pose's process noise grows by the contact densities over exactly the time covered.
 FilterParams contactParams() {
-  FilterParams p;
+  FilterParams p = test::bareFilter();
   p.contact.distance_m = 0.35;
   p.contact.hold_us = 300'000;
   p.contact.position_density = 0.2;
@@ -46,7 +47,7 @@ struct PushRun {
 };
 
 PushRun runPush(double density, bool late) {
-  FilterParams fp;
+  FilterParams fp = test::bareFilter();
   fp.contact.hold_us = 50'000;
   fp.contact.position_density = 0.2;
   fp.push.density = density;
@@ -116,7 +117,7 @@ TEST(DelayedFilter, LateMeasurementsGiveTheInOrderStateExactly) {
     std::vector<Input> by_time = inputs;
     std::stable_sort(by_time.begin(), by_time.end(),
                      [](const Input& a, const Input& b) { return timeOf(a) < timeOf(b); });
-    DelayedFilter in_order;
+    DelayedFilter in_order(test::bareFilter());
     in_order.initialize(startState());
     for (const Input& in : by_time)
       feed(in_order, in, timeOf(in));
@@ -125,7 +126,7 @@ TEST(DelayedFilter, LateMeasurementsGiveTheInOrderStateExactly) {
     std::vector<Input> by_arrival = inputs;
     std::stable_sort(by_arrival.begin(), by_arrival.end(),
                      [](const Input& a, const Input& b) { return a.arrival < b.arrival; });
-    DelayedFilter late;
+    DelayedFilter late(test::bareFilter());
     late.initialize(startState());
     for (const Input& in : by_arrival)
       feed(late, in, in.arrival);
@@ -175,7 +176,7 @@ TEST(DelayedFilter, MirroredHalfwayEqualsTheTwinsHistoryExactly) {
     }
     if (half > 0) ++seeds_replaying_across;
     if (half == 0) half = by_arrival.size() / 2;
-    DelayedFilter flipped;
+    DelayedFilter flipped(test::bareFilter());
     flipped.initialize(startState());
     for (std::size_t i = 0; i < by_arrival.size(); ++i) {
       if (i == half) flipped.mirrorThroughCentre();
@@ -208,7 +209,7 @@ TEST(DelayedFilter, MirroredHalfwayEqualsTheTwinsHistoryExactly) {
 // that is refused as too far for the time it had, or taken as a slip, is decided the same way in
 // any arrival order.
 TEST(DelayedFilter, SlipDecisionsAreTheSameInAnyArrivalOrder) {
-  FilterParams params;
+  FilterParams params = test::bareFilter();
   params.slip.max_m = 1.0;
   params.slip.max_speed = 4.0;
   params.slip.base_m = 0.15;
@@ -253,7 +254,7 @@ TEST(DelayedFilter, SlipDecisionsAreTheSameInAnyArrivalOrder) {
 TEST(DelayedFilter, FollowsNoisyMeasurementsAgainstBiasedStart) {
   std::mt19937 rng(7);
   std::vector<Input> inputs = makeInputs(rng);
-  DelayedFilter f;
+  DelayedFilter f(test::bareFilter());
   EkfState start = startState();
   start.x[0] += 0.3;  // 30 cm off
   start.p.topLeftCorner<3, 3>() = Eigen::Vector3d(0.25, 0.25, 0.05).asDiagonal();
@@ -276,7 +277,7 @@ TEST(DelayedFilter, FollowsNoisyMeasurementsAgainstBiasedStart) {
 TEST(DelayedFilter, RefusesBadInputsCountsThemAndChangesNothing) {
   std::mt19937 rng(3);
   std::vector<Input> inputs = makeInputs(rng);
-  DelayedFilter f;
+  DelayedFilter f(test::bareFilter());
   f.initialize(startState());
   for (std::size_t i = 0; i < 60; ++i)
     if (inputs[i].odometry) feed(f, inputs[i], inputs[i].step.t_end + 8'000);
@@ -349,7 +350,7 @@ TEST(DelayedFilter, RefusesBadInputsCountsThemAndChangesNothing) {
 }
 
 TEST(DelayedFilter, AngleWrapsAcrossPi) {
-  DelayedFilter f;
+  DelayedFilter f(test::bareFilter());
   EkfState s = startState();
   s.x[2] = std::numbers::pi - 0.01;
   f.initialize(s);
@@ -388,7 +389,7 @@ TEST(DelayedFilter, InitializeReplaysStoredOdometry) {
 // beyond the limits, is refused by the gate and changes nothing.
 TEST(DelayedFilter, TrustedFrameBeyondTheGateRevealsASlip) {
   const auto run = [](double offset_m, bool trusted) {
-    DelayedFilter f;
+    DelayedFilter f(test::bareFilter());
     EkfState s = startState();
     s.p.topLeftCorner<3, 3>() = Eigen::Matrix3d::Identity() * 1e-4;
     f.initialize(s);
@@ -531,8 +532,8 @@ TEST(DelayedFilter, AGyroFollowsATwistTheWheelsMiss) {
   const auto p = params();
   OdometryLayer with_gyro(p);
   OdometryLayer wheels(p);
-  DelayedFilter fg(Localizer::withGyro(FilterParams{}, p));
-  DelayedFilter fw;
+  DelayedFilter fg(Localizer::withGyro(test::bareFilter(), p));
+  DelayedFilter fw(test::bareFilter());
   fg.initialize(startState());
   fw.initialize(startState());
   with_gyro.update({kStart, {0, 0, 0}, false});
@@ -556,8 +557,8 @@ TEST(DelayedFilter, AGyroFollowsATwistTheWheelsMiss) {
 // from line frames at 10 Hz (heading sigma 0.4 deg), and the heading stays right.
 TEST(DelayedFilter, LearnsTheGyroBiasFromTheLineFrames) {
   const auto p = params();
-  OdometryLayer layer(p);
-  DelayedFilter f(Localizer::withGyro(FilterParams{}, p));
+  OdometryLayer layer(p, test::bareOdometry());
+  DelayedFilter f(Localizer::withGyro(test::bareFilter(), p));
   EkfState start = startState();
   start.p(kGyroBias, kGyroBias) = p.gyro.bias_sigma * p.gyro.bias_sigma;
   f.initialize(start);
@@ -589,7 +590,7 @@ TEST(DelayedFilter, LearnsTheGyroBiasFromTheLineFrames) {
 
 TEST(DelayedFilter, AFrameInsideAnOdometryIntervalIsCarriedByItsOdometry) {
   const auto p = params();
-  FilterParams fp;
+  FilterParams fp = test::bareFilter();
   fp.noise.position_density = 0.5;  // large: a frame carried with it would show
   fp.noise.heading_density = 0.5;
   OdometryLayer layer(p);

@@ -14,6 +14,7 @@
 #include "services/fusion/history.hpp"
 #include "services/fusion/localizer.hpp"
 #include "services/fusion/odometry_layer.hpp"
+#include "tests/unit/fusion/bare_params.hpp"
 #include "tests/unit/fusion/filter_inputs.hpp"
 
 namespace fieldline::fusion {
@@ -205,7 +206,7 @@ TEST(OdometryLayer, TakesTheBridgesStampAsItIs) {
 // (white noise on the contact speed averages out), and the density adds to the per-metre terms.
 TEST(OdometryLayer, SlipDensityGrowsWithTheSquareRootOfTime) {
   const auto p = params();
-  OdometryNoise only_slip;
+  OdometryNoise only_slip = test::bareOdometry();
   only_slip.wheel_relative_sigma = 0.0;
   only_slip.translation_sigma_per_m = 0.0;
   only_slip.rotation_sigma_per_rad = 0.0;
@@ -231,7 +232,7 @@ TEST(OdometryLayer, SlipDensityGrowsWithTheSquareRootOfTime) {
 TEST(OdometryLayer, TheGyroGivesTheHeadingAndBadValuesFallBackToTheWheels) {
   const auto p = params();
   ASSERT_TRUE(p.gyro.present);
-  OdometryLayer layer(p);
+  OdometryLayer layer(p, test::bareOdometry());
   std::array<double, 4> rem{};
   robot::TickCounts ticks{0, 0, 0};
   layer.update({kStart, ticks, false});
@@ -288,7 +289,7 @@ TEST(OdometryLayer, TheGyroGivesTheHeadingAndBadValuesFallBackToTheWheels) {
   EXPECT_NEAR(r.step->integrated.z(), 0.03, 1e-12);
 
   // use_gyro false: the wheels, as without a gyro.
-  OdometryNoise wheels_only;
+  OdometryNoise wheels_only = test::bareOdometry();
   wheels_only.use_gyro = false;
   OdometryLayer off(p, wheels_only);
   off.update({kStart, {0, 0, 0}, false});
