@@ -30,10 +30,10 @@
 
 #include "common/camera/image_io.hpp"
 #include "common/geometry/geometry.hpp"
-#include "services/feature_recognition/points_csv.hpp"
+#include "common/perception/line_points_csv.hpp"
 #include "services/feature_recognition/recognizer.hpp"
 #include "services/region_tracking/frame_processor.hpp"
-#include "tests/support/sim_frames.hpp"
+#include "tools/sim_frames/sim_frames.hpp"
 
 namespace {
 
@@ -385,7 +385,7 @@ int detailFrame(const Options& options, region_tracking::SimCamera& sim,
   visionOf(sim, processor, scene, vision);
   if (!options.dump.empty()) {
     std::ofstream out(options.dump);
-    feature_recognition::writePointsCsv(out, vision.lines);
+    perception::writeLinePointsCsv(out, vision.lines);
   }
   if (!options.image.empty()) {
     cv::Mat image = camera::toBgrImage(sim.renderer->view(sim.frame));
