@@ -18,6 +18,8 @@ struct BallCandidate {
   Eigen::Matrix2d covariance;
   // Its reporter's pose may be its symmetric twin.
   bool twin_ambiguous = false;
+  // When its reporter last saw it (our clock).
+  Utime last_seen = 0;
 };
 
 double seconds(Utime us) {
@@ -117,8 +119,8 @@ perception::TeamState TeamPicture::picture(Utime now, TeamBallResult* team_ball)
         seconds(std::clamp<Utime>(now - ball.utime, 0, options_.max_prediction_us));
     out.ball_x = ball.x + ball.vx * ball_dt;
     out.ball_y = ball.y + ball.vy * ball_dt;
-    BallCandidate c{
-        i + 1, {out.ball_x, out.ball_y}, {ball.vx, ball.vy}, ball.covariance, robot.twin_ambiguous};
+    BallCandidate c{i + 1,           {out.ball_x, out.ball_y}, {ball.vx, ball.vy},
+                    ball.covariance, robot.twin_ambiguous,     ball.last_seen_utime};
     const double grown_ball = options_.ball_speed_sigma_mps * ball_dt;
     c.covariance += Eigen::Matrix2d::Identity() * (grown_ball * grown_ball);
     // The reporter's pose uncertainty is in the ball's covariance already: fusion's ball filter
@@ -132,6 +134,26 @@ perception::TeamState TeamPicture::picture(Utime now, TeamBallResult* team_ball)
       c.covariance = Eigen::Matrix2d::Identity() * std::max(c.covariance(0, 0), c.covariance(1, 1));
     }
     candidates.push_back(c);
+  }
+
+  // Balls contradicted by a sighting made well after their own last one: the ball has moved
+  // since (kicked, put back), their reporters have not seen it since. Left out before grouping,
+  // so that two stale reporters cannot outvote the one that sees where the ball is now.
+  std::vector<int> superseded;
+  if (options_.superseded_after_us > 0) {
+    std::vector<BallCandidate> current;
+    for (const BallCandidate& c : candidates) {
+      const bool stale = std::any_of(candidates.begin(), candidates.end(), [&](const auto& d) {
+        return d.last_seen - c.last_seen > options_.superseded_after_us &&
+               mahalanobis2(c, d) > options_.gate_chi2;
+      });
+      if (stale) {
+        superseded.push_back(c.robot_id);
+      } else {
+        current.push_back(c);
+      }
+    }
+    candidates = std::move(current);
   }
 
   // The previous team ball carried to now, while it is recent enough to judge by.
@@ -195,6 +217,11 @@ perception::TeamState TeamPicture::picture(Utime now, TeamBallResult* team_ball)
       }
     }
   }
+  for (const int id : superseded) {
+    best.rejected.push_back(id);
+    best.superseded.push_back(id);
+  }
+  std::sort(best.rejected.begin(), best.rejected.end());
   if (mirrored) {
     best.valid = false;
     best.used.clear();

@@ -1,11 +1,12 @@
 // The team picture: every robot's pose and ball, aged and predicted to now, and a team ball fused
-// from the robots' own ball estimates, covariance-weighted, inside a consistency gate: the
-// largest group of mutually consistent balls wins, so a mislocalized teammate's ball (confidently
-// in the wrong place) is left out rather than averaged in. Among groups of equal size the one that
-// continues the previous team ball wins,
-// and a lone group whose ball is the previous team ball's mirror image through the centre spot
-// (its reporters sit on their symmetric twin) is left out. Plain library: every time is on this
-// robot's clock and comes in as an argument.
+// from the robots' own ball estimates, covariance-weighted, inside a consistency gate. A ball
+// contradicted by a sighting made well after its own last one is superseded (the ball moved
+// since) and left out; of the rest, the largest group of mutually consistent balls wins, so a
+// mislocalized teammate's ball (confidently in the wrong place) is left out rather than averaged
+// in. Among groups of equal size the one that continues the previous team ball wins, and a lone
+// group whose ball is the previous team ball's mirror image through the centre spot (its reporters
+// sit on their symmetric twin) is left out. Plain library: every time is on this robot's clock and
+// comes in as an argument.
 #pragma once
 
 #include <array>
@@ -36,6 +37,11 @@ struct PictureOptions {
   // The previous team ball decides ties and exposes mirrored balls for this long after it was
   // last fused, µs.
   Utime track_timeout_us = 3'000'000;
+  // A ball whose reporter last saw it this much longer ago than another reporter saw a ball that
+  // contradicts it (outside the gate) is superseded and left out: the ball has moved since (a
+  // kick, a put-back) and its reporter has not seen it since; its estimate stays valid for a
+  // while (fusion's max_age) but is no longer the ball. Three camera frames. 0: off, µs.
+  Utime superseded_after_us = 100'000;
 };
 
 // One robot's report, already converted to our clock.
@@ -54,8 +60,10 @@ struct TeamBallResult {
   // Robot ids (1..6) whose balls were fused, and those whose valid balls the gate left out.
   std::vector<int> used;
   std::vector<int> rejected;
-  // Of the rejected: those whose balls lay at the previous team ball's mirror image.
+  // Of the rejected: those whose balls lay at the previous team ball's mirror image, and those
+  // superseded by a fresher contradicting sighting (PictureOptions::superseded_after_us).
   std::vector<int> mirrored;
+  std::vector<int> superseded;
 };
 
 class TeamPicture {

@@ -408,6 +408,7 @@ void TeamcommNode::publishTeamState() {
   node_.setMetric("packets_rejected", static_cast<double>(counters_.rejectedTotal()));
   node_.setMetric("team_ball_rejected", static_cast<double>(ball.rejected.size()));
   node_.setMetric("team_ball_mirrored", static_cast<double>(ball.mirrored.size()));
+  node_.setMetric("team_ball_superseded", static_cast<double>(ball.superseded.size()));
   node_.setMetric("clock_steps", static_cast<double>(counters_.clock_steps));
   node_.setMetric("offset_resets", static_cast<double>(counters_.offset_resets));
 }

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# Records a live match for replays (docs/fusion.md, "Third round: record once, replay many
-# times"): the simulated team runs `fieldline-eval --scenario SCENARIO --duration S` with a copy of
+# Records a live match for replays (docs/log/2026-12-02-fusion.md, "Third round": record once,
+# replay many times): the simulated team runs `fieldline-eval --scenario SCENARIO --duration S` with a copy of
 # sim_team.yaml without its robot clocks (replays and eval --log take every clock as the
 # simulator's) and the viewer, the team under nice -n -10, while one lcm-logger per bus writes
 # OUT/sim.lcm (SIM_WORLD) and OUT/robotN.lcm (ODOMETRY, VISION_LINES, FIELD_FEATURES,

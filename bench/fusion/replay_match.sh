@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Replays a recording of record_match.sh through fusion, robot by robot, with a settings file,
-# and scores the result (docs/fusion.md, "Third round"): prints fieldline-eval's summary line.
+# and scores the result (docs/log/2026-12-02-fusion.md, "Third round"): prints fieldline-eval's
+# summary line.
 #
 #   bench/fusion/replay_match.sh BIN_DIR REC OUT [FUSION_CONFIG] [REPLAY_ARGS...]
 #   bench/fusion/replay_match.sh build/bin /tmp/rec /tmp/rep default

@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # Records matches while the simulator is stopped now and then (a stalled machine: the cameras
 # go blind, the serial lines deliver late), until one shows a robot on its symmetric twin
-# (wrong_half >= 1), so that fieldline-replay can reproduce it (docs/fusion.md, eleventh round,
-# "Caught"). Stops every fieldline-world-sim started from BIN_DIR: run nothing else meanwhile.
+# (wrong_half >= 1), so that fieldline-replay can reproduce it (docs/log/2026-12-03-fusion.md,
+# eleventh round, "Caught"). Stops every fieldline-world-sim started from BIN_DIR: run nothing else meanwhile.
 #
 #   bench/fusion/stall_hunt.sh BIN_DIR OUT [RUNS]
 #   bench/fusion/stall_hunt.sh build/bin /tmp/hunt 30

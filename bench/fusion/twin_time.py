@@ -3,7 +3,7 @@
 
 A sample is on the twin as fieldline-eval counts wrong half: TRACKING, within 0.5 m of the
 truth's mirror image (-x, -y) and more than 1 m from the truth. Prints, per file, the total per
-robot and each episode (start time, duration) (docs/fusion.md, "Twelfth round").
+robot and each episode (start time, duration) (docs/log/2026-12-03-fusion.md, "Twelfth round").
 
     bench/fusion/twin_time.py OUT/samples.csv [MORE.csv ...]
 """

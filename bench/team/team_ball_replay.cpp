@@ -123,6 +123,11 @@ int main(int argc, char** argv) {
   double max_prediction_s = 0.5;
   app.add_option("--max-prediction", max_prediction_s, "Predictions reach at most this far, s")
       ->capture_default_str();
+  double superseded_after_s = 0.1;
+  app.add_option(
+         "--superseded-after", superseded_after_s,
+         "A ball seen this much longer ago than a contradicting one is left out, s (0: off)")
+      ->capture_default_str();
   app.add_option("--min-ball-variance", picture.min_ball_variance,
                  "Floor of a ball's position variance, m^2")
       ->capture_default_str();
@@ -140,6 +145,7 @@ int main(int argc, char** argv) {
                  "robot's ball error and range) here");
   CLI11_PARSE(app, argc, argv);
   picture.max_prediction_us = static_cast<Utime>(max_prediction_s * 1e6);
+  picture.superseded_after_us = static_cast<Utime>(superseded_after_s * 1e6);
 
   // Truth.
   std::vector<eval::TruthSample> truth;

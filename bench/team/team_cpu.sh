@@ -35,6 +35,11 @@ $ns bash -c "
   snapshot > '$work/before'
   sleep $seconds
   snapshot > '$work/after'
+  if ! kill -0 \$launcher 2>/dev/null; then
+    echo 'team_cpu: the launcher ended before the measurement did; its log:' >&2
+    tail -20 '$work/launch.log' >&2
+    exit 1
+  fi
   kill -TERM \$launcher; wait \$launcher || true
 "
 # Processes present in both snapshots (a restarted one is left out, not misread).

@@ -10,6 +10,7 @@
 #include <spdlog/spdlog.h>
 #include <lcm/lcm-cpp.hpp>
 
+#include "common/bus/frames_bus.hpp"
 #include "common/bus/systemd_notify.hpp"
 #include "common/time/offset_clock.hpp"
 
@@ -70,7 +71,39 @@ std::optional<header_t> peekHeader(const void* data, int size) {
 // ---------------------------------------------------------------------------------------------
 struct Connection::Impl {
   lcm::LCM lcm;
+  // Something subscribed here: the loop waits on it. A bus only published to is never asked for
+  // its file descriptor, which would make LCM open a receiving socket that copies (and drops)
+  // everything on the port.
+  bool receiving = false;
+  // The frames bus (framesBusUrl), opened on first use; null when frames share this bus.
+  std::shared_ptr<Connection> frames;
+  bool frames_opened = false;
   explicit Impl(const std::string& url) : lcm(url) {}
+
+  // The connection `channel` travels on from `c`: c itself, or its frames bus for camera frames.
+  static Connection& forChannel(Connection& c, std::string_view channel) {
+    return travelsOnFramesBus(channel) ? framesOf(c) : c;
+  }
+  static Connection& framesOf(Connection& c) {
+    Impl& impl = *c.impl_;
+    if (!impl.frames_opened) {
+      const std::string url = framesBusUrl(c.url());
+      if (url != c.url()) impl.frames = Connection::open(url);
+      impl.frames_opened = true;
+    }
+    return impl.frames ? *impl.frames : c;
+  }
+  static lcm::Subscription* subscribe(Connection& c, const std::string& channel,
+                                      void (*dispatch)(const lcm::ReceiveBuffer*,
+                                                       const std::string&, void*),
+                                      void* context) {
+    c.impl_->receiving = true;
+    lcm::Subscription* s = c.impl_->lcm.subscribeFunction(channel, dispatch, context);
+    // Big messages (images) come in bursts; let a slow handler fall behind a little, not
+    // forever.
+    if (s) s->setQueueCapacity(60);
+    return s;
+  }
 };
 
 Connection::Connection(std::string url)
@@ -160,17 +193,28 @@ void Node::subscribeRaw(const std::string& channel, BusId bus, RawHandler handle
   sub->node = this;
   sub->channel = channel;
   sub->handler = std::move(handler);
-  sub->connection = &connection(bus);
-  sub->lcm_subscription = sub->connection->impl_->lcm.subscribeFunction(
-      channel, &dispatchRaw, static_cast<void*>(sub.get()));
-  // Big messages (images) come in bursts; let a slow handler fall behind a little, not forever.
-  if (sub->lcm_subscription) sub->lcm_subscription->setQueueCapacity(60);
+  sub->connection = &Connection::Impl::forChannel(connection(bus), channel);
+  sub->lcm_subscription = Connection::Impl::subscribe(*sub->connection, channel, &dispatchRaw,
+                                                      static_cast<void*>(sub.get()));
   subscriptions_.push_back(std::move(sub));
 }
 
 void Node::subscribeAllRaw(
     std::function<void(const std::string& channel, const void* data, int size)> handler,
     BusId bus) {
+  // The bus and, where frames have a bus of their own, that one too (frames_bus.hpp).
+  Connection& primary = connection(bus);
+  Connection& frames = Connection::Impl::framesOf(primary);
+  if (&frames != &primary) {
+    auto sub = std::make_unique<Subscription>();
+    sub->node = this;
+    sub->channel = ".*";
+    sub->all = handler;
+    sub->connection = &frames;
+    sub->lcm_subscription =
+        Connection::Impl::subscribe(frames, ".*", &dispatchRaw, static_cast<void*>(sub.get()));
+    subscriptions_.push_back(std::move(sub));
+  }
   subscribeRaw(".*", bus, nullptr);
   subscriptions_.back()->all = std::move(handler);
 }
@@ -193,8 +237,9 @@ void Node::stampHeader(const std::string& channel, header_t& header) {
 }
 
 bool Node::publishRaw(const std::string& channel, const header_t& header, BusId bus) {
-  const int rc = connection(bus).impl_->lcm.publish(channel, encode_buffer_.data(),
-                                                    static_cast<unsigned>(encode_buffer_.size()));
+  const int rc = Connection::Impl::forChannel(connection(bus), channel)
+                     .impl_->lcm.publish(channel, encode_buffer_.data(),
+                                         static_cast<unsigned>(encode_buffer_.size()));
   if (rc != 0) {
     reportError("publish", channel + ": LCM publish failed (" + std::to_string(rc) + ")");
     return false;
@@ -204,8 +249,8 @@ bool Node::publishRaw(const std::string& channel, const header_t& header, BusId 
 }
 
 bool Node::publishEncoded(std::string_view channel, const void* data, int size, BusId bus) {
-  const int rc =
-      connection(bus).impl_->lcm.publish(std::string(channel), data, static_cast<unsigned>(size));
+  const int rc = Connection::Impl::forChannel(connection(bus), channel)
+                     .impl_->lcm.publish(std::string(channel), data, static_cast<unsigned>(size));
   if (rc != 0) reportError("publish", std::string(channel) + ": LCM publish failed");
   return rc == 0;
 }
@@ -366,12 +411,21 @@ void Node::publishStatus() {
 }
 
 int Node::spinOnce(int timeout_ms) {
-  // Buses first, then the watched fds, each remembered by id: a callback may unwatch any.
+  // Buses with subscriptions (and their frames buses) first, then the watched fds, each
+  // remembered by id: a callback may unwatch any.
   std::vector<pollfd> fds;
+  std::vector<Connection*> polled;
   std::vector<WatchId> watch_ids;
-  fds.reserve(buses_.size() + watches_.size());
-  for (const auto& b : buses_)
-    fds.push_back(pollfd{b->impl_->lcm.getFileno(), POLLIN, 0});
+  fds.reserve(2 * buses_.size() + watches_.size());
+  auto addPolled = [&](Connection& c) {
+    if (!c.impl_->receiving) return;
+    polled.push_back(&c);
+    fds.push_back(pollfd{c.impl_->lcm.getFileno(), POLLIN, 0});
+  };
+  for (const auto& b : buses_) {
+    addPolled(*b);
+    if (b->impl_->frames) addPolled(*b->impl_->frames);
+  }
   for (const auto& w : watches_) {
     fds.push_back(pollfd{w.fd, POLLIN, 0});
     watch_ids.push_back(w.id);
@@ -379,17 +433,17 @@ int Node::spinOnce(int timeout_ms) {
   int handled = 0;
   const int ready = ::poll(fds.data(), fds.size(), std::max(0, timeout_ms));
   if (ready > 0) {
-    for (std::size_t i = 0; i < buses_.size(); ++i) {
+    for (std::size_t i = 0; i < polled.size(); ++i) {
       if (fds[i].revents & POLLIN) {
         // Drain what is queued on this bus, bounded so timers and status still run under a flood.
-        for (int n = 0; n < kMaxMessagesPerSpin && buses_[i]->impl_->lcm.handleTimeout(0) > 0;
+        for (int n = 0; n < kMaxMessagesPerSpin && polled[i]->impl_->lcm.handleTimeout(0) > 0;
              ++n) {
           ++handled;
         }
       }
     }
     for (std::size_t k = 0; k < watch_ids.size(); ++k) {
-      const short revents = fds[buses_.size() + k].revents;
+      const short revents = fds[polled.size() + k].revents;
       if (revents == 0) continue;
       auto it = std::find_if(watches_.begin(), watches_.end(),
                              [&](const Watch& w) { return w.id == watch_ids[k]; });

@@ -1,9 +1,12 @@
 #include "common/bus/urls.hpp"
 
+#include <algorithm>
 #include <stdexcept>
 
 #include <fmt/format.h>
 
+#include "common/bus/channels.hpp"
+#include "common/bus/frames_bus.hpp"
 #include "common/bus/replay_bus.hpp"
 
 namespace fieldline::bus {
@@ -45,6 +48,33 @@ std::string localOnlyUrl(const std::string& url) {
   }
   if (!had_ttl) out += (out.back() == '?' ? "" : "&") + std::string("ttl=0");
   return out;
+}
+
+bool travelsOnFramesBus(std::string_view channel) {
+  return channel == channels::kCameraImage.name;
+}
+
+std::string framesBusUrl(const std::string& url) {
+  constexpr std::string_view kScheme = "udpm://";
+  if (url.rfind(kScheme, 0) != 0) return url;
+  const std::size_t query = std::min(url.find('?'), url.size());
+  const std::string address = url.substr(kScheme.size(), query - kScheme.size());
+  const std::size_t colon = address.rfind(':');
+  // LCM's default port when the URL names none.
+  int port = 7667;
+  std::string host = address;
+  if (colon != std::string::npos) {
+    host = address.substr(0, colon);
+    try {
+      std::size_t used = 0;
+      port = std::stoi(address.substr(colon + 1), &used);
+      if (used != address.size() - colon - 1) return url;
+    } catch (const std::exception&) {
+      return url;  // not a URL this knows how to move: frames stay on it (LCM reports it)
+    }
+  }
+  if (port <= 0 || port + kFramesPortOffset > 65535) return url;
+  return fmt::format("{}{}:{}{}", kScheme, host, port + kFramesPortOffset, url.substr(query));
 }
 
 std::string replayBusUrl(int robot_id, const BusAddress& address) {

@@ -148,7 +148,7 @@ struct ContactModel {
   double gyro_heading_density = 0.0;
 };
 
-// A push (seventh round of docs/fusion.md): an opponent carries a touching robot at up to 3 m/s,
+// A push (docs/fusion.md, "Contact"): an opponent carries a touching robot at up to 3 m/s,
 // the wheels slip and odometry sees nothing, and every frame finds the estimate 10-15 cm off. The
 // push velocity (ux, uy) adds to the position between frames; it is an Ornstein-Uhlenbeck process
 // per axis: while in contact (ContactModel's evidence) a random walk of `density` decaying with

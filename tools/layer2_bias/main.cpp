@@ -261,7 +261,7 @@ int runPose(const Options& o, rt::SimCamera& sim, const fusion::LineMatcher& mat
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{"Layer 2's bias on rendered still frames (docs/fusion.md, tenth round)"};
+  CLI::App app{"Layer 2's bias on rendered still frames (docs/log/2026-12-02-fusion.md)"};
   Options o;
   app.add_option("--camera", o.camera, "Camera preset")->capture_default_str();
   app.add_option("--field", o.field, "Field preset")->capture_default_str();

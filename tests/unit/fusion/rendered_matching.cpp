@@ -109,14 +109,14 @@ TEST_P(RenderedMatching, SeeingOneLineGivesACovarianceLongAlongIt) {
 }
 
 TEST_P(RenderedMatching, NoBiasNearThePenaltyAreasCorner) {
-  // Where the kidnap scenario puts robot 1 down (docs/fusion.md, tenth round): the visible lines
-  // (penalty area, goal line, touch line) all lie on one side. Until the renderer interpolated its
-  // floor raster, each line's edges sat on the boundaries of footprint-sized cells fixed on the
-  // field, and layer 2 from the true pose was off by (+1.1, -1.2) cm on average over these nine
-  // poses 5 cm apart, the same way in every frame. Now the mean is under 1 mm; the frames' own
-  // scatter (a few mm) is what the filter may average. The least-squares fit (the default) only:
-  // the force field's forces, looked up at the nearest grid node and weighted toward the nearer
-  // line, end (+0.4, +0.8) cm off here.
+  // Where the kidnap scenario puts robot 1 down (docs/log/2026-12-02-fusion.md, tenth round): the
+  // visible lines (penalty area, goal line, touch line) all lie on one side. Until the renderer
+  // interpolated its floor raster, each line's edges sat on the boundaries of footprint-sized cells
+  // fixed on the field, and layer 2 from the true pose was off by (+1.1, -1.2) cm on average over
+  // these nine poses 5 cm apart, the same way in every frame. Now the mean is under 1 mm; the
+  // frames' own scatter (a few mm) is what the filter may average. The least-squares fit (the
+  // default) only: the force field's forces, looked up at the nearest grid node and weighted toward
+  // the nearer line, end (+0.4, +0.8) cm off here.
   if (GetParam() == MatchMethod::kForceField) GTEST_SKIP() << "least squares only";
   const LineMatcher m = matcher();
   double sum_x = 0.0, sum_y = 0.0;

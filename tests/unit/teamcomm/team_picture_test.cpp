@@ -228,6 +228,40 @@ TEST(teamcomm_picture, AMirroredBallIsTheTeamBallOnceThePreviousOneIsOld) {
   EXPECT_TRUE(picture.picture(later).team_ball_valid);
 }
 
+TEST(teamcomm_picture, BallsSeenBeforeAFresherContradictingSightingAreSuperseded) {
+  TeamPicture picture(1);
+  // Robots 1 and 2 saw the ball at (-1.5, 1) until 300 ms ago (their estimates still valid);
+  // robot 3 sees it now 3 m away: it was kicked. Robot 4 last saw it 300 ms ago where robot 3
+  // sees it now (it agrees: kept).
+  const Utime now = kT0 + 300'000;
+  Report r1 = report(-4.5, 0.0, now), r2 = report(-2.0, 3.0, now), r3 = report(1.0, -3.0, now),
+         r4 = report(4.0, 0.0, now);
+  seeBall(r1, -1.5, 1.0, 0.05);
+  seeBall(r2, -1.52, 1.01, 0.05);
+  seeBall(r3, 1.5, -1.0, 0.05);
+  seeBall(r4, 1.52, -1.0, 0.05);
+  r1.ball.last_seen_utime = r2.ball.last_seen_utime = r4.ball.last_seen_utime = kT0;
+  for (const auto& [id, r] : {std::pair{1, r1}, {2, r2}, {3, r3}, {4, r4}})
+    picture.setReport(id, r);
+  TeamBallResult ball;
+  const perception::TeamState s = picture.picture(now, &ball);
+  ASSERT_TRUE(s.team_ball_valid);
+  EXPECT_EQ(ball.used, (std::vector<int>{3, 4}));
+  EXPECT_EQ(ball.rejected, (std::vector<int>{1, 2}));
+  EXPECT_EQ(ball.superseded, (std::vector<int>{1, 2}));
+  EXPECT_NEAR(s.team_ball_x, 1.51, 1e-6);
+  // Seen within the margin (three frames) of the fresh one: a plain disagreement, the larger
+  // group wins as before.
+  r1.ball.last_seen_utime = r2.ball.last_seen_utime = now - 50'000;
+  r4.ball.valid = false;
+  for (const auto& [id, r] : {std::pair{1, r1}, {2, r2}, {4, r4}})
+    picture.setReport(id, r);
+  const perception::TeamState t = picture.picture(now, &ball);
+  EXPECT_TRUE(ball.superseded.empty());
+  EXPECT_EQ(ball.used, (std::vector<int>{1, 2}));
+  EXPECT_NEAR(t.team_ball_x, -1.51, 1e-6);
+}
+
 TEST(teamcomm_team_state, MessageCarriesEveryField) {
   perception::TeamState s;
   s.utime = kT0;
