@@ -12,7 +12,7 @@ namespace fieldline::geometry {
 double median(std::vector<double> values);
 
 // Kasa's circle fit: the centre and radius of the circle closest (algebraically) to `points`.
-// False for fewer than 5 points or a degenerate fit (collinear points).
+// False for fewer than 5 points, or when the fit gives no positive radius or no finite centre.
 bool fitCircle(const std::vector<Vec2>& points, Vec2& centre, double& radius);
 
 // A circle through `points` (Kasa fit) that drops points more than `gate` off it, in three rounds
