@@ -31,13 +31,10 @@ REASON = re.compile(r"^\s*//\s*long:\s*\S")
 # (none is the goal): path -> reason, "path:function" -> reason.
 KNOWN_LONG_FILES = {
     "services/camera/sim_renderer.cpp": "in perf's room today (sim renderer rewrite)",
-    "services/fusion/localizer.cpp": "split last today (hcode), after robust's and tball's fusion edits",
     "services/region_tracking/detectors.cpp": "in hires' room today (region tracking split)",
     "tools/mirror_calibrate/pose_free.cpp": "one staged solver of 1000 lines; its split into stage functions is pending (hcode)",
 }
 KNOWN_LONG_FUNCTIONS = {
-    "services/fusion/localizer.cpp:Localizer::trackLines": "split last today (hcode)",
-    "services/fusion/localizer.cpp:Localizer::processFeatures": "split last today (hcode)",
     "common/bus/log_file.cpp:LogReader::nextEvent": "in perf's room today (bus, node loops)",
     "common/bus/status.cpp:StatusCollector::takeStatus": "in perf's room today (bus, node loops)",
     "common/field/field_model.cpp:checkDimensions": "not split yet (issue 33 item 3): pending",
