@@ -19,7 +19,7 @@
 #include "common/msg/line_contours.hpp"
 #include "services/feature_recognition/recognizer.hpp"
 #include "services/region_tracking/frame_processor.hpp"
-#include "tests/support/sim_frames.hpp"
+#include "tools/sim_frames/sim_frames.hpp"
 
 namespace {
 

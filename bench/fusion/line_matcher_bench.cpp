@@ -14,7 +14,7 @@
 
 #include "services/fusion/line_matcher.hpp"
 #include "services/region_tracking/frame_processor.hpp"
-#include "tests/support/sim_frames.hpp"
+#include "tools/sim_frames/sim_frames.hpp"
 
 namespace {
 

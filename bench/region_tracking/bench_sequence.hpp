@@ -9,7 +9,7 @@
 #include <numbers>
 #include <vector>
 
-#include "tests/support/sim_frames.hpp"
+#include "tools/sim_frames/sim_frames.hpp"
 
 namespace fieldline::region_tracking::bench {
 

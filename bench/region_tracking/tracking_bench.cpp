@@ -36,7 +36,7 @@
 #include "common/config/config.hpp"
 #include "services/region_tracking/baselines.hpp"
 #include "services/region_tracking/frame_processor.hpp"
-#include "tests/support/sim_frames.hpp"
+#include "tools/sim_frames/sim_frames.hpp"
 
 namespace rt = fieldline::region_tracking;
 namespace camera = fieldline::camera;

@@ -314,6 +314,8 @@ class Localizer {
   std::optional<geometry::Movement> motionBetween(Utime t1, Utime t2) const;
   void processLines(std::span<const perception::LinePoint> points, Utime utime, Utime now);
   void processFeatures(const perception::FieldFeatures& features, Utime utime, Utime now);
+  // While searching: each finite feature hypothesis and its twin kept as hypotheses.
+  void keepFeatureHypotheses(const perception::FieldFeatures& features, Utime utime);
   // Newest odometry time known (0: none).
   Utime newestOdometry() const {
     return dead_reckoning_.empty() ? 0 : dead_reckoning_.newest().utime;
@@ -325,7 +327,35 @@ class Localizer {
   }
   // Frames waiting for odometry, processed in time order once it reaches them.
   void processWaiting(Utime now);
+  // The frame queue of addLines and addFeatures: a frame from the future is counted
+  // (`from_future`) and dropped; one that odometry has not reached yet waits (its copy made by
+  // `make_waiting`); true when the frame is to be processed now.
+  template <typename MakeWaiting>
+  bool admitFrame(Utime utime, Utime now, const char* from_future, MakeWaiting make_waiting);
   void trackLines(std::span<const perception::LinePoint> points, Utime utime, Utime now);
+  // Twisted in contact beyond what the matcher reaches from the estimate (correction `c` not
+  // good): the heading searched (contact_search_steps), unless the gyro's heading rules it out.
+  std::optional<PoseCorrection> searchTwist(std::span<const perception::LinePoint> points,
+                                            const EkfState& guess, const PoseCorrection& c,
+                                            bool contact) const;
+  // What a frame's disagreement `offset` (its measurement `z`) with the estimate `guess` says of
+  // a slip: confirmed by the gated frame before, pinned down by the lines, or a twist.
+  struct SlipEvidence {
+    bool confirmed = false;
+    bool pinned = false;
+    bool twisted = false;
+  };
+  SlipEvidence slipEvidence(const Eigen::Vector3d& offset, const PoseMeasurement& z,
+                            const EkfState& guess) const;
+  // The filter restarted at the frame's pose (after gated_frames_reset gated frames in a row).
+  void resetToFrame(const PoseCorrection& c, const EkfState& guess, Utime utime);
+  // A good match the filter refused (`rejection`): counted; gated frames in a row reset the
+  // filter to the frame's pose, unless they put the robot nearer the estimate's twin (then it is
+  // lost and searches the frame's points).
+  enum class RejectedLines { kKept, kReset, kSearched };
+  RejectedLines onRejectedLines(Rejection rejection, const Eigen::Vector3d& offset,
+                                const PoseCorrection& c, const EkfState& guess,
+                                std::span<const perception::LinePoint> points, Utime utime);
   void searchLines(std::span<const perception::LinePoint> points, Utime utime);
   void coarseSearch(std::span<const perception::LinePoint> points, Utime utime);
   void localSearch(std::span<const perception::LinePoint> points, Utime utime);

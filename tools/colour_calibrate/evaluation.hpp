@@ -9,8 +9,8 @@
 #include "services/camera/realism.hpp"
 #include "services/region_tracking/colour_adaptation.hpp"
 #include "services/region_tracking/frame_processor.hpp"
-#include "tests/support/sim_frames.hpp"
 #include "tools/colour_calibrate/colour_calibration.hpp"
+#include "tools/sim_frames/sim_frames.hpp"
 
 namespace fieldline::calibration {
 

@@ -10,7 +10,7 @@
 
 #include "services/camera/realism.hpp"
 #include "services/region_tracking/frame_processor.hpp"
-#include "tests/support/sim_frames.hpp"
+#include "tools/sim_frames/sim_frames.hpp"
 
 namespace fieldline::eval_ball {
 

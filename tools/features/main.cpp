@@ -16,7 +16,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "common/field/field_model.hpp"
-#include "services/feature_recognition/points_csv.hpp"
+#include "common/perception/line_points_csv.hpp"
 #include "services/feature_recognition/recognizer.hpp"
 
 namespace {
@@ -183,9 +183,7 @@ int main(int argc, char** argv) {
   }
   try {
     const field::FieldModel field = field::loadFieldPreset(field_name);
-    const perception::LinePoints points = feature_recognition::readPointsCsvFile(points_path);
-    // Nothing to recognise is no answer: say so rather than print an empty result.
-    if (points.points.empty()) throw std::runtime_error(points_path + ": no line points in it");
+    const perception::LinePoints points = perception::readLinePointsCsvFile(points_path);
     feature_recognition::FeatureRecognizer recognizer(field);
     perception::FieldFeatures features;
     const auto check = recognizer.recognize(points, features);

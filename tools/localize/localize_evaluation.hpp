@@ -18,7 +18,7 @@
 #include "common/camera/mirror_model.hpp"
 #include "common/geometry/geometry.hpp"
 #include "services/fusion/line_matcher.hpp"
-#include "tests/support/sim_frames.hpp"
+#include "tools/sim_frames/sim_frames.hpp"
 
 namespace fieldline::localize_eval {
 

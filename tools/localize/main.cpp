@@ -23,8 +23,8 @@
 
 #include "common/bus/cli.hpp"
 #include "common/field/field_model.hpp"
+#include "common/perception/line_points_csv.hpp"
 #include "services/fusion/line_matcher.hpp"
-#include "services/fusion/points_csv.hpp"
 
 namespace {
 
@@ -218,7 +218,7 @@ int main(int argc, char** argv) {
     for (const std::string& name : field_names)
       fields.push_back(fieldline::field::loadFieldPreset(name));
     const fieldline::perception::LinePoints points =
-        fieldline::fusion::readLinePointsCsvFile(points_path, units == "mm" ? 0.001 : 1.0);
+        fieldline::perception::readLinePointsCsvFile(points_path, units == "mm" ? 0.001 : 1.0);
     fieldline::fusion::MatcherParams params = fieldline::fusion::withCalibratedCamera({});
     params.method = method == "force_field" ? fieldline::fusion::MatchMethod::kForceField
                                             : fieldline::fusion::MatchMethod::kRobustLeastSquares;

@@ -432,13 +432,22 @@ OffsetMode offsetMode(const MirrorCalibrateOptions& o) {
   return o.offset == "fit" ? OffsetMode::kFit : OffsetMode::kAuto;
 }
 
-// Frames of the field: --lines, --spot, --render-lines or --venue.
-int runLines(const MirrorCalibrateOptions& o, const camera::CameraConfig& config) {
-  const camera::MirrorParams base = config.model.mirror.params();
-  field::FieldModel field = field::loadFieldPreset(o.field);
+// The frames of the field to calibrate from (--venue, --render-lines, or --lines/--spot files),
+// with the truth where they were rendered.
+struct LineFrames {
+  field::FieldModel field;
   std::vector<UnposedFrame> frames;
   std::optional<camera::MirrorModel> truth;
-  std::vector<geometry::Pose2> truePoses;
+  std::vector<geometry::Pose2> true_poses;
+};
+
+LineFrames gatherLineFrames(const MirrorCalibrateOptions& o, const camera::CameraConfig& config) {
+  const camera::MirrorParams base = config.model.mirror.params();
+  LineFrames out{field::loadFieldPreset(o.field), {}, std::nullopt, {}};
+  field::FieldModel& field = out.field;
+  std::vector<UnposedFrame>& frames = out.frames;
+  std::optional<camera::MirrorModel>& truth = out.truth;
+  std::vector<geometry::Pose2>& truePoses = out.true_poses;
   if (!o.venue.empty()) {
     const venue::RenderedVenue v = venue::renderVenue(venue::loadVenueCase(o.venue));
     field = v.field;
@@ -489,6 +498,17 @@ int runLines(const MirrorCalibrateOptions& o, const camera::CameraConfig& config
       }
     }
   }
+  return out;
+}
+
+// Frames of the field: --lines, --spot, --render-lines or --venue.
+int runLines(const MirrorCalibrateOptions& o, const camera::CameraConfig& config) {
+  const camera::MirrorParams base = config.model.mirror.params();
+  LineFrames input = gatherLineFrames(o, config);
+  const field::FieldModel& field = input.field;
+  const std::vector<UnposedFrame>& frames = input.frames;
+  const std::optional<camera::MirrorModel>& truth = input.truth;
+  const std::vector<geometry::Pose2>& truePoses = input.true_poses;
   PoseFreeParams params;
   params.sectors = o.sectors;
   params.radius_step = o.radius_step;
@@ -536,6 +556,25 @@ int runLines(const MirrorCalibrateOptions& o, const camera::CameraConfig& config
   return 0;
 }
 
+// Prints each ring's check (checkRings); returns the worst sector's miss, %.
+double printRingChecks(const RingCalibration& c, int sectors) {
+  const std::vector<RingCheck> rings = checkRings(c, sectors);
+  fmt::print("{:>9s} {:>7s} {:>13s} {:>15s} {:>14s}\n", "ring (m)", "points", "median err %",
+             "worst sector %", "held out %");
+  double worst = 0.0;
+  for (const RingCheck& r : rings) {
+    fmt::print("{:9g} {:7d} {:13.2f} {:15.2f} {:>14s}\n", r.distance, r.points, r.median_percent,
+               r.worst_sector_percent,
+               std::isfinite(r.held_out_percent) ? fmt::format("{:.2f}", r.held_out_percent)
+                                                 : std::string("-"));
+    worst = std::max(worst, r.worst_sector_percent);
+  }
+  fmt::print(
+      "(held out: the ring's distance read from the curve through the other rings, the "
+      "outermost excepted)\n");
+  return worst;
+}
+
 }  // namespace
 
 int runMirrorCalibrate(const MirrorCalibrateOptions& o) {
@@ -581,20 +620,7 @@ int runMirrorCalibrate(const MirrorCalibrateOptions& o) {
   params.fit.fit_offset = offsetMode(o) != OffsetMode::kZero;
   const RingCalibration c = calibrateFromRings(image, distances, base, params);
   printReport(c);
-  const std::vector<RingCheck> rings = checkRings(c, o.sectors);
-  fmt::print("{:>9s} {:>7s} {:>13s} {:>15s} {:>14s}\n", "ring (m)", "points", "median err %",
-             "worst sector %", "held out %");
-  double worstRing = 0.0;
-  for (const RingCheck& r : rings) {
-    fmt::print("{:9g} {:7d} {:13.2f} {:15.2f} {:>14s}\n", r.distance, r.points, r.median_percent,
-               r.worst_sector_percent,
-               std::isfinite(r.held_out_percent) ? fmt::format("{:.2f}", r.held_out_percent)
-                                                 : std::string("-"));
-    worstRing = std::max(worstRing, r.worst_sector_percent);
-  }
-  fmt::print(
-      "(held out: the ring's distance read from the curve through the other rings, the "
-      "outermost excepted)\n");
+  const double worstRing = printRingChecks(c, o.sectors);
   const camera::MirrorModel fitted(c.mirror);
   if (truth) {
     const MirrorError e = compareMirrors(*truth, fitted, 5.0);

@@ -39,11 +39,6 @@ namespace fieldline::calibration {
 
 using camera::Vec2;
 
-// Circle through `pts` (Kasa fit) that drops points more than `gate` px off (three rounds);
-// keep[i] says which were kept. False for fewer than 5 points or a degenerate fit.
-bool fitCircleRobust(const std::vector<Vec2>& pts, Vec2& centre, double& radius,
-                     std::vector<bool>& keep, double gate);
-
 // Residuals of a state; false when the state is not valid (e.g. knots out of order).
 using ResidualFunction = std::function<bool(const Eigen::VectorXd&, Eigen::VectorXd&)>;
 // Levenberg-Marquardt with Huber weights (threshold `huber`) and a numeric Jacobian (step

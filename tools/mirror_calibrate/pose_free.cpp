@@ -12,6 +12,7 @@
 #include <Eigen/Dense>
 
 #include "common/field/distance_grid.hpp"
+#include "common/geometry/fitting.hpp"
 #include "tools/calibration_common/staged_output.hpp"
 #include "tools/mirror_calibrate/mirror_calibration.hpp"
 
@@ -23,13 +24,6 @@ using geometry::Pose2;
 namespace {
 
 constexpr double kPi = std::numbers::pi;
-
-double median(std::vector<double> v) {
-  if (v.empty()) return std::numeric_limits<double>::quiet_NaN();
-  const auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
-  std::nth_element(v.begin(), mid, v.end());
-  return *mid;
-}
 
 // A ridge pixel of one frame with what the fit needs of it.
 struct LinePx {
@@ -350,7 +344,7 @@ std::optional<Rim> findMirrorRim(const GreyImage& image, const Vec2& guess, doub
   if (pts.size() < 30) return std::nullopt;
   Rim rim;
   std::vector<bool> keep;
-  if (!fitCircleRobust(pts, rim.centre, rim.radius, keep, 1.5)) return std::nullopt;
+  if (!geometry::fitCircleRobust(pts, rim.centre, rim.radius, keep, 1.5)) return std::nullopt;
   rim.rays = static_cast<int>(std::count(keep.begin(), keep.end(), true));
   if (rim.rays < 30) return std::nullopt;
   return rim;
@@ -400,8 +394,8 @@ PoseFreeCalibration calibrateAtUnknownPose(const std::vector<UnposedFrame>& fram
         cy.push_back(c.y());
       }
       out.rim_found = true;
-      out.rim_centre = Vec2(median(cx), median(cy));
-      out.rim_radius = median(radii);
+      out.rim_centre = Vec2(geometry::median(cx), geometry::median(cy));
+      out.rim_radius = geometry::median(radii);
       centre = out.rim_centre;
       base.outer_radius = out.rim_radius;
       usableRadius = std::min(base.useful_radius, 0.97 * out.rim_radius);

@@ -8,7 +8,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "common/config/config.hpp"
-#include "tests/support/sim_frames.hpp"
+#include "tools/sim_frames/sim_frames.hpp"
 
 namespace fieldline::tracking_png {
 namespace rt = region_tracking;

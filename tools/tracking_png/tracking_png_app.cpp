@@ -7,7 +7,7 @@
 
 #include "common/bus/cli.hpp"
 #include "common/config/config.hpp"
-#include "services/feature_recognition/points_csv.hpp"
+#include "common/perception/line_points_csv.hpp"
 #include "tools/tracking_png/tracking_png.hpp"
 
 namespace fieldline::tracking_png {
@@ -88,7 +88,7 @@ void runApp(const AppOptions& o) {
   camera::writeImage(o.out, drawTracking(*tracked, o.scale, o.touched));
   if (!o.csv.empty()) {
     std::ofstream file = openOut(o.csv);
-    feature_recognition::writePointsCsv(file, tracked->result.lines);
+    perception::writeLinePointsCsv(file, tracked->result.lines);
     if (!file) throw std::runtime_error("cannot write " + o.csv);
   }
   if (!o.json.empty()) {

@@ -5,7 +5,10 @@
 #   2. common/ includes nothing from services/ or tools/;
 #   3. generated message headers (<fieldline/..._t.hpp>) only in node files (*_node.*), mains
 #      (main.cpp, *_main.cpp), common/bus, common/msg, tools/, tests/ and bench/: everything
-#      else works on the plain structs of common/perception, converted in common/msg.
+#      else works on the plain structs of common/perception, converted in common/msg;
+#   4. test support stays in tests: nothing in common/, services/, teamcomm/ or tools/ includes a
+#      file under tests/, and no CMakeLists.txt there links or names a test target or directory
+#      (rendered frames for tools live in tools/sim_frames).
 # Prints every violation as file:line: text and exits 1 if there is one.
 # usage: include_rules.sh [REPO_ROOT]
 set -eu
@@ -38,12 +41,22 @@ for f in $files; do
     common/*) check "$f" "$include\"\(services\|tools\)/" '^$' "common includes a service or tool" ;;
   esac
   case $f in
+    common/* | services/* | teamcomm/* | tools/*)
+      check "$f" "$include\"tests/" '^$' "test support included outside tests"
+      ;;
+  esac
+  case $f in
     common/bus/* | common/msg/* | tools/* | tests/* | bench/*) continue ;;
   esac
   case $(basename "$f") in
     *_node.hpp | *_node.cpp | main.cpp | *_main.cpp) continue ;;
   esac
   check "$f" "$include<fieldline/.*_t\.hpp>" '^$' "message header outside node, main, common/bus, common/msg"
+done
+# The build files: a library or executable outside tests/ never links test support.
+cmake_files=$(find common services tools teamcomm -name CMakeLists.txt 2>/dev/null | sort)
+for f in $cmake_files; do
+  check "$f" 'test_support\|tests/' '^[0-9]*:[[:space:]]*#' "test support linked outside tests"
 done
 [ $status -eq 0 ] && echo "include rules: $(echo "$files" | wc -w) files clean"
 exit $status

@@ -44,5 +44,17 @@ fresh
 mkdir -p "$dir/tree/common/msg"
 echo '#include <fieldline/image_t.hpp>' >"$dir/tree/common/msg/image.hpp"
 expect 0 "a message header in common/msg"
+fresh
+echo '#include "tests/support/sim_frames.hpp"' >>"$dir/tree/tools/t/main.cpp"
+expect 1 "a tool including test support"
+fresh
+echo 'target_link_libraries(t PRIVATE fieldline_test_support)' >"$dir/tree/tools/t/CMakeLists.txt"
+expect 1 "a tool linking the test-support library"
+fresh
+echo 'add_subdirectory(${PROJECT_SOURCE_DIR}/tests/support support)' >"$dir/tree/tools/t/CMakeLists.txt"
+expect 1 "a tool building test support"
+fresh
+echo 'target_link_libraries(t PRIVATE fieldline_sim_frames)' >"$dir/tree/tools/t/CMakeLists.txt"
+expect 0 "a tool linking the simulated frames library"
 
 [ "$failures" -eq 0 ]

@@ -8,8 +8,8 @@
 
 #include "common/geometry/geometry.hpp"
 #include "services/region_tracking/frame_processor.hpp"
-#include "tests/support/sim_frames.hpp"
 #include "tools/eval_ball/ball_evaluation.hpp"
+#include "tools/sim_frames/sim_frames.hpp"
 
 namespace fieldline::region_tracking {
 namespace {

@@ -11,7 +11,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "common/camera/image_io.hpp"
-#include "tests/support/sim_frames.hpp"
+#include "tools/sim_frames/sim_frames.hpp"
 
 namespace fieldline::calibration {
 namespace {

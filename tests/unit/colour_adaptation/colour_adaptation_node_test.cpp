@@ -11,7 +11,7 @@
 #include "common/bus/node.hpp"
 #include "common/time/clock.hpp"
 #include "services/region_tracking/tracking_node.hpp"
-#include "tests/support/sim_frames.hpp"
+#include "tools/sim_frames/sim_frames.hpp"
 
 namespace fieldline::region_tracking {
 namespace {

@@ -13,7 +13,7 @@
 #include "bench/region_tracking/bench_sequence.hpp"
 #include "services/region_tracking/frame_processor.hpp"
 #include "tests/support/output_digest.hpp"
-#include "tests/support/sim_frames.hpp"
+#include "tools/sim_frames/sim_frames.hpp"
 
 namespace fieldline::region_tracking {
 namespace {

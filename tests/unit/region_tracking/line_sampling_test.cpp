@@ -11,7 +11,7 @@
 #include "common/config/config.hpp"
 #include "common/geometry/geometry.hpp"
 #include "services/region_tracking/frame_processor.hpp"
-#include "tests/support/sim_frames.hpp"
+#include "tools/sim_frames/sim_frames.hpp"
 
 namespace fieldline::region_tracking {
 namespace {

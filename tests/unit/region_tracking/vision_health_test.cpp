@@ -18,8 +18,8 @@
 #include "common/msg/estimates.hpp"
 #include "common/time/clock.hpp"
 #include "services/region_tracking/tracking_node.hpp"
-#include "tests/support/sim_frames.hpp"
 #include "tools/colour_calibrate/colour_calibration.hpp"
+#include "tools/sim_frames/sim_frames.hpp"
 
 namespace fieldline::region_tracking {
 namespace {

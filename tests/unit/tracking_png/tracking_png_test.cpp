@@ -16,9 +16,9 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "services/feature_recognition/points_csv.hpp"
-#include "tests/support/sim_frames.hpp"
+#include "common/perception/line_points_csv.hpp"
 #include "tools/colour_calibrate/colour_calibration.hpp"
+#include "tools/sim_frames/sim_frames.hpp"
 
 namespace fieldline::tracking_png {
 namespace {
@@ -66,8 +66,8 @@ TEST(TrackingPng, TheCsvReadsBackThroughTheFeatureToolsReader) {
       trackFile("omni_sim", "", region_tracking::defaultVisionParams(), {kRenderedPng, {}, 5});
   const perception::LinePoints& lines = tracked->result.lines;
   std::stringstream csv;
-  feature_recognition::writePointsCsv(csv, lines);
-  const perception::LinePoints back = feature_recognition::readPointsCsv(csv, "csv");
+  perception::writeLinePointsCsv(csv, lines);
+  const perception::LinePoints back = perception::readLinePointsCsv(csv, "csv");
   ASSERT_EQ(back.points.size(), lines.points.size());
   ASSERT_EQ(back.sequences, lines.sequences);
   for (std::size_t i = 0; i < lines.points.size(); ++i) {

@@ -1,4 +1,4 @@
-#include "tests/support/sim_frames.hpp"
+#include "tools/sim_frames/sim_frames.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -1,6 +1,7 @@
-// Rendered frames for the tests, the benchmark and the PNG tool: a camera preset with its colour
-// table and simulated renderer, and robot motions through the field (translation and rotation
-// at fixed speeds) to render sequences from. Not part of the node: only the simulator renders.
+// Rendered frames for the evaluation tools, the benchmarks and the tests: a camera preset with its
+// colour table and simulated renderer, and robot motions through the field (translation and
+// rotation at fixed speeds) to render sequences from. Not part of the node: only the simulator
+// renders. Kept in namespace region_tracking, whose inputs these frames are.
 #pragma once
 
 #include <cstdint>

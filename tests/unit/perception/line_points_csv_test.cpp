@@ -1,5 +1,6 @@
-// The line-point CSV reader of fieldline-localize.
-#include "services/fusion/points_csv.hpp"
+// The line-points CSV reader and writer (fieldline-localize, fieldline-features, the evaluation
+// tools' dumps).
+#include "common/perception/line_points_csv.hpp"
 
 #include <unistd.h>
 
@@ -10,10 +11,11 @@
 #include <stdexcept>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include <gtest/gtest.h>
 
-namespace fieldline::fusion {
+namespace fieldline::perception {
 namespace {
 
 perception::LinePoints parse(const std::string& text, std::size_t max_points = 1000) {
@@ -33,6 +35,24 @@ TEST(PointsCsv, ReadsPointsAndSequences) {
   EXPECT_TRUE(parse("").points.empty());
 }
 
+TEST(PointsCsv, SpacesAloneSeparateXAndYAndWhatIsWrittenReadsBack) {
+  const perception::LinePoints p = parse("# comment\n1,2\n3, 4\n\n\n5 6\r\n-0.5,1e-1\n");
+  ASSERT_EQ(p.points.size(), 4u);
+  EXPECT_EQ(p.sequences, (std::vector<std::pair<int, int>>{{0, 2}, {2, 4}}));
+  EXPECT_FLOAT_EQ(p.points[1].y, 4.0f);
+  EXPECT_FLOAT_EQ(p.points[2].x, 5.0f);
+  EXPECT_FLOAT_EQ(p.points[3].y, 0.1f);
+  std::ostringstream out;
+  writeLinePointsCsv(out, p);
+  const perception::LinePoints copy = parse(out.str());
+  EXPECT_EQ(copy.sequences, p.sequences);
+  ASSERT_EQ(copy.points.size(), p.points.size());
+  for (std::size_t i = 0; i < p.points.size(); ++i) {
+    EXPECT_FLOAT_EQ(copy.points[i].x, p.points[i].x);
+    EXPECT_FLOAT_EQ(copy.points[i].y, p.points[i].y);
+  }
+}
+
 TEST(PointsCsv, MillimetresScaleToMetres) {
   std::istringstream in("1500,-250\n");
   const perception::LinePoints p = readLinePointsCsv(in, "mm.csv", 10, 0.001);
@@ -47,7 +67,7 @@ TEST(PointsCsv, NonFiniteAndAbsurdCoordinatesAreRefusedWithTheValue) {
       {"1,inf\n", "points.csv:2: y = inf is not a finite number"},
       {"1e999,0\n", "points.csv:2: x = 1e999 is not a finite number"},
       {"1e308,0\n", "points.csv:2: x = 1e308 is "},
-      {"0,-2000\n", "more than 1000 m: wrong units?"},
+      {"0,-200\n", "more than 100 m: wrong units?"},
   };
   for (const auto& [line, message] : cases) {
     try {
@@ -80,7 +100,8 @@ TEST(PointsCsv, ADirectoryOrAnEmptyFileIsAnError) {
 }
 
 TEST(PointsCsv, BadLinesNameFileAndLine) {
-  for (const char* bad : {"1.0\n", "1,2,3\n", "a,b\n", "1,2x\n", "1e999,0\n", ",\n"}) {
+  for (const char* bad :
+       {"1.0\n", "1,2,3\n", "a,b\n", "1,2x\n", "1e999,0\n", ",\n", "1,,2\n", "1 2 3\n"}) {
     try {
       parse(std::string("0,0\n") + bad);
       ADD_FAILURE() << "accepted " << bad;
@@ -93,4 +114,4 @@ TEST(PointsCsv, BadLinesNameFileAndLine) {
 }
 
 }  // namespace
-}  // namespace fieldline::fusion
+}  // namespace fieldline::perception
