@@ -31,7 +31,6 @@ REASON = re.compile(r"^\s*//\s*long:\s*\S")
 # (none is the goal): path -> reason, "path:function" -> reason.
 KNOWN_LONG_FILES = {
     "services/camera/sim_renderer.cpp": "in perf's room today (sim renderer rewrite)",
-    "services/region_tracking/detectors.cpp": "in hires' room today (region tracking split)",
     "tools/mirror_calibrate/pose_free.cpp": "one staged solver of 1000 lines; its split into stage functions is pending (hcode)",
 }
 KNOWN_LONG_FUNCTIONS = {
@@ -48,11 +47,6 @@ KNOWN_LONG_FUNCTIONS = {
     "services/fusion/current_contact.cpp:CurrentContactDetector::add": "in robust's or tball's room today (fusion, teamcomm, eval)",
     "services/fusion/odometry_layer.cpp:OdometryLayer::update": "in robust's or tball's room today (fusion, teamcomm, eval)",
     "services/motor_bridge/bridge.cpp:BridgeCore::onBytes": "in perf's room today (bus, node loops)",
-    "services/region_tracking/detectors.cpp:LineDetector::LineDetector": "in hires' room today (region tracking split)",
-    "services/region_tracking/detectors.cpp:LineDetector::sampleByDistance": "in hires' room today (region tracking split)",
-    "services/region_tracking/detectors.cpp:LineDetector::scan": "in hires' room today (region tracking split)",
-    "services/region_tracking/detectors.cpp:LineDetector::detect": "in hires' room today (region tracking split)",
-    "services/region_tracking/detectors.cpp:BallDetector::evaluate": "in hires' room today (region tracking split)",
     "services/region_tracking/frame_processor.cpp:loadVisionParams": "in hires' room today (region tracking split)",
     "services/region_tracking/region_tracker.cpp:RegionTracker::RegionTracker": "in hires' room today (region tracking split)",
     "tools/calibration_common/ridges.cpp:findRidges": "not split yet (issue 33 item 3): pending",

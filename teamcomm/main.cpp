@@ -20,6 +20,7 @@
 
 using namespace fieldline;
 
+// long: the command line of the team link (options, checks, --print-io, --check-args) in order.
 int main(int argc, char** argv) {
   CLI::App app{
       "Team communication: own pose and ball to the teammates over authenticated UDP "

@@ -214,6 +214,7 @@ bus::ProcessIo cameraIo(const CameraAppOptions& options) {
   return io;
 }
 
+// long: one place that opens each camera source (sim, V4L2, file, pipe) with its checks.
 int runCamera(const CameraAppOptions& options, const bus::CommonOptions& common) {
   CameraConfig config = loadCameraConfigPreset(options.preset);
   if (options.latency >= 0.0) config.pipeline.latency = options.latency;

@@ -7,6 +7,7 @@
 
 namespace fieldline::feature_recognition {
 
+// long: a table of declarations, one row per setting, read top to bottom like the YAML.
 const config::SettingsTable<RecognitionParams>& recognitionSettings() {
   static const auto table = [] {
     config::SettingsTable<RecognitionParams> t;

@@ -92,6 +92,7 @@ void declareOdometry(SettingsTable<FC>& t) {
       &OdometryNoise::gyro_heading_density);
 }
 
+// long: a table of declarations, one row per setting, read top to bottom like the YAML.
 void declareLocalizer(SettingsTable<FC>& t) {
   t.section("localizer", "Lost detection, global localization and layer 3.");
   const auto num = [&](const char* key, auto min, auto max, const char* unit, const char* why,
@@ -377,8 +378,8 @@ void declareBall(SettingsTable<FC>& t) {
       &BP::restart_after_outliers);
   num("max_range_m", 0.1, 50.0, "m", "Sightings further than this are not used", &BP::max_range_m);
   num("sighting_floor_m", 0.0, 5.0, "m",
-      "Added in quadrature to the camera's sigmas: with the true pose the simulated camera's "
-      "sightings are 3-4 cm off tangentially",
+      "Added in quadrature to the camera's sigmas; 0: the camera's own sigmas already cover the "
+      "sightings' errors (a floor made a resting ball's sigma 5 cm against 1 cm errors)",
       &BP::sighting_floor_m);
   t.addBool("ball.invalid_after_outlier",
             "An outlier sighting (kicked, bounced, put back) makes the estimate invalid until a "
@@ -467,6 +468,7 @@ void declareTwinByTeam(SettingsTable<FC>& t) {
 
 }  // namespace
 
+// long: a table of declarations, one row per setting, read top to bottom like the YAML.
 const config::SettingsTable<MatcherParams>& matcherSettings() {
   static const auto table = [] {
     config::SettingsTable<MatcherParams> t;

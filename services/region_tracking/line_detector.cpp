@@ -27,8 +27,8 @@ using detail::nearestPixel;
   return std::min(static_cast<int>(p * (kDirections / 4)), kDirections - 1);
 }
 
-// Over 80 lines: the detector's per-pixel hot loop along one normal, kept whole so that the
-// walk's state stays in registers.
+// long: the detector's per-pixel hot loop along one normal, kept whole so that the walk's
+// state stays in registers.
 template <camera::PixelFormat kFormat>
 bool LineDetector::scan(const camera::FrameView& frame, float originU, float originV, float normalU,
                         float normalV, float& lineU, float& lineV) {

@@ -124,6 +124,7 @@ FaultSpec parseFault(const std::string& text) {
   return f;
 }
 
+// long: one pass over the samples that scores every fault window and the whole run together.
 Robustness evaluateRobustness(const Summary& summary, const std::vector<FaultEvent>& events,
                               const std::vector<int>& robots, const RobustnessOptions& o) {
   Robustness r;

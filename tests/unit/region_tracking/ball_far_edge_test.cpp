@@ -10,7 +10,7 @@
 #include <gtest/gtest.h>
 
 #include "common/geometry/geometry.hpp"
-#include "tests/support/sim_frames.hpp"
+#include "tools/sim_frames/sim_frames.hpp"
 
 namespace fieldline::region_tracking {
 namespace {
