@@ -6,6 +6,7 @@
 #include <fstream>
 #include <istream>
 #include <ostream>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 #include <tuple>
@@ -84,8 +85,10 @@ LinePoints readLinePointsCsv(std::istream& in, const std::string& name, std::siz
                                     "robot frame)");
       }
       if (std::abs(value * scale) > kMaxLinePointCoordinateM) {
+        std::ostringstream metres;
+        metres << value * scale;
         throw std::invalid_argument(
-            where() + axis + " = " + text + " is " + std::to_string(value * scale) +
+            where() + axis + " = " + text + " is out of range: " + metres.str() +
             " m from the robot (more than " +
             std::to_string(static_cast<int>(kMaxLinePointCoordinateM)) + " m: wrong units?)");
       }

@@ -9,6 +9,9 @@
 namespace fieldline::camera {
 namespace {
 
+constexpr int kNoiseTableBits = 12;
+constexpr float kNoiseTableScale = 16.0f;  // noise_table_ holds N(0,1) * 16
+
 // Deterministic hash of integer lattice coordinates to [-1, 1] (texture noise).
 float latticeNoise(std::int64_t i, std::int64_t j, std::uint32_t seed) {
   std::uint64_t h = static_cast<std::uint64_t>(i) * 0x9E3779B97F4A7C15ull ^
@@ -103,12 +106,11 @@ SimRenderer::SimRenderer(MirrorModel mirror, const field::FieldModel& field, Ren
   buildPixelTable();
 
   std::mt19937 rng(params_.noise_seed);
-  std::normal_distribution<double> gauss(0.0, 1.0);
-  noise_bytes_.resize(2 * static_cast<std::size_t>(stride()) * height());
-  for (std::size_t k = 0; k < noise_bytes_.size(); ++k) {
-    const double sigma = k % 2 == 0 ? params_.noise_luma : params_.noise_chroma;
-    noise_bytes_[k] =
-        static_cast<std::int8_t>(std::clamp(std::lround(gauss(rng) * sigma), -127l, 127l));
+  std::normal_distribution<float> gauss(0.0f, 1.0f);
+  noise_table_.resize(std::size_t{1} << kNoiseTableBits);
+  for (auto& n : noise_table_) {
+    n = static_cast<std::int8_t>(
+        std::clamp(std::lround(gauss(rng) * kNoiseTableScale), -127l, 127l));
   }
 }
 
@@ -289,8 +291,7 @@ void SimRenderer::buildPixelTable() {
       const int level =
           static_cast<int>(std::lround(std::log2(footprint / params_.floor_resolution))) - 1;
       level_[i] = static_cast<std::uint8_t>(std::clamp(level, 0, max_level));
-      floor_pixels_.push_back({floor_x_[i], floor_y_[i], static_cast<std::int32_t>(i),
-                               static_cast<std::int32_t>(level_[i])});
+      floor_pixels_.push_back(static_cast<std::int32_t>(i));
     }
   }
 }
@@ -316,34 +317,16 @@ void SimRenderer::renderFloor(const geometry::Pose2& pose) {
   // which are fixed on the field: every frame saw a line up to half a coarse cell (4-8 cm at
   // 3-6 m) off, the same way, and fusion's line matching inherited a bias of 1-2 cm wherever the
   // visible lines lie on one side of the robot (docs/fusion.md, tenth round).
-  // The levels' figures in the types the loop uses, read once per frame.
-  struct Level {
-    const Yuv* cells;
-    float inv;
-    float fcols, frows;
-    int cols, rows;
-  };
-  std::array<Level, 16> levels{};
-  for (std::size_t k = 0; k < raster_.size() && k < levels.size(); ++k) {
-    const RasterLevel& l = raster_[k];
-    levels[k] = {l.cells.data(),
-                 static_cast<float>(l.inv_cell),
-                 static_cast<float>(l.cols),
-                 static_cast<float>(l.rows),
-                 l.cols,
-                 l.rows};
-  }
-  Yuv* const frame = frame_.data();
-  for (const FloorPixel& fp : floor_pixels_) {
-    const float x = fp.x;
-    const float y = fp.y;
-    const std::size_t i = static_cast<std::size_t>(fp.index);
-    const Level& l = levels[static_cast<std::size_t>(fp.level)];
-    const float inv = l.inv;
+  for (const std::int32_t i : floor_pixels_) {
+    const float x = floor_x_[i];
+    const float y = floor_y_[i];
+    const RasterLevel& l = raster_[level_[i]];
+    const float inv = static_cast<float>(l.inv_cell);
     const float gx = (ox + c * x - s * y) * inv;
     const float gy = (oy + s * x + c * y) * inv;
-    if (!(gx >= 0.0f && gy >= 0.0f && gx < l.fcols && gy < l.frows)) {
-      frame[i] = outside_floor_yuv_;
+    if (!(gx >= 0.0f && gy >= 0.0f && gx < static_cast<float>(l.cols) &&
+          gy < static_cast<float>(l.rows))) {
+      frame_[i] = outside_floor_yuv_;
       continue;
     }
     // Cell-centre coordinates; at the raster's edge the edge cells are repeated.
@@ -367,7 +350,7 @@ void SimRenderer::renderFloor(const geometry::Pose2& pose) {
                                         w01 * (p01.*channel) + w11 * (p11.*channel) + 32768) >>
                                        16);
     };
-    frame[i] = Yuv{mix(&Yuv::y), mix(&Yuv::u), mix(&Yuv::v)};
+    frame_[i] = Yuv{mix(&Yuv::y), mix(&Yuv::u), mix(&Yuv::v)};
   }
 }
 
@@ -642,24 +625,33 @@ void SimRenderer::render(const SimScene& scene, std::vector<std::uint8_t>& yuyv)
 void SimRenderer::finish(const SimScene& scene, std::vector<std::uint8_t>& yuyv) {
   const int w = width();
   const int h = height();
-  const std::size_t bytes = static_cast<std::size_t>(stride()) * h;
-  yuyv.resize(bytes);
-  // The frame's noise window: an even offset (luma stays on luma bytes) from its frame number.
-  const std::size_t offset =
-      2 * (mixSeed(params_.noise_seed, scene.frame_number) % (noise_bytes_.size() / 2 - bytes / 2));
-  const std::int8_t* noise = noise_bytes_.data() + offset;
+  yuyv.resize(static_cast<std::size_t>(stride()) * h);
+  // Noise scale in 1/256 levels per table unit.
+  const int luma = static_cast<int>(std::lround(params_.noise_luma * 256.0 / kNoiseTableScale));
+  const int chroma = static_cast<int>(std::lround(params_.noise_chroma * 256.0 / kNoiseTableScale));
+  constexpr std::uint32_t mask = (1u << kNoiseTableBits) - 1;
+  std::uint32_t state = mixSeed(params_.noise_seed, scene.frame_number);
+  auto next = [&state] {
+    state ^= state << 13;
+    state ^= state >> 17;
+    state ^= state << 5;
+    return state;
+  };
+  auto noise = [&](std::uint32_t bits, int scale) {
+    return (noise_table_[bits & mask] * scale) / 256;
+  };
   for (int v = 0; v < h; ++v) {
     const Yuv* src = frame_.data() + static_cast<std::size_t>(v) * w;
-    const std::size_t row = static_cast<std::size_t>(v) * stride();
-    std::uint8_t* dst = yuyv.data() + row;
-    const std::int8_t* n = noise + row;
+    std::uint8_t* dst = yuyv.data() + static_cast<std::size_t>(v) * stride();
     for (int u = 0; u < w; u += 2) {
       const Yuv& a = src[u];
       const Yuv& b = src[u + 1];
-      dst[2 * u + 0] = clampByte(a.y + n[2 * u + 0]);
-      dst[2 * u + 1] = clampByte((a.u + b.u + 1) / 2 + n[2 * u + 1]);
-      dst[2 * u + 2] = clampByte(b.y + n[2 * u + 2]);
-      dst[2 * u + 3] = clampByte((a.v + b.v + 1) / 2 + n[2 * u + 3]);
+      const std::uint32_t r1 = next();
+      const std::uint32_t r2 = next();
+      dst[2 * u + 0] = clampByte(a.y + noise(r1, luma));
+      dst[2 * u + 1] = clampByte((a.u + b.u + 1) / 2 + noise(r2, chroma));
+      dst[2 * u + 2] = clampByte(b.y + noise(r1 >> 16, luma));
+      dst[2 * u + 3] = clampByte((a.v + b.v + 1) / 2 + noise(r2 >> 16, chroma));
     }
   }
 }

@@ -205,14 +205,8 @@ class SimRenderer {
   std::vector<float> floor_x_;
   std::vector<float> floor_y_;
   std::vector<std::uint8_t> level_;
-  // The kFloor pixels in row-major order, packed for renderFloor's one sequential pass.
-  struct FloorPixel {
-    float x, y;  // floor point, axis frame
-    std::int32_t index;
-    std::int32_t level;
-  };
-  std::vector<FloorPixel> floor_pixels_;
-  std::vector<Yuv> static_layer_;  // outside, self, hall
+  std::vector<std::int32_t> floor_pixels_;  // indices of kFloor pixels
+  std::vector<Yuv> static_layer_;           // outside, self, hall
 
   std::vector<RasterLevel> raster_;
   RasterSource raster_source_ = RasterSource::kBuilt;
@@ -222,10 +216,7 @@ class SimRenderer {
 
   std::vector<Yuv> frame_;                                 // current sub-frame, one Yuv per pixel
   std::vector<std::array<std::uint16_t, 3>> accumulator_;  // motion blur sums
-  // Sensor noise in 8-bit levels for two frames' worth of YUYV bytes (luma sigma at even bytes,
-  // chroma sigma at odd ones); each frame adds the window starting at an offset drawn from its
-  // frame number. Drawing the Gaussian per pixel and frame was a quarter of the camera's time.
-  std::vector<std::int8_t> noise_bytes_;
+  std::vector<std::int8_t> noise_table_;                   // unit Gaussian * 16
   RealismFilter realism_;
 };
 

@@ -168,7 +168,7 @@ void declareLocalizer(SettingsTable<FC>& t) {
       "ODOMETRY_ONLY (0.5 m is about four sigma)",
       &LP::tracking_max_sigma_m);
   num("reset_confirm_frames", 0, 100, "1",
-      "After a gated reset, SEARCHING until this many later frames are accepted", 
+      "After a gated reset, SEARCHING until this many later frames are accepted",
       &LP::reset_confirm_frames);
   num("search_step_m", 0.05, 5.0, "m", "The coarse search's grid step when features are missing",
       &LP::search_step_m);
