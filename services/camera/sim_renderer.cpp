@@ -6,54 +6,24 @@
 #include <random>
 #include <stdexcept>
 
+#include "services/camera/sim_colour.hpp"
+
 namespace fieldline::camera {
 namespace {
 
 constexpr int kNoiseTableBits = 12;
 constexpr float kNoiseTableScale = 16.0f;  // noise_table_ holds N(0,1) * 16
 
-// Deterministic hash of integer lattice coordinates to [-1, 1] (texture noise).
-float latticeNoise(std::int64_t i, std::int64_t j, std::uint32_t seed) {
-  std::uint64_t h = static_cast<std::uint64_t>(i) * 0x9E3779B97F4A7C15ull ^
-                    static_cast<std::uint64_t>(j) * 0xC2B2AE3D27D4EB4Full ^ seed;
-  h ^= h >> 31;
-  h *= 0xBF58476D1CE4E5B9ull;
-  h ^= h >> 29;
-  return static_cast<float>(h >> 40) / static_cast<float>(1ull << 23) - 1.0f;
-}
-
-// Smooth value noise in [-1, 1] with features about `scale` metres apart.
-float valueNoise(const Vec2& p, double scale, std::uint32_t seed) {
-  const double gx = p.x() / scale;
-  const double gy = p.y() / scale;
-  const double fx = std::floor(gx);
-  const double fy = std::floor(gy);
-  const auto i = static_cast<std::int64_t>(fx);
-  const auto j = static_cast<std::int64_t>(fy);
-  auto smooth = [](double t) { return t * t * (3.0 - 2.0 * t); };
-  const double tx = smooth(gx - fx);
-  const double ty = smooth(gy - fy);
-  const double a = latticeNoise(i, j, seed) * (1 - tx) + latticeNoise(i + 1, j, seed) * tx;
-  const double b = latticeNoise(i, j + 1, seed) * (1 - tx) + latticeNoise(i + 1, j + 1, seed) * tx;
-  return static_cast<float>(a * (1 - ty) + b * ty);
-}
-
-Bgr scaleBgr(Bgr c, double k) {
-  auto s = [k](std::uint8_t x) {
-    return static_cast<std::uint8_t>(std::clamp(x * k + 0.5, 0.0, 255.0));
-  };
-  return {s(c.b), s(c.g), s(c.r)};
-}
-
-Bgr mixBgr(Bgr a, Bgr b, double t) {
-  auto m = [t](std::uint8_t x, std::uint8_t y) {
-    return static_cast<std::uint8_t>(std::clamp(x + (y - x) * t + 0.5, 0.0, 255.0));
-  };
-  return {m(a.b, b.b), m(a.g, b.g), m(a.r, b.r)};
-}
-
 std::uint8_t clampByte(int x) {
   return static_cast<std::uint8_t>(std::clamp(x, 0, 255));
+}
+
+// One step of the sensor noise's generator (Marsaglia's xorshift32; linear over GF(2)).
+std::uint32_t xorshift32(std::uint32_t x) {
+  x ^= x << 13;
+  x ^= x >> 17;
+  x ^= x << 5;
+  return x;
 }
 
 std::uint32_t mixSeed(std::uint32_t seed, std::uint64_t frame) {
@@ -101,6 +71,9 @@ SimRenderer::SimRenderer(MirrorModel mirror, const field::FieldModel& field, Ren
   carpet_half_ = field.carpetHalfExtent();
   raster_origin_ = -carpet_half_;
   loadOrBuildFloorRaster(field, raster_cache_dir);
+  // One spare cell after each level's: the floor pass reads cells 4 bytes at a time.
+  for (RasterLevel& level : raster_)
+    level.cells.push_back(Yuv{});
   outside_floor_yuv_ = yuvFromBgr(scaleBgr(params_.outside_floor, params_.lighting.ambient));
   buildGoals(field);
   buildPixelTable();
@@ -112,103 +85,28 @@ SimRenderer::SimRenderer(MirrorModel mirror, const field::FieldModel& field, Ren
     n = static_cast<std::int8_t>(
         std::clamp(std::lround(gauss(rng) * kNoiseTableScale), -127l, 127l));
   }
+  // The table in 8-bit levels for luma and chroma (noise scale in 1/256 levels per table unit).
+  const int luma = static_cast<int>(std::lround(params_.noise_luma * 256.0 / kNoiseTableScale));
+  const int chroma = static_cast<int>(std::lround(params_.noise_chroma * 256.0 / kNoiseTableScale));
+  luma_noise_.resize(noise_table_.size());
+  chroma_noise_.resize(noise_table_.size());
+  for (std::size_t k = 0; k < noise_table_.size(); ++k) {
+    luma_noise_[k] = static_cast<std::int16_t>((noise_table_[k] * luma) / 256);
+    chroma_noise_[k] = static_cast<std::int16_t>((noise_table_[k] * chroma) / 256);
+  }
+  // Eight xorshift32 steps at once: the images of each byte's 256 values (the steps are linear).
+  for (std::size_t byte = 0; byte < 4; ++byte) {
+    for (std::uint32_t v = 0; v < 256; ++v) {
+      std::uint32_t x = v << (8 * byte);
+      for (int k = 0; k < 8; ++k)
+        x = xorshift32(x);
+      noise_jump_[byte][v] = x;
+    }
+  }
 }
 
 Yuv SimRenderer::lit(Bgr colour, const Vec2& field_point) const {
   return yuvFromBgr(scaleBgr(colour, params_.lighting.at(field_point, carpet_half_)));
-}
-
-// What this computes from its inputs is cached on disk (floor_raster_cache.hpp): a change here
-// that gives another raster for the same inputs must bump kFloorRasterVersion.
-void SimRenderer::buildFloorRaster(const field::FieldModel& field) {
-  RasterLevel base;
-  base.cell = params_.floor_resolution;
-  base.inv_cell = 1.0 / base.cell;
-  base.cols = static_cast<int>(std::ceil(2.0 * carpet_half_.x() / base.cell));
-  base.rows = static_cast<int>(std::ceil(2.0 * carpet_half_.y() / base.cell));
-  base.cells.resize(static_cast<std::size_t>(base.cols) * base.rows);
-
-  const auto& tex = params_.carpet_texture;
-  const std::vector<Vec2>& marks = field.penaltyMarks();
-  const double mark_radius = field.dimensions().penalty_mark_diameter / 2.0;
-  // Most of the carpet is far from every line, and the closest-line search is most of the
-  // start-up time (a restarted camera should be back within a second). The distance to the lines
-  // changes by at most the distance moved, so one search at the centre of a block of cells
-  // proves the whole block uncovered when it is farther than the widest line's half width plus
-  // half a cell plus the block's half diagonal. The raster is unchanged, only built faster.
-  double max_half_width = 0.0;
-  for (const auto& s : field.segments())
-    max_half_width = std::max(max_half_width, 0.5 * s.width);
-  for (const auto& a : field.arcs())
-    max_half_width = std::max(max_half_width, 0.5 * a.width);
-  constexpr int kBlock = 16;
-  const double block_half_diagonal = std::sqrt(2.0) * 0.5 * (kBlock - 1) * base.cell;
-  const double uncovered_beyond = max_half_width + 0.5 * base.cell + block_half_diagonal + 1e-6;
-  const int block_cols = (base.cols + kBlock - 1) / kBlock;
-  std::vector<bool> block_uncovered(static_cast<std::size_t>(block_cols) *
-                                    ((base.rows + kBlock - 1) / kBlock));
-  for (std::size_t b = 0; b < block_uncovered.size(); ++b) {
-    const double bi = static_cast<double>(b % block_cols) * kBlock + 0.5 * kBlock;
-    const double bj = static_cast<double>(b / block_cols) * kBlock + 0.5 * kBlock;
-    const Vec2 centre = raster_origin_ + Vec2(bi * base.cell, bj * base.cell);
-    block_uncovered[b] = field.distance(centre) > uncovered_beyond;
-  }
-  for (int j = 0; j < base.rows; ++j) {
-    for (int i = 0; i < base.cols; ++i) {
-      const Vec2 p = raster_origin_ + Vec2((i + 0.5) * base.cell, (j + 0.5) * base.cell);
-      // Line coverage of this cell, antialiased over one cell.
-      double coverage = 0.0;
-      if (!block_uncovered[static_cast<std::size_t>(j / kBlock) * block_cols + i / kBlock]) {
-        const field::FieldModel::Closest c = field.closestPoint(p);
-        const double half_width =
-            0.5 * (c.is_arc ? field.arcs()[c.element].width : field.segments()[c.element].width);
-        coverage = std::clamp((half_width - c.distance) / base.cell + 0.5, 0.0, 1.0);
-      }
-      for (const Vec2& m : marks) {
-        const double d = (p - m).norm();
-        coverage = std::max(coverage, std::clamp((mark_radius - d) / base.cell + 0.5, 0.0, 1.0));
-      }
-      const double grain = latticeNoise(i, j, params_.noise_seed * 7 + 3);
-      const double texture = 1.0 + tex[0] * valueNoise(p, 0.6, params_.noise_seed) +
-                             tex[1] * valueNoise(p, 0.08, params_.noise_seed + 1) + tex[2] * grain;
-      const Bgr carpet = scaleBgr(params_.carpet, texture);
-      const Bgr line = scaleBgr(params_.line, 1.0 + 0.3 * tex[2] * grain);
-      const Bgr floor = mixBgr(carpet, line, coverage);
-      base.cells[static_cast<std::size_t>(j) * base.cols + i] =
-          yuvFromBgr(scaleBgr(floor, params_.lighting.at(p, carpet_half_)));
-    }
-  }
-  raster_.push_back(std::move(base));
-
-  // Mip levels: 2x2 averages, until cells reach about half a metre.
-  while (raster_.back().cell < 0.5 && raster_.back().cols > 4 && raster_.back().rows > 4) {
-    const RasterLevel& fine = raster_.back();
-    RasterLevel coarse;
-    coarse.cell = fine.cell * 2.0;
-    coarse.inv_cell = 1.0 / coarse.cell;
-    coarse.cols = (fine.cols + 1) / 2;
-    coarse.rows = (fine.rows + 1) / 2;
-    coarse.cells.resize(static_cast<std::size_t>(coarse.cols) * coarse.rows);
-    for (int j = 0; j < coarse.rows; ++j) {
-      for (int i = 0; i < coarse.cols; ++i) {
-        int sy = 0, su = 0, sv = 0;
-        for (int dj = 0; dj < 2; ++dj) {
-          for (int di = 0; di < 2; ++di) {
-            const int fi = std::min(2 * i + di, fine.cols - 1);
-            const int fj = std::min(2 * j + dj, fine.rows - 1);
-            const Yuv& c = fine.cells[static_cast<std::size_t>(fj) * fine.cols + fi];
-            sy += c.y;
-            su += c.u;
-            sv += c.v;
-          }
-        }
-        coarse.cells[static_cast<std::size_t>(j) * coarse.cols + i] = {
-            static_cast<std::uint8_t>((sy + 2) / 4), static_cast<std::uint8_t>((su + 2) / 4),
-            static_cast<std::uint8_t>((sv + 2) / 4)};
-      }
-    }
-    raster_.push_back(std::move(coarse));
-  }
 }
 
 void SimRenderer::buildGoals(const field::FieldModel& field) {
@@ -240,117 +138,6 @@ void SimRenderer::buildGoals(const field::FieldModel& field) {
       box(back, back + sx * t, cy + half, cy + half + t, 0.0, g.height + t);
       box(back, back + sx * t, cy - half - t, cy - half, 0.0, g.height + t);
     }
-  }
-}
-
-void SimRenderer::buildPixelTable() {
-  const int w = mirror_.width();
-  const int h = mirror_.height();
-  const std::size_t n = static_cast<std::size_t>(w) * h;
-  kind_.assign(n, PixelKind::kOutside);
-  floor_x_.assign(n, 0.0f);
-  floor_y_.assign(n, 0.0f);
-  level_.assign(n, 0);
-  static_layer_.assign(n, Yuv{6, 128, 128});
-  floor_pixels_.clear();
-
-  const Yuv hall = yuvFromBgr(scaleBgr(params_.hall, params_.lighting.ambient));
-  const double self_radius = mirror_.params().self_radius;
-  const int max_level = static_cast<int>(raster_.size()) - 1;
-  for (int v = 0; v < h; ++v) {
-    for (int u = 0; u < w; ++u) {
-      const std::size_t i = static_cast<std::size_t>(v) * w + u;
-      const Vec2 px(u, v);
-      const MirrorZone zone = mirror_.zone(px);
-      if (zone == MirrorZone::kOutside) continue;
-      if (zone == MirrorZone::kSelf) {
-        // The robot's own reflection: its dark top plate with a brighter rim of the camera mount.
-        const double r = mirror_.radiusOf(px) / self_radius;
-        const bool rim = r > 0.55 && r < 0.7;
-        kind_[i] = PixelKind::kSelf;
-        static_layer_[i] = yuvFromBgr(rim ? scaleBgr(params_.self, 2.5) : params_.self);
-        continue;
-      }
-      // Floor points in the axis frame: the scene is drawn from the mirror axis' pose.
-      const std::optional<Vec2> floor = mirror_.imageToAxis(px);
-      if (!floor) continue;
-      floor_x_[i] = static_cast<float>(floor->x());
-      floor_y_[i] = static_cast<float>(floor->y());
-      if (floor->norm() > params_.max_floor_distance) {
-        kind_[i] = PixelKind::kHall;
-        static_layer_[i] = hall;
-        continue;
-      }
-      kind_[i] = PixelKind::kFloor;
-      // The level whose cells are about half the pixel's footprint (0.35 to 0.71 of it):
-      // interpolated between their centres (renderFloor), they blur the floor over about one
-      // pixel. Cells as large as the footprint (as until bias10i) blurred a line 4.5 m away over
-      // 16 cm of floor and shifted its centre outward by a centimetre or two.
-      const Vec2 mpp = mirror_.metresPerPixel(px);
-      const double footprint = std::max(mpp.x(), mpp.y());
-      const int level =
-          static_cast<int>(std::lround(std::log2(footprint / params_.floor_resolution))) - 1;
-      level_[i] = static_cast<std::uint8_t>(std::clamp(level, 0, max_level));
-      floor_pixels_.push_back(static_cast<std::int32_t>(i));
-    }
-  }
-}
-
-// --- per frame ---
-
-Yuv SimRenderer::floorColour(const Vec2& p) const {
-  const RasterLevel& l = raster_.front();
-  const double gx = (p.x() - raster_origin_.x()) * l.inv_cell;
-  const double gy = (p.y() - raster_origin_.y()) * l.inv_cell;
-  if (!(gx >= 0.0 && gy >= 0.0 && gx < l.cols && gy < l.rows)) return outside_floor_yuv_;
-  return l.cells[static_cast<std::size_t>(gy) * l.cols + static_cast<std::size_t>(gx)];
-}
-
-void SimRenderer::renderFloor(const geometry::Pose2& pose) {
-  const float c = static_cast<float>(std::cos(pose.phi));
-  const float s = static_cast<float>(std::sin(pose.phi));
-  const float ox = static_cast<float>(pose.x - raster_origin_.x());
-  const float oy = static_cast<float>(pose.y - raster_origin_.y());
-  // Each cell holds its area's mean colour at its centre; a pixel's colour is interpolated
-  // bilinearly between the four cell centres around its floor point. Taking the colour of the
-  // cell the point falls in (as until bias10i) moved a line's edges to the cells' boundaries,
-  // which are fixed on the field: every frame saw a line up to half a coarse cell (4-8 cm at
-  // 3-6 m) off, the same way, and fusion's line matching inherited a bias of 1-2 cm wherever the
-  // visible lines lie on one side of the robot (docs/fusion.md, tenth round).
-  for (const std::int32_t i : floor_pixels_) {
-    const float x = floor_x_[i];
-    const float y = floor_y_[i];
-    const RasterLevel& l = raster_[level_[i]];
-    const float inv = static_cast<float>(l.inv_cell);
-    const float gx = (ox + c * x - s * y) * inv;
-    const float gy = (oy + s * x + c * y) * inv;
-    if (!(gx >= 0.0f && gy >= 0.0f && gx < static_cast<float>(l.cols) &&
-          gy < static_cast<float>(l.rows))) {
-      frame_[i] = outside_floor_yuv_;
-      continue;
-    }
-    // Cell-centre coordinates; at the raster's edge the edge cells are repeated.
-    const float cx = gx - 0.5f, cy = gy - 0.5f;
-    const int i0 = cx < 0.0f ? -1 : static_cast<int>(cx);
-    const int j0 = cy < 0.0f ? -1 : static_cast<int>(cy);
-    const int fx = static_cast<int>((cx - static_cast<float>(i0)) * 256.0f);
-    const int fy = static_cast<int>((cy - static_cast<float>(j0)) * 256.0f);
-    const std::size_t a = static_cast<std::size_t>(std::max(i0, 0));
-    const std::size_t b = static_cast<std::size_t>(std::min(i0 + 1, l.cols - 1));
-    const std::size_t row0 = static_cast<std::size_t>(std::max(j0, 0)) * l.cols;
-    const std::size_t row1 = static_cast<std::size_t>(std::min(j0 + 1, l.rows - 1)) * l.cols;
-    const Yuv& p00 = l.cells[row0 + a];
-    const Yuv& p10 = l.cells[row0 + b];
-    const Yuv& p01 = l.cells[row1 + a];
-    const Yuv& p11 = l.cells[row1 + b];
-    const int w00 = (256 - fx) * (256 - fy), w10 = fx * (256 - fy);
-    const int w01 = (256 - fx) * fy, w11 = fx * fy;
-    auto mix = [&](std::uint8_t Yuv::*channel) {
-      return static_cast<std::uint8_t>((w00 * (p00.*channel) + w10 * (p10.*channel) +
-                                        w01 * (p01.*channel) + w11 * (p11.*channel) + 32768) >>
-                                       16);
-    };
-    frame_[i] = Yuv{mix(&Yuv::y), mix(&Yuv::u), mix(&Yuv::v)};
   }
 }
 
@@ -626,124 +413,46 @@ void SimRenderer::finish(const SimScene& scene, std::vector<std::uint8_t>& yuyv)
   const int w = width();
   const int h = height();
   yuyv.resize(static_cast<std::size_t>(stride()) * h);
-  // Noise scale in 1/256 levels per table unit.
-  const int luma = static_cast<int>(std::lround(params_.noise_luma * 256.0 / kNoiseTableScale));
-  const int chroma = static_cast<int>(std::lround(params_.noise_chroma * 256.0 / kNoiseTableScale));
+  drawNoise(mixSeed(params_.noise_seed, scene.frame_number), static_cast<std::size_t>(w) * h);
   constexpr std::uint32_t mask = (1u << kNoiseTableBits) - 1;
-  std::uint32_t state = mixSeed(params_.noise_seed, scene.frame_number);
-  auto next = [&state] {
-    state ^= state << 13;
-    state ^= state >> 17;
-    state ^= state << 5;
-    return state;
-  };
-  auto noise = [&](std::uint32_t bits, int scale) {
-    return (noise_table_[bits & mask] * scale) / 256;
-  };
+  const std::uint32_t* draw = noise_draws_.data();
   for (int v = 0; v < h; ++v) {
     const Yuv* src = frame_.data() + static_cast<std::size_t>(v) * w;
     std::uint8_t* dst = yuyv.data() + static_cast<std::size_t>(v) * stride();
-    for (int u = 0; u < w; u += 2) {
+    for (int u = 0; u < w; u += 2, draw += 2) {
       const Yuv& a = src[u];
       const Yuv& b = src[u + 1];
-      const std::uint32_t r1 = next();
-      const std::uint32_t r2 = next();
-      dst[2 * u + 0] = clampByte(a.y + noise(r1, luma));
-      dst[2 * u + 1] = clampByte((a.u + b.u + 1) / 2 + noise(r2, chroma));
-      dst[2 * u + 2] = clampByte(b.y + noise(r1 >> 16, luma));
-      dst[2 * u + 3] = clampByte((a.v + b.v + 1) / 2 + noise(r2 >> 16, chroma));
+      const std::uint32_t r1 = draw[0];
+      const std::uint32_t r2 = draw[1];
+      dst[2 * u + 0] = clampByte(a.y + luma_noise_[r1 & mask]);
+      dst[2 * u + 1] = clampByte((a.u + b.u + 1) / 2 + chroma_noise_[r2 & mask]);
+      dst[2 * u + 2] = clampByte(b.y + luma_noise_[(r1 >> 16) & mask]);
+      dst[2 * u + 3] = clampByte((a.v + b.v + 1) / 2 + chroma_noise_[(r2 >> 16) & mask]);
     }
   }
 }
 
-// --- config ---
-
-namespace {
-
-Bgr loadBgr(const config::Node& n, const std::string& key) {
-  const std::vector<int> c = n.getList<int>(key, 3);
-  for (const int x : c) {
-    if (x < 0 || x > 255) n.fail(key, "colour components must be in 0..255");
+void SimRenderer::drawNoise(std::uint32_t state, std::size_t n) {
+  noise_draws_.resize(n);
+  constexpr std::size_t kLanes = 8;
+  std::array<std::uint32_t, kLanes> lane{};
+  for (std::uint32_t& x : lane) {
+    state = xorshift32(state);
+    x = state;
   }
-  return {static_cast<std::uint8_t>(c[0]), static_cast<std::uint8_t>(c[1]),
-          static_cast<std::uint8_t>(c[2])};
-}
-
-Vec2 loadVec2(const config::Node& n, const std::string& key, double limit) {
-  const std::vector<double> v = n.getList<double>(key, 2);
-  if (std::abs(v[0]) > limit || std::abs(v[1]) > limit) {
-    n.fail(key, "components must be within +-" + std::to_string(limit));
-  }
-  return {v[0], v[1]};
-}
-
-}  // namespace
-
-RenderParams loadRenderParams(const config::Node& n) {
-  RenderParams p;
-  p.max_floor_distance = n.get<double>("max_floor_distance", 0.5, 100.0);
-  p.floor_resolution = n.get<double>("floor_resolution", 0.002, 0.2);
-  p.carpet = loadBgr(n, "carpet_bgr");
-  p.line = loadBgr(n, "line_bgr");
-  p.outside_floor = loadBgr(n, "outside_floor_bgr");
-  p.hall = loadBgr(n, "hall_bgr");
-  p.robot = loadBgr(n, "robot_bgr");
-  p.robot_top = loadBgr(n, "robot_top_bgr");
-  p.self = loadBgr(n, "self_bgr");
-  p.ball = loadBgr(n, "ball_bgr");
-  p.goal_yellow = loadBgr(n, "goal_yellow_bgr");
-  p.goal_blue = loadBgr(n, "goal_blue_bgr");
-  p.goal_white = loadBgr(n, "goal_white_bgr");
-  p.own_marker = loadBgr(n, "own_marker_bgr");
-  p.opponent_marker = loadBgr(n, "opponent_marker_bgr");
-  p.robot_height = n.get<double>("robot_height", 0.1, 2.0);
-  const std::vector<double> band = n.getList<double>("marker_band", 2);
-  if (!(band[0] >= 0.0 && band[0] < band[1] && band[1] <= p.robot_height)) {
-    n.fail("marker_band", "expected [bottom, top] with 0 <= bottom < top <= robot_height");
-  }
-  p.marker_band = {band[0], band[1]};
-  p.goal_post_thickness = n.get<double>("goal_post_thickness", 0.01, 0.5);
-  const std::vector<double> tex = n.getList<double>("carpet_texture", 3);
-  for (const double t : tex) {
-    if (!(t >= 0.0 && t <= 0.5)) n.fail("carpet_texture", "amplitudes must be in [0, 0.5]");
-  }
-  p.carpet_texture = {tex[0], tex[1], tex[2]};
-
-  const config::Node light = n.child("lighting");
-  p.lighting.ambient = light.get<double>("ambient", 0.05, 3.0);
-  if (light.has("spots")) {
-    for (const config::Node& s : light.children("spots")) {
-      LightSpot spot;
-      spot.position = loadVec2(s, "position", 100.0);
-      spot.radius = s.get<double>("radius", 0.05, 50.0);
-      spot.gain = s.get<double>("gain", 0.0, 3.0);
-      s.rejectUnknownKeys();
-      p.lighting.spots.push_back(spot);
+  const auto jump = [this](std::uint32_t x) {
+    return noise_jump_[0][x & 0xFF] ^ noise_jump_[1][(x >> 8) & 0xFF] ^
+           noise_jump_[2][(x >> 16) & 0xFF] ^ noise_jump_[3][x >> 24];
+  };
+  std::size_t i = 0;
+  for (; i + kLanes <= n; i += kLanes) {
+    for (std::size_t j = 0; j < kLanes; ++j) {
+      noise_draws_[i + j] = lane[j];
+      lane[j] = jump(lane[j]);
     }
-  } else {
-    (void)light.childIf("spots");
   }
-  if (const std::optional<config::Node> win = light.childIf("windows")) {
-    const Vec2 dir = loadVec2(*win, "direction", 1.0);
-    if (dir.norm() < 0.5) win->fail("direction", "expected a unit vector");
-    p.lighting.windows.direction = dir.normalized();
-    p.lighting.windows.gain = win->get<double>("gain", 0.0, 3.0);
-    p.lighting.windows.falloff = win->get<double>("falloff", 0.05, 50.0);
-    win->rejectUnknownKeys();
-  }
-  light.rejectUnknownKeys();
-
-  const config::Node noise = n.child("noise");
-  p.noise_luma = noise.get<double>("luma", 0.0, 50.0);
-  p.noise_chroma = noise.get<double>("chroma", 0.0, 50.0);
-  p.noise_seed = static_cast<std::uint32_t>(noise.get<int>("seed", 0, 1 << 30));
-  noise.rejectUnknownKeys();
-  p.motion_blur_samples = n.get<int>("motion_blur_samples", 1, 16);
-  if (const std::optional<config::Node> realism = n.childIf("realism")) {
-    p.realism = loadRealismParams(*realism);
-  }
-  n.rejectUnknownKeys();
-  return p;
+  for (std::size_t j = 0; i < n; ++i, ++j)
+    noise_draws_[i] = lane[j];
 }
 
 }  // namespace fieldline::camera

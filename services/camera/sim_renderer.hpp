@@ -194,19 +194,26 @@ class SimRenderer {
                     std::array<int, 4>& bounds) const;
   Yuv lit(Bgr colour, const Vec2& field_point) const;
   void finish(const SimScene& scene, std::vector<std::uint8_t>& yuyv);
+  // noise_draws_ = the first n draws of xorshift32 from `state` (the same numbers as stepping
+  // it n times, without the chain's latency).
+  void drawNoise(std::uint32_t state, std::size_t n);
 
   MirrorModel mirror_;
   RenderParams params_;
   Vec2 carpet_half_;
   Vec2 raster_origin_;
 
-  // Per pixel (row-major): kind, floor point in the mirror's axis frame, mip level.
+  // Per pixel (row-major): kind, floor point in the mirror's axis frame (the objects' rays).
   std::vector<PixelKind> kind_;
   std::vector<float> floor_x_;
   std::vector<float> floor_y_;
-  std::vector<std::uint8_t> level_;
-  std::vector<std::int32_t> floor_pixels_;  // indices of kFloor pixels
-  std::vector<Yuv> static_layer_;           // outside, self, hall
+  // The kFloor pixels grouped by mip level, row-major within a level: floor point (axis frame)
+  // and pixel index; level_end_[l] is where level l's run ends.
+  std::vector<float> floor_run_x_;
+  std::vector<float> floor_run_y_;
+  std::vector<std::int32_t> floor_run_index_;
+  std::vector<std::size_t> level_end_;
+  std::vector<Yuv> static_layer_;  // outside, self, hall
 
   std::vector<RasterLevel> raster_;
   RasterSource raster_source_ = RasterSource::kBuilt;
@@ -217,6 +224,13 @@ class SimRenderer {
   std::vector<Yuv> frame_;                                 // current sub-frame, one Yuv per pixel
   std::vector<std::array<std::uint16_t, 3>> accumulator_;  // motion blur sums
   std::vector<std::int8_t> noise_table_;                   // unit Gaussian * 16
+  // The sensor noise (finish): the table scaled to luma and chroma levels, the frame's
+  // generator draws (two per pixel pair: luma of both pixels, then U and V), and the jump
+  // tables that draw them eight lanes at a time (drawNoise).
+  std::vector<std::int16_t> luma_noise_;
+  std::vector<std::int16_t> chroma_noise_;
+  std::vector<std::uint32_t> noise_draws_;
+  std::array<std::array<std::uint32_t, 256>, 4> noise_jump_{};
   RealismFilter realism_;
 };
 

@@ -7,8 +7,13 @@
 // (fusion's last accepted vision correction, stamped with its frame's exposure time), and the
 // state goes out at its header.utime_published. The camera's own delay (utime_published - utime
 // of the frames) is reported beside it: the target is a p99 of at most 5 ms beyond it.
+//
+// The team's first seconds (every process starting at once, rasters built, filters searching)
+// are left out: corrections from frames that arrived within `leave_out_s` of the robot's first
+// frame are not counted (fieldline-eval passes its --settle), and line() says so.
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 #include <deque>
 #include <map>
@@ -25,6 +30,8 @@ struct ImageToPoseFigures {
   std::size_t corrections = 0;
   // ... whose frame was not seen (older than the window kept, or lost).
   std::size_t unmatched = 0;
+  // ... whose frame came within the left-out start (not in the quantiles).
+  std::size_t left_out = 0;
   double p50_ms = 0.0, p99_ms = 0.0, max_ms = 0.0;
   // The camera's own delay (utime_published - utime of its frames), median.
   double camera_delay_ms = 0.0;
@@ -32,6 +39,8 @@ struct ImageToPoseFigures {
 
 class ImageToPose {
  public:
+  explicit ImageToPose(double leave_out_s = 0.0) : leave_out_us_(std::llround(leave_out_s * 1e6)) {}
+
   // A CAMERA_IMAGE of `robot`: its header.utime and header.utime_published.
   void onImage(int robot, Utime utime, Utime published);
   // A ROBOT_STATE of `robot`.
@@ -40,8 +49,9 @@ class ImageToPose {
   std::map<int, ImageToPoseFigures> figures() const;
   // All robots together.
   ImageToPoseFigures total() const;
-  // "image-to-pose latency: p50 1.2 ms, p99 3.4 ms beyond the camera's 60.0 ms (540 corrections);
-  // robot 1 ..."; "no corrections" when there were none.
+  // "image-to-pose latency: p50 1.2 ms, p99 3.4 ms beyond the camera's 60.0 ms (540 corrections,
+  // 0 without their frame, 57 in the first 2.0 s left out); robot 1 ..."; "no corrections" when
+  // there were none.
   std::string line() const;
 
  private:
@@ -49,12 +59,16 @@ class ImageToPose {
     // Recent frames: (utime, utime_published), oldest first.
     std::deque<std::pair<Utime, Utime>> frames;
     Utime last_correction = 0;
+    // The first frame's arrival: corrections of frames before it + leave_out_us_ are left out.
+    Utime first_arrival = 0;
+    std::size_t left_out = 0;
     std::vector<double> latencies_ms;
     std::vector<double> delays_ms;
     std::size_t unmatched = 0;
   };
   static ImageToPoseFigures figuresOf(std::vector<double> latencies, std::vector<double> delays,
-                                      std::size_t unmatched);
+                                      std::size_t unmatched, std::size_t left_out);
+  Utime leave_out_us_;
   std::map<int, Robot> robots_;
 };
 

@@ -88,7 +88,7 @@ struct Collector {
   std::vector<eval::BallSample> balls;
   std::map<int, Utime> first_lines;
   std::vector<eval::TeamSample> teams;
-  // Image-to-pose latency (issue 32 item 4), on the robots' own stamps.
+  // Image-to-pose latency (issue 32 item 4), on the robots' own stamps; the settle time left out.
   eval::ImageToPose image_to_pose;
   // The faults fieldline-eval caused (--fault), on the true clock.
   std::vector<eval::FaultRecord> faults;
@@ -528,6 +528,7 @@ int run(EvalArgs a) {
     throw std::invalid_argument("--fault, --cpu-hog and --camera-fps need a live run, not --log");
   SystemClock clock;
   Collector collector;
+  collector.image_to_pose = eval::ImageToPose(a.options.settle_s);
   const std::string source =
       a.log.empty() ? collectFromTeam(a, collector, clock) : collectFromLog(a, collector);
   return report(a, collector, source);

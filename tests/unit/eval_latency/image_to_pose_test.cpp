@@ -62,6 +62,27 @@ TEST(ImageToPose, QuantilesPerRobotAndOverTheTeam) {
   EXPECT_NEAR(all.p50_ms, 2.0, 1.0);
 }
 
+TEST(ImageToPose, TheStartIsLeftOutAndTheLineSaysSo) {
+  // 2 s left out; frames every 100 ms from t0 for 4 s, each corrected 30 ms after its arrival
+  // during the first second (start-up), 2 ms after it later.
+  ImageToPose latency(2.0);
+  const Utime t0 = 3'000'000'000;
+  for (int k = 0; k < 40; ++k) {
+    const Utime exposure = t0 + k * 100 * kMs;
+    const Utime arrival = exposure + 60 * kMs;
+    latency.onImage(1, exposure, arrival);
+    const Utime state = arrival + (k < 10 ? 30 : 2) * kMs;
+    latency.onState(1, state, state - exposure, state);
+  }
+  const ImageToPoseFigures all = latency.total();
+  // Frames arriving before t0 + 60 ms + 2 s: k = 0..19.
+  EXPECT_EQ(all.left_out, 20u);
+  EXPECT_EQ(all.corrections, 20u);
+  EXPECT_DOUBLE_EQ(all.p99_ms, 2.0);
+  EXPECT_NE(latency.line().find("20 in the first 2.0 s left out"), std::string::npos)
+      << latency.line();
+}
+
 TEST(ImageToPose, NothingMatchedSaysSo) {
   ImageToPose latency;
   EXPECT_EQ(latency.line(), "image-to-pose latency: no corrections matched with their frame");

@@ -1,7 +1,8 @@
 // The fusion node over memq:// with a simulated clock: odometry in at 50 Hz gives ROBOT_STATE
-// with the odometry's utime for every message, line frames bring it to TRACKING at the true
-// pose, BALL_STATE goes out at 30 Hz with the ball in the field frame, bad input is counted in
-// the status and changes nothing, and ODOMETRY_ONLY is reported when the lines stop.
+// with the odometry's utime for every message (and one more after each correcting frame), line
+// frames bring it to TRACKING at the true pose, BALL_STATE goes out at 30 Hz with the ball in the
+// field frame, bad input is counted in the status and changes nothing, and ODOMETRY_ONLY is
+// reported when the lines stop.
 #include "services/fusion/fusion_node.hpp"
 
 #include <array>
@@ -113,14 +114,36 @@ struct Rig {
   }
 };
 
-TEST(FusionNode, PublishesStateForEveryOdometryAndBallAt30HzAndFindsItself) {
+TEST(FusionNode, PublishesStateForEveryOdometryAndCorrectingFrameAndBallAt30HzAndFindsItself) {
   Rig rig;
   for (int i = 0; i < 100; ++i)
     rig.period(i, true, true);
-  // Every odometry message gave one ROBOT_STATE with its utime.
-  ASSERT_EQ(rig.states.size(), 100u);
-  for (std::size_t i = 1; i < rig.states.size(); ++i)
-    EXPECT_EQ(rig.states[i].header.utime - rig.states[i - 1].header.utime, 20'000);
+  // Every odometry message gave one ROBOT_STATE with its utime, and every line frame that moved
+  // the estimate one more at once, stamped with the newest odometry's utime (the same stamp,
+  // corrected): a frame 80 ms old, the odometry 8 ms old, so 72 ms since its correction.
+  std::size_t odometry_states = 1;
+  std::size_t frame_states = 0;
+  for (std::size_t i = 1; i < rig.states.size(); ++i) {
+    const robot_state_t& previous = rig.states[i - 1];
+    const robot_state_t& state = rig.states[i];
+    if (state.header.utime == previous.header.utime) {
+      ++frame_states;
+      EXPECT_TRUE(state.since_vision_us != previous.since_vision_us || state.x != previous.x ||
+                  state.y != previous.y || state.phi != previous.phi ||
+                  state.status != previous.status)
+          << "state " << i << " repeats the previous one unchanged";
+      if (state.status == robot_state_t::STATUS_TRACKING) {
+        EXPECT_EQ(state.since_vision_us, 72'000) << "state " << i;
+      }
+    } else {
+      ++odometry_states;
+      EXPECT_EQ(state.header.utime - previous.header.utime, 20'000) << "state " << i;
+    }
+  }
+  EXPECT_EQ(odometry_states, 100u);
+  // 20 frames; the first ones only search (they move the hypotheses, not the estimate).
+  EXPECT_GE(frame_states, 10u);
+  EXPECT_LE(frame_states, 20u);
   const robot_state_t& last = rig.states.back();
   EXPECT_EQ(last.status, robot_state_t::STATUS_TRACKING);
   EXPECT_LT(std::hypot(last.x - rig.truth.x, last.y - rig.truth.y), 0.05);
