@@ -121,7 +121,9 @@ perception::TeamState TeamPicture::picture(Utime now, TeamBallResult* team_ball)
     out.ball_y = ball.y + ball.vy * ball_dt;
     BallCandidate c{i + 1,           {out.ball_x, out.ball_y}, {ball.vx, ball.vy},
                     ball.covariance, robot.twin_ambiguous,     ball.last_seen_utime};
-    const double grown_ball = options_.ball_speed_sigma_mps * ball_dt;
+    const bool resting = std::hypot(ball.vx, ball.vy) < options_.ball_rest_speed_mps;
+    const double grown_ball =
+        (resting ? options_.ball_rest_speed_sigma_mps : options_.ball_speed_sigma_mps) * ball_dt;
     c.covariance += Eigen::Matrix2d::Identity() * (grown_ball * grown_ball);
     // The reporter's pose uncertainty is in the ball's covariance already: fusion's ball filter
     // carries it into the field frame with every sighting (position, and heading times the
@@ -225,6 +227,11 @@ perception::TeamState TeamPicture::picture(Utime now, TeamBallResult* team_ball)
   if (mirrored) {
     best.valid = false;
     best.used.clear();
+  }
+  if (best.valid) {
+    // The reporters' stamp errors are common to them: fusing does not shrink that part.
+    const double st2 = options_.ball_stamp_sigma_s * options_.ball_stamp_sigma_s;
+    best.covariance += st2 * best.velocity * best.velocity.transpose();
   }
   if (best.valid) {
     track_ = Track{now, best.position, best.velocity, best.covariance};

@@ -33,10 +33,22 @@ struct PictureOptions {
   // about 0.1 m/s); 1.0 made a resting ball's covariance five times its error over the 50-100 ms
   // between a BALL_STATE and the picture (NEES in band 0.50 -> 0.68 in hidden_ball at 0.3).
   double ball_speed_sigma_mps = 0.3;
+  // ... of a ball reported slower than ball_rest_speed_mps: at rest (fusion's resting model),
+  // whose velocity sigma is a few cm/s. 0.3 made a resting ball's team covariance 2.5 times its
+  // error (kidnap, hidden_ball: NEES below its band a quarter of the time). m/s.
+  double ball_rest_speed_sigma_mps = 0.03;
+  double ball_rest_speed_mps = 0.15;
+  // The fused team ball's covariance grows by this squared times its velocity's outer product:
+  // the reporters' stamp errors are common to all of them (fusion's ball.stamp_sigma_s; live
+  // match at 2-3 m/s: the team ball 9 cm off like each own ball), so fusing does not shrink
+  // that part. 0: off, s.
+  double ball_stamp_sigma_s = 0.03;
   // Squared Mahalanobis distance within which two balls agree (chi-square, 2 dof, 99 %).
   double gate_chi2 = 9.21;
-  // Floor of a ball's position variance, m^2 (no estimate is better than 2 cm).
-  double min_ball_variance = 0.0004;
+  // Floor of a ball's position variance, m^2 (no estimate is better than 5 mm; a resting ball
+  // seen from 1-2 m is 4-7 mm off, and the 2 cm floor until 2026-12-06 made its covariance four
+  // times too wide).
+  double min_ball_variance = 0.000025;
   // The previous team ball decides ties and exposes mirrored balls for this long after it was
   // last fused, µs.
   Utime track_timeout_us = 3'000'000;

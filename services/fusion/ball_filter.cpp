@@ -28,6 +28,28 @@ const char* toString(BallRejection r) {
   return "unknown";
 }
 
+namespace {
+
+// A sighting's covariance in the field frame at `z`: its own (radial / tangential, with the
+// floor added) plus the robot's pose uncertainty carried through the transform.
+Eigen::Matrix2d fieldCovariance(const perception::BallSighting& s, const geometry::Pose2& pose,
+                                const Eigen::Vector2d& z, const Eigen::Matrix3d& pose_covariance,
+                                double floor_m) {
+  const double bearing = std::atan2(s.y, s.x) + pose.phi;
+  const Eigen::Matrix2d rot = Eigen::Rotation2Dd(bearing).toRotationMatrix();
+  const double floor2 = floor_m * floor_m;
+  Eigen::Matrix2d r = rot *
+                      Eigen::Vector2d(s.sigma_radial * s.sigma_radial + floor2,
+                                      s.sigma_tangential * s.sigma_tangential + floor2)
+                          .asDiagonal() *
+                      rot.transpose();
+  Eigen::Matrix<double, 2, 3> j;
+  j << 1, 0, -(z.y() - pose.y), 0, 1, z.x() - pose.x;
+  return r + j * pose_covariance * j.transpose();
+}
+
+}  // namespace
+
 BallFilter::BallFilter(BallFilterParams params) : params_(params) {}
 
 void BallFilter::predict(Utime t, Eigen::Vector4d& x, Eigen::Matrix4d& p) const {
@@ -52,7 +74,9 @@ void BallFilter::predict(Utime t, Eigen::Vector4d& x, Eigen::Matrix4d& p) const 
   // at rest: a ball restarted at rest could never learn a velocity from its sightings.)
   f(0, 2) = f(1, 3) = dt;
   f(2, 2) = f(3, 3) = 1.0;
-  const double q = params_.acceleration_density * params_.acceleration_density;
+  const double density =
+      resting_ ? params_.rest_acceleration_density : params_.acceleration_density;
+  const double q = density * density;
   Eigen::Matrix4d qm = Eigen::Matrix4d::Zero();
   for (int i = 0; i < 2; ++i) {
     qm(i, i) = q * dt * dt * dt / 3.0;
@@ -80,21 +104,10 @@ BallRejection BallFilter::update(const perception::BallSighting& s, const EkfSta
   const double range = local.norm();
   if (range > params_.max_range_m) return BallRejection::kTooFar;
 
-  // Field position and its covariance: the sighting's own (radial / tangential) plus the
-  // robot's pose uncertainty carried through the transform.
   const geometry::Pose2 pose = robot.pose();
   const Eigen::Vector2d z = geometry::pointRobotToField(pose, local);
-  const double bearing = std::atan2(local.y(), local.x()) + pose.phi;
-  const Eigen::Matrix2d rot = Eigen::Rotation2Dd(bearing).toRotationMatrix();
-  const double floor2 = params_.sighting_floor_m * params_.sighting_floor_m;
-  Eigen::Matrix2d r = rot *
-                      Eigen::Vector2d(s.sigma_radial * s.sigma_radial + floor2,
-                                      s.sigma_tangential * s.sigma_tangential + floor2)
-                          .asDiagonal() *
-                      rot.transpose();
-  Eigen::Matrix<double, 2, 3> j;
-  j << 1, 0, -(z.y() - pose.y), 0, 1, z.x() - pose.x;
-  r += j * robot.p.topLeftCorner<3, 3>() * j.transpose();
+  const Eigen::Matrix2d r =
+      fieldCovariance(s, pose, z, robot.p.topLeftCorner<3, 3>(), params_.sighting_floor_m);
 
   if (!initialized_) {
     if (!confirmed) return BallRejection::kPoseUnconfirmed;
@@ -140,6 +153,8 @@ BallRejection BallFilter::update(const perception::BallSighting& s, const EkfSta
   p_ = 0.5 * (p + p.transpose());
   utime_ = s.utime;
   last_seen_ = s.utime;
+  // The model for what comes next: at rest while slow and its sightings agree closely.
+  resting_ = x_.tail<2>().norm() < params_.rest_speed_mps && m2 <= params_.rest_max_nis;
   return BallRejection::kNone;
 }
 
@@ -238,6 +253,7 @@ void BallFilter::restart(Utime t, const Eigen::Vector2d& z, const Eigen::Matrix2
   outliers_in_row_ = 0;
   missed_in_row_ = 0;
   contradicted_ = false;
+  resting_ = false;
   outliers_.clear();
 }
 
@@ -260,7 +276,9 @@ perception::BallEstimate BallFilter::estimate(Utime t) const {
   e.y = x[1];
   e.vx = x[2];
   e.vy = x[3];
-  e.covariance = p.topLeftCorner<2, 2>();
+  const Eigen::Vector2d v = x.tail<2>();
+  e.covariance =
+      p.topLeftCorner<2, 2>() + params_.stamp_sigma_s * params_.stamp_sigma_s * v * v.transpose();
   e.last_seen_utime = last_seen_;
   return e;
 }

@@ -357,6 +357,7 @@ void declareContact(SettingsTable<FC>& t) {
         &LP::current_contact, &CurrentContactParams::max_current_a);
 }
 
+// long: a table of declarations, one row per setting, read top to bottom like the YAML.
 void declareBall(SettingsTable<FC>& t) {
   t.section("ball", "The ball filter (constant velocity with rolling friction).");
   const auto num = [&](const char* key, auto min, auto max, const char* unit, const char* why,
@@ -366,9 +367,24 @@ void declareBall(SettingsTable<FC>& t) {
   using BP = BallFilterParams;
   num("rolling_deceleration", 0.0, 20.0, "m/s^2", "Rolling friction", &BP::rolling_deceleration);
   num("acceleration_density", 0.0, 1000.0, "m/s^1.5",
-      "Unseen acceleration: kicks and bounces are steps the restart takes; between them a ball "
-      "only rolls, and a low density averages the sightings' pose errors out",
+      "Unseen acceleration of a rolling ball: kicks and bounces are steps the restart takes; "
+      "between them a ball only rolls, and a low density averages the sightings' pose errors out",
       &BP::acceleration_density);
+  num("rest_acceleration_density", 0.0, 1000.0, "m/s^1.5",
+      "... of a ball at rest (slower than rest_speed_mps, its newest sighting within "
+      "rest_max_nis): it only moves when hit, which the restart catches, so its sightings average "
+      "(synthetic resting ball: 14 mm off with one density, 5 mm with two)",
+      &BP::rest_acceleration_density);
+  num("rest_speed_mps", 0.0, 10.0, "m/s", "... at rest: estimated slower than this",
+      &BP::rest_speed_mps);
+  num("rest_max_nis", 0.0, 1e6, "1",
+      "... and its newest sighting within this (squared Mahalanobis distance, 2 dof); beyond, it "
+      "started to roll",
+      &BP::rest_max_nis);
+  num("stamp_sigma_s", 0.0, 1.0, "s",
+      "The reported covariance grows by this squared times the velocity's outer product: a "
+      "rolling ball's place at a stamp is uncertain by its speed times the stamps' uncertainty",
+      &BP::stamp_sigma_s);
   num("max_age_s", 0.05, 60.0, "s",
       "Invalid after this long unseen: a ball unseen for 15 frames within a few metres has "
       "usually left the constant-velocity model",

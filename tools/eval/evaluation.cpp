@@ -25,15 +25,6 @@ constexpr const char* kPlotColours[] = {"#e74c3c", "#3498db", "#9b59b6",
 constexpr double kNeesLow = 0.2158;
 constexpr double kNeesHigh = 9.3484;
 
-double percentile(std::vector<double> v, double q) {
-  if (v.empty()) return 0.0;
-  std::sort(v.begin(), v.end());
-  const double pos = q * static_cast<double>(v.size() - 1);
-  const auto i = static_cast<std::size_t>(pos);
-  const double w = pos - static_cast<double>(i);
-  return i + 1 < v.size() ? v[i] * (1 - w) + v[i + 1] * w : v[i];
-}
-
 double mean(const std::vector<double>& v) {
   if (v.empty()) return 0.0;
   double s = 0;
@@ -43,6 +34,15 @@ double mean(const std::vector<double>& v) {
 }
 
 }  // namespace
+
+double percentile(std::vector<double> v, double q) {
+  if (v.empty()) return 0.0;
+  std::sort(v.begin(), v.end());
+  const double pos = q * static_cast<double>(v.size() - 1);
+  const auto i = static_cast<std::size_t>(pos);
+  const double w = pos - static_cast<double>(i);
+  return i + 1 < v.size() ? v[i] * (1 - w) + v[i + 1] * w : v[i];
+}
 
 bool truthAt(const std::vector<TruthSample>& truth, Utime t, int robot, TruthRobot& out,
              double* ball_x, double* ball_y) {
@@ -75,40 +75,53 @@ bool truthAt(const std::vector<TruthSample>& truth, Utime t, int robot, TruthRob
   return true;
 }
 
-Summary evaluate(const std::vector<TruthSample>& truth, std::vector<StateSample> states,
-                 std::vector<BallSample> balls, const EvalOptions& options,
-                 const std::map<int, Utime>& first_lines) {
-  Summary s;
-  s.states = states.size();
-  if (states.empty()) return s;
-  std::sort(states.begin(), states.end(), [](const StateSample& a, const StateSample& b) {
-    return a.robot != b.robot ? a.robot < b.robot : a.utime < b.utime;
-  });
-  Utime t0 = states.front().utime;
-  for (const auto& st : states)
-    t0 = std::min(t0, st.utime);
+namespace {
 
+// Per robot: scoring starts settle_s after its first estimate, or at its first TRACKING if that
+// is later (start-up is measured separately: tracking_after_s); never without a TRACKING.
+std::map<int, Utime> scoringStarts(const std::vector<StateSample>& states,
+                                   const EvalOptions& options) {
+  std::map<int, Utime> score_from;
+  for (const StateSample& st : states)
+    score_from.try_emplace(st.robot, st.utime + static_cast<Utime>(options.settle_s * 1e6));
+  std::map<int, bool> seen_tracking;
+  for (const StateSample& st : states) {
+    if (st.status != 2 || seen_tracking[st.robot]) continue;
+    seen_tracking[st.robot] = true;
+    score_from[st.robot] = std::max(score_from[st.robot], st.utime);
+  }
+  for (auto& [r, t] : score_from)
+    if (!seen_tracking[r]) t = std::numeric_limits<Utime>::max();
+  return score_from;
+}
+
+// A state with its truth: the errors and the latency (kidnap and NEES figures come later).
+Matched matchedWith(const StateSample& st, const TruthRobot& tr, Utime t0) {
+  Matched m;
+  m.robot = st.robot;
+  m.t = static_cast<double>(st.utime - t0) * 1e-6;
+  m.x = st.x;
+  m.y = st.y;
+  m.phi = st.phi;
+  m.true_x = tr.x;
+  m.true_y = tr.y;
+  m.true_phi = tr.phi;
+  m.status = st.status;
+  m.twin_ambiguous = st.twin_ambiguous;
+  m.pos_error = std::hypot(st.x - tr.x, st.y - tr.y);
+  m.heading_error = std::abs(geometry::angleDiff(st.phi, tr.phi));
+  m.latency_ms = static_cast<double>(st.published - st.utime) * 1e-3;
+  return m;
+}
+
+// Every state (sorted by robot, then time) matched with the truth: kidnaps and their recovery,
+// wrong-half commits, the position, heading, NEES and latency figures.
+void matchStates(const std::vector<TruthSample>& truth, const std::vector<StateSample>& states,
+                 Utime t0, const EvalOptions& options, Summary& s) {
   std::vector<double> pos, heading, latency;
   std::map<int, std::vector<double>> pos_by_robot;
   std::size_t nees_in = 0, nees_n = 0;
-  // Scoring of a robot starts settle_s after its first estimate, or at its first TRACKING if
-  // that is later: start-up is measured separately (tracking_after_s).
-  std::map<int, Utime> score_from;
-  for (const StateSample& st : states) {
-    auto [it, inserted] =
-        score_from.try_emplace(st.robot, st.utime + static_cast<Utime>(options.settle_s * 1e6));
-    (void)inserted;
-  }
-  {
-    std::map<int, bool> seen_tracking;
-    for (const StateSample& st : states) {
-      if (st.status != 2 || seen_tracking[st.robot]) continue;
-      seen_tracking[st.robot] = true;
-      score_from[st.robot] = std::max(score_from[st.robot], st.utime);
-    }
-    for (auto& [r, t] : score_from)
-      if (!seen_tracking[r]) t = std::numeric_limits<Utime>::max();
-  }
+  std::map<int, Utime> score_from = scoringStarts(states, options);
   int current_robot = -1;
   int last_kidnaps = 0;
   bool recovering = false;
@@ -123,20 +136,7 @@ Summary evaluate(const std::vector<TruthSample>& truth, std::vector<StateSample>
       recovering = false;
       wrong = false;
     }
-    Matched m;
-    m.robot = st.robot;
-    m.t = static_cast<double>(st.utime - t0) * 1e-6;
-    m.x = st.x;
-    m.y = st.y;
-    m.phi = st.phi;
-    m.true_x = tr.x;
-    m.true_y = tr.y;
-    m.true_phi = tr.phi;
-    m.status = st.status;
-    m.twin_ambiguous = st.twin_ambiguous;
-    m.pos_error = std::hypot(st.x - tr.x, st.y - tr.y);
-    m.heading_error = std::abs(geometry::angleDiff(st.phi, tr.phi));
-    m.latency_ms = static_cast<double>(st.published - st.utime) * 1e-3;
+    Matched m = matchedWith(st, tr, t0);
     latency.push_back(m.latency_ms);
 
     if (tr.kidnaps != last_kidnaps) {
@@ -186,8 +186,12 @@ Summary evaluate(const std::vector<TruthSample>& truth, std::vector<StateSample>
   s.latency_p95_ms = percentile(latency, 0.95);
   for (const auto& [r, v] : pos_by_robot)
     s.pos_mean_by_robot[r] = mean(v);
+}
 
-  // Start-up and rates per robot.
+// Start-up and rates per robot: tracking_after_s, tracking_after_vision_s, ROBOT_STATE and
+// BALL_STATE rates.
+void robotRates(const std::vector<StateSample>& states, const std::vector<BallSample>& balls,
+                const std::map<int, Utime>& first_lines, Summary& s) {
   std::map<int, std::pair<Utime, Utime>> span;
   std::map<int, std::size_t> count;
   for (const StateSample& st : states) {
@@ -225,7 +229,11 @@ Summary evaluate(const std::vector<TruthSample>& truth, std::vector<StateSample>
     const double seconds = static_cast<double>(sp.second - sp.first) * 1e-6;
     s.ball_state_hz[r] = seconds > 0 ? static_cast<double>(ball_count[r] - 1) / seconds : 0.0;
   }
+}
 
+// Every valid BALL_STATE after the settle time whose robot is within ball_range_m of the ball.
+void scoreBalls(const std::vector<TruthSample>& truth, const std::vector<BallSample>& balls,
+                Utime t0, const EvalOptions& options, Summary& s) {
   std::vector<double> ball_errors;
   for (const BallSample& b : balls) {
     if (!b.valid || static_cast<double>(b.utime - t0) * 1e-6 < options.settle_s) continue;
@@ -240,6 +248,25 @@ Summary evaluate(const std::vector<TruthSample>& truth, std::vector<StateSample>
   }
   s.balls_scored = ball_errors.size();
   s.ball_mean_m = mean(ball_errors);
+}
+
+}  // namespace
+
+Summary evaluate(const std::vector<TruthSample>& truth, std::vector<StateSample> states,
+                 std::vector<BallSample> balls, const EvalOptions& options,
+                 const std::map<int, Utime>& first_lines) {
+  Summary s;
+  s.states = states.size();
+  if (states.empty()) return s;
+  std::sort(states.begin(), states.end(), [](const StateSample& a, const StateSample& b) {
+    return a.robot != b.robot ? a.robot < b.robot : a.utime < b.utime;
+  });
+  Utime t0 = states.front().utime;
+  for (const auto& st : states)
+    t0 = std::min(t0, st.utime);
+  matchStates(truth, states, t0, options, s);
+  robotRates(states, balls, first_lines, s);
+  scoreBalls(truth, balls, t0, options, s);
   return s;
 }
 

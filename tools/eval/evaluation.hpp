@@ -99,6 +99,9 @@ struct Summary {
   std::vector<BallMatched> balls;
 };
 
+// The q-quantile (0..1) of `v`, linearly interpolated between its order statistics; 0 when empty.
+double percentile(std::vector<double> v, double q);
+
 // Truth at `t` interpolated between the bracketing samples (sorted by utime); false outside.
 bool truthAt(const std::vector<TruthSample>& truth, Utime t, int robot, TruthRobot& out,
              double* ball_x = nullptr, double* ball_y = nullptr);

@@ -45,15 +45,6 @@ int parseRobot(const std::string& text, const std::string& spec) {
   return v;
 }
 
-double percentile(std::vector<double> v, double q) {
-  if (v.empty()) return 0.0;
-  std::sort(v.begin(), v.end());
-  const double pos = q * static_cast<double>(v.size() - 1);
-  const auto i = static_cast<std::size_t>(pos);
-  const double w = pos - static_cast<double>(i);
-  return i + 1 < v.size() ? v[i] * (1 - w) + v[i + 1] * w : v[i];
-}
-
 // Seconds from `from` to the start of the robot's first stretch (at or after `from`) of
 // hold_s of TRACKING samples within recovered_m, none further apart than max_gap_s; -1: none.
 double recoveryAfter(const std::vector<const Matched*>& samples, double from,

@@ -334,6 +334,49 @@ std::string collectFromLog(EvalArgs& a, Collector& collector) {
   return a.log;
 }
 
+// fieldline-record --team for the run's robots into a.record_dir (its output in
+// a.out_dir/record.log); -1 when no recording was asked for.
+pid_t startRecorder(const EvalArgs& a, const std::string& launch_file) {
+  if (a.record_dir.empty()) return -1;
+  std::string robot_list;
+  for (int r = 1; r <= a.robots; ++r)
+    robot_list += (r > 1 ? "," : "") + std::to_string(r);
+  const std::string record_log = a.out_dir + "/record.log";
+  const std::string record_bin = selfDirectory() + "/fieldline-record";
+  const pid_t recorder = fork();
+  if (recorder < 0) throw std::runtime_error("fork failed");
+  if (recorder == 0) {
+    std::FILE* f = std::freopen(record_log.c_str(), "w", stdout);
+    if (f) dup2(fileno(stdout), STDERR_FILENO);
+    execl(record_bin.c_str(), record_bin.c_str(), "--team", "--robots", robot_list.c_str(),
+          "--launch", launch_file.c_str(), "-o", a.record_dir.c_str(), static_cast<char*>(nullptr));
+    _exit(127);
+  }
+  std::fprintf(stderr, "recording into %s (log: %s)\n", a.record_dir.c_str(), record_log.c_str());
+  return recorder;
+}
+
+// Stops the recorder (SIGINT: it closes its files) and says so when it did not end well.
+void stopRecorder(pid_t recorder, const std::string& out_dir) {
+  if (recorder <= 0) return;
+  kill(recorder, SIGINT);
+  int record_status = 0;
+  waitpid(recorder, &record_status, 0);
+  if (!WIFEXITED(record_status) || WEXITSTATUS(record_status) != 0) {
+    std::fprintf(stderr, "recorder ended with status %d (see %s/record.log)\n", record_status,
+                 out_dir.c_str());
+  }
+}
+
+// Ends the busy loops of --cpu-hog.
+void stopCpuHogs(const std::vector<pid_t>& hogs) {
+  for (const pid_t hog : hogs) {
+    if (hog <= 0) continue;
+    kill(hog, SIGKILL);
+    waitpid(hog, nullptr, 0);
+  }
+}
+
 // Runs the team for the scenario through fieldline-launch while collecting; returns the
 // source's name.
 std::string collectFromTeam(EvalArgs& a, Collector& collector, const Clock& clock) {
@@ -377,25 +420,7 @@ std::string collectFromTeam(EvalArgs& a, Collector& collector, const Clock& cloc
   const std::string robots_arg = std::to_string(a.robots);
   const std::string duration_arg = std::to_string(a.duration);
   // The recorder starts before the team and hears everything the evaluation hears.
-  pid_t recorder = -1;
-  if (!a.record_dir.empty()) {
-    std::string robot_list;
-    for (int r = 1; r <= a.robots; ++r)
-      robot_list += (r > 1 ? "," : "") + std::to_string(r);
-    const std::string record_log = a.out_dir + "/record.log";
-    const std::string record_bin = selfDirectory() + "/fieldline-record";
-    recorder = fork();
-    if (recorder < 0) throw std::runtime_error("fork failed");
-    if (recorder == 0) {
-      std::FILE* f = std::freopen(record_log.c_str(), "w", stdout);
-      if (f) dup2(fileno(stdout), STDERR_FILENO);
-      execl(record_bin.c_str(), record_bin.c_str(), "--team", "--robots", robot_list.c_str(),
-            "--launch", launch_file.c_str(), "-o", a.record_dir.c_str(),
-            static_cast<char*>(nullptr));
-      _exit(127);
-    }
-    std::fprintf(stderr, "recording into %s (log: %s)\n", a.record_dir.c_str(), record_log.c_str());
-  }
+  const pid_t recorder = startRecorder(a, launch_file);
   const pid_t child = fork();
   if (child < 0) throw std::runtime_error("fork failed");
   if (child == 0) {
@@ -425,25 +450,13 @@ std::string collectFromTeam(EvalArgs& a, Collector& collector, const Clock& cloc
   }
   fault_runner.finish();
   collector.faults = fault_runner.records();
-  for (const pid_t hog : hogs) {
-    if (hog <= 0) continue;
-    kill(hog, SIGKILL);
-    waitpid(hog, nullptr, 0);
-  }
+  stopCpuHogs(hogs);
   for (int i = 0; i < 10; ++i)
     node.spinOnce(10);
   if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) {
     std::fprintf(stderr, "launcher ended with status %d (see %s)\n", status, launch_log.c_str());
   }
-  if (recorder > 0) {
-    kill(recorder, SIGINT);
-    int record_status = 0;
-    waitpid(recorder, &record_status, 0);
-    if (!WIFEXITED(record_status) || WEXITSTATUS(record_status) != 0) {
-      std::fprintf(stderr, "recorder ended with status %d (see %s/record.log)\n", record_status,
-                   a.out_dir.c_str());
-    }
-  }
+  stopRecorder(recorder, a.out_dir);
   return "scenario " + sc.name;
 }
 

@@ -33,22 +33,58 @@ bool ballAt(const std::vector<TruthSample>& truth, Utime t, double& x, double& y
   return truthAt(truth, t, truth.front().robots.begin()->first, unused, &x, &y);
 }
 
+// Every robot's TEAM_STATEs (sorted, valid team ball, after `start`) paired with its newest own
+// BALL_STATE at most pair_window_us before: both errors on the same instants (TeamBallSummary
+// `paired`), and the verdict against every robot with enough pairs.
+void pairOwnWithTeam(const std::vector<TruthSample>& truth, const std::vector<BallSample>& balls,
+                     const std::vector<TeamSample>& teams, Utime start,
+                     const TeamBallOptions& options, TeamBallSummary& s) {
+  std::map<int, std::vector<const BallSample*>> own;
+  for (const BallSample& b : balls)
+    own[b.robot].push_back(&b);
+  for (auto& [robot, v] : own) {
+    std::stable_sort(v.begin(), v.end(),
+                     [](const BallSample* a, const BallSample* b) { return a->utime < b->utime; });
+  }
+  std::map<int, std::pair<double, double>> sums;  // (own, team)
+  for (const TeamSample& t : teams) {
+    if (t.utime < start || !t.team_ball_valid) continue;
+    const auto found = own.find(t.robot);
+    if (found == own.end()) continue;
+    const auto& v = found->second;
+    const auto it = std::upper_bound(v.begin(), v.end(), t.utime,
+                                     [](Utime u, const BallSample* b) { return u < b->utime; });
+    if (it == v.begin()) continue;
+    const BallSample& b = **std::prev(it);
+    if (!b.valid || t.utime - b.utime > options.pair_window_us) continue;
+    double tx = 0, ty = 0, bx = 0, by = 0;
+    if (!ballAt(truth, t.utime, tx, ty) || !ballAt(truth, b.utime, bx, by)) continue;
+    sums[t.robot].first += std::hypot(b.x - bx, b.y - by);
+    sums[t.robot].second += std::hypot(t.team_ball_x - tx, t.team_ball_y - ty);
+    ++s.paired[t.robot].pairs;
+  }
+  for (auto& [robot, p] : s.paired) {
+    const double n = static_cast<double>(p.pairs);
+    p.own_mean_m = sums[robot].first / n;
+    p.team_mean_m = sums[robot].second / n;
+    if (p.pairs >= options.min_own_samples && p.team_mean_m > p.own_mean_m)
+      s.team_ball_worse_robots.push_back(robot);
+  }
+  if (const auto best = s.paired.find(s.best_own_robot); best != s.paired.end()) {
+    s.team_ball_on_best_own_m = best->second.team_mean_m;
+    s.best_own_paired_m = best->second.own_mean_m;
+  }
+}
+
 }  // namespace
 
-TeamBallSummary evaluateTeamBall(const std::vector<TruthSample>& truth,
-                                 const std::vector<BallSample>& balls,
-                                 std::vector<TeamSample> teams, const TeamBallOptions& options) {
-  TeamBallSummary s;
-  if (teams.empty() || truth.empty()) return s;
-  std::sort(teams.begin(), teams.end(),
-            [](const TeamSample& a, const TeamSample& b) { return a.utime < b.utime; });
-  Utime start = teams.front().utime;
-  const Utime end = std::min(teams.back().utime, truth.back().utime);
-  start += static_cast<Utime>(options.settle_s * 1e6);
+namespace {
 
-  // The team ball of every robot.
+// Every robot's TEAM_STATE team ball (valid, from `start`): mean error and NEES shares.
+void scoreTeamBalls(const std::vector<TruthSample>& truth, const std::vector<TeamSample>& teams,
+                    Utime start, TeamBallSummary& s) {
   double sum = 0;
-  std::size_t nees_n = 0, nees_in = 0;
+  std::size_t nees_n = 0, nees_in = 0, nees_below = 0;
   double nees_sum = 0;
   for (const TeamSample& t : teams) {
     if (t.utime < start || !t.team_ball_valid) continue;
@@ -61,15 +97,21 @@ TeamBallSummary evaluateTeamBall(const std::vector<TruthSample>& truth,
       ++nees_n;
       nees_sum += *n;
       if (inBand(*n)) ++nees_in;
+      if (*n < kNees2Low) ++nees_below;
     }
   }
   if (s.team_samples > 0) s.team_ball_mean_m = sum / static_cast<double>(s.team_samples);
   if (nees_n > 0) {
     s.team_ball_nees_in_band = static_cast<double>(nees_in) / static_cast<double>(nees_n);
     s.team_ball_nees_mean = nees_sum / static_cast<double>(nees_n);
+    s.team_ball_nees_below = static_cast<double>(nees_below) / static_cast<double>(nees_n);
+    s.team_ball_nees_above = 1.0 - s.team_ball_nees_in_band - s.team_ball_nees_below;
   }
+}
 
-  // Every robot's own ball, over the same span.
+// Every robot's own ball (valid, from `start` to `end`): mean error, NEES share, the best robot.
+void scoreOwnBalls(const std::vector<TruthSample>& truth, const std::vector<BallSample>& balls,
+                   Utime start, Utime end, const TeamBallOptions& options, TeamBallSummary& s) {
   std::map<int, double> own_sum;
   std::map<int, std::pair<std::size_t, std::size_t>> own_nees;  // (in band, with a covariance)
   for (const BallSample& b : balls) {
@@ -97,8 +139,12 @@ TeamBallSummary evaluateTeamBall(const std::vector<TruthSample>& truth,
       s.best_own_ball_mean_m = s.own_ball_mean_m[robot];
     }
   }
+}
 
-  // Over time: the newest TEAM_STATE of every robot at each step.
+// Over time, every step_us from `start` to `end`: the newest TEAM_STATE of every robot, whether
+// some robot sees the ball and every robot has a valid team ball.
+void scoreValidity(const std::vector<TeamSample>& teams, Utime start, Utime end,
+                   const TeamBallOptions& options, TeamBallSummary& s) {
   std::map<int, std::vector<const TeamSample*>> by_robot;
   for (const TeamSample& t : teams)
     by_robot[t.robot].push_back(&t);
@@ -135,6 +181,23 @@ TeamBallSummary evaluateTeamBall(const std::vector<TruthSample>& truth,
     s.sees_share[robot] =
         steps == 0 ? 0.0 : static_cast<double>(sees_steps[robot]) / static_cast<double>(steps);
   }
+}
+
+}  // namespace
+
+TeamBallSummary evaluateTeamBall(const std::vector<TruthSample>& truth,
+                                 const std::vector<BallSample>& balls,
+                                 std::vector<TeamSample> teams, const TeamBallOptions& options) {
+  TeamBallSummary s;
+  if (teams.empty() || truth.empty()) return s;
+  std::sort(teams.begin(), teams.end(),
+            [](const TeamSample& a, const TeamSample& b) { return a.utime < b.utime; });
+  const Utime start = teams.front().utime + static_cast<Utime>(options.settle_s * 1e6);
+  const Utime end = std::min(teams.back().utime, truth.back().utime);
+  scoreTeamBalls(truth, teams, start, s);
+  scoreOwnBalls(truth, balls, start, end, options, s);
+  pairOwnWithTeam(truth, balls, teams, start, options, s);
+  scoreValidity(teams, start, end, options, s);
   return s;
 }
 
@@ -142,12 +205,22 @@ std::string teamBallLine(const TeamBallSummary& s) {
   std::string own;
   for (const auto& [robot, mean] : s.own_ball_mean_m)
     own += fmt::format(" {}={:.4f}", robot, mean);
+  std::string worse;
+  for (const int robot : s.team_ball_worse_robots)
+    worse += fmt::format("{}{}", worse.empty() ? "" : ",", robot);
+  std::size_t best_pairs = 0;
+  if (const auto it = s.paired.find(s.best_own_robot); it != s.paired.end())
+    best_pairs = it->second.pairs;
   return fmt::format(
       "team_ball_mean_m={:.4f} best_own_ball_mean_m={:.4f} (robot {}) "
-      "team_ball_nees_in_band={:.3f} team_ball_valid_share={:.3f} ({} steps with the ball seen) "
-      "own_ball_mean_m:{}",
-      s.team_ball_mean_m, s.best_own_ball_mean_m, s.best_own_robot, s.team_ball_nees_in_band,
-      s.team_ball_valid_share, s.steps_any_sees, own.empty() ? " none" : own);
+      "team_ball_on_best_own_m={:.4f} (own {:.4f} on the same {} instants) "
+      "team_ball_worse_than_own={} "
+      "team_ball_nees_in_band={:.3f} (below {:.3f}, above {:.3f}) team_ball_valid_share={:.3f} "
+      "({} steps with the ball seen) own_ball_mean_m:{}",
+      s.team_ball_mean_m, s.best_own_ball_mean_m, s.best_own_robot, s.team_ball_on_best_own_m,
+      s.best_own_paired_m, best_pairs, worse.empty() ? "none" : worse, s.team_ball_nees_in_band,
+      s.team_ball_nees_below, s.team_ball_nees_above, s.team_ball_valid_share, s.steps_any_sees,
+      own.empty() ? " none" : own);
 }
 
 std::string teamBallJson(const TeamBallSummary& s) {
@@ -156,9 +229,12 @@ std::string teamBallJson(const TeamBallSummary& s) {
       "{{\"team_samples\": {}, \"team_ball_mean_m\": {:.5f}, \"team_ball_nees_in_band\": "
       "{:.4f}, \"team_ball_nees_mean\": {:.3f}, \"best_own_robot\": {}, "
       "\"best_own_ball_mean_m\": {:.5f}, \"steps_any_sees\": {}, \"team_ball_valid_share\": "
-      "{:.4f},\n",
+      "{:.4f}, \"team_ball_nees_below\": {:.4f}, \"team_ball_nees_above\": {:.4f}, "
+      "\"team_ball_on_best_own_m\": {:.5f}, \"best_own_paired_m\": {:.5f},\n",
       s.team_samples, s.team_ball_mean_m, s.team_ball_nees_in_band, s.team_ball_nees_mean,
-      s.best_own_robot, s.best_own_ball_mean_m, s.steps_any_sees, s.team_ball_valid_share);
+      s.best_own_robot, s.best_own_ball_mean_m, s.steps_any_sees, s.team_ball_valid_share,
+      s.team_ball_nees_below, s.team_ball_nees_above, s.team_ball_on_best_own_m,
+      s.best_own_paired_m);
   const auto map = [&o](const char* name, const auto& m, bool last) {
     o << "  \"" << name << "\": {";
     bool first = true;
@@ -170,7 +246,19 @@ std::string teamBallJson(const TeamBallSummary& s) {
   };
   map("own_ball_mean_m", s.own_ball_mean_m, false);
   map("own_ball_nees_in_band", s.own_ball_nees_in_band, false);
-  map("sees_share", s.sees_share, true);
+  map("sees_share", s.sees_share, false);
+  o << "  \"team_ball_worse_robots\": [";
+  for (std::size_t i = 0; i < s.team_ball_worse_robots.size(); ++i)
+    o << (i ? ", " : "") << s.team_ball_worse_robots[i];
+  o << "],\n  \"paired\": {";
+  bool first = true;
+  for (const auto& [robot, p] : s.paired) {
+    o << (first ? "" : ", ")
+      << fmt::format("\"{}\": {{\"pairs\": {}, \"own_mean_m\": {:.5f}, \"team_mean_m\": {:.5f}}}",
+                     robot, p.pairs, p.own_mean_m, p.team_mean_m);
+    first = false;
+  }
+  o << "}\n";
   o << "}\n";
   return o.str();
 }

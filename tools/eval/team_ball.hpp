@@ -38,6 +38,18 @@ struct TeamBallOptions {
   Utime step_us = 100'000;
   // A robot's own ball counts for "best" only with at least this many scored samples.
   std::size_t min_own_samples = 30;
+  // Pairing a robot's TEAM_STATE with its own ball: its newest BALL_STATE at most this much
+  // older than the TEAM_STATE, and valid, µs.
+  Utime pair_window_us = 100'000;
+};
+
+// One robot's own ball against its own team ball at the same instants: each of its TEAM_STATEs
+// with a valid team ball and a valid own BALL_STATE at most pair_window_us before it.
+struct PairedBall {
+  std::size_t pairs = 0;
+  // Mean error of the own ball and of the team ball over those instants, m.
+  double own_mean_m = -1;
+  double team_mean_m = -1;
 };
 
 struct TeamBallSummary {
@@ -48,6 +60,10 @@ struct TeamBallSummary {
   // the central 95 % band of chi-square (0.051-7.38), and their mean NEES (2 when consistent).
   double team_ball_nees_in_band = -1;
   double team_ball_nees_mean = -1;
+  // Shares of those below the band (covariance too large for the error) and above it (too
+  // small): which way the covariance is wrong.
+  double team_ball_nees_below = -1;
+  double team_ball_nees_above = -1;
   // Per robot: mean error of its own valid BALL_STATE, m, and the number of samples.
   std::map<int, double> own_ball_mean_m;
   std::map<int, std::size_t> own_ball_samples;
@@ -56,6 +72,16 @@ struct TeamBallSummary {
   // The robot with the smallest own mean (-1: none had enough samples) and that mean.
   int best_own_robot = -1;
   double best_own_ball_mean_m = -1;
+  // The fair comparison: team_ball_mean_m covers the whole run (moments no robot sees the ball
+  // well, the put-backs), a robot's own mean only the moments its own ball is valid (mostly
+  // near). Per robot, both on the same instants (PairedBall), and the team ball's mean on the
+  // best robot's instants (-1: no pairs). The team ball is at least as good as every own ball
+  // where `team_ball_worse_robots` is empty: robots with at least min_own_samples pairs whose own
+  // mean beats the team ball's on their instants.
+  std::map<int, PairedBall> paired;
+  double team_ball_on_best_own_m = -1;
+  double best_own_paired_m = -1;
+  std::vector<int> team_ball_worse_robots;
   // Time steps in which some robot sees the ball, and the share of them in which every robot
   // (that published TEAM_STATE) has a valid team ball.
   std::size_t steps_any_sees = 0;

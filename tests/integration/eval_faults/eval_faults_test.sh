@@ -11,24 +11,12 @@ bin=$(realpath "$1")
 root=$(realpath "$2")
 out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT
-# A private network (the buses) and mount namespace (the simulator's /tmp/fieldline: its
-# pseudo-terminals and state file are shared by every run on the machine otherwise).
-ns="unshare -n -m --propagation private"
-$ns true 2>/dev/null || ns="unshare -r -n -m --propagation private"
-if ! $ns true 2>/dev/null; then
-  echo "SKIP: needs private network and mount namespaces (root or user namespaces)"
-  exit 77
-fi
-$ns bash -s "$bin" "$root" "$out" <<'SH'
-bin=$1 root=$2 out=$3
-ip link set lo up; ip link set lo multicast on; ip route add 224.0.0.0/4 dev lo
-mkdir -p /tmp/fieldline && mount -t tmpfs tmpfs /tmp/fieldline
-export FIELDLINE_ROOT="$root"
-"$bin/fieldline-eval" --scenario default --robots 2 --duration 18 --out "$out" \
-  --fault restart:fusion/1@6 --fault stall:2@10+1.5 > "$out/eval.txt" 2> "$out/eval.err"
-echo $? > "$out/eval.rc"
-SH
-echo "--- eval"; cat "$out/eval.err" "$out/eval.txt"
+# The run, in private namespaces: run_eval.sh (shared with the other eval test).
+"$(dirname "$(realpath "$0")")/run_eval.sh" "$bin" "$root" "$out" \
+  --scenario default --robots 2 --duration 18 \
+  --fault restart:fusion/1@6 --fault stall:2@10+1.5
+rc=$?
+[ "$rc" -eq 0 ] || exit "$rc"
 python3 - "$out" <<'PY'
 import json, pathlib, sys
 out = pathlib.Path(sys.argv[1])

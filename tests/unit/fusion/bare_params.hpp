@@ -14,6 +14,8 @@ namespace fieldline::fusion::test {
 inline BallFilterParams bareBall() {
   BallFilterParams p;
   p.acceleration_density = 3.0;
+  p.rest_acceleration_density = 3.0;  // one model
+  p.stamp_sigma_s = 0.0;
   p.max_age_s = 1.0;
   p.sighting_floor_m = 0.0;
   p.invalid_after_outlier = false;

@@ -105,5 +105,39 @@ TEST(teamcomm_team_ball_eval, TheTeamBallsAndOwnBallsConsistency) {
   EXPECT_NE(line.find("own_ball_mean_m: 1=0.0200 2=0.0500 3=0.3000"), std::string::npos) << line;
 }
 
+TEST(teamcomm_team_ball_eval, TheTeamBallAgainstEachOwnBallOnTheSameInstants) {
+  Samples r = makeSamples();
+  // A put-back at 15 s: for a second every team ball is 1 m off while robot 1's own ball is
+  // invalid (it saw the ball vanish, 14.95-16.05 s). Over the whole run the team ball looks worse
+  // than robot 1's own ball, which is not scored in that second; on robot 1's own instants the
+  // team ball is better. Robot 2's own ball (5 cm off) stays valid: on its instants the team
+  // ball's second counts, and there the team ball is worse.
+  for (BallSample& b : r.balls) {
+    if (b.robot == 1 && b.utime >= kT0 + 14'950'000 && b.utime < kT0 + 16'050'000) b.valid = false;
+  }
+  for (TeamSample& t : r.teams) {
+    if (t.utime >= kT0 + 15'000'000 && t.utime < kT0 + 16'000'000) t.team_ball_x = 2.0;
+  }
+  const TeamBallSummary s = evaluateTeamBall(r.truth, r.balls, r.teams);
+  EXPECT_EQ(s.best_own_robot, 1);
+  EXPECT_GT(s.team_ball_mean_m, s.best_own_ball_mean_m);  // the whole run: 1 m for 10 of 150
+  // Robot 1: 139 of its 150 TEAM_STATEs from 5 s to 20 s have a valid own ball before them.
+  ASSERT_TRUE(s.paired.contains(1));
+  EXPECT_EQ(s.paired.at(1).pairs, 139u);
+  EXPECT_NEAR(s.paired.at(1).own_mean_m, 0.02, 1e-9);
+  EXPECT_NEAR(s.paired.at(1).team_mean_m, 0.01, 1e-9);
+  EXPECT_NEAR(s.team_ball_on_best_own_m, 0.01, 1e-9);
+  EXPECT_NEAR(s.best_own_paired_m, 0.02, 1e-9);
+  // Robot 2 (own 5 cm off, valid throughout): team (140 * 0.01 + 10 * 1.0) / 150 = 7.6 cm.
+  EXPECT_EQ(s.paired.at(2).pairs, 150u);
+  EXPECT_NEAR(s.paired.at(2).team_mean_m, (140 * 0.01 + 10 * 1.0) / 150.0, 1e-9);
+  EXPECT_EQ(s.team_ball_worse_robots, std::vector<int>{2});
+  const std::string line = teamBallLine(s);
+  EXPECT_NE(line.find("team_ball_on_best_own_m=0.0100 (own 0.0200 on the same 139 instants)"),
+            std::string::npos)
+      << line;
+  EXPECT_NE(line.find("team_ball_worse_than_own=2"), std::string::npos) << line;
+}
+
 }  // namespace
 }  // namespace fieldline::eval

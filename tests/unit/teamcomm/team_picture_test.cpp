@@ -128,8 +128,37 @@ TEST(teamcomm_picture, UsesOnlyFreshBallsFromLocalizedRobotsAndPredictsThem) {
   EXPECT_NEAR(s.team_ball_vx, 1.0, 1e-9);
   EXPECT_EQ(s.robots[3].ball_age_us, 200'000);
   // Prediction uncertainty grew: 0.1^2 + (0.3 m/s * 0.2 s)^2 (the reporter's pose uncertainty is
-  // in its ball filter's covariance already).
-  EXPECT_NEAR(s.team_ball_covariance(0, 0), 0.01 + 0.0036, 1e-9);
+  // in its ball filter's covariance already), and the stamps' common uncertainty times the
+  // velocity: (0.03 s)^2 * v v^T.
+  EXPECT_NEAR(s.team_ball_covariance(0, 0), 0.01 + 0.0036 + 0.0009 * 1.0, 1e-9);
+  EXPECT_NEAR(s.team_ball_covariance(1, 1), 0.01 + 0.0036 + 0.0009 * 4.0, 1e-9);
+  EXPECT_NEAR(s.team_ball_covariance(0, 1), 0.0009 * -2.0, 1e-9);
+}
+
+TEST(teamcomm_picture, ARestingBallIsPredictedWithTheRestingModel) {
+  // A ball reported at rest (fusion's resting model) grows by the resting speed sigma, 3 cm/s,
+  // not the rolling ball's 0.3 m/s: 0.2 s later 0.006 m, not 0.06 m. Two robots seeing it from
+  // near with 5 mm sigmas: the team ball is sqrt(2) better, not held at a 2 cm floor.
+  TeamPicture picture(1);
+  for (int id = 2; id <= 3; ++id) {
+    Report r = report(id - 3.0, 0.0, kT0);
+    seeBall(r, 1.0, 1.0, 0.005, 0.05, 0.0);  // 5 cm/s: at rest
+    picture.setReport(id, r);
+  }
+  const auto s = picture.picture(kT0 + 200'000);
+  ASSERT_TRUE(s.team_ball_valid);
+  const double grown = 0.03 * 0.2;
+  const double one = 0.005 * 0.005 + grown * grown;
+  EXPECT_NEAR(s.team_ball_covariance(0, 0), 0.5 * one + 0.0009 * 0.05 * 0.05, 1e-12);
+  EXPECT_NEAR(s.team_ball_covariance(1, 1), 0.5 * one, 1e-12);
+  // Rolling at 0.5 m/s the same report grows by 0.3 m/s.
+  for (int id = 2; id <= 3; ++id) {
+    Report r = report(id - 3.0, 0.0, kT0);
+    seeBall(r, 1.0, 1.0, 0.005, 0.0, 0.5);
+    picture.setReport(id, r);
+  }
+  const auto rolling = picture.picture(kT0 + 200'000);
+  EXPECT_NEAR(rolling.team_ball_covariance(0, 0), 0.5 * (0.005 * 0.005 + 0.06 * 0.06), 1e-12);
 }
 
 TEST(teamcomm_picture, SaysWhichRobotsMayBeOnTheirTwinAndKeepsTheirBalls) {
