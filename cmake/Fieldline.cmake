@@ -12,6 +12,45 @@ function(fieldline_add_subdirectories dir)
   endforeach()
 endfunction()
 
+# Precompiled headers (option FIELDLINE_PCH) of the test executables: GoogleTest, Eigen/Core,
+# yaml-cpp and the common standard headers (cmake/pch/test.hpp) are parsed once per build instead
+# of once per test file. One donor target compiles them; every fieldline_test() executable reuses
+# the result (REUSE_FROM), so it shares the donor's flags: only headers whose meaning does not
+# depend on a target's own definitions (FMT_SHARED, SPDLOG_*, ...) go in, and -Winvalid-pch (with
+# -Werror) fails a mismatch loudly. FIELDLINE_PCH=OFF builds without (e.g. to check that every test
+# file includes what it uses).
+function(fieldline_precompiled_header_targets)
+  if(NOT FIELDLINE_PCH OR NOT TARGET GTest::gtest)
+    return()
+  endif()
+  add_library(fieldline_test_pch OBJECT ${PROJECT_SOURCE_DIR}/cmake/pch/pch.cpp)
+  target_link_libraries(fieldline_test_pch PRIVATE fieldline_root Eigen3::Eigen yaml-cpp
+                                                   GTest::gtest)
+  target_precompile_headers(fieldline_test_pch PRIVATE ${PROJECT_SOURCE_DIR}/cmake/pch/test.hpp)
+  fieldline_test_debug_info(fieldline_test_pch)
+endfunction()
+
+# The test executables carry no debug information unless FIELDLINE_TEST_DEBUG_INFO is on: their
+# own files are compiled without it and the line tables of the libraries they link are left out
+# (--strip-debug keeps the symbols). Two thirds of a test executable were debug sections, and
+# the test executables most of the build tree. A failing test to debug: -DFIELDLINE_TEST_DEBUG_INFO=ON.
+function(fieldline_test_debug_info target)
+  if(NOT FIELDLINE_TEST_DEBUG_INFO)
+    target_compile_options(${target} PRIVATE -g0)
+    get_target_property(type ${target} TYPE)
+    if(type STREQUAL "EXECUTABLE")
+      target_link_options(${target} PRIVATE -Wl,--strip-debug)
+    endif()
+  endif()
+endfunction()
+
+# fieldline_use_test_precompiled_header(TARGET): TARGET's C++ files start from the test one.
+function(fieldline_use_test_precompiled_header target)
+  if(TARGET fieldline_test_pch)
+    target_precompile_headers(${target} REUSE_FROM fieldline_test_pch)
+  endif()
+endfunction()
+
 # fieldline_test(NAME SOURCES a.cpp b.cpp LIBS lib1 lib2 [LABELS unit] [ONE_PROCESS] [TEST_PREFIX p.])
 # A GoogleTest executable whose cases are registered with CTest one by one, each run in its own
 # process. ONE_PROCESS registers the executable as a single CTest test (named NAME) that runs all
@@ -21,6 +60,8 @@ function(fieldline_test name)
   cmake_parse_arguments(ARG "ONE_PROCESS" "TEST_PREFIX" "SOURCES;LIBS;LABELS" ${ARGN})
   add_executable(${name} ${ARG_SOURCES})
   target_link_libraries(${name} PRIVATE ${ARG_LIBS} GTest::gtest GTest::gtest_main fieldline_root)
+  fieldline_use_test_precompiled_header(${name})
+  fieldline_test_debug_info(${name})
   if(NOT ARG_LABELS)
     set(ARG_LABELS unit)
   endif()
