@@ -119,7 +119,11 @@ void UdpmReceiver::setChannels(const std::vector<std::string>& channels, bool ev
   everything_ = everything;
   if (everything) {
     // No filter: every datagram, as LCM's receive thread gets them.
-    (void)::setsockopt(fd_, SOL_SOCKET, SO_DETACH_FILTER, nullptr, 0);
+    // (The kernel wants an int-sized option here, although it reads none.)
+    const int unused = 0;
+    if (::setsockopt(fd_, SOL_SOCKET, SO_DETACH_FILTER, &unused, sizeof unused) < 0) {
+      fail("SO_DETACH_FILTER");
+    }
     return;
   }
   // Later fragments name no channel: a process reading a channel whose messages may span

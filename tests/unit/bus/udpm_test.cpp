@@ -368,6 +368,32 @@ TEST_F(UdpmBus, AProcessWakesOnlyForTheChannelsItReads) {
   EXPECT_EQ(bridge.status().errorCount("bus_incomplete"), 0);
 }
 
+TEST_F(UdpmBus, ARecorderTakesEveryChannel) {
+  Node sender{{.process = "sender", .robot_id = 1, .url = kUrl, .status_period_us = 0}, clock};
+  Node bridge{{.process = "bridge", .robot_id = 1, .url = kUrl, .status_period_us = 0}, clock};
+  Node recorder{{.process = "recorder", .robot_id = 1, .url = kUrl, .status_period_us = 0}, clock};
+  int commands = 0;
+  bridge.subscribe(channels::kMotionCommand, [&](const motion_command_t&) { ++commands; });
+  std::vector<std::string> seen;
+  recorder.subscribeAllRaw(
+      [&](const std::string& channel, const void*, int) { seen.push_back(channel); });
+  odometry_t odo{};
+  odo.header.utime = clock.now();
+  ASSERT_TRUE(sender.publish(channels::kOdometry, odo));
+  image_t frame = image(1);
+  frame.header.utime = clock.now();
+  ASSERT_TRUE(sender.publish(channels::kCameraImage, frame));
+  motion_command_t cmd{};
+  cmd.header.utime = clock.now();
+  cmd.deadline_utime = clock.now() + 100'000;
+  cmd.source = motion_command_t::SOURCE_PILOT;
+  ASSERT_TRUE(sender.publish(channels::kMotionCommand, cmd));
+  spinUntil({&bridge, &recorder}, [&] { return seen.size() == 3 && commands == 1; });
+  EXPECT_EQ(seen, (std::vector<std::string>{"ODOMETRY", "CAMERA_IMAGE", "MOTION_COMMAND"}));
+  EXPECT_EQ(commands, 1);
+  EXPECT_EQ(bridge.busDatagrams(), 1);
+}
+
 TEST_F(UdpmBus, WhatLcmItselfPublishesArrivesAndWhatTheNodePublishesLcmReads) {
   Node node{{.process = "node", .robot_id = 1, .url = kUrl, .status_period_us = 0}, clock};
   std::vector<std::int64_t> frames;
