@@ -82,6 +82,15 @@ constexpr double nominalRateHz(std::string_view channel) {
   if (channel == channels::kSimWorld.name) return 100.0;
   return 0.0;
 }
+// Channels whose messages may be larger than one UDP datagram (~64 KB), which LCM then sends in
+// fragments: images and point sequences. The others are bounded far below that. A process reading
+// one of these takes the later fragments of every channel (they name no channel); every other
+// process never wakes for a fragment it does not read (udpm_receiver.hpp).
+constexpr bool mayNeedSeveralDatagrams(std::string_view channel) {
+  return channel == channels::kCameraImage.name || channel == channels::kCameraPreview.name ||
+         channel == channels::kVisionLines.name || channel == channels::kFieldFeatures.name;
+}
+
 // The fraction of the nominal rate below which an input counts as failing.
 inline constexpr double kRequiredRateFraction = 0.5;
 

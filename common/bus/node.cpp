@@ -3,7 +3,9 @@
 #include <algorithm>
 #include <chrono>
 #include <csignal>
+#include <cstdlib>
 #include <random>
+#include <system_error>
 
 #include <fmt/format.h>
 #include <poll.h>
@@ -11,6 +13,7 @@
 #include <lcm/lcm-cpp.hpp>
 
 #include "common/bus/systemd_notify.hpp"
+#include "common/bus/udpm_receiver.hpp"
 #include "common/time/offset_clock.hpp"
 
 namespace fieldline::bus {
@@ -68,9 +71,59 @@ std::optional<header_t> peekHeader(const void* data, int size) {
 }
 
 // ---------------------------------------------------------------------------------------------
+struct Node::Subscription {
+  Node* node;
+  std::string channel;
+  RawHandler handler;
+  // Set instead of handler for subscribeAllRaw: also gets the channel name.
+  AllHandler all;
+  Connection* connection = nullptr;
+  lcm::Subscription* lcm_subscription = nullptr;
+};
+
+// A udpm bus is received by a socket of the node's own (udpm_receiver.hpp) and published through
+// LCM; other providers (memq://, file://) go through LCM both ways.
 struct Connection::Impl {
   lcm::LCM lcm;
-  explicit Impl(const std::string& url) : lcm(url) {}
+  std::optional<UdpmReceiver> receiver;
+  // Every node's subscriptions on a udpm bus (several nodes may share a connection).
+  std::vector<Node::Subscription*> subscriptions;
+  // Reused for subscribeAllRaw handlers, which take a std::string.
+  std::string channel_name;
+
+  explicit Impl(const std::string& url) : lcm(url) {
+    const char* fallback = std::getenv("LCM_DEFAULT_URL");
+    const std::string effective =
+        !url.empty() ? url : (fallback && *fallback ? fallback : "udpm://239.255.76.67:7667");
+    if (auto address = parseUdpmUrl(effective)) receiver.emplace(*address);
+  }
+
+  // The filter follows the subscriptions: the kernel passes only what some node here reads.
+  void updateFilter() {
+    std::vector<std::string> channels;
+    bool everything = false;
+    for (const Node::Subscription* sub : subscriptions) {
+      everything = everything || static_cast<bool>(sub->all);
+      if (!sub->all && std::find(channels.begin(), channels.end(), sub->channel) == channels.end())
+        channels.push_back(sub->channel);
+    }
+    receiver->setChannels(channels, everything);
+  }
+
+  void dispatch(std::string_view channel, const void* data, int size) {
+    // Index loop: a handler may subscribe.
+    for (std::size_t i = 0; i < subscriptions.size(); ++i) {
+      Node::Subscription* sub = subscriptions[i];
+      if (sub->all) {
+        channel_name.assign(channel);
+        sub->all(channel_name, data, size);
+      } else if (sub->channel == channel) {
+        sub->handler(data, size);
+      }
+    }
+  }
+
+  int waitFd() { return receiver ? receiver->fd() : lcm.getFileno(); }
 };
 
 Connection::Connection(std::string url)
@@ -78,22 +131,21 @@ Connection::Connection(std::string url)
 Connection::~Connection() = default;
 
 std::shared_ptr<Connection> Connection::open(const std::string& url) {
-  std::shared_ptr<Connection> c(new Connection(url));
+  std::shared_ptr<Connection> c;
+  try {
+    c.reset(new Connection(url));
+  } catch (const std::invalid_argument& e) {
+    throw BusError(e.what());
+  }
   if (!c->impl_->lcm.good()) throw BusError(remedyFor(url));
   return c;
 }
 
-// ---------------------------------------------------------------------------------------------
-struct Node::Subscription {
-  Node* node;
-  std::string channel;
-  RawHandler handler;
-  // Set instead of handler for subscribeAllRaw: also gets the channel name.
-  std::function<void(const std::string&, const void*, int)> all;
-  Connection* connection = nullptr;
-  lcm::Subscription* lcm_subscription = nullptr;
-};
+std::int64_t Connection::datagramsReceived() const {
+  return impl_->receiver ? impl_->receiver->datagrams() : -1;
+}
 
+// ---------------------------------------------------------------------------------------------
 namespace {
 void dispatchRaw(const lcm::ReceiveBuffer* rbuf, const std::string& channel, void* context) {
   auto* sub = static_cast<Node::Subscription*>(context);
@@ -132,6 +184,17 @@ Node::~Node() {
   // Nodes may share a connection that outlives them: stop its callbacks into this node.
   for (auto& sub : subscriptions_) {
     if (sub->lcm_subscription) sub->connection->impl_->lcm.unsubscribe(sub->lcm_subscription);
+    auto& impl = *sub->connection->impl_;
+    if (impl.receiver) std::erase(impl.subscriptions, sub.get());
+  }
+  for (auto& bus : buses_) {
+    if (bus->impl_->receiver && bus->impl_->receiver->fd() >= 0) {
+      try {
+        bus->impl_->updateFilter();
+      } catch (const std::exception& e) {
+        spdlog::warn("[{}] {}", options_.process, e.what());
+      }
+    }
   }
 }
 
@@ -155,14 +218,26 @@ Connection& Node::connection(BusId bus) {
   return *buses_[static_cast<std::size_t>(bus)];
 }
 
-void Node::subscribeRaw(const std::string& channel, BusId bus, RawHandler handler) {
+void Node::subscribeRaw(const std::string& channel, BusId bus, RawHandler handler, AllHandler all) {
   auto sub = std::make_unique<Subscription>();
   sub->node = this;
   sub->channel = channel;
   sub->handler = std::move(handler);
+  sub->all = std::move(all);
   sub->connection = &connection(bus);
-  sub->lcm_subscription = sub->connection->impl_->lcm.subscribeFunction(
-      channel, &dispatchRaw, static_cast<void*>(sub.get()));
+  auto& impl = *sub->connection->impl_;
+  if (impl.receiver) {
+    impl.subscriptions.push_back(sub.get());
+    subscriptions_.push_back(std::move(sub));
+    try {
+      impl.updateFilter();
+    } catch (const std::system_error& e) {
+      throw BusError("LCM bus '" + connection(bus).url() + "': cannot receive: " + e.what());
+    }
+    return;
+  }
+  sub->lcm_subscription =
+      impl.lcm.subscribeFunction(channel, &dispatchRaw, static_cast<void*>(sub.get()));
   // Big messages (images) come in bursts; let a slow handler fall behind a little, not forever.
   if (sub->lcm_subscription) sub->lcm_subscription->setQueueCapacity(60);
   subscriptions_.push_back(std::move(sub));
@@ -207,8 +282,7 @@ void Node::declareIo(ProcessIo io) {
 void Node::subscribeAllRaw(
     std::function<void(const std::string& channel, const void* data, int size)> handler,
     BusId bus) {
-  subscribeRaw(".*", bus, nullptr);
-  subscriptions_.back()->all = std::move(handler);
+  subscribeRaw(".*", bus, nullptr, std::move(handler));
 }
 
 std::int64_t& Node::nextSeq(const std::string& channel) {
@@ -402,12 +476,15 @@ void Node::publishStatus() {
 }
 
 int Node::spinOnce(int timeout_ms) {
-  // Buses first, then the watched fds, each remembered by id: a callback may unwatch any.
-  std::vector<pollfd> fds;
-  std::vector<WatchId> watch_ids;
-  fds.reserve(buses_.size() + watches_.size());
+  // Buses first, then the watched fds, each remembered by id: a callback may unwatch any. The
+  // vectors are members, reused: a spin allocates nothing.
+  std::vector<pollfd>& fds = poll_fds_;
+  std::vector<WatchId>& watch_ids = poll_watch_ids_;
+  fds.clear();
+  watch_ids.clear();
+  // A udpm bus nobody here reads has no socket yet (-1: poll() skips it).
   for (const auto& b : buses_)
-    fds.push_back(pollfd{b->impl_->lcm.getFileno(), POLLIN, 0});
+    fds.push_back(pollfd{b->impl_->waitFd(), POLLIN, 0});
   for (const auto& w : watches_) {
     fds.push_back(pollfd{w.fd, POLLIN, 0});
     watch_ids.push_back(w.id);
@@ -416,12 +493,22 @@ int Node::spinOnce(int timeout_ms) {
   const int ready = ::poll(fds.data(), fds.size(), std::max(0, timeout_ms));
   if (ready > 0) {
     for (std::size_t i = 0; i < buses_.size(); ++i) {
-      if (fds[i].revents & POLLIN) {
-        // Drain what is queued on this bus, bounded so timers and status still run under a flood.
-        for (int n = 0; n < kMaxMessagesPerSpin && buses_[i]->impl_->lcm.handleTimeout(0) > 0;
-             ++n) {
-          ++handled;
-        }
+      if (!(fds[i].revents & POLLIN)) continue;
+      Connection::Impl& impl = *buses_[i]->impl_;
+      // Drain what is queued on this bus, bounded so timers and status still run under a flood.
+      if (impl.receiver) {
+        handled += impl.receiver->receive(
+            kMaxMessagesPerSpin,
+            [&impl](std::string_view channel, const void* data, int size) {
+              impl.dispatch(channel, data, size);
+            },
+            [this, i](const char* kind, const std::string& text) {
+              onBusProblem(static_cast<BusId>(i), kind, text);
+            });
+        continue;
+      }
+      for (int n = 0; n < kMaxMessagesPerSpin && impl.lcm.handleTimeout(0) > 0; ++n) {
+        ++handled;
       }
     }
     for (std::size_t k = 0; k < watch_ids.size(); ++k) {
@@ -442,6 +529,10 @@ int Node::spinOnce(int timeout_ms) {
   }
   fireTimers();
   return handled;
+}
+
+void Node::onBusProblem(BusId bus, const char* kind, const std::string& text) {
+  reportError(kind, text + " (bus " + url(bus) + ")");
 }
 
 bool Node::stopRequested() const {

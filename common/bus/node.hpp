@@ -24,6 +24,7 @@
 // fire timers by advancing the clock.
 #pragma once
 
+#include <poll.h>
 #include <atomic>
 #include <cstdint>
 #include <functional>
@@ -60,6 +61,9 @@ class Connection {
   Connection(const Connection&) = delete;
   Connection& operator=(const Connection&) = delete;
   const std::string& url() const { return url_; }
+  // Datagrams this process's own receive socket of a udpm bus has read (what it woke for); -1 for
+  // other providers, 0 before the first subscription.
+  std::int64_t datagramsReceived() const;
 
  private:
   friend class Node;
@@ -224,15 +228,21 @@ class Node {
   int robotId() const { return options_.robot_id; }
   const NodeOptions& options() const { return options_; }
   const std::string& url(BusId bus = kPrimaryBus) const;
+  // Datagrams this process's receive socket of a udpm bus has read, what it woke for
+  // (Connection::datagramsReceived).
+  std::int64_t busDatagrams(BusId bus = kPrimaryBus) const {
+    return buses_.at(static_cast<std::size_t>(bus))->datagramsReceived();
+  }
   StatusCollector& status() { return status_; }
   // Publishes SERVICE_STATUS now (also done automatically every status period).
   void publishStatus();
 
   // Implementation detail, public only for the LCM callback trampoline.
   struct Subscription;
+  using RawHandler = std::function<void(const void* data, int size)>;
+  using AllHandler = std::function<void(const std::string& channel, const void* data, int size)>;
 
  private:
-  using RawHandler = std::function<void(const void* data, int size)>;
   struct Timer {
     // Monotonic time of the next call.
     Utime next;
@@ -245,7 +255,7 @@ class Node {
     std::function<void()> on_ready;
   };
 
-  void subscribeRaw(const std::string& channel, BusId bus, RawHandler handler);
+  void subscribeRaw(const std::string& channel, BusId bus, RawHandler handler, AllHandler all = {});
   void checkDeclaredInput(const std::string& channel) const;
   bool declaredOutput(const std::string& channel);
   bool publishRaw(const std::string& channel, const header_t& header, BusId bus);
@@ -257,6 +267,8 @@ class Node {
   void timed(const std::function<void()>& fn);
   void fireTimers();
   Connection& connection(BusId bus);
+  // A bad datagram or a message that lost fragments (udpm buses).
+  void onBusProblem(BusId bus, const char* kind, const std::string& text);
 
   NodeOptions options_;
   const Clock& clock_;
@@ -266,6 +278,8 @@ class Node {
   std::vector<Timer> timers_;
   std::vector<Watch> watches_;
   WatchId next_watch_id_ = 1;
+  std::vector<pollfd> poll_fds_;
+  std::vector<WatchId> poll_watch_ids_;
   std::vector<std::pair<std::string, std::int64_t>> next_seq_;
   std::vector<std::uint8_t> encode_buffer_;
   StatusCollector status_;

@@ -1,0 +1,77 @@
+// The receiving side of an LCM udpm bus without LCM's receive thread: one UDP socket bound to the
+// bus's group and port (as LCM binds it: SO_REUSEADDR, the group joined), read by the node's own
+// event loop, with a socket filter that makes the kernel drop every datagram of a channel the
+// process does not read (udpm_wire.hpp). LCM's udpm receive thread wakes for every datagram on
+// the bus, copies it, looks its channel up and then wakes the main loop through a pipe; here a
+// process that reads only MOTION_COMMAND wakes only for MOTION_COMMAND.
+//
+// Publishing stays with LCM (lcm_publish): a publish-only lcm_t opens no receive socket and
+// starts no thread (LCM 1.3.1 sets those up at the first subscribe or getFileno()).
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include <netinet/in.h>
+
+#include "common/bus/udpm_wire.hpp"
+
+namespace fieldline::bus {
+
+struct UdpmAddress {
+  in_addr group{};
+  // Host byte order.
+  std::uint16_t port = 0;
+  // SO_RCVBUF to ask for; 0 keeps the system's default.
+  int recv_buf_size = 0;
+};
+
+// The address of a udpm:// URL ("udpm://239.255.76.67:7668?ttl=0&recv_buf_size=4194304"; LCM's
+// defaults for a missing group or port); nullopt for another provider. Throws
+// std::invalid_argument for a udpm URL it cannot read.
+std::optional<UdpmAddress> parseUdpmUrl(const std::string& url);
+
+class UdpmReceiver {
+ public:
+  using MessageFn = std::function<void(std::string_view channel, const void* data, int size)>;
+  // A problem with what arrived: kind ("bus_datagram", "bus_incomplete") and text.
+  using ProblemFn = std::function<void(const char* kind, const std::string& text)>;
+
+  explicit UdpmReceiver(UdpmAddress address);
+  ~UdpmReceiver();
+  UdpmReceiver(const UdpmReceiver&) = delete;
+  UdpmReceiver& operator=(const UdpmReceiver&) = delete;
+
+  // What this process reads on the bus; `everything` (a recorder, a bus monitor) takes every
+  // datagram. The first call opens the socket; later calls replace the filter. Throws
+  // std::system_error if the socket cannot be set up.
+  void setChannels(const std::vector<std::string>& channels, bool everything);
+  // The socket to wait on, or -1 while nothing is subscribed (publish-only: no socket at all).
+  int fd() const { return fd_; }
+
+  // Reads up to `max_datagrams` waiting datagrams without blocking and hands every complete
+  // message of a channel it reads to `on_message`. Returns the number of messages handed on.
+  int receive(int max_datagrams, const MessageFn& on_message, const ProblemFn& on_problem);
+
+  // Datagrams read from the socket since it was opened (what the process woke for).
+  std::int64_t datagrams() const { return datagrams_; }
+  const udpm::FragmentAssembler& assembler() const { return assembler_; }
+
+ private:
+  void open();
+
+  UdpmAddress address_;
+  int fd_ = -1;
+  bool everything_ = false;
+  std::vector<std::string> channels_;
+  std::vector<std::uint8_t> buffer_;
+  udpm::FragmentAssembler assembler_;
+  std::int64_t datagrams_ = 0;
+  std::int64_t reported_incomplete_ = 0;
+};
+
+}  // namespace fieldline::bus

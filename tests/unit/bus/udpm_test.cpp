@@ -1,0 +1,445 @@
+// The udpm receive path of bus::Node without LCM's receive thread (common/bus/udpm_wire.hpp,
+// udpm_receiver.hpp): LCM's wire format read by hand (short, fragmented, truncated, wrong magic,
+// fragments out of order or missing), the kernel socket filter (run by the kernel on a socket
+// pair), and, in a private network namespace, real udpm buses: what LCM publishes arrives, and a
+// process wakes only for the channels it reads.
+#include <arpa/inet.h>
+#include <sched.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <cstdlib>
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <lcm/lcm-cpp.hpp>
+
+#include "common/bus/node.hpp"
+#include "common/bus/udpm_receiver.hpp"
+#include "common/bus/udpm_wire.hpp"
+
+namespace fieldline::bus {
+namespace {
+
+using Bytes = std::vector<std::uint8_t>;
+
+void put32(Bytes& b, std::uint32_t v) {
+  for (int shift = 24; shift >= 0; shift -= 8)
+    b.push_back(static_cast<std::uint8_t>(v >> shift));
+}
+void put16(Bytes& b, std::uint16_t v) {
+  b.push_back(static_cast<std::uint8_t>(v >> 8));
+  b.push_back(static_cast<std::uint8_t>(v));
+}
+
+// A datagram as LCM's lcm_udpm_publish builds it.
+Bytes shortDatagram(const std::string& channel, const Bytes& payload, std::uint32_t seqno = 7) {
+  Bytes b;
+  put32(b, udpm::kMagicShort);
+  put32(b, seqno);
+  b.insert(b.end(), channel.begin(), channel.end());
+  b.push_back(0);
+  b.insert(b.end(), payload.begin(), payload.end());
+  return b;
+}
+
+// The fragments LCM sends for `payload` on `channel`, `fragment_bytes` of the message per datagram
+// (the first one's shortened by the channel name).
+std::vector<Bytes> fragments(const std::string& channel, const Bytes& payload,
+                             std::uint32_t seqno = 11, std::size_t fragment_bytes = 1000) {
+  const std::size_t total = channel.size() + 1 + payload.size();
+  const std::size_t count = (total + fragment_bytes - 1) / fragment_bytes;
+  std::vector<Bytes> out;
+  std::size_t offset = 0;
+  for (std::size_t no = 0; no < count; ++no) {
+    Bytes b;
+    put32(b, udpm::kMagicFragment);
+    put32(b, seqno);
+    put32(b, static_cast<std::uint32_t>(payload.size()));
+    put32(b, static_cast<std::uint32_t>(offset));
+    put16(b, static_cast<std::uint16_t>(no));
+    put16(b, static_cast<std::uint16_t>(count));
+    std::size_t room = fragment_bytes;
+    if (no == 0) {
+      b.insert(b.end(), channel.begin(), channel.end());
+      b.push_back(0);
+      room -= channel.size() + 1;
+    }
+    const std::size_t n = std::min(room, payload.size() - offset);
+    b.insert(b.end(), payload.begin() + static_cast<std::ptrdiff_t>(offset),
+             payload.begin() + static_cast<std::ptrdiff_t>(offset + n));
+    offset += n;
+    out.push_back(std::move(b));
+  }
+  return out;
+}
+
+Bytes pattern(std::size_t n) {
+  Bytes b(n);
+  for (std::size_t i = 0; i < n; ++i)
+    b[i] = static_cast<std::uint8_t>((i * 131) ^ (i >> 8));
+  return b;
+}
+
+// ---- the wire format ----------------------------------------------------------------------
+
+TEST(UdpmWire, ReadsAShortMessage) {
+  const Bytes payload = pattern(300);
+  const Bytes d = shortDatagram("ODOMETRY", payload, 42);
+  udpm::Datagram out;
+  ASSERT_EQ(udpm::parseDatagram(d, out), nullptr);
+  EXPECT_FALSE(out.fragment);
+  EXPECT_EQ(out.seqno, 42u);
+  EXPECT_EQ(out.channel, "ODOMETRY");
+  EXPECT_EQ(Bytes(out.bytes.begin(), out.bytes.end()), payload);
+}
+
+TEST(UdpmWire, RefusesTruncatedAndForeignDatagrams) {
+  udpm::Datagram out;
+  const Bytes tiny{0x4c, 0x43, 0x30};
+  EXPECT_STREQ(udpm::parseDatagram(tiny, out), "shorter than an LCM header");
+  Bytes wrong = shortDatagram("ODOMETRY", pattern(10));
+  wrong[3] = '9';  // "LC09"
+  EXPECT_NE(std::string(udpm::parseDatagram(wrong, out)).find("magic"), std::string::npos);
+  // A channel name that never ends (no NUL within 64 bytes).
+  Bytes endless;
+  put32(endless, udpm::kMagicShort);
+  put32(endless, 1);
+  endless.insert(endless.end(), 80, 'A');
+  EXPECT_NE(udpm::parseDatagram(endless, out), nullptr);
+  // A fragment header cut short.
+  Bytes cut = fragments("CAMERA_IMAGE", pattern(5000))[1];
+  cut.resize(15);
+  EXPECT_STREQ(udpm::parseDatagram(cut, out), "shorter than an LCM fragment header");
+  // A fragment claiming bytes beyond its message.
+  Bytes beyond = fragments("CAMERA_IMAGE", pattern(5000))[1];
+  beyond[8] = beyond[9] = beyond[10] = 0;
+  beyond[11] = 10;  // message size 10
+  EXPECT_STREQ(udpm::parseDatagram(beyond, out), "fragment reaches beyond its message's size");
+  // Fragment number not below the count.
+  Bytes number = fragments("CAMERA_IMAGE", pattern(5000))[1];
+  number[16] = 0x7f;
+  EXPECT_STREQ(udpm::parseDatagram(number, out), "fragment number beyond the fragment count");
+}
+
+// Feeds datagrams through parse and the assembler as the receiver does; returns the completed
+// messages' channel and bytes.
+std::vector<std::pair<std::string, Bytes>> assemble(udpm::FragmentAssembler& a,
+                                                    const std::vector<Bytes>& datagrams,
+                                                    std::uint64_t sender = 1) {
+  std::vector<std::pair<std::string, Bytes>> done;
+  for (const Bytes& d : datagrams) {
+    udpm::Datagram parsed;
+    EXPECT_EQ(udpm::parseDatagram(d, parsed), nullptr);
+    udpm::FragmentAssembler::Message m;
+    if (a.add(sender, parsed, m) == udpm::FragmentAssembler::Outcome::kComplete) {
+      done.emplace_back(std::string(m.channel), Bytes(m.bytes.begin(), m.bytes.end()));
+    }
+  }
+  return done;
+}
+
+TEST(UdpmWire, ReassemblesAFragmentedMessage) {
+  const Bytes image = pattern(153'700);
+  const auto parts = fragments("CAMERA_IMAGE", image, 5, 65'487);
+  ASSERT_EQ(parts.size(), 3u);
+  udpm::FragmentAssembler a;
+  const auto done = assemble(a, parts);
+  ASSERT_EQ(done.size(), 1u);
+  EXPECT_EQ(done[0].first, "CAMERA_IMAGE");
+  EXPECT_TRUE(done[0].second == image);
+  EXPECT_EQ(a.incomplete(), 0);
+}
+
+TEST(UdpmWire, FragmentsOutOfOrderAndDuplicatedStillMakeTheMessage) {
+  const Bytes payload = pattern(4'500);
+  auto parts = fragments("VISION_LINES", payload);
+  ASSERT_EQ(parts.size(), 5u);
+  udpm::FragmentAssembler a;
+  // Last first, the first in the middle, one twice.
+  const auto done = assemble(a, {parts[4], parts[2], parts[0], parts[2], parts[3], parts[1]});
+  ASSERT_EQ(done.size(), 1u);
+  EXPECT_EQ(done[0].first, "VISION_LINES");
+  EXPECT_TRUE(done[0].second == payload);
+}
+
+TEST(UdpmWire, AMissingFragmentLosesThatMessageAndIsCounted) {
+  udpm::FragmentAssembler a;
+  auto first = fragments("VISION_LINES", pattern(3'000), 1);
+  auto second = fragments("VISION_LINES", pattern(3'500), 2);
+  first.erase(first.begin() + 1);  // lost on the way
+  std::vector<Bytes> all = first;
+  all.insert(all.end(), second.begin(), second.end());
+  const auto done = assemble(a, all);
+  ASSERT_EQ(done.size(), 1u);
+  EXPECT_TRUE(done[0].second == pattern(3'500));
+  EXPECT_EQ(a.incomplete(), 1);
+  EXPECT_EQ(a.lastIncompleteChannel(), "VISION_LINES");
+}
+
+TEST(UdpmWire, LaterFragmentsOfAMessageNotReadAreNoLoss) {
+  // The socket filter drops the first fragment of a channel the process does not read and passes
+  // the later ones: they never complete, and that is not a lost message.
+  udpm::FragmentAssembler a;
+  auto image = fragments("CAMERA_IMAGE", pattern(4'000), 1);
+  image.erase(image.begin());
+  const auto lines = fragments("VISION_LINES", pattern(2'000), 2);
+  std::vector<Bytes> all = image;
+  all.insert(all.end(), lines.begin(), lines.end());
+  const auto done = assemble(a, all);
+  ASSERT_EQ(done.size(), 1u);
+  EXPECT_EQ(done[0].first, "VISION_LINES");
+  EXPECT_EQ(a.incomplete(), 0);
+}
+
+TEST(UdpmWire, TwoSendersInterleavedAreKeptApart) {
+  udpm::FragmentAssembler a;
+  const auto one = fragments("CAMERA_IMAGE", pattern(3'000), 9);
+  const auto two = fragments("CAMERA_PREVIEW", pattern(2'500), 9);
+  std::vector<std::pair<std::string, Bytes>> done;
+  for (std::size_t i = 0; i < std::max(one.size(), two.size()); ++i) {
+    if (i < one.size()) {
+      auto d = assemble(a, {one[i]}, 1);
+      done.insert(done.end(), d.begin(), d.end());
+    }
+    if (i < two.size()) {
+      auto d = assemble(a, {two[i]}, 2);
+      done.insert(done.end(), d.begin(), d.end());
+    }
+  }
+  ASSERT_EQ(done.size(), 2u);
+  EXPECT_EQ(a.incomplete(), 0);
+}
+
+// ---- the socket filter, run by the kernel --------------------------------------------------
+
+// Sends `datagrams` through a datagram socket pair whose receiving end carries the filter (the
+// payload starts at offset 0 there); returns what came through.
+std::vector<Bytes> throughFilter(const std::vector<std::string>& channels, bool later_fragments,
+                                 const std::vector<Bytes>& datagrams) {
+  int pair[2];
+  EXPECT_EQ(::socketpair(AF_UNIX, SOCK_DGRAM | SOCK_NONBLOCK, 0, pair), 0);
+  const auto program = udpm::filterProgram(channels, later_fragments, 0);
+  sock_fprog prog{static_cast<unsigned short>(program.size()),
+                  const_cast<sock_filter*>(program.data())};
+  EXPECT_EQ(::setsockopt(pair[1], SOL_SOCKET, SO_ATTACH_FILTER, &prog, sizeof prog), 0)
+      << std::strerror(errno);
+  for (const Bytes& d : datagrams)
+    EXPECT_EQ(::send(pair[0], d.data(), d.size(), 0), static_cast<ssize_t>(d.size()));
+  std::vector<Bytes> got;
+  Bytes buffer(70'000);
+  for (;;) {
+    const ssize_t n = ::recv(pair[1], buffer.data(), buffer.size(), 0);
+    if (n < 0) break;
+    got.emplace_back(buffer.begin(), buffer.begin() + n);
+  }
+  ::close(pair[0]);
+  ::close(pair[1]);
+  return got;
+}
+
+TEST(UdpmFilter, PassesOnlyTheChannelsAProcessReads) {
+  const Bytes odo = shortDatagram("ODOMETRY", pattern(100));
+  const Bytes cmd = shortDatagram("MOTION_COMMAND", pattern(60));
+  const Bytes state = shortDatagram("ROBOT_STATE", pattern(200));
+  // Names that share a prefix with a subscribed one, or are a prefix of it.
+  const Bytes longer = shortDatagram("MOTION_COMMANDS", pattern(60));
+  const Bytes shorter = shortDatagram("MOTION_COMMAN", pattern(60));
+  const Bytes empty_payload = shortDatagram("MOTION_COMMAND", {});
+  const auto got = throughFilter({"MOTION_COMMAND", "ROBOT_STATE"}, false,
+                                 {odo, cmd, state, longer, shorter, empty_payload, Bytes{1, 2, 3}});
+  ASSERT_EQ(got.size(), 3u);
+  EXPECT_EQ(got[0], cmd);
+  EXPECT_EQ(got[1], state);
+  EXPECT_EQ(got[2], empty_payload);
+}
+
+TEST(UdpmFilter, FragmentsOnlyForProcessesThatReadBigChannels) {
+  const auto image = fragments("CAMERA_IMAGE", pattern(3'000), 3);
+  const auto lines = fragments("VISION_LINES", pattern(2'500), 4);
+  std::vector<Bytes> all = image;
+  all.insert(all.end(), lines.begin(), lines.end());
+  // The motor bridge: no fragment at all.
+  EXPECT_TRUE(throughFilter({"MOTION_COMMAND"}, false, all).empty());
+  // Fusion (reads VISION_LINES): the first fragment of its own channel, every later fragment.
+  const auto fusion = throughFilter({"VISION_LINES", "ODOMETRY"}, true, all);
+  EXPECT_EQ(fusion.size(), all.size() - 1);
+  EXPECT_EQ(std::count(fusion.begin(), fusion.end(), image[0]), 0);
+  // A channel whose name has a length of every residue mod 4.
+  for (const std::string name : {"A", "AB", "ABC", "ABCD", "ABCDE"}) {
+    const auto got =
+        throughFilter({name}, false, {shortDatagram(name, pattern(10)), shortDatagram("X", {})});
+    EXPECT_EQ(got.size(), 1u) << name;
+  }
+}
+
+TEST(UdpmFilter, AProcessThatReadsNothingGetsNothing) {
+  EXPECT_TRUE(throughFilter({}, false, {shortDatagram("ODOMETRY", pattern(10))}).empty());
+}
+
+TEST(UdpmUrl, ReadsGroupPortAndBuffer) {
+  const auto a = parseUdpmUrl("udpm://239.255.76.67:7670?ttl=0&recv_buf_size=4194304");
+  ASSERT_TRUE(a.has_value());
+  EXPECT_EQ(a->port, 7670);
+  EXPECT_EQ(a->recv_buf_size, 4194304);
+  EXPECT_EQ(std::string(inet_ntoa(a->group)), "239.255.76.67");
+  EXPECT_EQ(parseUdpmUrl("udpm://")->port, 7667);
+  EXPECT_FALSE(parseUdpmUrl("memq://").has_value());
+  EXPECT_THROW(parseUdpmUrl("udpm://239.255.76.67:76x"), std::invalid_argument);
+  EXPECT_THROW(parseUdpmUrl("udpm://nowhere:7667"), std::invalid_argument);
+}
+
+// ---- real udpm buses, in a private network namespace ---------------------------------------
+
+class UdpmBus : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    // This test's process only (every case runs in a process of its own).
+    if (::unshare(CLONE_NEWNET) != 0 ||
+        std::system("ip link set lo up && ip link set lo multicast on && "
+                    "ip route add 224.0.0.0/4 dev lo") != 0) {
+      GTEST_SKIP() << "needs a private network namespace (root or user namespaces)";
+    }
+  }
+  static constexpr const char* kUrl = "udpm://239.255.76.67:7801?ttl=0&recv_buf_size=4194304";
+  SystemClock clock;
+
+  static image_t image(int frame) {
+    image_t m{};
+    m.width = 320;
+    m.height = 240;
+    m.stride = 640;
+    m.format = image_t::FORMAT_YUYV;
+    m.source = image_t::SOURCE_SIM;
+    m.frame_number = frame;
+    m.size = 320 * 240 * 2;
+    m.data.resize(static_cast<std::size_t>(m.size));
+    for (std::size_t i = 0; i < m.data.size(); ++i)
+      m.data[i] = static_cast<std::uint8_t>(i * 7 + static_cast<std::size_t>(frame));
+    return m;
+  }
+  // Spins the nodes until `done` or a generous deadline (a busy machine).
+  template <typename Done>
+  void spinUntil(std::vector<Node*> nodes, Done done) {
+    for (int i = 0; i < 400 && !done(); ++i)
+      for (Node* n : nodes)
+        n->spinOnce(5);
+  }
+};
+
+TEST_F(UdpmBus, AProcessWakesOnlyForTheChannelsItReads) {
+  Node camera{{.process = "camera", .robot_id = 1, .url = kUrl, .status_period_us = 0}, clock};
+  Node bridge{{.process = "bridge", .robot_id = 1, .url = kUrl, .status_period_us = 0}, clock};
+  Node tracker{{.process = "tracker", .robot_id = 1, .url = kUrl, .status_period_us = 0}, clock};
+  int commands = 0;
+  bridge.subscribe(channels::kMotionCommand, [&](const motion_command_t&) { ++commands; });
+  std::vector<image_t> images;
+  tracker.subscribe(channels::kCameraImage, [&](const image_t& m) { images.push_back(m); });
+  constexpr int kN = 5;
+  for (int i = 0; i < kN; ++i) {
+    image_t frame = image(i);
+    frame.header.utime = clock.now();
+    ASSERT_TRUE(camera.publish(channels::kCameraImage, frame));
+    odometry_t odo{};
+    odo.header.utime = clock.now();
+    ASSERT_TRUE(camera.publish(channels::kOdometry, odo));
+    motion_command_t cmd{};
+    cmd.header.utime = clock.now();
+    cmd.deadline_utime = clock.now() + 100'000;
+    cmd.source = motion_command_t::SOURCE_PILOT;
+    ASSERT_TRUE(camera.publish(channels::kMotionCommand, cmd));
+  }
+  spinUntil({&bridge, &tracker}, [&] { return commands == kN && images.size() == kN; });
+  EXPECT_EQ(commands, kN);
+  ASSERT_EQ(images.size(), static_cast<std::size_t>(kN));
+  for (int i = 0; i < kN; ++i) {
+    const image_t expected = image(i);
+    EXPECT_EQ(images[static_cast<std::size_t>(i)].frame_number, i);
+    EXPECT_TRUE(images[static_cast<std::size_t>(i)].data == expected.data) << "frame " << i;
+  }
+  // The bridge's socket saw its commands and nothing else: no odometry, no image fragment.
+  EXPECT_EQ(bridge.busDatagrams(), kN);
+  // The tracker read three fragments per frame and no small message.
+  EXPECT_EQ(tracker.busDatagrams(), 3 * kN);
+  // The camera reads nothing: it has no receive socket at all.
+  EXPECT_EQ(camera.busDatagrams(), 0);
+  EXPECT_EQ(bridge.status().errorCount("bus_incomplete"), 0);
+}
+
+TEST_F(UdpmBus, ARecorderTakesEveryChannel) {
+  Node sender{{.process = "sender", .robot_id = 1, .url = kUrl, .status_period_us = 0}, clock};
+  Node bridge{{.process = "bridge", .robot_id = 1, .url = kUrl, .status_period_us = 0}, clock};
+  Node recorder{{.process = "recorder", .robot_id = 1, .url = kUrl, .status_period_us = 0}, clock};
+  int commands = 0;
+  bridge.subscribe(channels::kMotionCommand, [&](const motion_command_t&) { ++commands; });
+  std::vector<std::string> seen;
+  recorder.subscribeAllRaw(
+      [&](const std::string& channel, const void*, int) { seen.push_back(channel); });
+  odometry_t odo{};
+  odo.header.utime = clock.now();
+  ASSERT_TRUE(sender.publish(channels::kOdometry, odo));
+  image_t frame = image(1);
+  frame.header.utime = clock.now();
+  ASSERT_TRUE(sender.publish(channels::kCameraImage, frame));
+  motion_command_t cmd{};
+  cmd.header.utime = clock.now();
+  cmd.deadline_utime = clock.now() + 100'000;
+  cmd.source = motion_command_t::SOURCE_PILOT;
+  ASSERT_TRUE(sender.publish(channels::kMotionCommand, cmd));
+  spinUntil({&bridge, &recorder}, [&] { return seen.size() == 3 && commands == 1; });
+  EXPECT_EQ(seen, (std::vector<std::string>{"ODOMETRY", "CAMERA_IMAGE", "MOTION_COMMAND"}));
+  EXPECT_EQ(commands, 1);
+  EXPECT_EQ(bridge.busDatagrams(), 1);
+}
+
+TEST_F(UdpmBus, WhatLcmItselfPublishesArrivesAndWhatTheNodePublishesLcmReads) {
+  Node node{{.process = "node", .robot_id = 1, .url = kUrl, .status_period_us = 0}, clock};
+  std::vector<std::int64_t> frames;
+  node.subscribe(channels::kCameraImage,
+                 [&](const image_t& m) { frames.push_back(m.frame_number); });
+  // A plain LCM program on the same bus, with LCM's own receive thread.
+  lcm::LCM plain(kUrl);
+  ASSERT_TRUE(plain.good());
+  int lcm_got = 0;
+  struct Counter {
+    int* n;
+    void on(const lcm::ReceiveBuffer*, const std::string&) { ++*n; }
+  } counter{&lcm_got};
+  plain.subscribe("CAMERA_IMAGE", &Counter::on, &counter);
+  image_t frame = image(3);
+  frame.header.utime = clock.now();
+  frame.header.utime_published = clock.now();
+  frame.header.robot_id = 1;
+  frame.header.publisher_id = 99;
+  std::vector<std::uint8_t> bytes(static_cast<std::size_t>(frame.getEncodedSize()));
+  ASSERT_EQ(frame.encode(bytes.data(), 0, static_cast<int>(bytes.size())),
+            static_cast<int>(bytes.size()));
+  ASSERT_EQ(plain.publish("CAMERA_IMAGE", bytes.data(), static_cast<unsigned>(bytes.size())), 0);
+  spinUntil({&node}, [&] { return !frames.empty(); });
+  ASSERT_EQ(frames.size(), 1u);
+  EXPECT_EQ(frames[0], 3);
+  // And the node's own publication reaches LCM's receive thread (the wire is LCM's).
+  image_t again = image(4);
+  again.header.utime = clock.now();
+  ASSERT_TRUE(node.publish(channels::kCameraImage, again));
+  for (int i = 0; i < 200 && lcm_got < 2; ++i)
+    plain.handleTimeout(10);
+  EXPECT_EQ(lcm_got, 2);  // LCM's own and the node's
+}
+
+TEST_F(UdpmBus, GarbageOnASubscribedChannelIsCountedNotHandled) {
+  Node node{{.process = "node", .robot_id = 1, .url = kUrl, .status_period_us = 0}, clock};
+  int handled = 0;
+  node.subscribe(channels::kOdometry, [&](const odometry_t&) { ++handled; });
+  lcm::LCM plain(kUrl);
+  const std::uint8_t junk[] = {1, 2, 3, 4, 5};
+  ASSERT_EQ(plain.publish("ODOMETRY", junk, sizeof junk), 0);
+  spinUntil({&node}, [&] { return node.status().errorCount("decode") > 0; });
+  EXPECT_EQ(handled, 0);
+  EXPECT_EQ(node.status().errorCount("decode"), 1);
+}
+
+}  // namespace
+}  // namespace fieldline::bus
