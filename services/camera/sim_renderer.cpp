@@ -413,46 +413,42 @@ void SimRenderer::finish(const SimScene& scene, std::vector<std::uint8_t>& yuyv)
   const int w = width();
   const int h = height();
   yuyv.resize(static_cast<std::size_t>(stride()) * h);
-  drawNoise(mixSeed(params_.noise_seed, scene.frame_number), static_cast<std::size_t>(w) * h);
+  // The noise stream: xorshift32 from the frame's seed, two draws per pixel pair (luma of both
+  // pixels, then U and V). Eight lanes hold the next eight draws; all eight jump eight steps at
+  // once through the tables (the steps are linear over GF(2): the xor of the images of the four
+  // bytes), which gives the same numbers as stepping one by one without the chain's latency.
+  std::uint32_t state = mixSeed(params_.noise_seed, scene.frame_number);
+  std::array<std::uint32_t, 8> lane{};
+  for (std::uint32_t& x : lane) {
+    state = xorshift32(state);
+    x = state;
+  }
+  std::size_t used = 0;
+  const auto draw = [&] {
+    if (used == lane.size()) {
+      for (std::uint32_t& x : lane) {
+        x = noise_jump_[0][x & 0xFF] ^ noise_jump_[1][(x >> 8) & 0xFF] ^
+            noise_jump_[2][(x >> 16) & 0xFF] ^ noise_jump_[3][x >> 24];
+      }
+      used = 0;
+    }
+    return lane[used++];
+  };
   constexpr std::uint32_t mask = (1u << kNoiseTableBits) - 1;
-  const std::uint32_t* draw = noise_draws_.data();
   for (int v = 0; v < h; ++v) {
     const Yuv* src = frame_.data() + static_cast<std::size_t>(v) * w;
     std::uint8_t* dst = yuyv.data() + static_cast<std::size_t>(v) * stride();
-    for (int u = 0; u < w; u += 2, draw += 2) {
+    for (int u = 0; u < w; u += 2) {
       const Yuv& a = src[u];
       const Yuv& b = src[u + 1];
-      const std::uint32_t r1 = draw[0];
-      const std::uint32_t r2 = draw[1];
+      const std::uint32_t r1 = draw();
+      const std::uint32_t r2 = draw();
       dst[2 * u + 0] = clampByte(a.y + luma_noise_[r1 & mask]);
       dst[2 * u + 1] = clampByte((a.u + b.u + 1) / 2 + chroma_noise_[r2 & mask]);
       dst[2 * u + 2] = clampByte(b.y + luma_noise_[(r1 >> 16) & mask]);
       dst[2 * u + 3] = clampByte((a.v + b.v + 1) / 2 + chroma_noise_[(r2 >> 16) & mask]);
     }
   }
-}
-
-void SimRenderer::drawNoise(std::uint32_t state, std::size_t n) {
-  noise_draws_.resize(n);
-  constexpr std::size_t kLanes = 8;
-  std::array<std::uint32_t, kLanes> lane{};
-  for (std::uint32_t& x : lane) {
-    state = xorshift32(state);
-    x = state;
-  }
-  const auto jump = [this](std::uint32_t x) {
-    return noise_jump_[0][x & 0xFF] ^ noise_jump_[1][(x >> 8) & 0xFF] ^
-           noise_jump_[2][(x >> 16) & 0xFF] ^ noise_jump_[3][x >> 24];
-  };
-  std::size_t i = 0;
-  for (; i + kLanes <= n; i += kLanes) {
-    for (std::size_t j = 0; j < kLanes; ++j) {
-      noise_draws_[i + j] = lane[j];
-      lane[j] = jump(lane[j]);
-    }
-  }
-  for (std::size_t j = 0; i < n; ++i, ++j)
-    noise_draws_[i] = lane[j];
 }
 
 }  // namespace fieldline::camera

@@ -194,9 +194,6 @@ class SimRenderer {
                     std::array<int, 4>& bounds) const;
   Yuv lit(Bgr colour, const Vec2& field_point) const;
   void finish(const SimScene& scene, std::vector<std::uint8_t>& yuyv);
-  // noise_draws_ = the first n draws of xorshift32 from `state` (the same numbers as stepping
-  // it n times, without the chain's latency).
-  void drawNoise(std::uint32_t state, std::size_t n);
 
   MirrorModel mirror_;
   RenderParams params_;
@@ -224,12 +221,10 @@ class SimRenderer {
   std::vector<Yuv> frame_;                                 // current sub-frame, one Yuv per pixel
   std::vector<std::array<std::uint16_t, 3>> accumulator_;  // motion blur sums
   std::vector<std::int8_t> noise_table_;                   // unit Gaussian * 16
-  // The sensor noise (finish): the table scaled to luma and chroma levels, the frame's
-  // generator draws (two per pixel pair: luma of both pixels, then U and V), and the jump
-  // tables that draw them eight lanes at a time (drawNoise).
+  // The sensor noise (finish): the table scaled to luma and chroma levels, and the jump tables
+  // that advance the generator eight steps at a time.
   std::vector<std::int16_t> luma_noise_;
   std::vector<std::int16_t> chroma_noise_;
-  std::vector<std::uint32_t> noise_draws_;
   std::array<std::array<std::uint32_t, 256>, 4> noise_jump_{};
   RealismFilter realism_;
 };

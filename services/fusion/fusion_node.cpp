@@ -90,7 +90,12 @@ void FusionNode::onOdometry(const odometry_t& m) {
   // The estimate at this odometry's physical time, whatever happened to the sample: its
   // header.utime, the bridge's stamp from the controller's clock (without the serial link's
   // jitter).
-  const Utime t = m.header.utime;
+  publishState(m.header.utime);
+  reportNewRejections();
+  updateMetrics();
+}
+
+void FusionNode::publishState(Utime t) {
   perception::RobotEstimate e = localizer_.estimate(node_.now());
   if (const auto s = localizer_.stateAt(t)) {
     e.pose = s->pose();
@@ -108,13 +113,30 @@ void FusionNode::onOdometry(const odometry_t& m) {
       localizer_.reportedStatus(Eigen::Matrix3d::Zero(), node_.now()) ==
           perception::LocalizationStatus::kTracking)
     ++uncertain_states_;
-  reportNewRejections();
-  updateMetrics();
+}
+
+void FusionNode::publishIfMoved(const perception::RobotEstimate& before) {
+  // A frame that corrected the pose (or moved it: a commit, a reset, a new status) goes out at
+  // once, as the state at the newest odometry sample (the same stamp as the last ROBOT_STATE,
+  // corrected), instead of waiting up to an odometry period for the next sample (image-to-pose
+  // latency, docs/fusion.md). A frame that waits for its odometry is corrected, and published,
+  // with that sample.
+  const perception::RobotEstimate after = localizer_.estimate(node_.now());
+  const auto frame_of = [](const perception::RobotEstimate& e) {
+    return e.since_vision_us > 0 ? e.utime - e.since_vision_us : 0;
+  };
+  if (after.utime > 0 && (frame_of(after) != frame_of(before) || after.status != before.status ||
+                          after.pose.x != before.pose.x || after.pose.y != before.pose.y ||
+                          after.pose.phi != before.pose.phi)) {
+    publishState(after.utime);
+  }
 }
 
 void FusionNode::onLines(const line_contours_t& m) {
   msg::fromMessage(m, lines_);
+  const perception::RobotEstimate before = localizer_.estimate(node_.now());
   localizer_.addLines(lines_.points, m.header.utime, node_.now());
+  publishIfMoved(before);
   const auto at = std::upper_bound(line_times_.begin(), line_times_.end(), m.header.utime);
   if (at == line_times_.begin() || *std::prev(at) != m.header.utime)
     line_times_.insert(at, m.header.utime);
@@ -124,7 +146,9 @@ void FusionNode::onLines(const line_contours_t& m) {
 
 void FusionNode::onFeatures(const field_features_t& m) {
   msg::fromMessage(m, features_);
+  const perception::RobotEstimate before = localizer_.estimate(node_.now());
   localizer_.addFeatures(features_, m.header.utime, node_.now());
+  publishIfMoved(before);
   reportNewRejections();
 }
 

@@ -1,8 +1,10 @@
 // The fusion process's bus side: ODOMETRY, VISION_LINES, FIELD_FEATURES, VISION_BALL,
 // VISION_OBSTACLES (contact evidence) and TEAM_STATE (teammates' balls decide the twin) in;
-// ROBOT_STATE on every odometry message (stamped with the odometry's utime) and BALL_STATE at a
-// fixed rate out. The algorithms are the Localizer and the BallFilter; the node converts messages,
-// reads time from its clock and reports refused inputs in SERVICE_STATUS.
+// ROBOT_STATE on every odometry message (stamped with the odometry's utime) and again right after
+// each line frame that corrected the pose (stamped with the newest odometry's utime: a repeated
+// stamp, the corrected state), and BALL_STATE at a fixed rate out. The algorithms are the Localizer
+// and the BallFilter; the node converts messages, reads time from its clock and reports refused
+// inputs in SERVICE_STATUS.
 #pragma once
 
 #include <cstdint>
@@ -50,6 +52,10 @@ class FusionNode {
 
  private:
   void onOdometry(const odometry_t& m);
+  // ROBOT_STATE: the estimate at time `t` (an odometry sample's), with its status.
+  void publishState(Utime t);
+  // publishState at the newest odometry time when a frame moved the estimate from `before`.
+  void publishIfMoved(const perception::RobotEstimate& before);
   void onLines(const line_contours_t& m);
   void onFeatures(const field_features_t& m);
   void onBall(const ball_observation_t& m);

@@ -67,9 +67,12 @@ struct WebServer::Impl {
   // The robot of the last /camera.json request and when it came (steady clock ticks).
   std::atomic<int> camera_wanted{0};
   std::atomic<std::int64_t> camera_wanted_at{0};
+  // When the last request came (steady clock ticks).
+  std::atomic<std::int64_t> last_request_at{0};
 
   // Touched on the server thread only.
   std::unordered_set<WebSocketSession*> sockets;
+  bool pushing = false;  // the push timer is running
   std::atomic<int> connections{0};
   std::atomic<int> web_socket_clients{0};
   std::atomic<std::int64_t> methods_refused{0};
@@ -146,6 +149,7 @@ class WebSocketSession : public std::enable_shared_from_this<WebSocketSession> {
       self->registered_ = true;
       self->slot_->server().sockets.insert(self.get());
       ++self->slot_->server().web_socket_clients;
+      if (!self->slot_->server().pushing) self->slot_->server().schedulePush();
       self->push(self->slot_->server().snapshot());
       self->read();
     });
@@ -215,6 +219,7 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
  private:
   void handle(http::request<http::string_body> request) {
     WebServer::Impl& server = slot_->server();
+    server.last_request_at = std::chrono::steady_clock::now().time_since_epoch().count();
     const unsigned version = request.version();
     const bool keep_alive = request.keep_alive();
     if (request.method() != http::verb::get) {
@@ -347,15 +352,20 @@ void WebServer::Impl::accept() {
 }
 
 void WebServer::Impl::schedulePush() {
+  pushing = true;
   push_timer.expires_after(std::chrono::duration_cast<asio::steady_timer::duration>(
       std::chrono::duration<double>(options.push_period_s)));
   push_timer.async_wait([self = this](beast::error_code ec) {
     if (ec) return;
-    if (!self->sockets.empty()) {
-      const auto state = self->snapshot();
-      for (WebSocketSession* session : self->sockets)
-        session->push(state);
+    // Without WebSocket clients the timer stops (the next one to connect starts it): an
+    // unwatched viewer's server thread sleeps.
+    if (self->sockets.empty()) {
+      self->pushing = false;
+      return;
     }
+    const auto state = self->snapshot();
+    for (WebSocketSession* session : self->sockets)
+      session->push(state);
     self->schedulePush();
   });
 }
@@ -376,7 +386,6 @@ WebServer::WebServer(WebServerOptions options, std::string field_json)
     throw std::runtime_error(fmt::format("cannot listen on {}: {}", where, e.what()));
   }
   impl_->accept();
-  impl_->schedulePush();
   impl_->thread = std::thread([impl = impl_.get()] { impl->io.run(); });
 }
 
@@ -409,6 +418,15 @@ int WebServer::cameraWanted(double within_s) const {
   const std::chrono::steady_clock::duration at(impl_->camera_wanted_at.load());
   const auto age = std::chrono::steady_clock::now().time_since_epoch() - at;
   return age <= std::chrono::duration<double>(within_s) ? robot : 0;
+}
+
+bool WebServer::watched(double within_s) const {
+  if (impl_->web_socket_clients.load() > 0) return true;
+  const std::int64_t at = impl_->last_request_at.load();
+  if (at == 0) return false;
+  const auto age =
+      std::chrono::steady_clock::now().time_since_epoch() - std::chrono::steady_clock::duration(at);
+  return age <= std::chrono::duration<double>(within_s);
 }
 
 unsigned short WebServer::port() const {

@@ -63,6 +63,9 @@ class WebServer {
   unsigned short port() const;
   // WebSocket clients connected now.
   int webSocketClients() const;
+  // True while a WebSocket client is connected or a GET came within `within_s` seconds: someone
+  // watches (the viewer opens the robots' buses only then).
+  bool watched(double within_s) const;
   // Requests refused with 405 since start, and connections closed for being over the limit.
   std::int64_t methodsRefused() const;
   std::int64_t connectionsRefused() const;
