@@ -36,8 +36,6 @@ KNOWN_LONG_FILES = {
 KNOWN_LONG_FUNCTIONS = {
     "common/bus/log_file.cpp:LogReader::nextEvent": "in perf's room today (bus, node loops)",
     "common/bus/status.cpp:StatusCollector::takeStatus": "in perf's room today (bus, node loops)",
-    "common/field/field_model.cpp:checkDimensions": "not split yet (issue 33 item 3): pending",
-    "common/field/field_model.cpp:loadFieldModel": "not split yet (issue 33 item 3): pending",
     "common/scenario/scenario.cpp:loadScenario": "not split yet (issue 33 item 3): pending",
     "services/camera/sim_renderer.cpp:SimRenderer::buildFloorRaster": "in perf's room today (sim renderer rewrite)",
     "services/feature_recognition/centre_circle.cpp:findCircle": "in settings' room today (feature recognition parameters)",
