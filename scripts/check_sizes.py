@@ -35,13 +35,7 @@ KNOWN_LONG_FILES = {
 KNOWN_LONG_FUNCTIONS = {
     "common/bus/log_file.cpp:LogReader::nextEvent": "in perf's room today (bus, node loops)",
     "common/bus/status.cpp:StatusCollector::takeStatus": "in perf's room today (bus, node loops)",
-    "common/field/field_model.cpp:checkDimensions": "not split yet (issue 33 item 3): pending",
-    "common/field/field_model.cpp:loadFieldModel": "not split yet (issue 33 item 3): pending",
     "common/scenario/scenario.cpp:loadScenario": "not split yet (issue 33 item 3): pending",
-    "services/feature_recognition/centre_circle.cpp:findCircle": "in settings' room today (feature recognition parameters)",
-    "services/feature_recognition/line_end_identity.cpp:identifyLineEnd": "in settings' room today (feature recognition parameters)",
-    "services/feature_recognition/line_structure.cpp:buildLineStructure": "in settings' room today (feature recognition parameters)",
-    "services/feature_recognition/recognizer.cpp:FeatureRecognizer::recognize": "in settings' room today (feature recognition parameters)",
     "services/fusion/current_contact.cpp:CurrentContactDetector::add": "in robust's or tball's room today (fusion, teamcomm, eval)",
     "services/fusion/odometry_layer.cpp:OdometryLayer::update": "in robust's or tball's room today (fusion, teamcomm, eval)",
     "services/motor_bridge/bridge.cpp:BridgeCore::onBytes": "in perf's room today (bus, node loops)",

@@ -56,19 +56,22 @@ DistanceGrid::Cell DistanceGrid::locate(const Vec2& inside) const {
   // The last row/column of nodes belongs to the cell before it.
   const int i = std::clamp(static_cast<int>(std::floor(gx)), 0, cols_ - 2);
   const int j = std::clamp(static_cast<int>(std::floor(gy)), 0, rows_ - 2);
-  return Cell{i, j, gx - i, gy - j};
+  return Cell{i,
+              j,
+              gx - i,
+              gy - j,
+              nodeValue(i, j),
+              nodeValue(i + 1, j),
+              nodeValue(i, j + 1),
+              nodeValue(i + 1, j + 1)};
 }
 
 double DistanceGrid::distance(const Vec2& p) const {
   requireFinite(p, "distance");
   const Vec2 q = clampToGrid(p);
   const Cell c = locate(q);
-  const double v00 = nodeValue(c.i, c.j);
-  const double v10 = nodeValue(c.i + 1, c.j);
-  const double v01 = nodeValue(c.i, c.j + 1);
-  const double v11 = nodeValue(c.i + 1, c.j + 1);
-  const double inside =
-      (1.0 - c.fy) * ((1.0 - c.fx) * v00 + c.fx * v10) + c.fy * ((1.0 - c.fx) * v01 + c.fx * v11);
+  const double inside = (1.0 - c.fy) * ((1.0 - c.fx) * c.v00 + c.fx * c.v10) +
+                        c.fy * ((1.0 - c.fx) * c.v01 + c.fx * c.v11);
   return inside + (p - q).norm();
 }
 
@@ -76,12 +79,8 @@ Vec2 DistanceGrid::gradient(const Vec2& p) const {
   requireFinite(p, "gradient");
   const Vec2 q = clampToGrid(p);
   const Cell c = locate(q);
-  const double v00 = nodeValue(c.i, c.j);
-  const double v10 = nodeValue(c.i + 1, c.j);
-  const double v01 = nodeValue(c.i, c.j + 1);
-  const double v11 = nodeValue(c.i + 1, c.j + 1);
-  Vec2 g(((1.0 - c.fy) * (v10 - v00) + c.fy * (v11 - v01)) / cell_,
-         ((1.0 - c.fx) * (v01 - v00) + c.fx * (v11 - v10)) / cell_);
+  Vec2 g(((1.0 - c.fy) * (c.v10 - c.v00) + c.fy * (c.v11 - c.v01)) / cell_,
+         ((1.0 - c.fx) * (c.v01 - c.v00) + c.fx * (c.v11 - c.v10)) / cell_);
   // Along a clamped axis the interpolated part is constant; the extension adds the offset's
   // direction.
   const Vec2 offset = p - q;

@@ -34,11 +34,16 @@ class DistanceGrid {
   double nodeValue(int i, int j) const { return values_[static_cast<std::size_t>(j) * cols_ + i]; }
 
  private:
+  // A point's cell: its lower-left node, the fractions across it, the values at its corners.
   struct Cell {
     int i;
     int j;
     double fx;
     double fy;
+    double v00;
+    double v10;
+    double v01;
+    double v11;
   };
   Vec2 clampToGrid(const Vec2& p) const;
   Cell locate(const Vec2& inside) const;

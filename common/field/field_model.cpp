@@ -22,12 +22,13 @@ struct DimensionProblem {
   std::string what;
 };
 
-// Consistency checks beyond single-value ranges, so that every preset yields lines that neither
-// overlap nor leave the field. Keys are the preset's (see loadFieldModel).
-std::optional<DimensionProblem> checkDimensions(const FieldDimensions& d) {
-  const auto positive = [](double v) { return std::isfinite(v) && v > 0.0; };
-  // 0 means "the field has none" for the optional elements.
-  const auto absentOrPositive = [](double v) { return std::isfinite(v) && v >= 0.0; };
+bool isPositive(double v) {
+  return std::isfinite(v) && v > 0.0;
+}
+
+// Every required length positive, every optional one positive or 0 (0 means "the field has
+// none"), and each area given with both its depth and its width.
+std::optional<DimensionProblem> checkValues(const FieldDimensions& d) {
   const std::pair<const char*, double> required[] = {
       {"length", d.length},
       {"width", d.width},
@@ -38,7 +39,7 @@ std::optional<DimensionProblem> checkDimensions(const FieldDimensions& d) {
       {"goals.height", d.goal_height},
   };
   for (const auto& [key, value] : required) {
-    if (!positive(value)) return DimensionProblem{key, "must be positive (at line centres)"};
+    if (!isPositive(value)) return DimensionProblem{key, "must be positive (at line centres)"};
   }
   const std::pair<const char*, double> optional[] = {
       {"centre_circle_radius", d.centre_circle_radius},
@@ -50,25 +51,27 @@ std::optional<DimensionProblem> checkDimensions(const FieldDimensions& d) {
       {"penalty_arc.radius", d.penalty_arc_radius},
   };
   for (const auto& [key, value] : optional) {
-    if (!absentOrPositive(value)) {
+    if (!(std::isfinite(value) && value >= 0.0)) {
       return DimensionProblem{key, "must be positive at line centres (or absent)"};
     }
   }
   if (!std::isfinite(d.border_width) || d.border_width < 0.0) {
     return DimensionProblem{"border_width", "must not be negative"};
   }
-  const bool penalty_area = d.penalty_area_depth > 0.0;
-  const bool goal_area = d.goal_area_depth > 0.0;
-  if ((d.penalty_area_width > 0.0) != penalty_area) {
+  if ((d.penalty_area_width > 0.0) != (d.penalty_area_depth > 0.0)) {
     return DimensionProblem{"penalty_area.width", "depth and width must both be given"};
   }
-  if ((d.goal_area_width > 0.0) != goal_area) {
+  if ((d.goal_area_width > 0.0) != (d.goal_area_depth > 0.0)) {
     return DimensionProblem{"goal_area.width", "depth and width must both be given"};
   }
+  return std::nullopt;
+}
+
+// The goal area inside the penalty area, both narrower than the field and short of the centre
+// circle.
+std::optional<DimensionProblem> checkAreas(const FieldDimensions& d) {
+  const bool penalty_area = d.penalty_area_depth > 0.0;
   const double half_length = d.length / 2.0;
-  const double half_width = d.width / 2.0;
-  if (d.width > d.length) return DimensionProblem{"width", "must not exceed the length"};
-  // The area reaching furthest into the field, and the circle's reach from the centre.
   const double circle = d.centre_circle_radius;
   if (penalty_area) {
     if (d.penalty_area_width >= d.width) {
@@ -80,7 +83,7 @@ std::optional<DimensionProblem> checkDimensions(const FieldDimensions& d) {
                               "+ circle radius must be less than half the length)"};
     }
   }
-  if (goal_area) {
+  if (d.goal_area_depth > 0.0) {
     if (penalty_area && d.goal_area_width >= d.penalty_area_width) {
       return DimensionProblem{"goal_area.width", "must be less than the penalty area width"};
     }
@@ -95,62 +98,89 @@ std::optional<DimensionProblem> checkDimensions(const FieldDimensions& d) {
                               "goal area reaches the centre circle or the halfway line"};
     }
   }
-  if (circle >= half_width) {
+  return std::nullopt;
+}
+
+// The corner arcs stay clear of the lines nearest the corners.
+std::optional<DimensionProblem> checkCornerArcs(const FieldDimensions& d) {
+  if (d.corner_arc_radius <= 0.0) return std::nullopt;
+  const double half_length = d.length / 2.0;
+  const double half_width = d.width / 2.0;
+  // The widest area (or the goal) decides how close to the corner a line comes.
+  double side_clear = half_width - d.goal_width / 2.0;
+  double end_clear = half_length - d.centre_circle_radius;
+  if (d.penalty_area_depth > 0.0) {
+    side_clear = half_width - d.penalty_area_width / 2.0;
+    end_clear = half_length - d.penalty_area_depth;
+  } else if (d.goal_area_depth > 0.0) {
+    side_clear = half_width - d.goal_area_width / 2.0;
+    end_clear = half_length - d.goal_area_depth;
+  }
+  if (d.corner_arc_radius >= side_clear || d.corner_arc_radius >= end_clear) {
+    return DimensionProblem{"corner_arc_radius",
+                            "corner arc reaches the penalty area lines (or the goal, the "
+                            "halfway line)"};
+  }
+  return std::nullopt;
+}
+
+std::optional<DimensionProblem> checkPenaltyMarks(const FieldDimensions& d) {
+  if (!d.has_penalty_marks) return std::nullopt;
+  if (!isPositive(d.penalty_mark_diameter)) {
+    return DimensionProblem{"penalty_marks.diameter", "must be positive"};
+  }
+  if (!isPositive(d.penalty_mark_distance) || d.penalty_mark_distance >= d.length / 2.0) {
+    return DimensionProblem{"penalty_marks.distance",
+                            "must be positive and less than half the length"};
+  }
+  return std::nullopt;
+}
+
+// The penalty arc bulges out of the penalty area's front line, between its side lines, short of
+// the centre circle.
+std::optional<DimensionProblem> checkPenaltyArc(const FieldDimensions& d) {
+  if (d.penalty_arc_radius <= 0.0) return std::nullopt;
+  const double half_length = d.length / 2.0;
+  const double r = d.penalty_arc_radius;
+  const double front = d.penalty_area_depth - d.penalty_arc_centre_distance;
+  if (d.penalty_area_depth <= 0.0) {
+    return DimensionProblem{"penalty_arc.radius", "a penalty arc needs a penalty area"};
+  }
+  if (!isPositive(d.penalty_arc_centre_distance) || d.penalty_arc_centre_distance >= half_length) {
+    return DimensionProblem{"penalty_arc.centre_distance",
+                            "must be positive and less than half the length"};
+  }
+  if (std::abs(front) >= r) {
+    return DimensionProblem{"penalty_arc.radius",
+                            "the arc does not reach beyond the penalty area's front line"};
+  }
+  if (std::sqrt(r * r - front * front) >= d.penalty_area_width / 2.0) {
+    return DimensionProblem{"penalty_arc.radius",
+                            "the arc meets the front line outside the penalty area"};
+  }
+  if (d.penalty_arc_centre_distance + r + d.centre_circle_radius >= half_length) {
+    return DimensionProblem{"penalty_arc.radius",
+                            "the arc reaches the centre circle or the halfway line"};
+  }
+  return std::nullopt;
+}
+
+// Consistency checks beyond single-value ranges, so that every preset yields lines that neither
+// overlap nor leave the field. Keys are the preset's (see loadFieldModel). The first problem in
+// this order is reported.
+std::optional<DimensionProblem> checkDimensions(const FieldDimensions& d) {
+  if (auto problem = checkValues(d)) return problem;
+  if (d.width > d.length) return DimensionProblem{"width", "must not exceed the length"};
+  if (auto problem = checkAreas(d)) return problem;
+  if (d.centre_circle_radius >= d.width / 2.0) {
     return DimensionProblem{"centre_circle_radius", "must be less than half the field width"};
   }
-  if (d.corner_arc_radius > 0.0) {
-    // The widest area (or the goal) decides how close to the corner a line comes.
-    double side_clear = half_width - d.goal_width / 2.0;
-    double end_clear = half_length - circle;
-    if (penalty_area) {
-      side_clear = half_width - d.penalty_area_width / 2.0;
-      end_clear = half_length - d.penalty_area_depth;
-    } else if (goal_area) {
-      side_clear = half_width - d.goal_area_width / 2.0;
-      end_clear = half_length - d.goal_area_depth;
-    }
-    if (d.corner_arc_radius >= side_clear || d.corner_arc_radius >= end_clear) {
-      return DimensionProblem{"corner_arc_radius",
-                              "corner arc reaches the penalty area lines (or the goal, the "
-                              "halfway line)"};
-    }
-  }
+  if (auto problem = checkCornerArcs(d)) return problem;
   if (d.goal_width >= d.width) {
     return DimensionProblem{"goals.width", "must be less than the field width"};
   }
-  if (d.has_penalty_marks) {
-    if (!positive(d.penalty_mark_diameter)) {
-      return DimensionProblem{"penalty_marks.diameter", "must be positive"};
-    }
-    if (!positive(d.penalty_mark_distance) || d.penalty_mark_distance >= half_length) {
-      return DimensionProblem{"penalty_marks.distance",
-                              "must be positive and less than half the length"};
-    }
-  }
-  if (d.penalty_arc_radius > 0.0) {
-    const double r = d.penalty_arc_radius;
-    const double front = d.penalty_area_depth - d.penalty_arc_centre_distance;
-    if (!penalty_area) {
-      return DimensionProblem{"penalty_arc.radius", "a penalty arc needs a penalty area"};
-    }
-    if (!positive(d.penalty_arc_centre_distance) || d.penalty_arc_centre_distance >= half_length) {
-      return DimensionProblem{"penalty_arc.centre_distance",
-                              "must be positive and less than half the length"};
-    }
-    if (std::abs(front) >= r) {
-      return DimensionProblem{"penalty_arc.radius",
-                              "the arc does not reach beyond the penalty area's front line"};
-    }
-    if (std::sqrt(r * r - front * front) >= d.penalty_area_width / 2.0) {
-      return DimensionProblem{"penalty_arc.radius",
-                              "the arc meets the front line outside the penalty area"};
-    }
-    if (d.penalty_arc_centre_distance + r + circle >= half_length) {
-      return DimensionProblem{"penalty_arc.radius",
-                              "the arc reaches the centre circle or the halfway line"};
-    }
-  }
-  return std::nullopt;
+  if (auto problem = checkPenaltyMarks(d)) return problem;
+  return checkPenaltyArc(d);
 }
 
 }  // namespace
@@ -343,6 +373,120 @@ GoalColour parseColour(const config::Node& node, const std::string& key) {
   return GoalColour::kWhite;
 }
 
+// The preset's optional sections, kept to name the key of a problem found after reading.
+struct OptionalSections {
+  std::optional<config::Node> penalty_area;
+  std::optional<config::Node> goal_area;
+  std::optional<config::Node> penalty_marks;
+  std::optional<config::Node> penalty_arc;
+};
+
+// The field's size and lines. Optional elements: an absent key means the field does not have it.
+void readLines(const config::Node& root, FieldDimensions& d) {
+  d.length = root.get<double>("length", 1.0, 100.0);
+  d.width = root.get<double>("width", 1.0, 100.0);
+  d.line_width = root.get<double>("line_width", 0.005, 0.5);
+  d.boundary_line_width = root.getOr<double>("boundary_line_width", d.line_width, 0.005, 0.5);
+  d.border_width = root.get<double>("border_width", 0.0, 20.0);
+  if (root.has("centre_circle_radius")) {
+    d.centre_circle_radius = root.get<double>("centre_circle_radius", 0.05, 50.0);
+  }
+  if (root.has("corner_arc_radius")) {
+    d.corner_arc_radius = root.get<double>("corner_arc_radius", 0.05, 20.0);
+  }
+}
+
+// An optional area section (penalty_area, goal_area): its depth and width.
+std::optional<config::Node> readArea(const config::Node& root, const std::string& key,
+                                     double& depth, double& width) {
+  std::optional<config::Node> area = root.childIf(key);
+  if (area) {
+    depth = area->get<double>("depth", 0.05, 50.0);
+    width = area->get<double>("width", 0.1, 100.0);
+    area->rejectUnknownKeys();
+  }
+  return area;
+}
+
+std::optional<config::Node> readPenaltyMarks(const config::Node& root, FieldDimensions& d) {
+  std::optional<config::Node> marks = root.childIf("penalty_marks");
+  if (marks) {
+    d.has_penalty_marks = true;
+    d.penalty_mark_distance = marks->get<double>("distance", 0.1, 50.0);
+    d.penalty_mark_diameter = marks->get<double>("diameter", 0.01, 1.0);
+    marks->rejectUnknownKeys();
+  }
+  return marks;
+}
+
+// The arc's centre defaults to the penalty mark's place.
+std::optional<config::Node> readPenaltyArc(const config::Node& root, FieldDimensions& d) {
+  std::optional<config::Node> penalty_arc = root.childIf("penalty_arc");
+  if (penalty_arc) {
+    d.penalty_arc_radius = penalty_arc->get<double>("radius", 0.05, 50.0);
+    if (penalty_arc->has("centre_distance")) {
+      d.penalty_arc_centre_distance = penalty_arc->get<double>("centre_distance", 0.05, 50.0);
+    } else if (d.has_penalty_marks) {
+      d.penalty_arc_centre_distance = d.penalty_mark_distance;
+    } else {
+      penalty_arc->fail("centre_distance", "required when the field has no penalty marks");
+    }
+    penalty_arc->rejectUnknownKeys();
+  }
+  return penalty_arc;
+}
+
+void readGoals(const config::Node& goals, FieldDimensions& d) {
+  d.goal_width = goals.get<double>("width", 0.1, 20.0);
+  d.goal_depth = goals.get<double>("depth", 0.05, 5.0);
+  d.goal_height = goals.get<double>("height", 0.05, 5.0);
+  d.own_goal_colour = parseColour(goals, "own_colour");
+  d.opponent_goal_colour = parseColour(goals, "opponent_colour");
+  goals.rejectUnknownKeys();
+}
+
+// Rulebook numbers run to the outer side of the lines (the lines belong to the areas they bound);
+// moves every line inward by half its width, to its centre.
+void moveLinesToCentres(FieldDimensions& d) {
+  const double lw = d.line_width;
+  const double bw = d.boundary_line_width;
+  d.length -= bw;
+  d.width -= bw;
+  // Absent elements (0) stay absent.
+  const auto inward = [](double& value, double by) {
+    if (value > 0.0) value -= by;
+  };
+  inward(d.penalty_area_depth, (bw + lw) / 2.0);
+  inward(d.penalty_area_width, lw);
+  inward(d.goal_area_depth, (bw + lw) / 2.0);
+  inward(d.goal_area_width, lw);
+  inward(d.centre_circle_radius, lw / 2.0);
+  inward(d.corner_arc_radius, lw / 2.0);
+  inward(d.penalty_mark_distance, bw / 2.0);
+  // The arc's radius runs to its outer edge, its centre from the goal line's outer edge (as the
+  // penalty mark's).
+  inward(d.penalty_arc_radius, lw / 2.0);
+  inward(d.penalty_arc_centre_distance, bw / 2.0);
+}
+
+// Throws the problem located at its key ("section.leaf" in that section when the file has it).
+[[noreturn]] void failAtKey(const DimensionProblem& problem, const config::Node& root,
+                            const config::Node& goals, const OptionalSections& sections) {
+  const std::string& key = problem.key;
+  const auto dot = key.find('.');
+  const std::string& what = problem.what;
+  if (dot == std::string::npos) root.fail(key, what);
+  const std::string section = key.substr(0, dot);
+  const std::string leaf = key.substr(dot + 1);
+  if (section == "penalty_area" && sections.penalty_area) sections.penalty_area->fail(leaf, what);
+  if (section == "goal_area" && sections.goal_area) sections.goal_area->fail(leaf, what);
+  if (section == "penalty_arc" && sections.penalty_arc) sections.penalty_arc->fail(leaf, what);
+  if (section == "goals") goals.fail(leaf, what);
+  if (section == "penalty_marks" && sections.penalty_marks)
+    sections.penalty_marks->fail(leaf, what);
+  root.fail(key, what);
+}
+
 }  // namespace
 
 FieldModel loadFieldModel(const config::Node& root) {
@@ -351,99 +495,18 @@ FieldModel loadFieldModel(const config::Node& root) {
   if (d.name.empty()) root.fail("name", "must not be empty");
   const bool outer_edges =
       root.getChoice("dimensions_measured_to", {"line_centres", "outer_edges"}) == "outer_edges";
-  d.length = root.get<double>("length", 1.0, 100.0);
-  d.width = root.get<double>("width", 1.0, 100.0);
-  d.line_width = root.get<double>("line_width", 0.005, 0.5);
-  d.boundary_line_width = root.getOr<double>("boundary_line_width", d.line_width, 0.005, 0.5);
-  d.border_width = root.get<double>("border_width", 0.0, 20.0);
-  // Optional elements: an absent key means the field does not have it.
-  if (root.has("centre_circle_radius")) {
-    d.centre_circle_radius = root.get<double>("centre_circle_radius", 0.05, 50.0);
-  }
-  if (root.has("corner_arc_radius")) {
-    d.corner_arc_radius = root.get<double>("corner_arc_radius", 0.05, 20.0);
-  }
-
-  const std::optional<config::Node> penalty_area = root.childIf("penalty_area");
-  if (penalty_area) {
-    d.penalty_area_depth = penalty_area->get<double>("depth", 0.05, 50.0);
-    d.penalty_area_width = penalty_area->get<double>("width", 0.1, 100.0);
-    penalty_area->rejectUnknownKeys();
-  }
-  const std::optional<config::Node> goal_area = root.childIf("goal_area");
-  if (goal_area) {
-    d.goal_area_depth = goal_area->get<double>("depth", 0.05, 50.0);
-    d.goal_area_width = goal_area->get<double>("width", 0.1, 100.0);
-    goal_area->rejectUnknownKeys();
-  }
-
-  const std::optional<config::Node> marks = root.childIf("penalty_marks");
-  if (marks) {
-    d.has_penalty_marks = true;
-    d.penalty_mark_distance = marks->get<double>("distance", 0.1, 50.0);
-    d.penalty_mark_diameter = marks->get<double>("diameter", 0.01, 1.0);
-    marks->rejectUnknownKeys();
-  }
-
-  const std::optional<config::Node> penalty_arc = root.childIf("penalty_arc");
-  if (penalty_arc) {
-    d.penalty_arc_radius = penalty_arc->get<double>("radius", 0.05, 50.0);
-    if (penalty_arc->has("centre_distance")) {
-      d.penalty_arc_centre_distance = penalty_arc->get<double>("centre_distance", 0.05, 50.0);
-    } else if (marks) {
-      d.penalty_arc_centre_distance = d.penalty_mark_distance;
-    } else {
-      penalty_arc->fail("centre_distance", "required when the field has no penalty marks");
-    }
-    penalty_arc->rejectUnknownKeys();
-  }
-
+  readLines(root, d);
+  OptionalSections sections;
+  sections.penalty_area =
+      readArea(root, "penalty_area", d.penalty_area_depth, d.penalty_area_width);
+  sections.goal_area = readArea(root, "goal_area", d.goal_area_depth, d.goal_area_width);
+  sections.penalty_marks = readPenaltyMarks(root, d);
+  sections.penalty_arc = readPenaltyArc(root, d);
   const config::Node goals = root.child("goals");
-  d.goal_width = goals.get<double>("width", 0.1, 20.0);
-  d.goal_depth = goals.get<double>("depth", 0.05, 5.0);
-  d.goal_height = goals.get<double>("height", 0.05, 5.0);
-  d.own_goal_colour = parseColour(goals, "own_colour");
-  d.opponent_goal_colour = parseColour(goals, "opponent_colour");
-  goals.rejectUnknownKeys();
+  readGoals(goals, d);
   root.rejectUnknownKeys();
-
-  if (outer_edges) {
-    // Rulebook numbers run to the outer side of the lines (the lines belong to the areas they
-    // bound); move every line inward by half its width.
-    const double lw = d.line_width;
-    const double bw = d.boundary_line_width;
-    d.length -= bw;
-    d.width -= bw;
-    // Absent elements (0) stay absent.
-    const auto inward = [](double& value, double by) {
-      if (value > 0.0) value -= by;
-    };
-    inward(d.penalty_area_depth, (bw + lw) / 2.0);
-    inward(d.penalty_area_width, lw);
-    inward(d.goal_area_depth, (bw + lw) / 2.0);
-    inward(d.goal_area_width, lw);
-    inward(d.centre_circle_radius, lw / 2.0);
-    inward(d.corner_arc_radius, lw / 2.0);
-    inward(d.penalty_mark_distance, bw / 2.0);
-    // The arc's radius runs to its outer edge, its centre from the goal line's outer edge (as
-    // the penalty mark's).
-    inward(d.penalty_arc_radius, lw / 2.0);
-    inward(d.penalty_arc_centre_distance, bw / 2.0);
-  }
-
-  if (const auto problem = checkDimensions(d)) {
-    const std::string& key = problem->key;
-    const auto dot = key.find('.');
-    if (dot == std::string::npos) root.fail(key, problem->what);
-    const std::string section = key.substr(0, dot);
-    const std::string leaf = key.substr(dot + 1);
-    if (section == "penalty_area" && penalty_area) penalty_area->fail(leaf, problem->what);
-    if (section == "goal_area" && goal_area) goal_area->fail(leaf, problem->what);
-    if (section == "penalty_arc" && penalty_arc) penalty_arc->fail(leaf, problem->what);
-    if (section == "goals") goals.fail(leaf, problem->what);
-    if (section == "penalty_marks" && marks) marks->fail(leaf, problem->what);
-    root.fail(key, problem->what);
-  }
+  if (outer_edges) moveLinesToCentres(d);
+  if (const auto problem = checkDimensions(d)) failAtKey(*problem, root, goals, sections);
   return FieldModel(d);
 }
 

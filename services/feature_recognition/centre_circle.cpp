@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <numbers>
+#include <optional>
 
 namespace fieldline::feature_recognition {
 
@@ -64,14 +65,11 @@ struct Cluster {
   std::vector<int> arcs;
 };
 
-}  // namespace
-
-void findCircle(const Contours& contours, const Classified& classified, double model_radius,
-                const RecognitionParams& params, CentreCircle& out) {
-  out.clear();
-  // Clustering of the arc centres (seed: first centre opens a cluster, each further centre
-  // joins the closest cluster within 0.6 r or opens a new one).
-  thread_local std::vector<Cluster> clusters;
+// Clustering of the centres of the arcs of about the model's radius (seed: the first centre
+// opens a cluster, each further centre joins the closest cluster within 0.6 r or opens a new
+// one), each weighted by its arc's points.
+void clusterArcCentres(const Classified& classified, double model_radius,
+                       const RecognitionParams& params, std::vector<Cluster>& clusters) {
   clusters.clear();
   for (int i = 0; i < static_cast<int>(classified.arcs.size()); ++i) {
     const Arc& arc = classified.arcs[i];
@@ -94,6 +92,56 @@ void findCircle(const Contours& contours, const Classified& classified, double m
     best->weight += weight;
     best->arcs.push_back(i);
   }
+}
+
+// Re-classification of straight pieces that lie on the circle about `m` of radius `r` (seed eq.
+// 4.121-4.125): their points join `points`, their indices `pieces`.
+void addStraightPiecesOnCircle(const Contours& contours, const Classified& classified,
+                               const Vec2& m, double r, const RecognitionParams& params,
+                               std::vector<Vec2>& points, std::vector<int>& pieces) {
+  const double cos_limit = std::cos(params.reclassify_angle);
+  for (int k : classified.straight_pieces) {
+    const Piece& piece = contours.pieces[k];
+    const Vec2* p = contours.points.data() + piece.begin;
+    const Vec2 middle = p[piece.size() / 2];
+    const Vec2 v = p[piece.size() - 1] - p[0];
+    const double v_norm = v.norm();
+    const Vec2 d = middle - m;
+    if (d.norm() < 1e-9 || v_norm < 1e-9) continue;
+    const Vec2 n = d.normalized();
+    const Vec2 s = m + r * n;
+    if ((middle - s).norm() > params.reclassify_distance * r) continue;
+    const Vec2 t(-n.y(), n.x());
+    if (std::abs(t.dot(v)) / v_norm < cos_limit) continue;
+    points.insert(points.end(), p, p + piece.size());
+    pieces.push_back(k);
+  }
+}
+
+// The Landau fit from `centre`; points of other lines that were swept in (a line touching the
+// circle) are then dropped from `points` and the fit repeated from the refined centre. None when
+// too few points are left.
+std::optional<CircleFit> fitWithoutOutliers(std::vector<Vec2>& points, const Vec2& centre,
+                                            const RecognitionParams& params) {
+  CircleFit fit = landauFit(points, centre, params.landau_iterations);
+  const auto outliers = std::remove_if(points.begin(), points.end(), [&](const Vec2& p) {
+    return std::abs((p - fit.centre).norm() - fit.radius) > params.circle_inlier_distance;
+  });
+  if (outliers != points.end()) {
+    points.erase(outliers, points.end());
+    if (static_cast<int>(points.size()) < params.circle_min_points) return std::nullopt;
+    fit = landauFit(points, fit.centre, params.landau_iterations);
+  }
+  return fit;
+}
+
+}  // namespace
+
+void findCircle(const Contours& contours, const Classified& classified, double model_radius,
+                const RecognitionParams& params, CentreCircle& out) {
+  out.clear();
+  thread_local std::vector<Cluster> clusters;
+  clusterArcCentres(classified, model_radius, params, clusters);
   const auto heaviest =
       std::max_element(clusters.begin(), clusters.end(),
                        [](const Cluster& a, const Cluster& b) { return a.weight < b.weight; });
@@ -113,43 +161,16 @@ void findCircle(const Contours& contours, const Classified& classified, double m
   for (const Vec2& p : points)
     r += (p - m).norm();
   r /= static_cast<double>(points.size());
+  addStraightPiecesOnCircle(contours, classified, m, r, params, points, out.pieces);
 
-  // Re-classification of straight pieces that lie on the circle (seed eq. 4.121-4.125).
-  const double cos_limit = std::cos(params.reclassify_angle);
-  for (int k : classified.straight_pieces) {
-    const Piece& piece = contours.pieces[k];
-    const Vec2* p = contours.points.data() + piece.begin;
-    const Vec2 middle = p[piece.size() / 2];
-    const Vec2 v = p[piece.size() - 1] - p[0];
-    const double v_norm = v.norm();
-    const Vec2 d = middle - m;
-    if (d.norm() < 1e-9 || v_norm < 1e-9) continue;
-    const Vec2 n = d.normalized();
-    const Vec2 s = m + r * n;
-    if ((middle - s).norm() > params.reclassify_distance * r) continue;
-    const Vec2 t(-n.y(), n.x());
-    if (std::abs(t.dot(v)) / v_norm < cos_limit) continue;
-    points.insert(points.end(), p, p + piece.size());
-    out.pieces.push_back(k);
-  }
-
-  CircleFit fit = landauFit(points, m, params.landau_iterations);
-  // Points of other lines that were swept in (a line touching the circle) are dropped and the
-  // fit repeated from the refined centre.
-  const auto outliers = std::remove_if(points.begin(), points.end(), [&](const Vec2& p) {
-    return std::abs((p - fit.centre).norm() - fit.radius) > params.circle_inlier_distance;
-  });
-  if (outliers != points.end()) {
-    points.erase(outliers, points.end());
-    if (static_cast<int>(points.size()) < params.circle_min_points) return;
-    fit = landauFit(points, fit.centre, params.landau_iterations);
-  }
-  if (std::abs(fit.radius - model_radius) > params.circle_radius_tolerance * model_radius) return;
-  if (fit.rms > params.circle_max_rms) return;
-  const double coverage = angularCoverage(points, fit.centre);
+  const std::optional<CircleFit> fit = fitWithoutOutliers(points, m, params);
+  if (!fit) return;
+  if (std::abs(fit->radius - model_radius) > params.circle_radius_tolerance * model_radius) return;
+  if (fit->rms > params.circle_max_rms) return;
+  const double coverage = angularCoverage(points, fit->centre);
   if (coverage < params.circle_min_coverage) return;
   out.found = true;
-  out.fit = fit;
+  out.fit = *fit;
   out.coverage = coverage;
 }
 

@@ -85,12 +85,71 @@ int pointsOffLegs(const std::vector<Vec2>& points, const Vec2& corner,
   return count;
 }
 
+namespace {
+
+// The model junction's legs turned into the frame of a robot with heading `phi`.
+void legsInRobotFrame(const ModelJunction& model, double phi, std::vector<Vec2>& legs) {
+  legs.clear();
+  for (const Vec2& leg : model.legs)
+    legs.push_back(geometry::rotate(leg, -phi));
+}
+
+// Screening: the best share of the other points fitting the pose that puts the line along a leg
+// of a model penalty corner (on a few of the points).
+double screenLineEnd(const LineEnd& end, double end_phi, const std::vector<ModelJunction>& models,
+                     const std::vector<Vec2>& others, const ModelCheck& check,
+                     const RecognitionParams& params) {
+  double best_screen = 0.0;
+  for (const ModelJunction& model : models) {
+    if (!model.penalty_corner) continue;
+    for (std::size_t l = 0; l < model.legs.size(); ++l) {
+      if (end.length > model.leg_lengths[l] + params.length_tolerance) continue;
+      const double phi = model.leg_angles[l] - end_phi;
+      const Vec2 robot = model.position - geometry::rotate(end.position, phi);
+      const geometry::Pose2 pose{robot.x(), robot.y(), geometry::normalizeAngle(phi)};
+      best_screen =
+          std::max(best_screen, check.fit(others, pose, params.line_end_screen_points).share());
+    }
+  }
+  return best_screen;
+}
+
+// The best share of the other points with the pose shifted each way along and across the line:
+// the position must be fixed by them (a perpendicular line among them fixes it along the line,
+// a parallel one across it).
+double shiftedShare(const std::vector<Vec2>& others, const geometry::Pose2& robot,
+                    const Vec2& along, const ModelCheck& check, const RecognitionParams& params) {
+  double best = 0.0;
+  const Vec2 across(-along.y(), along.x());
+  for (const Vec2& direction : {along, across}) {
+    for (double sign : {-1.0, 1.0}) {
+      const Vec2 shifted = robot.position() + sign * params.line_end_shift * direction;
+      const geometry::Pose2 pose{shifted.x(), shifted.y(), robot.phi};
+      best = std::max(best, check.fit(others, pose).share());
+    }
+  }
+  return best;
+}
+
+// The verdict on an identified line end's evidence.
+bool lineEndIdentified(const LineEndIdentity& out, bool partner, const RecognitionParams& params) {
+  const double share = out.identity.fit.share();
+  return out.identity.fit.points >= params.identity_min_points &&
+         share >= params.identity_min_share &&
+         out.identity.rival_share <= share - params.identity_margin &&
+         out.shifted_share <= share - params.line_end_shift_margin &&
+         out.side_points >=
+             (partner ? params.line_end_min_side_points : params.line_end_alone_side_points) &&
+         (params.line_end_max_beyond_points < 0 ||
+          out.beyond_points <= params.line_end_max_beyond_points);
+}
+
+}  // namespace
+
 int pointsOffJunction(const std::vector<Vec2>& points, const ModelJunction& model,
                       const geometry::Pose2& robot, double from, double reach) {
   thread_local std::vector<Vec2> legs;
-  legs.clear();
-  for (const Vec2& leg : model.legs)
-    legs.push_back(geometry::rotate(leg, -robot.phi));
+  legsInRobotFrame(model, robot.phi, legs);
   return pointsOffLegs(points, geometry::pointFieldToRobot(robot, model.position), legs, from,
                        reach);
 }
@@ -111,19 +170,7 @@ bool identifyLineEnd(const LineEnd& end, const std::vector<ModelJunction>& model
   const Vec2 far_end = end.position + end.length * end.into;
   pointsAwayFrom(points, {{end.position, far_end}}, params.identity_leg_margin, others);
   if (static_cast<int>(others.size()) < params.identity_min_points) return false;
-  // Screening: the line along a leg of a model penalty corner, on a few of the other points.
-  double best_screen = 0.0;
-  for (const ModelJunction& model : models) {
-    if (!model.penalty_corner) continue;
-    for (std::size_t l = 0; l < model.legs.size(); ++l) {
-      if (end.length > model.leg_lengths[l] + params.length_tolerance) continue;
-      const double phi = model.leg_angles[l] - junction.phi;
-      const Vec2 robot = model.position - geometry::rotate(end.position, phi);
-      const geometry::Pose2 pose{robot.x(), robot.y(), geometry::normalizeAngle(phi)};
-      best_screen =
-          std::max(best_screen, check.fit(others, pose, params.line_end_screen_points).share());
-    }
-  }
+  const double best_screen = screenLineEnd(end, junction.phi, models, others, check, params);
   if (best_screen < params.identity_min_share - params.identity_screen_slack) return false;
   // The verdict is taken below, on the refined pose (identifyJunction's own is on the line's
   // last point).
@@ -139,23 +186,12 @@ bool identifyLineEnd(const LineEnd& end, const std::vector<ModelJunction>& model
   out.identity.robot = robot;
   out.identity.fit = check.fit(others, robot);
   out.corner = geometry::pointFieldToRobot(robot, models[out.identity.model].position);
-  // The position must be fixed by the other points: along the line (a perpendicular line among
-  // them) and across it (a parallel one), each way.
-  const Vec2 across(-along.y(), along.x());
-  for (const Vec2& direction : {along, across}) {
-    for (double sign : {-1.0, 1.0}) {
-      const Vec2 shifted = robot.position() + sign * params.line_end_shift * direction;
-      const geometry::Pose2 pose{shifted.x(), shifted.y(), robot.phi};
-      out.shifted_share = std::max(out.shifted_share, check.fit(others, pose).share());
-    }
-  }
+  out.shifted_share = shiftedShare(others, robot, along, check, params);
   // Evidence of the corner's other line: a few points where the model puts it (across the seen
   // line, where the model's other leg runs).
   const ModelJunction& model = models[out.identity.model];
   thread_local std::vector<Vec2> legs;
-  legs.clear();
-  for (const Vec2& leg : model.legs)
-    legs.push_back(geometry::rotate(leg, -robot.phi));
+  legsInRobotFrame(model, robot.phi, legs);
   for (std::size_t l = 0; l < legs.size(); ++l) {
     if (std::abs(legs[l].dot(end.into)) > 0.5) continue;  // the seen line's own leg
     out.side_points += pointsAlong(points, out.corner, legs[l],
@@ -167,16 +203,7 @@ bool identifyLineEnd(const LineEnd& end, const std::vector<ModelJunction>& model
   // looks like a line ending goes on curving away from its "corner".
   out.beyond_points = pointsOffLegs(points, out.corner, legs, params.line_end_beyond_from,
                                     params.line_end_side_reach);
-  const int side_points = out.side_points;
-  const double share = out.identity.fit.share();
-  out.identified =
-      out.identity.fit.points >= params.identity_min_points && share >= params.identity_min_share &&
-      out.identity.rival_share <= share - params.identity_margin &&
-      out.shifted_share <= share - params.line_end_shift_margin &&
-      side_points >=
-          (end.partner ? params.line_end_min_side_points : params.line_end_alone_side_points) &&
-      (params.line_end_max_beyond_points < 0 ||
-       out.beyond_points <= params.line_end_max_beyond_points);
+  out.identified = lineEndIdentified(out, end.partner, params);
   return out.identified;
 }
 

@@ -113,6 +113,23 @@ void FeatureRecognizer::dropInconsistent(perception::FieldFeatures& out) {
 InputCheck FeatureRecognizer::recognize(const perception::LinePoints& in,
                                         perception::FieldFeatures& out) {
   out.clear();
+  const InputCheck check = runStages(in);
+  // High-level features with their poses: the centre circle, then the penalty corners from the
+  // area's structure (stage 5), L-corners identified by the model check (when the structure is
+  // too sparse to be seen) and one line's end (when the corner's other line is too sparse for a
+  // line).
+  addCentreCircle(out);
+  corners_seen_.clear();
+  addStructureCorners(out);
+  addJunctionCorners(out);
+  if (params_.line_end_corners && structure_.found) addLineEndCorners(out);
+  dropInconsistent(out);
+  addLowerFeatures(out);
+  rankHypotheses(out);
+  return check;
+}
+
+InputCheck FeatureRecognizer::runStages(const perception::LinePoints& in) {
   circle_.clear();
   structure_.clear();
   junctions_.clear();
@@ -141,70 +158,73 @@ InputCheck FeatureRecognizer::recognize(const perception::LinePoints& in,
                    findPenaltyArea(structure_, field_, params_, penalty_);
   findJunctions(structure_, params_, junctions_);
   unseen_indexed_ = false;
+  return check;
+}
 
-  // High-level features with their poses.
-  if (circle_.found && circle_.oriented) {
-    const Pose2 local{circle_.fit.centre.x(), circle_.fit.centre.y(),
-                      std::atan2(circle_.line_direction.y(), circle_.line_direction.x())};
-    const std::vector<Pose2> marks = centreCircleMarks();
-    if (passesModelCheck(FeatureKind::kCentreCircle, local, marks.front(), nullptr)) {
-      const int index = static_cast<int>(out.features.size());
-      high_level_.emplace_back(index, static_cast<int>(checked_.size()) - 1);
-      out.features.push_back({FeatureKind::kCentreCircle, local, qualityMeasure(0, 2)});
-      Line line;
-      line.rms = circle_.line_rms;
-      line.count = circle_.line_count;
-      line.t_max = circle_.line_length;
-      const double sigma_position =
-          circle_.fit.rms / std::sqrt(static_cast<double>(std::max(circle_.fit.count, 1)));
-      addHypotheses(index, local, marks, sigma_position, lineAngleSigma(line), params_.min_sigma_xy,
-                    params_.min_sigma_phi, out.hypotheses);
-    }
+void FeatureRecognizer::addCentreCircle(perception::FieldFeatures& out) {
+  if (!circle_.found || !circle_.oriented) return;
+  const Pose2 local{circle_.fit.centre.x(), circle_.fit.centre.y(),
+                    std::atan2(circle_.line_direction.y(), circle_.line_direction.x())};
+  const std::vector<Pose2> marks = centreCircleMarks();
+  if (!passesModelCheck(FeatureKind::kCentreCircle, local, marks.front(), nullptr)) return;
+  const int index = static_cast<int>(out.features.size());
+  high_level_.emplace_back(index, static_cast<int>(checked_.size()) - 1);
+  out.features.push_back({FeatureKind::kCentreCircle, local, qualityMeasure(0, 2)});
+  Line line;
+  line.rms = circle_.line_rms;
+  line.count = circle_.line_count;
+  line.t_max = circle_.line_length;
+  const double sigma_position =
+      circle_.fit.rms / std::sqrt(static_cast<double>(std::max(circle_.fit.count, 1)));
+  addHypotheses(index, local, marks, sigma_position, lineAngleSigma(line), params_.min_sigma_xy,
+                params_.min_sigma_phi, out.hypotheses);
+}
+
+void FeatureRecognizer::addCorner(const Vec2& position, const Vec2& toward_goal, bool left,
+                                  bool inner, double sigma_xy, double sigma_phi,
+                                  const std::vector<Segment2>* own,
+                                  perception::FieldFeatures& out) {
+  const Pose2 local{position.x(), position.y(), std::atan2(toward_goal.y(), toward_goal.x())};
+  const std::vector<Pose2> marks = penaltyCornerMarks(field_, left, inner);
+  if (own != nullptr && !passesModelCheck(FeatureKind::kPenaltyCorner, local, marks.front(), own)) {
+    return;
   }
-  // Penalty corners: from the area's structure (stage 5), then L-corners identified by the
-  // model check (when the structure is too sparse to be seen).
-  thread_local std::vector<Vec2> corners_seen;
-  corners_seen.clear();
-  auto addCorner = [&](const Vec2& position, const Vec2& toward_goal, bool left, bool inner,
-                       double sigma_xy, double sigma_phi, const std::vector<Segment2>* own) {
-    const Pose2 local{position.x(), position.y(), std::atan2(toward_goal.y(), toward_goal.x())};
-    const std::vector<Pose2> marks = penaltyCornerMarks(field_, left, inner);
-    if (own != nullptr &&
-        !passesModelCheck(FeatureKind::kPenaltyCorner, local, marks.front(), own)) {
-      return;
-    }
-    corners_seen.push_back(position);
-    const int index = static_cast<int>(out.features.size());
-    // Both ways here, the feature's verdict is the last one recorded.
-    high_level_.emplace_back(index, static_cast<int>(checked_.size()) - 1);
-    out.features.push_back({FeatureKind::kPenaltyCorner, local, qualityMeasure(0, 2)});
-    addHypotheses(index, local, marks, sigma_xy, sigma_phi, params_.min_sigma_xy,
-                  params_.min_sigma_phi, out.hypotheses);
-  };
-  if (penalty_found_) {
-    for (const PenaltyCorner& corner : penalty_.corners) {
-      const std::vector<Segment2> own = {{corner.front.start(), corner.front.end()},
-                                         {corner.side.start(), corner.side.end()}};
-      addCorner(corner.position, corner.toward_goal, corner.left, corner.inner, corner.sigma_xy,
-                corner.sigma_phi, &own);
-    }
+  corners_seen_.push_back(position);
+  const int index = static_cast<int>(out.features.size());
+  // Both ways here, the feature's verdict is the last one recorded.
+  high_level_.emplace_back(index, static_cast<int>(checked_.size()) - 1);
+  out.features.push_back({FeatureKind::kPenaltyCorner, local, qualityMeasure(0, 2)});
+  addHypotheses(index, local, marks, sigma_xy, sigma_phi, params_.min_sigma_xy,
+                params_.min_sigma_phi, out.hypotheses);
+}
+
+void FeatureRecognizer::addStructureCorners(perception::FieldFeatures& out) {
+  if (!penalty_found_) return;
+  for (const PenaltyCorner& corner : penalty_.corners) {
+    const std::vector<Segment2> own = {{corner.front.start(), corner.front.end()},
+                                       {corner.side.start(), corner.side.end()}};
+    addCorner(corner.position, corner.toward_goal, corner.left, corner.inner, corner.sigma_xy,
+              corner.sigma_phi, &own, out);
   }
-  auto explained = [&](const Junction& j) {
-    for (const Vec2& c : corners_seen) {
-      if ((c - j.position).norm() < params_.corner_distance) return true;
-    }
-    return false;
-  };
-  // An L whose lines are too short or too sparse to place it (below) leaves its place to the
-  // line-end rule (the longer line's end is the corner).
-  auto placeable = [&](const Junction& j) {
-    const Line& bar = structure_.groups[j.bar_axis][j.bar].line;
-    const Line& stem = structure_.groups[j.stem_axis][j.stem].line;
-    return j.is_t ||
-           (bar.count >= params_.min_corner_line_points &&
-            stem.count >= params_.min_corner_line_points &&
-            bar.length() >= params_.min_identity_leg && stem.length() >= params_.min_identity_leg);
-  };
+}
+
+bool FeatureRecognizer::explained(const Junction& j) const {
+  for (const Vec2& c : corners_seen_) {
+    if ((c - j.position).norm() < params_.corner_distance) return true;
+  }
+  return false;
+}
+
+bool FeatureRecognizer::placeable(const Junction& j) const {
+  const Line& bar = structure_.groups[j.bar_axis][j.bar].line;
+  const Line& stem = structure_.groups[j.stem_axis][j.stem].line;
+  return j.is_t ||
+         (bar.count >= params_.min_corner_line_points &&
+          stem.count >= params_.min_corner_line_points &&
+          bar.length() >= params_.min_identity_leg && stem.length() >= params_.min_identity_leg);
+}
+
+void FeatureRecognizer::addJunctionCorners(perception::FieldFeatures& out) {
   for (const Junction& j : junctions_) {
     if (j.is_t || explained(j) || !placeable(j)) continue;
     JunctionIdentity identity;
@@ -235,50 +255,51 @@ InputCheck FeatureRecognizer::recognize(const perception::LinePoints& in,
     const Line& b = structure_.groups[j.stem_axis][j.stem].line;
     const double sigma_phi = std::min(lineAngleSigma(a), lineAngleSigma(b));
     addCorner(j.position, toward_goal, model->left, model->inner,
-              std::hypot(lineOffsetSigma(a), lineOffsetSigma(b)), sigma_phi, nullptr);
+              std::hypot(lineOffsetSigma(a), lineOffsetSigma(b)), sigma_phi, nullptr, out);
   }
-  // Penalty corners from one line's end, when the corner's other line is too sparse for a line.
-  if (params_.line_end_corners && structure_.found) {
-    thread_local std::vector<Vec2> taken;
-    thread_local std::vector<LineEnd> ends;
-    taken = corners_seen;
-    for (const Junction& j : junctions_) {
-      if (placeable(j)) taken.push_back(j.position);
-    }
-    candidateLineEnds(structure_, field_, taken, params_, ends);
-    for (const LineEnd& end : ends) {
-      bool seen = false;
-      for (const Vec2& c : corners_seen) {
-        if ((c - end.position).norm() < params_.junction_distance) seen = true;
-      }
-      if (seen) continue;
-      LineEndIdentity identity;
-      identifyLineEnd(end, model_junctions_, contours_.points, model_check_, params_, identity);
-      const int m = identity.identity.model;
-      if (m < 0 || !model_junctions_[m].penalty_corner) continue;
-      const ModelJunction& model = model_junctions_[m];
-      const Vec2 toward_goal = geometry::rotate(model.toward_goal, -identity.identity.robot.phi);
-      CheckedFeature c;
-      c.kind = FeatureKind::kPenaltyCorner;
-      c.local = {identity.corner.x(), identity.corner.y(),
-                 std::atan2(toward_goal.y(), toward_goal.x())};
-      c.robot = identity.identity.robot;
-      c.fit = model_check_.fit(contours_.points, c.robot);
-      c.others = identity.identity.fit;
-      c.rival_share = identity.identity.rival_share;
-      c.shifted_share = identity.shifted_share;
-      c.side_points = identity.side_points;
-      c.beyond_points = identity.beyond_points;
-      c.accepted = identity.identified && model_check_.accepts(c.fit, c.others) && passesUnseen(c);
-      checked_.push_back(c);
-      if (!c.accepted) continue;
-      const Line& line = structure_.groups[end.axis][end.group].line;
-      addCorner(identity.corner, toward_goal, model.left, model.inner, lineOffsetSigma(line),
-                lineAngleSigma(line), nullptr);
-    }
+}
+
+void FeatureRecognizer::addLineEndCorners(perception::FieldFeatures& out) {
+  thread_local std::vector<Vec2> taken;
+  thread_local std::vector<LineEnd> ends;
+  taken = corners_seen_;
+  for (const Junction& j : junctions_) {
+    if (placeable(j)) taken.push_back(j.position);
   }
-  dropInconsistent(out);
-  // Lower features: no pose of their own (many places on the field look the same).
+  candidateLineEnds(structure_, field_, taken, params_, ends);
+  for (const LineEnd& end : ends) {
+    bool seen = false;
+    for (const Vec2& c : corners_seen_) {
+      if ((c - end.position).norm() < params_.junction_distance) seen = true;
+    }
+    if (seen) continue;
+    LineEndIdentity identity;
+    identifyLineEnd(end, model_junctions_, contours_.points, model_check_, params_, identity);
+    const int m = identity.identity.model;
+    if (m < 0 || !model_junctions_[m].penalty_corner) continue;
+    const ModelJunction& model = model_junctions_[m];
+    const Vec2 toward_goal = geometry::rotate(model.toward_goal, -identity.identity.robot.phi);
+    CheckedFeature c;
+    c.kind = FeatureKind::kPenaltyCorner;
+    c.local = {identity.corner.x(), identity.corner.y(),
+               std::atan2(toward_goal.y(), toward_goal.x())};
+    c.robot = identity.identity.robot;
+    c.fit = model_check_.fit(contours_.points, c.robot);
+    c.others = identity.identity.fit;
+    c.rival_share = identity.identity.rival_share;
+    c.shifted_share = identity.shifted_share;
+    c.side_points = identity.side_points;
+    c.beyond_points = identity.beyond_points;
+    c.accepted = identity.identified && model_check_.accepts(c.fit, c.others) && passesUnseen(c);
+    checked_.push_back(c);
+    if (!c.accepted) continue;
+    const Line& line = structure_.groups[end.axis][end.group].line;
+    addCorner(identity.corner, toward_goal, model.left, model.inner, lineOffsetSigma(line),
+              lineAngleSigma(line), nullptr, out);
+  }
+}
+
+void FeatureRecognizer::addLowerFeatures(perception::FieldFeatures& out) const {
   for (const Junction& j : junctions_) {
     if (explained(j)) continue;
     out.features.push_back({j.is_t ? FeatureKind::kTJunction : FeatureKind::kFieldCorner,
@@ -297,8 +318,6 @@ InputCheck FeatureRecognizer::recognize(const perception::LinePoints& in,
            line_quality});
     }
   }
-  rankHypotheses(out);
-  return check;
 }
 
 }  // namespace fieldline::feature_recognition

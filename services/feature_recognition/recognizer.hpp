@@ -100,6 +100,31 @@ class FeatureRecognizer {
   std::vector<Junction> junctions_;
   std::vector<CheckedFeature> checked_;
 
+  // Clears the last frame's results and runs the stages on `in` (contours to junctions).
+  InputCheck runStages(const perception::LinePoints& in);
+  // The high-level features: each adds the feature and its pose hypotheses to `out` when it
+  // passes its checks.
+  void addCentreCircle(perception::FieldFeatures& out);
+  // Penalty corners from the penalty area's structure, from L-corners placed by the model check,
+  // from one line's end.
+  void addStructureCorners(perception::FieldFeatures& out);
+  void addJunctionCorners(perception::FieldFeatures& out);
+  void addLineEndCorners(perception::FieldFeatures& out);
+  // Adds the penalty corner at `position` (robot frame); with `own` (its two lines), only when it
+  // passes the model check (else its verdict is already recorded).
+  void addCorner(const Vec2& position, const Vec2& toward_goal, bool left, bool inner,
+                 double sigma_xy, double sigma_phi, const std::vector<Segment2>* own,
+                 perception::FieldFeatures& out);
+  // The lower features: L-corners and T-junctions not explained by a penalty corner, and lines.
+  void addLowerFeatures(perception::FieldFeatures& out) const;
+  // True if a penalty corner of the frame is at the junction.
+  bool explained(const Junction& j) const;
+  // An L whose lines are too short or too sparse to place it leaves its place to the line-end
+  // rule (the longer line's end is the corner).
+  bool placeable(const Junction& j) const;
+  // The penalty corners found in the frame so far.
+  std::vector<Vec2> corners_seen_;
+
   // Runs the model check on the feature at `local` (robot frame) whose first reference mark is
   // `mark`, with the other points those away from `own` (when given); records the verdict and
   // returns it.
