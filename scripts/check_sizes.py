@@ -31,7 +31,6 @@ REASON = re.compile(r"^\s*//\s*long:\s*\S")
 # (none is the goal): path -> reason, "path:function" -> reason.
 KNOWN_LONG_FILES = {
     "services/camera/sim_renderer.cpp": "in perf's room today (sim renderer rewrite)",
-    "tools/mirror_calibrate/pose_free.cpp": "one staged solver of 1000 lines; its split into stage functions is pending (hcode)",
 }
 KNOWN_LONG_FUNCTIONS = {
     "common/bus/log_file.cpp:LogReader::nextEvent": "in perf's room today (bus, node loops)",
@@ -63,7 +62,6 @@ KNOWN_LONG_FUNCTIONS = {
     "tools/localize/eval_main.cpp:main": "not split yet (issue 33 item 3): pending",
     "tools/localize/main.cpp:main": "not split yet (issue 33 item 3): pending",
     "tools/log_record/record_main.cpp:record": "not split yet (issue 33 item 3): pending",
-    "tools/mirror_calibrate/pose_free.cpp:calibrateAtUnknownPose": "one staged solver of 1000 lines; its split into stage functions is pending (hcode)",
     "tools/systemd_units/units.cpp:generateUnits": "not split yet (issue 33 item 3): pending",
     "tools/viewer/camera_view.cpp:CameraView::update": "not split yet (issue 33 item 3): pending",
     "tools/viewer/recording_view.cpp:RecordingView::makeSeries": "not split yet (issue 33 item 3): pending",
