@@ -51,8 +51,6 @@ KNOWN_LONG_FUNCTIONS = {
     "tools/eval/evaluation.cpp:evaluate": "in robust's or tball's room today (fusion, teamcomm, eval)",
     "tools/eval/main.cpp:collectFromTeam": "in robust's or tball's room today (fusion, teamcomm, eval)",
     "tools/eval/team_ball.cpp:evaluateTeamBall": "in robust's or tball's room today (fusion, teamcomm, eval)",
-    "tools/eval_real/eval_real.cpp:runLinePoints": "not split yet (issue 33 item 3): pending",
-    "tools/eval_real/eval_real.cpp:runVenue": "not split yet (issue 33 item 3): pending",
     "tools/launch/launcher.cpp:Launcher::supervise": "in graph's room today (launch)",
     "tools/layer2_bias/main.cpp:runPose": "not split yet (issue 33 item 3): pending",
     "tools/localize/eval_main.cpp:main": "not split yet (issue 33 item 3): pending",
