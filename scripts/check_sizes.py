@@ -30,7 +30,6 @@ REASON = re.compile(r"^\s*//\s*long:\s*\S")
 # Files and functions still over the limit while they are being split, each with the reason
 # (none is the goal): path -> reason, "path:function" -> reason.
 KNOWN_LONG_FILES = {
-    "tools/mirror_calibrate/pose_free.cpp": "one staged solver of 1000 lines; its split into stage functions is pending (hcode)",
 }
 KNOWN_LONG_FUNCTIONS = {
     "common/bus/log_file.cpp:LogReader::nextEvent": "in perf's room today (bus, node loops)",
@@ -41,19 +40,6 @@ KNOWN_LONG_FUNCTIONS = {
     "services/motor_bridge/bridge.cpp:BridgeCore::onBytes": "in perf's room today (bus, node loops)",
     "services/region_tracking/frame_processor.cpp:loadVisionParams": "in hires' room today (region tracking split)",
     "services/region_tracking/region_tracker.cpp:RegionTracker::RegionTracker": "in hires' room today (region tracking split)",
-    "tools/calibration_common/ridges.cpp:findRidges": "not split yet (issue 33 item 3): pending",
-    "tools/colour_calibrate/calibrate_app.cpp:runApp": "not split yet (issue 33 item 3): pending",
-    "tools/colour_calibrate/colour_calibration.cpp:calibrate": "not split yet (issue 33 item 3): pending",
-    "tools/colour_calibrate/image_calibration.cpp:calibrateFromImages": "not split yet (issue 33 item 3): pending",
-    "tools/eval_real/eval_real.cpp:runLinePoints": "not split yet (issue 33 item 3): pending",
-    "tools/eval_real/eval_real.cpp:runVenue": "not split yet (issue 33 item 3): pending",
-    "tools/launch/launcher.cpp:Launcher::supervise": "in graph's room today (launch)",
-    "tools/layer2_bias/main.cpp:runPose": "not split yet (issue 33 item 3): pending",
-    "tools/localize/eval_main.cpp:main": "not split yet (issue 33 item 3): pending",
-    "tools/localize/main.cpp:main": "not split yet (issue 33 item 3): pending",
-    "tools/log_record/record_main.cpp:record": "not split yet (issue 33 item 3): pending",
-    "tools/mirror_calibrate/pose_free.cpp:calibrateAtUnknownPose": "one staged solver of 1000 lines; its split into stage functions is pending (hcode)",
-    "tools/systemd_units/units.cpp:generateUnits": "not split yet (issue 33 item 3): pending",
     "tools/viewer/camera_view.cpp:CameraView::update": "not split yet (issue 33 item 3): pending",
     "tools/viewer/recording_view.cpp:RecordingView::makeSeries": "not split yet (issue 33 item 3): pending",
     "tools/viewer/web_server.cpp:handle": "not split yet (issue 33 item 3): pending",

@@ -450,64 +450,62 @@ camera::ColourTable finalTable(const Calibration& calibration, const camera::Col
   return camera::ColourTable(calibration.boxes, camera::ColourTable::fromLookup(std::move(cells)));
 }
 
-int runApp(const AppOptions& o) {
-  cal::FitParams params;
-  params.light_range = {o.light_range[0], o.light_range[1]};
-  if (o.evaluate) return evaluate(o, params);
-  // Any camera preset: the mirror tool's output (no render section) as well as a simulated one.
-  const camera::CameraConfig config = camera::loadCameraConfigPreset(o.camera_preset);
-  const fieldline::field::FieldModel field = fieldline::field::loadFieldPreset(o.field_preset);
+namespace {
+
+// The frames and what their views point into.
+struct Frames {
   std::vector<std::vector<std::uint8_t>> raw;
   std::vector<camera::FrameFile> files;
-  std::vector<cal::PosedFrame> posed;
   std::optional<camera::SimRenderer> renderer;
-  if (o.render) {
-    if (o.poses.empty()) throw std::invalid_argument("--render needs --pose");
-    camera::RenderParams render = camera::renderParamsOf(config, "--render");
-    if (!o.settings.empty()) render.realism = cal::realismSetting(o.settings[0]).realism;
-    if (o.settings.size() > 1) throw std::invalid_argument("--render takes one --realism");
-    if (!o.inputs.empty()) throw std::invalid_argument("--render and --in exclude each other");
-    renderer.emplace(config.model.mirror, field, render);
-    raw.reserve(o.poses.size());
-    for (const std::string& p : o.poses) {
-      camera::SimScene scene;
-      scene.robot = parsePose(p);
-      raw.emplace_back();
-      renderer->render(scene, raw.back());
-      posed.push_back({renderer->view(raw.back()), scene.robot});
-    }
-  } else {
-    if (o.inputs.empty()) throw std::invalid_argument("give --in frames (or --render --pose)");
-    if (!o.poses.empty() && o.poses.size() != 1 && o.poses.size() != o.inputs.size()) {
-      throw std::invalid_argument("give no --pose, one, or one per --in");
-    }
-    std::optional<camera::FrameSize> size;
-    if (!o.yuyv_size.empty()) size = camera::parseFrameSize(o.yuyv_size);
-    files.reserve(o.inputs.size());
-    for (std::size_t i = 0; i < o.inputs.size(); ++i) {
-      files.push_back(camera::readFrameFile(o.inputs[i], size));
-      Pose2 pose;
-      if (!o.poses.empty()) pose = parsePose(o.poses.size() == 1 ? o.poses[0] : o.poses[i]);
-      posed.push_back({files.back().view(), pose});
-    }
+  std::vector<cal::PosedFrame> posed;
+};
+
+// --render: frames rendered at the given poses.
+void renderFrames(const AppOptions& o, const camera::CameraConfig& config,
+                  const fieldline::field::FieldModel& field, Frames& frames) {
+  auto& raw = frames.raw;
+  auto& renderer = frames.renderer;
+  auto& posed = frames.posed;
+  if (o.poses.empty()) throw std::invalid_argument("--render needs --pose");
+  camera::RenderParams render = camera::renderParamsOf(config, "--render");
+  if (!o.settings.empty()) render.realism = cal::realismSetting(o.settings[0]).realism;
+  if (o.settings.size() > 1) throw std::invalid_argument("--render takes one --realism");
+  if (!o.inputs.empty()) throw std::invalid_argument("--render and --in exclude each other");
+  renderer.emplace(config.model.mirror, field, render);
+  raw.reserve(o.poses.size());
+  for (const std::string& p : o.poses) {
+    camera::SimScene scene;
+    scene.robot = parsePose(p);
+    raw.emplace_back();
+    renderer->render(scene, raw.back());
+    posed.push_back({renderer->view(raw.back()), scene.robot});
   }
+}
+
+// --in: frames read from files, with no pose, one, or one each.
+void readFrames(const AppOptions& o, Frames& frames) {
+  auto& files = frames.files;
+  auto& posed = frames.posed;
+  if (o.inputs.empty()) throw std::invalid_argument("give --in frames (or --render --pose)");
+  if (!o.poses.empty() && o.poses.size() != 1 && o.poses.size() != o.inputs.size()) {
+    throw std::invalid_argument("give no --pose, one, or one per --in");
+  }
+  std::optional<camera::FrameSize> size;
+  if (!o.yuyv_size.empty()) size = camera::parseFrameSize(o.yuyv_size);
+  files.reserve(o.inputs.size());
+  for (std::size_t i = 0; i < o.inputs.size(); ++i) {
+    files.push_back(camera::readFrameFile(o.inputs[i], size));
+    Pose2 pose;
+    if (!o.poses.empty()) pose = parsePose(o.poses.size() == 1 ? o.poses[0] : o.poses[i]);
+    posed.push_back({files.back().view(), pose});
+  }
+}
+
+// Known poses: the field model predicts carpet and line pixels (docs/calibration.md).
+int calibrateAtKnownPoses(const AppOptions& o, const camera::CameraConfig& config,
+                          const fieldline::field::FieldModel& field,
+                          const std::vector<cal::PosedFrame>& posed, const cal::FitParams& params) {
   const camera::MirrorModel& mirror = config.model.mirror;
-  for (const cal::PosedFrame& f : posed) {
-    if (f.frame.width != mirror.width() || f.frame.height != mirror.height()) {
-      throw std::invalid_argument(fmt::format(
-          "a frame is {}x{}, the camera preset {} is for {}x{}: give the camera's own preset "
-          "(fieldline-mirror-calibrate writes one)",
-          f.frame.width, f.frame.height, o.camera_preset, mirror.width(), mirror.height()));
-    }
-  }
-  if (!o.save_frame.empty()) camera::writeImage(o.save_frame, camera::toBgrImage(posed[0].frame));
-  if (o.poses.empty()) {
-    std::vector<camera::FrameView> views;
-    for (const cal::PosedFrame& f : posed)
-      views.push_back(f.frame);
-    return calibrateFromFrames(o, mirror, field, views);
-  }
-  // Known poses: the field model predicts carpet and line pixels (docs/calibration.md).
   camera::ColourTable base =
       camera::loadColourTablePreset(o.base.empty() ? config.model.colour_table : o.base);
   const std::vector<cal::UserMask> masks = readMasks(o, posed[0].frame);
@@ -538,6 +536,41 @@ int runApp(const AppOptions& o) {
                            posed.size(), o.camera_preset, o.field_preset));
   }
   return 0;
+}
+
+}  // namespace
+
+int runApp(const AppOptions& o) {
+  cal::FitParams params;
+  params.light_range = {o.light_range[0], o.light_range[1]};
+  if (o.evaluate) return evaluate(o, params);
+  // Any camera preset: the mirror tool's output (no render section) as well as a simulated one.
+  const camera::CameraConfig config = camera::loadCameraConfigPreset(o.camera_preset);
+  const fieldline::field::FieldModel field = fieldline::field::loadFieldPreset(o.field_preset);
+  Frames frames;
+  const std::vector<cal::PosedFrame>& posed = frames.posed;
+  if (o.render) {
+    renderFrames(o, config, field, frames);
+  } else {
+    readFrames(o, frames);
+  }
+  const camera::MirrorModel& mirror = config.model.mirror;
+  for (const cal::PosedFrame& f : posed) {
+    if (f.frame.width != mirror.width() || f.frame.height != mirror.height()) {
+      throw std::invalid_argument(fmt::format(
+          "a frame is {}x{}, the camera preset {} is for {}x{}: give the camera's own preset "
+          "(fieldline-mirror-calibrate writes one)",
+          f.frame.width, f.frame.height, o.camera_preset, mirror.width(), mirror.height()));
+    }
+  }
+  if (!o.save_frame.empty()) camera::writeImage(o.save_frame, camera::toBgrImage(posed[0].frame));
+  if (o.poses.empty()) {
+    std::vector<camera::FrameView> views;
+    for (const cal::PosedFrame& f : posed)
+      views.push_back(f.frame);
+    return calibrateFromFrames(o, mirror, field, views);
+  }
+  return calibrateAtKnownPoses(o, config, field, posed, params);
 }
 
 }  // namespace fieldline::calibration

@@ -215,13 +215,11 @@ std::vector<std::uint8_t> paintedNear(const camera::MirrorModel& mirror,
   return out;
 }
 
-}  // namespace
-
-Calibration calibrate(const camera::MirrorModel& mirror, const field::FieldModel& field,
-                      const std::vector<PosedFrame>& frames, const std::vector<UserMask>& masks,
-                      const std::vector<YuvBox>& base, const FitParams& params) {
-  if (frames.empty()) throw std::invalid_argument("colour calibration: no frames");
-  std::vector<Yuv> green, lineSamples;
+// The carpet's and the lines' pixels as the poses predict them, without what the user painted.
+void collectSamples(const camera::MirrorModel& mirror, const field::FieldModel& field,
+                    const std::vector<PosedFrame>& frames, const std::vector<UserMask>& masks,
+                    const FitParams& params, std::vector<Yuv>& green,
+                    std::vector<Yuv>& lineSamples) {
   for (const PosedFrame& f : frames) {
     checkSize(mirror, f.frame);
     const std::vector<PredictedPixel> predicted =
@@ -238,57 +236,28 @@ Calibration calibrate(const camera::MirrorModel& mirror, const field::FieldModel
       }
     }
   }
-  if (static_cast<int>(green.size()) < params.min_samples) {
-    throw std::runtime_error(fmt::format(
-        "colour calibration: only {} carpet pixels predicted (need {}): is the pose right and "
-        "the carpet in view?",
-        green.size(), params.min_samples));
-  }
+}
 
-  Calibration result;
-  {
-    std::array<std::vector<std::uint8_t>, 3> channels;
-    for (const Yuv& g : green) {
-      channels[0].push_back(g.y);
-      channels[1].push_back(g.u);
-      channels[2].push_back(g.v);
-    }
-    for (std::size_t k = 0; k < 3; ++k) {
-      auto mid = channels[k].begin() + static_cast<std::ptrdiff_t>(channels[k].size() / 2);
-      std::nth_element(channels[k].begin(), mid, channels[k].end());
-      result.carpet_median[k] = *mid;
-    }
+// The carpet's median per channel.
+std::array<double, 3> medianOf(const std::vector<Yuv>& green) {
+  std::array<double, 3> median{};
+  std::array<std::vector<std::uint8_t>, 3> channels;
+  for (const Yuv& g : green) {
+    channels[0].push_back(g.y);
+    channels[1].push_back(g.u);
+    channels[2].push_back(g.v);
   }
-  ClassFit greenFit{ColourClass::kGreen,
-                    coneBoxes(ColourClass::kGreen, green, params, params.green_low_percentile,
-                              params.green_high_percentile, params.green_bands, false),
-                    static_cast<int>(green.size())};
-
-  // White: the line pixels without the darker mixed pixels at the paint's blurred edges (below
-  // 80 % of the median luma).
-  std::vector<Yuv> white = lineSamples;
-  if (!white.empty()) {
-    const int median = percentileOfLuma(white, 50.0);
-    std::erase_if(white, [&](const Yuv& s) { return s.y < 0.8 * median; });
+  for (std::size_t k = 0; k < 3; ++k) {
+    auto mid = channels[k].begin() + static_cast<std::ptrdiff_t>(channels[k].size() / 2);
+    std::nth_element(channels[k].begin(), mid, channels[k].end());
+    median[k] = *mid;
   }
-  if (static_cast<int>(white.size()) < params.min_line_samples) {
-    throw std::runtime_error(fmt::format(
-        "colour calibration: only {} of {} predicted line pixels are bright enough (need {}): "
-        "is a line within {} m in view?",
-        white.size(), lineSamples.size(), params.min_line_samples, params.masks.max_line_distance));
-  }
-  ClassFit whiteFit{ColourClass::kWhite,
-                    coneBoxes(ColourClass::kWhite, white, params, params.white_low_percentile,
-                              params.high_percentile, params.white_bands, true),
-                    static_cast<int>(white.size())};
+  return median;
+}
 
-  // Green first: where the cones overlap (dim washed-out carpet, bright low-contrast paint) the
-  // many carpet pixels stay green; a few line pixels turning green cost less than carpet turning
-  // white, which breaks the green regions and puts false lines into them.
-  result.fits.push_back(greenFit);
-  result.fits.push_back(whiteFit);
-
-  // Classes painted by the user.
+// Classes painted by the user: a box each, added to the class's fit.
+void addPaintedClasses(const camera::MirrorModel& mirror, const std::vector<UserMask>& masks,
+                       const FitParams& params, Calibration& result) {
   for (const UserMask& m : masks) {
     // Painted as "not carpet, no class": only kept out of the samples above.
     if (m.colour == ColourClass::kUnknown) continue;
@@ -319,6 +288,56 @@ Calibration calibrate(const camera::MirrorModel& mirror, const field::FieldModel
       fit->samples += static_cast<int>(samples.size());
     }
   }
+}
+
+}  // namespace
+
+Calibration calibrate(const camera::MirrorModel& mirror, const field::FieldModel& field,
+                      const std::vector<PosedFrame>& frames, const std::vector<UserMask>& masks,
+                      const std::vector<YuvBox>& base, const FitParams& params) {
+  if (frames.empty()) throw std::invalid_argument("colour calibration: no frames");
+  std::vector<Yuv> green, lineSamples;
+  collectSamples(mirror, field, frames, masks, params, green, lineSamples);
+  if (static_cast<int>(green.size()) < params.min_samples) {
+    throw std::runtime_error(fmt::format(
+        "colour calibration: only {} carpet pixels predicted (need {}): is the pose right and "
+        "the carpet in view?",
+        green.size(), params.min_samples));
+  }
+
+  Calibration result;
+  result.carpet_median = medianOf(green);
+  ClassFit greenFit{ColourClass::kGreen,
+                    coneBoxes(ColourClass::kGreen, green, params, params.green_low_percentile,
+                              params.green_high_percentile, params.green_bands, false),
+                    static_cast<int>(green.size())};
+
+  // White: the line pixels without the darker mixed pixels at the paint's blurred edges (below
+  // 80 % of the median luma).
+  std::vector<Yuv> white = lineSamples;
+  if (!white.empty()) {
+    const int median = percentileOfLuma(white, 50.0);
+    std::erase_if(white, [&](const Yuv& s) { return s.y < 0.8 * median; });
+  }
+  if (static_cast<int>(white.size()) < params.min_line_samples) {
+    throw std::runtime_error(fmt::format(
+        "colour calibration: only {} of {} predicted line pixels are bright enough (need {}): "
+        "is a line within {} m in view?",
+        white.size(), lineSamples.size(), params.min_line_samples, params.masks.max_line_distance));
+  }
+  ClassFit whiteFit{ColourClass::kWhite,
+                    coneBoxes(ColourClass::kWhite, white, params, params.white_low_percentile,
+                              params.high_percentile, params.white_bands, true),
+                    static_cast<int>(white.size())};
+
+  // Green first: where the cones overlap (dim washed-out carpet, bright low-contrast paint) the
+  // many carpet pixels stay green; a few line pixels turning green cost less than carpet turning
+  // white, which breaks the green regions and puts false lines into them.
+  result.fits.push_back(greenFit);
+  result.fits.push_back(whiteFit);
+
+  // Classes painted by the user.
+  addPaintedClasses(mirror, masks, params, result);
 
   for (const ClassFit& f : result.fits) {
     result.boxes.insert(result.boxes.end(), f.boxes.begin(), f.boxes.end());

@@ -17,12 +17,10 @@
 #include "tools/calibration_common/ridges.hpp"
 #include "tools/calibration_common/staged_output.hpp"
 
-namespace fieldline::calibration {
-namespace {
+#include "tools/colour_calibrate/image_stages.hpp"
 
-using camera::ColourClass;
-using camera::Vec2;
-using camera::Yuv;
+namespace fieldline::calibration {
+namespace imagefit {
 
 double percentileOf(std::vector<double> v, double p) {
   if (v.empty()) return std::numeric_limits<double>::quiet_NaN();
@@ -34,13 +32,6 @@ double percentileOf(std::vector<double> v, double p) {
 double chromaDistance(const Yuv& c, double u, double v) {
   return std::hypot(c.u - u, c.v - v);
 }
-
-// Per pixel of the image: where it looks on the floor.
-struct PixelGeometry {
-  std::vector<double> distance;  // robot-frame floor distance, NaN outside the useful zone
-  std::vector<Vec2> robot;       // robot-frame floor point
-  std::vector<double> mpp_min;   // the finer of radial and tangential metres per pixel
-};
 
 PixelGeometry geometryOf(const camera::MirrorModel& mirror) {
   const int w = mirror.width(), h = mirror.height();
@@ -64,13 +55,14 @@ PixelGeometry geometryOf(const camera::MirrorModel& mirror) {
   return g;
 }
 
-struct Blob {
-  std::vector<int> pixels;
-  Vec2 centroid = Vec2::Zero();
-  double mean_y = 0.0;
-  double chroma = 0.0;  // mean distance from the white point
-  int frame = 0;
-};
+}  // namespace imagefit
+
+namespace {
+
+using camera::ColourClass;
+using camera::Vec2;
+using camera::Yuv;
+using imagefit::percentileOf;
 
 // A class as a cone through the white point: chroma (c - w) / Y near `ratio`, within `radius`
 // levels at luma `ref_y` (growing with luma above it, noise below), luma in [y_lo, y_hi].
@@ -113,91 +105,33 @@ Cone coneOf(const std::vector<Yuv>& s, double wu, double wv, const std::array<do
   return cone;
 }
 
-// The image area of a ball of `radius` resting on the floor at robot-frame `centre`: the convex
-// hull of its surface's points projected through the mirror. A ball is seen from above and
-// beside, so its image reaches well beyond its disc at mid height (twice its area at 2 m for the
-// shipped mirror). Zero when part of it is not imaged.
-double ballImageArea(const camera::MirrorModel& mirror, const Vec2& centre, double radius) {
-  std::vector<Vec2> pts;
-  for (int i = 0; i <= 8; ++i) {
-    const double lat = std::numbers::pi * (i / 8.0 - 0.5);
-    for (int k = 0; k < 16; ++k) {
-      const double lon = 2.0 * std::numbers::pi * k / 16.0;
-      const std::optional<Vec2> p = mirror.robotPointToImage(
-          {centre.x() + radius * std::cos(lat) * std::cos(lon),
-           centre.y() + radius * std::cos(lat) * std::sin(lon), radius + radius * std::sin(lat)});
-      if (!p) return 0.0;
-      pts.push_back(*p);
-    }
-  }
-  // Monotone chain hull, then the shoelace area.
-  std::sort(pts.begin(), pts.end(), [](const Vec2& a, const Vec2& b) {
-    return a.x() < b.x() || (a.x() == b.x() && a.y() < b.y());
-  });
-  const auto cross = [](const Vec2& o, const Vec2& a, const Vec2& b) {
-    return (a - o).x() * (b - o).y() - (a - o).y() * (b - o).x();
-  };
-  std::vector<Vec2> hull(2 * pts.size());
-  std::size_t h = 0;
-  for (std::size_t i = 0; i < pts.size(); ++i) {
-    while (h >= 2 && cross(hull[h - 2], hull[h - 1], pts[i]) <= 0)
-      --h;
-    hull[h++] = pts[i];
-  }
-  for (std::size_t i = pts.size() - 1, lower = h + 1; i-- > 0;) {
-    while (h >= lower && cross(hull[h - 2], hull[h - 1], pts[i]) <= 0)
-      --h;
-    hull[h++] = pts[i];
-  }
-  double area = 0.0;
-  for (std::size_t i = 0; i + 1 < h; ++i)
-    area += hull[i].x() * hull[i + 1].y() - hull[i + 1].x() * hull[i].y();
-  return std::abs(area) / 2.0;
-}
-
 }  // namespace
 
-perception::LinePoints trackLines(const camera::MirrorModel& mirror,
-                                  const camera::ColourTable& table,
-                                  const camera::FrameView& frame) {
-  region_tracking::FrameProcessor processor(mirror, table, region_tracking::defaultVisionParams());
-  region_tracking::VisionResult result;
-  for (int i = 0; i < 3; ++i)
-    processor.process(frame, i == 2, result);
-  return result.lines;
-}
+namespace imagefit {
 
-ImageCalibration calibrateFromImages(const camera::MirrorModel& mirror,
-                                     const field::FieldModel& field,
-                                     const std::vector<camera::FrameView>& frames,
-                                     const std::vector<std::optional<geometry::Pose2>>& poses,
-                                     const ImageFitParams& params) {
-  if (frames.empty()) throw std::invalid_argument("colour calibration: no frames");
-  for (const camera::FrameView& f : frames) {
-    if (!f.valid() || f.width != mirror.width() || f.height != mirror.height()) {
-      throw std::invalid_argument(
-          fmt::format("colour calibration: a frame is {}x{}, the camera model expects {}x{}",
-                      f.width, f.height, mirror.width(), mirror.height()));
-    }
-  }
-  if (!poses.empty() && poses.size() != frames.size()) {
-    throw std::invalid_argument("colour calibration: one pose per frame, or none");
-  }
-  auto hasPose = [&](std::size_t f) { return !poses.empty() && poses[f].has_value(); };
-  const int w = mirror.width(), h = mirror.height();
-  const std::size_t n = static_cast<std::size_t>(w) * h;
-  const PixelGeometry geo = geometryOf(mirror);
-  std::vector<std::vector<Yuv>> planes;
+FromImages::FromImages(const camera::MirrorModel& mirror_in, const field::FieldModel& field_in,
+                       const std::vector<camera::FrameView>& frames_in,
+                       const std::vector<std::optional<geometry::Pose2>>& poses_in,
+                       const ImageFitParams& params_in)
+    : mirror(mirror_in),
+      field(field_in),
+      frames(frames_in),
+      poses(poses_in),
+      params(params_in),
+      w(mirror_in.width()),
+      h(mirror_in.height()),
+      n(static_cast<std::size_t>(w) * h),
+      geo(geometryOf(mirror_in)) {
   for (const camera::FrameView& f : frames)
     planes.push_back(yuvPlane(f));
-  ImageCalibration out;
+}
 
-  // --- the floor: the dominant colour in the annulus ---
+void FromImages::findFloor() {
   std::vector<std::uint8_t> annulus(n, 0);
   for (std::size_t i = 0; i < n; ++i) {
     annulus[i] = geo.distance[i] >= params.floor_from_m && geo.distance[i] <= params.floor_to_m;
   }
-  const FloorColour floorColour = findFloorColour(planes, annulus, 2);
+  floorColour = findFloorColour(planes, annulus, 2);
   if (floorColour.pixels < 200) {
     throw Refusal(
         fmt::format("the camera model shows almost no floor between {} and {} m: check --camera",
@@ -214,74 +148,73 @@ ImageCalibration calibrateFromImages(const camera::MirrorModel& mirror,
         100 * out.floor.share, params.floor_from_m, params.floor_to_m,
         100 * params.min_floor_share));
   }
-  auto isFloor = [&](const Yuv& c) { return floorColour.contains(c); };
+}
 
-  // --- lines: narrow bright ridges with floor on both sides ---
-  std::vector<std::vector<std::uint8_t>> ridgeMask(frames.size(), std::vector<std::uint8_t>(n, 0));
+void FromImages::findLines() {
+  ridgeMask.assign(frames.size(), std::vector<std::uint8_t>(n, 0));
   RidgeParams rp;
   rp.centre = mirror.params().centre;
   rp.min_radius = mirror.params().self_radius + 2.0;
   rp.max_radius = mirror.params().useful_radius;
   rp.min_contrast = 10.0;
   rp.min_ratio = params.min_line_ratio;
-  std::vector<double> floorLumaNear;
   for (std::size_t f = 0; f < frames.size(); ++f) {
     GreyImage grey{w, h, std::vector<std::uint8_t>(n)};
     for (std::size_t i = 0; i < n; ++i)
       grey.pixels[i] = planes[f][i].y;
-    for (const Ridge& r : findRidges(grey, rp)) {
-      ++out.ridges;
-      const int u = static_cast<int>(std::lround(r.pixel.x()));
-      const int v = static_cast<int>(std::lround(r.pixel.y()));
-      if (u < 0 || v < 0 || u >= w || v >= h) continue;
-      const std::size_t i = static_cast<std::size_t>(v) * w + u;
-      const double d = geo.distance[i];
-      if (!(d <= params.max_line_distance)) continue;
-      const double expected = field.lineWidth() / std::max(1e-4, geo.mpp_min[i]);
-      if (r.width > params.max_width_factor * expected + params.blur_px) continue;
-      bool flanksFloor = true;
-      for (int side : {-1, 1}) {
-        const Vec2 q = r.pixel + side * (r.half_width + 1.0) * r.normal;
-        const int qu = static_cast<int>(std::lround(q.x())),
-                  qv = static_cast<int>(std::lround(q.y()));
-        if (qu < 0 || qv < 0 || qu >= w || qv >= h ||
-            !isFloor(planes[f][static_cast<std::size_t>(qv) * w + qu])) {
-          flanksFloor = false;
-        }
-      }
-      if (!flanksFloor) continue;
-      ++out.line_ridges;
-      floorLumaNear.push_back(r.flank);
-      // Samples: across the ridge while at least 75 % of the way from the flank to the peak.
-      const double cut = r.flank + 0.75 * (r.peak - r.flank);
-      for (double t = -r.half_width; t <= r.half_width + 1e-9; t += 1.0) {
-        const Vec2 q = r.pixel + t * r.normal;
-        const int qu = static_cast<int>(std::lround(q.x())),
-                  qv = static_cast<int>(std::lround(q.y()));
-        if (qu < 0 || qv < 0 || qu >= w || qv >= h) continue;
-        const std::size_t qi = static_cast<std::size_t>(qv) * w + qu;
-        if (planes[f][qi].y >= cut) out.samples.line.push_back(planes[f][qi]);
-      }
-      // Around the ridge nothing is floor (its blurred edges mix with the paint).
-      const double reach = r.width / 2 + 2.0;
-      for (double t = -reach; t <= reach + 1e-9; t += 0.5) {
-        const Vec2 q = r.pixel + t * r.normal;
-        const int qu = static_cast<int>(std::lround(q.x())),
-                  qv = static_cast<int>(std::lround(q.y()));
-        if (qu < 0 || qv < 0 || qu >= w || qv >= h) continue;
-        for (int du = -1; du <= 1; ++du) {
-          for (int dv = -1; dv <= 1; ++dv) {
-            const int a = qu + du, b = qv + dv;
-            if (a >= 0 && b >= 0 && a < w && b < h)
-              ridgeMask[f][static_cast<std::size_t>(b) * w + a] = 1;
-          }
-        }
+    for (const Ridge& r : findRidges(grey, rp))
+      addLineRidge(f, r);
+  }
+}
+
+void FromImages::addLineRidge(std::size_t f, const Ridge& r) {
+  ++out.ridges;
+  const int u = static_cast<int>(std::lround(r.pixel.x()));
+  const int v = static_cast<int>(std::lround(r.pixel.y()));
+  if (u < 0 || v < 0 || u >= w || v >= h) return;
+  const std::size_t i = static_cast<std::size_t>(v) * w + u;
+  const double d = geo.distance[i];
+  if (!(d <= params.max_line_distance)) return;
+  const double expected = field.lineWidth() / std::max(1e-4, geo.mpp_min[i]);
+  if (r.width > params.max_width_factor * expected + params.blur_px) return;
+  bool flanksFloor = true;
+  for (int side : {-1, 1}) {
+    const Vec2 q = r.pixel + side * (r.half_width + 1.0) * r.normal;
+    const int qu = static_cast<int>(std::lround(q.x())), qv = static_cast<int>(std::lround(q.y()));
+    if (qu < 0 || qv < 0 || qu >= w || qv >= h ||
+        !isFloor(planes[f][static_cast<std::size_t>(qv) * w + qu])) {
+      flanksFloor = false;
+    }
+  }
+  if (!flanksFloor) return;
+  ++out.line_ridges;
+  floorLumaNear.push_back(r.flank);
+  // Samples: across the ridge while at least 75 % of the way from the flank to the peak.
+  const double cut = r.flank + 0.75 * (r.peak - r.flank);
+  for (double t = -r.half_width; t <= r.half_width + 1e-9; t += 1.0) {
+    const Vec2 q = r.pixel + t * r.normal;
+    const int qu = static_cast<int>(std::lround(q.x())), qv = static_cast<int>(std::lround(q.y()));
+    if (qu < 0 || qv < 0 || qu >= w || qv >= h) continue;
+    const std::size_t qi = static_cast<std::size_t>(qv) * w + qu;
+    if (planes[f][qi].y >= cut) out.samples.line.push_back(planes[f][qi]);
+  }
+  // Around the ridge nothing is floor (its blurred edges mix with the paint).
+  const double reach = r.width / 2 + 2.0;
+  for (double t = -reach; t <= reach + 1e-9; t += 0.5) {
+    const Vec2 q = r.pixel + t * r.normal;
+    const int qu = static_cast<int>(std::lround(q.x())), qv = static_cast<int>(std::lround(q.y()));
+    if (qu < 0 || qv < 0 || qu >= w || qv >= h) continue;
+    for (int du = -1; du <= 1; ++du) {
+      for (int dv = -1; dv <= 1; ++dv) {
+        const int a = qu + du, b = qv + dv;
+        if (a >= 0 && b >= 0 && a < w && b < h)
+          ridgeMask[f][static_cast<std::size_t>(b) * w + a] = 1;
       }
     }
   }
+}
 
-  // --- floor samples: floor chroma, not on a ridge, in the annulus and beyond to the lines'
-  // range ---
+void FromImages::sampleFloor() {
   for (std::size_t f = 0; f < frames.size(); ++f) {
     for (std::size_t i = 0; i < n; ++i) {
       const double d = geo.distance[i];
@@ -296,7 +229,7 @@ ImageCalibration calibrateFromImages(const camera::MirrorModel& mirror,
                     "little floor",
                     out.samples.floor.size(), params.min_floor_samples));
   }
-  std::vector<double> fy, fus, fvs;
+  std::vector<double> fus, fvs;
   for (const Yuv& c : out.samples.floor) {
     fy.push_back(c.y);
     fus.push_back(c.u);
@@ -304,13 +237,16 @@ ImageCalibration calibrateFromImages(const camera::MirrorModel& mirror,
   }
   out.floor.median = {percentileOf(fy, 50.0), percentileOf(fus, 50.0), percentileOf(fvs, 50.0)};
   out.floor.luma = {percentileOf(fy, 1.0), percentileOf(fy, 99.0)};
+}
+
+void FromImages::measureLines() {
   if (static_cast<int>(out.samples.line.size()) < params.min_line_samples) {
     throw Refusal(fmt::format(
         "only {} line pixels: the frames show no narrow bright ridges on the floor ({} ridges, "
         "{} with floor on both sides): no lines in view, or lines not brighter than the floor",
         out.samples.line.size(), out.ridges, out.line_ridges));
   }
-  std::vector<double> ly, lu, lv;
+  std::vector<double> lu, lv;
   for (const Yuv& c : out.samples.line) {
     ly.push_back(c.y);
     lu.push_back(c.u);
@@ -326,155 +262,11 @@ ImageCalibration calibrateFromImages(const camera::MirrorModel& mirror,
         "beside them {:.0f}",
         lineMedian, besideMedian));
   }
-  const double wu = out.white_point[0], wv = out.white_point[1];
+  wu = out.white_point[0];
+  wv = out.white_point[1];
+}
 
-  // --- the ball and the robots: what is neither, inside the field (needs the poses) ---
-  if (!poses.empty()) {
-    const double hx = field.length() / 2 + 0.3, hy = field.width() / 2 + 0.3;
-    std::vector<Blob> balls;
-    for (std::size_t f = 0; f < frames.size(); ++f) {
-      if (!hasPose(f)) continue;
-      std::vector<std::uint8_t> other(n, 0);
-      for (std::size_t i = 0; i < n; ++i) {
-        if (!std::isfinite(geo.distance[i]) || geo.distance[i] > 6.0) continue;
-        const Vec2 fp = geometry::pointRobotToField(*poses[f], geo.robot[i]);
-        if (std::abs(fp.x()) > hx || std::abs(fp.y()) > hy) continue;
-        const Yuv& c = planes[f][i];
-        if (isFloor(c)) continue;       // floor
-        if (ridgeMask[f][i]) continue;  // a line
-        other[i] = 1;
-      }
-      // Connected blobs (4-neighbours).
-      std::vector<int> label(n, -1);
-      for (std::size_t s = 0; s < n; ++s) {
-        if (!other[s] || label[s] >= 0) continue;
-        Blob b;
-        b.frame = static_cast<int>(f);
-        std::deque<int> queue{static_cast<int>(s)};
-        label[s] = 1;
-        while (!queue.empty()) {
-          const int p = queue.front();
-          queue.pop_front();
-          b.pixels.push_back(p);
-          const int pu = p % w, pv = p / w;
-          const int nb[4][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}};
-          for (const auto& d : nb) {
-            const int a = pu + d[0], c = pv + d[1];
-            if (a < 0 || c < 0 || a >= w || c >= h) continue;
-            const std::size_t q = static_cast<std::size_t>(c) * w + a;
-            if (other[q] && label[q] < 0) {
-              label[q] = 1;
-              queue.push_back(static_cast<int>(q));
-            }
-          }
-        }
-        if (b.pixels.size() < 6) continue;
-        double su = 0, sv = 0, sy = 0, sc = 0;
-        int minU = w, maxU = 0, minV = h, maxV = 0;
-        for (int p : b.pixels) {
-          const Yuv& c = planes[f][static_cast<std::size_t>(p)];
-          su += p % w;
-          sv += p / w;
-          sy += c.y;
-          sc += chromaDistance(c, wu, wv);
-          minU = std::min(minU, p % w);
-          maxU = std::max(maxU, p % w);
-          minV = std::min(minV, p / w);
-          maxV = std::max(maxV, p / w);
-        }
-        const double m = static_cast<double>(b.pixels.size());
-        b.centroid = Vec2(su / m, sv / m);
-        b.mean_y = sy / m;
-        b.chroma = sc / m;
-        // Dark blobs standing in the field: robots.
-        if (b.mean_y < 0.75 * out.floor.median[0] && b.pixels.size() >= 30) {
-          out.robots_found = true;
-          for (int p : b.pixels) {
-            const Yuv& c = planes[f][static_cast<std::size_t>(p)];
-            if (c.y < 0.8 * out.floor.luma[0]) out.samples.robot.push_back(c);
-          }
-          continue;
-        }
-        // A ball: colourful, not dark, about a ball's image for its distance, compact.
-        if (b.chroma < 15.0 || b.mean_y < 0.5 * out.floor.median[0]) continue;
-        const std::optional<camera::Vec3> centre = mirror.imageToRobotAtHeight(b.centroid, 0.11);
-        if (!centre) continue;
-        const Vec2 c2(centre->x(), centre->y());
-        const double expectedArea = std::max(1.0, ballImageArea(mirror, c2, 0.11));
-        if (expectedArea <= 1.0) continue;
-        const double ratio = m / expectedArea;
-        const double aspect = static_cast<double>(std::max(maxU - minU, maxV - minV) + 1) /
-                              static_cast<double>(std::min(maxU - minU, maxV - minV) + 1);
-        if (ratio < params.ball_area_low || ratio > params.ball_area_high || aspect > 3.0) {
-          continue;
-        }
-        balls.push_back(b);
-      }
-    }
-    // One ball lies at one field position: the blob position seen in the most frames wins. The
-    // field is symmetric, so a frame localized at its pose's twin sees the ball at the twin
-    // position (-x, -y): both count for the same ball.
-    const auto sameBall = [](const Vec2& a, const Vec2& b) {
-      return (a - b).norm() < 0.4 || (a + b).norm() < 0.4;
-    };
-    std::vector<Vec2> at;
-    for (const Blob& b : balls) {
-      const auto c = mirror.imageToRobotAtHeight(b.centroid, 0.11);
-      at.push_back(geometry::pointRobotToField(*poses[static_cast<std::size_t>(b.frame)],
-                                               Vec2(c->x(), c->y())));
-    }
-    int bestVotes = 0;
-    std::size_t bestIndex = 0;
-    for (std::size_t i = 0; i < balls.size(); ++i) {
-      std::vector<bool> framesSeen(frames.size(), false);
-      for (std::size_t j = 0; j < balls.size(); ++j) {
-        if (sameBall(at[i], at[j])) framesSeen[static_cast<std::size_t>(balls[j].frame)] = true;
-      }
-      const int votes = static_cast<int>(std::count(framesSeen.begin(), framesSeen.end(), true));
-      if (votes > bestVotes) {
-        bestVotes = votes;
-        bestIndex = i;
-      }
-    }
-    int posed = 0;
-    for (std::size_t f = 0; f < frames.size(); ++f)
-      posed += hasPose(f) ? 1 : 0;
-    const int needed = std::max(1, posed / 3);
-    if (bestVotes >= needed) {
-      out.ball_found = true;
-      out.ball_frames = bestVotes;
-      // Where the ball lies: the mean of its sightings (twins turned back).
-      Vec2 sum = Vec2::Zero();
-      int sightings = 0;
-      for (std::size_t j = 0; j < balls.size(); ++j) {
-        if (!sameBall(at[bestIndex], at[j])) continue;
-        sum += (at[bestIndex] - at[j]).norm() < 0.4 ? at[j] : Vec2(-at[j]);
-        ++sightings;
-      }
-      out.ball_field = sum / sightings;
-      for (std::size_t j = 0; j < balls.size(); ++j) {
-        if (!sameBall(at[bestIndex], at[j])) continue;
-        const Blob& b = balls[j];
-        // The inside of the blob (its rim mixes with the floor): pixels whose 4 neighbours are
-        // in the blob too.
-        std::vector<std::uint8_t> in(n, 0);
-        for (int p : b.pixels)
-          in[static_cast<std::size_t>(p)] = 1;
-        for (int p : b.pixels) {
-          const int pu = p % w, pv = p / w;
-          if (pu < 1 || pv < 1 || pu >= w - 1 || pv >= h - 1) continue;
-          if (in[static_cast<std::size_t>(p - 1)] && in[static_cast<std::size_t>(p + 1)] &&
-              in[static_cast<std::size_t>(p - w)] && in[static_cast<std::size_t>(p + w)]) {
-            out.samples.ball.push_back(
-                planes[static_cast<std::size_t>(b.frame)][static_cast<std::size_t>(p)]);
-          }
-        }
-      }
-      if (out.samples.ball.size() < 5) out.ball_found = false;
-    }
-  }
-
-  // --- the table ---
+void FromImages::buildTable() {
   const std::array<double, 2> light = params.light_range;
   Cone floorCone = coneOf(out.samples.floor, wu, wv, light, 4.0, 0.5, 99.5);
   Cone whiteCone = coneOf(out.samples.line, wu, wv, {light[0], 10.0}, 6.0, 2.0, 100.0);
@@ -533,7 +325,44 @@ ImageCalibration calibrateFromImages(const camera::MirrorModel& mirror,
     }
   }
   out.table = camera::ColourTable::fromLookup(std::move(cells));
-  return out;
+}
+
+}  // namespace imagefit
+
+perception::LinePoints trackLines(const camera::MirrorModel& mirror,
+                                  const camera::ColourTable& table,
+                                  const camera::FrameView& frame) {
+  region_tracking::FrameProcessor processor(mirror, table, region_tracking::defaultVisionParams());
+  region_tracking::VisionResult result;
+  for (int i = 0; i < 3; ++i)
+    processor.process(frame, i == 2, result);
+  return result.lines;
+}
+
+ImageCalibration calibrateFromImages(const camera::MirrorModel& mirror,
+                                     const field::FieldModel& field,
+                                     const std::vector<camera::FrameView>& frames,
+                                     const std::vector<std::optional<geometry::Pose2>>& poses,
+                                     const ImageFitParams& params) {
+  if (frames.empty()) throw std::invalid_argument("colour calibration: no frames");
+  for (const camera::FrameView& f : frames) {
+    if (!f.valid() || f.width != mirror.width() || f.height != mirror.height()) {
+      throw std::invalid_argument(
+          fmt::format("colour calibration: a frame is {}x{}, the camera model expects {}x{}",
+                      f.width, f.height, mirror.width(), mirror.height()));
+    }
+  }
+  if (!poses.empty() && poses.size() != frames.size()) {
+    throw std::invalid_argument("colour calibration: one pose per frame, or none");
+  }
+  imagefit::FromImages s(mirror, field, frames, poses, params);
+  s.findFloor();
+  s.findLines();
+  s.sampleFloor();
+  s.measureLines();
+  s.findBallAndRobots();
+  s.buildTable();
+  return std::move(s.out);
 }
 
 TableCheck checkTable(const camera::MirrorModel& mirror, const field::FieldModel& field,

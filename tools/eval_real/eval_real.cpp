@@ -144,35 +144,19 @@ void runRings(const config::Node& root, CaseResult& r) {
   }
 }
 
-void runLinePoints(const config::Node& root, CaseResult& r) {
-  const std::string file = config::resolveAgainst(root.file(), "", root.get<std::string>("points"));
-  const double scale = scaleOf(root);
-  std::vector<std::string> fields;
-  for (const config::Node& f : root.children("fields"))
-    fields.push_back(config::resolveAgainst(root.file(), "field", f.as<std::string>()));
-  const auto expect = expectations(root);
-  (void)root.getOr<std::string>("known", "");
-  root.rejectUnknownKeys();
-  if (!fs::exists(file)) {
-    r.skipped = true;
-    r.figures = "skipped: " + file + " is not there";
-    return;
-  }
-  const std::vector<Vec2> pts = readPoints(file, scale);
-  perception::LinePoints lines;
-  for (const Vec2& p : pts) {
-    perception::LinePoint lp;
-    lp.x = static_cast<float>(p.x());
-    lp.y = static_cast<float>(p.y());
-    lines.points.push_back(lp);
-  }
-  struct Fit {
-    std::string field;
-    Pose2 pose;
-    double on = 0.0, median_cm = 0.0;
-  };
+// A pose layer 2 found for the points on a candidate field, and how well they fit there.
+struct Fit {
+  std::string field;
+  Pose2 pose;
+  double on = 0.0, median_cm = 0.0;
+};
+
+// Layer 2's global search on every candidate field; the fields whose presets are not there go to
+// `missing`.
+std::vector<Fit> fitFields(const std::vector<std::string>& fields,
+                           const perception::LinePoints& lines, const std::vector<Vec2>& pts,
+                           std::vector<std::string>& missing) {
   std::vector<Fit> fits;
-  std::vector<std::string> missing;
   for (const std::string& name : fields) {
     std::optional<field::FieldModel> model;
     try {
@@ -195,6 +179,49 @@ void runLinePoints(const config::Node& root, CaseResult& r) {
           {model->name(), c.pose, static_cast<double>(near) / pts.size(), 100.0 * median(d)});
     }
   }
+  return fits;
+}
+
+// The runner-up: the best answer elsewhere (not the same pose nor its twin) on any field.
+const Fit* runnerUp(const std::vector<Fit>& fits) {
+  const Fit& best = fits.front();
+  const Fit* second = nullptr;
+  for (const Fit& f : fits) {
+    const Vec2 p = f.pose.position();
+    if (f.field == best.field &&
+        ((p - best.pose.position()).norm() < 0.5 || (p + best.pose.position()).norm() < 0.5)) {
+      continue;
+    }
+    second = &f;
+    break;
+  }
+  return second;
+}
+
+void runLinePoints(const config::Node& root, CaseResult& r) {
+  const std::string file = config::resolveAgainst(root.file(), "", root.get<std::string>("points"));
+  const double scale = scaleOf(root);
+  std::vector<std::string> fields;
+  for (const config::Node& f : root.children("fields"))
+    fields.push_back(config::resolveAgainst(root.file(), "field", f.as<std::string>()));
+  const auto expect = expectations(root);
+  (void)root.getOr<std::string>("known", "");
+  root.rejectUnknownKeys();
+  if (!fs::exists(file)) {
+    r.skipped = true;
+    r.figures = "skipped: " + file + " is not there";
+    return;
+  }
+  const std::vector<Vec2> pts = readPoints(file, scale);
+  perception::LinePoints lines;
+  for (const Vec2& p : pts) {
+    perception::LinePoint lp;
+    lp.x = static_cast<float>(p.x());
+    lp.y = static_cast<float>(p.y());
+    lines.points.push_back(lp);
+  }
+  std::vector<std::string> missing;
+  std::vector<Fit> fits = fitFields(fields, lines, pts, missing);
   std::sort(fits.begin(), fits.end(), [](const Fit& a, const Fit& b) { return a.on > b.on; });
   if (fits.empty()) {
     r.figures = fmt::format("{} points: no field fits{}", pts.size(),
@@ -213,17 +240,7 @@ void runLinePoints(const config::Node& root, CaseResult& r) {
     r.failed.push_back("no_fit: layer 2 accepted points it is expected to refuse");
   }
   const Fit& best = fits.front();
-  // The runner-up: the best answer elsewhere (not the same pose nor its twin) on any field.
-  const Fit* second = nullptr;
-  for (const Fit& f : fits) {
-    const Vec2 p = f.pose.position();
-    if (f.field == best.field &&
-        ((p - best.pose.position()).norm() < 0.5 || (p + best.pose.position()).norm() < 0.5)) {
-      continue;
-    }
-    second = &f;
-    break;
-  }
+  const Fit* second = runnerUp(fits);
   r.figures = fmt::format(
       "{} points (up to {:.1f} m): best field {}, pose ({:.2f}, {:.2f}, {:.1f} deg), {:.0f} % "
       "within 15 cm, median {:.1f} cm; runner-up {}",
@@ -335,6 +352,80 @@ BallFigures detectBalls(const venue::RenderedVenue& v, const camera::MirrorModel
   return f;
 }
 
+// 1. The mirror, from the shipped camera preset and no pose; nullopt (the case failed) when the
+// calibration refused.
+std::optional<cal::PoseFreeCalibration> venueMirror(const venue::VenueCase& spec,
+                                                    const venue::RenderedVenue& v,
+                                                    const std::vector<cal::UnposedFrame>& frames,
+                                                    CaseResult& r) {
+  std::optional<cal::PoseFreeCalibration> mirror;
+  try {
+    mirror = cal::calibrateAtUnknownPose(frames, v.field,
+                                         camera::loadCameraPreset(spec.camera).mirror.params(), {});
+  } catch (const cal::Refusal& e) {
+    r.figures = std::string("mirror refused: ") + e.what();
+    r.failed.push_back("the mirror calibration refused");
+    return std::nullopt;
+  }
+  return mirror;
+}
+
+// The fitted mirror against the true one: distances, poses, offset, and whether the tool would
+// write it.
+void judgeMirror(const venue::VenueCase& spec, const venue::RenderedVenue& v,
+                 const cal::PoseFreeCalibration& mirror, const camera::MirrorModel& fitted,
+                 CaseResult& r) {
+  const std::vector<std::string> weak = cal::weaknesses(mirror, v.field.name());
+  const cal::MirrorError e = cal::compareMirrors(v.mirror, fitted, 5.0, 1.0);
+  double poseCm = 0.0;
+  for (std::size_t i = 0; i < v.frames.size(); ++i) {
+    const Vec2 t = v.frames[i].pose.position();
+    poseCm = std::max(poseCm, 100.0 * std::min((mirror.frames[i].pose.position() - t).norm(),
+                                               (mirror.frames[i].twin.position() - t).norm()));
+  }
+  r.figures = fmt::format("mirror: distance 1-5 m {:.2f} %, poses {:.1f} cm, offset {:.1f} cm{}",
+                          e.distance_percent, poseCm, 100 * e.offset_m,
+                          weak.empty() ? "" : " (would refuse: " + weak.front() + ")");
+  bound(r, spec.expect, "max_distance_percent", e.distance_percent, true);
+  bound(r, spec.expect, "max_pose_cm", poseCm, true);
+  bound(r, spec.expect, "max_offset_cm", 100 * e.offset_m, true);
+  if (!weak.empty()) r.failed.push_back("the mirror calibration would refuse to write");
+}
+
+// The ball: the detector with the calibrated mirror and table, and the ball class's place.
+struct BallVerdict {
+  std::string ball = "no ball in the case";
+  std::string ball_detector;
+  bool ballRight = false;
+};
+
+BallVerdict judgeBall(const venue::VenueCase& spec, const venue::RenderedVenue& v,
+                      const cal::PoseFreeCalibration& mirror, const camera::MirrorModel& fitted,
+                      const cal::FramesCalibration& colours, CaseResult& r) {
+  BallVerdict verdict;
+  if (spec.ball) {
+    std::vector<geometry::Pose2> solved;
+    for (std::size_t i = 0; i < v.frames.size(); ++i)
+      solved.push_back(mirror.frames[i].pose);
+    const BallFigures b = detectBalls(v, fitted, colours.calibration.table, solved, *spec.ball);
+    verdict.ball_detector = fmt::format(
+        "; ball detector: found in {} of {} frames where it is in view, {} outside the field, {} "
+        "false",
+        b.found, b.visible, b.outside, b.false_balls);
+    if (b.visible > 0) bound(r, spec.expect, "min_ball_found", b.foundShare(), false);
+    bound(r, spec.expect, "max_balls_outside", b.outside, true);
+    const cal::ImageCalibration& c = colours.calibration;
+    const double off = c.ball_found ? std::min((c.ball_field - *spec.ball).norm(),
+                                               (c.ball_field + *spec.ball).norm())
+                                    : 1e9;
+    verdict.ballRight = c.ball_found && off < 0.3;
+    verdict.ball = c.ball_found
+                       ? fmt::format("ball class from the ball {:.2f} m off its place", off)
+                       : "no ball class";
+  }
+  return verdict;
+}
+
 void runVenue(const std::string& manifest, CaseResult& r) {
   const venue::VenueCase spec = venue::loadVenueCase(manifest);
   r.name = spec.name;
@@ -347,31 +438,10 @@ void runVenue(const std::string& manifest, CaseResult& r) {
     views.push_back(v.view(i));
   }
   // 1. The mirror, from the shipped camera preset and no pose.
-  std::optional<cal::PoseFreeCalibration> mirror;
-  try {
-    mirror = cal::calibrateAtUnknownPose(frames, v.field,
-                                         camera::loadCameraPreset(spec.camera).mirror.params(), {});
-  } catch (const cal::Refusal& e) {
-    r.figures = std::string("mirror refused: ") + e.what();
-    r.failed.push_back("the mirror calibration refused");
-    return;
-  }
-  const std::vector<std::string> weak = cal::weaknesses(*mirror, v.field.name());
+  const std::optional<cal::PoseFreeCalibration> mirror = venueMirror(spec, v, frames, r);
+  if (!mirror) return;
   const camera::MirrorModel fitted(mirror->mirror);
-  const cal::MirrorError e = cal::compareMirrors(v.mirror, fitted, 5.0, 1.0);
-  double poseCm = 0.0;
-  for (std::size_t i = 0; i < v.frames.size(); ++i) {
-    const Vec2 t = v.frames[i].pose.position();
-    poseCm = std::max(poseCm, 100.0 * std::min((mirror->frames[i].pose.position() - t).norm(),
-                                               (mirror->frames[i].twin.position() - t).norm()));
-  }
-  r.figures = fmt::format("mirror: distance 1-5 m {:.2f} %, poses {:.1f} cm, offset {:.1f} cm{}",
-                          e.distance_percent, poseCm, 100 * e.offset_m,
-                          weak.empty() ? "" : " (would refuse: " + weak.front() + ")");
-  bound(r, spec.expect, "max_distance_percent", e.distance_percent, true);
-  bound(r, spec.expect, "max_pose_cm", poseCm, true);
-  bound(r, spec.expect, "max_offset_cm", 100 * e.offset_m, true);
-  if (!weak.empty()) r.failed.push_back("the mirror calibration would refuse to write");
+  judgeMirror(spec, v, *mirror, fitted, r);
   // 2. The colours, with that mirror, from the frames alone.
   std::optional<cal::FramesCalibration> colours;
   try {
@@ -388,35 +458,14 @@ void runVenue(const std::string& manifest, CaseResult& r) {
         cal::trackLines(fitted, colours->calibration.table, views[i]);
     score.add(cal::scoreLinePoints(v.mirror, v.field, v.frames[i].pose, lines, {}));
   }
-  std::string ball = "no ball in the case";
-  std::string ball_detector;
-  bool ballRight = false;
-  if (spec.ball) {
-    std::vector<geometry::Pose2> solved;
-    for (std::size_t i = 0; i < v.frames.size(); ++i)
-      solved.push_back(mirror->frames[i].pose);
-    const BallFigures b = detectBalls(v, fitted, colours->calibration.table, solved, *spec.ball);
-    ball_detector = fmt::format(
-        "; ball detector: found in {} of {} frames where it is in view, {} outside the field, {} "
-        "false",
-        b.found, b.visible, b.outside, b.false_balls);
-    if (b.visible > 0) bound(r, spec.expect, "min_ball_found", b.foundShare(), false);
-    bound(r, spec.expect, "max_balls_outside", b.outside, true);
-    const cal::ImageCalibration& c = colours->calibration;
-    const double off = c.ball_found ? std::min((c.ball_field - *spec.ball).norm(),
-                                               (c.ball_field + *spec.ball).norm())
-                                    : 1e9;
-    ballRight = c.ball_found && off < 0.3;
-    ball = c.ball_found ? fmt::format("ball class from the ball {:.2f} m off its place", off)
-                        : "no ball class";
-  }
+  const BallVerdict b = judgeBall(spec, v, *mirror, fitted, *colours, r);
   r.figures += fmt::format(
       "; colours: {} line points, precision {:.3f}, recall {:.3f} (worst frame {:.3f}), {}{}{}",
-      score.points, score.precision(), score.recall(), score.min_recall, ball,
-      colours->check.problems.empty() ? "" : " (check would refuse)", ball_detector);
+      score.points, score.precision(), score.recall(), score.min_recall, b.ball,
+      colours->check.problems.empty() ? "" : " (check would refuse)", b.ball_detector);
   bound(r, spec.expect, "min_precision", score.precision(), false);
   bound(r, spec.expect, "min_recall", score.recall(), false);
-  if (spec.expect.count("ball") && spec.expect.at("ball") > 0 && !ballRight) {
+  if (spec.expect.count("ball") && spec.expect.at("ball") > 0 && !b.ballRight) {
     r.failed.push_back("ball: no ball class from the ball");
   }
   if (!colours->check.problems.empty()) {

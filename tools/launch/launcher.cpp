@@ -339,6 +339,65 @@ int Launcher::printGraph() const {
   return missingWriters(graph.nodes).empty() ? 0 : kExitProcessFailed;
 }
 
+namespace {
+
+// A Ctrl-C or SIGTERM: the first stops every process, the next kills them.
+void handleSignals(Supervisor& supervisor, Console& console, int& signals_handled) {
+  const int signals = g_stop_signals.load();
+  if (signals > signals_handled) {
+    signals_handled = signals;
+    if (!supervisor.stopping()) {
+      console.line("[launch] stopping: SIGTERM to every process (Ctrl-C again to kill)");
+      supervisor.requestStop();
+    } else {
+      console.line("[launch] killing every process");
+      supervisor.killAll();
+    }
+  }
+}
+
+// The status: the live table, or a compact line every status period.
+void reportStatus(const StatusBoard& board, const Supervisor& supervisor, Console& console,
+                  bool live_table, double status_period_s, SteadyClock::time_point now,
+                  SteadyClock::time_point& next_report) {
+  // The live table is redrawn every second, and with fresh contents whenever log lines push
+  // it down anyway.
+  if (SteadyClock::now() >= next_report || (live_table && console.hasPending())) {
+    const auto rows = board.rows(supervisor.processes(), supervisor.stopping(), now);
+    if (live_table) {
+      const auto table = fittedTable(rows);
+      console.flush(&table);
+      if (SteadyClock::now() >= next_report) next_report = now + std::chrono::seconds(1);
+    } else {
+      console.line("[launch] status: " + renderCompact(rows));
+      next_report = now + std::chrono::duration_cast<SteadyClock::duration>(
+                              std::chrono::duration<double>(std::max(0.2, status_period_s)));
+    }
+  }
+}
+
+// The final status; the exit code of the run.
+int finishRun(const StatusBoard& board, const Supervisor& supervisor, Console& console,
+              bool live_table) {
+  const auto rows = board.rows(supervisor.processes(), false, SteadyClock::now());
+  // A crash loop or a failure that was not restarted is a failed run, also when the run was
+  // ended by --duration or a signal.
+  const bool failed = supervisor.anyFailed();
+  if (live_table) {
+    console.line(failed ? "[launch] done: a process failed" : "[launch] done");
+    // The final table stays on screen, below the last log line.
+    const auto table = fittedTable(rows);
+    console.flush(&table);
+  } else {
+    console.line("[launch] final: " + renderCompact(rows));
+    console.line(failed ? "[launch] done: a process failed" : "[launch] done");
+    console.flush(nullptr);
+  }
+  return failed ? kExitProcessFailed : 0;
+}
+
+}  // namespace
+
 int Launcher::supervise() {
   const bool live_table = !options_.no_table && ::isatty(STDOUT_FILENO) != 0 &&
                           std::string(std::getenv("TERM") ? std::getenv("TERM") : "") != "dumb";
@@ -382,17 +441,7 @@ int Launcher::supervise() {
   auto next_report = started;
   int signals_handled = 0;
   while (!supervisor.finished()) {
-    const int signals = g_stop_signals.load();
-    if (signals > signals_handled) {
-      signals_handled = signals;
-      if (!supervisor.stopping()) {
-        console.line("[launch] stopping: SIGTERM to every process (Ctrl-C again to kill)");
-        supervisor.requestStop();
-      } else {
-        console.line("[launch] killing every process");
-        supervisor.killAll();
-      }
-    }
+    handleSignals(supervisor, console, signals_handled);
     const auto now = SteadyClock::now();
     if (options_.duration_s > 0 && !supervisor.stopping() &&
         now - started >= std::chrono::duration<double>(options_.duration_s)) {
@@ -402,38 +451,11 @@ int Launcher::supervise() {
     supervisor.poll(50);
     if (feed) feed->spinOnce(0);
 
-    // The live table is redrawn every second, and with fresh contents whenever log lines push
-    // it down anyway.
-    if (SteadyClock::now() >= next_report || (live_table && console.hasPending())) {
-      const auto rows = board.rows(supervisor.processes(), supervisor.stopping(), now);
-      if (live_table) {
-        const auto table = fittedTable(rows);
-        console.flush(&table);
-        if (SteadyClock::now() >= next_report) next_report = now + std::chrono::seconds(1);
-      } else {
-        console.line("[launch] status: " + renderCompact(rows));
-        next_report =
-            now + std::chrono::duration_cast<SteadyClock::duration>(
-                      std::chrono::duration<double>(std::max(0.2, options_.status_period_s)));
-      }
-    }
+    reportStatus(board, supervisor, console, live_table, options_.status_period_s, now,
+                 next_report);
     console.flush(nullptr);
   }
-  const auto rows = board.rows(supervisor.processes(), false, SteadyClock::now());
-  // A crash loop or a failure that was not restarted is a failed run, also when the run was
-  // ended by --duration or a signal.
-  const bool failed = supervisor.anyFailed();
-  if (live_table) {
-    console.line(failed ? "[launch] done: a process failed" : "[launch] done");
-    // The final table stays on screen, below the last log line.
-    const auto table = fittedTable(rows);
-    console.flush(&table);
-  } else {
-    console.line("[launch] final: " + renderCompact(rows));
-    console.line(failed ? "[launch] done: a process failed" : "[launch] done");
-    console.flush(nullptr);
-  }
-  return failed ? kExitProcessFailed : 0;
+  return finishRun(board, supervisor, console, live_table);
 }
 
 }  // namespace fieldline::launch

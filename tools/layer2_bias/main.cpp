@@ -166,6 +166,84 @@ int runMap(const Options& o, rt::SimCamera& sim, const fusion::LineMatcher& matc
   return 0;
 }
 
+// Per point at the true pose: the element, signed distance, range, bearing, and the signed
+// distance along the range direction (the radial component of the misplacement).
+struct Sum {
+  int n = 0;
+  double d = 0, d2 = 0, radial = 0, pixel = 0;
+  int pixel_n = 0;
+};
+
+struct Sums {
+  std::map<std::string, Sum> by_element;
+  std::map<int, Sum> by_range;
+};
+
+// One line point's misplacement at the true pose, added to the sums (and printed with --points).
+void addPoint(const Options& o, rt::SimCamera& sim, const Pose2& truth, const LinePoint& q,
+              Sums& sums) {
+  auto& by_element = sums.by_element;
+  auto& by_range = sums.by_range;
+  const double cr = std::cos(truth.phi), sn = std::sin(truth.phi);
+  const double range = std::hypot(q.x, q.y);
+  if (o.max_range > 0 && range > o.max_range) return;
+  const Vec2 p = toField(truth, q);
+  const Signed s = signedDistance(sim.field, p);
+  if (std::abs(s.distance) > 0.5) return;
+  // The misplacement vector is s.distance * normal; its component along the ray from the robot.
+  const Vec2 ray = (p - Vec2(truth.x, truth.y)).normalized();
+  const double radial = s.distance * s.normal.dot(ray);
+  // Where the line's centre (the closest model point) appears in the image, and the point's
+  // pixel offset from it along the image's radius (+ outward): the detector's placement.
+  const Vec2 off = s.closest - Vec2(truth.x, truth.y);
+  const Vec2 centre_robot(cr * off.x() + sn * off.y(), -sn * off.x() + cr * off.y());
+  const std::optional<Vec2> centre_pixel = sim.mirror.robotToImage(centre_robot);
+  const Vec2 pixel(q.u, q.v);
+  double pixel_radial = std::numeric_limits<double>::quiet_NaN();
+  if (centre_pixel) {
+    const Vec2 outward = (*centre_pixel - sim.mirror.params().centre).normalized();
+    pixel_radial = (pixel - *centre_pixel).dot(outward);
+  }
+  // The floor table's point against the mirror model's own inverse at the same pixel.
+  const std::optional<Vec2> exact = sim.mirror.imageToRobot(pixel);
+  const double table =
+      exact ? 100 * (Vec2(q.x, q.y) - *exact).norm() : std::numeric_limits<double>::quiet_NaN();
+  if (o.points) {
+    std::printf("%.2f,%.2f,%.3f,%.3f,%.3f,%s,%.3f,%.3f,%.3f,%.3f\n", q.u, q.v, q.x, q.y, range,
+                s.element.c_str(), 100 * s.distance, 100 * radial, pixel_radial, table);
+  }
+  for (Sum* sum : {&by_element[s.element], &by_range[static_cast<int>(range * 2)]}) {
+    ++sum->n;
+    sum->d += s.distance;
+    sum->d2 += s.distance * s.distance;
+    sum->radial += radial;
+    if (std::isfinite(pixel_radial)) {
+      sum->pixel += pixel_radial;
+      ++sum->pixel_n;
+    }
+  }
+}
+
+void printSums(const Sums& sums) {
+  const auto& by_element = sums.by_element;
+  const auto& by_range = sums.by_range;
+  std::printf(
+      "# by element: element,n,mean_signed_cm,rms_cm,mean_radial_cm,mean_pixel_radial_px\n");
+  for (const auto& [name, s] : by_element) {
+    std::printf("# %s,%d,%.3f,%.3f,%.3f,%.3f\n", name.c_str(), s.n, 100 * s.d / s.n,
+                100 * std::sqrt(s.d2 / s.n), 100 * s.radial / s.n,
+                s.pixel_n > 0 ? s.pixel / s.pixel_n : 0.0);
+  }
+  std::printf(
+      "# by range (0.5 m bins): "
+      "from_m,n,mean_signed_cm,rms_cm,mean_radial_cm,mean_pixel_radial_px\n");
+  for (const auto& [bin, s] : by_range) {
+    std::printf("# %.1f,%d,%.3f,%.3f,%.3f,%.3f\n", bin * 0.5, s.n, 100 * s.d / s.n,
+                100 * std::sqrt(s.d2 / s.n), 100 * s.radial / s.n,
+                s.pixel_n > 0 ? s.pixel / s.pixel_n : 0.0);
+  }
+}
+
 int runPose(const Options& o, rt::SimCamera& sim, const fusion::LineMatcher& matcher) {
   Pose2 truth;
   {
@@ -188,73 +266,13 @@ int runPose(const Options& o, rt::SimCamera& sim, const fusion::LineMatcher& mat
       100 * (c.pose.y - truth.y),
       fieldline::geometry::angleDiff(c.pose.phi, truth.phi) * 180 / std::numbers::pi,
       100 * std::sqrt(c.covariance(0, 0)), 100 * std::sqrt(c.covariance(1, 1)), 100 * c.cost);
-  // Per point at the true pose: the element, signed distance, range, bearing, and the signed
-  // distance along the range direction (the radial component of the misplacement).
-  struct Sum {
-    int n = 0;
-    double d = 0, d2 = 0, radial = 0, pixel = 0;
-    int pixel_n = 0;
-  };
-  std::map<std::string, Sum> by_element;
-  std::map<int, Sum> by_range;
+  Sums sums;
   if (o.points) {
     std::printf("u,v,rx,ry,range_m,element,signed_cm,radial_cm,pixel_radial_px,table_cm\n");
   }
-  const double cr = std::cos(truth.phi), sn = std::sin(truth.phi);
-  for (const LinePoint& q : points) {
-    const double range = std::hypot(q.x, q.y);
-    if (o.max_range > 0 && range > o.max_range) continue;
-    const Vec2 p = toField(truth, q);
-    const Signed s = signedDistance(sim.field, p);
-    if (std::abs(s.distance) > 0.5) continue;
-    // The misplacement vector is s.distance * normal; its component along the ray from the robot.
-    const Vec2 ray = (p - Vec2(truth.x, truth.y)).normalized();
-    const double radial = s.distance * s.normal.dot(ray);
-    // Where the line's centre (the closest model point) appears in the image, and the point's
-    // pixel offset from it along the image's radius (+ outward): the detector's placement.
-    const Vec2 off = s.closest - Vec2(truth.x, truth.y);
-    const Vec2 centre_robot(cr * off.x() + sn * off.y(), -sn * off.x() + cr * off.y());
-    const std::optional<Vec2> centre_pixel = sim.mirror.robotToImage(centre_robot);
-    const Vec2 pixel(q.u, q.v);
-    double pixel_radial = std::numeric_limits<double>::quiet_NaN();
-    if (centre_pixel) {
-      const Vec2 outward = (*centre_pixel - sim.mirror.params().centre).normalized();
-      pixel_radial = (pixel - *centre_pixel).dot(outward);
-    }
-    // The floor table's point against the mirror model's own inverse at the same pixel.
-    const std::optional<Vec2> exact = sim.mirror.imageToRobot(pixel);
-    const double table =
-        exact ? 100 * (Vec2(q.x, q.y) - *exact).norm() : std::numeric_limits<double>::quiet_NaN();
-    if (o.points) {
-      std::printf("%.2f,%.2f,%.3f,%.3f,%.3f,%s,%.3f,%.3f,%.3f,%.3f\n", q.u, q.v, q.x, q.y, range,
-                  s.element.c_str(), 100 * s.distance, 100 * radial, pixel_radial, table);
-    }
-    for (Sum* sum : {&by_element[s.element], &by_range[static_cast<int>(range * 2)]}) {
-      ++sum->n;
-      sum->d += s.distance;
-      sum->d2 += s.distance * s.distance;
-      sum->radial += radial;
-      if (std::isfinite(pixel_radial)) {
-        sum->pixel += pixel_radial;
-        ++sum->pixel_n;
-      }
-    }
-  }
-  std::printf(
-      "# by element: element,n,mean_signed_cm,rms_cm,mean_radial_cm,mean_pixel_radial_px\n");
-  for (const auto& [name, s] : by_element) {
-    std::printf("# %s,%d,%.3f,%.3f,%.3f,%.3f\n", name.c_str(), s.n, 100 * s.d / s.n,
-                100 * std::sqrt(s.d2 / s.n), 100 * s.radial / s.n,
-                s.pixel_n > 0 ? s.pixel / s.pixel_n : 0.0);
-  }
-  std::printf(
-      "# by range (0.5 m bins): "
-      "from_m,n,mean_signed_cm,rms_cm,mean_radial_cm,mean_pixel_radial_px\n");
-  for (const auto& [bin, s] : by_range) {
-    std::printf("# %.1f,%d,%.3f,%.3f,%.3f,%.3f\n", bin * 0.5, s.n, 100 * s.d / s.n,
-                100 * std::sqrt(s.d2 / s.n), 100 * s.radial / s.n,
-                s.pixel_n > 0 ? s.pixel / s.pixel_n : 0.0);
-  }
+  for (const LinePoint& q : points)
+    addPoint(o, sim, truth, q, sums);
+  printSums(sums);
   return c.valid ? 0 : 1;
 }
 

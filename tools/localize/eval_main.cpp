@@ -6,24 +6,19 @@
 #include <cstdio>
 #include <exception>
 #include <string>
+#include <vector>
 
 #include <CLI/CLI.hpp>
 
 #include "common/config/config.hpp"
 #include "tools/localize/localize_evaluation.hpp"
 
-int main(int argc, char** argv) {
-  using namespace fieldline;
-  CLI::App app{
-      "Layer 2 (fieldline-localize's matcher) against the truth on rendered frames whose camera "
-      "differs from the configured one: NEES of each answer's covariance"};
-  localize_eval::LocalizeEvalOptions options;
-  std::string camera = "omni_sim", field = "msl", matcher_config;
-  double min_in_band = 0.0;
-  bool per_frame = false;
-  app.add_option("--camera", camera, "Camera preset (the configured camera)")
-      ->capture_default_str();
-  app.add_option("--field", field, "Field preset")->capture_default_str();
+namespace {
+
+using namespace fieldline;
+
+// The true cameras and poses drawn, and the guesses.
+void addEvaluationOptions(CLI::App& app, localize_eval::LocalizeEvalOptions& options) {
   app.add_option("--cameras", options.cameras, "True cameras drawn at random")
       ->check(CLI::Range(1, 1000))
       ->capture_default_str();
@@ -52,6 +47,40 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(0.0, 1.0))
       ->capture_default_str();
   app.add_flag("--global", options.global, "No guess: the global search");
+}
+
+// One line per frame: the truth, the answer, its error, NEES and sigmas.
+void printFrames(const std::vector<localize_eval::FrameResult>& frames) {
+  for (const auto& f : frames) {
+    const auto& c = f.correction;
+    std::printf(
+        "camera %d truth (%.2f, %.2f, %.2f) valid %d err %.4f m %.2f deg (%.4f %.4f %.5f) "
+        "nees %.2f sigma (%.4f, %.4f, %.4f) points %d cells %.0f rms %.4f infl %.2f shape "
+        "%.2f runner %d delta %.2f\n",
+        f.camera, f.truth.x, f.truth.y, f.truth.phi, c.valid ? 1 : 0, f.position_error,
+        f.heading_error * 57.29578, c.pose.x - f.truth.x, c.pose.y - f.truth.y,
+        geometry::angleDiff(c.pose.phi, f.truth.phi), f.nees, std::sqrt(c.covariance(0, 0)),
+        std::sqrt(c.covariance(1, 1)), std::sqrt(c.covariance(2, 2)), c.points_used,
+        c.independent_points, c.residual_rms_m, c.residual_inflation, c.shape_widening,
+        c.has_runner_up ? 1 : 0, c.runner_up_delta);
+  }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  using namespace fieldline;
+  CLI::App app{
+      "Layer 2 (fieldline-localize's matcher) against the truth on rendered frames whose camera "
+      "differs from the configured one: NEES of each answer's covariance"};
+  localize_eval::LocalizeEvalOptions options;
+  std::string camera = "omni_sim", field = "msl", matcher_config;
+  double min_in_band = 0.0;
+  bool per_frame = false;
+  app.add_option("--camera", camera, "Camera preset (the configured camera)")
+      ->capture_default_str();
+  app.add_option("--field", field, "Field preset")->capture_default_str();
+  addEvaluationOptions(app, options);
   app.add_option("--matcher-config", matcher_config,
                  "YAML with a `matcher` section (e.g. config/fusion/default.yaml)");
   app.add_option("--min-in-band", min_in_band, "Exit 1 when the NEES in band is lower")
@@ -72,19 +101,7 @@ int main(int argc, char** argv) {
         });
     std::fprintf(stderr, "\n");
     if (per_frame) {
-      for (const auto& f : frames) {
-        const auto& c = f.correction;
-        std::printf(
-            "camera %d truth (%.2f, %.2f, %.2f) valid %d err %.4f m %.2f deg (%.4f %.4f %.5f) "
-            "nees %.2f sigma (%.4f, %.4f, %.4f) points %d cells %.0f rms %.4f infl %.2f shape "
-            "%.2f runner %d delta %.2f\n",
-            f.camera, f.truth.x, f.truth.y, f.truth.phi, c.valid ? 1 : 0, f.position_error,
-            f.heading_error * 57.29578, c.pose.x - f.truth.x, c.pose.y - f.truth.y,
-            geometry::angleDiff(c.pose.phi, f.truth.phi), f.nees, std::sqrt(c.covariance(0, 0)),
-            std::sqrt(c.covariance(1, 1)), std::sqrt(c.covariance(2, 2)), c.points_used,
-            c.independent_points, c.residual_rms_m, c.residual_inflation, c.shape_widening,
-            c.has_runner_up ? 1 : 0, c.runner_up_delta);
-      }
+      printFrames(frames);
     }
     const localize_eval::LocalizeEvalSummary summary = localize_eval::summarize(frames);
     std::printf("%s\n", localize_eval::summaryLine(summary).c_str());

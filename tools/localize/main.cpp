@@ -178,6 +178,60 @@ void printResults(const FieldModel& field, const std::string& method, std::size_
   std::printf("]\n}\n");
 }
 
+// One field, or several (comma-separated) of which the best fitting is answered: the points'
+// field may not be known.
+std::vector<std::string> fieldNames(const std::string& field_name) {
+  std::vector<std::string> field_names;
+  for (std::size_t start = 0; start <= field_name.size();) {
+    const std::size_t comma = std::min(field_name.find(',', start), field_name.size());
+    if (comma > start) field_names.push_back(field_name.substr(start, comma - start));
+    start = comma + 1;
+  }
+  if (field_names.empty()) throw std::invalid_argument("--field: no field named");
+  return field_names;
+}
+
+// A field's answer: layer 2's results (from the guess or the global search) and the best pose the
+// search rejected.
+struct FieldAnswer {
+  std::vector<PoseCorrection> results;
+  PoseCorrection rejected;
+};
+
+// Validity first, then the cost.
+std::pair<int, double> costOf(const FieldAnswer& a) {
+  if (!a.results.empty()) return std::pair{a.results[0].valid ? 0 : 1, a.results[0].cost};
+  return std::pair{1, a.rejected.iterations > 0 ? a.rejected.cost : 1e9};
+}
+
+// Each field's answer; the index of the one with the lowest cost among the valid ones (else among
+// all), which is printed in full.
+std::size_t answerEachField(const std::vector<FieldModel>& fields,
+                            const fieldline::perception::LinePoints& points,
+                            const fieldline::fusion::MatcherParams& params,
+                            const std::optional<Pose2>& guess, const std::string& cache,
+                            std::vector<FieldAnswer>& answers) {
+  std::size_t best = 0;
+  for (std::size_t k = 0; k < fields.size(); ++k) {
+    const fieldline::fusion::LineMatcher matcher(fields[k], params, cache);
+    if (guess) {
+      answers[k].results.push_back(matcher.correct(points.points, *guess));
+    } else {
+      answers[k].results = matcher.globalSearch(points.points, {}, 0, &answers[k].rejected);
+    }
+    if (costOf(answers[k]) < costOf(answers[best])) best = k;
+  }
+  if (fields.size() > 1) {
+    std::fprintf(stderr, "fields tried (best first by validity, then cost):\n");
+    for (std::size_t k = 0; k < fields.size(); ++k) {
+      const auto [invalid, cost] = costOf(answers[k]);
+      std::fprintf(stderr, "  %-16s %s  cost %.3f m%s\n", fields[k].name().c_str(),
+                   invalid ? "not valid" : "valid    ", cost, k == best ? "  <- answered" : "");
+    }
+  }
+  return best;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -205,15 +259,7 @@ int main(int argc, char** argv) {
   FIELDLINE_PARSE(app, argc, argv);
 
   try {
-    // One field, or several (comma-separated) of which the best fitting is answered: the points'
-    // field may not be known.
-    std::vector<std::string> field_names;
-    for (std::size_t start = 0; start <= field_name.size();) {
-      const std::size_t comma = std::min(field_name.find(',', start), field_name.size());
-      if (comma > start) field_names.push_back(field_name.substr(start, comma - start));
-      start = comma + 1;
-    }
-    if (field_names.empty()) throw std::invalid_argument("--field: no field named");
+    const std::vector<std::string> field_names = fieldNames(field_name);
     std::vector<FieldModel> fields;
     for (const std::string& name : field_names)
       fields.push_back(fieldline::field::loadFieldPreset(name));
@@ -228,35 +274,8 @@ int main(int argc, char** argv) {
       guess = Pose2{g[0], g[1], g[2]};
     }
 
-    // Each field's answer; the one with the lowest cost among the valid ones (else among all) is
-    // printed in full.
-    struct FieldAnswer {
-      std::vector<PoseCorrection> results;
-      PoseCorrection rejected;
-    };
     std::vector<FieldAnswer> answers(fields.size());
-    std::size_t best = 0;
-    const auto costOf = [](const FieldAnswer& a) {
-      if (!a.results.empty()) return std::pair{a.results[0].valid ? 0 : 1, a.results[0].cost};
-      return std::pair{1, a.rejected.iterations > 0 ? a.rejected.cost : 1e9};
-    };
-    for (std::size_t k = 0; k < fields.size(); ++k) {
-      const fieldline::fusion::LineMatcher matcher(fields[k], params, cache);
-      if (guess) {
-        answers[k].results.push_back(matcher.correct(points.points, *guess));
-      } else {
-        answers[k].results = matcher.globalSearch(points.points, {}, 0, &answers[k].rejected);
-      }
-      if (costOf(answers[k]) < costOf(answers[best])) best = k;
-    }
-    if (fields.size() > 1) {
-      std::fprintf(stderr, "fields tried (best first by validity, then cost):\n");
-      for (std::size_t k = 0; k < fields.size(); ++k) {
-        const auto [invalid, cost] = costOf(answers[k]);
-        std::fprintf(stderr, "  %-16s %s  cost %.3f m%s\n", fields[k].name().c_str(),
-                     invalid ? "not valid" : "valid    ", cost, k == best ? "  <- answered" : "");
-      }
-    }
+    const std::size_t best = answerEachField(fields, points, params, guess, cache, answers);
     const FieldModel& field = fields[best];
     const std::vector<PoseCorrection>& results = answers[best].results;
     char reason_text[256];

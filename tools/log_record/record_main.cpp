@@ -118,19 +118,11 @@ struct Recorded {
   bool warned_clock = false;
 };
 
-int record(Options& o, const bus::CommonOptions& common) {
-  SystemClock clock;
-  o.recording.max_file_bytes = static_cast<std::int64_t>(o.max_mb * 1024.0 * 1024.0);
-  if (o.team && o.launch.empty()) o.launch = "sim_team";
-  const recording::LaunchSettings settings =
-      o.launch.empty()
-          ? recording::settingsForField(o.field)
-          : recording::settingsFromLaunchFile(config::resolvePreset("launch", o.launch));
-
-  // Which buses, each robot with its clock: the launch file's (the simulated team, the same
-  // reference time as the launcher when FIELDLINE_CLOCK_REFERENCE_US is set, as scripts/demo and
-  // fieldline-eval set it), or on a robot the one its processes get from the environment (none on
-  // a real robot).
+// Which buses, each robot with its clock: the launch file's (the simulated team, the same
+// reference time as the launcher when FIELDLINE_CLOCK_REFERENCE_US is set, as scripts/demo and
+// fieldline-eval set it), or on a robot the one its processes get from the environment (none on
+// a real robot).
+std::vector<Recorded> busesToRecord(const Options& o, const bus::CommonOptions& common) {
   std::vector<Recorded> buses;
   if (o.team) {
     const launch::RobotClocks clocks =
@@ -142,6 +134,81 @@ int record(Options& o, const bus::CommonOptions& common) {
   } else {
     buses.push_back({.robot = common.robot, .clock = bus::robotClockErrorFromEnvironment()});
   }
+  return buses;
+}
+
+// Once a second: the status metrics, and the clock check (the model against the traffic).
+void reportProgress(bus::Node& node, std::vector<Recorded>& buses) {
+  std::int64_t bytes = 0, events = 0, skipped = 0;
+  for (Recorded& b : buses) {
+    bytes += b.file->bytesWritten();
+    events += b.file->eventsWritten();
+    skipped += b.file->imagesSkipped();
+    for (const auto& [kind, n] : b.file->refused())
+      node.setMetric(fmt::format("refused_{}_robot{}", kind, b.robot), static_cast<double>(n));
+    const auto& observed = b.file->observedClock();
+    if (b.robot == 0 || !observed) continue;
+    // Compared where the traffic was, not extrapolated to now.
+    const Utime at = b.file->observedAt();
+    const double disagreement_ms =
+        static_cast<double>(observed->ownAt(at) - truthToOwn(b.clock, at)) * 1e-3;
+    node.setMetric(fmt::format("clock_check_ms_robot{}", b.robot), disagreement_ms);
+    // More than the delivery delay: the clock model written into the recording is wrong.
+    if (std::abs(disagreement_ms) > 20.0) {
+      node.status().setWarning(fmt::format("clock{}", b.robot),
+                               fmt::format("robot {}'s traffic is {:.1f} ms off its recorded clock",
+                                           b.robot, disagreement_ms));
+      if (!b.warned_clock) {
+        spdlog::warn(
+            "robot {}'s stamps are {:.1f} ms off the clock model in the recording "
+            "(offset {:.3f} s): the launch file's clocks are not the running team's?",
+            b.robot, disagreement_ms, b.clock.offset_us * 1e-6);
+        b.warned_clock = true;
+      }
+    } else {
+      node.status().setWarning(fmt::format("clock{}", b.robot), "");
+    }
+  }
+  node.setMetric("mb_written", static_cast<double>(bytes) / (1024.0 * 1024.0));
+  node.setMetric("events_written", static_cast<double>(events));
+  node.setMetric("images_skipped", static_cast<double>(skipped));
+  for (Recorded& b : buses)
+    b.file->flush();
+}
+
+// Every file's last RECORDING_INFO and its summary; 1 when a write failed or a bus was silent.
+int finishRecording(bus::Node& node, std::vector<Recorded>& buses, SystemClock& clock) {
+  int rc = node.status().errorCount("log_write") > 0 ? 1 : 0;
+  for (Recorded& b : buses) {
+    b.file->writeInfo(clock.now());
+    b.file->flush();
+    std::string refused;
+    for (const auto& [kind, n] : b.file->refused())
+      refused += fmt::format(" {} {}", kind, n);
+    fmt::print("{}: {} messages in {} file(s), {:.1f} MB, refused:{}{}\n", b.file->currentPath(),
+               b.file->eventsWritten(), b.file->filesStarted(),
+               static_cast<double>(b.file->bytesWritten()) / (1024.0 * 1024.0),
+               refused.empty() ? " none" : refused,
+               b.file->lastRefusal().empty() ? "" : " (last: " + b.file->lastRefusal() + ")");
+    if (b.file->eventsWritten() == 0) {
+      fmt::print(stderr, "record: nothing was heard on {}'s bus\n",
+                 b.robot == 0 ? std::string("the simulator") : "robot " + std::to_string(b.robot));
+      rc = 1;
+    }
+  }
+  return rc;
+}
+
+int record(Options& o, const bus::CommonOptions& common) {
+  SystemClock clock;
+  o.recording.max_file_bytes = static_cast<std::int64_t>(o.max_mb * 1024.0 * 1024.0);
+  if (o.team && o.launch.empty()) o.launch = "sim_team";
+  const recording::LaunchSettings settings =
+      o.launch.empty()
+          ? recording::settingsForField(o.field)
+          : recording::settingsFromLaunchFile(config::resolvePreset("launch", o.launch));
+
+  std::vector<Recorded> buses = busesToRecord(o, common);
   const std::string primary = o.team && !o.no_sim ? bus::simBusUrl(o.address)
                               : o.team            ? bus::robotBusUrl(o.robots.front(), o.address)
                                                   : common.bus_url;
@@ -178,70 +245,14 @@ int record(Options& o, const bus::CommonOptions& common) {
         b.bus);
   }
 
-  // Once a second: the status metrics, and the clock check (the model against the traffic).
-  node.every(kMicrosPerSecond, [&] {
-    std::int64_t bytes = 0, events = 0, skipped = 0;
-    for (Recorded& b : buses) {
-      bytes += b.file->bytesWritten();
-      events += b.file->eventsWritten();
-      skipped += b.file->imagesSkipped();
-      for (const auto& [kind, n] : b.file->refused())
-        node.setMetric(fmt::format("refused_{}_robot{}", kind, b.robot), static_cast<double>(n));
-      const auto& observed = b.file->observedClock();
-      if (b.robot == 0 || !observed) continue;
-      // Compared where the traffic was, not extrapolated to now.
-      const Utime at = b.file->observedAt();
-      const double disagreement_ms =
-          static_cast<double>(observed->ownAt(at) - truthToOwn(b.clock, at)) * 1e-3;
-      node.setMetric(fmt::format("clock_check_ms_robot{}", b.robot), disagreement_ms);
-      // More than the delivery delay: the clock model written into the recording is wrong.
-      if (std::abs(disagreement_ms) > 20.0) {
-        node.status().setWarning(
-            fmt::format("clock{}", b.robot),
-            fmt::format("robot {}'s traffic is {:.1f} ms off its recorded clock", b.robot,
-                        disagreement_ms));
-        if (!b.warned_clock) {
-          spdlog::warn(
-              "robot {}'s stamps are {:.1f} ms off the clock model in the recording "
-              "(offset {:.3f} s): the launch file's clocks are not the running team's?",
-              b.robot, disagreement_ms, b.clock.offset_us * 1e-6);
-          b.warned_clock = true;
-        }
-      } else {
-        node.status().setWarning(fmt::format("clock{}", b.robot), "");
-      }
-    }
-    node.setMetric("mb_written", static_cast<double>(bytes) / (1024.0 * 1024.0));
-    node.setMetric("events_written", static_cast<double>(events));
-    node.setMetric("images_skipped", static_cast<double>(skipped));
-    for (Recorded& b : buses)
-      b.file->flush();
-  });
+  node.every(kMicrosPerSecond, [&] { reportProgress(node, buses); });
 
   bus::installStopSignals();
   const Utime end = o.duration_s > 0.0 ? clock.now() + static_cast<Utime>(o.duration_s * 1e6) : 0;
   while (!node.stopRequested() && !bus::stopSignalReceived() && (end == 0 || clock.now() < end))
     node.spinOnce(100);
 
-  int rc = node.status().errorCount("log_write") > 0 ? 1 : 0;
-  for (Recorded& b : buses) {
-    b.file->writeInfo(clock.now());
-    b.file->flush();
-    std::string refused;
-    for (const auto& [kind, n] : b.file->refused())
-      refused += fmt::format(" {} {}", kind, n);
-    fmt::print("{}: {} messages in {} file(s), {:.1f} MB, refused:{}{}\n", b.file->currentPath(),
-               b.file->eventsWritten(), b.file->filesStarted(),
-               static_cast<double>(b.file->bytesWritten()) / (1024.0 * 1024.0),
-               refused.empty() ? " none" : refused,
-               b.file->lastRefusal().empty() ? "" : " (last: " + b.file->lastRefusal() + ")");
-    if (b.file->eventsWritten() == 0) {
-      fmt::print(stderr, "record: nothing was heard on {}'s bus\n",
-                 b.robot == 0 ? std::string("the simulator") : "robot " + std::to_string(b.robot));
-      rc = 1;
-    }
-  }
-  return rc;
+  return finishRecording(node, buses, clock);
 }
 
 }  // namespace

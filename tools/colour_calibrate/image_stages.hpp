@@ -1,0 +1,94 @@
+// The stages of calibrateFromImages (image_calibration.hpp) and what they share, for the files
+// that implement them: image_calibration.cpp (the floor, the lines, the table) and
+// image_objects.cpp (the ball and the robots, from blobs that are neither floor nor line).
+// Internal to the colour calibration library.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <optional>
+#include <vector>
+
+#include "common/camera/colour.hpp"
+#include "common/camera/frame.hpp"
+#include "common/camera/mirror_model.hpp"
+#include "common/field/field_model.hpp"
+#include "common/geometry/geometry.hpp"
+#include "tools/calibration_common/floor_colour.hpp"
+#include "tools/calibration_common/ridges.hpp"
+#include "tools/colour_calibrate/image_calibration.hpp"
+
+namespace fieldline::calibration::imagefit {
+
+using camera::Vec2;
+using camera::Yuv;
+
+double percentileOf(std::vector<double> v, double p);
+double chromaDistance(const Yuv& c, double u, double v);
+
+// Per pixel of the image: where it looks on the floor.
+struct PixelGeometry {
+  std::vector<double> distance;  // robot-frame floor distance, NaN outside the useful zone
+  std::vector<Vec2> robot;       // robot-frame floor point
+  std::vector<double> mpp_min;   // the finer of radial and tangential metres per pixel
+};
+
+PixelGeometry geometryOf(const camera::MirrorModel& mirror);
+
+struct Blob {
+  std::vector<int> pixels;
+  Vec2 centroid = Vec2::Zero();
+  double mean_y = 0.0;
+  double chroma = 0.0;  // mean distance from the white point
+  int frame = 0;
+  double aspect = 1.0;  // of its bounding box, long side over short side
+};
+
+// One calibration from frames in progress: the stages in the order calibrateFromImages runs
+// them, each reading and writing the shared state below.
+struct FromImages {
+  FromImages(const camera::MirrorModel& mirror, const field::FieldModel& field,
+             const std::vector<camera::FrameView>& frames,
+             const std::vector<std::optional<geometry::Pose2>>& poses,
+             const ImageFitParams& params);
+
+  // The floor: the dominant colour in the annulus; Refusal when there is none.
+  void findFloor();
+  // Lines: narrow bright ridges with floor on both sides; their samples, and around them the
+  // pixels that are no floor.
+  void findLines();
+  void addLineRidge(std::size_t f, const Ridge& r);
+  // Floor samples: floor chroma, not on a ridge, in the annulus and beyond to the lines' range.
+  void sampleFloor();
+  // The lines' luma and the white point; Refusal when they are not brighter than the floor.
+  void measureLines();
+  // The ball and the robots: what is neither, inside the field (needs the poses).
+  void findBallAndRobots();
+  std::vector<std::uint8_t> otherMask(std::size_t f) const;
+  std::vector<Blob> blobsOf(std::size_t f, const std::vector<std::uint8_t>& other) const;
+  bool looksLikeABall(const Blob& b) const;
+  void chooseBall(const std::vector<Blob>& balls);
+  // The lookup table from the classes' cones.
+  void buildTable();
+
+  bool hasPose(std::size_t f) const { return !poses.empty() && poses[f].has_value(); }
+  bool isFloor(const Yuv& c) const { return floorColour.contains(c); }
+
+  const camera::MirrorModel& mirror;
+  const field::FieldModel& field;
+  const std::vector<camera::FrameView>& frames;
+  const std::vector<std::optional<geometry::Pose2>>& poses;
+  const ImageFitParams& params;
+  const int w, h;
+  const std::size_t n;
+  const PixelGeometry geo;
+  std::vector<std::vector<Yuv>> planes;
+  ImageCalibration out;
+  FloorColour floorColour;
+  std::vector<std::vector<std::uint8_t>> ridgeMask;
+  std::vector<double> floorLumaNear;  // the flank of every line ridge
+  std::vector<double> fy, ly;         // the floor's and the lines' luma samples
+  double wu = 0.0, wv = 0.0;          // the white point
+};
+
+}  // namespace fieldline::calibration::imagefit
