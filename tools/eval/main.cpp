@@ -480,6 +480,15 @@ void writeCsvs(const eval::Summary& summary, const std::string& out_dir) {
   }
 }
 
+// team_pairs.csv: every robot's TEAM_STATE with its own valid ball, both errors (where the team
+// ball loses to an own ball, and when).
+void writeTeamPairs(const eval::TeamBallSummary& s, const std::string& out_dir) {
+  std::ofstream csv(out_dir + "/team_pairs.csv");
+  csv << "robot,utime,own_error_m,team_error_m\n";
+  for (const auto& p : s.pairs)
+    csv << fmt::format("{},{},{:.4f},{:.4f}\n", p.robot, p.utime, p.own_error_m, p.team_error_m);
+}
+
 // The robustness figures (faults.hpp): robustness.json and their lines.
 void reportRobustness(const EvalArgs& a, const Collector& collector, const eval::Summary& summary) {
   Utime t0 = 0;
@@ -530,6 +539,7 @@ int report(const EvalArgs& a, const Collector& collector, const std::string& sou
     const eval::TeamBallSummary team_ball =
         eval::evaluateTeamBall(collector.truth, collector.balls, collector.teams);
     std::ofstream(a.out_dir + "/team_ball.json") << eval::teamBallJson(team_ball);
+    writeTeamPairs(team_ball, a.out_dir);
     std::printf("%s\n", eval::teamBallLine(team_ball).c_str());
   }
   return 0;
