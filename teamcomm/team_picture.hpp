@@ -41,7 +41,9 @@ struct PictureOptions {
   // The fused team ball's covariance grows by this squared times its velocity's outer product:
   // the reporters' stamp errors are common to all of them (fusion's ball.stamp_sigma_s; live
   // match at 2-3 m/s: the team ball 9 cm off like each own ball), so fusing does not shrink
-  // that part. 0: off, s.
+  // that part (each reporter's BALL_STATE carries the same term: counted about 1 + 1/n times
+  // for n reporters, a first cut while the match's team ball is still too confident at speed).
+  // 0: off, s.
   double ball_stamp_sigma_s = 0.03;
   // Squared Mahalanobis distance within which two balls agree (chi-square, 2 dof, 99 %).
   double gate_chi2 = 9.21;

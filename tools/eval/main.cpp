@@ -563,8 +563,9 @@ int main(int argc, char** argv) {
       "Localization evaluation: runs the simulated team for a scenario (or reads a recorded log "
       "with SIM_WORLD, ROBOT_STATE and BALL_STATE), matches every estimate with the truth at the "
       "same utime, writes summary.json, samples.csv, balls.csv, trajectories.png, errors.png and "
-      "latency.png, and prints one summary line. Run it inside a private network namespace (see "
-      "docs/fusion.md)."};
+      "latency.png (with TEAM_STATE also team_ball.json and team_pairs.csv: the team ball against "
+      "each robot's own ball, over the run and on the same instants), and prints the summary "
+      "lines. Run it inside a private network namespace (see docs/fusion.md)."};
   EvalArgs args;
   addOptions(app, args);
   FIELDLINE_PARSE(app, argc, argv);
