@@ -1,5 +1,6 @@
 #include "teamcomm/team_picture.hpp"
 
+#include <Eigen/Eigenvalues>
 #include <Eigen/LU>
 #include <algorithm>
 #include <cmath>
@@ -144,9 +145,11 @@ perception::TeamState TeamPicture::picture(Utime now, TeamBallResult* team_ball)
   std::vector<int> superseded;
   if (options_.superseded_after_us > 0) {
     std::vector<BallCandidate> current;
+    const double max_variance = options_.supersede_max_sigma_m * options_.supersede_max_sigma_m;
     for (const BallCandidate& c : candidates) {
       const bool stale = std::any_of(candidates.begin(), candidates.end(), [&](const auto& d) {
-        return d.last_seen - c.last_seen > options_.superseded_after_us &&
+        const bool confident = d.covariance.eigenvalues().real().maxCoeff() <= max_variance;
+        return confident && d.last_seen - c.last_seen > options_.superseded_after_us &&
                mahalanobis2(c, d) > options_.gate_chi2;
       });
       if (stale) {

@@ -22,8 +22,10 @@ namespace fieldline::teamcomm {
 struct PictureOptions {
   // A robot is present while its newest report is at most this old.
   Utime present_timeout_us = 500'000;
-  // A ball last seen longer ago than this is not used.
-  Utime ball_timeout_us = 1'000'000;
+  // A ball its reporter last saw longer ago than this is not used, and a team ball none of whose
+  // reporters saw it this recently is not claimed: fusion's own-ball rule (ball.max_age_s). 1 s
+  // until 2026-12-06 let the team ball outlive every own ball by up to half a second.
+  Utime ball_timeout_us = 500'000;
   // Predictions reach at most this far (beyond it, positions are held).
   Utime max_prediction_us = 500'000;
   // Unmodelled acceleration of robots and ball: position uncertainty grows by this times the
@@ -41,7 +43,9 @@ struct PictureOptions {
   // The fused team ball's covariance grows by this squared times its velocity's outer product:
   // the reporters' stamp errors are common to all of them (fusion's ball.stamp_sigma_s; live
   // match at 2-3 m/s: the team ball 9 cm off like each own ball), so fusing does not shrink
-  // that part. 0: off, s.
+  // that part (each reporter's BALL_STATE carries the same term: counted about 1 + 1/n times
+  // for n reporters, a first cut while the match's team ball is still too confident at speed).
+  // 0: off, s.
   double ball_stamp_sigma_s = 0.03;
   // Squared Mahalanobis distance within which two balls agree (chi-square, 2 dof, 99 %).
   double gate_chi2 = 9.21;
@@ -55,8 +59,15 @@ struct PictureOptions {
   // A ball whose reporter last saw it this much longer ago than another reporter saw a ball that
   // contradicts it (outside the gate) is superseded and left out: the ball has moved since (a
   // kick, a put-back) and its reporter has not seen it since; its estimate stays valid for a
-  // while (fusion's max_age) but is no longer the ball. Three camera frames. 0: off, µs.
-  Utime superseded_after_us = 100'000;
+  // while (fusion's max_age) but is no longer the ball. A put-back's first confident sighting
+  // comes at least three frames (fusion's restart_after_outliers) after the last one at the old
+  // place; robots that see the ball at the same time are within a frame of each other (a plain
+  // disagreement: the larger group wins). 100 ms (exactly three frames) until 2026-12-06 let
+  // the old place win the first picture after a put-back. 0: off, µs.
+  Utime superseded_after_us = 50'000;
+  // Only a confident sighting supersedes: both of its position sigmas at most this, m (fusion's
+  // ball.restart_max_sigma_m).
+  double supersede_max_sigma_m = 0.15;
 };
 
 // One robot's report, already converted to our clock.

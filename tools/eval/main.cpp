@@ -480,6 +480,15 @@ void writeCsvs(const eval::Summary& summary, const std::string& out_dir) {
   }
 }
 
+// team_pairs.csv: every robot's TEAM_STATE with its own valid ball, both errors (where the team
+// ball loses to an own ball, and when).
+void writeTeamPairs(const eval::TeamBallSummary& s, const std::string& out_dir) {
+  std::ofstream csv(out_dir + "/team_pairs.csv");
+  csv << "robot,utime,own_error_m,team_error_m\n";
+  for (const auto& p : s.pairs)
+    csv << fmt::format("{},{},{:.4f},{:.4f}\n", p.robot, p.utime, p.own_error_m, p.team_error_m);
+}
+
 // The robustness figures (faults.hpp): robustness.json and their lines.
 void reportRobustness(const EvalArgs& a, const Collector& collector, const eval::Summary& summary) {
   Utime t0 = 0;
@@ -530,6 +539,7 @@ int report(const EvalArgs& a, const Collector& collector, const std::string& sou
     const eval::TeamBallSummary team_ball =
         eval::evaluateTeamBall(collector.truth, collector.balls, collector.teams);
     std::ofstream(a.out_dir + "/team_ball.json") << eval::teamBallJson(team_ball);
+    writeTeamPairs(team_ball, a.out_dir);
     std::printf("%s\n", eval::teamBallLine(team_ball).c_str());
   }
   return 0;
@@ -554,8 +564,9 @@ int main(int argc, char** argv) {
       "Localization evaluation: runs the simulated team for a scenario (or reads a recorded log "
       "with SIM_WORLD, ROBOT_STATE and BALL_STATE), matches every estimate with the truth at the "
       "same utime, writes summary.json, samples.csv, balls.csv, trajectories.png, errors.png and "
-      "latency.png, and prints one summary line. Run it inside a private network namespace (see "
-      "docs/fusion.md)."};
+      "latency.png (with TEAM_STATE also team_ball.json and team_pairs.csv: the team ball against "
+      "each robot's own ball, over the run and on the same instants), and prints the summary "
+      "lines. Run it inside a private network namespace (see docs/fusion.md)."};
   EvalArgs args;
   addOptions(app, args);
   FIELDLINE_PARSE(app, argc, argv);

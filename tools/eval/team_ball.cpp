@@ -59,8 +59,11 @@ void pairOwnWithTeam(const std::vector<TruthSample>& truth, const std::vector<Ba
     if (!b.valid || t.utime - b.utime > options.pair_window_us) continue;
     double tx = 0, ty = 0, bx = 0, by = 0;
     if (!ballAt(truth, t.utime, tx, ty) || !ballAt(truth, b.utime, bx, by)) continue;
-    sums[t.robot].first += std::hypot(b.x - bx, b.y - by);
-    sums[t.robot].second += std::hypot(t.team_ball_x - tx, t.team_ball_y - ty);
+    const double own_error = std::hypot(b.x - bx, b.y - by);
+    const double team_error = std::hypot(t.team_ball_x - tx, t.team_ball_y - ty);
+    sums[t.robot].first += own_error;
+    sums[t.robot].second += team_error;
+    s.pairs.push_back({t.robot, t.utime, own_error, team_error});
     ++s.paired[t.robot].pairs;
   }
   for (auto& [robot, p] : s.paired) {

@@ -79,6 +79,13 @@ struct TeamBallSummary {
   // where `team_ball_worse_robots` is empty: robots with at least min_own_samples pairs whose own
   // mean beats the team ball's on their instants.
   std::map<int, PairedBall> paired;
+  // Every pair: robot, its TEAM_STATE's true time (µs), own and team ball errors (m).
+  struct Pair {
+    int robot = 0;
+    Utime utime = 0;
+    double own_error_m = 0, team_error_m = 0;
+  };
+  std::vector<Pair> pairs;
   double team_ball_on_best_own_m = -1;
   double best_own_paired_m = -1;
   std::vector<int> team_ball_worse_robots;

@@ -139,5 +139,27 @@ TEST(teamcomm_team_ball_eval, TheTeamBallAgainstEachOwnBallOnTheSameInstants) {
   EXPECT_NE(line.find("team_ball_worse_than_own=2"), std::string::npos) << line;
 }
 
+TEST(teamcomm_team_ball_eval, APutBackIsNotInterpolated) {
+  // The ball at (1, 0) until a truth sample at T, at (5, 0) in the next one 20 ms later: up to
+  // the later sample it is at (1, 0), not on the line between (an estimate stamped 0.25 ms before
+  // the later sample was scored 4 m off). A rolling ball is still interpolated.
+  std::vector<TruthSample> truth;
+  for (int k = 0; k <= 2; ++k) {
+    TruthSample s;
+    s.utime = kT0 + 20'000 * k;
+    s.robots[1] = {0, 0, 0, 0};
+    s.ball_x = k < 2 ? 1.0 + 0.02 * k : 5.0;  // rolling at 1 m/s, then put back
+    truth.push_back(s);
+  }
+  TruthRobot robot;
+  double bx = 0, by = 0;
+  ASSERT_TRUE(truthAt(truth, kT0 + 10'000, 1, robot, &bx, &by));
+  EXPECT_NEAR(bx, 1.01, 1e-9);
+  ASSERT_TRUE(truthAt(truth, kT0 + 39'750, 1, robot, &bx, &by));
+  EXPECT_NEAR(bx, 1.02, 1e-9);
+  ASSERT_TRUE(truthAt(truth, kT0 + 40'000, 1, robot, &bx, &by));
+  EXPECT_NEAR(bx, 5.0, 1e-9);
+}
+
 }  // namespace
 }  // namespace fieldline::eval

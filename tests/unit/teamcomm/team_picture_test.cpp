@@ -279,15 +279,60 @@ TEST(teamcomm_picture, BallsSeenBeforeAFresherContradictingSightingAreSuperseded
   EXPECT_EQ(ball.rejected, (std::vector<int>{1, 2}));
   EXPECT_EQ(ball.superseded, (std::vector<int>{1, 2}));
   EXPECT_NEAR(s.team_ball_x, 1.51, 1e-6);
-  // Seen within the margin (three frames) of the fresh one: a plain disagreement, the larger
-  // group wins as before.
-  r1.ball.last_seen_utime = r2.ball.last_seen_utime = now - 50'000;
+  // Seen within a frame of the fresh one: a plain disagreement, the larger group wins as before.
+  r1.ball.last_seen_utime = r2.ball.last_seen_utime = now - 30'000;
   r4.ball.valid = false;
   for (const auto& [id, r] : {std::pair{1, r1}, {2, r2}, {4, r4}})
     picture.setReport(id, r);
   const perception::TeamState t = picture.picture(now, &ball);
   EXPECT_TRUE(ball.superseded.empty());
   EXPECT_EQ(ball.used, (std::vector<int>{1, 2}));
+  EXPECT_NEAR(t.team_ball_x, -1.51, 1e-6);
+}
+
+TEST(teamcomm_picture, ABallNobodyHasSeenForLongerThanFusionsMaxAgeIsNotClaimed) {
+  TeamPicture picture(1);
+  // Robot 2's packet still calls its ball valid, but it last saw it 0.6 s ago: longer than
+  // fusion's own-ball limit (ball.max_age_s 0.5), so the team does not know the ball either.
+  const Utime now = kT0 + 600'000;
+  Report r2 = report(0.0, 0.0, now);
+  seeBall(r2, 1.0, 1.0, 0.05);
+  r2.ball.last_seen_utime = kT0;
+  picture.setReport(2, r2);
+  EXPECT_FALSE(picture.picture(now).team_ball_valid);
+  r2.ball.last_seen_utime = now - 400'000;
+  picture.setReport(2, r2);
+  EXPECT_TRUE(picture.picture(now).team_ball_valid);
+}
+
+TEST(teamcomm_picture, APutBackSeenByOneConfidentRobotMovesTheTeamBallWithinOneUpdate) {
+  TeamPicture picture(1);
+  Report r1 = report(-4.5, 0.0, kT0), r2 = report(-2.0, 3.0, kT0), r3 = report(1.0, -3.0, kT0);
+  seeBall(r1, -1.5, 1.0, 0.05);
+  seeBall(r2, -1.52, 1.01, 0.05);
+  picture.setReport(1, r1);
+  picture.setReport(2, r2);
+  ASSERT_NEAR(picture.picture(kT0).team_ball_x, -1.51, 1e-6);
+  // The ball is put back at (2, -2). Robots 1 and 2 no longer see it (their estimates stay valid
+  // at the old place); robot 3's filter restarts at the new place after three frames (100 ms).
+  const Utime now = kT0 + 100'000;
+  r1.robot.utime = r2.robot.utime = r1.received_utime = r2.received_utime = now;
+  r3 = report(1.0, -3.0, now);
+  seeBall(r3, 2.0, -2.0, 0.05);
+  picture.setReport(1, r1);
+  picture.setReport(2, r2);
+  picture.setReport(3, r3);
+  TeamBallResult ball;
+  const perception::TeamState s = picture.picture(now, &ball);
+  ASSERT_TRUE(s.team_ball_valid);
+  EXPECT_NEAR(s.team_ball_x, 2.0, 1e-6);
+  EXPECT_NEAR(s.team_ball_y, -2.0, 1e-6);
+  EXPECT_EQ(ball.superseded, (std::vector<int>{1, 2}));
+  // A vague sighting (30 cm) there supersedes nothing: the two agreeing robots keep the ball.
+  seeBall(r3, 2.0, -2.0, 0.3);
+  picture.setReport(3, r3);
+  const perception::TeamState t = picture.picture(now, &ball);
+  EXPECT_TRUE(ball.superseded.empty());
   EXPECT_NEAR(t.team_ball_x, -1.51, 1e-6);
 }
 
