@@ -36,7 +36,6 @@ KNOWN_LONG_FILES = {
 KNOWN_LONG_FUNCTIONS = {
     "common/bus/log_file.cpp:LogReader::nextEvent": "in perf's room today (bus, node loops)",
     "common/bus/status.cpp:StatusCollector::takeStatus": "in perf's room today (bus, node loops)",
-    "common/scenario/scenario.cpp:loadScenario": "not split yet (issue 33 item 3): pending",
     "services/camera/sim_renderer.cpp:SimRenderer::buildFloorRaster": "in perf's room today (sim renderer rewrite)",
     "services/fusion/current_contact.cpp:CurrentContactDetector::add": "in robust's or tball's room today (fusion, teamcomm, eval)",
     "services/fusion/odometry_layer.cpp:OdometryLayer::update": "in robust's or tball's room today (fusion, teamcomm, eval)",
