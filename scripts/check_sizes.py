@@ -34,7 +34,6 @@ KNOWN_LONG_FILES = {
 KNOWN_LONG_FUNCTIONS = {
     "common/bus/log_file.cpp:LogReader::nextEvent": "in perf's room today (bus, node loops)",
     "common/bus/status.cpp:StatusCollector::takeStatus": "in perf's room today (bus, node loops)",
-    "common/scenario/scenario.cpp:loadScenario": "not split yet (issue 33 item 3): pending",
     "services/fusion/current_contact.cpp:CurrentContactDetector::add": "in robust's or tball's room today (fusion, teamcomm, eval)",
     "services/fusion/odometry_layer.cpp:OdometryLayer::update": "in robust's or tball's room today (fusion, teamcomm, eval)",
     "services/motor_bridge/bridge.cpp:BridgeCore::onBytes": "in perf's room today (bus, node loops)",

@@ -67,6 +67,92 @@ robot::TrajectorySpec readTrajectory(const config::Node& n) {
   return out;
 }
 
+// The list at `key` of the root, or none when it is absent (or null).
+std::vector<config::Node> optionalList(const config::Node& root, const std::string& key) {
+  if (root.has(key)) return root.children(key);
+  markOptional(root, key);
+  return {};
+}
+
+// The team's robots, each with a distinct id; `ids` gets those ids.
+std::vector<RobotSpec> readRobots(const config::Node& root, std::set<int>& ids) {
+  std::vector<RobotSpec> robots;
+  for (const auto& r : root.children("robots")) {
+    RobotSpec spec;
+    spec.id = r.get<int>("id", 1, 6);
+    if (!ids.insert(spec.id).second) r.fail("id", "robot " + std::to_string(spec.id) + " twice");
+    const auto trajectory = r.child("trajectory");
+    spec.trajectory = readTrajectory(trajectory);
+    if (auto start = r.childIf("start")) {
+      spec.start = readPose(*start);
+    } else if (std::holds_alternative<robot::FigureEightSpec>(spec.trajectory)) {
+      spec.start = robot::Trajectory(spec.trajectory, {}).startPose();
+    } else {
+      r.fail("start", "missing required section (only a figure eight knows its own start)");
+    }
+    r.rejectUnknownKeys();
+    robots.push_back(spec);
+  }
+  if (robots.empty()) root.fail("robots", "needs at least one robot");
+  return robots;
+}
+
+OpponentSpec readOpponent(const config::Node& o) {
+  OpponentSpec spec;
+  spec.start = readPose(o.child("start"));
+  spec.trajectory = readTrajectory(o.child("trajectory"));
+  spec.radius = o.getOr<double>("radius", 0.25, 0.05, 1.0);
+  o.rejectUnknownKeys();
+  return spec;
+}
+
+BallKick readKick(const config::Node& k) {
+  BallKick kick;
+  kick.time = k.get<double>("time", 0.0, 1e6);
+  if (auto p = k.childIf("position")) kick.position = readPoint(*p);
+  kick.velocity = readPoint(k.child("velocity"));
+  if (kick.velocity.norm() > 15.0) k.fail("velocity", "faster than 15 m/s");
+  k.rejectUnknownKeys();
+  return kick;
+}
+
+void readBall(const config::Node& ball, BallSpec& out) {
+  if (auto start = ball.childIf("start")) out.start = readPoint(*start);
+  out.radius = ball.getOr<double>("radius", 0.11, 0.01, 0.5);
+  out.rolling_deceleration = ball.getOr<double>("rolling_deceleration", 0.4, 0.0, 10.0);
+  out.restitution = ball.getOr<double>("restitution", 0.6, 0.0, 1.0);
+  if (ball.has("kicks")) {
+    for (const auto& k : ball.children("kicks"))
+      out.kicks.push_back(readKick(k));
+  }
+  ball.rejectUnknownKeys();
+}
+
+// The id of the scenario's robot an event names.
+int eventRobot(const config::Node& n, const std::set<int>& ids) {
+  const int id = n.get<int>("robot", 1, 6);
+  if (!ids.count(id)) n.fail("robot", "no robot " + std::to_string(id) + " in this scenario");
+  return id;
+}
+
+KidnapSpec readKidnap(const config::Node& k, const std::set<int>& ids) {
+  KidnapSpec spec;
+  spec.time = k.get<double>("time", 0.0, 1e6);
+  spec.robot = eventRobot(k, ids);
+  spec.pose = readPose(k.child("pose"));
+  k.rejectUnknownKeys();
+  return spec;
+}
+
+SerialOutageSpec readSerialOutage(const config::Node& o, const std::set<int>& ids) {
+  SerialOutageSpec spec;
+  spec.time = o.get<double>("time", 0.0, 1e6);
+  spec.robot = eventRobot(o, ids);
+  spec.duration = o.get<double>("duration", 0.01, 1e4);
+  o.rejectUnknownKeys();
+  return spec;
+}
+
 }  // namespace
 
 const RobotSpec* Scenario::robotById(int id) const {
@@ -85,87 +171,15 @@ Scenario loadScenario(const config::Node& root) {
   s.seed = static_cast<std::uint64_t>(root.get<std::int64_t>("seed", 0, INT64_MAX));
   s.physics_rate = root.getOr<double>("physics_rate", 400.0, 200.0, 10000.0);
   s.slip_scale = root.getOr<double>("slip_scale", 1.0, 0.0, 10.0);
-
   std::set<int> ids;
-  for (const auto& r : root.children("robots")) {
-    RobotSpec spec;
-    spec.id = r.get<int>("id", 1, 6);
-    if (!ids.insert(spec.id).second) r.fail("id", "robot " + std::to_string(spec.id) + " twice");
-    const auto trajectory = r.child("trajectory");
-    spec.trajectory = readTrajectory(trajectory);
-    if (auto start = r.childIf("start")) {
-      spec.start = readPose(*start);
-    } else if (std::holds_alternative<robot::FigureEightSpec>(spec.trajectory)) {
-      spec.start = robot::Trajectory(spec.trajectory, {}).startPose();
-    } else {
-      r.fail("start", "missing required section (only a figure eight knows its own start)");
-    }
-    r.rejectUnknownKeys();
-    s.robots.push_back(spec);
-  }
-  if (s.robots.empty()) root.fail("robots", "needs at least one robot");
-
-  if (root.has("opponents")) {
-    for (const auto& o : root.children("opponents")) {
-      OpponentSpec spec;
-      spec.start = readPose(o.child("start"));
-      spec.trajectory = readTrajectory(o.child("trajectory"));
-      spec.radius = o.getOr<double>("radius", 0.25, 0.05, 1.0);
-      o.rejectUnknownKeys();
-      s.opponents.push_back(spec);
-    }
-  } else {
-    markOptional(root, "opponents");
-  }
-
-  if (auto ball = root.childIf("ball")) {
-    if (auto start = ball->childIf("start")) s.ball.start = readPoint(*start);
-    s.ball.radius = ball->getOr<double>("radius", 0.11, 0.01, 0.5);
-    s.ball.rolling_deceleration = ball->getOr<double>("rolling_deceleration", 0.4, 0.0, 10.0);
-    s.ball.restitution = ball->getOr<double>("restitution", 0.6, 0.0, 1.0);
-    if (ball->has("kicks")) {
-      for (const auto& k : ball->children("kicks")) {
-        BallKick kick;
-        kick.time = k.get<double>("time", 0.0, 1e6);
-        if (auto p = k.childIf("position")) kick.position = readPoint(*p);
-        kick.velocity = readPoint(k.child("velocity"));
-        if (kick.velocity.norm() > 15.0) k.fail("velocity", "faster than 15 m/s");
-        k.rejectUnknownKeys();
-        s.ball.kicks.push_back(kick);
-      }
-    }
-    ball->rejectUnknownKeys();
-  }
-
-  auto checkRobot = [&](const config::Node& n) {
-    const int id = n.get<int>("robot", 1, 6);
-    if (!ids.count(id)) n.fail("robot", "no robot " + std::to_string(id) + " in this scenario");
-    return id;
-  };
-  if (root.has("kidnaps")) {
-    for (const auto& k : root.children("kidnaps")) {
-      KidnapSpec spec;
-      spec.time = k.get<double>("time", 0.0, 1e6);
-      spec.robot = checkRobot(k);
-      spec.pose = readPose(k.child("pose"));
-      k.rejectUnknownKeys();
-      s.kidnaps.push_back(spec);
-    }
-  } else {
-    markOptional(root, "kidnaps");
-  }
-  if (root.has("serial_outages")) {
-    for (const auto& o : root.children("serial_outages")) {
-      SerialOutageSpec spec;
-      spec.time = o.get<double>("time", 0.0, 1e6);
-      spec.robot = checkRobot(o);
-      spec.duration = o.get<double>("duration", 0.01, 1e4);
-      o.rejectUnknownKeys();
-      s.serial_outages.push_back(spec);
-    }
-  } else {
-    markOptional(root, "serial_outages");
-  }
+  s.robots = readRobots(root, ids);
+  for (const auto& o : optionalList(root, "opponents"))
+    s.opponents.push_back(readOpponent(o));
+  if (auto ball = root.childIf("ball")) readBall(*ball, s.ball);
+  for (const auto& k : optionalList(root, "kidnaps"))
+    s.kidnaps.push_back(readKidnap(k, ids));
+  for (const auto& o : optionalList(root, "serial_outages"))
+    s.serial_outages.push_back(readSerialOutage(o, ids));
   root.rejectUnknownKeys();
   return s;
 }
