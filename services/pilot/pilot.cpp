@@ -30,7 +30,9 @@ Pilot::Pilot(const scenario::Scenario& scenario, int robot_id, const robot::Robo
 void Pilot::onPose(const geometry::Pose2& pose, Utime utime, PoseQuality quality,
                    const std::string& why) {
   if (!geometry::isFinite(pose)) return;
-  if (pose_ && utime <= pose_utime_) return;  // late or repeated: keep the newer pose
+  // Late: keep the newer pose. The same stamp again is fusion's state corrected by a camera frame
+  // (published right after the correction): take it.
+  if (pose_ && utime < pose_utime_) return;
   pose_ = pose;
   pose_utime_ = utime;
   pose_quality_ = quality;

@@ -28,6 +28,20 @@ TEST(Pilot, NeedsAFreshPose) {
   EXPECT_FALSE(pilot.command(kT0 + 400'000).has_value());
 }
 
+// Fusion publishes a second state with the same stamp right after a camera frame corrected it:
+// the pilot takes that one; an older stamp is late and ignored.
+TEST(Pilot, TakesTheCorrectedStateOfTheSameStampButNotALateOne) {
+  const auto scenario = scenario::loadScenarioPreset("default");
+  Pilot pilot(scenario, 3, robot::loadRobotPreset("fu2004"));
+  const auto start = scenario.robotById(3)->start;
+  pilot.onPose(start, kT0);
+  ASSERT_TRUE(pilot.command(kT0).has_value());
+  pilot.onPose(start, kT0, PoseQuality::kUnusable, "SEARCHING");
+  EXPECT_FALSE(pilot.command(kT0).has_value());
+  pilot.onPose(start, kT0 - 20'000, PoseQuality::kUsable);
+  EXPECT_FALSE(pilot.command(kT0).has_value());
+}
+
 TEST(Pilot, DrivesTheWorldAlongItsTrajectory) {
   auto scenario = scenario::loadScenarioPreset("default");
   // Start on the tour (its last corner), so the worst error measures following, not the approach
