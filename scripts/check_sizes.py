@@ -40,8 +40,6 @@ KNOWN_LONG_FUNCTIONS = {
     "services/fusion/current_contact.cpp:CurrentContactDetector::add": "in robust's or tball's room today (fusion, teamcomm, eval)",
     "services/fusion/odometry_layer.cpp:OdometryLayer::update": "in robust's or tball's room today (fusion, teamcomm, eval)",
     "services/motor_bridge/bridge.cpp:BridgeCore::onBytes": "in perf's room today (bus, node loops)",
-    "services/region_tracking/frame_processor.cpp:loadVisionParams": "in hires' room today (region tracking split)",
-    "services/region_tracking/region_tracker.cpp:RegionTracker::RegionTracker": "in hires' room today (region tracking split)",
     "tools/calibration_common/ridges.cpp:findRidges": "not split yet (issue 33 item 3): pending",
     "tools/colour_calibrate/calibrate_app.cpp:runApp": "not split yet (issue 33 item 3): pending",
     "tools/colour_calibrate/colour_calibration.cpp:calibrate": "not split yet (issue 33 item 3): pending",
