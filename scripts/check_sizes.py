@@ -37,7 +37,6 @@ KNOWN_LONG_FUNCTIONS = {
     "common/bus/log_file.cpp:LogReader::nextEvent": "in perf's room today (bus, node loops)",
     "common/bus/status.cpp:StatusCollector::takeStatus": "in perf's room today (bus, node loops)",
     "services/camera/sim_renderer.cpp:SimRenderer::buildFloorRaster": "in perf's room today (sim renderer rewrite)",
-    "services/fusion/current_contact.cpp:CurrentContactDetector::add": "in robust's or tball's room today (fusion, teamcomm, eval)",
     "services/fusion/odometry_layer.cpp:OdometryLayer::update": "in robust's or tball's room today (fusion, teamcomm, eval)",
     "services/motor_bridge/bridge.cpp:BridgeCore::onBytes": "in perf's room today (bus, node loops)",
     "tools/calibration_common/ridges.cpp:findRidges": "not split yet (issue 33 item 3): pending",
