@@ -34,11 +34,8 @@ KNOWN_LONG_FILES = {
 KNOWN_LONG_FUNCTIONS = {
     "common/bus/log_file.cpp:LogReader::nextEvent": "in perf's room today (bus, node loops)",
     "common/bus/status.cpp:StatusCollector::takeStatus": "in perf's room today (bus, node loops)",
-    "services/fusion/current_contact.cpp:CurrentContactDetector::add": "in robust's or tball's room today (fusion, teamcomm, eval)",
     "services/fusion/odometry_layer.cpp:OdometryLayer::update": "in robust's or tball's room today (fusion, teamcomm, eval)",
     "services/motor_bridge/bridge.cpp:BridgeCore::onBytes": "in perf's room today (bus, node loops)",
-    "services/region_tracking/frame_processor.cpp:loadVisionParams": "in hires' room today (region tracking split)",
-    "services/region_tracking/region_tracker.cpp:RegionTracker::RegionTracker": "in hires' room today (region tracking split)",
     "tools/viewer/camera_view.cpp:CameraView::update": "not split yet (issue 33 item 3): pending",
     "tools/viewer/recording_view.cpp:RecordingView::makeSeries": "not split yet (issue 33 item 3): pending",
     "tools/viewer/web_server.cpp:handle": "not split yet (issue 33 item 3): pending",

@@ -24,6 +24,41 @@ CurrentContactDetector::CurrentContactDetector(const robot::RobotParams& robot,
   }
 }
 
+namespace {
+
+// The reason to refuse a sample's currents (or ticks) for a robot of `wheels` wheels, empty when
+// they are sound.
+std::string currentRejection(const OdometrySample& sample, std::size_t wheels,
+                             double max_current_a) {
+  if (sample.wheel_current.size() != wheels || sample.ticks.size() != wheels) {
+    // Currents or ticks for another number of wheels: nothing to compare them with.
+    return "current_wheel_count";
+  }
+  std::string rejection;
+  for (const double c : sample.wheel_current) {
+    if (!std::isfinite(c)) {
+      rejection = "current_not_finite";
+    } else if (std::abs(c) > max_current_a && rejection.empty()) {
+      rejection = "current_absurd";
+    }
+  }
+  return rejection;
+}
+
+// False when the sample cannot follow the history's last entry: time backwards or a gap, the
+// controller restarted or its clock comes and goes.
+template <typename Entry>
+bool follows(const OdometrySample& sample, const Entry& last, double max_interval_s) {
+  if (sample.utime <= last.utime ||
+      static_cast<double>(sample.utime - last.utime) * 1e-6 > max_interval_s) {
+    return false;
+  }
+  return (sample.controller_utime == 0) == (last.controller_utime == 0) &&
+         (sample.controller_utime == 0 || sample.controller_utime > last.controller_utime);
+}
+
+}  // namespace
+
 CurrentContactDetector::Result CurrentContactDetector::add(const OdometrySample& sample) {
   Result result;
   if (!enabled()) return result;
@@ -35,35 +70,12 @@ CurrentContactDetector::Result CurrentContactDetector::add(const OdometrySample&
     restart();
     return result;
   }
-  if (sample.wheel_current.size() != metres_per_tick_.size() ||
-      sample.ticks.size() != metres_per_tick_.size()) {
-    // Currents or ticks for another number of wheels: nothing to compare them with.
-    result.rejection = "current_wheel_count";
-    restart();
-    return result;
-  }
-  for (const double c : sample.wheel_current) {
-    if (!std::isfinite(c)) {
-      result.rejection = "current_not_finite";
-    } else if (std::abs(c) > params_.max_current_a && result.rejection.empty()) {
-      result.rejection = "current_absurd";
-    }
-  }
+  result.rejection = currentRejection(sample, metres_per_tick_.size(), params_.max_current_a);
   if (!result.rejection.empty()) {
     restart();
     return result;
   }
-  if (!history_.empty() &&
-      (sample.utime <= history_.back().utime ||
-       static_cast<double>(sample.utime - history_.back().utime) * 1e-6 > params_.max_interval_s)) {
-    restart();
-  }
-  if (!history_.empty() &&
-      ((sample.controller_utime == 0) != (history_.back().controller_utime == 0) ||
-       (sample.controller_utime != 0 &&
-        sample.controller_utime <= history_.back().controller_utime))) {
-    restart();  // the controller restarted, or its clock comes and goes
-  }
+  if (!history_.empty() && !follows(sample, history_.back(), params_.max_interval_s)) restart();
   history_.push_back({sample.utime, sample.controller_utime, sample.ticks, sample.wheel_current});
   if (history_.size() > 4) history_.pop_front();
   if (history_.size() < 4) return result;

@@ -16,6 +16,19 @@ namespace {
 using namespace localizer_internal;
 using perception::LocalizationStatus;
 
+// The hypothesis a matcher's correction of one frame (at `utime`) gives (a template only because
+// Localizer::Hypothesis is private).
+template <typename Hypothesis>
+Hypothesis hypothesisFrom(const PoseCorrection& c, Utime utime) {
+  Hypothesis h;
+  h.utime = utime;
+  h.pose = c.pose;
+  h.covariance = c.covariance;
+  h.cost_sum = c.cost;
+  h.frames = 1;
+  return h;
+}
+
 }  // namespace
 
 void Localizer::addHypothesis(const Hypothesis& h) {
@@ -32,14 +45,7 @@ void Localizer::coarseSearch(std::span<const perception::LinePoint> points, Utim
   ++counters_.searches;
   if (matcher_.global_search) {
     for (const PoseCorrection& c : matcher_.global_search(points)) {
-      if (!c.valid) continue;
-      Hypothesis h;
-      h.utime = utime;
-      h.pose = c.pose;
-      h.covariance = c.covariance;
-      h.cost_sum = c.cost;
-      h.frames = 1;
-      addHypothesis(h);
+      if (c.valid) addHypothesis(hypothesisFrom<Hypothesis>(c, utime));
     }
     return;
   }
@@ -79,14 +85,7 @@ void Localizer::coarseSearch(std::span<const perception::LinePoint> points, Utim
     if (!distinct) continue;
     picked.push_back(s.pose);
     const PoseCorrection c = matcher_.correct(points, s.pose);
-    if (!c.valid) continue;
-    Hypothesis h;
-    h.utime = utime;
-    h.pose = c.pose;
-    h.covariance = c.covariance;
-    h.cost_sum = c.cost;
-    h.frames = 1;
-    refined.push_back(h);
+    if (c.valid) refined.push_back(hypothesisFrom<Hypothesis>(c, utime));
   }
   std::sort(refined.begin(), refined.end(),
             [](const Hypothesis& a, const Hypothesis& b) { return a.meanCost() < b.meanCost(); });
@@ -108,13 +107,7 @@ void Localizer::localSearch(std::span<const perception::LinePoint> points, Utime
         ref.x, ref.y, geometry::normalizeAngle(ref.phi + k * params_.local_search_step_rad)};
     const PoseCorrection c = matcher_.correct(points, guess);
     if (!c.valid || c.cost > params_.accept_cost_m) continue;
-    Hypothesis h;
-    h.utime = utime;
-    h.pose = c.pose;
-    h.covariance = c.covariance;
-    h.cost_sum = c.cost;
-    h.frames = 1;
-    addHypothesis(h);
+    addHypothesis(hypothesisFrom<Hypothesis>(c, utime));
   }
 }
 

@@ -51,82 +51,88 @@ VisionParams defaultVisionParams() {
   return params;
 }
 
-VisionParams loadVisionParams(const config::Node& node) {
-  VisionParams params;
-  params.tracker = loadTrackerConfig(node.child("tracker"), classByName);
+namespace {
 
-  const config::Node blocks = node.child("blocks");
-  params.blocks.claims.clear();
+void loadBlockParams(const config::Node& blocks, BlockClassifierParams& out) {
+  out.claims.clear();
   for (const config::Node& claim : blocks.children("claims")) {
-    params.blocks.claims.push_back(
-        {colourAt(claim, "class"), claim.get<double>("min_fraction", 0.0, 1.0)});
+    out.claims.push_back({colourAt(claim, "class"), claim.get<double>("min_fraction", 0.0, 1.0)});
     claim.rejectUnknownKeys();
   }
   blocks.rejectUnknownKeys();
+}
 
-  const config::Node lines = node.child("lines");
-  params.lines.line_width = lines.get<double>("line_width", 0.01, 1.0);
-  params.lines.width_tolerance = lines.get<double>("width_tolerance", 1.0, 10.0);
-  params.lines.max_transition_pixels = lines.get<int>("max_transition_pixels", 0, 10);
+LineDetectorParams loadLineParams(const config::Node& lines) {
+  LineDetectorParams params;
+  params.line_width = lines.get<double>("line_width", 0.01, 1.0);
+  params.width_tolerance = lines.get<double>("width_tolerance", 1.0, 10.0);
+  params.max_transition_pixels = lines.get<int>("max_transition_pixels", 0, 10);
   const LineDetectorParams lineDefaults;
-  params.lines.max_gap_pixels =
-      lines.getOr<int>("max_gap_pixels", lineDefaults.max_gap_pixels, 0, 10);
-  params.lines.field_confirm_pixels =
+  params.max_gap_pixels = lines.getOr<int>("max_gap_pixels", lineDefaults.max_gap_pixels, 0, 10);
+  params.field_confirm_pixels =
       lines.getOr<int>("field_confirm_pixels", lineDefaults.field_confirm_pixels, 1, 10);
-  params.lines.end_at_self = lines.getOr<bool>("end_at_self", lineDefaults.end_at_self);
-  params.lines.ridge_contrast =
+  params.end_at_self = lines.getOr<bool>("end_at_self", lineDefaults.end_at_self);
+  params.ridge_contrast =
       lines.getOr<double>("ridge_contrast", lineDefaults.ridge_contrast, 0.0, 10.0);
-  if (params.lines.ridge_contrast > 0.0 && params.lines.ridge_contrast < 1.0) {
+  if (params.ridge_contrast > 0.0 && params.ridge_contrast < 1.0) {
     lines.fail("ridge_contrast", "must be 0 (off) or at least 1");
   }
-  params.lines.ridge_min_levels =
+  params.ridge_min_levels =
       lines.getOr<int>("ridge_min_levels", lineDefaults.ridge_min_levels, 0, 255);
-  params.lines.sample_spacing = lines.get<int>("sample_spacing", 1, 64);
-  params.lines.sample_spacing_m =
+  params.sample_spacing = lines.get<int>("sample_spacing", 1, 64);
+  params.sample_spacing_m =
       lines.getOr<double>("sample_spacing_m", lineDefaults.sample_spacing_m, 0.0, 10.0);
-  params.lines.sample_min_px =
+  params.sample_min_px =
       lines.getOr<double>("sample_min_px", lineDefaults.sample_min_px, 0.25, 1000.0);
-  params.lines.turn_spacing_m =
+  params.turn_spacing_m =
       lines.getOr<double>("turn_spacing_m", lineDefaults.turn_spacing_m, 0.0, 10.0);
-  params.lines.turn_reach_m =
-      lines.getOr<double>("turn_reach_m", lineDefaults.turn_reach_m, 0.0, 100.0);
-  params.lines.turn_range_m =
-      lines.getOr<double>("turn_range_m", lineDefaults.turn_range_m, 0.0, 100.0);
-  params.lines.turn_angle = lines.getOr<double>("turn_angle", lineDefaults.turn_angle, 0.01, 1.5);
-  params.lines.turn_span = lines.getOr<int>("turn_span", lineDefaults.turn_span, 1, 100);
-  params.lines.refine_range_m =
+  params.turn_reach_m = lines.getOr<double>("turn_reach_m", lineDefaults.turn_reach_m, 0.0, 100.0);
+  params.turn_range_m = lines.getOr<double>("turn_range_m", lineDefaults.turn_range_m, 0.0, 100.0);
+  params.turn_angle = lines.getOr<double>("turn_angle", lineDefaults.turn_angle, 0.01, 1.5);
+  params.turn_span = lines.getOr<int>("turn_span", lineDefaults.turn_span, 1, 100);
+  params.refine_range_m =
       lines.getOr<double>("refine_range_m", lineDefaults.refine_range_m, 0.0, 100.0);
-  params.lines.refine_min_range_m =
+  params.refine_min_range_m =
       lines.getOr<double>("refine_min_range_m", lineDefaults.refine_min_range_m, 0.0, 100.0);
-  params.lines.refine_samples =
-      lines.getOr<int>("refine_samples", lineDefaults.refine_samples, 1, 64);
-  params.lines.refine_spacing_m =
+  params.refine_samples = lines.getOr<int>("refine_samples", lineDefaults.refine_samples, 1, 64);
+  params.refine_spacing_m =
       lines.getOr<double>("refine_spacing_m", lineDefaults.refine_spacing_m, 0.0, 10.0);
-  params.lines.refine_isolated = lines.getOr<bool>("refine_isolated", lineDefaults.refine_isolated);
-  params.lines.refine_reach = lines.getOr<int>("refine_reach", lineDefaults.refine_reach, 1, 16);
-  params.lines.refine_turn =
-      lines.getOr<double>("refine_turn", lineDefaults.refine_turn, 0.01, 3.1);
-  params.lines.smoothing_passes = lines.get<int>("smoothing_passes", 0, 20);
-  params.lines.tangent_half_span = lines.get<int>("tangent_half_span", 1, 20);
-  params.lines.min_contour_points = lines.get<int>("min_contour_points", 4, 100000);
-  params.lines.max_gap_samples = lines.get<int>("max_gap_samples", 0, 20);
+  params.refine_isolated = lines.getOr<bool>("refine_isolated", lineDefaults.refine_isolated);
+  params.refine_reach = lines.getOr<int>("refine_reach", lineDefaults.refine_reach, 1, 16);
+  params.refine_turn = lines.getOr<double>("refine_turn", lineDefaults.refine_turn, 0.01, 3.1);
+  params.smoothing_passes = lines.get<int>("smoothing_passes", 0, 20);
+  params.tangent_half_span = lines.get<int>("tangent_half_span", 1, 20);
+  params.min_contour_points = lines.get<int>("min_contour_points", 4, 100000);
+  params.max_gap_samples = lines.get<int>("max_gap_samples", 0, 20);
   lines.rejectUnknownKeys();
+  return params;
+}
 
-  const config::Node ball = node.child("ball");
-  params.ball.centre_height = ball.get<double>("centre_height", 0.0, 0.5);
-  params.ball.min_pixels = ball.get<int>("min_pixels", 1, 10000);
+BallParams loadBallParams(const config::Node& ball) {
+  BallParams params;
+  params.centre_height = ball.get<double>("centre_height", 0.0, 0.5);
+  params.min_pixels = ball.get<int>("min_pixels", 1, 10000);
   const BallParams ballDefaults;
-  params.ball.size_tolerance =
+  params.size_tolerance =
       ball.getOr<double>("size_tolerance", ballDefaults.size_tolerance, 1.0, 10.0);
-  params.ball.size_slack_px =
-      ball.getOr<double>("size_slack_px", ballDefaults.size_slack_px, 0.0, 20.0);
-  params.ball.min_fill = ball.getOr<double>("min_fill", ballDefaults.min_fill, 0.0, 1.0);
-  params.ball.min_carpet_share =
+  params.size_slack_px = ball.getOr<double>("size_slack_px", ballDefaults.size_slack_px, 0.0, 20.0);
+  params.min_fill = ball.getOr<double>("min_fill", ballDefaults.min_fill, 0.0, 1.0);
+  params.min_carpet_share =
       ball.getOr<double>("min_carpet_share", ballDefaults.min_carpet_share, 0.0, 1.0);
-  params.ball.field_margin_m =
+  params.field_margin_m =
       ball.getOr<double>("field_margin_m", ballDefaults.field_margin_m, 0.0, 10.0);
   ball.rejectUnknownKeys();
+  return params;
+}
 
+}  // namespace
+
+VisionParams loadVisionParams(const config::Node& node) {
+  VisionParams params;
+  params.tracker = loadTrackerConfig(node.child("tracker"), classByName);
+  loadBlockParams(node.child("blocks"), params.blocks);
+  params.lines = loadLineParams(node.child("lines"));
+  params.ball = loadBallParams(node.child("ball"));
   const config::Node obstacles = node.child("obstacles");
   params.obstacles.min_cells = obstacles.get<int>("min_cells", 1, 100000);
   obstacles.rejectUnknownKeys();

@@ -132,6 +132,26 @@ std::vector<MaskEdge> maskEdges(const CellGrid& grid, std::span<const std::uint8
   return edges;
 }
 
+namespace {
+
+void checkTrackerSetup(const CellGrid& grid, const TrackerConfig& config,
+                       const std::vector<std::uint8_t>& dontTouch) {
+  if (grid.width <= 0 || grid.height <= 0 || grid.width > 32767 || grid.height > 32767) {
+    throw std::invalid_argument("region tracker: grid size out of range");
+  }
+  if (config.cell_size != grid.cell_size) {
+    throw std::invalid_argument("region tracker: config cell size differs from the grid's");
+  }
+  if (!dontTouch.empty() && static_cast<int>(dontTouch.size()) != grid.cellCount()) {
+    throw std::invalid_argument("region tracker: don't-touch mask must have one byte per cell");
+  }
+  if (config.mask_edge_every < 1) {
+    throw std::invalid_argument("region tracker: mask_edge_every must be at least 1");
+  }
+}
+
+}  // namespace
+
 RegionTracker::RegionTracker(const CellGrid& grid, const TrackerConfig& config,
                              std::vector<std::uint8_t> dontTouch)
     : grid_(grid),
@@ -145,18 +165,7 @@ RegionTracker::RegionTracker(const CellGrid& grid, const TrackerConfig& config,
       scratch_mark_(layout_.size(), 0) {
   class_slot_.fill(-1);
   seed_parent_.fill(kNoClass);
-  if (grid.width <= 0 || grid.height <= 0 || grid.width > 32767 || grid.height > 32767) {
-    throw std::invalid_argument("region tracker: grid size out of range");
-  }
-  if (config.cell_size != grid.cell_size) {
-    throw std::invalid_argument("region tracker: config cell size differs from the grid's");
-  }
-  if (!dontTouch.empty() && static_cast<int>(dontTouch.size()) != grid.cellCount()) {
-    throw std::invalid_argument("region tracker: don't-touch mask must have one byte per cell");
-  }
-  if (config.mask_edge_every < 1) {
-    throw std::invalid_argument("region tracker: mask_edge_every must be at least 1");
-  }
+  checkTrackerSetup(grid, config, dontTouch);
   // V starts as the frame of blocked cells around the grid plus the don't-touch cells.
   for (int y = 0; y < grid.height; ++y) {
     for (int x = 0; x < grid.width; ++x) {
@@ -165,50 +174,64 @@ RegionTracker::RegionTracker(const CellGrid& grid, const TrackerConfig& config,
     }
   }
   empty_visited_ = visited_;
-
   for (std::size_t i = 0; i < config.classes.size(); ++i) {
-    const ClassTracking& tracking = config.classes[i];
-    if (tracking.class_id == kNoClass || tracking.class_id == kBlocked) {
-      throw std::invalid_argument("region tracker: class ids 254 and 255 are reserved");
-    }
-    if (tracking.max_seed_regions < 0 || tracking.min_seed_cells < 1 ||
-        tracking.view_edge_stride < 0 || tracking.search_inside_parent_stride < 0) {
-      throw std::invalid_argument("region tracker: seed limits must be positive");
-    }
-    if (tracking.search_inside_parent_stride > 0 && tracking.seed_from_boundary_of == kNoClass) {
-      throw std::invalid_argument("region tracker: search_inside_parent_stride of class " +
-                                  std::to_string(tracking.class_id) +
-                                  " needs seed_from_boundary_of");
-    }
-    for (std::size_t j = 0; j < config.classes.size(); ++j) {
-      if (j != i && config.classes[j].class_id == tracking.class_id) {
-        throw std::invalid_argument("region tracker: class " + std::to_string(tracking.class_id) +
-                                    " listed twice");
-      }
-    }
-    if (tracking.seed_from_boundary_of != kNoClass) {
-      const bool parentEarlier = std::any_of(
-          config.classes.begin(), config.classes.begin() + i,
-          [&](const ClassTracking& c) { return c.class_id == tracking.seed_from_boundary_of; });
-      if (!parentEarlier) {
-        throw std::invalid_argument("region tracker: seed_from_boundary_of of class " +
-                                    std::to_string(tracking.class_id) +
-                                    " must name a class listed before it");
-      }
-    }
-    ClassState state;
-    state.tracking = tracking;
-    // Reserve the worst case once so no frame ever allocates (a cell can be proposed as a
-    // seed from each of its four sides).
-    state.work_drops.allocate(grid.cellCount());
-    state.boundary_drops.allocate(grid.cellCount());
-    state.pending_seeds.reserve(4 * static_cast<std::size_t>(grid.cellCount()));
-    class_slot_[tracking.class_id] = static_cast<int>(classes_.size());
-    seed_parent_[tracking.class_id] = tracking.seed_from_boundary_of;
-    classes_.push_back(std::move(state));
+    checkClass(config, i);
+    addClass(config.classes[i]);
   }
-  for (int y = 0; y < grid.height; ++y) {
-    for (int x = 0; x < grid.width; ++x) {
+  findViewEdge();
+  if (config.mask_edge_every > 1) findDeferrableCells(dontTouch);
+  scratch_queue_.reserve(grid.cellCount());
+  seed_candidates_.reserve(grid.cellCount());
+  contours_.points.reserve(4 * grid.cellCount() / 8 + 64);
+}
+
+void RegionTracker::checkClass(const TrackerConfig& config, std::size_t i) {
+  const ClassTracking& tracking = config.classes[i];
+  if (tracking.class_id == kNoClass || tracking.class_id == kBlocked) {
+    throw std::invalid_argument("region tracker: class ids 254 and 255 are reserved");
+  }
+  if (tracking.max_seed_regions < 0 || tracking.min_seed_cells < 1 ||
+      tracking.view_edge_stride < 0 || tracking.search_inside_parent_stride < 0) {
+    throw std::invalid_argument("region tracker: seed limits must be positive");
+  }
+  if (tracking.search_inside_parent_stride > 0 && tracking.seed_from_boundary_of == kNoClass) {
+    throw std::invalid_argument("region tracker: search_inside_parent_stride of class " +
+                                std::to_string(tracking.class_id) + " needs seed_from_boundary_of");
+  }
+  for (std::size_t j = 0; j < config.classes.size(); ++j) {
+    if (j != i && config.classes[j].class_id == tracking.class_id) {
+      throw std::invalid_argument("region tracker: class " + std::to_string(tracking.class_id) +
+                                  " listed twice");
+    }
+  }
+  if (tracking.seed_from_boundary_of != kNoClass) {
+    const bool parentEarlier = std::any_of(
+        config.classes.begin(), config.classes.begin() + i,
+        [&](const ClassTracking& c) { return c.class_id == tracking.seed_from_boundary_of; });
+    if (!parentEarlier) {
+      throw std::invalid_argument("region tracker: seed_from_boundary_of of class " +
+                                  std::to_string(tracking.class_id) +
+                                  " must name a class listed before it");
+    }
+  }
+}
+
+void RegionTracker::addClass(const ClassTracking& tracking) {
+  ClassState state;
+  state.tracking = tracking;
+  // Reserve the worst case once so no frame ever allocates (a cell can be proposed as a seed
+  // from each of its four sides).
+  state.work_drops.allocate(grid_.cellCount());
+  state.boundary_drops.allocate(grid_.cellCount());
+  state.pending_seeds.reserve(4 * static_cast<std::size_t>(grid_.cellCount()));
+  class_slot_[tracking.class_id] = static_cast<int>(classes_.size());
+  seed_parent_[tracking.class_id] = tracking.seed_from_boundary_of;
+  classes_.push_back(std::move(state));
+}
+
+void RegionTracker::findViewEdge() {
+  for (int y = 0; y < grid_.height; ++y) {
+    for (int x = 0; x < grid_.width; ++x) {
       const CellIndex cell = layout_.index(x, y);
       if (visited_[cell] == kBlocked) continue;
       for (int side = 0; side < 4; ++side) {
@@ -219,20 +242,18 @@ RegionTracker::RegionTracker(const CellGrid& grid, const TrackerConfig& config,
       }
     }
   }
-  if (config.mask_edge_every > 1) {
-    const std::vector<MaskEdge> edges = maskEdges(grid, dontTouch);
-    for (int y = 0; y < grid.height; ++y) {
-      for (int x = 0; x < grid.width; ++x) {
-        const MaskEdge edge = edges[grid.index(x, y)];
-        if (edge == MaskEdge::kOuter || (edge == MaskEdge::kInner && config.mask_edge_inner)) {
-          deferrable_.push_back({layout_.index(x, y), (x + y) % config.mask_edge_every});
-        }
+}
+
+void RegionTracker::findDeferrableCells(const std::vector<std::uint8_t>& dontTouch) {
+  const std::vector<MaskEdge> edges = maskEdges(grid_, dontTouch);
+  for (int y = 0; y < grid_.height; ++y) {
+    for (int x = 0; x < grid_.width; ++x) {
+      const MaskEdge edge = edges[grid_.index(x, y)];
+      if (edge == MaskEdge::kOuter || (edge == MaskEdge::kInner && config_.mask_edge_inner)) {
+        deferrable_.push_back({layout_.index(x, y), (x + y) % config_.mask_edge_every});
       }
     }
   }
-  scratch_queue_.reserve(grid.cellCount());
-  seed_candidates_.reserve(grid.cellCount());
-  contours_.points.reserve(4 * grid.cellCount() / 8 + 64);
 }
 
 RegionTracker::ClassState* RegionTracker::stateOf(ClassId class_id) {

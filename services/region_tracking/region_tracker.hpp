@@ -266,6 +266,15 @@ class RegionTracker {
     state.work_drops.push(cell);
   }
 
+  // The i-th class of the config: a free id, sound seed limits, listed once, seeded from the
+  // boundary of a class listed before it (when it is).
+  static void checkClass(const TrackerConfig& config, std::size_t i);
+  // Construction: a class's state (with its worst-case buffers), the view's edge cells, the
+  // mask-edge cells under the cadence.
+  void addClass(const ClassTracking& tracking);
+  void findViewEdge();
+  void findDeferrableCells(const std::vector<std::uint8_t>& dontTouch);
+
   void shrink(ClassState& state);
   void grow(ClassState& state);
   void seedPending(ClassState& state);
