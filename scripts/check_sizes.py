@@ -41,9 +41,6 @@ KNOWN_LONG_FUNCTIONS = {
     "tools/viewer/web_server.cpp:handle": "not split yet (issue 33 item 3): pending",
     "teamcomm/team_picture.cpp:TeamPicture::picture": "in robust's or tball's room today (fusion, teamcomm, eval)",
     "teamcomm/teamcomm_node.cpp:TeamcommNode::onDatagram": "in robust's or tball's room today (fusion, teamcomm, eval)",
-    "bench/region_tracking/tracking_bench.cpp:run": "in hires' room today (region tracking split)",
-    "bench/region_tracking/tracking_profile.cpp:printLineDiff": "in hires' room today (region tracking split)",
-    "bench/team/team_ball_replay.cpp:main": "in robust's or tball's room today (fusion, teamcomm, eval)",
 }
 
 

@@ -106,27 +106,8 @@ enum class Order {
   kInterleaved,  // in a round, frame by frame, every method on each frame
 };
 
-Result run(rt::SimCamera& sim, const Sequence& sequence, int cell_size, int frameCount, int rounds,
-           bool coldFrames, Order order, int max_seed_regions, const std::string& vision_config) {
-  Result result;
-  result.sequence = sequence;
-  result.width = sim.mirror.width();
-  result.height = sim.mirror.height();
-  result.cell_size = cell_size;
-  result.frames = frameCount;
-
-  // Render the sequence once.
-  const std::vector<std::vector<std::uint8_t>> frames =
-      rt::bench::renderSequence(sim, sequence.speed, sequence.omega_deg, frameCount);
-  // Each method gets the frame the way the node does: the LCM handler has just decoded (copied)
-  // the message, so the frame is in the cache. --cold reads the stored frames directly.
-  std::vector<std::uint8_t> delivered(frames[0].size());
-  auto view = [&](int i) {
-    if (coldFrames) return sim.renderer->view(frames[i]);
-    std::copy(frames[i].begin(), frames[i].end(), delivered.begin());
-    return sim.renderer->view(delivered);
-  };
-
+rt::VisionParams benchVisionParams(int cell_size, int max_seed_regions,
+                                   const std::string& vision_config) {
   rt::VisionParams params =
       vision_config.empty()
           ? rt::defaultVisionParams()
@@ -136,64 +117,152 @@ Result run(rt::SimCamera& sim, const Sequence& sequence, int cell_size, int fram
     for (rt::ClassTracking& c : params.tracker.classes)
       c.max_seed_regions = max_seed_regions;
   }
-  const std::vector<rt::ClassId> classes = trackedClasses(params);
+  return params;
+}
 
-  // Each method is one step per frame; all times are wall-clock times of one thread. The
-  // tracker's counts are taken in the first round.
-  int round = 0;
-  const double pixels = static_cast<double>(sim.mirror.width()) * sim.mirror.height();
-  const auto ballClass = static_cast<rt::ClassId>(params.ball.colour);
+// The rendered frames of a sequence, handed to each method the way the node gets them: the LCM
+// handler has just decoded (copied) the message, so the frame is in the cache. --cold reads the
+// stored frames directly.
+class FrameSource {
+ public:
+  FrameSource(rt::SimCamera& sim, const Sequence& sequence, int frameCount, bool coldFrames)
+      : sim_(sim),
+        frames_(rt::bench::renderSequence(sim, sequence.speed, sequence.omega_deg, frameCount)),
+        delivered_(frames_[0].size()),
+        cold_(coldFrames) {}
+
+  camera::FrameView view(int i) {
+    if (cold_) return sim_.renderer->view(frames_[i]);
+    std::copy(frames_[i].begin(), frames_[i].end(), delivered_.begin());
+    return sim_.renderer->view(delivered_);
+  }
+
+ private:
+  rt::SimCamera& sim_;
+  const std::vector<std::vector<std::uint8_t>> frames_;
+  std::vector<std::uint8_t> delivered_;
+  bool cold_;
+};
+
+// (a) CMVision-style, with the same line detector on its boundaries: classifying every cell
+// as CMVision does; and (a') skipping the don't-touch cells (segmentation only).
+struct FullFrame {
+  rt::FrameProcessor processor;  // for the classifier and the line detector
+  rt::CmvisionSegmenter cmvision;
+  rt::LinePoints lines;
+  std::vector<double> segment, whole;
+};
+
+// One timed run of the four methods over a sequence. Each method is one step per frame; all
+// times are wall-clock times of one thread. The tracker's counts are taken in the first round.
+class MethodRun {
+ public:
+  MethodRun(rt::SimCamera& sim, FrameSource& source, int cell_size, const rt::VisionParams& params)
+      : source_(source),
+        params_(params),
+        classes_(trackedClasses(params)),
+        cell_size_(cell_size),
+        pixels_(static_cast<double>(sim.mirror.width()) * sim.mirror.height()),
+        ballClass_(static_cast<rt::ClassId>(params.ball.colour)),
+        tracking_(sim.mirror, sim.table, params),
+        a_{rt::FrameProcessor(sim.mirror, sim.table, params),
+           {tracking_.grid(), classes_, tracking_.dontTouch(),
+            rt::FullFramePolicy::kClassifyEveryCell},
+           {},
+           {},
+           {}},
+        aMasked_{rt::FrameProcessor(sim.mirror, sim.table, params),
+                 {tracking_.grid(), classes_, tracking_.dontTouch(),
+                  rt::FullFramePolicy::kSkipDontTouch},
+                 {},
+                 {},
+                 {}},
+        opencvProcessor_(sim.mirror, sim.table, params),
+        opencv_(tracking_.grid(), classes_, tracking_.dontTouch()) {}
+
+  // Several rounds over the sequence, the order of the methods rotating from round to round, so
+  // that a slow spell of the shared machine does not hit one method alone. The tracker starts
+  // afresh each round (frame 0 of every round is left out); its output is the same each round.
+  void runRounds(int frameCount, int rounds, Order order, Result& result) {
+    for (round_ = 0; round_ < rounds; ++round_) {
+      tracking_.tracker() =
+          rt::RegionTracker(tracking_.grid(), params_.tracker, tracking_.dontTouch());
+      if (order == Order::kInterleaved) {
+        for (int i = 0; i < frameCount; ++i) {
+          for (int k = 0; k < kMethods; ++k)
+            step((i + k + round_) % kMethods, i, result);
+        }
+      } else {
+        for (int k = 0; k < kMethods; ++k) {
+          for (int i = 0; i < frameCount; ++i)
+            step((k + round_) % kMethods, i, result);
+        }
+      }
+    }
+  }
+
+  void summariseInto(int frameCount, int rounds, Result& result) const {
+    const int n = frameCount - 1;
+    result.tracker = summarise(trackerSegment_, rounds);
+    result.tracker_whole = summarise(trackerWhole_, rounds);
+    result.touched = touched_ / n;
+    result.touched_cells = cells_ / n;
+    result.grid_cells = tracking_.grid().cellCount();
+    result.touched_with_lines = touchedLines_ / n;
+    result.overlap = overlap_ / n;
+    result.line_points = points_ / n;
+    result.cmvision = summarise(a_.segment, rounds);
+    result.cmvision_whole = summarise(a_.whole, rounds);
+    result.cmvision_masked = summarise(aMasked_.segment, rounds);
+    result.opencv = summarise(opencvSegment_, rounds);
+  }
+
+ private:
+  static constexpr int kMethods = 4;
+
+  void step(int method, int i, Result& result) {
+    switch (method) {
+      case 0:
+        trackerStep(i, result);
+        break;
+      case 1:
+        cmvisionStep(a_, true, i);
+        break;
+      case 2:
+        cmvisionStep(aMasked_, false, i);
+        break;
+      default:
+        opencvStep(i);
+        break;
+    }
+  }
 
   // Tracker (and line points on its boundaries).
-  rt::FrameProcessor tracking(sim.mirror, sim.table, params);
-  rt::LinePoints trackerLines;
-  std::vector<double> trackerSegment, tracker_whole;
-  double touched = 0, touchedLines = 0, overlap = 0, points = 0, cells = 0;
-  auto trackerStep = [&](int i) {
-    const camera::FrameView frame = view(i);
+  void trackerStep(int i, Result& result) {
+    const camera::FrameView frame = source_.view(i);
     const Clock::time_point t0 = Clock::now();
-    tracking.classifier().setFrame(frame);
-    const rt::TrackingStats& stats = tracking.tracker().track(tracking.classifier());
+    tracking_.classifier().setFrame(frame);
+    const rt::TrackingStats& stats = tracking_.tracker().track(tracking_.classifier());
     const Clock::time_point t1 = Clock::now();
-    tracking.lineDetector().detect(frame, tracking.tracker().contours(), trackerLines);
+    tracking_.lineDetector().detect(frame, tracking_.tracker().contours(), trackerLines_);
     const Clock::time_point t2 = Clock::now();
-    if (round == 0) result.initial_searches += stats.initial_searches;
+    if (round_ == 0) result.initial_searches += stats.initial_searches;
     if (i == 0) return;
-    trackerSegment.push_back(microseconds(t1 - t0));
-    tracker_whole.push_back(microseconds(t2 - t0));
-    if (round > 0) return;
-    touched += stats.touched_fraction;
-    cells += stats.cells_classified;
-    result.ball_frames += tracking.tracker().regionCells(ballClass) > 0 ? 1 : 0;
-    touchedLines +=
-        (stats.cells_classified * cell_size * cell_size + tracking.lineDetector().pixelsRead()) /
-        pixels;
-    overlap += stats.overlap;
-    points += static_cast<double>(trackerLines.points.size());
-  };
+    trackerSegment_.push_back(microseconds(t1 - t0));
+    trackerWhole_.push_back(microseconds(t2 - t0));
+    if (round_ > 0) return;
+    touched_ += stats.touched_fraction;
+    cells_ += stats.cells_classified;
+    result.ball_frames += tracking_.tracker().regionCells(ballClass_) > 0 ? 1 : 0;
+    touchedLines_ +=
+        (stats.cells_classified * cell_size_ * cell_size_ + tracking_.lineDetector().pixelsRead()) /
+        pixels_;
+    overlap_ += stats.overlap;
+    points_ += static_cast<double>(trackerLines_.points.size());
+  }
 
-  // (a) CMVision-style, with the same line detector on its boundaries: classifying every cell
-  // as CMVision does; and (a') skipping the don't-touch cells (segmentation only).
-  struct FullFrame {
-    rt::FrameProcessor processor;  // for the classifier and the line detector
-    rt::CmvisionSegmenter cmvision;
-    rt::LinePoints lines;
-    std::vector<double> segment, whole;
-  };
-  FullFrame a{
-      rt::FrameProcessor(sim.mirror, sim.table, params),
-      {tracking.grid(), classes, tracking.dontTouch(), rt::FullFramePolicy::kClassifyEveryCell},
-      {},
-      {},
-      {}};
-  FullFrame aMasked{
-      rt::FrameProcessor(sim.mirror, sim.table, params),
-      {tracking.grid(), classes, tracking.dontTouch(), rt::FullFramePolicy::kSkipDontTouch},
-      {},
-      {},
-      {}};
-  auto cmvisionStep = [&](FullFrame& m, bool withLines, int i) {
-    const camera::FrameView frame = view(i);
+  void cmvisionStep(FullFrame& m, bool withLines, int i) {
+    const camera::FrameView frame = source_.view(i);
     const Clock::time_point t0 = Clock::now();
     m.processor.classifier().setFrame(frame);
     m.cmvision.segment(m.processor.classifier());
@@ -203,86 +272,71 @@ Result run(rt::SimCamera& sim, const Sequence& sequence, int cell_size, int fram
     if (i == 0) return;
     m.segment.push_back(microseconds(t1 - t0));
     m.whole.push_back(microseconds(t2 - t0));
-  };
+  }
 
   // (b) OpenCV, classifying every cell, labelling only the classes present.
-  rt::FrameProcessor opencvProcessor(sim.mirror, sim.table, params);
-  rt::OpenCvSegmenter opencv(tracking.grid(), classes, tracking.dontTouch());
-  std::vector<double> opencvSegment;
-  auto opencvStep = [&](int i) {
-    const camera::FrameView frame = view(i);
+  void opencvStep(int i) {
+    const camera::FrameView frame = source_.view(i);
     const Clock::time_point t0 = Clock::now();
-    opencvProcessor.classifier().setFrame(frame);
-    opencv.segment(opencvProcessor.classifier());
+    opencvProcessor_.classifier().setFrame(frame);
+    opencv_.segment(opencvProcessor_.classifier());
     const Clock::time_point t1 = Clock::now();
-    if (i > 0) opencvSegment.push_back(microseconds(t1 - t0));
-  };
-
-  constexpr int kMethods = 4;
-  auto step = [&](int method, int i) {
-    switch (method) {
-      case 0:
-        trackerStep(i);
-        break;
-      case 1:
-        cmvisionStep(a, true, i);
-        break;
-      case 2:
-        cmvisionStep(aMasked, false, i);
-        break;
-      default:
-        opencvStep(i);
-        break;
-    }
-  };
-  // Several rounds over the sequence, the order of the methods rotating from round to round, so
-  // that a slow spell of the shared machine does not hit one method alone. The tracker starts
-  // afresh each round (frame 0 of every round is left out); its output is the same each round.
-  for (round = 0; round < rounds; ++round) {
-    tracking.tracker() = rt::RegionTracker(tracking.grid(), params.tracker, tracking.dontTouch());
-    if (order == Order::kInterleaved) {
-      for (int i = 0; i < frameCount; ++i) {
-        for (int k = 0; k < kMethods; ++k)
-          step((i + k + round) % kMethods, i);
-      }
-    } else {
-      for (int k = 0; k < kMethods; ++k) {
-        for (int i = 0; i < frameCount; ++i)
-          step((k + round) % kMethods, i);
-      }
-    }
+    if (i > 0) opencvSegment_.push_back(microseconds(t1 - t0));
   }
 
-  const int n = frameCount - 1;
-  result.tracker = summarise(trackerSegment, rounds);
-  result.tracker_whole = summarise(tracker_whole, rounds);
-  result.touched = touched / n;
-  result.touched_cells = cells / n;
-  result.grid_cells = tracking.grid().cellCount();
-  result.touched_with_lines = touchedLines / n;
-  result.overlap = overlap / n;
-  result.line_points = points / n;
-  result.cmvision = summarise(a.segment, rounds);
-  result.cmvision_whole = summarise(a.whole, rounds);
-  result.cmvision_masked = summarise(aMasked.segment, rounds);
-  result.opencv = summarise(opencvSegment, rounds);
+  FrameSource& source_;
+  const rt::VisionParams& params_;
+  const std::vector<rt::ClassId> classes_;
+  const int cell_size_;
+  const double pixels_;
+  const rt::ClassId ballClass_;
+  int round_ = 0;
 
-  // Agreement of the tracker's regions with baseline (a), frame by frame (not timed).
-  {
-    rt::FrameProcessor processor(sim.mirror, sim.table, params);
-    rt::CmvisionSegmenter cmvision(processor.grid(), classes, processor.dontTouch());
-    for (int i = 0; i < frameCount; ++i) {
-      processor.classifier().setFrame(view(i));
-      processor.tracker().track(processor.classifier());
-      cmvision.segment(processor.classifier());
-      const rt::Agreement agreement =
-          rt::compareWithFullSegmentation(processor.tracker().visited(), cmvision);
-      result.exact_frames += agreement.exact() ? 1 : 0;
-      result.partial_regions += agreement.regions_partial;
-      result.stale_cells += agreement.stale_cells;
-      result.untracked_regions += agreement.regions_untracked;
-    }
+  rt::FrameProcessor tracking_;
+  rt::LinePoints trackerLines_;
+  std::vector<double> trackerSegment_, trackerWhole_;
+  double touched_ = 0, touchedLines_ = 0, overlap_ = 0, points_ = 0, cells_ = 0;
+
+  FullFrame a_, aMasked_;
+
+  rt::FrameProcessor opencvProcessor_;
+  rt::OpenCvSegmenter opencv_;
+  std::vector<double> opencvSegment_;
+};
+
+// Agreement of the tracker's regions with baseline (a), frame by frame (not timed).
+void countAgreement(rt::SimCamera& sim, FrameSource& source, int frameCount,
+                    const rt::VisionParams& params, Result& result) {
+  rt::FrameProcessor processor(sim.mirror, sim.table, params);
+  rt::CmvisionSegmenter cmvision(processor.grid(), trackedClasses(params), processor.dontTouch());
+  for (int i = 0; i < frameCount; ++i) {
+    processor.classifier().setFrame(source.view(i));
+    processor.tracker().track(processor.classifier());
+    cmvision.segment(processor.classifier());
+    const rt::Agreement agreement =
+        rt::compareWithFullSegmentation(processor.tracker().visited(), cmvision);
+    result.exact_frames += agreement.exact() ? 1 : 0;
+    result.partial_regions += agreement.regions_partial;
+    result.stale_cells += agreement.stale_cells;
+    result.untracked_regions += agreement.regions_untracked;
   }
+}
+
+Result run(rt::SimCamera& sim, const Sequence& sequence, int cell_size, int frameCount, int rounds,
+           bool coldFrames, Order order, int max_seed_regions, const std::string& vision_config) {
+  Result result;
+  result.sequence = sequence;
+  result.width = sim.mirror.width();
+  result.height = sim.mirror.height();
+  result.cell_size = cell_size;
+  result.frames = frameCount;
+
+  FrameSource source(sim, sequence, frameCount, coldFrames);  // renders the sequence once
+  const rt::VisionParams params = benchVisionParams(cell_size, max_seed_regions, vision_config);
+  MethodRun methods(sim, source, cell_size, params);
+  methods.runRounds(frameCount, rounds, order, result);
+  methods.summariseInto(frameCount, rounds, result);
+  countAgreement(sim, source, frameCount, params, result);
   return result;
 }
 

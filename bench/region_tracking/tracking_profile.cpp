@@ -379,67 +379,107 @@ void printTimes(const Options& options, rt::SimCamera& sim, const Sequence& sequ
               median(all_times));
 }
 
-// --line-diff: the line points of the options' params (the tested cadence) against the same
-// params with mask_edge_every 1 (exact), on the same frames, each processor tracking on its own.
-// A point is missing when the exact run has it and the tested one has no point within the
-// tolerance in the image (extra: the other way round); 1 px is the same point, 5 px allows for a
-// sample taken one cell corner further along the same line (the sampling follows the contour
-// from its start, which moves when the contour changes anywhere).
-void printLineDiff(const Options& options, rt::SimCamera& sim, const Sequence& sequence) {
-  rt::VisionParams exactParams = options.params();
-  exactParams.tracker.mask_edge_every = 1;
-  const rt::VisionParams testedParams = options.params();
-  rt::FrameProcessor exact(sim.mirror, sim.table, exactParams);
-  rt::FrameProcessor tested(sim.mirror, sim.table, testedParams);
-  std::vector<std::uint8_t> delivered(sequence[0].size());
-  rt::LinePoints exactLines, testedLines;
-  constexpr std::array<double, 2> kTolerancePx = {1.0, 5.0};
-  constexpr std::array<double, 4> kRangeLimits = {2.0, 4.0, 6.0, 1e9};  // m
-  struct Count {
-    long long missing = 0, extra = 0;
-    int max_missing = 0, max_extra = 0;
-    std::array<long long, 4> missing_by_range{}, extra_by_range{};
-    std::array<long long, 4> missing_by_rim{}, extra_by_rim{};
-  };
-  // How far each cell is from the outer rim, so that a point missing "at the rim" can be told
-  // from one further in.
-  const rt::CellGrid& grid = exact.grid();
-  const std::vector<int> rimSteps =
-      rt::stepsFromOuterRim(grid, rt::maskEdges(grid, exact.dontTouch()));
-  constexpr std::array<int, 4> kRimLimits = {2, 4, 8, 1 << 30};  // cells
-  auto rimBin = [&](const rt::LinePoint& p) {
-    const int x = std::clamp(static_cast<int>(p.u) / grid.cell_size, 0, grid.width - 1);
-    const int y = std::clamp(static_cast<int>(p.v) / grid.cell_size, 0, grid.height - 1);
-    const int steps = rimSteps[grid.index(x, y)];
+constexpr std::array<double, 2> kTolerancePx = {1.0, 5.0};
+constexpr std::array<double, 4> kRangeLimits = {2.0, 4.0, 6.0, 1e9};  // m
+constexpr std::array<int, 4> kRimLimits = {2, 4, 8, 1 << 30};         // cells
+constexpr int kFeatureKinds = 7;
+
+// Unmatched points of one tolerance (missing: in the exact run only; extra: in the tested only).
+struct UnmatchedCount {
+  long long missing = 0, extra = 0;
+  int max_missing = 0, max_extra = 0;
+  std::array<long long, 4> missing_by_range{}, extra_by_range{};
+  std::array<long long, 4> missing_by_rim{}, extra_by_rim{};
+};
+
+int rangeBin(const rt::LinePoint& p) {
+  const double range = std::hypot(p.x, p.y);
+  int bin = 0;
+  while (range >= kRangeLimits[bin])
+    ++bin;
+  return bin;
+}
+
+// How far each cell is from the outer rim, so that a point missing "at the rim" can be told
+// from one further in.
+class RimBins {
+ public:
+  explicit RimBins(const rt::FrameProcessor& processor)
+      : grid_(processor.grid()),
+        rimSteps_(rt::stepsFromOuterRim(grid_, rt::maskEdges(grid_, processor.dontTouch()))) {}
+
+  int bin(const rt::LinePoint& p) const {
+    const int x = std::clamp(static_cast<int>(p.u) / grid_.cell_size, 0, grid_.width - 1);
+    const int y = std::clamp(static_cast<int>(p.v) / grid_.cell_size, 0, grid_.height - 1);
+    const int steps = rimSteps_[grid_.index(x, y)];
     int bin = 0;
     while (steps >= kRimLimits[bin])
       ++bin;
     return bin;
-  };
-  std::array<Count, 2> counts;
+  }
+
+ private:
+  const rt::CellGrid& grid_;
+  const std::vector<int> rimSteps_;
+};
+
+// Points of `a` with no point of `b` within `tolerance` px: counted, by range and by cells
+// from the outer rim.
+int unmatched(const rt::LinePoints& a, const rt::LinePoints& b, double tolerance,
+              const RimBins& rim, std::array<long long, 4>& byRange,
+              std::array<long long, 4>& byRim) {
+  int n = 0;
+  for (const rt::LinePoint& p : a.points) {
+    const bool found = std::any_of(b.points.begin(), b.points.end(), [&](const rt::LinePoint& q) {
+      return std::hypot(p.u - q.u, p.v - q.v) <= tolerance;
+    });
+    if (!found) {
+      ++n;
+      ++byRange[rangeBin(p)];
+      ++byRim[rim.bin(p)];
+    }
+  }
+  return n;
+}
+
+bool identicalPoints(const rt::LinePoints& a, const rt::LinePoints& b) {
+  return a.points.size() == b.points.size() &&
+         std::equal(a.points.begin(), a.points.end(), b.points.begin(),
+                    [](const rt::LinePoint& p, const rt::LinePoint& q) {
+                      return p.u == q.u && p.v == q.v && p.x == q.x && p.y == q.y;
+                    });
+}
+
+// Everything --line-diff counts over the frames; run 0 is the exact run, run 1 the tested one.
+struct LineDiffTally {
+  std::array<UnmatchedCount, 2> counts;
   long long exactPoints = 0, testedPoints = 0;
   int identicalFrames = 0, frames = 0;
   long long exactCells = 0, testedCells = 0;
   // Against the field model (the true pose of each frame): each point's distance to the nearest
   // line centre; points further than 10 cm are wrong.
-  const std::vector<fieldline::geometry::Pose2> poses = rt::motionPoses(
-      sim.field, {options.speed, options.omega_deg * std::numbers::pi / 180, 30.0}, options.frames);
   std::array<std::vector<double>, 2> modelErrors;
   std::array<long long, 2> wrongPoints{};
   // What feature recognition makes of each run's points: features by kind, pose hypotheses
   // within 0.5 m and 10 deg of the true pose (or its twin across the centre) and the others
   // (false), as fieldline-eval-features counts them, but on the moving sequence.
-  fieldline::feature_recognition::FeatureRecognizer recognizer(sim.field);
-  fieldline::perception::FieldFeatures features;
-  constexpr int kKinds = 7;
-  std::array<std::array<long long, kKinds>, 2> featuresByKind{};
+  std::array<std::array<long long, kFeatureKinds>, 2> featuresByKind{};
   std::array<long long, 2> goodHypotheses{}, falseHypotheses{};
   std::array<int, 2> framesWithGood{};
-  auto addFeatures = [&](const rt::LinePoints& lines, int run, int frame) {
-    recognizer.recognize(lines, features);
+
+  void addModelErrors(const fieldline::field::FieldModel& field, const rt::LinePoints& lines,
+                      int run, const fieldline::geometry::Pose2& pose) {
+    for (const rt::LinePoint& p : lines.points) {
+      const double e = field.distance(fieldline::geometry::pointRobotToField(pose, {p.x, p.y}));
+      modelErrors[run].push_back(e);
+      wrongPoints[run] += e > 0.10 ? 1 : 0;
+    }
+  }
+
+  void addFeatures(const fieldline::perception::FieldFeatures& features, int run,
+                   const fieldline::geometry::Pose2& truth) {
     for (const auto& f : features.features)
-      ++featuresByKind[run][std::clamp(static_cast<int>(f.kind), 0, kKinds - 1)];
-    const fieldline::geometry::Pose2& truth = poses[frame];
+      ++featuresByKind[run][std::clamp(static_cast<int>(f.kind), 0, kFeatureKinds - 1)];
     const fieldline::geometry::Pose2 twin{-truth.x, -truth.y,
                                           fieldline::geometry::normalizeAngle(truth.phi + M_PI)};
     bool good = false;
@@ -454,39 +494,105 @@ void printLineDiff(const Options& options, rt::SimCamera& sim, const Sequence& s
       good = good || near;
     }
     framesWithGood[run] += good ? 1 : 0;
-  };
-  auto addModelErrors = [&](const rt::LinePoints& lines, int run, int frame) {
-    for (const rt::LinePoint& p : lines.points) {
-      const double e =
-          sim.field.distance(fieldline::geometry::pointRobotToField(poses[frame], {p.x, p.y}));
-      modelErrors[run].push_back(e);
-      wrongPoints[run] += e > 0.10 ? 1 : 0;
+  }
+
+  void addUnmatched(const rt::LinePoints& exactLines, const rt::LinePoints& testedLines,
+                    const RimBins& rim) {
+    for (std::size_t t = 0; t < kTolerancePx.size(); ++t) {
+      UnmatchedCount& c = counts[t];
+      const int missing = unmatched(exactLines, testedLines, kTolerancePx[t], rim,
+                                    c.missing_by_range, c.missing_by_rim);
+      const int extra = unmatched(testedLines, exactLines, kTolerancePx[t], rim, c.extra_by_range,
+                                  c.extra_by_rim);
+      c.missing += missing;
+      c.extra += extra;
+      c.max_missing = std::max(c.max_missing, missing);
+      c.max_extra = std::max(c.max_extra, extra);
     }
+  }
+};
+
+void printLineDiffSummary(const Options& options, const rt::VisionParams& testedParams,
+                          LineDiffTally& tally) {
+  const double n = tally.frames;
+  std::printf(
+      "%s, %.1f m/s %.0f deg/s, %d frames: line points with mask_edge_every %d (inner edge "
+      "%s) against 1\n\n",
+      options.camera_preset.c_str(), options.speed, options.omega_deg, tally.frames,
+      testedParams.tracker.mask_edge_every, testedParams.tracker.mask_edge_inner ? "too" : "not");
+  std::printf("cells classified per frame: %.1f exact, %.1f tested\n", tally.exactCells / n,
+              tally.testedCells / n);
+  std::printf(
+      "line points per frame: %.1f exact, %.1f tested; frames with identical points: %d\n\n",
+      tally.exactPoints / n, tally.testedPoints / n, tally.identicalFrames);
+  for (std::vector<double>& e : tally.modelErrors)
+    std::sort(e.begin(), e.end());
+  auto quantile = [](const std::vector<double>& v, double q) {
+    return v.empty() ? 0.0 : v[static_cast<std::size_t>(q * static_cast<double>(v.size() - 1))];
   };
-  auto rangeBin = [&](const rt::LinePoint& p) {
-    const double range = std::hypot(p.x, p.y);
-    int bin = 0;
-    while (range >= kRangeLimits[bin])
-      ++bin;
-    return bin;
-  };
-  // Points of `a` with no point of `b` within `tolerance` px: counted, by range and by cells
-  // from the outer rim.
-  auto unmatched = [&](const rt::LinePoints& a, const rt::LinePoints& b, double tolerance,
-                       std::array<long long, 4>& byRange, std::array<long long, 4>& byRim) {
-    int n = 0;
-    for (const rt::LinePoint& p : a.points) {
-      const bool found = std::any_of(b.points.begin(), b.points.end(), [&](const rt::LinePoint& q) {
-        return std::hypot(p.u - q.u, p.v - q.v) <= tolerance;
-      });
-      if (!found) {
-        ++n;
-        ++byRange[rangeBin(p)];
-        ++byRim[rimBin(p)];
-      }
-    }
-    return n;
-  };
+  const auto& errors = tally.modelErrors;
+  std::printf(
+      "distance to the model lines, exact / tested: median %.4f / %.4f m, p95 %.4f / %.4f m; "
+      "points further than 10 cm per frame %.3f / %.3f\n\n",
+      quantile(errors[0], 0.5), quantile(errors[1], 0.5), quantile(errors[0], 0.95),
+      quantile(errors[1], 0.95), tally.wrongPoints[0] / n, tally.wrongPoints[1] / n);
+  const auto& kinds = tally.featuresByKind;
+  std::printf(
+      "features, exact / tested: centre circles %lld / %lld, penalty corners %lld / %lld, field "
+      "corners %lld / %lld, T junctions %lld / %lld, straight lines %lld / %lld; frames with a "
+      "correct pose hypothesis %d / %d; hypotheses correct %lld / %lld, false %lld / %lld\n\n",
+      kinds[0][1], kinds[1][1], kinds[0][2], kinds[1][2], kinds[0][3], kinds[1][3], kinds[0][4],
+      kinds[1][4], kinds[0][5], kinds[1][5], tally.framesWithGood[0], tally.framesWithGood[1],
+      tally.goodHypotheses[0], tally.goodHypotheses[1], tally.falseHypotheses[0],
+      tally.falseHypotheses[1]);
+}
+
+void printLineDiffTables(const LineDiffTally& tally) {
+  const double n = tally.frames;
+  std::printf(
+      "| tolerance | missing per frame (max) | extra per frame (max) | missing by range <2 / 2-4 / "
+      "4-6 / >6 m | extra by range |\n|---|---|---|---|---|\n");
+  for (std::size_t t = 0; t < kTolerancePx.size(); ++t) {
+    const UnmatchedCount& c = tally.counts[t];
+    std::printf(
+        "| %.0f px | %.3f (%d) | %.3f (%d) | %lld / %lld / %lld / %lld | %lld / %lld / "
+        "%lld / %lld |\n",
+        kTolerancePx[t], c.missing / n, c.max_missing, c.extra / n, c.max_extra,
+        c.missing_by_range[0], c.missing_by_range[1], c.missing_by_range[2], c.missing_by_range[3],
+        c.extra_by_range[0], c.extra_by_range[1], c.extra_by_range[2], c.extra_by_range[3]);
+  }
+  std::printf(
+      "\n| tolerance | missing by cells from the outer rim 0-1 / 2-3 / 4-7 / 8+ | extra by cells "
+      "from the rim |\n|---|---|---|\n");
+  for (std::size_t t = 0; t < kTolerancePx.size(); ++t) {
+    const UnmatchedCount& c = tally.counts[t];
+    std::printf("| %.0f px | %lld / %lld / %lld / %lld | %lld / %lld / %lld / %lld |\n",
+                kTolerancePx[t], c.missing_by_rim[0], c.missing_by_rim[1], c.missing_by_rim[2],
+                c.missing_by_rim[3], c.extra_by_rim[0], c.extra_by_rim[1], c.extra_by_rim[2],
+                c.extra_by_rim[3]);
+  }
+}
+
+// --line-diff: the line points of the options' params (the tested cadence) against the same
+// params with mask_edge_every 1 (exact), on the same frames, each processor tracking on its own.
+// A point is missing when the exact run has it and the tested one has no point within the
+// tolerance in the image (extra: the other way round); 1 px is the same point, 5 px allows for a
+// sample taken one cell corner further along the same line (the sampling follows the contour
+// from its start, which moves when the contour changes anywhere).
+void printLineDiff(const Options& options, rt::SimCamera& sim, const Sequence& sequence) {
+  rt::VisionParams exactParams = options.params();
+  exactParams.tracker.mask_edge_every = 1;
+  const rt::VisionParams testedParams = options.params();
+  rt::FrameProcessor exact(sim.mirror, sim.table, exactParams);
+  rt::FrameProcessor tested(sim.mirror, sim.table, testedParams);
+  std::vector<std::uint8_t> delivered(sequence[0].size());
+  rt::LinePoints exactLines, testedLines;
+  const RimBins rim(exact);
+  const std::vector<fieldline::geometry::Pose2> poses = rt::motionPoses(
+      sim.field, {options.speed, options.omega_deg * std::numbers::pi / 180, 30.0}, options.frames);
+  fieldline::feature_recognition::FeatureRecognizer recognizer(sim.field);
+  fieldline::perception::FieldFeatures features;
+  LineDiffTally tally;
   if (options.phase_shift) {
     std::copy(sequence[0].begin(), sequence[0].end(), delivered.begin());
     tested.classifier().setFrame(sim.renderer->view(delivered));
@@ -501,85 +607,22 @@ void printLineDiff(const Options& options, rt::SimCamera& sim, const Sequence& s
     }
     exact.lineDetector().detect(frame, exact.tracker().contours(), exactLines);
     tested.lineDetector().detect(frame, tested.tracker().contours(), testedLines);
-    addModelErrors(exactLines, 0, i);
-    addModelErrors(testedLines, 1, i);
-    addFeatures(exactLines, 0, i);
-    addFeatures(testedLines, 1, i);
-    exactCells += exact.tracker().stats().cells_classified;
-    testedCells += tested.tracker().stats().cells_classified;
-    ++frames;
-    exactPoints += static_cast<long long>(exactLines.points.size());
-    testedPoints += static_cast<long long>(testedLines.points.size());
-    const bool identical =
-        exactLines.points.size() == testedLines.points.size() &&
-        std::equal(exactLines.points.begin(), exactLines.points.end(), testedLines.points.begin(),
-                   [](const rt::LinePoint& a, const rt::LinePoint& b) {
-                     return a.u == b.u && a.v == b.v && a.x == b.x && a.y == b.y;
-                   });
-    identicalFrames += identical ? 1 : 0;
-    for (std::size_t t = 0; t < kTolerancePx.size(); ++t) {
-      Count& c = counts[t];
-      const int missing =
-          unmatched(exactLines, testedLines, kTolerancePx[t], c.missing_by_range, c.missing_by_rim);
-      const int extra =
-          unmatched(testedLines, exactLines, kTolerancePx[t], c.extra_by_range, c.extra_by_rim);
-      c.missing += missing;
-      c.extra += extra;
-      c.max_missing = std::max(c.max_missing, missing);
-      c.max_extra = std::max(c.max_extra, extra);
-    }
+    tally.addModelErrors(sim.field, exactLines, 0, poses[i]);
+    tally.addModelErrors(sim.field, testedLines, 1, poses[i]);
+    recognizer.recognize(exactLines, features);
+    tally.addFeatures(features, 0, poses[i]);
+    recognizer.recognize(testedLines, features);
+    tally.addFeatures(features, 1, poses[i]);
+    tally.exactCells += exact.tracker().stats().cells_classified;
+    tally.testedCells += tested.tracker().stats().cells_classified;
+    ++tally.frames;
+    tally.exactPoints += static_cast<long long>(exactLines.points.size());
+    tally.testedPoints += static_cast<long long>(testedLines.points.size());
+    tally.identicalFrames += identicalPoints(exactLines, testedLines) ? 1 : 0;
+    tally.addUnmatched(exactLines, testedLines, rim);
   }
-  const double n = frames;
-  std::printf(
-      "%s, %.1f m/s %.0f deg/s, %d frames: line points with mask_edge_every %d (inner edge "
-      "%s) against 1\n\n",
-      options.camera_preset.c_str(), options.speed, options.omega_deg, frames,
-      testedParams.tracker.mask_edge_every, testedParams.tracker.mask_edge_inner ? "too" : "not");
-  std::printf("cells classified per frame: %.1f exact, %.1f tested\n", exactCells / n,
-              testedCells / n);
-  std::printf(
-      "line points per frame: %.1f exact, %.1f tested; frames with identical points: %d\n\n",
-      exactPoints / n, testedPoints / n, identicalFrames);
-  for (std::vector<double>& e : modelErrors)
-    std::sort(e.begin(), e.end());
-  auto quantile = [](const std::vector<double>& v, double q) {
-    return v.empty() ? 0.0 : v[static_cast<std::size_t>(q * static_cast<double>(v.size() - 1))];
-  };
-  std::printf(
-      "distance to the model lines, exact / tested: median %.4f / %.4f m, p95 %.4f / %.4f m; "
-      "points further than 10 cm per frame %.3f / %.3f\n\n",
-      quantile(modelErrors[0], 0.5), quantile(modelErrors[1], 0.5), quantile(modelErrors[0], 0.95),
-      quantile(modelErrors[1], 0.95), wrongPoints[0] / n, wrongPoints[1] / n);
-  std::printf(
-      "features, exact / tested: centre circles %lld / %lld, penalty corners %lld / %lld, field "
-      "corners %lld / %lld, T junctions %lld / %lld, straight lines %lld / %lld; frames with a "
-      "correct pose hypothesis %d / %d; hypotheses correct %lld / %lld, false %lld / %lld\n\n",
-      featuresByKind[0][1], featuresByKind[1][1], featuresByKind[0][2], featuresByKind[1][2],
-      featuresByKind[0][3], featuresByKind[1][3], featuresByKind[0][4], featuresByKind[1][4],
-      featuresByKind[0][5], featuresByKind[1][5], framesWithGood[0], framesWithGood[1],
-      goodHypotheses[0], goodHypotheses[1], falseHypotheses[0], falseHypotheses[1]);
-  std::printf(
-      "| tolerance | missing per frame (max) | extra per frame (max) | missing by range <2 / 2-4 / "
-      "4-6 / >6 m | extra by range |\n|---|---|---|---|---|\n");
-  for (std::size_t t = 0; t < kTolerancePx.size(); ++t) {
-    const Count& c = counts[t];
-    std::printf(
-        "| %.0f px | %.3f (%d) | %.3f (%d) | %lld / %lld / %lld / %lld | %lld / %lld / "
-        "%lld / %lld |\n",
-        kTolerancePx[t], c.missing / n, c.max_missing, c.extra / n, c.max_extra,
-        c.missing_by_range[0], c.missing_by_range[1], c.missing_by_range[2], c.missing_by_range[3],
-        c.extra_by_range[0], c.extra_by_range[1], c.extra_by_range[2], c.extra_by_range[3]);
-  }
-  std::printf(
-      "\n| tolerance | missing by cells from the outer rim 0-1 / 2-3 / 4-7 / 8+ | extra by cells "
-      "from the rim |\n|---|---|---|\n");
-  for (std::size_t t = 0; t < kTolerancePx.size(); ++t) {
-    const Count& c = counts[t];
-    std::printf("| %.0f px | %lld / %lld / %lld / %lld | %lld / %lld / %lld / %lld |\n",
-                kTolerancePx[t], c.missing_by_rim[0], c.missing_by_rim[1], c.missing_by_rim[2],
-                c.missing_by_rim[3], c.extra_by_rim[0], c.extra_by_rim[1], c.extra_by_rim[2],
-                c.extra_by_rim[3]);
-  }
+  printLineDiffSummary(options, testedParams, tally);
+  printLineDiffTables(tally);
 }
 
 }  // namespace

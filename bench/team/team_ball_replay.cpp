@@ -86,6 +86,432 @@ struct Score {
   }
 };
 
+struct ReplayOptions {
+  std::string dir;
+  double settle_s = 5.0;
+  bool publish_on_ball = false;
+  double send_rate_hz = 20.0, publish_rate_hz = 10.0, delay_ms = 1.5, fresh_s = 0.3;
+  double max_send_rate_hz = 30.0;
+  teamcomm::PictureOptions picture;
+  double max_prediction_s = 0.5;
+  double superseded_after_s = 0.1;
+  std::string csv_path, sightings_path, pictures_path;
+
+  void addTo(CLI::App& app) {
+    app.add_option("recording", dir, "Recording directory (sim.lcm, robot1.lcm ...)")->required();
+    app.add_option("--settle", settle_s, "Seconds after the first state not scored")
+        ->capture_default_str();
+    app.add_flag("--publish-on-ball", publish_on_ball,
+                 "Each picture at the first own BALL_STATE after its tick");
+    app.add_option("--send-rate", send_rate_hz, "Team packets per second")->capture_default_str();
+    app.add_option("--max-send-rate", max_send_rate_hz,
+                   "At most this many per second, a new ball at once (= --send-rate: on the timer "
+                   "only)")
+        ->capture_default_str();
+    app.add_option("--publish-rate", publish_rate_hz, "Team pictures per second")
+        ->capture_default_str();
+    app.add_option("--delay-ms", delay_ms, "Network delay of a team packet, ms")
+        ->capture_default_str();
+    app.add_option("--fresh", fresh_s, "Own estimates older than this are not sent, s")
+        ->capture_default_str();
+    app.add_option("--gate-chi2", picture.gate_chi2, "Team ball consistency gate")
+        ->capture_default_str();
+    app.add_option("--ball-speed-sigma", picture.ball_speed_sigma_mps,
+                   "Unmodelled ball speed while predicting a ball to the picture's time, m/s")
+        ->capture_default_str();
+    app.add_option("--max-prediction", max_prediction_s, "Predictions reach at most this far, s")
+        ->capture_default_str();
+    app.add_option(
+           "--superseded-after", superseded_after_s,
+           "A ball seen this much longer ago than a contradicting one is left out, s (0: off)")
+        ->capture_default_str();
+    app.add_option("--min-ball-variance", picture.min_ball_variance,
+                   "Floor of a ball's position variance, m^2")
+        ->capture_default_str();
+    addOutputs(app);
+  }
+
+  void addOutputs(CLI::App& app) {
+    app.add_option("--csv", csv_path,
+                   "Write every scored own ball (robot, t, error, range, speeds, sigma, pose "
+                   "error) here");
+    app.add_option("--sightings", sightings_path,
+                   "Write every visible VISION_BALL against the truth (robot frame: range, radial "
+                   "and tangential error, the detector's sigmas) here");
+    app.add_option("--pictures", pictures_path,
+                   "Write every scored team picture (observer, t, team ball error and sigma, each "
+                   "robot's ball error and range) here");
+  }
+};
+
+std::vector<eval::TruthSample> readTruth(const std::string& dir) {
+  std::vector<eval::TruthSample> truth;
+  bus::LogReader log(dir + "/sim.lcm");
+  world_state_t w;
+  while (log.next(bus::channels::kSimWorld, w)) {
+    eval::TruthSample t;
+    t.utime = w.header.utime;
+    for (int i = 0; i < w.num_robots; ++i) {
+      const auto k = static_cast<std::size_t>(i);
+      t.robots[w.robot_id[k]] = {w.robot_x[k], w.robot_y[k], w.robot_phi[k], w.robot_kidnaps[k]};
+    }
+    t.ball_x = w.ball_x;
+    t.ball_y = w.ball_y;
+    if (truth.empty() || t.utime > truth.back().utime) truth.push_back(std::move(t));
+  }
+  return truth;
+}
+
+// The true ball at `t` (false: outside the truth).
+bool ballAt(const std::vector<eval::TruthSample>& truth, Utime t, Eigen::Vector2d& out) {
+  eval::TruthRobot unused;
+  double x = 0, y = 0;
+  if (!eval::truthAt(truth, t, truth.front().robots.begin()->first, unused, &x, &y)) return false;
+  out = {x, y};
+  return true;
+}
+
+// One visible VISION_BALL of robot `id` against the truth, in the robot frame.
+void writeSighting(std::FILE* sightings, const std::vector<eval::TruthSample>& truth, int id,
+                   const perception::BallSighting& b) {
+  eval::TruthRobot tr;
+  double bx = 0, by = 0, bx2 = 0, by2 = 0;
+  if (!b.visible || !eval::truthAt(truth, b.utime, id, tr, &bx, &by)) return;
+  eval::truthAt(truth, b.utime + 100'000, id, tr, &bx2, &by2);
+  eval::truthAt(truth, b.utime, id, tr, &bx, &by);
+  // The true ball in the robot frame at the exposure.
+  const double c = std::cos(tr.phi), sn = std::sin(tr.phi);
+  const Eigen::Vector2d rel(c * (bx - tr.x) + sn * (by - tr.y),
+                            -sn * (bx - tr.x) + c * (by - tr.y));
+  const Eigen::Vector2d seen(b.x, b.y);
+  const Eigen::Vector2d radial = rel.normalized();
+  const Eigen::Vector2d tangential(-radial.y(), radial.x());
+  std::fprintf(sightings, "%d,%.3f,%.3f,%.3f,%.4f,%.4f,%.4f,%.4f,%.3f\n", id,
+               static_cast<double>(b.utime - truth.front().utime) / 1e6, seen.norm(), rel.norm(),
+               (seen - rel).dot(radial), (seen - rel).dot(tangential), b.sigma_radial,
+               b.sigma_tangential, std::hypot(bx2 - bx, by2 - by) / 0.1);
+}
+
+// Every robot's estimates (robotN.lcm; missing or empty files are skipped); with `sightings`,
+// every visible VISION_BALL is written there against the truth.
+std::map<int, RobotLog> readRobotLogs(const std::string& dir,
+                                      const std::vector<eval::TruthSample>& truth,
+                                      std::FILE* sightings) {
+  std::map<int, RobotLog> logs;
+  for (int id = 1; id <= perception::kTeamSize; ++id) {
+    const std::string path = dir + "/robot" + std::to_string(id) + ".lcm";
+    if (!std::filesystem::exists(path) || std::filesystem::file_size(path) == 0) continue;
+    bus::LogReader log(path);
+    bus::LogEvent e;
+    RobotLog& r = logs[id];
+    while (log.nextEvent(e)) {
+      const int size = static_cast<int>(e.data.size());
+      if (e.channel == bus::channels::kRobotState.name) {
+        robot_state_t m;
+        if (m.decode(e.data.data(), 0, size) != size) continue;
+        r.robots.push_back({e.timestamp, msg::fromMessage(m), {}});
+      } else if (sightings && e.channel == bus::channels::kVisionBall.name) {
+        ball_observation_t m;
+        if (m.decode(e.data.data(), 0, size) != size) continue;
+        writeSighting(sightings, truth, id, msg::fromMessage(m));
+      } else if (e.channel == bus::channels::kBallState.name) {
+        ball_state_t m;
+        if (m.decode(e.data.data(), 0, size) != size) continue;
+        r.balls.push_back({e.timestamp, {}, msg::fromMessage(m)});
+      }
+    }
+  }
+  return logs;
+}
+
+// The recording's scored span: `start` (first ROBOT_STATE), `end` (last one, within the truth).
+struct Span {
+  Utime start = 0, scored_from = 0, end = 0;
+};
+
+Span recordingSpan(const std::map<int, RobotLog>& logs, const std::vector<eval::TruthSample>& truth,
+                   double settle_s) {
+  Utime start = std::numeric_limits<Utime>::max(), end = 0;
+  for (const auto& [id, r] : logs) {
+    if (r.robots.empty()) continue;
+    start = std::min(start, r.robots.front().received);
+    end = std::max(end, r.robots.back().received);
+  }
+  end = std::min(end, truth.back().utime);
+  return {start, start + static_cast<Utime>(settle_s * 1e6), end};
+}
+
+// One scored own ball with the robot's pose (and its error) at that time, for --csv.
+void writeOwnBallRow(std::FILE* csv, const std::vector<eval::TruthSample>& truth, int id,
+                     const RobotLog& r, const Timed& b, const Eigen::Vector2d& t,
+                     const Eigen::Vector2d& error, Utime start) {
+  eval::TruthRobot tr;
+  double unused_x = 0, unused_y = 0;
+  eval::truthAt(truth, b.ball.utime, id, tr, &unused_x, &unused_y);
+  Eigen::Vector2d t_later;
+  ballAt(truth, b.ball.utime + 100'000, t_later);
+  const double ball_speed = (t_later - t).norm() / 0.1;
+  const Timed* pose = nullptr;
+  for (const Timed& p : r.robots) {
+    if (p.robot.utime > b.ball.utime) break;
+    pose = &p;
+  }
+  const Eigen::Vector2d to_ball = t - Eigen::Vector2d(tr.x, tr.y);
+  const Eigen::Vector2d along = to_ball.normalized();
+  const Eigen::Vector2d across(-along.y(), along.x());
+  double pose_err = -1, heading_err = 0, robot_sigma = 0, heading_sigma = 0, robot_speed = 0;
+  int status = -1;
+  if (pose) {
+    pose_err = std::hypot(pose->robot.pose.x - tr.x, pose->robot.pose.y - tr.y);
+    heading_err = std::remainder(pose->robot.pose.phi - tr.phi, 2 * M_PI) * 180 / M_PI;
+    robot_sigma = std::sqrt(0.5 * pose->robot.covariance.topLeftCorner<2, 2>().trace());
+    heading_sigma = std::sqrt(pose->robot.covariance(2, 2)) * 180 / M_PI;
+    robot_speed = std::hypot(pose->robot.vx, pose->robot.vy);
+    status = static_cast<int>(pose->robot.status);
+  }
+  std::fprintf(csv, "%d,%.3f,%.4f,%.4f,%.4f,%.3f,%.3f,%.3f,%.4f,%.3f,%.4f,%.3f,%.4f,%.3f,%d\n", id,
+               static_cast<double>(b.ball.utime - start) / 1e6, error.norm(), error.dot(along),
+               error.dot(across), to_ball.norm(), ball_speed, robot_speed,
+               std::sqrt(0.5 * b.ball.covariance.trace()),
+               static_cast<double>(b.ball.utime - b.ball.last_seen_utime) / 1e6, pose_err,
+               heading_err, robot_sigma, heading_sigma, status);
+}
+
+// Own balls, as the evaluation scores them (every valid BALL_STATE after the settle time).
+std::map<int, Score> scoreOwnBalls(const std::map<int, RobotLog>& logs,
+                                   const std::vector<eval::TruthSample>& truth, const Span& span,
+                                   std::FILE* csv) {
+  std::map<int, Score> own;
+  for (const auto& [id, r] : logs) {
+    for (const Timed& b : r.balls) {
+      if (!b.ball.valid || b.ball.utime < span.scored_from || b.ball.utime > span.end) continue;
+      Eigen::Vector2d t;
+      if (!ballAt(truth, b.ball.utime, t)) continue;
+      const Eigen::Vector2d error = Eigen::Vector2d(b.ball.x, b.ball.y) - t;
+      own[id].add(error, b.ball.covariance);
+      if (csv) writeOwnBallRow(csv, truth, id, r, b, t, error, span.start);
+    }
+  }
+  return own;
+}
+
+// The team link's timing, from the options.
+struct LinkTiming {
+  Utime send_period, publish_period, delay, fresh;
+  std::map<int, Utime> phase;  // each robot's send clock phase
+};
+
+LinkTiming linkTiming(const ReplayOptions& o, const std::map<int, RobotLog>& logs) {
+  LinkTiming link{static_cast<Utime>(1e6 / o.send_rate_hz),
+                  static_cast<Utime>(1e6 / o.publish_rate_hz),
+                  static_cast<Utime>(o.delay_ms * 1e3),
+                  static_cast<Utime>(o.fresh_s * 1e6),
+                  {}};
+  std::mt19937 rng(7);
+  for (const auto& [id, r] : logs)
+    link.phase[id] = std::uniform_int_distribution<Utime>(0, link.send_period - 1)(rng);
+  return link;
+}
+
+// Each robot's send times as teamcomm schedules them: a send period after the last packet, or
+// at once for a new valid BALL_STATE when the last is at least the shortest interval old.
+std::map<int, std::vector<Utime>> sendTimes(const ReplayOptions& o,
+                                            const std::map<int, RobotLog>& logs,
+                                            const LinkTiming& link, const Span& span) {
+  const Utime shortest = static_cast<Utime>(1e6 / o.max_send_rate_hz) - 5'000;
+  std::map<int, std::vector<Utime>> sends;
+  for (const auto& [id, r] : logs) {
+    std::vector<Utime>& out = sends[id];
+    const Utime phase = link.phase.at(id);
+    Utime last = span.start + phase - link.send_period;
+    std::size_t next_ball = 0;
+    bool was_valid = false;
+    for (Utime t = span.start + phase; t <= span.end; t += 5'000) {
+      while (next_ball < r.balls.size() && r.balls[next_ball].received <= t) {
+        const Timed& b = r.balls[next_ball++];
+        const bool news = b.ball.valid || was_valid;
+        was_valid = b.ball.valid;
+        if (o.max_send_rate_hz > o.send_rate_hz && news && b.received - last >= shortest) {
+          last = b.received;
+          out.push_back(last);
+        }
+      }
+      if (t - last >= link.send_period) {
+        last = t;
+        out.push_back(last);
+      }
+    }
+  }
+  return sends;
+}
+
+// The team ball's score over every robot's pictures.
+struct TeamTally {
+  Score team;
+  std::size_t used_total = 0, rejected_total = 0, valid_pictures = 0, pictures = 0;
+};
+
+// Replays one observer's team link: its picture's reports at `now`.
+class ObserverReplay {
+ public:
+  ObserverReplay(const ReplayOptions& o, const std::map<int, RobotLog>& logs,
+                 const LinkTiming& link, const std::map<int, std::vector<Utime>>& sends,
+                 int observer)
+      : o_(o),
+        logs_(logs),
+        link_(link),
+        sends_(sends),
+        observer_(observer),
+        tp_(observer, o.picture) {}
+
+  teamcomm::TeamPicture& picture() { return tp_; }
+
+  // The picture at the tick, or (--publish-on-ball) at the first own BALL_STATE after it.
+  Utime pictureTime(Utime tick) const {
+    if (!o_.publish_on_ball) return tick;
+    const RobotLog& own_log = logs_.at(observer_);
+    const auto next = std::lower_bound(own_log.balls.begin(), own_log.balls.end(), tick,
+                                       [](const Timed& e, Utime x) { return e.received < x; });
+    if (next != own_log.balls.end() && next->received - tick < link_.publish_period)
+      return next->received;
+    return tick;
+  }
+
+  void setReports(Utime now) {
+    for (const auto& [id, r] : logs_) {
+      teamcomm::Report report;
+      if (id == observer_) {
+        const Timed* pose = newestAt(r.robots, now);
+        if (!pose || now - pose->received > o_.picture.present_timeout_us) {
+          tp_.clear(id);
+          continue;
+        }
+        report.robot = pose->robot;
+        report.received_utime = pose->received;
+        if (const Timed* ball = newestAt(r.balls, now)) report.ball = ball->ball;
+      } else if (!teammateReport(id, r, now, report)) {
+        continue;
+      }
+      tp_.setReport(id, report);
+    }
+  }
+
+ private:
+  // The teammate's newest packet that has arrived: sent on its send clock (false: none yet).
+  bool teammateReport(int id, const RobotLog& r, Utime now, teamcomm::Report& report) const {
+    const std::vector<Utime>& sent_at = sends_.at(id);
+    const auto after = std::upper_bound(sent_at.begin(), sent_at.end(), now - link_.delay);
+    if (after == sent_at.begin()) return false;
+    const Utime sent = *std::prev(after);
+    const Timed* pose = newestAt(r.robots, sent);
+    if (pose && sent - pose->received <= link_.fresh) {
+      report.robot = pose->robot;
+    } else if (const teamcomm::Report* previous = tp_.report(id)) {
+      report.robot = previous->robot;  // heard, without a fresh pose: the last one ages
+    } else {
+      return false;
+    }
+    report.received_utime = sent + link_.delay;
+    const Timed* ball = newestAt(r.balls, sent);
+    if (ball && ball->ball.valid && sent - ball->received <= link_.fresh) report.ball = ball->ball;
+    return true;
+  }
+
+  const ReplayOptions& o_;
+  const std::map<int, RobotLog>& logs_;
+  const LinkTiming& link_;
+  const std::map<int, std::vector<Utime>>& sends_;
+  int observer_;
+  teamcomm::TeamPicture tp_;
+};
+
+// One scored team picture for --pictures: the team ball and each robot's ball against the truth.
+void writePictureRow(std::FILE* pictures_csv, const std::vector<eval::TruthSample>& truth,
+                     int observer, Utime now, Utime start, const Eigen::Vector2d& t,
+                     const teamcomm::TeamBallResult& result, const perception::TeamState& state) {
+  Eigen::Vector2d later;
+  ballAt(truth, now + 50'000, later);
+  std::fprintf(pictures_csv, "%d,%.3f,%.3f,%.4f,%.4f", observer,
+               static_cast<double>(now - start) / 1e6, (later - t).norm() / 0.05,
+               (result.position - t).norm(), std::sqrt(0.5 * result.covariance.trace()));
+  for (const perception::TeammateState& m : state.robots) {
+    if (m.ball_valid) {
+      std::fprintf(pictures_csv, ",%.4f,%.3f", std::hypot(m.ball_x - t.x(), m.ball_y - t.y()),
+                   std::hypot(m.ball_x - m.x, m.ball_y - m.y));
+    } else {
+      std::fprintf(pictures_csv, ",,");
+    }
+  }
+  std::fprintf(pictures_csv, "\n");
+}
+
+// Each robot's team picture at the publish rate, scored against the truth.
+TeamTally replayTeamBall(const ReplayOptions& o, const std::map<int, RobotLog>& logs,
+                         const std::vector<eval::TruthSample>& truth, const Span& span,
+                         std::FILE* pictures_csv) {
+  const LinkTiming link = linkTiming(o, logs);
+  const std::map<int, std::vector<Utime>> sends = sendTimes(o, logs, link, span);
+  TeamTally tally;
+  for (const auto& [observer, own_log] : logs) {
+    ObserverReplay replay(o, logs, link, sends, observer);
+    for (Utime tick = span.start + link.phase.at(observer) % link.publish_period; tick <= span.end;
+         tick += link.publish_period) {
+      const Utime now = replay.pictureTime(tick);
+      replay.setReports(now);
+      teamcomm::TeamBallResult result;
+      const perception::TeamState state = replay.picture().picture(now, &result);
+      if (now < span.scored_from) continue;
+      ++tally.pictures;
+      if (!result.valid) continue;
+      ++tally.valid_pictures;
+      Eigen::Vector2d t;
+      if (!ballAt(truth, now, t)) continue;
+      tally.team.add(result.position - t, result.covariance);
+      tally.used_total += result.used.size();
+      tally.rejected_total += result.rejected.size();
+      if (pictures_csv)
+        writePictureRow(pictures_csv, truth, observer, now, span.start, t, result, state);
+    }
+  }
+  return tally;
+}
+
+void printScores(std::map<int, Score>& own, const TeamTally& tally) {
+  int best = -1;
+  for (const auto& [id, s] : own) {
+    if (s.n >= 30 && (best < 0 || s.mean() < own[best].mean())) best = id;
+  }
+  for (const auto& [id, s] : own) {
+    std::printf("own ball robot %d: mean %.4f m (%zu), NEES in band %.3f, mean NEES %.2f, %s\n", id,
+                s.mean(), s.n, s.inBand(), s.neesMean(), s.neesSpread().c_str());
+  }
+  const Score& team = tally.team;
+  std::printf(
+      "team_ball_mean_m=%.4f best_own_ball_mean_m=%.4f (robot %d) team_ball_nees_in_band=%.3f "
+      "mean NEES %.2f (%s) valid %.3f used %.2f rejected %.2f per picture\n",
+      team.mean(), best >= 0 ? own[best].mean() : -1.0, best, team.inBand(), team.neesMean(),
+      team.neesSpread().c_str(),
+      tally.pictures
+          ? static_cast<double>(tally.valid_pictures) / static_cast<double>(tally.pictures)
+          : 0.0,
+      team.n ? static_cast<double>(tally.used_total) / static_cast<double>(team.n) : 0.0,
+      team.n ? static_cast<double>(tally.rejected_total) / static_cast<double>(team.n) : 0.0);
+}
+
+// An output file, or nullptr when its path is empty; with its CSV header written.
+std::FILE* openCsv(const std::string& path, const std::string& header) {
+  std::FILE* f = path.empty() ? nullptr : std::fopen(path.c_str(), "w");
+  if (f) std::fputs(header.c_str(), f);
+  return f;
+}
+
+std::string picturesHeader() {
+  std::string header = "observer,t,ball_speed,team_err,team_sigma";
+  for (int i = 1; i <= perception::kTeamSize; ++i)
+    header += fmt::format(",err{},range{}", i, i);
+  return header + "\n";
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -93,342 +519,39 @@ int main(int argc, char** argv) {
       "Recomputes the team ball of a recorded match (bench/fusion/record_match.sh) with teamcomm's "
       "TeamPicture and scores it, and every robot's own ball, against the truth (mean error and "
       "NEES in the 95 % band)."};
-  std::string dir;
-  app.add_option("recording", dir, "Recording directory (sim.lcm, robot1.lcm ...)")->required();
-  double settle_s = 5.0;
-  app.add_option("--settle", settle_s, "Seconds after the first state not scored")
-      ->capture_default_str();
-  bool publish_on_ball = false;
-  app.add_flag("--publish-on-ball", publish_on_ball,
-               "Each picture at the first own BALL_STATE after its tick");
-  double send_rate_hz = 20.0, publish_rate_hz = 10.0, delay_ms = 1.5, fresh_s = 0.3;
-  app.add_option("--send-rate", send_rate_hz, "Team packets per second")->capture_default_str();
-  double max_send_rate_hz = 30.0;
-  app.add_option("--max-send-rate", max_send_rate_hz,
-                 "At most this many per second, a new ball at once (= --send-rate: on the timer "
-                 "only)")
-      ->capture_default_str();
-  app.add_option("--publish-rate", publish_rate_hz, "Team pictures per second")
-      ->capture_default_str();
-  app.add_option("--delay-ms", delay_ms, "Network delay of a team packet, ms")
-      ->capture_default_str();
-  app.add_option("--fresh", fresh_s, "Own estimates older than this are not sent, s")
-      ->capture_default_str();
-  teamcomm::PictureOptions picture;
-  app.add_option("--gate-chi2", picture.gate_chi2, "Team ball consistency gate")
-      ->capture_default_str();
-  app.add_option("--ball-speed-sigma", picture.ball_speed_sigma_mps,
-                 "Unmodelled ball speed while predicting a ball to the picture's time, m/s")
-      ->capture_default_str();
-  double max_prediction_s = 0.5;
-  app.add_option("--max-prediction", max_prediction_s, "Predictions reach at most this far, s")
-      ->capture_default_str();
-  double superseded_after_s = 0.1;
-  app.add_option(
-         "--superseded-after", superseded_after_s,
-         "A ball seen this much longer ago than a contradicting one is left out, s (0: off)")
-      ->capture_default_str();
-  app.add_option("--min-ball-variance", picture.min_ball_variance,
-                 "Floor of a ball's position variance, m^2")
-      ->capture_default_str();
-  std::string csv_path;
-  app.add_option("--csv", csv_path,
-                 "Write every scored own ball (robot, t, error, range, speeds, sigma, pose error) "
-                 "here");
-  std::string sightings_path;
-  app.add_option("--sightings", sightings_path,
-                 "Write every visible VISION_BALL against the truth (robot frame: range, radial "
-                 "and tangential error, the detector's sigmas) here");
-  std::string pictures_path;
-  app.add_option("--pictures", pictures_path,
-                 "Write every scored team picture (observer, t, team ball error and sigma, each "
-                 "robot's ball error and range) here");
+  ReplayOptions o;
+  o.addTo(app);
   CLI11_PARSE(app, argc, argv);
   // A missing or unreadable recording is a clear error, not an abort.
   try {
-    picture.max_prediction_us = static_cast<Utime>(max_prediction_s * 1e6);
-    picture.superseded_after_us = static_cast<Utime>(superseded_after_s * 1e6);
-
-    // Truth.
-    std::vector<eval::TruthSample> truth;
-    {
-      bus::LogReader log(dir + "/sim.lcm");
-      world_state_t w;
-      while (log.next(bus::channels::kSimWorld, w)) {
-        eval::TruthSample t;
-        t.utime = w.header.utime;
-        for (int i = 0; i < w.num_robots; ++i) {
-          const auto k = static_cast<std::size_t>(i);
-          t.robots[w.robot_id[k]] = {w.robot_x[k], w.robot_y[k], w.robot_phi[k],
-                                     w.robot_kidnaps[k]};
-        }
-        t.ball_x = w.ball_x;
-        t.ball_y = w.ball_y;
-        if (truth.empty() || t.utime > truth.back().utime) truth.push_back(std::move(t));
-      }
-    }
+    o.picture.max_prediction_us = static_cast<Utime>(o.max_prediction_s * 1e6);
+    o.picture.superseded_after_us = static_cast<Utime>(o.superseded_after_s * 1e6);
+    const std::vector<eval::TruthSample> truth = readTruth(o.dir);
     if (truth.empty()) {
-      std::fprintf(stderr, "no SIM_WORLD in %s/sim.lcm\n", dir.c_str());
+      std::fprintf(stderr, "no SIM_WORLD in %s/sim.lcm\n", o.dir.c_str());
       return 1;
     }
-    const auto ballAt = [&](Utime t, Eigen::Vector2d& out) {
-      eval::TruthRobot unused;
-      double x = 0, y = 0;
-      if (!eval::truthAt(truth, t, truth.front().robots.begin()->first, unused, &x, &y))
-        return false;
-      out = {x, y};
-      return true;
-    };
-
-    // Every robot's estimates.
-    std::map<int, RobotLog> logs;
     std::FILE* sightings =
-        sightings_path.empty() ? nullptr : std::fopen(sightings_path.c_str(), "w");
-    if (sightings) {
-      std::fprintf(sightings,
-                   "robot,t,range,true_range,radial_err,tangential_err,sigma_radial,"
-                   "sigma_tangential,ball_speed\n");
-    }
-    for (int id = 1; id <= perception::kTeamSize; ++id) {
-      const std::string path = dir + "/robot" + std::to_string(id) + ".lcm";
-      if (!std::filesystem::exists(path) || std::filesystem::file_size(path) == 0) continue;
-      bus::LogReader log(path);
-      bus::LogEvent e;
-      RobotLog& r = logs[id];
-      while (log.nextEvent(e)) {
-        const int size = static_cast<int>(e.data.size());
-        if (e.channel == bus::channels::kRobotState.name) {
-          robot_state_t m;
-          if (m.decode(e.data.data(), 0, size) != size) continue;
-          r.robots.push_back({e.timestamp, msg::fromMessage(m), {}});
-        } else if (sightings && e.channel == bus::channels::kVisionBall.name) {
-          ball_observation_t m;
-          if (m.decode(e.data.data(), 0, size) != size) continue;
-          const perception::BallSighting b = msg::fromMessage(m);
-          eval::TruthRobot tr;
-          double bx = 0, by = 0, bx2 = 0, by2 = 0;
-          if (!b.visible || !eval::truthAt(truth, b.utime, id, tr, &bx, &by)) continue;
-          eval::truthAt(truth, b.utime + 100'000, id, tr, &bx2, &by2);
-          eval::truthAt(truth, b.utime, id, tr, &bx, &by);
-          // The true ball in the robot frame at the exposure.
-          const double c = std::cos(tr.phi), sn = std::sin(tr.phi);
-          const Eigen::Vector2d rel(c * (bx - tr.x) + sn * (by - tr.y),
-                                    -sn * (bx - tr.x) + c * (by - tr.y));
-          const Eigen::Vector2d seen(b.x, b.y);
-          const Eigen::Vector2d radial = rel.normalized();
-          const Eigen::Vector2d tangential(-radial.y(), radial.x());
-          std::fprintf(sightings, "%d,%.3f,%.3f,%.3f,%.4f,%.4f,%.4f,%.4f,%.3f\n", id,
-                       static_cast<double>(b.utime - truth.front().utime) / 1e6, seen.norm(),
-                       rel.norm(), (seen - rel).dot(radial), (seen - rel).dot(tangential),
-                       b.sigma_radial, b.sigma_tangential, std::hypot(bx2 - bx, by2 - by) / 0.1);
-        } else if (e.channel == bus::channels::kBallState.name) {
-          ball_state_t m;
-          if (m.decode(e.data.data(), 0, size) != size) continue;
-          r.balls.push_back({e.timestamp, {}, msg::fromMessage(m)});
-        }
-      }
-    }
+        openCsv(o.sightings_path,
+                "robot,t,range,true_range,radial_err,tangential_err,sigma_radial,"
+                "sigma_tangential,ball_speed\n");
+    const std::map<int, RobotLog> logs = readRobotLogs(o.dir, truth, sightings);
     if (sightings) std::fclose(sightings);
     if (logs.empty()) {
-      std::fprintf(stderr, "no robotN.lcm in %s\n", dir.c_str());
+      std::fprintf(stderr, "no robotN.lcm in %s\n", o.dir.c_str());
       return 1;
     }
-    Utime start = std::numeric_limits<Utime>::max(), end = 0;
-    for (const auto& [id, r] : logs) {
-      if (r.robots.empty()) continue;
-      start = std::min(start, r.robots.front().received);
-      end = std::max(end, r.robots.back().received);
-    }
-    end = std::min(end, truth.back().utime);
-    const Utime scored_from = start + static_cast<Utime>(settle_s * 1e6);
-
-    // Own balls, as the evaluation scores them (every valid BALL_STATE after the settle time).
-    std::map<int, Score> own;
-    std::FILE* csv = csv_path.empty() ? nullptr : std::fopen(csv_path.c_str(), "w");
-    if (csv) {
-      std::fprintf(csv,
-                   "robot,t,err,err_along,err_across,range,ball_speed,robot_speed,sigma,since_seen,"
-                   "pose_err,heading_err_deg,robot_sigma,heading_sigma_deg,status\n");
-    }
-    for (const auto& [id, r] : logs) {
-      for (const Timed& b : r.balls) {
-        if (!b.ball.valid || b.ball.utime < scored_from || b.ball.utime > end) continue;
-        Eigen::Vector2d t;
-        if (!ballAt(b.ball.utime, t)) continue;
-        const Eigen::Vector2d error = Eigen::Vector2d(b.ball.x, b.ball.y) - t;
-        own[id].add(error, b.ball.covariance);
-        if (!csv) continue;
-        eval::TruthRobot tr;
-        double unused_x = 0, unused_y = 0;
-        eval::truthAt(truth, b.ball.utime, id, tr, &unused_x, &unused_y);
-        Eigen::Vector2d t_later;
-        ballAt(b.ball.utime + 100'000, t_later);
-        const double ball_speed = (t_later - t).norm() / 0.1;
-        const Timed* pose = nullptr;
-        for (const Timed& p : r.robots) {
-          if (p.robot.utime > b.ball.utime) break;
-          pose = &p;
-        }
-        const Eigen::Vector2d to_ball = t - Eigen::Vector2d(tr.x, tr.y);
-        const Eigen::Vector2d along = to_ball.normalized();
-        const Eigen::Vector2d across(-along.y(), along.x());
-        double pose_err = -1, heading_err = 0, robot_sigma = 0, heading_sigma = 0, robot_speed = 0;
-        int status = -1;
-        if (pose) {
-          pose_err = std::hypot(pose->robot.pose.x - tr.x, pose->robot.pose.y - tr.y);
-          heading_err = std::remainder(pose->robot.pose.phi - tr.phi, 2 * M_PI) * 180 / M_PI;
-          robot_sigma = std::sqrt(0.5 * pose->robot.covariance.topLeftCorner<2, 2>().trace());
-          heading_sigma = std::sqrt(pose->robot.covariance(2, 2)) * 180 / M_PI;
-          robot_speed = std::hypot(pose->robot.vx, pose->robot.vy);
-          status = static_cast<int>(pose->robot.status);
-        }
-        std::fprintf(csv,
-                     "%d,%.3f,%.4f,%.4f,%.4f,%.3f,%.3f,%.3f,%.4f,%.3f,%.4f,%.3f,%.4f,%.3f,%d\n", id,
-                     static_cast<double>(b.ball.utime - start) / 1e6, error.norm(),
-                     error.dot(along), error.dot(across), to_ball.norm(), ball_speed, robot_speed,
-                     std::sqrt(0.5 * b.ball.covariance.trace()),
-                     static_cast<double>(b.ball.utime - b.ball.last_seen_utime) / 1e6, pose_err,
-                     heading_err, robot_sigma, heading_sigma, status);
-      }
-    }
+    const Span span = recordingSpan(logs, truth, o.settle_s);
+    std::FILE* csv =
+        openCsv(o.csv_path,
+                "robot,t,err,err_along,err_across,range,ball_speed,robot_speed,sigma,since_seen,"
+                "pose_err,heading_err_deg,robot_sigma,heading_sigma_deg,status\n");
+    std::map<int, Score> own = scoreOwnBalls(logs, truth, span, csv);
     if (csv) std::fclose(csv);
-
-    // Each robot's team picture.
-    const Utime send_period = static_cast<Utime>(1e6 / send_rate_hz);
-    const Utime publish_period = static_cast<Utime>(1e6 / publish_rate_hz);
-    const Utime delay = static_cast<Utime>(delay_ms * 1e3);
-    const Utime fresh = static_cast<Utime>(fresh_s * 1e6);
-    std::mt19937 rng(7);
-    std::map<int, Utime> phase;
-    for (const auto& [id, r] : logs)
-      phase[id] = std::uniform_int_distribution<Utime>(0, send_period - 1)(rng);
-    // Each robot's send times as teamcomm schedules them: a send period after the last packet, or
-    // at once for a new valid BALL_STATE when the last is at least the shortest interval old.
-    const Utime shortest = static_cast<Utime>(1e6 / max_send_rate_hz) - 5'000;
-    std::map<int, std::vector<Utime>> sends;
-    for (const auto& [id, r] : logs) {
-      std::vector<Utime>& out = sends[id];
-      Utime last = start + phase[id] - send_period;
-      std::size_t next_ball = 0;
-      bool was_valid = false;
-      for (Utime t = start + phase[id]; t <= end; t += 5'000) {
-        while (next_ball < r.balls.size() && r.balls[next_ball].received <= t) {
-          const Timed& b = r.balls[next_ball++];
-          const bool news = b.ball.valid || was_valid;
-          was_valid = b.ball.valid;
-          if (max_send_rate_hz > send_rate_hz && news && b.received - last >= shortest) {
-            last = b.received;
-            out.push_back(last);
-          }
-        }
-        if (t - last >= send_period) {
-          last = t;
-          out.push_back(last);
-        }
-      }
-    }
-    Score team;
-    std::FILE* pictures_csv =
-        pictures_path.empty() ? nullptr : std::fopen(pictures_path.c_str(), "w");
-    if (pictures_csv) {
-      std::fprintf(pictures_csv, "observer,t,ball_speed,team_err,team_sigma");
-      for (int i = 1; i <= perception::kTeamSize; ++i)
-        std::fprintf(pictures_csv, ",err%d,range%d", i, i);
-      std::fprintf(pictures_csv, "\n");
-    }
-    std::size_t used_total = 0, rejected_total = 0, valid_pictures = 0, pictures = 0;
-    for (const auto& [observer, own_log] : logs) {
-      teamcomm::TeamPicture tp(observer, picture);
-      for (Utime tick = start + phase[observer] % publish_period; tick <= end;
-           tick += publish_period) {
-        // The picture at the tick, or (--publish-on-ball) at the first own BALL_STATE after it.
-        Utime now = tick;
-        if (publish_on_ball) {
-          const auto next =
-              std::lower_bound(own_log.balls.begin(), own_log.balls.end(), tick,
-                               [](const Timed& e, Utime x) { return e.received < x; });
-          if (next != own_log.balls.end() && next->received - tick < publish_period)
-            now = next->received;
-        }
-        for (const auto& [id, r] : logs) {
-          teamcomm::Report report;
-          if (id == observer) {
-            const Timed* pose = newestAt(r.robots, now);
-            if (!pose || now - pose->received > picture.present_timeout_us) {
-              tp.clear(id);
-              continue;
-            }
-            report.robot = pose->robot;
-            report.received_utime = pose->received;
-            if (const Timed* ball = newestAt(r.balls, now)) report.ball = ball->ball;
-          } else {
-            // The teammate's newest packet that has arrived: sent on its send clock.
-            const auto after = std::upper_bound(sends[id].begin(), sends[id].end(), now - delay);
-            if (after == sends[id].begin()) continue;
-            const Utime sent = *std::prev(after);
-            const Timed* pose = newestAt(r.robots, sent);
-            if (pose && sent - pose->received <= fresh) {
-              report.robot = pose->robot;
-            } else if (const teamcomm::Report* previous = tp.report(id)) {
-              report.robot = previous->robot;  // heard, without a fresh pose: the last one ages
-            } else {
-              continue;
-            }
-            report.received_utime = sent + delay;
-            const Timed* ball = newestAt(r.balls, sent);
-            if (ball && ball->ball.valid && sent - ball->received <= fresh)
-              report.ball = ball->ball;
-          }
-          tp.setReport(id, report);
-        }
-        teamcomm::TeamBallResult result;
-        const perception::TeamState state = tp.picture(now, &result);
-        if (now < scored_from) continue;
-        ++pictures;
-        if (!result.valid) continue;
-        ++valid_pictures;
-        Eigen::Vector2d t;
-        if (!ballAt(now, t)) continue;
-        team.add(result.position - t, result.covariance);
-        used_total += result.used.size();
-        rejected_total += result.rejected.size();
-        if (pictures_csv) {
-          Eigen::Vector2d later;
-          ballAt(now + 50'000, later);
-          std::fprintf(pictures_csv, "%d,%.3f,%.3f,%.4f,%.4f", observer,
-                       static_cast<double>(now - start) / 1e6, (later - t).norm() / 0.05,
-                       (result.position - t).norm(), std::sqrt(0.5 * result.covariance.trace()));
-          for (const perception::TeammateState& m : state.robots) {
-            if (m.ball_valid) {
-              std::fprintf(pictures_csv, ",%.4f,%.3f",
-                           std::hypot(m.ball_x - t.x(), m.ball_y - t.y()),
-                           std::hypot(m.ball_x - m.x, m.ball_y - m.y));
-            } else {
-              std::fprintf(pictures_csv, ",,");
-            }
-          }
-          std::fprintf(pictures_csv, "\n");
-        }
-      }
-    }
-
+    std::FILE* pictures_csv = openCsv(o.pictures_path, picturesHeader());
+    const TeamTally tally = replayTeamBall(o, logs, truth, span, pictures_csv);
     if (pictures_csv) std::fclose(pictures_csv);
-    int best = -1;
-    for (const auto& [id, s] : own) {
-      if (s.n >= 30 && (best < 0 || s.mean() < own[best].mean())) best = id;
-    }
-    for (const auto& [id, s] : own) {
-      std::printf("own ball robot %d: mean %.4f m (%zu), NEES in band %.3f, mean NEES %.2f, %s\n",
-                  id, s.mean(), s.n, s.inBand(), s.neesMean(), s.neesSpread().c_str());
-    }
-    std::printf(
-        "team_ball_mean_m=%.4f best_own_ball_mean_m=%.4f (robot %d) team_ball_nees_in_band=%.3f "
-        "mean NEES %.2f (%s) valid %.3f used %.2f rejected %.2f per picture\n",
-        team.mean(), best >= 0 ? own[best].mean() : -1.0, best, team.inBand(), team.neesMean(),
-        team.neesSpread().c_str(),
-        pictures ? static_cast<double>(valid_pictures) / static_cast<double>(pictures) : 0.0,
-        team.n ? static_cast<double>(used_total) / static_cast<double>(team.n) : 0.0,
-        team.n ? static_cast<double>(rejected_total) / static_cast<double>(team.n) : 0.0);
+    printScores(own, tally);
     return 0;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "fieldline-team-ball-replay: %s\n", e.what());
