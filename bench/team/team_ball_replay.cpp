@@ -12,6 +12,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <limits>
 #include <map>
 #include <random>
 #include <string>
@@ -248,9 +249,11 @@ void writeOwnBallRow(std::FILE* csv, const std::vector<eval::TruthSample>& truth
   eval::TruthRobot tr;
   double unused_x = 0, unused_y = 0;
   eval::truthAt(truth, b.ball.utime, id, tr, &unused_x, &unused_y);
+  // The ball's speed needs the truth 100 ms later: NaN at the end of the recording.
   Eigen::Vector2d t_later;
-  ballAt(truth, b.ball.utime + 100'000, t_later);
-  const double ball_speed = (t_later - t).norm() / 0.1;
+  const double ball_speed = ballAt(truth, b.ball.utime + 100'000, t_later)
+                                ? (t_later - t).norm() / 0.1
+                                : std::numeric_limits<double>::quiet_NaN();
   const Timed* pose = nullptr;
   for (const Timed& p : r.robots) {
     if (p.robot.utime > b.ball.utime) break;
@@ -429,11 +432,13 @@ class ObserverReplay {
 void writePictureRow(std::FILE* pictures_csv, const std::vector<eval::TruthSample>& truth,
                      int observer, Utime now, Utime start, const Eigen::Vector2d& t,
                      const teamcomm::TeamBallResult& result, const perception::TeamState& state) {
+  // The ball's speed needs the truth 50 ms later: an empty cell at the end of the recording.
   Eigen::Vector2d later;
-  ballAt(truth, now + 50'000, later);
-  std::fprintf(pictures_csv, "%d,%.3f,%.3f,%.4f,%.4f", observer,
-               static_cast<double>(now - start) / 1e6, (later - t).norm() / 0.05,
-               (result.position - t).norm(), std::sqrt(0.5 * result.covariance.trace()));
+  std::string speed;
+  if (ballAt(truth, now + 50'000, later)) speed = fmt::format("{:.3f}", (later - t).norm() / 0.05);
+  std::fprintf(pictures_csv, "%d,%.3f,%s,%.4f,%.4f", observer,
+               static_cast<double>(now - start) / 1e6, speed.c_str(), (result.position - t).norm(),
+               std::sqrt(0.5 * result.covariance.trace()));
   for (const perception::TeammateState& m : state.robots) {
     if (m.ball_valid) {
       std::fprintf(pictures_csv, ",%.4f,%.3f", std::hypot(m.ball_x - t.x(), m.ball_y - t.y()),
