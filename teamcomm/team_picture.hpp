@@ -60,11 +60,12 @@ struct PictureOptions {
   // contradicts it (outside the gate) is superseded and left out: the ball has moved since (a
   // kick, a put-back) and its reporter has not seen it since; its estimate stays valid for a
   // while (fusion's max_age) but is no longer the ball. A put-back's first confident sighting
-  // comes at least three frames (fusion's restart_after_outliers) after the last one at the old
-  // place; robots that see the ball at the same time are within a frame of each other (a plain
-  // disagreement: the larger group wins). 100 ms (exactly three frames) until 2026-12-06 let
-  // the old place win the first picture after a put-back. 0: off, µs.
-  Utime superseded_after_us = 50'000;
+  // comes at least three frames (100 ms; fusion's restart_after_outliers) after the last one at
+  // the old place; robots that see the ball at the same time differ by a frame plus a packet
+  // interval in our reports (up to 85 ms: a plain disagreement, the larger group wins). 100 ms
+  // until 2026-12-06 let the old place win the first picture after a put-back; 50 ms let a
+  // teammate's fresher packet supersede balls seen at the same time. 0: off, µs.
+  Utime superseded_after_us = 90'000;
   // Only a confident sighting supersedes: both of its position sigmas at most this, m (fusion's
   // ball.restart_max_sigma_m).
   double supersede_max_sigma_m = 0.15;

@@ -134,7 +134,7 @@ TeamcommConfig loadTeamcommConfig(const config::Node& root) {
     c.node.picture.ball_timeout_us = seconds(p->getOr<double>("ball_timeout_s", 0.5, 0.1, 10.0));
     c.node.picture.gate_chi2 = p->getOr<double>("gate_chi2", 9.21, 1.0, 100.0);
     c.node.picture.superseded_after_us =
-        seconds(p->getOr<double>("superseded_after_s", 0.05, 0.0, 1.0));
+        seconds(p->getOr<double>("superseded_after_s", 0.09, 0.0, 1.0));
     p->rejectUnknownKeys();
   }
   t.rejectUnknownKeys();

@@ -279,8 +279,9 @@ TEST(teamcomm_picture, BallsSeenBeforeAFresherContradictingSightingAreSuperseded
   EXPECT_EQ(ball.rejected, (std::vector<int>{1, 2}));
   EXPECT_EQ(ball.superseded, (std::vector<int>{1, 2}));
   EXPECT_NEAR(s.team_ball_x, 1.51, 1e-6);
-  // Seen within a frame of the fresh one: a plain disagreement, the larger group wins as before.
-  r1.ball.last_seen_utime = r2.ball.last_seen_utime = now - 30'000;
+  // Seen within a frame and a packet interval of the fresh one: a plain disagreement, the
+  // larger group wins as before.
+  r1.ball.last_seen_utime = r2.ball.last_seen_utime = now - 80'000;
   r4.ball.valid = false;
   for (const auto& [id, r] : {std::pair{1, r1}, {2, r2}, {4, r4}})
     picture.setReport(id, r);
