@@ -163,7 +163,7 @@ class MethodRun {
         classes_(trackedClasses(params)),
         cell_size_(cell_size),
         pixels_(static_cast<double>(sim.mirror.width()) * sim.mirror.height()),
-        ballClass_(static_cast<rt::ClassId>(params.ball.colour)),
+        ball_class_(static_cast<rt::ClassId>(params.ball.colour)),
         tracking_(sim.mirror, sim.table, params),
         a_{rt::FrameProcessor(sim.mirror, sim.table, params),
            {tracking_.grid(), classes_, tracking_.dontTouch(),
@@ -171,13 +171,13 @@ class MethodRun {
            {},
            {},
            {}},
-        aMasked_{rt::FrameProcessor(sim.mirror, sim.table, params),
-                 {tracking_.grid(), classes_, tracking_.dontTouch(),
-                  rt::FullFramePolicy::kSkipDontTouch},
-                 {},
-                 {},
-                 {}},
-        opencvProcessor_(sim.mirror, sim.table, params),
+        a_masked_{rt::FrameProcessor(sim.mirror, sim.table, params),
+                  {tracking_.grid(), classes_, tracking_.dontTouch(),
+                   rt::FullFramePolicy::kSkipDontTouch},
+                  {},
+                  {},
+                  {}},
+        opencv_processor_(sim.mirror, sim.table, params),
         opencv_(tracking_.grid(), classes_, tracking_.dontTouch()) {}
 
   // Several rounds over the sequence, the order of the methods rotating from round to round, so
@@ -203,18 +203,18 @@ class MethodRun {
 
   void summariseInto(int frameCount, int rounds, Result& result) const {
     const int n = frameCount - 1;
-    result.tracker = summarise(trackerSegment_, rounds);
-    result.tracker_whole = summarise(trackerWhole_, rounds);
+    result.tracker = summarise(tracker_segment_, rounds);
+    result.tracker_whole = summarise(tracker_whole_, rounds);
     result.touched = touched_ / n;
     result.touched_cells = cells_ / n;
     result.grid_cells = tracking_.grid().cellCount();
-    result.touched_with_lines = touchedLines_ / n;
+    result.touched_with_lines = touched_lines_ / n;
     result.overlap = overlap_ / n;
     result.line_points = points_ / n;
     result.cmvision = summarise(a_.segment, rounds);
     result.cmvision_whole = summarise(a_.whole, rounds);
-    result.cmvision_masked = summarise(aMasked_.segment, rounds);
-    result.opencv = summarise(opencvSegment_, rounds);
+    result.cmvision_masked = summarise(a_masked_.segment, rounds);
+    result.opencv = summarise(opencv_segment_, rounds);
   }
 
  private:
@@ -229,7 +229,7 @@ class MethodRun {
         cmvisionStep(a_, true, i);
         break;
       case 2:
-        cmvisionStep(aMasked_, false, i);
+        cmvisionStep(a_masked_, false, i);
         break;
       default:
         opencvStep(i);
@@ -244,21 +244,21 @@ class MethodRun {
     tracking_.classifier().setFrame(frame);
     const rt::TrackingStats& stats = tracking_.tracker().track(tracking_.classifier());
     const Clock::time_point t1 = Clock::now();
-    tracking_.lineDetector().detect(frame, tracking_.tracker().contours(), trackerLines_);
+    tracking_.lineDetector().detect(frame, tracking_.tracker().contours(), tracker_lines_);
     const Clock::time_point t2 = Clock::now();
     if (round_ == 0) result.initial_searches += stats.initial_searches;
     if (i == 0) return;
-    trackerSegment_.push_back(microseconds(t1 - t0));
-    trackerWhole_.push_back(microseconds(t2 - t0));
+    tracker_segment_.push_back(microseconds(t1 - t0));
+    tracker_whole_.push_back(microseconds(t2 - t0));
     if (round_ > 0) return;
     touched_ += stats.touched_fraction;
     cells_ += stats.cells_classified;
-    result.ball_frames += tracking_.tracker().regionCells(ballClass_) > 0 ? 1 : 0;
-    touchedLines_ +=
+    result.ball_frames += tracking_.tracker().regionCells(ball_class_) > 0 ? 1 : 0;
+    touched_lines_ +=
         (stats.cells_classified * cell_size_ * cell_size_ + tracking_.lineDetector().pixelsRead()) /
         pixels_;
     overlap_ += stats.overlap;
-    points_ += static_cast<double>(trackerLines_.points.size());
+    points_ += static_cast<double>(tracker_lines_.points.size());
   }
 
   void cmvisionStep(FullFrame& m, bool withLines, int i) {
@@ -278,10 +278,10 @@ class MethodRun {
   void opencvStep(int i) {
     const camera::FrameView frame = source_.view(i);
     const Clock::time_point t0 = Clock::now();
-    opencvProcessor_.classifier().setFrame(frame);
-    opencv_.segment(opencvProcessor_.classifier());
+    opencv_processor_.classifier().setFrame(frame);
+    opencv_.segment(opencv_processor_.classifier());
     const Clock::time_point t1 = Clock::now();
-    if (i > 0) opencvSegment_.push_back(microseconds(t1 - t0));
+    if (i > 0) opencv_segment_.push_back(microseconds(t1 - t0));
   }
 
   FrameSource& source_;
@@ -289,19 +289,19 @@ class MethodRun {
   const std::vector<rt::ClassId> classes_;
   const int cell_size_;
   const double pixels_;
-  const rt::ClassId ballClass_;
+  const rt::ClassId ball_class_;
   int round_ = 0;
 
   rt::FrameProcessor tracking_;
-  rt::LinePoints trackerLines_;
-  std::vector<double> trackerSegment_, trackerWhole_;
-  double touched_ = 0, touchedLines_ = 0, overlap_ = 0, points_ = 0, cells_ = 0;
+  rt::LinePoints tracker_lines_;
+  std::vector<double> tracker_segment_, tracker_whole_;
+  double touched_ = 0, touched_lines_ = 0, overlap_ = 0, points_ = 0, cells_ = 0;
 
-  FullFrame a_, aMasked_;
+  FullFrame a_, a_masked_;
 
-  rt::FrameProcessor opencvProcessor_;
+  rt::FrameProcessor opencv_processor_;
   rt::OpenCvSegmenter opencv_;
-  std::vector<double> opencvSegment_;
+  std::vector<double> opencv_segment_;
 };
 
 // Agreement of the tracker's regions with baseline (a), frame by frame (not timed).

@@ -406,12 +406,12 @@ class RimBins {
  public:
   explicit RimBins(const rt::FrameProcessor& processor)
       : grid_(processor.grid()),
-        rimSteps_(rt::stepsFromOuterRim(grid_, rt::maskEdges(grid_, processor.dontTouch()))) {}
+        rim_steps_(rt::stepsFromOuterRim(grid_, rt::maskEdges(grid_, processor.dontTouch()))) {}
 
   int bin(const rt::LinePoint& p) const {
     const int x = std::clamp(static_cast<int>(p.u) / grid_.cell_size, 0, grid_.width - 1);
     const int y = std::clamp(static_cast<int>(p.v) / grid_.cell_size, 0, grid_.height - 1);
-    const int steps = rimSteps_[grid_.index(x, y)];
+    const int steps = rim_steps_[grid_.index(x, y)];
     int bin = 0;
     while (steps >= kRimLimits[bin])
       ++bin;
@@ -420,7 +420,7 @@ class RimBins {
 
  private:
   const rt::CellGrid& grid_;
-  const std::vector<int> rimSteps_;
+  const std::vector<int> rim_steps_;
 };
 
 // Points of `a` with no point of `b` within `tolerance` px: counted, by range and by cells
@@ -453,33 +453,33 @@ bool identicalPoints(const rt::LinePoints& a, const rt::LinePoints& b) {
 // Everything --line-diff counts over the frames; run 0 is the exact run, run 1 the tested one.
 struct LineDiffTally {
   std::array<UnmatchedCount, 2> counts;
-  long long exactPoints = 0, testedPoints = 0;
-  int identicalFrames = 0, frames = 0;
-  long long exactCells = 0, testedCells = 0;
+  long long exact_points = 0, tested_points = 0;
+  int identical_frames = 0, frames = 0;
+  long long exact_cells = 0, tested_cells = 0;
   // Against the field model (the true pose of each frame): each point's distance to the nearest
   // line centre; points further than 10 cm are wrong.
-  std::array<std::vector<double>, 2> modelErrors;
-  std::array<long long, 2> wrongPoints{};
+  std::array<std::vector<double>, 2> model_errors;
+  std::array<long long, 2> wrong_points{};
   // What feature recognition makes of each run's points: features by kind, pose hypotheses
   // within 0.5 m and 10 deg of the true pose (or its twin across the centre) and the others
   // (false), as fieldline-eval-features counts them, but on the moving sequence.
-  std::array<std::array<long long, kFeatureKinds>, 2> featuresByKind{};
-  std::array<long long, 2> goodHypotheses{}, falseHypotheses{};
-  std::array<int, 2> framesWithGood{};
+  std::array<std::array<long long, kFeatureKinds>, 2> features_by_kind{};
+  std::array<long long, 2> good_hypotheses{}, false_hypotheses{};
+  std::array<int, 2> frames_with_good{};
 
   void addModelErrors(const fieldline::field::FieldModel& field, const rt::LinePoints& lines,
                       int run, const fieldline::geometry::Pose2& pose) {
     for (const rt::LinePoint& p : lines.points) {
       const double e = field.distance(fieldline::geometry::pointRobotToField(pose, {p.x, p.y}));
-      modelErrors[run].push_back(e);
-      wrongPoints[run] += e > 0.10 ? 1 : 0;
+      model_errors[run].push_back(e);
+      wrong_points[run] += e > 0.10 ? 1 : 0;
     }
   }
 
   void addFeatures(const fieldline::perception::FieldFeatures& features, int run,
                    const fieldline::geometry::Pose2& truth) {
     for (const auto& f : features.features)
-      ++featuresByKind[run][std::clamp(static_cast<int>(f.kind), 0, kFeatureKinds - 1)];
+      ++features_by_kind[run][std::clamp(static_cast<int>(f.kind), 0, kFeatureKinds - 1)];
     const fieldline::geometry::Pose2 twin{-truth.x, -truth.y,
                                           fieldline::geometry::normalizeAngle(truth.phi + M_PI)};
     bool good = false;
@@ -490,10 +490,10 @@ struct LineDiffTally {
                (std::hypot(h.pose.x - t.x, h.pose.y - t.y) <= 0.5 &&
                 std::abs(fieldline::geometry::angleDiff(h.pose.phi, t.phi)) <= 10.0 * M_PI / 180.0);
       }
-      (near ? goodHypotheses : falseHypotheses)[run] += 1;
+      (near ? good_hypotheses : false_hypotheses)[run] += 1;
       good = good || near;
     }
-    framesWithGood[run] += good ? 1 : 0;
+    frames_with_good[run] += good ? 1 : 0;
   }
 
   void addUnmatched(const rt::LinePoints& exactLines, const rt::LinePoints& testedLines,
@@ -520,31 +520,31 @@ void printLineDiffSummary(const Options& options, const rt::VisionParams& tested
       "%s) against 1\n\n",
       options.camera_preset.c_str(), options.speed, options.omega_deg, tally.frames,
       testedParams.tracker.mask_edge_every, testedParams.tracker.mask_edge_inner ? "too" : "not");
-  std::printf("cells classified per frame: %.1f exact, %.1f tested\n", tally.exactCells / n,
-              tally.testedCells / n);
+  std::printf("cells classified per frame: %.1f exact, %.1f tested\n", tally.exact_cells / n,
+              tally.tested_cells / n);
   std::printf(
       "line points per frame: %.1f exact, %.1f tested; frames with identical points: %d\n\n",
-      tally.exactPoints / n, tally.testedPoints / n, tally.identicalFrames);
-  for (std::vector<double>& e : tally.modelErrors)
+      tally.exact_points / n, tally.tested_points / n, tally.identical_frames);
+  for (std::vector<double>& e : tally.model_errors)
     std::sort(e.begin(), e.end());
   auto quantile = [](const std::vector<double>& v, double q) {
     return v.empty() ? 0.0 : v[static_cast<std::size_t>(q * static_cast<double>(v.size() - 1))];
   };
-  const auto& errors = tally.modelErrors;
+  const auto& errors = tally.model_errors;
   std::printf(
       "distance to the model lines, exact / tested: median %.4f / %.4f m, p95 %.4f / %.4f m; "
       "points further than 10 cm per frame %.3f / %.3f\n\n",
       quantile(errors[0], 0.5), quantile(errors[1], 0.5), quantile(errors[0], 0.95),
-      quantile(errors[1], 0.95), tally.wrongPoints[0] / n, tally.wrongPoints[1] / n);
-  const auto& kinds = tally.featuresByKind;
+      quantile(errors[1], 0.95), tally.wrong_points[0] / n, tally.wrong_points[1] / n);
+  const auto& kinds = tally.features_by_kind;
   std::printf(
       "features, exact / tested: centre circles %lld / %lld, penalty corners %lld / %lld, field "
       "corners %lld / %lld, T junctions %lld / %lld, straight lines %lld / %lld; frames with a "
       "correct pose hypothesis %d / %d; hypotheses correct %lld / %lld, false %lld / %lld\n\n",
       kinds[0][1], kinds[1][1], kinds[0][2], kinds[1][2], kinds[0][3], kinds[1][3], kinds[0][4],
-      kinds[1][4], kinds[0][5], kinds[1][5], tally.framesWithGood[0], tally.framesWithGood[1],
-      tally.goodHypotheses[0], tally.goodHypotheses[1], tally.falseHypotheses[0],
-      tally.falseHypotheses[1]);
+      kinds[1][4], kinds[0][5], kinds[1][5], tally.frames_with_good[0], tally.frames_with_good[1],
+      tally.good_hypotheses[0], tally.good_hypotheses[1], tally.false_hypotheses[0],
+      tally.false_hypotheses[1]);
 }
 
 void printLineDiffTables(const LineDiffTally& tally) {
@@ -613,12 +613,12 @@ void printLineDiff(const Options& options, rt::SimCamera& sim, const Sequence& s
     tally.addFeatures(features, 0, poses[i]);
     recognizer.recognize(testedLines, features);
     tally.addFeatures(features, 1, poses[i]);
-    tally.exactCells += exact.tracker().stats().cells_classified;
-    tally.testedCells += tested.tracker().stats().cells_classified;
+    tally.exact_cells += exact.tracker().stats().cells_classified;
+    tally.tested_cells += tested.tracker().stats().cells_classified;
     ++tally.frames;
-    tally.exactPoints += static_cast<long long>(exactLines.points.size());
-    tally.testedPoints += static_cast<long long>(testedLines.points.size());
-    tally.identicalFrames += identicalPoints(exactLines, testedLines) ? 1 : 0;
+    tally.exact_points += static_cast<long long>(exactLines.points.size());
+    tally.tested_points += static_cast<long long>(testedLines.points.size());
+    tally.identical_frames += identicalPoints(exactLines, testedLines) ? 1 : 0;
     tally.addUnmatched(exactLines, testedLines, rim);
   }
   printLineDiffSummary(options, testedParams, tally);

@@ -26,6 +26,7 @@
 #include "common/msg/estimates.hpp"
 #include "teamcomm/team_picture.hpp"
 #include "tools/eval/evaluation.hpp"
+#include "tools/eval/sim_truth.hpp"
 
 using namespace fieldline;
 
@@ -150,15 +151,7 @@ std::vector<eval::TruthSample> readTruth(const std::string& dir) {
   bus::LogReader log(dir + "/sim.lcm");
   world_state_t w;
   while (log.next(bus::channels::kSimWorld, w)) {
-    eval::TruthSample t;
-    t.utime = w.header.utime;
-    for (int i = 0; i < w.num_robots; ++i) {
-      const auto k = static_cast<std::size_t>(i);
-      t.robots[w.robot_id[k]] = {w.robot_x[k], w.robot_y[k], w.robot_phi[k], w.robot_kidnaps[k]};
-    }
-    t.ball_x = w.ball_x;
-    t.ball_y = w.ball_y;
-    if (truth.empty() || t.utime > truth.back().utime) truth.push_back(std::move(t));
+    eval::appendTruth(truth, w);
   }
   return truth;
 }

@@ -131,27 +131,27 @@ void FromImages::findFloor() {
   for (std::size_t i = 0; i < n; ++i) {
     annulus[i] = geo.distance[i] >= params.floor_from_m && geo.distance[i] <= params.floor_to_m;
   }
-  floorColour = findFloorColour(planes, annulus, 2);
-  if (floorColour.pixels < 200) {
+  floor_colour = findFloorColour(planes, annulus, 2);
+  if (floor_colour.pixels < 200) {
     throw Refusal(
         fmt::format("the camera model shows almost no floor between {} and {} m: check --camera",
                     params.floor_from_m, params.floor_to_m));
   }
-  out.floor.chroma_sigma = floorColour.chroma_sigma;
-  out.floor.share = floorColour.share;
+  out.floor.chroma_sigma = floor_colour.chroma_sigma;
+  out.floor.share = floor_colour.share;
   if (out.floor.share < params.min_floor_share) {
     throw Refusal(fmt::format(
         "no dominant floor colour around the robot: the commonest colour (U {:.0f}, V {:.0f}, "
         "luma {:.0f}-{:.0f}) holds {:.0f} % of the pixels between {} and {} m (at least {:.0f} % "
         "expected): an empty or dark frame, or the robot not on the carpet",
-        floorColour.u, floorColour.v, floorColour.luma_lo, floorColour.luma_hi,
+        floor_colour.u, floor_colour.v, floor_colour.luma_lo, floor_colour.luma_hi,
         100 * out.floor.share, params.floor_from_m, params.floor_to_m,
         100 * params.min_floor_share));
   }
 }
 
 void FromImages::findLines() {
-  ridgeMask.assign(frames.size(), std::vector<std::uint8_t>(n, 0));
+  ridge_mask.assign(frames.size(), std::vector<std::uint8_t>(n, 0));
   RidgeParams rp;
   rp.centre = mirror.params().centre;
   rp.min_radius = mirror.params().self_radius + 2.0;
@@ -188,7 +188,7 @@ void FromImages::addLineRidge(std::size_t f, const Ridge& r) {
   }
   if (!flanksFloor) return;
   ++out.line_ridges;
-  floorLumaNear.push_back(r.flank);
+  floor_luma_near.push_back(r.flank);
   // Samples: across the ridge while at least 75 % of the way from the flank to the peak.
   const double cut = r.flank + 0.75 * (r.peak - r.flank);
   for (double t = -r.half_width; t <= r.half_width + 1e-9; t += 1.0) {
@@ -208,7 +208,7 @@ void FromImages::addLineRidge(std::size_t f, const Ridge& r) {
       for (int dv = -1; dv <= 1; ++dv) {
         const int a = qu + du, b = qv + dv;
         if (a >= 0 && b >= 0 && a < w && b < h)
-          ridgeMask[f][static_cast<std::size_t>(b) * w + a] = 1;
+          ridge_mask[f][static_cast<std::size_t>(b) * w + a] = 1;
       }
     }
   }
@@ -219,7 +219,7 @@ void FromImages::sampleFloor() {
     for (std::size_t i = 0; i < n; ++i) {
       const double d = geo.distance[i];
       if (!(d >= params.floor_from_m && d <= params.max_line_distance)) continue;
-      if (ridgeMask[f][i] || !isFloor(planes[f][i])) continue;
+      if (ridge_mask[f][i] || !isFloor(planes[f][i])) continue;
       out.samples.floor.push_back(planes[f][i]);
     }
   }
@@ -255,7 +255,7 @@ void FromImages::measureLines() {
   out.white_point = {percentileOf(lu, 50.0), percentileOf(lv, 50.0)};
   out.line_luma = {percentileOf(ly, 5.0), percentileOf(ly, 95.0)};
   const double lineMedian = percentileOf(ly, 50.0);
-  const double besideMedian = percentileOf(floorLumaNear, 50.0);
+  const double besideMedian = percentileOf(floor_luma_near, 50.0);
   if (!(lineMedian >= params.min_line_ratio * besideMedian)) {
     throw Refusal(fmt::format(
         "the lines are not brighter than the floor: line pixels median luma {:.0f}, the floor "

@@ -86,8 +86,8 @@ std::vector<std::uint8_t> FromImages::otherMask(std::size_t f) const {
     const Vec2 fp = geometry::pointRobotToField(*poses[f], geo.robot[i]);
     if (std::abs(fp.x()) > hx || std::abs(fp.y()) > hy) continue;
     const Yuv& c = planes[f][i];
-    if (isFloor(c)) continue;       // floor
-    if (ridgeMask[f][i]) continue;  // a line
+    if (isFloor(c)) continue;        // floor
+    if (ridge_mask[f][i]) continue;  // a line
     other[i] = 1;
   }
   return other;

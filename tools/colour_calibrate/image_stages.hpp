@@ -72,7 +72,7 @@ struct FromImages {
   void buildTable();
 
   bool hasPose(std::size_t f) const { return !poses.empty() && poses[f].has_value(); }
-  bool isFloor(const Yuv& c) const { return floorColour.contains(c); }
+  bool isFloor(const Yuv& c) const { return floor_colour.contains(c); }
 
   const camera::MirrorModel& mirror;
   const field::FieldModel& field;
@@ -84,11 +84,11 @@ struct FromImages {
   const PixelGeometry geo;
   std::vector<std::vector<Yuv>> planes;
   ImageCalibration out;
-  FloorColour floorColour;
-  std::vector<std::vector<std::uint8_t>> ridgeMask;
-  std::vector<double> floorLumaNear;  // the flank of every line ridge
-  std::vector<double> fy, ly;         // the floor's and the lines' luma samples
-  double wu = 0.0, wv = 0.0;          // the white point
+  FloorColour floor_colour;
+  std::vector<std::vector<std::uint8_t>> ridge_mask;
+  std::vector<double> floor_luma_near;  // the flank of every line ridge
+  std::vector<double> fy, ly;           // the floor's and the lines' luma samples
+  double wu = 0.0, wv = 0.0;            // the white point
 };
 
 }  // namespace fieldline::calibration::imagefit

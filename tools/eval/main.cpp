@@ -36,6 +36,7 @@
 #include "tools/eval/fault_runner.hpp"
 #include "tools/eval/faults.hpp"
 #include "tools/eval/image_to_pose.hpp"
+#include "tools/eval/sim_truth.hpp"
 #include "tools/eval/team_ball.hpp"
 #include "tools/launch/launch_file.hpp"
 #include "tools/launch/robot_clocks.hpp"
@@ -118,17 +119,7 @@ struct Collector {
     }
   }
 
-  void onSimWorld(const world_state_t& w) {
-    eval::TruthSample t;
-    t.utime = w.header.utime;
-    for (int i = 0; i < w.num_robots; ++i) {
-      const auto k = static_cast<std::size_t>(i);
-      t.robots[w.robot_id[k]] = {w.robot_x[k], w.robot_y[k], w.robot_phi[k], w.robot_kidnaps[k]};
-    }
-    t.ball_x = w.ball_x;
-    t.ball_y = w.ball_y;
-    if (truth.empty() || t.utime > truth.back().utime) truth.push_back(std::move(t));
-  }
+  void onSimWorld(const world_state_t& w) { eval::appendTruth(truth, w); }
 
   void onRobotState(const robot_state_t& m) {
     eval::StateSample s;

@@ -35,6 +35,15 @@ namespace cal = fieldline::calibration;
 using geometry::Pose2;
 using geometry::Vec2;
 
+// A case whose input is not on this machine (real data kept elsewhere) is skipped: nothing
+// measured, nothing judged.
+bool skippedWithout(const std::string& input, CaseResult& r) {
+  if (fs::exists(input)) return false;
+  r.skipped = true;
+  r.figures = "skipped: " + input + " is not there";
+  return true;
+}
+
 std::map<std::string, double> expectations(const config::Node& root) {
   std::map<std::string, double> out;
   if (const std::optional<config::Node> e = root.childIf("expect")) {
@@ -100,11 +109,7 @@ void runRings(const config::Node& root, CaseResult& r) {
   const auto expect = expectations(root);
   (void)root.getOr<std::string>("known", "");
   root.rejectUnknownKeys();
-  if (!fs::exists(image)) {
-    r.skipped = true;
-    r.figures = "skipped: " + image + " is not there";
-    return;
-  }
+  if (skippedWithout(image, r)) return;
   std::vector<double> distances = listed;
   if (distances.empty()) {
     if (!fs::exists(distancesFile)) root.fail("distances", distancesFile + " is not there");
@@ -207,11 +212,7 @@ void runLinePoints(const config::Node& root, CaseResult& r) {
   const auto expect = expectations(root);
   (void)root.getOr<std::string>("known", "");
   root.rejectUnknownKeys();
-  if (!fs::exists(file)) {
-    r.skipped = true;
-    r.figures = "skipped: " + file + " is not there";
-    return;
-  }
+  if (skippedWithout(file, r)) return;
   const std::vector<Vec2> pts = readPoints(file, scale);
   perception::LinePoints lines;
   for (const Vec2& p : pts) {
@@ -275,11 +276,7 @@ void runFieldPoints(const config::Node& root, CaseResult& r) {
   const auto expect = expectations(root);
   (void)root.getOr<std::string>("known", "");
   root.rejectUnknownKeys();
-  if (!fs::exists(file)) {
-    r.skipped = true;
-    r.figures = "skipped: " + file + " is not there";
-    return;
-  }
+  if (skippedWithout(file, r)) return;
   std::optional<field::FieldModel> model;
   try {
     model.emplace(field::loadFieldPreset(fieldName));
@@ -396,7 +393,7 @@ void judgeMirror(const venue::VenueCase& spec, const venue::RenderedVenue& v,
 struct BallVerdict {
   std::string ball = "no ball in the case";
   std::string ball_detector;
-  bool ballRight = false;
+  bool ball_right = false;
 };
 
 BallVerdict judgeBall(const venue::VenueCase& spec, const venue::RenderedVenue& v,
@@ -418,7 +415,7 @@ BallVerdict judgeBall(const venue::VenueCase& spec, const venue::RenderedVenue& 
     const double off = c.ball_found ? std::min((c.ball_field - *spec.ball).norm(),
                                                (c.ball_field + *spec.ball).norm())
                                     : 1e9;
-    verdict.ballRight = c.ball_found && off < 0.3;
+    verdict.ball_right = c.ball_found && off < 0.3;
     verdict.ball = c.ball_found
                        ? fmt::format("ball class from the ball {:.2f} m off its place", off)
                        : "no ball class";
@@ -465,7 +462,7 @@ void runVenue(const std::string& manifest, CaseResult& r) {
       colours->check.problems.empty() ? "" : " (check would refuse)", b.ball_detector);
   bound(r, spec.expect, "min_precision", score.precision(), false);
   bound(r, spec.expect, "min_recall", score.recall(), false);
-  if (spec.expect.count("ball") && spec.expect.at("ball") > 0 && !b.ballRight) {
+  if (spec.expect.count("ball") && spec.expect.at("ball") > 0 && !b.ball_right) {
     r.failed.push_back("ball: no ball class from the ball");
   }
   if (!colours->check.problems.empty()) {

@@ -105,8 +105,8 @@ Solver::Solver(const std::vector<UnposedFrame>& frames_in, const field::FieldMod
       nf(static_cast<int>(frames_in.size())),
       base(scaleMirrorTo(base_preset, w, h)),
       centre(base.centre),
-      usableRadius(base.useful_radius),
-      perFrame(static_cast<std::size_t>(nf), 0) {}
+      usable_radius(base.useful_radius),
+      per_frame(static_cast<std::size_t>(nf), 0) {}
 
 void Solver::findRim() {
   std::vector<Vec2> centres;
@@ -131,7 +131,7 @@ void Solver::findRim() {
     out.rim_radius = geometry::median(radii);
     centre = out.rim_centre;
     base.outer_radius = out.rim_radius;
-    usableRadius = std::min(base.useful_radius, 0.97 * out.rim_radius);
+    usable_radius = std::min(base.useful_radius, 0.97 * out.rim_radius);
   }
 }
 
@@ -155,7 +155,7 @@ void Solver::findLinePixels() {
       for (int u = 0; u < w; ++u) {
         const double r = (Vec2(u, v) - centre).norm();
         near[static_cast<std::size_t>(v) * w + u] =
-            r >= 1.3 * base.self_radius + 2.0 && r <= 0.55 * usableRadius;
+            r >= 1.3 * base.self_radius + 2.0 && r <= 0.55 * usable_radius;
       }
     }
     out.floor = findFloorColour(planes, near, 2);
@@ -163,16 +163,16 @@ void Solver::findLinePixels() {
   rp = params.ridges;
   rp.centre = centre;
   rp.min_radius = std::max(rp.min_radius, 1.15 * base.self_radius + 2.0);
-  rp.max_radius = std::min(rp.max_radius, usableRadius);
+  rp.max_radius = std::min(rp.max_radius, usable_radius);
   collect();
   out.ridge_pixels = static_cast<int>(pixels.size());
   for (int f = 0; f < nf; ++f) {
-    if (perFrame[static_cast<std::size_t>(f)] < 100) {
+    if (per_frame[static_cast<std::size_t>(f)] < 100) {
       throw Refusal(fmt::format(
           "{}: only {} bright ridges with floor on both sides (line pixels) between {:.0f} and "
           "{:.0f} px from the centre: an empty, dark or overexposed frame, or no field lines in "
           "view",
-          frames[static_cast<std::size_t>(f)].name, perFrame[static_cast<std::size_t>(f)],
+          frames[static_cast<std::size_t>(f)].name, per_frame[static_cast<std::size_t>(f)],
           rp.min_radius, rp.max_radius));
     }
   }
@@ -185,7 +185,7 @@ void Solver::findLinePixels() {
 // The ridges of every frame with the floor's colour on both sides, around rp.centre.
 void Solver::collect() {
   pixels.clear();
-  std::fill(perFrame.begin(), perFrame.end(), 0);
+  std::fill(per_frame.begin(), per_frame.end(), 0);
   for (int f = 0; f < nf; ++f) {
     const std::vector<camera::Yuv>& plane = planes[static_cast<std::size_t>(f)];
     for (const Ridge& r : findRidges(frames[static_cast<std::size_t>(f)].image, rp)) {
@@ -211,7 +211,7 @@ void Solver::collect() {
       p.width = r.width;
       p.across = r.normal;
       pixels.push_back(p);
-      ++perFrame[static_cast<std::size_t>(f)];
+      ++per_frame[static_cast<std::size_t>(f)];
     }
   }
 }

@@ -74,7 +74,7 @@ double tiltedRadius(const Eigen::VectorXd& v, const Vec2& pixel, const Vec2& ctr
 void Solver::setUpJointFit() {
   std::vector<double> kd;
   for (double q : params.knot_fractions) {
-    const double r = q * usableRadius;
+    const double r = q * usable_radius;
     double d = winner.s * base.distance.floorDistance(r / winner.k, 0.0);
     if (!std::isfinite(d) || d > params.max_table_distance * 2) d = params.max_table_distance * 2;
     if (!kd.empty()) d = std::max(d, kd.back() * 1.02 + 0.01);
@@ -83,7 +83,7 @@ void Solver::setUpJointFit() {
   }
   if (kr.size() < 4) throw std::invalid_argument("mirror calibration: at least 4 knots");
   layout.knots = static_cast<int>(kd.size());
-  layout.spot_of_frame = spotOf;
+  layout.spot_of_frame = spot_of;
   int next = kFirstKnot + layout.knots;
   for (int s = 0; s < nspots; ++s) {
     layout.spot_index.push_back(next);
@@ -91,7 +91,7 @@ void Solver::setUpJointFit() {
   }
   for (int f = 0; f < nf; ++f) {
     layout.frame_index.push_back(next);
-    next += spotOf[static_cast<std::size_t>(f)] >= 0 ? 1 : 3;
+    next += spot_of[static_cast<std::size_t>(f)] >= 0 ? 1 : 3;
   }
   layout.size = next;
   x = Eigen::VectorXd::Zero(layout.size);
@@ -107,7 +107,7 @@ void Solver::setUpJointFit() {
   // 0.4 per unit: only a collapse of the scale feels it, which would otherwise pile every pixel
   // onto one line).
   priors = 2 * layout.knots - 2;
-  knotStart = x.segment(kFirstKnot, layout.knots);
+  knot_start = x.segment(kFirstKnot, layout.knots);
   steps.assign(static_cast<std::size_t>(layout.size), 1e-4);
 }
 
@@ -116,7 +116,7 @@ void Solver::setPoses(const std::vector<int>& which) {
   std::vector<Vec2> sum(static_cast<std::size_t>(nspots), Vec2::Zero());
   std::vector<int> count(static_cast<std::size_t>(nspots), 0);
   for (int f : which) {
-    const int spot = spotOf[static_cast<std::size_t>(f)];
+    const int spot = spot_of[static_cast<std::size_t>(f)];
     if (spot < 0) continue;
     sum[static_cast<std::size_t>(spot)] += start[static_cast<std::size_t>(f)].position();
     ++count[static_cast<std::size_t>(spot)];
@@ -130,7 +130,7 @@ void Solver::setPoses(const std::vector<int>& which) {
   for (int f : which) {
     const int fi = layout.frame_index[static_cast<std::size_t>(f)];
     const Pose2& p = start[static_cast<std::size_t>(f)];
-    if (spotOf[static_cast<std::size_t>(f)] >= 0) {
+    if (spot_of[static_cast<std::size_t>(f)] >= 0) {
       x(fi) = p.phi;
     } else {
       x(fi) = p.x;
@@ -142,20 +142,20 @@ void Solver::setPoses(const std::vector<int>& which) {
 
 // The offset is fitted when frames at one spot turned far enough to tell it from the pose.
 void Solver::decideOffset() {
-  fitOffset = false;
+  fit_offset = false;
   for (const std::vector<int>& g : groups) {
-    if (spotOf[static_cast<std::size_t>(g[0])] < 0 || g.size() < 2) continue;
+    if (spot_of[static_cast<std::size_t>(g[0])] < 0 || g.size() < 2) continue;
     std::vector<double> hs;
     for (int m : g)
       hs.push_back(start[static_cast<std::size_t>(m)].phi);
-    if (headingSpread(hs) >= kPi / 3) fitOffset = true;
+    if (headingSpread(hs) >= kPi / 3) fit_offset = true;
   }
   // A known pose pins the robot's centre: the offset follows from the lines.
   for (const UnposedFrame& f : frames) {
-    if (f.pose) fitOffset = true;
+    if (f.pose) fit_offset = true;
   }
-  if (params.offset == OffsetMode::kZero) fitOffset = false;
-  if (params.offset == OffsetMode::kFit && !fitOffset) {
+  if (params.offset == OffsetMode::kZero) fit_offset = false;
+  if (params.offset == OffsetMode::kFit && !fit_offset) {
     throw Refusal(
         "--offset fit: the axis offset cannot be told from the robot's position unless frames "
         "were taken at one spot turning (give them with --spot, headings at least 60 degrees "
@@ -193,7 +193,7 @@ void Solver::smoothness(const double* d, Eigen::VectorXd& res, Eigen::Index at) 
                                            logSlope[static_cast<std::size_t>(k - 1)]);
   }
   for (int k = 0; k < layout.knots; ++k) {
-    res(at + layout.knots - 2 + k) = std::log(std::max(1e-9, d[k]) / knotStart(k)) / 0.4;
+    res(at + layout.knots - 2 + k) = std::log(std::max(1e-9, d[k]) / knot_start(k)) / 0.4;
   }
 }
 
@@ -223,7 +223,7 @@ int Solver::associate(const Eigen::VectorXd& v, const FitRound& round) {
     p.use = cl.distance / p.mpp <= round.gate_px;
     count += p.use ? 1 : 0;
   }
-  maxDistance = round.max_distance_m;
+  max_distance = round.max_distance_m;
   return count;
 }
 
@@ -263,15 +263,15 @@ void Solver::setSteps(bool offset, bool tilt) {
       continue;
     }
     const int fi = layout.frame_index[static_cast<std::size_t>(f)];
-    const int own = spotOf[static_cast<std::size_t>(f)] >= 0 ? 1 : 3;
+    const int own = spot_of[static_cast<std::size_t>(f)] >= 0 ? 1 : 3;
     for (int k = 0; k < own; ++k)
       steps[static_cast<std::size_t>(fi + k)] = 0.0;
   }
   for (int sp = 0; sp < nspots; ++sp) {
     bool any = false;
     for (int f = 0; f < nf; ++f) {
-      any =
-          any || (spotOf[static_cast<std::size_t>(f)] == sp && active[static_cast<std::size_t>(f)]);
+      any = any ||
+            (spot_of[static_cast<std::size_t>(f)] == sp && active[static_cast<std::size_t>(f)]);
     }
     if (!any) {
       steps[static_cast<std::size_t>(layout.spot_index[static_cast<std::size_t>(sp)])] = 0.0;
@@ -283,7 +283,7 @@ void Solver::setSteps(bool offset, bool tilt) {
 void Solver::runRounds(std::size_t from) {
   for (std::size_t round = from; round < params.rounds.size(); ++round) {
     // The offset joins once the near field has settled the poses.
-    setSteps(fitOffset && round >= 2, round >= 2);
+    setSteps(fit_offset && round >= 2, round >= 2);
     if (round == 2) {
       // Ridges searched again around the better centre (the annulus moves with it).
       rp.centre = Vec2(x(0), x(1));
@@ -322,7 +322,7 @@ double Solver::shareOnLines() const {
   for (const LinePx& p : pixels) {
     if (!active[static_cast<std::size_t>(p.frame)]) continue;
     const double d = c(tiltedRadius(x, p.pixel, ctr));
-    if (d > 0.15 && d <= maxDistance) ++inRange;
+    if (d > 0.15 && d <= max_distance) ++inRange;
   }
   return inRange > 0 ? static_cast<double>(used) / inRange : 0.0;
 }
@@ -473,13 +473,13 @@ void Solver::repairHeadings() {
   const Vec2 ctr(x(0), x(1));
   for (const LinePx& p : pixels) {
     const double d = c(tiltedRadius(x, p.pixel, ctr));
-    if (!(d > 0.15) || d > maxDistance) continue;
+    if (!(d > 0.15) || d > max_distance) continue;
     ++inRange[static_cast<std::size_t>(p.frame)];
     onLine[static_cast<std::size_t>(p.frame)] += p.use ? 1 : 0;
   }
   bool repaired = false;
   for (int f = 0; f < nf; ++f) {
-    const int spot = spotOf[static_cast<std::size_t>(f)];
+    const int spot = spot_of[static_cast<std::size_t>(f)];
     if (spot < 0 || frames[static_cast<std::size_t>(f)].pose) continue;
     if (onLine[static_cast<std::size_t>(f)] >= 0.45 * inRange[static_cast<std::size_t>(f)])
       continue;

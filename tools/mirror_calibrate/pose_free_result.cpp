@@ -71,8 +71,8 @@ Eigen::MatrixXd Solver::covariance(const Eigen::VectorXd& v) const {
 // The offset is kept only when the data pins it; else it is held at 0 and the fit run again.
 void Solver::judgeOffset() {
   cov = covariance(x);
-  out.offset_fitted = fitOffset;
-  if (fitOffset) {
+  out.offset_fitted = fit_offset;
+  if (fit_offset) {
     out.offset_covariance = cov.block<2, 2>(2, 2);
     const double sx = std::sqrt(out.offset_covariance(0, 0));
     const double sy = std::sqrt(out.offset_covariance(1, 1));
@@ -127,14 +127,14 @@ void Solver::findTableEnd() {
   // without line pixels leave the distance function there to the smoothness prior alone). Near the
   // robot there are often no lines: no hole counts before the first supported knot, nor among
   // the first three.
-  lastSupported = 0;
+  last_supported = 0;
   int unsupportedInARow = 0;
   bool started = false;
   for (std::size_t k = 0; k < kr.size(); ++k) {
     const bool supported = out.knot_support[k] >= params.min_knot_support &&
                            x(layout.knot(static_cast<int>(k))) <= params.max_table_distance;
     if (supported) {
-      lastSupported = k;
+      last_supported = k;
       unsupportedInARow = 0;
       started = true;
     } else if (started && k >= 3 && ++unsupportedInARow >= 2) {
@@ -143,7 +143,7 @@ void Solver::findTableEnd() {
   }
   out.knot_radii = kr;
   out.knot_distances.assign(x.data() + kFirstKnot, x.data() + kFirstKnot + layout.knots);
-  out.table_end_m = out.knot_distances[lastSupported];
+  out.table_end_m = out.knot_distances[last_supported];
 }
 
 // Sectors: each its own radii, blended between neighbours as the table does, poses fixed.
@@ -222,7 +222,7 @@ bool Solver::sectorResiduals(const Eigen::VectorXd& v, Eigen::VectorXd& res) con
 void Solver::writeTable() {
   const Vec2 ctr(x(0), x(1));
   camera::CalibrationTableParams table;
-  const double end = kr[lastSupported];
+  const double end = kr[last_supported];
   // From the robot's reflection on (no floor is seen inside it; the table runs linearly to 0).
   const double innermost = std::max(params.radius_step, std::ceil(base.self_radius));
   for (double rad = innermost; rad < end - 0.5; rad += params.radius_step)
@@ -246,7 +246,7 @@ void Solver::writeTable() {
   out.mirror.centre = ctr;
   out.mirror.axis_offset = out.offset;
   out.mirror.distance = camera::DistanceFunction(table);
-  out.mirror.useful_radius = std::min(usableRadius, end);
+  out.mirror.useful_radius = std::min(usable_radius, end);
   if (!(out.mirror.useful_radius > out.mirror.self_radius)) {
     throw Refusal("the fitted table ends inside the robot's reflection");
   }
@@ -262,7 +262,7 @@ void Solver::measure() {
   int n = 0, inRange = 0;
   for (const LinePx& p : pixels) {
     const std::optional<Vec2> robot = model.imageToRobot(p.pixel);
-    if (!robot || robot->norm() > maxDistance) continue;
+    if (!robot || robot->norm() > max_distance) continue;
     ++inRange;
     ++fin[static_cast<std::size_t>(p.frame)];
     if (!p.use) continue;
@@ -326,7 +326,7 @@ void Solver::reportFrames(const std::vector<double>& fpx2, const std::vector<int
     fp.pose.phi = geometry::normalizeAngle(fp.pose.phi);
     fp.twin = twinOf(fp.pose);
     const int fi = layout.frame_index[static_cast<std::size_t>(f)];
-    const int spot = spotOf[static_cast<std::size_t>(f)];
+    const int spot = spot_of[static_cast<std::size_t>(f)];
     const int xi = spot >= 0 ? layout.spot_index[static_cast<std::size_t>(spot)] : fi;
     const int pi = spot >= 0 ? fi : fi + 2;
     fp.sigma = Eigen::Vector3d(std::sqrt(std::max(0.0, cov(xi, xi))),

@@ -233,16 +233,16 @@ void Solver::searchMirrors() {
   out.search.candidates = static_cast<int>(candidates.size());
   // The pixels every candidate is scored on: out to where the base camera sees
   // search_max_distance (at most 85 % of the usable radius).
-  searchRadius = std::min(0.85 * usableRadius,
-                          std::isfinite(base.distance.imageRadius(params.search_max_distance, 0.0))
-                              ? base.distance.imageRadius(params.search_max_distance, 0.0)
-                              : usableRadius);
+  search_radius = std::min(0.85 * usable_radius,
+                           std::isfinite(base.distance.imageRadius(params.search_max_distance, 0.0))
+                               ? base.distance.imageRadius(params.search_max_distance, 0.0)
+                               : usable_radius);
   // Frames the candidates are compared on first: those with the most ridges.
   std::vector<int> order(static_cast<std::size_t>(nf));
   for (int f = 0; f < nf; ++f)
     order[static_cast<std::size_t>(f)] = f;
   std::sort(order.begin(), order.end(), [&](int a, int b) {
-    return perFrame[static_cast<std::size_t>(a)] > perFrame[static_cast<std::size_t>(b)];
+    return per_frame[static_cast<std::size_t>(a)] > per_frame[static_cast<std::size_t>(b)];
   });
   const int firstFrames = std::min(nf, std::max(1, params.search_frames));
   std::vector<std::pair<double, std::size_t>> firstScores;
@@ -265,7 +265,7 @@ void Solver::searchMirrors() {
       second = best;
       best = score;
       winner = c;
-      winnerPoses = std::move(poses);
+      winner_poses = std::move(poses);
     } else {
       second = std::min(second, score);
     }
@@ -289,10 +289,10 @@ double Solver::scoreCandidate(const Candidate& c, const std::vector<int>& use, i
   double total = 0.0;
   for (int f : use) {
     const std::vector<Vec2> coarse =
-        candidatePoints(pixels, f, c, base, searchRadius, 4.0 * params.search_max_distance,
+        candidatePoints(pixels, f, c, base, search_radius, 4.0 * params.search_max_distance,
                         static_cast<std::size_t>(params.search_points));
     const std::vector<Vec2> dense =
-        candidatePoints(pixels, f, c, base, searchRadius, 4.0 * params.search_max_distance, 400);
+        candidatePoints(pixels, f, c, base, search_radius, 4.0 * params.search_max_distance, 400);
     std::vector<ScoredPose> found = searchPoses(coarse, dense, *raster, *grid, field, params, keep);
     total += found.empty() ? 1.0 : found.front().cost;
     if (poses) (*poses)[static_cast<std::size_t>(f)] = std::move(found);
@@ -305,7 +305,7 @@ void Solver::printSearch(const std::vector<Candidate>& candidates,
                          double best) const {
   for (int f = 0; f < nf; ++f) {
     fmt::print(stderr, "frame {}:", f);
-    for (const ScoredPose& p : winnerPoses[static_cast<std::size_t>(f)])
+    for (const ScoredPose& p : winner_poses[static_cast<std::size_t>(f)])
       fmt::print(stderr, " ({:.2f},{:.2f},{:.0f} c{:.3f})", p.pose.x, p.pose.y,
                  p.pose.phi * 180 / kPi, p.cost);
     fmt::print(stderr, "\n");
@@ -317,7 +317,7 @@ void Solver::printSearch(const std::vector<Candidate>& candidates,
 
 // Groups: a spot's frames, or a frame on its own.
 void Solver::groupFrames() {
-  spotOf.assign(static_cast<std::size_t>(nf), -1);
+  spot_of.assign(static_cast<std::size_t>(nf), -1);
   {
     std::map<int, std::vector<int>> spots;
     for (int f = 0; f < nf; ++f) {
@@ -330,13 +330,13 @@ void Solver::groupFrames() {
     int index = 0;
     for (const auto& [id, members] : spots) {
       for (int m : members)
-        spotOf[static_cast<std::size_t>(m)] = index;
+        spot_of[static_cast<std::size_t>(m)] = index;
       groups.push_back(members);
       ++index;
     }
   }
   nspots = static_cast<int>(std::count_if(groups.begin(), groups.end(), [&](const auto& g) {
-    return spotOf[static_cast<std::size_t>(g[0])] >= 0;
+    return spot_of[static_cast<std::size_t>(g[0])] >= 0;
   }));
 }
 
@@ -348,7 +348,7 @@ void Solver::startPoses() {
   {
     std::vector<GroupPoses> linked;
     for (const std::vector<int>& g : groups)
-      linked.push_back(linkGroup(g, winnerPoses));
+      linked.push_back(linkGroup(g, winner_poses));
     for (std::size_t gi = 0; gi < groups.size(); ++gi) {
       const GroupPoses& lp = linked[gi];
       for (std::size_t i = 0; i < groups[gi].size(); ++i) {

@@ -189,21 +189,21 @@ struct Solver {
   camera::MirrorParams base;
   // Stage 1.
   Vec2 centre;
-  double usableRadius = 0.0;
+  double usable_radius = 0.0;
   // Stage 2.
   std::vector<std::vector<camera::Yuv>> planes;
   RidgeParams rp;
   std::vector<LinePx> pixels;
-  std::vector<int> perFrame;
+  std::vector<int> per_frame;
   // Stage 3.
   std::optional<field::DistanceGrid> grid;
   std::optional<CostRaster> raster;
-  double searchRadius = 0.0;
+  double search_radius = 0.0;
   Candidate winner;
-  std::vector<std::vector<ScoredPose>> winnerPoses;
+  std::vector<std::vector<ScoredPose>> winner_poses;
   // Stage 4.
   std::vector<std::vector<int>> groups;
-  std::vector<int> spotOf;
+  std::vector<int> spot_of;
   int nspots = 0;
   std::vector<Pose2> start;
   std::vector<bool> active;
@@ -212,15 +212,15 @@ struct Solver {
   std::vector<double> kr;  // the knots' image radii
   Layout layout;
   Eigen::VectorXd x;
-  Eigen::VectorXd knotStart;
+  Eigen::VectorXd knot_start;
   int priors = 0;
-  bool fitOffset = false;
+  bool fit_offset = false;
   std::vector<double> steps;
   int used = 0;
-  double maxDistance = 0.0;
+  double max_distance = 0.0;
   // Stage 6.
   Eigen::MatrixXd cov;
-  std::size_t lastSupported = 0;
+  std::size_t last_supported = 0;
   int ns = 0, nk = 0;
   std::vector<double> bearings;
   std::vector<Blend> blends;

@@ -8,7 +8,9 @@ run (the first to the last live stamp: the replay starts with the recording, the
 little later) is paired with the live state of the nearest header.utime (within --max-dt-us);
 prints the share of pairs within --within-m and --within-deg, the worst ones, and exits 1 if that
 share is below --share or fewer than 95 % of the replayed states in the live run found a live
-partner (the recorder may miss a message of a busy bus).
+partner (the recorder may miss a message of a busy bus). Fusion publishes a second state with the
+same stamp right after a camera frame corrected it: the k-th state of a stamp (in the order the
+bus carried them) is paired with the k-th live state of its stamp, or the live stamp's last one.
 """
 import argparse
 import bisect
@@ -18,12 +20,17 @@ import sys
 
 
 def states(path):
+    """(utime, x, y, phi, status, k): k counts the earlier states of the same stamp."""
     out = []
+    seen = {}
     with open(path) as f:
         for line in f:
             m = json.loads(line)["message"]
-            out.append((m["header"]["utime"], m["x"], m["y"], m["phi"], m["status"]))
-    out.sort()
+            t = m["header"]["utime"]
+            k = seen.get(t, 0)
+            seen[t] = k + 1
+            out.append((t, m["x"], m["y"], m["phi"], m["status"], k))
+    out.sort(key=lambda s: (s[0], s[5]))
     return out
 
 
@@ -52,7 +59,11 @@ def main():
                 best = j
         if best is None or abs(times[best] - s[0]) > a.max_dt_us:
             continue
-        l = live[best]
+        # The live state of that stamp with the same rank (its last when it has fewer).
+        stamp = times[best]
+        first = bisect.bisect_left(times, stamp)
+        last = bisect.bisect_right(times, stamp) - 1
+        l = live[min(first + s[5], last)]
         d = math.hypot(s[1] - l[1], s[2] - l[2])
         dphi = abs(math.degrees(math.atan2(math.sin(s[3] - l[3]), math.cos(s[3] - l[3]))))
         pairs.append((d, dphi, s[0], s[4], l[4]))
