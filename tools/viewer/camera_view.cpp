@@ -45,6 +45,45 @@ void writeBall(std::string& out, const ball_observation_t& m) {
   o.number("v", m.v);
 }
 
+// The JSON document of GET /camera.json (docs/viewer.md): the frame of robot `robot` as `jpeg`,
+// with the lines and the ball found in it (null when none).
+std::string cameraDocument(int robot, const image_t& frame, bool from_preview,
+                           const std::vector<std::uint8_t>& jpeg, const line_contours_t* lines,
+                           const ball_observation_t* ball, std::int64_t encoded) {
+  std::string out;
+  out.reserve(jpeg.size() * 4 / 3 + 64 + (lines ? 24 * lines->num_points : 0));
+  {
+    json::Object doc(out);
+    doc.integer("robot", robot);
+    {
+      json::Object f(doc.key("frame"));
+      f.integer("utime", frame.header.utime);
+      f.integer("seq", frame.header.seq);
+      f.integer("frame_number", frame.frame_number);
+      // The camera's size, which the line points are in; the JPEG is the preview's when the
+      // frame came from CAMERA_PREVIEW (the page draws it at width x height).
+      const int scale = from_preview ? bus::kCameraPreviewScale : 1;
+      f.string("stream", from_preview ? "preview" : "full");
+      f.integer("width", frame.width * scale);
+      f.integer("height", frame.height * scale);
+      f.integer("image_width", frame.width);
+      f.integer("image_height", frame.height);
+      f.integer("jpeg_bytes", static_cast<std::int64_t>(jpeg.size()));
+      f.string("jpeg", base64(jpeg));
+    }
+    if (lines)
+      writeLines(doc.key("lines"), *lines);
+    else
+      doc.key("lines") += "null";
+    if (ball)
+      writeBall(doc.key("ball"), *ball);
+    else
+      doc.key("ball") += "null";
+    doc.integer("encoded", encoded);
+  }
+  return out;
+}
+
 }  // namespace
 
 CameraView::CameraView(CameraViewOptions options) : options_(options) {
@@ -111,24 +150,49 @@ void CameraView::onBall(int robot, const ball_observation_t& ball) {
 }
 
 std::optional<std::string> CameraView::update(Utime now) {
-  // The preview when it is newer than any full frame (a viewer on another machine gets only it).
-  const bool from_preview =
-      !previews_.empty() &&
-      (frames_.empty() || previews_.back().header.utime > frames_.back().header.utime);
+  const bool from_preview = previewIsNewest();
   const std::deque<image_t>& frames = from_preview ? previews_ : frames_;
-  if (selected_ == 0 || frames.empty()) return std::nullopt;
-  const auto period = static_cast<Utime>(std::llround(kMicrosPerSecond / options_.max_rate_hz));
-  if (encoded_once_ && now - last_encode_ < period) return std::nullopt;
+  if (selected_ == 0 || frames.empty() || tooSoon(now)) return std::nullopt;
+  const Shown shown = frameToShow(frames, from_preview, now);
+  if (!shown.frame) return std::nullopt;
+  const ball_observation_t* ball = ballOf(*shown.frame);
 
+  std::vector<std::uint8_t> jpeg;
+  last_encode_ = now;
+  encoded_once_ = true;
+  last_encoded_utime_ = shown.frame->header.utime;
+  try {
+    jpeg = encodeJpeg(*shown.frame, options_.jpeg_quality);
+  } catch (const std::exception& e) {
+    ++frames_refused_;
+    last_problem_ = e.what();
+    return std::nullopt;
+  }
+  ++frames_encoded_;
+  return cameraDocument(selected_, *shown.frame, from_preview, jpeg, shown.lines, ball,
+                        frames_encoded_);
+}
+
+bool CameraView::previewIsNewest() const {
+  // A viewer on another machine than the robot gets only previews.
+  return !previews_.empty() &&
+         (frames_.empty() || previews_.back().header.utime > frames_.back().header.utime);
+}
+
+bool CameraView::tooSoon(Utime now) const {
+  const auto period = static_cast<Utime>(std::llround(kMicrosPerSecond / options_.max_rate_hz));
+  return encoded_once_ && now - last_encode_ < period;
+}
+
+CameraView::Shown CameraView::frameToShow(const std::deque<image_t>& frames, bool from_preview,
+                                          Utime now) const {
   // The newest frame the tracker's lines came for; else, with no lines for a while, the newest.
-  const image_t* frame = nullptr;
-  const line_contours_t* lines = nullptr;
-  for (auto l = lines_.rbegin(); l != lines_.rend() && !frame; ++l) {
+  Shown shown;
+  for (auto l = lines_.rbegin(); l != lines_.rend() && !shown.frame; ++l) {
     if (l->header.utime <= last_encoded_utime_) break;
     for (const image_t& f : frames) {
       if (f.header.utime == l->header.utime) {
-        frame = &f;
-        lines = &*l;
+        shown = {&f, &*l};
         break;
       }
     }
@@ -137,63 +201,21 @@ std::optional<std::string> CameraView::update(Utime now) {
   // without them: previews are too rare to wait for another.
   const bool lines_went_by =
       from_preview && !lines_.empty() && lines_.back().header.utime > frames.back().header.utime;
-  if (!frame &&
+  if (!shown.frame &&
       (!lines_seen_ || now - last_lines_received_ > options_.lines_missing_after_us ||
        lines_went_by) &&
       frames.back().header.utime > last_encoded_utime_) {
-    frame = &frames.back();
+    shown.frame = &frames.back();
   }
-  if (!frame) return std::nullopt;
+  return shown;
+}
+
+const ball_observation_t* CameraView::ballOf(const image_t& frame) const {
   const ball_observation_t* ball = nullptr;
   for (const ball_observation_t& b : balls_) {
-    if (b.header.utime == frame->header.utime) ball = &b;
+    if (b.header.utime == frame.header.utime) ball = &b;
   }
-
-  std::vector<std::uint8_t> jpeg;
-  last_encode_ = now;
-  encoded_once_ = true;
-  last_encoded_utime_ = frame->header.utime;
-  try {
-    jpeg = encodeJpeg(*frame, options_.jpeg_quality);
-  } catch (const std::exception& e) {
-    ++frames_refused_;
-    last_problem_ = e.what();
-    return std::nullopt;
-  }
-  ++frames_encoded_;
-
-  std::string out;
-  out.reserve(jpeg.size() * 4 / 3 + 64 + (lines ? 24 * lines->num_points : 0));
-  {
-    json::Object doc(out);
-    doc.integer("robot", selected_);
-    {
-      json::Object f(doc.key("frame"));
-      f.integer("utime", frame->header.utime);
-      f.integer("seq", frame->header.seq);
-      f.integer("frame_number", frame->frame_number);
-      // The camera's size, which the line points are in; the JPEG is the preview's when the
-      // frame came from CAMERA_PREVIEW (the page draws it at width x height).
-      const int scale = from_preview ? bus::kCameraPreviewScale : 1;
-      f.string("stream", from_preview ? "preview" : "full");
-      f.integer("width", frame->width * scale);
-      f.integer("height", frame->height * scale);
-      f.integer("image_width", frame->width);
-      f.integer("image_height", frame->height);
-      f.integer("jpeg_bytes", static_cast<std::int64_t>(jpeg.size()));
-      f.string("jpeg", base64(jpeg));
-    }
-    if (lines)
-      writeLines(doc.key("lines"), *lines);
-    else
-      doc.key("lines") += "null";
-    if (ball)
-      writeBall(doc.key("ball"), *ball);
-    else
-      doc.key("ball") += "null";
-    doc.integer("encoded", frames_encoded_);
-  }
-  return out;
+  return ball;
 }
 
 std::vector<std::uint8_t> encodeJpeg(const image_t& image, int quality) {

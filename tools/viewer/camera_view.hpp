@@ -66,6 +66,20 @@ class CameraView {
   const std::string& lastProblem() const { return last_problem_; }
 
  private:
+  // A frame to show and the VISION_LINES found in it (nullptr: shown without lines).
+  struct Shown {
+    const image_t* frame = nullptr;
+    const line_contours_t* lines = nullptr;
+  };
+  // True when the newest frame is a preview (a viewer on another machine gets only those).
+  bool previewIsNewest() const;
+  // True while the last JPEG is younger than 1 / max_rate_hz.
+  bool tooSoon(Utime now) const;
+  // Which of `frames` update() shows (frame nullptr: none yet, it waits for their lines).
+  Shown frameToShow(const std::deque<image_t>& frames, bool from_preview, Utime now) const;
+  // The VISION_BALL of `frame` (matched by exposure time), or nullptr.
+  const ball_observation_t* ballOf(const image_t& frame) const;
+
   CameraViewOptions options_;
   int selected_ = 0;
   std::deque<image_t> frames_;    // oldest first
