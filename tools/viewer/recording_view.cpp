@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
+#include <optional>
 
 #include <fmt/format.h>
 
@@ -64,6 +65,163 @@ double median(std::vector<double> v) {
   if (v.empty()) return 0.0;
   std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
   return v[v.size() / 2];
+}
+
+// Appends ["a", ...].
+void appendStrings(std::string& out, const std::vector<std::string>& texts) {
+  out += '[';
+  for (std::size_t i = 0; i < texts.size(); ++i) {
+    if (i > 0) out += ',';
+    json::appendString(out, texts[i]);
+  }
+  out += ']';
+}
+
+// Appends {"kind": n, ...}.
+void appendCounts(std::string& out, const std::map<std::string, std::int64_t>& counts) {
+  json::Object o(out);
+  for (const auto& [kind, n] : counts)
+    o.integer(kind, n);
+}
+
+// The recording's span; series are plotted against seconds since its start.
+struct Timeline {
+  Utime start = 0;
+  Utime end = 0;
+  double seconds(Utime t) const {
+    return (static_cast<double>(t) - static_cast<double>(start)) * 1e-6;
+  }
+};
+
+using Series = std::vector<std::pair<double, double>>;
+using Worlds = std::vector<Logged<world_state_t>>;
+
+// The simulator's truth at one time: a robot's pose and the ball.
+struct Truth {
+  double x = 0.0, y = 0.0, phi = 0.0;
+  double ball_x = 0.0, ball_y = 0.0;
+};
+
+// The truth at time `truth` (the simulator's clock, the log's), interpolated between the two
+// SIM_WORLD around it; nullopt outside them, across a gap of more than 50 ms, or when `robot` is
+// not in both (robot 0: the ball only).
+std::optional<Truth> truthAt(const Worlds& worlds, Utime truth, int robot) {
+  const auto it = std::lower_bound(
+      worlds.begin(), worlds.end(), truth,
+      [](const Logged<world_state_t>& w, Utime v) { return w.msg.header.utime < v; });
+  if (it == worlds.end() || it == worlds.begin()) return std::nullopt;
+  const world_state_t& b = it->msg;
+  const world_state_t& a = std::prev(it)->msg;
+  if (b.header.utime - a.header.utime > 50'000) return std::nullopt;
+  const double w = b.header.utime == a.header.utime
+                       ? 0.0
+                       : static_cast<double>(truth - a.header.utime) /
+                             static_cast<double>(b.header.utime - a.header.utime);
+  Truth t;
+  t.ball_x = a.ball_x + (b.ball_x - a.ball_x) * w;
+  t.ball_y = a.ball_y + (b.ball_y - a.ball_y) * w;
+  if (robot == 0) return t;
+  const auto find = [robot](const world_state_t& s) -> int {
+    for (int i = 0; i < s.num_robots; ++i)
+      if (s.robot_id[static_cast<std::size_t>(i)] == robot) return i;
+    return -1;
+  };
+  const int ia = find(a);
+  const int ib = find(b);
+  if (ia < 0 || ib < 0) return std::nullopt;
+  const auto ka = static_cast<std::size_t>(ia);
+  const auto kb = static_cast<std::size_t>(ib);
+  t.x = a.robot_x[ka] + (b.robot_x[kb] - a.robot_x[ka]) * w;
+  t.y = a.robot_y[ka] + (b.robot_y[kb] - a.robot_y[ka]) * w;
+  t.phi =
+      a.robot_phi[ka] + std::remainder(b.robot_phi[kb] - a.robot_phi[ka], 2 * std::numbers::pi) * w;
+  return t;
+}
+
+// What the page plots of one robot, each against seconds since the start.
+struct RobotSeries {
+  Series error, heading, sigma, status, ball_error, rate, latency, lines_latency;
+};
+
+// From its ROBOT_STATE, on the estimate's own time: sigma, the status (its changes, and the last
+// one at the end) and, with truth, the position and heading errors.
+void addStateSeries(RobotSeries& series, const RobotRecording& r, const Worlds& worlds,
+                    const Timeline& timeline) {
+  int last_status = -1;
+  for (const Logged<robot_state_t>& s : r.states) {
+    const robot_state_t& m = s.msg;
+    const Utime truth = r.clock.logAt(m.header.utime);
+    const double t = timeline.seconds(truth);
+    series.sigma.emplace_back(t, std::sqrt(std::max(0.0, m.covariance[0] + m.covariance[4])));
+    if (m.status != last_status) {
+      series.status.emplace_back(t, m.status);
+      last_status = m.status;
+    }
+    if (const auto at = truthAt(worlds, truth, r.robot_id)) {
+      series.error.emplace_back(t, std::hypot(m.x - at->x, m.y - at->y));
+      series.heading.emplace_back(
+          t, std::abs(std::remainder(m.phi - at->phi, 2 * std::numbers::pi)) * 180.0 /
+                 std::numbers::pi);
+    }
+  }
+  if (!r.states.empty())
+    series.status.emplace_back(timeline.seconds(timeline.end), r.states.back().msg.status);
+}
+
+// From its valid BALL_STATE, with truth: the ball's position error.
+void addBallErrors(RobotSeries& series, const RobotRecording& r, const Worlds& worlds,
+                   const Timeline& timeline) {
+  for (const Logged<ball_state_t>& b : r.balls) {
+    if (!b.msg.valid) continue;
+    const Utime truth = r.clock.logAt(b.msg.header.utime);
+    if (const auto at = truthAt(worlds, truth, 0))
+      series.ball_error.emplace_back(timeline.seconds(truth),
+                                     std::hypot(b.msg.x - at->ball_x, b.msg.y - at->ball_y));
+  }
+}
+
+// Per second of log time: the median of `latencyOf` over the `items` logged in it into
+// `latency` and, with `rate`, how many there were.
+template <typename Items, typename LatencyOf>
+void addPerSecond(const Items& items, LatencyOf latencyOf, const Timeline& timeline, Series* rate,
+                  Series& latency) {
+  std::size_t i = 0;
+  for (Utime s0 = timeline.start; s0 <= timeline.end && i < items.size(); s0 += kMicrosPerSecond) {
+    std::vector<double> l;
+    while (i < items.size() && items[i].log_time < s0 + kMicrosPerSecond)
+      l.push_back(latencyOf(items[i++]));
+    const double t = timeline.seconds(s0) + 0.5;
+    if (rate) rate->emplace_back(t, static_cast<double>(l.size()));
+    if (!l.empty()) latency.emplace_back(t, median(std::move(l)));
+  }
+}
+
+// Appends the robot's member of the series document (RecordingView::seriesJson()).
+void appendRobotSeries(std::string& out, const RobotRecording& r, const Worlds& worlds,
+                       const Timeline& timeline) {
+  json::Object o(out);
+  o.integer("id", r.robot_id);
+  o.string("clock", r.clock.describe());
+  RobotSeries series;
+  addStateSeries(series, r, worlds, timeline);
+  addBallErrors(series, r, worlds, timeline);
+  addPerSecond(
+      r.states,
+      [](const Logged<robot_state_t>& s) {
+        return static_cast<double>(s.msg.header.utime_published - s.msg.header.utime) * 1e-3;
+      },
+      timeline, &series.rate, series.latency);
+  addPerSecond(
+      r.lines, [](const RobotRecording::LinesAt& l) { return l.latency_ms; }, timeline, nullptr,
+      series.lines_latency);
+  appendPoints(o.key("error"), series.error);
+  appendPoints(o.key("heading_error"), series.heading);
+  appendPoints(o.key("sigma"), series.sigma);
+  appendPoints(o.key("status"), series.status);
+  appendPoints(o.key("ball_error"), series.ball_error);
+  appendPoints(o.key("rate"), series.rate);
+  appendPoints(o.key("latency"), series.latency);
+  appendPoints(o.key("lines_latency"), series.lines_latency);
 }
 
 }  // namespace
@@ -189,6 +347,7 @@ std::string RecordingView::stateJson(Utime t) {
 }
 
 void RecordingView::makeSeries() {
+  const Timeline timeline{start_, end_};
   std::string out;
   {
     json::Object root(out);
@@ -196,129 +355,16 @@ void RecordingView::makeSeries() {
     root.integer("end_utime", end_);
     root.boolean("truth", hasTruth());
     root.integer("events", events_read_);
-    {
-      std::string& files = root.key("files");
-      files += '[';
-      for (std::size_t i = 0; i < files_.size(); ++i) {
-        if (i > 0) files += ',';
-        json::appendString(files, files_[i]);
-      }
-      files += ']';
-    }
-    const double t0 = static_cast<double>(start_);
-    const auto seconds = [t0](Utime t) { return (static_cast<double>(t) - t0) * 1e-6; };
-    // The truth at time `truth` (the simulator's clock, the log's), interpolated; false outside.
-    const auto truthAt = [this](Utime truth, int robot, double& x, double& y, double& phi,
-                                double* ball_x = nullptr, double* ball_y = nullptr) {
-      const auto it = std::lower_bound(
-          worlds_.begin(), worlds_.end(), truth,
-          [](const Logged<world_state_t>& w, Utime v) { return w.msg.header.utime < v; });
-      if (it == worlds_.end() || it == worlds_.begin()) return false;
-      const world_state_t& b = it->msg;
-      const world_state_t& a = std::prev(it)->msg;
-      if (b.header.utime - a.header.utime > 50'000) return false;
-      const double w = b.header.utime == a.header.utime
-                           ? 0.0
-                           : static_cast<double>(truth - a.header.utime) /
-                                 static_cast<double>(b.header.utime - a.header.utime);
-      if (ball_x) *ball_x = a.ball_x + (b.ball_x - a.ball_x) * w;
-      if (ball_y) *ball_y = a.ball_y + (b.ball_y - a.ball_y) * w;
-      if (robot == 0) return true;
-      const auto find = [robot](const world_state_t& s) -> int {
-        for (int i = 0; i < s.num_robots; ++i)
-          if (s.robot_id[static_cast<std::size_t>(i)] == robot) return i;
-        return -1;
-      };
-      const int ia = find(a);
-      const int ib = find(b);
-      if (ia < 0 || ib < 0) return false;
-      const auto ka = static_cast<std::size_t>(ia);
-      const auto kb = static_cast<std::size_t>(ib);
-      x = a.robot_x[ka] + (b.robot_x[kb] - a.robot_x[ka]) * w;
-      y = a.robot_y[ka] + (b.robot_y[kb] - a.robot_y[ka]) * w;
-      phi = a.robot_phi[ka] +
-            std::remainder(b.robot_phi[kb] - a.robot_phi[ka], 2 * std::numbers::pi) * w;
-      return true;
-    };
+    appendStrings(root.key("files"), files_);
     std::string& robots = root.key("robots");
     robots += '[';
     for (std::size_t k = 0; k < robots_.size(); ++k) {
-      const RobotRecording& r = robots_[k];
       if (k > 0) robots += ',';
-      json::Object o(robots);
-      o.integer("id", r.robot_id);
-      o.string("clock", r.clock.describe());
-      std::vector<std::pair<double, double>> error, heading, sigma, status, ball_error, rate,
-          latency, lines_latency;
-      int last_status = -1;
-      for (const Logged<robot_state_t>& s : r.states) {
-        const robot_state_t& m = s.msg;
-        const Utime truth = r.clock.logAt(m.header.utime);
-        const double t = seconds(truth);
-        sigma.emplace_back(t, std::sqrt(std::max(0.0, m.covariance[0] + m.covariance[4])));
-        if (m.status != last_status) {
-          status.emplace_back(t, m.status);
-          last_status = m.status;
-        }
-        double x = 0, y = 0, phi = 0;
-        if (truthAt(truth, r.robot_id, x, y, phi)) {
-          error.emplace_back(t, std::hypot(m.x - x, m.y - y));
-          heading.emplace_back(t, std::abs(std::remainder(m.phi - phi, 2 * std::numbers::pi)) *
-                                      180.0 / std::numbers::pi);
-        }
-      }
-      if (!r.states.empty()) status.emplace_back(seconds(end_), r.states.back().msg.status);
-      for (const Logged<ball_state_t>& b : r.balls) {
-        if (!b.msg.valid) continue;
-        const Utime truth = r.clock.logAt(b.msg.header.utime);
-        double x = 0, y = 0, phi = 0, bx = 0, by = 0;
-        if (truthAt(truth, 0, x, y, phi, &bx, &by))
-          ball_error.emplace_back(seconds(truth), std::hypot(b.msg.x - bx, b.msg.y - by));
-      }
-      // Per second of log time: the ROBOT_STATE rate and the median latencies.
-      const auto perSecond = [&](auto&& items, auto&& latencyOf, bool with_rate,
-                                 std::vector<std::pair<double, double>>& lat) {
-        std::size_t i = 0;
-        for (Utime s0 = start_; s0 <= end_ && i < items.size(); s0 += kMicrosPerSecond) {
-          std::vector<double> l;
-          while (i < items.size() && items[i].log_time < s0 + kMicrosPerSecond)
-            l.push_back(latencyOf(items[i++]));
-          const double t = seconds(s0) + 0.5;
-          if (with_rate) rate.emplace_back(t, static_cast<double>(l.size()));
-          if (!l.empty()) lat.emplace_back(t, median(std::move(l)));
-        }
-      };
-      perSecond(
-          r.states,
-          [](const Logged<robot_state_t>& s) {
-            return static_cast<double>(s.msg.header.utime_published - s.msg.header.utime) * 1e-3;
-          },
-          true, latency);
-      perSecond(
-          r.lines, [](const RobotRecording::LinesAt& l) { return l.latency_ms; }, false,
-          lines_latency);
-      appendPoints(o.key("error"), error);
-      appendPoints(o.key("heading_error"), heading);
-      appendPoints(o.key("sigma"), sigma);
-      appendPoints(o.key("status"), status);
-      appendPoints(o.key("ball_error"), ball_error);
-      appendPoints(o.key("rate"), rate);
-      appendPoints(o.key("latency"), latency);
-      appendPoints(o.key("lines_latency"), lines_latency);
+      appendRobotSeries(robots, robots_[k], worlds_, timeline);
     }
     robots += ']';
-    {
-      std::string& refused = root.key("refused");
-      json::Object ro(refused);
-      for (const auto& [kind, n] : refused_)
-        ro.integer(kind, n);
-    }
-    {
-      std::string& upgraded = root.key("upgraded");
-      json::Object uo(upgraded);
-      for (const auto& [kind, n] : upgraded_)
-        uo.integer(kind, n);
-    }
+    appendCounts(root.key("refused"), refused_);
+    appendCounts(root.key("upgraded"), upgraded_);
   }  // the document is closed here
   series_json_ = std::move(out);
 }
