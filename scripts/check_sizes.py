@@ -36,7 +36,6 @@ KNOWN_LONG_FUNCTIONS = {
     "common/bus/status.cpp:StatusCollector::takeStatus": "in perf's room today (bus, node loops)",
     "services/fusion/odometry_layer.cpp:OdometryLayer::update": "in robust's or tball's room today (fusion, teamcomm, eval)",
     "services/motor_bridge/bridge.cpp:BridgeCore::onBytes": "in perf's room today (bus, node loops)",
-    "tools/viewer/web_server.cpp:handle": "not split yet (issue 33 item 3): pending",
     "teamcomm/team_picture.cpp:TeamPicture::picture": "in robust's or tball's room today (fusion, teamcomm, eval)",
     "teamcomm/teamcomm_node.cpp:TeamcommNode::onDatagram": "in robust's or tball's room today (fusion, teamcomm, eval)",
 }

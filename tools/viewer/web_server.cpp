@@ -116,6 +116,62 @@ struct WebServer::Impl {
 
 namespace {
 
+// The path of a request target and its query (after '?', without it).
+std::pair<std::string, std::string> splitTarget(std::string target) {
+  std::string query;
+  if (const auto q = target.find('?'); q != std::string::npos) {
+    query = target.substr(q + 1);
+    target.resize(q);
+  }
+  return {std::move(target), std::move(query)};
+}
+
+// What a GET gets: 200 with `body` of content type `type`, or an error status with its text.
+struct Answer {
+  http::status status = http::status::ok;
+  std::string body;
+  std::string type;
+};
+
+// A file of the page's directory; 500 when it is missing (an installation without the page).
+Answer webFile(const WebServer::Impl& server, const std::string& target, const std::string& name,
+               std::string type) {
+  if (auto body = server.readWebFile(name))
+    return {http::status::ok, std::move(*body), std::move(type)};
+  return {http::status::internal_server_error,
+          fmt::format("{} not found under {}\n", target, server.options.web_dir.string())};
+}
+
+// The answer of the route set with WebServer::setRoute(): nothing is 404, a std::invalid_argument
+// thrown is 400 with its text.
+Answer routed(const Route& route, const std::string& target, const std::string& query) {
+  std::optional<RouteReply> reply;
+  try {
+    reply = route(target, query);
+  } catch (const std::invalid_argument& e) {
+    return {http::status::bad_request, std::string(e.what()) + "\n"};
+  }
+  if (!reply) return {http::status::not_found, "not found\n"};
+  return {http::status::ok, std::move(reply->body), std::move(reply->content_type)};
+}
+
+// The answer to GET `target` (a path) with `query`: the server's own pages, else its route's.
+Answer answerGet(WebServer::Impl& server, const std::string& target, const std::string& query) {
+  if (target == "/" || target == "/index.html")
+    return webFile(server, target, "index.html", "text/html; charset=utf-8");
+  if (target == "/viewer.js")
+    return webFile(server, target, "viewer.js", "text/javascript; charset=utf-8");
+  if (target == "/field.json") return {http::status::ok, server.field_json, "application/json"};
+  if (target == "/state.json") return {http::status::ok, *server.snapshot(), "application/json"};
+  if (target == "/camera.json") {
+    const int robot = cameraRobot(query);
+    if (robot == 0) return {http::status::bad_request, "camera.json needs ?robot=N (1..99)\n"};
+    return {http::status::ok, server.cameraFor(robot), "application/json"};
+  }
+  if (const Route route = server.currentRoute()) return routed(route, target, query);
+  return {http::status::not_found, "not found\n"};
+}
+
 // Counts a live connection for as long as the session holding it exists.
 class ConnectionSlot {
  public:
@@ -228,74 +284,36 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
                 keep_alive);
       return;
     }
-    std::string target(request.target());
-    std::string query;
-    if (const auto q = target.find('?'); q != std::string::npos) {
-      query = target.substr(q + 1);
-      target.resize(q);
-    }
+    auto [target, query] = splitTarget(std::string(request.target()));
     if (websocket::is_upgrade(request)) {
-      if (target != "/ws") {
-        sendError(http::status::not_found, "the WebSocket is at /ws\n", version, false);
-        return;
-      }
-      stream_.expires_never();
-      std::make_shared<WebSocketSession>(stream_.release_socket(), std::move(slot_))
-          ->run(std::move(request));
+      upgradeToWebSocket(std::move(request), target);
       return;
     }
-    std::optional<std::string> body;
-    std::string type;
-    if (target == "/" || target == "/index.html") {
-      body = server.readWebFile("index.html");
-      type = "text/html; charset=utf-8";
-    } else if (target == "/viewer.js") {
-      body = server.readWebFile("viewer.js");
-      type = "text/javascript; charset=utf-8";
-    } else if (target == "/field.json") {
-      body = server.field_json;
-      type = "application/json";
-    } else if (target == "/state.json") {
-      body = *server.snapshot();
-      type = "application/json";
-    } else if (target == "/camera.json") {
-      const int robot = cameraRobot(query);
-      if (robot == 0) {
-        sendError(http::status::bad_request, "camera.json needs ?robot=N (1..99)\n", version,
-                  keep_alive);
-        return;
-      }
-      body = server.cameraFor(robot);
-      type = "application/json";
-    } else if (const Route route = server.currentRoute()) {
-      std::optional<RouteReply> reply;
-      try {
-        reply = route(target, query);
-      } catch (const std::invalid_argument& e) {
-        sendError(http::status::bad_request, std::string(e.what()) + "\n", version, keep_alive);
-        return;
-      }
-      if (!reply) {
-        sendError(http::status::not_found, "not found\n", version, keep_alive);
-        return;
-      }
-      body = std::move(reply->body);
-      type = std::move(reply->content_type);
-    } else {
-      sendError(http::status::not_found, "not found\n", version, keep_alive);
+    Answer answer = answerGet(server, target, query);
+    if (answer.status != http::status::ok) {
+      sendError(answer.status, std::move(answer.body), version, keep_alive);
       return;
     }
-    if (!body) {
-      sendError(http::status::internal_server_error,
-                fmt::format("{} not found under {}\n", target, server.options.web_dir.string()),
-                version, keep_alive);
+    sendPage(std::move(answer), version, keep_alive);
+  }
+
+  // Hands the connection to a WebSocketSession (this session ends); only /ws is one.
+  void upgradeToWebSocket(http::request<http::string_body> request, const std::string& target) {
+    if (target != "/ws") {
+      sendError(http::status::not_found, "the WebSocket is at /ws\n", request.version(), false);
       return;
     }
+    stream_.expires_never();
+    std::make_shared<WebSocketSession>(stream_.release_socket(), std::move(slot_))
+        ->run(std::move(request));
+  }
+
+  void sendPage(Answer answer, unsigned version, bool keep_alive) {
     auto response = std::make_shared<http::response<http::string_body>>(http::status::ok, version);
-    response->set(http::field::content_type, type);
+    response->set(http::field::content_type, answer.type);
     response->set(http::field::cache_control, "no-store");
     response->keep_alive(keep_alive);
-    response->body() = std::move(*body);
+    response->body() = std::move(answer.body);
     response->prepare_payload();
     send(std::move(response));
   }
