@@ -32,7 +32,6 @@ REASON = re.compile(r"^\s*//\s*long:\s*\S")
 KNOWN_LONG_FILES = {
 }
 KNOWN_LONG_FUNCTIONS = {
-    "common/bus/status.cpp:StatusCollector::takeStatus": "in perf's room today (bus, node loops)",
     "services/fusion/odometry_layer.cpp:OdometryLayer::update": "in robust's or tball's room today (fusion, teamcomm, eval)",
     "services/motor_bridge/bridge.cpp:BridgeCore::onBytes": "in perf's room today (bus, node loops)",
     "tools/viewer/camera_view.cpp:CameraView::update": "not split yet (issue 33 item 3): pending",
