@@ -32,10 +32,7 @@ REASON = re.compile(r"^\s*//\s*long:\s*\S")
 KNOWN_LONG_FILES = {
 }
 KNOWN_LONG_FUNCTIONS = {
-    "common/bus/log_file.cpp:LogReader::nextEvent": "in perf's room today (bus, node loops)",
-    "common/bus/status.cpp:StatusCollector::takeStatus": "in perf's room today (bus, node loops)",
     "services/fusion/odometry_layer.cpp:OdometryLayer::update": "in robust's or tball's room today (fusion, teamcomm, eval)",
-    "services/motor_bridge/bridge.cpp:BridgeCore::onBytes": "in perf's room today (bus, node loops)",
     "teamcomm/team_picture.cpp:TeamPicture::picture": "in robust's or tball's room today (fusion, teamcomm, eval)",
     "teamcomm/teamcomm_node.cpp:TeamcommNode::onDatagram": "in robust's or tball's room today (fusion, teamcomm, eval)",
 }

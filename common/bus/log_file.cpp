@@ -46,6 +46,29 @@ void setLogUpgrade(LogUpgrade upgrade) {
 }
 
 // ---------------------------------------------------------------------------------------------
+namespace {
+
+// A damaged stretch of the file, counted under `kind` ("damaged", "truncated").
+struct Damage {
+  std::int64_t offset = 0;
+  std::string kind;
+  std::string text;
+};
+
+// What an event's header says about it.
+struct EventHeader {
+  // Offset of its sync word.
+  std::int64_t start = 0;
+  std::int64_t number = 0;
+  Utime timestamp = 0;
+  std::int32_t channel_bytes = 0;
+  std::int32_t data_bytes = 0;
+  // The offset just past the event, if its lengths are right.
+  std::int64_t end() const { return start + kHeaderBytes + channel_bytes + data_bytes; }
+};
+
+}  // namespace
+
 struct LogReader::Impl {
   lcm::LogFile file;
   explicit Impl(const std::string& path) : file(path, "r") {}
@@ -53,6 +76,91 @@ struct LogReader::Impl {
   std::int64_t size() {
     struct stat st {};
     return ::fstat(::fileno(stream()), &st) == 0 ? static_cast<std::int64_t>(st.st_size) : 0;
+  }
+
+  // Reads on to the next sync word (in an intact log, the next four bytes) and returns the
+  // offset of its event; nothing at the end of the file. Bytes passed over on the way go to
+  // `skipped`.
+  std::optional<std::int64_t> findSyncWord(std::optional<Damage>& skipped) {
+    FILE* f = stream();
+    const std::int64_t scan_start = ::ftello(f);
+    std::uint32_t window = 0;
+    std::int64_t scanned = 0;
+    int c = 0;
+    while ((c = std::fgetc(f)) != EOF) {
+      window = (window << 8) | static_cast<std::uint32_t>(c);
+      if (++scanned >= 4 && window == kSyncWord) break;
+    }
+    if (c == EOF) {
+      if (scanned > 0) {
+        skipped =
+            Damage{scan_start, "damaged", fmt::format("{} bytes after the last event", scanned)};
+      }
+      return std::nullopt;
+    }
+    const std::int64_t start = scan_start + scanned - 4;
+    if (start > scan_start) {
+      skipped = Damage{scan_start, "damaged",
+                       fmt::format("{} bytes between events skipped at offset {}",
+                                   start - scan_start, scan_start)};
+    }
+    return start;
+  }
+
+  // The rest of the header of the event whose sync word is at `start` (just read); nothing
+  // when the log ends inside it.
+  std::optional<EventHeader> readHeader(std::int64_t start) {
+    std::uint8_t head[kHeaderBytes - 4];
+    if (std::fread(head, 1, sizeof head, stream()) != sizeof head) return std::nullopt;
+    return EventHeader{.start = start,
+                       .number = static_cast<std::int64_t>(bigEndian(head, 8)),
+                       .timestamp = static_cast<std::int64_t>(bigEndian(head + 8, 8)),
+                       .channel_bytes = static_cast<std::int32_t>(bigEndian(head + 16, 4)),
+                       .data_bytes = static_cast<std::int32_t>(bigEndian(head + 20, 4))};
+  }
+
+  // Why the event's framing cannot be trusted, or nothing. Lengths are checked here, before
+  // LCM allocates and reads what they say; LCM refuses an event that is not followed by the
+  // next sync word or the end of the file (its length cannot be trusted then), checked here
+  // first so that it is counted with a reason.
+  std::optional<Damage> framingDamage(const EventHeader& h, std::int32_t max_event_bytes) {
+    if (h.channel_bytes <= 0 || h.channel_bytes > kMaxChannelBytes || h.data_bytes < 0 ||
+        h.data_bytes > max_event_bytes) {
+      return Damage{h.start, "damaged",
+                    fmt::format("event at offset {} claims a {}-byte channel name and {} bytes "
+                                "of data",
+                                h.start, h.channel_bytes, h.data_bytes)};
+    }
+    if (h.end() > size()) {
+      return Damage{h.start, "truncated",
+                    fmt::format("event {} at offset {} ends {} bytes beyond the end of the log",
+                                h.number, h.start, h.end() - size())};
+    }
+    if (h.end() < size()) {
+      std::uint8_t next_sync[4];
+      ::fseeko(stream(), static_cast<off_t>(h.end()), SEEK_SET);
+      if (std::fread(next_sync, 1, sizeof next_sync, stream()) != sizeof next_sync ||
+          bigEndian(next_sync, 4) != kSyncWord) {
+        return Damage{h.start, "damaged",
+                      fmt::format("event {} at offset {} is not followed by another event",
+                                  h.number, h.start)};
+      }
+    }
+    return std::nullopt;
+  }
+
+  // The event at `h.start` as LCM reads it, or null when its channel or data do not match the
+  // header.
+  const lcm::LogEvent* readEvent(const EventHeader& h) {
+    ::fseeko(stream(), static_cast<off_t>(h.start), SEEK_SET);
+    const lcm::LogEvent* e = file.readNextEvent();
+    if (e == nullptr || !printable(e->channel) || e->datalen != h.data_bytes) return nullptr;
+    return e;
+  }
+
+  // Goes on searching one byte after the start of a damaged event.
+  void resyncAfter(std::int64_t start) {
+    ::fseeko(stream(), static_cast<off_t>(start + 1), SEEK_SET);
   }
 };
 
@@ -94,83 +202,34 @@ void LogReader::damage(std::int64_t offset, std::string kind, std::string text) 
 }
 
 bool LogReader::nextEvent(LogEvent& event) {
-  FILE* f = impl_->stream();
   while (true) {
-    // Find the next sync word; in an intact log it is the next four bytes.
-    const std::int64_t scan_start = ::ftello(f);
-    std::uint32_t window = 0;
-    std::int64_t scanned = 0;
-    int c = 0;
-    while ((c = std::fgetc(f)) != EOF) {
-      window = (window << 8) | static_cast<std::uint32_t>(c);
-      if (++scanned >= 4 && window == kSyncWord) break;
-    }
-    if (c == EOF) {
-      if (scanned > 0) {
-        damage(scan_start, "damaged", fmt::format("{} bytes after the last event", scanned));
-      }
+    std::optional<Damage> skipped;
+    const std::optional<std::int64_t> start = impl_->findSyncWord(skipped);
+    if (skipped) damage(skipped->offset, std::move(skipped->kind), std::move(skipped->text));
+    if (!start) return false;
+    const std::optional<EventHeader> header = impl_->readHeader(*start);
+    if (!header) {
+      damage(*start, "truncated", fmt::format("the log ends inside an event at offset {}", *start));
       return false;
     }
-    const std::int64_t start = scan_start + scanned - 4;
-    if (start > scan_start) {
-      damage(scan_start, "damaged",
-             fmt::format("{} bytes between events skipped at offset {}", start - scan_start,
-                         scan_start));
-    }
-    std::uint8_t head[kHeaderBytes - 4];
-    if (std::fread(head, 1, sizeof head, f) != sizeof head) {
-      damage(start, "truncated", fmt::format("the log ends inside an event at offset {}", start));
-      return false;
-    }
-    const auto number = static_cast<std::int64_t>(bigEndian(head, 8));
-    const auto timestamp = static_cast<std::int64_t>(bigEndian(head + 8, 8));
-    const auto channel_bytes = static_cast<std::int32_t>(bigEndian(head + 16, 4));
-    const auto data_bytes = static_cast<std::int32_t>(bigEndian(head + 20, 4));
-    // Lengths are checked here, before LCM allocates and reads what they say.
-    const auto resync = [&] { ::fseeko(f, static_cast<off_t>(start + 1), SEEK_SET); };
-    if (channel_bytes <= 0 || channel_bytes > kMaxChannelBytes || data_bytes < 0 ||
-        data_bytes > options_.max_event_bytes) {
-      damage(start, "damaged",
-             fmt::format("event at offset {} claims a {}-byte channel name and {} bytes of data",
-                         start, channel_bytes, data_bytes));
-      resync();
+    if (auto bad = impl_->framingDamage(*header, options_.max_event_bytes)) {
+      damage(bad->offset, std::move(bad->kind), std::move(bad->text));
+      impl_->resyncAfter(header->start);
       continue;
     }
-    const std::int64_t end = start + kHeaderBytes + channel_bytes + data_bytes;
-    if (end > impl_->size()) {
-      damage(start, "truncated",
-             fmt::format("event {} at offset {} ends {} bytes beyond the end of the log", number,
-                         start, end - impl_->size()));
-      resync();
+    const lcm::LogEvent* e = impl_->readEvent(*header);
+    if (e == nullptr) {
+      damage(header->start, "damaged",
+             fmt::format("unreadable event {} at offset {}", header->number, header->start));
+      impl_->resyncAfter(header->start);
       continue;
     }
-    // LCM refuses an event that is not followed by the next sync word or the end of the file (its
-    // length cannot be trusted then); checked here first, so it is counted with a reason.
-    if (end < impl_->size()) {
-      std::uint8_t next_sync[4];
-      ::fseeko(f, static_cast<off_t>(end), SEEK_SET);
-      if (std::fread(next_sync, 1, sizeof next_sync, f) != sizeof next_sync ||
-          bigEndian(next_sync, 4) != kSyncWord) {
-        damage(
-            start, "damaged",
-            fmt::format("event {} at offset {} is not followed by another event", number, start));
-        resync();
-        continue;
-      }
-    }
-    ::fseeko(f, static_cast<off_t>(start), SEEK_SET);
-    const lcm::LogEvent* e = impl_->file.readNextEvent();
-    if (e == nullptr || !printable(e->channel) || e->datalen != data_bytes) {
-      damage(start, "damaged", fmt::format("unreadable event {} at offset {}", number, start));
-      resync();
-      continue;
-    }
-    event.number = number;
-    event.timestamp = timestamp;
+    event.number = header->number;
+    event.timestamp = header->timestamp;
     event.channel = e->channel;
     const auto* bytes = static_cast<const std::uint8_t*>(e->data);
     event.data.assign(bytes, bytes + e->datalen);
-    event.offset = start;
+    event.offset = header->start;
     ++events_read_;
     if (upgrade_) {
       if (const auto name = upgrade_(event)) ++upgraded_[*name];

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 
 #include <fmt/format.h>
 
@@ -191,61 +192,86 @@ void StatusCollector::setWarning(const std::string& key, const std::string& reas
   }
 }
 
-service_status_t StatusCollector::takeStatus(Utime now) {
-  service_status_t s{};
-  s.header.utime = now;
-  s.header.robot_id = static_cast<std::int8_t>(robot_id_);
-  s.process = process_;
-  s.pid = static_cast<std::int32_t>(::getpid());
-  s.uptime_us = now - start_;
-  s.period_us = std::max<Utime>(1, now - period_start_);
-  const double period_s = static_cast<double>(s.period_us) / 1e6;
-  std::string error_reason;
-  std::string warn_reason;
-  auto append = [](std::string& to, const std::string& what) {
-    if (!to.empty()) to += "; ";
-    to += what;
-  };
-  for (auto& c : channels_) {
-    if (c.conflict_seen >= 0 && c.conflict_seen + kConflictWindowUs >= now) {
-      append(error_reason, c.conflict_text);
-    }
-    if (c.suspicious_seen >= 0 && c.suspicious_seen + kSuspiciousHoldUs >= now) {
-      append(warn_reason,
-             fmt::format("{} ({} suspicious seq since start)", c.suspicious_text, c.suspicious));
-    }
-    if (c.required_rate_hz <= 0) continue;
-    const double rate = static_cast<double>(c.in_period) / period_s;
-    if (rate >= c.required_rate_hz) {
-      c.below_since = -1;
-      continue;
-    }
-    if (c.below_since < 0) c.below_since = period_start_;
-    const Utime below_us = now - c.below_since;
-    if (below_us < rate_grace_us_) continue;
-    const Utime silent_since = std::max({c.last_message, start_, c.below_since});
-    if (c.in_period == 0) {
-      append(warn_reason, fmt::format("{} silent {:.1f} s", c.name,
-                                      static_cast<double>(now - silent_since) / 1e6));
-    } else {
-      append(warn_reason, fmt::format("{} at {:.1f} Hz < {:.1f} Hz for {:.1f} s", c.name, rate,
-                                      c.required_rate_hz, static_cast<double>(below_us) / 1e6));
-    }
+namespace {
+
+// A status period: from `start` to `end`, `seconds` long (at least 1 µs).
+struct Period {
+  Utime start = 0;
+  Utime end = 0;
+  double seconds = 0.0;
+};
+
+// Why the process is not ok this period: the error's reasons and the warning's, each a
+// "; "-separated list.
+struct StateReasons {
+  std::string error;
+  std::string warn;
+};
+
+void appendReason(std::string& to, const std::string& what) {
+  if (!to.empty()) to += "; ";
+  to += what;
+}
+
+// The warning for a channel below its required rate for longer than `grace_us`, or nothing;
+// keeps `c.below_since` (reset when the rate is met). A channel that stays silent is named so
+// from its last message (or the later of the process start and when it fell below).
+std::optional<std::string> rateWarning(ChannelStats& c, const Period& period, Utime process_start,
+                                       Utime grace_us) {
+  const double rate = static_cast<double>(c.in_period) / period.seconds;
+  if (rate >= c.required_rate_hz) {
+    c.below_since = -1;
+    return std::nullopt;
   }
-  for (const auto& [key, reason] : warnings_)
-    append(warn_reason, reason);
-  if (fault_ || !error_reason.empty()) {
+  if (c.below_since < 0) c.below_since = period.start;
+  const Utime below_us = period.end - c.below_since;
+  if (below_us < grace_us) return std::nullopt;
+  const Utime silent_since = std::max({c.last_message, process_start, c.below_since});
+  if (c.in_period == 0) {
+    return fmt::format("{} silent {:.1f} s", c.name,
+                       static_cast<double>(period.end - silent_since) / 1e6);
+  }
+  return fmt::format("{} at {:.1f} Hz < {:.1f} Hz for {:.1f} s", c.name, rate, c.required_rate_hz,
+                     static_cast<double>(below_us) / 1e6);
+}
+
+// A channel's reasons, in this order: a second publisher seen recently (an error), a recent
+// suspicious seq and a required rate not met (warnings).
+void addChannelReasons(StateReasons& reasons, ChannelStats& c, const Period& period,
+                       Utime process_start, Utime grace_us) {
+  const Utime now = period.end;
+  if (c.conflict_seen >= 0 && c.conflict_seen + StatusCollector::kConflictWindowUs >= now) {
+    appendReason(reasons.error, c.conflict_text);
+  }
+  if (c.suspicious_seen >= 0 && c.suspicious_seen + StatusCollector::kSuspiciousHoldUs >= now) {
+    appendReason(reasons.warn, fmt::format("{} ({} suspicious seq since start)", c.suspicious_text,
+                                           c.suspicious));
+  }
+  if (c.required_rate_hz <= 0) return;
+  if (auto warning = rateWarning(c, period, process_start, grace_us)) {
+    appendReason(reasons.warn, *warning);
+  }
+}
+
+// ERROR (a fault, or an error reason) over WARN (a warning reason, or errors this period) over
+// OK; without a reason of its own, the state gives the last error.
+void setState(service_status_t& s, bool fault, const StateReasons& reasons, bool errors_in_period,
+              const std::string& last_error) {
+  if (fault || !reasons.error.empty()) {
     s.state = service_status_t::STATE_ERROR;
-    s.state_reason = error_reason.empty() ? last_error_ : error_reason;
-  } else if (!warn_reason.empty() || errors_in_period_ > 0) {
+    s.state_reason = reasons.error.empty() ? last_error : reasons.error;
+  } else if (!reasons.warn.empty() || errors_in_period) {
     s.state = service_status_t::STATE_WARN;
-    s.state_reason = warn_reason.empty() ? last_error_ : warn_reason;
+    s.state_reason = reasons.warn.empty() ? last_error : reasons.warn;
   } else {
     s.state = service_status_t::STATE_OK;
   }
+}
 
-  s.num_channels = static_cast<std::int32_t>(channels_.size());
-  for (auto& c : channels_) {
+// Each channel's counts, rate and latency percentiles of the period; starts its next period.
+void addChannelFigures(service_status_t& s, std::vector<ChannelStats>& channels, double period_s) {
+  s.num_channels = static_cast<std::int32_t>(channels.size());
+  for (auto& c : channels) {
     const Percentiles p = percentiles(c.latency_ms);
     s.channel.push_back(c.name);
     s.direction.push_back(static_cast<std::int8_t>(c.direction));
@@ -259,25 +285,56 @@ service_status_t StatusCollector::takeStatus(Utime now) {
     c.in_period = 0;
     c.latency_ms.clear();
   }
-  const Percentiles proc = percentiles(processing_ms_);
+}
+
+// The period's processing-time percentiles; forgets its samples.
+void addProcessingTimes(service_status_t& s, std::vector<float>& processing_ms) {
+  const Percentiles proc = percentiles(processing_ms);
   s.processing_p50_ms = proc.p50;
   s.processing_p95_ms = proc.p95;
   s.processing_max_ms = proc.max;
-  processing_ms_.clear();
+  processing_ms.clear();
+}
 
-  s.num_errors = static_cast<std::int32_t>(errors_.size());
-  for (const auto& [kind, count] : errors_) {
+// Error counts by kind since start, and the metrics (a non-finite one as 0).
+void addErrorsAndMetrics(service_status_t& s, const std::map<std::string, std::int64_t>& errors,
+                         const std::map<std::string, double>& metrics) {
+  s.num_errors = static_cast<std::int32_t>(errors.size());
+  for (const auto& [kind, count] : errors) {
     s.error_kind.push_back(kind);
     s.error_count.push_back(count);
   }
-  s.last_error = last_error_;
-  s.last_error_utime = last_error_utime_;
-
-  s.num_metrics = static_cast<std::int32_t>(metrics_.size());
-  for (const auto& [name, value] : metrics_) {
+  s.num_metrics = static_cast<std::int32_t>(metrics.size());
+  for (const auto& [name, value] : metrics) {
     s.metric_name.push_back(name);
     s.metric_value.push_back(std::isfinite(value) ? value : 0.0);
   }
+}
+
+}  // namespace
+
+service_status_t StatusCollector::takeStatus(Utime now) {
+  service_status_t s{};
+  s.header.utime = now;
+  s.header.robot_id = static_cast<std::int8_t>(robot_id_);
+  s.process = process_;
+  s.pid = static_cast<std::int32_t>(::getpid());
+  s.uptime_us = now - start_;
+  s.period_us = std::max<Utime>(1, now - period_start_);
+  const Period period{period_start_, now, static_cast<double>(s.period_us) / 1e6};
+
+  StateReasons reasons;
+  for (auto& c : channels_)
+    addChannelReasons(reasons, c, period, start_, rate_grace_us_);
+  for (const auto& [key, reason] : warnings_)
+    appendReason(reasons.warn, reason);
+  setState(s, fault_, reasons, errors_in_period_ > 0, last_error_);
+
+  addChannelFigures(s, channels_, period.seconds);
+  addProcessingTimes(s, processing_ms_);
+  addErrorsAndMetrics(s, errors_, metrics_);
+  s.last_error = last_error_;
+  s.last_error_utime = last_error_utime_;
   period_start_ = now;
   errors_in_period_ = 0;
   return s;

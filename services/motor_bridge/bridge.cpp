@@ -73,7 +73,17 @@ void BridgeCore::onBytes(std::span<const std::uint8_t> bytes, Utime now,
   messages_.clear();
   const proto::DecoderStats before = decoder_.stats();
   decoder_.feed(bytes, messages_);
-  // Count every newly rejected frame under its reason.
+  countRejectedFrames(before);
+  countControllerMessages();
+  checkAndStampSamples(now);
+  for (const Checked& c : checked_) {
+    const OdometryOutput o = odometryOutput(c);
+    last_sample_ = *c.sample;
+    out.push_back(o);
+  }
+}
+
+void BridgeCore::countRejectedFrames(const serial::DecoderStats& before) {
   const proto::DecoderStats& after = decoder_.stats();
   const auto add = [&](proto::Reject reason, std::uint64_t old_count, std::uint64_t new_count) {
     if (new_count > old_count)
@@ -85,6 +95,9 @@ void BridgeCore::onBytes(std::span<const std::uint8_t> bytes, Utime now,
   add(proto::Reject::kVersion, before.version_errors, after.version_errors);
   add(proto::Reject::kUnknownType, before.unknown_type_errors, after.unknown_type_errors);
   add(proto::Reject::kOversize, before.oversize_errors, after.oversize_errors);
+}
+
+void BridgeCore::countControllerMessages() {
   for (const auto& m : messages_) {
     if (const auto* hello = std::get_if<proto::Hello>(&m)) {
       if (hello->role == proto::Role::kController) {
@@ -99,6 +112,41 @@ void BridgeCore::onBytes(std::span<const std::uint8_t> bytes, Utime now,
       count("unexpected_message");
     }
   }
+}
+
+bool BridgeCore::acceptSample(const serial::OdometrySample& sample,
+                              const std::optional<serial::OdometrySample>& last) {
+  if (sample.controller_time_us > kMaxControllerTimeUs) {
+    count("odometry_controller_time_absurd");  // CRC-valid but no clock runs for 285 years
+    return false;
+  }
+  if (static_cast<int>(sample.ticks.size()) != params_.wheelCount()) {
+    // A controller for another robot (or a robot file with the wrong wheels): its ticks mean
+    // nothing with this geometry.
+    count("odometry_wheel_count_mismatch");
+    return false;
+  }
+  if (last && sample.seq == last->seq && sample.controller_time_us == last->controller_time_us) {
+    count("odometry_duplicate");  // the same frame twice (a replaying line)
+    return false;
+  }
+  return true;
+}
+
+bool BridgeCore::startsOver(const serial::OdometrySample& sample,
+                            const std::optional<serial::OdometrySample>& last) {
+  if (resync_ || !last || (sample.status & proto::kStatusReset) != 0) return true;
+  const std::uint32_t gap = sample.seq - last->seq;  // wraps like the counter
+  // A controller that restarted without us seeing its reset flag: seq or clock jumped back
+  // (a huge unsigned gap), stood still, or leapt far ahead. Its ticks no longer continue ours.
+  if (gap == 0 || gap > kMaxSampleGap || sample.controller_time_us <= last->controller_time_us) {
+    count("odometry_discontinuity");
+    return true;
+  }
+  return false;
+}
+
+void BridgeCore::checkAndStampSamples(Utime now) {
   // The bridge's checks first: only samples that pass them feed the clock mapping (a replayed
   // or stale frame must not restart it), and a resync (the reset flag, a discontinuity) starts
   // the mapping over. Every sample of one stretch feeds it before any of the stretch is stamped:
@@ -115,33 +163,8 @@ void BridgeCore::onBytes(std::span<const std::uint8_t> bytes, Utime now,
   };
   for (const auto& m : messages_) {
     const auto* sample = std::get_if<proto::OdometrySample>(&m);
-    if (!sample) continue;
-    if (sample->controller_time_us > kMaxControllerTimeUs) {
-      count("odometry_controller_time_absurd");  // CRC-valid but no clock runs for 285 years
-      continue;
-    }
-    if (static_cast<int>(sample->ticks.size()) != params_.wheelCount()) {
-      // A controller for another robot (or a robot file with the wrong wheels): its ticks mean
-      // nothing with this geometry.
-      count("odometry_wheel_count_mismatch");
-      continue;
-    }
-    if (last && sample->seq == last->seq &&
-        sample->controller_time_us == last->controller_time_us) {
-      count("odometry_duplicate");  // the same frame twice (a replaying line)
-      continue;
-    }
-    bool resync = resync_ || !last || (sample->status & proto::kStatusReset) != 0;
-    if (!resync) {
-      const std::uint32_t gap = sample->seq - last->seq;  // wraps like the counter
-      // A controller that restarted without us seeing its reset flag: seq or clock jumped back
-      // (a huge unsigned gap), stood still, or leapt far ahead. Its ticks no longer continue ours.
-      if (gap == 0 || gap > kMaxSampleGap ||
-          sample->controller_time_us <= last->controller_time_us) {
-        count("odometry_discontinuity");
-        resync = true;
-      }
-    }
+    if (!sample || !acceptSample(*sample, last)) continue;
+    const bool resync = startsOver(*sample, last);
     resync_ = false;
     if (resync) {
       stampStretch();
@@ -152,60 +175,64 @@ void BridgeCore::onBytes(std::span<const std::uint8_t> bytes, Utime now,
     last = *sample;
   }
   stampStretch();
-  for (const Checked& c : checked_) {
-    const proto::OdometrySample* sample = c.sample;
-    OdometryOutput o;
-    o.utime = c.utime;
-    o.ticks.assign(sample->ticks.begin(), sample->ticks.end());
-    o.controller_utime = static_cast<std::int64_t>(sample->controller_time_us);
-    if (sample->status & proto::kStatusWatchdog) o.status |= perception::kOdometryWatchdog;
-    if (sample->status & proto::kStatusMotorFault) o.status |= perception::kOdometryMotorFault;
-    if (sample->current_ma) {
-      // mA on the wire, A on the bus; any int16 is a finite current (fusion judges the size).
-      for (const std::int16_t ma : *sample->current_ma)
-        o.wheel_current.push_back(static_cast<float>(ma) * 1e-3f);
-      o.status |= perception::kOdometryCurrents;
-    }
-    if (c.resync) {
-      o.status |= perception::kOdometryResync;
-      odometry_.reset();
-      odometry_.update(sample->ticks);
-    } else {
-      const std::uint32_t gap = sample->seq - last_sample_->seq;
-      if (gap != 1) {
-        o.status |= perception::kOdometryFramesLost;
-        samples_lost_ += gap - 1;
-      }
-      o.movement = *odometry_.update(sample->ticks);
-      if (sample->gyro_angle_urad && last_sample_->gyro_angle_urad) {
-        // The gyro's angle accumulates and wraps like the ticks: the difference modulo 2^32
-        // covers lost samples too.
-        const auto d =
-            static_cast<std::int32_t>(static_cast<std::uint32_t>(*sample->gyro_angle_urad) -
-                                      static_cast<std::uint32_t>(*last_sample_->gyro_angle_urad));
-        o.gyro_dphi = static_cast<double>(d) * 1e-6;
-        o.status |= perception::kOdometryGyro;
-      }
-      const double dt =
-          static_cast<double>(sample->controller_time_us - last_sample_->controller_time_us) * 1e-6;
-      o.vx = o.movement.dx / dt;
-      o.vy = o.movement.dy / dt;
-      o.omega = o.movement.dphi / dt;
-      // Wheels cannot turn faster than the motors allow; ticks that say so are corrupt.
-      if (std::hypot(o.vx, o.vy) > kImplausibleFactor * params_.max_speed ||
-          std::abs(o.omega) > kImplausibleFactor * params_.max_omega) {
-        count("odometry_implausible");
-        o.movement = {};
-        o.vx = o.vy = o.omega = 0.0;
-        o.gyro_dphi = 0.0;
-        o.status &= ~perception::kOdometryGyro;
-        o.status |= perception::kOdometryResync;
-        odometry_.reset();
-        odometry_.update(sample->ticks);
-      }
-    }
-    last_sample_ = *sample;
-    out.push_back(o);
+}
+
+OdometryOutput BridgeCore::odometryOutput(const Checked& c) {
+  const proto::OdometrySample* sample = c.sample;
+  OdometryOutput o;
+  o.utime = c.utime;
+  o.ticks.assign(sample->ticks.begin(), sample->ticks.end());
+  o.controller_utime = static_cast<std::int64_t>(sample->controller_time_us);
+  if (sample->status & proto::kStatusWatchdog) o.status |= perception::kOdometryWatchdog;
+  if (sample->status & proto::kStatusMotorFault) o.status |= perception::kOdometryMotorFault;
+  if (sample->current_ma) {
+    // mA on the wire, A on the bus; any int16 is a finite current (fusion judges the size).
+    for (const std::int16_t ma : *sample->current_ma)
+      o.wheel_current.push_back(static_cast<float>(ma) * 1e-3f);
+    o.status |= perception::kOdometryCurrents;
+  }
+  if (c.resync) {
+    o.status |= perception::kOdometryResync;
+    odometry_.reset();
+    odometry_.update(sample->ticks);
+  } else {
+    addMovementSinceLast(*sample, o);
+  }
+  return o;
+}
+
+void BridgeCore::addMovementSinceLast(const serial::OdometrySample& sample, OdometryOutput& o) {
+  const std::uint32_t gap = sample.seq - last_sample_->seq;
+  if (gap != 1) {
+    o.status |= perception::kOdometryFramesLost;
+    samples_lost_ += gap - 1;
+  }
+  o.movement = *odometry_.update(sample.ticks);
+  if (sample.gyro_angle_urad && last_sample_->gyro_angle_urad) {
+    // The gyro's angle accumulates and wraps like the ticks: the difference modulo 2^32
+    // covers lost samples too.
+    const auto d =
+        static_cast<std::int32_t>(static_cast<std::uint32_t>(*sample.gyro_angle_urad) -
+                                  static_cast<std::uint32_t>(*last_sample_->gyro_angle_urad));
+    o.gyro_dphi = static_cast<double>(d) * 1e-6;
+    o.status |= perception::kOdometryGyro;
+  }
+  const double dt =
+      static_cast<double>(sample.controller_time_us - last_sample_->controller_time_us) * 1e-6;
+  o.vx = o.movement.dx / dt;
+  o.vy = o.movement.dy / dt;
+  o.omega = o.movement.dphi / dt;
+  // Wheels cannot turn faster than the motors allow; ticks that say so are corrupt.
+  if (std::hypot(o.vx, o.vy) > kImplausibleFactor * params_.max_speed ||
+      std::abs(o.omega) > kImplausibleFactor * params_.max_omega) {
+    count("odometry_implausible");
+    o.movement = {};
+    o.vx = o.vy = o.omega = 0.0;
+    o.gyro_dphi = 0.0;
+    o.status &= ~perception::kOdometryGyro;
+    o.status |= perception::kOdometryResync;
+    odometry_.reset();
+    odometry_.update(sample.ticks);
   }
 }
 

@@ -89,7 +89,34 @@ class BridgeCore {
   const CommandInput& currentCommand() const { return commands_.current(); }
 
  private:
+  // The samples of one read that passed the checks, with their resync and stamp.
+  struct Checked {
+    const serial::OdometrySample* sample;
+    bool resync;
+    Utime utime;
+  };
+
   void count(const std::string& kind) { ++counters_[kind]; }
+  // onBytes' steps, in order. Counts the frames the decoder rejected since `before`, by reason.
+  void countRejectedFrames(const serial::DecoderStats& before);
+  // Takes note of the controller's Hello and counts its error reports and unexpected messages.
+  void countControllerMessages();
+  // Fills checked_ with the read's samples that pass the checks, each with whether it starts
+  // the tick reference and the clock mapping over, and its stamp.
+  void checkAndStampSamples(Utime now);
+  // False (counted) for a sample no controller of this robot sends: an absurd clock, another
+  // wheel count, the previous sample again.
+  bool acceptSample(const serial::OdometrySample& sample,
+                    const std::optional<serial::OdometrySample>& last);
+  // True when the sample starts over from itself: the first, after a reconnect, the reset flag,
+  // or a discontinuity (counted) since `last`.
+  bool startsOver(const serial::OdometrySample& sample,
+                  const std::optional<serial::OdometrySample>& last);
+  // The odometry output of a checked sample (last_sample_ still the one before it).
+  OdometryOutput odometryOutput(const Checked& c);
+  // The movement, velocities and gyro rotation since last_sample_; movement the motors cannot
+  // make is counted and replaced by a resync.
+  void addMovementSinceLast(const serial::OdometrySample& sample, OdometryOutput& o);
 
   robot::RobotParams params_;
   Utime latency_us_;
@@ -102,12 +129,6 @@ class BridgeCore {
   std::uint32_t command_seq_ = 0;
   std::optional<serial::OdometrySample> last_sample_;
   bool resync_ = true;
-  // The samples of one read that passed the checks, with their resync and stamp.
-  struct Checked {
-    const serial::OdometrySample* sample;
-    bool resync;
-    Utime utime;
-  };
   std::vector<Checked> checked_;
   std::uint64_t samples_lost_ = 0;
   std::optional<serial::Hello> controller_hello_;
