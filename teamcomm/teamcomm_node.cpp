@@ -17,6 +17,8 @@ namespace {
 
 // Multicast loopback returns our packets within microseconds; allow for a busy machine.
 constexpr Utime kOwnEchoMaxAge_us = 100'000;
+// The first packet goes out this long after start (then a send period after the last one).
+constexpr Utime kFirstSendDelay_us = 5'000;
 
 float clampf(double v, double limit) {
   if (!std::isfinite(v)) return 0.0f;
@@ -124,9 +126,8 @@ TeamcommNode::TeamcommNode(bus::Node& node, PacketLink& link, TeamcommOptions op
     own_obstacles_ = obstaclesInField(msg::toObstacleSightings(m), *own_robot_);
     own_obstacles_received_ = node_.now();
   });
-  // Checked often enough to keep the send rate within a few ms.
-  node_.every(std::min<Utime>(static_cast<Utime>(1e6 / options_.send_rate_hz), 5'000),
-              [this] { maybeSend(false); });
+  // The first packet soon after start; from then on the timer is set for when the next is due.
+  node_.after(kFirstSendDelay_us, [this] { onSendTimer(); });
   // A socket is waited on by the node's event loop; a link without one (the in-process test
   // hub) is polled.
   if (const int fd = link_.fileDescriptor(); fd >= 0) {
@@ -151,11 +152,24 @@ std::optional<OffsetEstimate> TeamcommNode::offset(int robot_id, Utime now) cons
   return mates_[static_cast<std::size_t>(robot_id - 1)].offset.estimate(now);
 }
 
+Utime TeamcommNode::sendPeriod() const {
+  return static_cast<Utime>(1e6 / options_.send_rate_hz);
+}
+
+void TeamcommNode::onSendTimer() {
+  maybeSend(false);
+  // Due a send period after the last packet. A ball sent in between makes that later: this timer
+  // then wakes once for nothing and is set again, still far fewer wake-ups than polling.
+  const Utime steady = node_.clock().monotonicNow();
+  node_.after(std::max<Utime>(0, last_send_steady_ + sendPeriod() - steady),
+              [this] { onSendTimer(); });
+}
+
 void TeamcommNode::maybeSend(bool new_ball) {
   const Utime steady = node_.clock().monotonicNow();
   const Utime since =
       last_send_steady_ < 0 ? std::numeric_limits<Utime>::max() : steady - last_send_steady_;
-  const Utime period = static_cast<Utime>(1e6 / options_.send_rate_hz);
+  const Utime period = sendPeriod();
   // Less a few ms: BALL_STATE comes at about the same rate, and its jitter must not make every
   // other one wait (at most 35 packets/s from 30 Hz; the receivers' gate allows 40).
   const Utime shortest = static_cast<Utime>(1e6 / options_.max_send_rate_hz) - 5'000;

@@ -105,6 +105,10 @@ class TeamcommNode {
   // Sends when the last packet is a send period old, or when `new_ball` and it is at least the
   // shortest interval old (steady clock: a step of the clock stalls nothing).
   void maybeSend(bool new_ball);
+  // The send timer: a one-shot set for when the next packet is due and set again each time, so
+  // an idle link sleeps between packets instead of checking every few ms (issue 32).
+  void onSendTimer();
+  Utime sendPeriod() const;
   void sendPacket();
   void onDatagram(std::span<const std::uint8_t> bytes, Utime age_us);
   void reject(Reject reason, int claimed_robot, const std::string& detail);

@@ -421,6 +421,11 @@ void Node::at(Utime when, std::function<void()> fn) {
   timers_.push_back(Timer{clock_.monotonicNow() + (when - clock_.now()), 0, std::move(fn)});
 }
 
+void Node::after(Utime delay_us, std::function<void()> fn) {
+  if (delay_us < 0) throw std::invalid_argument("timer delay must not be negative");
+  timers_.push_back(Timer{clock_.monotonicNow() + delay_us, 0, std::move(fn)});
+}
+
 Node::WatchId Node::watchFd(int fd, std::function<void()> on_ready) {
   if (fd < 0) throw std::invalid_argument("cannot watch fd " + std::to_string(fd));
   const WatchId id = next_watch_id_++;

@@ -18,7 +18,7 @@
 // node that has nothing to do sleeps. Nothing polls.
 //
 // Time: Clock::now() only stamps (headers, "from the future" checks, status). Timers (every(),
-// at(), the status period) run on Clock::monotonicNow(), which never steps: a step of the
+// at(), after(), the status period) run on Clock::monotonicNow(), which never steps: a step of the
 // system clock (time sync on a robot) neither stalls nor bursts them. A SimulatedClock drives
 // both readings (advance() elapses time, step() moves the wall time alone), so memq:// tests
 // fire timers by advancing the clock.
@@ -175,6 +175,9 @@ class Node {
   // Calls `fn` once, when clock time `when` is reached; the delay is taken when the timer is
   // set, so a later step of the clock does not move it.
   void at(Utime when, std::function<void()> fn);
+  // Calls `fn` once, `delay_us` of elapsed (monotonic) time from now: a deadline a node sets
+  // again as it goes (the next packet due) instead of polling for it with every().
+  void after(Utime delay_us, std::function<void()> fn);
 
   using WatchId = int;
   // Calls `on_ready` whenever `fd` is readable (or reports hang-up or an error: the callback

@@ -5,7 +5,9 @@
 
 #include <array>
 #include <atomic>
+#include <functional>
 #include <memory>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -142,6 +144,38 @@ TEST_F(EventLoopTest, ClockStepBackByAnHourDoesNotStallTimers) {
   clock.advance(10 * kMicrosPerMilli);
   node.spinOnce(0);
   EXPECT_EQ(ticks, 7);
+}
+
+// after(): a one-shot deadline on elapsed time that its callback may set again (the team link's
+// next packet), each firing once, never early, and unmoved by a step of the wall clock.
+TEST_F(EventLoopTest, OneShotDeadlineFiresOnceAndMaySetTheNext) {
+  std::vector<Utime> fired;
+  std::function<void()> onDeadline = [&] {
+    fired.push_back(clock.monotonicNow());
+    if (fired.size() < 3) node.after(30 * kMicrosPerMilli, onDeadline);
+  };
+  const Utime start = clock.monotonicNow();
+  node.after(20 * kMicrosPerMilli, onDeadline);
+  EXPECT_EQ(node.msUntilNextTimer(100), 20);
+  clock.advance(19 * kMicrosPerMilli);
+  node.spinOnce(0);
+  EXPECT_TRUE(fired.empty());
+  clock.step(-kHourUs);
+  clock.advance(1 * kMicrosPerMilli);
+  node.spinOnce(0);
+  ASSERT_EQ(fired.size(), 1u);
+  EXPECT_EQ(fired[0] - start, 20 * kMicrosPerMilli);
+  EXPECT_EQ(node.msUntilNextTimer(100), 30);
+  for (int i = 0; i < 100; ++i) {
+    clock.advance(1 * kMicrosPerMilli);
+    node.spinOnce(0);
+  }
+  ASSERT_EQ(fired.size(), 3u);
+  EXPECT_EQ(fired[1] - start, 50 * kMicrosPerMilli);
+  EXPECT_EQ(fired[2] - start, 80 * kMicrosPerMilli);
+  // Nothing left to wait for.
+  EXPECT_EQ(node.msUntilNextTimer(100), 100);
+  EXPECT_THROW(node.after(-1, [] {}), std::invalid_argument);
 }
 
 // Real time whose wall reading can be stepped, like a robot's clock under time sync; its
