@@ -32,7 +32,6 @@ REASON = re.compile(r"^\s*//\s*long:\s*\S")
 KNOWN_LONG_FILES = {
 }
 KNOWN_LONG_FUNCTIONS = {
-    "services/fusion/odometry_layer.cpp:OdometryLayer::update": "in robust's or tball's room today (fusion, teamcomm, eval)",
     "tools/viewer/camera_view.cpp:CameraView::update": "not split yet (issue 33 item 3): pending",
     "tools/viewer/recording_view.cpp:RecordingView::makeSeries": "not split yet (issue 33 item 3): pending",
     "tools/viewer/web_server.cpp:handle": "not split yet (issue 33 item 3): pending",
