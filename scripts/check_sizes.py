@@ -32,7 +32,6 @@ REASON = re.compile(r"^\s*//\s*long:\s*\S")
 KNOWN_LONG_FILES = {
 }
 KNOWN_LONG_FUNCTIONS = {
-    "services/fusion/odometry_layer.cpp:OdometryLayer::update": "in robust's or tball's room today (fusion, teamcomm, eval)",
     "teamcomm/team_picture.cpp:TeamPicture::picture": "in robust's or tball's room today (fusion, teamcomm, eval)",
     "teamcomm/teamcomm_node.cpp:TeamcommNode::onDatagram": "in robust's or tball's room today (fusion, teamcomm, eval)",
 }

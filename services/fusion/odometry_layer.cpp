@@ -84,75 +84,98 @@ OdometryStep OdometryLayer::stepForTravel(const robot::WheelVector& ground, doub
   return step;
 }
 
-OdometryLayer::Result OdometryLayer::update(const OdometrySample& input) {
-  Result result;
-  // The bridge stamps the sample with its physical time (the controller's clock mapped onto the
-  // host's, ControllerClockMap): taken as it is.
-  const OdometrySample& sample = input;
-  last_stamp_ = sample.utime;
-  const auto restart = [&] {
-    last_ = sample;
-    pending_gyro_ = 0.0;
-    pending_gyro_valid_ = true;
-    pending_movement_ = {};
-  };
+void OdometryLayer::restartAt(const OdometrySample& sample) {
+  last_ = sample;
+  pending_gyro_ = 0.0;
+  pending_gyro_valid_ = true;
+  pending_movement_ = {};
+}
+
+std::optional<OdometryRejection> OdometryLayer::noStepReason(const OdometrySample& sample) {
   // Ticks must be one per wheel of the robot file; none means the controller gives its movement.
   const bool has_ticks = !sample.ticks.empty();
   if (has_ticks && static_cast<int>(sample.ticks.size()) != kinematics().wheelCount()) {
     last_.reset();
-    result.rejection = OdometryRejection::kWheelCount;
-    return result;
+    return OdometryRejection::kWheelCount;
   }
   if (!has_ticks && !(std::isfinite(sample.movement.dx) && std::isfinite(sample.movement.dy) &&
                       std::isfinite(sample.movement.dphi))) {
     last_.reset();
-    result.rejection = OdometryRejection::kNotFinite;
-    return result;
+    return OdometryRejection::kNotFinite;
   }
   if (sample.resync) {
-    restart();
-    result.rejection = OdometryRejection::kResync;
-    return result;
+    restartAt(sample);
+    return OdometryRejection::kResync;
   }
   if (last_ && last_->ticks.size() != sample.ticks.size()) {
     // The controller switched between ticks and movements: nothing to take a difference of.
-    restart();
-    result.rejection = OdometryRejection::kWheelCount;
-    return result;
+    restartAt(sample);
+    return OdometryRejection::kWheelCount;
   }
   if (!last_) {
-    restart();
-    return result;
+    restartAt(sample);
+    return OdometryRejection::kNone;
   }
-  if (sample.utime == last_->utime) {
-    result.rejection = OdometryRejection::kDuplicate;
+  if (sample.utime == last_->utime) return OdometryRejection::kDuplicate;
+  return std::nullopt;
+}
+
+bool OdometryLayer::gyroUsable(const OdometrySample& sample, const char*& rejection) const {
+  if (!(sample.has_gyro && noise_.use_gyro && params_.gyro.present)) return false;
+  const double since = std::abs(static_cast<double>(sample.utime - last_->utime)) * 1e-6;
+  if (!std::isfinite(sample.gyro_dphi)) {
+    rejection = "gyro_not_finite";
+    return false;
+  }
+  if (std::abs(sample.gyro_dphi) > gyro_max_rate_ * std::max(since, 0.02)) {
+    rejection = "gyro_absurd";
+    return false;
+  }
+  return true;
+}
+
+void OdometryLayer::holdOutOfOrder(const OdometrySample& sample, bool gyro_ok) {
+  // Time far backwards (controller restart, clock step) starts over from this sample.
+  if (static_cast<double>(last_->utime - sample.utime) * 1e-6 > noise_.max_interval_s) {
+    restartAt(sample);
+    return;
+  }
+  pending_gyro_ += gyro_ok ? sample.gyro_dphi : 0.0;
+  pending_gyro_valid_ = pending_gyro_valid_ && gyro_ok;
+  // Without ticks the movement is this sample's own: kept for the next step, like the gyro.
+  if (sample.ticks.empty()) {
+    pending_movement_ = geometry::concatenate(pending_movement_, sample.movement);
+  }
+}
+
+robot::WheelVector OdometryLayer::groundTravel(const OdometrySample& sample,
+                                               Eigen::Vector3d& integrated) const {
+  if (!sample.ticks.empty()) {
+    robot::TickDeltas delta;
+    for (std::size_t w = 0; w < sample.ticks.size(); ++w)
+      delta.push_back(robot::tickDelta(sample.ticks[w], last_->ticks[w]));
+    return odometry_.wheelRotations(delta).cwiseProduct(kinematics().radii());
+  }
+  integrated = robot::integratedTwist(geometry::concatenate(pending_movement_, sample.movement));
+  return kinematics().robotMatrix() * integrated;
+}
+
+OdometryLayer::Result OdometryLayer::update(const OdometrySample& sample) {
+  Result result;
+  // The bridge stamps the sample with its physical time (the controller's clock mapped onto the
+  // host's, ControllerClockMap): taken as it is.
+  last_stamp_ = sample.utime;
+  if (const auto reason = noStepReason(sample)) {
+    result.rejection = *reason;
     return result;
   }
   // The gyro's value: used only when the robot has a gyro, fusion is told to use it, and it is
   // finite and within what the gyro can measure over the time since the reference.
-  bool gyro_ok = false;
-  if (sample.has_gyro && noise_.use_gyro && params_.gyro.present) {
-    const double since = std::abs(static_cast<double>(sample.utime - last_->utime)) * 1e-6;
-    if (!std::isfinite(sample.gyro_dphi)) {
-      result.gyro_rejection = "gyro_not_finite";
-    } else if (std::abs(sample.gyro_dphi) > gyro_max_rate_ * std::max(since, 0.02)) {
-      result.gyro_rejection = "gyro_absurd";
-    } else {
-      gyro_ok = true;
-    }
-  }
+  const bool gyro_ok = gyroUsable(sample, result.gyro_rejection);
   if (sample.utime < last_->utime) {
     // Stamps jitter with the arrival time: the reference stays, and the next sample's tick
-    // difference covers this one's movement (and its gyro rotation is kept for that step). Time
-    // far backwards (controller restart, clock step) starts over from this sample.
-    if (static_cast<double>(last_->utime - sample.utime) * 1e-6 > noise_.max_interval_s) {
-      restart();
-    } else {
-      pending_gyro_ += gyro_ok ? sample.gyro_dphi : 0.0;
-      pending_gyro_valid_ = pending_gyro_valid_ && gyro_ok;
-      // Without ticks the movement is this sample's own: kept for the next step, like the gyro.
-      if (!has_ticks) pending_movement_ = geometry::concatenate(pending_movement_, sample.movement);
-    }
+    // difference covers this one's movement (and its gyro rotation is kept for that step).
+    holdOutOfOrder(sample, gyro_ok);
     result.rejection = OdometryRejection::kOutOfOrder;
     return result;
   }
@@ -161,27 +184,17 @@ OdometryLayer::Result OdometryLayer::update(const OdometrySample& input) {
   pending_gyro_ = 0.0;
   pending_gyro_valid_ = true;
   const double dt = static_cast<double>(sample.utime - last_->utime) * 1e-6;
-  const robot::WheelMatrix& m = kinematics().robotMatrix();
   // Each wheel's ground travel since the reference: from the ticks, or the travel the
   // controller's movement implies (M times its integrated twist).
-  robot::WheelVector ground;
   Eigen::Vector3d integrated = Eigen::Vector3d::Zero();
-  if (has_ticks) {
-    robot::TickDeltas delta;
-    for (std::size_t w = 0; w < sample.ticks.size(); ++w)
-      delta.push_back(robot::tickDelta(sample.ticks[w], last_->ticks[w]));
-    ground = odometry_.wheelRotations(delta).cwiseProduct(kinematics().radii());
-  } else {
-    integrated = robot::integratedTwist(geometry::concatenate(pending_movement_, sample.movement));
-    ground = m * integrated;
-  }
+  const robot::WheelVector ground = groundTravel(sample, integrated);
   pending_movement_ = {};
-  const OdometrySample previous = *last_;
+  const Utime previous = last_->utime;
   last_ = sample;
 
   OdometryStep step = stepForTravel(ground, dt);
-  if (!has_ticks) step.integrated = integrated;
-  step.t_start = previous.utime;
+  if (sample.ticks.empty()) step.integrated = integrated;
+  step.t_start = previous;
   step.t_end = sample.utime;
   if (use_gyro) {
     // The heading from the gyro, independent of the wheels' translation.

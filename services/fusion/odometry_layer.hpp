@@ -143,6 +143,21 @@ class OdometryLayer {
   const robot::OmniKinematics& kinematics() const { return odometry_.kinematics(); }
 
  private:
+  // Makes `sample` the reference, dropping what was pending.
+  void restartAt(const OdometrySample& sample);
+  // Why the sample gives no step (bad, a resync, the first, a duplicate), with the reference
+  // restarted or forgotten as each calls for (kNone: the first sample, now the reference); none
+  // when it gives a step from the reference (or is out of order).
+  std::optional<OdometryRejection> noStepReason(const OdometrySample& sample);
+  // True if the sample's gyro value is to be used; `rejection` says why one was refused.
+  bool gyroUsable(const OdometrySample& sample, const char*& rejection) const;
+  // A sample stamped before the reference: its gyro rotation and movement kept for the next
+  // step (or, far back, the reference restarts from it).
+  void holdOutOfOrder(const OdometrySample& sample, bool gyro_ok);
+  // Each wheel's ground travel since the reference; without ticks, `integrated` gets the
+  // controller's movement (pending and this sample's) as an integrated twist.
+  robot::WheelVector groundTravel(const OdometrySample& sample, Eigen::Vector3d& integrated) const;
+
   robot::RobotParams params_;
   OdometryNoise noise_;
   robot::WheelOdometry odometry_;
