@@ -33,7 +33,6 @@ KNOWN_LONG_FILES = {
 }
 KNOWN_LONG_FUNCTIONS = {
     "teamcomm/team_picture.cpp:TeamPicture::picture": "in robust's or tball's room today (fusion, teamcomm, eval)",
-    "teamcomm/teamcomm_node.cpp:TeamcommNode::onDatagram": "in robust's or tball's room today (fusion, teamcomm, eval)",
 }
 
 

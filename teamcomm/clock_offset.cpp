@@ -162,6 +162,20 @@ Line lowerEnvelope(const std::vector<std::pair<double, double>>& points, bool fi
   return {intercept, slope};
 }
 
+// Sorts points that are nearly in order already, as the window's are (each new round trip comes
+// last, and its t1 is rarely before the previous one's): insertion sort, linear on them where
+// std::sort is n log n. The same order std::sort gives (the order of the pairs is total).
+void sortNearlySorted(std::vector<std::pair<double, double>>& points) {
+  for (std::size_t i = 1; i < points.size(); ++i) {
+    if (!(points[i] < points[i - 1])) continue;
+    const auto p = points[i];
+    std::size_t j = i;
+    for (; j > 0 && p < points[j - 1]; --j)
+      points[j] = points[j - 1];
+    points[j] = p;
+  }
+}
+
 }  // namespace
 
 void ClockOffsetEstimator::refit() {
@@ -182,8 +196,8 @@ void ClockOffsetEstimator::refit() {
     backward.emplace_back(static_cast<double>(s.when - reference_), -s.backward_us);
     min_rt = std::min(min_rt, s.round_trip_us);
   }
-  std::sort(forward.begin(), forward.end());
-  std::sort(backward.begin(), backward.end());
+  sortNearlySorted(forward);
+  sortNearlySorted(backward);
   min_round_trip_us_ = min_rt;
   const Utime span = samples_.back().when - samples_.front().when;
   const bool fit_slope = samples_.size() >= 3 && span >= options_.min_fit_span_us;

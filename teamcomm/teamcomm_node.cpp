@@ -70,6 +70,12 @@ PacketBall toPacket(const perception::BallEstimate& e) {
   return b;
 }
 
+// A teammate's clock offset at `t`, µs (none before its first round trips).
+std::optional<double> offsetAt(const ClockOffsetEstimator& offset, Utime t) {
+  const auto e = offset.estimate(t);
+  return e ? std::optional<double>(e->offset_us) : std::nullopt;
+}
+
 }  // namespace
 
 std::int64_t LinkCounters::rejectedTotal() const {
@@ -251,77 +257,103 @@ void TeamcommNode::onDatagram(std::span<const std::uint8_t> bytes, Utime age_us)
   }
   const TeamPacket& p = *decoded.packet;
   if (p.robot_id == node_.robotId()) {
-    // Our own multicast looped back (within moments, on our own clock) is ignored; one of our
-    // packets from longer ago, or one we never sent, is someone replaying it.
-    if (!options_.expect_own_echo || p.sequence >= next_sequence_ ||
-        next_sequence_ - p.sequence > 64 || received - p.send_utime > kOwnEchoMaxAge_us ||
-        received < p.send_utime) {
-      reject(Reject::kReplay, 0, "our own packet " + std::to_string(p.sequence) + " replayed");
-      return;
-    }
-    ++counters_.own_echo;
+    onOwnPacket(p, received);
     return;
   }
   Teammate& mate = mates_[static_cast<std::size_t>(p.robot_id - 1)];
   mate.last_authenticated = received;
   const std::optional<RoundTrip> trip = echoedRoundTrip(p, received);
-  const auto offsetAt = [&mate](Utime t) -> std::optional<double> {
-    const auto e = mate.offset.estimate(t);
-    return e ? std::optional<double>(e->offset_us) : std::nullopt;
-  };
-  std::optional<Reject> refused = gate_.admit(p, received, offsetAt(received), trip.has_value());
-  if (refused == Reject::kStale && trip) {
-    // Stale by its stamps, yet made after our recent packet: the sender's clock has stepped
-    // (or ours). Its round trips say by how much; once a few agree, the offset restarts from
-    // them and the packet is judged again.
-    if (mate.offset.add(*trip) == RoundTripUse::kStep) {
-      ++counters_.clock_steps;
-      const ClockStep step = *mate.offset.lastStep();
-      node_.reportError("clock_step", fmt::format("robot {}'s clock stepped by {:+.3f} s (round "
-                                                  "trips); its offset restarts from them",
-                                                  p.robot_id, step.size_us / 1e6));
-      refused = gate_.admit(p, received, offsetAt(received), true);
-    }
-  }
-  if (refused == Reject::kStale && mate.stale_since >= 0 &&
-      received - mate.stale_since >= options_.offset_reset_after_stale_us &&
-      mate.offset.estimate(received)) {
-    // No round trip has told a step from a replay (none echoed us, or none was plausible): judge
-    // its packets as before the first round trip (the sequence check still refuses replays)
-    // until round trips re-seed the offset.
-    ++counters_.offset_resets;
-    mate.offset.reset();
-    node_.reportError(
-        "offset_reset",
-        fmt::format("robot {}: every packet refused as stale for {:.1f} s; its "
-                    "clock offset is forgotten and re-learnt",
-                    p.robot_id, static_cast<double>(received - mate.stale_since) / 1e6));
-    refused = gate_.admit(p, received, std::nullopt, false);
-  }
-  if (refused) {
-    std::string detail =
-        "robot " + std::to_string(p.robot_id) + " sequence " + std::to_string(p.sequence);
-    if (*refused == Reject::kStale) {
-      // By how much its send time misses ours (positive: sent in our future).
-      const auto offset = offsetAt(received);
-      mate.stale_by_us = static_cast<double>(p.send_utime - received) - offset.value_or(0.0);
-      if (mate.stale_since < 0) mate.stale_since = received;
-      // Echoed all the same when it is new (not a replay): its step shows in the round trips our
-      // packets then make with it, on both sides (a teammate that refuses ours as stale echoes
-      // them for us). An echo naming none of its recent packets is refused over there.
-      if (gate_.newer(p.robot_id, p.sequence)) {
-        mate.heard = true;
-        mate.last_send_utime = p.send_utime;
-        mate.last_receive_utime = received;
-      }
-      detail = fmt::format(
-          "robot {}'s packet sent {:.3f} s {} it arrived {}", p.robot_id,
-          std::abs(mate.stale_by_us) / 1e6, mate.stale_by_us > 0 ? "after" : "before",
-          offset ? "by its clock offset estimate (a clock step?)" : "(no clock offset known yet)");
-    }
-    reject(*refused, p.robot_id, detail);
+  if (const std::optional<Reject> refused = admitTeammatePacket(p, mate, trip, received)) {
+    refuseTeammatePacket(p, mate, *refused, received);
     return;
   }
+  acceptTeammatePacket(p, mate, trip, received);
+  picture_.setReport(p.robot_id, teammateReport(p, mate, received));
+}
+
+void TeamcommNode::onOwnPacket(const TeamPacket& p, Utime received) {
+  // Our own multicast looped back (within moments, on our own clock) is ignored; one of our
+  // packets from longer ago, or one we never sent, is someone replaying it.
+  if (!options_.expect_own_echo || p.sequence >= next_sequence_ ||
+      next_sequence_ - p.sequence > 64 || received - p.send_utime > kOwnEchoMaxAge_us ||
+      received < p.send_utime) {
+    reject(Reject::kReplay, 0, "our own packet " + std::to_string(p.sequence) + " replayed");
+    return;
+  }
+  ++counters_.own_echo;
+}
+
+std::optional<Reject> TeamcommNode::admitTeammatePacket(const TeamPacket& p, Teammate& mate,
+                                                        const std::optional<RoundTrip>& trip,
+                                                        Utime received) {
+  std::optional<Reject> refused =
+      gate_.admit(p, received, offsetAt(mate.offset, received), trip.has_value());
+  if (refused == Reject::kStale && trip && learnClockStep(p, mate, *trip)) {
+    refused = gate_.admit(p, received, offsetAt(mate.offset, received), true);
+  }
+  if (refused == Reject::kStale && forgetStaleOffset(p, mate, received)) {
+    refused = gate_.admit(p, received, std::nullopt, false);
+  }
+  return refused;
+}
+
+bool TeamcommNode::learnClockStep(const TeamPacket& p, Teammate& mate, const RoundTrip& trip) {
+  // Stale by its stamps, yet made after our recent packet: the sender's clock has stepped (or
+  // ours). Its round trips say by how much; once a few agree, the offset restarts from them.
+  if (mate.offset.add(trip) != RoundTripUse::kStep) return false;
+  ++counters_.clock_steps;
+  const ClockStep step = *mate.offset.lastStep();
+  node_.reportError("clock_step", fmt::format("robot {}'s clock stepped by {:+.3f} s (round "
+                                              "trips); its offset restarts from them",
+                                              p.robot_id, step.size_us / 1e6));
+  return true;
+}
+
+bool TeamcommNode::forgetStaleOffset(const TeamPacket& p, Teammate& mate, Utime received) {
+  if (mate.stale_since < 0 || received - mate.stale_since < options_.offset_reset_after_stale_us ||
+      !mate.offset.estimate(received)) {
+    return false;
+  }
+  // No round trip has told a step from a replay (none echoed us, or none was plausible): its
+  // packets are judged as before the first round trip (the sequence check still refuses replays)
+  // until round trips re-seed the offset.
+  ++counters_.offset_resets;
+  mate.offset.reset();
+  node_.reportError(
+      "offset_reset",
+      fmt::format("robot {}: every packet refused as stale for {:.1f} s; its "
+                  "clock offset is forgotten and re-learnt",
+                  p.robot_id, static_cast<double>(received - mate.stale_since) / 1e6));
+  return true;
+}
+
+void TeamcommNode::refuseTeammatePacket(const TeamPacket& p, Teammate& mate, Reject reason,
+                                        Utime received) {
+  std::string detail =
+      "robot " + std::to_string(p.robot_id) + " sequence " + std::to_string(p.sequence);
+  if (reason == Reject::kStale) {
+    // By how much its send time misses ours (positive: sent in our future).
+    const auto offset = offsetAt(mate.offset, received);
+    mate.stale_by_us = static_cast<double>(p.send_utime - received) - offset.value_or(0.0);
+    if (mate.stale_since < 0) mate.stale_since = received;
+    // Echoed all the same when it is new (not a replay): its step shows in the round trips our
+    // packets then make with it, on both sides (a teammate that refuses ours as stale echoes
+    // them for us). An echo naming none of its recent packets is refused over there.
+    if (gate_.newer(p.robot_id, p.sequence)) {
+      mate.heard = true;
+      mate.last_send_utime = p.send_utime;
+      mate.last_receive_utime = received;
+    }
+    detail = fmt::format(
+        "robot {}'s packet sent {:.3f} s {} it arrived {}", p.robot_id,
+        std::abs(mate.stale_by_us) / 1e6, mate.stale_by_us > 0 ? "after" : "before",
+        offset ? "by its clock offset estimate (a clock step?)" : "(no clock offset known yet)");
+  }
+  reject(reason, p.robot_id, detail);
+}
+
+void TeamcommNode::acceptTeammatePacket(const TeamPacket& p, Teammate& mate,
+                                        const std::optional<RoundTrip>& trip, Utime received) {
   if (gate_.restarts(p.robot_id) != mate.sequence_restarts) {
     counters_.sequence_restarts += gate_.restarts(p.robot_id) - mate.sequence_restarts;
     mate.sequence_restarts = gate_.restarts(p.robot_id);
@@ -339,7 +371,10 @@ void TeamcommNode::onDatagram(std::span<const std::uint8_t> bytes, Utime age_us)
   mate.heard = true;
   mate.last_send_utime = p.send_utime;
   mate.last_receive_utime = received;
+}
 
+Report TeamcommNode::teammateReport(const TeamPacket& p, const Teammate& mate,
+                                    Utime received) const {
   Report report;
   report.received_utime = received;
   if (p.pose) {
@@ -375,7 +410,7 @@ void TeamcommNode::onDatagram(std::span<const std::uint8_t> bytes, Utime age_us)
     e.vy = b.vy;
     e.covariance << b.covariance[0], b.covariance[1], b.covariance[1], b.covariance[2];
   }
-  picture_.setReport(p.robot_id, report);
+  return report;
 }
 
 std::optional<RoundTrip> TeamcommNode::echoedRoundTrip(const TeamPacket& p, Utime received) const {

@@ -110,7 +110,27 @@ class TeamcommNode {
   void onSendTimer();
   Utime sendPeriod() const;
   void sendPacket();
+  // A datagram from the team network: decoded and authenticated, then our own echo, or a
+  // teammate's packet through the gate into the picture; refusals counted by reason.
   void onDatagram(std::span<const std::uint8_t> bytes, Utime age_us);
+  // Our own packet back: the multicast loopback echo, or a replay of it.
+  void onOwnPacket(const TeamPacket& p, Utime received);
+  // The gate's verdict, judged again after a clock step its round trips confirm or after its
+  // offset is forgotten (every packet refused as stale for too long).
+  std::optional<Reject> admitTeammatePacket(const TeamPacket& p, Teammate& mate,
+                                            const std::optional<RoundTrip>& trip, Utime received);
+  // Feeds a round trip of a packet refused as stale; true when it confirms a clock step.
+  bool learnClockStep(const TeamPacket& p, Teammate& mate, const RoundTrip& trip);
+  // Forgets the offset of a teammate refused as stale for too long; true when it did.
+  bool forgetStaleOffset(const TeamPacket& p, Teammate& mate, Utime received);
+  // Counts a refused packet; one refused as stale says since when and by how much (and is still
+  // echoed when new, so the round trips can show a clock step).
+  void refuseTeammatePacket(const TeamPacket& p, Teammate& mate, Reject reason, Utime received);
+  // Counts an admitted packet and learns from it (round trip, sequence restart, last heard).
+  void acceptTeammatePacket(const TeamPacket& p, Teammate& mate,
+                            const std::optional<RoundTrip>& trip, Utime received);
+  // What an admitted packet says, on our clock (its last pose when it sent none).
+  Report teammateReport(const TeamPacket& p, const Teammate& mate, Utime received) const;
   void reject(Reject reason, int claimed_robot, const std::string& detail);
   // The round trip a packet's echo of our own packet makes, when the echo names one of our
   // recent packets (which also proves the packet was made after it).
