@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -55,8 +56,11 @@ std::vector<std::pair<pid_t, std::vector<std::string>>> launcherChildren(pid_t l
 }
 
 FaultRunner::FaultRunner(pid_t launcher, std::vector<FaultSpec> specs, const Clock& clock,
-                         std::chrono::steady_clock::time_point launched)
-    : launcher_(launcher), clock_(clock), launched_(launched) {
+                         std::chrono::steady_clock::time_point launched, ClockControl clock_control)
+    : launcher_(launcher),
+      clock_(clock),
+      launched_(launched),
+      clock_control_(std::move(clock_control)) {
   for (FaultSpec& s : specs)
     pending_.push_back({std::move(s)});
 }
@@ -75,21 +79,13 @@ void FaultRunner::poll() {
       rec.spec = p.spec;
       rec.start_utime = clock_.now();
       const bool stall = p.spec.kind == FaultSpec::Kind::kStall;
-      const int signal = stall                                      ? SIGSTOP
-                         : p.spec.kind == FaultSpec::Kind::kRestart ? SIGTERM
-                                                                    : SIGKILL;
-      for (const auto& [pid, argv] : launcherChildren(launcher_)) {
-        const std::string exe = std::filesystem::path(argv[0]).filename().string();
-        const int robot = robotArgument(argv);
-        const bool match = stall ? (p.spec.robot == 0 || robot == p.spec.robot)
-                                 : exe == executableOf(p.spec.process) &&
-                                       (p.spec.robot == 0 || robot == p.spec.robot);
-        if (!match || ::kill(pid, signal) != 0) continue;
-        ++rec.processes;
-        if (stall) p.stopped.push_back(pid);
-      }
+      rec.processes =
+          p.spec.kind == FaultSpec::Kind::kClockStep ? stepClock(p.spec, rec) : signalProcesses(p);
       std::fprintf(stderr, "fault %s: %s %d process(es) at %.1f s\n", p.spec.text.c_str(),
-                   stall ? "stopped" : "signalled", rec.processes, elapsed);
+                   stall                                        ? "stopped"
+                   : p.spec.kind == FaultSpec::Kind::kClockStep ? "the launcher restarts"
+                                                                : "signalled",
+                   rec.processes, elapsed);
       if (!stall) {
         rec.end_utime = rec.start_utime;
         p.ended = true;
@@ -106,6 +102,53 @@ void FaultRunner::poll() {
       std::fprintf(stderr, "fault %s: continued at %.1f s\n", p.spec.text.c_str(), elapsed);
     }
   }
+}
+
+int FaultRunner::signalProcesses(Pending& p) {
+  const bool stall = p.spec.kind == FaultSpec::Kind::kStall;
+  const int signal = stall ? SIGSTOP : p.spec.kind == FaultSpec::Kind::kRestart ? SIGTERM : SIGKILL;
+  int reached = 0;
+  for (const auto& [pid, argv] : launcherChildren(launcher_)) {
+    const std::string exe = std::filesystem::path(argv[0]).filename().string();
+    const int robot = robotArgument(argv);
+    const bool match =
+        stall ? (p.spec.robot == 0 || robot == p.spec.robot)
+              : exe == executableOf(p.spec.process) && (p.spec.robot == 0 || robot == p.spec.robot);
+    if (!match || ::kill(pid, signal) != 0) continue;
+    ++reached;
+    if (stall) p.stopped.push_back(pid);
+  }
+  return reached;
+}
+
+int FaultRunner::stepClock(const FaultSpec& spec, FaultRecord& record) {
+  if (clock_control_.path.empty()) {
+    std::fprintf(stderr, "fault %s: no clock control file (the launcher was not given one)\n",
+                 spec.text.c_str());
+    return 0;
+  }
+  ClockError& clock = clock_control_.clocks[spec.robot];
+  clock.offset_us += static_cast<Utime>(std::llround(spec.step_s * 1e6));
+  record.clock_after = clock;
+  // Every stepped robot's offset; written whole and renamed, so the launcher never reads half.
+  const std::string temporary = clock_control_.path + ".new";
+  {
+    std::ofstream out(temporary);
+    out << "# fieldline-eval's clock steps: ROBOT OFFSET_US\n";
+    for (const auto& [robot, error] : clock_control_.clocks)
+      out << robot << " " << error.offset_us << "\n";
+  }
+  std::error_code ec;
+  std::filesystem::rename(temporary, clock_control_.path, ec);
+  int processes = 0;
+  for (const auto& [pid, argv] : launcherChildren(launcher_))
+    processes += robotArgument(argv) == spec.robot ? 1 : 0;
+  if (ec || ::kill(launcher_, SIGUSR1) != 0) {
+    std::fprintf(stderr, "fault %s: the launcher was not told (%s)\n", spec.text.c_str(),
+                 ec ? ec.message().c_str() : "SIGUSR1 failed");
+    return 0;
+  }
+  return processes;
 }
 
 void FaultRunner::finish() {

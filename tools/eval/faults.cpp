@@ -62,6 +62,50 @@ double recoveryAfter(const std::vector<const Matched*>& samples, double from,
   return -1.0;
 }
 
+// clockstep:ROBOT@T+S or @T-S: the step, signed; `when` keeps T.
+double parseClockStep(std::string& when, const std::string& spec) {
+  const auto sign = when.find_first_of("+-");
+  if (sign == std::string::npos)
+    throw std::invalid_argument(
+        fmt::format("fault '{}': a clock step needs its size, e.g. clockstep:1@20+2 (2 s ahead) or "
+                    "clockstep:1@20-2 (2 s behind)",
+                    spec));
+  const double size = parseSeconds(when.substr(sign + 1), "step", spec);
+  if (size <= 0.0 || size > kMaxClockStepS)
+    throw std::invalid_argument(
+        fmt::format("fault '{}': a clock step is more than 0 and at most {} s either way", spec,
+                    kMaxClockStepS));
+  const double step = when[sign] == '+' ? size : -size;
+  when = when.substr(0, sign);
+  return step;
+}
+
+// Per teammate of the stepped robot: seconds from the step to the first TEAM_STATE holding a
+// fresh pose of the stepped robot taken after the step; and the packets refused meanwhile.
+void scoreTeamLink(FaultResult& f, const std::vector<TeamLinkSample>& team,
+                   const RobustnessOptions& o) {
+  const int stepped = f.event.spec.robot;
+  const auto k = static_cast<std::size_t>(stepped - 1);
+  std::map<int, int> rejected_before;
+  std::map<int, int> rejected_until;
+  for (const TeamLinkSample& s : team) {
+    if (s.robot == stepped || k >= s.present.size()) continue;
+    f.heard_again_s.try_emplace(s.robot, -1.0);
+    if (s.t < f.event.end_t) {
+      rejected_before[s.robot] = s.rejected[k];
+      continue;
+    }
+    double& heard = f.heard_again_s[s.robot];
+    if (heard >= 0.0) continue;
+    rejected_until[s.robot] = s.rejected[k];
+    const double age = s.t - s.pose_t[k];
+    if (s.present[k] && s.pose_t[k] >= f.event.end_t && age <= o.heard_age_s)
+      heard = s.t - f.event.end_t;
+  }
+  for (const auto& [robot, until] : rejected_until)
+    f.packets_refused += until - rejected_before[robot];
+}
+
 }  // namespace
 
 FaultSpec parseFault(const std::string& text) {
@@ -72,7 +116,7 @@ FaultSpec parseFault(const std::string& text) {
   if (colon == std::string::npos || at == std::string::npos || at < colon) {
     throw std::invalid_argument(
         fmt::format("fault '{}': expected KIND:TARGET@SECONDS (restart:fusion/2@20, "
-                    "kill:camera/1@15, stall:3@20+2, stall:all@25+1.5)",
+                    "kill:camera/1@15, stall:3@20+2, stall:all@25+1.5, clockstep:1@20+2)",
                     text));
   }
   const std::string kind = text.substr(0, colon);
@@ -90,6 +134,13 @@ FaultSpec parseFault(const std::string& text) {
           fmt::format("fault '{}': a stall lasts more than 0 and at most 60 s", text));
     when = when.substr(0, plus);
     f.robot = target == "all" ? 0 : parseRobot(target, text);
+  } else if (kind == "clockstep") {
+    f.kind = FaultSpec::Kind::kClockStep;
+    if (target == "all")
+      throw std::invalid_argument(fmt::format(
+          "fault '{}': a clock step is of one robot's clock (clockstep:1@20+2), not all", text));
+    f.robot = parseRobot(target, text);
+    f.step_s = parseClockStep(when, text);
   } else if (kind == "restart" || kind == "kill") {
     f.kind = kind == "restart" ? FaultSpec::Kind::kRestart : FaultSpec::Kind::kKill;
     const auto slash = target.find('/');
@@ -108,8 +159,8 @@ FaultSpec parseFault(const std::string& text) {
       f.robot = parseRobot(target.substr(slash + 1), text);
     }
   } else {
-    throw std::invalid_argument(
-        fmt::format("fault '{}': unknown kind '{}' (restart, kill or stall)", text, kind));
+    throw std::invalid_argument(fmt::format(
+        "fault '{}': unknown kind '{}' (restart, kill, stall or clockstep)", text, kind));
   }
   f.at_s = parseSeconds(when, "time", text);
   return f;
@@ -117,7 +168,8 @@ FaultSpec parseFault(const std::string& text) {
 
 // long: one pass over the samples that scores every fault window and the whole run together.
 Robustness evaluateRobustness(const Summary& summary, const std::vector<FaultEvent>& events,
-                              const std::vector<int>& robots, const RobustnessOptions& o) {
+                              const std::vector<int>& robots, const RobustnessOptions& o,
+                              const std::vector<TeamLinkSample>& team) {
   Robustness r;
   std::map<int, std::vector<const Matched*>> by_robot;
   for (const Matched& m : summary.matched)
@@ -198,6 +250,7 @@ Robustness evaluateRobustness(const Summary& summary, const std::vector<FaultEve
         if (m->pos_error > o.limit_m) ++f.certain_over_limit;
       }
     }
+    if (e.spec.kind == FaultSpec::Kind::kClockStep) scoreTeamLink(f, team, o);
     r.faults.push_back(std::move(f));
   }
   return r;
@@ -227,6 +280,12 @@ std::string robustnessLines(const Robustness& r, const RobustnessOptions& o) {
         f.event.spec.text, f.event.start_t, f.event.end_t, f.event.processes, f.recovery_max_s,
         f.max_tracking_error_m, o.limit_m, f.tracking_over_limit, f.certain_max_m,
         f.certain_over_limit, per_robot);
+    if (f.event.spec.kind != FaultSpec::Kind::kClockStep) continue;
+    std::string heard;
+    for (const auto& [robot, s] : f.heard_again_s)
+      heard += fmt::format(" {}={:.2f}", robot, s);
+    out += fmt::format(" heard_again_s:{} packets_refused={}", heard.empty() ? " none" : heard,
+                       f.packets_refused);
   }
   return out;
 }
@@ -274,7 +333,18 @@ std::string robustnessJson(const Robustness& r, const RobustnessOptions& o) {
       j << fmt::format("{}\"{}\": {:.3f}", f1 ? "" : ", ", robot, s);
       f1 = false;
     }
-    j << "}}";
+    j << "}";
+    if (f.event.spec.kind == FaultSpec::Kind::kClockStep) {
+      j << fmt::format(", \"step_s\": {}, \"packets_refused\": {}, \"heard_again_s\": {{",
+                       f.event.spec.step_s, f.packets_refused);
+      f1 = true;
+      for (const auto& [robot, s] : f.heard_again_s) {
+        j << fmt::format("{}\"{}\": {:.3f}", f1 ? "" : ", ", robot, s);
+        f1 = false;
+      }
+      j << "}";
+    }
+    j << "}";
   }
   j << (r.faults.empty() ? "]\n" : "\n  ]\n");
   j << "}\n";

@@ -96,7 +96,31 @@ struct Collector {
   // The robots' clocks (launch file, or a recording's clock models): their stamps are converted
   // to the true time.
   launch::RobotClocks clocks;
-  Utime trueTime(int robot, Utime own) const { return ownToTruth(clocks.of(robot), own); }
+  // A robot's clocks after its clock steps (--fault clockstep), and the true clock a live run
+  // hears the messages on (null for a log).
+  std::map<int, std::vector<ClockError>> stepped_clocks;
+  const Clock* live_clock = nullptr;
+  // The true time of `own`, a stamp of a message that `robot` published at `published` (its own
+  // clock). After a clock step the robot's messages come on its old clock (its old processes'
+  // last ones) or its new one: the clock that puts `published` closest to now is theirs (the
+  // steps are seconds, the bus's latency milliseconds).
+  Utime trueTime(int robot, Utime own, Utime published) const {
+    ClockError best = clocks.of(robot);
+    const auto stepped = stepped_clocks.find(robot);
+    if (stepped != stepped_clocks.end() && live_clock != nullptr) {
+      const Utime now = live_clock->now();
+      const auto distance = [&](const ClockError& c) {
+        return std::llabs(ownToTruth(c, published) - now);
+      };
+      for (const ClockError& c : stepped->second)
+        if (distance(c) < distance(best)) best = c;
+    }
+    return ownToTruth(best, own);
+  }
+  // The teammates' TEAM_STATE for the clock steps' scores (faults.hpp); t and pose_t in s since
+  // the epoch, true time.
+  std::vector<eval::TeamLinkSample> team_link;
+  std::size_t clock_steps_noted = 0;
 
   void subscribe(bus::Node& node, bus::BusId sim_bus, const std::vector<bus::BusId>& robot_buses) {
     node.subscribe(
@@ -124,8 +148,8 @@ struct Collector {
   void onRobotState(const robot_state_t& m) {
     eval::StateSample s;
     s.robot = m.header.robot_id;
-    s.utime = trueTime(s.robot, m.header.utime);
-    s.published = trueTime(s.robot, m.header.utime_published);
+    s.utime = trueTime(s.robot, m.header.utime, m.header.utime_published);
+    s.published = trueTime(s.robot, m.header.utime_published, m.header.utime_published);
     s.x = m.x;
     s.y = m.y;
     s.phi = m.phi;
@@ -139,7 +163,7 @@ struct Collector {
   }
 
   void onLines(const line_contours_t& m) {
-    const Utime t = trueTime(m.header.robot_id, m.header.utime);
+    const Utime t = trueTime(m.header.robot_id, m.header.utime, m.header.utime_published);
     first_lines.try_emplace(m.header.robot_id, t);
     last_lines[m.header.robot_id] = t;
     ++lines_count[m.header.robot_id];
@@ -149,8 +173,9 @@ struct Collector {
   std::map<int, std::int64_t> lines_count;
 
   void onBallState(const ball_state_t& m) {
-    eval::BallSample b{m.header.robot_id, trueTime(m.header.robot_id, m.header.utime), m.valid != 0,
-                       m.x, m.y};
+    eval::BallSample b{m.header.robot_id,
+                       trueTime(m.header.robot_id, m.header.utime, m.header.utime_published),
+                       m.valid != 0, m.x, m.y};
     b.covariance << m.covariance[0], m.covariance[1], m.covariance[2], m.covariance[3];
     balls.push_back(b);
   }
@@ -158,7 +183,7 @@ struct Collector {
   void onTeamState(const team_state_t& m) {
     eval::TeamSample t;
     t.robot = m.header.robot_id;
-    t.utime = trueTime(t.robot, m.header.utime);
+    t.utime = trueTime(t.robot, m.header.utime, m.header.utime_published);
     t.team_ball_valid = m.team_ball_valid;
     t.team_ball_x = m.team_ball_x;
     t.team_ball_y = m.team_ball_y;
@@ -170,6 +195,20 @@ struct Collector {
       t.sees[k] = m.ball_valid[k] && m.ball_age_us[k] <= defaults.seen_window_us;
     }
     teams.push_back(t);
+    onTeamLink(m);
+  }
+
+  void onTeamLink(const team_state_t& m) {
+    eval::TeamLinkSample l;
+    l.robot = m.header.robot_id;
+    l.t = static_cast<double>(trueTime(l.robot, m.header.utime, m.header.utime_published)) * 1e-6;
+    for (int i = 0; i < m.num_robots && i < 6; ++i) {
+      const auto k = static_cast<std::size_t>(i);
+      l.present[k] = m.present[k];
+      l.pose_t[k] = l.t - static_cast<double>(m.robot_age_us[k]) * 1e-6;
+      l.rejected[k] = m.packets_rejected[k];
+    }
+    team_link.push_back(l);
   }
 };
 
@@ -197,8 +236,11 @@ void addFaultOptions(CLI::App& app, EvalArgs& a) {
                  "A fault during the run, seconds after the team started (repeatable): "
                  "restart:PROCESS[/ROBOT]@T (SIGTERM; the launcher restarts it), "
                  "kill:PROCESS[/ROBOT]@T (SIGKILL), stall:ROBOT@T+D or stall:all@T+D (SIGSTOP "
-                 "the robot's or every process for D s, then SIGCONT). robustness.json and the "
-                 "report give each fault's time to recover and largest error while TRACKING")
+                 "the robot's or every process for D s, then SIGCONT), clockstep:ROBOT@T+S or "
+                 "@T-S (the launcher restarts the robot's processes on its clock stepped S s "
+                 "ahead or behind, S up to 10). robustness.json and the report give each fault's "
+                 "time to recover and largest error while TRACKING; a clock step also when each "
+                 "teammate's TEAM_STATE had the robot back")
       ->check([](const std::string& text) {
         try {
           eval::parseFault(text);
@@ -368,6 +410,72 @@ void stopCpuHogs(const std::vector<pid_t>& hogs) {
   }
 }
 
+// The clock steps of a run (--fault clockstep): the launcher's control file (out_dir/clock_control;
+// none without a clock step), and how far ahead of the true time a robot's clock may get.
+struct ClockStepWiring {
+  eval::ClockControl control;
+  Utime ahead_us = 0;
+};
+
+ClockStepWiring clockStepWiring(const std::vector<eval::FaultSpec>& faults,
+                                const std::string& out_dir, const Collector& collector) {
+  ClockStepWiring w;
+  std::map<int, double> offset_s;
+  for (const eval::FaultSpec& f : faults) {
+    if (f.kind != eval::FaultSpec::Kind::kClockStep) continue;
+    const auto [it, first] = offset_s.try_emplace(f.robot, 0.0);
+    if (first) it->second = static_cast<double>(collector.clocks.of(f.robot).offset_us) * 1e-6;
+    double& o = it->second;
+    o += f.step_s;
+    w.ahead_us = std::max(w.ahead_us, static_cast<Utime>(std::llround(o * 1e6)));
+  }
+  if (offset_s.empty()) return w;
+  w.control.path = out_dir + "/clock_control";
+  std::filesystem::remove(w.control.path);
+  w.control.clocks = collector.clocks.by_robot;
+  for (const auto& [robot, o] : offset_s)
+    w.control.clocks.try_emplace(robot);
+  return w;
+}
+
+// Each clock step the runner made: the robot's new clock joins its clocks (Collector::trueTime).
+void noteClockSteps(const std::vector<eval::FaultRecord>& records, Collector& collector) {
+  std::size_t steps = 0;
+  for (const eval::FaultRecord& r : records) {
+    if (r.spec.kind != eval::FaultSpec::Kind::kClockStep || r.processes == 0) continue;
+    std::vector<ClockError>& clocks = collector.stepped_clocks[r.spec.robot];
+    if (++steps > collector.clock_steps_noted) {
+      clocks.push_back(r.clock_after);
+      collector.clock_steps_noted = steps;
+    }
+  }
+}
+
+// fieldline-launch for the run (its output into `launch_log`; with `clock_control`, the file of
+// the clock steps); returns its pid.
+pid_t startLauncher(const EvalArgs& a, const std::string& launch_file,
+                    const std::string& launch_log, const std::string& clock_control) {
+  const std::string launcher = selfDirectory() + "/fieldline-launch";
+  std::vector<std::string> args{launcher,     launch_file,
+                                "--robots",   std::to_string(a.robots),
+                                "--duration", std::to_string(a.duration),
+                                "--no-table"};
+  if (!clock_control.empty()) args.insert(args.end(), {"--clock-control", clock_control});
+  std::vector<char*> argv;
+  for (std::string& arg : args)
+    argv.push_back(arg.data());
+  argv.push_back(nullptr);
+  const pid_t child = fork();
+  if (child < 0) throw std::runtime_error("fork failed");
+  if (child == 0) {
+    std::FILE* f = std::freopen(launch_log.c_str(), "w", stdout);
+    if (f) dup2(fileno(stdout), STDERR_FILENO);
+    execv(launcher.c_str(), argv.data());
+    _exit(127);
+  }
+  return child;
+}
+
 // Runs the team for the scenario through fieldline-launch while collecting; returns the
 // source's name.
 std::string collectFromTeam(EvalArgs& a, Collector& collector, const Clock& clock) {
@@ -398,35 +506,30 @@ std::string collectFromTeam(EvalArgs& a, Collector& collector, const Clock& cloc
   const Utime clock_reference = clock.now();
   setenv(kClockReferenceVariable, std::to_string(clock_reference).c_str(), 1);
   collector.clocks = launch::parseRobotClocks(config::Node::loadFile(launch_file), clock_reference);
-  const std::string launcher = selfDirectory() + "/fieldline-launch";
   const std::string launch_log = a.out_dir + "/launch.log";
 
+  std::vector<eval::FaultSpec> faults;
+  for (const std::string& f : a.faults)
+    faults.push_back(eval::parseFault(f));
+  const ClockStepWiring steps = clockStepWiring(faults, a.out_dir, collector);
   bus::installStopSignals();
-  bus::Node node({.process = "eval", .robot_id = 0, .status_period_us = 0}, clock);
+  bus::NodeOptions node_options{.process = "eval", .robot_id = 0, .status_period_us = 0};
+  // A robot's clock stepped ahead stamps its messages as from the future: taken all the same.
+  node_options.future_tolerance_us += steps.ahead_us;
+  bus::Node node(node_options, clock);
+  collector.live_clock = &clock;
   std::vector<bus::BusId> buses;
   for (int r = 1; r <= a.robots; ++r)
     buses.push_back(node.addBus(bus::robotBusUrl(r)));
   collector.subscribe(node, bus::kPrimaryBus, buses);
 
-  const std::string robots_arg = std::to_string(a.robots);
-  const std::string duration_arg = std::to_string(a.duration);
   // The recorder starts before the team and hears everything the evaluation hears.
   const pid_t recorder = startRecorder(a, launch_file);
-  const pid_t child = fork();
-  if (child < 0) throw std::runtime_error("fork failed");
-  if (child == 0) {
-    std::FILE* f = std::freopen(launch_log.c_str(), "w", stdout);
-    if (f) dup2(fileno(stdout), STDERR_FILENO);
-    execl(launcher.c_str(), launcher.c_str(), launch_file.c_str(), "--robots", robots_arg.c_str(),
-          "--duration", duration_arg.c_str(), "--no-table", static_cast<char*>(nullptr));
-    _exit(127);
-  }
+  const pid_t child = startLauncher(a, launch_file, launch_log, steps.control.path);
   std::fprintf(stderr, "running %s with %d robot(s) for %.0f s (log: %s)\n", sc.name.c_str(),
                a.robots, a.duration, launch_log.c_str());
-  std::vector<eval::FaultSpec> faults;
-  for (const std::string& f : a.faults)
-    faults.push_back(eval::parseFault(f));
-  eval::FaultRunner fault_runner(child, faults, clock, std::chrono::steady_clock::now());
+  eval::FaultRunner fault_runner(child, faults, clock, std::chrono::steady_clock::now(),
+                                 steps.control);
   std::vector<pid_t> hogs;
   for (int i = 0; i < a.cpu_hogs; ++i)
     hogs.push_back(eval::startCpuHog(a.duration + 10.0));
@@ -435,6 +538,7 @@ std::string collectFromTeam(EvalArgs& a, Collector& collector, const Clock& cloc
   for (;;) {
     node.spinOnce(faults.empty() ? 50 : 20);
     fault_runner.poll();
+    noteClockSteps(fault_runner.records(), collector);
     const pid_t done = waitpid(child, &status, WNOHANG);
     if (done == child) break;
     if (bus::stopSignalReceived()) kill(child, SIGTERM);
@@ -493,7 +597,13 @@ void reportRobustness(const EvalArgs& a, const Collector& collector, const eval:
   std::vector<int> robots;
   for (const auto& [robot, hz] : summary.robot_state_hz)
     robots.push_back(robot);
-  eval::Robustness r = eval::evaluateRobustness(summary, events, robots);
+  std::vector<eval::TeamLinkSample> team = collector.team_link;
+  for (eval::TeamLinkSample& l : team) {
+    l.t -= static_cast<double>(t0) * 1e-6;
+    for (double& p : l.pose_t)
+      p -= static_cast<double>(t0) * 1e-6;
+  }
+  eval::Robustness r = eval::evaluateRobustness(summary, events, robots, {}, team);
   for (const auto& [robot, n] : collector.lines_count) {
     const Utime span = collector.last_lines.at(robot) - collector.first_lines.at(robot);
     if (n > 1 && span > 0) r.vision_lines_hz[robot] = static_cast<double>(n - 1) * 1e6 / span;

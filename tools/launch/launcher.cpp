@@ -4,9 +4,11 @@
 #include <atomic>
 #include <csignal>
 #include <cstdio>
+#include <fstream>
 #include <map>
 #include <memory>
 #include <set>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -21,6 +23,7 @@
 #include "tools/launch/bus_route.hpp"
 #include "tools/launch/graph.hpp"
 #include "tools/launch/preflight.hpp"
+#include "tools/launch/robot_clocks.hpp"
 #include "tools/launch/status_board.hpp"
 #include "tools/launch/supervisor.hpp"
 
@@ -82,9 +85,23 @@ EXAMPLES
 )";
 
 std::atomic<int> g_stop_signals{0};
+std::atomic<int> g_clock_signals{0};
 
 void onLauncherStopSignal(int) {
   g_stop_signals.fetch_add(1);
+}
+
+void onClockControlSignal(int) {
+  g_clock_signals.fetch_add(1);
+}
+
+// SIGUSR1 (apply the --clock-control file) is caught from the start, so an early one is kept for
+// the supervision rather than ending the launcher (its default action).
+void installClockControlSignal() {
+  struct sigaction sa {};
+  sa.sa_handler = onClockControlSignal;
+  sigemptyset(&sa.sa_mask);
+  sigaction(SIGUSR1, &sa, nullptr);
 }
 
 void installSignals() {
@@ -184,20 +201,20 @@ void warnMissing(const std::vector<LaunchInstance>& instances, const std::string
 }
 
 // The status feed: a node listening to SERVICE_STATUS on every bus the team uses.
+// `ahead_us`: how far ahead of the true time a robot's clock may be (clock steps).
 std::unique_ptr<bus::Node> openStatusFeed(const std::vector<LaunchInstance>& instances,
-                                          const Clock& clock, StatusBoard& board,
-                                          Console& console) {
+                                          const Clock& clock, StatusBoard& board, Console& console,
+                                          Utime ahead_us) {
   std::map<int, std::string> buses;
   for (const LaunchInstance& i : instances) {
     if (!i.path.empty()) buses.emplace(i.robot, i.bus_url);
   }
   if (buses.empty()) return nullptr;
   try {
-    auto node = std::make_unique<bus::Node>(bus::NodeOptions{.process = "launch",
-                                                             .robot_id = 0,
-                                                             .url = buses.begin()->second,
-                                                             .status_period_us = 0},
-                                            clock);
+    bus::NodeOptions options{
+        .process = "launch", .robot_id = 0, .url = buses.begin()->second, .status_period_us = 0};
+    options.future_tolerance_us += ahead_us;
+    auto node = std::make_unique<bus::Node>(options, clock);
     for (const auto& [robot, url] : buses) {
       const bus::BusId id = url == buses.begin()->second ? bus::kPrimaryBus : node->addBus(url);
       node->subscribe(
@@ -308,6 +325,7 @@ int Launcher::printDryRun(const std::vector<std::string>& problems) const {
 }
 
 int Launcher::run() {
+  installClockControlSignal();
   plan();
   if (options_.graph) return printGraph();
   const std::vector<std::string> problems = preflight();
@@ -353,6 +371,46 @@ void handleSignals(Supervisor& supervisor, Console& console, int& signals_handle
       console.line("[launch] killing every process");
       supervisor.killAll();
     }
+  }
+}
+
+// A SIGUSR1: the --clock-control file's offsets; every robot whose clock they change is restarted
+// on its new clock. A bad file is reported and changes nothing.
+void applyClockControl(const std::string& path, Supervisor& supervisor, Console& console,
+                       int& signals_handled) {
+  const int signals = g_clock_signals.load();
+  if (signals <= signals_handled) return;
+  signals_handled = signals;
+  if (path.empty()) {
+    console.line("[launch] warning: SIGUSR1 without --clock-control: ignored");
+    return;
+  }
+  std::map<int, Utime> offsets;
+  try {
+    std::ifstream in(path);
+    if (!in) throw config::Error(path + ": cannot be read");
+    std::ostringstream text;
+    text << in.rdbuf();
+    offsets = parseClockControl(text.str(), path);
+  } catch (const config::Error& e) {
+    console.line(fmt::format("[launch] error: clock control: {}; no clock changed", e.what()));
+    return;
+  }
+  for (const auto& [robot, offset_us] : offsets) {
+    const std::string value = std::to_string(offset_us);
+    const auto current = [&]() -> std::string {
+      for (const ProcessRecord& r : supervisor.processes()) {
+        if (r.instance.robot != robot) continue;
+        const auto it = r.instance.env.find(kClockOffsetVariable);
+        return it == r.instance.env.end() ? "0" : it->second;
+      }
+      return value;  // no process of that robot: nothing to change
+    }();
+    if (current == value) continue;
+    const int restarted = supervisor.restartRobot(robot, {{kClockOffsetVariable, value}});
+    console.line(
+        fmt::format("[launch] {}'s clock stepped to {:+.6f} s: restarting its {} process(es)",
+                    robotLabel(robot), static_cast<double>(offset_us) * 1e-6, restarted));
   }
 }
 
@@ -421,7 +479,11 @@ int Launcher::supervise() {
   spdlog::set_level(spdlog::level::warn);
   SystemClock clock;
   StatusBoard board;
-  std::unique_ptr<bus::Node> feed = openStatusFeed(plan_.instances, clock, board, console);
+  const Utime ahead_us = options_.clock_control.empty()
+                             ? 0
+                             : static_cast<Utime>(kMaxControlledOffsetS * kMicrosPerSecond);
+  std::unique_ptr<bus::Node> feed =
+      openStatusFeed(plan_.instances, clock, board, console, ahead_us);
 
   const bool colour = live_table;
   Supervisor supervisor(
@@ -440,8 +502,10 @@ int Launcher::supervise() {
   const auto started = SteadyClock::now();
   auto next_report = started;
   int signals_handled = 0;
+  int clock_signals_handled = 0;
   while (!supervisor.finished()) {
     handleSignals(supervisor, console, signals_handled);
+    applyClockControl(options_.clock_control, supervisor, console, clock_signals_handled);
     const auto now = SteadyClock::now();
     if (options_.duration_s > 0 && !supervisor.stopping() &&
         now - started >= std::chrono::duration<double>(options_.duration_s)) {

@@ -45,6 +45,8 @@ struct LauncherOptions {
   // --bus-ttl, --bus-interface: the file's bus.ttl and bus.interface for this run (watching the
   // robot from another machine: docs/launch.md).
   std::optional<int> bus_ttl;
+  // --clock-control: the file of robot clock offsets applied on SIGUSR1 (robot_clocks.hpp).
+  std::string clock_control;
   std::optional<std::string> bus_interface;
 };
 

@@ -63,6 +63,11 @@ int main(int argc, char** argv) {
       "--skip-check-args", skip_check_args,
       "Start without running one instance of each entry with --check-args first (--dry-run "
       "always checks every instance)");
+  app.add_option("--clock-control", options.clock_control,
+                 "A file of robot clock offsets (`ROBOT OFFSET_US` a line): on SIGUSR1 the "
+                 "launcher reads it and restarts every process of each robot whose clock it "
+                 "changes on the new clock (a clock step; fieldline-eval's clockstep fault; "
+                 "docs/faults.md)");
   app.add_option("--status-period", options.status_period_s,
                  "Seconds between compact status lines when there is no live table")
       ->check(CLI::Range(0.2, 3600.0))

@@ -1,8 +1,10 @@
 #include "tools/launch/robot_clocks.hpp"
 
+#include <charconv>
 #include <cmath>
 #include <cstdlib>
 #include <set>
+#include <sstream>
 
 #include <fmt/format.h>
 
@@ -48,6 +50,39 @@ Utime clockReferenceNow() {
     return static_cast<Utime>(v);
   }
   return SystemClock().now();
+}
+
+std::map<int, Utime> parseClockControl(const std::string& text, const std::string& origin) {
+  std::map<int, Utime> offsets;
+  std::istringstream lines(text);
+  std::string line;
+  for (int number = 1; std::getline(lines, line); ++number) {
+    if (const auto hash = line.find('#'); hash != std::string::npos) line.erase(hash);
+    std::istringstream words(line);
+    std::string robot_text, offset_text, extra;
+    if (!(words >> robot_text)) continue;
+    const auto fail = [&](const std::string& what) {
+      throw config::Error(fmt::format("{}:{}: {} (expected `ROBOT OFFSET_US`, e.g. `1 2000000`)",
+                                      origin, number, what));
+    };
+    words >> offset_text >> extra;
+    if (offset_text.empty() || !extra.empty()) fail("'" + line + "' is not two numbers");
+    int robot = 0;
+    long long offset = 0;
+    const auto whole = [](const std::string& w, auto& v) {
+      const auto r = std::from_chars(w.data(), w.data() + w.size(), v);
+      return r.ec == std::errc{} && r.ptr == w.data() + w.size();
+    };
+    if (!whole(robot_text, robot) || robot < 1 || robot > 99)
+      fail("robot '" + robot_text + "' is not a robot number 1..99");
+    if (!whole(offset_text, offset) ||
+        std::fabs(static_cast<double>(offset)) > kMaxControlledOffsetS * 1e6)
+      fail(fmt::format("offset '{}' is not a whole number of µs within +-{} s", offset_text,
+                       kMaxControlledOffsetS));
+    if (!offsets.emplace(robot, static_cast<Utime>(offset)).second)
+      fail("robot " + robot_text + " is listed twice");
+  }
+  return offsets;
 }
 
 std::map<std::string, std::string> clockEnvironment(const ClockError& error) {

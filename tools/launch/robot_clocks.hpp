@@ -43,6 +43,17 @@ RobotClocks parseRobotClocks(const config::Node& root, Utime reference_us);
 // else the system clock.
 Utime clockReferenceNow();
 
+// fieldline-launch --clock-control FILE: on SIGUSR1 the launcher reads FILE and restarts every
+// process of each robot listed whose clock offset it changes, with FIELDLINE_CLOCK_OFFSET_US set
+// to the new one (a clock step: an NTP step, a reboot with a wrong clock; fieldline-eval's
+// clockstep fault). One robot a line, `ROBOT OFFSET_US`; `#` starts a comment.
+//   1 2000000      # robot 1's clock 2 s ahead of the true time
+// Largest offset, s: the launcher's status feed takes stamps this far ahead.
+inline constexpr double kMaxControlledOffsetS = 10.0;
+// Robot -> offset, µs. Throws config::Error naming `origin`:line for a malformed line, a robot
+// outside 1..99, one listed twice, or an offset beyond kMaxControlledOffsetS.
+std::map<int, Utime> parseClockControl(const std::string& text, const std::string& origin);
+
 // The environment that gives a process the clock `error` (empty for a true clock).
 std::map<std::string, std::string> clockEnvironment(const ClockError& error);
 

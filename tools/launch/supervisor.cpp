@@ -284,6 +284,13 @@ void Supervisor::onEnded(ProcessRecord& record, const ExitStatus& status) {
     on_event_(fmt::format("{} stopped ({})", record.instance.label(), what));
     return;
   }
+  if (record.restart_now) {
+    record.restart_now = false;
+    record.state = ProcessState::kWaiting;
+    record.restart_at = now;
+    on_event_(fmt::format("{} ended ({}); restarting now", record.instance.label(), what));
+    return;
+  }
   if (!status.success()) record.last_error = what;
   // Crash loop: this end and the ones before it within the window.
   record.recent_ends.push_back(now);
@@ -378,6 +385,20 @@ void Supervisor::killAll() {
   for (const ProcessRecord& r : records_) {
     if (r.pid > 0) ::killpg(r.pid, SIGKILL);
   }
+}
+
+int Supervisor::restartRobot(int robot, const std::map<std::string, std::string>& env) {
+  int running = 0;
+  for (ProcessRecord& r : records_) {
+    if (r.instance.robot != robot) continue;
+    for (const auto& [key, value] : env)
+      r.instance.env[key] = value;
+    if (r.pid <= 0 || stopping_) continue;
+    r.restart_now = true;
+    ::killpg(r.pid, SIGTERM);
+    ++running;
+  }
+  return running;
 }
 
 bool Supervisor::finished() const {

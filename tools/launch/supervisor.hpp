@@ -15,6 +15,7 @@
 #include <chrono>
 #include <deque>
 #include <functional>
+#include <map>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -79,6 +80,8 @@ struct ProcessRecord {
   std::deque<SteadyClock::time_point> recent_ends;
   // It ended crash_loop.restarts times within crash_loop.window_s and is not restarted again.
   bool crash_loop = false;
+  // Stopped by restartRobot: started again as soon as it ended, not counted as a crash.
+  bool restart_now = false;
   // Read end of the pipe carrying the process's stdout and stderr; -1 when closed.
   int output_fd = -1;
   // Output received after the last newline.
@@ -116,6 +119,11 @@ class Supervisor {
   void requestStop();
   // Sends SIGKILL to every running process group now (a second Ctrl-C).
   void killAll();
+  // Every process of robot `robot` gets `env` on top of its environment and is restarted: SIGTERM
+  // to its group, started again as soon as it ended (a process waiting for its restart takes the
+  // new environment then; one that ended for good keeps it for nothing). Returns how many were
+  // running. A clock step: the robot's processes on a new FIELDLINE_CLOCK_OFFSET_US.
+  int restartRobot(int robot, const std::map<std::string, std::string>& env);
 
   bool stopping() const { return stopping_; }
   // Nothing is running and nothing will be restarted.

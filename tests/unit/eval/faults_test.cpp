@@ -3,6 +3,7 @@
 // largest error while TRACKING and the run's share of time not TRACKING.
 #include "tools/eval/faults.hpp"
 
+#include <algorithm>
 #include <stdexcept>
 
 #include <gtest/gtest.h>
@@ -31,6 +32,40 @@ TEST(EvalFaults, ParsesEachKind) {
   EXPECT_EQ(stall.robot, 3);
   EXPECT_DOUBLE_EQ(stall.duration_s, 1.5);
   EXPECT_EQ(parseFault("stall:all@25+2").robot, 0);
+}
+
+TEST(EvalFaults, ParsesClockStepsAheadAndBehind) {
+  const FaultSpec ahead = parseFault("clockstep:1@20+2");
+  EXPECT_EQ(ahead.kind, FaultSpec::Kind::kClockStep);
+  EXPECT_EQ(ahead.robot, 1);
+  EXPECT_DOUBLE_EQ(ahead.at_s, 20.0);
+  EXPECT_DOUBLE_EQ(ahead.step_s, 2.0);
+  EXPECT_TRUE(ahead.process.empty());
+  const FaultSpec behind = parseFault("clockstep:6@7.5-0.25");
+  EXPECT_EQ(behind.robot, 6);
+  EXPECT_DOUBLE_EQ(behind.at_s, 7.5);
+  EXPECT_DOUBLE_EQ(behind.step_s, -0.25);
+}
+
+TEST(EvalFaults, RefusesClockStepsItCannotMakeAndSaysWhy) {
+  const auto message = [](const std::string& text) {
+    try {
+      parseFault(text);
+    } catch (const std::invalid_argument& e) {
+      return std::string(e.what());
+    }
+    return std::string("accepted");
+  };
+  EXPECT_NE(message("clockstep:1@20").find("needs its size"), std::string::npos);
+  EXPECT_NE(message("clockstep:all@20+2").find("one robot's clock"), std::string::npos);
+  EXPECT_NE(message("clockstep:0@20+2").find("robot '0'"), std::string::npos);
+  EXPECT_NE(message("clockstep:fusion/1@20+2").find("robot 'fusion/1'"), std::string::npos);
+  EXPECT_NE(message("clockstep:1@20+0").find("more than 0 and at most 10"), std::string::npos);
+  EXPECT_NE(message("clockstep:1@20-11").find("at most 10"), std::string::npos);
+  EXPECT_NE(message("clockstep:1@20+2s").find("step '2s'"), std::string::npos);
+  EXPECT_NE(message("clockstep:1@20+-2").find("step '-2'"), std::string::npos);
+  EXPECT_NE(message("clockstep:1@x+2").find("time 'x'"), std::string::npos);
+  EXPECT_NE(message("clockstop:1@20+2").find("clockstep"), std::string::npos);
 }
 
 TEST(EvalFaults, RefusesWhatItCannotDoAndSaysWhy) {
@@ -108,6 +143,54 @@ TEST(EvalFaults, AStallOfTheMachineAffectsEveryRobotAndANeverRecoveredOneSaysSo)
   EXPECT_DOUBLE_EQ(f.recovery_max_s, -1.0);
   EXPECT_NE(robustnessJson(r).find("\"recovery_max_s\": -1.000"), std::string::npos);
   EXPECT_NE(robustnessLines(r).find("fault stall:all@10+2"), std::string::npos);
+}
+
+// A teammate's TEAM_STATE at t holding robot 1 (present or not) with a pose taken at pose_t.
+TeamLinkSample link(int teammate, double t, bool present, double pose_t, int rejected) {
+  TeamLinkSample l;
+  l.robot = teammate;
+  l.t = t;
+  l.present[0] = present;
+  l.pose_t[0] = pose_t;
+  l.rejected[0] = rejected;
+  return l;
+}
+
+TEST(EvalFaults, AClockStepIsScoredByRecoveryAndByTheTeammatesHearingTheRobotAgain) {
+  Summary s;
+  add(s, 1, 0.0, 10.0, kTracking, 0.02);
+  add(s, 1, 10.4, 11.0, kSearching, 2.0);
+  add(s, 1, 11.0, 20.0, kTracking, 0.05);
+  add(s, 2, 0.0, 20.0, kTracking, 0.02);
+  add(s, 3, 0.0, 20.0, kTracking, 0.02);
+  std::vector<TeamLinkSample> team;
+  for (int i = 0; i < 200; ++i) {
+    const double t = 0.1 * i;
+    // Robot 2 hears robot 1's restarted processes from 12 s on; until then it holds the last
+    // pose from before the step (present for a while, then not) and refuses 3 packets.
+    const bool back2 = t >= 12.0;
+    team.push_back(
+        link(2, t, t < 10.5 || back2, back2 ? t - 0.05 : std::min(t, 9.95), t < 10.0 ? 1 : 4));
+    // Robot 3 never hears robot 1 again: it keeps a stale pose (as a wrong clock offset would).
+    team.push_back(link(3, t, true, std::min(t, 9.95), t < 10.0 ? 0 : 30));
+    // Robot 1's own TEAM_STATE is not a teammate's.
+    team.push_back(link(1, t, true, t, 0));
+  }
+  const std::vector<FaultEvent> events{{parseFault("clockstep:1@10+2"), 10.0, 10.0, 7}};
+  const Robustness r = evaluateRobustness(s, events, {1, 2, 3}, {}, team);
+  const FaultResult& f = r.faults.at(0);
+  EXPECT_EQ(f.recovery_s.size(), 1u);
+  EXPECT_NEAR(f.recovery_max_s, 1.0, 0.03);
+  EXPECT_DOUBLE_EQ(f.max_tracking_error_m, 0.05);
+  ASSERT_EQ(f.heard_again_s.size(), 2u);
+  EXPECT_NEAR(f.heard_again_s.at(2), 2.0, 1e-6);
+  EXPECT_DOUBLE_EQ(f.heard_again_s.at(3), -1.0);
+  EXPECT_EQ(f.packets_refused, 3 + 30);
+  EXPECT_NE(robustnessLines(r).find("heard_again_s: 2=2.00 3=-1.00 packets_refused=33"),
+            std::string::npos)
+      << robustnessLines(r);
+  EXPECT_NE(robustnessJson(r).find("\"step_s\": 2, \"packets_refused\": 33"), std::string::npos)
+      << robustnessJson(r);
 }
 
 TEST(EvalFaults, TwinAmbiguousTrackingIsCountedAndAlsoReportedApart) {

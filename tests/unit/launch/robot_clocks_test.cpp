@@ -76,5 +76,30 @@ TEST(RobotClocks, TheEnvironmentCarriesTheClock) {
   EXPECT_GT(clockReferenceNow(), kReference - 100'000'000'000'000);
 }
 
+TEST(ClockControl, ReadsOneRobotALineWithComments) {
+  const auto offsets = parseClockControl("# steps\n1 2000000   # ahead\n\n  3 -1500000\n", "cc");
+  ASSERT_EQ(offsets.size(), 2u);
+  EXPECT_EQ(offsets.at(1), 2'000'000);
+  EXPECT_EQ(offsets.at(3), -1'500'000);
+  EXPECT_TRUE(parseClockControl("", "cc").empty());
+}
+
+TEST(ClockControl, RefusesABadLineNamingIt) {
+  const auto message = [](const std::string& text) {
+    try {
+      parseClockControl(text, "cc");
+    } catch (const config::Error& e) {
+      return std::string(e.what());
+    }
+    return std::string("accepted");
+  };
+  EXPECT_NE(message("1 0\n2\n").find("cc:2: '2' is not two numbers"), std::string::npos);
+  EXPECT_NE(message("1 2 3\n").find("cc:1:"), std::string::npos);
+  EXPECT_NE(message("0 100\n").find("robot '0' is not a robot number"), std::string::npos);
+  EXPECT_NE(message("1 2.5\n").find("offset '2.5'"), std::string::npos);
+  EXPECT_NE(message("1 10000001\n").find("within +-10 s"), std::string::npos);
+  EXPECT_NE(message("1 5\n1 6\n").find("cc:2: robot 1 is listed twice"), std::string::npos);
+}
+
 }  // namespace
 }  // namespace fieldline::launch

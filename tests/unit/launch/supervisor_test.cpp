@@ -56,6 +56,29 @@ class SupervisorTest : public ::testing::Test {
   std::vector<std::string> events;
 };
 
+TEST_F(SupervisorTest, RestartRobotRestartsItsProcessesAtOnceOnTheNewEnvironment) {
+  // Two processes of robot 1 and one of robot 2, each printing its clock and waiting; the
+  // restart policy says never, and the restart is not a crash.
+  const std::string script = "echo offset=${FIELDLINE_CLOCK_OFFSET_US:-0}; exec sleep 30";
+  LaunchInstance other = shell("b", script);
+  other.robot = 2;
+  auto s = make({shell("a", script), shell("c", script), other});
+  s->startAll();
+  ASSERT_TRUE(pollUntil(*s, [&] { return lines.size() == 3; }));
+  EXPECT_EQ(s->restartRobot(1, {{"FIELDLINE_CLOCK_OFFSET_US", "2000000"}}), 2);
+  ASSERT_TRUE(pollUntil(*s, [&] { return lines.size() == 5; }));
+  EXPECT_EQ(std::count(lines.begin(), lines.end(), "r1 a: offset=2000000"), 1);
+  EXPECT_EQ(std::count(lines.begin(), lines.end(), "r1 c: offset=2000000"), 1);
+  EXPECT_EQ(std::count(lines.begin(), lines.end(), "r2 b: offset=0"), 1);
+  for (const ProcessRecord& r : s->processes()) {
+    EXPECT_EQ(r.state, ProcessState::kRunning) << r.instance.label();
+    EXPECT_EQ(r.restarts, r.instance.robot == 1 ? 1 : 0) << r.instance.label();
+    EXPECT_EQ(r.backoff.consecutiveFailures(), 0) << r.instance.label();
+  }
+  s->requestStop();
+  ASSERT_TRUE(pollUntil(*s, [&] { return s->finished(); }));
+}
+
 TEST_F(SupervisorTest, ForwardsOutputLineByLine) {
   auto s = make({shell("talker", "echo one; echo two >&2; printf 'three\\r\\nfour'")});
   s->startAll();
