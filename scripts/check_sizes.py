@@ -39,7 +39,6 @@ KNOWN_LONG_FUNCTIONS = {
     "tools/viewer/camera_view.cpp:CameraView::update": "not split yet (issue 33 item 3): pending",
     "tools/viewer/recording_view.cpp:RecordingView::makeSeries": "not split yet (issue 33 item 3): pending",
     "tools/viewer/web_server.cpp:handle": "not split yet (issue 33 item 3): pending",
-    "teamcomm/team_picture.cpp:TeamPicture::picture": "in robust's or tball's room today (fusion, teamcomm, eval)",
     "teamcomm/teamcomm_node.cpp:TeamcommNode::onDatagram": "in robust's or tball's room today (fusion, teamcomm, eval)",
 }
 

@@ -71,6 +71,18 @@ struct PictureOptions {
   double supersede_max_sigma_m = 0.15;
 };
 
+// A robot's ball, predicted to the picture's time, as the team ball's fusion sees it.
+struct BallCandidate {
+  int robot_id = 0;
+  Eigen::Vector2d position = Eigen::Vector2d::Zero();
+  Eigen::Vector2d velocity = Eigen::Vector2d::Zero();
+  Eigen::Matrix2d covariance = Eigen::Matrix2d::Identity();
+  // Its reporter's pose may be its symmetric twin.
+  bool twin_ambiguous = false;
+  // When its reporter last saw it (our clock).
+  Utime last_seen = 0;
+};
+
 // One robot's report, already converted to our clock.
 struct Report {
   perception::RobotEstimate robot;
@@ -120,6 +132,28 @@ class TeamPicture {
     Eigen::Matrix2d covariance = Eigen::Matrix2d::Identity();
   };
   std::optional<Track> track_;
+
+  // The winning group's fused ball, its size and whether it continues the previous team ball.
+  struct Choice {
+    TeamBallResult ball;
+    std::size_t size = 0;
+    bool continues = false;
+  };
+  // The teammate's pose (and ball) at `now` into `out`; its ball as a candidate when usable.
+  std::optional<BallCandidate> updateTeammate(const Report& report, Utime now,
+                                              perception::TeammateState& out) const;
+  // The report's ball at `position` (predicted ball_dt s) with its grown, floored covariance.
+  BallCandidate ballCandidate(const Report& report, const Eigen::Vector2d& position,
+                              double ball_dt) const;
+  // Removes the superseded candidates; their robot ids.
+  std::vector<int> leaveOutSuperseded(std::vector<BallCandidate>& candidates) const;
+  // The previous team ball carried to now, while it is recent enough to judge by.
+  std::optional<BallCandidate> trackAt(Utime now) const;
+  Choice largestConsistentGroup(const std::vector<BallCandidate>& candidates,
+                                const std::optional<BallCandidate>& track) const;
+  void rejectTheOthers(Choice& choice, const std::vector<BallCandidate>& candidates,
+                       const std::optional<BallCandidate>& track,
+                       const std::vector<int>& superseded) const;
 };
 
 }  // namespace fieldline::teamcomm

@@ -24,9 +24,11 @@
 
 #include "common/bus/log_file.hpp"
 #include "common/msg/estimates.hpp"
+#include "common/time/offset_clock.hpp"
 #include "teamcomm/team_picture.hpp"
 #include "tools/eval/evaluation.hpp"
 #include "tools/eval/sim_truth.hpp"
+#include "tools/recording/clock_model.hpp"
 
 using namespace fieldline;
 
@@ -195,6 +197,11 @@ std::map<int, RobotLog> readRobotLogs(const std::string& dir,
   for (int id = 1; id <= perception::kTeamSize; ++id) {
     const std::string path = dir + "/robot" + std::to_string(id) + ".lcm";
     if (!std::filesystem::exists(path) || std::filesystem::file_size(path) == 0) continue;
+    // The robot's stamps on the recorder's (the truth's) clock: a recording of robots on their
+    // own clocks (sim_team's offsets of +-0.5 s) is otherwise scored against the wrong truth.
+    ClockError clock;
+    if (const auto models = recording::estimateClocks(path); models.count(id) > 0)
+      clock = models.at(id).error;
     bus::LogReader log(path);
     bus::LogEvent e;
     RobotLog& r = logs[id];
@@ -203,15 +210,22 @@ std::map<int, RobotLog> readRobotLogs(const std::string& dir,
       if (e.channel == bus::channels::kRobotState.name) {
         robot_state_t m;
         if (m.decode(e.data.data(), 0, size) != size) continue;
-        r.robots.push_back({e.timestamp, msg::fromMessage(m), {}});
+        perception::RobotEstimate robot = msg::fromMessage(m);
+        robot.utime = ownToTruth(clock, robot.utime);
+        r.robots.push_back({e.timestamp, robot, {}});
       } else if (sightings && e.channel == bus::channels::kVisionBall.name) {
         ball_observation_t m;
         if (m.decode(e.data.data(), 0, size) != size) continue;
-        writeSighting(sightings, truth, id, msg::fromMessage(m));
+        perception::BallSighting sighting = msg::fromMessage(m);
+        sighting.utime = ownToTruth(clock, sighting.utime);
+        writeSighting(sightings, truth, id, sighting);
       } else if (e.channel == bus::channels::kBallState.name) {
         ball_state_t m;
         if (m.decode(e.data.data(), 0, size) != size) continue;
-        r.balls.push_back({e.timestamp, {}, msg::fromMessage(m)});
+        perception::BallEstimate ball = msg::fromMessage(m);
+        ball.utime = ownToTruth(clock, ball.utime);
+        ball.last_seen_utime = ownToTruth(clock, ball.last_seen_utime);
+        r.balls.push_back({e.timestamp, {}, ball});
       }
     }
   }
