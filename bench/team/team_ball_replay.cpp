@@ -28,6 +28,7 @@
 #include "teamcomm/team_picture.hpp"
 #include "tools/eval/evaluation.hpp"
 #include "tools/eval/sim_truth.hpp"
+#include "tools/eval/team_ball.hpp"
 #include "tools/recording/clock_model.hpp"
 
 using namespace fieldline;
@@ -359,6 +360,8 @@ std::map<int, std::vector<Utime>> sendTimes(const ReplayOptions& o,
 struct TeamTally {
   Score team;
   std::size_t used_total = 0, rejected_total = 0, valid_pictures = 0, pictures = 0;
+  // Every picture as fieldline-eval reads TEAM_STATE (its team-ball line scores them).
+  std::vector<eval::TeamSample> samples;
 };
 
 // Replays one observer's team link: its picture's reports at `now`.
@@ -472,6 +475,14 @@ TeamTally replayTeamBall(const ReplayOptions& o, const std::map<int, RobotLog>& 
       replay.setReports(now);
       teamcomm::TeamBallResult result;
       const perception::TeamState state = replay.picture().picture(now, &result);
+      eval::TeamSample sample;
+      sample.robot = observer;
+      sample.utime = now;
+      sample.team_ball_valid = result.valid;
+      sample.team_ball_x = result.position.x();
+      sample.team_ball_y = result.position.y();
+      sample.team_ball_covariance = result.covariance;
+      tally.samples.push_back(sample);
       if (now < span.scored_from) continue;
       ++tally.pictures;
       if (!result.valid) continue;
@@ -564,6 +575,14 @@ int main(int argc, char** argv) {
     const TeamTally tally = replayTeamBall(o, logs, truth, span, pictures_csv);
     if (pictures_csv) std::fclose(pictures_csv);
     printScores(own, tally);
+    // The same pictures as fieldline-eval scores its TEAM_STATEs (its settle, put-back rules).
+    std::vector<eval::BallSample> balls;
+    for (const auto& [id, r] : logs) {
+      for (const Timed& b : r.balls)
+        balls.push_back({id, b.ball.utime, b.ball.valid, b.ball.x, b.ball.y, b.ball.covariance});
+    }
+    std::printf("fieldline-eval: %s\n",
+                eval::teamBallLine(eval::evaluateTeamBall(truth, balls, tally.samples)).c_str());
     return 0;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "fieldline-team-ball-replay: %s\n", e.what());
