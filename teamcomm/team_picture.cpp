@@ -113,11 +113,11 @@ std::optional<BallCandidate> TeamPicture::updateTeammate(const Report& report, U
       seconds(std::clamp<Utime>(now - ball.utime, 0, options_.max_prediction_us));
   out.ball_x = ball.x + ball.vx * ball_dt;
   out.ball_y = ball.y + ball.vy * ball_dt;
-  return ballCandidate(report, {out.ball_x, out.ball_y}, ball_dt);
+  return ballCandidate(report, {out.ball_x, out.ball_y}, {out.x, out.y}, ball_dt);
 }
 
 BallCandidate TeamPicture::ballCandidate(const Report& report, const Eigen::Vector2d& position,
-                                         double ball_dt) const {
+                                         const Eigen::Vector2d& reporter, double ball_dt) const {
   const perception::BallEstimate& ball = report.ball;
   BallCandidate c{0,
                   position,
@@ -129,6 +129,18 @@ BallCandidate TeamPicture::ballCandidate(const Report& report, const Eigen::Vect
   const double grown_ball =
       (resting ? options_.ball_rest_speed_sigma_mps : options_.ball_speed_sigma_mps) * ball_dt;
   c.covariance += Eigen::Matrix2d::Identity() * (grown_ball * grown_ball);
+  // The bias a static view keeps along its line of sight (PictureOptions).
+  const Eigen::Vector2d line_of_sight = position - reporter;
+  const perception::RobotEstimate& robot = report.robot;
+  const bool static_view = resting && std::hypot(robot.vx, robot.vy) < options_.static_speed_mps &&
+                           std::abs(robot.omega) < options_.static_turn_radps;
+  if (static_view && options_.ball_radial_floor_per_m2 > 0.0 && line_of_sight.norm() > 0.0) {
+    const Eigen::Vector2d along = line_of_sight.normalized();
+    const double floor = options_.ball_radial_floor_per_m2 * line_of_sight.squaredNorm();
+    const double radial = along.dot(c.covariance * along);
+    if (radial < floor * floor)
+      c.covariance += (floor * floor - radial) * along * along.transpose();
+  }
   // The reporter's pose uncertainty is in the ball's covariance already: fusion's ball filter
   // carries it into the field frame with every sighting (position, and heading times the
   // distance). Adding it here again made the team ball worse (replays of four recorded

@@ -99,7 +99,7 @@ struct ReplayOptions {
   double max_send_rate_hz = 30.0;
   teamcomm::PictureOptions picture;
   double max_prediction_s = 0.5;
-  double superseded_after_s = 0.1;
+  double superseded_after_s = 0.09;  // config/team/sim_team.yaml
   std::string csv_path, sightings_path, pictures_path;
 
   void addTo(CLI::App& app) {
@@ -129,6 +129,9 @@ struct ReplayOptions {
     app.add_option(
            "--superseded-after", superseded_after_s,
            "A ball seen this much longer ago than a contradicting one is left out, s (0: off)")
+        ->capture_default_str();
+    app.add_option("--radial-floor", picture.ball_radial_floor_per_m2,
+                   "Floor of a ball's sigma along the line of sight per squared metre of range")
         ->capture_default_str();
     app.add_option("--min-ball-variance", picture.min_ball_variance,
                    "Floor of a ball's position variance, m^2")
@@ -482,6 +485,10 @@ TeamTally replayTeamBall(const ReplayOptions& o, const std::map<int, RobotLog>& 
       sample.team_ball_x = result.position.x();
       sample.team_ball_y = result.position.y();
       sample.team_ball_covariance = result.covariance;
+      for (std::size_t i = 0; i < sample.sees.size(); ++i) {
+        const perception::TeammateState& m = state.robots[i];
+        sample.sees[i] = m.ball_valid && m.ball_age_us <= eval::TeamBallOptions{}.seen_window_us;
+      }
       tally.samples.push_back(sample);
       if (now < span.scored_from) continue;
       ++tally.pictures;

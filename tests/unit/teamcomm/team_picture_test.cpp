@@ -195,6 +195,41 @@ TEST(teamcomm_picture, WhenTwoDisagreeTheMoreCertainWins) {
   EXPECT_EQ(ball.rejected, std::vector<int>{1});
 }
 
+// hidden_ball: a robot standing 3-4 m from a resting ball sees it on the same pixels every frame;
+// fusion's filter shrinks its covariance frame by frame, but its error is a bias along the line
+// of sight that stays (2.5 cm with a 1.3 cm sigma). Its weight there is capped by the radial
+// floor (PictureOptions::ball_radial_floor_per_m2), across the line of sight it still counts.
+TEST(teamcomm_picture, AFarStaticViewsBiasAlongItsLineOfSightDoesNotPullTheTeamBall) {
+  TeamPicture picture(1);
+  Report near = report(-1.5, 0.0, kT0);
+  seeBall(near, 0.0, 0.0, 0.005);
+  Report far = report(4.0, 0.0, kT0);
+  seeBall(far, 0.02, 0.0, 0.006);  // 2 cm short, claiming 6 mm: still inside the gate
+  picture.setReport(1, near);
+  picture.setReport(2, far);
+  TeamBallResult ball;
+  picture.picture(kT0, &ball);
+  EXPECT_EQ(ball.used, (std::vector<int>{1, 2}));
+  // At their claimed weights the team ball lay 8 mm towards the far robot.
+  EXPECT_LT(std::abs(ball.position.x()), 0.003);
+  // Across the line of sight both count: narrower than the near robot's 5 mm alone.
+  EXPECT_LT(ball.covariance(1, 1), 0.8 * 0.005 * 0.005);
+  // Along it, the floor: 1.5 mm per m^2 of range, 2.4 cm at 4 m.
+  PictureOptions off;
+  off.ball_radial_floor_per_m2 = 0.0;
+  TeamPicture unfloored(1, off);
+  unfloored.setReport(1, near);
+  unfloored.setReport(2, far);
+  unfloored.picture(kT0, &ball);
+  EXPECT_GT(std::abs(ball.position.x()), 0.007);
+  // A robot turning on the spot sees the ball on other pixels every frame: its filter's
+  // averaging holds, no floor.
+  far.robot.omega = 0.6;
+  picture.setReport(2, far);
+  picture.picture(kT0, &ball);
+  EXPECT_GT(std::abs(ball.position.x()), 0.007);
+}
+
 // twin_kidnap (config/scenarios): robot 3 is carried onto its symmetric twin, keeps its pose by
 // continuity and reports the ball at its mirror image, confidently.
 TEST(teamcomm_picture, ATieGoesToTheBallThatContinuesTheTeamBall) {
