@@ -128,11 +128,11 @@ TEST(teamcomm_picture, UsesOnlyFreshBallsFromLocalizedRobotsAndPredictsThem) {
   EXPECT_NEAR(s.team_ball_vx, 1.0, 1e-9);
   EXPECT_EQ(s.robots[3].ball_age_us, 200'000);
   // Prediction uncertainty grew: 0.1^2 + (0.3 m/s * 0.2 s)^2 (the reporter's pose uncertainty is
-  // in its ball filter's covariance already), and the stamps' common uncertainty times the
-  // velocity: (0.03 s)^2 * v v^T.
-  EXPECT_NEAR(s.team_ball_covariance(0, 0), 0.01 + 0.0036 + 0.0009 * 1.0, 1e-9);
-  EXPECT_NEAR(s.team_ball_covariance(1, 1), 0.01 + 0.0036 + 0.0009 * 4.0, 1e-9);
-  EXPECT_NEAR(s.team_ball_covariance(0, 1), 0.0009 * -2.0, 1e-9);
+  // in its ball filter's covariance already, and so is the stamps' common term of a lone
+  // reporter: TheStampTermOfARollingBallCountsOnce).
+  EXPECT_NEAR(s.team_ball_covariance(0, 0), 0.01 + 0.0036, 1e-9);
+  EXPECT_NEAR(s.team_ball_covariance(1, 1), 0.01 + 0.0036, 1e-9);
+  EXPECT_NEAR(s.team_ball_covariance(0, 1), 0.0, 1e-9);
 }
 
 TEST(teamcomm_picture, ARestingBallIsPredictedWithTheRestingModel) {
@@ -149,7 +149,7 @@ TEST(teamcomm_picture, ARestingBallIsPredictedWithTheRestingModel) {
   ASSERT_TRUE(s.team_ball_valid);
   const double grown = 0.03 * 0.2;
   const double one = 0.005 * 0.005 + grown * grown;
-  EXPECT_NEAR(s.team_ball_covariance(0, 0), 0.5 * one + 0.0009 * 0.05 * 0.05, 1e-12);
+  EXPECT_NEAR(s.team_ball_covariance(0, 0), 0.5 * one + 0.5 * 0.0009 * 0.05 * 0.05, 1e-12);
   EXPECT_NEAR(s.team_ball_covariance(1, 1), 0.5 * one, 1e-12);
   // Rolling at 0.5 m/s the same report grows by 0.3 m/s.
   for (int id = 2; id <= 3; ++id) {
@@ -228,6 +228,35 @@ TEST(teamcomm_picture, AFarStaticViewsBiasAlongItsLineOfSightDoesNotPullTheTeamB
   picture.setReport(2, far);
   picture.picture(kT0, &ball);
   EXPECT_GT(std::abs(ball.position.x()), 0.007);
+}
+
+// Every BALL_STATE's covariance holds the stamp error's term (fusion's ball.stamp_sigma_s times
+// the velocity, along it) once; the team ball counts it once, not once more.
+TEST(teamcomm_picture, TheStampTermOfARollingBallCountsOnce) {
+  const Eigen::Vector2d v(3.0, 0.0);
+  const double st = PictureOptions{}.ball_stamp_sigma_s;
+  const Eigen::Matrix2d stamp = st * st * v * v.transpose();
+  const auto rolling = [&](double y) {
+    Report r = report(0.0, y, kT0);
+    r.robot.vx = 1.0;  // moving: no static view
+    seeBall(r, 2.0, 0.0, 0.01, v.x(), v.y());
+    r.ball.covariance += stamp;
+    return r;
+  };
+  TeamPicture alone(1);
+  alone.setReport(1, rolling(0.0));
+  TeamBallResult ball;
+  alone.picture(kT0, &ball);
+  // Lone: the reporter's own covariance (9 cm along the velocity), not 13 cm.
+  EXPECT_NEAR(ball.covariance(0, 0), 0.01 * 0.01 + stamp(0, 0), 1e-6);
+  // Two alike: the independent part halves, the common part stays whole.
+  TeamPicture two(1);
+  two.setReport(1, rolling(0.0));
+  two.setReport(2, rolling(1.0));
+  two.picture(kT0, &ball);
+  const double fused_independent = 0.5 * 0.01 * 0.01;
+  EXPECT_NEAR(ball.covariance(0, 0), fused_independent + stamp(0, 0), 0.05 * stamp(0, 0));
+  EXPECT_NEAR(ball.covariance(1, 1), fused_independent, 1e-6);
 }
 
 // twin_kidnap (config/scenarios): robot 3 is carried onto its symmetric twin, keeps its pose by
