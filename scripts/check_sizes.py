@@ -32,7 +32,6 @@ REASON = re.compile(r"^\s*//\s*long:\s*\S")
 KNOWN_LONG_FILES = {
 }
 KNOWN_LONG_FUNCTIONS = {
-    "teamcomm/team_picture.cpp:TeamPicture::picture": "in robust's or tball's room today (fusion, teamcomm, eval)",
 }
 
 

@@ -12,17 +12,6 @@
 namespace fieldline::teamcomm {
 namespace {
 
-struct BallCandidate {
-  int robot_id;
-  Eigen::Vector2d position;
-  Eigen::Vector2d velocity;
-  Eigen::Matrix2d covariance;
-  // Its reporter's pose may be its symmetric twin.
-  bool twin_ambiguous = false;
-  // When its reporter last saw it (our clock).
-  Utime last_seen = 0;
-};
-
 double seconds(Utime us) {
   return static_cast<double>(us) * 1e-6;
 }
@@ -86,100 +75,129 @@ const Report* TeamPicture::report(int robot_id) const {
   return r ? &*r : nullptr;
 }
 
-perception::TeamState TeamPicture::picture(Utime now, TeamBallResult* team_ball) {
-  perception::TeamState s;
-  s.utime = now;
-  std::vector<BallCandidate> candidates;
-  for (int i = 0; i < perception::kTeamSize; ++i) {
-    const auto& report = reports_[static_cast<std::size_t>(i)];
-    perception::TeammateState& out = s.robots[static_cast<std::size_t>(i)];
-    if (!report) continue;
-    out.present = now - report->received_utime <= options_.present_timeout_us;
-    if (!out.present) continue;
-    const perception::RobotEstimate& robot = report->robot;
-    out.robot_age_us = now - robot.utime;
-    const double dt = seconds(std::clamp<Utime>(out.robot_age_us, 0, options_.max_prediction_us));
-    out.x = robot.pose.x + robot.vx * dt;
-    out.y = robot.pose.y + robot.vy * dt;
-    out.phi = geometry::normalizeAngle(robot.pose.phi + robot.omega * dt);
-    const double grown = options_.robot_speed_sigma_mps * dt;
-    out.twin_ambiguous = robot.twin_ambiguous;
-    out.sigma_xy = static_cast<float>(std::sqrt(
-        std::max(0.0, 0.5 * (robot.covariance(0, 0) + robot.covariance(1, 1))) + grown * grown));
+namespace {
 
-    const perception::BallEstimate& ball = report->ball;
-    const Utime ball_age = now - ball.last_seen_utime;
-    // A ball in the field frame is only as good as the pose it was placed with. (A pose flagged
-    // as possibly its symmetric twin still gives its ball: at start-up every robot is, and the
-    // team confirms the poses with each other's balls; fusion's twin vote weighs the flag.)
-    const bool localized = robot.status == perception::LocalizationStatus::kTracking;
-    if (!ball.valid || !localized || ball_age > options_.ball_timeout_us) continue;
-    out.ball_valid = true;
-    out.ball_age_us = ball_age;
-    const double ball_dt =
-        seconds(std::clamp<Utime>(now - ball.utime, 0, options_.max_prediction_us));
-    out.ball_x = ball.x + ball.vx * ball_dt;
-    out.ball_y = ball.y + ball.vy * ball_dt;
-    BallCandidate c{i + 1,           {out.ball_x, out.ball_y}, {ball.vx, ball.vy},
-                    ball.covariance, robot.twin_ambiguous,     ball.last_seen_utime};
-    const bool resting = std::hypot(ball.vx, ball.vy) < options_.ball_rest_speed_mps;
-    const double grown_ball =
-        (resting ? options_.ball_rest_speed_sigma_mps : options_.ball_speed_sigma_mps) * ball_dt;
-    c.covariance += Eigen::Matrix2d::Identity() * (grown_ball * grown_ball);
-    // The reporter's pose uncertainty is in the ball's covariance already: fusion's ball filter
-    // carries it into the field frame with every sighting (position, and heading times the
-    // distance). Adding it here again made the team ball worse (replays of four recorded
-    // scenarios, docs/teamcomm.md "Team ball").
-    c.covariance = 0.5 * (c.covariance + c.covariance.transpose()).eval();
-    c.covariance(0, 0) = std::max(c.covariance(0, 0), options_.min_ball_variance);
-    c.covariance(1, 1) = std::max(c.covariance(1, 1), options_.min_ball_variance);
-    if (c.covariance.determinant() <= 0.0) {
-      c.covariance = Eigen::Matrix2d::Identity() * std::max(c.covariance(0, 0), c.covariance(1, 1));
-    }
-    candidates.push_back(c);
+// Whether `c` lies at the mirror image of the track (through the centre spot) and not at it.
+bool atMirrorImageOf(const BallCandidate& c, const BallCandidate& track, double gate_chi2) {
+  return mahalanobis2(-c.position, c.covariance, track.position, track.covariance) <= gate_chi2 &&
+         mahalanobis2(c.position, c.covariance, track.position, track.covariance) > gate_chi2;
+}
+
+}  // namespace
+
+std::optional<BallCandidate> TeamPicture::updateTeammate(const Report& report, Utime now,
+                                                         perception::TeammateState& out) const {
+  out.present = now - report.received_utime <= options_.present_timeout_us;
+  if (!out.present) return std::nullopt;
+  const perception::RobotEstimate& robot = report.robot;
+  out.robot_age_us = now - robot.utime;
+  const double dt = seconds(std::clamp<Utime>(out.robot_age_us, 0, options_.max_prediction_us));
+  out.x = robot.pose.x + robot.vx * dt;
+  out.y = robot.pose.y + robot.vy * dt;
+  out.phi = geometry::normalizeAngle(robot.pose.phi + robot.omega * dt);
+  const double grown = options_.robot_speed_sigma_mps * dt;
+  out.twin_ambiguous = robot.twin_ambiguous;
+  out.sigma_xy = static_cast<float>(std::sqrt(
+      std::max(0.0, 0.5 * (robot.covariance(0, 0) + robot.covariance(1, 1))) + grown * grown));
+
+  const perception::BallEstimate& ball = report.ball;
+  const Utime ball_age = now - ball.last_seen_utime;
+  // A ball in the field frame is only as good as the pose it was placed with. (A pose flagged
+  // as possibly its symmetric twin still gives its ball: at start-up every robot is, and the
+  // team confirms the poses with each other's balls; fusion's twin vote weighs the flag.)
+  const bool localized = robot.status == perception::LocalizationStatus::kTracking;
+  if (!ball.valid || !localized || ball_age > options_.ball_timeout_us) return std::nullopt;
+  out.ball_valid = true;
+  out.ball_age_us = ball_age;
+  const double ball_dt =
+      seconds(std::clamp<Utime>(now - ball.utime, 0, options_.max_prediction_us));
+  out.ball_x = ball.x + ball.vx * ball_dt;
+  out.ball_y = ball.y + ball.vy * ball_dt;
+  return ballCandidate(report, {out.ball_x, out.ball_y}, {out.x, out.y}, ball_dt);
+}
+
+BallCandidate TeamPicture::ballCandidate(const Report& report, const Eigen::Vector2d& position,
+                                         const Eigen::Vector2d& reporter, double ball_dt) const {
+  const perception::BallEstimate& ball = report.ball;
+  BallCandidate c{0,
+                  position,
+                  {ball.vx, ball.vy},
+                  ball.covariance,
+                  report.robot.twin_ambiguous,
+                  ball.last_seen_utime};
+  const bool resting = std::hypot(ball.vx, ball.vy) < options_.ball_rest_speed_mps;
+  const double grown_ball =
+      (resting ? options_.ball_rest_speed_sigma_mps : options_.ball_speed_sigma_mps) * ball_dt;
+  c.covariance += Eigen::Matrix2d::Identity() * (grown_ball * grown_ball);
+  // The bias a static view keeps along its line of sight (PictureOptions).
+  const Eigen::Vector2d line_of_sight = position - reporter;
+  const perception::RobotEstimate& robot = report.robot;
+  const bool static_view = resting && std::hypot(robot.vx, robot.vy) < options_.static_speed_mps &&
+                           std::abs(robot.omega) < options_.static_turn_radps;
+  if (static_view && options_.ball_radial_floor_per_m2 > 0.0 && line_of_sight.norm() > 0.0) {
+    const Eigen::Vector2d along = line_of_sight.normalized();
+    const double floor = options_.ball_radial_floor_per_m2 * line_of_sight.squaredNorm();
+    const double radial = along.dot(c.covariance * along);
+    if (radial < floor * floor)
+      c.covariance += (floor * floor - radial) * along * along.transpose();
   }
+  // The reporter's pose uncertainty is in the ball's covariance already: fusion's ball filter
+  // carries it into the field frame with every sighting (position, and heading times the
+  // distance). Adding it here again made the team ball worse (replays of four recorded
+  // scenarios, docs/teamcomm.md "Team ball").
+  c.covariance = 0.5 * (c.covariance + c.covariance.transpose()).eval();
+  c.covariance(0, 0) = std::max(c.covariance(0, 0), options_.min_ball_variance);
+  c.covariance(1, 1) = std::max(c.covariance(1, 1), options_.min_ball_variance);
+  if (c.covariance.determinant() <= 0.0) {
+    c.covariance = Eigen::Matrix2d::Identity() * std::max(c.covariance(0, 0), c.covariance(1, 1));
+  }
+  return c;
+}
 
-  // Balls contradicted by a sighting made well after their own last one: the ball has moved
-  // since (kicked, put back), their reporters have not seen it since. Left out before grouping,
-  // so that two stale reporters cannot outvote the one that sees where the ball is now.
+// Balls contradicted by a sighting made well after their own last one: the ball has moved since
+// (kicked, put back), their reporters have not seen it since. Left out before grouping, so that
+// two stale reporters cannot outvote the one that sees where the ball is now.
+std::vector<int> TeamPicture::leaveOutSuperseded(std::vector<BallCandidate>& candidates) const {
   std::vector<int> superseded;
-  if (options_.superseded_after_us > 0) {
-    std::vector<BallCandidate> current;
-    const double max_variance = options_.supersede_max_sigma_m * options_.supersede_max_sigma_m;
-    for (const BallCandidate& c : candidates) {
-      const bool stale = std::any_of(candidates.begin(), candidates.end(), [&](const auto& d) {
-        const bool confident = d.covariance.eigenvalues().real().maxCoeff() <= max_variance;
-        return confident && d.last_seen - c.last_seen > options_.superseded_after_us &&
-               mahalanobis2(c, d) > options_.gate_chi2;
-      });
-      if (stale) {
-        superseded.push_back(c.robot_id);
-      } else {
-        current.push_back(c);
-      }
+  if (options_.superseded_after_us <= 0) return superseded;
+  std::vector<BallCandidate> current;
+  const double max_variance = options_.supersede_max_sigma_m * options_.supersede_max_sigma_m;
+  for (const BallCandidate& c : candidates) {
+    const bool stale = std::any_of(candidates.begin(), candidates.end(), [&](const auto& d) {
+      const bool confident = d.covariance.eigenvalues().real().maxCoeff() <= max_variance;
+      return confident && d.last_seen - c.last_seen > options_.superseded_after_us &&
+             mahalanobis2(c, d) > options_.gate_chi2;
+    });
+    if (stale) {
+      superseded.push_back(c.robot_id);
+    } else {
+      current.push_back(c);
     }
-    candidates = std::move(current);
   }
+  candidates = std::move(current);
+  return superseded;
+}
 
-  // The previous team ball carried to now, while it is recent enough to judge by.
-  std::optional<BallCandidate> track;
-  if (track_ && now >= track_->utime && now - track_->utime <= options_.track_timeout_us) {
-    const double dt = seconds(std::min<Utime>(now - track_->utime, options_.max_prediction_us));
-    const double grown = options_.ball_speed_sigma_mps * dt;
-    track = BallCandidate{0, track_->position + track_->velocity * dt, track_->velocity,
-                          track_->covariance + Eigen::Matrix2d::Identity() * (grown * grown)};
+std::optional<BallCandidate> TeamPicture::trackAt(Utime now) const {
+  if (!track_ || now < track_->utime || now - track_->utime > options_.track_timeout_us) {
+    return std::nullopt;
   }
+  const double dt = seconds(std::min<Utime>(now - track_->utime, options_.max_prediction_us));
+  const double grown = options_.ball_speed_sigma_mps * dt;
+  return BallCandidate{0, track_->position + track_->velocity * dt, track_->velocity,
+                       track_->covariance + Eigen::Matrix2d::Identity() * (grown * grown)};
+}
+
+// Every group that agrees with one of its members. The largest wins; among equal ones, the one
+// that continues the previous team ball, then the one with fewer reporters whose pose may be its
+// twin, then the one whose fused covariance is smallest.
+TeamPicture::Choice TeamPicture::largestConsistentGroup(
+    const std::vector<BallCandidate>& candidates, const std::optional<BallCandidate>& track) const {
   const auto agreesWithTrack = [&](const TeamBallResult& r) {
     return track && mahalanobis2(r.position, r.covariance, track->position, track->covariance) <=
                         options_.gate_chi2;
   };
-
-  // Every group that agrees with one of its members. The largest wins; among equal ones, the one
-  // that continues the previous team ball, then the one with fewer reporters whose pose may be
-  // its twin, then the one whose fused covariance is smallest.
-  TeamBallResult best;
-  std::size_t best_size = 0;
-  bool best_continues = false;
+  Choice best;
   int best_ambiguous = 0;
   for (const BallCandidate& seed : candidates) {
     std::vector<const BallCandidate*> members;
@@ -193,31 +211,32 @@ perception::TeamState TeamPicture::picture(Utime now, TeamBallResult* team_ball)
     TeamBallResult fused = fuse(members);
     const bool continues = agreesWithTrack(fused);
     const auto rank = std::make_tuple(members.size(), continues, -ambiguous);
-    const auto best_rank = std::make_tuple(best_size, best_continues, -best_ambiguous);
+    const auto best_rank = std::make_tuple(best.size, best.continues, -best_ambiguous);
     if (rank > best_rank ||
-        (rank == best_rank && fused.covariance.trace() < best.covariance.trace())) {
-      best = std::move(fused);
-      best_size = members.size();
-      best_continues = continues;
+        (rank == best_rank && fused.covariance.trace() < best.ball.covariance.trace())) {
+      best.ball = std::move(fused);
+      best.size = members.size();
+      best.continues = continues;
       best_ambiguous = ambiguous;
     }
   }
-  // A lone group that lies at the mirror image of the previous team ball and not at it: its
-  // reporters are on their twins (a kidnap continuity cannot resolve); none of it is used.
-  bool mirrored = false;
-  if (best.valid && best_size == 1 && track && !best_continues &&
-      mahalanobis2(-best.position, best.covariance, track->position, track->covariance) <=
-          options_.gate_chi2) {
-    mirrored = true;
-  }
+  return best;
+}
+
+// A lone group that lies at the mirror image of the previous team ball and not at it: its
+// reporters are on their twins (a kidnap continuity cannot resolve); none of it is used.
+// Every candidate not used is rejected (and said to be mirrored when it lies at the mirror image).
+void TeamPicture::rejectTheOthers(Choice& choice, const std::vector<BallCandidate>& candidates,
+                                  const std::optional<BallCandidate>& track,
+                                  const std::vector<int>& superseded) const {
+  TeamBallResult& best = choice.ball;
+  const bool mirrored = best.valid && choice.size == 1 && track && !choice.continues &&
+                        mahalanobis2(-best.position, best.covariance, track->position,
+                                     track->covariance) <= options_.gate_chi2;
   for (const BallCandidate& c : candidates) {
     if (mirrored || std::find(best.used.begin(), best.used.end(), c.robot_id) == best.used.end()) {
       best.rejected.push_back(c.robot_id);
-      if (track &&
-          mahalanobis2(-c.position, c.covariance, track->position, track->covariance) <=
-              options_.gate_chi2 &&
-          mahalanobis2(c.position, c.covariance, track->position, track->covariance) >
-              options_.gate_chi2) {
+      if (track && atMirrorImageOf(c, *track, options_.gate_chi2)) {
         best.mirrored.push_back(c.robot_id);
       }
     }
@@ -231,16 +250,35 @@ perception::TeamState TeamPicture::picture(Utime now, TeamBallResult* team_ball)
     best.valid = false;
     best.used.clear();
   }
+}
+
+perception::TeamState TeamPicture::picture(Utime now, TeamBallResult* team_ball) {
+  perception::TeamState s;
+  s.utime = now;
+  std::vector<BallCandidate> candidates;
+  for (int i = 0; i < perception::kTeamSize; ++i) {
+    const auto& report = reports_[static_cast<std::size_t>(i)];
+    if (!report) continue;
+    auto candidate = updateTeammate(*report, now, s.robots[static_cast<std::size_t>(i)]);
+    if (!candidate) continue;
+    candidate->robot_id = i + 1;
+    candidates.push_back(*candidate);
+  }
+  const std::vector<int> superseded = leaveOutSuperseded(candidates);
+  const std::optional<BallCandidate> track = trackAt(now);
+  Choice choice = largestConsistentGroup(candidates, track);
+  rejectTheOthers(choice, candidates, track, superseded);
+  TeamBallResult& best = choice.ball;
   if (best.valid) {
-    // The reporters' stamp errors are common to them: fusing does not shrink that part.
+    // The reporters' stamp errors are common to them: fusing does not shrink that part. Each
+    // BALL_STATE carries it once (fusion's ball.stamp_sigma_s), fusing n of them leaves 1/n of
+    // it: the rest is added back, so that it counts once (it was added whole until 2026-12-06,
+    // twice for a lone reporter: base-match's replay NEES in band 0.767 -> 0.786).
     const double st2 = options_.ball_stamp_sigma_s * options_.ball_stamp_sigma_s;
-    best.covariance += st2 * best.velocity * best.velocity.transpose();
-  }
-  if (best.valid) {
+    const double n = static_cast<double>(best.used.size());
+    best.covariance += (1.0 - 1.0 / n) * st2 * best.velocity * best.velocity.transpose();
     track_ = Track{now, best.position, best.velocity, best.covariance};
-  }
-  s.team_ball_valid = best.valid;
-  if (best.valid) {
+    s.team_ball_valid = true;
     s.team_ball_x = best.position.x();
     s.team_ball_y = best.position.y();
     s.team_ball_vx = best.velocity.x();

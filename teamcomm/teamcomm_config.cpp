@@ -135,6 +135,8 @@ TeamcommConfig loadTeamcommConfig(const config::Node& root) {
     c.node.picture.gate_chi2 = p->getOr<double>("gate_chi2", 9.21, 1.0, 100.0);
     c.node.picture.superseded_after_us =
         seconds(p->getOr<double>("superseded_after_s", 0.09, 0.0, 1.0));
+    c.node.picture.ball_radial_floor_per_m2 =
+        p->getOr<double>("ball_radial_floor_per_m2", 0.0015, 0.0, 0.1);
     p->rejectUnknownKeys();
   }
   t.rejectUnknownKeys();

@@ -24,9 +24,12 @@
 
 #include "common/bus/log_file.hpp"
 #include "common/msg/estimates.hpp"
+#include "common/time/offset_clock.hpp"
 #include "teamcomm/team_picture.hpp"
 #include "tools/eval/evaluation.hpp"
 #include "tools/eval/sim_truth.hpp"
+#include "tools/eval/team_ball.hpp"
+#include "tools/recording/clock_model.hpp"
 
 using namespace fieldline;
 
@@ -96,7 +99,7 @@ struct ReplayOptions {
   double max_send_rate_hz = 30.0;
   teamcomm::PictureOptions picture;
   double max_prediction_s = 0.5;
-  double superseded_after_s = 0.1;
+  double superseded_after_s = 0.09;  // config/team/sim_team.yaml
   std::string csv_path, sightings_path, pictures_path;
 
   void addTo(CLI::App& app) {
@@ -126,6 +129,9 @@ struct ReplayOptions {
     app.add_option(
            "--superseded-after", superseded_after_s,
            "A ball seen this much longer ago than a contradicting one is left out, s (0: off)")
+        ->capture_default_str();
+    app.add_option("--radial-floor", picture.ball_radial_floor_per_m2,
+                   "Floor of a ball's sigma along the line of sight per squared metre of range")
         ->capture_default_str();
     app.add_option("--min-ball-variance", picture.min_ball_variance,
                    "Floor of a ball's position variance, m^2")
@@ -195,6 +201,11 @@ std::map<int, RobotLog> readRobotLogs(const std::string& dir,
   for (int id = 1; id <= perception::kTeamSize; ++id) {
     const std::string path = dir + "/robot" + std::to_string(id) + ".lcm";
     if (!std::filesystem::exists(path) || std::filesystem::file_size(path) == 0) continue;
+    // The robot's stamps on the recorder's (the truth's) clock: a recording of robots on their
+    // own clocks (sim_team's offsets of +-0.5 s) is otherwise scored against the wrong truth.
+    ClockError clock;
+    if (const auto models = recording::estimateClocks(path); models.count(id) > 0)
+      clock = models.at(id).error;
     bus::LogReader log(path);
     bus::LogEvent e;
     RobotLog& r = logs[id];
@@ -203,15 +214,22 @@ std::map<int, RobotLog> readRobotLogs(const std::string& dir,
       if (e.channel == bus::channels::kRobotState.name) {
         robot_state_t m;
         if (m.decode(e.data.data(), 0, size) != size) continue;
-        r.robots.push_back({e.timestamp, msg::fromMessage(m), {}});
+        perception::RobotEstimate robot = msg::fromMessage(m);
+        robot.utime = ownToTruth(clock, robot.utime);
+        r.robots.push_back({e.timestamp, robot, {}});
       } else if (sightings && e.channel == bus::channels::kVisionBall.name) {
         ball_observation_t m;
         if (m.decode(e.data.data(), 0, size) != size) continue;
-        writeSighting(sightings, truth, id, msg::fromMessage(m));
+        perception::BallSighting sighting = msg::fromMessage(m);
+        sighting.utime = ownToTruth(clock, sighting.utime);
+        writeSighting(sightings, truth, id, sighting);
       } else if (e.channel == bus::channels::kBallState.name) {
         ball_state_t m;
         if (m.decode(e.data.data(), 0, size) != size) continue;
-        r.balls.push_back({e.timestamp, {}, msg::fromMessage(m)});
+        perception::BallEstimate ball = msg::fromMessage(m);
+        ball.utime = ownToTruth(clock, ball.utime);
+        ball.last_seen_utime = ownToTruth(clock, ball.last_seen_utime);
+        r.balls.push_back({e.timestamp, {}, ball});
       }
     }
   }
@@ -345,6 +363,8 @@ std::map<int, std::vector<Utime>> sendTimes(const ReplayOptions& o,
 struct TeamTally {
   Score team;
   std::size_t used_total = 0, rejected_total = 0, valid_pictures = 0, pictures = 0;
+  // Every picture as fieldline-eval reads TEAM_STATE (its team-ball line scores them).
+  std::vector<eval::TeamSample> samples;
 };
 
 // Replays one observer's team link: its picture's reports at `now`.
@@ -458,6 +478,18 @@ TeamTally replayTeamBall(const ReplayOptions& o, const std::map<int, RobotLog>& 
       replay.setReports(now);
       teamcomm::TeamBallResult result;
       const perception::TeamState state = replay.picture().picture(now, &result);
+      eval::TeamSample sample;
+      sample.robot = observer;
+      sample.utime = now;
+      sample.team_ball_valid = result.valid;
+      sample.team_ball_x = result.position.x();
+      sample.team_ball_y = result.position.y();
+      sample.team_ball_covariance = result.covariance;
+      for (std::size_t i = 0; i < sample.sees.size(); ++i) {
+        const perception::TeammateState& m = state.robots[i];
+        sample.sees[i] = m.ball_valid && m.ball_age_us <= eval::TeamBallOptions{}.seen_window_us;
+      }
+      tally.samples.push_back(sample);
       if (now < span.scored_from) continue;
       ++tally.pictures;
       if (!result.valid) continue;
@@ -550,6 +582,14 @@ int main(int argc, char** argv) {
     const TeamTally tally = replayTeamBall(o, logs, truth, span, pictures_csv);
     if (pictures_csv) std::fclose(pictures_csv);
     printScores(own, tally);
+    // The same pictures as fieldline-eval scores its TEAM_STATEs (its settle, put-back rules).
+    std::vector<eval::BallSample> balls;
+    for (const auto& [id, r] : logs) {
+      for (const Timed& b : r.balls)
+        balls.push_back({id, b.ball.utime, b.ball.valid, b.ball.x, b.ball.y, b.ball.covariance});
+    }
+    std::printf("fieldline-eval: %s\n",
+                eval::teamBallLine(eval::evaluateTeamBall(truth, balls, tally.samples)).c_str());
     return 0;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "fieldline-team-ball-replay: %s\n", e.what());

@@ -78,13 +78,15 @@ bool truthAt(const std::vector<TruthSample>& truth, Utime t, int robot, TruthRob
   // ball is where the earlier sample has it until the later one shows it elsewhere. Interpolated,
   // an estimate stamped just before the later sample was scored against a point metres from
   // either place (a live match: one team ball 5.4 m off, 14 of a robot's 17 cm).
-  const double seconds = static_cast<double>(b.utime - a.utime) * 1e-6;
-  const bool put_back =
-      std::hypot(b.ball_x - a.ball_x, b.ball_y - a.ball_y) > kMaxBallSpeedMps * seconds;
-  const double wb = put_back ? (t < b.utime ? 0.0 : 1.0) : w;
+  const double wb = isPutBack(a, b) ? (t < b.utime ? 0.0 : 1.0) : w;
   if (ball_x) *ball_x = a.ball_x + (b.ball_x - a.ball_x) * wb;
   if (ball_y) *ball_y = a.ball_y + (b.ball_y - a.ball_y) * wb;
   return true;
+}
+
+bool isPutBack(const TruthSample& a, const TruthSample& b) {
+  const double seconds = static_cast<double>(b.utime - a.utime) * 1e-6;
+  return std::hypot(b.ball_x - a.ball_x, b.ball_y - a.ball_y) > kMaxBallSpeedMps * seconds;
 }
 
 namespace {

@@ -106,6 +106,10 @@ double percentile(std::vector<double> v, double q);
 bool truthAt(const std::vector<TruthSample>& truth, Utime t, int robot, TruthRobot& out,
              double* ball_x = nullptr, double* ball_y = nullptr);
 
+// Whether the ball jumped from `a` to `b` (consecutive truth samples) faster than any kick: a
+// put-back (the scenario placed it elsewhere).
+bool isPutBack(const TruthSample& a, const TruthSample& b);
+
 // `first_lines` (optional): per robot, the utime of its first VISION_LINES frame, from which
 // tracking_after_vision_s is measured.
 Summary evaluate(const std::vector<TruthSample>& truth, std::vector<StateSample> states,

@@ -33,12 +33,28 @@ bool ballAt(const std::vector<TruthSample>& truth, Utime t, double& x, double& y
   return truthAt(truth, t, truth.front().robots.begin()->first, unused, &x, &y);
 }
 
+// When the truth shows each put-back (the first sample with the ball at its new place).
+std::vector<Utime> putBackTimes(const std::vector<TruthSample>& truth) {
+  std::vector<Utime> times;
+  for (std::size_t i = 1; i < truth.size(); ++i) {
+    if (isPutBack(truth[i - 1], truth[i])) times.push_back(truth[i].utime);
+  }
+  return times;
+}
+
+// Whether `t` lies in the blind time after a put-back (TeamBallOptions::put_back_blind_us).
+bool justAfterPutBack(const std::vector<Utime>& put_backs, Utime t, Utime blind_us) {
+  return std::any_of(put_backs.begin(), put_backs.end(),
+                     [&](Utime p) { return t >= p && t - p < blind_us; });
+}
+
 // Every robot's TEAM_STATEs (sorted, valid team ball, after `start`) paired with its newest own
 // BALL_STATE at most pair_window_us before: both errors on the same instants (TeamBallSummary
 // `paired`), and the verdict against every robot with enough pairs.
 void pairOwnWithTeam(const std::vector<TruthSample>& truth, const std::vector<BallSample>& balls,
                      const std::vector<TeamSample>& teams, Utime start,
-                     const TeamBallOptions& options, TeamBallSummary& s) {
+                     const std::vector<Utime>& put_backs, const TeamBallOptions& options,
+                     TeamBallSummary& s) {
   std::map<int, std::vector<const BallSample*>> own;
   for (const BallSample& b : balls)
     own[b.robot].push_back(&b);
@@ -49,6 +65,7 @@ void pairOwnWithTeam(const std::vector<TruthSample>& truth, const std::vector<Ba
   std::map<int, std::pair<double, double>> sums;  // (own, team)
   for (const TeamSample& t : teams) {
     if (t.utime < start || !t.team_ball_valid) continue;
+    if (justAfterPutBack(put_backs, t.utime, options.put_back_blind_us)) continue;
     const auto found = own.find(t.robot);
     if (found == own.end()) continue;
     const auto& v = found->second;
@@ -57,6 +74,7 @@ void pairOwnWithTeam(const std::vector<TruthSample>& truth, const std::vector<Ba
     if (it == v.begin()) continue;
     const BallSample& b = **std::prev(it);
     if (!b.valid || t.utime - b.utime > options.pair_window_us) continue;
+    if (justAfterPutBack(put_backs, b.utime, options.put_back_blind_us)) continue;
     double tx = 0, ty = 0, bx = 0, by = 0;
     if (!ballAt(truth, t.utime, tx, ty) || !ballAt(truth, b.utime, bx, by)) continue;
     const double own_error = std::hypot(b.x - bx, b.y - by);
@@ -85,8 +103,9 @@ namespace {
 
 // Every robot's TEAM_STATE team ball (valid, from `start`): mean error and NEES shares.
 void scoreTeamBalls(const std::vector<TruthSample>& truth, const std::vector<TeamSample>& teams,
-                    Utime start, TeamBallSummary& s) {
-  double sum = 0;
+                    Utime start, const std::vector<Utime>& put_backs,
+                    const TeamBallOptions& options, TeamBallSummary& s) {
+  double sum = 0, sum_after_put_backs = 0;
   std::size_t nees_n = 0, nees_in = 0, nees_below = 0;
   double nees_sum = 0;
   for (const TeamSample& t : teams) {
@@ -94,6 +113,11 @@ void scoreTeamBalls(const std::vector<TruthSample>& truth, const std::vector<Tea
     double bx = 0, by = 0;
     if (!ballAt(truth, t.utime, bx, by)) continue;
     const Eigen::Vector2d error(t.team_ball_x - bx, t.team_ball_y - by);
+    if (justAfterPutBack(put_backs, t.utime, options.put_back_blind_us)) {
+      sum_after_put_backs += error.norm();
+      ++s.team_samples_after_put_backs;
+      continue;
+    }
     sum += error.norm();
     ++s.team_samples;
     if (const auto n = nees2(error, t.team_ball_covariance)) {
@@ -104,6 +128,10 @@ void scoreTeamBalls(const std::vector<TruthSample>& truth, const std::vector<Tea
     }
   }
   if (s.team_samples > 0) s.team_ball_mean_m = sum / static_cast<double>(s.team_samples);
+  const std::size_t all = s.team_samples + s.team_samples_after_put_backs;
+  if (all > 0) {
+    s.team_ball_mean_with_put_backs_m = (sum + sum_after_put_backs) / static_cast<double>(all);
+  }
   if (nees_n > 0) {
     s.team_ball_nees_in_band = static_cast<double>(nees_in) / static_cast<double>(nees_n);
     s.team_ball_nees_mean = nees_sum / static_cast<double>(nees_n);
@@ -114,13 +142,18 @@ void scoreTeamBalls(const std::vector<TruthSample>& truth, const std::vector<Tea
 
 // Every robot's own ball (valid, from `start` to `end`): mean error, NEES share, the best robot.
 void scoreOwnBalls(const std::vector<TruthSample>& truth, const std::vector<BallSample>& balls,
-                   Utime start, Utime end, const TeamBallOptions& options, TeamBallSummary& s) {
+                   Utime start, Utime end, const std::vector<Utime>& put_backs,
+                   const TeamBallOptions& options, TeamBallSummary& s) {
   std::map<int, double> own_sum;
   std::map<int, std::pair<std::size_t, std::size_t>> own_nees;  // (in band, with a covariance)
   for (const BallSample& b : balls) {
     if (!b.valid || b.utime < start || b.utime > end) continue;
     double bx = 0, by = 0;
     if (!ballAt(truth, b.utime, bx, by)) continue;
+    if (justAfterPutBack(put_backs, b.utime, options.put_back_blind_us)) {
+      ++s.own_samples_after_put_backs;
+      continue;
+    }
     const Eigen::Vector2d error(b.x - bx, b.y - by);
     own_sum[b.robot] += error.norm();
     ++s.own_ball_samples[b.robot];
@@ -197,9 +230,14 @@ TeamBallSummary evaluateTeamBall(const std::vector<TruthSample>& truth,
             [](const TeamSample& a, const TeamSample& b) { return a.utime < b.utime; });
   const Utime start = teams.front().utime + static_cast<Utime>(options.settle_s * 1e6);
   const Utime end = std::min(teams.back().utime, truth.back().utime);
-  scoreTeamBalls(truth, teams, start, s);
-  scoreOwnBalls(truth, balls, start, end, options, s);
-  pairOwnWithTeam(truth, balls, teams, start, options, s);
+  std::vector<Utime> put_backs = putBackTimes(truth);
+  std::erase_if(put_backs,
+                [&](Utime p) { return p + options.put_back_blind_us <= start || p > end; });
+  s.put_backs = put_backs.size();
+  s.put_back_blind_us = options.put_back_blind_us;
+  scoreTeamBalls(truth, teams, start, put_backs, options, s);
+  scoreOwnBalls(truth, balls, start, end, put_backs, options, s);
+  pairOwnWithTeam(truth, balls, teams, start, put_backs, options, s);
   scoreValidity(teams, start, end, options, s);
   return s;
 }
@@ -219,10 +257,13 @@ std::string teamBallLine(const TeamBallSummary& s) {
       "team_ball_on_best_own_m={:.4f} (own {:.4f} on the same {} instants) "
       "team_ball_worse_than_own={} "
       "team_ball_nees_in_band={:.3f} (below {:.3f}, above {:.3f}) team_ball_valid_share={:.3f} "
-      "({} steps with the ball seen) own_ball_mean_m:{}",
+      "({} steps with the ball seen) put_backs={} (left out {:.2f} s after each: {} team, {} "
+      "own samples; team_ball_mean_m with them {:.4f}) own_ball_mean_m:{}",
       s.team_ball_mean_m, s.best_own_ball_mean_m, s.best_own_robot, s.team_ball_on_best_own_m,
       s.best_own_paired_m, best_pairs, worse.empty() ? "none" : worse, s.team_ball_nees_in_band,
       s.team_ball_nees_below, s.team_ball_nees_above, s.team_ball_valid_share, s.steps_any_sees,
+      s.put_backs, static_cast<double>(s.put_back_blind_us) * 1e-6, s.team_samples_after_put_backs,
+      s.own_samples_after_put_backs, s.team_ball_mean_with_put_backs_m,
       own.empty() ? " none" : own);
 }
 
@@ -233,11 +274,14 @@ std::string teamBallJson(const TeamBallSummary& s) {
       "{:.4f}, \"team_ball_nees_mean\": {:.3f}, \"best_own_robot\": {}, "
       "\"best_own_ball_mean_m\": {:.5f}, \"steps_any_sees\": {}, \"team_ball_valid_share\": "
       "{:.4f}, \"team_ball_nees_below\": {:.4f}, \"team_ball_nees_above\": {:.4f}, "
-      "\"team_ball_on_best_own_m\": {:.5f}, \"best_own_paired_m\": {:.5f},\n",
+      "\"team_ball_on_best_own_m\": {:.5f}, \"best_own_paired_m\": {:.5f}, \"put_backs\": {}, "
+      "\"team_samples_after_put_backs\": {}, \"own_samples_after_put_backs\": {}, "
+      "\"team_ball_mean_with_put_backs_m\": {:.5f},\n",
       s.team_samples, s.team_ball_mean_m, s.team_ball_nees_in_band, s.team_ball_nees_mean,
       s.best_own_robot, s.best_own_ball_mean_m, s.steps_any_sees, s.team_ball_valid_share,
       s.team_ball_nees_below, s.team_ball_nees_above, s.team_ball_on_best_own_m,
-      s.best_own_paired_m);
+      s.best_own_paired_m, s.put_backs, s.team_samples_after_put_backs,
+      s.own_samples_after_put_backs, s.team_ball_mean_with_put_backs_m);
   const auto map = [&o](const char* name, const auto& m, bool last) {
     o << "  \"" << name << "\": {";
     bool first = true;

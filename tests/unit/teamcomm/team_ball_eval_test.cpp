@@ -161,5 +161,42 @@ TEST(teamcomm_team_ball_eval, APutBackIsNotInterpolated) {
   EXPECT_NEAR(bx, 5.0, 1e-9);
 }
 
+TEST(teamcomm_team_ball_eval, ThePutBacksBlindTimeIsNotScored) {
+  Samples r = makeSamples();
+  // The scenario puts the ball from (1, 0) to (4, 0) at 12 s. Every estimate holds the old place
+  // until 12.1 s (no camera frame of the new place has come through yet), then has the new one.
+  constexpr Utime kPutBack = kT0 + 12'000'000;
+  for (TruthSample& t : r.truth) {
+    if (t.utime >= kPutBack) t.ball_x = 4.0;
+  }
+  const auto place = [](Utime t, double error) {
+    return (t < kPutBack + 100'000 ? 1.0 : 4.0) + error;
+  };
+  const double own_error[] = {0.0, 0.02, 0.05, 0.30};
+  for (BallSample& b : r.balls)
+    b.x = place(b.utime, own_error[b.robot]);
+  for (TeamSample& t : r.teams)
+    t.team_ball_x = place(t.utime, 0.01);
+  const TeamBallSummary s = evaluateTeamBall(r.truth, r.balls, r.teams);
+  // Left out: the three TEAM_STATEs at 12.00x s (2.99 m off) and the three at 12.10x s (in place),
+  // and the own balls stamped in those 150 ms; the rest as without the put-back.
+  EXPECT_EQ(s.put_backs, 1u);
+  EXPECT_EQ(s.team_samples_after_put_backs, 6u);
+  EXPECT_EQ(s.own_samples_after_put_backs, 12u);
+  EXPECT_NEAR(s.team_ball_mean_m, 0.01, 1e-9);
+  EXPECT_NEAR(s.own_ball_mean_m.at(1), 0.02, 1e-9);
+  const double n = static_cast<double>(s.team_samples);
+  EXPECT_NEAR(s.team_ball_mean_with_put_backs_m, (n * 0.01 + 3 * 2.99 + 3 * 0.01) / (n + 6), 1e-9);
+  EXPECT_EQ(s.best_own_robot, 1);
+  const std::string line = teamBallLine(s);
+  EXPECT_NE(line.find("put_backs=1 (left out 0.15 s after each: 6 team, 12 own samples"),
+            std::string::npos)
+      << line;
+  // Scored throughout (0): the put-back's 3 m count.
+  TeamBallOptions all;
+  all.put_back_blind_us = 0;
+  EXPECT_GT(evaluateTeamBall(r.truth, r.balls, r.teams, all).team_ball_mean_m, 0.025);
+}
+
 }  // namespace
 }  // namespace fieldline::eval
