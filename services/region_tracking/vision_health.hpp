@@ -33,6 +33,7 @@
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "common/camera/colour.hpp"
@@ -142,7 +143,12 @@ class VisionHealth {
     double in_view_m = 0.0, covered_m = 0.0;
   };
   double mean(float FrameFacts::*field) const;
-  FieldFacts fieldFacts(const VisionResult& result, const FramePose& pose) const;
+  // Non-const: fills the reused buffers below.
+  FieldFacts fieldFacts(const VisionResult& result, const FramePose& pose);
+  // Whether field_->distance(p) > reach, for a point p within `range` of the position the
+  // shortlist below was made for (selectNearbyLines).
+  bool fartherThan(const geometry::Vec2& p, double reach) const;
+  void selectNearbyLines(const geometry::Vec2& centre, double range, double reach);
   FieldFacts fieldSum() const;
 
   const camera::ColourTable& table_;
@@ -155,6 +161,10 @@ class VisionHealth {
   // The model's lines, sampled every line_sample_m (field frame).
   std::vector<geometry::Vec2> line_samples_;
   double line_sample_m_ = 0.1;
+  // This frame's field lines that can be near its points (fieldFacts), and its points binned.
+  std::vector<const field::LineSegment*> near_segments_;
+  std::vector<const field::LineArc*> near_arcs_;
+  std::vector<std::pair<int, int>> bins_;
   std::vector<FieldFacts> field_window_;  // ring buffer of line frames
   std::size_t field_next_ = 0;
   std::size_t field_filled_ = 0;

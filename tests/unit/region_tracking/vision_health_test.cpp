@@ -4,9 +4,11 @@
 // the conditions one by one on the frame processor.
 #include "services/region_tracking/vision_health.hpp"
 
+#include <cmath>
 #include <cstdio>
 #include <memory>
 #include <optional>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -283,6 +285,51 @@ TEST(VisionHealth, WithoutFusionsPoseTheFieldChecksSayNothing) {
   }
   EXPECT_EQ(health.posedLineFrames(), 0);
   sim.renderer->realism().setParams({});
+}
+
+// The field checks measure a point's distance only to the field lines within its reach (to save
+// CPU); the share of points off the lines must stay what FieldModel::distance says, also for
+// points exactly at the reach and poses anywhere on the field.
+TEST(VisionHealth, OffLineShareIsWhatTheFieldModelsDistanceSays) {
+  SimCamera& sim = sharedCamera();
+  VisionHealthParams params;
+  params.field_window_frames = 1;
+  params.min_field_points = 1;
+  VisionHealth health(sim.mirror, sim.table, params, &sim.field);
+  camera::SimScene scene;
+  const camera::FrameView view = sim.render(scene);
+  std::mt19937 rng(32);
+  std::uniform_real_distribution<double> across(-1.0, 1.0), unit(0.0, 1.0);
+  VisionResult result;
+  result.lines_detected = true;
+  for (int frame = 0; frame < 300; ++frame) {
+    const geometry::Pose2 pose{10.0 * across(rng), 7.0 * across(rng), 3.2 * across(rng)};
+    const double sigma = 0.3 * unit(rng);
+    const double reach = params.off_line_m + sigma;
+    result.lines.points.clear();
+    int points = 0, off = 0;
+    for (int i = 0; i < 100; ++i) {
+      const double r = params.field_range_m * unit(rng), a = 3.2 * across(rng);
+      geometry::Vec2 robot(r * std::cos(a), r * std::sin(a));
+      if (i % 3 == 0) {
+        // Moved onto the reach around its nearest line, in the robot frame.
+        const geometry::Vec2 p = geometry::pointRobotToField(pose, robot);
+        const field::FieldModel::Closest c = sim.field.closestPoint(p);
+        if (c.distance > 0.0) {
+          robot = geometry::pointFieldToRobot(pose, c.point + (p - c.point) * (reach / c.distance));
+        }
+      }
+      const perception::LinePoint q{0.0f, 0.0f, static_cast<float>(robot.x()),
+                                    static_cast<float>(robot.y())};
+      result.lines.points.push_back(q);
+      const geometry::Vec2 stored(q.x, q.y);
+      if (stored.norm() > params.field_range_m) continue;
+      ++points;
+      if (sim.field.distance(geometry::pointRobotToField(pose, stored)) > reach) ++off;
+    }
+    health.update(view, result, FramePose{pose, sigma});
+    ASSERT_EQ(health.offLineShare(), static_cast<double>(off) / points) << "frame " << frame;
+  }
 }
 
 TEST(VisionHealth, FieldColourBeyondTheFieldAndMissingLinesAreNamed) {
