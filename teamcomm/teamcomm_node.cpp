@@ -163,12 +163,20 @@ Utime TeamcommNode::sendPeriod() const {
 }
 
 void TeamcommNode::onSendTimer() {
+  // Set again even when the send throws (the node counts the error): a one-shot that is not set
+  // again would end the team link's sending for the rest of the run.
+  struct SetAgain {
+    TeamcommNode& self;
+    ~SetAgain() {
+      // Due a send period after the last packet. A ball sent in between makes that later: this
+      // timer then wakes once for nothing and is set again, far fewer wake-ups than polling.
+      const Utime steady = self.node_.clock().monotonicNow();
+      const Utime due = self.last_send_steady_ < 0 ? steady + self.sendPeriod()
+                                                   : self.last_send_steady_ + self.sendPeriod();
+      self.node_.after(std::max<Utime>(0, due - steady), [&s = self] { s.onSendTimer(); });
+    }
+  } set_again{*this};
   maybeSend(false);
-  // Due a send period after the last packet. A ball sent in between makes that later: this timer
-  // then wakes once for nothing and is set again, still far fewer wake-ups than polling.
-  const Utime steady = node_.clock().monotonicNow();
-  node_.after(std::max<Utime>(0, last_send_steady_ + sendPeriod() - steady),
-              [this] { onSendTimer(); });
 }
 
 void TeamcommNode::maybeSend(bool new_ball) {

@@ -128,26 +128,34 @@ int FaultRunner::stepClock(const FaultSpec& spec, FaultRecord& record) {
     return 0;
   }
   ClockError& clock = clock_control_.clocks[spec.robot];
+  const ClockError before = clock;
   clock.offset_us += static_cast<Utime>(std::llround(spec.step_s * 1e6));
-  record.clock_after = clock;
   // Every stepped robot's offset; written whole and renamed, so the launcher never reads half.
   const std::string temporary = clock_control_.path + ".new";
+  bool written = false;
   {
     std::ofstream out(temporary);
     out << "# fieldline-eval's clock steps: ROBOT OFFSET_US\n";
     for (const auto& [robot, error] : clock_control_.clocks)
       out << robot << " " << error.offset_us << "\n";
+    out.flush();
+    written = static_cast<bool>(out);
   }
   std::error_code ec;
-  std::filesystem::rename(temporary, clock_control_.path, ec);
+  if (written) std::filesystem::rename(temporary, clock_control_.path, ec);
   int processes = 0;
   for (const auto& [pid, argv] : launcherChildren(launcher_))
     processes += robotArgument(argv) == spec.robot ? 1 : 0;
-  if (ec || ::kill(launcher_, SIGUSR1) != 0) {
+  if (!written || ec || ::kill(launcher_, SIGUSR1) != 0) {
+    // Not stepped: later steps build on the clock the robot still has.
+    clock = before;
     std::fprintf(stderr, "fault %s: the launcher was not told (%s)\n", spec.text.c_str(),
-                 ec ? ec.message().c_str() : "SIGUSR1 failed");
+                 !written ? ("cannot write " + temporary).c_str()
+                 : ec     ? ec.message().c_str()
+                          : "SIGUSR1 failed");
     return 0;
   }
+  record.clock_after = clock;
   return processes;
 }
 

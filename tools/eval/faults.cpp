@@ -81,11 +81,12 @@ double parseClockStep(std::string& when, const std::string& spec) {
 }
 
 // Per teammate of the stepped robot: seconds from the step to the first TEAM_STATE holding a
-// fresh pose of the stepped robot taken after the step; and the packets refused meanwhile.
+// fresh pose of the stepped robot taken on its new clock; and the packets refused meanwhile.
 void scoreTeamLink(FaultResult& f, const std::vector<TeamLinkSample>& team,
                    const RobustnessOptions& o) {
   const int stepped = f.event.spec.robot;
   const auto k = static_cast<std::size_t>(stepped - 1);
+  const double new_clock_t = f.event.new_clock_t.value_or(f.event.end_t);
   std::map<int, int> rejected_before;
   std::map<int, int> rejected_until;
   for (const TeamLinkSample& s : team) {
@@ -99,7 +100,7 @@ void scoreTeamLink(FaultResult& f, const std::vector<TeamLinkSample>& team,
     if (heard >= 0.0) continue;
     rejected_until[s.robot] = s.rejected[k];
     const double age = s.t - s.pose_t[k];
-    if (s.present[k] && s.pose_t[k] >= f.event.end_t && age <= o.heard_age_s)
+    if (s.present[k] && s.pose_t[k] >= new_clock_t && age <= o.heard_age_s)
       heard = s.t - f.event.end_t;
   }
   for (const auto& [robot, until] : rejected_until)

@@ -10,6 +10,7 @@
 
 #include <array>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -64,6 +65,10 @@ struct FaultEvent {
   double end_t = 0.0;
   // Processes the signal reached (0: the fault found nothing to act on).
   int processes = 0;
+  // Clock steps: the stepped robot's first message on its new clock (its restarted processes),
+  // eval time; a teammate has heard it again only from a pose of then or later (before, its old
+  // processes still send on the old clock). Unset: end_t; infinity: never published.
+  std::optional<double> new_clock_t;
 };
 
 struct RobustnessOptions {

@@ -12,11 +12,14 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <map>
+#include <optional>
 #include <sstream>
 #include <thread>
 
@@ -103,7 +106,8 @@ struct Collector {
   // The true time of `own`, a stamp of a message that `robot` published at `published` (its own
   // clock). After a clock step the robot's messages come on its old clock (its old processes'
   // last ones) or its new one: the clock that puts `published` closest to now is theirs (the
-  // steps are seconds, the bus's latency milliseconds).
+  // steps are seconds, the bus's latency milliseconds). On a tie (a step back to an earlier
+  // clock) the newest step's clock is theirs.
   Utime trueTime(int robot, Utime own, Utime published) const {
     ClockError best = clocks.of(robot);
     const auto stepped = stepped_clocks.find(robot);
@@ -112,11 +116,23 @@ struct Collector {
       const auto distance = [&](const ClockError& c) {
         return std::llabs(ownToTruth(c, published) - now);
       };
-      for (const ClockError& c : stepped->second)
-        if (distance(c) < distance(best)) best = c;
+      Utime best_distance = distance(best);
+      std::optional<std::size_t> best_step;
+      for (std::size_t i = stepped->second.size(); i-- > 0;) {
+        const Utime d = distance(stepped->second[i]);
+        if (d < best_distance || (d == best_distance && !best_step)) {
+          best = stepped->second[i];
+          best_distance = d;
+          best_step = i;
+        }
+      }
+      if (best_step) first_on_new_clock[robot].try_emplace(*best_step, ownToTruth(best, published));
     }
     return ownToTruth(best, own);
   }
+  // Per robot and clock step (its index in stepped_clocks): the true time of the first message
+  // on the new clock, i.e. of the restarted processes.
+  mutable std::map<int, std::map<std::size_t, Utime>> first_on_new_clock;
   // The teammates' TEAM_STATE for the clock steps' scores (faults.hpp); t and pose_t in s since
   // the epoch, true time.
   std::vector<eval::TeamLinkSample> team_link;
@@ -427,6 +443,11 @@ ClockStepWiring clockStepWiring(const std::vector<eval::FaultSpec>& faults,
     if (first) it->second = static_cast<double>(collector.clocks.of(f.robot).offset_us) * 1e-6;
     double& o = it->second;
     o += f.step_s;
+    if (std::fabs(o) > launch::kMaxControlledOffsetS)
+      throw std::invalid_argument(fmt::format(
+          "fault '{}': robot {}'s clock would be {:+.3f} s off the true time (its launch file "
+          "offset and the steps before); the launcher takes at most {} s either way",
+          f.text, f.robot, o, launch::kMaxControlledOffsetS));
     w.ahead_us = std::max(w.ahead_us, static_cast<Utime>(std::llround(o * 1e6)));
   }
   if (offset_s.empty()) return w;
@@ -590,9 +611,19 @@ void reportRobustness(const EvalArgs& a, const Collector& collector, const eval:
   for (const eval::StateSample& s : collector.states)
     t0 = t0 == 0 ? s.utime : std::min(t0, s.utime);
   std::vector<eval::FaultEvent> events;
+  std::map<int, std::size_t> steps_of;  // as noteClockSteps counts them
   for (const eval::FaultRecord& r : collector.faults) {
-    events.push_back({r.spec, static_cast<double>(r.start_utime - t0) * 1e-6,
-                      static_cast<double>(r.end_utime - t0) * 1e-6, r.processes});
+    eval::FaultEvent& e = events.emplace_back();
+    e = {r.spec, static_cast<double>(r.start_utime - t0) * 1e-6,
+         static_cast<double>(r.end_utime - t0) * 1e-6, r.processes};
+    if (r.spec.kind != eval::FaultSpec::Kind::kClockStep || r.processes == 0) continue;
+    const std::size_t step = steps_of[r.spec.robot]++;
+    e.new_clock_t = std::numeric_limits<double>::infinity();
+    if (const auto robot = collector.first_on_new_clock.find(r.spec.robot);
+        robot != collector.first_on_new_clock.end()) {
+      if (const auto first = robot->second.find(step); first != robot->second.end())
+        e.new_clock_t = static_cast<double>(first->second - t0) * 1e-6;
+    }
   }
   std::vector<int> robots;
   for (const auto& [robot, hz] : summary.robot_state_hz)

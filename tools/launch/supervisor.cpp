@@ -327,6 +327,7 @@ void Supervisor::poll(int timeout_ms) {
   auto wake = after(now, std::max(0, timeout_ms) / 1000.0);
   for (const ProcessRecord& r : records_) {
     if (r.state == ProcessState::kWaiting) wake = std::min(wake, r.restart_at);
+    if (r.restart_now && r.pid > 0) wake = std::min(wake, r.restart_kill_at);
   }
   if (stopping_ && !killed_) wake = std::min(wake, kill_deadline_);
 
@@ -353,6 +354,11 @@ void Supervisor::poll(int timeout_ms) {
       if (r.state == ProcessState::kWaiting && now >= r.restart_at) {
         ++r.restarts;
         start(r);
+      } else if (r.restart_now && r.pid > 0 && now >= r.restart_kill_at) {
+        on_event_(fmt::format("{} did not stop within {:.1f} s for its restart: SIGKILL",
+                              r.instance.label(), options_.stop_grace_s));
+        ::killpg(r.pid, SIGKILL);
+        r.restart_kill_at = SteadyClock::time_point::max();  // once
       }
     }
   } else if (!killed_ && now >= kill_deadline_ && runningCount() > 0) {
@@ -395,6 +401,7 @@ int Supervisor::restartRobot(int robot, const std::map<std::string, std::string>
       r.instance.env[key] = value;
     if (r.pid <= 0 || stopping_) continue;
     r.restart_now = true;
+    r.restart_kill_at = after(SteadyClock::now(), options_.stop_grace_s);
     ::killpg(r.pid, SIGTERM);
     ++running;
   }

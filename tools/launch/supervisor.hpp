@@ -80,8 +80,10 @@ struct ProcessRecord {
   std::deque<SteadyClock::time_point> recent_ends;
   // It ended crash_loop.restarts times within crash_loop.window_s and is not restarted again.
   bool crash_loop = false;
-  // Stopped by restartRobot: started again as soon as it ended, not counted as a crash.
+  // Stopped by restartRobot: started again as soon as it ended, not counted as a crash; killed
+  // (SIGKILL) when it has not ended by restart_kill_at (the stop grace period).
   bool restart_now = false;
+  SteadyClock::time_point restart_kill_at{};
   // Read end of the pipe carrying the process's stdout and stderr; -1 when closed.
   int output_fd = -1;
   // Output received after the last newline.

@@ -1,6 +1,7 @@
 // Supervision with real child processes (/bin/sh): output lines, restarts, stop and kill.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <csignal>
 #include <functional>
@@ -76,6 +77,24 @@ TEST_F(SupervisorTest, RestartRobotRestartsItsProcessesAtOnceOnTheNewEnvironment
     EXPECT_EQ(r.backoff.consecutiveFailures(), 0) << r.instance.label();
   }
   s->requestStop();
+  ASSERT_TRUE(pollUntil(*s, [&] { return s->finished(); }));
+}
+
+// A process that ignores SIGTERM is killed after the stop grace period and still restarted on
+// the new environment (a clock step must not leave a robot half on its old clock).
+TEST_F(SupervisorTest, RestartRobotKillsAProcessThatIgnoresTheStop) {
+  auto s = make({shell("stubborn",
+                       "trap '' TERM; echo offset=${FIELDLINE_CLOCK_OFFSET_US:-0}; "
+                       "while :; do sleep 0.05; done")});
+  s->startAll();
+  ASSERT_TRUE(pollUntil(*s, [&] { return lines.size() == 1; }));
+  EXPECT_EQ(s->restartRobot(1, {{"FIELDLINE_CLOCK_OFFSET_US", "-2000000"}}), 1);
+  ASSERT_TRUE(pollUntil(*s, [&] { return lines.size() == 2; }));
+  EXPECT_EQ(lines.back(), "r1 stubborn: offset=-2000000");
+  EXPECT_TRUE(std::any_of(events.begin(), events.end(), [](const std::string& e) {
+    return e.find("did not stop within 0.3 s for its restart: SIGKILL") != std::string::npos;
+  }));
+  s->killAll();
   ASSERT_TRUE(pollUntil(*s, [&] { return s->finished(); }));
 }
 

@@ -305,3 +305,45 @@ TEST(teamcomm_node, SendsWhatTheCameraSawInTheFieldFrame) {
 
 }  // namespace
 }  // namespace fieldline::teamcomm
+
+namespace fieldline::teamcomm {
+namespace {
+
+// A link whose first send throws (a socket error the node does not expect), then works.
+class FailsOnceLink final : public PacketLink {
+ public:
+  bool send(std::span<const std::uint8_t>) override {
+    if (!failed_) {
+      failed_ = true;
+      throw std::runtime_error("link down");
+    }
+    ++sent;
+    return true;
+  }
+  void poll(const std::function<void(std::span<const std::uint8_t>, Utime)>&) override {}
+  int sent = 0;
+
+ private:
+  bool failed_ = false;
+};
+
+// The send timer is a one-shot set again after each send: a send that throws must not end the
+// team link's sending for the rest of the run.
+TEST(teamcomm_node, KeepsSendingAfterASendThatThrew) {
+  SimulatedClock clock(test::kT0);
+  auto bus = bus::Connection::open("memq://");
+  bus::Node node({.process = "teamcomm", .robot_id = 1, .status_period_us = 0}, clock, bus);
+  FailsOnceLink link;
+  TeamcommOptions options;
+  options.key = test::devKey();
+  TeamcommNode team(node, link, options);
+  for (int ms = 0; ms < 2000; ++ms) {
+    clock.advance(1000);
+    node.spinOnce(0);
+  }
+  // 2 s at the send rate, less the one that threw.
+  EXPECT_GE(link.sent, static_cast<int>(2.0 * options.send_rate_hz) - 3);
+}
+
+}  // namespace
+}  // namespace fieldline::teamcomm
