@@ -9,7 +9,11 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <sstream>
+#include <stdexcept>
+
+#include <fmt/format.h>
 
 namespace fieldline::eval {
 namespace {
@@ -168,6 +172,32 @@ void FaultRunner::finish() {
     p.ended = true;
     records_[p.record].end_utime = clock_.now();
   }
+}
+
+ClockStepWiring clockStepWiring(const std::vector<FaultSpec>& faults, const std::string& out_dir,
+                                const launch::RobotClocks& clocks) {
+  ClockStepWiring w;
+  std::map<int, double> offset_s;
+  for (const FaultSpec& f : faults) {
+    if (f.kind != FaultSpec::Kind::kClockStep) continue;
+    const auto [it, first] = offset_s.try_emplace(f.robot, 0.0);
+    if (first) it->second = static_cast<double>(clocks.of(f.robot).offset_us) * 1e-6;
+    double& o = it->second;
+    o += f.step_s;
+    if (std::fabs(o) > launch::kMaxControlledOffsetS)
+      throw std::invalid_argument(fmt::format(
+          "fault '{}': robot {}'s clock would be {:+.3f} s off the true time (its launch file "
+          "offset and the steps before); the launcher takes at most {} s either way",
+          f.text, f.robot, o, launch::kMaxControlledOffsetS));
+    w.ahead_us = std::max(w.ahead_us, static_cast<Utime>(std::llround(o * 1e6)));
+  }
+  if (offset_s.empty()) return w;
+  w.control.path = out_dir + "/clock_control";
+  std::filesystem::remove(w.control.path);
+  w.control.clocks = clocks.by_robot;
+  for (const auto& [robot, o] : offset_s)
+    w.control.clocks.try_emplace(robot);
+  return w;
 }
 
 pid_t startCpuHog(double seconds) {

@@ -16,6 +16,7 @@
 #include "common/time/clock.hpp"
 #include "common/time/offset_clock.hpp"
 #include "tools/eval/faults.hpp"
+#include "tools/launch/robot_clocks.hpp"
 
 namespace fieldline::eval {
 
@@ -71,6 +72,17 @@ class FaultRunner {
   std::vector<FaultRecord> records_;
   ClockControl clock_control_;
 };
+
+// The clock steps of a run (--fault clockstep): the launcher's control file (out_dir/clock_control;
+// none without a clock step), and how far ahead of the true time a robot's clock may get.
+struct ClockStepWiring {
+  ClockControl control;
+  Utime ahead_us = 0;
+};
+
+// Throws std::invalid_argument when a robot's clock would get further off than the launcher takes.
+ClockStepWiring clockStepWiring(const std::vector<FaultSpec>& faults, const std::string& out_dir,
+                                const launch::RobotClocks& clocks);
 
 // The launcher's live children as (pid, argv).
 std::vector<std::pair<pid_t, std::vector<std::string>>> launcherChildren(pid_t launcher);

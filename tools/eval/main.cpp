@@ -426,39 +426,6 @@ void stopCpuHogs(const std::vector<pid_t>& hogs) {
   }
 }
 
-// The clock steps of a run (--fault clockstep): the launcher's control file (out_dir/clock_control;
-// none without a clock step), and how far ahead of the true time a robot's clock may get.
-struct ClockStepWiring {
-  eval::ClockControl control;
-  Utime ahead_us = 0;
-};
-
-ClockStepWiring clockStepWiring(const std::vector<eval::FaultSpec>& faults,
-                                const std::string& out_dir, const Collector& collector) {
-  ClockStepWiring w;
-  std::map<int, double> offset_s;
-  for (const eval::FaultSpec& f : faults) {
-    if (f.kind != eval::FaultSpec::Kind::kClockStep) continue;
-    const auto [it, first] = offset_s.try_emplace(f.robot, 0.0);
-    if (first) it->second = static_cast<double>(collector.clocks.of(f.robot).offset_us) * 1e-6;
-    double& o = it->second;
-    o += f.step_s;
-    if (std::fabs(o) > launch::kMaxControlledOffsetS)
-      throw std::invalid_argument(fmt::format(
-          "fault '{}': robot {}'s clock would be {:+.3f} s off the true time (its launch file "
-          "offset and the steps before); the launcher takes at most {} s either way",
-          f.text, f.robot, o, launch::kMaxControlledOffsetS));
-    w.ahead_us = std::max(w.ahead_us, static_cast<Utime>(std::llround(o * 1e6)));
-  }
-  if (offset_s.empty()) return w;
-  w.control.path = out_dir + "/clock_control";
-  std::filesystem::remove(w.control.path);
-  w.control.clocks = collector.clocks.by_robot;
-  for (const auto& [robot, o] : offset_s)
-    w.control.clocks.try_emplace(robot);
-  return w;
-}
-
 // Each clock step the runner made: the robot's new clock joins its clocks (Collector::trueTime).
 void noteClockSteps(const std::vector<eval::FaultRecord>& records, Collector& collector) {
   std::size_t steps = 0;
@@ -532,7 +499,7 @@ std::string collectFromTeam(EvalArgs& a, Collector& collector, const Clock& cloc
   std::vector<eval::FaultSpec> faults;
   for (const std::string& f : a.faults)
     faults.push_back(eval::parseFault(f));
-  const ClockStepWiring steps = clockStepWiring(faults, a.out_dir, collector);
+  const eval::ClockStepWiring steps = eval::clockStepWiring(faults, a.out_dir, collector.clocks);
   bus::installStopSignals();
   bus::NodeOptions node_options{.process = "eval", .robot_id = 0, .status_period_us = 0};
   // A robot's clock stepped ahead stamps its messages as from the future: taken all the same.
