@@ -100,7 +100,7 @@ struct ReplayOptions {
   teamcomm::PictureOptions picture;
   double max_prediction_s = 0.5;
   double superseded_after_s = 0.09;  // config/team/sim_team.yaml
-  std::string csv_path, sightings_path, pictures_path;
+  std::string csv_path, sightings_path, pictures_path, reporters_path;
 
   void addTo(CLI::App& app) {
     app.add_option("recording", dir, "Recording directory (sim.lcm, robot1.lcm ...)")->required();
@@ -149,6 +149,10 @@ struct ReplayOptions {
     app.add_option("--pictures", pictures_path,
                    "Write every scored team picture (observer, t, team ball error and sigma, each "
                    "robot's ball error and range) here");
+    app.add_option("--reporters", reporters_path,
+                   "Write every reporter's ball in every scored team picture (its BALL_STATE's "
+                   "age, its error at its own stamp, predicted to the picture's time and held "
+                   "there, whether the team ball used it) here");
   }
 };
 
@@ -463,10 +467,35 @@ void writePictureRow(std::FILE* pictures_csv, const std::vector<eval::TruthSampl
   std::fprintf(pictures_csv, "\n");
 }
 
+// Every reporter's ball in a scored team picture for --reporters: how much of its error at the
+// picture's time its own estimate had at its stamp, and how much came with the time since.
+void writeReporterRows(std::FILE* reporters_csv, const std::vector<eval::TruthSample>& truth,
+                       int observer, Utime now, Utime start, const Eigen::Vector2d& t,
+                       const teamcomm::TeamBallResult& result, const perception::TeamState& state,
+                       const teamcomm::TeamPicture& picture) {
+  for (std::size_t i = 0; i < state.robots.size(); ++i) {
+    const perception::TeammateState& m = state.robots[i];
+    const int id = static_cast<int>(i) + 1;
+    const teamcomm::Report* report = picture.report(id);
+    Eigen::Vector2d at_stamp;
+    if (!m.ball_valid || !report || !ballAt(truth, report->ball.utime, at_stamp)) continue;
+    const perception::BallEstimate& b = report->ball;
+    const Eigen::Vector2d held(b.x, b.y);
+    const bool used = std::find(result.used.begin(), result.used.end(), id) != result.used.end();
+    std::fprintf(reporters_csv, "%d,%.3f,%d,%d,%.1f,%.1f,%.3f,%.4f,%.4f,%.4f,%.4f,%.3f\n", observer,
+                 static_cast<double>(now - start) / 1e6, id, used ? 1 : 0,
+                 static_cast<double>(now - b.utime) / 1e3,
+                 static_cast<double>(now - b.last_seen_utime) / 1e3, std::hypot(b.vx, b.vy),
+                 (held - at_stamp).norm(), std::hypot(m.ball_x - t.x(), m.ball_y - t.y()),
+                 (held - t).norm(), std::sqrt(0.5 * b.covariance.trace()),
+                 std::hypot(m.ball_x - m.x, m.ball_y - m.y));
+  }
+}
+
 // Each robot's team picture at the publish rate, scored against the truth.
 TeamTally replayTeamBall(const ReplayOptions& o, const std::map<int, RobotLog>& logs,
                          const std::vector<eval::TruthSample>& truth, const Span& span,
-                         std::FILE* pictures_csv) {
+                         std::FILE* pictures_csv, std::FILE* reporters_csv) {
   const LinkTiming link = linkTiming(o, logs);
   const std::map<int, std::vector<Utime>> sends = sendTimes(o, logs, link, span);
   TeamTally tally;
@@ -501,6 +530,9 @@ TeamTally replayTeamBall(const ReplayOptions& o, const std::map<int, RobotLog>& 
       tally.rejected_total += result.rejected.size();
       if (pictures_csv)
         writePictureRow(pictures_csv, truth, observer, now, span.start, t, result, state);
+      if (reporters_csv)
+        writeReporterRows(reporters_csv, truth, observer, now, span.start, t, result, state,
+                          replay.picture());
     }
   }
   return tally;
@@ -579,8 +611,13 @@ int main(int argc, char** argv) {
     std::map<int, Score> own = scoreOwnBalls(logs, truth, span, csv);
     if (csv) std::fclose(csv);
     std::FILE* pictures_csv = openCsv(o.pictures_path, picturesHeader());
-    const TeamTally tally = replayTeamBall(o, logs, truth, span, pictures_csv);
+    std::FILE* reporters_csv =
+        openCsv(o.reporters_path,
+                "observer,t,robot,used,age_ms,since_seen_ms,speed_est,err_at_stamp,err_predicted,"
+                "err_held,sigma,range\n");
+    const TeamTally tally = replayTeamBall(o, logs, truth, span, pictures_csv, reporters_csv);
     if (pictures_csv) std::fclose(pictures_csv);
+    if (reporters_csv) std::fclose(reporters_csv);
     printScores(own, tally);
     // The same pictures as fieldline-eval scores its TEAM_STATEs (its settle, put-back rules).
     std::vector<eval::BallSample> balls;
