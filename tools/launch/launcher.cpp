@@ -396,7 +396,9 @@ void applyClockControl(const std::string& path, Supervisor& supervisor, Console&
     console.line(fmt::format("[launch] error: clock control: {}; no clock changed", e.what()));
     return;
   }
-  for (const auto& [robot, offset_us] : offsets) {
+  for (const auto& [robot_id, offset_us] : offsets) {
+    // A copy: clang 14 cannot capture a structured binding in a lambda.
+    const int robot = robot_id;
     const std::string value = std::to_string(offset_us);
     const auto current = [&]() -> std::string {
       for (const ProcessRecord& r : supervisor.processes()) {
