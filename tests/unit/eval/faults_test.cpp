@@ -14,6 +14,16 @@ namespace {
 constexpr int kSearching = 1;
 constexpr int kTracking = 2;
 
+// parseFault's refusal of `text` ("accepted" when it takes it).
+std::string refusalOf(const std::string& text) {
+  try {
+    parseFault(text);
+  } catch (const std::invalid_argument& e) {
+    return e.what();
+  }
+  return "accepted";
+}
+
 TEST(EvalFaults, ParsesEachKind) {
   const FaultSpec restart = parseFault("restart:fusion/2@20");
   EXPECT_EQ(restart.kind, FaultSpec::Kind::kRestart);
@@ -48,44 +58,28 @@ TEST(EvalFaults, ParsesClockStepsAheadAndBehind) {
 }
 
 TEST(EvalFaults, RefusesClockStepsItCannotMakeAndSaysWhy) {
-  const auto message = [](const std::string& text) {
-    try {
-      parseFault(text);
-    } catch (const std::invalid_argument& e) {
-      return std::string(e.what());
-    }
-    return std::string("accepted");
-  };
-  EXPECT_NE(message("clockstep:1@20").find("needs its size"), std::string::npos);
-  EXPECT_NE(message("clockstep:all@20+2").find("one robot's clock"), std::string::npos);
-  EXPECT_NE(message("clockstep:0@20+2").find("robot '0'"), std::string::npos);
-  EXPECT_NE(message("clockstep:fusion/1@20+2").find("robot 'fusion/1'"), std::string::npos);
-  EXPECT_NE(message("clockstep:1@20+0").find("more than 0 and at most 10"), std::string::npos);
-  EXPECT_NE(message("clockstep:1@20-11").find("at most 10"), std::string::npos);
-  EXPECT_NE(message("clockstep:1@20+2s").find("step '2s'"), std::string::npos);
-  EXPECT_NE(message("clockstep:1@20+-2").find("step '-2'"), std::string::npos);
-  EXPECT_NE(message("clockstep:1@x+2").find("time 'x'"), std::string::npos);
-  EXPECT_NE(message("clockstop:1@20+2").find("clockstep"), std::string::npos);
+  EXPECT_NE(refusalOf("clockstep:1@20").find("needs its size"), std::string::npos);
+  EXPECT_NE(refusalOf("clockstep:all@20+2").find("one robot's clock"), std::string::npos);
+  EXPECT_NE(refusalOf("clockstep:0@20+2").find("robot '0'"), std::string::npos);
+  EXPECT_NE(refusalOf("clockstep:fusion/1@20+2").find("robot 'fusion/1'"), std::string::npos);
+  EXPECT_NE(refusalOf("clockstep:1@20+0").find("more than 0 and at most 10"), std::string::npos);
+  EXPECT_NE(refusalOf("clockstep:1@20-11").find("at most 10"), std::string::npos);
+  EXPECT_NE(refusalOf("clockstep:1@20+2s").find("step '2s'"), std::string::npos);
+  EXPECT_NE(refusalOf("clockstep:1@20+-2").find("step '-2'"), std::string::npos);
+  EXPECT_NE(refusalOf("clockstep:1@x+2").find("time 'x'"), std::string::npos);
+  EXPECT_NE(refusalOf("clockstop:1@20+2").find("clockstep"), std::string::npos);
 }
 
 TEST(EvalFaults, RefusesWhatItCannotDoAndSaysWhy) {
-  const auto message = [](const std::string& text) {
-    try {
-      parseFault(text);
-    } catch (const std::invalid_argument& e) {
-      return std::string(e.what());
-    }
-    return std::string("accepted");
-  };
-  EXPECT_NE(message("restart:fusoin@20").find("no process 'fusoin'"), std::string::npos);
-  EXPECT_NE(message("stall:2@20").find("needs its length"), std::string::npos);
-  EXPECT_NE(message("stall:7@20+1").find("robot '7'"), std::string::npos);
-  EXPECT_NE(message("restart:world_sim/1@3").find("belongs to no robot"), std::string::npos);
-  EXPECT_NE(message("pause:fusion@3").find("unknown kind"), std::string::npos);
-  EXPECT_NE(message("restart:fusion@-3").find("not a number of seconds"), std::string::npos);
-  EXPECT_NE(message("restart:fusion@nan").find("not a number of seconds"), std::string::npos);
-  EXPECT_NE(message("restart:fusion").find("expected KIND:TARGET@SECONDS"), std::string::npos);
-  EXPECT_NE(message("stall:1@2+0").find("more than 0"), std::string::npos);
+  EXPECT_NE(refusalOf("restart:fusoin@20").find("no process 'fusoin'"), std::string::npos);
+  EXPECT_NE(refusalOf("stall:2@20").find("needs its length"), std::string::npos);
+  EXPECT_NE(refusalOf("stall:7@20+1").find("robot '7'"), std::string::npos);
+  EXPECT_NE(refusalOf("restart:world_sim/1@3").find("belongs to no robot"), std::string::npos);
+  EXPECT_NE(refusalOf("pause:fusion@3").find("unknown kind"), std::string::npos);
+  EXPECT_NE(refusalOf("restart:fusion@-3").find("not a number of seconds"), std::string::npos);
+  EXPECT_NE(refusalOf("restart:fusion@nan").find("not a number of seconds"), std::string::npos);
+  EXPECT_NE(refusalOf("restart:fusion").find("expected KIND:TARGET@SECONDS"), std::string::npos);
+  EXPECT_NE(refusalOf("stall:1@2+0").find("more than 0"), std::string::npos);
 }
 
 // 50 Hz samples of one robot from t0 to t1 with a status and an error.
