@@ -147,6 +147,14 @@ BallRejection BallFilter::update(const perception::BallSighting& s, const EkfSta
   h(0, 0) = h(1, 1) = 1.0;
   const Eigen::Matrix<double, 4, 2> k = p * h.transpose() * sm.inverse();
   x += k * y;
+  // A sighting that would make the ball faster than any kick moved with the robot's uncertain
+  // pose, not with the ball: start again at it rather than fly off at that speed.
+  if (!(x.tail<2>().norm() <= params_.pair_max_speed)) {
+    ++too_fast_restarts_;
+    outliers_.clear();
+    restart(s.utime, z, r);
+    return BallRejection::kNone;
+  }
   const Eigen::Matrix4d ikh = Eigen::Matrix4d::Identity() - k * h;
   p = ikh * p * ikh.transpose() + k * r * k.transpose();
   x_ = x;

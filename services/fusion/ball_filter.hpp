@@ -80,6 +80,8 @@ struct BallFilterParams {
   // Sightings (the row's and the restarting one) the path needs; from 3 on, they must lie on
   // it (two sightings always make a path, a false one included).
   int fit_min_sightings = 3;
+  // Also the fastest ball an update may make: a sighting that would make it faster restarts the
+  // filter at it (tooFastRestarts).
   double pair_max_speed = 12.0;
   // The omni camera sees all around: `unseen_frames` frames in a row without the ball while the
   // estimate lies within `unseen_range_m` of the robot make the estimate invalid until a sighting
@@ -133,6 +135,9 @@ class BallFilter {
   // Restarts at a confident far sighting, and restarts with the velocity of an outlier pair.
   std::uint64_t restartsFar() const { return restarts_far_; }
   std::uint64_t restartsWithVelocity() const { return restarts_with_velocity_; }
+  // Restarts at a sighting because fusing it would have made the ball faster than
+  // pair_max_speed (a jump of the robot's uncertain pose, not of the ball).
+  std::uint64_t tooFastRestarts() const { return too_fast_restarts_; }
 
  private:
   // State (x, y, vx, vy) moved to `t`.
@@ -169,6 +174,7 @@ class BallFilter {
   std::vector<Outlier> outliers_;
   std::uint64_t restarts_far_ = 0;
   std::uint64_t restarts_with_velocity_ = 0;
+  std::uint64_t too_fast_restarts_ = 0;
 };
 
 }  // namespace fieldline::fusion

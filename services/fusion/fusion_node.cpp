@@ -269,6 +269,8 @@ void FusionNode::updateMetrics() {
                   static_cast<double>(ball_.committed().unseenInvalidations()));
   node_.setMetric("ball_restarts_with_velocity",
                   static_cast<double>(ball_.committed().restartsWithVelocity()));
+  node_.setMetric("ball_too_fast_restarts",
+                  static_cast<double>(ball_.committed().tooFastRestarts()));
 }
 
 }  // namespace fieldline::fusion

@@ -574,3 +574,37 @@ TEST(BallFilter, ARollingBallsReportedCovarianceCarriesTheStampUncertainty) {
 
 }  // namespace
 }  // namespace fieldline::fusion
+
+namespace fieldline::fusion {
+namespace {
+
+// Whatever the filter's uncertainty, an update never makes the ball faster than a kick: in a live
+// match a filter whose velocity was barely known took one sighting as 121 m/s and its ball flew
+// off the field, reported valid for half a second. Here the velocity is barely known
+// (restart_speed_sigma 50 m/s) and the second sighting, 1 m from the first one frame later,
+// would be taken as 30 m/s; the filter starts again at it instead.
+TEST(BallFilter, AnUpdateNeverMakesTheBallFasterThanAKick) {
+  BallFilterParams params = test::bareBall();
+  params.restart_speed_sigma = 50.0;
+  BallFilter f(params);
+  const geometry::Pose2 robot{0.0, 0.0, 0.0};
+  perception::BallSighting s;
+  s.visible = true;
+  s.x = 3.0;
+  s.y = 0.0;
+  s.sigma_radial = 0.05;
+  s.sigma_tangential = 0.03;
+  s.utime = kStart;
+  ASSERT_EQ(f.update(s, robotAt(robot, s.utime)), BallRejection::kNone);
+  s.y = 1.0;
+  s.utime = kStart + 33'333;
+  EXPECT_EQ(f.update(s, robotAt(robot, s.utime)), BallRejection::kNone);
+  const perception::BallEstimate e = f.estimate(s.utime);
+  EXPECT_TRUE(e.valid);
+  EXPECT_LE(std::hypot(e.vx, e.vy), params.pair_max_speed);
+  EXPECT_NEAR(e.y, 1.0, 0.05);  // at the new sighting
+  EXPECT_EQ(f.tooFastRestarts(), 1u);
+}
+
+}  // namespace
+}  // namespace fieldline::fusion
