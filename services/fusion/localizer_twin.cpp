@@ -43,7 +43,7 @@ Localizer::Hypothesis Localizer::resolveTwin(const Hypothesis& h, const Hypothes
         es.info() == Eigen::Success ? std::sqrt(std::max(0.0, es.eigenvalues()[1])) : 1e9;
     const double margin =
         std::max({params_.twin_margin_m, params_.twin_margin_sigmas * sigma, reference_->unseen_m});
-    ambiguous_ = std::abs(dh - dt) < margin;
+    ambiguous_ = std::abs(dh - dt) < margin || reference_->twin_ambiguous;
     if (ambiguous_) ++counters_.ambiguous_commits;
     return dh <= dt ? h : mirrored;
   }
@@ -55,6 +55,34 @@ Localizer::Hypothesis Localizer::resolveTwin(const Hypothesis& h, const Hypothes
     return p.x < -0.25 || (p.x <= 0.25 && std::abs(p.phi) < std::numbers::pi / 2);
   };
   return own(h.pose) || !own(mirrored.pose) ? h : mirrored;
+}
+
+void Localizer::resumeFrom(const geometry::Pose2& pose, const Eigen::Matrix3d& covariance,
+                           Utime saved_utime, bool twin_ambiguous) {
+  Hypothesis saved;
+  saved.utime = saved_utime;
+  saved.pose = pose;
+  saved.covariance = covariance;
+  saved.twin_ambiguous = twin_ambiguous;
+  pending_resume_ = saved;
+  restarted_ = true;
+  ++counters_.resumed;
+  if (!dead_reckoning_.empty()) anchorResume();
+}
+
+void Localizer::anchorResume() {
+  Hypothesis ref = *pending_resume_;
+  pending_resume_.reset();
+  // A pose is known already (the saved one came too late to matter): nothing to resume.
+  if (filter_.initialized() || reference_) return;
+  // From the first odometry on, dead reckoning carries the saved pose; before it, the robot moved
+  // unseen for the restart's gap, as far as a push could carry it (SlipModel).
+  const Utime anchor = dead_reckoning_.newest().utime;
+  const SlipModel& slip = filter_.params().slip;
+  const double gap_s = static_cast<double>(std::max<Utime>(0, anchor - ref.utime)) * 1e-6;
+  ref.unseen_m = slip.max_speed > 0.0 ? slip.base_m + slip.max_speed * gap_s : 1e9;
+  ref.utime = anchor;
+  reference_ = ref;
 }
 
 void Localizer::commit(const Hypothesis& h) {
