@@ -118,7 +118,7 @@ void FusionNode::resumeFromSavedPose() {
       "resumed from the pose saved in {} {:.2f} s ago: ({:.2f}, {:.2f}, {:.2f} rad){}, the twin's "
       "reference of the first commit",
       memory.path, age_s, saved->pose.x, saved->pose.y, saved->pose.phi,
-      saved->twin_ambiguous ? ", its twin undecided" : "");
+      saved->twin_ambiguous ? ", saved twin-ambiguous (the start-up prior)" : "");
   node_.setMetric("resumed", 1.0);
   node_.setMetric("resumed_age_s", age_s);
   node_.setMetric("resumed_x", saved->pose.x);

@@ -266,7 +266,7 @@ perception::LocalizationStatus Localizer::reportedStatus(const Eigen::Matrix3d& 
   if (mode_ != LocalizationStatus::kTracking) return mode_;
   if (reset_unconfirmed_ > 0) return LocalizationStatus::kSearching;
   // After a restart the own-half prior may have picked the twin (resumeFrom).
-  if (restarted_ && ambiguous_) return LocalizationStatus::kSearching;
+  if (restarted_ && twin_undecided_) return LocalizationStatus::kSearching;
   if (last_lines_arrival_ == 0 || now - last_lines_arrival_ > params_.vision_timeout_us)
     return LocalizationStatus::kOdometryOnly;
   if (params_.tracking_max_sigma_m > 0.0) {

@@ -267,9 +267,11 @@ class Localizer {
   // The process restarted: `pose` (with `covariance`) is where it was at `saved_utime` (this
   // clock), its twin undecided then when `twin_ambiguous`. The first odometry sample anchors it:
   // carried by dead reckoning from there, it is the continuity reference of the next commit, its
-  // margin widened by the SlipModel's reach over the gap before that sample. The start-up prior
-  // does not hold after a restart (the robot may be anywhere): while the twin stays undecided
-  // (ambiguous()), the reported status is SEARCHING, not TRACKING.
+  // margin widened by the SlipModel's reach over the gap before that sample. A commit it decides
+  // is ambiguous() when the saved pose was (as before the restart: only the start-up prior and
+  // continuity since told the twins apart). The start-up prior does not hold after a restart (the
+  // robot may be anywhere): while neither continuity nor teammates' balls decided the twin, the
+  // reported status is SEARCHING, not TRACKING.
   void resumeFrom(const geometry::Pose2& pose, const Eigen::Matrix3d& covariance, Utime saved_utime,
                   bool twin_ambiguous);
   // True once resumeFrom was called.
@@ -407,6 +409,9 @@ class Localizer {
 
   perception::LocalizationStatus mode_ = perception::LocalizationStatus::kUnknown;
   bool ambiguous_ = false;
+  // The last commit's twin was decided by neither continuity nor teammates' balls (the start-up
+  // prior or nothing did); cleared when the team confirms or moves it.
+  bool twin_undecided_ = false;
   // Team ball votes of one kind in a row (addTwinVote), and the utime of the newest vote.
   int same_run_ = 0;
   int twin_run_ = 0;

@@ -27,7 +27,7 @@ Localizer::Hypothesis Localizer::resolveTwin(const Hypothesis& h, const Hypothes
   if (reference_ && !motion) {
     // The reference cannot be carried here (the dead reckoning broke or is too short): nothing
     // resolves the twin.
-    ambiguous_ = true;
+    ambiguous_ = twin_undecided_ = true;
     ++counters_.ambiguous_commits;
     return h;
   }
@@ -43,11 +43,14 @@ Localizer::Hypothesis Localizer::resolveTwin(const Hypothesis& h, const Hypothes
         es.info() == Eigen::Success ? std::sqrt(std::max(0.0, es.eigenvalues()[1])) : 1e9;
     const double margin =
         std::max({params_.twin_margin_m, params_.twin_margin_sigmas * sigma, reference_->unseen_m});
-    ambiguous_ = std::abs(dh - dt) < margin || reference_->twin_ambiguous;
+    twin_undecided_ = std::abs(dh - dt) < margin;
+    // A reference that was itself ambiguous passes that on (a resumed start-up pose: as before
+    // the restart, only the start-up prior and continuity since tell the twins apart).
+    ambiguous_ = twin_undecided_ || reference_->twin_ambiguous;
     if (ambiguous_) ++counters_.ambiguous_commits;
     return dh <= dt ? h : mirrored;
   }
-  ambiguous_ = true;
+  ambiguous_ = twin_undecided_ = true;
   ++counters_.ambiguous_commits;
   if (params_.start_prior == StartPrior::kNone) return h;
   // Robots enter the field in their own half (x < 0), facing the opponent goal when on the line.
@@ -133,7 +136,7 @@ void Localizer::addTwinVote(TwinVote vote, Utime utime) {
   if (vote == TwinVote::kSame) {
     twin_run_ = 0;
     if (ambiguous_ && ++same_run_ >= params_.twin_vote_run) {
-      ambiguous_ = false;
+      ambiguous_ = twin_undecided_ = false;
       same_run_ = 0;
       ++counters_.twin_confirmed_by_team;
     }
@@ -145,7 +148,7 @@ void Localizer::addTwinVote(TwinVote vote, Utime utime) {
   if (!ambiguous_) {
     // Continuity had called this pose certain: a first run only makes it ambiguous, a second one
     // moves it (with one vote per team picture, six pictures at least: 0.5 s at 10 Hz).
-    ambiguous_ = true;
+    ambiguous_ = twin_undecided_ = true;
     ++counters_.twin_doubted_by_team;
     return;
   }
@@ -153,7 +156,7 @@ void Localizer::addTwinVote(TwinVote vote, Utime utime) {
   filter_.mirrorThroughCentre();
   // The team's answer supersedes the pose before the loss as the next loss's reference.
   reference_.reset();
-  ambiguous_ = false;
+  ambiguous_ = twin_undecided_ = false;
   gated_in_row_ = 0;
   gated_offset_.reset();
   weighted_heading_offset_.reset();

@@ -109,11 +109,11 @@ TEST(Localizer, FindsItselfFromNothingOnTheOwnHalf) {
   EXPECT_EQ(d.localizer.counters().commits, 1u);
 }
 
-TEST(Localizer, ARestartResumesTheSavedHalfAndCallsAnUndecidedOneSearching) {
+TEST(Localizer, ARestartResumesTheSavedHalf) {
   // A fusion restarted in the opponent's half (docs/faults.md, the clock-step fault): fresh, the
   // own-half prior commits to the twin; resumed from the pose saved 0.5 s before, it commits to
-  // the right half, certain; resumed from a saved pose whose twin was undecided, to that half,
-  // ambiguous, and reported SEARCHING: after a restart the start-up prior does not hold.
+  // the right half, certain; resumed from a saved pose that was twin-ambiguous (a start-up pose
+  // only the prior and continuity told apart), to that half, TRACKING and ambiguous as before.
   const geometry::Pose2 start{3.5, 1.5, 2.6};
   for (int k = 0; k < 3; ++k) {
     SCOPED_TRACE(k);
@@ -135,14 +135,14 @@ TEST(Localizer, ARestartResumesTheSavedHalfAndCallsAnUndecidedOneSearching) {
     }
     EXPECT_LT(d.error(), 0.1);
     EXPECT_EQ(d.localizer.ambiguous(), k == 2);
-    EXPECT_EQ(e.status, k == 2 ? perception::LocalizationStatus::kSearching
-                               : perception::LocalizationStatus::kTracking);
+    EXPECT_EQ(e.status, perception::LocalizationStatus::kTracking);
   }
 }
 
 TEST(Localizer, ASavedPoseTooFarInThePastDecidesNothing) {
   // Saved 3 s before the restart: a push could have carried the robot 12 m since (the SlipModel's
-  // 4 m/s), so the saved pose cannot tell the twins apart, and the restarted fusion says so.
+  // 4 m/s), so the saved pose cannot tell the twins apart, and the restarted fusion says so: the
+  // start-up prior's pick is SEARCHING, not TRACKING.
   Drive d({3.5, 1.5, 2.6});
   d.localizer.resumeFrom({3.4, 1.6, 2.55}, Eigen::Vector3d(1e-4, 1e-4, 4e-4).asDiagonal(),
                          d.t - 3'000'000, false);
