@@ -1,10 +1,17 @@
 #include "services/fusion/fusion_app.hpp"
 
+#include <time.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <sstream>
 #include <utility>
 
+#include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
-#include <iostream>
 #include "common/bus/node.hpp"
 #include "common/bus/robot_clock.hpp"
 
@@ -48,10 +55,65 @@ FusionConfig resolveConfig(const FusionAppOptions& options, const field::FieldMo
   return config;
 }
 
+// CLOCK_BOOTTIME, us: a step of the wall clock (NTP, the eval's clockstep fault) does not move it.
+Utime steadyNowUs() {
+  timespec ts{};
+  ::clock_gettime(CLOCK_BOOTTIME, &ts);
+  return static_cast<Utime>(ts.tv_sec) * 1'000'000 + ts.tv_nsec / 1000;
+}
+
+std::string firstLine(const std::string& path) {
+  std::ifstream in(path);
+  std::string line;
+  std::getline(in, line);
+  return line;
+}
+
+// Who started this process: the boot, the parent's pid and start time. A restart by the same
+// launcher (or systemd) in the same boot matches, a new launcher or a reboot does not; empty when
+// unknown.
+std::string supervisorIdentity() {
+  const std::string boot = firstLine("/proc/sys/kernel/random/boot_id");
+  const pid_t parent = ::getppid();
+  const std::string stat = firstLine("/proc/" + std::to_string(parent) + "/stat");
+  // Field 22 (starttime) counted after the command name, which may hold spaces and parentheses.
+  const auto close = stat.rfind(')');
+  if (boot.empty() || close == std::string::npos || close + 2 > stat.size()) return {};
+  std::istringstream fields(stat.substr(close + 2));
+  std::string field;
+  for (int k = 3; k <= 22 && fields >> field; ++k) {
+    if (k == 22) return fmt::format("boot {} pid {} started {}", boot, parent, field);
+  }
+  return {};
+}
+
+// The pose memory's options, its file's folder made; none (with a warning) when it cannot be.
+PoseMemoryOptions poseMemory(const FusionAppOptions& options, int robot_id) {
+  PoseMemoryOptions memory;
+  std::string path = options.state_file;
+  if (path.empty()) return memory;
+  if (path == "default") path = "/tmp/fieldline/fusion" + std::to_string(robot_id) + ".pose";
+  std::error_code ec;
+  const std::filesystem::path folder = std::filesystem::path(path).parent_path();
+  if (!folder.empty()) std::filesystem::create_directories(folder, ec);
+  if (ec) {
+    spdlog::warn("no pose memory across restarts: cannot make {}: {}", folder.string(),
+                 ec.message());
+    return memory;
+  }
+  memory.path = path;
+  memory.fresh = options.fresh;
+  memory.field = options.field;
+  memory.supervisor = supervisorIdentity();
+  memory.steady_now = steadyNowUs;
+  return memory;
+}
+
 }  // namespace
 
 void FusionAppOptions::addTo(CLI::App& app) {
   grid_cache = config::defaultCacheDirectory();
+  state_file = "default";
   app.add_option("--field", field, "Field preset (msl, fu2004) or YAML path")
       ->capture_default_str();
   app.add_option("--robot-config", robot, "Robot preset name or YAML path")->capture_default_str();
@@ -64,6 +126,14 @@ void FusionAppOptions::addTo(CLI::App& app) {
   app.add_option("--grid-cache", grid_cache,
                  "Directory for the distance grid cache (empty string: none)")
       ->capture_default_str();
+  app.add_option("--state-file", state_file,
+                 "The pose saved every 0.2 s while TRACKING and when fusion stops; fusion "
+                 "restarted by the same supervisor (the launcher, systemd) within "
+                 "localizer.resume_max_age_s takes it as the twin's reference (`default`: "
+                 "/tmp/fieldline/fusion<N>.pose; empty string: none)")
+      ->capture_default_str();
+  app.add_flag("--fresh", fresh,
+               "Start up without reading the saved pose (the own-half prior decides the twin)");
   addOverride(app, "--matcher", matcher,
               "Layer 2 method: lsq (robust least squares) or force_field")
       ->check(CLI::IsMember({"lsq", "force_field"}));
@@ -105,6 +175,7 @@ int runFusion(const FusionAppOptions& options, const bus::CommonOptions& common)
   node_options.ball = config.ball;
   node_options.team_ball_vote = config.team_ball_vote;
   node_options.ball_rate_hz = config.ball_rate_hz;
+  node_options.pose_memory = poseMemory(options, common.robot);
   const MatcherFunctions functions{[&](std::span<const perception::LinePoint> p,
                                        const geometry::Pose2& g) { return matcher.correct(p, g); },
                                    [&](std::span<const perception::LinePoint> p,
@@ -120,10 +191,12 @@ int runFusion(const FusionAppOptions& options, const bus::CommonOptions& common)
   // dangling reference, and fusion crashed within 2 s of its start).
   const RobotClock clock = bus::robotClockFromEnvironment();
   bus::Node node({.process = "fusion", .robot_id = common.robot, .url = common.bus_url}, clock);
+  const std::string memory_path = node_options.pose_memory.path;
   FusionNode fusion(node, std::move(node_options), functions);
-  spdlog::info("fusing on field {} with the {} matcher, settings {}", options.field,
+  spdlog::info("fusing on field {} with the {} matcher, settings {}; pose memory: {}",
+               options.field,
                config.matcher.method == MatchMethod::kForceField ? "force_field" : "lsq",
-               options.config);
+               options.config, memory_path.empty() ? std::string("none") : memory_path);
   return node.run();
 }
 

@@ -21,6 +21,11 @@ struct FusionAppOptions {
   // Directory of the distance grid cache; empty: no cache. addTo() sets
   // config::defaultCacheDirectory().
   std::string grid_cache;
+  // The pose saved across restarts (pose_memory.hpp); empty: none. addTo() sets
+  // /tmp/fieldline/fusion<N>.pose for robot N when not given.
+  std::string state_file;
+  // Start up without reading the saved pose.
+  bool fresh = false;
   // Overrides of the settings file, set only when given on the command line.
   std::optional<std::string> matcher;      // lsq or force_field
   std::optional<std::string> start_prior;  // own_half or none
@@ -32,7 +37,8 @@ struct FusionAppOptions {
   bool print_config = false;
   bool print_settings_table = false;
 
-  // Adds --field, --robot-config, --config, --grid-cache, --matcher, --start-prior, --window,
+  // Adds --field, --robot-config, --config, --grid-cache, --state-file, --fresh, --matcher,
+  // --start-prior, --window,
   // --ball-rate, --ball-max-age, --print-config and --print-settings-table to `app`.
   void addTo(CLI::App& app);
 };

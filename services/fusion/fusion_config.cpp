@@ -190,6 +190,10 @@ void declareLocalizer(SettingsTable<FC>& t) {
                           "Which symmetric twin to believe at start-up: own_half (robots enter at "
                           "x < 0) or none",
                           &FC::localizer, &LP::start_prior);
+  num("resume_max_age_s", 0.0, 600.0, "s",
+      "A fusion restarted within this of its last saved pose (--state-file) takes that pose, "
+      "widened by the filter's slip reach over the gap, as the twin's reference; 0: never",
+      &LP::resume_max_age_s);
   t.check({"localizer.lost_cost_m", "localizer.accept_cost_m"},
           [](const FC& c) -> std::optional<std::string> {
             if (c.localizer.lost_cost_m < c.localizer.accept_cost_m) {

@@ -6,11 +6,14 @@
 #include <numbers>
 #include <stdexcept>
 
+#include <spdlog/spdlog.h>
+
 #include "common/msg/estimates.hpp"
 #include "common/msg/field_features.hpp"
 #include "common/msg/line_contours.hpp"
 #include "common/msg/obstacle_observations.hpp"
 #include "common/msg/team_state.hpp"
+#include "services/fusion/pose_memory.hpp"
 
 namespace fieldline::fusion {
 namespace {
@@ -57,6 +60,88 @@ FusionNode::FusionNode(bus::Node& node, FusionNodeOptions options, MatcherFuncti
   node_.every(static_cast<Utime>(std::llround(1e6 / options_.ball_rate_hz)),
               [this] { publishBall(); });
   node_.declareIo(fusionIo());
+  const PoseMemoryOptions& memory = options_.pose_memory;
+  if (!memory.path.empty()) {
+    if (!memory.steady_now || !(memory.save_rate_hz > 0.0 && memory.save_rate_hz <= 100.0)) {
+      throw std::invalid_argument(
+          "fusion: a pose memory needs a steady clock and a save rate in (0, 100] Hz");
+    }
+    node_.setMetric("resumed", 0.0);
+    if (options_.localizer.resume_max_age_s <= 0.0) {
+      spdlog::info("the saved pose in {} is not read (localizer.resume_max_age_s 0)", memory.path);
+    } else if (memory.fresh) {
+      spdlog::info("starting fresh (--fresh): the saved pose in {} is not read", memory.path);
+    } else {
+      resumeFromSavedPose();
+    }
+    node_.every(static_cast<Utime>(std::llround(1e6 / memory.save_rate_hz)),
+                [this] { savePose(); });
+  }
+}
+
+FusionNode::~FusionNode() {
+  // A clean stop (SIGTERM: systemctl restart, the launcher) leaves the newest pose.
+  if (!options_.pose_memory.path.empty()) savePose();
+}
+
+void FusionNode::resumeFromSavedPose() {
+  const PoseMemoryOptions& memory = options_.pose_memory;
+  std::optional<SavedPose> saved;
+  try {
+    saved = readSavedPoseFile(memory.path);
+  } catch (const std::runtime_error& e) {
+    node_.reportError("resume_corrupt",
+                      std::string("saved pose refused, starting up: ") + e.what());
+    return;
+  }
+  if (!saved) {
+    spdlog::info("no saved pose in {}: a start-up (the own-half prior decides the twin)",
+                 memory.path);
+    return;
+  }
+  double age_s = 0.0;
+  const std::string refusal =
+      resumeRefusal(*saved, node_.robotId(), memory.field, memory.supervisor, memory.steady_now(),
+                    options_.localizer.resume_max_age_s, age_s);
+  if (!refusal.empty()) {
+    spdlog::info(
+        "saved pose in {} refused ({}: robot {}, field {}, supervisor '{}', {:.1f} s old; "
+        "resumed within {:.1f} s): a start-up",
+        memory.path, refusal, saved->robot_id, saved->field, saved->supervisor, age_s,
+        options_.localizer.resume_max_age_s);
+    node_.setMetric(refusal, 1.0);
+    return;
+  }
+  const Utime saved_utime = node_.now() - static_cast<Utime>(std::llround(age_s * 1e6));
+  localizer_.resumeFrom(saved->pose, saved->covariance, saved_utime, saved->twin_ambiguous);
+  spdlog::info(
+      "resumed from the pose saved in {} {:.2f} s ago: ({:.2f}, {:.2f}, {:.2f} rad){}, the twin's "
+      "reference of the first commit",
+      memory.path, age_s, saved->pose.x, saved->pose.y, saved->pose.phi,
+      saved->twin_ambiguous ? ", saved twin-ambiguous (the start-up prior)" : "");
+  node_.setMetric("resumed", 1.0);
+  node_.setMetric("resumed_age_s", age_s);
+  node_.setMetric("resumed_x", saved->pose.x);
+  node_.setMetric("resumed_y", saved->pose.y);
+}
+
+void FusionNode::savePose() {
+  const perception::RobotEstimate e = localizer_.estimate(node_.now());
+  if (e.status != perception::LocalizationStatus::kTracking) return;
+  const PoseMemoryOptions& memory = options_.pose_memory;
+  SavedPose saved;
+  saved.robot_id = node_.robotId();
+  saved.field = memory.field;
+  saved.supervisor = memory.supervisor;
+  saved.saved_steady_us = memory.steady_now();
+  saved.pose = e.pose;
+  saved.covariance = e.covariance;
+  saved.twin_ambiguous = e.twin_ambiguous;
+  try {
+    writeSavedPoseFile(memory.path, saved);
+  } catch (const std::runtime_error& error) {
+    node_.reportError("state_file", error.what());
+  }
 }
 
 bus::ProcessIo fusionIo() {

@@ -9,6 +9,7 @@
 
 #include <cstdint>
 #include <deque>
+#include <functional>
 #include <map>
 #include <string>
 
@@ -29,6 +30,22 @@
 
 namespace fieldline::fusion {
 
+// The pose saved across restarts of the process (pose_memory.hpp).
+struct PoseMemoryOptions {
+  // The file; empty: no memory (every start is a start-up).
+  std::string path;
+  // Start without reading the file (a new match: the start-up prior holds); it is written still.
+  bool fresh = false;
+  // Written to the file and required of it: the field's name and who started the process
+  // (pose_memory.hpp).
+  std::string field;
+  std::string supervisor;
+  // Saves per second while the pose is TRACKING (and one when the node stops).
+  double save_rate_hz = 5.0;
+  // The machine's boot-time clock, us (a clock step does not move it); required with a path.
+  std::function<Utime()> steady_now;
+};
+
 struct FusionNodeOptions {
   robot::RobotParams robot;
   LocalizerParams localizer;
@@ -36,6 +53,7 @@ struct FusionNodeOptions {
   TeamBallVoteParams team_ball_vote;
   // BALL_STATE messages per second.
   double ball_rate_hz = 30.0;
+  PoseMemoryOptions pose_memory;
 };
 
 // What fusion reads and writes (fieldline-fusion --print-io).
@@ -44,7 +62,13 @@ bus::ProcessIo fusionIo();
 class FusionNode {
  public:
   // Subscribes on `node`'s primary bus; `matcher` is layer 2 (LineMatcher in the process).
+  // With options.pose_memory.path: resumes from the saved pose when it may (resumeRefusal; a file
+  // that cannot be read or parsed is an error "resume_corrupt", any other refusal a metric), and
+  // saves the pose while TRACKING and when destroyed.
   FusionNode(bus::Node& node, FusionNodeOptions options, MatcherFunctions matcher);
+  ~FusionNode();
+  FusionNode(const FusionNode&) = delete;
+  FusionNode& operator=(const FusionNode&) = delete;
 
   const Localizer& localizer() const { return localizer_; }
   std::int64_t robotStatesPublished() const { return robot_states_; }
@@ -62,6 +86,10 @@ class FusionNode {
   void onObstacles(const obstacle_observations_t& m);
   void onTeam(const team_state_t& m);
   void publishBall();
+  // The saved pose as the localizer's continuity reference, or why not (PoseMemoryOptions).
+  void resumeFromSavedPose();
+  // Writes the pose file when the reported status is TRACKING.
+  void savePose();
   // Reports every refusal the localizer counted since the last call.
   void reportNewRejections();
   void updateMetrics();

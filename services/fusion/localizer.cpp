@@ -59,6 +59,7 @@ bool Localizer::addOdometry(const OdometrySample& sample, Utime now) {
       dead_reckoning_.clear();
     }
     if (dead_reckoning_.empty()) dead_reckoning_.insert(sample.utime, odometry_pose_, now);
+    if (pending_resume_) anchorResume();
     if (!waiting_.empty()) processWaiting(now);
     return false;
   }
@@ -69,6 +70,7 @@ bool Localizer::addOdometry(const OdometrySample& sample, Utime now) {
   odometry_pose_ = {after.x, after.y, odometry_pose_.z() + m.dphi};
   if (step.has_velocity) last_velocity_ = step.integrated / step.duration();
   dead_reckoning_.insert(step.t_end, odometry_pose_, now);
+  if (pending_resume_) anchorResume();
 
   const Rejection rejection = filter_.addOdometry(step, now);
   if (!waiting_.empty()) processWaiting(now);
@@ -263,6 +265,8 @@ perception::LocalizationStatus Localizer::reportedStatus(const Eigen::Matrix3d& 
                                                          Utime now) const {
   if (mode_ != LocalizationStatus::kTracking) return mode_;
   if (reset_unconfirmed_ > 0) return LocalizationStatus::kSearching;
+  // After a restart the own-half prior may have picked the twin (resumeFrom).
+  if (restarted_ && twin_undecided_) return LocalizationStatus::kSearching;
   if (last_lines_arrival_ == 0 || now - last_lines_arrival_ > params_.vision_timeout_us)
     return LocalizationStatus::kOdometryOnly;
   if (params_.tracking_max_sigma_m > 0.0) {

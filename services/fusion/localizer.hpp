@@ -192,6 +192,11 @@ struct LocalizerParams {
   double search_half_length_m = 10.0;
   double search_half_width_m = 6.5;
   StartPrior start_prior = StartPrior::kOwnHalf;
+  // A fusion restarted within this of its last saved pose (pose_memory.hpp: the file, the
+  // process's --state-file) resumes from it: the saved pose is the twin's continuity reference of
+  // the first commit, widened by what the robot may have moved unseen meanwhile (the filter's
+  // SlipModel: base_m + max_speed * the gap), s; 0: never (every start is a start-up).
+  double resume_max_age_s = 5.0;
 };
 
 struct LocalizerCounters {
@@ -219,6 +224,8 @@ struct LocalizerCounters {
   std::uint64_t twin_doubted_by_team = 0;
   // Frames that waited for odometry to reach their time (max_waiting_frames).
   std::uint64_t frames_waited = 0;
+  // Starts that resumed from a saved pose (resumeFrom).
+  std::uint64_t resumed = 0;
   // Frames whose correction came from the twist search (contact_search_steps).
   std::uint64_t twist_searches = 0;
   // Frames whose heading was weighted down against the gyro's, and frames whose heading a
@@ -257,6 +264,18 @@ class Localizer {
   // at its time), in the sightings' time order. Acts only while tracking, after
   // LocalizerParams::twin_vote_run votes of one kind in a row. `utime`: the sighting's.
   void addTwinVote(TwinVote vote, Utime utime);
+  // The process restarted: `pose` (with `covariance`) is where it was at `saved_utime` (this
+  // clock), its twin undecided then when `twin_ambiguous`. The first odometry sample anchors it:
+  // carried by dead reckoning from there, it is the continuity reference of the next commit, its
+  // margin widened by the SlipModel's reach over the gap before that sample. A commit it decides
+  // is ambiguous() when the saved pose was (as before the restart: only the start-up prior and
+  // continuity since told the twins apart). The start-up prior does not hold after a restart (the
+  // robot may be anywhere): while neither continuity nor teammates' balls decided the twin, the
+  // reported status is SEARCHING, not TRACKING.
+  void resumeFrom(const geometry::Pose2& pose, const Eigen::Matrix3d& covariance, Utime saved_utime,
+                  bool twin_ambiguous);
+  // True once resumeFrom was called.
+  bool restarted() const { return restarted_; }
   // True while contact evidence covers `t`.
   bool inContact(Utime t) const { return filter_.inContact(t); }
 
@@ -303,6 +322,9 @@ class Localizer {
     // As a continuity reference: how far the robot may have moved unseen by odometry since the
     // state's last accepted correction (SlipModel's bound for that time), m.
     double unseen_m = 0.0;
+    // As a continuity reference: its own twin was undecided (a saved pose that was ambiguous), so
+    // a commit it decides is ambiguous too.
+    bool twin_ambiguous = false;
     // Mean cost over the frames it was tested on.
     double cost_sum = 0.0;
     int frames = 0;
@@ -387,6 +409,9 @@ class Localizer {
 
   perception::LocalizationStatus mode_ = perception::LocalizationStatus::kUnknown;
   bool ambiguous_ = false;
+  // The last commit's twin was decided by neither continuity nor teammates' balls (the start-up
+  // prior or nothing did); cleared when the team confirms or moves it.
+  bool twin_undecided_ = false;
   // Team ball votes of one kind in a row (addTwinVote), and the utime of the newest vote.
   int same_run_ = 0;
   int twin_run_ = 0;
@@ -394,6 +419,11 @@ class Localizer {
   std::vector<Hypothesis> hypotheses_;
   // The last trusted pose (when tracking was lost), for continuity.
   std::optional<Hypothesis> reference_;
+  // A saved pose (resumeFrom) waiting for the first odometry sample to anchor it.
+  std::optional<Hypothesis> pending_resume_;
+  bool restarted_ = false;
+  // Makes pending_resume_ the continuity reference at the first dead-reckoning entry.
+  void anchorResume();
   struct WaitingFrame {
     Utime utime = 0;
     std::vector<perception::LinePoint> points;

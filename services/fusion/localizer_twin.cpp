@@ -27,7 +27,7 @@ Localizer::Hypothesis Localizer::resolveTwin(const Hypothesis& h, const Hypothes
   if (reference_ && !motion) {
     // The reference cannot be carried here (the dead reckoning broke or is too short): nothing
     // resolves the twin.
-    ambiguous_ = true;
+    ambiguous_ = twin_undecided_ = true;
     ++counters_.ambiguous_commits;
     return h;
   }
@@ -43,11 +43,14 @@ Localizer::Hypothesis Localizer::resolveTwin(const Hypothesis& h, const Hypothes
         es.info() == Eigen::Success ? std::sqrt(std::max(0.0, es.eigenvalues()[1])) : 1e9;
     const double margin =
         std::max({params_.twin_margin_m, params_.twin_margin_sigmas * sigma, reference_->unseen_m});
-    ambiguous_ = std::abs(dh - dt) < margin;
+    twin_undecided_ = std::abs(dh - dt) < margin;
+    // A reference that was itself ambiguous passes that on (a resumed start-up pose: as before
+    // the restart, only the start-up prior and continuity since tell the twins apart).
+    ambiguous_ = twin_undecided_ || reference_->twin_ambiguous;
     if (ambiguous_) ++counters_.ambiguous_commits;
     return dh <= dt ? h : mirrored;
   }
-  ambiguous_ = true;
+  ambiguous_ = twin_undecided_ = true;
   ++counters_.ambiguous_commits;
   if (params_.start_prior == StartPrior::kNone) return h;
   // Robots enter the field in their own half (x < 0), facing the opponent goal when on the line.
@@ -55,6 +58,34 @@ Localizer::Hypothesis Localizer::resolveTwin(const Hypothesis& h, const Hypothes
     return p.x < -0.25 || (p.x <= 0.25 && std::abs(p.phi) < std::numbers::pi / 2);
   };
   return own(h.pose) || !own(mirrored.pose) ? h : mirrored;
+}
+
+void Localizer::resumeFrom(const geometry::Pose2& pose, const Eigen::Matrix3d& covariance,
+                           Utime saved_utime, bool twin_ambiguous) {
+  Hypothesis saved;
+  saved.utime = saved_utime;
+  saved.pose = pose;
+  saved.covariance = covariance;
+  saved.twin_ambiguous = twin_ambiguous;
+  pending_resume_ = saved;
+  restarted_ = true;
+  ++counters_.resumed;
+  if (!dead_reckoning_.empty()) anchorResume();
+}
+
+void Localizer::anchorResume() {
+  Hypothesis ref = *pending_resume_;
+  pending_resume_.reset();
+  // A pose is known already (the saved one came too late to matter): nothing to resume.
+  if (filter_.initialized() || reference_) return;
+  // From the first odometry on, dead reckoning carries the saved pose; before it, the robot moved
+  // unseen for the restart's gap, as far as a push could carry it (SlipModel).
+  const Utime anchor = dead_reckoning_.newest().utime;
+  const SlipModel& slip = filter_.params().slip;
+  const double gap_s = static_cast<double>(std::max<Utime>(0, anchor - ref.utime)) * 1e-6;
+  ref.unseen_m = slip.max_speed > 0.0 ? slip.base_m + slip.max_speed * gap_s : 1e9;
+  ref.utime = anchor;
+  reference_ = ref;
 }
 
 void Localizer::commit(const Hypothesis& h) {
@@ -105,7 +136,7 @@ void Localizer::addTwinVote(TwinVote vote, Utime utime) {
   if (vote == TwinVote::kSame) {
     twin_run_ = 0;
     if (ambiguous_ && ++same_run_ >= params_.twin_vote_run) {
-      ambiguous_ = false;
+      ambiguous_ = twin_undecided_ = false;
       same_run_ = 0;
       ++counters_.twin_confirmed_by_team;
     }
@@ -117,7 +148,7 @@ void Localizer::addTwinVote(TwinVote vote, Utime utime) {
   if (!ambiguous_) {
     // Continuity had called this pose certain: a first run only makes it ambiguous, a second one
     // moves it (with one vote per team picture, six pictures at least: 0.5 s at 10 Hz).
-    ambiguous_ = true;
+    ambiguous_ = twin_undecided_ = true;
     ++counters_.twin_doubted_by_team;
     return;
   }
@@ -125,7 +156,7 @@ void Localizer::addTwinVote(TwinVote vote, Utime utime) {
   filter_.mirrorThroughCentre();
   // The team's answer supersedes the pose before the loss as the next loss's reference.
   reference_.reset();
-  ambiguous_ = false;
+  ambiguous_ = twin_undecided_ = false;
   gated_in_row_ = 0;
   gated_offset_.reset();
   weighted_heading_offset_.reset();

@@ -7,9 +7,14 @@
 
 #include <array>
 #include <cmath>
+#include <cstdio>
+#include <fstream>
 #include <numbers>
 #include <optional>
+#include <string>
 #include <vector>
+
+#include <unistd.h>
 
 #include <gtest/gtest.h>
 
@@ -20,6 +25,7 @@
 #include "common/msg/obstacle_observations.hpp"
 #include "common/msg/team_state.hpp"
 #include "common/time/clock.hpp"
+#include "services/fusion/pose_memory.hpp"
 #include "tests/unit/fusion/test_world.hpp"
 
 namespace fieldline::fusion {
@@ -441,6 +447,84 @@ TEST(FusionNode, OnlyTeammatesSureOfTheirPosesDoubtACertainHalf) {
     rig.period(i, true, true);
   }
   EXPECT_GE(l.counters().twin_doubted_by_team, 1u);
+}
+
+// A fusion restarted in the opponent's half (docs/faults.md: the clock-step fault put robot 2 on
+// its twin, 8 m off and TRACKING): started afresh it commits to the twin by the own-half prior;
+// finding the pose it saved 0.8 s ago under the same supervisor, it resumes on the right half,
+// certain and TRACKING, and says so; a stale or corrupt file is refused (counted) and the start
+// is a start-up. The resumed node saves its own pose again while tracking and when it stops.
+TEST(FusionNode, ARestartInTheOpponentsHalfResumesFromTheSavedPose) {
+  const std::string path =
+      testing::TempDir() + "fusion_node_resume_" + std::to_string(::getpid()) + ".pose";
+  Utime steady = 9'000'000'000;
+  const geometry::Pose2 truth{3.0, 1.5, 2.5};
+  SavedPose saved;
+  saved.robot_id = 3;
+  saved.field = "msl";
+  saved.supervisor = "boot b pid 7 started 8";
+  saved.saved_steady_us = steady - 800'000;
+  saved.pose = {2.9, 1.6, 2.45};
+  saved.covariance = Eigen::Vector3d(0.01, 0.01, 0.003).asDiagonal();
+  enum class File { kNone, kRecent, kStale, kCorrupt };
+  for (const File file : {File::kNone, File::kRecent, File::kStale, File::kCorrupt}) {
+    SCOPED_TRACE(static_cast<int>(file));
+    steady = 9'000'000'000;
+    std::remove(path.c_str());
+    if (file == File::kRecent) writeSavedPoseFile(path, saved);
+    if (file == File::kStale) {
+      SavedPose old = saved;
+      old.saved_steady_us = steady - 6'000'000;
+      writeSavedPoseFile(path, old);
+    }
+    if (file == File::kCorrupt) std::ofstream(path) << "fieldline-fusion-pose 1\nrobot 3\n";
+    FusionNodeOptions o = Rig::options();
+    o.pose_memory = {path, false, "msl", saved.supervisor, 5.0, [&steady] { return steady; }};
+    {
+      Rig rig(o);
+      rig.truth = truth;
+      // A refused file gives a start-up: the case without a file shows where it goes.
+      const bool refused = file == File::kStale || file == File::kCorrupt;
+      for (int i = 0; i < (refused ? 5 : 80); ++i) {
+        steady += 20'000;
+        rig.period(i, true, false);
+      }
+      const Localizer& l = rig.fusion.localizer();
+      const robot_state_t& last = rig.states.back();
+      EXPECT_EQ(rig.fusion_bus.status().errorCount("resume_corrupt"),
+                file == File::kCorrupt ? 1 : 0);
+      if (refused) {
+        EXPECT_FALSE(l.restarted());
+        EXPECT_EQ(l.counters().resumed, 0u);
+        continue;
+      }
+      ASSERT_EQ(last.status, robot_state_t::STATUS_TRACKING);
+      if (file != File::kRecent) {
+        // A start-up: the own-half prior, on the twin, ambiguous.
+        EXPECT_LT(std::hypot(last.x + truth.x, last.y + truth.y), 0.15);
+        EXPECT_TRUE(l.ambiguous());
+        EXPECT_EQ(l.counters().resumed, 0u);
+        continue;
+      }
+      EXPECT_LT(std::hypot(last.x - truth.x, last.y - truth.y), 0.15);
+      EXPECT_FALSE(l.ambiguous());
+      EXPECT_EQ(last.twin_ambiguous, 0);
+      EXPECT_EQ(l.counters().resumed, 1u);
+      // Saved again while tracking: this run's pose, now.
+      const auto again = readSavedPoseFile(path);
+      ASSERT_TRUE(again.has_value());
+      EXPECT_GT(again->saved_steady_us, saved.saved_steady_us + 1'000'000);
+      EXPECT_LT(std::hypot(again->pose.x - truth.x, again->pose.y - truth.y), 0.15);
+      steady += 1'000'000;
+    }
+    if (file == File::kRecent) {
+      // The stop saved the pose of the moment.
+      const auto stopped = readSavedPoseFile(path);
+      ASSERT_TRUE(stopped.has_value());
+      EXPECT_EQ(stopped->saved_steady_us, steady);
+    }
+  }
+  std::remove(path.c_str());
 }
 
 }  // namespace

@@ -109,6 +109,49 @@ TEST(Localizer, FindsItselfFromNothingOnTheOwnHalf) {
   EXPECT_EQ(d.localizer.counters().commits, 1u);
 }
 
+TEST(Localizer, ARestartResumesTheSavedHalf) {
+  // A fusion restarted in the opponent's half (docs/faults.md, the clock-step fault): fresh, the
+  // own-half prior commits to the twin; resumed from the pose saved 0.5 s before, it commits to
+  // the right half, certain; resumed from a saved pose that was twin-ambiguous (a start-up pose
+  // only the prior and continuity told apart), to that half, TRACKING and ambiguous as before.
+  const geometry::Pose2 start{3.5, 1.5, 2.6};
+  for (int k = 0; k < 3; ++k) {
+    SCOPED_TRACE(k);
+    Drive d(start);
+    if (k > 0) {
+      d.localizer.resumeFrom({3.4, 1.6, 2.55}, Eigen::Vector3d(1e-4, 1e-4, 4e-4).asDiagonal(),
+                             d.t - 500'000, k == 2);
+    }
+    d.run(1.2, {0.3, 0.0, 0.2});
+    ASSERT_EQ(d.localizer.mode(), perception::LocalizationStatus::kTracking);
+    const perception::RobotEstimate e = d.localizer.estimate(d.t + 8'000);
+    EXPECT_EQ(d.localizer.counters().resumed, k > 0 ? 1u : 0u);
+    EXPECT_EQ(d.localizer.restarted(), k > 0);
+    if (k == 0) {
+      EXPECT_LT(std::hypot(e.pose.x + d.truth.x, e.pose.y + d.truth.y), 0.1);  // the twin
+      EXPECT_TRUE(d.localizer.ambiguous());
+      EXPECT_EQ(e.status, perception::LocalizationStatus::kTracking);
+      continue;
+    }
+    EXPECT_LT(d.error(), 0.1);
+    EXPECT_EQ(d.localizer.ambiguous(), k == 2);
+    EXPECT_EQ(e.status, perception::LocalizationStatus::kTracking);
+  }
+}
+
+TEST(Localizer, ASavedPoseTooFarInThePastDecidesNothing) {
+  // Saved 3 s before the restart: a push could have carried the robot 12 m since (the SlipModel's
+  // 4 m/s), so the saved pose cannot tell the twins apart, and the restarted fusion says so: the
+  // start-up prior's pick is SEARCHING, not TRACKING.
+  Drive d({3.5, 1.5, 2.6});
+  d.localizer.resumeFrom({3.4, 1.6, 2.55}, Eigen::Vector3d(1e-4, 1e-4, 4e-4).asDiagonal(),
+                         d.t - 3'000'000, false);
+  d.run(1.2, {0.3, 0.0, 0.2});
+  ASSERT_EQ(d.localizer.mode(), perception::LocalizationStatus::kTracking);
+  EXPECT_TRUE(d.localizer.ambiguous());
+  EXPECT_EQ(d.localizer.estimate(d.t + 8'000).status, perception::LocalizationStatus::kSearching);
+}
+
 TEST(Localizer, TheFeaturesOfTheFrameACommitCameFromAreNoBadInput) {
   // Feature recognition publishes a frame's features after its line points: the commit made from
   // the points comes first, and the features of that frame reach a filter that starts there.
