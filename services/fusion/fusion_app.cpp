@@ -1,4 +1,5 @@
 #include "services/fusion/fusion_app.hpp"
+#include "common/process/supervisor_identity.hpp"
 
 #include <time.h>
 #include <unistd.h>
@@ -62,31 +63,6 @@ Utime steadyNowUs() {
   return static_cast<Utime>(ts.tv_sec) * 1'000'000 + ts.tv_nsec / 1000;
 }
 
-std::string firstLine(const std::string& path) {
-  std::ifstream in(path);
-  std::string line;
-  std::getline(in, line);
-  return line;
-}
-
-// Who started this process: the boot, the parent's pid and start time. A restart by the same
-// launcher (or systemd) in the same boot matches, a new launcher or a reboot does not; empty when
-// unknown.
-std::string supervisorIdentity() {
-  const std::string boot = firstLine("/proc/sys/kernel/random/boot_id");
-  const pid_t parent = ::getppid();
-  const std::string stat = firstLine("/proc/" + std::to_string(parent) + "/stat");
-  // Field 22 (starttime) counted after the command name, which may hold spaces and parentheses.
-  const auto close = stat.rfind(')');
-  if (boot.empty() || close == std::string::npos || close + 2 > stat.size()) return {};
-  std::istringstream fields(stat.substr(close + 2));
-  std::string field;
-  for (int k = 3; k <= 22 && fields >> field; ++k) {
-    if (k == 22) return fmt::format("boot {} pid {} started {}", boot, parent, field);
-  }
-  return {};
-}
-
 // The pose memory's options, its file's folder made; none (with a warning) when it cannot be.
 PoseMemoryOptions poseMemory(const FusionAppOptions& options, int robot_id) {
   PoseMemoryOptions memory;
@@ -104,7 +80,7 @@ PoseMemoryOptions poseMemory(const FusionAppOptions& options, int robot_id) {
   memory.path = path;
   memory.fresh = options.fresh;
   memory.field = options.field;
-  memory.supervisor = supervisorIdentity();
+  memory.supervisor = process::supervisorIdentity();
   memory.steady_now = steadyNowUs;
   return memory;
 }

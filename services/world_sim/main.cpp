@@ -8,6 +8,7 @@
 
 #include "common/bus/cli.hpp"
 #include "common/bus/node.hpp"
+#include "common/process/supervisor_identity.hpp"
 #include "common/scenario/scenario.hpp"
 #include "services/world_sim/world_sim_node.hpp"
 
@@ -54,7 +55,7 @@ int main(int argc, char** argv) {
   app.add_flag("--fresh", options.fresh,
                "Start the scenario from t = 0 even when a recent snapshot exists");
   // A new run of the launcher (another parent) starts afresh; its restarts resume.
-  options.supervisor = world_sim::supervisorIdentity();
+  options.supervisor = process::supervisorIdentity();
   FIELDLINE_PARSE(app, argc, argv);
   if (options.state_file.empty()) options.state_file = options.pty_dir + "/world_sim.state";
 

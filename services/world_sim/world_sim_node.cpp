@@ -49,22 +49,6 @@ bus::ProcessIo worldSimIo(const scenario::Scenario& scenario, const std::string&
   return io;
 }
 
-std::string supervisorIdentity() {
-  const pid_t parent = ::getppid();
-  std::ifstream stat("/proc/" + std::to_string(parent) + "/stat");
-  std::string text;
-  if (!stat || !std::getline(stat, text)) return {};
-  // Field 22 (starttime) counted after the command name, which may hold spaces and parentheses.
-  const auto close = text.rfind(')');
-  if (close == std::string::npos) return {};
-  std::istringstream fields(text.substr(close + 2));
-  std::string field;
-  for (int k = 3; k <= 22 && fields >> field; ++k) {
-    if (k == 22) return fmt::format("pid {} started {}", parent, field);
-  }
-  return {};
-}
-
 WorldSimNode::~WorldSimNode() {
   if (!options_.state_file.empty()) writeSnapshot();
 }

@@ -28,15 +28,11 @@ struct WorldSimNodeOptions {
   double resume_within_s = 5.0;
   // Start the scenario from t = 0 whatever the state file holds.
   bool fresh = false;
-  // Who started this simulator (supervisorIdentity()): a snapshot written under another
+  // Who started this simulator (process::supervisorIdentity()): a snapshot written under another
   // supervisor (a new run of the launcher, another team sharing the folder) is not resumed.
   // Empty: not checked.
   std::string supervisor;
 };
-
-// The parent process's pid and start time ("pid 1234 started 5678"), which stay the same while
-// one launcher restarts its children and change with a new run; empty when /proc is unreadable.
-std::string supervisorIdentity();
 
 // What the simulator reads and writes: SIM_WORLD and a serial line per robot of `scenario`
 // (fieldline-world-sim --print-io).

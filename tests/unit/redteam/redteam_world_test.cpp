@@ -14,6 +14,7 @@
 
 #include <gtest/gtest.h>
 
+#include "common/process/supervisor_identity.hpp"
 #include "services/world_sim/world_sim_node.hpp"
 
 namespace fieldline::world_sim {
@@ -99,9 +100,9 @@ TEST_F(redteam_world_reset, TheWorldGoesOnAfterTheScenariosEnd) {
 }
 
 TEST(redteam_world_reset_supervisor, TheParentsIdentityIsKnown) {
-  const std::string id = supervisorIdentity();
+  const std::string id = process::supervisorIdentity();
   EXPECT_NE(id.find("pid " + std::to_string(::getppid()) + " started "), std::string::npos) << id;
-  EXPECT_EQ(id, supervisorIdentity());
+  EXPECT_EQ(id, process::supervisorIdentity());
 }
 
 }  // namespace
