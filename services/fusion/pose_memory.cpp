@@ -1,19 +1,15 @@
 #include "services/fusion/pose_memory.hpp"
 
-#include <cerrno>
 #include <cmath>
-#include <cstdio>
-#include <cstring>
-#include <filesystem>
-#include <fstream>
 #include <sstream>
 #include <stdexcept>
 #include <vector>
 
 #include <fmt/format.h>
-#include <unistd.h>
 
 #include <Eigen/Cholesky>
+
+#include "common/process/state_file.hpp"
 
 namespace fieldline::fusion {
 namespace {
@@ -91,28 +87,14 @@ SavedPose decodeSavedPose(const std::string& text) {
 }
 
 void writeSavedPoseFile(const std::string& path, const SavedPose& saved) {
-  // Per process: two runs sharing the folder must not rename each other's half-written file.
-  const std::string tmp = path + ".tmp." + std::to_string(::getpid());
-  {
-    std::ofstream out(tmp, std::ios::trunc);
-    out << encodeSavedPose(saved);
-    out.flush();
-    if (!out) throw std::runtime_error("cannot write " + tmp + ": " + std::strerror(errno));
-  }
-  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
-    throw std::runtime_error("cannot rename " + tmp + " to " + path + ": " + std::strerror(errno));
-  }
+  process::writeStateFile(path, encodeSavedPose(saved));
 }
 
 std::optional<SavedPose> readSavedPoseFile(const std::string& path) {
-  std::error_code ec;
-  if (!std::filesystem::exists(path, ec)) return std::nullopt;
-  std::ifstream in(path);
-  if (!in) throw std::runtime_error("cannot read " + path);
-  std::ostringstream text;
-  text << in.rdbuf();
+  const std::optional<std::string> text = process::readStateFile(path);
+  if (!text) return std::nullopt;
   try {
-    return decodeSavedPose(text.str());
+    return decodeSavedPose(*text);
   } catch (const std::runtime_error& e) {
     throw std::runtime_error(path + ": " + e.what());
   }

@@ -1,14 +1,11 @@
 #include "services/world_sim/world_snapshot.hpp"
 
-#include <cerrno>
-#include <cstdio>
-#include <cstring>
-#include <filesystem>
-#include <fstream>
 #include <sstream>
 #include <stdexcept>
 
 #include <fmt/format.h>
+
+#include "common/process/state_file.hpp"
 
 namespace fieldline::world_sim {
 namespace {
@@ -133,27 +130,14 @@ WorldSnapshot decodeSnapshot(const std::string& text) {
 }
 
 void writeSnapshotFile(const std::string& path, const WorldSnapshot& snapshot) {
-  const std::string tmp = path + ".tmp";
-  {
-    std::ofstream out(tmp, std::ios::trunc);
-    out << encodeSnapshot(snapshot);
-    out.flush();
-    if (!out) throw std::runtime_error("cannot write " + tmp + ": " + std::strerror(errno));
-  }
-  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
-    throw std::runtime_error("cannot rename " + tmp + " to " + path + ": " + std::strerror(errno));
-  }
+  process::writeStateFile(path, encodeSnapshot(snapshot));
 }
 
 std::optional<WorldSnapshot> readSnapshotFile(const std::string& path) {
-  std::error_code ec;
-  if (!std::filesystem::exists(path, ec)) return std::nullopt;
-  std::ifstream in(path);
-  if (!in) throw std::runtime_error("cannot read " + path);
-  std::ostringstream text;
-  text << in.rdbuf();
+  const std::optional<std::string> text = process::readStateFile(path);
+  if (!text) return std::nullopt;
   try {
-    return decodeSnapshot(text.str());
+    return decodeSnapshot(*text);
   } catch (const std::runtime_error& e) {
     throw std::runtime_error(path + ": " + e.what());
   }
