@@ -71,10 +71,11 @@ double parseClockStep(std::string& when, const std::string& spec) {
                     "clockstep:1@20-2 (2 s behind)",
                     spec));
   const double size = parseSeconds(when.substr(sign + 1), "step", spec);
-  if (size <= 0.0 || size > kMaxClockStepS)
-    throw std::invalid_argument(
-        fmt::format("fault '{}': a clock step is more than 0 and at most {} s either way", spec,
-                    kMaxClockStepS));
+  if (!(size >= kMinClockStepS && size <= kMaxClockStepS))
+    throw std::invalid_argument(fmt::format(
+        "fault '{}': a clock step is at least {} s (smaller ones cannot be told from the bus's "
+        "latency) and at most {} s either way",
+        spec, kMinClockStepS, kMaxClockStepS));
   const double step = when[sign] == '+' ? size : -size;
   when = when.substr(0, sign);
   return step;

@@ -43,6 +43,9 @@ struct FaultSpec {
 // Largest clock step, s: the team's tools (fieldline-eval, the launcher's status table) widen their
 // stamp windows by the robots' stepped offsets, up to this.
 inline constexpr double kMaxClockStepS = 10.0;
+// Smallest clock step, s: fieldline-eval tells a robot's old clock from its new one by which puts
+// a message's publish stamp nearer its arrival, which needs the step well above the bus latency.
+inline constexpr double kMinClockStepS = 0.05;
 
 // Throws std::invalid_argument naming what is wrong with `text`.
 FaultSpec parseFault(const std::string& text);
