@@ -79,6 +79,12 @@ def main():
         expect(1, "a protected member of a source file's class with a trailing underscore",
                CLEAN_HEADER, CLEAN_SOURCE + "class Fixture {\n protected:\n  int dir_ = 0;\n};\n",
                "'dir_'"),
+        expect(1, "a camelCase member of a source file's class after a nested struct, a member "
+               "function with nested blocks and a string holding //", CLEAN_HEADER,
+               CLEAN_SOURCE + "class Fixture {\n protected:\n  struct Sim {\n    int a = 0;\n  };\n"
+               "  int f(int n) {\n    for (int i = 0; i < n; ++i) {\n      if (i) {\n        n += i;\n"
+               "      }\n    }\n    return n;\n  }\n  const char* url = \"memq://\";\n"
+               "  int frameCount = 0;\n};\n", "'frameCount'"),
         expect(1, "a header that does not compile",
                CLEAN_HEADER + "inline int broken() { return undeclared; }\n", CLEAN_SOURCE),
         expect(1, "a source file with a suspect member that does not compile", CLEAN_HEADER,
