@@ -56,6 +56,10 @@ RoundTripUse ClockOffsetEstimator::add(const RoundTrip& rt) {
   const Utime newest = samples_.empty() ? sample.when : std::max(sample.when, samples_.back().when);
   const std::size_t before = samples_.size();
   while (!samples_.empty() && samples_.front().when < newest - options_.window_us) {
+    const Sample& gone = samples_.front();
+    if (gone.round_trip_us <= min_round_trip_us_) min_round_trip_known_ = false;
+    forward_.erase({gone.sent, gone.forward_us});
+    backward_.erase({gone.when, -gone.backward_us});
     samples_.pop_front();
   }
   if (samples_.size() != before) refit();
@@ -83,6 +87,8 @@ RoundTripUse ClockOffsetEstimator::add(const RoundTrip& rt) {
     const double old_line = intercept_us_ + slope_ * static_cast<double>(sample.when - reference_);
     samples_.assign(held_.begin(), held_.end());
     held_.clear();
+    rebuildEnvelopes();
+    min_round_trip_known_ = false;
     refit();
     ++steps_;
     last_step_ = ClockStep{sample.when, intercept_us_ - old_line};
@@ -94,6 +100,11 @@ RoundTripUse ClockOffsetEstimator::add(const RoundTrip& rt) {
   // Samples arrive in our time order; anything that claims otherwise is sorted in.
   for (std::size_t i = samples_.size() - 1; i > 0 && samples_[i].when < samples_[i - 1].when; --i) {
     std::swap(samples_[i], samples_[i - 1]);
+  }
+  forward_.insert({sample.sent, sample.forward_us});
+  backward_.insert({sample.when, -sample.backward_us});
+  if (min_round_trip_known_) {
+    min_round_trip_us_ = std::min(min_round_trip_us_, sample.round_trip_us);
   }
   refit();
   return RoundTripUse::kAdded;
@@ -107,6 +118,9 @@ bool ClockOffsetEstimator::converging() const {
 
 void ClockOffsetEstimator::reset() {
   samples_.clear();
+  forward_.clear();
+  backward_.clear();
+  min_round_trip_known_ = false;
   held_.clear();
   fitted_ = false;
   after_step_ = true;
@@ -119,61 +133,123 @@ struct Line {
   double slope = 0.0;
 };
 
+// One step of the monotone chain: `p` (not before the hull's last point) joins the lower hull.
+// Differences of times are exact in double (|t - t'| < 2^53 µs), so these are the decisions of
+// the chain over times taken relative to any reference.
+template <typename P>
+void pushHull(std::vector<P>& hull, const P& p) {
+  while (hull.size() >= 2) {
+    const P& o = hull[hull.size() - 2];
+    const P& a = hull.back();
+    const double cross =
+        static_cast<double>(a.t - o.t) * (p.y - o.y) - (a.y - o.y) * static_cast<double>(p.t - o.t);
+    if (cross > 0.0) break;
+    hull.pop_back();
+  }
+  if (!hull.empty() && hull.back().t == p.t) {
+    if (p.y < hull.back().y) hull.back() = p;
+    return;
+  }
+  hull.push_back(p);
+}
+
+}  // namespace
+
+double ClockOffsetEstimator::Envelope::meanTime(Utime reference) const {
+  const auto n = static_cast<std::int64_t>(points.size());
+  return static_cast<double>(sum_t - n * (reference - base)) / static_cast<double>(n);
+}
+
+void ClockOffsetEstimator::Envelope::insert(Point p) {
+  if (points.empty()) base = p.t;
+  sum_t += p.t - base;
+  if (points.empty() || !(p < points.back())) {
+    points.push_back(p);
+    pushHull(hull, p);
+    return;
+  }
+  // Out of time order (rare): sorted in, the hull made afresh.
+  points.insert(std::upper_bound(points.begin(), points.end(), p), p);
+  rebuild();
+}
+
+void ClockOffsetEstimator::Envelope::erase(Point p) {
+  if (points.empty()) return;
+  if (!(points.front() == p)) {
+    const auto it = std::find(points.begin(), points.end(), p);
+    if (it != points.end()) {
+      points.erase(it);
+      sum_t -= p.t - base;
+    }
+    rebuild();
+    return;
+  }
+  points.pop_front();
+  sum_t -= p.t - base;
+  // The hull's vertices from the first one still present on stay vertices (removing points only
+  // uncovers points below the first edge): the chain is made again up to that vertex only.
+  std::size_t keep = 0;
+  while (keep < hull.size() && hull[keep] < points.front())
+    ++keep;
+  if (points.empty() || keep == hull.size()) {
+    rebuild();
+    return;
+  }
+  scratch.clear();
+  for (std::size_t i = 0; i < points.size() && !(hull[keep] < points[i]); ++i)
+    pushHull(scratch, points[i]);
+  scratch.insert(scratch.end(), hull.begin() + static_cast<std::ptrdiff_t>(keep) + 1, hull.end());
+  hull.swap(scratch);
+}
+
+void ClockOffsetEstimator::Envelope::rebuild() {
+  hull.clear();
+  for (const Point& p : points)
+    pushHull(hull, p);
+}
+
+void ClockOffsetEstimator::Envelope::clear() {
+  points.clear();
+  hull.clear();
+  sum_t = 0;
+}
+
+void ClockOffsetEstimator::rebuildEnvelopes() {
+  forward_.clear();
+  backward_.clear();
+  for (const Sample& s : samples_) {
+    forward_.insert({s.sent, s.forward_us});
+    backward_.insert({s.when, -s.backward_us});
+  }
+}
+
+namespace {
+
 // The line below every point that is highest at the points' mean time: the edge of their lower
-// convex hull above that time (the envelope of the smallest delays). Points sorted by t.
-Line lowerEnvelope(const std::vector<std::pair<double, double>>& points, bool fit_slope,
-                   double max_slope) {
-  double t_mean = 0.0;
-  for (const auto& p : points)
-    t_mean += p.first;
-  t_mean /= static_cast<double>(points.size());
-  if (!fit_slope || points.size() < 2) {
-    double lowest = points.front().second;
-    for (const auto& p : points)
-      lowest = std::min(lowest, p.second);
+// convex hull above that time (the envelope of the smallest delays), times relative to
+// `reference`.
+template <typename Envelope>
+Line lowerEnvelope(const Envelope& env, Utime reference, bool fit_slope, double max_slope) {
+  const double t_mean = env.meanTime(reference);
+  if (!fit_slope || env.points.size() < 2) {
+    double lowest = env.points.front().y;
+    for (const auto& p : env.points)
+      lowest = std::min(lowest, p.y);
     return {lowest, 0.0};
   }
-  std::vector<std::pair<double, double>> hull;
-  for (const auto& p : points) {
-    while (hull.size() >= 2) {
-      const auto& o = hull[hull.size() - 2];
-      const auto& a = hull.back();
-      const double cross =
-          (a.first - o.first) * (p.second - o.second) - (a.second - o.second) * (p.first - o.first);
-      if (cross > 0.0) break;
-      hull.pop_back();
-    }
-    if (!hull.empty() && hull.back().first == p.first) {
-      if (p.second < hull.back().second) hull.back() = p;
-      continue;
-    }
-    hull.push_back(p);
-  }
+  const auto& hull = env.hull;
   std::size_t i = 0;
-  while (i + 2 < hull.size() && hull[i + 1].first < t_mean)
+  while (i + 2 < hull.size() && static_cast<double>(hull[i + 1].t - reference) < t_mean)
     ++i;
-  if (hull.size() < 2) return {hull.front().second, 0.0};
+  if (hull.size() < 2) return {hull.front().y, 0.0};
   const auto& a = hull[i];
   const auto& b = hull[i + 1];
   const double slope =
-      std::clamp((b.second - a.second) / (b.first - a.first), -max_slope, max_slope);
+      std::clamp((b.y - a.y) / static_cast<double>(b.t - a.t), -max_slope, max_slope);
   // Through the lower of the edge's ends after clamping, so the line stays below both.
-  const double intercept = std::min(a.second - slope * a.first, b.second - slope * b.first);
+  const double intercept = std::min(a.y - slope * static_cast<double>(a.t - reference),
+                                    b.y - slope * static_cast<double>(b.t - reference));
   return {intercept, slope};
-}
-
-// Sorts points that are nearly in order already, as the window's are (each new round trip comes
-// last, and its t1 is rarely before the previous one's): insertion sort, linear on them where
-// std::sort is n log n. The same order std::sort gives (the order of the pairs is total).
-void sortNearlySorted(std::vector<std::pair<double, double>>& points) {
-  for (std::size_t i = 1; i < points.size(); ++i) {
-    if (!(points[i] < points[i - 1])) continue;
-    const auto p = points[i];
-    std::size_t j = i;
-    for (; j > 0 && p < points[j - 1]; --j)
-      points[j] = points[j - 1];
-    points[j] = p;
-  }
 }
 
 }  // namespace
@@ -184,26 +260,20 @@ void ClockOffsetEstimator::refit() {
   // Each round trip carries one delay each way: our packet's (t2 - t1 = offset + delay there)
   // and theirs (t3 - t4 = offset - delay back). The smallest delays each way bound the offset
   // from above and below; their envelopes over the window, found separately for each direction
-  // (so the best of each need not come in the same round trip), give offset and drift.
+  // (so the best of each need not come in the same round trip), give offset and drift. The way
+  // back's upper envelope is the lower envelope of its negation.
   reference_ = samples_.back().when;
-  std::vector<std::pair<double, double>> forward, backward;
-  forward.reserve(samples_.size());
-  backward.reserve(samples_.size());
-  Utime min_rt = std::numeric_limits<Utime>::max();
-  for (const Sample& s : samples_) {
-    forward.emplace_back(static_cast<double>(s.sent - reference_), s.forward_us);
-    // The upper envelope of the way back, as the lower envelope of its negation.
-    backward.emplace_back(static_cast<double>(s.when - reference_), -s.backward_us);
-    min_rt = std::min(min_rt, s.round_trip_us);
+  if (!min_round_trip_known_) {
+    min_round_trip_us_ = std::numeric_limits<Utime>::max();
+    for (const Sample& s : samples_)
+      min_round_trip_us_ = std::min(min_round_trip_us_, s.round_trip_us);
+    min_round_trip_known_ = true;
   }
-  sortNearlySorted(forward);
-  sortNearlySorted(backward);
-  min_round_trip_us_ = min_rt;
   const Utime span = samples_.back().when - samples_.front().when;
   const bool fit_slope = samples_.size() >= 3 && span >= options_.min_fit_span_us;
   const double max_slope = options_.max_drift_ppm * 1e-6;
-  const Line up = lowerEnvelope(forward, fit_slope, max_slope);
-  const Line down = lowerEnvelope(backward, fit_slope, max_slope);
+  const Line up = lowerEnvelope(forward_, reference_, fit_slope, max_slope);
+  const Line down = lowerEnvelope(backward_, reference_, fit_slope, max_slope);
   // offset + minimum delay there, and offset - minimum delay back: equal minimum delays cancel.
   intercept_us_ = 0.5 * (up.intercept - down.intercept);
   slope_ = 0.5 * (up.slope - down.slope);

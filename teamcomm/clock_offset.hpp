@@ -21,6 +21,7 @@
 #include <cstdint>
 #include <deque>
 #include <optional>
+#include <vector>
 
 #include "common/time/clock.hpp"
 
@@ -116,12 +117,44 @@ class ClockOffsetEstimator {
     double backward_us = 0.0;  // t3 - t4: offset minus the delay back
     Utime round_trip_us = 0;
   };
+  // One direction's points (t our clock, y the delay-carrying difference) in (t, y) order, and
+  // their lower convex hull (Andrew's monotone chain), kept as round trips come and go: a round
+  // trip added last extends the hull, the oldest leaving rebuilds only its first edge's span, so
+  // a refit costs a pass over the window, not a sort and a hull per round trip (issue 32). The
+  // hull's decisions use differences of times only, so they are those the whole chain over the
+  // same points makes (clock_offset_test compares with it, round trip by round trip).
+  struct Point {
+    Utime t = 0;
+    double y = 0.0;
+    bool operator<(const Point& o) const { return t < o.t || (t == o.t && y < o.y); }
+    bool operator==(const Point& o) const { return t == o.t && y == o.y; }
+  };
+  struct Envelope {
+    std::deque<Point> points;
+    std::vector<Point> hull;
+    std::vector<Point> scratch;
+    // The sum of the points' t - base, exact, for their mean time (base: the first point's t).
+    Utime base = 0;
+    std::int64_t sum_t = 0;
+    // The mean of the points' t - reference, as summing them in double gives it whenever that
+    // sum is exact (|sum| < 2^53 µs: every window this side of centuries).
+    double meanTime(Utime reference) const;
+    void insert(Point p);
+    void erase(Point p);
+    void rebuild();
+    void clear();
+  };
   void refit();
+  // Both envelopes from samples_ (after the window restarted from held round trips).
+  void rebuildEnvelopes();
   // Whether `s`'s offset interval contains the fitted line within its error and the slack.
   bool agreesWithFit(const Sample& s) const;
 
   OffsetOptions options_;
   std::deque<Sample> samples_;
+  // (t1, t2 - t1) and (t4, t4 - t3) of samples_: the envelopes' points.
+  Envelope forward_;
+  Envelope backward_;
   // Contradicting round trips in a row, oldest first.
   std::deque<Sample> held_;
   std::uint64_t steps_ = 0;
@@ -133,6 +166,8 @@ class ClockOffsetEstimator {
   double intercept_us_ = 0.0;
   double slope_ = 0.0;
   Utime min_round_trip_us_ = 0;
+  // The smallest round trip of samples_ is known (else it is found again at the next refit).
+  bool min_round_trip_known_ = false;
 };
 
 }  // namespace fieldline::teamcomm

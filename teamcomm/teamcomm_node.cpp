@@ -134,11 +134,10 @@ TeamcommNode::TeamcommNode(bus::Node& node, PacketLink& link, TeamcommOptions op
   });
   // The first packet soon after start; from then on the timer is set for when the next is due.
   node_.after(kFirstSendDelay_us, [this] { onSendTimer(); });
-  // A socket is waited on by the node's event loop; a link without one (the in-process test
-  // hub) is polled.
-  if (const int fd = link_.fileDescriptor(); fd >= 0) {
-    node_.watchFd(fd, [this] { pollLink(); });
-  } else {
+  // A socket is read before each packet we send and each TEAM_STATE (pollLink), and waited on
+  // only through a flood; a link without one (the in-process test hub) is polled.
+  link_fd_ = link_.fileDescriptor();
+  if (link_fd_ < 0) {
     node_.every(options_.poll_period_us, [this] { pollLink(); });
   }
   node_.every(static_cast<Utime>(1e6 / options_.publish_rate_hz), [this] { publishTeamState(); });
@@ -193,6 +192,8 @@ void TeamcommNode::maybeSend(bool new_ball) {
 }
 
 void TeamcommNode::sendPacket() {
+  // What teammates sent since the last read: the echoes below name their newest packets.
+  if (link_fd_ >= 0) pollLink();
   const Utime now = node_.now();
   TeamPacket p;
   p.team_id = options_.team_id;
@@ -240,8 +241,29 @@ void TeamcommNode::sendPacket() {
 }
 
 void TeamcommNode::pollLink() {
-  link_.poll(
-      [this](std::span<const std::uint8_t> bytes, Utime age_us) { onDatagram(bytes, age_us); });
+  int read = 0;
+  link_.poll([this, &read](std::span<const std::uint8_t> bytes, Utime age_us) {
+    ++read;
+    onDatagram(bytes, age_us);
+  });
+  if (link_fd_ < 0) return;
+  // Teammates' packets wait in the socket until we next send or publish: the kernel stamped their
+  // arrival (the link's age), so round trips and the gate see the same times, and the link wakes
+  // some 30 times a second instead of for each of its ~120 datagrams (issue 32). A read that
+  // finds a flood's worth waits on the socket (as fast as the node can read, so the teammates'
+  // packets among the junk are not lost to a full buffer) until the flood has been over a while.
+  const Utime steady = node_.clock().monotonicNow();
+  if (read >= kFloodDatagramsPerRead) {
+    watch_link_until_ = steady + kWatchAfterFlood_us;
+    if (!link_watch_) link_watch_ = node_.watchFd(link_fd_, [this] { pollLink(); });
+  } else if (link_watch_ && steady >= watch_link_until_) {
+    node_.unwatchFd(*link_watch_);
+    link_watch_.reset();
+  }
+}
+
+bool TeamcommNode::waitsOnLink() const {
+  return link_watch_.has_value();
 }
 
 void TeamcommNode::reject(Reject reason, int claimed_robot, const std::string& detail) {
@@ -439,6 +461,7 @@ Utime TeamcommNode::toOurClock(const Teammate& mate, Utime their_utime, Utime th
 }
 
 void TeamcommNode::publishTeamState() {
+  if (link_fd_ >= 0) pollLink();
   const Utime now = node_.now();
   if (own_robot_ && now - own_robot_received_ <= options_.picture.present_timeout_us) {
     Report own;

@@ -80,8 +80,14 @@ class TeamcommNode {
   const LinkCounters& counters() const { return counters_; }
   // The offset estimate of a teammate's clock (theirs minus ours) at `now`.
   std::optional<OffsetEstimate> offset(int robot_id, Utime now) const;
-  // Reads the link now (the timer does this every poll period).
+  // Reads the link now (before each packet sent and each TEAM_STATE, or every poll period for a
+  // link without a socket).
   void pollLink();
+  // Whether the event loop waits on the link's socket (through a flood and 2 s after it).
+  bool waitsOnLink() const;
+  // Datagrams in one read that make it a flood, and how long the socket is then waited on.
+  static constexpr int kFloodDatagramsPerRead = 32;
+  static constexpr Utime kWatchAfterFlood_us = 2'000'000;
 
  private:
   struct Teammate {
@@ -167,6 +173,10 @@ class TeamcommNode {
   std::deque<std::pair<Utime, std::int64_t>> kernel_drops_;
   LinkCounters counters_;
   team_state_t team_state_msg_{};
+  // The link's socket (-1: none), the watch on it while a flood lasts, and until when (steady).
+  int link_fd_ = -1;
+  std::optional<bus::Node::WatchId> link_watch_;
+  Utime watch_link_until_ = 0;
 };
 
 }  // namespace fieldline::teamcomm

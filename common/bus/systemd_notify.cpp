@@ -15,8 +15,16 @@ Utime watchdogPingPeriod() {
   return sd_watchdog_enabled(0, &usec) > 0 ? static_cast<Utime>(usec / 2) : 0;
 }
 
+// Whether NOTIFY_SOCKET names a socket. Read once, with the watchdog period: the unit's
+// environment is the process's from its start, and every loop asked getenv twice (issue 32).
+bool notifySocketSet() {
+  const char* socket = std::getenv("NOTIFY_SOCKET");
+  return socket != nullptr && *socket != '\0';
+}
+
 struct NotifyState {
   std::mutex mutex;
+  const bool under_systemd = notifySocketSet();
   bool ready_sent = false;
   const Utime ping_period_us = watchdogPingPeriod();
   Utime next_ping_us = 0;
@@ -29,8 +37,7 @@ NotifyState& state() {
 }
 
 bool underSystemd() {
-  const char* socket = std::getenv("NOTIFY_SOCKET");
-  return socket != nullptr && *socket != '\0';
+  return state().under_systemd;
 }
 
 }  // namespace

@@ -4,6 +4,7 @@
 // unit's watchdog period, from the loop itself, so a loop stuck in a handler stops the pings and
 // systemd restarts the process. The node's SERVICE_STATUS state goes out as STATUS= (shown by
 // `systemctl status`). Outside systemd (no NOTIFY_SOCKET, no WATCHDOG_USEC) all of it is a no-op.
+// The variables are read once, at the first call: a loop costs no getenv.
 // Process-wide: the watchdog belongs to the process, whatever number of nodes it runs.
 #pragma once
 

@@ -1,6 +1,11 @@
 // Several teamcomm nodes in one process (tests/unit/teamcomm/team_harness.hpp).
 #include "teamcomm/teamcomm_node.hpp"
 
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -343,6 +348,98 @@ TEST(teamcomm_node, KeepsSendingAfterASendThatThrew) {
   }
   // 2 s at the send rate, less the one that threw.
   EXPECT_GE(link.sent, static_cast<int>(2.0 * options.send_rate_hz) - 3);
+}
+
+// A link on a UDP socket of the loopback: what arrives is read only when the node reads it.
+class LoopbackLink : public PacketLink {
+ public:
+  LoopbackLink() {
+    fd_ = ::socket(AF_INET, SOCK_DGRAM | SOCK_NONBLOCK, 0);
+    to_.sin_family = AF_INET;
+    to_.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    socklen_t len = sizeof to_;
+    if (fd_ < 0 || ::bind(fd_, reinterpret_cast<sockaddr*>(&to_), sizeof to_) != 0 ||
+        ::getsockname(fd_, reinterpret_cast<sockaddr*>(&to_), &len) != 0) {
+      ADD_FAILURE() << "no loopback socket";
+    }
+    sender_ = ::socket(AF_INET, SOCK_DGRAM, 0);
+  }
+  ~LoopbackLink() override {
+    ::close(fd_);
+    ::close(sender_);
+  }
+  bool send(std::span<const std::uint8_t>) override {
+    ++sent;
+    return true;
+  }
+  void poll(const std::function<void(std::span<const std::uint8_t>, Utime)>& on_packet) override {
+    std::uint8_t buffer[1500];
+    for (int n = 0; n < 256; ++n) {
+      const ssize_t got = ::recv(fd_, buffer, sizeof buffer, MSG_DONTWAIT);
+      if (got < 0) return;
+      on_packet(std::span<const std::uint8_t>(buffer, static_cast<std::size_t>(got)), 0);
+    }
+  }
+  int fileDescriptor() const override { return fd_; }
+  // `n` datagrams of junk to the link, as a teammate (or an attacker) would send them.
+  void inject(int n) {
+    const std::vector<std::uint8_t> junk(200, 0x5a);
+    for (int i = 0; i < n; ++i) {
+      (void)::sendto(sender_, junk.data(), junk.size(), 0, reinterpret_cast<sockaddr*>(&to_),
+                     sizeof to_);
+    }
+  }
+  int sent = 0;
+
+ private:
+  int fd_ = -1;
+  int sender_ = -1;
+  sockaddr_in to_{};
+};
+
+// Issue 32: the link does not wake for each teammate's packet (about 120 a second with our own
+// echo); it reads its socket before each packet it sends and each TEAM_STATE (the kernel's
+// arrival stamps keep the round trips exact). Through a flood it waits on the socket, reading as
+// fast as it can, and stops 2 s after the flood.
+TEST(teamcomm_node, ReadsItsSocketBeforeItSendsAndWaitsOnItOnlyThroughAFlood) {
+  SimulatedClock clock(test::kT0);
+  auto bus = bus::Connection::open("memq://");
+  bus::Node node({.process = "teamcomm", .robot_id = 1, .status_period_us = 0}, clock, bus);
+  LoopbackLink link;
+  TeamcommOptions options;
+  options.key = test::devKey();
+  TeamcommNode team(node, link, options);
+  const auto runUntilSent = [&](int n) {
+    for (int ms = 0; ms < 200 && link.sent < n; ++ms) {
+      clock.advance(1000);
+      node.spinOnce(0);
+    }
+    ASSERT_EQ(link.sent, n);
+  };
+  EXPECT_EQ(node.watchedFdCount(), 0u);
+  runUntilSent(1);
+  link.inject(3);
+  node.spinOnce(20);  // nothing due: the datagrams wait in the socket
+  EXPECT_EQ(team.counters().rejectedTotal(), 0);
+  runUntilSent(2);  // read before the packet went out
+  EXPECT_EQ(team.counters().rejectedTotal(), 3);
+  EXPECT_FALSE(team.waitsOnLink());
+
+  link.inject(100);
+  runUntilSent(3);
+  EXPECT_EQ(team.counters().rejectedTotal(), 103);
+  EXPECT_TRUE(team.waitsOnLink());
+  EXPECT_EQ(node.watchedFdCount(), 1u);
+  link.inject(1);
+  node.spinOnce(20);  // woken by the datagram and read at once
+  EXPECT_EQ(team.counters().rejectedTotal(), 104);
+
+  for (int ms = 0; ms < 2200; ++ms) {
+    clock.advance(1000);
+    node.spinOnce(0);
+  }
+  EXPECT_FALSE(team.waitsOnLink());
+  EXPECT_EQ(node.watchedFdCount(), 0u);
 }
 
 }  // namespace
