@@ -108,7 +108,9 @@ TeamcommNode::TeamcommNode(bus::Node& node, PacketLink& link, TeamcommOptions op
   next_sequence_ = static_cast<std::uint64_t>(std::max<Utime>(0, node_.now()));
   // The link counts its drops from its opening, about now.
   kernel_drops_.emplace_back(node_.now(), 0);
-  node_.subscribe(bus::channels::kRobotState, [this](const robot_state_t& m) {
+  // Our pose and obstacles are needed only when a packet goes out: they do not wake the link,
+  // they are handled before its next timer or BALL_STATE (issue 32); the ball may send at once.
+  node_.subscribeDeferred(bus::channels::kRobotState, [this](const robot_state_t& m) {
     own_robot_ = msg::fromMessage(m);
     own_robot_received_ = node_.now();
   });
@@ -127,11 +129,12 @@ TeamcommNode::TeamcommNode(bus::Node& node, PacketLink& link, TeamcommOptions op
   });
   // What the camera saw, placed on the field with the newest pose (obstacles without a pose
   // near the frame's time are not sent).
-  node_.subscribe(bus::channels::kVisionObstacles, [this](const obstacle_observations_t& m) {
-    if (!own_robot_) return;
-    own_obstacles_ = obstaclesInField(msg::toObstacleSightings(m), *own_robot_);
-    own_obstacles_received_ = node_.now();
-  });
+  node_.subscribeDeferred(
+      bus::channels::kVisionObstacles, [this](const obstacle_observations_t& m) {
+        if (!own_robot_) return;
+        own_obstacles_ = obstaclesInField(msg::toObstacleSightings(m), *own_robot_);
+        own_obstacles_received_ = node_.now();
+      });
   // The first packet soon after start; from then on the timer is set for when the next is due.
   node_.after(kFirstSendDelay_us, [this] { onSendTimer(); });
   // A socket is read before each packet we send and each TEAM_STATE (pollLink), and waited on

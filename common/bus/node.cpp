@@ -79,6 +79,8 @@ struct Node::Subscription {
   AllHandler all;
   Connection* connection = nullptr;
   lcm::Subscription* lcm_subscription = nullptr;
+  // Received by the connection's deferred socket (Node::subscribeDeferred).
+  bool deferred = false;
 };
 
 // A udpm bus is received by a socket of the node's own (udpm_receiver.hpp) and published through
@@ -86,6 +88,9 @@ struct Node::Subscription {
 struct Connection::Impl {
   lcm::LCM lcm;
   std::optional<UdpmReceiver> receiver;
+  // The deferred subscriptions' socket: not waited on, read by Node::drainDeferred.
+  std::optional<UdpmReceiver> deferred_receiver;
+  std::optional<UdpmAddress> address;
   // Every node's subscriptions on a udpm bus (several nodes may share a connection).
   std::vector<Node::Subscription*> subscriptions;
   // Reused for subscribeAllRaw handlers, which take a std::string.
@@ -95,25 +100,34 @@ struct Connection::Impl {
     const char* fallback = std::getenv("LCM_DEFAULT_URL");
     const std::string effective =
         !url.empty() ? url : (fallback && *fallback ? fallback : "udpm://239.255.76.67:7667");
-    if (auto address = parseUdpmUrl(effective)) receiver.emplace(*address);
+    address = parseUdpmUrl(effective);
+    if (address) receiver.emplace(*address);
   }
 
   // The filter follows the subscriptions: the kernel passes only what some node here reads.
   void updateFilter() {
-    std::vector<std::string> channels;
+    std::vector<std::string> channels, deferred_channels;
     bool everything = false;
     for (const Node::Subscription* sub : subscriptions) {
       everything = everything || static_cast<bool>(sub->all);
-      if (!sub->all && std::find(channels.begin(), channels.end(), sub->channel) == channels.end())
-        channels.push_back(sub->channel);
+      auto& list = sub->deferred ? deferred_channels : channels;
+      if (!sub->all && std::find(list.begin(), list.end(), sub->channel) == list.end())
+        list.push_back(sub->channel);
     }
-    receiver->setChannels(channels, everything);
+    // A socket opens with its first channel (one only deferred channels use has none).
+    if (receiver->fd() >= 0 || everything || !channels.empty())
+      receiver->setChannels(channels, everything);
+    if (!deferred_channels.empty() && !deferred_receiver) deferred_receiver.emplace(*address);
+    if (deferred_receiver && (deferred_receiver->fd() >= 0 || !deferred_channels.empty()))
+      deferred_receiver->setChannels(deferred_channels, false);
   }
 
-  void dispatch(std::string_view channel, const void* data, int size) {
+  // To the subscriptions of the socket it came from (`deferred`: the deferred one).
+  void dispatch(std::string_view channel, const void* data, int size, bool deferred = false) {
     // Index loop: a handler may subscribe.
     for (std::size_t i = 0; i < subscriptions.size(); ++i) {
       Node::Subscription* sub = subscriptions[i];
+      if (sub->deferred != deferred) continue;
       if (sub->all) {
         channel_name.assign(channel);
         sub->all(channel_name, data, size);
@@ -241,6 +255,34 @@ void Node::subscribeRaw(const std::string& channel, BusId bus, RawHandler handle
   // Big messages (images) come in bursts; let a slow handler fall behind a little, not forever.
   if (sub->lcm_subscription) sub->lcm_subscription->setQueueCapacity(60);
   subscriptions_.push_back(std::move(sub));
+}
+
+void Node::deferLastSubscription() {
+  Subscription& sub = *subscriptions_.back();
+  auto& impl = *sub.connection->impl_;
+  // Other providers deliver it as any subscription.
+  if (!impl.receiver) return;
+  sub.deferred = true;
+  try {
+    impl.updateFilter();
+  } catch (const std::system_error& e) {
+    throw BusError("LCM bus '" + sub.connection->url() + "': cannot receive: " + e.what());
+  }
+}
+
+void Node::drainDeferred() {
+  for (std::size_t i = 0; i < buses_.size(); ++i) {
+    Connection::Impl& impl = *buses_[i]->impl_;
+    if (!impl.deferred_receiver || impl.deferred_receiver->fd() < 0) continue;
+    impl.deferred_receiver->receive(
+        kMaxMessagesPerSpin,
+        [&impl](std::string_view channel, const void* data, int size) {
+          impl.dispatch(channel, data, size, true);
+        },
+        [this, i](const char* kind, const std::string& text) {
+          onBusProblem(static_cast<BusId>(i), kind, text);
+        });
+  }
 }
 
 void Node::checkDeclaredInput(const std::string& channel) const {
@@ -439,6 +481,12 @@ void Node::unwatchFd(WatchId id) {
 
 void Node::fireTimers() {
   const Utime now = clock_.monotonicNow();
+  // Deferred messages before any timer or status that is due (they may use what those carry).
+  const bool status_due = options_.status_period_us > 0 && now >= next_status_;
+  if (status_due || std::any_of(timers_.begin(), timers_.end(),
+                                [now](const Timer& t) { return t.next <= now; })) {
+    drainDeferred();
+  }
   // Index loop: a timer callback may add timers.
   for (std::size_t i = 0; i < timers_.size(); ++i) {
     if (timers_[i].next > now) continue;
@@ -497,9 +545,15 @@ int Node::spinOnce(int timeout_ms) {
   int handled = 0;
   const int ready = ::poll(fds.data(), fds.size(), std::max(0, timeout_ms));
   if (ready > 0) {
+    bool drained = false;
     for (std::size_t i = 0; i < buses_.size(); ++i) {
       if (!(fds[i].revents & POLLIN)) continue;
       Connection::Impl& impl = *buses_[i]->impl_;
+      // What was deferred came first: its handlers run before this bus's newer messages.
+      if (!drained && impl.deferred_receiver) {
+        drainDeferred();
+        drained = true;
+      }
       // Drain what is queued on this bus, bounded so timers and status still run under a flood.
       if (impl.receiver) {
         handled += impl.receiver->receive(

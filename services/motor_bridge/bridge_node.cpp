@@ -20,8 +20,10 @@ BridgeNode::BridgeNode(bus::Node& node, const robot::RobotParams& params, Bridge
           [this](std::span<const std::uint8_t> bytes) { onBytes(bytes); },
           [this](bool connected) { onLinkState(connected); }) {
   if (!(config_.command_rate > 0.0)) throw std::invalid_argument("command_rate must be positive");
-  node_.subscribe(bus::channels::kMotionCommand,
-                  [this](const motion_command_t& m) { onCommand(m); });
+  // A command goes out on the line at the next tick of the command timer: its messages do not
+  // wake the bridge, they are handled just before that tick (issue 32: a wake-up less each).
+  node_.subscribeDeferred(bus::channels::kMotionCommand,
+                          [this](const motion_command_t& m) { onCommand(m); });
   node_.every(static_cast<Utime>(1e6 / config_.command_rate), [this] { sendCommand(); });
   node_.every(kMicrosPerSecond, [this] { publishMetrics(); });
   // An open serial line is not enough: the controller's samples must flow (a reader stealing the

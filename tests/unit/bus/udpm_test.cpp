@@ -8,6 +8,7 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <chrono>
 #include <cstdlib>
 #include <cstring>
 #include <string>
@@ -393,6 +394,49 @@ TEST_F(UdpmBus, ARecorderTakesEveryChannel) {
   EXPECT_EQ(seen, (std::vector<std::string>{"ODOMETRY", "CAMERA_IMAGE", "MOTION_COMMAND"}));
   EXPECT_EQ(commands, 1);
   EXPECT_EQ(bridge.busDatagrams(), 1);
+}
+
+// Issue 32: a deferred subscription (the pilot's pose) wakes no one; its messages are handled, in
+// their order, before the next timer and before the next message of another channel on the bus.
+TEST_F(UdpmBus, ADeferredChannelWakesNoOneAndIsHandledBeforeTheNextTimer) {
+  Node sender{{.process = "sender", .robot_id = 1, .url = kUrl, .status_period_us = 0}, clock};
+  Node pilot{{.process = "pilot", .robot_id = 1, .url = kUrl, .status_period_us = 0}, clock};
+  std::vector<std::int64_t> odometry;
+  pilot.subscribeDeferred(channels::kOdometry,
+                          [&](const odometry_t& m) { odometry.push_back(m.header.seq); });
+  std::size_t odometry_at_command = 0;
+  pilot.subscribe(channels::kMotionCommand,
+                  [&](const motion_command_t&) { odometry_at_command = odometry.size(); });
+  const auto publishOdometry = [&](int n) {
+    for (int i = 0; i < n; ++i) {
+      odometry_t odo{};
+      odo.header.utime = clock.now();
+      ASSERT_TRUE(sender.publish(channels::kOdometry, odo));
+    }
+  };
+  publishOdometry(3);
+  // Nothing due: the poll sleeps its whole timeout, nothing is handled.
+  const auto start = std::chrono::steady_clock::now();
+  EXPECT_EQ(pilot.spinOnce(60), 0);
+  EXPECT_GE(std::chrono::steady_clock::now() - start, std::chrono::milliseconds(50));
+  EXPECT_TRUE(odometry.empty());
+  // A timer due: the waiting messages first.
+  std::size_t odometry_at_timer = 0;
+  pilot.after(0, [&] { odometry_at_timer = odometry.size(); });
+  pilot.spinOnce(0);
+  EXPECT_EQ(odometry_at_timer, 3u);
+  EXPECT_EQ(odometry, (std::vector<std::int64_t>{0, 1, 2}));
+  // A message of another channel: the deferred ones that came before it first.
+  publishOdometry(2);
+  motion_command_t cmd{};
+  cmd.header.utime = clock.now();
+  cmd.deadline_utime = clock.now() + 100'000;
+  cmd.source = motion_command_t::SOURCE_PILOT;
+  ASSERT_TRUE(sender.publish(channels::kMotionCommand, cmd));
+  spinUntil({&pilot}, [&] { return odometry_at_command > 0; });
+  EXPECT_EQ(odometry_at_command, 5u);
+  // Its waited-on socket read the command alone.
+  EXPECT_EQ(pilot.busDatagrams(), 1);
 }
 
 TEST_F(UdpmBus, WhatLcmItselfPublishesArrivesAndWhatTheNodePublishesLcmReads) {

@@ -4,7 +4,10 @@
 // error status, and the bridge waits on the new line's descriptor after it returns.
 #include "services/motor_bridge/bridge_node.hpp"
 
+#include <sched.h>
 #include <unistd.h>
+
+#include <cstdlib>
 
 #include <filesystem>
 #include <functional>
@@ -161,6 +164,59 @@ TEST_F(BridgeNodeTest, StopLeavesTheRobotStanding) {
     if (const auto* v = std::get_if<serial::VelocityCommand>(&m)) last = *v;
   ASSERT_TRUE(last.has_value());
   EXPECT_EQ(last->vx_q15, 0);
+}
+
+// Issue 32: over a real udpm bus the bridge does not wake for MOTION_COMMAND (its socket for
+// waking reads nothing); the command is read just before the next tick and goes out then.
+TEST(BridgeNodeUdpm, ACommandWakesNothingAndGoesOutAtTheNextTick) {
+  // This test's process only (every case runs in a process of its own).
+  if (::unshare(CLONE_NEWNET) != 0 ||
+      std::system("ip link set lo up && ip link set lo multicast on && "
+                  "ip route add 224.0.0.0/4 dev lo") != 0) {
+    GTEST_FAIL() << "needs a private network namespace (root, as scripts/test runs)";
+  }
+  const std::string url = "udpm://239.255.76.67:7803?ttl=0";
+  const auto dir = std::filesystem::temp_directory_path() /
+                   ("fieldline-bridge-udpm-" + std::to_string(::getpid()));
+  BridgeConfig config;
+  config.device = (dir / "robot2.tty").string();
+  config.command_rate = 50.0;
+  auto pty = std::make_unique<world_sim::PseudoTerminal>(config.device);
+  SimulatedClock clock{1'800'000'000'000'000};
+  bus::Node bridge_node{{.process = "motor_bridge", .robot_id = 2, .url = url}, clock};
+  bus::Node pilot{{.process = "pilot", .robot_id = 2, .url = url, .status_period_us = 0}, clock};
+  {
+    BridgeNode bridge(bridge_node, robot::loadRobotPreset("fu2004"), config);
+    bridge.start();
+    ASSERT_TRUE(bridge.link().connected());
+    motion_command_t command{};
+    command.header.utime = clock.now();
+    command.vx = 0.5;
+    command.deadline_utime = clock.now() + 200'000;
+    command.source = motion_command_t::SOURCE_PILOT;
+    pilot.publish(bus::channels::kMotionCommand, command);
+    bridge_node.spinOnce(50);  // nothing due: asleep, the command waits
+    EXPECT_EQ(bridge_node.busDatagrams(), 0);
+    clock.advance(20'000);
+    bridge_node.spinOnce(0);
+    serial::Decoder decoder;
+    std::optional<serial::VelocityCommand> sent;
+    for (int i = 0; i < 100 && !sent; ++i) {
+      bridge_node.spinOnce(2);
+      std::vector<std::uint8_t> bytes;
+      pty->read(bytes);
+      std::vector<serial::Message> out;
+      decoder.feed(bytes, out);
+      for (const auto& m : out) {
+        if (const auto* v = std::get_if<serial::VelocityCommand>(&m); v && v->vx_q15 != 0)
+          sent = *v;
+      }
+    }
+    ASSERT_TRUE(sent.has_value());
+    EXPECT_EQ(sent->vx_q15, serial::toQ15(0.5));
+  }
+  pty.reset();
+  std::filesystem::remove_all(dir);
 }
 
 }  // namespace

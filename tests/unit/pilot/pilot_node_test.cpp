@@ -3,7 +3,11 @@
 // without a fresh pose (or with a pose fusion does not stand behind).
 #include "services/pilot/pilot_node.hpp"
 
+#include <sched.h>
+
+#include <cstdlib>
 #include <memory>
+#include <string>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -109,6 +113,46 @@ TEST_F(PilotNodeTest, SteersByOwnStateOnlyWhenFusionKnowsThePose) {
 
 TEST_F(PilotNodeTest, RefusesABadRate) {
   EXPECT_THROW(PilotNode(pilot_node, makePilot(), {.rate = 0.0}), std::invalid_argument);
+}
+
+// Issue 32: over a real udpm bus the pilot does not wake for ROBOT_STATE (its socket for waking
+// reads nothing); the pose is read just before the next command, which steers by it.
+TEST(PilotNodeUdpm, ThePoseWakesNothingAndIsReadBeforeTheNextCommand) {
+  // This test's process only (every case runs in a process of its own).
+  if (::unshare(CLONE_NEWNET) != 0 ||
+      std::system("ip link set lo up && ip link set lo multicast on && "
+                  "ip route add 224.0.0.0/4 dev lo") != 0) {
+    GTEST_FAIL() << "needs a private network namespace (root, as scripts/test runs)";
+  }
+  const std::string url = "udpm://239.255.76.67:7802?ttl=0";
+  const scenario::Scenario scenario = scenario::loadScenarioPreset("default");
+  const robot::RobotParams params = robot::loadRobotPreset("fu2004");
+  SimulatedClock clock{1'800'000'000'000'000};
+  bus::Node pilot_node{{.process = "pilot", .robot_id = 3, .url = url}, clock};
+  bus::Node fusion{{.process = "fusion", .robot_id = 3, .url = url, .status_period_us = 0}, clock};
+  bus::Node listener{{.process = "listener", .robot_id = 3, .url = url, .status_period_us = 0},
+                     clock};
+  std::vector<motion_command_t> commands;
+  listener.subscribe(bus::channels::kMotionCommand,
+                     [&](const motion_command_t& m) { commands.push_back(m); });
+  PilotNode node(pilot_node, Pilot(scenario, 3, params), {.steer = SteerBy::kState});
+  robot_state_t s{};
+  s.header.utime = clock.now();
+  const auto start = scenario.robotById(3)->start;
+  s.x = start.x;
+  s.y = start.y;
+  s.phi = start.phi;
+  s.status = robot_state_t::STATUS_TRACKING;
+  fusion.publish(bus::channels::kRobotState, s);
+  EXPECT_EQ(pilot_node.spinOnce(50), 0);  // nothing due: asleep, the pose waits
+  EXPECT_EQ(pilot_node.busDatagrams(), 0);
+  clock.advance(20'000);
+  pilot_node.spinOnce(0);
+  for (int i = 0; i < 100 && commands.empty(); ++i)
+    listener.spinOnce(5);
+  ASSERT_EQ(commands.size(), 1u);
+  EXPECT_NEAR(commands.back().omega, 1.0 / params.max_omega, 0.05);
+  EXPECT_EQ(node.commandsSent(), 1);
 }
 
 }  // namespace
