@@ -155,6 +155,8 @@ class TeamPicture {
     Eigen::Vector2d position = Eigen::Vector2d::Zero();
     Eigen::Vector2d velocity = Eigen::Vector2d::Zero();
     Eigen::Matrix2d covariance = Eigen::Matrix2d::Identity();
+    // The robots whose sightings it holds (sorted).
+    std::vector<int> sources;
   };
   std::optional<Track> track_;
 
@@ -175,8 +177,9 @@ class TeamPicture {
   std::vector<int> leaveOutSuperseded(std::vector<BallCandidate>& candidates) const;
   // The previous team ball carried to now, while it is recent enough to judge by.
   std::optional<BallCandidate> trackAt(Utime now) const;
-  // The winning group's ball combined with the previous team ball carried to now (carry_track).
-  void carryTrack(Utime now, TeamBallResult& best) const;
+  // The winning group's ball combined with the previous team ball carried to now (carry_track);
+  // the robots whose sightings the result holds.
+  std::vector<int> carryTrack(Utime now, TeamBallResult& best) const;
   Choice largestConsistentGroup(const std::vector<BallCandidate>& candidates,
                                 const std::optional<BallCandidate>& track) const;
   void rejectTheOthers(Choice& choice, const std::vector<BallCandidate>& candidates,

@@ -460,6 +460,21 @@ TEST(teamcomm_picture, AContradictedOrRollingBallIsNotCarried) {
   }
 }
 
+// Only sightings the picture's group does not hold are carried: a robot's newer estimate has its
+// older ones in it (its filter), even when the older one claimed to be surer (a filter starting).
+TEST(teamcomm_picture, ARobotsOwnEarlierBallIsNotCarriedOverItsNewerOne) {
+  TeamPicture picture(1);
+  Report far = report(-3.0, 1.0, kT0);
+  seeBall(far, 2.1, 1.0, 0.01);
+  picture.setReport(5, far);
+  ASSERT_TRUE(picture.picture(kT0).team_ball_valid);
+  const Utime now = kT0 + 100'000;
+  far = report(-3.0, 1.0, now);
+  seeBall(far, 2.0, 1.0, 0.04);
+  picture.setReport(5, far);
+  EXPECT_NEAR(picture.picture(now).team_ball_x, 2.0, 1e-9);
+}
+
 TEST(teamcomm_team_state, MessageCarriesEveryField) {
   perception::TeamState s;
   s.utime = kT0;
