@@ -4,6 +4,7 @@
 #include <Eigen/LU>
 #include <algorithm>
 #include <cmath>
+#include <iterator>
 #include <stdexcept>
 #include <tuple>
 
@@ -188,6 +189,66 @@ std::optional<BallCandidate> TeamPicture::trackAt(Utime now) const {
                        track_->covariance + Eigen::Matrix2d::Identity() * (grown * grown)};
 }
 
+namespace {
+
+// Covariance intersection of two estimates whose errors may be correlated in any way: the
+// information-weighted mean with weights w and 1 - w, w chosen for the smallest trace. Never
+// more confident than the better of the two; either one alone when it is better in every
+// direction. The weight of `a` (0: b alone).
+double intersect(const Eigen::Vector2d& a, const Eigen::Matrix2d& ca, Eigen::Vector2d& b,
+                 Eigen::Matrix2d& cb) {
+  const Eigen::Matrix2d ia = ca.inverse(), ib = cb.inverse();
+  double best_w = 0.0, best_trace = cb.trace();
+  for (int i = 1; i <= 20; ++i) {
+    const double w = 0.05 * i;
+    const double trace = (w * ia + (1.0 - w) * ib).inverse().trace();
+    if (trace < best_trace) {
+      best_trace = trace;
+      best_w = w;
+    }
+  }
+  if (best_w == 0.0) return 0.0;
+  cb = (best_w * ia + (1.0 - best_w) * ib).inverse();
+  b = cb * (best_w * ia * a + (1.0 - best_w) * ib * b);
+  return best_w;
+}
+
+}  // namespace
+
+std::vector<int> TeamPicture::carryTrack(Utime now, TeamBallResult& best) const {
+  std::vector<int> used = best.used;
+  std::sort(used.begin(), used.end());
+  if (!options_.carry_track || !track_ || now < track_->utime ||
+      now - track_->utime > options_.ball_timeout_us) {
+    return used;
+  }
+  // Only what the group does not hold already: a reporter's newer estimate has its older ones in
+  // it (its filter), and carrying them again would keep an early, overconfident one.
+  if (std::includes(used.begin(), used.end(), track_->sources.begin(), track_->sources.end())) {
+    return used;
+  }
+  // Only a resting ball: a rolling one's carried velocity lags a kick or a bounce.
+  if (track_->velocity.norm() >= options_.ball_rest_speed_mps ||
+      best.velocity.norm() >= options_.ball_rest_speed_mps) {
+    return used;
+  }
+  const double dt = seconds(std::min<Utime>(now - track_->utime, options_.max_prediction_us));
+  const double grown = options_.carry_speed_sigma_mps * dt;
+  const Eigen::Matrix2d carried_covariance =
+      track_->covariance + Eigen::Matrix2d::Identity() * (grown * grown);
+  if (mahalanobis2(track_->position, carried_covariance, best.position, best.covariance) >
+      options_.gate_chi2) {
+    return used;
+  }
+  const double w = intersect(track_->position, carried_covariance, best.position, best.covariance);
+  if (w == 0.0) return used;
+  if (w == 1.0) return track_->sources;
+  std::vector<int> both;
+  std::set_union(used.begin(), used.end(), track_->sources.begin(), track_->sources.end(),
+                 std::back_inserter(both));
+  return both;
+}
+
 // Every group that agrees with one of its members. The largest wins; among equal ones, the one
 // that continues the previous team ball, then the one with fewer reporters whose pose may be its
 // twin, then the one whose fused covariance is smallest.
@@ -277,7 +338,8 @@ perception::TeamState TeamPicture::picture(Utime now, TeamBallResult* team_ball)
     const double st2 = options_.ball_stamp_sigma_s * options_.ball_stamp_sigma_s;
     const double n = static_cast<double>(best.used.size());
     best.covariance += (1.0 - 1.0 / n) * st2 * best.velocity * best.velocity.transpose();
-    track_ = Track{now, best.position, best.velocity, best.covariance};
+    std::vector<int> sources = carryTrack(now, best);
+    track_ = Track{now, best.position, best.velocity, best.covariance, std::move(sources)};
     s.team_ball_valid = true;
     s.team_ball_x = best.position.x();
     s.team_ball_y = best.position.y();

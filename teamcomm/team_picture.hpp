@@ -83,6 +83,17 @@ struct PictureOptions {
   // Only a confident sighting supersedes: both of its position sigmas at most this, m (fusion's
   // ball.restart_max_sigma_m).
   double supersede_max_sigma_m = 0.15;
+  // The team ball carries what it knew about a resting ball: the previous team ball (at rest,
+  // its sigma grown by carry_speed_sigma_mps per second) and the winning group's ball (at rest)
+  // are combined by covariance intersection while they agree (gate_chi2): the better one wins,
+  // or a mix whose covariance is never narrower than either (each picture fuses the same
+  // reporters' filters again: a Kalman update would count them twice). A rolling ball is not
+  // carried (its carried velocity lags a kick). Replays of 9 match and 17 other recordings
+  // (docs/log/2026-12-06-team-ball.md, "Session 6"): kidnap 1-8 % better, the match -2..+1 %;
+  // a growth of 0.03 m/s (fusion's resting model) gained more in kidnap but took the team NEES in
+  // band below 0.85 on four recordings (the carried covariance wider than its error).
+  bool carry_track = true;
+  double carry_speed_sigma_mps = 0.1;
 };
 
 // A robot's ball, predicted to the picture's time, as the team ball's fusion sees it.
@@ -144,6 +155,8 @@ class TeamPicture {
     Eigen::Vector2d position = Eigen::Vector2d::Zero();
     Eigen::Vector2d velocity = Eigen::Vector2d::Zero();
     Eigen::Matrix2d covariance = Eigen::Matrix2d::Identity();
+    // The robots whose sightings it holds (sorted).
+    std::vector<int> sources;
   };
   std::optional<Track> track_;
 
@@ -164,6 +177,9 @@ class TeamPicture {
   std::vector<int> leaveOutSuperseded(std::vector<BallCandidate>& candidates) const;
   // The previous team ball carried to now, while it is recent enough to judge by.
   std::optional<BallCandidate> trackAt(Utime now) const;
+  // The winning group's ball combined with the previous team ball carried to now (carry_track);
+  // the robots whose sightings the result holds.
+  std::vector<int> carryTrack(Utime now, TeamBallResult& best) const;
   Choice largestConsistentGroup(const std::vector<BallCandidate>& candidates,
                                 const std::optional<BallCandidate>& track) const;
   void rejectTheOthers(Choice& choice, const std::vector<BallCandidate>& candidates,

@@ -64,6 +64,22 @@ std::optional<std::uint16_t> udpmPort(const std::string& url) {
   return static_cast<std::uint16_t>(port);
 }
 
+namespace {
+
+// team.picture: the team ball's fusion (PictureOptions).
+void loadPictureOptions(const config::Node& p, PictureOptions& picture) {
+  picture.present_timeout_us = seconds(p.getOr<double>("present_timeout_s", 0.5, 0.1, 10.0));
+  picture.ball_timeout_us = seconds(p.getOr<double>("ball_timeout_s", 0.5, 0.1, 10.0));
+  picture.gate_chi2 = p.getOr<double>("gate_chi2", 9.21, 1.0, 100.0);
+  picture.superseded_after_us = seconds(p.getOr<double>("superseded_after_s", 0.09, 0.0, 1.0));
+  picture.ball_radial_floor_per_m2 = p.getOr<double>("ball_radial_floor_per_m2", 0.0015, 0.0, 0.1);
+  picture.carry_track = p.getOr<bool>("carry_track", true);
+  picture.carry_speed_sigma_mps = p.getOr<double>("carry_speed_sigma_mps", 0.1, 0.0, 10.0);
+  p.rejectUnknownKeys();
+}
+
+}  // namespace
+
 TeamcommConfig loadTeamcommConfig(const config::Node& root) {
   const config::Node t = root.child("team");
   TeamcommConfig c;
@@ -128,17 +144,7 @@ TeamcommConfig loadTeamcommConfig(const config::Node& root) {
         seconds(o->getOr<double>("reset_after_stale_s", 2.0, 0.5, 60.0));
     o->rejectUnknownKeys();
   }
-  if (const auto p = t.childIf("picture")) {
-    c.node.picture.present_timeout_us =
-        seconds(p->getOr<double>("present_timeout_s", 0.5, 0.1, 10.0));
-    c.node.picture.ball_timeout_us = seconds(p->getOr<double>("ball_timeout_s", 0.5, 0.1, 10.0));
-    c.node.picture.gate_chi2 = p->getOr<double>("gate_chi2", 9.21, 1.0, 100.0);
-    c.node.picture.superseded_after_us =
-        seconds(p->getOr<double>("superseded_after_s", 0.09, 0.0, 1.0));
-    c.node.picture.ball_radial_floor_per_m2 =
-        p->getOr<double>("ball_radial_floor_per_m2", 0.0015, 0.0, 0.1);
-    p->rejectUnknownKeys();
-  }
+  if (const auto p = t.childIf("picture")) loadPictureOptions(*p, c.node.picture);
   t.rejectUnknownKeys();
   root.rejectUnknownKeys();
   return c;

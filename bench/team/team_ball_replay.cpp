@@ -136,6 +136,12 @@ struct ReplayOptions {
     app.add_option("--min-ball-variance", picture.min_ball_variance,
                    "Floor of a ball's position variance, m^2")
         ->capture_default_str();
+    app.add_option("--carry-track", picture.carry_track,
+                   "Combine the previous team ball with each picture's (covariance intersection)")
+        ->capture_default_str();
+    app.add_option("--carry-speed-sigma", picture.carry_speed_sigma_mps,
+                   "The carried team ball's growth while the ball rests, m/s")
+        ->capture_default_str();
     addOutputs(app);
   }
 
