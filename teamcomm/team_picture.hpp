@@ -85,13 +85,15 @@ struct PictureOptions {
   double supersede_max_sigma_m = 0.15;
   // The team ball carries what it knew about a resting ball: the previous team ball (at rest,
   // its sigma grown by carry_speed_sigma_mps per second) and the winning group's ball (at rest)
-  // are combined by covariance intersection while they agree (gate_chi2): the better one wins,
-  // or a mix whose covariance is never narrower than either (each picture fuses the same
-  // reporters' filters again: a Kalman update would count them twice). A rolling ball is not
-  // carried (its carried velocity lags a kick). Replays of 9 match and 17 other recordings
-  // (docs/log/2026-12-06-team-ball.md, "Session 6"): kidnap 1-8 % better, the match -2..+1 %;
-  // a growth of 0.03 m/s (fusion's resting model) gained more in kidnap but took the team NEES in
-  // band below 0.85 on four recordings (the carried covariance wider than its error).
+  // are combined by covariance intersection while they agree (gate_chi2) and the previous one
+  // holds a robot's sightings that the group does not (a robot's newer ball has its older ones in
+  // it): the better one wins, or a mix whose covariance is never narrower than either (each
+  // picture fuses the same reporters' filters again: a Kalman update would count them twice). A
+  // rolling ball is not carried (its carried velocity lags a kick). Replays of 10 match and 17
+  // other recordings (docs/log/2026-12-06-team-ball.md, "Session 6"): kidnap 1-8 % better, the
+  // match -2 % to +0.3 %; a growth of 0.03 m/s (fusion's resting model) gained more in kidnap but
+  // took the team NEES in band below 0.85 on four recordings (the carried covariance, a near
+  // robot's, wider than its error).
   bool carry_track = true;
   double carry_speed_sigma_mps = 0.1;
 };
