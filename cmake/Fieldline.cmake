@@ -154,3 +154,37 @@ function(fieldline_unclassified_executables dir out)
   endforeach()
   set(${out} ${found} PARENT_SCOPE)
 endfunction()
+
+# fieldline_unity_build(DIR BATCH_SIZE n): every library and executable under DIR (recursively)
+# with two or more C++ files is compiled as unity units of up to n files each (CMake's
+# UNITY_BUILD): the headers the files share are parsed, and their inline functions compiled,
+# once per unit instead of once per file. Single-file targets (most mains) are left as they are,
+# so their objects stay the same. Touching one file recompiles its unit: n bounds that rebuild.
+# A file that cannot share a unit (file-local names that clash with another file's):
+# set_source_files_properties(f.cpp PROPERTIES SKIP_UNITY_BUILD_INCLUSION ON) in its
+# CMakeLists.txt, with the reason; a whole target: set_target_properties(t PROPERTIES
+# FIELDLINE_NO_UNITY ON).
+function(fieldline_unity_build dir)
+  cmake_parse_arguments(ARG "" "BATCH_SIZE" "" ${ARGN})
+  get_property(targets DIRECTORY ${dir} PROPERTY BUILDSYSTEM_TARGETS)
+  foreach(t ${targets})
+    get_target_property(type ${t} TYPE)
+    if(NOT type MATCHES "^(STATIC_LIBRARY|OBJECT_LIBRARY|EXECUTABLE)$")
+      continue()
+    endif()
+    get_target_property(no_unity ${t} FIELDLINE_NO_UNITY)
+    if(no_unity)
+      continue()
+    endif()
+    get_target_property(sources ${t} SOURCES)
+    list(FILTER sources INCLUDE REGEX "\\.cpp$")
+    list(LENGTH sources count)
+    if(count GREATER 1)
+      set_target_properties(${t} PROPERTIES UNITY_BUILD ON UNITY_BUILD_BATCH_SIZE ${ARG_BATCH_SIZE})
+    endif()
+  endforeach()
+  get_property(subdirs DIRECTORY ${dir} PROPERTY SUBDIRECTORIES)
+  foreach(sub ${subdirs})
+    fieldline_unity_build(${sub} BATCH_SIZE ${ARG_BATCH_SIZE})
+  endforeach()
+endfunction()
