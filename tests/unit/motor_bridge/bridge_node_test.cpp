@@ -19,7 +19,7 @@
 #include "services/world_sim/pseudo_terminal.hpp"
 
 namespace fieldline::motor_bridge {
-namespace {
+namespace bridge_node_test {
 
 class BridgeNodeTest : public ::testing::Test {
  protected:
@@ -163,5 +163,5 @@ TEST_F(BridgeNodeTest, StopLeavesTheRobotStanding) {
   EXPECT_EQ(last->vx_q15, 0);
 }
 
-}  // namespace
+}  // namespace bridge_node_test
 }  // namespace fieldline::motor_bridge

@@ -13,7 +13,7 @@
 #include "common/scenario/scenario.hpp"
 
 namespace fieldline::pilot {
-namespace {
+namespace pilot_node_test {
 
 class PilotNodeTest : public ::testing::Test {
  protected:
@@ -111,5 +111,5 @@ TEST_F(PilotNodeTest, RefusesABadRate) {
   EXPECT_THROW(PilotNode(pilot_node, makePilot(), {.rate = 0.0}), std::invalid_argument);
 }
 
-}  // namespace
+}  // namespace pilot_node_test
 }  // namespace fieldline::pilot

@@ -10,7 +10,7 @@
 #include "teamcomm/clock_offset.hpp"
 
 namespace fieldline::teamcomm {
-namespace {
+namespace clock_offset_test {
 
 constexpr Utime kT0 = 1'700'000'000'000'000;
 
@@ -199,5 +199,5 @@ TEST(teamcomm_clock_offset, ThreeAgreeingContradictionsAreAStepAndTheFitRestarts
   }
 }
 
-}  // namespace
+}  // namespace clock_offset_test
 }  // namespace fieldline::teamcomm

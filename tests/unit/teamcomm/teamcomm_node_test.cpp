@@ -16,7 +16,7 @@
 #include "tests/unit/teamcomm/team_harness.hpp"
 
 namespace fieldline::teamcomm {
-namespace {
+namespace teamcomm_node_test {
 
 using namespace test;
 
@@ -242,11 +242,11 @@ TEST(teamcomm_node, ARestartOnAClockSetBackFollowsItsNewSequence) {
   }
 }
 
-}  // namespace
+}  // namespace teamcomm_node_test
 }  // namespace fieldline::teamcomm
 
 namespace fieldline::teamcomm {
-namespace {
+namespace teamcomm_node_test {
 
 using namespace test;
 
@@ -303,11 +303,11 @@ TEST(teamcomm_node, SendsWhatTheCameraSawInTheFieldFrame) {
   }
 }
 
-}  // namespace
+}  // namespace teamcomm_node_test
 }  // namespace fieldline::teamcomm
 
 namespace fieldline::teamcomm {
-namespace {
+namespace teamcomm_node_test {
 
 // A link whose first send throws (a socket error the node does not expect), then works.
 class FailsOnceLink final : public PacketLink {
@@ -345,5 +345,5 @@ TEST(teamcomm_node, KeepsSendingAfterASendThatThrew) {
   EXPECT_GE(link.sent, static_cast<int>(2.0 * options.send_rate_hz) - 3);
 }
 
-}  // namespace
+}  // namespace teamcomm_node_test
 }  // namespace fieldline::teamcomm
