@@ -28,6 +28,7 @@ function(fieldline_precompiled_header_targets)
                                                    GTest::gtest)
   target_precompile_headers(fieldline_test_pch PRIVATE ${PROJECT_SOURCE_DIR}/cmake/pch/test.hpp)
   fieldline_test_debug_info(fieldline_test_pch)
+  fieldline_test_optimisation(fieldline_test_pch)
 endfunction()
 
 # The test executables carry no debug information unless FIELDLINE_TEST_DEBUG_INFO is on: their
@@ -51,17 +52,46 @@ function(fieldline_use_test_precompiled_header target)
   endif()
 endfunction()
 
+# How the test executables are compiled. Most of a test file's compile time is parsing the same
+# headers (GoogleTest, Eigen, yaml-cpp, CLI11, Asio: 1-3 CPU-s each per file), so each folder of
+# tests/unit is one executable (or a few: see fieldline_test) built as a unity build: up to
+# FIELDLINE_TEST_UNITY_BATCH of its files are compiled as one unit, and the headers are parsed
+# once per unit (docs/log/2026-12-06-build.md, "Session 6 (tests)"). Two files of one executable
+# therefore must not define the same name at file scope, even in an anonymous namespace: a file's
+# local helpers live in a namespace named after the file. FIELDLINE_TEST_UNITY=OFF compiles every
+# file alone (e.g. to check that each test file includes what it uses).
+option(FIELDLINE_TEST_UNITY "Test executables as unity builds (cmake/Fieldline.cmake)" ON)
+set(FIELDLINE_TEST_UNITY_BATCH 8 CACHE STRING "Test files per unity unit (cmake/Fieldline.cmake)")
+# The test files' own code is compiled at FIELDLINE_TEST_OPT_LEVEL (the libraries they link keep
+# the build type's -O2): it is mostly set-up and checks, and -O1 compiles it in about a fifth less
+# time. Empty: the build type's level.
+set(FIELDLINE_TEST_OPT_LEVEL -O1 CACHE STRING "Optimisation of the test files' own code")
+
+function(fieldline_test_optimisation target)
+  if(FIELDLINE_TEST_OPT_LEVEL)
+    target_compile_options(${target} PRIVATE
+                           $<$<CONFIG:RelWithDebInfo,Release>:${FIELDLINE_TEST_OPT_LEVEL}>)
+  endif()
+endfunction()
+
 # fieldline_test(NAME SOURCES a.cpp b.cpp LIBS lib1 lib2 [LABELS unit] [ONE_PROCESS] [TEST_PREFIX p.])
 # A GoogleTest executable whose cases are registered with CTest one by one, each run in its own
 # process. ONE_PROCESS registers the executable as a single CTest test (named NAME) that runs all
 # its cases in one process, for cases sharing an expensive suite fixture, such as the simulated
 # camera's floor raster (~0.7 s to build), which would otherwise be rebuilt by every case's process.
+# A folder puts all its files whose cases are registered alike (the same LABELS and TEST_PREFIX,
+# not ONE_PROCESS) in one executable.
 function(fieldline_test name)
   cmake_parse_arguments(ARG "ONE_PROCESS" "TEST_PREFIX" "SOURCES;LIBS;LABELS" ${ARGN})
   add_executable(${name} ${ARG_SOURCES})
   target_link_libraries(${name} PRIVATE ${ARG_LIBS} GTest::gtest GTest::gtest_main fieldline_root)
   fieldline_use_test_precompiled_header(${name})
   fieldline_test_debug_info(${name})
+  if(FIELDLINE_TEST_UNITY)
+    set_target_properties(${name} PROPERTIES UNITY_BUILD ON
+                                             UNITY_BUILD_BATCH_SIZE ${FIELDLINE_TEST_UNITY_BATCH})
+  endif()
+  fieldline_test_optimisation(${name})
   if(NOT ARG_LABELS)
     set(ARG_LABELS unit)
   endif()

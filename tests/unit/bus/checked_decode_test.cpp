@@ -8,7 +8,7 @@
 #include "common/bus/checked_decode.hpp"
 
 namespace fieldline::bus {
-namespace {
+namespace checked_decode_test {
 
 constexpr Utime kNow = 2'000'000;
 
@@ -49,5 +49,5 @@ TEST(CheckedDecode, StringLengthBelowOneIsUndecodable) {
   }
 }
 
-}  // namespace
+}  // namespace checked_decode_test
 }  // namespace fieldline::bus

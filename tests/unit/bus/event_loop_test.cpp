@@ -14,7 +14,7 @@
 #include "common/bus/node.hpp"
 
 namespace fieldline::bus {
-namespace {
+namespace event_loop_test {
 
 constexpr Utime kHourUs = 3600 * kMicrosPerSecond;
 
@@ -209,5 +209,5 @@ TEST(EventLoopRealTime, StepOfTheWallClockDoesNotStallTheLoop) {
   EXPECT_TRUE(spinUntil(before + 5));
 }
 
-}  // namespace
+}  // namespace event_loop_test
 }  // namespace fieldline::bus

@@ -10,7 +10,7 @@
 #include "common/config/config.hpp"
 
 namespace fieldline::bus {
-namespace {
+namespace io_test {
 
 ProcessIo lineFollower() {
   return ProcessIo("follower")
@@ -112,5 +112,5 @@ TEST(ProcessIo, ADeclarationOfNoChannelOrTwiceIsRefused) {
                config::Error);
 }
 
-}  // namespace
+}  // namespace io_test
 }  // namespace fieldline::bus

@@ -18,7 +18,7 @@
 #include "common/bus/replay.hpp"
 
 namespace fieldline::bus {
-namespace {
+namespace log_test {
 
 constexpr Utime kStart = 1'800'000'000'000'000;
 
@@ -288,5 +288,5 @@ TEST_F(LogTest, ReplayDeliversInLogTimeOrderUnderTheSimulatedClockAndRecordsOutp
   std::filesystem::remove(out_path);
 }
 
-}  // namespace
+}  // namespace log_test
 }  // namespace fieldline::bus

@@ -10,7 +10,7 @@
 #include "common/bus/node.hpp"
 
 namespace fieldline::bus {
-namespace {
+namespace node_test {
 
 class BusTest : public ::testing::Test {
  protected:
@@ -270,11 +270,11 @@ TEST(BusErrors, BadProviderIsAClearError) {
   }
 }
 
-}  // namespace
+}  // namespace node_test
 }  // namespace fieldline::bus
 
 namespace fieldline::bus {
-namespace {
+namespace node_test {
 
 TEST(BusRaw, SubscribeAllSeesEveryChannelAndItsHeader) {
   SimulatedClock clock{1'800'000'000'000'000};
@@ -311,11 +311,11 @@ TEST(BusRaw, SubscribeAllSeesEveryChannelAndItsHeader) {
   EXPECT_FALSE(peekHeader(shortBytes, 5).has_value());
 }
 
-}  // namespace
+}  // namespace node_test
 }  // namespace fieldline::bus
 
 namespace fieldline::bus {
-namespace {
+namespace node_test {
 
 class HostileInput : public ::testing::Test {
  protected:
@@ -450,5 +450,5 @@ TEST_F(HostileInput, SeveralStatusPublishersAreNotCountedAsDrops) {
   EXPECT_EQ(receiver.status().channel("SERVICE_STATUS", Direction::kIn)->drops, 0);
 }
 
-}  // namespace
+}  // namespace node_test
 }  // namespace fieldline::bus

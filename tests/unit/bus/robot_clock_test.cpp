@@ -12,7 +12,7 @@
 #include "common/time/offset_clock.hpp"
 
 namespace fieldline::bus {
-namespace {
+namespace robot_clock_test {
 
 constexpr Utime kT0 = 1'800'000'000'000'000;
 
@@ -80,5 +80,5 @@ TEST(BusRobotClocks, EnvironmentGivesEveryProcessTheSameClock) {
   EXPECT_EQ(robotClockFromEnvironment().error().offset_us, 0);
 }
 
-}  // namespace
+}  // namespace robot_clock_test
 }  // namespace fieldline::bus

@@ -3,7 +3,7 @@
 #include "common/bus/status.hpp"
 
 namespace fieldline::bus {
-namespace {
+namespace status_test {
 
 TEST(Percentiles, OfKnownSamples) {
   std::vector<float> s;
@@ -41,11 +41,11 @@ TEST(StatusCollector, DropsAreTrackedPerSender) {
   EXPECT_EQ(c.channel("TEAM", Direction::kIn)->drops, 3);
 }
 
-}  // namespace
+}  // namespace status_test
 }  // namespace fieldline::bus
 
 namespace fieldline::bus {
-namespace {
+namespace status_test {
 
 TEST(StatusCollector, StateFollowsErrorsAndFaults) {
   StatusCollector c("p", 1, 0);
@@ -59,5 +59,5 @@ TEST(StatusCollector, StateFollowsErrorsAndFaults) {
   EXPECT_EQ(c.takeStatus(5'000'000).state, service_status_t::STATE_OK);
 }
 
-}  // namespace
+}  // namespace status_test
 }  // namespace fieldline::bus

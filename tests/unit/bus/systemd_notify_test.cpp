@@ -14,7 +14,7 @@
 #include "common/bus/node.hpp"
 
 namespace fieldline::bus {
-namespace {
+namespace systemd_notify_test {
 
 // A datagram socket where systemd would listen (NOTIFY_SOCKET).
 class FakeSystemd {
@@ -121,5 +121,5 @@ TEST(SystemdNotify, SilentOutsideAUnit) {
   EXPECT_TRUE(systemd.take().empty());
 }
 
-}  // namespace
+}  // namespace systemd_notify_test
 }  // namespace fieldline::bus

@@ -22,7 +22,7 @@
 #include "common/bus/udpm_wire.hpp"
 
 namespace fieldline::bus {
-namespace {
+namespace udpm_test {
 
 using Bytes = std::vector<std::uint8_t>;
 
@@ -479,5 +479,5 @@ TEST_F(UdpmBus, GarbageOnASubscribedChannelIsCountedNotHandled) {
   EXPECT_EQ(node.status().errorCount("decode"), 1);
 }
 
-}  // namespace
+}  // namespace udpm_test
 }  // namespace fieldline::bus

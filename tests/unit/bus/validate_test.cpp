@@ -6,7 +6,7 @@
 #include "common/bus/validate.hpp"
 
 namespace fieldline::bus {
-namespace {
+namespace validate_test {
 
 constexpr double kNan = std::numeric_limits<double>::quiet_NaN();
 
@@ -120,13 +120,13 @@ TEST(Validate, FeatureHypothesesReferToFeatures) {
   EXPECT_TRUE(validate(f));
 }
 
-}  // namespace
+}  // namespace validate_test
 }  // namespace fieldline::bus
 
 #include "common/bus/cli.hpp"
 
 namespace fieldline::bus {
-namespace {
+namespace validate_test {
 
 TEST(ParseNumberList, ExactCountOfFiniteNumbers) {
   EXPECT_EQ(parseNumberList("1.0,-0.5,0.2", 3, "--pose"), (std::vector<double>{1.0, -0.5, 0.2}));
@@ -142,5 +142,5 @@ TEST(ParseNumberList, ExactCountOfFiniteNumbers) {
   }
 }
 
-}  // namespace
+}  // namespace validate_test
 }  // namespace fieldline::bus

@@ -22,7 +22,7 @@
 #include "services/camera/log_source.hpp"
 
 namespace fieldline::camera {
-namespace {
+namespace camera_node_test {
 
 world_state_t makeWorld(Utime utime) {
   world_state_t w;
@@ -283,5 +283,5 @@ TEST(LogImageSource, ReadsValidCameraFramesAndCountsTheRest) {
   std::filesystem::remove(path);
 }
 
-}  // namespace
+}  // namespace camera_node_test
 }  // namespace fieldline::camera

@@ -10,7 +10,7 @@
 #include "services/camera/camera_preview_node.hpp"
 
 namespace fieldline::camera {
-namespace {
+namespace camera_preview_test {
 
 image_t yuyvFrame(Utime utime, int width, int height) {
   image_t m{};
@@ -116,5 +116,5 @@ TEST(CameraPreview, AtMostTheRateOnTheBusItIsGiven) {
   EXPECT_EQ(off.published(), 0);
 }
 
-}  // namespace
+}  // namespace camera_preview_test
 }  // namespace fieldline::camera

@@ -8,7 +8,7 @@
 #include "common/config/config.hpp"
 
 namespace fieldline::camera {
-namespace {
+namespace colour_test {
 
 TEST(Colour, NamesRoundTrip) {
   for (int c = 0; c < kColourClassCount; ++c) {
@@ -130,5 +130,5 @@ TEST(ColourTable, ConfigErrorsNameFileAndKey) {
                config::Error);
 }
 
-}  // namespace
+}  // namespace colour_test
 }  // namespace fieldline::camera

@@ -14,7 +14,7 @@
 #include "services/camera/sim_renderer.hpp"
 
 namespace fieldline::camera {
-namespace {
+namespace floor_raster_cache_test {
 
 namespace fs = std::filesystem;
 
@@ -198,5 +198,5 @@ TEST(FloorRasterCache, LoadRefusesDamagedFilesWithAReason) {
   }
 }
 
-}  // namespace
+}  // namespace floor_raster_cache_test
 }  // namespace fieldline::camera

@@ -7,7 +7,7 @@
 #include <gtest/gtest.h>
 
 namespace fieldline::msg {
-namespace {
+namespace image_msg_test {
 
 image_t yuyvImage(int width, int height, int stride) {
   image_t m{};
@@ -89,5 +89,5 @@ TEST(ImageMsg, ToMessageKeepsASwappedInBufferAndCopiesForeignFramesCompactly) {
   EXPECT_THROW(toMessage(camera::FrameView{}, out), std::invalid_argument);
 }
 
-}  // namespace
+}  // namespace image_msg_test
 }  // namespace fieldline::msg

@@ -9,7 +9,7 @@
 #include "common/config/config.hpp"
 
 namespace fieldline::camera {
-namespace {
+namespace mirror_model_test {
 
 constexpr double kPi = std::numbers::pi;
 
@@ -272,5 +272,5 @@ TEST(MirrorModel, AxisOffsetIsReadFromThePresetAndOptional) {
   }
 }
 
-}  // namespace
+}  // namespace mirror_model_test
 }  // namespace fieldline::camera

@@ -14,7 +14,7 @@
 #include "services/camera/sim_renderer.hpp"
 
 namespace fieldline::camera {
-namespace {
+namespace realism_test {
 
 MirrorModel smallMirror() {
   MirrorParams p;
@@ -223,5 +223,5 @@ TEST(Realism, TheRendererAppliesItsRealismSectionAndFollowsTheLightFactor) {
   EXPECT_DOUBLE_EQ(loaded.realism.blur_sigma, 1.0);
 }
 
-}  // namespace
+}  // namespace realism_test
 }  // namespace fieldline::camera

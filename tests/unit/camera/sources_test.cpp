@@ -10,7 +10,7 @@
 #include <opencv2/videoio.hpp>
 
 namespace fieldline::camera {
-namespace {
+namespace sources_test {
 
 namespace fs = std::filesystem;
 
@@ -129,5 +129,5 @@ TEST(VideoCaptureSource, UnopenableSpecNamesIt) {
   }
 }
 
-}  // namespace
+}  // namespace sources_test
 }  // namespace fieldline::camera

@@ -17,7 +17,7 @@
 #include "services/camera/sources_y4m.hpp"
 
 namespace fieldline::camera {
-namespace {
+namespace y4m_test {
 
 std::string errorOf(const std::string& header) {
   try {
@@ -185,5 +185,5 @@ TEST_F(Y4mPipe, AFileThatIsNoPipeIsRefused) {
   EXPECT_THROW(Y4mPipeWriter(pipe_path, 4, 2, 30.0), std::runtime_error);
 }
 
-}  // namespace
+}  // namespace y4m_test
 }  // namespace fieldline::camera

@@ -9,7 +9,7 @@
 #include <gtest/gtest.h>
 
 namespace fieldline::region_tracking {
-namespace {
+namespace colour_adaptation_test {
 
 using camera::ColourClass;
 
@@ -161,5 +161,5 @@ TEST(ColourAdaptation, BadParametersAreRefused) {
                config::Error);
 }
 
-}  // namespace
+}  // namespace colour_adaptation_test
 }  // namespace fieldline::region_tracking

@@ -12,7 +12,7 @@
 #include "common/camera/colour.hpp"
 
 namespace fieldline::camera {
-namespace {
+namespace colour_lookup_test {
 
 ColourTable boxTable() {
   return ColourTable({
@@ -102,5 +102,5 @@ TEST(ColourLookup, APresetNamesItsLookupFileAndBoxesGoOverALookupTable) {
   std::filesystem::remove_all(dir);
 }
 
-}  // namespace
+}  // namespace colour_lookup_test
 }  // namespace fieldline::camera

@@ -9,7 +9,7 @@
 #include "common/config/config.hpp"
 
 namespace fieldline::config {
-namespace {
+namespace config_test {
 
 struct Wheel {
   double angle;
@@ -191,11 +191,11 @@ TEST(Preset, ResolvesNamesAndPaths) {
   EXPECT_EQ(resolvePreset("field", "msl"), projectRoot() + "/config/field/msl.yaml");
 }
 
-}  // namespace
+}  // namespace config_test
 }  // namespace fieldline::config
 
 namespace fieldline::config {
-namespace {
+namespace config_test {
 
 TEST(ConfigMore, BadListElementNamesItsOwnLine) {
   const Node n = Node::loadString("a: 1\ngains:\n  - 1.0\n  - 2.0\n  - x\n", "g.yaml");
@@ -249,5 +249,5 @@ TEST(ConfigMore, EmptyFileIsNamed) {
   std::filesystem::remove(path);
 }
 
-}  // namespace
+}  // namespace config_test
 }  // namespace fieldline::config

@@ -9,7 +9,7 @@
 #include <gtest/gtest.h>
 
 namespace fieldline::config {
-namespace {
+namespace settings_test {
 
 enum class Mode { kFast, kExact };
 
@@ -133,5 +133,5 @@ TEST(Settings, NumbersPrintShortAndReadBack) {
   EXPECT_EQ(formatNumber(16.27), "16.27");
 }
 
-}  // namespace
+}  // namespace settings_test
 }  // namespace fieldline::config

@@ -9,7 +9,7 @@
 #include "tests/unit/feature_recognition/synthetic.hpp"
 
 namespace fieldline::feature_recognition {
-namespace {
+namespace centre_circle_test {
 
 constexpr double kPi = std::numbers::pi;
 
@@ -100,5 +100,5 @@ TEST(FindOrientationLine, IgnoresLinesPassingBesideTheCentre) {
   EXPECT_FALSE(circle.oriented);
 }
 
-}  // namespace
+}  // namespace centre_circle_test
 }  // namespace fieldline::feature_recognition

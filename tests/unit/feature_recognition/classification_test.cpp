@@ -9,7 +9,7 @@
 #include "tests/unit/feature_recognition/synthetic.hpp"
 
 namespace fieldline::feature_recognition {
-namespace {
+namespace classification_test {
 
 using test::contoursOf;
 
@@ -79,5 +79,5 @@ TEST(Classify, ScatteredPointsGiveNeitherLineNorArc) {
   EXPECT_LT(out.lines.size() + out.arcs.size(), 6u);
 }
 
-}  // namespace
+}  // namespace classification_test
 }  // namespace fieldline::feature_recognition

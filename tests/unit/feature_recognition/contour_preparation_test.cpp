@@ -10,7 +10,7 @@
 #include "tests/unit/feature_recognition/synthetic.hpp"
 
 namespace fieldline::feature_recognition {
-namespace {
+namespace contour_preparation_test {
 
 using test::addSequence;
 using test::polyline;
@@ -121,5 +121,5 @@ TEST(PrepareContours, EmptyFrameIsNoError) {
   EXPECT_TRUE(out.pieces.empty());
 }
 
-}  // namespace
+}  // namespace contour_preparation_test
 }  // namespace fieldline::feature_recognition

@@ -18,7 +18,7 @@
 #include "tests/unit/feature_recognition/synthetic.hpp"
 
 namespace fieldline::feature_recognition {
-namespace {
+namespace feature_node_test {
 
 // The value of the error kind or metric `name` in a SERVICE_STATUS message (-1 when absent).
 double errorCount(const service_status_t& s, const std::string& name) {
@@ -232,5 +232,5 @@ TEST(FeatureNode, CountsEveryKindOfBadInputAndTheModelCheckRejectionsInTheStatus
   EXPECT_EQ(metric(status, "model_check_rejected_total"), 3 * refused);
 }
 
-}  // namespace
+}  // namespace feature_node_test
 }  // namespace fieldline::feature_recognition

@@ -15,7 +15,7 @@
 #include "tests/unit/feature_recognition/synthetic.hpp"
 
 namespace fieldline::feature_recognition {
-namespace {
+namespace line_end_identity_test {
 
 using geometry::Pose2;
 using geometry::Vec2;
@@ -410,5 +410,5 @@ TEST(LineEndIdentity, CandidateEndsNeedAParallelPartnerAtTheAreasSpacings) {
   EXPECT_NEAR(ends[1].length, 2.5, 1e-9);
 }
 
-}  // namespace
+}  // namespace line_end_identity_test
 }  // namespace fieldline::feature_recognition

@@ -11,7 +11,7 @@
 #include "tests/unit/feature_recognition/synthetic.hpp"
 
 namespace fieldline::feature_recognition {
-namespace {
+namespace line_structure_test {
 
 TEST(LineStructure, FindsTheDirectionsDespiteOutliersAndGroupsCollinearPieces) {
   std::mt19937 rng(15);
@@ -134,5 +134,5 @@ TEST(LineStructure, ExcludedPiecesAndNoLines) {
   EXPECT_FALSE(principalDirection({}, 0.3, psi0));
 }
 
-}  // namespace
+}  // namespace line_structure_test
 }  // namespace fieldline::feature_recognition

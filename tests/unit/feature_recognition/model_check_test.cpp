@@ -12,7 +12,7 @@
 #include "tests/unit/feature_recognition/synthetic.hpp"
 
 namespace fieldline::feature_recognition {
-namespace {
+namespace model_check_test {
 
 using geometry::Pose2;
 using geometry::Vec2;
@@ -144,5 +144,5 @@ TEST(ModelCheck, BoundedWorkAndBadParameters) {
   EXPECT_THROW(ModelCheck(field, bad), std::invalid_argument);
 }
 
-}  // namespace
+}  // namespace model_check_test
 }  // namespace fieldline::feature_recognition

@@ -13,7 +13,7 @@
 #include "tests/unit/feature_recognition/synthetic.hpp"
 
 namespace fieldline::feature_recognition {
-namespace {
+namespace penalty_area_test {
 
 using geometry::Pose2;
 
@@ -138,5 +138,5 @@ TEST(SquareUp, TheShortLineTakesItsDirectionFromTheLongOne) {
   EXPECT_FALSE(squareUp(a, a, 0.3, square));
 }
 
-}  // namespace
+}  // namespace penalty_area_test
 }  // namespace fieldline::feature_recognition

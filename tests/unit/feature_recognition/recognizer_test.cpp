@@ -12,7 +12,7 @@
 #include "tests/unit/feature_recognition/synthetic.hpp"
 
 namespace fieldline::feature_recognition {
-namespace {
+namespace recognizer_test {
 
 using geometry::Pose2;
 using perception::FeatureKind;
@@ -170,5 +170,5 @@ TEST(Recognizer, HypothesesAreRankedByQualityThenSigma) {
   }
 }
 
-}  // namespace
+}  // namespace recognizer_test
 }  // namespace fieldline::feature_recognition

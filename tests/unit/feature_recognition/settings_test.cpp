@@ -9,7 +9,7 @@
 #include <gtest/gtest.h>
 
 namespace fieldline::feature_recognition {
-namespace {
+namespace settings_test {
 
 std::string readFile(const std::string& relative) {
   std::ifstream in(config::projectRoot() + "/" + relative);
@@ -63,5 +63,5 @@ TEST(RecognitionSettings, AFileSetsWhatItNamesAndRefusesTypos) {
   EXPECT_NE(range.find("[0, 1]"), std::string::npos) << range;
 }
 
-}  // namespace
+}  // namespace settings_test
 }  // namespace fieldline::feature_recognition

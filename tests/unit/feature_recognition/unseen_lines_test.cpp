@@ -11,7 +11,7 @@
 #include "tests/unit/feature_recognition/synthetic.hpp"
 
 namespace fieldline::feature_recognition {
-namespace {
+namespace unseen_lines_test {
 
 using geometry::Pose2;
 using geometry::Vec2;
@@ -128,5 +128,5 @@ TEST(UnseenLines, OffAcceptsEverythingAndBadParametersAreRefused) {
   refused([](RecognitionParams& p) { p.unseen_bearing_bin = 2.0; });
 }
 
-}  // namespace
+}  // namespace unseen_lines_test
 }  // namespace fieldline::feature_recognition

@@ -8,7 +8,7 @@
 #include <gtest/gtest.h>
 
 namespace fieldline::field {
-namespace {
+namespace distance_grid_test {
 
 class DistanceGridPresets : public ::testing::TestWithParam<const char*> {};
 
@@ -126,5 +126,5 @@ TEST(DistanceGrid, RejectsBadArguments) {
                std::invalid_argument);
 }
 
-}  // namespace
+}  // namespace distance_grid_test
 }  // namespace fieldline::field

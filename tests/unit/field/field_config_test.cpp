@@ -7,7 +7,7 @@
 #include "common/field/field_model.hpp"
 
 namespace fieldline::field {
-namespace {
+namespace field_config_test {
 
 // A valid preset; tests replace one line to break it. Line numbers are noted for the messages.
 const std::string kValid =
@@ -221,5 +221,5 @@ TEST(FieldConfig, PresetByPathAndMissingFile) {
   EXPECT_THROW(loadFieldPreset("no_such_field"), config::Error);
 }
 
-}  // namespace
+}  // namespace field_config_test
 }  // namespace fieldline::field

@@ -15,7 +15,7 @@
 #include "common/config/config.hpp"
 
 namespace fieldline::field_png {
-namespace {
+namespace field_drawing_test {
 
 using field::FieldModel;
 using field::Vec2;
@@ -137,5 +137,5 @@ TEST_P(DrawnPreset, LinesArePaintedWhereTheModelHasThem) {
 
 INSTANTIATE_TEST_SUITE_P(Field, DrawnPreset, ::testing::ValuesIn(allPresets()));
 
-}  // namespace
+}  // namespace field_drawing_test
 }  // namespace fieldline::field_png

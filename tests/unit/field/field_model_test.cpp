@@ -13,7 +13,7 @@
 #include <gtest/gtest.h>
 
 namespace fieldline::field {
-namespace {
+namespace field_model_test {
 
 constexpr double kPi = std::numbers::pi;
 constexpr double kTol = 1e-9;
@@ -324,5 +324,5 @@ TEST(GoalColour, Names) {
   EXPECT_EQ(goalColourName(GoalColour::kWhite), "white");
 }
 
-}  // namespace
+}  // namespace field_model_test
 }  // namespace fieldline::field

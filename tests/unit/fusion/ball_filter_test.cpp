@@ -12,7 +12,7 @@
 #include <Eigen/LU>
 
 namespace fieldline::fusion {
-namespace {
+namespace ball_filter_test {
 
 constexpr Utime kStart = 1'800'000'000'000'000;
 
@@ -439,11 +439,11 @@ TEST(BallFilter, AnUnconfirmedPoseNeitherStartsNorContradicts) {
   EXPECT_STREQ(toString(BallRejection::kPoseUnconfirmed), "ball_pose_unconfirmed");
 }
 
-}  // namespace
+}  // namespace ball_filter_test
 }  // namespace fieldline::fusion
 
 namespace fieldline::fusion {
-namespace {
+namespace ball_filter_test {
 
 // The shipped model with sightings whose noise is exactly their sigmas and a known pose.
 BallFilterParams shippedModel() {
@@ -572,11 +572,11 @@ TEST(BallFilter, ARollingBallsReportedCovarianceCarriesTheStampUncertainty) {
   EXPECT_NEAR(ea.covariance(1, 1) - eb.covariance(1, 1), 0.0, 1e-5);
 }
 
-}  // namespace
+}  // namespace ball_filter_test
 }  // namespace fieldline::fusion
 
 namespace fieldline::fusion {
-namespace {
+namespace ball_filter_test {
 
 // Whatever the filter's uncertainty, an update never makes the ball faster than a kick: in a live
 // match a filter whose velocity was barely known took one sighting as 121 m/s and its ball flew
@@ -606,5 +606,5 @@ TEST(BallFilter, AnUpdateNeverMakesTheBallFasterThanAKick) {
   EXPECT_EQ(f.tooFastRestarts(), 1u);
 }
 
-}  // namespace
+}  // namespace ball_filter_test
 }  // namespace fieldline::fusion

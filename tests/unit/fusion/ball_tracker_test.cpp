@@ -14,7 +14,7 @@
 #include "tests/unit/fusion/bare_params.hpp"
 
 namespace fieldline::fusion {
-namespace {
+namespace ball_tracker_test {
 
 constexpr Utime kStart = 1'800'000'000'000'000;
 constexpr Utime kFrame = 33'333;
@@ -237,5 +237,5 @@ TEST(BallTracker, TheSmoothedPoseSpreadsTheNextCorrectionBack) {
   EXPECT_NEAR(smoothedPose(filtered, sparse, t1 + 25'000)->x[2], 0.2 * 0.025, 1e-12);
 }
 
-}  // namespace
+}  // namespace ball_tracker_test
 }  // namespace fieldline::fusion

@@ -11,7 +11,7 @@
 #include "services/fusion/current_contact.hpp"
 
 namespace fieldline::fusion {
-namespace {
+namespace current_contact_test {
 
 constexpr Utime kPeriod = 20'000;
 
@@ -143,5 +143,5 @@ TEST(CurrentContact, OffAtZeroForceAndBadSettingsAreRefused) {
   EXPECT_THROW(CurrentContactDetector(d.robot, bad), std::invalid_argument);
 }
 
-}  // namespace
+}  // namespace current_contact_test
 }  // namespace fieldline::fusion

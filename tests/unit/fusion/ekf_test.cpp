@@ -17,7 +17,7 @@
 #include "tests/unit/fusion/filter_inputs.hpp"
 
 namespace fieldline::fusion {
-namespace {
+namespace ekf_test {
 
 using namespace filter_inputs;
 
@@ -282,5 +282,5 @@ TEST(PredictPush, TwoPartsGiveTheWholeAndOffChangesNothing) {
   EXPECT_EQ(same.p, start.p);
 }
 
-}  // namespace
+}  // namespace ekf_test
 }  // namespace fieldline::fusion

@@ -10,7 +10,7 @@
 #include <gtest/gtest.h>
 
 namespace fieldline::fusion {
-namespace {
+namespace fusion_config_test {
 
 std::string readFile(const std::string& relative) {
   std::ifstream in(config::projectRoot() + "/" + relative);
@@ -203,5 +203,5 @@ TEST(FusionConfig, TyposAndBadValuesNameFileAndLine) {
   EXPECT_NE(errorOf("matcher:\n  outlier_distnce_m: 0.4\n"), "");
 }
 
-}  // namespace
+}  // namespace fusion_config_test
 }  // namespace fieldline::fusion

@@ -29,7 +29,7 @@
 #include "tests/unit/fusion/test_world.hpp"
 
 namespace fieldline::fusion {
-namespace {
+namespace fusion_node_test {
 
 using test_support::TestWorld;
 using test_support::world;
@@ -527,5 +527,5 @@ TEST(FusionNode, ARestartInTheOpponentsHalfResumesFromTheSavedPose) {
   std::remove(path.c_str());
 }
 
-}  // namespace
+}  // namespace fusion_node_test
 }  // namespace fieldline::fusion

@@ -19,7 +19,7 @@
 #include "tests/unit/fusion/filter_inputs.hpp"
 
 namespace fieldline::fusion {
-namespace {
+namespace history_test {
 
 using namespace filter_inputs;
 
@@ -732,5 +732,5 @@ TEST(DelayedFilter, WithAPushLearntBadInputsAreRefusedAndChangeNothing) {
   EXPECT_EQ(delta(Rejection::kGated), 1u);
 }
 
-}  // namespace
+}  // namespace history_test
 }  // namespace fieldline::fusion

@@ -15,7 +15,7 @@
 #include "services/fusion/line_grid.hpp"
 
 namespace fieldline::fusion {
-namespace {
+namespace line_grid_test {
 
 namespace fs = std::filesystem;
 
@@ -209,5 +209,5 @@ TEST(LineGrid, BadSettingsThrow) {
   EXPECT_THROW(LineGrid::build(field, s), std::invalid_argument);
 }
 
-}  // namespace
+}  // namespace line_grid_test
 }  // namespace fieldline::fusion

@@ -20,7 +20,7 @@
 #include "common/field/field_model.hpp"
 
 namespace fieldline::fusion {
-namespace {
+namespace line_matcher_test {
 
 using geometry::Pose2;
 using geometry::Vec2;
@@ -444,5 +444,5 @@ TEST(LineMatcher, GridComesFromTheCacheTheSecondTime) {
   std::filesystem::remove_all(dir);
 }
 
-}  // namespace
+}  // namespace line_matcher_test
 }  // namespace fieldline::fusion

@@ -16,7 +16,7 @@
 #include "tests/unit/fusion/test_world.hpp"
 
 namespace fieldline::fusion {
-namespace {
+namespace localizer_test {
 
 using test_support::TestWorld;
 using test_support::world;
@@ -780,5 +780,5 @@ TEST(Localizer, FramesNearTheEstimatesTwinAreNoResetToFollow) {
   EXPECT_LT(d.error(), 0.1);
 }
 
-}  // namespace
+}  // namespace localizer_test
 }  // namespace fieldline::fusion

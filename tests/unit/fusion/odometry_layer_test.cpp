@@ -18,7 +18,7 @@
 #include "tests/unit/fusion/filter_inputs.hpp"
 
 namespace fieldline::fusion {
-namespace {
+namespace odometry_layer_test {
 
 using namespace filter_inputs;
 
@@ -308,5 +308,5 @@ TEST(OdometryLayer, TheGyroGivesTheHeadingAndBadValuesFallBackToTheWheels) {
   EXPECT_FALSE(bare.update(s).step->gyro);
 }
 
-}  // namespace
+}  // namespace odometry_layer_test
 }  // namespace fieldline::fusion

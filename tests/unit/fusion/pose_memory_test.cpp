@@ -13,7 +13,7 @@
 #include <gtest/gtest.h>
 
 namespace fieldline::fusion {
-namespace {
+namespace pose_memory_test {
 
 SavedPose example() {
   SavedPose s;
@@ -101,5 +101,5 @@ TEST(PoseMemory, TheFileIsWrittenWholeAndAMissingOneIsNone) {
   std::remove(path.c_str());
 }
 
-}  // namespace
+}  // namespace pose_memory_test
 }  // namespace fieldline::fusion

@@ -9,7 +9,7 @@
 #include <gtest/gtest.h>
 
 namespace fieldline::fusion {
-namespace {
+namespace team_twin_test {
 
 constexpr Utime kT = 1'800'000'000'000'000;
 constexpr double kSigma = 0.05;  // a sure sighting
@@ -198,5 +198,5 @@ TEST(TeamBallVoter, RefusesBadSettingsAndRobotIds) {
   EXPECT_NO_THROW(TeamBallVoter(6));
 }
 
-}  // namespace
+}  // namespace team_twin_test
 }  // namespace fieldline::fusion

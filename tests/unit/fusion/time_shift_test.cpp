@@ -8,7 +8,7 @@
 #include <gtest/gtest.h>
 
 namespace fieldline::fusion {
-namespace {
+namespace time_shift_test {
 
 TEST(TimeShift, FindsTheDelayOfTheBallBearing) {
   constexpr Utime kStart = 1'800'000'000'000'000;
@@ -42,5 +42,5 @@ TEST(TimeShift, FindsTheDelayOfTheBallBearing) {
   EXPECT_FALSE(estimateTimeShift(odometry, {}).has_value());
 }
 
-}  // namespace
+}  // namespace time_shift_test
 }  // namespace fieldline::fusion

@@ -8,7 +8,7 @@
 #include <gtest/gtest.h>
 
 namespace fieldline::geometry {
-namespace {
+namespace fitting_test {
 
 TEST(Fitting, MedianIsTheUpperMiddleValueAndNaNForNone) {
   EXPECT_DOUBLE_EQ(median({3.0, 1.0, 2.0}), 2.0);
@@ -52,5 +52,5 @@ TEST(Fitting, RobustCircleDropsPointsOffIt) {
   EXPECT_TRUE(keep[0]);
 }
 
-}  // namespace
+}  // namespace fitting_test
 }  // namespace fieldline::geometry

@@ -8,7 +8,7 @@
 #include <gtest/gtest.h>
 
 namespace fieldline::geometry {
-namespace {
+namespace geometry_test {
 
 constexpr double kPi = std::numbers::pi;
 constexpr double kTol = 1e-12;
@@ -254,5 +254,5 @@ TEST(IsFinite, DetectsNaNAndInfinity) {
   EXPECT_FALSE(isFinite(Movement{0, std::numeric_limits<double>::quiet_NaN(), 0}));
 }
 
-}  // namespace
+}  // namespace geometry_test
 }  // namespace fieldline::geometry

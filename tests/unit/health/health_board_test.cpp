@@ -8,7 +8,7 @@
 #include "tools/launch/status_board.hpp"
 
 namespace fieldline::launch {
-namespace {
+namespace health_board_test {
 
 service_status_t report(float rate_hz, float latency_ms) {
   service_status_t s{};
@@ -98,5 +98,5 @@ TEST(HealthBoard, TheReasonOfAWarningIsShown) {
   EXPECT_EQ(r.last_error, "CAMERA_IMAGE silent 2.1 s");
 }
 
-}  // namespace
+}  // namespace health_board_test
 }  // namespace fieldline::launch

@@ -10,7 +10,7 @@
 #include "tools/bus_stats/traffic.hpp"
 
 namespace fieldline::bus_stats {
-namespace {
+namespace health_bus_stats_test {
 
 constexpr Utime kNow = 1'800'000'000'000'000;
 
@@ -88,5 +88,5 @@ TEST(HealthBusStats, NoNegativeGapsNoAbsurdLatencies) {
     EXPECT_FLOAT_EQ(ms, 8.0f);
 }
 
-}  // namespace
+}  // namespace health_bus_stats_test
 }  // namespace fieldline::bus_stats

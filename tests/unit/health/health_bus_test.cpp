@@ -14,7 +14,7 @@
 #include "common/bus/node.hpp"
 
 namespace fieldline::bus {
-namespace {
+namespace health_bus_test {
 
 class HealthBus : public ::testing::Test {
  protected:
@@ -253,12 +253,12 @@ TEST_F(HealthBus, AnInputBelowItsRateIsAWarning) {
   }
 }
 
-}  // namespace
+}  // namespace health_bus_test
 }  // namespace fieldline::bus
 
 // Finding 8: `--fps 1000` exited 105 (CLI11's code) instead of the documented 2.
 namespace fieldline::bus {
-namespace {
+namespace health_bus_test {
 
 TEST(HealthCli, BadArgumentsExitWithTwoHelpWithZero) {
   auto parse = [](std::vector<std::string> args) {
@@ -277,5 +277,5 @@ TEST(HealthCli, BadArgumentsExitWithTwoHelpWithZero) {
   EXPECT_EQ(parse({"prog", "--fps", "25"}), std::nullopt);
 }
 
-}  // namespace
+}  // namespace health_bus_test
 }  // namespace fieldline::bus

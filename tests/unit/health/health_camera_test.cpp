@@ -20,7 +20,7 @@
 #include "services/camera/log_source.hpp"
 
 namespace fieldline::camera {
-namespace {
+namespace health_camera_test {
 
 // A recorded afternoon: frames 10 ms apart, long before now.
 constexpr Utime kLogStart = 1'600'000'000'000'000;
@@ -119,5 +119,5 @@ TEST(HealthCamera, ReplayGoesToABusOfItsOwn) {
   EXPECT_NE(bus::replayBusUrl(1), bus::simBusUrl());
 }
 
-}  // namespace
+}  // namespace health_camera_test
 }  // namespace fieldline::camera

@@ -15,7 +15,7 @@
 #include "tools/launch/launch_file.hpp"
 
 namespace fieldline {
-namespace {
+namespace health_config_test {
 
 std::string launchError(const std::string& text) {
   try {
@@ -112,5 +112,5 @@ TEST(HealthConfig, MulticastGroupIsCheckedWhenTheLaunchFileIsRead) {
   EXPECT_NE(launch::checkMulticastGroup("240.0.0.1"), "");
 }
 
-}  // namespace
+}  // namespace health_config_test
 }  // namespace fieldline

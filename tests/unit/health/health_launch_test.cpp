@@ -17,7 +17,7 @@
 #include "tools/launch/supervisor.hpp"
 
 namespace fieldline::launch {
-namespace {
+namespace health_launch_test {
 
 LaunchInstance shell(const std::string& name, const std::string& script,
                      RestartPolicy restart = RestartPolicy::kAlways) {
@@ -131,5 +131,5 @@ TEST(HealthLaunch, AnExecutableTypoIsAnErrorNamingTheClosestBuiltOne) {
   std::filesystem::remove_all(dir);
 }
 
-}  // namespace
+}  // namespace health_launch_test
 }  // namespace fieldline::launch

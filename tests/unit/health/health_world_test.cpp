@@ -18,7 +18,7 @@
 #include "services/world_sim/world_snapshot.hpp"
 
 namespace fieldline::world_sim {
-namespace {
+namespace health_world_test {
 
 namespace fs = std::filesystem;
 
@@ -143,5 +143,5 @@ TEST_F(HealthWorldNode, OldForeignOrUnwantedSnapshotsStartAfresh) {
   EXPECT_FALSE(other.sim->resumed());
 }
 
-}  // namespace
+}  // namespace health_world_test
 }  // namespace fieldline::world_sim

@@ -3,7 +3,7 @@
 #include "tools/launch/backoff.hpp"
 
 namespace fieldline::launch {
-namespace {
+namespace backoff_test {
 
 TEST(RestartBackoff, DoublesFromHalfASecondUpToTenSeconds) {
   RestartBackoff b;  // 0.5 s doubling to 10 s, stable after 60 s
@@ -42,5 +42,5 @@ TEST(RestartBackoff, StaysFiniteInALongCrashLoop) {
   EXPECT_DOUBLE_EQ(last, 10.0);
 }
 
-}  // namespace
+}  // namespace backoff_test
 }  // namespace fieldline::launch

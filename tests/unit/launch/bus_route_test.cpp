@@ -7,7 +7,7 @@
 #include "tools/launch/launch_file.hpp"
 
 namespace fieldline::launch {
-namespace {
+namespace bus_route_test {
 
 TEST(BusRoute, TheKernelsRouteNamesTheInterface) {
   const RouteLookup lo = multicastRoute("127.0.0.1", 7667);
@@ -46,5 +46,5 @@ processes:
   }
 }
 
-}  // namespace
+}  // namespace bus_route_test
 }  // namespace fieldline::launch

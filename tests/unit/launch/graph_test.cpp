@@ -9,7 +9,7 @@
 #include "tools/launch/graph.hpp"
 
 namespace fieldline::launch {
-namespace {
+namespace graph_test {
 
 // The first line of `text` containing `part`, its runs of spaces made one.
 std::string lineWith(const std::string& text, const std::string& part) {
@@ -109,5 +109,5 @@ TEST(LaunchGraph, ASimulatorsChannelNeedsTheSimulator) {
             "r1 camera reads SIM_WORLD on the simulator's bus: no process of the launch writes it");
 }
 
-}  // namespace
+}  // namespace graph_test
 }  // namespace fieldline::launch

@@ -9,7 +9,7 @@
 #include "tools/launch/launch_file.hpp"
 
 namespace fieldline::launch {
-namespace {
+namespace launch_file_test {
 
 LaunchFile parse(const std::string& text) {
   return parseLaunchFile(config::Node::loadString(text, "team.yaml"));
@@ -410,5 +410,5 @@ processes:
   EXPECT_EQ(entryRobots(f.processes[0], team, 2), (std::vector<int>{1, 2}));
 }
 
-}  // namespace
+}  // namespace launch_file_test
 }  // namespace fieldline::launch

@@ -9,7 +9,7 @@
 #include "tools/launch/plan.hpp"
 
 namespace fieldline::launch {
-namespace {
+namespace plan_test {
 
 const std::string kRobot3Url = "udpm://239.255.76.67:7670?ttl=0&recv_buf_size=4194304";
 const std::string kSimUrl = "udpm://239.255.76.67:7667?ttl=0&recv_buf_size=4194304";
@@ -136,5 +136,5 @@ TEST(SelfDirectory, IsWhereTheTestBinaryLives) {
   EXPECT_TRUE(std::filesystem::exists(std::filesystem::path(dir) / "launch_test"));
 }
 
-}  // namespace
+}  // namespace plan_test
 }  // namespace fieldline::launch

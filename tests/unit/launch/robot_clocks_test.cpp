@@ -6,7 +6,7 @@
 #include "tools/launch/robot_clocks.hpp"
 
 namespace fieldline::launch {
-namespace {
+namespace robot_clocks_test {
 
 constexpr Utime kReference = 1'750'000'000'000'000;
 
@@ -101,5 +101,5 @@ TEST(ClockControl, RefusesABadLineNamingIt) {
   EXPECT_NE(message("1 5\n1 6\n").find("cc:2: robot 1 is listed twice"), std::string::npos);
 }
 
-}  // namespace
+}  // namespace robot_clocks_test
 }  // namespace fieldline::launch

@@ -3,7 +3,7 @@
 #include "tools/launch/status_board.hpp"
 
 namespace fieldline::launch {
-namespace {
+namespace status_board_test {
 
 using std::chrono::milliseconds;
 
@@ -219,11 +219,11 @@ TEST(RenderCompact, OneLine) {
   EXPECT_EQ(renderCompact({missing}), "1 not built");
 }
 
-}  // namespace
+}  // namespace status_board_test
 }  // namespace fieldline::launch
 
 namespace fieldline::launch {
-namespace {
+namespace status_board_test {
 
 TEST(HeadlineMetrics, PicksTheMetricsAPersonWatches) {
   service_status_t s{};
@@ -261,5 +261,5 @@ TEST(StatusBoard, TeamcommNoteShowsTeammatesOffsetUncertaintyAndRejections) {
   EXPECT_EQ(headlineMetrics(s), "team 5, offset +- 1.25 ms, rejected 17");
 }
 
-}  // namespace
+}  // namespace status_board_test
 }  // namespace fieldline::launch

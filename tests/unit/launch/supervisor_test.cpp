@@ -11,7 +11,7 @@
 #include "tools/launch/supervisor.hpp"
 
 namespace fieldline::launch {
-namespace {
+namespace supervisor_test {
 
 LaunchInstance shell(const std::string& name, const std::string& script,
                      RestartPolicy restart = RestartPolicy::kNever) {
@@ -244,5 +244,5 @@ TEST_F(SupervisorTest, DestructorLeavesNothingRunning) {
   EXPECT_EQ(::kill(pid, 0), -1);
 }
 
-}  // namespace
+}  // namespace supervisor_test
 }  // namespace fieldline::launch

@@ -14,7 +14,7 @@
 #include "services/camera/camera_config.hpp"
 
 namespace fieldline::calibration {
-namespace {
+namespace mirror_calibration_test {
 
 constexpr double kPi = std::numbers::pi;
 
@@ -254,5 +254,5 @@ TEST(MirrorCalibrationFiles, WrittenPresetLoadsWithoutARenderSection) {
   }
 }
 
-}  // namespace
+}  // namespace mirror_calibration_test
 }  // namespace fieldline::calibration

@@ -15,7 +15,7 @@
 #include "tools/mirror_calibrate/pose_free.hpp"
 
 namespace fieldline::calibration {
-namespace {
+namespace rendered_lines_test {
 
 struct LineCase {
   Vec2 centre_shift;
@@ -89,5 +89,5 @@ TEST(UnknownPose, AMirrorUnlikeThePresetFromTheShippedConfigurationAndNoPose) {
   EXPECT_LT(e.centre_px, 1.0);
 }
 
-}  // namespace
+}  // namespace rendered_lines_test
 }  // namespace fieldline::calibration

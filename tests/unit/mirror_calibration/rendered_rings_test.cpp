@@ -7,7 +7,7 @@
 #include "tools/mirror_calibrate/evaluation.hpp"
 
 namespace fieldline::calibration {
-namespace {
+namespace rendered_rings_test {
 
 struct Case {
   Vec2 centre_shift;
@@ -55,5 +55,5 @@ INSTANTIATE_TEST_SUITE_P(Settings, RenderedRings,
                                            Case{{-2.0, -2.0}, {0.12, 0.0}, "all"},
                                            Case{{2.5, -1.5}, {0.06, -0.04}, "all"}));
 
-}  // namespace
+}  // namespace rendered_rings_test
 }  // namespace fieldline::calibration

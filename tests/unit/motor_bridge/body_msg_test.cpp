@@ -6,7 +6,7 @@
 #include "common/msg/odometry.hpp"
 
 namespace fieldline::msg {
-namespace {
+namespace body_msg_test {
 
 TEST(OdometryMsg, RoundTripKeepsEveryField) {
   perception::OdometryReading r;
@@ -86,5 +86,5 @@ TEST(MotionCommandMsg, RoundTripAndUnknownSource) {
   EXPECT_EQ(fromMessage(m).source, perception::CommandSource::kUnknown);
 }
 
-}  // namespace
+}  // namespace body_msg_test
 }  // namespace fieldline::msg

@@ -22,7 +22,7 @@
 #include "services/world_sim/pseudo_terminal.hpp"
 
 namespace fieldline::motor_bridge {
-namespace {
+namespace bridge_node_test {
 
 class BridgeNodeTest : public ::testing::Test {
  protected:
@@ -219,5 +219,5 @@ TEST(BridgeNodeUdpm, ACommandWakesNothingAndGoesOutAtTheNextTick) {
   std::filesystem::remove_all(dir);
 }
 
-}  // namespace
+}  // namespace bridge_node_test
 }  // namespace fieldline::motor_bridge

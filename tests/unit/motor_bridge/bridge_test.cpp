@@ -11,7 +11,7 @@
 #include "services/world_sim/firmware.hpp"
 
 namespace fieldline::motor_bridge {
-namespace {
+namespace bridge_test {
 
 namespace proto = serial;
 constexpr Utime kT0 = 1'700'000'000'000'000;
@@ -211,11 +211,11 @@ TEST(Bridge, ConfigAndDeviceNames) {
       config::Error);
 }
 
-}  // namespace
+}  // namespace bridge_test
 }  // namespace fieldline::motor_bridge
 
 namespace fieldline::motor_bridge {
-namespace {
+namespace bridge_test {
 
 class BridgeHostile : public ::testing::Test {
  protected:
@@ -359,11 +359,11 @@ TEST_F(BridgeHostile, AnImplausibleControllerTimeIsRefusedBeforeTheClockMapping)
   ASSERT_EQ(out.size(), 1u);
 }
 
-}  // namespace
+}  // namespace bridge_test
 }  // namespace fieldline::motor_bridge
 
 namespace fieldline::motor_bridge {
-namespace {
+namespace bridge_test {
 
 TEST(Bridge, FourWheelsFromTheEmulatorBecomeMovementAndAWrongCountIsRefused) {
   const auto params = robot::loadRobotPreset("four_wheel");
@@ -399,5 +399,5 @@ TEST(Bridge, FourWheelsFromTheEmulatorBecomeMovementAndAWrongCountIsRefused) {
   EXPECT_EQ(three.counters().at("odometry_wheel_count_mismatch"), 2u);
 }
 
-}  // namespace
+}  // namespace bridge_test
 }  // namespace fieldline::motor_bridge

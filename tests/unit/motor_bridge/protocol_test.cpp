@@ -10,7 +10,7 @@
 #include "common/serial/protocol.hpp"
 
 namespace fieldline::serial {
-namespace {
+namespace protocol_test {
 
 using Bytes = std::vector<std::uint8_t>;
 
@@ -418,5 +418,5 @@ TEST(ProtocolFuzz, CorruptionNeverYieldsAWrongFrameAndAlwaysResynchronises) {
   EXPECT_EQ(d.stats().frames_ok, decoded.size());
 }
 
-}  // namespace
+}  // namespace protocol_test
 }  // namespace fieldline::serial

@@ -14,7 +14,7 @@
 #include "services/world_sim/pseudo_terminal.hpp"
 
 namespace fieldline::motor_bridge {
-namespace {
+namespace serial_link_test {
 
 using Bytes = std::vector<std::uint8_t>;
 
@@ -119,5 +119,5 @@ TEST_F(SerialLinkTest, ABacklogArrivesInOneRead) {
   link.stop();
 }
 
-}  // namespace
+}  // namespace serial_link_test
 }  // namespace fieldline::motor_bridge

@@ -26,7 +26,7 @@
 #include "tests/unit/fusion/test_world.hpp"
 
 namespace fieldline::motor_bridge {
-namespace {
+namespace text_bridge_node_test {
 
 class TextBridgeNodeTest : public ::testing::Test {
  protected:
@@ -193,5 +193,5 @@ TEST_F(TextBridgeNodeTest, GarbageOnTheLineIsAnErrorInTheStatus) {
   EXPECT_GE(bridge_bus.status().errorCount("text_bad_lines"), 1);
 }
 
-}  // namespace
+}  // namespace text_bridge_node_test
 }  // namespace fieldline::motor_bridge

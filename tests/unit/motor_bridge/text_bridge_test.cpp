@@ -15,7 +15,7 @@
 #include "services/motor_bridge/text_protocol.hpp"
 
 namespace fieldline::motor_bridge {
-namespace {
+namespace text_bridge_test {
 
 constexpr Utime kT0 = 1'700'000'000'000'000;
 
@@ -185,5 +185,5 @@ TEST(TextBridge, CommandsGoOutInSiUnitsAndStopAtTheDeadline) {
   EXPECT_EQ(bridge.counters().at("command_timeout"), 1u);
 }
 
-}  // namespace
+}  // namespace text_bridge_test
 }  // namespace fieldline::motor_bridge

@@ -17,7 +17,7 @@
 #include "common/scenario/scenario.hpp"
 
 namespace fieldline::pilot {
-namespace {
+namespace pilot_node_test {
 
 class PilotNodeTest : public ::testing::Test {
  protected:
@@ -155,5 +155,5 @@ TEST(PilotNodeUdpm, ThePoseWakesNothingAndIsReadBeforeTheNextCommand) {
   EXPECT_EQ(node.commandsSent(), 1);
 }
 
-}  // namespace
+}  // namespace pilot_node_test
 }  // namespace fieldline::pilot

@@ -6,7 +6,7 @@
 #include "services/world_sim/world.hpp"
 
 namespace fieldline::pilot {
-namespace {
+namespace pilot_test {
 
 constexpr Utime kT0 = 1'700'000'000'000'000;
 
@@ -69,5 +69,5 @@ TEST(Pilot, DrivesTheWorldAlongItsTrajectory) {
   EXPECT_LT(worst, 0.35);
 }
 
-}  // namespace
+}  // namespace pilot_test
 }  // namespace fieldline::pilot

@@ -19,7 +19,7 @@
 #include "tools/recording/upgrade.hpp"
 
 namespace fieldline::recording {
-namespace {
+namespace bus_recording_test {
 
 constexpr Utime kStart = 1'796'000'000'000'000;
 // Robot 2's clock runs 447 ms behind the recorder's.
@@ -234,5 +234,5 @@ TEST(Upgrade, ThreeWheelOdometryBecomesTodaysWithItsWheelCount) {
   EXPECT_EQ(found, 20);
 }
 
-}  // namespace
+}  // namespace bus_recording_test
 }  // namespace fieldline::recording

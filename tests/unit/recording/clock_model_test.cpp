@@ -12,7 +12,7 @@
 #include "tools/recording/clock_model.hpp"
 
 namespace fieldline::recording {
-namespace {
+namespace clock_model_test {
 
 const std::string kBefore = config::projectRoot() + "/tests/data/recordings/main_9085e4b";
 
@@ -104,5 +104,5 @@ TEST(ClockModel, FindsRobotOnesClockInALogThatDoesNotCarryIt) {
   EXPECT_NEAR(sim.at(0).error.offset_us, 0, 1'000);
 }
 
-}  // namespace
+}  // namespace clock_model_test
 }  // namespace fieldline::recording

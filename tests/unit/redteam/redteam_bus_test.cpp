@@ -21,7 +21,7 @@
 #include "tools/bus_stats/traffic.hpp"
 
 namespace fieldline::bus {
-namespace {
+namespace redteam_bus_test {
 
 constexpr Utime kStart = 1'800'000'000'000'000;
 constexpr Utime kPeriod = 20'000;  // ODOMETRY at 50 Hz
@@ -224,5 +224,5 @@ TEST(redteam_future_overflow, ALogEventStampedIntMaxIsRefusedAsNoTime) {
   std::filesystem::remove(path);
 }
 
-}  // namespace
+}  // namespace redteam_bus_test
 }  // namespace fieldline::bus

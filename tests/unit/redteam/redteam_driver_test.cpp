@@ -21,7 +21,7 @@
 #include "services/world_sim/pseudo_terminal.hpp"
 
 namespace fieldline::motor_bridge {
-namespace {
+namespace redteam_driver_test {
 
 class redteam_second_driver : public ::testing::Test {
  protected:
@@ -185,5 +185,5 @@ TEST(redteam_second_driver_source, ASilentDriverHandsOver) {
   EXPECT_TRUE(source.warning(t0 + 720'000 + CommandSource::kWarnHoldUs + 1).empty());
 }
 
-}  // namespace
+}  // namespace redteam_driver_test
 }  // namespace fieldline::motor_bridge

@@ -20,7 +20,7 @@
 #include "tests/unit/fusion/test_world.hpp"
 
 namespace fieldline {
-namespace {
+namespace redteam_liveness_test {
 
 class redteam_dead_inputs : public ::testing::Test {
  protected:
@@ -107,5 +107,5 @@ TEST_F(redteam_dead_inputs, APilotThatShouldDriveAndCannot) {
   EXPECT_TRUE(says(s, "not driving its trajectory")) << s.state_reason;
 }
 
-}  // namespace
+}  // namespace redteam_liveness_test
 }  // namespace fieldline

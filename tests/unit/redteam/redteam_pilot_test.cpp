@@ -18,7 +18,7 @@
 #include "services/pilot/pilot_node.hpp"
 
 namespace fieldline::pilot {
-namespace {
+namespace redteam_pilot_test {
 
 constexpr Utime kT0 = 1'800'000'000'000'000;
 
@@ -131,5 +131,5 @@ TEST(redteam_pilot_sprint, AfterAStallTheRobotGoesOnAtItsSpeed) {
   EXPECT_LE(fastest, 1.25 * 0.8 + 1e-9);  // main: 1.54 m/s
 }
 
-}  // namespace
+}  // namespace redteam_pilot_test
 }  // namespace fieldline::pilot

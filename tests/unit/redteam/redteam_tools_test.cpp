@@ -30,7 +30,7 @@
 #include "services/camera/camera_app.hpp"
 
 namespace fieldline {
-namespace {
+namespace redteam_tools_test {
 
 namespace fs = std::filesystem;
 
@@ -164,5 +164,5 @@ TEST_F(redteam_exit_codes, ReplayFailsOnAFileThatIsNotALog) {
   EXPECT_NE(out.find("damaged"), std::string::npos) << out;
 }
 
-}  // namespace
+}  // namespace redteam_tools_test
 }  // namespace fieldline

@@ -18,7 +18,7 @@
 #include "services/world_sim/world_sim_node.hpp"
 
 namespace fieldline::world_sim {
-namespace {
+namespace redteam_world_test {
 
 namespace fs = std::filesystem;
 
@@ -105,5 +105,5 @@ TEST(redteam_world_reset_supervisor, TheParentsIdentityIsKnown) {
   EXPECT_EQ(id, process::supervisorIdentity());
 }
 
-}  // namespace
+}  // namespace redteam_world_test
 }  // namespace fieldline::world_sim

@@ -13,7 +13,7 @@
 #include "tools/sim_frames/sim_frames.hpp"
 
 namespace fieldline::region_tracking {
-namespace {
+namespace ball_far_edge_test {
 
 using camera::Vec2;
 
@@ -65,5 +65,5 @@ TEST(BallFarEdge, BallCutByTheUsefulRadiusIsNotReportedShort) {
   EXPECT_LE(std::abs(cutErrorSum / cut), 0.1);
 }
 
-}  // namespace
+}  // namespace ball_far_edge_test
 }  // namespace fieldline::region_tracking

@@ -13,7 +13,7 @@
 #include "tests/unit/region_tracking/synthetic_grid.hpp"
 
 namespace fieldline::region_tracking {
-namespace {
+namespace baselines_test {
 
 using testing::ClassGrid;
 using testing::labelComponents;
@@ -288,5 +288,5 @@ TEST(Baselines, AgreementCountsAJumpedIslandAsStaleCells) {
   EXPECT_FALSE(agreement.exact());
 }
 
-}  // namespace
+}  // namespace baselines_test
 }  // namespace fieldline::region_tracking

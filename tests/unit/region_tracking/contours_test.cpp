@@ -13,7 +13,7 @@
 #include "tests/unit/region_tracking/synthetic_grid.hpp"
 
 namespace fieldline::region_tracking {
-namespace {
+namespace contours_test {
 
 using testing::ClassGrid;
 using testing::labelComponents;
@@ -217,5 +217,5 @@ TEST(Contours, TrackerBoundariesSeparateItsRegionsAndLeaveTheGridClear) {
   }
 }
 
-}  // namespace
+}  // namespace contours_test
 }  // namespace fieldline::region_tracking

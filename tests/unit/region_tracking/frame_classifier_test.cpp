@@ -8,7 +8,7 @@
 #include <gtest/gtest.h>
 
 namespace fieldline::region_tracking {
-namespace {
+namespace frame_classifier_test {
 
 using camera::ColourClass;
 
@@ -118,5 +118,5 @@ TEST(FrameCellClassifier, RejectsUnsupportedCellSizes) {
   EXPECT_THROW(FrameCellClassifier(table, 16), std::invalid_argument);
 }
 
-}  // namespace
+}  // namespace frame_classifier_test
 }  // namespace fieldline::region_tracking

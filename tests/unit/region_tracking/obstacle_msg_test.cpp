@@ -7,7 +7,7 @@
 #include "common/bus/validate.hpp"
 
 namespace fieldline::msg {
-namespace {
+namespace obstacle_msg_test {
 
 TEST(ObstacleMsg, RoundTripKeepsEveryFieldAndTheMessageValidates) {
   perception::ObstacleSightings s;
@@ -43,5 +43,5 @@ TEST(ObstacleMsg, RoundTripKeepsEveryFieldAndTheMessageValidates) {
   EXPECT_FALSE(bus::validate(m));
 }
 
-}  // namespace
+}  // namespace obstacle_msg_test
 }  // namespace fieldline::msg

@@ -12,7 +12,7 @@
 #include "tests/unit/region_tracking/synthetic_grid.hpp"
 
 namespace fieldline::region_tracking {
-namespace {
+namespace region_tracker_test {
 
 using testing::ClassGrid;
 using testing::labelComponents;
@@ -752,5 +752,5 @@ classes:
       "listed before");
 }
 
-}  // namespace
+}  // namespace region_tracker_test
 }  // namespace fieldline::region_tracking

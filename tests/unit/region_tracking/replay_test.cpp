@@ -22,7 +22,7 @@
 #include "services/region_tracking/tracking_node.hpp"
 
 namespace fieldline::region_tracking {
-namespace {
+namespace replay_test {
 
 const std::string kFixture = config::projectRoot() + "/tests/data/replay/camera_robot1.lcmlog";
 
@@ -123,5 +123,5 @@ TEST(Replay, TrackingNodeOutputIsByteIdenticalAcrossReplays) {
   std::filesystem::remove(second);
 }
 
-}  // namespace
+}  // namespace replay_test
 }  // namespace fieldline::region_tracking

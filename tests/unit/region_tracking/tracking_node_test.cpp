@@ -13,7 +13,7 @@
 #include "tools/sim_frames/sim_frames.hpp"
 
 namespace fieldline::region_tracking {
-namespace {
+namespace tracking_node_test {
 
 TEST(TrackingNode, PublishesBallAndObstaclesEveryFrameAndLinesEveryThird) {
   SimCamera sim = SimCamera::load("omni_sim", "msl");
@@ -121,5 +121,5 @@ TEST(TrackingNode, PublishesBallAndObstaclesEveryFrameAndLinesEveryThird) {
   EXPECT_EQ(lastLines.initial_searches, 0);
 }
 
-}  // namespace
+}  // namespace tracking_node_test
 }  // namespace fieldline::region_tracking

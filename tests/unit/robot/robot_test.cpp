@@ -13,7 +13,7 @@
 #include "common/robot/wheel_odometry.hpp"
 
 namespace fieldline::robot {
-namespace {
+namespace robot_test {
 
 constexpr double kPi = std::numbers::pi;
 
@@ -367,5 +367,5 @@ TEST(ArcMovement, IntegratedTwistInvertsTheArc) {
   }
 }
 
-}  // namespace
+}  // namespace robot_test
 }  // namespace fieldline::robot

@@ -7,7 +7,7 @@
 #include "common/robot/trajectory.hpp"
 
 namespace fieldline::robot {
-namespace {
+namespace trajectory_test {
 
 constexpr double kPi = std::numbers::pi;
 
@@ -137,5 +137,5 @@ TEST(Follower, FeedForwardOnTheReferenceAndCorrectionOffIt) {
   EXPECT_NEAR(std::hypot(fast.vx, fast.vy), 1.0, 1e-12);
 }
 
-}  // namespace
+}  // namespace trajectory_test
 }  // namespace fieldline::robot

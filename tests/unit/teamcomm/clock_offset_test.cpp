@@ -15,7 +15,7 @@
 #include "teamcomm/clock_offset.hpp"
 
 namespace fieldline::teamcomm {
-namespace {
+namespace clock_offset_test {
 
 constexpr Utime kT0 = 1'700'000'000'000'000;
 
@@ -348,5 +348,5 @@ TEST(teamcomm_clock_offset, IncrementalEnvelopesGiveTheBatchFitExactly) {
   EXPECT_GT(compared, 17'000);
 }
 
-}  // namespace
+}  // namespace clock_offset_test
 }  // namespace fieldline::teamcomm

@@ -6,7 +6,7 @@
 #include <numbers>
 
 namespace fieldline::teamcomm {
-namespace {
+namespace field_obstacles_test {
 
 constexpr std::int64_t kT = 1'800'000'000'000'000;
 
@@ -88,5 +88,5 @@ TEST(FieldObstacles, AtMostTenInRangeAndOnlyWithAPose) {
   EXPECT_TRUE(obstaclesInField(seen, old).empty());
 }
 
-}  // namespace
+}  // namespace field_obstacles_test
 }  // namespace fieldline::teamcomm

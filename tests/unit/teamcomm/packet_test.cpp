@@ -15,7 +15,7 @@
 #include "teamcomm/team_key.hpp"
 
 namespace fieldline::teamcomm {
-namespace {
+namespace packet_test {
 
 TeamKey testKey(std::uint8_t seed) {
   TeamKey k;
@@ -346,5 +346,5 @@ TEST(teamcomm_gate, LimitsEachSendersRateWithoutStarvingOthers) {
   EXPECT_EQ(gate.admit(gatePacket(2, 5000, later), later + 500, 0.0), std::nullopt);
 }
 
-}  // namespace
+}  // namespace packet_test
 }  // namespace fieldline::teamcomm

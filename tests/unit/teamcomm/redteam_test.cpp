@@ -20,7 +20,7 @@
 #include "tests/unit/teamcomm/team_harness.hpp"
 
 namespace fieldline::teamcomm {
-namespace {
+namespace redteam_test {
 
 using namespace test;
 
@@ -179,5 +179,5 @@ TEST(redteam_kernel_drops, AFloodsKernelDropsShowInTheStatus) {
   EXPECT_NE(status.state_reason.find("kernel dropped"), std::string::npos) << status.state_reason;
 }
 
-}  // namespace
+}  // namespace redteam_test
 }  // namespace fieldline::teamcomm

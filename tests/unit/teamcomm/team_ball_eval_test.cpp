@@ -4,7 +4,7 @@
 #include <gtest/gtest.h>
 
 namespace fieldline::eval {
-namespace {
+namespace team_ball_eval_test {
 
 constexpr Utime kT0 = 1'800'000'000'000'000;
 
@@ -198,5 +198,5 @@ TEST(teamcomm_team_ball_eval, ThePutBacksBlindTimeIsNotScored) {
   EXPECT_GT(evaluateTeamBall(r.truth, r.balls, r.teams, all).team_ball_mean_m, 0.025);
 }
 
-}  // namespace
+}  // namespace team_ball_eval_test
 }  // namespace fieldline::eval

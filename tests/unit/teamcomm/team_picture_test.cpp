@@ -10,7 +10,7 @@
 #include "teamcomm/team_picture.hpp"
 
 namespace fieldline::teamcomm {
-namespace {
+namespace team_picture_test {
 
 constexpr Utime kT0 = 1'700'000'000'000'000;
 
@@ -539,5 +539,5 @@ TEST(teamcomm_team_state, MessageCarriesEveryField) {
   EXPECT_FALSE(cut.robots[2].present);
 }
 
-}  // namespace
+}  // namespace team_picture_test
 }  // namespace fieldline::teamcomm

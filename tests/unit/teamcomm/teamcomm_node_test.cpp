@@ -21,7 +21,7 @@
 #include "tests/unit/teamcomm/team_harness.hpp"
 
 namespace fieldline::teamcomm {
-namespace {
+namespace teamcomm_node_test {
 
 using namespace test;
 
@@ -247,11 +247,11 @@ TEST(teamcomm_node, ARestartOnAClockSetBackFollowsItsNewSequence) {
   }
 }
 
-}  // namespace
+}  // namespace teamcomm_node_test
 }  // namespace fieldline::teamcomm
 
 namespace fieldline::teamcomm {
-namespace {
+namespace teamcomm_node_test {
 
 using namespace test;
 
@@ -308,11 +308,11 @@ TEST(teamcomm_node, SendsWhatTheCameraSawInTheFieldFrame) {
   }
 }
 
-}  // namespace
+}  // namespace teamcomm_node_test
 }  // namespace fieldline::teamcomm
 
 namespace fieldline::teamcomm {
-namespace {
+namespace teamcomm_node_test {
 
 // A link whose first send throws (a socket error the node does not expect), then works.
 class FailsOnceLink final : public PacketLink {
@@ -442,5 +442,5 @@ TEST(teamcomm_node, ReadsItsSocketBeforeItSendsAndWaitsOnItOnlyThroughAFlood) {
   EXPECT_EQ(node.watchedFdCount(), 0u);
 }
 
-}  // namespace
+}  // namespace teamcomm_node_test
 }  // namespace fieldline::teamcomm

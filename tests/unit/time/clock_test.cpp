@@ -4,7 +4,7 @@
 #include "common/time/offset_clock.hpp"
 
 namespace fieldline {
-namespace {
+namespace clock_test {
 
 TEST(SimulatedClock, MovesOnlyWhenTold) {
   SimulatedClock clock(1000);
@@ -45,11 +45,11 @@ TEST(SystemClock, IsEpochMicrosecondsAndMonotonicEnough) {
   EXPECT_GE(clock.monotonicNow(), m);
 }
 
-}  // namespace
+}  // namespace clock_test
 }  // namespace fieldline
 
 namespace fieldline {
-namespace {
+namespace clock_test {
 
 TEST(RobotClock, RunsOffTheTruthAndConvertsBack) {
   SimulatedClock truth(1'700'000'000'000'000);
@@ -111,5 +111,5 @@ TEST(RobotClock, ErrorFromTheEnvironment) {
   unsetenv(kClockReferenceVariable);
 }
 
-}  // namespace
+}  // namespace clock_test
 }  // namespace fieldline

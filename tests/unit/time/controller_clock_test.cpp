@@ -10,7 +10,7 @@
 #include <gtest/gtest.h>
 
 namespace fieldline {
-namespace {
+namespace controller_clock_test {
 
 constexpr Utime kHost0 = 1'800'000'000'000'000;
 constexpr Utime kLatency = 8'000;
@@ -171,5 +171,5 @@ TEST(ControllerClock, ABacklogLongerThanTheWindowReadInTwoChunksKeepsTheStamps) 
   EXPECT_EQ(map.restarts(), 0u);
 }
 
-}  // namespace
+}  // namespace controller_clock_test
 }  // namespace fieldline

@@ -6,7 +6,7 @@
 #include "common/time/timed_channel.hpp"
 
 namespace fieldline {
-namespace {
+namespace timed_channel_test {
 
 constexpr Utime kNow = 10'000'000;
 
@@ -145,5 +145,5 @@ TEST(TimedChannel, DropBefore) {
   EXPECT_EQ(ch.oldest().utime, 30);
 }
 
-}  // namespace
+}  // namespace timed_channel_test
 }  // namespace fieldline

@@ -10,7 +10,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 namespace fieldline::viewer {
-namespace {
+namespace camera_view_test {
 
 constexpr Utime kT0 = 1'700'000'000'000'000;
 
@@ -235,5 +235,5 @@ TEST(Base64, Rfc4648Vectors) {
   EXPECT_EQ(base64({0xff, 0xfe, 0x00}), "//4A");
 }
 
-}  // namespace
+}  // namespace camera_view_test
 }  // namespace fieldline::viewer

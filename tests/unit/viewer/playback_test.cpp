@@ -16,7 +16,7 @@
 #include "tools/viewer/recording_view.hpp"
 
 namespace fieldline::viewer {
-namespace {
+namespace playback_test {
 
 const std::string kRecording = config::projectRoot() + "/tests/data/recordings/main_9085e4b";
 // As fieldline-viewer --log does: older message versions are read as today's.
@@ -92,5 +92,5 @@ TEST(Playback, ControlsMoveThePlayhead) {
   EXPECT_EQ(series->content_type, "application/json");
 }
 
-}  // namespace
+}  // namespace playback_test
 }  // namespace fieldline::viewer

@@ -10,7 +10,7 @@
 #include "tools/viewer/team_view.hpp"
 
 namespace fieldline::viewer {
-namespace {
+namespace team_view_test {
 
 bool contains(const std::string& text, const std::string& part) {
   return text.find(part) != std::string::npos;
@@ -67,5 +67,5 @@ TEST(FieldJson, HasEveryLineArcGoalAndMark) {
   EXPECT_EQ(contains(json, "\"penalty_marks\":[]"), model.penaltyMarks().empty()) << json;
 }
 
-}  // namespace
+}  // namespace team_view_test
 }  // namespace fieldline::viewer

@@ -11,7 +11,7 @@
 #include "services/world_sim/pseudo_terminal.hpp"
 
 namespace fieldline::world_sim {
-namespace {
+namespace firmware_test {
 
 namespace proto = serial;
 
@@ -297,5 +297,5 @@ TEST(PseudoTerminal, BytesTravelBothWaysThroughTheLink) {
   std::filesystem::remove_all(std::filesystem::path(link).parent_path());
 }
 
-}  // namespace
+}  // namespace firmware_test
 }  // namespace fieldline::world_sim

@@ -18,7 +18,7 @@
 #include "common/serial/protocol.hpp"
 
 namespace fieldline::world_sim {
-namespace {
+namespace world_sim_node_test {
 
 class WorldSimNodeTest : public ::testing::Test {
  protected:
@@ -128,5 +128,5 @@ TEST_F(WorldSimNodeTest, TheWorldGoesOnAfterTheScenariosEnd) {
   EXPECT_LE(sim.world().time(), 0.1 + 1e-9);
 }
 
-}  // namespace
+}  // namespace world_sim_node_test
 }  // namespace fieldline::world_sim

@@ -5,7 +5,7 @@
 #include "common/msg/world_state.hpp"
 
 namespace fieldline::msg {
-namespace {
+namespace world_state_msg_test {
 
 perception::WorldTruth sampleTruth() {
   perception::WorldTruth w;
@@ -67,5 +67,5 @@ TEST(WorldStateMsg, CountsBeyondTheArraysAreBounded) {
   EXPECT_TRUE(w.opponents.empty());
 }
 
-}  // namespace
+}  // namespace world_state_msg_test
 }  // namespace fieldline::msg

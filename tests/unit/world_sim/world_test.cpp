@@ -12,7 +12,7 @@
 #include "services/world_sim/world_snapshot.hpp"
 
 namespace fieldline::world_sim {
-namespace {
+namespace world_test {
 
 using scenario::loadScenarioPreset;
 using scenario::RobotSpec;
@@ -328,5 +328,5 @@ TEST(World, DeterministicForASeed) {
   EXPECT_TRUE(differs);
 }
 
-}  // namespace
+}  // namespace world_test
 }  // namespace fieldline::world_sim
