@@ -63,8 +63,11 @@ endfunction()
 option(FIELDLINE_TEST_UNITY "Test executables as unity builds (cmake/Fieldline.cmake)" ON)
 set(FIELDLINE_TEST_UNITY_BATCH 8 CACHE STRING "Test files per unity unit (cmake/Fieldline.cmake)")
 # The test files' own code is compiled at FIELDLINE_TEST_OPT_LEVEL (the libraries they link keep
-# the build type's -O2): it is mostly set-up and checks, and -O1 compiles it in about a fifth less
-# time. Empty: the build type's level.
+# the build type's -O2): it is mostly set-up and checks; -O1 compiles it in about a fifth less time,
+# and the slowest fusion cases ran in the same CPU time (docs/log/2026-12-06-build.md). Empty: the
+# build type's level; g++ 12 then reports a false -Wmaybe-uninitialized (std::optional, in
+# tests/unit/fusion/odometry_layer_test.cpp) in fusion_test's unity unit, so that needs
+# FIELDLINE_WERROR=OFF or FIELDLINE_TEST_UNITY=OFF.
 set(FIELDLINE_TEST_OPT_LEVEL -O1 CACHE STRING "Optimisation of the test files' own code")
 
 function(fieldline_test_optimisation target)
