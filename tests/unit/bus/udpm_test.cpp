@@ -20,6 +20,7 @@
 #include "common/bus/plain_lcm.hpp"
 #include "common/bus/udpm_receiver.hpp"
 #include "common/bus/udpm_wire.hpp"
+#include "tests/support/private_network.hpp"
 
 namespace fieldline::bus {
 namespace udpm_test {
@@ -298,9 +299,7 @@ class UdpmBus : public ::testing::Test {
  protected:
   void SetUp() override {
     // This test's process only (every case runs in a process of its own).
-    if (::unshare(CLONE_NEWNET) != 0 ||
-        std::system("ip link set lo up && ip link set lo multicast on && "
-                    "ip route add 224.0.0.0/4 dev lo") != 0) {
+    if (!test::enterPrivateMulticastNetwork()) {
       FAIL() << "needs a private network namespace (root, as scripts/test runs, or user "
                 "namespaces): unshare(CLONE_NEWNET) or the loopback multicast route failed";
     }

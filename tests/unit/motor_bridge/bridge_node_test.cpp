@@ -20,6 +20,7 @@
 #include "common/serial/protocol.hpp"
 #include "services/world_sim/firmware.hpp"
 #include "services/world_sim/pseudo_terminal.hpp"
+#include "tests/support/private_network.hpp"
 
 namespace fieldline::motor_bridge {
 namespace bridge_node_test {
@@ -170,9 +171,7 @@ TEST_F(BridgeNodeTest, StopLeavesTheRobotStanding) {
 // waking reads nothing); the command is read just before the next tick and goes out then.
 TEST(BridgeNodeUdpm, ACommandWakesNothingAndGoesOutAtTheNextTick) {
   // This test's process only (every case runs in a process of its own).
-  if (::unshare(CLONE_NEWNET) != 0 ||
-      std::system("ip link set lo up && ip link set lo multicast on && "
-                  "ip route add 224.0.0.0/4 dev lo") != 0) {
+  if (!test::enterPrivateMulticastNetwork()) {
     GTEST_FAIL() << "needs a private network namespace (root, as scripts/test runs)";
   }
   const std::string url = "udpm://239.255.76.67:7803?ttl=0";

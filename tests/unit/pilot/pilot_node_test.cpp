@@ -15,6 +15,7 @@
 #include "common/msg/world_state.hpp"
 #include "common/robot/robot_params.hpp"
 #include "common/scenario/scenario.hpp"
+#include "tests/support/private_network.hpp"
 
 namespace fieldline::pilot {
 namespace pilot_node_test {
@@ -119,9 +120,7 @@ TEST_F(PilotNodeTest, RefusesABadRate) {
 // reads nothing); the pose is read just before the next command, which steers by it.
 TEST(PilotNodeUdpm, ThePoseWakesNothingAndIsReadBeforeTheNextCommand) {
   // This test's process only (every case runs in a process of its own).
-  if (::unshare(CLONE_NEWNET) != 0 ||
-      std::system("ip link set lo up && ip link set lo multicast on && "
-                  "ip route add 224.0.0.0/4 dev lo") != 0) {
+  if (!test::enterPrivateMulticastNetwork()) {
     GTEST_FAIL() << "needs a private network namespace (root, as scripts/test runs)";
   }
   const std::string url = "udpm://239.255.76.67:7802?ttl=0";
