@@ -6,8 +6,8 @@
 #include <string>
 
 #include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
 #include <Eigen/LU>
-#include <Eigen/SVD>
 
 namespace fieldline::robot {
 
@@ -34,10 +34,13 @@ bool wheelLayoutRegular(const WheelSet& wheels) {
     const double cond_guard = 1e-6 * square.cwiseAbs().maxCoeff();
     return lu.isInvertible() && std::abs(lu.determinant()) >= cond_guard;
   }
-  // More wheels than degrees of freedom: M must still have rank 3, well conditioned.
-  const Eigen::JacobiSVD<WheelMatrix> svd(m);
-  const auto& sigma = svd.singularValues();
-  return sigma(2) >= 1e-6 * sigma(0);
+  // More wheels than degrees of freedom: M must still have rank 3, well conditioned. M's
+  // singular values are the square roots of the eigenvalues of the 3x3 M^T M (a fixed-size
+  // solver: an SVD of the dynamic-size M costs half a minute of compile time for this check).
+  const Eigen::Matrix3d normal = m.transpose() * m;
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(normal, Eigen::EigenvaluesOnly);
+  const Eigen::Vector3d& lambda = eigen.eigenvalues();  // ascending
+  return lambda(0) >= 1e-12 * lambda(2);
 }
 
 OmniKinematics::OmniKinematics(const WheelSet& wheels) : wheels_(wheels) {
