@@ -301,6 +301,18 @@ simulation:
                config::Error);
 }
 
+TEST(OmniKinematics, FourWheelsOnTwoAxesAreSingularButTheShippedLayoutIsNot) {
+  EXPECT_TRUE(wheelLayoutRegular(fourWheel().wheels));
+  // Wheels that all roll along one axis (two pairs facing opposite ways) cannot drive sideways:
+  // M has rank 2, and the layout must be refused.
+  WheelSet one_axis = fourWheel().wheels;
+  one_axis[1].angle = one_axis[0].angle;
+  one_axis[2].angle = one_axis[0].angle + kPi;
+  one_axis[3].angle = one_axis[0].angle + kPi;
+  EXPECT_FALSE(wheelLayoutRegular(one_axis));
+  EXPECT_THROW(OmniKinematics{one_axis}, std::invalid_argument);
+}
+
 TEST(OmniKinematics, FourWheelsHandComputedAndLeastSquares) {
   const OmniKinematics k(fourWheel().wheels);
   ASSERT_EQ(k.wheelCount(), 4);
