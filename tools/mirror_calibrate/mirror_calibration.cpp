@@ -1,6 +1,7 @@
 // Mirror calibration from rings: stages 1-5 in order, and the files (the camera config written,
 // the ring distances read).
 #include "tools/mirror_calibrate/mirror_calibration.hpp"
+#include "tools/mirror_calibrate/numbers.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -15,8 +16,6 @@
 namespace fieldline::calibration {
 
 namespace {
-
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 // Each peak assigned to the ring whose radius `fit` predicts nearest to it at the peak's
 // bearing, within 0.4 of the gap to the neighbouring rings (at most 4 px); peaks farther from

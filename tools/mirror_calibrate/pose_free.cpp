@@ -10,17 +10,12 @@
 
 #include "common/geometry/fitting.hpp"
 #include "tools/calibration_common/staged_output.hpp"
+#include "tools/mirror_calibrate/numbers.hpp"
 #include "tools/mirror_calibrate/pose_free_solver.hpp"
 
 namespace fieldline::calibration {
 
 using camera::Vec2;
-
-namespace {
-
-constexpr double kPi = std::numbers::pi;
-
-}  // namespace
 
 camera::MirrorParams scaleMirrorTo(const camera::MirrorParams& base, int width, int height) {
   if (width <= 0 || height <= 0) throw std::invalid_argument("image size must be > 0");

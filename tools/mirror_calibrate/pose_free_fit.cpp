@@ -9,13 +9,12 @@
 #include <Eigen/Dense>
 
 #include "tools/calibration_common/staged_output.hpp"
+#include "tools/mirror_calibrate/numbers.hpp"
 #include "tools/mirror_calibrate/pose_free_solver.hpp"
 
 namespace fieldline::calibration::posefree {
 
 namespace {
-
-constexpr double kPi = std::numbers::pi;
 
 Vec2 lineNormalOf(const field::FieldModel& field, const field::FieldModel::Closest& c) {
   if (c.is_arc) {

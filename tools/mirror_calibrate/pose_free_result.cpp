@@ -11,15 +11,10 @@
 #include <Eigen/Dense>
 
 #include "tools/calibration_common/staged_output.hpp"
+#include "tools/mirror_calibrate/numbers.hpp"
 #include "tools/mirror_calibrate/pose_free_solver.hpp"
 
 namespace fieldline::calibration::posefree {
-
-namespace {
-
-constexpr double kPi = std::numbers::pi;
-
-}  // namespace
 
 // The covariance of the state from the fit's curvature, inflated for neighbouring pixels'
 // correlated errors; zero for the parameters held fixed.

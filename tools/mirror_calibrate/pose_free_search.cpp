@@ -10,13 +10,12 @@
 #include <Eigen/Dense>
 
 #include "tools/calibration_common/staged_output.hpp"
+#include "tools/mirror_calibrate/numbers.hpp"
 #include "tools/mirror_calibrate/pose_free_solver.hpp"
 
 namespace fieldline::calibration::posefree {
 
 namespace {
-
-constexpr double kPi = std::numbers::pi;
 
 // Iteratively reweighted Gauss-Newton on the pose (Geman-McClure weights, scale tau).
 Pose2 refinePose(const std::vector<Vec2>& pts, Pose2 pose, const field::DistanceGrid& grid,

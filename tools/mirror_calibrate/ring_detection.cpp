@@ -12,13 +12,11 @@
 #include <Eigen/Dense>
 
 #include "common/geometry/fitting.hpp"
+#include "tools/mirror_calibrate/numbers.hpp"
 
 namespace fieldline::calibration {
 
 namespace {
-
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-constexpr double kPi = std::numbers::pi;
 
 // Image radius along image direction `dir` from `from` to the circle (centre, radius).
 double circleAlongRay(const Vec2& from, const Vec2& dir, const Vec2& centre, double radius) {

@@ -10,14 +10,9 @@
 #include <Eigen/Dense>
 
 #include "common/geometry/fitting.hpp"
+#include "tools/mirror_calibrate/numbers.hpp"
 
 namespace fieldline::calibration {
-
-namespace {
-
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-
-}  // namespace
 
 // --- stage 4: the joint fit ---
 

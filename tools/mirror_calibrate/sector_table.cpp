@@ -9,15 +9,9 @@
 #include <stdexcept>
 
 #include "common/geometry/fitting.hpp"
+#include "tools/mirror_calibrate/numbers.hpp"
 
 namespace fieldline::calibration {
-
-namespace {
-
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-constexpr double kPi = std::numbers::pi;
-
-}  // namespace
 
 // --- images and curves ---
 
