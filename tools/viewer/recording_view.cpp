@@ -19,8 +19,6 @@ namespace ch = bus::channels;
 
 namespace {
 
-// SERVICE_STATUS comes every second: three missed ones mean the process was gone or hung.
-constexpr Utime kStatusStaleUs = 3 * kMicrosPerSecond;
 // Points per series sent to the page at most (every n-th sample beyond).
 constexpr std::size_t kMaxPoints = 3000;
 

@@ -26,6 +26,10 @@
 
 namespace fieldline::viewer {
 
+// SERVICE_STATUS comes every second: three missed ones mean the process is gone or hung (the
+// live view and a recording's view both draw a status older than this as stale).
+inline constexpr Utime kStatusStaleUs = 3 * kMicrosPerSecond;
+
 // A message and the viewer's clock time when it arrived (for its age on the page).
 template <typename Msg>
 struct Received {

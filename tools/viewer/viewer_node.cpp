@@ -10,8 +10,6 @@ namespace fieldline::viewer {
 
 namespace {
 
-// SERVICE_STATUS comes every second: three missed ones mean the process is gone or hung.
-constexpr Utime kStatusStaleUs = 3 * kMicrosPerSecond;
 // How often the primary node looks for pages (an atomic read; a page waits at most this long
 // for the buses to open).
 constexpr Utime kClientCheckUs = 200 * kMicrosPerMilli;
