@@ -15,12 +15,6 @@
 
 namespace fieldline::eval_features {
 
-namespace {
-
-constexpr double kPi = std::numbers::pi;
-
-}  // namespace
-
 // Position and heading error of `h` against the nearer of the true pose and its twin.
 void errorsAgainst(const Pose2& truth, const Pose2& h, double& position, double& heading) {
   const Pose2 twin{-truth.x, -truth.y, geometry::normalizeAngle(truth.phi + kPi)};

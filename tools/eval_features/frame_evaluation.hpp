@@ -21,6 +21,8 @@
 
 namespace fieldline::eval_features {
 
+inline constexpr double kPi = std::numbers::pi;
+
 using geometry::Pose2;
 using geometry::Vec2;
 using perception::FeatureKind;

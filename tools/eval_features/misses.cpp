@@ -16,12 +16,6 @@
 
 namespace fieldline::eval_features {
 
-namespace {
-
-constexpr double kPi = std::numbers::pi;
-
-}  // namespace
-
 // True if the ray from the camera (at the mirror's reference height above the robot) to the floor
 // point `q` (field frame) passes through a robot's cylinder.
 bool rayBlocked(const camera::SimScene& scene, const Vec2& q, double camera_height,

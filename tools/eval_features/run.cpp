@@ -22,8 +22,6 @@
 namespace fieldline::eval_features {
 namespace {
 
-constexpr double kPi = std::numbers::pi;
-
 // Draws the field's lines thinly into an image, field +x right, +y up.
 struct MapCanvas {
   double scale;

@@ -8,12 +8,6 @@
 
 namespace fieldline::eval_features {
 
-namespace {
-
-constexpr double kPi = std::numbers::pi;
-
-}  // namespace
-
 std::vector<CornerSite> cornerSites(const field::FieldModel& field) {
   const auto& d = field.dimensions();
   std::vector<CornerSite> sites;
