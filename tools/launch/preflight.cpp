@@ -23,7 +23,7 @@ extern char** environ;
 namespace fieldline::launch {
 namespace {
 
-using Clock = std::chrono::steady_clock;
+using PreflightClock = std::chrono::steady_clock;
 
 // Output kept per check: its end is what explains a failure.
 constexpr std::size_t kMaxOutputBytes = 16 * 1024;
@@ -64,7 +64,7 @@ struct Check {
   pid_t pid = -1;
   int fd = -1;
   std::string output;
-  Clock::time_point deadline;
+  PreflightClock::time_point deadline;
   bool timed_out = false;
 };
 
@@ -120,8 +120,8 @@ Check startCheck(const LaunchInstance& instance, const char* option, double time
   ::fcntl(fds[0], F_SETFL, ::fcntl(fds[0], F_GETFL) | O_NONBLOCK);
   check.pid = pid;
   check.fd = fds[0];
-  check.deadline = Clock::now() + std::chrono::duration_cast<Clock::duration>(
-                                      std::chrono::duration<double>(timeout_s));
+  check.deadline = PreflightClock::now() + std::chrono::duration_cast<PreflightClock::duration>(
+                                               std::chrono::duration<double>(timeout_s));
   return check;
 }
 
@@ -233,7 +233,7 @@ std::vector<std::pair<const LaunchInstance*, ChildAnswer>> askChildren(
     }
     // Short waits: a check without output that ends is found by waitpid below.
     ::poll(fds.data(), fds.size(), 20);
-    const auto now = Clock::now();
+    const auto now = PreflightClock::now();
     for (auto it = running.begin(); it != running.end();) {
       readAvailable(*it);
       int status = 0;

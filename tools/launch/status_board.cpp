@@ -12,10 +12,6 @@
 namespace fieldline::launch {
 namespace {
 
-double secondsBetween(SteadyClock::time_point from, SteadyClock::time_point to) {
-  return std::chrono::duration<double>(to - from).count();
-}
-
 // Control characters (newlines, escapes) would break the table and the terminal.
 std::string printable(const std::string& text) {
   std::string out = text;

@@ -21,10 +21,6 @@ namespace {
 // A line longer than this without a newline is passed on in pieces.
 constexpr std::size_t kMaxLineBytes = 64 * 1024;
 
-double secondsBetween(SteadyClock::time_point from, SteadyClock::time_point to) {
-  return std::chrono::duration<double>(to - from).count();
-}
-
 SteadyClock::time_point after(SteadyClock::time_point t, double seconds) {
   return t +
          std::chrono::duration_cast<SteadyClock::duration>(std::chrono::duration<double>(seconds));

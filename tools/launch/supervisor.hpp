@@ -30,6 +30,10 @@ namespace fieldline::launch {
 
 using SteadyClock = std::chrono::steady_clock;
 
+inline double secondsBetween(SteadyClock::time_point from, SteadyClock::time_point to) {
+  return std::chrono::duration<double>(to - from).count();
+}
+
 enum class ProcessState {
   // The executable is not built: never started.
   kMissing,
