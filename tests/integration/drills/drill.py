@@ -4,7 +4,9 @@
 One run of the launcher with robot 1's processes and the simulator (a launch file generated into
 the run's folder, so the pseudo-terminals are private and the first restart comes after 50 ms),
 two fieldline-bus-dump recorders (robot 1's bus and the simulator's) that stamp every arrival,
-then the faults one after another with a quiet pause between them:
+then the faults one after another, each followed by a wait for its recovery to be recorded
+(the channel back at rate, the estimate watched for FAULT_REACH_S, fusion's status read; the
+drill reads the recordings as they grow) rather than a fixed pause:
 
   kill    kill -9 of each process kind of robot 1 and of the simulator
   stop    SIGSTOP of the camera for 2 s, then SIGCONT
@@ -59,7 +61,15 @@ JUMP_LIMIT_M = 0.20       # asserted: no estimate step above this after a fault 
 # the fault: a 0.28 m step 3-5 s after a feature recognition restart failed CI once, a frame
 # matched to an aliased line taken as a slip, now bounded by fusion's slip_max_speed.
 FAULT_REACH_S = 3.0
-SETTLE_S = 6.0            # quiet time after each fault (recovery and its measurement)
+# After each fault the drill waits for what it measures, read from the recordings as they grow
+# (Recording.window_end): the channel back at full rate and one second of it recorded, the
+# FAULT_REACH_S window (from the first message, for fusion from its convergence) plus 0.5 s, and
+# a SERVICE_STATUS of fusion (of the bridge after a serial cut) after that. The window ends there;
+# it used to be a fixed 6 s. WAIT_S bounds the wait: past it the analysis reports what is missing
+# (the rate bound and its one second, and some slack: at a load of 20 a camera restart took 10 s
+# to its first frame, and the window of that fault 14.2 s).
+WAIT_S = RATE_BOUND_S + 1.5
+BASELINE_S = 3.0          # ROBOT_STATE with truth recorded before the first fault (error_before)
 OUTAGE_S = 1.0            # serial line away for this long
 STOP_S = 2.0              # camera stopped for this long
 
@@ -134,7 +144,7 @@ def run(a):
         subprocess.run(cmd.split(), check=True)
     plan = launch_file(out, 1)
     kinds = list(KINDS) if a.drill == "kill" else []
-    budget = 60 + 10 + len(kinds) * (SETTLE_S + 2) + 30
+    budget = 60 + 10 + max(len(kinds), 1) * (WAIT_S + 2) + 30
     launcher = subprocess.Popen(
         [bin_ / "fieldline-launch", plan, "--duration", str(int(budget)), "--no-table",
          "--status-period", "1"], stdout=open(out / "launch.log", "w"), stderr=subprocess.STDOUT)
@@ -159,7 +169,7 @@ def run(a):
                               stdout=open(out / "sim.jsonl", "w"), stderr=open(out / "sim.err", "w"))]
     events = []
     try:
-        faults(a, out, events)
+        faults(a, Recording(out), events)
     finally:
         for d in dumps:
             d.send_signal(signal.SIGINT)
@@ -171,9 +181,10 @@ def run(a):
     return analyse(out, events, rc)
 
 
-def faults(a, out, events):
+def faults(a, rec, events):
     """Applies the drill's faults one after another, appending what happened to `events`."""
-    time.sleep(4.0)  # a baseline before the first fault
+    wait_baseline(rec)
+    out = rec.out
     kinds = list(KINDS) if a.drill == "kill" else []
     if a.drill == "kill":
         for kind in kinds:
@@ -187,7 +198,7 @@ def faults(a, out, events):
             events.append({"drill": f"kill -9 {kind}", "kind": kind, "channel": channel,
                            "bus": bus, "t_fault": t_fault, "t_back": t_restart,
                            "restarted": new_pid is not None})
-            time.sleep(SETTLE_S)
+            wait_recovered(rec, events[-1])
     elif a.drill == "stop":
         exe, channel, bus = KINDS["camera"]
         pid = find_pid(exe, bus)
@@ -195,12 +206,12 @@ def faults(a, out, events):
             sys.exit("FAIL: no camera process to stop")
         t_fault = now_us()
         os.kill(pid, signal.SIGSTOP)
-        time.sleep(STOP_S)
+        time.sleep(STOP_S)  # the fault itself: the camera stopped for STOP_S
         os.kill(pid, signal.SIGCONT)
         events.append({"drill": f"SIGSTOP camera {STOP_S:.0f} s", "kind": "camera",
                        "channel": channel, "bus": bus, "t_fault": t_fault, "t_back": now_us(),
                        "restarted": True})
-        time.sleep(SETTLE_S)
+        wait_recovered(rec, events[-1])
     elif a.drill == "serial":
         pid = find_pid("fieldline-world-sim", "sim")
         if pid is None:
@@ -219,65 +230,156 @@ def faults(a, out, events):
                        "channel": "ODOMETRY", "bus": "r1", "t_fault": t_fault,
                        "t_back": now_us(), "restarted": line.exists(),
                        "line_gone_ms": round((t_gone - t_fault) / 1e3, 1)})
-        time.sleep(SETTLE_S)
+        wait_recovered(rec, events[-1])
 
 
-def load(path):
-    rows = []
-    for line in path.read_text().splitlines():
+def wait_baseline(rec):
+    """Waits until BASELINE_S of estimates with truth and a status of fusion are recorded."""
+    end = time.monotonic() + 20.0
+    while time.monotonic() < end:
+        rec.poll()
+        t = now_us() - int(BASELINE_S * 1e6)
+        if rec.errors(t - 500_000, t) and rec.status.get("fusion"):
+            return
+        time.sleep(0.05)
+
+
+def wait_recovered(rec, ev):
+    """Waits until the recordings hold the fault's window (Recording.window_end); sets t_end."""
+    end = ev["t_back"] + int(WAIT_S * 1e6) if ev["restarted"] else now_us()
+    while now_us() < end:
+        rec.poll()
+        t_end = rec.window_end(ev)
+        if t_end is not None and now_us() >= t_end:
+            end = t_end
+            break
+        time.sleep(0.05)
+    ev["t_end"] = end
+
+
+class Recording:
+    """The two bus recordings (robot 1's bus, the simulator's), read as fieldline-bus-dump writes
+    them (poll) during a run, or whole for the analysis."""
+
+    def __init__(self, out):
+        self.out = out
+        self.files = {"r1": open(out / "r1.jsonl"), "sim": open(out / "sim.jsonl")}
+        self.partial = {"r1": "", "sim": ""}
+        self.arrivals = {}   # (bus, channel) -> receive times
+        self.truth = []      # robot 1's truth by simulated time: (utime, x, y)
+        self.truth_t = []
+        self.states = []     # ROBOT_STATE: (receive, utime, x, y, status)
+        self.states_t = []
+        self.status = {}     # process -> [(receive, SERVICE_STATUS)] of robot 1's bus
+        self.camera_frames = []  # (receive, exposure utime)
+        self.derived = []    # VISION_LINES and FIELD_FEATURES: (receive, frame utime)
+
+    def poll(self, final=False):
+        for bus, f in self.files.items():
+            lines = (self.partial[bus] + f.read()).split("\n")
+            self.partial[bus] = "" if final else lines.pop()
+            for line in lines:
+                self.add(bus, line)
+
+    def add(self, bus, line):
         try:
-            rows.append(json.loads(line))
+            m = json.loads(line)
         except json.JSONDecodeError:
-            pass  # a line cut by the recorder's stop
-    return rows
+            return  # a line cut by the recorder's stop
+        channel, recv, msg = m["channel"], m["receive_utime"], m["message"]
+        self.arrivals.setdefault((bus, channel), []).append(recv)
+        if bus == "sim":
+            if channel == "SIM_WORLD":
+                row = (msg["header"]["utime"], msg["robot_x"][0], msg["robot_y"][0])
+                i = bisect.bisect(self.truth_t, row[0])
+                self.truth.insert(i, row)
+                self.truth_t.insert(i, row[0])
+        elif channel == "ROBOT_STATE":
+            self.states.append((recv, msg["header"]["utime"], msg["x"], msg["y"], msg["status"]))
+            self.states_t.append(recv)
+        elif channel == "SERVICE_STATUS":
+            self.status.setdefault(msg["process"], []).append((recv, msg))
+        elif channel == "CAMERA_IMAGE":
+            self.camera_frames.append((recv, msg["header"]["utime"]))
+        elif channel in ("VISION_LINES", "FIELD_FEATURES"):
+            self.derived.append((recv, msg["header"]["utime"]))
 
-
-def analyse(out, events, launcher_rc):
-    r1, sim = load(out / "r1.jsonl"), load(out / "sim.jsonl")
-    arrivals = {}
-    for row in r1:
-        arrivals.setdefault(("r1", row["channel"]), []).append(row["receive_utime"])
-    for row in sim:
-        arrivals.setdefault(("sim", row["channel"]), []).append(row["receive_utime"])
-    # Truth of robot 1 by simulated time (same clock as robot 1's: no offset in this launch file).
-    truth = sorted((m["message"]["header"]["utime"], m["message"]["robot_x"][0],
-                    m["message"]["robot_y"][0]) for m in sim if m["channel"] == "SIM_WORLD")
-    truth_t = [t[0] for t in truth]
-    states = [(m["receive_utime"], m["message"]["header"]["utime"], m["message"]["x"],
-               m["message"]["y"], m["message"]["status"]) for m in r1
-              if m["channel"] == "ROBOT_STATE"]
-    fusion_status = [(m["receive_utime"], m["message"]) for m in r1
-                     if m["channel"] == "SERVICE_STATUS" and m["message"]["process"] == "fusion"]
-    camera_frames = [(m["receive_utime"], m["message"]["header"]["utime"]) for m in r1
-                     if m["channel"] == "CAMERA_IMAGE"]
-    derived = [(m["receive_utime"], m["message"]["header"]["utime"]) for m in r1
-               if m["channel"] in ("VISION_LINES", "FIELD_FEATURES")]
-    bridge_status = [(m["receive_utime"], m["message"]) for m in r1
-                     if m["channel"] == "SERVICE_STATUS" and m["message"]["process"] == "motor_bridge"]
-
-    def metric(status, name):
-        return dict(zip(status["metric_name"], status["metric_value"])).get(name, 0.0)
-
-    def true_at(utime):
-        i = bisect.bisect_left(truth_t, utime)
-        if i == 0 or i >= len(truth):
+    def true_at(self, utime):
+        """Robot 1's true position at `utime` (same clock as robot 1's: no offset here)."""
+        i = bisect.bisect_left(self.truth_t, utime)
+        if i == 0 or i >= len(self.truth):
             return None
-        (t0, x0, y0), (t1, x1, y1) = truth[i - 1], truth[i]
+        (t0, x0, y0), (t1, x1, y1) = self.truth[i - 1], self.truth[i]
         if t1 - t0 > 50_000:  # no truth around this time (the simulator was away)
             return None
         w = (utime - t0) / (t1 - t0)
         return x0 + w * (x1 - x0), y0 + w * (y1 - y0)
 
-    def errors(t_from, t_to):
-        """(receive time, error vector) of every ROBOT_STATE received in [t_from, t_to)."""
+    def errors(self, t_from, t_to):
+        """(receive time, error vector, status) of every ROBOT_STATE received in [t_from, t_to)."""
         result = []
-        for recv, utime, x, y, status in states:
-            if t_from <= recv < t_to:
-                tr = true_at(utime)
-                if tr is not None:
-                    result.append((recv, (x - tr[0], y - tr[1]), status))
+        lo, hi = bisect.bisect_left(self.states_t, t_from), bisect.bisect_left(self.states_t, t_to)
+        for recv, utime, x, y, status in self.states[lo:hi]:
+            tr = self.true_at(utime)
+            if tr is not None:
+                result.append((recv, (x - tr[0], y - tr[1]), status))
         return result
 
+    def after(self, ev):
+        """Arrivals of the fault's channel from the restart (or resume) on."""
+        times = self.arrivals.get((ev["bus"], ev["channel"]), [])
+        return times[bisect.bisect_left(times, ev["t_back"]):]
+
+    def full_rate(self, ev, after):
+        """The first arrival from which the next second holds RATE_SHARE of the nominal rate."""
+        nominal = NOMINAL_HZ[ev["channel"]]
+        for k, t in enumerate(after):
+            j = bisect.bisect_left(after, t + 1_000_000)
+            if j == len(after) and after[-1] < t + 1_000_000 - 50_000:
+                return None  # the recording ends within this second
+            if j - k >= RATE_SHARE * nominal:
+                return t
+        return None
+
+    def converged(self, t_back, t_to):
+        """A restarted fusion's first estimate within JUMP_LIMIT_M of the truth, TRACKING."""
+        return next((r for r, e, s in self.errors(t_back, t_to)
+                     if math.hypot(*e) < JUMP_LIMIT_M and s == 2), None)
+
+    def window_end(self, ev):
+        """When the fault's measurement window may end, or None while the recordings lack a part
+        of it: the rate second, the reach of the fault (+0.5 s), the statuses read after it."""
+        after = self.after(ev)
+        full = self.full_rate(ev, after) if after else None
+        if full is None:
+            return None
+        end = max(full + 1_050_000, after[0] + int((FAULT_REACH_S + 0.5) * 1e6))
+        if ev["kind"] == "fusion":
+            conv = self.converged(ev["t_back"], now_us())
+            if conv is None:
+                return None
+            end = max(end, conv + int((FAULT_REACH_S + 0.5) * 1e6))
+        if "line_gone_ms" in ev:  # the bridge's reconnect count, read 2 s after the line is back
+            bridge = [r for r, _ in self.status.get("motor_bridge", []) if r >= ev["t_back"] + 2e6]
+            if not bridge:
+                return None
+            end = max(end, bridge[0] + 50_000)
+        # The fusion status that closes the window (read in its last 1.5 s).
+        closing = [r for r, _ in self.status.get("fusion", []) if r >= end - 1_000_000]
+        if not closing:
+            return None
+        return max(end, closing[0] + 50_000)
+
+
+def metric(status, name):
+    return dict(zip(status["metric_name"], status["metric_value"])).get(name, 0.0)
+
+
+def analyse(out, events, launcher_rc):
+    rec = Recording(out)
+    rec.poll(final=True)
+    errors, fusion_status = rec.errors, rec.status.get("fusion", [])
+    bridge_status = rec.status.get("motor_bridge", [])
     failures = []
     results = []
     for ev in events:
@@ -288,27 +390,22 @@ def analyse(out, events, launcher_rc):
             results.append(res)
             continue
         res["fault_to_restart_ms"] = round((t_back - t_fault) / 1e3, 1)
-        times = arrivals.get((ev["bus"], ev["channel"]), [])
+        # The end of the fault's window: where the drill's wait ended (a fixed 6 s before).
+        t_end = ev.get("t_end", t_back + 6_000_000)
         nominal = NOMINAL_HZ[ev["channel"]]
-        after = [t for t in times if t >= t_back]
+        after = rec.after(ev)
         res["restart_to_first_ms"] = round((after[0] - t_back) / 1e3, 1) if after else None
-        full = None
-        for k, t in enumerate(after):
-            j = bisect.bisect_left(after, t + 1_000_000)
-            if j == len(after) and after[-1] < t + 1_000_000 - 50_000:
-                break  # the recording ends within this second
-            if j - k >= RATE_SHARE * nominal:
-                full = t
-                break
+        full = rec.full_rate(ev, after)
         res["restart_to_full_rate_ms"] = round((full - t_back) / 1e3, 1) if full else None
         if full and after:
             res["first_to_full_rate_ms"] = round((full - after[0]) / 1e3, 1)
         if full is None or full - t_back > RATE_BOUND_S * 1e6:
             failures.append(f"{ev['drill']}: {ev['channel']} not back at {RATE_SHARE:.0%} of "
                             f"{nominal} Hz within {RATE_BOUND_S} s of the restart")
-        # The estimate: from 3 s before the fault to the end of the settle time.
+        # The estimate: from 3 s before the fault to the end of its window.
         before = errors(t_fault - 3_000_000, t_fault)
-        during = errors(t_fault, t_back + int(SETTLE_S * 1e6) - 500_000)
+        during = errors(t_fault, t_end - 500_000)
+        res["window_ms"] = round((t_end - t_back) / 1e3, 1)
         res["error_before_max_m"] = round(max((math.hypot(*e) for _, e, _ in before),
                                               default=float("nan")), 3)
         if ev["kind"] == "fusion":
@@ -353,15 +450,14 @@ def analyse(out, events, launcher_rc):
         if ev["kind"] == "camera":
             # Frames published after the resume whose exposure is older than fusion's window
             # (1 s): fusion must refuse them, never fuse them.
-            stale = [(r, u) for r, u in camera_frames if t_back <= r and r - u > 1_000_000]
+            stale = [(r, u) for r, u in rec.camera_frames if t_back <= r and r - u > 1_000_000]
             res["stale_frames_after_resume"] = len(stale)
             res["max_frame_age_after_resume_ms"] = round(max(
-                (r - u for r, u in camera_frames if t_back <= r < t_back + 2_000_000),
+                (r - u for r, u in rec.camera_frames if t_back <= r < t_back + 2_000_000),
                 default=0) / 1e3, 1)
         pre = [s for r, s in fusion_status if r < t_fault]
-        # The status at the end of this fault's settle time (not a later fault's).
-        post = [s for r, s in fusion_status
-                if t_back + int(SETTLE_S * 1e6) - 1_500_000 <= r < t_back + int(SETTLE_S * 1e6)]
+        # The status at the end of this fault's window (not a later fault's).
+        post = [s for r, s in fusion_status if t_end - 1_500_000 <= r < t_end]
         refused = {}
         if pre and post and ev["kind"] != "fusion":
             def counts(s):
@@ -373,7 +469,7 @@ def analyse(out, events, launcher_rc):
         if ev["drill"].startswith("SIGSTOP"):
             # Lines and features of the frames exposed before the stop reach fusion after the
             # resume, older than its window: each must be refused (counted), never fused.
-            stale = [1 for r, u in derived if r >= t_back and r - u > 1_000_000]
+            stale = [1 for r, u in rec.derived if r >= t_back and r - u > 1_000_000]
             res["stale_lines_features_after_resume"] = len(stale)
             n_refused = refused.get("lines_too_old", 0) + refused.get("features_too_old", 0)
             if not pre or not post:

@@ -2,8 +2,10 @@
 # Drill: the team link partitioned and healed. Two robots, each in its own network namespace
 # with fieldline-teamcomm and fieldline-team-probe (publishes a fixed ROBOT_STATE, records
 # TEAM_STATE), joined through the teamcomm tests' relay (fieldline-team-relay, the access point
-# stand-in) in a third namespace. Timeline (s): 0-6 clean link, 6-9 partition 1|2, 9 healed,
-# 14 end. Measures per robot: partition -> teammate reported absent, heal -> present again.
+# stand-in) in a third namespace. Timeline (s): 0-6 clean link, 6-9 partition 1|2, 9 healed;
+# the drill ends when both robots have seen each other again after the heal (14 s at most, the
+# probes' --duration; it used to run to 14 s). Measures per robot: partition -> teammate
+# reported absent, heal -> present again.
 # Asserts only what must hold: both robots see each other before, the partition is noticed,
 # and each sees the other again within 3 s of the heal (a generous bound; figures in
 # docs/drills.md). Usage: partition_drill.sh BIN ROOT OUT
@@ -41,6 +43,35 @@ ip netns exec $relay "$bin/fieldline-team-relay" \
   --up-ms 0.5 --down-ms 0.5 --duration $((duration + 1)) \
   --schedule "6:partition=1|2" --schedule "9:partition=none" > "$out/relay.log" 2>&1 &
 relay_pid=$!
+# The end: both probes have recorded their teammate present after the heal (the relay's
+# schedule counts from its start_us), or the probes' --duration is over.
+python3 - "$out" $((duration + 5)) <<'PY'
+import json, pathlib, re, sys, time
+out, deadline = pathlib.Path(sys.argv[1]), time.monotonic() + float(sys.argv[2])
+
+
+def healed(r, other, heal_us):
+    try:
+        lines = (out / f"probe{r}.jsonl").read_text().splitlines()
+    except OSError:
+        return False
+    for line in lines:
+        try:
+            s = json.loads(line)
+        except json.JSONDecodeError:
+            continue  # the line being written
+        if "present" in s and s["t"] >= heal_us and s["present"][other - 1] == 1:
+            return True
+    return False
+
+
+while time.monotonic() < deadline:
+    start = re.search(r"start_us=(\d+)", (out / "relay.log").read_text())
+    if start and all(healed(r, o, int(start.group(1)) + 9_000_000) for r, o in ((1, 2), (2, 1))):
+        break
+    time.sleep(0.1)
+PY
+kill -TERM $probe_pids $relay_pid 2>/dev/null
 wait $probe_pids $relay_pid
 kill -TERM $teamcomm_pids
 wait $teamcomm_pids

@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Issue 31's end-to-end check (docs/replay.md, "The demo's recording"): 20 s of the six-robot
+# Issue 31's end-to-end check (docs/replay.md, "The demo's recording"): SECONDS (default 20; ctest
+# gives 12, tests/integration/recordings/CMakeLists.txt says why) of the six-robot
 # simulated team (sim_team.yaml: every robot on its own clock) evaluated live by fieldline-eval
 # while fieldline-record --team records every bus, in a private network namespace. Then
 #   1. fusion of every robot replayed from its recording (fieldline-replay --run fusion): exit

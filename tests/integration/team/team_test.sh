@@ -39,8 +39,12 @@ $ns bash -c "
   '$bin/fieldline-ready-probe' --robots 6 --sim --timeout $READY_TIMEOUT_S \
     $(for e in $expect; do printf -- '--expect %s ' "$e"; done) > '$out/probe.jsonl' 2> '$out/probe.log'
   echo \$? > '$out/probe.rc'
-  '$bin/fieldline-bus-stats' --robots 6 --sim --duration $LISTEN_S --json > '$out/stats.jsonl'
+  '$bin/fieldline-bus-stats' --robots 6 --sim --duration $LISTEN_S --json > '$out/stats.jsonl' &
+  stats=\$!
   # The demo check: every robot's TEAM_STATE, with all six present; robot 1's drawn to a PNG.
+  # Recorded during the last TEAM_S seconds of bus-stats' listening (it followed it before: the
+  # same healthy team, 3 s less of the test).
+  sleep $((LISTEN_S - TEAM_S))
   if [ -x '$bin/fieldline-teamcomm' ]; then
     dumps=
     for r in 1 2 3 4 5 6; do
@@ -54,6 +58,7 @@ $ns bash -c "
         > /dev/null 2> '$out/team_png.log'
     fi
   fi
+  wait \$stats
   kill -TERM \$launcher
   wait \$launcher
   echo \$? > '$out/launch.rc'
