@@ -56,6 +56,27 @@ void renderBenchmark(benchmark::State& state, const std::string& preset, bool ob
   state.SetLabel(std::to_string(renderer->width()) + "x" + std::to_string(renderer->height()));
 }
 
+// Six cameras rendering in turn, each with its own renderer (its own raster, as six camera
+// processes have) at another place on the field: the live team's caches, where one camera's
+// raster cells are gone by its next frame. Time per frame.
+void BM_Render320SixCameras(benchmark::State& state) {
+  std::vector<std::unique_ptr<camera::SimRenderer>> renderers;
+  for (int k = 0; k < 6; ++k)
+    renderers.push_back(makeRenderer("omni_sim", 1));
+  std::vector<std::uint8_t> frame;
+  std::int64_t n = 0;
+  for (auto _ : state) {
+    const auto camera = static_cast<std::size_t>(n % 6);
+    camera::SimScene scene = sceneAt(n / 6, true);
+    scene.robot.x -= 2.5 * static_cast<double>(camera);
+    scene.robot.y *= camera % 2 == 0 ? 1.0 : -1.0;
+    renderers[camera]->render(scene, frame);
+    benchmark::DoNotOptimize(frame.data());
+    benchmark::ClobberMemory();
+    ++n;
+  }
+}
+
 void BM_Render320Empty(benchmark::State& s) {
   renderBenchmark(s, "omni_sim", false, 1);
 }
@@ -100,6 +121,7 @@ void BM_ClassifyFrame320(benchmark::State& state) {
 
 BENCHMARK(BM_Render320Empty)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_Render320Objects)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_Render320SixCameras)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_Render320ObjectsBlur3)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_Render640Empty)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_Render640Objects)->Unit(benchmark::kMillisecond);

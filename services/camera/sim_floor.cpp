@@ -132,7 +132,21 @@ struct FloorLevel {
   float inv;
   float fcols, frows;
   int cols, rows;
+  // The same cells in 4x4 tiles of 4 bytes (SimRenderer::buildTiledRaster), tile_cols tiles a row.
+  const std::uint32_t* tiles;
+  int tile_cols;
 };
+
+// Where cell (i, j) lies in a level's tiles: 16 cells of 4 bytes, one cache line, per tile.
+constexpr int kTileShift = 2;
+constexpr int kTileMask = (1 << kTileShift) - 1;
+[[gnu::always_inline]] inline std::size_t tileRow(const FloorLevel& l, int j) {
+  return static_cast<std::size_t>(j >> kTileShift) * static_cast<std::size_t>(l.tile_cols) * 16 +
+         static_cast<std::size_t>((j & kTileMask) << kTileShift);
+}
+[[gnu::always_inline]] inline std::size_t tileColumn(int i) {
+  return static_cast<std::size_t>(i >> kTileShift) * 16 + static_cast<std::size_t>(i & kTileMask);
+}
 
 // Each cell holds its area's mean colour at its centre; a pixel's colour is interpolated
 // bilinearly between the four cell centres around its floor point. Taking the colour of the
@@ -201,6 +215,39 @@ Yuv floorSample(const FloorLevel& l, float gx, float gy, Yuv outside) {
   return bilinear(l, i0, j0, fx, fy);
 }
 
+#if defined(__SSE2__)
+// bilinear() on the tiled cells: the same four cells (edges repeated), the same float lanes.
+// Four neighbouring cells share one tile (one cache line) nine times in sixteen, where the
+// row-major raster always needs two lines, and pixels a few cells apart share tiles.
+[[gnu::always_inline]] inline Yuv bilinearTiled(const FloorLevel& l, int i0, int j0, int fx,
+                                                int fy) {
+  const std::size_t a = tileColumn(std::max(i0, 0));
+  const std::size_t b = tileColumn(std::min(i0 + 1, l.cols - 1));
+  const std::size_t row0 = tileRow(l, std::max(j0, 0));
+  const std::size_t row1 = tileRow(l, std::min(j0 + 1, l.rows - 1));
+  const __m128i zero = _mm_setzero_si128();
+  const auto load = [&zero](std::uint32_t cell) {
+    return _mm_cvtepi32_ps(_mm_unpacklo_epi16(
+        _mm_unpacklo_epi8(_mm_cvtsi32_si128(static_cast<int>(cell)), zero), zero));
+  };
+  const __m128 wx1 = _mm_set1_ps(static_cast<float>(fx));
+  const __m128 wx0 = _mm_set1_ps(static_cast<float>(256 - fx));
+  const __m128 top = _mm_add_ps(_mm_mul_ps(load(l.tiles[row0 + a]), wx0),
+                                _mm_mul_ps(load(l.tiles[row0 + b]), wx1));
+  const __m128 bottom = _mm_add_ps(_mm_mul_ps(load(l.tiles[row1 + a]), wx0),
+                                   _mm_mul_ps(load(l.tiles[row1 + b]), wx1));
+  const __m128 sum =
+      _mm_add_ps(_mm_add_ps(_mm_mul_ps(top, _mm_set1_ps(static_cast<float>(256 - fy))),
+                            _mm_mul_ps(bottom, _mm_set1_ps(static_cast<float>(fy)))),
+                 _mm_set1_ps(32768.0f));
+  const __m128i shifted = _mm_srli_epi32(_mm_cvttps_epi32(sum), 16);
+  const __m128i bytes = _mm_packus_epi16(_mm_packs_epi32(shifted, zero), zero);
+  const auto packed = static_cast<std::uint32_t>(_mm_cvtsi128_si32(bytes));
+  return Yuv{static_cast<std::uint8_t>(packed), static_cast<std::uint8_t>(packed >> 8),
+             static_cast<std::uint8_t>(packed >> 16)};
+}
+#endif
+
 }  // namespace
 
 // What this computes from its inputs is cached on disk (floor_raster_cache.hpp): a change here
@@ -237,6 +284,24 @@ void SimRenderer::buildFloorRaster(const field::FieldModel& field) {
   // Mip levels: 2x2 averages, until cells reach about half a metre.
   while (raster_.back().cell < 0.5 && raster_.back().cols > 4 && raster_.back().rows > 4) {
     raster_.push_back(halved(raster_.back()));
+  }
+}
+
+void SimRenderer::buildTiledRaster() {
+  tiled_raster_.clear();
+  for (const RasterLevel& r : raster_) {
+    const FloorLevel l{nullptr, 0.0f,   0.0f,    0.0f,
+                       r.cols,  r.rows, nullptr, (r.cols + kTileMask) >> kTileShift};
+    const int tile_rows = (r.rows + kTileMask) >> kTileShift;
+    std::vector<std::uint32_t> tiles(static_cast<std::size_t>(l.tile_cols) * tile_rows * 16, 0);
+    for (int j = 0; j < r.rows; ++j) {
+      for (int i = 0; i < r.cols; ++i) {
+        const Yuv& c = r.cells[static_cast<std::size_t>(j) * r.cols + i];
+        tiles[tileRow(l, j) + tileColumn(i)] =
+            c.y | static_cast<std::uint32_t>(c.u) << 8 | static_cast<std::uint32_t>(c.v) << 16;
+      }
+    }
+    tiled_raster_.push_back(std::move(tiles));
   }
 }
 
@@ -318,6 +383,94 @@ Yuv SimRenderer::floorColour(const Vec2& p) const {
   return l.cells[static_cast<std::size_t>(gy) * l.cols + static_cast<std::size_t>(gx)];
 }
 
+#if defined(__SSE2__)
+namespace {
+
+// Four floor points' cells: what bilinear() takes, per lane, and which lanes lie on the raster.
+struct FloorQuad {
+  alignas(16) std::int32_t i0[4];
+  alignas(16) std::int32_t j0[4];
+  alignas(16) std::int32_t fx[4];
+  alignas(16) std::int32_t fy[4];
+  int inside;
+};
+
+// The rotation, the bounds test and the cell coordinates of four floor points: the same float
+// operations in the same order as floorSample's scalar code (SSE2 rounds each one as the scalar
+// code does), so the same pixels. Asks the cache for the two raster rows each point will read.
+[[gnu::always_inline]] inline void prepareQuad(const FloorLevel& l, const float* xs,
+                                               const float* ys, __m128 vc, __m128 vs, __m128 vox,
+                                               __m128 voy, FloorQuad& q) {
+  const __m128 vinv = _mm_set1_ps(l.inv);
+  const __m128 zero = _mm_setzero_ps(), half = _mm_set1_ps(0.5f), k256 = _mm_set1_ps(256.0f);
+  const __m128 x = _mm_loadu_ps(xs);
+  const __m128 y = _mm_loadu_ps(ys);
+  const __m128 gx =
+      _mm_mul_ps(_mm_sub_ps(_mm_add_ps(vox, _mm_mul_ps(vc, x)), _mm_mul_ps(vs, y)), vinv);
+  const __m128 gy =
+      _mm_mul_ps(_mm_add_ps(_mm_add_ps(voy, _mm_mul_ps(vs, x)), _mm_mul_ps(vc, y)), vinv);
+  q.inside = _mm_movemask_ps(_mm_and_ps(
+      _mm_and_ps(_mm_cmpge_ps(gx, zero), _mm_cmpge_ps(gy, zero)),
+      _mm_and_ps(_mm_cmplt_ps(gx, _mm_set1_ps(l.fcols)), _mm_cmplt_ps(gy, _mm_set1_ps(l.frows)))));
+  const __m128 cx = _mm_sub_ps(gx, half);
+  const __m128 cy = _mm_sub_ps(gy, half);
+  // Truncation, then -1 below zero: inside the raster cx >= -0.5, so this is the scalar code's
+  // i0 (-1 before the first cell centre).
+  const __m128i ci = _mm_add_epi32(_mm_cvttps_epi32(cx), _mm_castps_si128(_mm_cmplt_ps(cx, zero)));
+  const __m128i cj = _mm_add_epi32(_mm_cvttps_epi32(cy), _mm_castps_si128(_mm_cmplt_ps(cy, zero)));
+  _mm_store_si128(reinterpret_cast<__m128i*>(q.i0), ci);
+  _mm_store_si128(reinterpret_cast<__m128i*>(q.j0), cj);
+  _mm_store_si128(reinterpret_cast<__m128i*>(q.fx),
+                  _mm_cvttps_epi32(_mm_mul_ps(_mm_sub_ps(cx, _mm_cvtepi32_ps(ci)), k256)));
+  _mm_store_si128(reinterpret_cast<__m128i*>(q.fy),
+                  _mm_cvttps_epi32(_mm_mul_ps(_mm_sub_ps(cy, _mm_cvtepi32_ps(cj)), k256)));
+  for (int lane = 0; lane < 4; ++lane) {
+    if (!(q.inside >> lane & 1)) continue;
+    const std::size_t a = tileColumn(std::max(q.i0[lane], 0));
+    _mm_prefetch(reinterpret_cast<const char*>(l.tiles + tileRow(l, std::max(q.j0[lane], 0)) + a),
+                 _MM_HINT_T0);
+  }
+}
+
+// One level's floor points from `k` on, four at a time, into `frame`; returns where the
+// quads ended (the scalar tail's start). The raster is read far apart (a few cells between
+// neighbouring pixels, six cameras' rasters and the rest of the team in the caches): the cells
+// of a chunk of quads are asked for while the previous chunk is mixed, so the misses overlap.
+std::size_t renderFloorQuads(const FloorLevel& l, const float* xs, const float* ys,
+                             const std::int32_t* index, std::size_t k, std::size_t end, float c,
+                             float s, float ox, float oy, Yuv outside, Yuv* frame) {
+  constexpr std::size_t kChunk = 8;  // quads
+  const __m128 vc = _mm_set1_ps(c), vs = _mm_set1_ps(s);
+  const __m128 vox = _mm_set1_ps(ox), voy = _mm_set1_ps(oy);
+  const std::size_t quads = (end - k) / 4;
+  FloorQuad chunk[2][kChunk];
+  const auto prepare = [&](std::size_t first, FloorQuad* out) {
+    const std::size_t count = std::min(kChunk, quads - first);
+    for (std::size_t q = 0; q < count; ++q) {
+      const std::size_t at = k + 4 * (first + q);
+      prepareQuad(l, xs + at, ys + at, vc, vs, vox, voy, out[q]);
+    }
+  };
+  if (quads > 0) prepare(0, chunk[0]);
+  for (std::size_t first = 0, which = 0; first < quads; first += kChunk, which ^= 1) {
+    if (first + kChunk < quads) prepare(first + kChunk, chunk[which ^ 1]);
+    const std::size_t count = std::min(kChunk, quads - first);
+    for (std::size_t q = 0; q < count; ++q) {
+      const FloorQuad& f = chunk[which][q];
+      const std::int32_t* const pixel = index + k + 4 * (first + q);
+      for (int lane = 0; lane < 4; ++lane) {
+        frame[pixel[lane]] = (f.inside >> lane & 1)
+                                 ? bilinearTiled(l, f.i0[lane], f.j0[lane], f.fx[lane], f.fy[lane])
+                                 : outside;
+      }
+    }
+  }
+  return k + 4 * quads;
+}
+
+}  // namespace
+#endif
+
 void SimRenderer::renderFloor(const geometry::Pose2& pose) {
   const float c = static_cast<float>(std::cos(pose.phi));
   const float s = static_cast<float>(std::sin(pose.phi));
@@ -335,45 +488,12 @@ void SimRenderer::renderFloor(const geometry::Pose2& pose) {
                        static_cast<float>(r.cols),
                        static_cast<float>(r.rows),
                        r.cols,
-                       r.rows};
+                       r.rows,
+                       tiled_raster_[level].data(),
+                       (r.cols + kTileMask) >> kTileShift};
     const std::size_t end = level_end_[level];
 #if defined(__SSE2__)
-    // Four points at a time: the same float operations in the same order as the scalar line
-    // below (SSE2 rounds each one as the scalar code does), so the same pixels.
-    const __m128 vc = _mm_set1_ps(c), vs = _mm_set1_ps(s);
-    const __m128 vox = _mm_set1_ps(ox), voy = _mm_set1_ps(oy), vinv = _mm_set1_ps(l.inv);
-    const __m128 zero = _mm_setzero_ps(), half = _mm_set1_ps(0.5f), k256 = _mm_set1_ps(256.0f);
-    const __m128 fcols = _mm_set1_ps(l.fcols), frows = _mm_set1_ps(l.frows);
-    alignas(16) std::int32_t i0[4], j0[4], fx[4], fy[4];
-    for (; k + 4 <= end; k += 4) {
-      const __m128 x = _mm_loadu_ps(xs + k);
-      const __m128 y = _mm_loadu_ps(ys + k);
-      const __m128 gx =
-          _mm_mul_ps(_mm_sub_ps(_mm_add_ps(vox, _mm_mul_ps(vc, x)), _mm_mul_ps(vs, y)), vinv);
-      const __m128 gy =
-          _mm_mul_ps(_mm_add_ps(_mm_add_ps(voy, _mm_mul_ps(vs, x)), _mm_mul_ps(vc, y)), vinv);
-      const int inside =
-          _mm_movemask_ps(_mm_and_ps(_mm_and_ps(_mm_cmpge_ps(gx, zero), _mm_cmpge_ps(gy, zero)),
-                                     _mm_and_ps(_mm_cmplt_ps(gx, fcols), _mm_cmplt_ps(gy, frows))));
-      const __m128 cx = _mm_sub_ps(gx, half);
-      const __m128 cy = _mm_sub_ps(gy, half);
-      // Truncation, then -1 below zero: inside the raster cx >= -0.5, so this is the scalar
-      // code's i0 (-1 before the first cell centre).
-      const __m128i ci =
-          _mm_add_epi32(_mm_cvttps_epi32(cx), _mm_castps_si128(_mm_cmplt_ps(cx, zero)));
-      const __m128i cj =
-          _mm_add_epi32(_mm_cvttps_epi32(cy), _mm_castps_si128(_mm_cmplt_ps(cy, zero)));
-      _mm_store_si128(reinterpret_cast<__m128i*>(i0), ci);
-      _mm_store_si128(reinterpret_cast<__m128i*>(j0), cj);
-      _mm_store_si128(reinterpret_cast<__m128i*>(fx),
-                      _mm_cvttps_epi32(_mm_mul_ps(_mm_sub_ps(cx, _mm_cvtepi32_ps(ci)), k256)));
-      _mm_store_si128(reinterpret_cast<__m128i*>(fy),
-                      _mm_cvttps_epi32(_mm_mul_ps(_mm_sub_ps(cy, _mm_cvtepi32_ps(cj)), k256)));
-      for (int q = 0; q < 4; ++q) {
-        frame[index[k + q]] =
-            (inside >> q & 1) ? bilinear(l, i0[q], j0[q], fx[q], fy[q]) : outside_floor_yuv_;
-      }
-    }
+    k = renderFloorQuads(l, xs, ys, index, k, end, c, s, ox, oy, outside_floor_yuv_, frame);
 #endif
     for (; k < end; ++k) {
       const float x = xs[k];

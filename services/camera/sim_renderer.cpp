@@ -8,6 +8,10 @@
 
 #include "services/camera/sim_colour.hpp"
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
 namespace fieldline::camera {
 namespace {
 
@@ -74,6 +78,7 @@ SimRenderer::SimRenderer(MirrorModel mirror, const field::FieldModel& field, Ren
   // One spare cell after each level's: the floor pass reads cells 4 bytes at a time.
   for (RasterLevel& level : raster_)
     level.cells.push_back(Yuv{});
+  buildTiledRaster();
   outside_floor_yuv_ = yuvFromBgr(scaleBgr(params_.outside_floor, params_.lighting.ambient));
   buildGoals(field);
   buildPixelTable();
@@ -435,19 +440,44 @@ void SimRenderer::finish(const SimScene& scene, std::vector<std::uint8_t>& yuyv)
     return lane[used++];
   };
   constexpr std::uint32_t mask = (1u << kNoiseTableBits) - 1;
-  for (int v = 0; v < h; ++v) {
-    const Yuv* src = frame_.data() + static_cast<std::size_t>(v) * w;
-    std::uint8_t* dst = yuyv.data() + static_cast<std::size_t>(v) * stride();
-    for (int u = 0; u < w; u += 2) {
-      const Yuv& a = src[u];
-      const Yuv& b = src[u + 1];
-      const std::uint32_t r1 = draw();
-      const std::uint32_t r2 = draw();
-      dst[2 * u + 0] = clampByte(a.y + luma_noise_[r1 & mask]);
-      dst[2 * u + 1] = clampByte((a.u + b.u + 1) / 2 + chroma_noise_[r2 & mask]);
-      dst[2 * u + 2] = clampByte(b.y + luma_noise_[(r1 >> 16) & mask]);
-      dst[2 * u + 3] = clampByte((a.v + b.v + 1) / 2 + chroma_noise_[(r2 >> 16) & mask]);
-    }
+  // Rows follow each other without a gap (stride = 2 * width): the pixel pairs in one run.
+  const std::size_t pairs = static_cast<std::size_t>(w) * h / 2;
+  const Yuv* const src = frame_.data();
+  std::uint8_t* const dst = yuyv.data();
+  std::size_t p = 0;
+#if defined(__SSE2__)
+  // Four pairs take the eight lanes' draws at once; sixteen bytes are clamped and packed
+  // together (packus saturates to 0..255 as clampByte does).
+  const std::int16_t* const luma = luma_noise_.data();
+  const std::int16_t* const chroma = chroma_noise_.data();
+  const auto half = [&](const Yuv* x, const std::uint32_t* r) {
+    const auto mean = [](int a, int b) { return static_cast<std::int16_t>((a + b + 1) / 2); };
+    const __m128i base = _mm_setr_epi16(x[0].y, mean(x[0].u, x[1].u), x[1].y, mean(x[0].v, x[1].v),
+                                        x[2].y, mean(x[2].u, x[3].u), x[3].y, mean(x[2].v, x[3].v));
+    const __m128i noise =
+        _mm_setr_epi16(luma[r[0] & mask], chroma[r[1] & mask], luma[(r[0] >> 16) & mask],
+                       chroma[(r[1] >> 16) & mask], luma[r[2] & mask], chroma[r[3] & mask],
+                       luma[(r[2] >> 16) & mask], chroma[(r[3] >> 16) & mask]);
+    return _mm_add_epi16(base, noise);
+  };
+  for (; p + 4 <= pairs; p += 4) {
+    draw();  // the lanes are fresh after this (used is 0 or 8 at each group's start)
+    const Yuv* const x = src + 2 * p;
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(dst + 4 * p),
+                     _mm_packus_epi16(half(x, lane.data()), half(x + 4, lane.data() + 4)));
+    used = lane.size();
+  }
+#endif
+  for (; p < pairs; ++p) {
+    const Yuv& a = src[2 * p];
+    const Yuv& b = src[2 * p + 1];
+    const std::uint32_t r1 = draw();
+    const std::uint32_t r2 = draw();
+    std::uint8_t* const out = dst + 4 * p;
+    out[0] = clampByte(a.y + luma_noise_[r1 & mask]);
+    out[1] = clampByte((a.u + b.u + 1) / 2 + chroma_noise_[r2 & mask]);
+    out[2] = clampByte(b.y + luma_noise_[(r1 >> 16) & mask]);
+    out[3] = clampByte((a.v + b.v + 1) / 2 + chroma_noise_[(r2 >> 16) & mask]);
   }
 }
 

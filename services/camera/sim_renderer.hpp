@@ -176,6 +176,9 @@ class SimRenderer {
   using Box = SimBox;
 
   void buildPixelTable();
+  // The raster's levels again in 4x4 tiles of 4-byte cells (Y, U, V, 0), what the floor pass
+  // reads (sim_floor.cpp).
+  void buildTiledRaster();
   void buildFloorRaster(const field::FieldModel& field);
   // In floor_raster_cache.cpp: the cached raster, or buildFloorRaster and write the cache.
   void loadOrBuildFloorRaster(const field::FieldModel& field, const std::string& cache_dir);
@@ -213,6 +216,7 @@ class SimRenderer {
   std::vector<Yuv> static_layer_;  // outside, self, hall
 
   std::vector<RasterLevel> raster_;
+  std::vector<std::vector<std::uint32_t>> tiled_raster_;
   RasterSource raster_source_ = RasterSource::kBuilt;
   std::string raster_problem_;
   Yuv outside_floor_yuv_;

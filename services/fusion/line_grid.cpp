@@ -108,6 +108,12 @@ void LineGrid::setGeometry(double cell, double origin_x, double origin_y, int co
   max_v_ = rows - 1;
 }
 
+void LineGrid::indexDistances() {
+  distances_.resize(nodes_.size());
+  std::transform(nodes_.begin(), nodes_.end(), distances_.begin(),
+                 [](const Node& n) { return n.distance; });
+}
+
 LineGrid LineGrid::build(const field::FieldModel& field, const LineGridSettings& settings) {
   const Geometry g = geometryFor(field, settings);
   LineGrid grid;
@@ -149,6 +155,7 @@ LineGrid LineGrid::build(const field::FieldModel& field, const LineGridSettings&
                static_cast<float>(force.y())};
     }
   }
+  grid.indexDistances();
   return grid;
 }
 
@@ -270,6 +277,7 @@ std::optional<LineGrid> loadLineGrid(const std::string& path, std::uint64_t expe
       return fail(problem, "non-finite or negative node");
     }
   }
+  grid.indexDistances();
   return grid;
 }
 

@@ -233,6 +233,49 @@ TEST(SimRenderer, SameFrameNumberSameImageAndNoiseAsConfigured) {
   EXPECT_NEAR(sigma, s.config.render->noise_luma, 1.0);
 }
 
+// FNV-1a of a frame's bytes.
+std::uint64_t digestOf(const std::vector<std::uint8_t>& bytes) {
+  std::uint64_t h = 0xcbf29ce484222325ull;
+  for (const std::uint8_t b : bytes) {
+    h ^= b;
+    h *= 0x100000001b3ull;
+  }
+  return h;
+}
+
+// The exact bytes of frames across the field, with and without noise and objects: a change
+// that only makes the renderer faster (the floor pass, the noise) keeps every byte. A change
+// meant to alter the picture updates these digests (and says so in docs/camera.md).
+TEST(SimRenderer, FramesKeepTheirBytes) {
+  struct Case {
+    RenderSetup* setup;
+    Pose2 pose;
+    bool objects;
+    std::uint64_t digest;
+  };
+  const Case cases[] = {
+      {&mslNoisy(), {-0.8, 0.6, 0.5}, false, 0xc718b8122190bd40ull},
+      {&mslNoisy(), {7.6, 1.2, 0.2}, true, 0x7ee7d2c0143bf836ull},
+      {&mslClean(), {-9.8, 5.8, -0.9}, true, 0x393f5d0a4f5907c5ull},
+      {&mslClean(), {3.3, -4.1, 2.7}, false, 0xe232c1f0a253cfc3ull},
+      {&fu2004Noisy(), {1.0, -0.5, 0.2}, true, 0x9f0ad35e8f300835ull},
+  };
+  for (std::size_t k = 0; k < std::size(cases); ++k) {
+    const Case& c = cases[k];
+    SimScene scene;
+    scene.robot = c.pose;
+    scene.frame_number = 17 + k;
+    if (c.objects) {
+      scene.ball = SimBall{{c.pose.x + 1.5, c.pose.y - 0.5}, 0.11};
+      scene.robots.push_back({{c.pose.x - 2.0, c.pose.y + 1.0}, 0.25, true});
+      scene.robots.push_back({{c.pose.x + 0.5, c.pose.y + 2.5}, 0.25, false});
+    }
+    std::vector<std::uint8_t> frame;
+    c.setup->renderer->render(scene, frame);
+    EXPECT_EQ(digestOf(frame), c.digest) << "case " << k << ": 0x" << std::hex << digestOf(frame);
+  }
+}
+
 TEST(SimRenderer, MotionBlurSmearsLinesWhenTurning) {
   CameraConfig config = loadCameraConfigPreset("omni_sim");
   config.render->noise_luma = config.render->noise_chroma = 0.0;
