@@ -23,6 +23,7 @@
 #include <Eigen/LU>
 
 #include "common/bus/log_file.hpp"
+#include "common/geometry/geometry.hpp"
 #include "common/msg/estimates.hpp"
 #include "common/time/offset_clock.hpp"
 #include "teamcomm/team_picture.hpp"
@@ -188,6 +189,8 @@ void writeSighting(std::FILE* sightings, const std::vector<eval::TruthSample>& t
   double bx = 0, by = 0, bx2 = 0, by2 = 0;
   if (!b.visible || !eval::truthAt(truth, b.utime, id, tr, &bx, &by)) return;
   eval::truthAt(truth, b.utime + 100'000, id, tr, &bx2, &by2);
+  eval::TruthRobot later;  // the robot 20 ms later: its turn rate and speed at the exposure
+  eval::truthAt(truth, b.utime + 20'000, id, later, &bx, &by);
   eval::truthAt(truth, b.utime, id, tr, &bx, &by);
   // The true ball in the robot frame at the exposure.
   const double c = std::cos(tr.phi), sn = std::sin(tr.phi);
@@ -196,10 +199,12 @@ void writeSighting(std::FILE* sightings, const std::vector<eval::TruthSample>& t
   const Eigen::Vector2d seen(b.x, b.y);
   const Eigen::Vector2d radial = rel.normalized();
   const Eigen::Vector2d tangential(-radial.y(), radial.x());
-  std::fprintf(sightings, "%d,%.3f,%.3f,%.3f,%.4f,%.4f,%.4f,%.4f,%.3f\n", id,
+  std::fprintf(sightings, "%d,%.3f,%.3f,%.3f,%.4f,%.4f,%.4f,%.4f,%.3f,%.3f,%.3f\n", id,
                static_cast<double>(b.utime - truth.front().utime) / 1e6, seen.norm(), rel.norm(),
                (seen - rel).dot(radial), (seen - rel).dot(tangential), b.sigma_radial,
-               b.sigma_tangential, std::hypot(bx2 - bx, by2 - by) / 0.1);
+               b.sigma_tangential, std::hypot(bx2 - bx, by2 - by) / 0.1,
+               geometry::normalizeAngle(later.phi - tr.phi) / 0.02,
+               std::hypot(later.x - tr.x, later.y - tr.y) / 0.02);
 }
 
 // Every robot's estimates (robotN.lcm; missing or empty files are skipped); with `sightings`,
@@ -470,7 +475,12 @@ void writePictureRow(std::FILE* pictures_csv, const std::vector<eval::TruthSampl
       std::fprintf(pictures_csv, ",,");
     }
   }
-  std::fprintf(pictures_csv, "\n");
+  // The team ball's NEES and its reporters (digits of their ids), to find the samples out of band.
+  const Eigen::Vector2d e = result.position - t;
+  std::string used;
+  for (const int id : result.used)
+    used += std::to_string(id);
+  std::fprintf(pictures_csv, ",%.4f,%s\n", e.dot(result.covariance.inverse() * e), used.c_str());
 }
 
 // Every reporter's ball in a scored team picture for --reporters: how much of its error at the
@@ -577,7 +587,7 @@ std::string picturesHeader() {
   std::string header = "observer,t,ball_speed,team_err,team_sigma";
   for (int i = 1; i <= perception::kTeamSize; ++i)
     header += fmt::format(",err{},range{}", i, i);
-  return header + "\n";
+  return header + ",nees,used\n";
 }
 
 }  // namespace
@@ -602,7 +612,7 @@ int main(int argc, char** argv) {
     std::FILE* sightings =
         openCsv(o.sightings_path,
                 "robot,t,range,true_range,radial_err,tangential_err,sigma_radial,"
-                "sigma_tangential,ball_speed\n");
+                "sigma_tangential,ball_speed,turn_radps,robot_speed\n");
     const std::map<int, RobotLog> logs = readRobotLogs(o.dir, truth, sightings);
     if (sightings) std::fclose(sightings);
     if (logs.empty()) {

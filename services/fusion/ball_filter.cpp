@@ -285,8 +285,16 @@ perception::BallEstimate BallFilter::estimate(Utime t) const {
   e.vx = x[2];
   e.vy = x[3];
   const Eigen::Vector2d v = x.tail<2>();
-  e.covariance =
-      p.topLeftCorner<2, 2>() + params_.stamp_sigma_s * params_.stamp_sigma_s * v * v.transpose();
+  Eigen::Matrix2d position = p.topLeftCorner<2, 2>();
+  if (resting_ && params_.rest_holds_place && t > utime_) {
+    // A ball at rest stays where it was seen: friction takes its velocity out, so the velocity's
+    // uncertainty (which the filter keeps to learn a roll) does not move its place over the
+    // time since the sighting; only the resting model's unseen acceleration does.
+    const double dt = static_cast<double>(t - utime_) * 1e-6;
+    const double q = params_.rest_acceleration_density * params_.rest_acceleration_density;
+    position = p_.topLeftCorner<2, 2>() + Eigen::Matrix2d::Identity() * (q * dt * dt * dt / 3.0);
+  }
+  e.covariance = position + params_.stamp_sigma_s * params_.stamp_sigma_s * v * v.transpose();
   e.last_seen_utime = last_seen_;
   return e;
 }

@@ -385,6 +385,11 @@ void declareBall(SettingsTable<FC>& t) {
       "... and its newest sighting within this (squared Mahalanobis distance, 2 dof); beyond, it "
       "started to roll",
       &BP::rest_max_nis);
+  t.addBool("ball.rest_holds_place",
+            "BALL_STATE of a ball at rest keeps the filter's position covariance at the last "
+            "sighting (plus the resting model's growth): friction takes the velocity out, its "
+            "uncertainty does not move the ball",
+            &FC::ball, &BP::rest_holds_place);
   num("stamp_sigma_s", 0.0, 1.0, "s",
       "The reported covariance grows by this squared times the velocity's outer product: a "
       "rolling ball's place at a stamp is uncertain by its speed times the stamps' uncertainty",

@@ -524,6 +524,20 @@ TEST(BallFilter, ARestingBallsSightingsAverage) {
   EXPECT_LT(two.nees, 2.5);
 }
 
+TEST(BallFilter, ARestingBallsReportedCovarianceIsNotGrownByItsVelocitysUncertainty) {
+  // BALL_STATE is the estimate about 90 ms after the last sighting. Grown by the velocity's
+  // uncertainty over that time (which friction takes out of a resting ball's errors), the
+  // covariance was wider than the errors (mean NEES below 2); holding the place it is nearer
+  // the exact 2, and the estimate itself is the same.
+  BallFilterParams holds = shippedModel();
+  BallFilterParams grows = holds;
+  grows.rest_holds_place = false;
+  const RestingFigures h = restingBall(holds), g = restingBall(grows);
+  EXPECT_NEAR(h.error, g.error, 1e-12);
+  EXPECT_GT(h.nees, g.nees * 1.2) << g.nees;
+  EXPECT_LT(h.nees, 2.5);
+}
+
 TEST(BallFilter, ABallThatStartsToRollLeavesTheRestingModelAndIsFollowed) {
   std::mt19937 rng(5);
   const geometry::Pose2 robot{0.0, 0.0, 0.0};
