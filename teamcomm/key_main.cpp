@@ -4,14 +4,13 @@
 #include <fstream>
 #include <iostream>
 
-#include <CLI/CLI.hpp>
-
+#include "common/cli/cli.hpp"
 #include "teamcomm/team_key.hpp"
 
 using namespace fieldline;
 
 int main(int argc, char** argv) {
-  CLI::App app{
+  cli::App app{
       "Writes a new random 32-byte team key (64 hex digits) for the team packet MAC. Copy the "
       "same file to every robot of the team and name it in config/team/*.yaml (key_file)."};
   std::string out;
@@ -20,7 +19,7 @@ int main(int argc, char** argv) {
   app.add_flag("--force", force, "Overwrite an existing file");
   try {
     app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
+  } catch (const cli::ParseError& e) {
     return app.exit(e) == 0 ? 0 : 2;
   }
   if (!force && std::ifstream(out)) {

@@ -5,13 +5,13 @@
 #include <net/if.h>
 #include <spdlog/spdlog.h>
 
-#include <CLI/CLI.hpp>
 #include <iostream>
 #include <memory>
 
 #include "common/bus/cli.hpp"
 #include "common/bus/node.hpp"
 #include "common/bus/robot_clock.hpp"
+#include "common/cli/cli.hpp"
 #include "common/config/config.hpp"
 #include "teamcomm/team_key.hpp"
 #include "teamcomm/teamcomm_config.hpp"
@@ -22,7 +22,7 @@ using namespace fieldline;
 
 // long: the command line of the team link (options, checks, --print-io, --check-args) in order.
 int main(int argc, char** argv) {
-  CLI::App app{
+  cli::App app{
       "Team communication: own pose and ball to the teammates over authenticated UDP "
       "(multicast or unicast peers), theirs back with clock offsets from the packets' round "
       "trips, and the team picture with a fused team ball as TEAM_STATE at 10 Hz. Protocol: "
@@ -40,10 +40,10 @@ int main(int argc, char** argv) {
                  "robot's key over as a credential: --key-file %d/team.key)");
   int port = 0;
   app.add_option("--port", port, "Override the UDP port of the team config")
-      ->check(CLI::Range(1, 65535));
+      ->check(cli::Range(1, 65535));
   try {
     app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
+  } catch (const cli::ParseError& e) {
     return app.exit(e) == 0 ? 0 : 2;
   }
 

@@ -29,15 +29,16 @@
 #include <string>
 #include <vector>
 
-#include <CLI/CLI.hpp>
 #include <opencv2/core.hpp>
 
 #include "bench/region_tracking/bench_sequence.hpp"
+#include "common/cli/cli.hpp"
 #include "common/config/config.hpp"
 #include "services/region_tracking/baselines.hpp"
 #include "services/region_tracking/frame_processor.hpp"
 #include "tools/sim_frames/sim_frames.hpp"
 
+namespace cli = fieldline::cli;
 namespace rt = fieldline::region_tracking;
 namespace camera = fieldline::camera;
 
@@ -367,12 +368,12 @@ struct Options {
   std::string vision_config;
   std::string field = "msl";
 
-  void addTo(CLI::App& app) {
+  void addTo(cli::App& app) {
     app.add_option("--frames", frames, "frames per sequence (30 Hz)")
-        ->check(CLI::Range(10, 3000))
+        ->check(cli::Range(10, 3000))
         ->capture_default_str();
     app.add_option("--cell-size", cell_size, "pixels per cell side: 1, 2, 4 or 8")
-        ->check(CLI::IsMember({1, 2, 4, 8}))
+        ->check(cli::IsMember({1, 2, 4, 8}))
         ->capture_default_str();
     app.add_option("--field", field, "field preset")->capture_default_str();
     app.add_flag("--quick", quick,
@@ -383,16 +384,16 @@ struct Options {
     app.add_option("--rounds", rounds,
                    "rounds over each sequence, the methods' order rotating; a frame's time is its "
                    "fastest round")
-        ->check(CLI::Range(1, 20))
+        ->check(cli::Range(1, 20))
         ->capture_default_str();
     app.add_option("--max-seed-regions", max_seed_regions,
                    "seed only this many of the largest regions in an initial search (the seed: "
                    "10; 0: every region; default: the vision config's)")
-        ->check(CLI::Range(0, 1000));
+        ->check(cli::Range(0, 1000));
     app.add_option("--vision-config", vision_config,
                    "region tracking parameters (YAML, as fieldline-region-tracking's; default: the "
                    "built-in ones); --cell-size still applies")
-        ->check(CLI::ExistingFile);
+        ->check(cli::ExistingFile);
     app.add_flag("--interleave", interleave,
                  "run the methods frame by frame instead of each over the whole sequence in turn "
                  "(each method's data then leaves the cache between its frames)");
@@ -494,13 +495,13 @@ void printResults(const Options& options, const std::vector<Result>& results) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{
+  cli::App app{
       "Region tracker vs full-frame segmentation (CMVision-style, OpenCV) on rendered sequences."};
   Options options;
   options.addTo(app);
   try {
     app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
+  } catch (const cli::ParseError& e) {
     // --help prints and exits 0; bad arguments exit 2, as every fieldline executable should.
     return app.exit(e) == 0 ? 0 : 2;
   }

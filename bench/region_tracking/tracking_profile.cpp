@@ -31,10 +31,10 @@
 #include <string>
 #include <vector>
 
-#include <CLI/CLI.hpp>
 #include <opencv2/core.hpp>
 
 #include "bench/region_tracking/bench_sequence.hpp"
+#include "common/cli/cli.hpp"
 #include "common/config/config.hpp"
 #include "common/geometry/geometry.hpp"
 #include "services/camera/realism.hpp"
@@ -43,6 +43,7 @@
 #include "services/region_tracking/frame_processor.hpp"
 #include "tests/support/output_digest.hpp"
 
+namespace cli = fieldline::cli;
 namespace rt = fieldline::region_tracking;
 namespace camera = fieldline::camera;
 
@@ -163,30 +164,30 @@ struct Options {
     return p;
   }
 
-  void addTo(CLI::App& app) {
+  void addTo(cli::App& app) {
     app.add_option("--camera", camera_preset, "camera preset")->capture_default_str();
     app.add_option("--field", field, "field preset")->capture_default_str();
-    app.add_option("--speed", speed, "m/s")->check(CLI::Range(0.0, 5.0))->capture_default_str();
+    app.add_option("--speed", speed, "m/s")->check(cli::Range(0.0, 5.0))->capture_default_str();
     app.add_option("--omega", omega_deg, "deg/s")
-        ->check(CLI::Range(0.0, 1000.0))
+        ->check(cli::Range(0.0, 1000.0))
         ->capture_default_str();
     app.add_option("--blur", blur_sigma,
                    "optics blur of the rendered frames, px (0 = off; 1.2 is the calibration "
                    "evaluation's `blur` setting, where lines become ridges)")
-        ->check(CLI::Range(0.0, 5.0))
+        ->check(cli::Range(0.0, 5.0))
         ->capture_default_str();
     app.add_option("--frames", frames, "frames (30 Hz)")
-        ->check(CLI::Range(2, 3000))
+        ->check(cli::Range(2, 3000))
         ->capture_default_str();
     app.add_option("--repeat", repeat, "runs over the sequence")
-        ->check(CLI::Range(1, 100))
+        ->check(cli::Range(1, 100))
         ->capture_default_str();
     app.add_option("--method", method, "tracker, whole (tracker + line points), cmvision, opencv")
-        ->check(CLI::IsMember({"tracker", "whole", "cmvision", "opencv"}))
+        ->check(cli::IsMember({"tracker", "whole", "cmvision", "opencv"}))
         ->capture_default_str();
     app.add_option("--line-repeat", line_repeat,
                    "with --method whole: line detector runs per frame (to profile it alone)")
-        ->check(CLI::Range(1, 1000))
+        ->check(cli::Range(1, 1000))
         ->capture_default_str();
     app.add_flag("--no-breakdown", no_breakdown, "skip the per-cell analysis (for callgrind)");
     app.add_flag("--digest", digest,
@@ -196,18 +197,18 @@ struct Options {
     app.add_option("--max-seed-regions", max_seed_regions,
                    "seed only this many of the largest regions in an initial search (the seed: "
                    "10; 0: every region; default: the vision config's)")
-        ->check(CLI::Range(0, 1000));
+        ->check(cli::Range(0, 1000));
     app.add_option("--vision-config", vision_config,
                    "vision parameters (services/region_tracking/vision_default.yaml format); "
                    "default: the built-in defaults");
     app.add_option("--mask-edge-every", mask_edge_every,
                    "classify the cells next to the don't-touch mask every n-th frame "
                    "(tracker.mask_edge_every; 1: every frame, exact; default: the config's)")
-        ->check(CLI::Range(1, 16));
+        ->check(cli::Range(1, 16));
     app.add_option("--mask-edge-inner", mask_edge_inner,
                    "1: the cadence also at the inner edge (the robot's body), 0: the outer rim "
                    "only (tracker.mask_edge_inner; default: the config's)")
-        ->check(CLI::Range(0, 1));
+        ->check(cli::Range(0, 1));
     app.add_flag("--line-diff", line_diff,
                  "compare the line points with those of the same config at mask_edge_every 1 "
                  "on the same frames");
@@ -628,12 +629,12 @@ void printLineDiff(const Options& options, rt::SimCamera& sim, const Sequence& s
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{"Profile the region tracker (or a baseline) on one rendered sequence."};
+  cli::App app{"Profile the region tracker (or a baseline) on one rendered sequence."};
   Options options;
   options.addTo(app);
   try {
     app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
+  } catch (const cli::ParseError& e) {
     // --help prints and exits 0; bad arguments exit 2, as every fieldline executable should.
     return app.exit(e) == 0 ? 0 : 2;
   }

@@ -19,10 +19,10 @@
 #include <vector>
 
 #include <fmt/format.h>
-#include <CLI/CLI.hpp>
 #include <Eigen/LU>
 
 #include "common/bus/log_file.hpp"
+#include "common/cli/cli.hpp"
 #include "common/geometry/geometry.hpp"
 #include "common/msg/estimates.hpp"
 #include "common/time/offset_clock.hpp"
@@ -103,7 +103,7 @@ struct ReplayOptions {
   double superseded_after_s = 0.09;  // config/team/sim_team.yaml
   std::string csv_path, sightings_path, pictures_path, reporters_path;
 
-  void addTo(CLI::App& app) {
+  void addTo(cli::App& app) {
     app.add_option("recording", dir, "Recording directory (sim.lcm, robot1.lcm ...)")->required();
     app.add_option("--settle", settle_s, "Seconds after the first state not scored")
         ->capture_default_str();
@@ -146,7 +146,7 @@ struct ReplayOptions {
     addOutputs(app);
   }
 
-  void addOutputs(CLI::App& app) {
+  void addOutputs(cli::App& app) {
     app.add_option("--csv", csv_path,
                    "Write every scored own ball (robot, t, error, range, speeds, sigma, pose "
                    "error) here");
@@ -593,13 +593,13 @@ std::string picturesHeader() {
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{
+  cli::App app{
       "Recomputes the team ball of a recorded match (bench/fusion/record_match.sh) with teamcomm's "
       "TeamPicture and scores it, and every robot's own ball, against the truth (mean error and "
       "NEES in the 95 % band)."};
   ReplayOptions o;
   o.addTo(app);
-  CLI11_PARSE(app, argc, argv);
+  FIELDLINE_CLI_PARSE(app, argc, argv);
   // A missing or unreadable recording is a clear error, not an abort.
   try {
     o.picture.max_prediction_us = static_cast<Utime>(o.max_prediction_s * 1e6);

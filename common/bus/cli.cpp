@@ -11,9 +11,9 @@
 
 namespace fieldline::bus {
 
-void CommonOptions::addTo(CLI::App& app) {
+void CommonOptions::addTo(cli::App& app) {
   app.add_option("--robot", robot, "Robot number 1..6 (0: team-wide process)")
-      ->check(CLI::Range(0, 99))
+      ->check(cli::Range(0, 99))
       ->capture_default_str();
   app.add_option("--bus-url", bus_url,
                  "LCM URL of this process's bus (default: robot N's bus, "
@@ -21,7 +21,7 @@ void CommonOptions::addTo(CLI::App& app) {
   app.add_option("--sim-bus-url", sim_bus_url,
                  "LCM URL of the simulator's bus (default udpm://239.255.76.67:7667?ttl=0...)");
   app.add_option("--log-level", log_level, "trace, debug, info, warn or error")
-      ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error"}))
+      ->check(cli::IsMember({"trace", "debug", "info", "warn", "error"}))
       ->capture_default_str();
   app.add_flag("--check-args", check_args,
                "Parse the arguments and read the configuration, then exit: 0 when valid, 2 when "
@@ -65,10 +65,10 @@ std::vector<double> parseNumberList(const std::string& text, std::size_t count,
   return out;
 }
 
-std::optional<int> parseCommandLine(CLI::App& app, int argc, char** argv) {
+std::optional<int> parseCommandLine(cli::App& app, int argc, char** argv) {
   try {
     app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
+  } catch (const cli::ParseError& e) {
     // Prints the help or the error; a success code (--help, --version) stays 0.
     const int cli_code = app.exit(e);
     return cli_code == 0 ? 0 : 2;

@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include <CLI/CLI.hpp>
+#include "common/cli/cli.hpp"
 
 namespace fieldline::bus {
 
@@ -30,7 +30,7 @@ struct CommonOptions {
   bool print_io = false;
 
   // Adds --robot, --bus-url, --sim-bus-url, --log-level, --check-args and --print-io to `app`.
-  void addTo(CLI::App& app);
+  void addTo(cli::App& app);
   // Fills the defaults and configures logging; call after parsing.
   void resolve(const std::string& process);
 };
@@ -42,7 +42,7 @@ std::vector<double> parseNumberList(const std::string& text, std::size_t count,
 
 // Parses the command line. Returns nothing when the program should go on, else the code main()
 // returns: 0 after --help, 2 for bad arguments (CLI11's own codes, e.g. 105, are not ours).
-std::optional<int> parseCommandLine(CLI::App& app, int argc, char** argv);
+std::optional<int> parseCommandLine(cli::App& app, int argc, char** argv);
 
 // Runs `body` and turns the project's exceptions into messages on stderr and exit codes:
 // 2 for configuration errors, 3 for bus errors, 1 for anything else.

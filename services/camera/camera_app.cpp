@@ -150,9 +150,9 @@ std::string sourceProblem(const CameraAppOptions& options) {
 
 }  // namespace
 
-void CameraAppOptions::addTo(CLI::App& app) {
+void CameraAppOptions::addTo(cli::App& app) {
   app.add_option("--source", source, "Frame source")
-      ->check(CLI::IsMember({"sim", "v4l2", "video", "gstreamer", "folder", "log"}))
+      ->check(cli::IsMember({"sim", "v4l2", "video", "gstreamer", "folder", "log"}))
       ->capture_default_str();
   app.add_option("--config", preset, "Camera preset (config/camera/<name>.yaml) or path")
       ->capture_default_str();
@@ -161,12 +161,12 @@ void CameraAppOptions::addTo(CLI::App& app) {
   app.add_option("--input", input,
                  "v4l2 device or index, video file, GStreamer pipeline, image folder or LCM log");
   app.add_option("--latency", latency, "Exposure-to-delivery latency, s (default: the preset's)")
-      ->check(CLI::Range(0.0, 1.0));
+      ->check(cli::Range(0.0, 1.0));
   app.add_option("--fps", fps,
                  "Frame rate: v4l2 request, pace of folder/video/log (default: the preset's)")
-      ->check(CLI::Range(0.0, 240.0));
-  app.add_option("--width", width, "v4l2: requested width, px")->check(CLI::Range(0, 8192));
-  app.add_option("--height", height, "v4l2: requested height, px")->check(CLI::Range(0, 8192));
+      ->check(cli::Range(0.0, 240.0));
+  app.add_option("--width", width, "v4l2: requested width, px")->check(cli::Range(0, 8192));
+  app.add_option("--height", height, "v4l2: requested height, px")->check(cli::Range(0, 8192));
   app.add_flag("--loop", loop, "folder/video/log: start again at the end");
   app.add_flag("--bgr", bgr, "v4l2: take OpenCV's BGR frames instead of raw YUYV");
   app.add_option("--to-pipe", to_pipe,
@@ -177,7 +177,7 @@ void CameraAppOptions::addTo(CLI::App& app) {
                  "CAMERA_PREVIEW per second: a copy of the frames at 1/4 of their width and "
                  "height for a viewer on another machine (0: none). CAMERA_IMAGE itself never "
                  "leaves this machine, whatever the bus's ttl")
-      ->check(CLI::Range(0.0, 30.0))
+      ->check(cli::Range(0.0, 30.0))
       ->capture_default_str();
   app.add_option("--max-frames", max_frames,
                  "Real sources: stop after this many frames (0: no limit)");

@@ -5,10 +5,9 @@
 #include <cstdint>
 #include <string>
 
-#include <CLI/CLI.hpp>
-
 #include "common/bus/cli.hpp"
 #include "common/bus/io.hpp"
+#include "common/cli/cli.hpp"
 
 namespace fieldline::camera {
 
@@ -56,7 +55,7 @@ struct CameraAppOptions {
   // Adds --source, --config, --field, --input, --latency, --fps, --width, --height, --loop, --bgr,
   // --max-frames, --raster-cache, --keep-stamps, --restamp, --live-bus, --replay-bus-url,
   // --to-pipe and --preview-rate to `app`.
-  void addTo(CLI::App& app);
+  void addTo(cli::App& app);
 };
 
 // Opens the source and publishes its frames until stopped (SIGINT/SIGTERM), the source ends or

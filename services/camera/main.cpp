@@ -8,15 +8,15 @@
 // utime is the exposure time: the render tick for sim, receive time - latency for cameras and
 // files. A log keeps its recorded exposure times (--keep-stamps, the default; --restamp to
 // stamp like a camera) and goes onto robot N's replay bus unless --live-bus (camera_app.hpp).
-#include <CLI/CLI.hpp>
-
 #include "common/bus/cli.hpp"
+#include "common/cli/cli.hpp"
 #include "services/camera/camera_app.hpp"
 
+namespace cli = fieldline::cli;
 namespace bus = fieldline::bus;
 
 int main(int argc, char** argv) {
-  CLI::App app{"Camera of one robot: publishes CAMERA_IMAGE (simulated or real source)"};
+  cli::App app{"Camera of one robot: publishes CAMERA_IMAGE (simulated or real source)"};
   bus::CommonOptions common;
   common.addTo(app);
   fieldline::camera::CameraAppOptions options;

@@ -11,13 +11,13 @@
 #include <vector>
 
 #include <spdlog/spdlog.h>
-#include <CLI/CLI.hpp>
 #include <opencv2/core.hpp>
 
 #include "common/bus/cli.hpp"
 #include "common/bus/node.hpp"
 #include "common/camera/colour.hpp"
 #include "common/camera/image_io.hpp"
+#include "common/cli/cli.hpp"
 #include "common/field/field_model.hpp"
 #include "common/msg/image.hpp"
 #include "common/time/clock.hpp"
@@ -25,6 +25,7 @@
 #include "services/camera/camera_node.hpp"
 #include "services/camera/sim_renderer.hpp"
 
+namespace cli = fieldline::cli;
 namespace camera = fieldline::camera;
 namespace bus = fieldline::bus;
 namespace msg = fieldline::msg;
@@ -52,7 +53,7 @@ struct Options {
   bool classes = false;
   double timeout = 5.0;
 
-  void addTo(CLI::App& app) {
+  void addTo(cli::App& app) {
     app.add_option("--out", out, "PNG file to write")->required();
     app.add_flag("--classes", classes, "Add the colour classification to the right of the frame");
     app.add_option("--timeout", timeout, "Seconds to wait for a frame")->capture_default_str();
@@ -129,7 +130,7 @@ int snapshotFromBus(const Options& options, const camera::CameraConfig& config,
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{"Write a robot's current camera frame (or an offline rendering) to a PNG"};
+  cli::App app{"Write a robot's current camera frame (or an offline rendering) to a PNG"};
   bus::CommonOptions common;
   common.addTo(app);
   Options options;

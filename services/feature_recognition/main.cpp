@@ -5,11 +5,11 @@
 #include <iostream>
 
 #include <spdlog/spdlog.h>
-#include <CLI/CLI.hpp>
 
 #include "common/bus/cli.hpp"
 #include "common/bus/node.hpp"
 #include "common/bus/robot_clock.hpp"
+#include "common/cli/cli.hpp"
 #include "common/field/field_model.hpp"
 #include "services/feature_recognition/feature_node.hpp"
 #include "services/feature_recognition/settings.hpp"
@@ -17,7 +17,7 @@
 using namespace fieldline;
 
 int main(int argc, char** argv) {
-  CLI::App app{
+  cli::App app{
       "Feature recognition: centre circle and penalty-area corners (and L-corners, T-junctions, "
       "straight lines) in each VISION_LINES message, published with every field pose they "
       "imply as FIELD_FEATURES."};
@@ -38,7 +38,7 @@ int main(int argc, char** argv) {
                "Print every setting's key, default, unit, range and why as Markdown and exit");
   try {
     app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
+  } catch (const cli::ParseError& e) {
     // --help exits 0; bad arguments exit 2.
     return app.exit(e) == 0 ? 0 : 2;
   }

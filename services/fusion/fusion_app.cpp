@@ -28,10 +28,9 @@ namespace fieldline::fusion {
 namespace {
 
 template <typename T>
-CLI::Option* addOverride(CLI::App& app, const std::string& name, std::optional<T>& target,
+cli::Option* addOverride(cli::App& app, const std::string& name, std::optional<T>& target,
                          const std::string& help) {
-  return app.add_option_function<T>(
-      name, [&target](const T& value) { target = value; }, help);
+  return app.add_option(name, target, help);
 }
 
 // The settings file with the command line's overrides applied.
@@ -87,7 +86,7 @@ PoseMemoryOptions poseMemory(const FusionAppOptions& options, int robot_id) {
 
 }  // namespace
 
-void FusionAppOptions::addTo(CLI::App& app) {
+void FusionAppOptions::addTo(cli::App& app) {
   grid_cache = config::defaultCacheDirectory();
   state_file = "default";
   app.add_option("--field", field, "Field preset (msl, fu2004) or YAML path")
@@ -112,17 +111,17 @@ void FusionAppOptions::addTo(CLI::App& app) {
                "Start up without reading the saved pose (the own-half prior decides the twin)");
   addOverride(app, "--matcher", matcher,
               "Layer 2 method: lsq (robust least squares) or force_field")
-      ->check(CLI::IsMember({"lsq", "force_field"}));
+      ->check(cli::IsMember({"lsq", "force_field"}));
   addOverride(app, "--start-prior", start_prior,
               "Which symmetric twin to believe at start-up: own_half (x < 0) or none")
-      ->check(CLI::IsMember({"own_half", "none"}));
+      ->check(cli::IsMember({"own_half", "none"}));
   addOverride(app, "--window", window_s, "How far back a late measurement may reach, s")
-      ->check(CLI::Range(0.1, 10.0));
+      ->check(cli::Range(0.1, 10.0));
   addOverride(app, "--ball-rate", ball_rate_hz, "BALL_STATE messages per second")
-      ->check(CLI::Range(1.0, 200.0));
+      ->check(cli::Range(1.0, 200.0));
   addOverride(app, "--ball-max-age", ball_max_age_s,
               "The ball is invalid after this long unseen, s")
-      ->check(CLI::Range(0.05, 60.0));
+      ->check(cli::Range(0.05, 60.0));
   app.add_flag("--print-config", print_config,
                "Print the settings in effect (--config and the options above) as YAML and exit");
   app.add_flag("--print-settings-table", print_settings_table,

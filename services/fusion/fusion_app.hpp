@@ -5,9 +5,8 @@
 #include <optional>
 #include <string>
 
-#include <CLI/CLI.hpp>
-
 #include "common/bus/cli.hpp"
+#include "common/cli/cli.hpp"
 
 namespace fieldline::fusion {
 
@@ -40,7 +39,7 @@ struct FusionAppOptions {
   // Adds --field, --robot-config, --config, --grid-cache, --state-file, --fresh, --matcher,
   // --start-prior, --window,
   // --ball-rate, --ball-max-age, --print-config and --print-settings-table to `app`.
-  void addTo(CLI::App& app);
+  void addTo(cli::App& app);
 };
 
 // Reads the presets and, unless common.check_args (then returns 0 before the distance grid,

@@ -2,15 +2,15 @@
 // correction of every VISION_LINES frame (layer 2) and FIELD_FEATURES hypotheses (layer 3), each
 // at the time it was observed, into ROBOT_STATE on every odometry message, and tracks the ball
 // from VISION_BALL into BALL_STATE (fusion_app.hpp).
-#include <CLI/CLI.hpp>
-
 #include "common/bus/cli.hpp"
+#include "common/cli/cli.hpp"
 #include "services/fusion/fusion_app.hpp"
 
+namespace cli = fieldline::cli;
 namespace bus = fieldline::bus;
 
 int main(int argc, char** argv) {
-  CLI::App app{
+  cli::App app{
       "Fusion: delay-aware pose estimation from ODOMETRY, VISION_LINES and FIELD_FEATURES "
       "(ROBOT_STATE on every odometry message) and ball tracking from VISION_BALL "
       "(BALL_STATE)."};

@@ -1,10 +1,9 @@
 // fieldline-motor-bridge: MOTION_COMMAND from the robot's bus -> velocity frames on the serial
 // line; odometry frames from the controller -> ODOMETRY at 50 Hz. See docs/serial-protocol.md.
-#include <CLI/CLI.hpp>
-
 #include "common/bus/cli.hpp"
 #include "common/bus/node.hpp"
 #include "common/bus/robot_clock.hpp"
+#include "common/cli/cli.hpp"
 #include "common/config/config.hpp"
 #include "common/device/device_check.hpp"
 #include "common/robot/robot_params.hpp"
@@ -13,7 +12,7 @@
 using namespace fieldline;
 
 int main(int argc, char** argv) {
-  CLI::App app{
+  cli::App app{
       "Motor bridge: turns MOTION_COMMAND into velocity frames for the motor controller on a "
       "serial line (a real /dev/ttyUSB0 or world_sim's pseudo-terminal) and the controller's "
       "wheel ticks into ODOMETRY. Reconnects when the device disappears and returns; commands "

@@ -1,11 +1,10 @@
 // fieldline-text-bridge: the example adapter for a motor controller with its own plain-text
 // protocol (docs/own-controller.md): MOTION_COMMAND -> "V vx vy omega" lines on the serial line;
 // the controller's "O t_us ticks..." or "S t_us vx vy omega" lines -> ODOMETRY.
-#include <CLI/CLI.hpp>
-
 #include "common/bus/cli.hpp"
 #include "common/bus/node.hpp"
 #include "common/bus/robot_clock.hpp"
+#include "common/cli/cli.hpp"
 #include "common/config/config.hpp"
 #include "common/robot/robot_params.hpp"
 #include "services/motor_bridge/text_bridge_node.hpp"
@@ -13,7 +12,7 @@
 using namespace fieldline;
 
 int main(int argc, char** argv) {
-  CLI::App app{
+  cli::App app{
       "Text bridge (an example adapter for a team's own motor controller, "
       "docs/own-controller.md): sends MOTION_COMMAND as 'V vx vy omega' lines (m/s, m/s, rad/s) "
       "on a serial line and publishes the controller's 'O t_us ticks...' lines (wheel ticks, as "

@@ -2,11 +2,10 @@
 // publishes MOTION_COMMAND at 50 Hz, steering with SIM_WORLD ground truth (--steer truth) or
 // with its own ROBOT_STATE (--steer state). Without --scenario it holds still: it publishes no
 // command, so the motor bridge keeps the robot stopped (a real robot never drives on its own).
-#include <CLI/CLI.hpp>
-
 #include "common/bus/cli.hpp"
 #include "common/bus/node.hpp"
 #include "common/bus/robot_clock.hpp"
+#include "common/cli/cli.hpp"
 #include "common/robot/robot_params.hpp"
 #include "common/scenario/scenario.hpp"
 #include "services/pilot/pilot_node.hpp"
@@ -14,7 +13,7 @@
 using namespace fieldline;
 
 int main(int argc, char** argv) {
-  CLI::App app{
+  cli::App app{
       "Pilot: follows this robot's scripted trajectory from a scenario (figure eight, waypoint "
       "tour, rotation, standing, random play) and publishes MOTION_COMMAND at 50 Hz. Steers "
       "with the simulator's ground truth (SIM_WORLD) or with the robot's own ROBOT_STATE. "
@@ -32,15 +31,15 @@ int main(int argc, char** argv) {
   app.add_option("--robot-config", robot_config, "Robot preset name or YAML path")
       ->capture_default_str();
   app.add_option("--steer", steer, "Pose to steer with: truth (SIM_WORLD) or state (ROBOT_STATE)")
-      ->check(CLI::IsMember({"truth", "state"}))
+      ->check(cli::IsMember({"truth", "state"}))
       ->capture_default_str();
   app.add_option("--rate", options.rate, "Commands per second")
-      ->check(CLI::Range(1.0, 500.0))
+      ->check(cli::Range(1.0, 500.0))
       ->capture_default_str();
   app.add_option("--command-lifetime", options.command_lifetime,
                  "Seconds each command stays valid (its deadline); the bridge stops the robot "
                  "after that when the pilot goes quiet")
-      ->check(CLI::Range(0.01, 5.0))
+      ->check(cli::Range(0.01, 5.0))
       ->capture_default_str();
   FIELDLINE_PARSE(app, argc, argv);
 

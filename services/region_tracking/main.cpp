@@ -2,13 +2,13 @@
 // CAMERA_IMAGE (seed chapter 3) and publishes VISION_BALL and VISION_OBSTACLES for every frame
 // and VISION_LINES every n-th frame, each with the frame's exposure time.
 #include <spdlog/spdlog.h>
-#include <CLI/CLI.hpp>
 
 #include "common/bus/cli.hpp"
 #include "common/bus/node.hpp"
 #include "common/bus/robot_clock.hpp"
 #include "common/camera/colour.hpp"
 #include "common/camera/mirror_model.hpp"
+#include "common/cli/cli.hpp"
 #include "common/config/config.hpp"
 #include "common/field/field_model.hpp"
 #include "services/region_tracking/tracking_node.hpp"
@@ -16,7 +16,7 @@
 using namespace fieldline;
 
 int main(int argc, char** argv) {
-  CLI::App app{
+  cli::App app{
       "Region tracking: grow/shrink tracking of the colour regions in each CAMERA_IMAGE, field "
       "lines along the green boundaries (VISION_LINES), the ball (VISION_BALL) and obstacles "
       "(VISION_OBSTACLES). SIGUSR1 resets the colour adaptation to the calibrated table."};
@@ -37,7 +37,7 @@ int main(int argc, char** argv) {
                  "field, can a ball be there); 'none': no field checks")
       ->capture_default_str();
   app.add_option("--lines-every", lines_every, "Extract field lines on every n-th frame")
-      ->check(CLI::Range(1, 1000))
+      ->check(cli::Range(1, 1000))
       ->capture_default_str();
   FIELDLINE_PARSE(app, argc, argv);
 

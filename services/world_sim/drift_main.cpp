@@ -9,8 +9,8 @@
 #include <vector>
 
 #include <fmt/core.h>
-#include <CLI/CLI.hpp>
 
+#include "common/cli/cli.hpp"
 #include "common/config/config.hpp"
 #include "common/robot/trajectory.hpp"
 #include "common/robot/wheel_odometry.hpp"
@@ -29,17 +29,17 @@ struct Options {
   std::int64_t seed = -1;
   double slip_scale = -1.0;
 
-  void addTo(CLI::App& app) {
+  void addTo(cli::App& app) {
     app.add_option("--scenario", scenario_name, "Scenario preset name or YAML path")
         ->capture_default_str();
     app.add_option("--robot", robot_id, "Robot whose odometry is measured")
-        ->check(CLI::Range(1, 6))
+        ->check(cli::Range(1, 6))
         ->capture_default_str();
     app.add_option("--duration", duration, "Simulated seconds")
-        ->check(CLI::PositiveNumber)
+        ->check(cli::PositiveNumber)
         ->capture_default_str();
     app.add_option("--report-every", report_every, "Print a line every this many seconds")
-        ->check(CLI::PositiveNumber)
+        ->check(cli::PositiveNumber)
         ->capture_default_str();
     app.add_option("--seed", seed, "Override the scenario's random seed");
     app.add_option("--slip-scale", slip_scale, "Override the scenario's slip scale (0: exact)");
@@ -92,13 +92,13 @@ void measureDrift(const Options& options, const scenario::Scenario& scenario,
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{
+  cli::App app{
       "Measures dead-reckoning drift: runs a scenario without bus or pty, drives the robots "
       "along their trajectories from the truth and compares one robot's wheel odometry with "
       "its true pose."};
   Options options;
   options.addTo(app);
-  CLI11_PARSE(app, argc, argv);
+  FIELDLINE_CLI_PARSE(app, argc, argv);
 
   int status = 0;
   config::runOrExit([&] {

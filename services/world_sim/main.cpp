@@ -4,10 +4,9 @@
 #include <atomic>
 #include <csignal>
 
-#include <CLI/CLI.hpp>
-
 #include "common/bus/cli.hpp"
 #include "common/bus/node.hpp"
+#include "common/cli/cli.hpp"
 #include "common/process/supervisor_identity.hpp"
 #include "common/scenario/scenario.hpp"
 #include "services/world_sim/world_sim_node.hpp"
@@ -22,7 +21,7 @@ extern "C" void onPullSerial(int) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{
+  cli::App app{
       "World simulator: robots with the omni drive and motor model, slip, collisions, "
       "opponents, a ball, kidnaps; a firmware emulator per robot on a pseudo-terminal "
       "(<pty-dir>/robot<N>.tty) that speaks the motor controller's serial protocol; SIM_WORLD "
@@ -39,10 +38,10 @@ int main(int argc, char** argv) {
   app.add_option("--pty-dir", options.pty_dir, "Folder of the robots' serial links robot<N>.tty")
       ->capture_default_str();
   app.add_option("--outage", outage, "Seconds a serial line stays away after SIGUSR1")
-      ->check(CLI::Range(0.01, 600.0))
+      ->check(cli::Range(0.01, 600.0))
       ->capture_default_str();
   app.add_option("--world-rate", options.world_rate, "SIM_WORLD messages per simulated second")
-      ->check(CLI::Range(1.0, 1000.0))
+      ->check(cli::Range(1.0, 1000.0))
       ->capture_default_str();
   app.add_option("--state-file", options.state_file,
                  "Snapshot of the world, written every 0.1 s and when the simulator stops; a "
@@ -50,7 +49,7 @@ int main(int argc, char** argv) {
                  "--resume-within continues from it (default: <pty-dir>/world_sim.state)");
   app.add_option("--resume-within", options.resume_within_s,
                  "Resume only from a snapshot at most this many seconds old, s")
-      ->check(CLI::Range(0.0, 3600.0))
+      ->check(cli::Range(0.0, 3600.0))
       ->capture_default_str();
   app.add_flag("--fresh", options.fresh,
                "Start the scenario from t = 0 even when a recent snapshot exists");

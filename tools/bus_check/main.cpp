@@ -3,15 +3,14 @@
 // opened, 4 when nothing comes back.
 #include <iostream>
 
-#include <CLI/CLI.hpp>
-
 #include "common/bus/cli.hpp"
 #include "common/bus/node.hpp"
+#include "common/cli/cli.hpp"
 
 using namespace fieldline;
 
 int main(int argc, char** argv) {
-  CLI::App app{
+  cli::App app{
       "Checks that an LCM bus of fieldline works on this machine: opens it, publishes a "
       "SERVICE_STATUS and waits for it to come back."};
   bus::CommonOptions common;

@@ -12,13 +12,13 @@
 #include <vector>
 
 #include <fmt/format.h>
-#include <CLI/CLI.hpp>
 
 #include "common/bus/checked_decode.hpp"
 #include "common/bus/cli.hpp"
 #include "common/bus/log_file.hpp"
 #include "common/bus/node.hpp"
 #include "common/bus/urls.hpp"
+#include "common/cli/cli.hpp"
 #include "tools/bus_dump/message_json.hpp"
 #include "tools/json/json_text.hpp"
 #include "tools/recording/upgrade.hpp"
@@ -197,26 +197,26 @@ struct Options {
   bool follow = false;
   double duration_s = 0.0;
   bus::BusAddress address;
-  CLI::Option* duration = nullptr;
+  cli::Option* duration = nullptr;
 
-  void addTo(CLI::App& app) {
-    app.add_option("--robot", robot, "Dump robot N's bus")->check(CLI::Range(1, 6));
+  void addTo(cli::App& app) {
+    app.add_option("--robot", robot, "Dump robot N's bus")->check(cli::Range(1, 6));
     app.add_flag("--sim", sim, "Dump the simulator's bus");
     app.add_option("--url", url, "Dump the bus at this LCM URL");
     app.add_option("--log", log_path, "Dump an LCM log file instead of a bus")
-        ->check(CLI::ExistingFile);
+        ->check(cli::ExistingFile);
     app.add_option("--base-port", address.base_port,
                    "Port of the simulator's bus; robot N is base+N (with --robot/--sim)")
         ->capture_default_str();
     app.add_option("--channel", settings.channels, "Channel to dump (repeatable; default: all)")
-        ->check(CLI::IsMember(
+        ->check(cli::IsMember(
             std::vector<std::string>(bus::kAllChannelNames.begin(), bus::kAllChannelNames.end())));
     app.add_option("--count", settings.count, "Stop after this many printed messages")
-        ->check(CLI::Range(std::int64_t{1}, std::int64_t{1} << 40));
+        ->check(cli::Range(std::int64_t{1}, std::int64_t{1} << 40));
     duration = app.add_option("--duration", duration_s,
                               "Stop after this many seconds (bus: wall time; log: log time "
                               "from the first event of the chosen channels)")
-                   ->check(CLI::Range(1e-6, 1e7));
+                   ->check(cli::Range(1e-6, 1e7));
     app.add_flag("--follow", follow,
                  "Bus only: dump until interrupted (a bus dump needs --count, --duration or this)");
     app.add_flag("--image-data", settings.json.image_data,
@@ -227,16 +227,16 @@ struct Options {
                    "column per field");
   }
 
-  // Throws CLI::ValidationError when the combination is not allowed.
+  // Throws cli::ValidationError when the combination is not allowed.
   void check() const {
     const int sources =
         (robot ? 1 : 0) + (sim ? 1 : 0) + (url.empty() ? 0 : 1) + (log_path.empty() ? 0 : 1);
     if (sources != 1)
-      throw CLI::ValidationError("source", "give exactly one of --robot, --sim, --url, --log");
+      throw cli::ValidationError("source", "give exactly one of --robot, --sim, --url, --log");
     if (!log_path.empty() && follow)
-      throw CLI::ValidationError("--follow", "--follow is for buses; a log is read to its end");
+      throw cli::ValidationError("--follow", "--follow is for buses; a log is read to its end");
     if (log_path.empty() && settings.count == 0 && duration->count() == 0 && !follow)
-      throw CLI::ValidationError("bounds",
+      throw cli::ValidationError("bounds",
                                  "a bus dump needs --count, --duration or --follow (until Ctrl-C)");
   }
 };
@@ -244,7 +244,7 @@ struct Options {
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{
+  cli::App app{
       "Prints the messages of a fieldline bus or an LCM log as JSON lines: one object per "
       "message with \"channel\", \"log_utime\" and \"event\" (log) or \"receive_utime\" (bus), "
       "and \"message\" holding every field by name (arrays as JSON arrays; image pixels as size "
@@ -260,7 +260,7 @@ int main(int argc, char** argv) {
   try {
     app.parse(argc, argv);
     o.check();
-  } catch (const CLI::ParseError& e) {
+  } catch (const cli::ParseError& e) {
     // --help is a ParseError too (exit code 0); every real one is a bad argument: 2.
     return app.exit(e) == 0 ? 0 : 2;
   }

@@ -10,10 +10,10 @@
 #include <vector>
 
 #include <fmt/format.h>
-#include <CLI/CLI.hpp>
 
 #include "common/bus/cli.hpp"
 #include "common/bus/node.hpp"
+#include "common/cli/cli.hpp"
 #include "tools/bus_stats/traffic.hpp"
 
 using namespace fieldline;
@@ -89,7 +89,7 @@ void printTraffic(bus_stats::TrafficCounter& counter, bool json) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{
+  cli::App app{
       "Listens to fieldline buses and prints per channel: rate, size, latency "
       "(utime_published - utime) and messages lost by seq gaps."};
   int robots = 6;
@@ -98,11 +98,11 @@ int main(int argc, char** argv) {
   bool json = false;
   bus::BusAddress address;
   app.add_option("--robots", robots, "Listen to robots 1..N")
-      ->check(CLI::Range(0, 99))
+      ->check(cli::Range(0, 99))
       ->capture_default_str();
   app.add_flag("--sim", sim, "Also listen to the simulator's bus");
   app.add_option("--duration", duration_s, "Seconds to listen")
-      ->check(CLI::Range(0.1, 3600.0))
+      ->check(cli::Range(0.1, 3600.0))
       ->capture_default_str();
   app.add_option("--base-port", address.base_port, "Port of the simulator's bus; robot N is base+N")
       ->capture_default_str();

@@ -349,7 +349,7 @@ int calibrateFromFrames(const AppOptions& o, const camera::MirrorModel& mirror,
 
 }  // namespace
 
-void AppOptions::addTo(CLI::App& app) {
+void AppOptions::addTo(cli::App& app) {
   app.add_option("--camera", camera_preset, "camera preset (image size, mirror, colour table)")
       ->capture_default_str();
   app.add_option("--field", field_preset, "field preset")->capture_default_str();
@@ -384,10 +384,10 @@ void AppOptions::addTo(CLI::App& app) {
                "measure: per realism setting and pose, calibrate from one rendered frame, track, "
                "score the line points against the field model");
   app.add_option("--frames", frames, "frames tracked per setting and pose in --evaluate (0: none)")
-      ->check(CLI::Range(0, 1000))
+      ->check(cli::Range(0, 1000))
       ->capture_default_str();
   app.add_option("--drive", drive, "also drive this many frames with the light changing")
-      ->check(CLI::Range(0, 100000));
+      ->check(cli::Range(0, 100000));
   app.add_option("--light-from", light_from, "light factor at the drive's start")
       ->capture_default_str();
   app.add_option("--light-to", light_to, "light factor at the drive's end")->capture_default_str();

@@ -6,11 +6,11 @@
 #include <string>
 #include <vector>
 
-#include <CLI/CLI.hpp>
 #include <opencv2/core.hpp>
 
 #include "common/camera/colour.hpp"
 #include "common/camera/frame.hpp"
+#include "common/cli/cli.hpp"
 #include "tools/colour_calibrate/colour_calibration.hpp"
 
 namespace fieldline::calibration {
@@ -24,7 +24,7 @@ struct AppOptions {
   double light_from = 0.7, light_to = 1.4, calibration_light = 0.0;
   std::vector<double> light_range{0.65, 1.55};
 
-  void addTo(CLI::App& app);
+  void addTo(cli::App& app);
 };
 
 // Runs what the options ask (calibrate and write, or evaluate); returns the exit code. Throws on

@@ -12,19 +12,21 @@
 //   fieldline-colour-calibrate --render --pose 0.5,0.8,0.3 --realism washed --out c.yaml
 //   fieldline-colour-calibrate --evaluate [--drive 500 [--adapt]]   # the measurement in the docs
 #include <fmt/core.h>
-#include <CLI/CLI.hpp>
 
+#include "common/cli/cli.hpp"
 #include "common/config/config.hpp"
 #include "tools/calibration_common/staged_output.hpp"
 #include "tools/colour_calibrate/calibrate_app.hpp"
 
+namespace cli = fieldline::cli;
+
 int main(int argc, char** argv) {
-  CLI::App app{
+  cli::App app{
       "Colour calibration from frames: floor, lines, ball and robots from the frames alone (or "
       "from the field model at known poses); checks the table on the frames before writing it"};
   fieldline::calibration::AppOptions options;
   options.addTo(app);
-  CLI11_PARSE(app, argc, argv);
+  FIELDLINE_CLI_PARSE(app, argc, argv);
   try {
     return fieldline::calibration::runApp(options);
   } catch (const fieldline::calibration::Refusal& e) {

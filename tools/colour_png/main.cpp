@@ -12,13 +12,14 @@
 #include <vector>
 
 #include <fmt/core.h>
-#include <CLI/CLI.hpp>
 #include <opencv2/core.hpp>
 
 #include "common/camera/colour.hpp"
 #include "common/camera/image_io.hpp"
+#include "common/cli/cli.hpp"
 #include "common/config/config.hpp"
 
+namespace cli = fieldline::cli;
 namespace camera = fieldline::camera;
 
 namespace {
@@ -38,7 +39,7 @@ std::array<int, 2> parseSize(const std::string& text) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{"Write the colour classification of an image (PNG/JPEG/BMP, or raw YUYV) as a PNG"};
+  cli::App app{"Write the colour classification of an image (PNG/JPEG/BMP, or raw YUYV) as a PNG"};
   std::string input;
   std::string output;
   std::string table_name = "colours_sim";
@@ -46,14 +47,14 @@ int main(int argc, char** argv) {
   bool side_by_side = false;
   app.add_option("--in", input, "Input image: PNG/JPEG/BMP, or raw YUYV bytes with --yuyv")
       ->required()
-      ->check(CLI::ExistingFile);
+      ->check(cli::ExistingFile);
   app.add_option("--out", output, "Output PNG")->required();
   app.add_option("--table", table_name, "Colour table preset (config/camera/<name>.yaml) or path")
       ->capture_default_str();
   app.add_option("--yuyv", yuyv_size,
                  "Treat the input as raw YUYV 4:2:2 of this size, e.g. 320x240");
   app.add_flag("--side-by-side", side_by_side, "Put the input (as BGR) left of the classes");
-  CLI11_PARSE(app, argc, argv);
+  FIELDLINE_CLI_PARSE(app, argc, argv);
 
   camera::ColourTable table;
   fieldline::config::runOrExit([&] { table = camera::loadColourTablePreset(table_name); });

@@ -25,12 +25,12 @@
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
-#include <CLI/CLI.hpp>
 
 #include "common/bus/checked_decode.hpp"
 #include "common/bus/cli.hpp"
 #include "common/bus/log_file.hpp"
 #include "common/bus/node.hpp"
+#include "common/cli/cli.hpp"
 #include "common/config/config.hpp"
 #include "common/field/field_model.hpp"
 #include "common/scenario/scenario.hpp"
@@ -247,7 +247,7 @@ struct EvalArgs {
 };
 
 // Faults and load for the robustness scenarios (issue 34 item 3, issue 32 item 2).
-void addFaultOptions(CLI::App& app, EvalArgs& a) {
+void addFaultOptions(cli::App& app, EvalArgs& a) {
   app.add_option("--fault", a.faults,
                  "A fault during the run, seconds after the team started (repeatable): "
                  "restart:PROCESS[/ROBOT]@T (SIGTERM; the launcher restarts it), "
@@ -267,15 +267,15 @@ void addFaultOptions(CLI::App& app, EvalArgs& a) {
       });
   app.add_option("--cpu-hog", a.cpu_hogs,
                  "Busy loops (one core each) running beside the team for the whole run")
-      ->check(CLI::Range(0, 4))
+      ->check(cli::Range(0, 4))
       ->capture_default_str();
   app.add_option("--camera-fps", a.camera_fps,
                  "Every camera's frame rate, Hz (the launch file's camera_fps setting; default: "
                  "the camera preset's)")
-      ->check(CLI::Range(1.0, 240.0));
+      ->check(cli::Range(1.0, 240.0));
 }
 
-void addOptions(CLI::App& app, EvalArgs& a) {
+void addOptions(cli::App& app, EvalArgs& a) {
   app.add_option("--scenario", a.scenario, "Scenario preset (config/scenarios) or YAML path")
       ->capture_default_str();
   app.add_option("--log", a.log,
@@ -286,14 +286,14 @@ void addOptions(CLI::App& app, EvalArgs& a) {
                  "Also record the run (fieldline-record --team) into this directory, to replay "
                  "and evaluate it later with --log");
   app.add_option("--duration", a.duration, "Seconds to run (default: the scenario's, else 30)")
-      ->check(CLI::Range(3.0, 3600.0));
+      ->check(cli::Range(3.0, 3600.0));
   app.add_option("--robots", a.robots, "Team size (default: the scenario's highest robot number)")
-      ->check(CLI::Range(1, 6));
+      ->check(cli::Range(1, 6));
   app.add_option("--launch", a.launch, "Launch file to run the team with")->capture_default_str();
   app.add_option("--out", a.out_dir, "Output directory (default: eval/<scenario or log name>)");
   app.add_option("--field", a.field_name, "Field preset for the plots (default: the scenario's)");
   app.add_option("--settle", a.options.settle_s, "Seconds at the start not scored")
-      ->check(CLI::Range(0.0, 60.0))
+      ->check(cli::Range(0.0, 60.0))
       ->capture_default_str();
   app.add_option("--log-level", a.log_level, "trace, debug, info, warn, error")
       ->capture_default_str();
@@ -659,7 +659,7 @@ int run(EvalArgs a) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{
+  cli::App app{
       "Localization evaluation: runs the simulated team for a scenario (or reads a recorded log "
       "with SIM_WORLD, ROBOT_STATE and BALL_STATE), matches every estimate with the truth at the "
       "same utime, writes summary.json, samples.csv, balls.csv, trajectories.png, errors.png and "

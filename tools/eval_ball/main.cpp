@@ -7,33 +7,32 @@
 #include <string>
 #include <vector>
 
-#include <CLI/CLI.hpp>
-
+#include "common/cli/cli.hpp"
 #include "tools/colour_calibrate/evaluation.hpp"
 #include "tools/eval_ball/ball_evaluation.hpp"
 #include "tools/eval_real/eval_real.hpp"
 
 int main(int argc, char** argv) {
   using namespace fieldline;
-  CLI::App app{"Ball detector against the truth on rendered frames with clutter"};
+  cli::App app{"Ball detector against the truth on rendered frames with clutter"};
   eval_ball::BallEvalOptions options;
   std::string camera = "omni_sim", field = "msl", realism = "clean";
   double minFoundRate = 0.0;
   app.add_option("--frames", options.frames, "Frames to render and track")
-      ->check(CLI::PositiveNumber);
+      ->check(cli::PositiveNumber);
   app.add_option("--seed", options.seed, "Seed of the scenes");
   app.add_option("--camera", camera, "Camera preset (config/camera/<name>.yaml)");
   app.add_option("--field", field, "Field preset (config/field/<name>.yaml)");
   app.add_option("--realism", realism, "Realism setting (clean, noise, washed, blur, all, ...)");
   app.add_option("--orange-objects", options.orange_objects, "Orange objects off the field")
-      ->check(CLI::NonNegativeNumber);
+      ->check(cli::NonNegativeNumber);
   app.add_option("--people", options.people, "People in red at the side")
-      ->check(CLI::NonNegativeNumber);
+      ->check(cli::NonNegativeNumber);
   app.add_option("--min-found-rate", minFoundRate, "Exit 1 when the found rate is lower")
-      ->check(CLI::Range(0.0, 1.0));
+      ->check(cli::Range(0.0, 1.0));
   app.add_option("--pose-sigma", options.pose_sigma_m,
                  "Error of the pose the detector is given (as fusion's), m")
-      ->check(CLI::Range(0.0, 2.0));
+      ->check(cli::Range(0.0, 2.0));
   bool noField = false;
   app.add_flag("--no-field", noField, "no field check: the detector judges by the image alone");
   bool noChecks = false;
@@ -46,7 +45,7 @@ int main(int argc, char** argv) {
                  "detector on every frame (fieldline-eval-real's venue run; exit 1 when the ball "
                  "is found in fewer than its min_ball_found of the frames it is in view or "
                  "reported outside the field)");
-  CLI11_PARSE(app, argc, argv);
+  FIELDLINE_CLI_PARSE(app, argc, argv);
   if (!venues.empty()) {
     try {
       bool failed = false;

@@ -12,7 +12,7 @@
 #include <cstdint>
 #include <string>
 
-namespace CLI {
+namespace fieldline::cli {
 class App;
 }
 
@@ -109,7 +109,7 @@ struct Options {
 };
 
 // The command line (and --config FILE) into `options`.
-void addOptions(CLI::App& app, Options& options);
+void addOptions(cli::App& app, Options& options);
 
 // Runs the evaluation: 0 when no hypothesis is false, every fresh check agrees and the required
 // rates are met; 1 otherwise; 2 for bad options.

@@ -8,12 +8,13 @@
 #include <exception>
 #include <iostream>
 
-#include <CLI/CLI.hpp>
-
+#include "common/cli/cli.hpp"
 #include "tools/eval_features/eval_features.hpp"
 
+namespace cli = fieldline::cli;
+
 int main(int argc, char** argv) {
-  CLI::App app{
+  cli::App app{
       "Evaluates feature recognition on rendered frames over the whole field: detection rates, "
       "false pose hypotheses and pose errors. Exit code 1 when a hypothesis is false or a "
       "required rate is missed."};
@@ -21,7 +22,7 @@ int main(int argc, char** argv) {
   fieldline::eval_features::addOptions(app, options);
   try {
     app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
+  } catch (const cli::ParseError& e) {
     // --help exits 0; bad arguments exit 2.
     return app.exit(e) == 0 ? 0 : 2;
   }

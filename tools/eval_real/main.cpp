@@ -16,11 +16,13 @@
 #include <vector>
 
 #include <fmt/core.h>
-#include <CLI/CLI.hpp>
 
+#include "common/cli/cli.hpp"
 #include "common/config/config.hpp"
 #include "tools/eval_real/eval_real.hpp"
 #include "tools/eval_real/venue_cases.hpp"
+
+namespace cli = fieldline::cli;
 
 namespace {
 
@@ -35,7 +37,7 @@ int writeVenue(const std::string& manifest, const std::string& folder) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{
+  cli::App app{
       "Runs the real cases (data kept beside the repository) and the rendered venue cases "
       "through the calibration tools and the localizer; one line of figures per case"};
   app.footer(
@@ -60,7 +62,7 @@ int main(int argc, char** argv) {
                  "only the cases of these names (manifest file names without .yaml; repeatable)");
   app.add_option("--write-venue", venueCase, "render a venue case's frames (with --into)");
   app.add_option("--into", folder, "folder for --write-venue (PNG frames and truth.yaml)");
-  CLI11_PARSE(app, argc, argv);
+  FIELDLINE_CLI_PARSE(app, argc, argv);
   try {
     if (!venueCase.empty()) {
       if (folder.empty()) throw std::invalid_argument("--write-venue needs --into FOLDER");

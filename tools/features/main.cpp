@@ -11,10 +11,10 @@
 #include <numbers>
 #include <string>
 
-#include <CLI/CLI.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "common/cli/cli.hpp"
 #include "common/field/field_model.hpp"
 #include "common/perception/line_points_csv.hpp"
 #include "services/feature_recognition/recognizer.hpp"
@@ -166,7 +166,7 @@ void drawPng(const std::string& path, const feature_recognition::FeatureRecogniz
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{
+  cli::App app{
       "Feature recognition on line points from a CSV file (robot frame: x forward, y left, m; "
       "one point per line; a blank line between sequences). Prints features and pose "
       "hypotheses as JSON."};
@@ -177,7 +177,7 @@ int main(int argc, char** argv) {
   app.add_option("--png", png, "Draw points, features and hypotheses to this PNG");
   try {
     app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
+  } catch (const cli::ParseError& e) {
     // --help exits 0; bad arguments exit 2.
     return app.exit(e) == 0 ? 0 : 2;
   }

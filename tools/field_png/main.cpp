@@ -10,12 +10,14 @@
 #include <string>
 #include <vector>
 
-#include <CLI/CLI.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include "common/cli/cli.hpp"
 #include "common/config/config.hpp"
 #include "common/field/field_model.hpp"
 #include "tools/field_png/field_drawing.hpp"
+
+namespace cli = fieldline::cli;
 
 namespace {
 
@@ -41,7 +43,7 @@ bool drawOne(const std::string& field, const std::string& out, double px_per_m) 
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{
+  cli::App app{
       "Draws a field preset to a PNG: green carpet up to the barrier, white lines at their true "
       "width, goals in their colour. Field +x points right, +y up."};
   std::string field = "msl";
@@ -54,9 +56,9 @@ int main(int argc, char** argv) {
   app.add_option("--all", all, "Draw every preset of config/field to DIR/field_NAME.png")
       ->excludes(out_option);
   app.add_option("--px-per-m", px_per_m, "Pixels per metre")
-      ->check(CLI::Range(5.0, 500.0))
+      ->check(cli::Range(5.0, 500.0))
       ->capture_default_str();
-  CLI11_PARSE(app, argc, argv);
+  FIELDLINE_CLI_PARSE(app, argc, argv);
   if (out.empty() && all.empty()) {
     std::cerr << "fieldline-field-png: give --out FILE or --all DIR\n";
     return 2;

@@ -5,16 +5,17 @@
 #include <string>
 #include <vector>
 
-#include <CLI/CLI.hpp>
-
 #include "common/bus/cli.hpp"
+#include "common/cli/cli.hpp"
 #include "tools/launch/launcher.hpp"
+
+namespace cli = fieldline::cli;
 
 int main(int argc, char** argv) {
   using namespace fieldline::launch;
   LauncherOptions options;
   bool skip_check_args = false;
-  CLI::App app{
+  cli::App app{
       "fieldline-launch: starts the processes of a launch file, each on its robot's LCM bus; "
       "prefixes their output with [robot process], restarts crashed ones with backoff, stops "
       "all of them on Ctrl-C or SIGTERM and shows a live status table from SERVICE_STATUS."};
@@ -23,11 +24,11 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--robots", options.robots,
                  "Team size: `all` means robots 1..N (default: defaults.robots of the file)")
-      ->check(CLI::Range(1, kMaxRobot));
+      ->check(cli::Range(1, kMaxRobot));
   app.add_option("--robot", options.robot,
                  "This machine is robot N (a real robot): `robots: all` means robot N only "
                  "(default: defaults.robot of the file, or FIELDLINE_ROBOT)")
-      ->check(CLI::Range(1, kMaxRobot));
+      ->check(cli::Range(1, kMaxRobot));
   std::vector<std::string> settings;
   app.add_option("--set", settings,
                  "NAME=VALUE: a setting of the launch file (its `settings:`, used as {NAME} in "
@@ -39,7 +40,7 @@ int main(int argc, char** argv) {
                  "The buses' multicast ttl for this run (default: defaults.bus.ttl, 0: they stay "
                  "on this machine; 1: a laptop on the robot's network may watch them with "
                  "fieldline-viewer or lcm-spy; docs/launch.md)")
-      ->check(CLI::Range(0, 255));
+      ->check(cli::Range(0, 255));
   std::string bus_interface;
   auto* interface_option =
       app.add_option("--bus-interface", bus_interface,
@@ -48,7 +49,7 @@ int main(int argc, char** argv) {
   app.add_option("--duration", options.duration_s,
                  "Run this many seconds, then stop everything cleanly (0: until Ctrl-C); the exit "
                  "code is 1 if a process failed or crash-looped meanwhile")
-      ->check(CLI::Range(0.0, 1e7))
+      ->check(cli::Range(0.0, 1e7))
       ->capture_default_str();
   app.add_flag("--no-table", options.no_table,
                "Plain log output (for CI): compact status lines instead of the live table");
@@ -70,7 +71,7 @@ int main(int argc, char** argv) {
                  "docs/faults.md)");
   app.add_option("--status-period", options.status_period_s,
                  "Seconds between compact status lines when there is no live table")
-      ->check(CLI::Range(0.2, 3600.0))
+      ->check(cli::Range(0.2, 3600.0))
       ->capture_default_str();
   app.footer(launchFileHelp());
   FIELDLINE_PARSE(app, argc, argv);

@@ -20,12 +20,13 @@
 #include <string>
 #include <vector>
 
-#include <CLI/CLI.hpp>
-
+#include "common/cli/cli.hpp"
 #include "common/config/config.hpp"
 #include "services/fusion/line_matcher.hpp"
 #include "services/region_tracking/frame_processor.hpp"
 #include "tools/sim_frames/sim_frames.hpp"
+
+namespace cli = fieldline::cli;
 
 namespace {
 
@@ -279,19 +280,19 @@ int runPose(const Options& o, rt::SimCamera& sim, const fusion::LineMatcher& mat
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{"Layer 2's bias on rendered still frames (docs/log/2026-12-02-fusion.md)"};
+  cli::App app{"Layer 2's bias on rendered still frames (docs/log/2026-12-02-fusion.md)"};
   Options o;
   app.add_option("--camera", o.camera, "Camera preset")->capture_default_str();
   app.add_option("--field", o.field, "Field preset")->capture_default_str();
   app.add_flag("--no-noise", o.no_noise, "Render without sensor noise");
   app.add_option("--frames", o.frames, "Frames tracked per pose (the last one's points are used)")
-      ->check(CLI::Range(1, 100))
+      ->check(cli::Range(1, 100))
       ->capture_default_str();
   app.add_option("--offset", o.offset_m, "Start layer 2 this far off the truth along x, m")
       ->capture_default_str();
-  app.add_option("--step", o.step_m, "--map: grid step, m")->check(CLI::Range(0.05, 10.0));
+  app.add_option("--step", o.step_m, "--map: grid step, m")->check(cli::Range(0.05, 10.0));
   app.add_option("--headings", o.headings, "--map: headings per position")
-      ->check(CLI::Range(1, 64));
+      ->check(cli::Range(1, 64));
   app.add_flag("--map", o.map, "Grid of poses over the field");
   app.add_option("--pose", o.pose, "One pose in detail: x,y,phi");
   app.add_flag("--points", o.points, "--pose: print every point");
@@ -305,7 +306,7 @@ int main(int argc, char** argv) {
   app.add_option("--seed", o.seed, "--synthetic: random seed")->capture_default_str();
   app.add_option("--grid-cache", o.grid_cache, "Directory of the distance grid's cache")
       ->capture_default_str();
-  CLI11_PARSE(app, argc, argv);
+  FIELDLINE_CLI_PARSE(app, argc, argv);
   if (o.map && !o.pose.empty()) {
     std::fprintf(stderr, "either --map or --pose\n");
     return 2;

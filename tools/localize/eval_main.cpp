@@ -8,8 +8,7 @@
 #include <string>
 #include <vector>
 
-#include <CLI/CLI.hpp>
-
+#include "common/cli/cli.hpp"
 #include "common/config/config.hpp"
 #include "tools/localize/localize_evaluation.hpp"
 
@@ -18,33 +17,33 @@ namespace {
 using namespace fieldline;
 
 // The true cameras and poses drawn, and the guesses.
-void addEvaluationOptions(CLI::App& app, localize_eval::LocalizeEvalOptions& options) {
+void addEvaluationOptions(cli::App& app, localize_eval::LocalizeEvalOptions& options) {
   app.add_option("--cameras", options.cameras, "True cameras drawn at random")
-      ->check(CLI::Range(1, 1000))
+      ->check(cli::Range(1, 1000))
       ->capture_default_str();
   app.add_option("--poses", options.poses, "Poses per camera")
-      ->check(CLI::Range(1, 100000))
+      ->check(cli::Range(1, 100000))
       ->capture_default_str();
   app.add_option("--seed", options.seed, "Seed of the cameras and poses")->capture_default_str();
   app.add_option("--max-scale", options.max_scale, "Largest relative distance error")
-      ->check(CLI::Range(0.0, 0.3))
+      ->check(cli::Range(0.0, 0.3))
       ->capture_default_str();
   app.add_option("--max-centre-px", options.max_centre_px, "Largest mirror centre error, px")
-      ->check(CLI::Range(0.0, 30.0))
+      ->check(cli::Range(0.0, 30.0))
       ->capture_default_str();
   app.add_option("--max-axis-offset", options.max_axis_offset_m,
                  "Largest mirror axis offset from the robot's centre, m")
-      ->check(CLI::Range(0.0, 0.3))
+      ->check(cli::Range(0.0, 0.3))
       ->capture_default_str();
   app.add_option("--max-tilt", options.max_tilt,
                  "Largest tilt: relative distance error toward one side")
-      ->check(CLI::Range(0.0, 0.3))
+      ->check(cli::Range(0.0, 0.3))
       ->capture_default_str();
   app.add_option("--guess-m", options.guess_m, "Guess this far from the truth, m")
-      ->check(CLI::Range(0.0, 2.0))
+      ->check(cli::Range(0.0, 2.0))
       ->capture_default_str();
   app.add_option("--guess-rad", options.guess_rad, "Guess turned by this, rad")
-      ->check(CLI::Range(0.0, 1.0))
+      ->check(cli::Range(0.0, 1.0))
       ->capture_default_str();
   app.add_flag("--global", options.global, "No guess: the global search");
 }
@@ -70,7 +69,7 @@ void printFrames(const std::vector<localize_eval::FrameResult>& frames) {
 
 int main(int argc, char** argv) {
   using namespace fieldline;
-  CLI::App app{
+  cli::App app{
       "Layer 2 (fieldline-localize's matcher) against the truth on rendered frames whose camera "
       "differs from the configured one: NEES of each answer's covariance"};
   localize_eval::LocalizeEvalOptions options;
@@ -84,9 +83,9 @@ int main(int argc, char** argv) {
   app.add_option("--matcher-config", matcher_config,
                  "YAML with a `matcher` section (e.g. config/fusion/default.yaml)");
   app.add_option("--min-in-band", min_in_band, "Exit 1 when the NEES in band is lower")
-      ->check(CLI::Range(0.0, 1.0));
+      ->check(cli::Range(0.0, 1.0));
   app.add_flag("--per-frame", per_frame, "One line per frame");
-  CLI11_PARSE(app, argc, argv);
+  FIELDLINE_CLI_PARSE(app, argc, argv);
   try {
     if (!matcher_config.empty()) {
       const config::Node root = config::Node::loadFile(matcher_config);

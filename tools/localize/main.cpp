@@ -16,15 +16,17 @@
 #include <utility>
 #include <vector>
 
-#include <CLI/CLI.hpp>
 #include <Eigen/Eigenvalues>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "common/bus/cli.hpp"
+#include "common/cli/cli.hpp"
 #include "common/field/field_model.hpp"
 #include "common/perception/line_points_csv.hpp"
 #include "services/fusion/line_matcher.hpp"
+
+namespace cli = fieldline::cli;
 
 namespace {
 
@@ -235,7 +237,7 @@ std::size_t answerEachField(const std::vector<FieldModel>& fields,
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{
+  cli::App app{
       "Localizes from one frame's line points (robot frame: x forward, y left, m; CSV \"x,y\" one "
       "point per line, blank line between sequences). With --guess: layer 2 corrects the guess. "
       "Without: a coarse search over the whole field, best candidates refined (the field's "
@@ -244,7 +246,7 @@ int main(int argc, char** argv) {
   std::string units = "m";
   app.add_option("--points", points_path, "CSV file of line points in the robot frame")->required();
   app.add_option("--units", units, "units of the CSV's coordinates")
-      ->check(CLI::IsMember({"m", "mm"}))
+      ->check(cli::IsMember({"m", "mm"}))
       ->capture_default_str();
   app.add_option("--field", field_name,
                  "field preset (msl, fu2004, cnc_lab, ...) or a field YAML file; several, "
@@ -252,7 +254,7 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--guess", guess_text, "pose guess x,y,phi (m, m, rad), field frame");
   app.add_option("--method", method, "layer 2 method")
-      ->check(CLI::IsMember({"least_squares", "force_field"}))
+      ->check(cli::IsMember({"least_squares", "force_field"}))
       ->capture_default_str();
   app.add_option("--png", png, "draw the points at the found pose on the field to this PNG");
   app.add_option("--cache", cache, "directory for the distance grid cache (default: none)");

@@ -8,12 +8,12 @@
 #include <vector>
 
 #include <fmt/format.h>
-#include <CLI/CLI.hpp>
 
 #include "common/bus/checked_decode.hpp"
 #include "common/bus/cli.hpp"
 #include "common/bus/log_file.hpp"
 #include "common/bus/node.hpp"
+#include "common/cli/cli.hpp"
 
 using namespace fieldline;
 
@@ -26,17 +26,17 @@ struct Options {
   std::int64_t count = 0;
   double timeout_s = 30.0;
 
-  void addTo(CLI::App& app) {
+  void addTo(cli::App& app) {
     app.add_option("--channel", channels, "Channel to record (repeatable; default: all)")
-        ->check(CLI::IsMember(
+        ->check(cli::IsMember(
             std::vector<std::string>(bus::kAllChannelNames.begin(), bus::kAllChannelNames.end())));
     app.add_option("--output,-o", output, "Log file to write (overwritten)")->required();
     app.add_option("--skip", skip, "Valid messages to let pass before recording")
-        ->check(CLI::Range(std::int64_t{0}, std::int64_t{1} << 40));
+        ->check(cli::Range(std::int64_t{0}, std::int64_t{1} << 40));
     app.add_option("--count", count, "Stop after this many recorded messages (0: until stopped)")
-        ->check(CLI::Range(std::int64_t{0}, std::int64_t{1} << 40));
+        ->check(cli::Range(std::int64_t{0}, std::int64_t{1} << 40));
     app.add_option("--timeout", timeout_s, "Give up after this many seconds")
-        ->check(CLI::Range(0.1, 86400.0))
+        ->check(cli::Range(0.1, 86400.0))
         ->capture_default_str();
   }
 };
@@ -93,7 +93,7 @@ int record(const Options& options, const bus::CommonOptions& common) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{
+  cli::App app{
       "Records fieldline channels of a robot's bus (or the simulator's) into an LCM log, checking "
       "every message as a node would. Example: fieldline-log-record --robot 1 --channel "
       "CAMERA_IMAGE --skip 60 --count 15 --output camera.lcmlog"};
@@ -103,7 +103,7 @@ int main(int argc, char** argv) {
   options.addTo(app);
   try {
     app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
+  } catch (const cli::ParseError& e) {
     // --help is a ParseError too (exit code 0); every real one is a bad argument: 2.
     return app.exit(e) == 0 ? 0 : 2;
   }

@@ -15,12 +15,12 @@
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
-#include <CLI/CLI.hpp>
 
 #include "common/bus/cli.hpp"
 #include "common/bus/node.hpp"
 #include "common/bus/robot_clock.hpp"
 #include "common/bus/urls.hpp"
+#include "common/cli/cli.hpp"
 #include "common/config/config.hpp"
 #include "tools/launch/robot_clocks.hpp"
 #include "tools/recording/bus_recording.hpp"
@@ -43,13 +43,13 @@ struct Options {
   bus::BusAddress address;
   recording::BusRecordingOptions recording;
 
-  void addTo(CLI::App& app) {
+  void addTo(cli::App& app) {
     app.add_flag("--team", team,
                  "Record the simulator's bus and every robot's (--robots) into one directory, "
                  "each robot with its clock from the launch file");
     app.add_option("--robots", robots, "--team: the robots whose buses to record")
         ->delimiter(',')
-        ->check(CLI::Range(1, 6))
+        ->check(cli::Range(1, 6))
         ->capture_default_str();
     app.add_flag("--no-sim", no_sim, "--team: leave out the simulator's bus (a real team)");
     app.add_option("--output,-o", out_dir, "Recording directory (created)")->required();
@@ -61,29 +61,29 @@ struct Options {
         ->capture_default_str();
     app.add_option("--channel", recording.channels,
                    "Channel to record (repeatable; default: every channel)")
-        ->check(CLI::IsMember(
+        ->check(cli::IsMember(
             std::vector<std::string>(bus::kAllChannelNames.begin(), bus::kAllChannelNames.end())));
     app.add_option("--images", recording.image_every,
                    "CAMERA_IMAGE: record every Nth frame of each camera (1: all; 0: none, about "
                    "4 MB/s per robot less)")
-        ->check(CLI::Range(0, 1000))
+        ->check(cli::Range(0, 1000))
         ->capture_default_str();
     app.add_option("--max-mb", max_mb,
                    "Start a new file (NAME_part002.lcm, ...) when one reaches this many MB "
                    "(0: no limit)")
-        ->check(CLI::Range(0.0, 1e6))
+        ->check(cli::Range(0.0, 1e6))
         ->capture_default_str();
     app.add_option("--max-files", recording.max_files,
                    "With --max-mb: keep at most this many files per bus, deleting the oldest "
                    "(0: keep all)")
-        ->check(CLI::Range(0, 100000))
+        ->check(cli::Range(0, 100000))
         ->capture_default_str();
     app.add_option("--duration", duration_s, "Stop after this many seconds (0: until Ctrl-C)")
-        ->check(CLI::Range(0.0, 1e7))
+        ->check(cli::Range(0.0, 1e7))
         ->capture_default_str();
     app.add_option("--base-port", address.base_port,
                    "Port of the simulator's bus; robot N's is this + N")
-        ->check(CLI::Range(1, 65535 - 6))
+        ->check(cli::Range(1, 65535 - 6))
         ->capture_default_str();
   }
 };
@@ -258,7 +258,7 @@ int record(Options& o, const bus::CommonOptions& common) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{
+  cli::App app{
       "Records a robot's bus (--robot N, on the robot) or the simulated team (--team: the "
       "simulator's bus and every robot's) into a recording directory (robotN.lcm, sim.lcm; "
       "lcm-logger's format) that describes itself: each file starts with a RECORDING_INFO "

@@ -369,7 +369,7 @@ std::vector<std::string> mirrorProblems(const camera::MirrorParams& m, double mi
   return out;
 }
 
-void MirrorCalibrateOptions::addTo(CLI::App& app) {
+void MirrorCalibrateOptions::addTo(cli::App& app) {
   auto* in = app.add_option("--rings", rings, "Image of the ring carpet (PNG, JPEG, BMP)");
   app.add_flag("--render-rings", render_rings,
                "Calibrate from a rendered ring carpet (the camera's mirror, moved by "
@@ -410,7 +410,7 @@ void MirrorCalibrateOptions::addTo(CLI::App& app) {
   app.add_option("--offset", offset,
                  "The mirror axis' offset from the robot's centre: auto (fitted where the data "
                  "pins it), fit (refuse when it does not), zero")
-      ->check(CLI::IsMember({"auto", "fit", "zero"}))
+      ->check(cli::IsMember({"auto", "fit", "zero"}))
       ->capture_default_str();
   app.add_flag("--no-offset", no_offset, "Same as --offset zero");
   app.add_option("--render-centre-shift", render_centre_shift, "du,dv px")->capture_default_str();

@@ -6,9 +6,8 @@
 #include <string>
 #include <vector>
 
-#include <CLI/CLI.hpp>
-
 #include "common/camera/mirror_model.hpp"
+#include "common/cli/cli.hpp"
 #include "tools/mirror_calibrate/mirror_calibration.hpp"
 #include "tools/mirror_calibrate/pose_free.hpp"
 
@@ -50,7 +49,7 @@ struct MirrorCalibrateOptions {
   std::string debug_png;
   bool verbose = false;
 
-  void addTo(CLI::App& app);
+  void addTo(cli::App& app);
 };
 
 // Runs the calibration and prints the report; returns the exit code (0 written or nothing to

@@ -13,19 +13,20 @@
 #include <cstdio>
 #include <exception>
 
-#include <CLI/CLI.hpp>
-
+#include "common/cli/cli.hpp"
 #include "common/config/config.hpp"
 #include "tools/calibration_common/staged_output.hpp"
 #include "tools/mirror_calibrate/app.hpp"
 
+namespace cli = fieldline::cli;
+
 int main(int argc, char** argv) {
-  CLI::App app{
+  cli::App app{
       "Calibrate the omni-directional mirror from an image of rings at known distances, or "
       "from frames of the field (poses searched, or given)"};
   fieldline::calibration::MirrorCalibrateOptions options;
   options.addTo(app);
-  CLI11_PARSE(app, argc, argv);
+  FIELDLINE_CLI_PARSE(app, argc, argv);
   try {
     return fieldline::calibration::runMirrorCalibrate(options);
   } catch (const fieldline::calibration::Refusal& e) {

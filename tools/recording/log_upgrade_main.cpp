@@ -6,22 +6,22 @@
 #include <string>
 
 #include <fmt/format.h>
-#include <CLI/CLI.hpp>
 
 #include "common/bus/cli.hpp"
 #include "common/bus/log_file.hpp"
+#include "common/cli/cli.hpp"
 #include "tools/recording/upgrade.hpp"
 
 using namespace fieldline;
 
 int main(int argc, char** argv) {
-  CLI::App app{
+  cli::App app{
       "Rewrites an LCM recording whose messages were written with older versions of the "
       "fieldline types (lcmtypes/legacy/) in today's types. Prints what it upgraded; exit code 1 "
       "when nothing could be read. Example: fieldline-log-upgrade old/robot1.lcm new/robot1.lcm"};
   std::string in_path;
   std::string out_path;
-  app.add_option("input", in_path, "The old recording")->required()->check(CLI::ExistingFile);
+  app.add_option("input", in_path, "The old recording")->required()->check(cli::ExistingFile);
   app.add_option("output", out_path, "The upgraded copy (overwritten)")->required();
   FIELDLINE_PARSE(app, argc, argv);
   return bus::runMain("log_upgrade", [&]() -> int {

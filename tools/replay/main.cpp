@@ -5,10 +5,9 @@
 #include <optional>
 #include <string>
 
-#include <CLI/CLI.hpp>
-
 #include "common/bus/cli.hpp"
 #include "common/bus/log_file.hpp"
+#include "common/cli/cli.hpp"
 #include "tools/recording/upgrade.hpp"
 #include "tools/replay/replay_run.hpp"
 
@@ -16,12 +15,12 @@ using namespace fieldline;
 
 namespace {
 
-void addOptions(CLI::App& app, replay::ReplayRunOptions& options, std::string& run) {
+void addOptions(cli::App& app, replay::ReplayRunOptions& options, std::string& run) {
   app.add_option("log", options.log_path,
                  "The recorded log of one robot's bus, or a recording's directory with --robot "
                  "(its robotN.lcm and robotN_partNNN.lcm in order; its sim.lcm as --truth)")
       ->required()
-      ->check(CLI::ExistingPath);
+      ->check(cli::ExistingPath);
   app.add_option("--run", run,
                  "Nodes to run, comma-separated: region_tracking, feature_recognition, fusion")
       ->capture_default_str();
@@ -30,7 +29,7 @@ void addOptions(CLI::App& app, replay::ReplayRunOptions& options, std::string& r
   app.add_option("--robot", options.robot_id,
                  "Robot id of the log (default: taken from its first ODOMETRY / VISION_LINES / "
                  "CAMERA_IMAGE)")
-      ->check(CLI::Range(1, 6));
+      ->check(cli::Range(1, 6));
   app.add_option("--field", options.field,
                  "Field preset (msl, fu2004) or YAML path (default: the recording's field, else "
                  "msl)");
@@ -42,16 +41,16 @@ void addOptions(CLI::App& app, replay::ReplayRunOptions& options, std::string& r
                  "ran with, else default)");
   app.add_option("--matcher", options.matcher,
                  "fusion: layer 2 method, lsq or force_field (default: the settings file's)")
-      ->check(CLI::IsMember({"lsq", "force_field"}));
+      ->check(cli::IsMember({"lsq", "force_field"}));
   app.add_option("--start-prior", options.start_prior, "fusion: own_half or none")
-      ->check(CLI::IsMember({"own_half", "none"}))
+      ->check(cli::IsMember({"own_half", "none"}))
       ->capture_default_str();
   app.add_option("--grid-cache", options.grid_cache,
                  "fusion: distance grid cache directory (default: none, built in memory)");
   app.add_option("--truth", options.truth_path,
                  "The simulator's log of the same run (sim.lcm): its SIM_WORLD is merged into "
                  "--out and --live-out, so fieldline-eval --log can score them")
-      ->check(CLI::ExistingFile);
+      ->check(cli::ExistingFile);
   app.add_option("--live-out", options.live_out_path,
                  "Also write what the live processes published on the run nodes' output channels "
                  "(with --truth's SIM_WORLD) to this log, to compare with the replay");
@@ -64,7 +63,7 @@ void addOptions(CLI::App& app, replay::ReplayRunOptions& options, std::string& r
                  "Analysis: inject stalls of this many seconds (a starved process); what happens "
                  "to each channel's inputs within a stall: --stall-hold, --stall-drop "
                  "(default 0: no stalls)")
-      ->check(CLI::Range(0.0, 60.0));
+      ->check(cli::Range(0.0, 60.0));
   app.add_option("--stall-every", options.stall_every_s, "Seconds from one stall to the next")
       ->capture_default_str();
   app.add_option("--stall-start", options.stall_start_s,
@@ -82,7 +81,7 @@ void addOptions(CLI::App& app, replay::ReplayRunOptions& options, std::string& r
       ->capture_default_str();
   app.add_option("--max-refused", options.max_refused_share,
                  "Fail (exit code 1) when more than this share of the inputs is refused")
-      ->check(CLI::Range(0.0, 1.0))
+      ->check(cli::Range(0.0, 1.0))
       ->capture_default_str();
 }
 
@@ -91,13 +90,13 @@ struct ClockArgs {
   std::optional<double> offset_s;
   double drift_ppm = 0.0;
   bool none = false;
-  void addTo(CLI::App& app) {
+  void addTo(cli::App& app) {
     app.add_option("--clock-offset", offset_s,
                    "The robot's clock minus the log's time, s (default: the recording's own "
                    "clock model, else fitted to the log's traffic)")
-        ->check(CLI::Range(-3600.0, 3600.0));
+        ->check(cli::Range(-3600.0, 3600.0));
     app.add_option("--clock-drift", drift_ppm, "With --clock-offset: the clock's drift, ppm")
-        ->check(CLI::Range(-kMaxClockDriftPpm, kMaxClockDriftPpm));
+        ->check(cli::Range(-kMaxClockDriftPpm, kMaxClockDriftPpm));
     app.add_flag("--clock-none", none,
                  "Take the robot's stamps as the log's clock (a robot that recorded its own bus)");
   }
@@ -106,7 +105,7 @@ struct ClockArgs {
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{
+  cli::App app{
       "Replays a recorded robot-bus LCM log (lcm-logger's format, e.g. scripts/demo --record) "
       "through the named algorithm nodes in one process, in log-time order under a simulated "
       "clock, and writes what they publish to an LCM log. The nodes run on the robot's own clock "

@@ -6,9 +6,8 @@
 #include <fstream>
 #include <string>
 
-#include <CLI/CLI.hpp>
-
 #include "common/bus/cli.hpp"
+#include "common/cli/cli.hpp"
 #include "common/config/config.hpp"
 #include "common/config/paths.hpp"
 #include "tools/launch/launch_file.hpp"
@@ -17,7 +16,7 @@
 using namespace fieldline;
 
 int main(int argc, char** argv) {
-  CLI::App app{
+  cli::App app{
       "Writes systemd units for a launch file into OUTDIR; the unit instance is the robot's "
       "number, so one set serves every robot: fieldline-<process>@.service per process, "
       "fieldline-robot@.target wanting robot N's processes (systemctl enable --now "
@@ -36,7 +35,7 @@ int main(int argc, char** argv) {
   app.add_option("--robots", options.robots,
                  "Team size: `robots: all` means 1..N and robot<N>.env is written for 1..N "
                  "(default: the launch file's defaults.robots)")
-      ->check(CLI::Range(1, launch::kMaxRobot));
+      ->check(cli::Range(1, launch::kMaxRobot));
   app.add_option("--bin-dir", options.bin_dir,
                  "Where the fieldline executables are installed (default: this program's folder)")
       ->capture_default_str();
@@ -52,7 +51,7 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--watchdog-s", options.watchdog_s,
                  "WatchdogSec= of fieldline's processes (0: none)")
-      ->check(CLI::Range(0.0, 3600.0))
+      ->check(cli::Range(0.0, 3600.0))
       ->capture_default_str();
   bool no_bus_route = false;
   app.add_flag("--no-bus-route", no_bus_route,

@@ -10,12 +10,12 @@
 #include <optional>
 #include <string>
 
-#include <CLI/CLI.hpp>
 #include <opencv2/imgcodecs.hpp>
 
 #include "common/bus/cli.hpp"
 #include "common/bus/node.hpp"
 #include "common/bus/urls.hpp"
+#include "common/cli/cli.hpp"
 #include "common/msg/team_state.hpp"
 #include "common/msg/world_state.hpp"
 #include "common/time/clock.hpp"
@@ -33,17 +33,17 @@ struct Options {
   double timeout_s = 60.0;
   double px_per_m = 40.0;
 
-  void addTo(CLI::App& app) {
-    app.add_option("--robot", robot, "Robot whose TEAM_STATE to draw")->check(CLI::Range(1, 6));
+  void addTo(cli::App& app) {
+    app.add_option("--robot", robot, "Robot whose TEAM_STATE to draw")->check(cli::Range(1, 6));
     app.add_option("--out", out, "PNG to write")->capture_default_str();
     app.add_option("--field", field_name, "Field preset")->capture_default_str();
     app.add_option("--min-present", min_present, "Wait for this many present robots")
-        ->check(CLI::Range(1, 6))
+        ->check(cli::Range(1, 6))
         ->capture_default_str();
     app.add_option("--timeout", timeout_s, "Give up after this many seconds")
-        ->check(CLI::Range(1.0, 3600.0))
+        ->check(cli::Range(1.0, 3600.0))
         ->capture_default_str();
-    app.add_option("--px-per-m", px_per_m, "Scale")->check(CLI::Range(5.0, 200.0));
+    app.add_option("--px-per-m", px_per_m, "Scale")->check(cli::Range(5.0, 200.0));
   }
 };
 
@@ -85,7 +85,7 @@ Heard listen(const Options& o) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{
+  cli::App app{
       "Draws robot N's TEAM_STATE (its team picture) on the field into a PNG, with the "
       "simulator's truth as grey rings when SIM_WORLD is heard."};
   Options o;

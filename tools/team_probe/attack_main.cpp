@@ -9,7 +9,6 @@
 #include <unistd.h>
 
 #include <fmt/format.h>
-#include <CLI/CLI.hpp>
 #include <chrono>
 #include <functional>
 #include <iostream>
@@ -17,6 +16,7 @@
 #include <random>
 #include <thread>
 
+#include "common/cli/cli.hpp"
 #include "teamcomm/packet.hpp"
 #include "teamcomm/team_key.hpp"
 #include "tools/team_relay/relay.hpp"
@@ -33,7 +33,7 @@ struct Options {
   std::vector<std::string> targets;
   double sniff_s = 3.0, attack_s = 4.0, rate_hz = 200.0;
 
-  void addTo(CLI::App& app) {
+  void addTo(cli::App& app) {
     app.add_option("--listen-port", listen_port, "Port the sniffed copies arrive on")
         ->capture_default_str();
     app.add_option("--target", targets, "a.b.c.d:port to attack")->required();
@@ -120,14 +120,14 @@ std::map<std::string, std::int64_t> attack(int fd, const Options& o,
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{
+  cli::App app{
       "Team test attacker: forged, replayed, corrupted, truncated, oversized and flooded "
       "team packets."};
   Options options;
   options.addTo(app);
   try {
     app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
+  } catch (const cli::ParseError& e) {
     return app.exit(e) == 0 ? 0 : 2;
   }
   std::vector<sockaddr_in> to;

@@ -4,7 +4,6 @@
 // process's last SERVICE_STATUS error counts. Reads the robot's clock error from the same
 // FIELDLINE_CLOCK_* variables as teamcomm. Stops by itself after --duration.
 #include <fmt/format.h>
-#include <CLI/CLI.hpp>
 #include <fstream>
 #include <map>
 #include <memory>
@@ -14,6 +13,7 @@
 
 #include "common/bus/cli.hpp"
 #include "common/bus/node.hpp"
+#include "common/cli/cli.hpp"
 #include "common/msg/estimates.hpp"
 #include "common/msg/team_state.hpp"
 #include "common/time/offset_clock.hpp"
@@ -44,14 +44,14 @@ struct Options {
   std::string out_path;
   double duration_s = 10.0;
 
-  void addTo(CLI::App& app) {
+  void addTo(cli::App& app) {
     common.addTo(app);
     app.add_option("--pose", pose_text, "x,y,phi of the robot in the field frame")
         ->capture_default_str();
     app.add_option("--ball", ball_text, "x,y of a ball this robot sees (none when empty)");
     app.add_option("--out", out_path, "JSON lines file")->required();
     app.add_option("--duration", duration_s, "Seconds to run")
-        ->check(CLI::Range(0.5, 3600.0))
+        ->check(cli::Range(0.5, 3600.0))
         ->capture_default_str();
   }
 };
@@ -110,14 +110,14 @@ void publishEstimates(bus::Node& node, const std::vector<double>& pose,
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{
+  cli::App app{
       "Team test probe: publishes a robot's ROBOT_STATE and BALL_STATE and records its "
       "TEAM_STATE as JSON lines."};
   Options o;
   o.addTo(app);
   try {
     app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
+  } catch (const cli::ParseError& e) {
     return app.exit(e) == 0 ? 0 : 2;
   }
   return bus::runMain("team_probe", [&] {

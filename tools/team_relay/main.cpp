@@ -6,12 +6,13 @@
 // partitions during the run. Datagrams from unknown addresses (an attacker on the same network)
 // are forwarded to every robot unimpaired. Stops by itself after --duration.
 // The forwarding rules are in relay.hpp, the socket loop in relay_app.cpp.
-#include <CLI/CLI.hpp>
-
+#include "common/cli/cli.hpp"
 #include "tools/team_relay/relay_app.hpp"
 
+namespace cli = fieldline::cli;
+
 int main(int argc, char** argv) {
-  CLI::App app{
+  cli::App app{
       "Team test network relay: forwards UDP team packets between robots with loss, delay, "
       "asymmetric delay, jitter, duplication, reordering and partitions (see "
       "tests/integration/teamcomm/)."};
@@ -19,7 +20,7 @@ int main(int argc, char** argv) {
   options.addTo(app);
   try {
     app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
+  } catch (const cli::ParseError& e) {
     return app.exit(e) == 0 ? 0 : 2;
   }
   return fieldline::team_relay::runRelay(options);

@@ -5,7 +5,6 @@
 #include <unistd.h>
 
 #include <fmt/format.h>
-#include <CLI/CLI.hpp>
 #include <algorithm>
 #include <cerrno>
 #include <chrono>
@@ -14,6 +13,7 @@
 #include <optional>
 #include <queue>
 
+#include "common/cli/cli.hpp"
 #include "tools/team_relay/relay.hpp"
 
 namespace fieldline::team_relay {
@@ -62,7 +62,7 @@ int senderOf(const Setup& setup, const sockaddr_in& from) {
 
 }  // namespace
 
-void RelayOptions::addTo(CLI::App& app) {
+void RelayOptions::addTo(cli::App& app) {
   app.add_option("--port", port, "UDP port to listen on")->capture_default_str();
   app.add_option("--robot", robots, "Robot address host:port, robot 1 first")->required();
   app.add_option("--up-ms", up_ms, "Uplink base delay, ms (one value or one per robot)")
@@ -78,11 +78,11 @@ void RelayOptions::addTo(CLI::App& app) {
   app.add_option("--max-delay-ms", max_delay_ms, "Cap of the one-way delay, ms")
       ->capture_default_str();
   app.add_option("--loss", loss, "Probability a forwarded copy is dropped")
-      ->check(CLI::Range(0.0, 1.0));
+      ->check(cli::Range(0.0, 1.0));
   app.add_option("--duplicate", duplicate, "Probability a copy is sent twice")
-      ->check(CLI::Range(0.0, 1.0));
+      ->check(cli::Range(0.0, 1.0));
   app.add_option("--reorder", reorder, "Probability a copy is held 5-15 ms longer")
-      ->check(CLI::Range(0.0, 1.0));
+      ->check(cli::Range(0.0, 1.0));
   app.add_option(
       "--schedule", schedule,
       "Changes during the run: 'SECONDS:loss=P,partition=123|456' (partition=none heals)");

@@ -4,7 +4,7 @@
 #include <string>
 #include <vector>
 
-namespace CLI {
+namespace fieldline::cli {
 class App;
 }
 
@@ -19,7 +19,7 @@ struct RelayOptions {
   std::string monitor;
   unsigned seed = 1;
 
-  void addTo(CLI::App& app);
+  void addTo(cli::App& app);
 };
 
 // Runs the relay for the options' duration. Returns the exit code: 2 for bad arguments (printed),

@@ -8,10 +8,9 @@
 #include <filesystem>
 #include <limits>
 
-#include <CLI/CLI.hpp>
-
 #include "common/bus/cli.hpp"
 #include "common/bus/node.hpp"
+#include "common/cli/cli.hpp"
 #include "common/config/config.hpp"
 #include "common/robot/robot_params.hpp"
 #include "services/fusion/time_shift.hpp"
@@ -53,7 +52,7 @@ Samples readLog(const std::string& log) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{
+  cli::App app{
       "Estimates the delay between odometry and vision from a recorded LCM log (ODOMETRY and "
       "VISION_BALL of one robot, the robot turning next to a ball lying still) by correlating "
       "their rotation rates, and prints it next to the configured latencies."};
@@ -61,13 +60,13 @@ int main(int argc, char** argv) {
   std::string camera = "omni_sim";
   std::string robot = "fu2004";
   double max_shift_ms = 300.0;
-  app.add_option("LOG", log, "LCM log file")->required()->check(CLI::ExistingFile);
+  app.add_option("LOG", log, "LCM log file")->required()->check(cli::ExistingFile);
   app.add_option("--camera", camera, "Camera preset whose pipeline latency is configured")
       ->capture_default_str();
   app.add_option("--robot-config", robot, "Robot preset whose controller latency is configured")
       ->capture_default_str();
   app.add_option("--max-shift", max_shift_ms, "Largest shift searched, ms")
-      ->check(CLI::Range(10.0, 2000.0))
+      ->check(cli::Range(10.0, 2000.0))
       ->capture_default_str();
   FIELDLINE_PARSE(app, argc, argv);
 

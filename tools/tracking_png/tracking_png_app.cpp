@@ -12,7 +12,7 @@
 
 namespace fieldline::tracking_png {
 
-void AppOptions::addTo(CLI::App& app) {
+void AppOptions::addTo(cli::App& app) {
   app.add_option("--camera", camera_preset, "camera preset or path (mirror, colour table)")
       ->capture_default_str();
   app.add_option("--colours", colour_table, "colour table preset or path (default: the camera's)");
@@ -23,7 +23,7 @@ void AppOptions::addTo(CLI::App& app) {
                  "YUYV with --yuyv; without it a simulated frame is rendered");
   app.add_option("--yuyv", yuyv_size, "--in is raw YUYV 4:2:2 of this size, e.g. 320x240");
   app.add_option("--repeat", repeat, "track a file this many times (regions settle)")
-      ->check(CLI::Range(1, 1000))
+      ->check(cli::Range(1, 1000))
       ->capture_default_str();
   app.add_option("--field", field_preset, "field preset (rendering)")->capture_default_str();
   app.add_option("--pose", pose, "rendered robot pose x,y,phi (m, m, rad), field frame")
@@ -32,7 +32,7 @@ void AppOptions::addTo(CLI::App& app) {
   app.add_option("--robot", robots, "rendered robot at x,y (m), field frame (repeatable)");
   app.add_option("--frames", frames,
                  "render and track a drive of this many frames ending at --pose")
-      ->check(CLI::Range(1, 10000))
+      ->check(cli::Range(1, 10000))
       ->capture_default_str();
   app.add_option("--speed", speed, "speed of that drive, m/s")->capture_default_str();
   app.add_option("--omega", omega_deg, "rotation of that drive, deg/s")->capture_default_str();
@@ -42,7 +42,7 @@ void AppOptions::addTo(CLI::App& app) {
                  "sequences (fieldline-features --points, fieldline-localize)");
   app.add_option("--json", json, "write line points (image u,v and robot x,y), ball, obstacles");
   app.add_option("--scale", scale, "output pixels per image pixel")
-      ->check(CLI::Range(1, 8))
+      ->check(cli::Range(1, 8))
       ->capture_default_str();
   app.add_flag("--touched", touched, "mark the cells the tracker classified in the last frame");
 }

@@ -5,7 +5,7 @@
 #include <string>
 #include <vector>
 
-#include <CLI/CLI.hpp>
+#include "common/cli/cli.hpp"
 
 namespace fieldline::tracking_png {
 
@@ -23,7 +23,7 @@ struct AppOptions {
   int scale = 3;
   bool touched = false;
 
-  void addTo(CLI::App& app);
+  void addTo(cli::App& app);
 };
 
 // Tracks, writes the PNG (and the CSV and JSON when asked), prints a one-line summary. Throws on

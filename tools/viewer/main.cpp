@@ -5,8 +5,8 @@
 #include <limits>
 
 #include <spdlog/spdlog.h>
-#include <CLI/CLI.hpp>
 
+#include "common/cli/cli.hpp"
 #include "common/config/paths.hpp"
 #include "common/field/field_model.hpp"
 #include "tools/viewer/playback.hpp"
@@ -15,7 +15,7 @@
 using namespace fieldline;
 
 int main(int argc, char** argv) {
-  CLI::App app{"Live field view in the browser: the robots' and the simulator's buses as a page"};
+  cli::App app{"Live field view in the browser: the robots' and the simulator's buses as a page"};
   // The page ships with the binary: <prefix>/share/fieldline/web (build/share/fieldline/web in a
   // build tree, a symlink to tools/viewer/web).
   viewer::ViewerCommandLine cli(app, config::dataDirectory() + "/web");

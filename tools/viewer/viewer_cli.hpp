@@ -4,9 +4,8 @@
 #include <optional>
 #include <string>
 
-#include <CLI/CLI.hpp>
-
 #include "common/bus/cli.hpp"
+#include "common/cli/cli.hpp"
 #include "tools/viewer/viewer_node.hpp"
 #include "tools/viewer/web_server.hpp"
 
@@ -26,7 +25,7 @@ struct ViewerCommandLine {
   bool replay_bus = false;
 
   // `web_dir`: where the page is served from unless --web-dir says otherwise.
-  ViewerCommandLine(CLI::App& app, const std::string& web_dir);
+  ViewerCommandLine(cli::App& app, const std::string& web_dir);
   // After parsing: fills web and viewer from the options; the problem with them, if any.
   std::optional<std::string> finish();
 

@@ -17,10 +17,10 @@
 #include <iostream>
 
 #include <fmt/core.h>
-#include <CLI/CLI.hpp>
 
 #include "common/bus/node.hpp"
 #include "common/bus/urls.hpp"
+#include "common/cli/cli.hpp"
 
 using namespace fieldline;
 
@@ -40,7 +40,7 @@ void check(bool ok, const std::string& what) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{"Observer and checker of the body integration test (see the file comment)."};
+  cli::App app{"Observer and checker of the body integration test (see the file comment)."};
   int pilot_pid = 0;
   int sim_pid = 0;
   double watchdog = 0.2;
@@ -48,7 +48,7 @@ int main(int argc, char** argv) {
   app.add_option("--pilot-pid", pilot_pid, "Process to SIGKILL as the command source")->required();
   app.add_option("--sim-pid", sim_pid, "world_sim process to send SIGUSR1 to")->required();
   app.add_option("--watchdog", watchdog, "Watchdog time [s]")->capture_default_str();
-  CLI11_PARSE(app, argc, argv);
+  FIELDLINE_CLI_PARSE(app, argc, argv);
 
   SystemClock clock;
   bus::Node node(

@@ -8,7 +8,9 @@
 #      else works on the plain structs of common/perception, converted in common/msg;
 #   4. test support stays in tests: nothing in common/, services/, teamcomm/ or tools/ includes a
 #      file under tests/, and no CMakeLists.txt there links or names a test target or directory
-#      (rendered frames for tools live in tools/sim_frames).
+#      (rendered frames for tools live in tools/sim_frames);
+#   5. CLI11 only in common/cli/cli.cpp: every other file uses the compiled front end
+#      common/cli/cli.hpp (CLI11 costs about 10 CPU-s in each file that includes it).
 # Prints every violation as file:line: text and exits 1 if there is one.
 # usage: include_rules.sh [REPO_ROOT]
 set -eu
@@ -44,6 +46,10 @@ for f in $files; do
     common/* | services/* | teamcomm/* | tools/*)
       check "$f" "$include\"tests/" '^$' "test support included outside tests"
       ;;
+  esac
+  case $f in
+    common/cli/cli.cpp) ;;
+    *) check "$f" "$include<CLI/" '^$' "CLI11 outside common/cli (use common/cli/cli.hpp)" ;;
   esac
   case $f in
     common/bus/* | common/msg/* | tools/* | tests/* | bench/*) continue ;;

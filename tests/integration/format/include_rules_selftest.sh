@@ -56,5 +56,12 @@ expect 1 "a tool building test support"
 fresh
 echo 'target_link_libraries(t PRIVATE fieldline_sim_frames)' >"$dir/tree/tools/t/CMakeLists.txt"
 expect 0 "a tool linking the simulated frames library"
+fresh
+echo '#include <CLI/CLI.hpp>' >>"$dir/tree/tools/t/main.cpp"
+expect 1 "CLI11 outside common/cli"
+fresh
+mkdir -p "$dir/tree/common/cli"
+echo '#include <CLI/CLI.hpp>' >"$dir/tree/common/cli/cli.cpp"
+expect 0 "CLI11 in common/cli/cli.cpp"
 
 [ "$failures" -eq 0 ]

@@ -4,17 +4,16 @@
 #include <cstdio>
 #include <string>
 
-#include <CLI/CLI.hpp>
-
 #include "common/bus/cli.hpp"
 #include "common/bus/node.hpp"
+#include "common/cli/cli.hpp"
 
 int main(int argc, char** argv) {
   using namespace fieldline;
   bus::CommonOptions common;
   std::string tag;
   bool ignore_sigterm = false;
-  CLI::App app{"Test node for fieldline-launch: publishes MOTION_COMMAND at 10 Hz"};
+  cli::App app{"Test node for fieldline-launch: publishes MOTION_COMMAND at 10 Hz"};
   common.addTo(app);
   app.add_option("--tag", tag, "Any text, so a test can find its own processes");
   app.add_flag("--ignore-sigterm", ignore_sigterm,

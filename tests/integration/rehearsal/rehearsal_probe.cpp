@@ -15,20 +15,20 @@
 #include <optional>
 #include <vector>
 
-#include <CLI/CLI.hpp>
 #include <fieldline/line_contours_t.hpp>
 #include <fieldline/robot_state_t.hpp>
 #include <fieldline/world_state_t.hpp>
 
 #include "common/bus/cli.hpp"
 #include "common/bus/node.hpp"
+#include "common/cli/cli.hpp"
 #include "common/time/clock.hpp"
 #include "tools/eval/evaluation.hpp"
 
 using namespace fieldline;
 
 int main(int argc, char** argv) {
-  CLI::App app{"Scores a robot's ROBOT_STATE against SIM_WORLD from its first TRACKING on"};
+  cli::App app{"Scores a robot's ROBOT_STATE against SIM_WORLD from its first TRACKING on"};
   bus::CommonOptions common;
   common.addTo(app);
   double window_s = 30.0;

@@ -10,11 +10,11 @@
 #include <vector>
 
 #include <fmt/format.h>
-#include <CLI/CLI.hpp>
 
 #include "common/bus/cli.hpp"
 #include "common/bus/node.hpp"
 #include "common/bus/urls.hpp"
+#include "common/cli/cli.hpp"
 #include "common/time/clock.hpp"
 
 using namespace fieldline;
@@ -60,7 +60,7 @@ std::string quoted(const std::string& text) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{
+  cli::App app{
       "Waits until every expected fieldline process reports ok in SERVICE_STATUS (exit 0) or the "
       "timeout passes (exit 1). Prints one JSON line per process heard."};
   int robots = 6;
@@ -70,15 +70,15 @@ int main(int argc, char** argv) {
   std::vector<std::string> expected;
   bus::BusAddress address;
   app.add_option("--robots", robots, "Listen to robots 1..N")
-      ->check(CLI::Range(0, 99))
+      ->check(cli::Range(0, 99))
       ->capture_default_str();
   app.add_flag("--sim", sim, "Also listen to the simulator's bus");
   app.add_option("--timeout", timeout_s, "Seconds to wait at most")
-      ->check(CLI::Range(0.1, 3600.0))
+      ->check(cli::Range(0.1, 3600.0))
       ->capture_default_str();
   app.add_option("--settle", settle_s,
                  "Seconds to go on listening once all are ok, to learn every process's outputs")
-      ->check(CLI::Range(0.0, 60.0))
+      ->check(cli::Range(0.0, 60.0))
       ->capture_default_str();
   app.add_option("--expect", expected, "Processes that must report ok, as BUS/PROCESS (r1/camera)")
       ->required();
@@ -86,7 +86,7 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   try {
     app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
+  } catch (const cli::ParseError& e) {
     const int code = app.exit(e);  // prints the help or the problem
     return code == 0 ? 0 : 2;
   }

@@ -3,22 +3,21 @@
 // compare them with what the viewer serves.
 #include <cstdio>
 
-#include <CLI/CLI.hpp>
-
 #include "common/bus/cli.hpp"
 #include "common/bus/node.hpp"
+#include "common/cli/cli.hpp"
 
 using namespace fieldline;
 
 int main(int argc, char** argv) {
-  CLI::App app{"Publishes a fixed ROBOT_STATE on robot N's bus at 20 Hz (viewer test helper)."};
+  cli::App app{"Publishes a fixed ROBOT_STATE on robot N's bus at 20 Hz (viewer test helper)."};
   int robot = 3;
   double duration_s = 10.0;
-  app.add_option("--robot", robot, "Robot 1..6")->check(CLI::Range(1, 6));
-  app.add_option("--duration", duration_s, "Seconds to publish")->check(CLI::Range(0.1, 60.0));
+  app.add_option("--robot", robot, "Robot 1..6")->check(cli::Range(1, 6));
+  app.add_option("--duration", duration_s, "Seconds to publish")->check(cli::Range(0.1, 60.0));
   try {
     app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
+  } catch (const cli::ParseError& e) {
     return app.exit(e) == 0 ? 0 : 2;
   }
   return bus::runMain("publish_robot_state", [&] {

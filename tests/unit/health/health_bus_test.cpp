@@ -262,9 +262,9 @@ namespace health_bus_test {
 
 TEST(HealthCli, BadArgumentsExitWithTwoHelpWithZero) {
   auto parse = [](std::vector<std::string> args) {
-    CLI::App app{"test"};
+    cli::App app{"test"};
     double fps = 30;
-    app.add_option("--fps", fps)->check(CLI::Range(1.0, 120.0));
+    app.add_option("--fps", fps)->check(cli::Range(1.0, 120.0));
     std::vector<char*> argv;
     for (auto& a : args)
       argv.push_back(a.data());
