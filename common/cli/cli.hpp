@@ -141,6 +141,8 @@ class App {
   Option* add_option(const std::string& name, std::uint64_t& value,
                      const std::string& description = "");
   Option* add_option(const std::string& name, double& value, const std::string& description = "");
+  // An option that takes a value (--carry-track 0); add_flag for one that does not.
+  Option* add_option(const std::string& name, bool& value, const std::string& description = "");
   Option* add_option(const std::string& name, std::string& value,
                      const std::string& description = "");
   Option* add_option(const std::string& name, std::vector<std::string>& value,
