@@ -148,6 +148,28 @@ constexpr int kTileMask = (1 << kTileShift) - 1;
   return static_cast<std::size_t>(i >> kTileShift) * 16 + static_cast<std::size_t>(i & kTileMask);
 }
 
+#if defined(__SSE2__)
+// The bilinear mix of four cells' Y, U, V (float lanes, from the row-major raster or the tiles):
+// (256-fy)((256-fx)c00 + fx c10) + fy((256-fx)c01 + fx c11), rounded, / 65536.
+[[gnu::always_inline]] inline Yuv mixFloat(__m128 c00, __m128 c10, __m128 c01, __m128 c11, int fx,
+                                           int fy) {
+  const __m128i zero = _mm_setzero_si128();
+  const __m128 wx1 = _mm_set1_ps(static_cast<float>(fx));
+  const __m128 wx0 = _mm_set1_ps(static_cast<float>(256 - fx));
+  const __m128 top = _mm_add_ps(_mm_mul_ps(c00, wx0), _mm_mul_ps(c10, wx1));
+  const __m128 bottom = _mm_add_ps(_mm_mul_ps(c01, wx0), _mm_mul_ps(c11, wx1));
+  const __m128 sum =
+      _mm_add_ps(_mm_add_ps(_mm_mul_ps(top, _mm_set1_ps(static_cast<float>(256 - fy))),
+                            _mm_mul_ps(bottom, _mm_set1_ps(static_cast<float>(fy)))),
+                 _mm_set1_ps(32768.0f));
+  const __m128i shifted = _mm_srli_epi32(_mm_cvttps_epi32(sum), 16);
+  const __m128i bytes = _mm_packus_epi16(_mm_packs_epi32(shifted, zero), zero);
+  const auto packed = static_cast<std::uint32_t>(_mm_cvtsi128_si32(bytes));
+  return Yuv{static_cast<std::uint8_t>(packed), static_cast<std::uint8_t>(packed >> 8),
+             static_cast<std::uint8_t>(packed >> 16)};
+}
+#endif
+
 // Each cell holds its area's mean colour at its centre; a pixel's colour is interpolated
 // bilinearly between the four cell centres around its floor point. Taking the colour of the
 // cell the point falls in (as until bias10i) moved a line's edges to the cells' boundaries,
@@ -172,21 +194,8 @@ constexpr int kTileMask = (1 << kTileShift) - 1;
     std::memcpy(&v, p, 4);
     return _mm_cvtepi32_ps(_mm_unpacklo_epi16(_mm_unpacklo_epi8(_mm_cvtsi32_si128(v), zero), zero));
   };
-  const __m128 wx1 = _mm_set1_ps(static_cast<float>(fx));
-  const __m128 wx0 = _mm_set1_ps(static_cast<float>(256 - fx));
-  const __m128 top = _mm_add_ps(_mm_mul_ps(load(l.cells + row0 + a), wx0),
-                                _mm_mul_ps(load(l.cells + row0 + b), wx1));
-  const __m128 bottom = _mm_add_ps(_mm_mul_ps(load(l.cells + row1 + a), wx0),
-                                   _mm_mul_ps(load(l.cells + row1 + b), wx1));
-  const __m128 sum =
-      _mm_add_ps(_mm_add_ps(_mm_mul_ps(top, _mm_set1_ps(static_cast<float>(256 - fy))),
-                            _mm_mul_ps(bottom, _mm_set1_ps(static_cast<float>(fy)))),
-                 _mm_set1_ps(32768.0f));
-  const __m128i shifted = _mm_srli_epi32(_mm_cvttps_epi32(sum), 16);
-  const __m128i bytes = _mm_packus_epi16(_mm_packs_epi32(shifted, zero), zero);
-  const auto packed = static_cast<std::uint32_t>(_mm_cvtsi128_si32(bytes));
-  return Yuv{static_cast<std::uint8_t>(packed), static_cast<std::uint8_t>(packed >> 8),
-             static_cast<std::uint8_t>(packed >> 16)};
+  return mixFloat(load(l.cells + row0 + a), load(l.cells + row0 + b), load(l.cells + row1 + a),
+                  load(l.cells + row1 + b), fx, fy);
 #else
   const Yuv& p00 = l.cells[row0 + a];
   const Yuv& p10 = l.cells[row0 + b];
@@ -230,21 +239,8 @@ Yuv floorSample(const FloorLevel& l, float gx, float gy, Yuv outside) {
     return _mm_cvtepi32_ps(_mm_unpacklo_epi16(
         _mm_unpacklo_epi8(_mm_cvtsi32_si128(static_cast<int>(cell)), zero), zero));
   };
-  const __m128 wx1 = _mm_set1_ps(static_cast<float>(fx));
-  const __m128 wx0 = _mm_set1_ps(static_cast<float>(256 - fx));
-  const __m128 top = _mm_add_ps(_mm_mul_ps(load(l.tiles[row0 + a]), wx0),
-                                _mm_mul_ps(load(l.tiles[row0 + b]), wx1));
-  const __m128 bottom = _mm_add_ps(_mm_mul_ps(load(l.tiles[row1 + a]), wx0),
-                                   _mm_mul_ps(load(l.tiles[row1 + b]), wx1));
-  const __m128 sum =
-      _mm_add_ps(_mm_add_ps(_mm_mul_ps(top, _mm_set1_ps(static_cast<float>(256 - fy))),
-                            _mm_mul_ps(bottom, _mm_set1_ps(static_cast<float>(fy)))),
-                 _mm_set1_ps(32768.0f));
-  const __m128i shifted = _mm_srli_epi32(_mm_cvttps_epi32(sum), 16);
-  const __m128i bytes = _mm_packus_epi16(_mm_packs_epi32(shifted, zero), zero);
-  const auto packed = static_cast<std::uint32_t>(_mm_cvtsi128_si32(bytes));
-  return Yuv{static_cast<std::uint8_t>(packed), static_cast<std::uint8_t>(packed >> 8),
-             static_cast<std::uint8_t>(packed >> 16)};
+  return mixFloat(load(l.tiles[row0 + a]), load(l.tiles[row0 + b]), load(l.tiles[row1 + a]),
+                  load(l.tiles[row1 + b]), fx, fy);
 }
 #endif
 
