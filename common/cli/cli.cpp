@@ -156,7 +156,10 @@ Option* App::add_flag(const std::string& name, bool& value, const std::string& d
 
 Option* App::set_config(const std::string& name, const std::string& default_file,
                         const std::string& description) {
-  return wrap(impl_->app.set_config(name, default_file, description));
+  CLI::Option* option = impl_->app.set_config(name, default_file, description);
+  // CLI11 returns no option for an empty name (and replaces an earlier config option).
+  if (option == nullptr) throw std::invalid_argument("cli: set_config needs an option name");
+  return wrap(option);
 }
 
 App* App::footer(const std::string& text) {
@@ -173,6 +176,8 @@ void App::parse(int argc, char** argv) {
 }
 
 int App::exit(const ParseError& error) const {
+  // A ParseError made elsewhere than parse() may hold no CLI11 error: report it as a bad argument.
+  if (!error.cause()) return impl_->app.exit(CLI::ParseError(error.what(), 2));
   try {
     std::rethrow_exception(error.cause());
   } catch (const CLI::Error& e) {

@@ -242,6 +242,9 @@ def wait_baseline(rec):
         if rec.errors(t - 500_000, t) and rec.status.get("fusion"):
             return
         time.sleep(0.05)
+    # Without a baseline the first fault's "before" window would be empty and its jump check
+    # would pass without looking at anything.
+    sys.exit(f"FAIL: no {BASELINE_S:.0f} s of estimates with truth and fusion's status within 20 s")
 
 
 def wait_recovered(rec, ev):
