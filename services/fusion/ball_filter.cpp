@@ -286,7 +286,11 @@ perception::BallEstimate BallFilter::estimate(Utime t) const {
   e.vy = x[3];
   const Eigen::Vector2d v = x.tail<2>();
   Eigen::Matrix2d position = p.topLeftCorner<2, 2>();
-  if (resting_ && params_.rest_holds_place && t > utime_) {
+  // Only while the ball was seen lately: a ball kicked out of sight (or whose sightings are
+  // refused as outliers) must not keep a resting ball's covariance until max_age_s.
+  constexpr Utime kRestHoldsPlaceForUs = 200'000;  // six frames at 30 Hz
+  if (resting_ && params_.rest_holds_place && t > utime_ &&
+      t - last_seen_ <= kRestHoldsPlaceForUs) {
     // A ball at rest stays where it was seen: friction takes its velocity out, so the velocity's
     // uncertainty (which the filter keeps to learn a roll) does not move its place over the
     // time since the sighting; only the resting model's unseen acceleration does.

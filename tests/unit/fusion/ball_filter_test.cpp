@@ -538,6 +538,31 @@ TEST(BallFilter, ARestingBallsReportedCovarianceIsNotGrownByItsVelocitysUncertai
   EXPECT_LT(h.nees, 2.5);
 }
 
+TEST(BallFilter, AnUnseenRestingBallsCovarianceGrowsAgainAfterItsLastSightingsAge) {
+  // Kicked out of sight, a ball that was at rest must not keep the resting covariance until
+  // max_age_s: beyond 0.2 s without a sighting the reported covariance is the full prediction's.
+  std::mt19937 rng(6);
+  const geometry::Pose2 robot{0.0, 0.0, 0.0};
+  BallFilterParams holds_params = shippedModel();
+  BallFilterParams grows_params = holds_params;
+  grows_params.rest_holds_place = false;
+  BallFilter holds(holds_params), grows(grows_params);
+  Utime t = kStart;
+  for (int k = 0; k < 60; ++k, t += 33'333) {
+    const auto sighting = exactSighting({1.5, 0.5}, robot, t, 0.02, 0.01, rng);
+    holds.update(sighting, knownPoseAt(robot, t));
+    grows.update(sighting, knownPoseAt(robot, t));
+  }
+  ASSERT_TRUE(holds.resting());
+  const Utime last = t - 33'333;
+  const double soon = holds.estimate(last + 90'000).covariance.trace();
+  EXPECT_LT(soon, grows.estimate(last + 90'000).covariance.trace());
+  const auto late_holds = holds.estimate(last + 300'000);
+  const auto late_grows = grows.estimate(last + 300'000);
+  EXPECT_NEAR(late_holds.covariance.trace(), late_grows.covariance.trace(), 1e-15);
+  EXPECT_NEAR(late_holds.x, late_grows.x, 1e-12);
+}
+
 TEST(BallFilter, ABallThatStartsToRollLeavesTheRestingModelAndIsFollowed) {
   std::mt19937 rng(5);
   const geometry::Pose2 robot{0.0, 0.0, 0.0};
