@@ -57,18 +57,25 @@ print(f"offset error after 10 s: p95 {offset_p95 / 1e3:.3f} ms, max {max(errors)
 if not errors or offset_p95 > 1000:
     failures.append(f"offset error p95 {offset_p95} us > 1 ms")
 
-# 2. At 30 % loss: TEAM_STATE at 10 Hz, teammates' ages below 250 ms (p95).
+# 2. At 30 % loss: TEAM_STATE at 10 Hz, teammates' ages below 250 ms (p95), and teammates present
+# in nearly every picture. Not in every one: the relay drops each forwarded copy on its own, and a
+# teammate heard at 20 Hz is absent once ten copies in a row are lost (or arrive overtaken and are
+# refused); at 30-35 % that is a few chances in a hundred per run over 30 teammate pairs, and more
+# when a loaded machine delays a sender. A present timeout or gate that loses teammates under loss
+# misses them in far more than 5 % of the pictures.
 ages = []
 for r, recs in states.items():
     window = [s for s in recs if at(15) <= s["t"] <= at(21.5)]
     rate = (len(window) - 1) / ((window[-1]["t"] - window[0]["t"]) / 1e6) if len(window) > 1 else 0
     if not 9.5 <= rate <= 10.5:
         failures.append(f"robot {r}: TEAM_STATE at {rate:.2f} Hz under loss")
-    for s in window:
-        if sum(s["present"]) != 6:
-            failures.append(f"robot {r}: a teammate missing under loss at {(s['t'] - start) / 1e6:.1f} s")
-            break
-        ages += [s["age"][j] for j in range(6) if j != r - 1]
+    absent = [(s, j) for s in window for j in range(1, 7) if j != r and not s["present"][j - 1]]
+    for s, j in absent[:3]:
+        print(f"robot {r}: teammate {j} absent under loss at {(s['t'] - start) / 1e6:.1f} s")
+    if len(absent) > 0.05 * 5 * len(window):
+        failures.append(f"robot {r}: teammates absent in {len(absent)} of {5 * len(window)} "
+                        "teammate reports under loss")
+    ages += [s["age"][j - 1] for s in window for j in range(1, 7) if j != r and s["present"][j - 1]]
 print(f"teammate age at 30 % loss: p95 {p95(ages) / 1e3:.1f} ms, max {max(ages) / 1e3:.1f} ms")
 if not ages or p95(ages) > 250_000:
     failures.append(f"age p95 {p95(ages)} us >= 250 ms under loss")
