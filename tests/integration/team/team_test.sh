@@ -127,22 +127,30 @@ for bus, channel in sorted(expected):
     if channel.startswith(("CAMERA", "VISION")) and not 59.5 <= r["latency_p50_ms"] < 200:
         failures.append(f"{bus} {channel}: latency {r['latency_p50_ms']} ms")
 # The demo check (issue 11): TEAM_STATE at 10 Hz on every robot's bus, with all six robots present
-# (every robot's processes on its own clock, sim_team.yaml's `robots:`).
+# (every robot's processes on its own clock, sim_team.yaml's `robots:`). The rate from the dumped
+# pictures' own stamps (their median interval), not from their arrival: teamcomm skips the ticks
+# it missed, so one 0.5 s pause of a loaded machine took the arrival rate of 5 s to 9.0 Hz; a
+# wrong rate or pictures published per packet move the median. All six present in nearly every
+# picture and in one of the last five: a teammate is absent only after 0.5 s without a packet, and
+# a sender paused that long must not fail the test, a team that loses a robot for good does.
 team_expected = any(c == "TEAM_STATE" for _, c in expected)
 for r in range(1, 7) if team_expected else []:
-    r_stats = stats.get((f"r{r}", "TEAM_STATE"))
-    if r_stats is not None and not 9.0 <= r_stats["rate_hz"] <= 11.0:
-        failures.append(f"r{r} TEAM_STATE: {r_stats['rate_hz']} Hz, expected 10")
     dump = out / f"team_r{r}.jsonl"
     msgs = [json.loads(l) for l in dump.read_text().splitlines() if l.strip()] if dump.exists() else []
     msgs = [m.get("message", m) for m in msgs]
-    full = sum(1 for m in msgs if sum(1 for p in m.get("present", []) if p) == 6)
-    print(f"r{r} TEAM_STATE: {len(msgs)} messages in 3 s, "
-          f"{full} with all six present")
+    full = [sum(1 for p in m.get("present", []) if p) == 6 for m in msgs]
+    stamps = sorted(m["header"]["utime"] for m in msgs if "header" in m)
+    gaps = sorted(b - a for a, b in zip(stamps, stamps[1:]))
+    hz = 1e6 / gaps[len(gaps) // 2] if gaps and gaps[len(gaps) // 2] > 0 else 0.0
+    print(f"r{r} TEAM_STATE: {len(msgs)} messages in 3 s at {hz:.2f} Hz (median interval), "
+          f"{sum(full)} with all six present")
     if len(msgs) < 20:
         failures.append(f"r{r} TEAM_STATE: {len(msgs)} messages dumped")
-    elif full < 0.95 * len(msgs) or sum(1 for p in msgs[-1]["present"] if p) != 6:
-        failures.append(f"r{r} TEAM_STATE: all six present in only {full} of {len(msgs)}")
+        continue
+    if not 9.0 <= hz <= 11.0:
+        failures.append(f"r{r} TEAM_STATE: {hz:.2f} Hz by its stamps, expected 10")
+    if sum(full) < 0.95 * len(msgs) - 1 or not any(full[-5:]):
+        failures.append(f"r{r} TEAM_STATE: all six present in only {sum(full)} of {len(msgs)}")
 if team_expected and os.environ.get("TEAM_PNG_OUT"):
     import shutil
     png = out / "team_picture.png"
