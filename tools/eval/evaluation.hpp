@@ -94,6 +94,10 @@ struct Summary {
   std::map<int, double> tracking_after_vision_s;
   std::map<int, double> robot_state_hz;
   std::map<int, double> ball_state_hz;
+  // Per robot: the median interval between its BALL_STATE stamps, ms. Fusion publishes on a
+  // timer that skips the ticks it missed, so a loaded machine lowers the rate; the median
+  // stays the timer's period until half the ticks are lost.
+  std::map<int, double> ball_state_interval_p50_ms;
   std::vector<double> recoveries_s;
   std::vector<Matched> matched;
   std::vector<BallMatched> balls;

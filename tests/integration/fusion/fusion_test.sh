@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
 # Fusion in the simulated team: every robot publishes ROBOT_STATE at 50 Hz and BALL_STATE at
-# 30 Hz, reaches TRACKING within 2 s of its first line frame, and stays on the right half; the
-# pilots steer with ROBOT_STATE (not the simulator's truth) and the robots really drive their
-# scripts on it, staying localized; the launcher stops cleanly. Rates are checked at a margin (a
-# loaded machine lags), not timed.
+# 30 Hz (judged by its stamps' median interval), reaches TRACKING within 2 s of its first line
+# frame, and stays on the right half; the pilots steer with ROBOT_STATE (not the simulator's
+# truth) and the robots really drive their scripts on it, staying localized; the launcher stops
+# cleanly. Rates are checked at a margin (a loaded machine lags), not timed.
 set -u
 bin=$1
 root=$2
@@ -32,9 +32,16 @@ for robot in map(str, range(1, 7)):
     hz = summary["robot_state_hz"].get(robot, 0)
     if hz < 40:
         failures.append(f"r{robot} ROBOT_STATE {hz} Hz, expected 50")
+    # BALL_STATE comes from a 30 Hz timer that skips the ticks it missed: its rate over the run
+    # falls with the machine's load (22.7 Hz over 14 s with a busy loop beside; 22-27 Hz in the
+    # demo team with one), its stamps' median interval stays the timer's 33.3 ms until half the
+    # ticks are lost. That median shows a wrong or missing timer; half the rate, a fusion that
+    # stops publishing for a while.
     bhz = summary["ball_state_hz"].get(robot, 0)
-    if bhz < 24:
-        failures.append(f"r{robot} BALL_STATE {bhz} Hz, expected 30")
+    interval = summary.get("ball_state_interval_p50_ms", {}).get(robot, 0)
+    if bhz < 15 or not 30.0 <= interval <= 36.7:
+        failures.append(f"r{robot} BALL_STATE {bhz} Hz, median interval {interval} ms, "
+                        "expected 30 Hz (33.3 ms)")
     # From the robot's first line frame: a loaded machine may start its cameras late.
     after = summary["tracking_after_vision_s"].get(robot, -1)
     if not 0 <= after <= 2.0:
