@@ -86,9 +86,14 @@ for r, other in ((1, 2), (2, 1)):
     recs = [json.loads(l) for l in (out / f"probe{r}.jsonl").read_text().splitlines() if l]
     recs = [s for s in recs if "present" in s]
     seen = lambda s: s["present"][other - 1] == 1
+    # Present in nine of ten pictures before the partition, not in every one: a teammate is
+    # absent only after 0.5 s without a packet, and a process of a loaded machine paused that
+    # long must not fail the drill; a link that does not carry the teammate misses it in all.
     before = [s for s in recs if at(4) <= s["t"] < at(6)]
-    if not before or not all(seen(s) for s in before):
-        failures.append(f"robot {r}: robot {other} not present before the partition")
+    if not before or sum(1 for s in before if seen(s)) < 0.9 * len(before):
+        failures.append(f"robot {r}: robot {other} present in only "
+                        f"{sum(1 for s in before if seen(s))} of {len(before)} pictures before "
+                        "the partition")
     lost = next((s["t"] for s in recs if at(6) <= s["t"] < at(9) and not seen(s)), None)
     back = next((s["t"] for s in recs if s["t"] >= at(9) and seen(s)), None)
     result = {"drill": "team link partitioned 3 s", "robot": r,
