@@ -205,5 +205,23 @@ TEST(EvalFaults, TwinAmbiguousTrackingIsCountedAndAlsoReportedApart) {
   EXPECT_EQ(r.twin_ambiguous_samples, 50u);
 }
 
+// BALL_STATE's rate falls when a loaded machine makes fusion's 30 Hz timer skip ticks; the
+// median interval between its stamps stays the timer's period (the fusion team test's check).
+TEST(EvalRates, BallStateIntervalStaysThePeriodWhenTicksAreSkipped) {
+  std::vector<BallSample> balls;
+  Utime t = 1'000'000;
+  for (int i = 0; i < 90; ++i) {
+    balls.push_back({.robot = 1, .utime = t});
+    t += (i % 3 == 2) ? 66'666 : 33'333;  // every third tick lost: 22.5 Hz
+    balls.push_back({.robot = 2, .utime = 1'000'000 + i * 100'000});  // a 10 Hz timer
+  }
+  const Summary s = evaluate({}, {StateSample{.robot = 1, .utime = 1'000'000}}, balls);
+  EXPECT_NEAR(s.ball_state_hz.at(1), 22.5, 0.3);  // below the 24 Hz the test once asked for
+  EXPECT_NEAR(s.ball_state_interval_p50_ms.at(1), 33.333, 1e-3);
+  EXPECT_NEAR(s.ball_state_interval_p50_ms.at(2), 100.0, 1e-3);
+  EXPECT_NE(summaryJson(s, "test").find("\"ball_state_interval_p50_ms\": {\"1\": 33.333"),
+            std::string::npos);
+}
+
 }  // namespace
 }  // namespace fieldline::eval
