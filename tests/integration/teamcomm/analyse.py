@@ -133,11 +133,17 @@ def rejected(status):
     return sum(v for k, v in status["errors"].items() if k.startswith("rejected_"))
 
 total_refused = 0
+# The counts before the attack: the statuses before its first forged packet, which cannot come
+# before the attacker's launch + its 4 s of sniffing (at(26.5) alone assumed the relay, whose
+# start is at(0), started no later than 0.5 s after the script's own clock).
+launch_file = out / "attack_launch_us"
+attack_from = (min(at(26.5), int(launch_file.read_text()) + 4_000_000) if launch_file.exists()
+               else at(26.5))
 # Refusals as `late` of genuine teammates' packets: a loaded machine's relay can still reorder a
 # few after the reordering phase. They are not the attacker's, so they may add to the count.
 total_late = 0
 for r in range(1, 7):
-    before = [s for s in statuses[r] if s["status_t"] < at(26.5)]
+    before = [s for s in statuses[r] if s["status_t"] < attack_from]
     after = statuses[r][-1]
     if not before:
         failures.append(f"robot {r}: no SERVICE_STATUS before the attack")

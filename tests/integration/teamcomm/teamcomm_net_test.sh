@@ -57,6 +57,8 @@ ip netns exec $relay "$bin/fieldline-team-relay" \
   --schedule "25:partition=none" > "$out/relay.log" 2>&1 &
 relay_pid=$!
 sleep 23
+# The attacker sniffs 4 s before it sends: nothing forged arrives before this + 4 s.
+date +%s%6N > "$out/attack_launch_us"
 ip netns exec $attacker "$bin/fieldline-team-attack" --sniff 4 --for 4 --rate 100 \
   $(for r in $robots; do echo --target 10.20.0.$r:47600; done) > "$out/attack.json" 2> "$out/attack.log"
 wait $probe_pids $relay_pid
