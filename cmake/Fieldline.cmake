@@ -63,12 +63,14 @@ endfunction()
 option(FIELDLINE_TEST_UNITY "Test executables as unity builds (cmake/Fieldline.cmake)" ON)
 set(FIELDLINE_TEST_UNITY_BATCH 8 CACHE STRING "Test files per unity unit (cmake/Fieldline.cmake)")
 # The test files' own code is compiled at FIELDLINE_TEST_OPT_LEVEL (the libraries they link keep
-# the build type's -O2): it is mostly set-up and checks; -O1 compiles it in about a fifth less time,
-# and the slowest fusion cases ran in the same CPU time (docs/log/2026-12-06-build.md). Empty: the
-# build type's level; g++ 12 then reports a false -Wmaybe-uninitialized (std::optional, in
-# tests/unit/fusion/odometry_layer_test.cpp) in fusion_test's unity unit, so that needs
+# the build type's -O2): it is mostly set-up and checks. -Og compiles it in about a fifth less time
+# than -O1 (fusion_test's and motor_bridge_test's units, docs/log/2026-12-07-build.md, "Session 8
+# (build)"), -O1 in about a fifth less than -O2 (docs/log/2026-12-06-build.md); -O0 is no faster
+# than -O1 (every inline function is emitted). The slow cases' work is in the -O2 libraries.
+# With the build type's level (empty) g++ 12 reports a false -Wmaybe-uninitialized (std::optional,
+# in tests/unit/fusion/odometry_layer_test.cpp) in fusion_test's unity unit, so that needs
 # FIELDLINE_WERROR=OFF or FIELDLINE_TEST_UNITY=OFF.
-set(FIELDLINE_TEST_OPT_LEVEL -O1 CACHE STRING "Optimisation of the test files' own code")
+set(FIELDLINE_TEST_OPT_LEVEL -Og CACHE STRING "Optimisation of the test files' own code")
 
 function(fieldline_test_optimisation target)
   if(FIELDLINE_TEST_OPT_LEVEL)
@@ -192,6 +194,35 @@ function(fieldline_unclassified_executables dir out)
     endif()
   endforeach()
   set(${out} ${found} PARENT_SCOPE)
+endfunction()
+
+# Code that is not on the robot's hot path is compiled at FIELDLINE_TOOL_OPT_LEVEL: the tools
+# (tools/: calibration, evaluation, the viewer, the pictures, the launcher) and the command-line
+# front end (common/cli, run once at a program's start); the libraries of common/, services/ and
+# teamcomm/ that the robot runs keep the build type's -O2. -O1 compiles mirror calibration's first
+# unit in a third less CPU time (docs/log/2026-12-07-build.md, "Session 8 (build)"); on x86-64
+# without -ffast-math both levels give the same floating-point results. Empty: the build type's
+# level.
+set(FIELDLINE_TOOL_OPT_LEVEL -O1 CACHE STRING "Optimisation of the tools' own code (tools/)")
+
+function(fieldline_cold_code target)
+  if(FIELDLINE_TOOL_OPT_LEVEL)
+    target_compile_options(${target} PRIVATE
+                           $<$<CONFIG:RelWithDebInfo,Release>:${FIELDLINE_TOOL_OPT_LEVEL}>)
+  endif()
+endfunction()
+
+# fieldline_tool_optimisation(DIR): fieldline_cold_code for every library and executable under DIR
+# (recursively), except targets with the property FIELDLINE_KEEP_OPT_LEVEL.
+function(fieldline_tool_optimisation dir)
+  fieldline_targets_under(${dir} targets)
+  foreach(t ${targets})
+    get_target_property(type ${t} TYPE)
+    get_target_property(keep ${t} FIELDLINE_KEEP_OPT_LEVEL)
+    if(type MATCHES "^(STATIC_LIBRARY|OBJECT_LIBRARY|SHARED_LIBRARY|EXECUTABLE)$" AND NOT keep)
+      fieldline_cold_code(${t})
+    endif()
+  endforeach()
 endfunction()
 
 # fieldline_unity_build(DIR BATCH_SIZE n): every library and executable under DIR (recursively)

@@ -177,11 +177,12 @@ int dumpBus(const std::string& url, const Settings& settings) {
     dumper.print(channel, "receive_utime", now, std::nullopt, data, size);
   });
   bus::installStopSignals();
-  const std::optional<Utime> end =
-      settings.duration_s
-          ? std::optional<Utime>(clock.now() + static_cast<Utime>(*settings.duration_s * 1e6))
-          : std::nullopt;
-  while (!dumper.done() && !bus::stopSignalReceived() && (!end || clock.now() < end))
+  // A plain bound and a flag, not an optional: g++ 12 at -O1 reports a false
+  // -Wmaybe-uninitialized on an optional compared in the loop.
+  const bool bounded = settings.duration_s.has_value();
+  const Utime end =
+      bounded ? clock.now() + static_cast<Utime>(*settings.duration_s * 1e6) : Utime{0};
+  while (!dumper.done() && !bus::stopSignalReceived() && (!bounded || clock.now() < end))
     node.spinOnce(50);
   dumper.summary();
   return 0;
