@@ -203,22 +203,23 @@ void matchStates(const std::vector<TruthSample>& truth, const std::vector<StateS
 }
 
 // Per robot: the median interval between consecutive BALL_STATE stamps, ms.
-std::map<int, double> medianIntervalsMs(const std::vector<BallSample>& balls) {
+// Per robot: the median and the longest interval between its BALL_STATE stamps, ms.
+void ballStateIntervals(const std::vector<BallSample>& balls, Summary& s) {
   std::map<int, std::vector<Utime>> stamps;
   for (const BallSample& b : balls)
     stamps[b.robot].push_back(b.utime);
-  std::map<int, double> result;
   for (auto& [r, t] : stamps) {
     if (t.size() < 2) continue;
     std::sort(t.begin(), t.end());
     std::vector<Utime> gaps;
     for (std::size_t i = 1; i < t.size(); ++i)
       gaps.push_back(t[i] - t[i - 1]);
+    s.ball_state_interval_max_ms[r] =
+        static_cast<double>(*std::max_element(gaps.begin(), gaps.end())) * 1e-3;
     std::nth_element(gaps.begin(), gaps.begin() + static_cast<std::ptrdiff_t>(gaps.size() / 2),
                      gaps.end());
-    result[r] = static_cast<double>(gaps[gaps.size() / 2]) * 1e-3;
+    s.ball_state_interval_p50_ms[r] = static_cast<double>(gaps[gaps.size() / 2]) * 1e-3;
   }
-  return result;
 }
 
 // Start-up and rates per robot: tracking_after_s, tracking_after_vision_s, ROBOT_STATE and
@@ -262,7 +263,7 @@ void robotRates(const std::vector<StateSample>& states, const std::vector<BallSa
     const double seconds = static_cast<double>(sp.second - sp.first) * 1e-6;
     s.ball_state_hz[r] = seconds > 0 ? static_cast<double>(ball_count[r] - 1) / seconds : 0.0;
   }
-  s.ball_state_interval_p50_ms = medianIntervalsMs(balls);
+  ballStateIntervals(balls, s);
 }
 
 // Every valid BALL_STATE after the settle time whose robot is within ball_range_m of the ball.
@@ -351,7 +352,8 @@ std::string summaryJson(const Summary& s, const std::string& source) {
   perRobot("tracking_after_vision_s", s.tracking_after_vision_s, false);
   perRobot("robot_state_hz", s.robot_state_hz, false);
   perRobot("ball_state_hz", s.ball_state_hz, false);
-  perRobot("ball_state_interval_p50_ms", s.ball_state_interval_p50_ms, true);
+  perRobot("ball_state_interval_p50_ms", s.ball_state_interval_p50_ms, false);
+  perRobot("ball_state_interval_max_ms", s.ball_state_interval_max_ms, true);
   o << "}\n";
   return o.str();
 }

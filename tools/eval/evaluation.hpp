@@ -98,6 +98,8 @@ struct Summary {
   // timer that skips the ticks it missed, so a loaded machine lowers the rate; the median
   // stays the timer's period until half the ticks are lost.
   std::map<int, double> ball_state_interval_p50_ms;
+  // Per robot: the longest of those intervals, ms (a fusion that stopped publishing for a while).
+  std::map<int, double> ball_state_interval_max_ms;
   std::vector<double> recoveries_s;
   std::vector<Matched> matched;
   std::vector<BallMatched> balls;

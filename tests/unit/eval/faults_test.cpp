@@ -219,6 +219,8 @@ TEST(EvalRates, BallStateIntervalStaysThePeriodWhenTicksAreSkipped) {
   EXPECT_NEAR(s.ball_state_hz.at(1), 22.5, 0.3);  // below the 24 Hz the test once asked for
   EXPECT_NEAR(s.ball_state_interval_p50_ms.at(1), 33.333, 1e-3);
   EXPECT_NEAR(s.ball_state_interval_p50_ms.at(2), 100.0, 1e-3);
+  EXPECT_NEAR(s.ball_state_interval_max_ms.at(1), 66.666, 1e-3);
+  EXPECT_NEAR(s.ball_state_interval_max_ms.at(2), 100.0, 1e-3);
   EXPECT_NE(summaryJson(s, "test").find("\"ball_state_interval_p50_ms\": {\"1\": 33.333"),
             std::string::npos);
 }
