@@ -63,9 +63,10 @@ endfunction()
 option(FIELDLINE_TEST_UNITY "Test executables as unity builds (cmake/Fieldline.cmake)" ON)
 set(FIELDLINE_TEST_UNITY_BATCH 8 CACHE STRING "Test files per unity unit (cmake/Fieldline.cmake)")
 # The test files' own code is compiled at FIELDLINE_TEST_OPT_LEVEL (the libraries they link keep
-# the build type's -O2): it is mostly set-up and checks. -Og compiles it in about a fifth less time
-# than -O1 (fusion_test's and motor_bridge_test's units, docs/log/2026-12-07-build.md, "Session 8
-# (build)"), -O1 in about a fifth less than -O2 (docs/log/2026-12-06-build.md); -O0 is no faster
+# the build type's -O2): it is mostly set-up and checks. -Og compiled two units alone about a fifth
+# faster than -O1, but a whole build's test units took the same (396 against 398 job-s, back to
+# back; docs/log/2026-12-07-build.md, "Session 8 (lead)"); -O1 takes about a fifth less than -O2
+# (docs/log/2026-12-06-build.md); -O0 is no faster
 # than -O1 (every inline function is emitted). The slow cases' work is in the -O2 libraries.
 # With the build type's level (empty) g++ 12 reports a false -Wmaybe-uninitialized (std::optional,
 # in tests/unit/fusion/odometry_layer_test.cpp) in fusion_test's unity unit, so that needs
@@ -200,7 +201,8 @@ endfunction()
 # (tools/: calibration, evaluation, the viewer, the pictures, the launcher) and the command-line
 # front end (common/cli, run once at a program's start); the libraries of common/, services/ and
 # teamcomm/ that the robot runs keep the build type's -O2. -O1 compiles mirror calibration's first
-# unit in a third less CPU time (docs/log/2026-12-07-build.md, "Session 8 (build)"); on x86-64
+# unit alone in a third less CPU time, the tools of a whole build in 6 % less (357 -> 334 job-s,
+# docs/log/2026-12-07-build.md, "Session 8 (build)" and "(lead)"); on x86-64
 # without -ffast-math both levels give the same floating-point results. Empty: the build type's
 # level.
 set(FIELDLINE_TOOL_OPT_LEVEL -O1 CACHE STRING "Optimisation of the tools' own code (tools/)")
