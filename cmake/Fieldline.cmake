@@ -73,11 +73,16 @@ set(FIELDLINE_TEST_UNITY_BATCH 8 CACHE STRING "Test files per unity unit (cmake/
 # FIELDLINE_WERROR=OFF or FIELDLINE_TEST_UNITY=OFF.
 set(FIELDLINE_TEST_OPT_LEVEL -Og CACHE STRING "Optimisation of the test files' own code")
 
-function(fieldline_test_optimisation target)
-  if(FIELDLINE_TEST_OPT_LEVEL)
-    target_compile_options(${target} PRIVATE
-                           $<$<CONFIG:RelWithDebInfo,Release>:${FIELDLINE_TEST_OPT_LEVEL}>)
+# fieldline_optimisation_level(TARGET LEVEL): TARGET's own code at LEVEL (e.g. -O1) in the optimised
+# build types; an empty LEVEL leaves the build type's.
+function(fieldline_optimisation_level target level)
+  if(level)
+    target_compile_options(${target} PRIVATE $<$<CONFIG:RelWithDebInfo,Release>:${level}>)
   endif()
+endfunction()
+
+function(fieldline_test_optimisation target)
+  fieldline_optimisation_level(${target} "${FIELDLINE_TEST_OPT_LEVEL}")
 endfunction()
 
 # fieldline_test(NAME SOURCES a.cpp b.cpp LIBS lib1 lib2 [LABELS unit] [ONE_PROCESS] [TEST_PREFIX p.])
@@ -208,10 +213,7 @@ endfunction()
 set(FIELDLINE_TOOL_OPT_LEVEL -O1 CACHE STRING "Optimisation of the tools' own code (tools/)")
 
 function(fieldline_cold_code target)
-  if(FIELDLINE_TOOL_OPT_LEVEL)
-    target_compile_options(${target} PRIVATE
-                           $<$<CONFIG:RelWithDebInfo,Release>:${FIELDLINE_TOOL_OPT_LEVEL}>)
-  endif()
+  fieldline_optimisation_level(${target} "${FIELDLINE_TOOL_OPT_LEVEL}")
 endfunction()
 
 # fieldline_tool_optimisation(DIR): fieldline_cold_code for every library and executable under DIR
