@@ -393,7 +393,8 @@ struct FloorQuad {
 
 // The rotation, the bounds test and the cell coordinates of four floor points: the same float
 // operations in the same order as floorSample's scalar code (SSE2 rounds each one as the scalar
-// code does), so the same pixels. Asks the cache for the two raster rows each point will read.
+// code does), so the same pixels. Asks the cache for the tile of each point's first cell (its
+// four cells share it nine times in sixteen).
 [[gnu::always_inline]] inline void prepareQuad(const FloorLevel& l, const float* xs,
                                                const float* ys, __m128 vc, __m128 vs, __m128 vox,
                                                __m128 voy, FloorQuad& q) {
