@@ -1,7 +1,10 @@
 // fieldline-bench-camera: milliseconds per rendered omni frame (simulated camera) at 320x240 and
 // 640x480, with an empty field and with a ball and five other robots; and the cost of colour
 // classification per pixel. Results and the command line are recorded in docs/camera.md.
+#include <unistd.h>
+
 #include <cmath>
+#include <filesystem>
 #include <memory>
 #include <string>
 #include <vector>
@@ -19,11 +22,13 @@ namespace geometry = fieldline::geometry;
 
 namespace {
 
-std::unique_ptr<camera::SimRenderer> makeRenderer(const std::string& preset, int blur_samples) {
+std::unique_ptr<camera::SimRenderer> makeRenderer(const std::string& preset, int blur_samples,
+                                                  const std::string& raster_cache = {}) {
   camera::CameraConfig config = camera::loadCameraConfigPreset(preset);
   config.render->motion_blur_samples = blur_samples;
   const fieldline::field::FieldModel field = fieldline::field::loadFieldPreset("msl");
-  return std::make_unique<camera::SimRenderer>(config.model.mirror, field, *config.render);
+  return std::make_unique<camera::SimRenderer>(config.model.mirror, field, *config.render,
+                                               raster_cache);
 }
 
 // A robot driving a circle through the penalty area; frames differ in pose and noise.
@@ -59,10 +64,10 @@ void renderBenchmark(benchmark::State& state, const std::string& preset, bool ob
 // Six cameras rendering in turn, each with its own renderer (its own raster, as six camera
 // processes have) at another place on the field: the live team's caches, where one camera's
 // raster cells are gone by its next frame. Time per frame.
-void BM_Render320SixCameras(benchmark::State& state) {
+void sixCameras(benchmark::State& state, const std::string& raster_cache) {
   std::vector<std::unique_ptr<camera::SimRenderer>> renderers;
   for (int k = 0; k < 6; ++k)
-    renderers.push_back(makeRenderer("omni_sim", 1));
+    renderers.push_back(makeRenderer("omni_sim", 1, raster_cache));
   std::vector<std::uint8_t> frame;
   std::int64_t n = 0;
   for (auto _ : state) {
@@ -75,6 +80,18 @@ void BM_Render320SixCameras(benchmark::State& state) {
     benchmark::ClobberMemory();
     ++n;
   }
+}
+
+void BM_Render320SixCameras(benchmark::State& state) {
+  sixCameras(state, "");
+}
+// The same six sharing one raster: the cache file mapped by each (as the team's cameras do).
+void BM_Render320SixCamerasShared(benchmark::State& state) {
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() /
+                                    ("fieldline_bench_raster_" + std::to_string(::getpid()));
+  sixCameras(state, dir.string());
+  std::error_code ignored;
+  std::filesystem::remove_all(dir, ignored);
 }
 
 void BM_Render320Empty(benchmark::State& s) {
@@ -122,6 +139,7 @@ void BM_ClassifyFrame320(benchmark::State& state) {
 BENCHMARK(BM_Render320Empty)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_Render320Objects)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_Render320SixCameras)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_Render320SixCamerasShared)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_Render320ObjectsBlur3)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_Render640Empty)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_Render640Objects)->Unit(benchmark::kMillisecond);

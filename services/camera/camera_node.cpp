@@ -113,20 +113,26 @@ void SimCameraNode::makeRenderer(const std::string& field_name) {
   renderer_ = std::make_unique<SimRenderer>(
       config_.model.mirror, field::loadFieldPreset(field_name),
       renderParamsOf(config_, "the simulated camera (--source sim)"), raster_cache_dir_);
+  // Where the floor pass's raster lives: one mapped copy for every camera on the machine, or this
+  // process's own.
+  const std::string where =
+      renderer_->rasterMapped()
+          ? "mapped read-only from " + renderer_->rasterPath() + " (shared by the cameras)"
+          : std::string("in this process's memory");
   switch (renderer_->rasterSource()) {
     case RasterSource::kLoadedFromCache:
-      spdlog::info("floor raster of '{}' read from the cache in {}", field_name, raster_cache_dir_);
+      spdlog::info("floor raster of '{}' from the cache: {}", field_name, where);
       break;
     case RasterSource::kRebuiltBadCache:
-      spdlog::warn("floor raster of '{}' rebuilt: the cache file was not usable ({})", field_name,
-                   renderer_->rasterProblem());
+      spdlog::warn("floor raster of '{}' rebuilt, {}: the cache file was not usable ({})",
+                   field_name, where, renderer_->rasterProblem());
       break;
     case RasterSource::kBuilt:
       if (!renderer_->rasterProblem().empty()) {
-        spdlog::warn("floor raster of '{}' built, not cached: {}", field_name,
+        spdlog::warn("floor raster of '{}' built, {}: {}", field_name, where,
                      renderer_->rasterProblem());
-      } else if (!raster_cache_dir_.empty()) {
-        spdlog::info("floor raster of '{}' built and cached in {}", field_name, raster_cache_dir_);
+      } else {
+        spdlog::info("floor raster of '{}' built, {}", field_name, where);
       }
       break;
   }

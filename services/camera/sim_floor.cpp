@@ -4,7 +4,6 @@
 // the raster. sim_renderer.hpp says what is rendered.
 #include <algorithm>
 #include <cmath>
-#include <cstring>
 #include <vector>
 
 #if defined(__SSE2__)
@@ -126,30 +125,25 @@ FloorRasterLevel halved(const FloorRasterLevel& fine) {
   return coarse;
 }
 
-// One raster level's figures in the types the floor pass uses.
+// One raster level's figures in the types the floor pass uses; its cells in 4x4 tiles of 4 bytes
+// (floor_raster_cache.hpp, TiledLevel), tile_cols tiles a row, one cache line a tile.
 struct FloorLevel {
-  const Yuv* cells;
   float inv;
   float fcols, frows;
   int cols, rows;
-  // The same cells in 4x4 tiles of 4 bytes (SimRenderer::buildTiledRaster), tile_cols tiles a row.
   const std::uint32_t* tiles;
   int tile_cols;
 };
 
-// Where cell (i, j) lies in a level's tiles: 16 cells of 4 bytes, one cache line, per tile.
-constexpr int kTileShift = 2;
-constexpr int kTileMask = (1 << kTileShift) - 1;
 [[gnu::always_inline]] inline std::size_t tileRow(const FloorLevel& l, int j) {
-  return static_cast<std::size_t>(j >> kTileShift) * static_cast<std::size_t>(l.tile_cols) * 16 +
-         static_cast<std::size_t>((j & kTileMask) << kTileShift);
+  return tileRowOffset(l.tile_cols, j);
 }
 [[gnu::always_inline]] inline std::size_t tileColumn(int i) {
-  return static_cast<std::size_t>(i >> kTileShift) * 16 + static_cast<std::size_t>(i & kTileMask);
+  return tileColumnOffset(i);
 }
 
 #if defined(__SSE2__)
-// The bilinear mix of four cells' Y, U, V (float lanes, from the row-major raster or the tiles):
+// The bilinear mix of four cells' Y, U, V (float lanes):
 // (256-fy)((256-fx)c00 + fx c10) + fy((256-fx)c01 + fx c11), rounded, / 65536.
 [[gnu::always_inline]] inline Yuv mixFloat(__m128 c00, __m128 c10, __m128 c01, __m128 c11, int fx,
                                            int fy) {
@@ -178,37 +172,38 @@ constexpr int kTileMask = (1 << kTileShift) - 1;
 // visible lines lie on one side of the robot (docs/fusion.md, tenth round).
 //
 // (i0, j0): the cell centre below and left of the point (-1 before the first), (fx, fy) its
-// offset from there in 1/256 cell; at the raster's edge the edge cells are repeated.
+// offset from there in 1/256 cell; at the raster's edge the edge cells are repeated. Four
+// neighbouring cells share one tile (one cache line) nine times in sixteen, where a row-major
+// raster always needs two lines, and pixels a few cells apart share tiles.
 [[gnu::always_inline]] inline Yuv bilinear(const FloorLevel& l, int i0, int j0, int fx, int fy) {
-  const std::size_t a = static_cast<std::size_t>(std::max(i0, 0));
-  const std::size_t b = static_cast<std::size_t>(std::min(i0 + 1, l.cols - 1));
-  const std::size_t row0 = static_cast<std::size_t>(std::max(j0, 0)) * l.cols;
-  const std::size_t row1 = static_cast<std::size_t>(std::min(j0 + 1, l.rows - 1)) * l.cols;
+  const std::size_t a = tileColumn(std::max(i0, 0));
+  const std::size_t b = tileColumn(std::min(i0 + 1, l.cols - 1));
+  const std::size_t row0 = tileRow(l, std::max(j0, 0));
+  const std::size_t row1 = tileRow(l, std::min(j0 + 1, l.rows - 1));
 #if defined(__SSE2__)
   // Y, U, V in float lanes. Exact: every product and partial sum is an integer below 2^24, and
   // (256-fy)((256-fx)p00 + fx p10) + fy((256-fx)p01 + fx p11) is the integer sum of the scalar
-  // code below. Cells are read 4 bytes at a time (the raster has a spare cell at its end).
+  // code below.
   const __m128i zero = _mm_setzero_si128();
-  const auto load = [&zero](const Yuv* p) {
-    std::int32_t v = 0;
-    std::memcpy(&v, p, 4);
-    return _mm_cvtepi32_ps(_mm_unpacklo_epi16(_mm_unpacklo_epi8(_mm_cvtsi32_si128(v), zero), zero));
+  const auto load = [&zero](std::uint32_t cell) {
+    return _mm_cvtepi32_ps(_mm_unpacklo_epi16(
+        _mm_unpacklo_epi8(_mm_cvtsi32_si128(static_cast<int>(cell)), zero), zero));
   };
-  return mixFloat(load(l.cells + row0 + a), load(l.cells + row0 + b), load(l.cells + row1 + a),
-                  load(l.cells + row1 + b), fx, fy);
+  return mixFloat(load(l.tiles[row0 + a]), load(l.tiles[row0 + b]), load(l.tiles[row1 + a]),
+                  load(l.tiles[row1 + b]), fx, fy);
 #else
-  const Yuv& p00 = l.cells[row0 + a];
-  const Yuv& p10 = l.cells[row0 + b];
-  const Yuv& p01 = l.cells[row1 + a];
-  const Yuv& p11 = l.cells[row1 + b];
+  const std::uint32_t p00 = l.tiles[row0 + a];
+  const std::uint32_t p10 = l.tiles[row0 + b];
+  const std::uint32_t p01 = l.tiles[row1 + a];
+  const std::uint32_t p11 = l.tiles[row1 + b];
   const int w00 = (256 - fx) * (256 - fy), w10 = fx * (256 - fy);
   const int w01 = (256 - fx) * fy, w11 = fx * fy;
-  auto mix = [&](std::uint8_t Yuv::*channel) {
-    return static_cast<std::uint8_t>((w00 * (p00.*channel) + w10 * (p10.*channel) +
-                                      w01 * (p01.*channel) + w11 * (p11.*channel) + 32768) >>
-                                     16);
+  auto mix = [&](int shift) {
+    const auto c = [shift](std::uint32_t cell) { return static_cast<int>(cell >> shift & 0xFF); };
+    return static_cast<std::uint8_t>(
+        (w00 * c(p00) + w10 * c(p10) + w01 * c(p01) + w11 * c(p11) + 32768) >> 16);
   };
-  return Yuv{mix(&Yuv::y), mix(&Yuv::u), mix(&Yuv::v)};
+  return Yuv{mix(0), mix(8), mix(16)};
 #endif
 }
 
@@ -224,32 +219,12 @@ Yuv floorSample(const FloorLevel& l, float gx, float gy, Yuv outside) {
   return bilinear(l, i0, j0, fx, fy);
 }
 
-#if defined(__SSE2__)
-// bilinear() on the tiled cells: the same four cells (edges repeated), the same float lanes.
-// Four neighbouring cells share one tile (one cache line) nine times in sixteen, where the
-// row-major raster always needs two lines, and pixels a few cells apart share tiles.
-[[gnu::always_inline]] inline Yuv bilinearTiled(const FloorLevel& l, int i0, int j0, int fx,
-                                                int fy) {
-  const std::size_t a = tileColumn(std::max(i0, 0));
-  const std::size_t b = tileColumn(std::min(i0 + 1, l.cols - 1));
-  const std::size_t row0 = tileRow(l, std::max(j0, 0));
-  const std::size_t row1 = tileRow(l, std::min(j0 + 1, l.rows - 1));
-  const __m128i zero = _mm_setzero_si128();
-  const auto load = [&zero](std::uint32_t cell) {
-    return _mm_cvtepi32_ps(_mm_unpacklo_epi16(
-        _mm_unpacklo_epi8(_mm_cvtsi32_si128(static_cast<int>(cell)), zero), zero));
-  };
-  return mixFloat(load(l.tiles[row0 + a]), load(l.tiles[row0 + b]), load(l.tiles[row1 + a]),
-                  load(l.tiles[row1 + b]), fx, fy);
-}
-#endif
-
 }  // namespace
 
 // What this computes from its inputs is cached on disk (floor_raster_cache.hpp): a change here
 // that gives another raster for the same inputs must bump kFloorRasterVersion.
-void SimRenderer::buildFloorRaster(const field::FieldModel& field) {
-  RasterLevel base;
+std::vector<FloorRasterLevel> SimRenderer::buildFloorRaster(const field::FieldModel& field) const {
+  FloorRasterLevel base;
   base.cell = params_.floor_resolution;
   base.inv_cell = 1.0 / base.cell;
   base.cols = static_cast<int>(std::ceil(2.0 * carpet_half_.x() / base.cell));
@@ -275,30 +250,14 @@ void SimRenderer::buildFloorRaster(const field::FieldModel& field) {
           yuvFromBgr(scaleBgr(floor, params_.lighting.at(p, carpet_half_)));
     }
   }
-  raster_.push_back(std::move(base));
+  std::vector<FloorRasterLevel> levels;
+  levels.push_back(std::move(base));
 
   // Mip levels: 2x2 averages, until cells reach about half a metre.
-  while (raster_.back().cell < 0.5 && raster_.back().cols > 4 && raster_.back().rows > 4) {
-    raster_.push_back(halved(raster_.back()));
+  while (levels.back().cell < 0.5 && levels.back().cols > 4 && levels.back().rows > 4) {
+    levels.push_back(halved(levels.back()));
   }
-}
-
-void SimRenderer::buildTiledRaster() {
-  tiled_raster_.clear();
-  for (const RasterLevel& r : raster_) {
-    const FloorLevel l{nullptr, 0.0f,   0.0f,    0.0f,
-                       r.cols,  r.rows, nullptr, (r.cols + kTileMask) >> kTileShift};
-    const int tile_rows = (r.rows + kTileMask) >> kTileShift;
-    std::vector<std::uint32_t> tiles(static_cast<std::size_t>(l.tile_cols) * tile_rows * 16, 0);
-    for (int j = 0; j < r.rows; ++j) {
-      for (int i = 0; i < r.cols; ++i) {
-        const Yuv& c = r.cells[static_cast<std::size_t>(j) * r.cols + i];
-        tiles[tileRow(l, j) + tileColumn(i)] =
-            c.y | static_cast<std::uint32_t>(c.u) << 8 | static_cast<std::uint32_t>(c.v) << 16;
-      }
-    }
-    tiled_raster_.push_back(std::move(tiles));
-  }
+  return levels;
 }
 
 void SimRenderer::buildPixelTable() {
@@ -314,7 +273,7 @@ void SimRenderer::buildPixelTable() {
 
   const Yuv hall = yuvFromBgr(scaleBgr(params_.hall, params_.lighting.ambient));
   const double self_radius = mirror_.params().self_radius;
-  const int max_level = static_cast<int>(raster_.size()) - 1;
+  const int max_level = static_cast<int>(raster_.levels().size()) - 1;
   for (int v = 0; v < h; ++v) {
     for (int u = 0; u < w; ++u) {
       const std::size_t i = static_cast<std::size_t>(v) * w + u;
@@ -357,7 +316,7 @@ void SimRenderer::buildPixelTable() {
   floor_run_x_.clear();
   floor_run_y_.clear();
   floor_run_index_.clear();
-  level_end_.assign(raster_.size(), 0);
+  level_end_.assign(raster_.levels().size(), 0);
   for (int l = 0; l <= max_level; ++l) {
     for (const std::int32_t i : floor_pixels) {
       if (level[static_cast<std::size_t>(i)] != l) continue;
@@ -372,11 +331,11 @@ void SimRenderer::buildPixelTable() {
 // --- per frame ---
 
 Yuv SimRenderer::floorColour(const Vec2& p) const {
-  const RasterLevel& l = raster_.front();
+  const TiledLevel& l = raster_.levels().front();
   const double gx = (p.x() - raster_origin_.x()) * l.inv_cell;
   const double gy = (p.y() - raster_origin_.y()) * l.inv_cell;
   if (!(gx >= 0.0 && gy >= 0.0 && gx < l.cols && gy < l.rows)) return outside_floor_yuv_;
-  return l.cells[static_cast<std::size_t>(gy) * l.cols + static_cast<std::size_t>(gx)];
+  return tiledCell(l, static_cast<int>(gx), static_cast<int>(gy));
 }
 
 #if defined(__SSE2__)
@@ -457,7 +416,7 @@ std::size_t renderFloorQuads(const FloorLevel& l, const float* xs, const float* 
       const std::int32_t* const pixel = index + k + 4 * (first + q);
       for (int lane = 0; lane < 4; ++lane) {
         frame[pixel[lane]] = (f.inside >> lane & 1)
-                                 ? bilinearTiled(l, f.i0[lane], f.j0[lane], f.fx[lane], f.fy[lane])
+                                 ? bilinear(l, f.i0[lane], f.j0[lane], f.fx[lane], f.fy[lane])
                                  : outside;
       }
     }
@@ -479,15 +438,14 @@ void SimRenderer::renderFloor(const geometry::Pose2& pose) {
   const std::int32_t* const index = floor_run_index_.data();
   std::size_t k = 0;
   for (std::size_t level = 0; level < level_end_.size(); ++level) {
-    const RasterLevel& r = raster_[level];
-    const FloorLevel l{r.cells.data(),
-                       static_cast<float>(r.inv_cell),
+    const TiledLevel& r = raster_.levels()[level];
+    const FloorLevel l{static_cast<float>(r.inv_cell),
                        static_cast<float>(r.cols),
                        static_cast<float>(r.rows),
                        r.cols,
                        r.rows,
-                       tiled_raster_[level].data(),
-                       (r.cols + kTileMask) >> kTileShift};
+                       r.tiles,
+                       r.tile_cols};
     const std::size_t end = level_end_[level];
 #if defined(__SSE2__)
     k = renderFloorQuads(l, xs, ys, index, k, end, c, s, ox, oy, outside_floor_yuv_, frame);

@@ -75,10 +75,6 @@ SimRenderer::SimRenderer(MirrorModel mirror, const field::FieldModel& field, Ren
   carpet_half_ = field.carpetHalfExtent();
   raster_origin_ = -carpet_half_;
   loadOrBuildFloorRaster(field, raster_cache_dir);
-  // One spare cell after each level's: the floor pass reads cells 4 bytes at a time.
-  for (RasterLevel& level : raster_)
-    level.cells.push_back(Yuv{});
-  buildTiledRaster();
   outside_floor_yuv_ = yuvFromBgr(scaleBgr(params_.outside_floor, params_.lighting.ambient));
   buildGoals(field);
   buildPixelTable();

@@ -9,9 +9,10 @@
 //
 // Speed: everything that does not change with the pose is computed once: the floor point (robot
 // frame) of every pixel, which mip level of the floor raster matches its footprint, and the
-// floor raster itself (texture, lines and light baked in, in the field frame). Per frame each
-// pixel costs one rotation and one raster lookup; objects are ray-cast only inside their image
-// bounding boxes. render() allocates nothing after the first call.
+// floor raster itself (texture, lines and light baked in, in the field frame; with a raster
+// cache, the cache file mapped read-only and shared, one copy for all cameras on the machine).
+// Per frame each pixel costs one rotation and one raster lookup; objects are ray-cast only inside
+// their image bounding boxes. render() allocates nothing after the first call.
 #pragma once
 
 #include <array>
@@ -139,8 +140,8 @@ struct SimScene {
 class SimRenderer {
  public:
   // Precomputes the pixel table and the floor raster (a fraction of a second for an msl field).
-  // With a `raster_cache_dir`, the raster is read from there when a valid file for exactly these
-  // inputs exists, else built and written there (floor_raster_cache.hpp).
+  // With a `raster_cache_dir`, the raster is mapped from there when a valid file for exactly these
+  // inputs exists, else built, written there and mapped (floor_raster_cache.hpp).
   // Throws std::invalid_argument for unusable parameters.
   SimRenderer(MirrorModel mirror, const field::FieldModel& field, RenderParams params,
               const std::string& raster_cache_dir = {});
@@ -166,21 +167,22 @@ class SimRenderer {
   // nothing went wrong).
   RasterSource rasterSource() const { return raster_source_; }
   const std::string& rasterProblem() const { return raster_problem_; }
+  // Whether the floor pass reads a read-only shared mapping of the cache file rasterPath() (one
+  // copy for every camera on the machine) rather than a copy in this renderer's memory.
+  bool rasterMapped() const { return raster_.mapped(); }
+  const std::string& rasterPath() const { return raster_path_; }
 
  private:
   enum class PixelKind : std::uint8_t { kOutside, kSelf, kFloor, kHall };
-
-  using RasterLevel = FloorRasterLevel;
 
   // A ray-cast object, in the field frame.
   using Box = SimBox;
 
   void buildPixelTable();
-  // The raster's levels again in 4x4 tiles of 4-byte cells (Y, U, V, 0), what the floor pass
-  // reads (sim_floor.cpp).
-  void buildTiledRaster();
-  void buildFloorRaster(const field::FieldModel& field);
-  // In floor_raster_cache.cpp: the cached raster, or buildFloorRaster and write the cache.
+  // The raster's levels, row-major, finest first (sim_floor.cpp).
+  std::vector<FloorRasterLevel> buildFloorRaster(const field::FieldModel& field) const;
+  // In floor_raster_cache.cpp: the cached raster mapped, or buildFloorRaster (and write the cache
+  // and map it).
   void loadOrBuildFloorRaster(const field::FieldModel& field, const std::string& cache_dir);
   void buildGoals(const field::FieldModel& field);
   // Renders the scene seen by a robot at `robot_pose`; the helpers below take the mirror axis'
@@ -215,10 +217,12 @@ class SimRenderer {
   std::vector<std::size_t> level_end_;
   std::vector<Yuv> static_layer_;  // outside, self, hall
 
-  std::vector<RasterLevel> raster_;
-  std::vector<std::vector<std::uint32_t>> tiled_raster_;
+  // The floor raster in tiles, what the floor pass reads: mapped from the cache file, or in
+  // memory without one. The row-major cells are not kept.
+  FloorRaster raster_;
   RasterSource raster_source_ = RasterSource::kBuilt;
   std::string raster_problem_;
+  std::string raster_path_;
   Yuv outside_floor_yuv_;
   std::vector<Box> goal_boxes_;
 
