@@ -197,16 +197,16 @@ for r in range(1, 7):
     total_late += after["errors"].get("rejected_late", 0) - before[-1]["errors"].get("rejected_late", 0)
     kinds = {k: v for k, v in after["errors"].items() if k.startswith("rejected_")}
     print(f"robot {r}: refused by reason {kinds}")
-    # Up to 32 s: the attack ends at 31 s, and from 34 s the probes stop one by one.
+    # Up to 30 s: the attack ends at 29 s, and from 32 s the probes stop one by one.
     for s in states[r]:
-        if at(26.5) <= s["t"] <= at(32):
+        if at(26.5) <= s["t"] <= at(30):
             for j in range(1, 7):
                 if j != r and s["present"][j - 1] and abs(s["x"][j - 1] - (j - 4)) > 0.05:
                     failures.append(f"robot {r}: teammate {j} moved to x={s['x'][j - 1]} during the attack")
                     break
-    upto = [s for s in states[r] if s["t"] <= at(32)]
+    upto = [s for s in states[r] if s["t"] <= at(30)]
     if not upto:
-        failures.append(f"robot {r}: no TEAM_STATE before 32 s")
+        failures.append(f"robot {r}: no TEAM_STATE before 30 s")
         continue
     last = upto[-1]
     if sum(r_ for r_ in last["rejected"]) == 0:
