@@ -13,10 +13,17 @@
 # the check is exact (every packet sent refused and counted, none moving a teammate), so one
 # forged packet taken in 1,200 fails it as surely as in 2,400. The end stays 3 s after the attack:
 # teamcomm's statuses (1 s period) after it carry the final counts.
+#
+#   teamcomm_net_test.sh BIN ROOT [RUN]
+#
+# With RUN (ctest gives one: the fixture team_network) the relay's log and the probes' records are
+# kept there for drill_team_partition, which judges this run's partition as its drill
+# (drills/partition_drill.sh ... --from RUN) instead of running a team link of its own.
 set -u
 source "$(dirname "$0")/../lib/team_net.sh"
 bin=$1
 root=$2
+keep=${3:-}
 out=$(mktemp -d)
 tag=tc$$
 relay=${tag}relay
@@ -79,3 +86,10 @@ echo "--- relay"; cat "$out/relay.log"
 echo "--- attacker"; cat "$out/attack.json" "$out/attack.log"
 for r in $robots; do tail -n 2 "$out/teamcomm$r.log" | cut -c1-300; done
 python3 "$root/tests/integration/teamcomm/analyse.py" "$out" $reference "${offsets[*]}" "${drifts[*]}"
+rc=$?
+if [ -n "$keep" ]; then
+  rm -rf "$keep"
+  mkdir -p "$keep"
+  cp "$out"/relay.log "$out"/probe*.jsonl "$keep/"
+fi
+exit "$rc"
