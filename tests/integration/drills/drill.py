@@ -11,6 +11,9 @@ drill reads the recordings as they grow) rather than a fixed pause:
   kill    kill -9 of each process kind of robot 1 and of the simulator
   stop    SIGSTOP of the camera for 2 s, then SIGCONT
   serial  the motor controller's serial line cut (world_sim's SIGUSR1 outage) and restored
+  all     the three above one after another in one run of the team (ctest's way, issue 33: one
+          start-up and baseline instead of three; each fault is judged on its own window all the
+          same). `drill.py DRILL --analyse-only --out DIR` then judges one drill's faults of it.
 
 For each fault it measures, from the recordings: the time from the fault to the new process (the
 launcher's restart), from there to the first message and to the channel back at full rate (the
@@ -143,8 +146,8 @@ def run(a):
                 "ip route add 224.0.0.0/4 dev lo"):
         subprocess.run(cmd.split(), check=True)
     plan = launch_file(out, 1)
-    kinds = list(KINDS) if a.drill == "kill" else []
-    budget = 60 + 10 + max(len(kinds), 1) * (WAIT_S + 2) + 30
+    n_faults = {"kill": len(KINDS), "stop": 1, "serial": 1, "all": len(KINDS) + 2}[a.drill]
+    budget = 60 + 10 + n_faults * (WAIT_S + 2) + 30
     launcher = subprocess.Popen(
         [bin_ / "fieldline-launch", plan, "--duration", str(int(budget)), "--no-table",
          "--status-period", "1"], stdout=open(out / "launch.log", "w"), stderr=subprocess.STDOUT)
@@ -178,59 +181,88 @@ def run(a):
         launcher.terminate()
         rc = launcher.wait(timeout=30)
     (out / "events.json").write_text(json.dumps(events))
-    return analyse(out, events, rc)
+    (out / "run.json").write_text(json.dumps({"launcher_rc": rc}))
+    if a.drill != "all":
+        return analyse(out, events, rc)
+    # The three drills' tests judge their own faults (--analyse-only); this run fails only when
+    # one of them is missing (a fault that could not be applied ended the run).
+    analyse(out, events, rc)
+    missing = [d for d in DRILLS if not [e for e in events if drill_of(e) == d]]
+    if missing:
+        print(f"FAIL: no fault of {', '.join(missing)} applied")
+        return 1
+    print("the run is complete: the drills' tests judge it (drill.py DRILL --analyse-only)")
+    return 0
+
+
+DRILLS = ("kill", "stop", "serial")
+
+
+def drill_of(ev):
+    """Which drill an event belongs to (events of a run of one drill carry no name)."""
+    return ev.get("group") or ("kill" if ev["drill"].startswith("kill") else
+                               "stop" if ev["drill"].startswith("SIGSTOP") else "serial")
 
 
 def faults(a, rec, events):
     """Applies the drill's faults one after another, appending what happened to `events`."""
     wait_baseline(rec)
-    out = rec.out
-    kinds = list(KINDS) if a.drill == "kill" else []
-    if a.drill == "kill":
-        for kind in kinds:
-            exe, channel, bus = KINDS[kind]
-            pid = find_pid(exe, bus)
-            if pid is None:
-                sys.exit(f"FAIL: no {kind} process to kill")
-            t_fault = now_us()
-            os.kill(pid, signal.SIGKILL)
-            new_pid, t_restart = wait_new_pid(exe, bus, pid)
-            events.append({"drill": f"kill -9 {kind}", "kind": kind, "channel": channel,
-                           "bus": bus, "t_fault": t_fault, "t_back": t_restart,
-                           "restarted": new_pid is not None})
-            wait_recovered(rec, events[-1])
-    elif a.drill == "stop":
-        exe, channel, bus = KINDS["camera"]
+    for drill in DRILLS if a.drill == "all" else (a.drill,):
+        first = len(events)
+        {"kill": kill_each, "stop": stop_camera, "serial": cut_serial}[drill](rec, events)
+        for ev in events[first:]:
+            ev["group"] = drill
+
+
+def kill_each(rec, events):
+    for kind in KINDS:
+        exe, channel, bus = KINDS[kind]
         pid = find_pid(exe, bus)
         if pid is None:
-            sys.exit("FAIL: no camera process to stop")
+            sys.exit(f"FAIL: no {kind} process to kill")
         t_fault = now_us()
-        os.kill(pid, signal.SIGSTOP)
-        time.sleep(STOP_S)  # the fault itself: the camera stopped for STOP_S
-        os.kill(pid, signal.SIGCONT)
-        events.append({"drill": f"SIGSTOP camera {STOP_S:.0f} s", "kind": "camera",
-                       "channel": channel, "bus": bus, "t_fault": t_fault, "t_back": now_us(),
-                       "restarted": True})
+        os.kill(pid, signal.SIGKILL)
+        new_pid, t_restart = wait_new_pid(exe, bus, pid)
+        events.append({"drill": f"kill -9 {kind}", "kind": kind, "channel": channel,
+                       "bus": bus, "t_fault": t_fault, "t_back": t_restart,
+                       "restarted": new_pid is not None})
         wait_recovered(rec, events[-1])
-    elif a.drill == "serial":
-        pid = find_pid("fieldline-world-sim", "sim")
-        if pid is None:
-            sys.exit("FAIL: no world_sim process")
-        line = out / "pty" / "robot1.tty"
-        t_fault = now_us()
-        os.kill(pid, signal.SIGUSR1)
-        # The line is back when world_sim links a new pty at the device path (the bridge then
-        # finds it on its next 0.25 s retry).
-        while line.exists() and now_us() - t_fault < 5_000_000:
-            time.sleep(0.002)
-        t_gone = now_us()
-        while not line.exists() and now_us() - t_fault < 15_000_000:
-            time.sleep(0.002)
-        events.append({"drill": f"serial line cut {OUTAGE_S:.0f} s", "kind": "motor_bridge",
-                       "channel": "ODOMETRY", "bus": "r1", "t_fault": t_fault,
-                       "t_back": now_us(), "restarted": line.exists(),
-                       "line_gone_ms": round((t_gone - t_fault) / 1e3, 1)})
-        wait_recovered(rec, events[-1])
+
+
+def stop_camera(rec, events):
+    exe, channel, bus = KINDS["camera"]
+    pid = find_pid(exe, bus)
+    if pid is None:
+        sys.exit("FAIL: no camera process to stop")
+    t_fault = now_us()
+    os.kill(pid, signal.SIGSTOP)
+    time.sleep(STOP_S)  # the fault itself: the camera stopped for STOP_S
+    os.kill(pid, signal.SIGCONT)
+    events.append({"drill": f"SIGSTOP camera {STOP_S:.0f} s", "kind": "camera",
+                   "channel": channel, "bus": bus, "t_fault": t_fault, "t_back": now_us(),
+                   "restarted": True})
+    wait_recovered(rec, events[-1])
+
+
+def cut_serial(rec, events):
+    pid = find_pid("fieldline-world-sim", "sim")
+    if pid is None:
+        sys.exit("FAIL: no world_sim process")
+    line = rec.out / "pty" / "robot1.tty"
+    t_fault = now_us()
+    os.kill(pid, signal.SIGUSR1)
+    # The line is back when world_sim links a new pty at the device path (the bridge then
+    # finds it on its next 0.25 s retry).
+    while line.exists() and now_us() - t_fault < 5_000_000:
+        time.sleep(0.002)
+    t_gone = now_us()
+    while not line.exists() and now_us() - t_fault < 15_000_000:
+        time.sleep(0.002)
+    events.append({"drill": f"serial line cut {OUTAGE_S:.0f} s", "kind": "motor_bridge",
+                   "channel": "ODOMETRY", "bus": "r1", "t_fault": t_fault,
+                   "t_back": now_us(), "restarted": line.exists(),
+                   "line_gone_ms": round((t_gone - t_fault) / 1e3, 1)})
+    wait_recovered(rec, events[-1])
 
 
 def wait_baseline(rec):
@@ -503,7 +535,7 @@ def analyse(out, events, launcher_rc):
 def main():
     p = argparse.ArgumentParser(description=__doc__,
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("drill", choices=["kill", "stop", "serial"])
+    p.add_argument("drill", choices=["kill", "stop", "serial", "all"])
     p.add_argument("--bin", required=True, help="folder of the fieldline executables")
     p.add_argument("--out", required=True, help="folder for the launch file and recordings")
     p.add_argument("--analyse-only", action="store_true",
@@ -511,7 +543,16 @@ def main():
     a = p.parse_args()
     if a.analyse_only:
         out = pathlib.Path(a.out)
-        sys.exit(analyse(out, json.loads((out / "events.json").read_text()), 0))
+        if not (out / "events.json").exists():
+            sys.exit(f"FAIL: no events.json in {out} (the run failed or did not happen)")
+        events = json.loads((out / "events.json").read_text())
+        if a.drill != "all":
+            events = [e for e in events if drill_of(e) == a.drill]
+            if not events:
+                sys.exit(f"FAIL: no fault of the {a.drill} drill in {out}")
+        run_file = out / "run.json"
+        rc = json.loads(run_file.read_text())["launcher_rc"] if run_file.exists() else 0
+        sys.exit(analyse(out, events, rc))
     sys.exit(run(a))
 
 

@@ -4,17 +4,32 @@
 # frame, and stays on the right half; the pilots steer with ROBOT_STATE (not the simulator's
 # truth) and the robots really drive their scripts on it, staying localized; the launcher stops
 # cleanly. Rates are checked at a margin (a loaded machine lags), not timed.
+#
+#   fusion_test.sh BIN ROOT [SHARE]
+#
+# With SHARE (ctest gives one: the fixture team_recording, tests/integration/fusion/CMakeLists.txt)
+# the run is also recorded (fieldline-eval --record: fieldline-record --team, every bus, no
+# images) into SHARE/rec and its live evaluation kept in SHARE/live, for the tests that read a
+# recording of the six-robot team (replay_demo_recording, viewer_browser_plays_a_recording)
+# instead of starting the team again each.
 set -u
 bin=$1
 root=$2
+share=${3:-}
 out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT
+record=""
+if [ -n "$share" ]; then
+  rm -rf "$share"
+  mkdir -p "$share"
+  record="--record '$share/rec'"
+fi
 ns="unshare -n"
 unshare -n true 2>/dev/null || ns="unshare -rn"
 $ns bash -c "
   ip link set lo up; ip link set lo multicast on; ip route add 224.0.0.0/4 dev lo
   export FIELDLINE_ROOT='$root'
-  '$bin/fieldline-eval' --scenario default --robots 6 --duration 25 --out '$out' > '$out/eval.txt' 2> '$out/eval.err'
+  '$bin/fieldline-eval' --scenario default --robots 6 --duration 25 --out '$out' $record > '$out/eval.txt' 2> '$out/eval.err'
   echo \$? > '$out/eval.rc'
 "
 echo "--- eval"; cat "$out/eval.err" "$out/eval.txt"
@@ -87,3 +102,13 @@ for f in failures:
 print("PASS" if not failures else f"{len(failures)} failures")
 sys.exit(1 if failures else 0)
 PY
+rc=$?
+if [ -n "$share" ]; then
+  # The live evaluation beside the recording (its summary.json is what the replay compares with);
+  # kept only for a passing run (a failed fixture makes its dependent tests not run).
+  mkdir -p "$share/live"
+  cp "$out/summary.json" "$out/eval.txt" "$out/launch.yaml" "$share/live/" 2> /dev/null
+  [ -f "$out/record.log" ] && cp "$out/record.log" "$share/live/"
+  [ "$rc" = 0 ] || rm -rf "$share/rec"
+fi
+exit "$rc"

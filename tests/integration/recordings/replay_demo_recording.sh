@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
-# Issue 31's end-to-end check (docs/replay.md, "The demo's recording"): SECONDS (default 20; ctest
-# gives 12, tests/integration/recordings/CMakeLists.txt says why) of the six-robot
-# simulated team (sim_team.yaml: every robot on its own clock) evaluated live by fieldline-eval
-# while fieldline-record --team records every bus, in a private network namespace. Then
+# Issue 31's end-to-end check (docs/replay.md, "The demo's recording"): SECONDS (default 20) of
+# the six-robot simulated team (sim_team.yaml: every robot on its own clock) evaluated live by
+# fieldline-eval while fieldline-record --team records every bus, in a private network namespace
+# (or, with --recording SHARE, such a run made by fusion_test.sh: SHARE/rec and its live
+# evaluation SHARE/live; ctest's way, tests/integration/recordings/CMakeLists.txt says why). Then
 #   1. fusion of every robot replayed from its recording (fieldline-replay --run fusion): exit
 #      code 0, under 1 % of the inputs refused, and at least 99 % of the replayed ROBOT_STATE
 #      within 1 cm and 0.5 degrees of what the live fusion published at the same stamp (the
@@ -10,23 +11,36 @@
 #   2. fieldline-eval --log of the recording: pos_mean within 10 % of the live evaluation's.
 #
 #   replay_demo_recording.sh BIN_DIR [SECONDS]
+#   replay_demo_recording.sh BIN_DIR --recording SHARE
 set -u
-bin=$(realpath "${1:?usage: replay_demo_recording.sh BIN_DIR [SECONDS]}")
+bin=$(realpath "${1:?usage: replay_demo_recording.sh BIN_DIR [SECONDS | --recording SHARE]}")
 seconds=${2:-20}
 here=$(cd "$(dirname "$0")" && pwd)
 root=$(cd "$here/../../.." && pwd)
 out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT
-ns="unshare -n"
-unshare -n true 2>/dev/null || ns="unshare -rn"
 export FIELDLINE_ROOT="$root"
-$ns bash -c "
-  ip link set lo up; ip link set lo multicast on; ip route add 224.0.0.0/4 dev lo
-  '$bin/fieldline-eval' --scenario default --robots 6 --duration $seconds --record '$out/rec' \
-      --out '$out/live' > '$out/live.txt' 2> '$out/live.err'
-" || true
+if [ "$seconds" = "--recording" ]; then
+  share=$(realpath "${3:?--recording needs a directory}")
+  if [ ! -f "$share/live/summary.json" ] || [ ! -d "$share/rec" ]; then
+    echo "FAIL: no recording with its live evaluation in $share (made by fusion_test.sh)"
+    exit 1
+  fi
+  ln -s "$share/rec" "$out/rec"
+  ln -s "$share/live" "$out/live"
+  cp "$share/live/eval.txt" "$out/live.txt"
+  : > "$out/live.err"
+else
+  ns="unshare -n"
+  unshare -n true 2>/dev/null || ns="unshare -rn"
+  $ns bash -c "
+    ip link set lo up; ip link set lo multicast on; ip route add 224.0.0.0/4 dev lo
+    '$bin/fieldline-eval' --scenario default --robots 6 --duration $seconds --record '$out/rec' \
+        --out '$out/live' > '$out/live.txt' 2> '$out/live.err'
+  " || true
+fi
 echo "--- live evaluation"; cat "$out/live.txt"; tail -n 3 "$out/live.err"
-ls -l "$out/rec" || { cat "$out/live/record.log"; exit 1; }
+ls -l "$out/rec/" || { cat "$out/live/record.log"; exit 1; }
 fail=0
 for r in 1 2 3 4 5 6; do
   rc=0

@@ -18,7 +18,16 @@
 #                      bus, a figure eight at 0.8 m/s
 #   fieldline-rehearsal-probe
 #                      TRACKING within 5 s of the first VISION_LINES, mean position error at most
-#                      5 cm over 30 s against the truth; prints both
+#                      5 cm over one lap of the figure eight (23 s) against the truth; prints both
+#
+# The window (WINDOW_S, 23 s; 30 s before issue 33): one whole lap of rehearsal.yaml's figure eight
+# (18.29 m of path, the lemniscate 6 x 3 m, at 0.8 m/s: 22.9 s), from wherever the robot is at its
+# first TRACKING, so the mean covers every place and heading of the path once, both lobes and the
+# crossing (the error is not even along it: p99 15 cm against a mean of 1 cm in docs/launch.md's
+# run). About 2,450 states (fusion publishes at about 110 Hz here), against 3,200 in 30 s: the mean
+# of 0.6-1.1 cm is measured to well under a millimetre either way, and a robot that does not
+# localize (what the test is for: a launch file or camera preset that does not fit the robot) is
+# off by far more than the 5 cm allowed.
 #
 # Usage: rehearsal_test.sh BUILD/bin SOURCE_ROOT
 set -u
@@ -52,7 +61,7 @@ $ns bash -c "
     --scenario '$here/rehearsal.yaml' > '$work/behaviour.log' 2>&1 &
   pids=\"\$pids \$!\"
   '$bin/fieldline-rehearsal-probe' --robot 1 --bus-url \"\$robot\" --sim-bus-url \"\$sim\" \
-    --window ${WINDOW_S:-30} --tracking-within 5 --max-mean-cm 5 --timeout ${TIMEOUT_S:-120} > '$work/probe.txt' 2> '$work/probe.log'
+    --window ${WINDOW_S:-23} --tracking-within 5 --max-mean-cm 5 --timeout ${TIMEOUT_S:-120} > '$work/probe.txt' 2> '$work/probe.log'
   echo \$? > '$work/probe.rc'
   kill -TERM \$launcher; wait \$launcher; echo \$? > '$work/launch.rc'
   kill -TERM \$pids; wait

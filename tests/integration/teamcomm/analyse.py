@@ -80,8 +80,14 @@ if round_trips and min(round_trips) < 1900:
 # refused); at 30-35 % that is a few chances in a hundred per run over 30 teammate pairs (about
 # 0.02-0.1 such stretches expected). A sender (or the relay) paused 0.5 s on a loaded machine
 # leaves every receiver without it at once: a stretch shared by another receiver is the machine's.
-# Unshared stretches are the link's or the receiver's: at most two (a present timeout of half the
-# default, five send periods, gives about 14 of them in a run), and at most 5 % of all reports.
+# Unshared stretches are the link's or the receiver's: at most two, and at most 5 % of all reports.
+# (This comment said a present timeout of half the default, five send periods, gives about 14
+# stretches in a run; measured 2026-12-07 with `team.picture.present_timeout_s: 0.25` in
+# net_team.yaml: one, in the 6.5 s window as in the 4.5 s one, and the test passed. See
+# docs/log/2026-12-07-build.md, "Session 9 (teamtests)", for a timeout this check does catch.)
+# The window: 15-19.5 s of the 14-20 s loss phase (8 s of loss and a 6.5 s window before issue 33).
+# What it judges needs no more: the rate is the median of about 45 stamp intervals a robot, the
+# age p95 is over about 1,300 teammate ages, the 5 % of absent reports is of 225 a robot.
 def absent_stretches(window, r, j):
     """Consecutive pictures of robot r without teammate j, as (first, last) arrival times."""
     stretches, first, last = [], None, None
@@ -106,7 +112,7 @@ def also_absent_elsewhere(r, j, first, last):
 ages = []
 unshared = []
 for r, recs in states.items():
-    window = [s for s in recs if at(15) <= s["t"] <= at(21.5)]
+    window = [s for s in recs if at(15) <= s["t"] <= at(19.5)]
     # The rate from the pictures' own stamps (their median interval), not from their arrival: a
     # probe or teamcomm descheduled for 0.35 s moved the arrival rate out of 9.5-10.5 Hz (a late
     # burst, or ticks skipped). Publishing on each packet instead of the 10 Hz timer, or a timer
@@ -114,9 +120,9 @@ for r, recs in states.items():
     stamps = sorted(s["utime"] for s in window)
     gaps = sorted(b - a for a, b in zip(stamps, stamps[1:]))
     rate = 1e6 / gaps[len(gaps) // 2] if gaps and gaps[len(gaps) // 2] > 0 else 0
-    if not 9.5 <= rate <= 10.5 or len(window) < 0.5 * 6.5 * 10:
+    if not 9.5 <= rate <= 10.5 or len(window) < 0.5 * 4.5 * 10:
         failures.append(f"robot {r}: TEAM_STATE at {rate:.2f} Hz under loss "
-                        f"({len(window)} pictures in 6.5 s)")
+                        f"({len(window)} pictures in 4.5 s)")
     absent = [(s, j) for s in window for j in range(1, 7) if j != r and not s["present"][j - 1]]
     for j in range(1, 7):
         for first, last in absent_stretches(window, r, j) if j != r else []:
@@ -150,13 +156,13 @@ if not ages or p95(ages) > age_bound:
 if not clean_ages or p95(clean_ages) > 250_000:
     failures.append(f"age p95 {p95(clean_ages)} us > 250 ms on the clean link")
 
-# 3. The partition {1,2,3} | {4,5,6} from 22 s is reported, and healed within 1 s of 25 s. Judged
+# 3. The partition {1,2,3} | {4,5,6} from 20 s is reported, and healed within 1 s of 23 s. Judged
 # at each picture's own time (its stamp on the robot's clock, taken back to system time), not at
 # its arrival at the probe: on a loaded machine the probe read pictures up to a second late, and
 # pictures from before the partition arrived inside it.
 for r, recs in states.items():
     side = {1, 2, 3} if r <= 3 else {4, 5, 6}
-    during = [s for s in recs if at(23) <= picture_time(r, s["utime"]) <= at(24.9)]
+    during = [s for s in recs if at(21) <= picture_time(r, s["utime"]) <= at(22.9)]
     # Nothing crosses the partition: a robot of the other side present is always wrong. A
     # teammate of its own side is absent only when nothing of it came for 0.5 s (a sender or the
     # relay descheduled that long on a loaded machine): at most 5 % of those reports, as at loss.
@@ -166,11 +172,11 @@ for r, recs in states.items():
         failures.append(f"robot {r}: partition not reported ({len(across)} of {len(during)} "
                         f"with the other side, {missing} own-side teammates absent)")
     healed = next((picture_time(r, s["utime"]) for s in recs
-                   if picture_time(r, s["utime"]) >= at(25) and sum(s["present"]) == 6), None)
-    if healed is None or healed - at(25) > 1_000_000:
-        failures.append(f"robot {r}: not healed within 1 s ({healed and (healed - at(25)) / 1e6} s)")
+                   if picture_time(r, s["utime"]) >= at(23) and sum(s["present"]) == 6), None)
+    if healed is None or healed - at(23) > 1_000_000:
+        failures.append(f"robot {r}: not healed within 1 s ({healed and (healed - at(23)) / 1e6} s)")
     else:
-        print(f"robot {r}: partition healed after {(healed - at(25)) / 1e3:.0f} ms")
+        print(f"robot {r}: partition healed after {(healed - at(23)) / 1e3:.0f} ms")
 
 # 4. The attack: every forged packet refused and counted by reason; the picture unchanged.
 def rejected(status):
@@ -178,12 +184,12 @@ def rejected(status):
 
 total_refused = 0
 # The counts before the attack: the statuses before its first forged packet, which cannot come
-# before the attacker's launch + its 4 s of sniffing (at(26.5) alone assumed the relay, whose
+# before the attacker's launch + its 4 s of sniffing (at(24.5) alone assumed the relay, whose
 # start is at(0), started no later than 0.5 s after the script's own clock).
 launch_file = out / "attack_launch_us"
 launch_text = launch_file.read_text().strip() if launch_file.exists() else ""
-attack_from = (min(at(26.5), int(launch_text) + 4_000_000) if launch_text.isdigit()
-               else at(26.5))
+attack_from = (min(at(24.5), int(launch_text) + 4_000_000) if launch_text.isdigit()
+               else at(24.5))
 # Refusals as `late` of genuine teammates' packets: a loaded machine's relay can still reorder a
 # few after the reordering phase. They are not the attacker's, so they may add to the count.
 total_late = 0
@@ -197,16 +203,16 @@ for r in range(1, 7):
     total_late += after["errors"].get("rejected_late", 0) - before[-1]["errors"].get("rejected_late", 0)
     kinds = {k: v for k, v in after["errors"].items() if k.startswith("rejected_")}
     print(f"robot {r}: refused by reason {kinds}")
-    # Up to 32 s: the attack ends at 31 s, and from 34 s the probes stop one by one.
+    # Up to 28 s: the attack ends at 27 s, and from 30 s the probes stop one by one.
     for s in states[r]:
-        if at(26.5) <= s["t"] <= at(32):
+        if at(24.5) <= s["t"] <= at(28):
             for j in range(1, 7):
                 if j != r and s["present"][j - 1] and abs(s["x"][j - 1] - (j - 4)) > 0.05:
                     failures.append(f"robot {r}: teammate {j} moved to x={s['x'][j - 1]} during the attack")
                     break
-    upto = [s for s in states[r] if s["t"] <= at(32)]
+    upto = [s for s in states[r] if s["t"] <= at(28)]
     if not upto:
-        failures.append(f"robot {r}: no TEAM_STATE before 32 s")
+        failures.append(f"robot {r}: no TEAM_STATE before 28 s")
         continue
     last = upto[-1]
     if sum(r_ for r_ in last["rejected"]) == 0:

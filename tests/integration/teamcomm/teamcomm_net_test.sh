@@ -4,12 +4,26 @@
 # the access point (delay, asymmetric jitter, loss, duplication, reordering, a partition), and an
 # attacker namespace on the same bridge sniffs and sends forged packets. Each robot runs
 # fieldline-teamcomm and a probe that publishes its ROBOT_STATE/BALL_STATE and records its
-# TEAM_STATE. Timeline (s): 0-14 clean link with jitter; 14-22 30 % loss with duplicates and
-# reordering; 22-25 partition {1,2,3} | {4,5,6}; 25 healed; 27-31 attack; 34 end.
+# TEAM_STATE. Timeline (s): 0-14 clean link with jitter; 14-20 30 % loss with duplicates and
+# reordering; 20-23 partition {1,2,3} | {4,5,6}; 23 healed; 25-27 attack; 30 end.
+# Until issue 33: loss 14-22 (judged at 15-21.5 s), attack 27-31, end 34; analyse.py says why the
+# 4.5 s loss window keeps its checks' power.
+# The attack lasts 2 s (4 s before issue 33): at 100 rounds a second, each round every kind of bad
+# packet once to each of the six robots, that is 200 of each kind per robot, 1,200 a kind in all;
+# the check is exact (every packet sent refused and counted, none moving a teammate), so one
+# forged packet taken in 1,200 fails it as surely as in 2,400. The end stays 3 s after the attack:
+# teamcomm's statuses (1 s period) after it carry the final counts.
+#
+#   teamcomm_net_test.sh BIN ROOT [RUN]
+#
+# With RUN (ctest gives one: the fixture team_network) the relay's log and the probes' records are
+# kept there for drill_team_partition, which judges this run's partition as its drill
+# (drills/partition_drill.sh ... --from RUN) instead of running a team link of its own.
 set -u
 source "$(dirname "$0")/../lib/team_net.sh"
 bin=$1
 root=$2
+keep=${3:-}
 out=$(mktemp -d)
 tag=tc$$
 relay=${tag}relay
@@ -29,7 +43,7 @@ team_net_join $attacker 10.20.0.66 $relay
 offsets=(0 450000 -300000 120000 -500000 250000 -50000)
 drifts=(0 50 -35 20 -50 10 40)
 reference=$(date +%s%6N)
-duration=34
+duration=30
 export FIELDLINE_ROOT="$root"
 for r in $robots; do
   ns=${tag}r$r
@@ -53,13 +67,13 @@ ip netns exec $relay "$bin/fieldline-team-relay" \
   --up-ms 0.5 --down-ms 0.5 --up-jitter-ms 3,1,2,0.5,2,1.5 --down-jitter-ms 1,2.5,0.5,2,1,2 \
   --max-delay-ms 20 --monitor 10.20.0.66:47601 --duration $((duration + 1)) \
   --schedule "14:loss=0.3,duplicate=0.05,reorder=0.1" \
-  --schedule "22:loss=0,duplicate=0,reorder=0,partition=123|456" \
-  --schedule "25:partition=none" > "$out/relay.log" 2>&1 &
+  --schedule "20:loss=0,duplicate=0,reorder=0,partition=123|456" \
+  --schedule "23:partition=none" > "$out/relay.log" 2>&1 &
 relay_pid=$!
-sleep 23
+sleep 21
 # The attacker sniffs 4 s before it sends: nothing forged arrives before this + 4 s.
 date +%s%6N > "$out/attack_launch_us"
-ip netns exec $attacker "$bin/fieldline-team-attack" --sniff 4 --for 4 --rate 100 \
+ip netns exec $attacker "$bin/fieldline-team-attack" --sniff 4 --for 2 --rate 100 \
   $(for r in $robots; do echo --target 10.20.0.$r:47600; done) > "$out/attack.json" 2> "$out/attack.log"
 wait $probe_pids $relay_pid
 # Datagrams the kernel dropped for a full receive buffer never reached teamcomm.
@@ -72,3 +86,10 @@ echo "--- relay"; cat "$out/relay.log"
 echo "--- attacker"; cat "$out/attack.json" "$out/attack.log"
 for r in $robots; do tail -n 2 "$out/teamcomm$r.log" | cut -c1-300; done
 python3 "$root/tests/integration/teamcomm/analyse.py" "$out" $reference "${offsets[*]}" "${drifts[*]}"
+rc=$?
+if [ -n "$keep" ]; then
+  rm -rf "$keep"
+  mkdir -p "$keep"
+  cp "$out"/relay.log "$out"/probe*.jsonl "$keep/"
+fi
+exit "$rc"

@@ -21,6 +21,10 @@ import urllib.request
 chromium, port, work_dir, screenshot = sys.argv[1:5]
 dumps = sys.argv[5:]
 DEVTOOLS_PORT = 9334
+# Playhead times, seconds from the recording's start; later by as much as the last robot's first
+# ROBOT_STATE (+ 1 s) comes after the first of them: the team's own recording
+# (fusion_team_rates_and_tracking's) starts its recorder before six robots start up, and a robot
+# with no state yet is not drawn.
 CHOSEN_S = (6.0, 9.5)
 
 
@@ -140,7 +144,9 @@ try:
         failures.append("no error chart on the page")
 
     start = devtools.evaluate("window.fieldlineRecording.start_utime")
-    for chosen in CHOSEN_S:
+    all_up_s = (max(states[0][0] for states in recorded.values()) - start) / 1e6 + 1.0
+    later = max(0.0, all_up_s - CHOSEN_S[0])
+    for chosen in (round(c + later, 1) for c in CHOSEN_S):
         # Scrub as a user does: the slider moves, its input event asks the viewer for that time.
         devtools.evaluate(
             "(() => { const s = document.getElementById('scrub'); fetch('/playback.json?pause');"
