@@ -41,8 +41,9 @@ LineMatcher::Impl::Linearization LineMatcher::Impl::linearize(const std::vector<
   int in_product = 0;
   // One point's share, in the points' order: `on` when it lies on the grid, its offset (ox, oy)
   // from the robot in the field frame, its distance d and the distance's gradient (gx, gy).
+  // Always inlined: called out of line (GCC -O2 did) the sums it adds to live in memory.
   const auto add = [&](const RobotPoint& q, bool on, double ox, double oy, double d, double gx,
-                       double gy) {
+                       double gy) __attribute__((always_inline)) {
     if (!on || d > outlier) {
       cost += q.w * outlier_rho;
       seed_sum += outlier;

@@ -86,7 +86,9 @@ class LineGrid {
   // distanceGradient() of two points at once (lanes 0 and 1), the same operations lane by lane
   // (so the same bits). Bit k of the result is set when point k lies on the grid; the outputs of
   // a lane off the grid mean nothing.
-  int distanceGradient2(__m128d x, __m128d y, __m128d& d, __m128d& gx, __m128d& gy) const {
+  // Always inlined: called out of line (GCC -O2 did) its outputs go through memory.
+  __attribute__((always_inline)) int distanceGradient2(__m128d x, __m128d y, __m128d& d,
+                                                       __m128d& gx, __m128d& gy) const {
     const __m128d inv = _mm_set1_pd(inv_cell_);
     const __m128d fx = _mm_mul_pd(_mm_sub_pd(x, _mm_set1_pd(origin_x_)), inv);
     const __m128d fy = _mm_mul_pd(_mm_sub_pd(y, _mm_set1_pd(origin_y_)), inv);
