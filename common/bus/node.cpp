@@ -521,6 +521,8 @@ int Node::msUntilNextTimer(int max_ms) const {
 }
 
 void Node::publishStatus() {
+  for (const auto& fn : before_status_)
+    timed(fn);
   service_status_t s = status_.takeStatus(clock_.now());
   systemd::notifyStatus(s.state == service_status_t::STATE_OK     ? "ok"
                         : s.state == service_status_t::STATE_WARN ? "WARN " + s.state_reason

@@ -254,6 +254,9 @@ class Node {
   StatusCollector& status() { return status_; }
   // Publishes SERVICE_STATUS now (also done automatically every status period).
   void publishStatus();
+  // Calls `fn` right before each SERVICE_STATUS is taken: metrics computed once per status, not
+  // per message.
+  void beforeStatus(std::function<void()> fn) { before_status_.push_back(std::move(fn)); }
 
   // Implementation detail, public only for the LCM callback trampoline.
   struct Subscription;
@@ -310,6 +313,7 @@ class Node {
   std::atomic<bool> stop_requested_{false};
   std::vector<std::pair<std::string, std::int64_t>> logged_errors_;
   std::optional<ProcessIo> io_;
+  std::vector<std::function<void()>> before_status_;
 };
 
 // Reads the header_t every fieldline message starts with, from encoded bytes of any type.

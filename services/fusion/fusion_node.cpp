@@ -52,6 +52,10 @@ FusionNode::FusionNode(bus::Node& node, FusionNodeOptions options, MatcherFuncti
       bus::kRequiredRateFraction * bus::nominalRateHz(bus::channels::kVisionLines.name));
   node_.subscribe(bus::channels::kFieldFeatures,
                   [this](const field_features_t& m) { onFeatures(m); });
+  // VISION_BALL, VISION_OBSTACLES and TEAM_STATE wake the loop too. Read deferred
+  // (bus::Node::subscribeDeferred; tried) they saved no wake-up, since a frame's ball and
+  // obstacles arrive with its lines, and every wake-up paid an empty read of the deferred socket
+  // (docs/performance.md, "Fusion").
   node_.subscribe(bus::channels::kVisionBall, [this](const ball_observation_t& m) { onBall(m); });
   node_.subscribe(bus::channels::kVisionObstacles,
                   [this](const obstacle_observations_t& m) { onObstacles(m); });
@@ -60,6 +64,8 @@ FusionNode::FusionNode(bus::Node& node, FusionNodeOptions options, MatcherFuncti
   node_.every(static_cast<Utime>(std::llround(1e6 / options_.ball_rate_hz)),
               [this] { publishBall(); });
   node_.declareIo(fusionIo());
+  // The metrics as SERVICE_STATUS goes out (once a second), not after every message.
+  node_.beforeStatus([this] { updateMetrics(); });
   const PoseMemoryOptions& memory = options_.pose_memory;
   if (!memory.path.empty()) {
     if (!memory.steady_now || !(memory.save_rate_hz > 0.0 && memory.save_rate_hz <= 100.0)) {
@@ -177,7 +183,6 @@ void FusionNode::onOdometry(const odometry_t& m) {
   // jitter).
   publishState(m.header.utime);
   reportNewRejections();
-  updateMetrics();
 }
 
 void FusionNode::publishState(Utime t) {
@@ -226,7 +231,6 @@ void FusionNode::onLines(const line_contours_t& m) {
   if (at == line_times_.begin() || *std::prev(at) != m.header.utime)
     line_times_.insert(at, m.header.utime);
   reportNewRejections();
-  updateMetrics();
 }
 
 void FusionNode::onFeatures(const field_features_t& m) {
@@ -294,8 +298,6 @@ void FusionNode::publishBall() {
   const perception::BallEstimate e = ball_.estimate(now, pose_at);
   msg::toMessage(e, ball_msg_);
   if (node_.publish(bus::channels::kBallState, ball_msg_)) ++ball_states_;
-  for (const auto& [kind, n] : ball_.refusals())
-    node_.setMetric(kind + "_count", static_cast<double>(n));
 }
 
 void FusionNode::reportNewRejections() {
@@ -356,6 +358,8 @@ void FusionNode::updateMetrics() {
                   static_cast<double>(ball_.committed().restartsWithVelocity()));
   node_.setMetric("ball_too_fast_restarts",
                   static_cast<double>(ball_.committed().tooFastRestarts()));
+  for (const auto& [kind, n] : ball_.refusals())
+    node_.setMetric(kind + "_count", static_cast<double>(n));
 }
 
 }  // namespace fieldline::fusion

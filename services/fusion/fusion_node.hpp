@@ -4,7 +4,7 @@
 // each line frame that corrected the pose (stamped with the newest odometry's utime: a repeated
 // stamp, the corrected state), and BALL_STATE at a fixed rate out. The algorithms are the Localizer
 // and the BallFilter; the node converts messages, reads time from its clock and reports refused
-// inputs in SERVICE_STATUS.
+// inputs in SERVICE_STATUS (its metrics computed as SERVICE_STATUS goes out, not per message).
 #pragma once
 
 #include <cstdint>

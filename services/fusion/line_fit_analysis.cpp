@@ -46,6 +46,7 @@ LineMatcher::Impl::WeightedFit LineMatcher::Impl::weightedFit(const std::vector<
   const double c = std::cos(pose.phi), s = std::sin(pose.phi);
   for (std::size_t i = 0; i < points.size(); ++i) {
     const RobotPoint& q = points[i];
+    if (i + kPrefetchAhead < points.size()) prefetchAt(points[i + kPrefetchAhead], pose, c, s);
     const double ox = c * q.x - s * q.y;
     const double oy = s * q.x + c * q.y;
     double d, gx, gy;
@@ -91,8 +92,8 @@ void LineMatcher::Impl::addCameraErrors(const WeightedFit& fit, double scale,
 
 Eigen::Matrix3d LineMatcher::Impl::shapeCovariance(const std::vector<RobotPoint>& points,
                                                    const std::vector<double>& weights,
-                                                   const geometry::Pose2& pose,
-                                                   PoseCorrection& out) const {
+                                                   const geometry::Pose2& pose, PoseCorrection& out,
+                                                   std::optional<double>& cost_at_pose) const {
   const WeightedFit fit = weightedFit(points, weights, pose);
   const double point_variance = params.point_sigma_m * params.point_sigma_m;
   // Residual variance of a group, with the three fitted parameters taken out.
@@ -124,7 +125,8 @@ Eigen::Matrix3d LineMatcher::Impl::shapeCovariance(const std::vector<RobotPoint>
   // (by at most 20 in sigma). An axis only the prior holds is wide already.
   const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(covariance);
   Eigen::Vector3d variances = eigen.eigenvalues();
-  const double base = weightedCost(points, weights, pose) / scale;
+  cost_at_pose = weightedCost(points, weights, pose);
+  const double base = *cost_at_pose / scale;
   for (int k = 0; k < 3; ++k) {
     const Eigen::Vector3d axis = eigen.eigenvectors().col(k);
     if (axis.dot(data * axis) < axis.dot(prior * axis) || !(variances[k] > 0.0)) continue;
@@ -247,14 +249,16 @@ PoseCorrection LineMatcher::Impl::correct(const std::vector<RobotPoint>& points,
   if (analyse) {
     std::vector<double> weights;
     cellWeights(points, weights);
-    covariance = shapeCovariance(points, weights, pose, out);
+    std::optional<double> cost_at_pose;
+    covariance = shapeCovariance(points, weights, pose, out, cost_at_pose);
     if (runner) {
       // The runner-up by its likelihood against the answer's: the second moment about the
       // answer of the two as a mixture.
       const double scale = params.point_sigma_m * params.point_sigma_m * out.residual_inflation;
-      const double delta = std::max(
-          0.0, (weightedCost(points, weights, runner->pose) - weightedCost(points, weights, pose)) /
-                   scale);
+      // (The cost at the answer as the shape check took it, when it did: the same figure.)
+      if (!cost_at_pose) cost_at_pose = weightedCost(points, weights, pose);
+      const double delta =
+          std::max(0.0, (weightedCost(points, weights, runner->pose) - *cost_at_pose) / scale);
       const double share = 1.0 / (1.0 + std::exp(std::min(delta, 700.0)));
       const Eigen::Vector3d apart(runner->pose.x - pose.x, runner->pose.y - pose.y,
                                   geometry::angleDiff(runner->pose.phi, pose.phi));

@@ -2,7 +2,9 @@
 // camera) at known poses and run through the region tracker, then matched from guesses 30 cm and
 // 10 degrees off with both methods. (Not named *_test.cpp: the folder's glob would put it into
 // fusion_test, which does not link the renderer.)
+#include <bit>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <filesystem>
 #include <numbers>
@@ -155,6 +157,80 @@ TEST_P(RenderedMatching, GlobalSearchFindsThePoseOrItsTwinWithoutAGuess) {
            std::abs(geometry::angleDiff(found[0].pose.phi, a.phi)) < 2 * kDeg;
   }
   EXPECT_TRUE(hit) << found[0].pose.x << "," << found[0].pose.y << "," << found[0].pose.phi;
+}
+
+// Layer 2's answers bit for bit (a speed change must keep them): FNV-1a over every figure of
+// correct() (pose, covariance, costs, counts, runner-up, diagnostics) at five rendered poses from
+// guesses 3.5 cm / 1 degree and 30 cm / 10 degrees off in four directions, of cost() at each
+// guess and of one global search. The digests were taken with the matcher of main cd74977
+// (session 9, before its layer-2 loops were rewritten).
+class Fnv {
+ public:
+  void mix(std::uint64_t v) {
+    for (int i = 0; i < 8; ++i) {
+      hash_ ^= (v >> (8 * i)) & 0xffu;
+      hash_ *= 0x100000001b3ull;
+    }
+  }
+  void mix(double v) { mix(std::bit_cast<std::uint64_t>(v)); }
+  void mix(const Pose2& p) {
+    mix(p.x);
+    mix(p.y);
+    mix(p.phi);
+  }
+  void mix(const PoseCorrection& c) {
+    mix(static_cast<std::uint64_t>(c.utime));
+    mix(static_cast<std::uint64_t>(c.valid));
+    mix(c.pose);
+    for (int k = 0; k < 9; ++k)
+      mix(c.covariance(k / 3, k % 3));
+    mix(c.cost);
+    mix(static_cast<std::uint64_t>(c.points_used));
+    mix(static_cast<std::uint64_t>(c.inliers));
+    mix(static_cast<std::uint64_t>(c.iterations));
+    mix(static_cast<std::uint64_t>(c.has_runner_up));
+    mix(c.runner_up);
+    mix(c.runner_up_cost);
+    mix(c.runner_up_delta);
+    mix(c.residual_rms_m);
+    mix(c.residual_inflation);
+    mix(c.independent_points);
+    mix(c.shape_widening);
+    for (const char ch : c.invalid_reason)
+      mix(static_cast<std::uint64_t>(static_cast<unsigned char>(ch)));
+  }
+  std::uint64_t value() const { return hash_; }
+
+ private:
+  std::uint64_t hash_ = 0xcbf29ce484222325ull;
+};
+
+TEST_P(RenderedMatching, CorrectionsKeepTheirBits) {
+  const LineMatcher m = matcher();
+  const std::vector<Pose2> truths = {
+      {1.0, 0.5, 0.3}, {-2.0, -1.5, 2.0}, {7.5, 0.5, -1.0}, {-6.5, 0.5, 3.0}, {-3.0, 5.0, 0.8}};
+  Fnv digest;
+  int valid = 0;
+  for (const Pose2& truth : truths) {
+    const std::vector<LinePoint> points = linePointsAt(truth);
+    for (int k = 0; k < 8; ++k) {
+      const double direction = k * std::numbers::pi / 2.0 + 0.7;
+      const double offset = k < 4 ? 0.035 : 0.30;
+      const double turn = (k < 4 ? 1.0 : 10.0) * (k % 2 ? 1.0 : -1.0) * kDeg;
+      const Pose2 guess{truth.x + offset * std::cos(direction),
+                        truth.y + offset * std::sin(direction), truth.phi + turn};
+      const PoseCorrection c = m.correct(points, guess, 1000 + k);
+      valid += c.valid ? 1 : 0;
+      digest.mix(c);
+      digest.mix(m.cost(points, guess));
+    }
+  }
+  for (const PoseCorrection& c : m.globalSearch(linePointsAt({-7.0, 2.0, 0.6})))
+    digest.mix(c);
+  EXPECT_EQ(valid, 40);
+  const std::uint64_t expected =
+      GetParam() == MatchMethod::kForceField ? 0xef10178a93071422ull : 0xe2a167e48dfe03a6ull;
+  EXPECT_EQ(digest.value(), expected) << std::hex << "digest 0x" << digest.value();
 }
 
 }  // namespace
