@@ -1,5 +1,5 @@
 // The small text files a process keeps for its own restart (world_sim's snapshot, fusion's saved
-// pose): written whole or not at all, read back whole.
+// pose): written whole or not at all (but see writeStateFile on power loss), read back whole.
 #pragma once
 
 #include <optional>
@@ -7,8 +7,10 @@
 
 namespace fieldline::process {
 
-// Writes `text` to a temporary file of this process beside `path` and renames it over `path`, so
-// a reader (or a crash) never sees half of it. Throws std::runtime_error naming the file.
+// Writes `text` to a temporary file of this process beside `path` and swaps it in for `path` in
+// one step (the old file is then removed), so a reader, or a process that crashes while saving,
+// never sees half of it. Not durable across a power loss: the file may then be empty, which the
+// readers refuse as corrupt. Throws std::runtime_error naming the file (no temporary file left).
 void writeStateFile(const std::string& path, const std::string& text);
 
 // The whole file; nothing when it does not exist. Throws std::runtime_error when it exists but

@@ -23,6 +23,8 @@
 
 namespace fieldline::fusion {
 
+// long: layer 2's hot loop (most of fusion's CPU): the SSE2 pairs, the scalar tail and the running
+// sums they share stay in one function so the sums live in registers.
 LineMatcher::Impl::Linearization LineMatcher::Impl::linearize(const std::vector<RobotPoint>& points,
                                                               const geometry::Pose2& pose) const {
   Linearization out;
