@@ -16,9 +16,8 @@ if [ -n "$run" ]; then
   # The shared run of eval_team_run.sh (ctest's fixture eval_faults): its faults are at other
   # times, the same ones, judged the same way.
   out=$run
-  [ -f "$out/skipped" ] && { echo "SKIP: the run was skipped (eval_team_run.sh)"; exit 77; }
-  [ -f "$out/eval.rc" ] || { echo "FAIL: no run in $out (eval_team_run.sh)"; exit 1; }
-  cat "$out/eval.err" "$out/eval.txt"
+  . "$(dirname "$(realpath "$0")")/shared_run.sh"
+  shared_run_ready "$out" || exit $?
 else
   out=$(mktemp -d)
   trap 'rm -rf "$out"' EXIT
