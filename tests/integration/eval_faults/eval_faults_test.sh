@@ -9,23 +9,11 @@
 set -u
 bin=$(realpath "$1")
 root=$(realpath "$2")
-run=${3:-}
-if [ -n "$run" ]; then
-  # The shared run of eval_team_run.sh (ctest's fixture eval_faults): its faults are at other
-  # times, the same ones, judged the same way.
-  out=$run
-  . "$(dirname "$(realpath "$0")")/shared_run.sh"
-  shared_run_ready "$out" || exit $?
-else
-  out=$(mktemp -d)
-  trap 'rm -rf "$out"' EXIT
-  # The run, in private namespaces: run_eval.sh (shared with the other eval test).
-  "$(dirname "$(realpath "$0")")/run_eval.sh" "$bin" "$root" "$out" \
-    --scenario default --robots 2 --duration 18 \
-    --fault restart:fusion/1@6 --fault stall:2@10+1.5
-  rc=$?
-  [ "$rc" -eq 0 ] || exit "$rc"
-fi
+# With a third argument, the shared run of eval_team_run.sh (ctest's fixture eval_faults): its
+# faults are at other times, the same ones, judged the same way.
+. "$(dirname "$(realpath "$0")")/shared_run.sh"
+eval_run_or_shared "${3:-}" "$bin" "$root" --scenario default --robots 2 --duration 18 \
+  --fault restart:fusion/1@6 --fault stall:2@10+1.5 || exit $?
 python3 - "$out" <<'PY'
 import json, pathlib, sys
 out = pathlib.Path(sys.argv[1])
