@@ -485,7 +485,7 @@ def analyse(out, events, launcher_rc):
         if ev["kind"] == "camera":
             # Frames published after the resume whose exposure is older than fusion's window
             # (1 s): fusion must refuse them, never fuse them.
-            stale = [(r, u) for r, u in rec.camera_frames if t_back <= r and r - u > 1_000_000]
+            stale = [(r, u) for r, u in rec.camera_frames if t_back <= r < t_end and r - u > 1_000_000]
             res["stale_frames_after_resume"] = len(stale)
             res["max_frame_age_after_resume_ms"] = round(max(
                 (r - u for r, u in rec.camera_frames if t_back <= r < t_back + 2_000_000),
@@ -504,7 +504,8 @@ def analyse(out, events, launcher_rc):
         if ev["drill"].startswith("SIGSTOP"):
             # Lines and features of the frames exposed before the stop reach fusion after the
             # resume, older than its window: each must be refused (counted), never fused.
-            stale = [1 for r, u in rec.derived if r >= t_back and r - u > 1_000_000]
+            # Within this fault's window: a later fault of the shared run (drill.py all) is not this one's.
+            stale = [1 for r, u in rec.derived if t_back <= r < t_end and r - u > 1_000_000]
             res["stale_lines_features_after_resume"] = len(stale)
             n_refused = refused.get("lines_too_old", 0) + refused.get("features_too_old", 0)
             if not pre or not post:
