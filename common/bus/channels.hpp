@@ -83,12 +83,20 @@ constexpr double nominalRateHz(std::string_view channel) {
   return 0.0;
 }
 // Channels whose messages may be larger than one UDP datagram (~64 KB), which LCM then sends in
-// fragments: images and point sequences. The others are bounded far below that. A process reading
-// one of these takes the later fragments of every channel (they name no channel); every other
+// fragments: images and point sequences. The others are bounded far below that. Later fragments
+// name no channel: a process reading one of these takes later fragments from the senders it has
+// seen publishing one of them (or every later fragment, usuallyNeedsSeveralDatagrams); every other
 // process never wakes for a fragment it does not read (udpm_receiver.hpp).
 constexpr bool mayNeedSeveralDatagrams(std::string_view channel) {
   return channel == channels::kCameraImage.name || channel == channels::kCameraPreview.name ||
          channel == channels::kVisionLines.name || channel == channels::kFieldFeatures.name;
+}
+// Of those, the channels whose every message takes several datagrams (a 320x240 image is 150 KB):
+// a process reading one takes every later fragment on its bus, so that it has a sender's first
+// message whole too. The others fit one datagram at the shipped sizes (a frame's line points,
+// its features) and mostly begin a sender's traffic with a message of one datagram.
+constexpr bool usuallyNeedsSeveralDatagrams(std::string_view channel) {
+  return channel == channels::kCameraImage.name;
 }
 
 // The fraction of the nominal rate below which an input counts as failing.

@@ -1,5 +1,7 @@
 #include "common/bus/udpm_receiver.hpp"
 
+#include <algorithm>
+#include <array>
 #include <cerrno>
 #include <cstring>
 #include <stdexcept>
@@ -71,7 +73,8 @@ std::optional<UdpmAddress> parseUdpmUrl(const std::string& url) {
 }
 
 UdpmReceiver::UdpmReceiver(UdpmAddress address)
-    : address_(address), buffer_(udpm::kMaxDatagramBytes) {}
+    : address_(address),
+      buffers_(new std::uint8_t[static_cast<std::size_t>(kBatch) * udpm::kMaxDatagramBytes]) {}
 
 UdpmReceiver::~UdpmReceiver() {
   if (fd_ >= 0) ::close(fd_);
@@ -118,6 +121,7 @@ void UdpmReceiver::setChannels(const std::vector<std::string>& channels, bool ev
   channels_ = channels;
   everything_ = everything;
   if (everything) {
+    learn_senders_ = false;
     // No filter: every datagram, as LCM's receive thread gets them.
     // (The kernel wants an int-sized option here, although it reads none.)
     const int unused = 0;
@@ -126,13 +130,22 @@ void UdpmReceiver::setChannels(const std::vector<std::string>& channels, bool ev
     }
     return;
   }
-  // Later fragments name no channel: a process reading a channel whose messages may span
-  // several datagrams takes the later fragments of every channel (and drops the strangers'
-  // after reading them); every other process never wakes for one.
-  bool big = false;
-  for (const std::string& c : channels)
-    big = big || mayNeedSeveralDatagrams(c);
-  const auto program = udpm::filterProgram(channels, big);
+  // Later fragments name no channel: a process reading camera images takes every one; a process
+  // reading a channel that may span several datagrams takes those of the senders it has seen
+  // publishing such a channel (learnSender); every other process never wakes for one.
+  bool all = false, may = false;
+  for (const std::string& c : channels) {
+    all = all || usuallyNeedsSeveralDatagrams(c);
+    may = may || mayNeedSeveralDatagrams(c);
+  }
+  later_.all = all;
+  learn_senders_ = may && !all;
+  if (!learn_senders_) later_.from_ports.clear();
+  attachFilter();
+}
+
+void UdpmReceiver::attachFilter() {
+  const auto program = udpm::filterProgram(channels_, later_);
   sock_fprog prog{static_cast<unsigned short>(program.size()),
                   const_cast<sock_filter*>(program.data())};
   if (::setsockopt(fd_, SOL_SOCKET, SO_ATTACH_FILTER, &prog, sizeof prog) < 0) {
@@ -140,54 +153,92 @@ void UdpmReceiver::setChannels(const std::vector<std::string>& channels, bool ev
   }
 }
 
+bool UdpmReceiver::learnSender(const udpm::Datagram& d, std::uint16_t port) {
+  if (!learn_senders_ || !mayNeedSeveralDatagrams(d.channel)) return false;
+  auto& ports = later_.from_ports;
+  if (std::find(ports.begin(), ports.end(), port) != ports.end()) return false;
+  // A restarted publisher has a new port: the oldest is forgotten.
+  if (ports.size() >= kMaxFragmentSenders) ports.erase(ports.begin());
+  ports.push_back(port);
+  attachFilter();
+  return true;
+}
+
+int UdpmReceiver::handle(const std::uint8_t* data, std::size_t size, const sockaddr_in& from,
+                         const MessageFn& on_message, const ProblemFn& on_problem) {
+  ++datagrams_;
+  udpm::Datagram d;
+  if (const char* error = udpm::parseDatagram(std::span<const std::uint8_t>(data, size), d)) {
+    on_problem("bus_datagram", fmt::format("{}-byte datagram from {}:{}: {}", size,
+                                           inet_ntoa(from.sin_addr), ntohs(from.sin_port), error));
+    return 0;
+  }
+  if (!d.fragment) {
+    learnSender(d, ntohs(from.sin_port));
+    // The filter passed it, but a recorder takes every channel: the handlers choose.
+    on_message(d.channel, d.bytes.data(), static_cast<int>(d.bytes.size()));
+    return 1;
+  }
+  if (d.fragment_no == 0 && learnSender(d, ntohs(from.sin_port))) {
+    // The filter did not pass this sender's later fragments until now: some of this message's
+    // may be gone. Refused and counted, never handed on half; the sender's next ones arrive
+    // whole. (Later fragments of it that still arrive find no first fragment: no second count.)
+    on_problem("bus_incomplete",
+               fmt::format("{}: a {}-byte message in {} datagrams from a sender not seen before "
+                           "({}:{}): refused, its later fragments were not taken; they are now",
+                           d.channel, d.message_size, d.fragment_count, inet_ntoa(from.sin_addr),
+                           ntohs(from.sin_port)));
+    return 0;
+  }
+  const std::uint64_t sender =
+      (std::uint64_t{ntohl(from.sin_addr.s_addr)} << 16) | ntohs(from.sin_port);
+  udpm::FragmentAssembler::Message message;
+  const auto outcome = assembler_.add(sender, d, message);
+  if (assembler_.incomplete() > reported_incomplete_) {
+    on_problem("bus_incomplete",
+               fmt::format("{}: a message lost fragments ({} so far)",
+                           assembler_.lastIncompleteChannel(), assembler_.incomplete()));
+    reported_incomplete_ = assembler_.incomplete();
+  }
+  if (outcome != udpm::FragmentAssembler::Outcome::kComplete) return 0;
+  on_message(message.channel, message.bytes.data(), static_cast<int>(message.bytes.size()));
+  return 1;
+}
+
 int UdpmReceiver::receive(int max_datagrams, const MessageFn& on_message,
                           const ProblemFn& on_problem) {
   if (fd_ < 0) return 0;
+  std::array<mmsghdr, kBatch> headers{};
+  std::array<iovec, kBatch> vectors{};
+  std::array<sockaddr_in, kBatch> senders{};
   int handed_on = 0;
-  for (int n = 0; n < max_datagrams; ++n) {
-    iovec vec{buffer_.data(), buffer_.size()};
-    sockaddr_in from{};
-    msghdr msg{};
-    msg.msg_name = &from;
-    msg.msg_namelen = sizeof from;
-    msg.msg_iov = &vec;
-    msg.msg_iovlen = 1;
-    const ssize_t size = ::recvmsg(fd_, &msg, MSG_DONTWAIT);
-    if (size < 0) {
-      if (errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR) {
+  for (int read = 0; read < max_datagrams;) {
+    const int want = std::min(kBatch, max_datagrams - read);
+    for (int i = 0; i < want; ++i) {
+      vectors[i] = iovec{buffers_.get() + static_cast<std::size_t>(i) * udpm::kMaxDatagramBytes,
+                         udpm::kMaxDatagramBytes};
+      headers[i] = mmsghdr{};
+      headers[i].msg_hdr.msg_name = &senders[i];
+      headers[i].msg_hdr.msg_namelen = sizeof senders[i];
+      headers[i].msg_hdr.msg_iov = &vectors[i];
+      headers[i].msg_hdr.msg_iovlen = 1;
+    }
+    const int got =
+        ::recvmmsg(fd_, headers.data(), static_cast<unsigned>(want), MSG_DONTWAIT, nullptr);
+    if (got <= 0) {
+      if (got < 0 && errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR) {
         on_problem("bus_datagram", std::string("reading the bus socket: ") + std::strerror(errno));
       }
       break;
     }
-    ++datagrams_;
-    udpm::Datagram d;
-    const std::span<const std::uint8_t> bytes(buffer_.data(), static_cast<std::size_t>(size));
-    if (const char* error = udpm::parseDatagram(bytes, d)) {
-      on_problem("bus_datagram",
-                 fmt::format("{}-byte datagram from {}:{}: {}", size, inet_ntoa(from.sin_addr),
-                             ntohs(from.sin_port), error));
-      continue;
+    ++batches_;
+    read += got;
+    for (int i = 0; i < got; ++i) {
+      handed_on += handle(static_cast<const std::uint8_t*>(vectors[i].iov_base), headers[i].msg_len,
+                          senders[i], on_message, on_problem);
     }
-    if (!d.fragment) {
-      // The filter passed it, but a recorder takes every channel: the handlers choose.
-      on_message(d.channel, d.bytes.data(), static_cast<int>(d.bytes.size()));
-      ++handed_on;
-      continue;
-    }
-    const std::uint64_t sender =
-        (std::uint64_t{ntohl(from.sin_addr.s_addr)} << 16) | ntohs(from.sin_port);
-    udpm::FragmentAssembler::Message message;
-    const auto outcome = assembler_.add(sender, d, message);
-    if (assembler_.incomplete() > reported_incomplete_) {
-      on_problem("bus_incomplete",
-                 fmt::format("{}: a message lost fragments ({} so far)",
-                             assembler_.lastIncompleteChannel(), assembler_.incomplete()));
-      reported_incomplete_ = assembler_.incomplete();
-    }
-    if (outcome == udpm::FragmentAssembler::Outcome::kComplete) {
-      on_message(message.channel, message.bytes.data(), static_cast<int>(message.bytes.size()));
-      ++handed_on;
-    }
+    // Fewer than asked for: the socket was empty (what arrives since wakes the next poll).
+    if (got < want) break;
   }
   return handed_on;
 }

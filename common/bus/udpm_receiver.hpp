@@ -5,12 +5,25 @@
 // the bus, copies it, looks its channel up and then wakes the main loop through a pipe; here a
 // process that reads only MOTION_COMMAND wakes only for MOTION_COMMAND.
 //
+// Later fragments of a fragmented message name no channel. A process reading camera images takes
+// all of them; a process reading a channel that only may span several datagrams (VISION_LINES,
+// FIELD_FEATURES, CAMERA_PREVIEW: channels.hpp) takes them only from the senders (UDP source
+// ports) it has seen publishing such a channel, and learns a new sender from its first message of
+// one (the filter is then attached anew). Such a sender's first message is nearly always a single
+// datagram; if it is a fragmented one, its later fragments may have been dropped before the
+// sender was learnt: that message is refused and counted ("bus_incomplete"), its next ones arrive.
+// So fusion and feature recognition no longer wake for the camera's image fragments.
+//
+// Datagrams are read in batches (recvmmsg): one system call per wake-up, not one per datagram
+// plus the one that finds the socket empty.
+//
 // Publishing stays with LCM (lcm_publish): a publish-only lcm_t opens no receive socket and
 // starts no thread (LCM 1.3.1 sets those up at the first subscribe or getFileno()).
 #pragma once
 
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -59,18 +72,43 @@ class UdpmReceiver {
 
   // Datagrams read from the socket since it was opened (what the process woke for).
   std::int64_t datagrams() const { return datagrams_; }
+  // Read-system calls that returned datagrams (a batch each).
+  std::int64_t batches() const { return batches_; }
   const udpm::FragmentAssembler& assembler() const { return assembler_; }
+  // The senders (UDP source ports) whose later fragments the filter passes, when it does not
+  // pass all of them.
+  const std::vector<std::uint16_t>& fragmentSenders() const { return later_.from_ports; }
+
+  // Datagrams read by one system call at most.
+  static constexpr int kBatch = 8;
+  // Senders of fragments remembered at most (the oldest is forgotten first).
+  static constexpr std::size_t kMaxFragmentSenders = 8;
 
  private:
   void open();
+  void attachFilter();
+  // `d` (a short message or a first fragment that the filter passed) comes from `port`: learns
+  // the port if the process takes later fragments only from known senders and `d`'s channel may
+  // need them. Returns true if the port was new.
+  bool learnSender(const udpm::Datagram& d, std::uint16_t port);
+  // Handles one datagram of `size` bytes in `data` from `from`.
+  int handle(const std::uint8_t* data, std::size_t size, const sockaddr_in& from,
+             const MessageFn& on_message, const ProblemFn& on_problem);
 
   UdpmAddress address_;
   int fd_ = -1;
   bool everything_ = false;
   std::vector<std::string> channels_;
-  std::vector<std::uint8_t> buffer_;
+  // Learning the senders of later fragments (a channel of mayNeedSeveralDatagrams read, none of
+  // usuallyNeedsSeveralDatagrams).
+  bool learn_senders_ = false;
+  udpm::LaterFragments later_;
+  // kBatch buffers of kMaxDatagramBytes, allocated uninitialized (pages never written are never
+  // touched).
+  std::unique_ptr<std::uint8_t[]> buffers_;
   udpm::FragmentAssembler assembler_;
   std::int64_t datagrams_ = 0;
+  std::int64_t batches_ = 0;
   std::int64_t reported_incomplete_ = 0;
 };
 

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cstring>
+#include <stdexcept>
 
 namespace fieldline::bus::udpm {
 namespace {
@@ -136,7 +137,7 @@ FragmentAssembler::Outcome FragmentAssembler::add(std::uint64_t sender, const Da
 }
 
 std::vector<sock_filter> filterProgram(const std::vector<std::string>& channels,
-                                       bool accept_later_fragments, std::uint32_t payload_offset) {
+                                       const LaterFragments& later, std::uint32_t payload_offset) {
   constexpr std::uint32_t kAccept = 0xffffffffu;  // keep the whole datagram
   constexpr std::uint32_t kDrop = 0;
   std::vector<sock_filter> p;
@@ -192,8 +193,22 @@ std::vector<sock_filter> filterProgram(const std::vector<std::string>& channels,
   channelBlocks(payload_offset + kShortHeaderBytes);   // 5...
   p[fragment_jump].k = static_cast<std::uint32_t>(p.size() - fragment_jump - 1);
   stmt(BPF_LD | BPF_H | BPF_ABS, payload_offset + 16);  // the fragment number
-  jump(BPF_JMP | BPF_JEQ | BPF_K, 0, 1, 0);             // the first: its channel
-  stmt(BPF_RET | BPF_K, accept_later_fragments ? kAccept : kDrop);
+  const std::size_t first_jump = p.size();
+  jump(BPF_JMP | BPF_JEQ | BPF_K, 0, 0, 0);  // the first: its channel (jt set below)
+  if (later.all || later.from_ports.empty()) {
+    stmt(BPF_RET | BPF_K, later.all ? kAccept : kDrop);
+  } else {
+    // A later fragment: accepted from the senders given (a handful: the 8-bit jumps fit).
+    const std::size_t n = later.from_ports.size();
+    if (n > 200) throw std::invalid_argument("socket filter: too many senders of fragments");
+    stmt(BPF_LD | BPF_H | BPF_ABS, kFilterSourcePortOffset);
+    for (std::size_t i = 0; i < n; ++i) {
+      jump(BPF_JMP | BPF_JEQ | BPF_K, later.from_ports[i], static_cast<std::uint8_t>(n - i), 0);
+    }
+    stmt(BPF_RET | BPF_K, kDrop);
+    stmt(BPF_RET | BPF_K, kAccept);
+  }
+  p[first_jump].jt = static_cast<std::uint8_t>(p.size() - first_jump - 1);
   channelBlocks(payload_offset + kFragmentHeaderBytes);
   return p;
 }

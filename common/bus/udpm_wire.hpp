@@ -11,8 +11,10 @@
 //
 // The socket filter (filterProgram) lets the kernel drop what a process does not read, so the
 // process does not wake for it: a short message or a first fragment whose channel is not one of
-// the process's, and, unless the process reads a channel whose messages may span several
-// datagrams, every later fragment (they carry no channel name).
+// the process's, and every later fragment (they carry no channel name) except those the process
+// may need: all of them for a process that reads camera images, otherwise only those from the
+// senders (UDP source ports) seen publishing a channel the process reads that may span several
+// datagrams (udpm_receiver.hpp).
 #pragma once
 
 #include <cstdint>
@@ -105,10 +107,28 @@ class FragmentAssembler {
 // Offset of the UDP payload in what a socket filter of a UDP socket sees (the UDP header first).
 inline constexpr std::uint32_t kFilterPayloadOffset = 8;
 
+// Offset of the UDP source port in what a socket filter of a UDP socket sees.
+inline constexpr std::uint32_t kFilterSourcePortOffset = 0;
+
+// Which later fragments (fragment number > 0: no channel name) a filter passes.
+struct LaterFragments {
+  // Every one.
+  bool all = false;
+  // Otherwise those whose UDP source port (host byte order) is one of these.
+  std::vector<std::uint16_t> from_ports;
+};
+
 // A classic BPF program for SO_ATTACH_FILTER that accepts a short message or a first fragment on
-// one of `channels`, later fragments only if `accept_later_fragments`, and drops everything else.
+// one of `channels`, the later fragments `later` says, and drops everything else.
 std::vector<sock_filter> filterProgram(const std::vector<std::string>& channels,
-                                       bool accept_later_fragments,
+                                       const LaterFragments& later,
                                        std::uint32_t payload_offset = kFilterPayloadOffset);
+// The same with every later fragment (`accept_later_fragments`) or none.
+inline std::vector<sock_filter> filterProgram(const std::vector<std::string>& channels,
+                                              bool accept_later_fragments,
+                                              std::uint32_t payload_offset = kFilterPayloadOffset) {
+  return filterProgram(channels, LaterFragments{.all = accept_later_fragments, .from_ports = {}},
+                       payload_offset);
+}
 
 }  // namespace fieldline::bus::udpm

@@ -219,11 +219,10 @@ TEST(UdpmWire, TwoSendersInterleavedAreKeptApart) {
 
 // Sends `datagrams` through a datagram socket pair whose receiving end carries the filter (the
 // payload starts at offset 0 there); returns what came through.
-std::vector<Bytes> throughFilter(const std::vector<std::string>& channels, bool later_fragments,
-                                 const std::vector<Bytes>& datagrams) {
+std::vector<Bytes> throughProgram(const std::vector<sock_filter>& program,
+                                  const std::vector<Bytes>& datagrams) {
   int pair[2];
   EXPECT_EQ(::socketpair(AF_UNIX, SOCK_DGRAM | SOCK_NONBLOCK, 0, pair), 0);
-  const auto program = udpm::filterProgram(channels, later_fragments, 0);
   sock_fprog prog{static_cast<unsigned short>(program.size()),
                   const_cast<sock_filter*>(program.data())};
   EXPECT_EQ(::setsockopt(pair[1], SOL_SOCKET, SO_ATTACH_FILTER, &prog, sizeof prog), 0)
@@ -240,6 +239,22 @@ std::vector<Bytes> throughFilter(const std::vector<std::string>& channels, bool 
   ::close(pair[0]);
   ::close(pair[1]);
   return got;
+}
+
+std::vector<Bytes> throughFilter(const std::vector<std::string>& channels, bool later_fragments,
+                                 const std::vector<Bytes>& datagrams) {
+  return throughProgram(udpm::filterProgram(channels, later_fragments, 0), datagrams);
+}
+
+// `d` behind a UDP header from `port`, as a UDP socket's filter sees it.
+Bytes fromPort(std::uint16_t port, const Bytes& d) {
+  Bytes b;
+  put16(b, port);
+  put16(b, 7667);
+  put16(b, static_cast<std::uint16_t>(d.size() + 8));
+  put16(b, 0);
+  b.insert(b.end(), d.begin(), d.end());
+  return b;
 }
 
 TEST(UdpmFilter, PassesOnlyTheChannelsAProcessReads) {
@@ -275,6 +290,35 @@ TEST(UdpmFilter, FragmentsOnlyForProcessesThatReadBigChannels) {
         throughFilter({name}, false, {shortDatagram(name, pattern(10)), shortDatagram("X", {})});
     EXPECT_EQ(got.size(), 1u) << name;
   }
+}
+
+// Issue 32: a process reading VISION_LINES but no camera image takes later fragments only from
+// the senders it has seen publishing what it reads: not the camera's image fragments.
+TEST(UdpmFilter, LaterFragmentsOnlyFromTheSendersGiven) {
+  std::vector<Bytes> image, lines;
+  for (const Bytes& d : fragments("CAMERA_IMAGE", pattern(3'000), 3))
+    image.push_back(fromPort(5000, d));
+  for (const Bytes& d : fragments("VISION_LINES", pattern(2'500), 4))
+    lines.push_back(fromPort(6001, d));
+  ASSERT_GT(lines.size(), 2u);
+  std::vector<Bytes> all = image;
+  all.insert(all.end(), lines.begin(), lines.end());
+  const std::vector<std::string> channels{"VISION_LINES", "ODOMETRY"};
+  // Senders known: every fragment of the lines, none of the image.
+  for (const std::vector<std::uint16_t>& ports :
+       {std::vector<std::uint16_t>{6001}, std::vector<std::uint16_t>{4000, 6001, 7000}}) {
+    const auto program =
+        udpm::filterProgram(channels, udpm::LaterFragments{.all = false, .from_ports = ports}, 8);
+    EXPECT_EQ(throughProgram(program, all), lines);
+  }
+  // None known yet: the lines' first fragment only.
+  const auto none = udpm::filterProgram(
+      channels, udpm::LaterFragments{.all = false, .from_ports = {5001, 6000}}, 8);
+  EXPECT_EQ(throughProgram(none, all), std::vector<Bytes>{lines[0]});
+  // Short messages of the channels read pass from any sender.
+  const Bytes odo = fromPort(9, shortDatagram("ODOMETRY", pattern(30)));
+  EXPECT_EQ(throughProgram(none, {odo, fromPort(9, shortDatagram("ROBOT_STATE", {}))}),
+            std::vector<Bytes>{odo});
 }
 
 TEST(UdpmFilter, AProcessThatReadsNothingGetsNothing) {
@@ -465,6 +509,68 @@ TEST_F(UdpmBus, WhatLcmItselfPublishesArrivesAndWhatTheNodePublishesLcmReads) {
   for (int i = 0; i < 200 && plain.received() < 2; ++i)
     plain.handle(10);
   EXPECT_EQ(plain.received(), 2);  // LCM's own and the node's
+}
+
+// Issue 32: a process reading VISION_LINES (fusion, feature recognition) does not wake for the
+// camera's image fragments. A VISION_LINES message of several datagrams from a sender it knows
+// still arrives whole; from a sender not seen before it is refused and counted (never lost
+// unseen), and that sender's next one arrives whole.
+TEST_F(UdpmBus, LaterFragmentsOnlyFromTheSendersOfWhatAProcessReads) {
+  Node camera{{.process = "camera", .robot_id = 1, .url = kUrl, .status_period_us = 0}, clock};
+  Node tracker{{.process = "tracker", .robot_id = 1, .url = kUrl, .status_period_us = 0}, clock};
+  Node other{{.process = "other", .robot_id = 1, .url = kUrl, .status_period_us = 0}, clock};
+  Node fusion{{.process = "fusion", .robot_id = 1, .url = kUrl, .status_period_us = 0}, clock};
+  std::vector<line_contours_t> got;
+  fusion.subscribe(channels::kVisionLines, [&](const line_contours_t& m) { got.push_back(m); });
+  const auto lines = [&](int n) {
+    line_contours_t m{};
+    m.header.utime = clock.now();
+    m.num_points = n;
+    for (int i = 0; i < n; ++i) {
+      m.u.push_back(static_cast<float>(i));
+      m.v.push_back(static_cast<float>(n - i));
+      m.x.push_back(0.001f * static_cast<float>(i));
+      m.y.push_back(-0.002f * static_cast<float>(i));
+    }
+    m.image_width = 320;
+    m.image_height = 240;
+    return m;
+  };
+  // 5000 points: 80 KB, two datagrams.
+  constexpr int kBig = 5000;
+  // The tracker's first lines fit one datagram: fusion learns its port.
+  auto small = lines(100);
+  ASSERT_TRUE(tracker.publish(channels::kVisionLines, small));
+  spinUntil({&fusion}, [&] { return got.size() == 1; });
+  ASSERT_EQ(got.size(), 1u);
+  for (int i = 0; i < 3; ++i) {
+    image_t frame = image(i);
+    frame.header.utime = clock.now();
+    ASSERT_TRUE(camera.publish(channels::kCameraImage, frame));
+  }
+  auto big = lines(kBig);
+  ASSERT_TRUE(tracker.publish(channels::kVisionLines, big));
+  spinUntil({&fusion}, [&] { return got.size() == 2; });
+  ASSERT_EQ(got.size(), 2u);
+  EXPECT_EQ(got[1].num_points, kBig);
+  EXPECT_TRUE(got[1].u == big.u && got[1].y == big.y);
+  // One short message and the big one's two fragments; none of the images' nine.
+  EXPECT_EQ(fusion.busDatagrams(), 3);
+  EXPECT_EQ(fusion.status().errorCount("bus_incomplete"), 0);
+  // A sender not seen before whose first lines take two datagrams: refused and counted.
+  auto first = lines(kBig);
+  ASSERT_TRUE(other.publish(channels::kVisionLines, first));
+  spinUntil({&fusion}, [&] { return fusion.status().errorCount("bus_incomplete") > 0; });
+  EXPECT_EQ(fusion.status().errorCount("bus_incomplete"), 1);
+  EXPECT_EQ(got.size(), 2u);
+  // Its next ones arrive whole.
+  auto next = lines(kBig + 1);
+  ASSERT_TRUE(other.publish(channels::kVisionLines, next));
+  spinUntil({&fusion}, [&] { return got.size() == 3; });
+  ASSERT_EQ(got.size(), 3u);
+  EXPECT_EQ(got[2].num_points, kBig + 1);
+  EXPECT_TRUE(got[2].x == next.x);
+  EXPECT_EQ(fusion.status().errorCount("bus_incomplete"), 1);
 }
 
 TEST_F(UdpmBus, GarbageOnASubscribedChannelIsCountedNotHandled) {
