@@ -7,6 +7,8 @@
 #
 # LAUNCH is a preset name or a launch file (fieldline-launch's argument). CPU time, not wall time,
 # so other load on the machine matters less (it still changes caches and scheduling).
+# With TEAM_CPU_WAKEUPS=1 each line also gives the executable's wake-ups a second (voluntary context
+# switches of its main thread, /proc/PID/status), summed over its robots.
 set -eu
 launch=${1:-sim_team}
 seconds=${2:-30}
@@ -28,7 +30,8 @@ $ns bash -c "
     for pid in \$(pgrep -P \$launcher); do
       exe=\$(basename \"\$(readlink /proc/\$pid/exe)\" 2>/dev/null) || continue
       ticks=\$(awk '{print \$14 + \$15}' /proc/\$pid/stat 2>/dev/null) || continue
-      echo \"\$exe \$pid \$ticks\"
+      wakes=\$(awk '/^voluntary_ctxt_switches/{print \$2}' /proc/\$pid/status 2>/dev/null) || continue
+      echo \"\$exe \$pid \$ticks \$wakes\"
     done
   }
   sleep 10
@@ -44,7 +47,14 @@ $ns bash -c "
 "
 # Processes present in both snapshots (a restarted one is left out, not misread).
 join -j 2 <(sort -k2 "$work/before") <(sort -k2 "$work/after") |
-  awk -v s="$seconds" -v hz="$(getconf CLK_TCK)" '
-    { cpu[$2] += ($5 - $3) / hz / s; total += ($5 - $3) / hz / s }
-    END { for (e in cpu) printf "%-32s %.3f cpu-s/s\n", e, cpu[e]; printf "%-32s %.3f cpu-s/s\n", "total", total }' |
+  awk -v s="$seconds" -v hz="$(getconf CLK_TCK)" -v wakes="${TEAM_CPU_WAKEUPS:-0}" '
+    # After the join: pid, then executable, ticks and wake-ups before and after.
+    { cpu[$2] += ($6 - $3) / hz / s; total += ($6 - $3) / hz / s; wk[$2] += ($7 - $4) / s }
+    END {
+      for (e in cpu) {
+        if (wakes == "1") printf "%-36s %.3f cpu-s/s %8.1f wakeups/s\n", e, cpu[e], wk[e]
+        else printf "%-32s %.3f cpu-s/s\n", e, cpu[e]
+      }
+      printf "%-32s %.3f cpu-s/s\n", "total", total
+    }' |
   sort

@@ -26,9 +26,11 @@ TrackingNode::TrackingNode(bus::Node& node, TrackingNodeOptions options)
     adaptation_ = std::make_unique<ColourAdaptation>(options_.colours, options_.adaptation);
   }
   node_.subscribe(bus::channels::kCameraImage, [this](const image_t& image) { onImage(image); });
-  // Optional: without fusion the field checks and the ball's field check say nothing.
-  node_.subscribe(bus::channels::kRobotState,
-                  [this](const robot_state_t& state) { onRobotState(state); });
+  // Optional: without fusion the field checks and the ball's field check say nothing. Only the
+  // newest state matters at the next frame: read deferred, it does not wake the process (50 Hz;
+  // the waiting states are handled before the next frame, issue 32).
+  node_.subscribeDeferred(bus::channels::kRobotState,
+                          [this](const robot_state_t& state) { onRobotState(state); });
   // Without images this process does nothing: a dead camera must show in its status.
   node_.requireInput(
       bus::channels::kCameraImage,
