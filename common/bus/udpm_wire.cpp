@@ -95,7 +95,8 @@ FragmentAssembler::Slot& FragmentAssembler::slotFor(std::uint64_t sender) {
 
 void FragmentAssembler::abandon(Slot& slot) {
   // Without its first fragment the message was one this process does not read (the socket
-  // filter passes later fragments of every channel): nothing was lost for us.
+  // filter passes a sender's later fragments of every channel), or one already refused and
+  // counted when its first fragment came (udpm_receiver.cpp): nothing more was lost for us.
   if (slot.active && !slot.channel.empty()) {
     ++incomplete_;
     last_incomplete_channel_ = slot.channel;
