@@ -172,7 +172,8 @@ bool UdpmReceiver::learnSender(const udpm::Datagram& d, std::uint16_t port,
 }
 
 void UdpmReceiver::expireSenders(const ProblemFn& on_problem) {
-  if (!learn_senders_ || senders_.ports().empty()) return;
+  // Every receive(): nothing copied unless a port goes.
+  if (!learn_senders_ || !senders_.anyQuiet(now_us_)) return;
   const udpm::SenderPorts before = senders_;
   forgotten_.clear();
   senders_.expire(now_us_, forgotten_);

@@ -12,6 +12,10 @@
 // one (the filter is then attached anew). Such a sender's first message is nearly always a single
 // datagram; if it is a fragmented one, its later fragments may have been dropped before the
 // sender was learnt: that message is refused and counted ("bus_incomplete"), its next ones arrive.
+// Senders are known by port only, at most 8 (udpm::SenderPorts: the least recently seen forgotten
+// first, one quiet for 10 s forgotten). A sender's unfinished message is given up and counted when
+// it can no longer complete: at the sender's next short message (LCM sends one message at a time
+// per sender), when the sender is forgotten, or when its first fragment is refused.
 // So fusion and feature recognition no longer wake for the camera's image fragments.
 //
 // Datagrams are read in batches (recvmmsg): one system call per wake-up, not one per datagram

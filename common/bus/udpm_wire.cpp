@@ -165,6 +165,11 @@ void SenderPorts::add(std::uint16_t port, std::int64_t now_us,
   seen_us_.push_back(now_us);
 }
 
+bool SenderPorts::anyQuiet(std::int64_t now_us) const {
+  return std::any_of(seen_us_.begin(), seen_us_.end(),
+                     [&](std::int64_t seen) { return now_us - seen > kForget_us; });
+}
+
 void SenderPorts::expire(std::int64_t now_us, std::vector<std::uint16_t>& forgotten) {
   for (std::size_t i = ports_.size(); i-- > 0;)
     if (now_us - seen_us_[i] > kForget_us) erase(i, forgotten);

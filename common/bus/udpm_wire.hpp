@@ -124,6 +124,8 @@ class SenderPorts {
   // Adds `port` (not known) seen at `now_us`; appends the ports forgotten to make room to
   // `forgotten`.
   void add(std::uint16_t port, std::int64_t now_us, std::vector<std::uint16_t>& forgotten);
+  // Whether expire() would forget a port.
+  bool anyQuiet(std::int64_t now_us) const;
   // Forgets the ports not seen since `now_us` - kForget_us and appends them to `forgotten`.
   void expire(std::int64_t now_us, std::vector<std::uint16_t>& forgotten);
   void clear();
