@@ -275,7 +275,7 @@ void Node::drainDeferred() {
     Connection::Impl& impl = *buses_[i]->impl_;
     if (!impl.deferred_receiver || impl.deferred_receiver->fd() < 0) continue;
     impl.deferred_receiver->receive(
-        kMaxMessagesPerSpin,
+        kMaxMessagesPerSpin, clock_.monotonicNow(),
         [&impl](std::string_view channel, const void* data, int size) {
           impl.dispatch(channel, data, size, true);
         },
@@ -559,7 +559,7 @@ int Node::spinOnce(int timeout_ms) {
       // Drain what is queued on this bus, bounded so timers and status still run under a flood.
       if (impl.receiver) {
         handled += impl.receiver->receive(
-            kMaxMessagesPerSpin,
+            kMaxMessagesPerSpin, clock_.monotonicNow(),
             [&impl](std::string_view channel, const void* data, int size) {
               impl.dispatch(channel, data, size);
             },

@@ -140,7 +140,8 @@ void UdpmReceiver::setChannels(const std::vector<std::string>& channels, bool ev
   }
   later_.all = all;
   learn_senders_ = may && !all;
-  if (!learn_senders_) later_.from_ports.clear();
+  if (!learn_senders_) senders_.clear();
+  later_.from_ports = senders_.ports();
   attachFilter();
 }
 
@@ -153,15 +154,64 @@ void UdpmReceiver::attachFilter() {
   }
 }
 
-bool UdpmReceiver::learnSender(const udpm::Datagram& d, std::uint16_t port) {
+bool UdpmReceiver::learnSender(const udpm::Datagram& d, std::uint16_t port,
+                               const ProblemFn& on_problem) {
   if (!learn_senders_ || !mayNeedSeveralDatagrams(d.channel)) return false;
-  auto& ports = later_.from_ports;
-  if (std::find(ports.begin(), ports.end(), port) != ports.end()) return false;
-  // A restarted publisher has a new port: the oldest is forgotten.
-  if (ports.size() >= kMaxFragmentSenders) ports.erase(ports.begin());
-  ports.push_back(port);
-  attachFilter();
+  if (senders_.refresh(port, now_us_)) return false;
+  const udpm::SenderPorts before = senders_;
+  forgotten_.clear();
+  senders_.add(port, now_us_, forgotten_);
+  if (!reattach(on_problem)) {
+    // The kernel keeps the filter it had: so do we (and the port stays unknown).
+    senders_ = before;
+    later_.from_ports = senders_.ports();
+    return true;
+  }
+  forgetSenders(on_problem);
   return true;
+}
+
+void UdpmReceiver::expireSenders(const ProblemFn& on_problem) {
+  // Every receive(): nothing copied unless a port goes.
+  if (!learn_senders_ || !senders_.anyQuiet(now_us_)) return;
+  const udpm::SenderPorts before = senders_;
+  forgotten_.clear();
+  senders_.expire(now_us_, forgotten_);
+  if (forgotten_.empty()) return;
+  if (!reattach(on_problem)) {
+    senders_ = before;
+    later_.from_ports = senders_.ports();
+    return;
+  }
+  forgetSenders(on_problem);
+}
+
+void UdpmReceiver::forgetSenders(const ProblemFn& on_problem) {
+  // Their later fragments no longer pass: what they had half sent never completes.
+  for (const std::uint16_t port : forgotten_)
+    assembler_.giveUpPort(port);
+  reportIncomplete(on_problem);
+}
+
+bool UdpmReceiver::reattach(const ProblemFn& on_problem) {
+  later_.from_ports = senders_.ports();
+  try {
+    attachFilter();
+    return true;
+  } catch (const std::system_error& e) {
+    on_problem(
+        "bus_datagram",
+        fmt::format("re-attaching the socket filter for the senders of fragments: {}", e.what()));
+    return false;
+  }
+}
+
+void UdpmReceiver::reportIncomplete(const ProblemFn& on_problem) {
+  if (assembler_.incomplete() <= reported_incomplete_) return;
+  on_problem("bus_incomplete",
+             fmt::format("{}: a message lost fragments ({} so far)",
+                         assembler_.lastIncompleteChannel(), assembler_.incomplete()));
+  reported_incomplete_ = assembler_.incomplete();
 }
 
 int UdpmReceiver::handle(const std::uint8_t* data, std::size_t size, const sockaddr_in& from,
@@ -173,41 +223,46 @@ int UdpmReceiver::handle(const std::uint8_t* data, std::size_t size, const socka
                                            inet_ntoa(from.sin_addr), ntohs(from.sin_port), error));
     return 0;
   }
+  const std::uint16_t port = ntohs(from.sin_port);
+  const std::uint64_t sender = (std::uint64_t{ntohl(from.sin_addr.s_addr)} << 16) | port;
+  // Every datagram of a known sender keeps it known (the least recently seen is forgotten).
+  if (learn_senders_) senders_.refresh(port, now_us_);
   if (!d.fragment) {
-    learnSender(d, ntohs(from.sin_port));
+    // LCM sends one message at a time per sender: its unfinished one lost fragments.
+    assembler_.giveUp(sender);
+    reportIncomplete(on_problem);
+    learnSender(d, port, on_problem);
     // The filter passed it, but a recorder takes every channel: the handlers choose.
     on_message(d.channel, d.bytes.data(), static_cast<int>(d.bytes.size()));
     return 1;
   }
-  if (d.fragment_no == 0 && learnSender(d, ntohs(from.sin_port))) {
+  if (d.fragment_no == 0 && learnSender(d, port, on_problem)) {
     // The filter did not pass this sender's later fragments until now: some of this message's
     // may be gone. Refused and counted, never handed on half; the sender's next ones arrive
     // whole. (Later fragments of it that still arrive find no first fragment: no second count.)
-    on_problem("bus_incomplete",
-               fmt::format("{}: a {}-byte message in {} datagrams from a sender not seen before "
-                           "({}:{}): refused, its later fragments were not taken; they are now",
-                           d.channel, d.message_size, d.fragment_count, inet_ntoa(from.sin_addr),
-                           ntohs(from.sin_port)));
+    // What the sender had left unfinished is given up too.
+    assembler_.giveUp(sender);
+    reportIncomplete(on_problem);
+    on_problem(
+        "bus_incomplete",
+        fmt::format("{}: a {}-byte message in {} datagrams from a sender not seen before "
+                    "({}:{}): refused, its later fragments were not taken; they are now",
+                    d.channel, d.message_size, d.fragment_count, inet_ntoa(from.sin_addr), port));
     return 0;
   }
-  const std::uint64_t sender =
-      (std::uint64_t{ntohl(from.sin_addr.s_addr)} << 16) | ntohs(from.sin_port);
   udpm::FragmentAssembler::Message message;
   const auto outcome = assembler_.add(sender, d, message);
-  if (assembler_.incomplete() > reported_incomplete_) {
-    on_problem("bus_incomplete",
-               fmt::format("{}: a message lost fragments ({} so far)",
-                           assembler_.lastIncompleteChannel(), assembler_.incomplete()));
-    reported_incomplete_ = assembler_.incomplete();
-  }
+  reportIncomplete(on_problem);
   if (outcome != udpm::FragmentAssembler::Outcome::kComplete) return 0;
   on_message(message.channel, message.bytes.data(), static_cast<int>(message.bytes.size()));
   return 1;
 }
 
-int UdpmReceiver::receive(int max_datagrams, const MessageFn& on_message,
+int UdpmReceiver::receive(int max_datagrams, std::int64_t now_us, const MessageFn& on_message,
                           const ProblemFn& on_problem) {
   if (fd_ < 0) return 0;
+  now_us_ = now_us;
+  expireSenders(on_problem);
   std::array<mmsghdr, kBatch> headers{};
   std::array<iovec, kBatch> vectors{};
   std::array<sockaddr_in, kBatch> senders{};

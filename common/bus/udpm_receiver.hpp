@@ -12,6 +12,10 @@
 // one (the filter is then attached anew). Such a sender's first message is nearly always a single
 // datagram; if it is a fragmented one, its later fragments may have been dropped before the
 // sender was learnt: that message is refused and counted ("bus_incomplete"), its next ones arrive.
+// Senders are known by port only, at most 8 (udpm::SenderPorts: the least recently seen forgotten
+// first, one quiet for 10 s forgotten). A sender's unfinished message is given up and counted when
+// it can no longer complete: at the sender's next short message (LCM sends one message at a time
+// per sender), when the sender is forgotten, or when its first fragment is refused.
 // So fusion and feature recognition no longer wake for the camera's image fragments.
 //
 // Datagrams are read in batches (recvmmsg): one system call per wake-up, not one per datagram
@@ -68,7 +72,9 @@ class UdpmReceiver {
 
   // Reads up to `max_datagrams` waiting datagrams without blocking and hands every complete
   // message of a channel it reads to `on_message`. Returns the number of messages handed on.
-  int receive(int max_datagrams, const MessageFn& on_message, const ProblemFn& on_problem);
+  // `now_us` is a monotonic time (Clock::monotonicNow): when the senders below were last seen.
+  int receive(int max_datagrams, std::int64_t now_us, const MessageFn& on_message,
+              const ProblemFn& on_problem);
 
   // Datagrams read from the socket since it was opened (what the process woke for).
   std::int64_t datagrams() const { return datagrams_; }
@@ -81,16 +87,25 @@ class UdpmReceiver {
 
   // Datagrams read by one system call at most.
   static constexpr int kBatch = 8;
-  // Senders of fragments remembered at most (the oldest is forgotten first).
-  static constexpr std::size_t kMaxFragmentSenders = 8;
+  // Senders of fragments remembered at most (the least recently seen is forgotten first; one not
+  // seen for udpm::SenderPorts::kForget_us is forgotten).
+  static constexpr std::size_t kMaxFragmentSenders = udpm::SenderPorts::kMax;
 
  private:
   void open();
   void attachFilter();
   // `d` (a short message or a first fragment that the filter passed) comes from `port`: learns
   // the port if the process takes later fragments only from known senders and `d`'s channel may
-  // need them. Returns true if the port was new.
-  bool learnSender(const udpm::Datagram& d, std::uint16_t port);
+  // need them. Returns true if the port was new. If the filter cannot be attached anew, reports
+  // it ("bus_datagram") and the port stays unknown.
+  bool learnSender(const udpm::Datagram& d, std::uint16_t port, const ProblemFn& on_problem);
+  // Forgets the senders not seen for long.
+  void expireSenders(const ProblemFn& on_problem);
+  // Gives up the unfinished messages of the senders in forgotten_.
+  void forgetSenders(const ProblemFn& on_problem);
+  // Attaches the filter for senders_; false (reported) if the kernel refused it.
+  bool reattach(const ProblemFn& on_problem);
+  void reportIncomplete(const ProblemFn& on_problem);
   // Handles one datagram of `size` bytes in `data` from `from`.
   int handle(const std::uint8_t* data, std::size_t size, const sockaddr_in& from,
              const MessageFn& on_message, const ProblemFn& on_problem);
@@ -103,6 +118,10 @@ class UdpmReceiver {
   // usuallyNeedsSeveralDatagrams).
   bool learn_senders_ = false;
   udpm::LaterFragments later_;
+  udpm::SenderPorts senders_;
+  std::vector<std::uint16_t> forgotten_;
+  // The time receive() was given.
+  std::int64_t now_us_ = 0;
   // kBatch buffers of kMaxDatagramBytes, allocated uninitialized (pages never written are never
   // touched).
   std::unique_ptr<std::uint8_t[]> buffers_;

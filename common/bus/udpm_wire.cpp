@@ -104,6 +104,16 @@ void FragmentAssembler::abandon(Slot& slot) {
   slot.active = false;
 }
 
+void FragmentAssembler::giveUp(std::uint64_t sender) {
+  for (Slot& s : slots_)
+    if (s.sender == sender) abandon(s);
+}
+
+void FragmentAssembler::giveUpPort(std::uint16_t port) {
+  for (Slot& s : slots_)
+    if ((s.sender & 0xffffu) == port) abandon(s);
+}
+
 FragmentAssembler::Outcome FragmentAssembler::add(std::uint64_t sender, const Datagram& d,
                                                   Message& message) {
   if (d.fragment_count == 0 || d.fragment_no >= d.fragment_count ||
@@ -135,6 +145,45 @@ FragmentAssembler::Outcome FragmentAssembler::add(std::uint64_t sender, const Da
   message.channel = slot.channel;
   message.bytes = std::span<const std::uint8_t>(slot.data.data(), slot.size);
   return Outcome::kComplete;
+}
+
+bool SenderPorts::refresh(std::uint16_t port, std::int64_t now_us) {
+  const auto it = std::find(ports_.begin(), ports_.end(), port);
+  if (it == ports_.end()) return false;
+  seen_us_[static_cast<std::size_t>(it - ports_.begin())] = now_us;
+  return true;
+}
+
+void SenderPorts::add(std::uint16_t port, std::int64_t now_us,
+                      std::vector<std::uint16_t>& forgotten) {
+  expire(now_us, forgotten);
+  if (ports_.size() >= kMax) {
+    const auto least = std::min_element(seen_us_.begin(), seen_us_.end());
+    erase(static_cast<std::size_t>(least - seen_us_.begin()), forgotten);
+  }
+  ports_.push_back(port);
+  seen_us_.push_back(now_us);
+}
+
+bool SenderPorts::anyQuiet(std::int64_t now_us) const {
+  return std::any_of(seen_us_.begin(), seen_us_.end(),
+                     [&](std::int64_t seen) { return now_us - seen > kForget_us; });
+}
+
+void SenderPorts::expire(std::int64_t now_us, std::vector<std::uint16_t>& forgotten) {
+  for (std::size_t i = ports_.size(); i-- > 0;)
+    if (now_us - seen_us_[i] > kForget_us) erase(i, forgotten);
+}
+
+void SenderPorts::clear() {
+  ports_.clear();
+  seen_us_.clear();
+}
+
+void SenderPorts::erase(std::size_t i, std::vector<std::uint16_t>& forgotten) {
+  forgotten.push_back(ports_[i]);
+  ports_.erase(ports_.begin() + static_cast<std::ptrdiff_t>(i));
+  seen_us_.erase(seen_us_.begin() + static_cast<std::ptrdiff_t>(i));
 }
 
 std::vector<sock_filter> filterProgram(const std::vector<std::string>& channels,

@@ -79,6 +79,13 @@ class FragmentAssembler {
   // (and so its channel) had arrived, otherwise it was a message the filter kept from us.
   Outcome add(std::uint64_t sender, const Datagram& d, Message& message);
 
+  // Gives up the unfinished message of `sender`, or of every sender with UDP source port `port`
+  // (counted as add() counts an abandoned one). LCM sends one message at a time per sender, so a
+  // short message from a sender means its unfinished one lost fragments; a sender whose later
+  // fragments the socket filter no longer passes never finishes one either.
+  void giveUp(std::uint64_t sender);
+  void giveUpPort(std::uint16_t port);
+
   // Messages given up with fragments missing, and the channel of the last one.
   std::int64_t incomplete() const { return incomplete_; }
   const std::string& lastIncompleteChannel() const { return last_incomplete_channel_; }
@@ -102,6 +109,34 @@ class FragmentAssembler {
   std::uint64_t uses_ = 0;
   std::int64_t incomplete_ = 0;
   std::string last_incomplete_channel_;
+};
+
+// The senders (UDP source ports) whose later fragments a process takes when it does not take
+// all of them (udpm_receiver.hpp): at most kMax, the least recently seen forgotten first to make
+// room, and one not seen for kForget_us forgotten. Times are a monotonic clock's, in us.
+class SenderPorts {
+ public:
+  static constexpr std::size_t kMax = 8;
+  static constexpr std::int64_t kForget_us = 10'000'000;
+
+  // `port` was seen at `now_us`: returns true (and refreshes it) if it is known.
+  bool refresh(std::uint16_t port, std::int64_t now_us);
+  // Adds `port` (not known) seen at `now_us`; appends the ports forgotten to make room to
+  // `forgotten`.
+  void add(std::uint16_t port, std::int64_t now_us, std::vector<std::uint16_t>& forgotten);
+  // Whether expire() would forget a port.
+  bool anyQuiet(std::int64_t now_us) const;
+  // Forgets the ports not seen since `now_us` - kForget_us and appends them to `forgotten`.
+  void expire(std::int64_t now_us, std::vector<std::uint16_t>& forgotten);
+  void clear();
+  // In the order learnt.
+  const std::vector<std::uint16_t>& ports() const { return ports_; }
+
+ private:
+  void erase(std::size_t i, std::vector<std::uint16_t>& forgotten);
+
+  std::vector<std::uint16_t> ports_;
+  std::vector<std::int64_t> seen_us_;
 };
 
 // Offset of the UDP payload in what a socket filter of a UDP socket sees (the UDP header first).

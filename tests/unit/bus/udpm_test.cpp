@@ -4,13 +4,17 @@
 // pair), and, in a private network namespace, real udpm buses: what LCM publishes arrives, and a
 // process wakes only for the channels it reads.
 #include <arpa/inet.h>
+#include <fcntl.h>
 #include <sched.h>
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdlib>
 #include <cstring>
+#include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -213,6 +217,56 @@ TEST(UdpmWire, TwoSendersInterleavedAreKeptApart) {
   }
   ASSERT_EQ(done.size(), 2u);
   EXPECT_EQ(a.incomplete(), 0);
+}
+
+// Review of issue 32: a sender's unfinished message is given up (and counted) when it can no
+// longer finish: a short message from that sender, or its port no longer passing the filter.
+TEST(UdpmWire, AnUnfinishedMessageGivenUpIsCounted) {
+  udpm::FragmentAssembler a;
+  const auto lines = fragments("VISION_LINES", pattern(3'000), 1);
+  auto image = fragments("CAMERA_IMAGE", pattern(3'000), 1);
+  EXPECT_TRUE(assemble(a, {lines[0]}, (std::uint64_t{1} << 16) | 6001).empty());
+  // Later fragments without their first (a channel not read): no loss when given up.
+  EXPECT_TRUE(assemble(a, {image[1]}, (std::uint64_t{1} << 16) | 5000).empty());
+  a.giveUp((std::uint64_t{1} << 16) | 5000);
+  EXPECT_EQ(a.incomplete(), 0);
+  a.giveUp((std::uint64_t{2} << 16) | 6001);  // another address
+  EXPECT_EQ(a.incomplete(), 0);
+  a.giveUpPort(6001);
+  EXPECT_EQ(a.incomplete(), 1);
+  EXPECT_EQ(a.lastIncompleteChannel(), "VISION_LINES");
+  a.giveUpPort(6001);  // once only
+  EXPECT_EQ(a.incomplete(), 1);
+}
+
+// Review of issue 32: the least recently seen sender is forgotten first (a publisher that keeps
+// publishing stays known however often others restart), and one quiet for 10 s is forgotten.
+TEST(UdpmWire, SenderPortsForgetTheLeastRecentlySeen) {
+  udpm::SenderPorts ports;
+  std::vector<std::uint16_t> forgotten;
+  constexpr std::int64_t kSecond = 1'000'000;
+  std::int64_t now = 0;
+  ports.add(100, now, forgotten);  // the long-lived publisher, learnt first
+  for (std::uint16_t p = 1; p < 8; ++p)
+    ports.add(static_cast<std::uint16_t>(200 + p), now += 1000, forgotten);
+  EXPECT_TRUE(forgotten.empty());
+  // Eight restarts of other publishers (a new port each); 100 keeps publishing.
+  for (std::uint16_t restart = 0; restart < 8; ++restart) {
+    EXPECT_TRUE(ports.refresh(100, now += 1000));
+    ports.add(static_cast<std::uint16_t>(300 + restart), now += 1000, forgotten);
+  }
+  EXPECT_EQ(forgotten.size(), 8u);
+  EXPECT_TRUE(std::find(forgotten.begin(), forgotten.end(), 100) == forgotten.end());
+  EXPECT_TRUE(ports.refresh(100, now));
+  EXPECT_EQ(ports.ports().size(), udpm::SenderPorts::kMax);
+  // More than eight senders, of which one keeps publishing: the quiet ones go after 10 s.
+  forgotten.clear();
+  for (int i = 0; i < 11; ++i)
+    EXPECT_TRUE(ports.refresh(100, now += kSecond));
+  ports.expire(now, forgotten);
+  EXPECT_EQ(forgotten.size(), 7u);
+  EXPECT_EQ(ports.ports(), std::vector<std::uint16_t>{100});
+  EXPECT_FALSE(ports.refresh(307, now));
 }
 
 // ---- the socket filter, run by the kernel --------------------------------------------------
@@ -571,6 +625,160 @@ TEST_F(UdpmBus, LaterFragmentsOnlyFromTheSendersOfWhatAProcessReads) {
   EXPECT_EQ(got[2].num_points, kBig + 1);
   EXPECT_TRUE(got[2].x == next.x);
   EXPECT_EQ(fusion.status().errorCount("bus_incomplete"), 1);
+}
+
+// A UDP socket that sends to the bus of UdpmBus (an ephemeral port of its own: one sender).
+class RawSender {
+ public:
+  RawSender() : fd_(::socket(AF_INET, SOCK_DGRAM | SOCK_CLOEXEC, 0)) {
+    sockaddr_in any{};
+    any.sin_family = AF_INET;
+    EXPECT_EQ(::bind(fd_, reinterpret_cast<const sockaddr*>(&any), sizeof any), 0);
+    socklen_t len = sizeof any;
+    EXPECT_EQ(::getsockname(fd_, reinterpret_cast<sockaddr*>(&any), &len), 0);
+    port_ = ntohs(any.sin_port);
+  }
+  ~RawSender() { ::close(fd_); }
+  RawSender(const RawSender&) = delete;
+  RawSender& operator=(const RawSender&) = delete;
+  void send(const Bytes& d) const {
+    sockaddr_in to{};
+    to.sin_family = AF_INET;
+    to.sin_port = htons(7801);
+    inet_aton("239.255.76.67", &to.sin_addr);
+    EXPECT_EQ(
+        ::sendto(fd_, d.data(), d.size(), 0, reinterpret_cast<const sockaddr*>(&to), sizeof to),
+        static_cast<ssize_t>(d.size()));
+  }
+  std::uint16_t port() const { return port_; }
+
+ private:
+  int fd_;
+  std::uint16_t port_ = 0;
+};
+
+// A receiver reading VISION_LINES, and what it handed on and reported.
+struct Reader {
+  Reader() : receiver(*parseUdpmUrl("udpm://239.255.76.67:7801?recv_buf_size=4194304")) {
+    receiver.setChannels({"VISION_LINES", "ODOMETRY"}, false);
+  }
+  void receive(std::int64_t now_us) {
+    receiver.receive(
+        64, now_us,
+        [&](std::string_view channel, const void*, int size) {
+          messages.emplace_back(channel, size);
+          if (on_message) on_message();
+        },
+        [&](const char* kind, const std::string& text) { problems.emplace_back(kind, text); });
+  }
+  int count(const std::string& kind) const {
+    return static_cast<int>(std::count_if(problems.begin(), problems.end(),
+                                          [&](const auto& p) { return p.first == kind; }));
+  }
+  UdpmReceiver receiver;
+  std::vector<std::pair<std::string, int>> messages;
+  std::vector<std::pair<std::string, std::string>> problems;
+  std::function<void()> on_message;
+};
+
+// Review of issue 32 (1a): a sender's short lines, then fragmented ones, before the reader reads:
+// the kernel dropped the later fragments (the sender was not known yet) and the first one waits
+// in the assembler. The sender's next short message gives it up: counted, not lost unseen.
+TEST_F(UdpmBus, AMessageWhoseLaterFragmentsWereDroppedIsCountedAtTheSendersNext) {
+  Reader reader;
+  RawSender s;
+  s.send(shortDatagram("VISION_LINES", pattern(100), 1));
+  for (const Bytes& d : fragments("VISION_LINES", pattern(3'000), 2))
+    s.send(d);
+  reader.receive(0);
+  EXPECT_EQ(reader.messages.size(), 1u);
+  EXPECT_EQ(reader.count("bus_incomplete"), 0);
+  s.send(shortDatagram("VISION_LINES", pattern(100), 3));
+  reader.receive(1000);
+  EXPECT_EQ(reader.messages.size(), 2u);
+  ASSERT_EQ(reader.count("bus_incomplete"), 1);
+  EXPECT_NE(reader.problems[0].second.find("VISION_LINES"), std::string::npos);
+  // The sender's next fragmented lines arrive whole.
+  for (const Bytes& d : fragments("VISION_LINES", pattern(3'000), 4))
+    s.send(d);
+  reader.receive(2000);
+  ASSERT_EQ(reader.messages.size(), 3u);
+  EXPECT_EQ(reader.messages[2].second, 3'000);
+  EXPECT_EQ(reader.count("bus_incomplete"), 1);
+}
+
+// Review of issue 32 (1b): a sender forgotten (to make room for others) while its message is
+// half received: that message is given up and counted, not left waiting forever.
+TEST_F(UdpmBus, ASenderForgottenWithAHalfMessageHasItCounted) {
+  Reader reader;
+  RawSender s;
+  s.send(shortDatagram("VISION_LINES", pattern(100), 1));
+  reader.receive(0);
+  const auto half = fragments("VISION_LINES", pattern(3'000), 2);
+  s.send(half[0]);
+  reader.receive(1000);
+  EXPECT_EQ(reader.count("bus_incomplete"), 0);
+  std::vector<std::unique_ptr<RawSender>> others;
+  for (std::size_t i = 0; i < UdpmReceiver::kMaxFragmentSenders; ++i) {
+    others.push_back(std::make_unique<RawSender>());
+    others.back()->send(shortDatagram("VISION_LINES", pattern(100), 1));
+    reader.receive(2000 + static_cast<std::int64_t>(i));
+  }
+  const auto& known = reader.receiver.fragmentSenders();
+  EXPECT_TRUE(std::find(known.begin(), known.end(), s.port()) == known.end());
+  ASSERT_EQ(reader.count("bus_incomplete"), 1);
+  EXPECT_NE(reader.problems[0].second.find("VISION_LINES"), std::string::npos);
+}
+
+// Review of issue 32 (2): a publisher that keeps publishing stays known while eight others
+// restart (a new port each): its fragmented lines still arrive whole.
+TEST_F(UdpmBus, ALongLivedSenderStaysKnownWhileOthersRestart) {
+  Reader reader;
+  RawSender s;
+  std::int64_t now = 0;
+  s.send(shortDatagram("VISION_LINES", pattern(100), 1));
+  reader.receive(now);
+  for (std::size_t restart = 0; restart < UdpmReceiver::kMaxFragmentSenders; ++restart) {
+    RawSender other;
+    other.send(shortDatagram("VISION_LINES", pattern(100), 1));
+    s.send(shortDatagram("ODOMETRY", pattern(10), static_cast<std::uint32_t>(2 + restart)));
+    reader.receive(now += 1000);
+  }
+  for (const Bytes& d : fragments("VISION_LINES", pattern(3'000), 20))
+    s.send(d);
+  reader.receive(now += 1000);
+  ASSERT_FALSE(reader.messages.empty());
+  EXPECT_EQ(reader.messages.back().second, 3'000);
+  EXPECT_EQ(reader.count("bus_incomplete"), 0);
+  // Eleven seconds later, only it is still known.
+  for (int i = 0; i < 11; ++i) {
+    s.send(shortDatagram("ODOMETRY", pattern(10), static_cast<std::uint32_t>(30 + i)));
+    reader.receive(now += 1'000'000);
+  }
+  EXPECT_EQ(reader.receiver.fragmentSenders(), std::vector<std::uint16_t>{s.port()});
+}
+
+// Review of issue 32 (3): the kernel refusing the filter for a new sender is reported and the
+// receive path keeps going (the rest of the batch is handled); the port stays unknown.
+TEST_F(UdpmBus, AFilterTheKernelRefusesIsReportedAndTheBatchGoesOn) {
+  Reader reader;
+  RawSender one, two, three;
+  one.send(shortDatagram("VISION_LINES", pattern(100), 1));
+  two.send(shortDatagram("VISION_LINES", pattern(100), 1));
+  three.send(shortDatagram("ODOMETRY", pattern(10), 1));
+  // After the first message the socket's descriptor is no socket: setsockopt fails (ENOTSOCK).
+  const int null = ::open("/dev/null", O_RDONLY | O_CLOEXEC);
+  ASSERT_GE(null, 0);
+  reader.on_message = [&] {
+    if (reader.messages.size() == 1) {
+      ASSERT_GE(::dup2(null, reader.receiver.fd()), 0);
+    }
+  };
+  EXPECT_NO_THROW(reader.receive(0));
+  ::close(null);
+  EXPECT_EQ(reader.messages.size(), 3u);
+  EXPECT_EQ(reader.count("bus_datagram"), 1);
+  EXPECT_EQ(reader.receiver.fragmentSenders(), std::vector<std::uint16_t>{one.port()});
 }
 
 TEST_F(UdpmBus, GarbageOnASubscribedChannelIsCountedNotHandled) {
