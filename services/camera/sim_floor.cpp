@@ -311,6 +311,16 @@ void SimRenderer::buildPixelTable() {
       floor_pixels.push_back(static_cast<std::int32_t>(i));
     }
   }
+  static_runs_.clear();
+  for (std::size_t i = 0; i < n; ++i) {
+    if (kind_[i] == PixelKind::kFloor) continue;
+    if (!static_runs_.empty() &&
+        static_cast<std::size_t>(static_runs_.back()[0] + static_runs_.back()[1]) == i) {
+      ++static_runs_.back()[1];
+    } else {
+      static_runs_.push_back({static_cast<std::int32_t>(i), 1});
+    }
+  }
   // Grouped by level (row-major within each), so that renderFloor reads one level's figures
   // once per run and takes the floor points four at a time.
   floor_run_x_.clear();
@@ -341,19 +351,37 @@ Yuv SimRenderer::floorColour(const Vec2& p) const {
 #if defined(__SSE2__)
 namespace {
 
-// Four floor points' cells: what bilinear() takes, per lane, and which lanes lie on the raster.
+// Four floor points, one a lane: where their four cells lie in the level's tiles (0 for a lane
+// off the raster, which takes `outside`), their bilinear weights and which lanes lie on the raster.
 struct FloorQuad {
-  alignas(16) std::int32_t i0[4];
-  alignas(16) std::int32_t j0[4];
-  alignas(16) std::int32_t fx[4];
-  alignas(16) std::int32_t fy[4];
-  int inside;
+  alignas(16) std::int32_t cell[4][4];  // corners 00, 10, 01, 11 (x then y), per lane
+  __m128 fx, fy;                        // offsets in 1/256 cell (whole numbers)
+  __m128i inside;                       // all ones in the lanes on the raster
 };
 
-// The rotation, the bounds test and the cell coordinates of four floor points: the same float
-// operations in the same order as floorSample's scalar code (SSE2 rounds each one as the scalar
-// code does), so the same pixels. Asks the cache for the tile of each point's first cell (its
-// four cells share it nine times in sixteen).
+// Lane-wise a * b for 32-bit lanes (SSE2 has no 32-bit multiply keeping the low halves).
+[[gnu::always_inline]] inline __m128i mul32(__m128i a, __m128i b) {
+  const __m128i even = _mm_mul_epu32(a, b);
+  const __m128i odd = _mm_mul_epu32(_mm_srli_epi64(a, 32), _mm_srli_epi64(b, 32));
+  return _mm_unpacklo_epi32(_mm_shuffle_epi32(even, _MM_SHUFFLE(0, 0, 2, 0)),
+                            _mm_shuffle_epi32(odd, _MM_SHUFFLE(0, 0, 2, 0)));
+}
+
+// Lane-wise min and max of 32-bit lanes (SSE2 has them for 16-bit lanes only).
+[[gnu::always_inline]] inline __m128i min32(__m128i a, __m128i b) {
+  const __m128i a_greater = _mm_cmpgt_epi32(a, b);
+  return _mm_or_si128(_mm_and_si128(a_greater, b), _mm_andnot_si128(a_greater, a));
+}
+[[gnu::always_inline]] inline __m128i max32(__m128i a, __m128i b) {
+  const __m128i a_greater = _mm_cmpgt_epi32(a, b);
+  return _mm_or_si128(_mm_and_si128(a_greater, a), _mm_andnot_si128(a_greater, b));
+}
+
+// The rotation, the bounds test and the cells of four floor points: the same float operations in
+// the same order as floorSample's scalar code (SSE2 rounds each one as the scalar code does), so
+// the same cells and weights; then bilinear()'s clamping at the raster's edge and tile offsets,
+// lane by lane. Asks the cache for the tiles of each point's first and last cell: its four cells
+// share one tile nine times in sixteen, and lie in those two in all but one case of sixteen.
 [[gnu::always_inline]] inline void prepareQuad(const FloorLevel& l, const float* xs,
                                                const float* ys, __m128 vc, __m128 vs, __m128 vox,
                                                __m128 voy, FloorQuad& q) {
@@ -365,7 +393,7 @@ struct FloorQuad {
       _mm_mul_ps(_mm_sub_ps(_mm_add_ps(vox, _mm_mul_ps(vc, x)), _mm_mul_ps(vs, y)), vinv);
   const __m128 gy =
       _mm_mul_ps(_mm_add_ps(_mm_add_ps(voy, _mm_mul_ps(vs, x)), _mm_mul_ps(vc, y)), vinv);
-  q.inside = _mm_movemask_ps(_mm_and_ps(
+  const __m128i inside = _mm_castps_si128(_mm_and_ps(
       _mm_and_ps(_mm_cmpge_ps(gx, zero), _mm_cmpge_ps(gy, zero)),
       _mm_and_ps(_mm_cmplt_ps(gx, _mm_set1_ps(l.fcols)), _mm_cmplt_ps(gy, _mm_set1_ps(l.frows)))));
   const __m128 cx = _mm_sub_ps(gx, half);
@@ -374,18 +402,72 @@ struct FloorQuad {
   // i0 (-1 before the first cell centre).
   const __m128i ci = _mm_add_epi32(_mm_cvttps_epi32(cx), _mm_castps_si128(_mm_cmplt_ps(cx, zero)));
   const __m128i cj = _mm_add_epi32(_mm_cvttps_epi32(cy), _mm_castps_si128(_mm_cmplt_ps(cy, zero)));
-  _mm_store_si128(reinterpret_cast<__m128i*>(q.i0), ci);
-  _mm_store_si128(reinterpret_cast<__m128i*>(q.j0), cj);
-  _mm_store_si128(reinterpret_cast<__m128i*>(q.fx),
-                  _mm_cvttps_epi32(_mm_mul_ps(_mm_sub_ps(cx, _mm_cvtepi32_ps(ci)), k256)));
-  _mm_store_si128(reinterpret_cast<__m128i*>(q.fy),
-                  _mm_cvttps_epi32(_mm_mul_ps(_mm_sub_ps(cy, _mm_cvtepi32_ps(cj)), k256)));
+  q.fx = _mm_cvtepi32_ps(_mm_cvttps_epi32(_mm_mul_ps(_mm_sub_ps(cx, _mm_cvtepi32_ps(ci)), k256)));
+  q.fy = _mm_cvtepi32_ps(_mm_cvttps_epi32(_mm_mul_ps(_mm_sub_ps(cy, _mm_cvtepi32_ps(cj)), k256)));
+  q.inside = inside;
+  // bilinear(): columns max(i0, 0) and min(i0 + 1, cols - 1), rows likewise, at their places in
+  // the tiles (tileColumnOffset, tileRowOffset). Lanes off the raster read cell 0.
+  const __m128i izero = _mm_setzero_si128(), one = _mm_set1_epi32(1),
+                low = _mm_set1_epi32(kTileMask);
+  const auto column = [&](__m128i i) {
+    return _mm_add_epi32(_mm_slli_epi32(_mm_srai_epi32(i, kTileShift), 4), _mm_and_si128(i, low));
+  };
+  const __m128i row_stride = _mm_set1_epi32(l.tile_cols * 16);
+  const auto row = [&](__m128i j) {
+    return _mm_add_epi32(mul32(_mm_srai_epi32(j, kTileShift), row_stride),
+                         _mm_slli_epi32(_mm_and_si128(j, low), kTileShift));
+  };
+  const __m128i a = column(max32(ci, izero));
+  const __m128i b = column(min32(_mm_add_epi32(ci, one), _mm_set1_epi32(l.cols - 1)));
+  const __m128i row0 = row(max32(cj, izero));
+  const __m128i row1 = row(min32(_mm_add_epi32(cj, one), _mm_set1_epi32(l.rows - 1)));
+  const __m128i c00 = _mm_and_si128(inside, _mm_add_epi32(row0, a));
+  _mm_store_si128(reinterpret_cast<__m128i*>(q.cell[0]), c00);
+  _mm_store_si128(reinterpret_cast<__m128i*>(q.cell[1]),
+                  _mm_and_si128(inside, _mm_add_epi32(row0, b)));
+  _mm_store_si128(reinterpret_cast<__m128i*>(q.cell[2]),
+                  _mm_and_si128(inside, _mm_add_epi32(row1, a)));
+  _mm_store_si128(reinterpret_cast<__m128i*>(q.cell[3]),
+                  _mm_and_si128(inside, _mm_add_epi32(row1, b)));
   for (int lane = 0; lane < 4; ++lane) {
-    if (!(q.inside >> lane & 1)) continue;
-    const std::size_t a = tileColumn(std::max(q.i0[lane], 0));
-    _mm_prefetch(reinterpret_cast<const char*>(l.tiles + tileRow(l, std::max(q.j0[lane], 0)) + a),
-                 _MM_HINT_T0);
+    _mm_prefetch(reinterpret_cast<const char*>(l.tiles + q.cell[0][lane]), _MM_HINT_T0);
+    _mm_prefetch(reinterpret_cast<const char*>(l.tiles + q.cell[3][lane]), _MM_HINT_T0);
   }
+}
+
+// The bilinear mix of a quad's four points, one a lane, channel by channel (the byte at `shift`
+// of each cell): (256-fy)((256-fx)c00 + fx c10) + fy((256-fx)c01 + fx c11), rounded, / 65536.
+// Exact in float, as in the scalar code: every product and partial sum is an integer below 2^24.
+[[gnu::always_inline]] inline __m128i mixChannel(__m128i c00, __m128i c10, __m128i c01, __m128i c11,
+                                                 __m128 wx0, __m128 wx1, __m128 wy0, __m128 wy1,
+                                                 int shift) {
+  const __m128i byte = _mm_set1_epi32(0xFF);
+  const auto f = [&](__m128i c) {
+    return _mm_cvtepi32_ps(_mm_and_si128(_mm_srli_epi32(c, shift), byte));
+  };
+  const __m128 top = _mm_add_ps(_mm_mul_ps(f(c00), wx0), _mm_mul_ps(f(c10), wx1));
+  const __m128 bottom = _mm_add_ps(_mm_mul_ps(f(c01), wx0), _mm_mul_ps(f(c11), wx1));
+  const __m128 sum =
+      _mm_add_ps(_mm_add_ps(_mm_mul_ps(top, wy0), _mm_mul_ps(bottom, wy1)), _mm_set1_ps(32768.0f));
+  return _mm_srli_epi32(_mm_cvttps_epi32(sum), 16);
+}
+
+// A prepared quad's four colours (Y, U, V, 0 a lane; `outside` in the lanes off the raster).
+[[gnu::always_inline]] inline __m128i mixQuad(const std::uint32_t* tiles, const FloorQuad& q,
+                                              __m128i outside) {
+  const auto gather = [tiles](const std::int32_t* at) {
+    return _mm_setr_epi32(static_cast<int>(tiles[at[0]]), static_cast<int>(tiles[at[1]]),
+                          static_cast<int>(tiles[at[2]]), static_cast<int>(tiles[at[3]]));
+  };
+  const __m128i c00 = gather(q.cell[0]), c10 = gather(q.cell[1]);
+  const __m128i c01 = gather(q.cell[2]), c11 = gather(q.cell[3]);
+  const __m128 k256 = _mm_set1_ps(256.0f);
+  const __m128 wx0 = _mm_sub_ps(k256, q.fx), wy0 = _mm_sub_ps(k256, q.fy);
+  const __m128i y = mixChannel(c00, c10, c01, c11, wx0, q.fx, wy0, q.fy, 0);
+  const __m128i u = mixChannel(c00, c10, c01, c11, wx0, q.fx, wy0, q.fy, 8);
+  const __m128i v = mixChannel(c00, c10, c01, c11, wx0, q.fx, wy0, q.fy, 16);
+  const __m128i yuv = _mm_or_si128(y, _mm_or_si128(_mm_slli_epi32(u, 8), _mm_slli_epi32(v, 16)));
+  return _mm_or_si128(_mm_and_si128(q.inside, yuv), _mm_andnot_si128(q.inside, outside));
 }
 
 // One level's floor points from `k` on, four at a time, into `frame`; returns where the
@@ -398,6 +480,8 @@ std::size_t renderFloorQuads(const FloorLevel& l, const float* xs, const float* 
   constexpr std::size_t kChunk = 8;  // quads
   const __m128 vc = _mm_set1_ps(c), vs = _mm_set1_ps(s);
   const __m128 vox = _mm_set1_ps(ox), voy = _mm_set1_ps(oy);
+  const __m128i voutside =
+      _mm_set1_epi32(static_cast<int>(outside.y | outside.u << 8 | outside.v << 16));
   const std::size_t quads = (end - k) / 4;
   FloorQuad chunk[2][kChunk];
   const auto prepare = [&](std::size_t first, FloorQuad* out) {
@@ -412,12 +496,14 @@ std::size_t renderFloorQuads(const FloorLevel& l, const float* xs, const float* 
     if (first + kChunk < quads) prepare(first + kChunk, chunk[which ^ 1]);
     const std::size_t count = std::min(kChunk, quads - first);
     for (std::size_t q = 0; q < count; ++q) {
-      const FloorQuad& f = chunk[which][q];
+      alignas(16) std::uint32_t colour[4];
+      _mm_store_si128(reinterpret_cast<__m128i*>(colour),
+                      mixQuad(l.tiles, chunk[which][q], voutside));
       const std::int32_t* const pixel = index + k + 4 * (first + q);
       for (int lane = 0; lane < 4; ++lane) {
-        frame[pixel[lane]] = (f.inside >> lane & 1)
-                                 ? bilinear(l, f.i0[lane], f.j0[lane], f.fx[lane], f.fy[lane])
-                                 : outside;
+        frame[pixel[lane]] = Yuv{static_cast<std::uint8_t>(colour[lane]),
+                                 static_cast<std::uint8_t>(colour[lane] >> 8),
+                                 static_cast<std::uint8_t>(colour[lane] >> 16)};
       }
     }
   }

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <numbers>
 #include <random>
 #include <stdexcept>
@@ -38,6 +39,29 @@ std::uint32_t mixSeed(std::uint32_t seed, std::uint64_t frame) {
   const auto out = static_cast<std::uint32_t>(h);
   return out == 0 ? 0x6D2B79F5u : out;
 }
+
+#if defined(__SSE2__)
+// Two pixel pairs from `x` on as YUYV in 16-bit lanes before the noise: Y0, mean U, Y1, mean V
+// each, the means (a + b + 1) / 2 (avg_epu8). Each pair is read as eight bytes from its first
+// pixel: its six and two beyond (the caller stops a pair before the frame's end).
+[[gnu::always_inline]] inline __m128i twoPairs(const Yuv* x) {
+  const __m128i from_pixels = _mm_setr_epi8(-1, 0, 0, -1, 0, 0, 0, 0, -1, 0, 0, -1, 0, 0, 0, 0);
+  std::uint64_t first = 0, second = 0;
+  std::memcpy(&first, x, 8);
+  std::memcpy(&second, x + 2, 8);
+  const __m128i bytes =
+      _mm_set_epi64x(static_cast<std::int64_t>(second), static_cast<std::int64_t>(first));
+  const __m128i means = _mm_avg_epu8(bytes, _mm_srli_si128(bytes, 3));
+  // Y0, mean U, mean V, Y1 in each pair's first four bytes, then in the order of YUYV.
+  const __m128i picked =
+      _mm_or_si128(_mm_and_si128(from_pixels, bytes), _mm_andnot_si128(from_pixels, means));
+  const __m128i zero = _mm_setzero_si128();
+  const __m128i low = _mm_shufflelo_epi16(_mm_unpacklo_epi8(picked, zero), _MM_SHUFFLE(2, 3, 1, 0));
+  const __m128i high =
+      _mm_shufflelo_epi16(_mm_unpackhi_epi8(picked, zero), _MM_SHUFFLE(2, 3, 1, 0));
+  return _mm_unpacklo_epi64(low, high);
+}
+#endif
 
 }  // namespace
 
@@ -329,7 +353,10 @@ void SimRenderer::renderOnce(const geometry::Pose2& robot_pose, const SimScene& 
   const Vec2 offset = mirror_.params().axis_offset;
   const geometry::Pose2 pose =
       geometry::poseRobotToField(robot_pose, geometry::Pose2{offset.x(), offset.y(), 0.0});
-  std::copy(static_layer_.begin(), static_layer_.end(), frame_.begin());
+  // The floor pass writes every floor pixel: only the others come from the static layer.
+  for (const auto& [first, count] : static_runs_) {
+    std::copy_n(static_layer_.begin() + first, count, frame_.begin() + first);
+  }
   renderFloor(pose);
 
   // Painter's order: far objects first, nearer ones drawn over them.
@@ -443,20 +470,19 @@ void SimRenderer::finish(const SimScene& scene, std::vector<std::uint8_t>& yuyv)
   std::size_t p = 0;
 #if defined(__SSE2__)
   // Four pairs take the eight lanes' draws at once; sixteen bytes are clamped and packed
-  // together (packus saturates to 0..255 as clampByte does).
+  // together (packus saturates to 0..255 as clampByte does). A group reads two bytes beyond its
+  // last pair (twoPairs): the last group, one pair short of the end at least, is left to the
+  // scalar loop.
   const std::int16_t* const luma = luma_noise_.data();
   const std::int16_t* const chroma = chroma_noise_.data();
   const auto half = [&](const Yuv* x, const std::uint32_t* r) {
-    const auto mean = [](int a, int b) { return static_cast<std::int16_t>((a + b + 1) / 2); };
-    const __m128i base = _mm_setr_epi16(x[0].y, mean(x[0].u, x[1].u), x[1].y, mean(x[0].v, x[1].v),
-                                        x[2].y, mean(x[2].u, x[3].u), x[3].y, mean(x[2].v, x[3].v));
     const __m128i noise =
         _mm_setr_epi16(luma[r[0] & mask], chroma[r[1] & mask], luma[(r[0] >> 16) & mask],
                        chroma[(r[1] >> 16) & mask], luma[r[2] & mask], chroma[r[3] & mask],
                        luma[(r[2] >> 16) & mask], chroma[(r[3] >> 16) & mask]);
-    return _mm_add_epi16(base, noise);
+    return _mm_add_epi16(twoPairs(x), noise);
   };
-  for (; p + 4 <= pairs; p += 4) {
+  for (; p + 5 <= pairs; p += 4) {
     draw();  // the lanes are fresh after this (used is 0 or 8 at each group's start)
     const Yuv* const x = src + 2 * p;
     _mm_storeu_si128(reinterpret_cast<__m128i*>(dst + 4 * p),

@@ -216,6 +216,9 @@ class SimRenderer {
   std::vector<std::int32_t> floor_run_index_;
   std::vector<std::size_t> level_end_;
   std::vector<Yuv> static_layer_;  // outside, self, hall
+  // The runs of pixels that are not kFloor (first pixel, count), row-major: all of the static
+  // layer a frame needs (the floor pass writes every kFloor pixel).
+  std::vector<std::array<std::int32_t, 2>> static_runs_;
 
   // The floor raster in tiles, what the floor pass reads: mapped from the cache file, or in
   // memory without one. The row-major cells are not kept.
