@@ -27,6 +27,8 @@ struct Yuv {
   std::uint8_t u = 128;
   std::uint8_t v = 128;
 };
+// The renderer's YUYV packing reads pixels as packed 3-byte runs (sim_renderer.cpp).
+static_assert(sizeof(Yuv) == 3 && alignof(Yuv) == 1);
 
 struct Bgr {
   std::uint8_t b = 0;

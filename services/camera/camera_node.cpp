@@ -155,7 +155,9 @@ void SimCameraNode::onWorld(const world_state_t& world) {
       makeRenderer(world.field);
       field_name_ = world.field;
       spdlog::info("rendering the '{}' field", field_name_);
-      // Building took a while: this state is old now, wait for the next one.
+      // Building took a while: this state is old now, wait for the next one (and never render
+      // the old field's world with the new field's renderer).
+      world_.reset();
       return;
     } catch (const std::exception& e) {
       node_.reportError("field", "cannot load field '" + world.field + "': " + e.what());
