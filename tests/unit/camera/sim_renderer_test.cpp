@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <cstdlib>
+#include <functional>
 #include <memory>
 #include <numbers>
 
@@ -27,8 +28,9 @@ struct RenderSetup {
   ColourTable colours;
   std::unique_ptr<SimRenderer> renderer;
 
-  RenderSetup(const std::string& field_name, bool noise)
-      : config(loadCameraConfigPreset("omni_sim")),
+  RenderSetup(const std::string& field_name, bool noise, const std::string& preset = "omni_sim",
+              const std::function<void(RenderParams&)>& adjust = {})
+      : config(loadCameraConfigPreset(preset)),
         field(field::loadFieldPreset(field_name)),
         colours(loadColourTablePreset(config.model.colour_table)) {
     RenderParams params = *config.render;
@@ -36,6 +38,7 @@ struct RenderSetup {
       params.noise_luma = 0.0;
       params.noise_chroma = 0.0;
     }
+    if (adjust) adjust(params);
     renderer = std::make_unique<SimRenderer>(config.model.mirror, field, params);
   }
 };
@@ -50,6 +53,26 @@ RenderSetup& mslNoisy() {
 }
 RenderSetup& fu2004Noisy() {
   static RenderSetup s("fu2004", true);
+  return s;
+}
+// The other paths of a frame: 640x480, motion blur over a turn, the realism post-process.
+RenderSetup& msl640Noisy() {
+  static RenderSetup s("msl", true, "omni_sim_640");
+  return s;
+}
+RenderSetup& mslBlurred() {
+  static RenderSetup s("msl", true, "omni_sim", [](RenderParams& p) { p.motion_blur_samples = 4; });
+  return s;
+}
+RenderSetup& mslRealism() {
+  static RenderSetup s("msl", true, "omni_sim", [](RenderParams& p) {
+    p.realism.light_factor = 0.7;
+    p.realism.light_gradient = 0.2;
+    p.realism.vignetting = 0.3;
+    p.realism.saturation = 0.8;
+    p.realism.blur_sigma = 0.8;
+    p.realism.shot_noise = 0.5;
+  });
   return s;
 }
 
@@ -259,12 +282,19 @@ TEST(SimRenderer, FramesKeepTheirBytes) {
       {&mslClean(), {-9.8, 5.8, -0.9}, true, 0x393f5d0a4f5907c5ull},
       {&mslClean(), {3.3, -4.1, 2.7}, false, 0xe232c1f0a253cfc3ull},
       {&fu2004Noisy(), {1.0, -0.5, 0.2}, true, 0x9f0ad35e8f300835ull},
+      {&msl640Noisy(), {2.2, -1.4, 1.1}, true, 0x37decd78572f7b1cull},
+      {&mslBlurred(), {-4.0, 2.0, -0.4}, true, 0xd3737609eb919b03ull},
+      {&mslRealism(), {5.5, 3.0, 2.0}, false, 0xcd1a0d0d1b31c4d3ull},
   };
   for (std::size_t k = 0; k < std::size(cases); ++k) {
     const Case& c = cases[k];
     SimScene scene;
     scene.robot = c.pose;
     scene.frame_number = 17 + k;
+    if (c.setup == &mslBlurred()) {  // turning and driving across the exposure
+      scene.velocity = {0.8, -0.3};
+      scene.omega = 2.0;
+    }
     if (c.objects) {
       scene.ball = SimBall{{c.pose.x + 1.5, c.pose.y - 0.5}, 0.11};
       scene.robots.push_back({{c.pose.x - 2.0, c.pose.y + 1.0}, 0.25, true});
