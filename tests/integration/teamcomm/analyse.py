@@ -84,7 +84,7 @@ if round_trips and min(round_trips) < 1900:
 # (This comment said a present timeout of half the default, five send periods, gives about 14
 # stretches in a run; measured 2026-12-07 with `team.picture.present_timeout_s: 0.25` in
 # net_team.yaml: one, in the 6.5 s window as in the 4.5 s one, and the test passed. See
-# docs/log/2026-12-07-build.md, "Session 9 (teamtests)", for a timeout this check does catch.)
+# docs/log/2026-12-07-first-run.md, "Session 9 (teamtests)", for a timeout this check does catch.)
 # The window: 15-19.5 s of the 14-20 s loss phase (8 s of loss and a 6.5 s window before issue 33).
 # What it judges needs no more: the rate is the median of about 45 stamp intervals a robot, the
 # age p95 is over about 1,300 teammate ages, the 5 % of absent reports is of 225 a robot.
