@@ -42,6 +42,9 @@ LIKE_1_3_1 = """int demo_t::_decodeNoHash(const void *buf, int offset, int maxle
 """
 
 failures = []
+# Every case writes into a folder of its own under one that is removed at exit (a build runs this
+# test each time the generated headers change: left behind, its folders filled /tmp).
+SCRATCH = tempfile.TemporaryDirectory(prefix="harden_lcm_decode_test_")
 
 
 def check(condition, what):
@@ -51,7 +54,7 @@ def check(condition, what):
 
 
 def run(text, name):
-    d = pathlib.Path(tempfile.mkdtemp())
+    d = pathlib.Path(tempfile.mkdtemp(dir=SCRATCH.name))
     path = d / name
     path.write_text(text)
     r = subprocess.run([sys.executable, str(SCRIPT), str(path)], capture_output=True, text=True)

@@ -45,10 +45,18 @@ Robot loadRobot(const Node& n) {
 
 class ConfigTest : public ::testing::Test {
  protected:
+  // One folder per process (several build trees may run this test at once), removed after the
+  // test: ctest runs every test in a process of its own, and the folders used to stay in /tmp.
+  void TearDown() override {
+    std::error_code ignored;
+    std::filesystem::remove_all(scratchDir(), ignored);
+  }
+  static std::filesystem::path scratchDir() {
+    return std::filesystem::temp_directory_path() /
+           ("fieldline_config_test_" + std::to_string(::getpid()));
+  }
   std::string write(const std::string& text) {
-    // One folder per process: several build trees may run this test at once.
-    const auto dir = std::filesystem::temp_directory_path() /
-                     ("fieldline_config_test_" + std::to_string(::getpid()));
+    const auto dir = scratchDir();
     std::filesystem::create_directories(dir);
     const auto path =
         dir /
