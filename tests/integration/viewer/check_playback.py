@@ -105,7 +105,9 @@ browser = subprocess.Popen(
     [chromium, "--headless", "--no-sandbox", "--disable-gpu", "--hide-scrollbars",
      f"--remote-debugging-port={DEVTOOLS_PORT}", f"--user-data-dir={work_dir}/profile",
      "--window-size=1400,900", f"http://127.0.0.1:{port}/"],
-    stdout=subprocess.DEVNULL, stderr=open(f"{work_dir}/chromium.log", "w"))
+    stdout=subprocess.DEVNULL, stderr=open(f"{work_dir}/chromium.log", "w"),
+    # Its scratch folders in the test's own folder: killed at the end, chromium leaves them behind.
+    env=dict(os.environ, TMPDIR=work_dir))
 try:
     devtools = None
     deadline = time.monotonic() + 30
