@@ -23,7 +23,9 @@ $ns bash -c "
   set -eu
   ip link set lo up; ip link set lo multicast on; ip route add 224.0.0.0/4 dev lo
   export FIELDLINE_ROOT='$root'
-  '$bin/fieldline-launch' '$launch' --duration $((seconds + 20)) --no-table > '$work/launch.log' 2>&1 &
+  # The launcher's own end is only a safety net (the script stops it after the window): under load
+  # its start-up checks and the snapshots took long enough that seconds + 20 ended it first.
+  '$bin/fieldline-launch' '$launch' --duration $((seconds + 300)) --no-table > '$work/launch.log' 2>&1 &
   launcher=\$!
   # Every child's executable, pid and CPU ticks (user + system) so far.
   snapshot() {
