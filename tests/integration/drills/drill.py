@@ -9,7 +9,9 @@ then the faults one after another, each followed by a wait for its recovery to b
 drill reads the recordings as they grow) rather than a fixed pause:
 
   kill    kill -9 of each process kind of robot 1 and of the simulator
-  stop    SIGSTOP of the camera for 2 s, then SIGCONT
+  stop    SIGSTOP of the camera for 2 s, then SIGCONT; then of region tracking for 3 s (the frames
+          left in its socket are older than fusion's window when it resumes: their lines must be
+          refused, and this is the fault that makes sure such lines exist)
   serial  the motor controller's serial line cut (world_sim's SIGUSR1 outage) and restored
   all     the three above one after another in one run of the team (ctest's way, issue 33: one
           start-up and baseline instead of three; each fault is judged on its own window all the
@@ -75,6 +77,9 @@ WAIT_S = RATE_BOUND_S + 1.5
 BASELINE_S = 3.0          # ROBOT_STATE with truth recorded before the first fault (error_before)
 OUTAGE_S = 1.0            # serial line away for this long
 STOP_S = 2.0              # camera stopped for this long
+# Region tracking stopped for this long: its socket keeps the first ~1 s of frames (its receive
+# buffer), so at the resume the newest of them is about 2 s old, past fusion's 1 s window.
+STOP_TRACKING_S = 3.0
 
 
 def now_us():
@@ -146,7 +151,7 @@ def run(a):
                 "ip route add 224.0.0.0/4 dev lo"):
         subprocess.run(cmd.split(), check=True)
     plan = launch_file(out, 1)
-    n_faults = {"kill": len(KINDS), "stop": 1, "serial": 1, "all": len(KINDS) + 2}[a.drill]
+    n_faults = {"kill": len(KINDS), "stop": 2, "serial": 1, "all": len(KINDS) + 3}[a.drill]
     budget = 60 + 10 + n_faults * (WAIT_S + 2) + 30
     launcher = subprocess.Popen(
         [bin_ / "fieldline-launch", plan, "--duration", str(int(budget)), "--no-table",
@@ -209,7 +214,7 @@ def faults(a, rec, events):
     wait_baseline(rec)
     for drill in DRILLS if a.drill == "all" else (a.drill,):
         first = len(events)
-        {"kill": kill_each, "stop": stop_camera, "serial": cut_serial}[drill](rec, events)
+        {"kill": kill_each, "stop": stop_each, "serial": cut_serial}[drill](rec, events)
         for ev in events[first:]:
             ev["group"] = drill
 
@@ -229,19 +234,20 @@ def kill_each(rec, events):
         wait_recovered(rec, events[-1])
 
 
-def stop_camera(rec, events):
-    exe, channel, bus = KINDS["camera"]
-    pid = find_pid(exe, bus)
-    if pid is None:
-        sys.exit("FAIL: no camera process to stop")
-    t_fault = now_us()
-    os.kill(pid, signal.SIGSTOP)
-    time.sleep(STOP_S)  # the fault itself: the camera stopped for STOP_S
-    os.kill(pid, signal.SIGCONT)
-    events.append({"drill": f"SIGSTOP camera {STOP_S:.0f} s", "kind": "camera",
-                   "channel": channel, "bus": bus, "t_fault": t_fault, "t_back": now_us(),
-                   "restarted": True})
-    wait_recovered(rec, events[-1])
+def stop_each(rec, events):
+    for kind, seconds in (("camera", STOP_S), ("region_tracking", STOP_TRACKING_S)):
+        exe, channel, bus = KINDS[kind]
+        pid = find_pid(exe, bus)
+        if pid is None:
+            sys.exit(f"FAIL: no {kind} process to stop")
+        t_fault = now_us()
+        os.kill(pid, signal.SIGSTOP)
+        time.sleep(seconds)  # the fault itself: the process stopped
+        os.kill(pid, signal.SIGCONT)
+        events.append({"drill": f"SIGSTOP {kind} {seconds:.0f} s", "kind": kind,
+                       "channel": channel, "bus": bus, "t_fault": t_fault, "t_back": now_us(),
+                       "restarted": True})
+        wait_recovered(rec, events[-1])
 
 
 def cut_serial(rec, events):
@@ -513,6 +519,10 @@ def analyse(out, events, launcher_rc):
             elif stale and n_refused == 0:
                 failures.append(f"{ev['drill']}: {len(stale)} stale lines/features after the "
                                 f"resume and fusion refused none of them")
+            elif not stale and ev["kind"] == "region_tracking":
+                # This stop exists to send fusion stale lines; without them it checked nothing.
+                failures.append(f"{ev['drill']}: no lines/features older than 1 s after the "
+                                f"resume (the check of their refusal did not run)")
         if ev["kind"] == "motor_bridge" and "line_gone_ms" in ev:
             res["line_gone_ms"] = ev["line_gone_ms"]
             pre_b = [s for r, s in bridge_status if r < t_fault]
