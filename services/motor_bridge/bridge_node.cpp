@@ -16,7 +16,7 @@ BridgeNode::BridgeNode(bus::Node& node, const robot::RobotParams& params, Bridge
       core_(params),
       source_(node.robotId()),
       link_(
-          io_, {config_.device, config_.baud_rate, config_.reconnect_interval},
+          {config_.device, config_.baud_rate, config_.reconnect_interval},
           [this](std::span<const std::uint8_t> bytes) { onBytes(bytes); },
           [this](bool connected) { onLinkState(connected); }) {
   if (!(config_.command_rate > 0.0)) throw std::invalid_argument("command_rate must be positive");
@@ -56,16 +56,9 @@ void BridgeNode::stop() {
   if (stopped_) return;
   stopped_ = true;
   link_.send(core_.stopFrame());
-  pumpIo();
   if (line_watch_) node_.unwatchFd(*line_watch_);
   line_watch_.reset();
   link_.stop();
-}
-
-void BridgeNode::pumpIo() {
-  io_.poll();
-  // poll() stops the context when it runs out of work; the next send or read brings work back.
-  if (io_.stopped()) io_.restart();
 }
 
 void BridgeNode::onBytes(std::span<const std::uint8_t> bytes) {
@@ -88,7 +81,7 @@ void BridgeNode::onLinkState(bool connected) {
     return;
   }
   spdlog::info("serial line {} open", config_.device);
-  line_watch_ = node_.watchFd(link_.nativeHandle(), [this] { pumpIo(); });
+  line_watch_ = node_.watchFd(link_.nativeHandle(), [this] { link_.onReadable(); });
   core_.onConnected();
   link_.send(core_.helloFrame());
 }
@@ -111,8 +104,8 @@ void BridgeNode::onCommand(const motion_command_t& m) {
 
 void BridgeNode::sendCommand() {
   link_.send(core_.commandFrame(node_.now()));
-  // Writes the frame, and runs Asio's reconnect timer while the line is down.
-  pumpIo();
+  // Reopens the line when a retry is due, writes what the device did not take before.
+  link_.poll();
 }
 
 void BridgeNode::publishMetrics() {

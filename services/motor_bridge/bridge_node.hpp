@@ -1,11 +1,11 @@
 // The motor_bridge process's bus side: MOTION_COMMAND in, velocity frames out on the serial line
 // at the command rate; odometry frames in, ODOMETRY out, stamped with the sampling time.
 //
-// The serial line is a Boost.Asio SerialLink on an io_context this class owns. The bus node's
-// event loop waits on the line's file descriptor next to LCM's and runs the io_context (poll(),
-// never blocking) when the line is readable and after each command is queued; the command timer
-// (50 Hz) also drives Asio's reconnect timer while the line is down. So the process sleeps until
-// bytes, a message or a timer are due: no polling loop.
+// The serial line is a SerialLink this class owns. The bus node's event loop waits on the line's
+// file descriptor next to LCM's (Node::watchFd) and has the link read what arrived, in one read;
+// a command frame is written when the command timer (50 Hz) ticks, and that tick also reopens a
+// lost line when a retry is due. So the process sleeps until bytes, a message or a timer are due:
+// no polling loop, no second reactor (issue 32).
 #pragma once
 
 #include <cstdint>
@@ -13,7 +13,6 @@
 #include <span>
 #include <vector>
 
-#include <boost/asio/io_context.hpp>
 #include <fieldline/motion_command_t.hpp>
 #include <fieldline/odometry_t.hpp>
 
@@ -54,15 +53,12 @@ class BridgeNode {
   void onCommand(const motion_command_t& m);
   void sendCommand();
   void publishMetrics();
-  // Runs what is ready in the io_context without blocking.
-  void pumpIo();
 
   bus::Node& node_;
   BridgeConfig config_;
   BridgeCore core_;
   // Which MOTION_COMMANDs may drive the robot (its own robot id, one publisher).
   CommandSource source_;
-  boost::asio::io_context io_;
   SerialLink link_;
   std::optional<bus::Node::WatchId> line_watch_;
   std::vector<OdometryOutput> outputs_;

@@ -17,7 +17,7 @@ TextBridgeNode::TextBridgeNode(bus::Node& node, const robot::RobotParams& params
       core_(params),
       source_(node.robotId()),
       link_(
-          io_, {config_.device, config_.baud_rate, config_.reconnect_interval},
+          {config_.device, config_.baud_rate, config_.reconnect_interval},
           [this](std::span<const std::uint8_t> bytes) { onBytes(bytes); },
           [this](bool connected) { onLinkState(connected); }) {
   if (!(config_.command_rate > 0.0)) throw std::invalid_argument("command_rate must be positive");
@@ -67,15 +67,9 @@ void TextBridgeNode::stop() {
   if (stopped_) return;
   stopped_ = true;
   send(core_.stopLine());
-  pumpIo();
   if (line_watch_) node_.unwatchFd(*line_watch_);
   line_watch_.reset();
   link_.stop();
-}
-
-void TextBridgeNode::pumpIo() {
-  io_.poll();
-  if (io_.stopped()) io_.restart();
 }
 
 void TextBridgeNode::send(const std::string& line) {
@@ -100,13 +94,13 @@ void TextBridgeNode::onLinkState(bool connected) {
     return;
   }
   spdlog::info("serial line {} open", config_.device);
-  line_watch_ = node_.watchFd(link_.nativeHandle(), [this] { pumpIo(); });
+  line_watch_ = node_.watchFd(link_.nativeHandle(), [this] { link_.onReadable(); });
   core_.onConnected();
 }
 
 void TextBridgeNode::sendCommand() {
   send(core_.commandLine(node_.now()));
-  pumpIo();
+  link_.poll();
 }
 
 void TextBridgeNode::publishMetrics() {

@@ -9,7 +9,6 @@
 #include <span>
 #include <vector>
 
-#include <boost/asio/io_context.hpp>
 #include <fieldline/motion_command_t.hpp>
 #include <fieldline/odometry_t.hpp>
 
@@ -46,7 +45,6 @@ class TextBridgeNode {
   void onLinkState(bool connected);
   void sendCommand();
   void publishMetrics();
-  void pumpIo();
   void send(const std::string& line);
 
   bus::Node& node_;
@@ -54,7 +52,6 @@ class TextBridgeNode {
   TextBridgeCore core_;
   // Which MOTION_COMMANDs may drive the robot (its own robot id, one publisher).
   CommandSource source_;
-  boost::asio::io_context io_;
   SerialLink link_;
   std::optional<bus::Node::WatchId> line_watch_;
   std::vector<perception::OdometryReading> outputs_;
