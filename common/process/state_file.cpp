@@ -1,7 +1,11 @@
 #include "common/process/state_file.hpp"
 
 #include <fcntl.h>
+#include <signal.h>
 #include <unistd.h>
+
+#include <algorithm>
+#include <cctype>
 
 #include <cerrno>
 #include <cstdio>
@@ -10,6 +14,7 @@
 #include <fstream>
 #include <sstream>
 #include <stdexcept>
+#include <utility>
 
 namespace fieldline::process {
 
@@ -44,6 +49,78 @@ void writeStateFile(const std::string& path, const std::string& text) {
     const std::string why = std::strerror(errno);
     ::unlink(tmp.c_str());
     throw std::runtime_error("cannot rename " + tmp + " to " + path + ": " + why);
+  }
+}
+
+namespace {
+
+// `name` is `base`.tmp.PID for a process that no longer runs.
+bool staleTemporary(const std::string& name, const std::string& base) {
+  const std::string prefix = base + ".tmp.";
+  if (name.size() <= prefix.size() || name.compare(0, prefix.size(), prefix) != 0) return false;
+  const std::string digits = name.substr(prefix.size());
+  if (digits.size() > 9 ||
+      !std::all_of(digits.begin(), digits.end(), [](unsigned char c) { return std::isdigit(c); }))
+    return false;
+  const pid_t pid = static_cast<pid_t>(std::stol(digits));
+  return pid > 0 && pid != ::getpid() && ::kill(pid, 0) != 0 && errno == ESRCH;
+}
+
+}  // namespace
+
+StateFileWriter::StateFileWriter(std::string path)
+    : path_(std::move(path)), tmp_(path_ + ".tmp." + std::to_string(::getpid())) {
+  // Errors here only leave stale files where they were.
+  namespace fs = std::filesystem;
+  const fs::path file(path_);
+  const fs::path folder = file.has_parent_path() ? file.parent_path() : fs::path(".");
+  const std::string base = file.filename().string();
+  std::error_code ec;
+  for (fs::directory_iterator it(folder, ec), end; !ec && it != end; it.increment(ec)) {
+    const std::string name = it->path().filename().string();
+    if (staleTemporary(name, base) && it->is_regular_file(ec)) fs::remove(it->path(), ec);
+  }
+}
+
+StateFileWriter::~StateFileWriter() {
+  ::unlink(tmp_.c_str());
+}
+
+void StateFileWriter::write(const std::string& text) {
+  // Written over in place: no O_TRUNC (ext4 also flushes a file truncated to nothing and
+  // rewritten when it is closed, auto_da_alloc), the tail cut after the write instead.
+  const int fd = ::open(tmp_.c_str(), O_WRONLY | O_CREAT | O_CLOEXEC, 0666);
+  if (fd < 0) {
+    const std::string why = std::strerror(errno);
+    throw std::runtime_error("cannot write " + tmp_ + ": " + why);
+  }
+  int error = 0;
+  for (std::size_t done = 0; done < text.size() && error == 0;) {
+    const ssize_t n =
+        ::pwrite(fd, text.data() + done, text.size() - done, static_cast<off_t>(done));
+    if (n > 0) {
+      done += static_cast<std::size_t>(n);
+    } else if (n == 0 || errno != EINTR) {
+      error = n == 0 ? EIO : errno;
+    }
+  }
+  if (error == 0 && ::ftruncate(fd, static_cast<off_t>(text.size())) != 0) error = errno;
+  if (::close(fd) != 0 && error == 0) error = errno;
+  if (error != 0) {
+    ::unlink(tmp_.c_str());
+    throw std::runtime_error("cannot write " + tmp_ + ": " + std::strerror(error));
+  }
+  // Swapped as in writeStateFile; the temporary file then holds the previous save, written over
+  // by the next one.
+  std::error_code ec;
+  if (std::filesystem::is_regular_file(path_, ec) &&
+      ::renameat2(AT_FDCWD, tmp_.c_str(), AT_FDCWD, path_.c_str(), RENAME_EXCHANGE) == 0) {
+    return;
+  }
+  if (std::rename(tmp_.c_str(), path_.c_str()) != 0) {
+    const std::string why = std::strerror(errno);
+    ::unlink(tmp_.c_str());
+    throw std::runtime_error("cannot rename " + tmp_ + " to " + path_ + ": " + why);
   }
 }
 

@@ -17,4 +17,28 @@ void writeStateFile(const std::string& path, const std::string& text);
 // cannot be read.
 std::optional<std::string> readStateFile(const std::string& path);
 
+// writeStateFile for a file saved again and again by one process (fusion's pose, 5 times a
+// second), at about half its CPU: the temporary file is kept between saves, written over in place
+// and swapped in, so the file system neither creates nor deletes a file per save (on ext4 that
+// was most of a save's cost, docs/performance.md). A reader sees the old file or the new one as
+// with writeStateFile, unless it holds the file open across the next save but one (it reads the
+// inode that save writes over). The temporary file (`path`.tmp.PID) stays beside the file while
+// the writer lives; the destructor removes it, and the constructor removes those of processes
+// that no longer run (a crash, SIGKILL).
+class StateFileWriter {
+ public:
+  explicit StateFileWriter(std::string path);
+  ~StateFileWriter();
+  StateFileWriter(const StateFileWriter&) = delete;
+  StateFileWriter& operator=(const StateFileWriter&) = delete;
+
+  const std::string& path() const { return path_; }
+  // As writeStateFile (the same errors); on an error no temporary file is left.
+  void write(const std::string& text);
+
+ private:
+  std::string path_;
+  std::string tmp_;
+};
+
 }  // namespace fieldline::process

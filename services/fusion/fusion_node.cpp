@@ -72,6 +72,7 @@ FusionNode::FusionNode(bus::Node& node, FusionNodeOptions options, MatcherFuncti
       throw std::invalid_argument(
           "fusion: a pose memory needs a steady clock and a save rate in (0, 100] Hz");
     }
+    pose_file_.emplace(memory.path);
     node_.setMetric("resumed", 0.0);
     if (options_.localizer.resume_max_age_s <= 0.0) {
       spdlog::info("the saved pose in {} is not read (localizer.resume_max_age_s 0)", memory.path);
@@ -144,7 +145,7 @@ void FusionNode::savePose() {
   saved.covariance = e.covariance;
   saved.twin_ambiguous = e.twin_ambiguous;
   try {
-    writeSavedPoseFile(memory.path, saved);
+    pose_file_->write(encodeSavedPose(saved));
   } catch (const std::runtime_error& error) {
     node_.reportError("state_file", error.what());
   }

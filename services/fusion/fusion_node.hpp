@@ -11,6 +11,7 @@
 #include <deque>
 #include <functional>
 #include <map>
+#include <optional>
 #include <string>
 
 #include <fieldline/ball_state_t.hpp>
@@ -22,6 +23,7 @@
 #include "common/perception/field_features.hpp"
 #include "common/perception/line_points.hpp"
 #include "common/perception/obstacles.hpp"
+#include "common/process/state_file.hpp"
 #include "common/robot/robot_params.hpp"
 #include "services/fusion/ball_filter.hpp"
 #include "services/fusion/ball_tracker.hpp"
@@ -114,6 +116,8 @@ class FusionNode {
   // (LocalizerParams::tracking_max_sigma_m).
   std::int64_t uncertain_states_ = 0;
   std::int64_t ball_states_ = 0;
+  // The pose file's writer (PoseMemoryOptions::path); none without a path.
+  std::optional<process::StateFileWriter> pose_file_;
 };
 
 }  // namespace fieldline::fusion

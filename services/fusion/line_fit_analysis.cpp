@@ -24,18 +24,24 @@ void LineMatcher::Impl::cellWeights(const std::vector<RobotPoint>& points,
   weights.assign(points.size(), 1.0);
   const double cell = params.correlation_length_m;
   if (cell <= 0.0) return;
-  std::vector<std::int64_t> keys(points.size());
+  // The points sorted by cell (their indices along): each run of one cell gives its points
+  // 1 / (its length), the count an equal_range per point found before.
+  std::vector<std::pair<std::int64_t, std::uint32_t>> keyed(points.size());
   for (std::size_t i = 0; i < points.size(); ++i) {
     // Points lie within max_point_range_m (<= 30 m): the cell indices fit 31 bits each.
     const auto kx = static_cast<std::int64_t>(std::floor(points[i].x / cell)) + (1 << 30);
     const auto ky = static_cast<std::int64_t>(std::floor(points[i].y / cell)) + (1 << 30);
-    keys[i] = (kx << 32) | ky;
+    keyed[i] = {(kx << 32) | ky, static_cast<std::uint32_t>(i)};
   }
-  std::vector<std::int64_t> sorted = keys;
-  std::sort(sorted.begin(), sorted.end());
-  for (std::size_t i = 0; i < points.size(); ++i) {
-    const auto range = std::equal_range(sorted.begin(), sorted.end(), keys[i]);
-    weights[i] = 1.0 / static_cast<double>(range.second - range.first);
+  std::sort(keyed.begin(), keyed.end());
+  for (std::size_t a = 0; a < keyed.size();) {
+    std::size_t b = a + 1;
+    while (b < keyed.size() && keyed[b].first == keyed[a].first)
+      ++b;
+    const double w = 1.0 / static_cast<double>(b - a);
+    for (std::size_t k = a; k < b; ++k)
+      weights[keyed[k].second] = w;
+    a = b;
   }
 }
 
