@@ -195,6 +195,32 @@ VisionHealth::FieldFacts VisionHealth::fieldFacts(const VisionResult& result, co
   return f;
 }
 
+bool VisionHealth::usefullyInView(const geometry::Vec2& robot, double min_radius) const {
+  const camera::MirrorParams& m = mirror_.params();
+  // A round mirror: the image radius of a floor point depends on its distance alone (the pixel's
+  // direction needs atan2, cos and sin). Where that radius and the pixel's radius (the same
+  // within 1e-13 px: a unit vector times r, added to and taken from the centre) are clear of every
+  // limit below by far more, and the whole circle of that radius lies inside the image, the answer
+  // is known without the pixel; anywhere else the pixel is computed as before.
+  if (!m.distance.isTable()) {
+    const geometry::Vec2 axis = mirror_.robotToAxis(robot);
+    const double r = m.distance.imageRadius(axis.norm(), 0.0);  // the bearing is not used
+    if (!std::isfinite(r) || r < m.self_radius || r > m.outer_radius) return false;
+    constexpr double kClear = 1e-6;
+    const double limit = std::min({m.outer_radius, m.useful_radius, m.distance.maxRadius()});
+    if (r < min_radius - kClear || r > limit + kClear) return false;
+    const double reach = r + kClear;
+    if (r > min_radius + kClear && r < limit - kClear && m.centre.x() - reach >= -0.5 &&
+        m.centre.y() - reach >= -0.5 && m.centre.x() + reach < m.width - 0.5 &&
+        m.centre.y() + reach < m.height - 0.5) {
+      return true;
+    }
+  }
+  const auto pixel = mirror_.robotToImage(robot);
+  return pixel && mirror_.zone(*pixel) == camera::MirrorZone::kUseful &&
+         !(mirror_.radiusOf(*pixel) < min_radius);
+}
+
 bool VisionHealth::nearPoint(int bx, int by) const {
   const int side = 2 * bin_half_ + 1;
   for (int dx = -1; dx <= 1; ++dx) {
@@ -256,12 +282,7 @@ void VisionHealth::lineCoverageFacts(const VisionResult& result, const geometry:
                         static_cast<std::size_t>(column)];
       for (std::size_t k = begin; k < end; ++k) {
         const geometry::Vec2 robot = pose.toRobot(line_samples_[k]);
-        if (robot.norm() > range) continue;
-        const auto pixel = mirror_.robotToImage(robot);
-        if (!pixel || mirror_.zone(*pixel) != camera::MirrorZone::kUseful ||
-            mirror_.radiusOf(*pixel) < self + 4.0) {
-          continue;
-        }
+        if (robot.norm() > range || !usefullyInView(robot, self + 4.0)) continue;
         f.in_view_m += line_sample_m_;
         if (nearPoint(static_cast<int>(std::floor(robot.x() / cell)),
                       static_cast<int>(std::floor(robot.y() / cell)))) {

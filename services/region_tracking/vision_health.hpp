@@ -154,6 +154,9 @@ class VisionHealth {
   // Fills line_samples_ and line_buckets_ (construction).
   void bucketLineSamples(const std::vector<geometry::Vec2>& samples);
   FieldFacts fieldSum() const;
+  // Whether the floor point `robot` (robot frame) is seen in the mirror's useful zone at least
+  // `min_radius` px from its centre: mirror_.robotToImage, zone and radiusOf.
+  bool usefullyInView(const geometry::Vec2& robot, double min_radius) const;
   // Whether any point of this frame lies in the coverage bin (bx, by) or one beside it.
   bool nearPoint(int bx, int by) const;
 
