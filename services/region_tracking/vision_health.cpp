@@ -154,12 +154,18 @@ void VisionHealth::selectNearbyLines(const geometry::Vec2& centre, double range,
 
 bool VisionHealth::fartherThan(const geometry::Vec2& p, double reach) const {
   // FieldModel::closestPoint's minimum, over the shortlist: a line left out is further anyway.
+  // A line within reach settles it (the minimum is no larger, sqrt does not decrease): most
+  // points lie on a line, the others' distances need not be taken.
   double best_squared = std::numeric_limits<double>::infinity();
   for (const field::LineSegment* s : near_segments_) {
-    best_squared = std::min(best_squared, (p - field::closestPointOnSegment(*s, p)).squaredNorm());
+    const double d2 = (p - field::closestPointOnSegment(*s, p)).squaredNorm();
+    if (std::sqrt(d2) <= reach) return false;
+    best_squared = std::min(best_squared, d2);
   }
   for (const field::LineArc* a : near_arcs_) {
-    best_squared = std::min(best_squared, (p - field::closestPointOnArc(*a, p)).squaredNorm());
+    const double d2 = (p - field::closestPointOnArc(*a, p)).squaredNorm();
+    if (std::sqrt(d2) <= reach) return false;
+    best_squared = std::min(best_squared, d2);
   }
   return std::sqrt(best_squared) > reach;
 }
