@@ -17,6 +17,22 @@
 
 namespace fieldline::region_tracking {
 
+namespace {
+// The status's keys, made once: set after every frame, the longer ones would allocate each time.
+const std::string kTouchedPercent = "touched_percent";
+const std::string kColourResets = "colour_resets";
+const std::string kLightGain = "light_gain";
+const std::string kVision = "vision";
+const std::string kBallColour = "ball_colour";
+const std::string kNoBallColour =
+    "no ball colour calibrated (the colour table has no orange cells): no ball can be seen";
+const std::string kGreenPercent = "green_percent";
+const std::string kPointsOffLinePercent = "points_off_line_percent";
+const std::string kLineCoveragePercent = "line_coverage_percent";
+const std::string kProcessingMs = "processing_ms";
+const std::string kNothing;
+}  // namespace
+
 TrackingNode::TrackingNode(bus::Node& node, TrackingNodeOptions options)
     : node_(node), options_(std::move(options)) {
   if (options_.lines_every_frames < 1) {
@@ -135,13 +151,13 @@ void TrackingNode::onImage(const image_t& image) {
   publishBall(image, result_.ball);
   publishObstacles(image, result_.obstacles);
   if (detectLines) publishLines(image, result_, processingUs);
-  node_.setMetric("touched_percent", 100.0 * result_.tracking.touched_fraction);
+  node_.setMetric(kTouchedPercent, 100.0 * result_.tracking.touched_fraction);
   // Blind or degraded vision is a WARN with its reason, ok again once the frames fit.
   if (colour_reset_requested_.exchange(false)) {
     if (adaptation_) {
       adaptation_->reset(options_.colours);
       ++colour_resets_;
-      node_.setMetric("colour_resets", static_cast<double>(colour_resets_));
+      node_.setMetric(kColourResets, static_cast<double>(colour_resets_));
       spdlog::info("colour adaptation reset on demand: back to the calibrated table ({} so far)",
                    colour_resets_);
     } else {
@@ -150,23 +166,20 @@ void TrackingNode::onImage(const image_t& image) {
   }
   if (adaptation_) {
     adaptation_->observe(*view, processor_->tracker(), options_.colours);
-    node_.setMetric("light_gain", adaptation_->appliedGain());
+    node_.setMetric(kLightGain, adaptation_->appliedGain());
   }
   health_->update(*view, result_, pose);
-  node_.status().setWarning("vision", health_->reason());
+  node_.status().setWarning(kVision, health_->reason());
   // The ball's colour comes from the calibration (the table's orange cells); without any, no
   // ball can be found, and the status says so rather than reporting an empty field.
-  node_.status().setWarning("ball_colour",
-                            processor_->ballDetector().hasBallColour()
-                                ? std::string()
-                                : "no ball colour calibrated (the colour table has no orange "
-                                  "cells): no ball can be seen");
-  node_.setMetric("green_percent", 100.0 * health_->greenFraction());
+  node_.status().setWarning(kBallColour,
+                            processor_->ballDetector().hasBallColour() ? kNothing : kNoBallColour);
+  node_.setMetric(kGreenPercent, 100.0 * health_->greenFraction());
   // The field checks' figures (-1: not judged, no pose or too few facts).
   const auto percent = [](double share) { return share < 0.0 ? -1.0 : 100.0 * share; };
-  node_.setMetric("points_off_line_percent", percent(health_->offLineShare()));
-  node_.setMetric("line_coverage_percent", percent(health_->lineCoverage()));
-  node_.setMetric("processing_ms", measuredUs / 1000.0);
+  node_.setMetric(kPointsOffLinePercent, percent(health_->offLineShare()));
+  node_.setMetric(kLineCoveragePercent, percent(health_->lineCoverage()));
+  node_.setMetric(kProcessingMs, measuredUs / 1000.0);
 }
 
 namespace {

@@ -57,9 +57,54 @@ VisionHealth::VisionHealth(const camera::MirrorModel& mirror, const camera::Colo
   }
   if (samples_.empty()) throw std::invalid_argument("vision health: no floor pixel to sample");
   sample_classes_.resize(samples_.size(), camera::ColourClass::kUnknown);
+  for (std::size_t i = 0; i < samples_.size(); ++i) {
+    const geometry::Vec2 robot(samples_[i].x, samples_[i].y);
+    if (robot.allFinite() && !(robot.norm() > params_.field_range_m)) {
+      in_range_samples_.push_back(i);
+    }
+  }
   window_.resize(static_cast<std::size_t>(params_.window_frames));
   field_window_.resize(static_cast<std::size_t>(params_.field_window_frames));
-  if (field_) line_samples_ = field_->sampleLines(line_sample_m_);
+  // The coverage bins: a sample within range lies in a bin within ceil(range / cell) of the
+  // robot, its neighbours one further; one more for rounding.
+  bin_half_ = static_cast<int>(std::ceil(params_.field_range_m / params_.coverage_distance_m)) + 2;
+  const auto bin_side = static_cast<std::size_t>(2 * bin_half_ + 1);
+  bins_.assign(bin_side * bin_side, 0);
+  if (field_) bucketLineSamples(field_->sampleLines(line_sample_m_));
+}
+
+void VisionHealth::bucketLineSamples(const std::vector<geometry::Vec2>& samples) {
+  if (samples.empty()) return;
+  geometry::Vec2 lo = samples.front(), hi = samples.front();
+  for (const geometry::Vec2& s : samples) {
+    lo = lo.cwiseMin(s);
+    hi = hi.cwiseMax(s);
+  }
+  line_origin_ = lo;
+  line_columns_ = static_cast<int>(std::floor((hi.x() - lo.x()) / line_bucket_m_)) + 1;
+  line_rows_ = static_cast<int>(std::floor((hi.y() - lo.y()) / line_bucket_m_)) + 1;
+  const auto bucketOf = [&](const geometry::Vec2& s) {
+    const int column = std::min(line_columns_ - 1,
+                                static_cast<int>(std::floor((s.x() - lo.x()) / line_bucket_m_)));
+    const int row =
+        std::min(line_rows_ - 1, static_cast<int>(std::floor((s.y() - lo.y()) / line_bucket_m_)));
+    return static_cast<std::size_t>(row) * static_cast<std::size_t>(line_columns_) +
+           static_cast<std::size_t>(column);
+  };
+  // A counting sort by square, each square's samples in their order.
+  const std::size_t buckets =
+      static_cast<std::size_t>(line_columns_) * static_cast<std::size_t>(line_rows_);
+  std::vector<std::size_t> counts(buckets + 1, 0);
+  for (const geometry::Vec2& s : samples)
+    ++counts[bucketOf(s) + 1];
+  for (std::size_t b = 0; b < buckets; ++b)
+    counts[b + 1] += counts[b];
+  line_buckets_.resize(buckets);
+  for (std::size_t b = 0; b < buckets; ++b)
+    line_buckets_[b] = {counts[b], counts[b + 1]};
+  line_samples_.resize(samples.size());
+  for (const geometry::Vec2& s : samples)
+    line_samples_[counts[bucketOf(s)]++] = s;
 }
 
 namespace {
@@ -109,12 +154,18 @@ void VisionHealth::selectNearbyLines(const geometry::Vec2& centre, double range,
 
 bool VisionHealth::fartherThan(const geometry::Vec2& p, double reach) const {
   // FieldModel::closestPoint's minimum, over the shortlist: a line left out is further anyway.
+  // A line within reach settles it (the minimum is no larger, sqrt does not decrease): most
+  // points lie on a line, the others' distances need not be taken.
   double best_squared = std::numeric_limits<double>::infinity();
   for (const field::LineSegment* s : near_segments_) {
-    best_squared = std::min(best_squared, (p - field::closestPointOnSegment(*s, p)).squaredNorm());
+    const double d2 = (p - field::closestPointOnSegment(*s, p)).squaredNorm();
+    if (std::sqrt(d2) <= reach) return false;
+    best_squared = std::min(best_squared, d2);
   }
   for (const field::LineArc* a : near_arcs_) {
-    best_squared = std::min(best_squared, (p - field::closestPointOnArc(*a, p)).squaredNorm());
+    const double d2 = (p - field::closestPointOnArc(*a, p)).squaredNorm();
+    if (std::sqrt(d2) <= reach) return false;
+    best_squared = std::min(best_squared, d2);
   }
   return std::sqrt(best_squared) > reach;
 }
@@ -135,52 +186,117 @@ VisionHealth::FieldFacts VisionHealth::fieldFacts(const VisionResult& result, co
     if (!field_->insideLines(p, off_line)) ++f.off_field;
     if (fartherThan(p, off_line)) ++f.off_line;
   }
-  // Floor samples that see the hall floor beyond the carpet (clear of it by the margin).
+  // Floor samples that see the hall floor beyond the carpet (clear of it by the margin), of
+  // those within range.
   const geometry::Vec2 carpet = field_->carpetHalfExtent();
-  for (std::size_t i = 0; i < samples_.size(); ++i) {
-    const geometry::Vec2 robot(samples_[i].x, samples_[i].y);
-    if (!robot.allFinite() || robot.norm() > range) continue;
-    const geometry::Vec2 p = pose.toField(robot);
+  for (const std::size_t i : in_range_samples_) {
+    const geometry::Vec2 p = pose.toField(geometry::Vec2(samples_[i].x, samples_[i].y));
     if (std::abs(p.x()) < carpet.x() + off_line && std::abs(p.y()) < carpet.y() + off_line) {
       continue;
     }
     ++f.beyond;
     if (sample_classes_[i] == camera::ColourClass::kGreen) ++f.green_beyond;
   }
-  // The model's line in view (within range, where the mirror sees the floor usefully) and the
-  // part of it with a line point nearby. Points are binned on a grid of the coverage distance.
-  const double cell = params_.coverage_distance_m;
-  std::vector<std::pair<int, int>>& bins = bins_;
-  bins.clear();
-  for (const perception::LinePoint& q : result.lines.points) {
-    if (!(std::isfinite(q.x) && std::isfinite(q.y))) continue;
-    bins.emplace_back(static_cast<int>(std::floor(q.x / cell)),
-                      static_cast<int>(std::floor(q.y / cell)));
+  lineCoverageFacts(result, at.pose, f);
+  return f;
+}
+
+bool VisionHealth::usefullyInView(const geometry::Vec2& robot, double min_radius) const {
+  const camera::MirrorParams& m = mirror_.params();
+  // A round mirror: the image radius of a floor point depends on its distance alone (the pixel's
+  // direction needs atan2, cos and sin). Where that radius and the pixel's radius (the same
+  // within 1e-13 px: a unit vector times r, added to and taken from the centre) are clear of every
+  // limit below by far more, and the whole circle of that radius lies inside the image, the answer
+  // is known without the pixel; anywhere else the pixel is computed as before.
+  if (!m.distance.isTable()) {
+    const geometry::Vec2 axis = mirror_.robotToAxis(robot);
+    const double r = m.distance.imageRadius(axis.norm(), 0.0);  // the bearing is not used
+    if (!std::isfinite(r) || r < m.self_radius || r > m.outer_radius) return false;
+    constexpr double kClear = 1e-6;
+    const double limit = std::min({m.outer_radius, m.useful_radius, m.distance.maxRadius()});
+    if (r < min_radius - kClear || r > limit + kClear) return false;
+    const double reach = r + kClear;
+    if (r > min_radius + kClear && r < limit - kClear && m.centre.x() - reach >= -0.5 &&
+        m.centre.y() - reach >= -0.5 && m.centre.x() + reach < m.width - 0.5 &&
+        m.centre.y() + reach < m.height - 0.5) {
+      return true;
+    }
   }
-  std::sort(bins.begin(), bins.end());
-  const auto near_point = [&](const geometry::Vec2& r) {
-    const int bx = static_cast<int>(std::floor(r.x() / cell));
-    const int by = static_cast<int>(std::floor(r.y() / cell));
-    for (int dx = -1; dx <= 1; ++dx) {
-      for (int dy = -1; dy <= 1; ++dy) {
-        if (std::binary_search(bins.begin(), bins.end(), std::pair{bx + dx, by + dy})) return true;
+  const auto pixel = mirror_.robotToImage(robot);
+  return pixel && mirror_.zone(*pixel) == camera::MirrorZone::kUseful &&
+         !(mirror_.radiusOf(*pixel) < min_radius);
+}
+
+bool VisionHealth::nearPoint(int bx, int by) const {
+  const int side = 2 * bin_half_ + 1;
+  for (int dx = -1; dx <= 1; ++dx) {
+    for (int dy = -1; dy <= 1; ++dy) {
+      const int x = bx + dx, y = by + dy;
+      if (x < -bin_half_ || x > bin_half_ || y < -bin_half_ || y > bin_half_) continue;
+      if (bins_[static_cast<std::size_t>((y + bin_half_) * side + x + bin_half_)] != 0) {
+        return true;
       }
     }
-    return false;
-  };
-  const double self = mirror_.params().self_radius;
-  for (const geometry::Vec2& s : line_samples_) {
-    const geometry::Vec2 robot = pose.toRobot(s);
-    if (robot.norm() > range) continue;
-    const auto pixel = mirror_.robotToImage(robot);
-    if (!pixel || mirror_.zone(*pixel) != camera::MirrorZone::kUseful ||
-        mirror_.radiusOf(*pixel) < self + 4.0) {
-      continue;
-    }
-    f.in_view_m += line_sample_m_;
-    if (near_point(robot)) f.covered_m += line_sample_m_;
   }
-  return f;
+  return false;
+}
+
+void VisionHealth::lineCoverageFacts(const VisionResult& result, const geometry::Pose2& at,
+                                     FieldFacts& f) {
+  // The model's line in view (within range, where the mirror sees the floor usefully) and the
+  // part of it with a line point nearby. Points are binned on a grid of the coverage distance.
+  const double range = params_.field_range_m;
+  const double cell = params_.coverage_distance_m;
+  for (const std::size_t b : bins_set_)
+    bins_[b] = 0;
+  bins_set_.clear();
+  const int side = 2 * bin_half_ + 1;
+  const double half = bin_half_;
+  for (const perception::LinePoint& q : result.lines.points) {
+    if (!(std::isfinite(q.x) && std::isfinite(q.y))) continue;
+    const double bx = std::floor(q.x / cell), by = std::floor(q.y / cell);
+    // Beyond the grid: no sample within range has it beside its own bin.
+    if (bx < -half || bx > half || by < -half || by > half) continue;
+    const auto b = static_cast<std::size_t>((static_cast<int>(by) + bin_half_) * side +
+                                            static_cast<int>(bx) + bin_half_);
+    if (bins_[b] == 0) {
+      bins_[b] = 1;
+      bins_set_.push_back(b);
+    }
+  }
+  if (line_buckets_.empty()) return;
+  const PoseTransform pose(at);
+  const double self = mirror_.params().self_radius;
+  // Only the squares within range of the position (1 cm more for rounding): a sample in any
+  // other is further than range from the robot, the test below would skip it. The sums add the
+  // same step for each sample counted: the order the samples come in does not change them.
+  const double reach = range + 0.01;
+  const auto index = [&](double coordinate, double origin, int count) {
+    return static_cast<int>(
+        std::clamp(std::floor((coordinate - origin) / line_bucket_m_), -1.0, double(count)));
+  };
+  const geometry::Vec2 centre = at.position();
+  const int c0 = std::max(0, index(centre.x() - reach, line_origin_.x(), line_columns_));
+  const int c1 =
+      std::min(line_columns_ - 1, index(centre.x() + reach, line_origin_.x(), line_columns_));
+  const int r0 = std::max(0, index(centre.y() - reach, line_origin_.y(), line_rows_));
+  const int r1 = std::min(line_rows_ - 1, index(centre.y() + reach, line_origin_.y(), line_rows_));
+  for (int row = r0; row <= r1; ++row) {
+    for (int column = c0; column <= c1; ++column) {
+      const auto [begin, end] =
+          line_buckets_[static_cast<std::size_t>(row) * static_cast<std::size_t>(line_columns_) +
+                        static_cast<std::size_t>(column)];
+      for (std::size_t k = begin; k < end; ++k) {
+        const geometry::Vec2 robot = pose.toRobot(line_samples_[k]);
+        if (robot.norm() > range || !usefullyInView(robot, self + 4.0)) continue;
+        f.in_view_m += line_sample_m_;
+        if (nearPoint(static_cast<int>(std::floor(robot.x() / cell)),
+                      static_cast<int>(std::floor(robot.y() / cell)))) {
+          f.covered_m += line_sample_m_;
+        }
+      }
+    }
+  }
 }
 
 VisionHealth::FieldFacts VisionHealth::fieldSum() const {
@@ -208,23 +324,23 @@ int VisionHealth::posedLineFrames() const {
 }
 
 double VisionHealth::offLineShare() const {
-  const FieldFacts f = fieldSum();
+  const FieldFacts& f = field_sum_;
   return f.points >= params_.min_field_points ? static_cast<double>(f.off_line) / f.points : -1.0;
 }
 
 double VisionHealth::offFieldShare() const {
-  const FieldFacts f = fieldSum();
+  const FieldFacts& f = field_sum_;
   return f.points >= params_.min_field_points ? static_cast<double>(f.off_field) / f.points : -1.0;
 }
 
 double VisionHealth::greenBeyondShare() const {
-  const FieldFacts f = fieldSum();
+  const FieldFacts& f = field_sum_;
   return f.beyond >= params_.min_beyond_samples ? static_cast<double>(f.green_beyond) / f.beyond
                                                 : -1.0;
 }
 
 double VisionHealth::lineCoverage() const {
-  const FieldFacts f = fieldSum();
+  const FieldFacts& f = field_sum_;
   return f.in_view_m >= params_.min_line_in_view_m ? f.covered_m / f.in_view_m : -1.0;
 }
 
@@ -278,6 +394,7 @@ void VisionHealth::update(const camera::FrameView& frame, const VisionResult& re
     field_window_[field_next_] = usable ? fieldFacts(result, *pose) : FieldFacts{};
     field_next_ = (field_next_ + 1) % field_window_.size();
     field_filled_ = std::min(field_filled_ + 1, field_window_.size());
+    field_sum_ = fieldSum();
   }
 
   reason_.clear();
@@ -317,7 +434,7 @@ void VisionHealth::update(const camera::FrameView& frame, const VisionResult& re
   }
   if (const double coverage = lineCoverage();
       coverage >= 0.0 && coverage < params_.min_line_coverage) {
-    const FieldFacts f = fieldSum();
+    const FieldFacts& f = field_sum_;
     add(
         fmt::format("line points along {:.0f} % of the {:.0f} m of line the field puts in view "
                     "(< {:.0f} %)",

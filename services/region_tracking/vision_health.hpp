@@ -145,11 +145,20 @@ class VisionHealth {
   double mean(float FrameFacts::*field) const;
   // Non-const: fills the reused buffers below.
   FieldFacts fieldFacts(const VisionResult& result, const FramePose& pose);
+  // The model's line in view at `pose` and the part of it with a line point nearby (fieldFacts).
+  void lineCoverageFacts(const VisionResult& result, const geometry::Pose2& pose, FieldFacts& f);
   // Whether field_->distance(p) > reach, for a point p within `range` of the position the
   // shortlist below was made for (selectNearbyLines).
   bool fartherThan(const geometry::Vec2& p, double reach) const;
   void selectNearbyLines(const geometry::Vec2& centre, double range, double reach);
+  // Fills line_samples_ and line_buckets_ (construction).
+  void bucketLineSamples(const std::vector<geometry::Vec2>& samples);
   FieldFacts fieldSum() const;
+  // Whether the floor point `robot` (robot frame) is seen in the mirror's useful zone at least
+  // `min_radius` px from its centre: mirror_.robotToImage, zone and radiusOf.
+  bool usefullyInView(const geometry::Vec2& robot, double min_radius) const;
+  // Whether any point of this frame lies in the coverage bin (bx, by) or one beside it.
+  bool nearPoint(int bx, int by) const;
 
   const camera::ColourTable& table_;
   const camera::MirrorModel& mirror_;
@@ -158,16 +167,32 @@ class VisionHealth {
   std::vector<Sample> samples_;
   // This frame's class of each sample.
   std::vector<camera::ColourClass> sample_classes_;
-  // The model's lines, sampled every line_sample_m (field frame).
+  // The samples that see a floor point within field_range_m (fixed in the robot frame), in
+  // their order: the only ones the field checks look at.
+  std::vector<std::size_t> in_range_samples_;
+  // The model's lines, sampled every line_sample_m (field frame), grouped by the square of
+  // line_bucket_m_ they lie in (line_buckets_: [begin, end) into line_samples_ per square, row
+  // by row from line_origin_): a frame looks only at the squares near its pose.
   std::vector<geometry::Vec2> line_samples_;
   double line_sample_m_ = 0.1;
-  // This frame's field lines that can be near its points (fieldFacts), and its points binned.
+  double line_bucket_m_ = 1.0;
+  geometry::Vec2 line_origin_ = geometry::Vec2::Zero();
+  int line_columns_ = 0, line_rows_ = 0;
+  std::vector<std::pair<std::size_t, std::size_t>> line_buckets_;
+  // This frame's field lines that can be near its points (fieldFacts).
   std::vector<const field::LineSegment*> near_segments_;
   std::vector<const field::LineArc*> near_arcs_;
-  std::vector<std::pair<int, int>> bins_;
+  // This frame's points binned on a grid of the coverage distance (robot frame), bins
+  // -bin_half_..bin_half_ in x and y: one byte per bin, set where a point lies (the bins set
+  // listed, to clear them). Points beyond it are never beside a sample within range.
+  int bin_half_ = 0;
+  std::vector<std::uint8_t> bins_;
+  std::vector<std::size_t> bins_set_;
   std::vector<FieldFacts> field_window_;  // ring buffer of line frames
   std::size_t field_next_ = 0;
   std::size_t field_filled_ = 0;
+  // fieldSum() of the window as it is since the last update.
+  FieldFacts field_sum_;
   std::vector<FrameFacts> window_;  // ring buffer
   std::size_t next_ = 0;
   std::size_t filled_ = 0;

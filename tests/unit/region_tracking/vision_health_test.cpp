@@ -4,6 +4,7 @@
 // the conditions one by one on the frame processor.
 #include "services/region_tracking/vision_health.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <memory>
@@ -330,6 +331,78 @@ TEST(VisionHealth, OffLineShareIsWhatTheFieldModelsDistanceSays) {
     health.update(view, result, FramePose{pose, sigma});
     ASSERT_EQ(health.offLineShare(), static_cast<double>(off) / points) << "frame " << frame;
   }
+}
+
+// The line coverage looks only at the model's line samples near the pose and finds points in a
+// grid of bins around the robot (to save CPU); it must stay what the plain search over every
+// sample and every point gives (the search as it was until 2026-12-07), for poses anywhere, also
+// off the field, and points beyond the range.
+TEST(VisionHealth, LineCoverageIsWhatTheFullSearchGives) {
+  SimCamera& sim = sharedCamera();
+  VisionHealthParams params;
+  params.field_window_frames = 1;
+  params.min_line_in_view_m = 0.05;
+  VisionHealth health(sim.mirror, sim.table, params, &sim.field);
+  const camera::FrameView view = sim.render(camera::SimScene{});
+  const std::vector<geometry::Vec2> line_samples = sim.field.sampleLines(0.1);
+  const double cell = params.coverage_distance_m, range = params.field_range_m;
+  const double self = sim.mirror.params().self_radius;
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> across(-1.0, 1.0), unit(0.0, 1.0);
+  VisionResult result;
+  result.lines_detected = true;
+  int judged = 0;
+  for (int frame = 0; frame < 400; ++frame) {
+    const geometry::Pose2 pose{13.0 * across(rng), 9.0 * across(rng), 3.2 * across(rng)};
+    result.lines.points.clear();
+    for (int i = 0; i < 150; ++i) {
+      // Near a line sample (within a bin or two), or anywhere up to 7 m away.
+      geometry::Vec2 robot(7.0 * across(rng), 7.0 * across(rng));
+      if (i % 2 == 0) {
+        const geometry::Vec2& s = line_samples[static_cast<std::size_t>(
+            unit(rng) * static_cast<double>(line_samples.size() - 1))];
+        robot = geometry::pointFieldToRobot(pose, s) +
+                geometry::Vec2(0.4 * across(rng), 0.4 * across(rng));
+      }
+      result.lines.points.push_back(
+          {0.0f, 0.0f, static_cast<float>(robot.x()), static_cast<float>(robot.y())});
+    }
+    // The plain search.
+    std::vector<std::pair<int, int>> bins;
+    for (const perception::LinePoint& q : result.lines.points) {
+      bins.emplace_back(static_cast<int>(std::floor(q.x / cell)),
+                        static_cast<int>(std::floor(q.y / cell)));
+    }
+    std::sort(bins.begin(), bins.end());
+    double in_view = 0.0, covered = 0.0;
+    for (const geometry::Vec2& s : line_samples) {
+      const geometry::Vec2 robot = geometry::pointFieldToRobot(pose, s);
+      if (robot.norm() > range) continue;
+      const auto pixel = sim.mirror.robotToImage(robot);
+      if (!pixel || sim.mirror.zone(*pixel) != camera::MirrorZone::kUseful ||
+          sim.mirror.radiusOf(*pixel) < self + 4.0) {
+        continue;
+      }
+      in_view += 0.1;
+      const int bx = static_cast<int>(std::floor(robot.x() / cell));
+      const int by = static_cast<int>(std::floor(robot.y() / cell));
+      bool near = false;
+      for (int dx = -1; dx <= 1; ++dx) {
+        for (int dy = -1; dy <= 1; ++dy)
+          near = near || std::binary_search(bins.begin(), bins.end(), std::pair{bx + dx, by + dy});
+      }
+      if (near) covered += 0.1;
+    }
+    health.update(view, result, FramePose{pose, 0.02});
+    if (in_view < params.min_line_in_view_m) {
+      ASSERT_LT(health.lineCoverage(), 0.0) << "frame " << frame;
+      continue;
+    }
+    ++judged;
+    // The same arithmetic (the health's pose transform is pointFieldToRobot's): the same bits.
+    ASSERT_EQ(health.lineCoverage(), covered / in_view) << "frame " << frame;
+  }
+  EXPECT_GT(judged, 100);
 }
 
 TEST(VisionHealth, FieldColourBeyondTheFieldAndMissingLinesAreNamed) {
