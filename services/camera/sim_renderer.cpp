@@ -23,7 +23,7 @@ std::uint8_t clampByte(int x) {
   return static_cast<std::uint8_t>(std::clamp(x, 0, 255));
 }
 
-// One step of the sensor noise's generator (Marsaglia's xorshift32; linear over GF(2)).
+// One step of a sensor noise stream (Marsaglia's xorshift32).
 std::uint32_t xorshift32(std::uint32_t x) {
   x ^= x << 13;
   x ^= x >> 17;
@@ -39,6 +39,35 @@ std::uint32_t mixSeed(std::uint32_t seed, std::uint64_t frame) {
   const auto out = static_cast<std::uint32_t>(h);
   return out == 0 ? 0x6D2B79F5u : out;
 }
+
+// The sensor noise's eight streams, one a lane: each its own xorshift32 from a state of its own
+// (splitmix64 of the frame's seed and the lane: streams 2^32 - 1 long whose 9600 draws a frame
+// never meet in practice). Draws are taken lane 0 to 7, then every lane steps once: one SSE2
+// step of four lanes gives four draws (the serial stream of one generator, until 2026-12-07,
+// needed jump tables, four reads a draw; the table and so the distribution are the same).
+constexpr std::size_t kNoiseLanes = 8;
+std::array<std::uint32_t, kNoiseLanes> noiseLanes(std::uint32_t seed, std::uint64_t frame) {
+  std::uint64_t z = static_cast<std::uint64_t>(mixSeed(seed, frame)) << 32;
+  std::array<std::uint32_t, kNoiseLanes> lanes{};
+  for (std::uint32_t& x : lanes) {
+    z += 0x9E3779B97F4A7C15ull;
+    std::uint64_t h = z;
+    h = (h ^ (h >> 30)) * 0xBF58476D1CE4E5B9ull;
+    h = (h ^ (h >> 27)) * 0x94D049BB133111EBull;
+    h ^= h >> 31;
+    x = static_cast<std::uint32_t>(h ^ (h >> 32));
+    if (x == 0) x = 0x6D2B79F5u;
+  }
+  return lanes;
+}
+
+#if defined(__SSE2__)
+[[gnu::always_inline]] inline __m128i xorshift32x4(__m128i x) {
+  x = _mm_xor_si128(x, _mm_slli_epi32(x, 13));
+  x = _mm_xor_si128(x, _mm_srli_epi32(x, 17));
+  return _mm_xor_si128(x, _mm_slli_epi32(x, 5));
+}
+#endif
 
 #if defined(__SSE2__)
 // Two pixel pairs from `x` on as YUYV in 16-bit lanes before the noise: Y0, mean U, Y1, mean V
@@ -118,15 +147,6 @@ SimRenderer::SimRenderer(MirrorModel mirror, const field::FieldModel& field, Ren
   for (std::size_t k = 0; k < noise_table_.size(); ++k) {
     luma_noise_[k] = static_cast<std::int16_t>((noise_table_[k] * luma) / 256);
     chroma_noise_[k] = static_cast<std::int16_t>((noise_table_[k] * chroma) / 256);
-  }
-  // Eight xorshift32 steps at once: the images of each byte's 256 values (the steps are linear).
-  for (std::size_t byte = 0; byte < 4; ++byte) {
-    for (std::uint32_t v = 0; v < 256; ++v) {
-      std::uint32_t x = v << (8 * byte);
-      for (int k = 0; k < 8; ++k)
-        x = xorshift32(x);
-      noise_jump_[byte][v] = x;
-    }
   }
 }
 
@@ -441,23 +461,14 @@ void SimRenderer::finish(const SimScene& scene, std::vector<std::uint8_t>& yuyv)
   const int w = width();
   const int h = height();
   yuyv.resize(static_cast<std::size_t>(stride()) * h);
-  // The noise stream: xorshift32 from the frame's seed, two draws per pixel pair (luma of both
-  // pixels, then U and V). Eight lanes hold the next eight draws; all eight jump eight steps at
-  // once through the tables (the steps are linear over GF(2): the xor of the images of the four
-  // bytes), which gives the same numbers as stepping one by one without the chain's latency.
-  std::uint32_t state = mixSeed(params_.noise_seed, scene.frame_number);
-  std::array<std::uint32_t, 8> lane{};
-  for (std::uint32_t& x : lane) {
-    state = xorshift32(state);
-    x = state;
-  }
+  // The noise: eight xorshift32 streams (noiseLanes), two draws per pixel pair (luma of both
+  // pixels, then U and V), 12-bit table indices from each draw's two halves.
+  std::array<std::uint32_t, kNoiseLanes> lane = noiseLanes(params_.noise_seed, scene.frame_number);
   std::size_t used = 0;
   const auto draw = [&] {
     if (used == lane.size()) {
-      for (std::uint32_t& x : lane) {
-        x = noise_jump_[0][x & 0xFF] ^ noise_jump_[1][(x >> 8) & 0xFF] ^
-            noise_jump_[2][(x >> 16) & 0xFF] ^ noise_jump_[3][x >> 24];
-      }
+      for (std::uint32_t& x : lane)
+        x = xorshift32(x);
       used = 0;
     }
     return lane[used++];
@@ -469,26 +480,36 @@ void SimRenderer::finish(const SimScene& scene, std::vector<std::uint8_t>& yuyv)
   std::uint8_t* const dst = yuyv.data();
   std::size_t p = 0;
 #if defined(__SSE2__)
-  // Four pairs take the eight lanes' draws at once; sixteen bytes are clamped and packed
-  // together (packus saturates to 0..255 as clampByte does). A group reads two bytes beyond its
-  // last pair (twoPairs): the last group, one pair short of the end at least, is left to the
-  // scalar loop.
+  // Four pairs take the eight lanes' draws at once (the lanes step in two vectors); sixteen
+  // bytes are clamped and packed together (packus saturates to 0..255 as clampByte does). A
+  // group reads two bytes beyond its last pair (twoPairs): the last group, one pair short of the
+  // end at least, is left to the scalar loop.
   const std::int16_t* const luma = luma_noise_.data();
   const std::int16_t* const chroma = chroma_noise_.data();
-  const auto half = [&](const Yuv* x, const std::uint32_t* r) {
-    const __m128i noise =
-        _mm_setr_epi16(luma[r[0] & mask], chroma[r[1] & mask], luma[(r[0] >> 16) & mask],
-                       chroma[(r[1] >> 16) & mask], luma[r[2] & mask], chroma[r[3] & mask],
-                       luma[(r[2] >> 16) & mask], chroma[(r[3] >> 16) & mask]);
+  const __m128i index_mask = _mm_set1_epi32(static_cast<int>(mask << 16 | mask));
+  __m128i low_lanes = _mm_loadu_si128(reinterpret_cast<const __m128i*>(lane.data()));
+  __m128i high_lanes = _mm_loadu_si128(reinterpret_cast<const __m128i*>(lane.data() + 4));
+  // Lanes r0..r3 (as 16-bit indices: r0 low, r0 high, r1 low, ...): Y0 r0, U r1, Y1 r0, V r1 of
+  // the first pair, the same from r2, r3 for the second.
+  const auto half = [&](const Yuv* x, __m128i r) {
+    alignas(16) std::uint16_t i[8];
+    _mm_store_si128(reinterpret_cast<__m128i*>(i), _mm_and_si128(r, index_mask));
+    const __m128i noise = _mm_setr_epi16(luma[i[0]], chroma[i[2]], luma[i[1]], chroma[i[3]],
+                                         luma[i[4]], chroma[i[6]], luma[i[5]], chroma[i[7]]);
     return _mm_add_epi16(twoPairs(x), noise);
   };
   for (; p + 5 <= pairs; p += 4) {
-    draw();  // the lanes are fresh after this (used is 0 or 8 at each group's start)
+    if (used == lane.size()) {
+      low_lanes = xorshift32x4(low_lanes);
+      high_lanes = xorshift32x4(high_lanes);
+    }
+    used = lane.size();
     const Yuv* const x = src + 2 * p;
     _mm_storeu_si128(reinterpret_cast<__m128i*>(dst + 4 * p),
-                     _mm_packus_epi16(half(x, lane.data()), half(x + 4, lane.data() + 4)));
-    used = lane.size();
+                     _mm_packus_epi16(half(x, low_lanes), half(x + 4, high_lanes)));
   }
+  _mm_storeu_si128(reinterpret_cast<__m128i*>(lane.data()), low_lanes);
+  _mm_storeu_si128(reinterpret_cast<__m128i*>(lane.data() + 4), high_lanes);
 #endif
   for (; p < pairs; ++p) {
     const Yuv& a = src[2 * p];

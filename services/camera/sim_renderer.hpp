@@ -232,11 +232,9 @@ class SimRenderer {
   std::vector<Yuv> frame_;                                 // current sub-frame, one Yuv per pixel
   std::vector<std::array<std::uint16_t, 3>> accumulator_;  // motion blur sums
   std::vector<std::int8_t> noise_table_;                   // unit Gaussian * 16
-  // The sensor noise (finish): the table scaled to luma and chroma levels, and the jump tables
-  // that advance the generator eight steps at a time.
+  // The sensor noise (finish): the table scaled to luma and chroma levels.
   std::vector<std::int16_t> luma_noise_;
   std::vector<std::int16_t> chroma_noise_;
-  std::array<std::array<std::uint32_t, 256>, 4> noise_jump_{};
   RealismFilter realism_;
 };
 

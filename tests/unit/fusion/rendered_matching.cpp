@@ -163,7 +163,9 @@ TEST_P(RenderedMatching, GlobalSearchFindsThePoseOrItsTwinWithoutAGuess) {
 // correct() (pose, covariance, costs, counts, runner-up, diagnostics) at five rendered poses from
 // guesses 3.5 cm / 1 degree and 30 cm / 10 degrees off in four directions, of cost() at each
 // guess and of one global search. The digests were taken with the matcher of main cd74977
-// (session 9, before its layer-2 loops were rewritten).
+// (session 9, before its layer-2 loops were rewritten); re-pinned 2026-12-07 (session 11) when
+// the simulated camera's sensor noise came from another generator of the same distribution (the
+// rendered frames' noise, so the line points, changed; the matcher did not).
 class Fnv {
  public:
   void mix(std::uint64_t v) {
@@ -229,7 +231,7 @@ TEST_P(RenderedMatching, CorrectionsKeepTheirBits) {
     digest.mix(c);
   EXPECT_EQ(valid, 40);
   const std::uint64_t expected =
-      GetParam() == MatchMethod::kForceField ? 0xef10178a93071422ull : 0xe2a167e48dfe03a6ull;
+      GetParam() == MatchMethod::kForceField ? 0x30bc705165a81d45ull : 0xa8222074cd4ab4a8ull;
   EXPECT_EQ(digest.value(), expected) << std::hex << "digest 0x" << digest.value();
 }
 
