@@ -89,7 +89,8 @@ StateFileWriter::~StateFileWriter() {
 void StateFileWriter::write(const std::string& text) {
   // Written over in place: no O_TRUNC (ext4 also flushes a file truncated to nothing and
   // rewritten when it is closed, auto_da_alloc), the tail cut after the write instead.
-  const int fd = ::open(tmp_.c_str(), O_WRONLY | O_CREAT | O_CLOEXEC, 0666);
+  // O_NOFOLLOW: a link put at the temporary name is refused, never written through.
+  const int fd = ::open(tmp_.c_str(), O_WRONLY | O_CREAT | O_CLOEXEC | O_NOFOLLOW, 0666);
   if (fd < 0) {
     const std::string why = std::strerror(errno);
     throw std::runtime_error("cannot write " + tmp_ + ": " + why);

@@ -25,6 +25,10 @@ std::optional<std::string> readStateFile(const std::string& path);
 // inode that save writes over). The temporary file (`path`.tmp.PID) stays beside the file while
 // the writer lives; the destructor removes it, and the constructor removes those of processes
 // that no longer run (a crash, SIGKILL).
+// After a power loss (not a crash of the process) the file may hold an older save, or a torn one:
+// the bytes written over in place are not flushed before the swap. Fusion's pose file does not
+// matter then (a new boot refuses the resume). Neither writer here flushes (fsync) before its
+// swap: state that must survive a power loss needs that.
 class StateFileWriter {
  public:
   explicit StateFileWriter(std::string path);

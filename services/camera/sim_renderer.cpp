@@ -41,8 +41,9 @@ std::uint32_t mixSeed(std::uint32_t seed, std::uint64_t frame) {
 }
 
 // The sensor noise's eight streams, one a lane: each its own xorshift32 from a state of its own
-// (splitmix64 of the frame's seed and the lane: streams 2^32 - 1 long whose 9600 draws a frame
-// never meet in practice). Draws are taken lane 0 to 7, then every lane steps once: one SSE2
+// (splitmix64 of the frame's seed and the lane, on one cycle of 2^32 - 1 states: two of a
+// frame's lanes overlap rarely, about once in 2,000 frames at 640x480, and then only share a
+// stretch of noise at an offset). Draws are taken lane 0 to 7, then every lane steps once: one SSE2
 // step of four lanes gives four draws (the serial stream of one generator, until 2026-12-07,
 // needed jump tables, four reads a draw; the table and so the distribution are the same).
 constexpr std::size_t kNoiseLanes = 8;

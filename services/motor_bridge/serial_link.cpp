@@ -179,7 +179,8 @@ bool SerialLink::send(std::span<const std::uint8_t> bytes) {
   }
   // A device that stopped taking bytes must not collect a backlog of stale commands that would
   // all go out (and feed the controller's watchdog) once it recovers: keep only the newest.
-  while (write_queue_.size() > kMaxQueuedFrames) {
+  // Room for the new frame first, so that at most kMaxQueuedFrames wait.
+  while (write_queue_.size() >= kMaxQueuedFrames) {
     // The front frame may be partly written; drop the oldest one behind it then.
     auto oldest = write_queue_.begin() + (front_written_ > 0 ? 1 : 0);
     stats_.bytes_dropped += oldest->size();
