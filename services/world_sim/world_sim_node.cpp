@@ -33,6 +33,7 @@ WorldSimNode::WorldSimNode(bus::Node& node, const scenario::Scenario& scenario,
   node_.every(step_us, [this] { update(); });
   node_.every(kMicrosPerSecond, [this] { publishMetrics(); });
   if (!options_.state_file.empty()) {
+    snapshot_file_.emplace(options_.state_file);
     const auto period_us =
         std::max<Utime>(1000, std::llround(options_.snapshot_period_s * kMicrosPerSecond));
     node_.every(period_us, [this] { writeSnapshot(); });
@@ -101,7 +102,7 @@ void WorldSimNode::writeSnapshot() {
   s.saved_utime = node_.now();
   s.supervisor = options_.supervisor;
   try {
-    writeSnapshotFile(options_.state_file, s);
+    if (snapshot_file_) snapshot_file_->write(encodeSnapshot(s));
   } catch (const std::runtime_error& e) {
     node_.reportError("state_file", e.what());
   }

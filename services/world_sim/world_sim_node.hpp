@@ -3,12 +3,14 @@
 // on the node's primary bus (the simulator's), stamped with the simulated physical time.
 #pragma once
 
+#include <optional>
 #include <string>
 
 #include <fieldline/world_state_t.hpp>
 
 #include "common/bus/node.hpp"
 #include "common/perception/world_truth.hpp"
+#include "common/process/state_file.hpp"
 #include "common/scenario/scenario.hpp"
 #include "services/world_sim/serial_lines.hpp"
 #include "services/world_sim/world.hpp"
@@ -86,6 +88,8 @@ class WorldSimNode {
   bool end_logged_ = false;
   perception::WorldTruth truth_;
   world_state_t msg_{};
+  // The snapshot file (options_.state_file), written over in place 10 times a second.
+  std::optional<process::StateFileWriter> snapshot_file_;
 };
 
 }  // namespace fieldline::world_sim
