@@ -18,6 +18,32 @@
 
 namespace fieldline::process {
 
+namespace {
+
+// Puts the written temporary file `tmp` in place of `path`. Swapped with the old file rather than
+// renamed over it: ext4 writes a file renamed over another out to the disk at once
+// (auto_da_alloc): 430-450 us of CPU a save on the development machine's virtual disk against
+// 180-210 us swapped (fusion saves 5 times a second, the simulator 10; the saves were 8 % of
+// fusion's CPU in the team, docs/performance.md). A reader sees the old file or the new one all
+// the same. Only a regular file is swapped (a directory at `path` stays where it is and the rename
+// fails). The first save, and file systems without the exchange, rename. Returns true when swapped
+// (`tmp` then holds the old file); throws, leaving no `tmp`, when neither works.
+bool swapIn(const std::string& tmp, const std::string& path) {
+  std::error_code ec;
+  if (std::filesystem::is_regular_file(path, ec) &&
+      ::renameat2(AT_FDCWD, tmp.c_str(), AT_FDCWD, path.c_str(), RENAME_EXCHANGE) == 0) {
+    return true;
+  }
+  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
+    const std::string why = std::strerror(errno);
+    ::unlink(tmp.c_str());
+    throw std::runtime_error("cannot rename " + tmp + " to " + path + ": " + why);
+  }
+  return false;
+}
+
+}  // namespace
+
 void writeStateFile(const std::string& path, const std::string& text) {
   // Per process: two runs sharing the folder must not rename each other's half-written file.
   const std::string tmp = path + ".tmp." + std::to_string(::getpid());
@@ -31,25 +57,9 @@ void writeStateFile(const std::string& path, const std::string& text) {
       throw std::runtime_error("cannot write " + tmp + ": " + why);
     }
   }
-  // Swapped with the old file, which is then removed, rather than renamed over it: ext4 writes a
-  // file renamed over another out to the disk at once (auto_da_alloc): 430-450 us of CPU a save on
-  // the development machine's virtual disk against 180-210 us swapped (fusion saves 5 times a
-  // second, the simulator 10; the saves were 8 % of fusion's CPU in the team, docs/performance.md).
-  // A reader sees the old file or the new one all the same; after a power loss the new one may
-  // be empty (not yet written out), which the readers refuse as corrupt. Only a regular file is
-  // swapped (a directory at `path` stays where it is and the rename below fails). The first
-  // save, and file systems without the exchange, rename.
-  std::error_code ec;
-  if (std::filesystem::is_regular_file(path, ec) &&
-      ::renameat2(AT_FDCWD, tmp.c_str(), AT_FDCWD, path.c_str(), RENAME_EXCHANGE) == 0) {
-    ::unlink(tmp.c_str());
-    return;
-  }
-  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
-    const std::string why = std::strerror(errno);
-    ::unlink(tmp.c_str());
-    throw std::runtime_error("cannot rename " + tmp + " to " + path + ": " + why);
-  }
+  // The old file, swapped out, is removed. After a power loss the new one may be empty (not yet
+  // written out), which the readers refuse as corrupt.
+  if (swapIn(tmp, path)) ::unlink(tmp.c_str());
 }
 
 namespace {
@@ -111,18 +121,8 @@ void StateFileWriter::write(const std::string& text) {
     ::unlink(tmp_.c_str());
     throw std::runtime_error("cannot write " + tmp_ + ": " + std::strerror(error));
   }
-  // Swapped as in writeStateFile; the temporary file then holds the previous save, written over
-  // by the next one.
-  std::error_code ec;
-  if (std::filesystem::is_regular_file(path_, ec) &&
-      ::renameat2(AT_FDCWD, tmp_.c_str(), AT_FDCWD, path_.c_str(), RENAME_EXCHANGE) == 0) {
-    return;
-  }
-  if (std::rename(tmp_.c_str(), path_.c_str()) != 0) {
-    const std::string why = std::strerror(errno);
-    ::unlink(tmp_.c_str());
-    throw std::runtime_error("cannot rename " + tmp_ + " to " + path_ + ": " + why);
-  }
+  // Swapped in, the temporary file holds the previous save, written over by the next one.
+  swapIn(tmp_, path_);
 }
 
 std::optional<std::string> readStateFile(const std::string& path) {

@@ -129,10 +129,6 @@ WorldSnapshot decodeSnapshot(const std::string& text) {
   return s;
 }
 
-void writeSnapshotFile(const std::string& path, const WorldSnapshot& snapshot) {
-  process::writeStateFile(path, encodeSnapshot(snapshot));
-}
-
 std::optional<WorldSnapshot> readSnapshotFile(const std::string& path) {
   const std::optional<std::string> text = process::readStateFile(path);
   if (!text) return std::nullopt;

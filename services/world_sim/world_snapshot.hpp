@@ -47,8 +47,6 @@ std::string encodeSnapshot(const WorldSnapshot& snapshot);
 // Throws std::runtime_error naming the line for text that is not a snapshot.
 WorldSnapshot decodeSnapshot(const std::string& text);
 
-// Writes `path` atomically; throws std::runtime_error when it cannot.
-void writeSnapshotFile(const std::string& path, const WorldSnapshot& snapshot);
 // The snapshot in `path`; nothing when the file does not exist. Throws std::runtime_error for a
 // file that cannot be read or parsed.
 std::optional<WorldSnapshot> readSnapshotFile(const std::string& path);
