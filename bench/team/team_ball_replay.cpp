@@ -21,6 +21,7 @@
 #include <fmt/format.h>
 #include <Eigen/LU>
 
+#include "bench/team/sighting_rows.hpp"
 #include "common/bus/log_file.hpp"
 #include "common/cli/cli.hpp"
 #include "common/geometry/geometry.hpp"
@@ -152,7 +153,9 @@ struct ReplayOptions {
                    "error) here");
     app.add_option("--sightings", sightings_path,
                    "Write every visible VISION_BALL against the truth (robot frame: range, radial "
-                   "and tangential error, the detector's sigmas) here");
+                   "and tangential error, the detector's sigmas, turn rate, the ball's bearing "
+                   "rate, how near a body in front comes to hiding it, fusion's heading error "
+                   "at the stamp) here");
     app.add_option("--pictures", pictures_path,
                    "Write every scored team picture (observer, t, team ball error and sigma, each "
                    "robot's ball error and range) here");
@@ -163,12 +166,13 @@ struct ReplayOptions {
   }
 };
 
-std::vector<eval::TruthSample> readTruth(const std::string& dir) {
+std::vector<eval::TruthSample> readTruth(const std::string& dir, team_bench::SightingRows& rows) {
   std::vector<eval::TruthSample> truth;
   bus::LogReader log(dir + "/sim.lcm");
   world_state_t w;
   while (log.next(bus::channels::kSimWorld, w)) {
     eval::appendTruth(truth, w);
+    rows.addWorld(w);
   }
   return truth;
 }
@@ -182,36 +186,21 @@ bool ballAt(const std::vector<eval::TruthSample>& truth, Utime t, Eigen::Vector2
   return true;
 }
 
-// One visible VISION_BALL of robot `id` against the truth, in the robot frame.
-void writeSighting(std::FILE* sightings, const std::vector<eval::TruthSample>& truth, int id,
-                   const perception::BallSighting& b) {
-  eval::TruthRobot tr;
-  double bx = 0, by = 0, bx2 = 0, by2 = 0;
-  if (!b.visible || !eval::truthAt(truth, b.utime, id, tr, &bx, &by)) return;
-  eval::truthAt(truth, b.utime + 100'000, id, tr, &bx2, &by2);
-  eval::TruthRobot later;  // the robot 20 ms later: its turn rate and speed at the exposure
-  eval::truthAt(truth, b.utime + 20'000, id, later, &bx, &by);
-  eval::truthAt(truth, b.utime, id, tr, &bx, &by);
-  // The true ball in the robot frame at the exposure.
-  const double c = std::cos(tr.phi), sn = std::sin(tr.phi);
-  const Eigen::Vector2d rel(c * (bx - tr.x) + sn * (by - tr.y),
-                            -sn * (bx - tr.x) + c * (by - tr.y));
-  const Eigen::Vector2d seen(b.x, b.y);
-  const Eigen::Vector2d radial = rel.normalized();
-  const Eigen::Vector2d tangential(-radial.y(), radial.x());
-  std::fprintf(sightings, "%d,%.3f,%.3f,%.3f,%.4f,%.4f,%.4f,%.4f,%.3f,%.3f,%.3f\n", id,
-               static_cast<double>(b.utime - truth.front().utime) / 1e6, seen.norm(), rel.norm(),
-               (seen - rel).dot(radial), (seen - rel).dot(tangential), b.sigma_radial,
-               b.sigma_tangential, std::hypot(bx2 - bx, by2 - by) / 0.1,
-               geometry::normalizeAngle(later.phi - tr.phi) / 0.02,
-               std::hypot(later.x - tr.x, later.y - tr.y) / 0.02);
+// The ROBOT_STATE (of the newest 64 received) whose stamp is nearest `t`, within 25 ms.
+const perception::RobotEstimate* stateNear(const std::vector<Timed>& states, Utime t) {
+  const Timed* nearest = nullptr;
+  for (auto it = states.rbegin(); it != states.rend() && it - states.rbegin() < 64; ++it) {
+    if (!nearest || std::abs(it->robot.utime - t) < std::abs(nearest->robot.utime - t))
+      nearest = &*it;
+  }
+  return nearest && std::abs(nearest->robot.utime - t) <= 25'000 ? &nearest->robot : nullptr;
 }
 
 // Every robot's estimates (robotN.lcm; missing or empty files are skipped); with `sightings`,
 // every visible VISION_BALL is written there against the truth.
 std::map<int, RobotLog> readRobotLogs(const std::string& dir,
                                       const std::vector<eval::TruthSample>& truth,
-                                      std::FILE* sightings) {
+                                      team_bench::SightingRows* sightings) {
   std::map<int, RobotLog> logs;
   for (int id = 1; id <= perception::kTeamSize; ++id) {
     const std::string path = dir + "/robot" + std::to_string(id) + ".lcm";
@@ -237,7 +226,7 @@ std::map<int, RobotLog> readRobotLogs(const std::string& dir,
         if (m.decode(e.data.data(), 0, size) != size) continue;
         perception::BallSighting sighting = msg::fromMessage(m);
         sighting.utime = ownToTruth(clock, sighting.utime);
-        writeSighting(sightings, truth, id, sighting);
+        sightings->write(truth, id, sighting, stateNear(r.robots, sighting.utime));
       } else if (e.channel == bus::channels::kBallState.name) {
         ball_state_t m;
         if (m.decode(e.data.data(), 0, size) != size) continue;
@@ -604,17 +593,15 @@ int main(int argc, char** argv) {
   try {
     o.picture.max_prediction_us = static_cast<Utime>(o.max_prediction_s * 1e6);
     o.picture.superseded_after_us = static_cast<Utime>(o.superseded_after_s * 1e6);
-    const std::vector<eval::TruthSample> truth = readTruth(o.dir);
+    team_bench::SightingRows sightings(o.sightings_path);
+    const std::vector<eval::TruthSample> truth = readTruth(o.dir, sightings);
     if (truth.empty()) {
       std::fprintf(stderr, "no SIM_WORLD in %s/sim.lcm\n", o.dir.c_str());
       return 1;
     }
-    std::FILE* sightings =
-        openCsv(o.sightings_path,
-                "robot,t,range,true_range,radial_err,tangential_err,sigma_radial,"
-                "sigma_tangential,ball_speed,turn_radps,robot_speed\n");
-    const std::map<int, RobotLog> logs = readRobotLogs(o.dir, truth, sightings);
-    if (sightings) std::fclose(sightings);
+    const std::map<int, RobotLog> logs =
+        readRobotLogs(o.dir, truth, sightings.open() ? &sightings : nullptr);
+    sightings.close();
     if (logs.empty()) {
       std::fprintf(stderr, "no robotN.lcm in %s\n", o.dir.c_str());
       return 1;

@@ -153,12 +153,16 @@ void WorldSimNode::publishWorld() {
   truth_.utime = utimeAt(world_.time());
   const auto& robots = world_.robots();
   truth_.robots.resize(robots.size());
+  // Over the interval since the last SIM_WORLD, not the last step's (published_motion.hpp): a
+  // camera carries the state to its exposure with it.
+  const std::vector<PublishedMotion> motion =
+      published_motion_.next(robots, world_.time(), 2.5 / options_.world_rate);
   for (std::size_t i = 0; i < robots.size(); ++i) {
     auto& r = truth_.robots[i];
     r.id = robots[i].id;
     r.pose = robots[i].pose;
-    r.velocity = robots[i].velocity;
-    r.omega = robots[i].omega;
+    r.velocity = motion[i].velocity;
+    r.omega = motion[i].omega;
     r.kidnaps = robots[i].kidnaps;
   }
   const auto& opponents = world_.opponents();

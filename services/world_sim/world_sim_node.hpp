@@ -12,6 +12,7 @@
 #include "common/perception/world_truth.hpp"
 #include "common/process/state_file.hpp"
 #include "common/scenario/scenario.hpp"
+#include "services/world_sim/published_motion.hpp"
 #include "services/world_sim/serial_lines.hpp"
 #include "services/world_sim/world.hpp"
 
@@ -87,6 +88,8 @@ class WorldSimNode {
   bool resumed_ = false;
   bool end_logged_ = false;
   perception::WorldTruth truth_;
+  // The robots' velocities SIM_WORLD carries: the mean since the previous SIM_WORLD.
+  PublishedMotionTracker published_motion_;
   world_state_t msg_{};
   // The snapshot file (options_.state_file), written over in place 10 times a second.
   std::optional<process::StateFileWriter> snapshot_file_;
