@@ -8,7 +8,6 @@
 // detector's bearing sigma (docs/log/2026-12-07-session12-ball.md).
 #pragma once
 
-#include <map>
 #include <vector>
 
 #include "common/geometry/geometry.hpp"
@@ -28,15 +27,18 @@ class PublishedMotionTracker {
   // mean since each robot's state at the previous call, or the step's own for a robot without
   // one, kidnapped since, or when the previous call is not in (0, max_interval_s] before `time`.
   // Remembers the robots' poses for the next call.
-  std::vector<PublishedMotion> next(const std::vector<RobotTruth>& robots, double time,
-                                    double max_interval_s);
+  // The result stays valid until the next call.
+  const std::vector<PublishedMotion>& next(const std::vector<RobotTruth>& robots, double time,
+                                           double max_interval_s);
 
  private:
   struct Previous {
+    int id = 0;
     geometry::Pose2 pose;
     int kidnaps = 0;
   };
-  std::map<int, Previous> previous_;
+  std::vector<Previous> previous_;
+  std::vector<PublishedMotion> motion_;
   double previous_time_ = 0.0;
   bool has_previous_ = false;
 };

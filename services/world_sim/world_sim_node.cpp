@@ -155,7 +155,7 @@ void WorldSimNode::publishWorld() {
   truth_.robots.resize(robots.size());
   // Over the interval since the last SIM_WORLD, not the last step's (published_motion.hpp): a
   // camera carries the state to its exposure with it.
-  const std::vector<PublishedMotion> motion =
+  const std::vector<PublishedMotion>& motion =
       published_motion_.next(robots, world_.time(), 2.5 / options_.world_rate);
   for (std::size_t i = 0; i < robots.size(); ++i) {
     auto& r = truth_.robots[i];
