@@ -231,8 +231,8 @@ class SimRenderer {
 
   std::vector<Yuv> frame_;                                 // current sub-frame, one Yuv per pixel
   std::vector<std::array<std::uint16_t, 3>> accumulator_;  // motion blur sums
-  std::vector<std::int8_t> noise_table_;                   // unit Gaussian * 16
-  // The sensor noise (finish): the table scaled to luma and chroma levels.
+  // The sensor noise (finish): a table of N(0, 1) draws in whole luma and chroma levels, its
+  // standard deviation the asked one (noise_luma, noise_chroma).
   std::vector<std::int16_t> luma_noise_;
   std::vector<std::int16_t> chroma_noise_;
   RealismFilter realism_;
