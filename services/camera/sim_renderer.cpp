@@ -529,7 +529,9 @@ void SimRenderer::finish(const SimScene& scene, std::vector<std::uint8_t>& yuyv)
                                          luma[i[4]], chroma[i[6]], luma[i[5]], chroma[i[7]]);
     return _mm_add_epi16(twoPairs(x), noise);
   };
-  for (; p + 5 <= pairs; p += 4) {
+  // setScalarNoise: none of the pairs here, every one to the scalar loop.
+  const std::size_t vector_pairs = scalar_noise_ ? 0 : pairs;
+  for (; p + 5 <= vector_pairs; p += 4) {
     if (used == lane.size()) {
       low_lanes = xorshift32x4(low_lanes);
       high_lanes = xorshift32x4(high_lanes);

@@ -159,6 +159,9 @@ class SimRenderer {
   const RenderParams& params() const { return params_; }
   // The realism post-process (its knobs can change between frames, e.g. the light factor).
   RealismFilter& realism() { return realism_; }
+  // The sensor noise by its portable loop on every pixel pair instead of its SSE2 loop (what
+  // x86-64 builds run): the same bytes, which SimRenderer.ScalarNoiseGivesTheSameBytes checks.
+  void setScalarNoise(bool scalar) { scalar_noise_ = scalar; }
 
   // Colour of the floor raster at a field point (finest level, lighting included, no noise).
   Yuv floorColour(const Vec2& field_point) const;
@@ -236,6 +239,7 @@ class SimRenderer {
   std::vector<std::int16_t> luma_noise_;
   std::vector<std::int16_t> chroma_noise_;
   RealismFilter realism_;
+  bool scalar_noise_ = false;
 };
 
 }  // namespace fieldline::camera
