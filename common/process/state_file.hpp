@@ -23,8 +23,11 @@ std::optional<std::string> readStateFile(const std::string& path);
 // was most of a save's cost, docs/performance.md). A reader sees the old file or the new one as
 // with writeStateFile, unless it holds the file open across the next save but one (it reads the
 // inode that save writes over). The temporary file (`path`.tmp.PID) stays beside the file while
-// the writer lives; the destructor removes it, and the constructor removes those of processes
-// that no longer run (a crash, SIGKILL).
+// the writer lives, held open with its flock taken; the destructor removes it, and the
+// constructor removes the temporaries of `path` whose lock it can take: their writer no longer
+// runs (a crash, SIGKILL). The lock, not the PID in the name, says so: a PID means nothing in
+// another PID namespace (each robot's processes may run in their own), where a live writer's PID
+// can be absent and a dead one's reused. writeStateFile locks its temporary too while it exists.
 // After a power loss (not a crash of the process) the file may hold an older save, or a torn one:
 // the bytes written over in place are not flushed before the swap. Fusion's pose file does not
 // matter then (a new boot refuses the resume). Neither writer here flushes (fsync) before its
@@ -43,6 +46,8 @@ class StateFileWriter {
  private:
   std::string path_;
   std::string tmp_;
+  // The file at tmp_, open and locked (-1: none, as after the first save, which renames).
+  int tmp_fd_ = -1;
 };
 
 }  // namespace fieldline::process

@@ -17,7 +17,6 @@ namespace fieldline::camera {
 namespace {
 
 constexpr int kNoiseTableBits = 12;
-constexpr float kNoiseTableScale = 16.0f;  // noise_table_ holds N(0,1) * 16
 
 std::uint8_t clampByte(int x) {
   return static_cast<std::uint8_t>(std::clamp(x, 0, 255));
@@ -60,6 +59,36 @@ std::array<std::uint32_t, kNoiseLanes> noiseLanes(std::uint32_t seed, std::uint6
     if (x == 0) x = 0x6D2B79F5u;
   }
   return lanes;
+}
+
+// A sample of N(0, 1), `unit` (mean 0 and standard deviation 1 exactly), in whole levels of
+// standard deviation `sigma`: each value scaled and rounded, the scale chosen (bisection) so that
+// the rounded table's own standard deviation is `sigma` (rounding alone would add about 1/12
+// level^2 of variance). Until 2026-12-07 the values were truncated toward zero: the sigma was
+// 0.905 of the asked one for luma 3 and 0.866 for chroma 2.
+std::vector<std::int16_t> noiseLevels(const std::vector<double>& unit, double sigma) {
+  std::vector<std::int16_t> levels(unit.size(), 0);
+  const auto fill = [&](double scale) {
+    double sum = 0.0, sum2 = 0.0;
+    for (std::size_t k = 0; k < unit.size(); ++k) {
+      const double level = std::clamp(std::round(unit[k] * scale), -1000.0, 1000.0);
+      levels[k] = static_cast<std::int16_t>(level);
+      sum += level;
+      sum2 += level * level;
+    }
+    const double n = static_cast<double>(unit.size());
+    return std::sqrt(std::max(0.0, sum2 / n - (sum / n) * (sum / n)));
+  };
+  if (!(sigma > 0.0)) return levels;
+  // The rounded table's sigma grows with the scale (each |level| does), in steps.
+  double low = 0.0, high = 2.0 * sigma + 1.0;
+  for (int k = 0; k < 60; ++k) {
+    const double mid = 0.5 * (low + high);
+    (fill(mid) < sigma ? low : high) = mid;
+  }
+  const double below = std::abs(fill(low) - sigma);
+  if (std::abs(fill(high) - sigma) > below) fill(low);
+  return levels;
 }
 
 #if defined(__SSE2__)
@@ -133,22 +162,23 @@ SimRenderer::SimRenderer(MirrorModel mirror, const field::FieldModel& field, Ren
   buildGoals(field);
   buildPixelTable();
 
+  // The sensor noise's table: 4096 draws of N(0, 1) from the seed, made mean 0 and standard
+  // deviation 1, then in whole levels of the asked sigma for luma and chroma (noiseLevels).
   std::mt19937 rng(params_.noise_seed);
   std::normal_distribution<float> gauss(0.0f, 1.0f);
-  noise_table_.resize(std::size_t{1} << kNoiseTableBits);
-  for (auto& n : noise_table_) {
-    n = static_cast<std::int8_t>(
-        std::clamp(std::lround(gauss(rng) * kNoiseTableScale), -127l, 127l));
+  std::vector<double> unit(std::size_t{1} << kNoiseTableBits);
+  double sum = 0.0, sum2 = 0.0;
+  for (double& g : unit) {
+    g = gauss(rng);
+    sum += g;
+    sum2 += g * g;
   }
-  // The table in 8-bit levels for luma and chroma (noise scale in 1/256 levels per table unit).
-  const int luma = static_cast<int>(std::lround(params_.noise_luma * 256.0 / kNoiseTableScale));
-  const int chroma = static_cast<int>(std::lround(params_.noise_chroma * 256.0 / kNoiseTableScale));
-  luma_noise_.resize(noise_table_.size());
-  chroma_noise_.resize(noise_table_.size());
-  for (std::size_t k = 0; k < noise_table_.size(); ++k) {
-    luma_noise_[k] = static_cast<std::int16_t>((noise_table_[k] * luma) / 256);
-    chroma_noise_[k] = static_cast<std::int16_t>((noise_table_[k] * chroma) / 256);
-  }
+  const double mean = sum / static_cast<double>(unit.size());
+  const double sd = std::sqrt(sum2 / static_cast<double>(unit.size()) - mean * mean);
+  for (double& g : unit)
+    g = (g - mean) / sd;
+  luma_noise_ = noiseLevels(unit, params_.noise_luma);
+  chroma_noise_ = noiseLevels(unit, params_.noise_chroma);
 }
 
 Yuv SimRenderer::lit(Bgr colour, const Vec2& field_point) const {
@@ -499,7 +529,9 @@ void SimRenderer::finish(const SimScene& scene, std::vector<std::uint8_t>& yuyv)
                                          luma[i[4]], chroma[i[6]], luma[i[5]], chroma[i[7]]);
     return _mm_add_epi16(twoPairs(x), noise);
   };
-  for (; p + 5 <= pairs; p += 4) {
+  // setScalarNoise: none of the pairs here, every one to the scalar loop.
+  const std::size_t vector_pairs = scalar_noise_ ? 0 : pairs;
+  for (; p + 5 <= vector_pairs; p += 4) {
     if (used == lane.size()) {
       low_lanes = xorshift32x4(low_lanes);
       high_lanes = xorshift32x4(high_lanes);

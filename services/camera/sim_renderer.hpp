@@ -159,6 +159,9 @@ class SimRenderer {
   const RenderParams& params() const { return params_; }
   // The realism post-process (its knobs can change between frames, e.g. the light factor).
   RealismFilter& realism() { return realism_; }
+  // The sensor noise by its portable loop on every pixel pair instead of its SSE2 loop (what
+  // x86-64 builds run): the same bytes, which SimRenderer.ScalarNoiseGivesTheSameBytes checks.
+  void setScalarNoise(bool scalar) { scalar_noise_ = scalar; }
 
   // Colour of the floor raster at a field point (finest level, lighting included, no noise).
   Yuv floorColour(const Vec2& field_point) const;
@@ -231,11 +234,12 @@ class SimRenderer {
 
   std::vector<Yuv> frame_;                                 // current sub-frame, one Yuv per pixel
   std::vector<std::array<std::uint16_t, 3>> accumulator_;  // motion blur sums
-  std::vector<std::int8_t> noise_table_;                   // unit Gaussian * 16
-  // The sensor noise (finish): the table scaled to luma and chroma levels.
+  // The sensor noise (finish): a table of N(0, 1) draws in whole luma and chroma levels, its
+  // standard deviation the asked one (noise_luma, noise_chroma).
   std::vector<std::int16_t> luma_noise_;
   std::vector<std::int16_t> chroma_noise_;
   RealismFilter realism_;
+  bool scalar_noise_ = false;
 };
 
 }  // namespace fieldline::camera

@@ -10,6 +10,24 @@
 
 namespace fieldline::region_tracking {
 
+namespace {
+// Empty when the coverage grid of `p` is within kMaxRangeOverCoverage, else why not.
+std::string coverageGridProblem(const VisionHealthParams& p) {
+  if (!(p.field_range_m > 0.0 && p.coverage_distance_m > 0.0 && std::isfinite(p.field_range_m))) {
+    return "field_range_m and coverage_distance_m must be finite and > 0";
+  }
+  const double ratio = p.field_range_m / p.coverage_distance_m;
+  if (ratio <= kMaxRangeOverCoverage * (1.0 + 1e-12)) return {};
+  const double side = 2.0 * (std::ceil(ratio) + 2.0) + 1.0;
+  return fmt::format(
+      "coverage_distance_m {} is too fine for field_range_m {}: the coverage grid would take "
+      "{:.1f} "
+      "MB (field_range_m / coverage_distance_m at most {:.0f}: coverage_distance_m >= {} here)",
+      p.coverage_distance_m, p.field_range_m, side * side / 1e6, kMaxRangeOverCoverage,
+      p.field_range_m / kMaxRangeOverCoverage);
+}
+}  // namespace
+
 VisionHealthParams loadVisionHealthParams(const config::Node& n) {
   VisionHealthParams p;
   p.window_frames = n.getOr<int>("window_frames", p.window_frames, 1, 10000);
@@ -33,6 +51,9 @@ VisionHealthParams loadVisionHealthParams(const config::Node& n) {
   p.min_line_in_view_m = n.getOr<double>("min_line_in_view_m", p.min_line_in_view_m, 0.1, 1000.0);
   p.max_pose_sigma_m = n.getOr<double>("max_pose_sigma_m", p.max_pose_sigma_m, 0.01, 10.0);
   n.rejectUnknownKeys();
+  if (const std::string problem = coverageGridProblem(p); !problem.empty()) {
+    n.fail(n.has("coverage_distance_m") ? "coverage_distance_m" : "field_range_m", problem);
+  }
   return p;
 }
 
@@ -44,6 +65,9 @@ VisionHealth::VisionHealth(const camera::MirrorModel& mirror, const camera::Colo
     throw std::invalid_argument(
         "vision health: window_frames, field_window_frames, sample_stride and "
         "max_line_frames_without_points must be >= 1");
+  }
+  if (const std::string problem = coverageGridProblem(params_); !problem.empty()) {
+    throw std::invalid_argument("vision health: " + problem);
   }
   const int s = params_.sample_stride;
   const float nan = std::numeric_limits<float>::quiet_NaN();

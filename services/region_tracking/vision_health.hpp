@@ -75,6 +75,9 @@ struct VisionHealthParams {
   // Below this share of the line length in view covered by points: WARN. A model line sample
   // counts as covered with a point within coverage_distance_m.
   double min_line_coverage = 0.3;
+  // At most field_range_m / kMaxRangeOverCoverage (below): the coverage grid, one byte per
+  // square of this side over the square of twice field_range_m, stays under 170 kB (20 m at
+  // 0.01 m would take 16 MB).
   double coverage_distance_m = 0.25;
   // Too few facts to judge: fewer points / floor samples beyond the carpet / metres of line in
   // view over the window than these.
@@ -85,6 +88,10 @@ struct VisionHealthParams {
   double max_pose_sigma_m = 0.3;
 };
 
+// The largest field_range_m / coverage_distance_m: the coverage grid is (2 (ceil(ratio) + 2) + 1)^2
+// bytes, 164 kB at this bound (1.4 kB with the defaults, 4 m / 0.25 m).
+inline constexpr double kMaxRangeOverCoverage = 200.0;
+
 // Fusion's pose at a frame's time and how sure it is.
 struct FramePose {
   geometry::Pose2 pose;
@@ -92,13 +99,14 @@ struct FramePose {
   double sigma_m = 0.0;
 };
 
-// Reads a `health` section (every key optional, defaults as above; unknown keys are errors).
+// Reads a `health` section (every key optional, defaults as above; unknown keys are errors, and
+// so is a coverage_distance_m below field_range_m / kMaxRangeOverCoverage).
 VisionHealthParams loadVisionHealthParams(const config::Node& node);
 
 class VisionHealth {
  public:
   // `mirror`, `table` and `field` (may be null: no field checks) must outlive this. Throws
-  // std::invalid_argument for bad parameters.
+  // std::invalid_argument for bad parameters (a coverage grid over the bound among them).
   VisionHealth(const camera::MirrorModel& mirror, const camera::ColourTable& table,
                const VisionHealthParams& params, const field::FieldModel* field = nullptr);
 
@@ -117,6 +125,8 @@ class VisionHealth {
   double searchFraction() const;
   int lineFramesWithoutPoints() const { return line_frames_without_points_; }
   int samplePixels() const { return static_cast<int>(samples_.size()); }
+  // The coverage grid's size (bounded by kMaxRangeOverCoverage).
+  std::size_t coverageGridBytes() const { return bins_.size(); }
   // Field checks over the window (negative: not enough facts to judge).
   double offLineShare() const;
   double offFieldShare() const;

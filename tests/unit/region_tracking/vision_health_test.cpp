@@ -507,5 +507,38 @@ TEST(VisionHealth, RefusesBadParameters) {
             3);
 }
 
+// The coverage grid (one byte per square of coverage_distance_m over twice field_range_m) is
+// bounded: field_range_m / coverage_distance_m at most 200, 164 kB. 20 m at 0.01 m, which the
+// keys' own ranges allow, is refused at config load naming the keys (it took 16 MB until
+// session 12 finding 3), and by the constructor; the bound itself is accepted.
+TEST(VisionHealth, TheCoverageGridIsBounded) {
+  SimCamera& sim = sharedCamera();
+  try {
+    loadVisionHealthParams(
+        config::Node::loadString("field_range_m: 20.0\ncoverage_distance_m: 0.01\n", "health"));
+    ADD_FAILURE() << "a 16 MB coverage grid was accepted";
+  } catch (const config::Error& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("coverage_distance_m"), std::string::npos) << what;
+    EXPECT_NE(what.find("field_range_m"), std::string::npos) << what;
+    EXPECT_NE(what.find("0.1"), std::string::npos) << "the smallest distance allowed: " << what;
+  }
+  EXPECT_THROW(loadVisionHealthParams(config::Node::loadString("coverage_distance_m: 0.01\n")),
+               config::Error);  // 4 m / 0.01 m: 400
+  VisionHealthParams p;
+  p.field_range_m = 20.0;
+  p.coverage_distance_m = 0.01;
+  EXPECT_THROW(VisionHealth(sim.mirror, sim.table, p), std::invalid_argument);
+  p.coverage_distance_m = -0.25;
+  EXPECT_THROW(VisionHealth(sim.mirror, sim.table, p), std::invalid_argument);
+  const VisionHealthParams at_bound = loadVisionHealthParams(
+      config::Node::loadString("field_range_m: 20.0\ncoverage_distance_m: 0.1\n"));
+  const VisionHealth largest(sim.mirror, sim.table, at_bound);
+  EXPECT_EQ(largest.coverageGridBytes(), 405u * 405u);
+  EXPECT_LT(largest.coverageGridBytes(), 170'000u);
+  const VisionHealth defaults(sim.mirror, sim.table, VisionHealthParams{});
+  EXPECT_EQ(defaults.coverageGridBytes(), 37u * 37u);
+}
+
 }  // namespace
 }  // namespace fieldline::region_tracking
