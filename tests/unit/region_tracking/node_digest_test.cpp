@@ -174,8 +174,8 @@ TEST(TrackingNodeDigest, TheTeamsSettingsGiveThePinnedMessagesAndStatuses) {
   EXPECT_EQ(d.vision_messages, 450);
   EXPECT_GT(d.warned_frames, 10);
   EXPECT_GT(d.judged_statuses, 50);
-  EXPECT_EQ(d.messages, 0x38aa7c151b52e9b4ull);
-  EXPECT_EQ(d.statuses, 0x4eba635c672140d6ull);
+  EXPECT_EQ(d.messages, 0x76920036eb1e004cull);
+  EXPECT_EQ(d.statuses, 0x9be44d348f98c065ull);
 }
 
 TEST(TrackingNodeDigest, ABadTableEveryThirdFrameGivesThePinnedMessagesAndStatuses) {
@@ -189,8 +189,8 @@ TEST(TrackingNodeDigest, ABadTableEveryThirdFrameGivesThePinnedMessagesAndStatus
   EXPECT_EQ(d.vision_messages, 280);
   EXPECT_GT(d.warned_frames, 10);
   EXPECT_GT(d.judged_statuses, 20);
-  EXPECT_EQ(d.messages, 0x05d87c7b283d6e75ull);
-  EXPECT_EQ(d.statuses, 0x58fb88c35a356e69ull);
+  EXPECT_EQ(d.messages, 0x82bbfdc073f728cfull);
+  EXPECT_EQ(d.statuses, 0xe071b23cc218f109ull);
 }
 
 }  // namespace
