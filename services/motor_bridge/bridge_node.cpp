@@ -24,7 +24,8 @@ BridgeNode::BridgeNode(bus::Node& node, const robot::RobotParams& params, Bridge
   // wake the bridge, they are handled just before that tick (issue 32: a wake-up less each).
   node_.subscribeDeferred(bus::channels::kMotionCommand,
                           [this](const motion_command_t& m) { onCommand(m); });
-  node_.every(static_cast<Utime>(1e6 / config_.command_rate), [this] { sendCommand(); });
+  command_period_us_ = static_cast<Utime>(1e6 / config_.command_rate);
+  command_tick_ = node_.every(command_period_us_, [this] { sendCommand(); });
   node_.every(kMicrosPerSecond, [this] { publishMetrics(); });
   // An open serial line is not enough: the controller's samples must flow (a reader stealing the
   // pty's bytes, a stopped simulator).
@@ -70,6 +71,20 @@ void BridgeNode::onBytes(std::span<const std::uint8_t> bytes) {
     // The robot's speed as its wheels tell it: the status table's headline for this robot.
     node_.setMetric("speed_mps", std::hypot(o.vx, o.vy));
   }
+  if (!outputs_.empty()) onSample();
+}
+
+void BridgeNode::onSample() {
+  const auto& hello = core_.controllerHello();
+  if (!hello || static_cast<Utime>(hello->odometry_period_us) != command_period_us_) return;
+  const Utime now = node_.clock().monotonicNow();
+  // A second sample of a burst (a backlog, a late one after the deadline's frame): no frame.
+  if (any_frame_ && now - last_frame_us_ < command_period_us_ / 2) return;
+  // The MOTION_COMMANDs that waited in their socket first: the frame carries the newest.
+  node_.handleDeferred();
+  sendCommand();
+  // The next frame at the next sample; the tick only as the deadline should it not come.
+  node_.moveTimer(command_tick_, command_period_us_ + command_period_us_ / 4);
 }
 
 void BridgeNode::onLinkState(bool connected) {
@@ -103,6 +118,8 @@ void BridgeNode::onCommand(const motion_command_t& m) {
 }
 
 void BridgeNode::sendCommand() {
+  last_frame_us_ = node_.clock().monotonicNow();
+  any_frame_ = true;
   link_.send(core_.commandFrame(node_.now()));
   // Reopens the line when a retry is due, writes what the device did not take before.
   link_.poll();

@@ -6,6 +6,15 @@
 // a command frame is written when the command timer (50 Hz) ticks, and that tick also reopens a
 // lost line when a retry is due. So the process sleeps until bytes, a message or a timer are due:
 // no polling loop, no second reactor (issue 32).
+//
+// When the controller samples at the command rate (its Hello's odometry period is the command
+// period), the command tick moves to the samples: the frame goes out in the same wake-up as the
+// sample that the bridge reads and publishes (one wake-up a sample instead of two, issue 32),
+// with the newest MOTION_COMMAND. The timer stays as the deadline: a frame at most 1.25 command
+// periods after the previous one (then every period, as without samples), and a sample brings a
+// frame only when the previous one is at least half a period old (a backlog read in bursts does
+// not send a burst). So frames keep the command rate: the controller's own when its samples
+// flow, the host's when they do not.
 #pragma once
 
 #include <cstdint>
@@ -52,6 +61,8 @@ class BridgeNode {
   void onLinkState(bool connected);
   void onCommand(const motion_command_t& m);
   void sendCommand();
+  // The controller's sample(s) arrived: the command tick's work now, when the samples pace it.
+  void onSample();
   void publishMetrics();
 
   bus::Node& node_;
@@ -65,6 +76,11 @@ class BridgeNode {
   odometry_t odometry_{};
   std::uint64_t reported_bad_frames_ = 0;
   bool stopped_ = false;
+  Utime command_period_us_ = 0;
+  bus::Node::TimerId command_tick_ = 0;
+  // Monotonic time of the last command frame written.
+  Utime last_frame_us_ = 0;
+  bool any_frame_ = false;
 };
 
 }  // namespace fieldline::motor_bridge
