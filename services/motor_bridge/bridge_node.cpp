@@ -25,7 +25,7 @@ BridgeNode::BridgeNode(bus::Node& node, const robot::RobotParams& params, Bridge
   node_.subscribeDeferred(bus::channels::kMotionCommand,
                           [this](const motion_command_t& m) { onCommand(m); });
   command_period_us_ = static_cast<Utime>(1e6 / config_.command_rate);
-  command_tick_ = node_.every(command_period_us_, [this] { sendCommand(); });
+  command_tick_ = node_.every(command_period_us_, [this] { onTick(); });
   node_.every(kMicrosPerSecond, [this] { publishMetrics(); });
   // An open serial line is not enough: the controller's samples must flow (a reader stealing the
   // pty's bytes, a stopped simulator).
@@ -78,12 +78,13 @@ void BridgeNode::onSample() {
   const auto& hello = core_.controllerHello();
   if (!hello || static_cast<Utime>(hello->odometry_period_us) != command_period_us_) return;
   const Utime now = node_.clock().monotonicNow();
-  // A second sample of a burst (a backlog, a late one after the deadline's frame): no frame.
-  if (any_frame_ && now - last_frame_us_ < command_period_us_ / 2) return;
+  // Not yet due (a second sample of a burst, one late after the deadline's frame): no frame.
+  if (now < frame_due_us_ - command_period_us_ / 4) return;
   // The MOTION_COMMANDs that waited in their socket first: the frame carries the newest.
   node_.handleDeferred();
   sendCommand();
-  // The next frame at the next sample; the tick only as the deadline should it not come.
+  frame_due_us_ = now + command_period_us_;
+  // The timer only as the deadline, should the next sample not come.
   node_.moveTimer(command_tick_, command_period_us_ + command_period_us_ / 4);
 }
 
@@ -117,9 +118,14 @@ void BridgeNode::onCommand(const motion_command_t& m) {
   }
 }
 
+void BridgeNode::onTick() {
+  // The timer fires a quarter period after the frame was due (or on its own schedule when no
+  // samples pace the frames): the schedule goes on from when the frame was due.
+  frame_due_us_ = node_.clock().monotonicNow() + command_period_us_ - command_period_us_ / 4;
+  sendCommand();
+}
+
 void BridgeNode::sendCommand() {
-  last_frame_us_ = node_.clock().monotonicNow();
-  any_frame_ = true;
   link_.send(core_.commandFrame(node_.now()));
   // Reopens the line when a retry is due, writes what the device did not take before.
   link_.poll();

@@ -10,11 +10,12 @@
 // When the controller samples at the command rate (its Hello's odometry period is the command
 // period), the command tick moves to the samples: the frame goes out in the same wake-up as the
 // sample that the bridge reads and publishes (one wake-up a sample instead of two, issue 32),
-// with the newest MOTION_COMMAND. The timer stays as the deadline: a frame at most 1.25 command
-// periods after the previous one (then every period, as without samples), and a sample brings a
-// frame only when the previous one is at least half a period old (a backlog read in bursts does
-// not send a burst). So frames keep the command rate: the controller's own when its samples
-// flow, the host's when they do not.
+// with the newest MOTION_COMMAND. The frames keep a schedule of one per command period: a frame
+// is due a period after the previous one; a sample from a quarter period before that on brings
+// it (and the schedule goes on from the sample); the timer stays as the deadline a quarter
+// period after it is due (and the schedule goes on from where it was). So the frames keep the
+// command rate (the controller's own while its samples come, the host's when they do not), come
+// at most 1.25 periods apart, and a late sample or a backlog read in bursts sends no extra one.
 #pragma once
 
 #include <cstdint>
@@ -61,7 +62,9 @@ class BridgeNode {
   void onLinkState(bool connected);
   void onCommand(const motion_command_t& m);
   void sendCommand();
-  // The controller's sample(s) arrived: the command tick's work now, when the samples pace it.
+  // The command timer: the frame that no sample brought in time.
+  void onTick();
+  // The controller's sample(s) arrived: the frame now when it is (nearly) due.
   void onSample();
   void publishMetrics();
 
@@ -78,9 +81,8 @@ class BridgeNode {
   bool stopped_ = false;
   Utime command_period_us_ = 0;
   bus::Node::TimerId command_tick_ = 0;
-  // Monotonic time of the last command frame written.
-  Utime last_frame_us_ = 0;
-  bool any_frame_ = false;
+  // Monotonic time the next command frame is due (when the samples pace the frames).
+  Utime frame_due_us_ = 0;
 };
 
 }  // namespace fieldline::motor_bridge

@@ -158,8 +158,9 @@ TEST_F(BridgeNodeTest, CommandsGoOutOnTheLineAndOdometryComesBackStamped) {
 }
 
 // Issue 32: when the controller samples at the command rate, each sample brings the frame in
-// the same wake-up; the tick is only the deadline (1.25 periods, then every period), a burst of
-// samples brings one frame, and the frames keep the command rate.
+// the same wake-up; the tick is only the deadline (a quarter period after the frame is due, then
+// every period); a sample more than a quarter period before the next frame is due (a burst, one
+// early after a late one) brings none, so the frames keep the command rate.
 TEST_F(BridgeNodeTest, TheFrameGoesOutWithTheControllersSampleAndTheTickIsItsDeadline) {
   BridgeNode bridge(bridge_node, params, config);  // its tick due at 20 ms
   bridge.start();
@@ -207,7 +208,15 @@ TEST_F(BridgeNodeTest, TheFrameGoesOutWithTheControllersSampleAndTheTickIsItsDea
   EXPECT_EQ(framesNow().size(), 1u);
   clock.advance(5'000);  // 95 ms: the tick (due here before) moved to 115
   EXPECT_TRUE(framesNow().empty());
-  clock.advance(20'000);
+  clock.advance(20'000);  // 115 ms: the deadline's frame, the next due at 130
+  EXPECT_EQ(framesNow().size(), 1u);
+  clock.advance(10'000);  // 125 ms: a sample from 5 ms before it is due brings it
+  writeSample();
+  EXPECT_EQ(framesNow().size(), 1u);
+  clock.advance(13'000);  // 138 ms: 7 ms before the next is due: none
+  writeSample();
+  EXPECT_TRUE(framesNow().empty());
+  clock.advance(12'000);  // 150 ms: the deadline
   EXPECT_EQ(framesNow().size(), 1u);
 }
 
