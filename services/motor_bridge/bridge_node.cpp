@@ -1,5 +1,6 @@
 #include "services/motor_bridge/bridge_node.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
@@ -26,6 +27,7 @@ BridgeNode::BridgeNode(bus::Node& node, const robot::RobotParams& params, Bridge
                           [this](const motion_command_t& m) { onCommand(m); });
   command_period_us_ = static_cast<Utime>(1e6 / config_.command_rate);
   command_tick_ = node_.every(command_period_us_, [this] { onTick(); });
+  frame_due_us_ = node_.clock().monotonicNow() + command_period_us_ - command_period_us_ / 4;
   node_.every(kMicrosPerSecond, [this] { publishMetrics(); });
   // An open serial line is not enough: the controller's samples must flow (a reader stealing the
   // pty's bytes, a stopped simulator).
@@ -78,14 +80,20 @@ void BridgeNode::onSample() {
   const auto& hello = core_.controllerHello();
   if (!hello || static_cast<Utime>(hello->odometry_period_us) != command_period_us_) return;
   const Utime now = node_.clock().monotonicNow();
-  // Not yet due (a second sample of a burst, one late after the deadline's frame): no frame.
-  if (now < frame_due_us_ - command_period_us_ / 4) return;
-  // The MOTION_COMMANDs that waited in their socket first: the frame carries the newest.
-  node_.handleDeferred();
-  sendCommand();
-  frame_due_us_ = now + command_period_us_;
-  // The timer only as the deadline, should the next sample not come.
-  node_.moveTimer(command_tick_, command_period_us_ + command_period_us_ / 4);
+  const Utime period = command_period_us_;
+  const Utime window = period / 4;
+  // The schedule toward the sample's phase (the nearest due time), by at most 1/40 period.
+  const Utime phase = ((now - frame_due_us_ + period / 2) % period + period) % period - period / 2;
+  frame_due_us_ += std::clamp(phase, -period / 40, period / 40);
+  if (now >= frame_due_us_ - window) {
+    // The MOTION_COMMANDs that waited in their socket first: the frame carries the newest.
+    node_.handleDeferred();
+    sendCommand();
+    // Far behind (a stalled process): start over from now instead of catching up.
+    frame_due_us_ = std::max(frame_due_us_ + period, now + period - window);
+  }
+  // The timer only as the deadline, a quarter period after the next frame is due.
+  node_.moveTimer(command_tick_, std::max<Utime>(0, frame_due_us_ + window - now));
 }
 
 void BridgeNode::onLinkState(bool connected) {
@@ -119,9 +127,11 @@ void BridgeNode::onCommand(const motion_command_t& m) {
 }
 
 void BridgeNode::onTick() {
-  // The timer fires a quarter period after the frame was due (or on its own schedule when no
-  // samples pace the frames): the schedule goes on from when the frame was due.
-  frame_due_us_ = node_.clock().monotonicNow() + command_period_us_ - command_period_us_ / 4;
+  // The frame that no sample brought, a quarter period after it was due (or the tick alone, when
+  // no samples pace the frames): the next is due a period later.
+  const Utime now = node_.clock().monotonicNow();
+  frame_due_us_ = std::max(frame_due_us_ + command_period_us_,
+                           now + command_period_us_ - command_period_us_ / 4);
   sendCommand();
 }
 

@@ -10,12 +10,12 @@
 // When the controller samples at the command rate (its Hello's odometry period is the command
 // period), the command tick moves to the samples: the frame goes out in the same wake-up as the
 // sample that the bridge reads and publishes (one wake-up a sample instead of two, issue 32),
-// with the newest MOTION_COMMAND. The frames keep a schedule of one per command period: a frame
-// is due a period after the previous one; a sample from a quarter period before that on brings
-// it (and the schedule goes on from the sample); the timer stays as the deadline a quarter
-// period after it is due (and the schedule goes on from where it was). So the frames keep the
-// command rate (the controller's own while its samples come, the host's when they do not), come
-// at most 1.25 periods apart, and a late sample or a backlog read in bursts sends no extra one.
+// with the newest MOTION_COMMAND. The frames keep a schedule of exactly one per command period,
+// which each sample pulls by at most 1/40 period toward its own phase (so it follows the
+// controller's clock, and no sample, late or in a burst, adds or removes a frame); a sample from
+// a quarter period before a frame is due brings it, the timer sends it a quarter period after
+// it was due should no sample come. Frames are then 0.5 to 1.5 periods apart, one per period
+// on average; without samples the timer alone, every period, as before.
 #pragma once
 
 #include <cstdint>
@@ -81,7 +81,7 @@ class BridgeNode {
   bool stopped_ = false;
   Utime command_period_us_ = 0;
   bus::Node::TimerId command_tick_ = 0;
-  // Monotonic time the next command frame is due (when the samples pace the frames).
+  // Monotonic time the next command frame is due (the schedule the samples pull).
   Utime frame_due_us_ = 0;
 };
 

@@ -158,10 +158,10 @@ TEST_F(BridgeNodeTest, CommandsGoOutOnTheLineAndOdometryComesBackStamped) {
 }
 
 // Issue 32: when the controller samples at the command rate, each sample brings the frame in
-// the same wake-up; the tick is only the deadline (a quarter period after the frame is due, then
-// every period); a sample more than a quarter period before the next frame is due (a burst, one
-// early after a late one) brings none, so the frames keep the command rate.
-TEST_F(BridgeNodeTest, TheFrameGoesOutWithTheControllersSampleAndTheTickIsItsDeadline) {
+// the same wake-up (the tick moved away, only the deadline); a burst brings one; and over a run
+// whose samples start at another phase than the tick, some late, one frame per period all the
+// same, 0.5 to 1.5 periods apart, nearly all with their samples once the schedule followed them.
+TEST_F(BridgeNodeTest, TheFrameGoesOutWithTheControllersSampleAtTheCommandRate) {
   BridgeNode bridge(bridge_node, params, config);  // its tick due at 20 ms
   bridge.start();
   ASSERT_TRUE(bridge.link().connected());
@@ -182,42 +182,54 @@ TEST_F(BridgeNodeTest, TheFrameGoesOutWithTheControllersSampleAndTheTickIsItsDea
   EXPECT_EQ(frames[0].vx_q15, serial::toQ15(0.5));
   clock.advance(10'000);  // 20 ms: the tick moved away
   EXPECT_TRUE(framesNow().empty());
-  clock.advance(10'000);  // 30 ms: the next sample, the next frame
-  writeSample();
-  EXPECT_EQ(framesNow().size(), 1u);
-  clock.advance(1'000);  // 31 ms: a second sample of a burst brings none
+  clock.advance(1'000);  // 21 ms: a sample too early for the next frame brings none
   writeSample();
   EXPECT_TRUE(framesNow().empty());
-  EXPECT_EQ(bridge.core().currentCommand().vx, 0.5);
 
-  // No more samples: the deadline 25 ms after the last frame, then every 20 ms.
-  clock.advance(23'000);  // 54 ms
-  EXPECT_TRUE(framesNow().empty());
-  clock.advance(1'000);  // 55 ms
-  EXPECT_EQ(framesNow().size(), 1u);
-  clock.advance(19'000);  // 74 ms
-  EXPECT_TRUE(framesNow().empty());
-  clock.advance(1'000);  // 75 ms
-  EXPECT_EQ(framesNow().size(), 1u);
-  // A sample 5 ms after a deadline's frame (it came late) brings none; the next on time does.
-  clock.advance(5'000);  // 80 ms
-  writeSample();
-  EXPECT_TRUE(framesNow().empty());
-  clock.advance(10'000);  // 90 ms
-  writeSample();
-  EXPECT_EQ(framesNow().size(), 1u);
-  clock.advance(5'000);  // 95 ms: the tick (due here before) moved to 115
-  EXPECT_TRUE(framesNow().empty());
-  clock.advance(20'000);  // 115 ms: the deadline's frame, the next due at 130
-  EXPECT_EQ(framesNow().size(), 1u);
-  clock.advance(10'000);  // 125 ms: a sample from 5 ms before it is due brings it
-  writeSample();
-  EXPECT_EQ(framesNow().size(), 1u);
-  clock.advance(13'000);  // 138 ms: 7 ms before the next is due: none
-  writeSample();
-  EXPECT_TRUE(framesNow().empty());
-  clock.advance(12'000);  // 150 ms: the deadline
-  EXPECT_EQ(framesNow().size(), 1u);
+  // 2 s of samples every 20 ms from 31 ms on (11 ms after the tick's old phase), every fifth
+  // 12 ms late; frames counted per millisecond of the clock.
+  std::vector<Utime> frame_times;
+  std::vector<bool> with_sample;
+  for (int ms = 22; ms <= 2030; ++ms) {
+    clock.advance(1'000);
+    const bool sample =
+        ms >= 31 && ((ms - 31) % 20 == 0 ? (ms - 31) / 20 % 5 != 4
+                                         : (ms - 31) % 20 == 12 && (ms - 31) / 20 % 5 == 4);
+    if (sample) writeSample();
+    for (int i = 0; i < (sample ? 3 : 1); ++i)
+      bridge_node.spinOnce(sample ? 2 : 0);
+    for (const auto& m : readLine()) {
+      if (std::holds_alternative<serial::VelocityCommand>(m)) {
+        frame_times.push_back(ms);
+        with_sample.push_back(sample);
+      }
+    }
+  }
+  // One a period: 2010 ms from the frame at 10 ms on.
+  EXPECT_GE(frame_times.size(), 100u);
+  EXPECT_LE(frame_times.size(), 101u);
+  std::size_t late_half_with_sample = 0;
+  for (std::size_t i = 1; i < frame_times.size(); ++i) {
+    EXPECT_GE(frame_times[i] - frame_times[i - 1], 10) << "frame " << i;
+    EXPECT_LE(frame_times[i] - frame_times[i - 1], 31) << "frame " << i;
+    if (i >= frame_times.size() / 2 && with_sample[i]) ++late_half_with_sample;
+  }
+  // The on-time samples (four in five) bring their frames once the schedule followed them.
+  EXPECT_GE(late_half_with_sample, frame_times.size() / 2 * 3 / 4);
+
+  // No more samples: the deadline within 1.5 periods, then every period.
+  const Utime last = frame_times.back();
+  std::vector<Utime> after;
+  for (int ms = 2031; ms <= 2100; ++ms) {
+    clock.advance(1'000);
+    bridge_node.spinOnce(0);
+    for (const auto& m : readLine())
+      if (std::holds_alternative<serial::VelocityCommand>(m)) after.push_back(ms);
+  }
+  ASSERT_GE(after.size(), 3u);
+  EXPECT_LE(after[0] - last, 31);
+  EXPECT_EQ(after[1] - after[0], 20);
+  EXPECT_EQ(after[2] - after[1], 20);
 }
 
 // A controller that samples at another rate than the command rate: frames on the tick alone.
