@@ -190,18 +190,24 @@ TEST_F(BridgeNodeTest, TheFrameGoesOutWithTheControllersSampleAtTheCommandRate) 
   // 12 ms late; frames counted per millisecond of the clock.
   std::vector<Utime> frame_times;
   std::vector<bool> with_sample;
+  int last_sample_ms = -100;
   for (int ms = 22; ms <= 2030; ++ms) {
     clock.advance(1'000);
     const bool sample =
         ms >= 31 && ((ms - 31) % 20 == 0 ? (ms - 31) / 20 % 5 != 4
                                          : (ms - 31) % 20 == 12 && (ms - 31) / 20 % 5 == 4);
-    if (sample) writeSample();
+    if (sample) {
+      writeSample();
+      last_sample_ms = ms;
+    }
     for (int i = 0; i < (sample ? 3 : 1); ++i)
       bridge_node.spinOnce(sample ? 2 : 0);
     for (const auto& m : readLine()) {
       if (std::holds_alternative<serial::VelocityCommand>(m)) {
         frame_times.push_back(ms);
-        with_sample.push_back(sample);
+        // The pty hands bytes on from a kernel worker: on a loaded machine a sample may be read
+        // a simulated millisecond or two after it was written.
+        with_sample.push_back(ms - last_sample_ms <= 2);
       }
     }
   }
