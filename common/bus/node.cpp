@@ -4,6 +4,7 @@
 #include <chrono>
 #include <csignal>
 #include <cstdlib>
+#include <limits>
 #include <random>
 #include <system_error>
 
@@ -454,18 +455,47 @@ void Node::timed(const std::function<void()>& fn) {
   status_.onProcessing(std::chrono::duration<double, std::milli>(end - start).count());
 }
 
-void Node::every(Utime period_us, std::function<void()> fn) {
+Node::TimerId Node::addTimer(Utime next, Utime period, std::function<void()> fn) {
+  const TimerId id = next_timer_id_++;
+  timers_.push_back(Timer{next, period, std::move(fn), id});
+  return id;
+}
+
+Node::TimerId Node::every(Utime period_us, std::function<void()> fn) {
   if (period_us <= 0) throw std::invalid_argument("timer period must be positive");
-  timers_.push_back(Timer{clock_.monotonicNow() + period_us, period_us, std::move(fn)});
+  return addTimer(clock_.monotonicNow() + period_us, period_us, std::move(fn));
 }
 
-void Node::at(Utime when, std::function<void()> fn) {
-  timers_.push_back(Timer{clock_.monotonicNow() + (when - clock_.now()), 0, std::move(fn)});
+Node::TimerId Node::at(Utime when, std::function<void()> fn) {
+  return addTimer(clock_.monotonicNow() + (when - clock_.now()), 0, std::move(fn));
 }
 
-void Node::after(Utime delay_us, std::function<void()> fn) {
+Node::TimerId Node::after(Utime delay_us, std::function<void()> fn) {
   if (delay_us < 0) throw std::invalid_argument("timer delay must not be negative");
-  timers_.push_back(Timer{clock_.monotonicNow() + delay_us, 0, std::move(fn)});
+  return addTimer(clock_.monotonicNow() + delay_us, 0, std::move(fn));
+}
+
+Node::Timer* Node::findTimer(TimerId id) {
+  auto it = std::find_if(timers_.begin(), timers_.end(),
+                         [id](const Timer& t) { return t.id == id && t.period >= 0; });
+  return it == timers_.end() ? nullptr : &*it;
+}
+
+bool Node::moveTimer(TimerId id, Utime delay_us) {
+  if (delay_us < 0) throw std::invalid_argument("timer delay must not be negative");
+  Timer* timer = findTimer(id);
+  if (!timer) return false;
+  timer->next = clock_.monotonicNow() + delay_us;
+  return true;
+}
+
+bool Node::cancelTimer(TimerId id) {
+  Timer* timer = findTimer(id);
+  if (!timer) return false;
+  // Not erased here: fireTimers() may be walking the vector.
+  timer->period = -1;
+  timer->next = std::numeric_limits<Utime>::max();
+  return true;
 }
 
 Node::WatchId Node::watchFd(int fd, std::function<void()> on_ready) {
@@ -489,7 +519,7 @@ void Node::fireTimers() {
   }
   // Index loop: a timer callback may add timers.
   for (std::size_t i = 0; i < timers_.size(); ++i) {
-    if (timers_[i].next > now) continue;
+    if (timers_[i].next > now || timers_[i].period < 0) continue;
     auto fn = timers_[i].fn;
     if (timers_[i].period > 0) {
       timers_[i].next += timers_[i].period;
@@ -515,7 +545,7 @@ int Node::msUntilNextTimer(int max_ms) const {
   if (options_.status_period_us > 0) next = std::min(next, next_status_);
   if (const Utime ping = systemd::nextPingDue(); ping > 0) next = std::min(next, ping);
   for (const auto& t : timers_)
-    next = std::min(next, t.next);
+    if (t.period >= 0) next = std::min(next, t.next);
   // Round up: waking a little late fires the timer; waking early would only spin again.
   return static_cast<int>(std::max<Utime>(0, next - now + kMicrosPerMilli - 1) / kMicrosPerMilli);
 }

@@ -185,14 +185,27 @@ class Node {
   bool publishEncoded(std::string_view channel, const void* data, int size,
                       BusId bus = kPrimaryBus);
 
+  using TimerId = int;
   // Calls `fn` every `period_us` of elapsed (monotonic) time, first one period from now.
-  void every(Utime period_us, std::function<void()> fn);
+  TimerId every(Utime period_us, std::function<void()> fn);
   // Calls `fn` once, when clock time `when` is reached; the delay is taken when the timer is
   // set, so a later step of the clock does not move it.
-  void at(Utime when, std::function<void()> fn);
+  TimerId at(Utime when, std::function<void()> fn);
   // Calls `fn` once, `delay_us` of elapsed (monotonic) time from now: a deadline a node sets
   // again as it goes (the next packet due) instead of polling for it with every().
-  void after(Utime delay_us, std::function<void()> fn);
+  TimerId after(Utime delay_us, std::function<void()> fn);
+  // Moves a timer's next call to `delay_us` of elapsed time from now; a periodic one goes on
+  // every period from there (a tick moved to an event that does the tick's work, so the two
+  // share a wake-up: the motor bridge's command tick at the controller's sample, issue 32).
+  // Safe from inside any callback, the timer's own included; false for an id that is no longer
+  // set (a one-shot that fired, a cancelled timer).
+  bool moveTimer(TimerId id, Utime delay_us);
+  // Removes a timer: it does not fire again, not even later in the current round of due timers.
+  // Safe from inside any callback; false for an id that is no longer set.
+  bool cancelTimer(TimerId id);
+  // Handles now what waits for the deferred subscriptions (subscribeDeferred), as the loop does
+  // before a timer: for a watched fd's callback that acts on their newest messages.
+  void handleDeferred() { drainDeferred(); }
 
   using WatchId = int;
   // Calls `on_ready` whenever `fd` is readable (or reports hang-up or an error: the callback
@@ -267,8 +280,9 @@ class Node {
   struct Timer {
     // Monotonic time of the next call.
     Utime next;
-    Utime period;  // 0: one-shot
+    Utime period;  // 0: one-shot; -1: fired or cancelled, removed at the end of fireTimers()
     std::function<void()> fn;
+    TimerId id;
   };
   struct Watch {
     WatchId id;
@@ -291,6 +305,8 @@ class Node {
   void reject(const std::string& channel, const std::string& kind, const std::string& text);
   void timed(const std::function<void()>& fn);
   void fireTimers();
+  TimerId addTimer(Utime next, Utime period, std::function<void()> fn);
+  Timer* findTimer(TimerId id);
   Connection& connection(BusId bus);
   // A bad datagram or a message that lost fragments (udpm buses).
   void onBusProblem(BusId bus, const char* kind, const std::string& text);
@@ -301,6 +317,7 @@ class Node {
   std::vector<std::shared_ptr<Connection>> buses_;
   std::vector<std::unique_ptr<Subscription>> subscriptions_;
   std::vector<Timer> timers_;
+  TimerId next_timer_id_ = 1;
   std::vector<Watch> watches_;
   WatchId next_watch_id_ = 1;
   std::vector<pollfd> poll_fds_;

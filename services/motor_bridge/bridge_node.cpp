@@ -1,5 +1,6 @@
 #include "services/motor_bridge/bridge_node.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
@@ -24,7 +25,9 @@ BridgeNode::BridgeNode(bus::Node& node, const robot::RobotParams& params, Bridge
   // wake the bridge, they are handled just before that tick (issue 32: a wake-up less each).
   node_.subscribeDeferred(bus::channels::kMotionCommand,
                           [this](const motion_command_t& m) { onCommand(m); });
-  node_.every(static_cast<Utime>(1e6 / config_.command_rate), [this] { sendCommand(); });
+  command_period_us_ = static_cast<Utime>(1e6 / config_.command_rate);
+  command_tick_ = node_.every(command_period_us_, [this] { onTick(); });
+  frame_due_us_ = node_.clock().monotonicNow() + command_period_us_ - command_period_us_ / 4;
   node_.every(kMicrosPerSecond, [this] { publishMetrics(); });
   // An open serial line is not enough: the controller's samples must flow (a reader stealing the
   // pty's bytes, a stopped simulator).
@@ -70,6 +73,27 @@ void BridgeNode::onBytes(std::span<const std::uint8_t> bytes) {
     // The robot's speed as its wheels tell it: the status table's headline for this robot.
     node_.setMetric("speed_mps", std::hypot(o.vx, o.vy));
   }
+  if (!outputs_.empty()) onSample();
+}
+
+void BridgeNode::onSample() {
+  const auto& hello = core_.controllerHello();
+  if (!hello || static_cast<Utime>(hello->odometry_period_us) != command_period_us_) return;
+  const Utime now = node_.clock().monotonicNow();
+  const Utime period = command_period_us_;
+  const Utime window = period / 4;
+  // The schedule toward the sample's phase (the nearest due time), by at most 1/40 period.
+  const Utime phase = ((now - frame_due_us_ + period / 2) % period + period) % period - period / 2;
+  frame_due_us_ += std::clamp(phase, -period / 40, period / 40);
+  if (now >= frame_due_us_ - window) {
+    // The MOTION_COMMANDs that waited in their socket first: the frame carries the newest.
+    node_.handleDeferred();
+    sendCommand();
+    // Far behind (a stalled process): start over from now instead of catching up.
+    frame_due_us_ = std::max(frame_due_us_ + period, now + period - window);
+  }
+  // The timer only as the deadline, a quarter period after the next frame is due.
+  node_.moveTimer(command_tick_, std::max<Utime>(0, frame_due_us_ + window - now));
 }
 
 void BridgeNode::onLinkState(bool connected) {
@@ -100,6 +124,15 @@ void BridgeNode::onCommand(const motion_command_t& m) {
                        node_.now())) {
     node_.reportError("command_rejected", "command not used (NaN or expired)");
   }
+}
+
+void BridgeNode::onTick() {
+  // The frame that no sample brought, a quarter period after it was due (or the tick alone, when
+  // no samples pace the frames): the next is due a period later.
+  const Utime now = node_.clock().monotonicNow();
+  frame_due_us_ = std::max(frame_due_us_ + command_period_us_,
+                           now + command_period_us_ - command_period_us_ / 4);
+  sendCommand();
 }
 
 void BridgeNode::sendCommand() {

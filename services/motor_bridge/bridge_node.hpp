@@ -6,6 +6,16 @@
 // a command frame is written when the command timer (50 Hz) ticks, and that tick also reopens a
 // lost line when a retry is due. So the process sleeps until bytes, a message or a timer are due:
 // no polling loop, no second reactor (issue 32).
+//
+// When the controller samples at the command rate (its Hello's odometry period is the command
+// period), the command tick moves to the samples: the frame goes out in the same wake-up as the
+// sample that the bridge reads and publishes (one wake-up a sample instead of two, issue 32),
+// with the newest MOTION_COMMAND. The frames keep a schedule of exactly one per command period,
+// which each sample pulls by at most 1/40 period toward its own phase (so it follows the
+// controller's clock, and no sample, late or in a burst, adds or removes a frame); a sample from
+// a quarter period before a frame is due brings it, the timer sends it a quarter period after
+// it was due should no sample come. Frames are then 0.5 to 1.5 periods apart, one per period
+// on average; without samples the timer alone, every period, as before.
 #pragma once
 
 #include <cstdint>
@@ -52,6 +62,10 @@ class BridgeNode {
   void onLinkState(bool connected);
   void onCommand(const motion_command_t& m);
   void sendCommand();
+  // The command timer: the frame that no sample brought in time.
+  void onTick();
+  // The controller's sample(s) arrived: the frame now when it is (nearly) due.
+  void onSample();
   void publishMetrics();
 
   bus::Node& node_;
@@ -65,6 +79,10 @@ class BridgeNode {
   odometry_t odometry_{};
   std::uint64_t reported_bad_frames_ = 0;
   bool stopped_ = false;
+  Utime command_period_us_ = 0;
+  bus::Node::TimerId command_tick_ = 0;
+  // Monotonic time the next command frame is due (the schedule the samples pull).
+  Utime frame_due_us_ = 0;
 };
 
 }  // namespace fieldline::motor_bridge

@@ -178,6 +178,98 @@ TEST_F(EventLoopTest, OneShotDeadlineFiresOnceAndMaySetTheNext) {
   EXPECT_THROW(node.after(-1, [] {}), std::invalid_argument);
 }
 
+// moveTimer(): a periodic tick moved to an event that does its work (the motor bridge's command
+// tick at the controller's sample) goes on every period from there, fires nothing early and
+// nothing twice; moved from inside its own callback or another's, and not for an id gone.
+TEST_F(EventLoopTest, MovedTimerGoesOnEveryPeriodFromItsNewTime) {
+  const Utime start = clock.monotonicNow();
+  std::vector<Utime> ticks;
+  const Node::TimerId tick =
+      node.every(20 * kMicrosPerMilli, [&] { ticks.push_back(clock.monotonicNow() - start); });
+  const auto spinFor = [&](Utime us) {
+    for (Utime t = 0; t < us; t += kMicrosPerMilli) {
+      clock.advance(kMicrosPerMilli);
+      node.spinOnce(0);
+    }
+  };
+  spinFor(25 * kMicrosPerMilli);
+  ASSERT_EQ(ticks.size(), 1u);
+  EXPECT_EQ(ticks[0], 20 * kMicrosPerMilli);
+  // At 25 ms the tick (due at 40) is done by the event: moved to 25 + 20 + 5.
+  EXPECT_TRUE(node.moveTimer(tick, 25 * kMicrosPerMilli));
+  EXPECT_EQ(node.msUntilNextTimer(100), 25);
+  spinFor(24 * kMicrosPerMilli);  // to 49 ms: the tick once due at 40 does not fire
+  EXPECT_EQ(ticks.size(), 1u);
+  spinFor(1 * kMicrosPerMilli);
+  ASSERT_EQ(ticks.size(), 2u);
+  EXPECT_EQ(ticks[1], 50 * kMicrosPerMilli);
+  spinFor(19 * kMicrosPerMilli);
+  EXPECT_EQ(ticks.size(), 2u);
+  spinFor(1 * kMicrosPerMilli);  // every period from 50 on
+  ASSERT_EQ(ticks.size(), 3u);
+  EXPECT_EQ(ticks[2], 70 * kMicrosPerMilli);
+  // Moved to now: fires at the next spin, once, and the period goes on from there.
+  spinFor(5 * kMicrosPerMilli);
+  EXPECT_TRUE(node.moveTimer(tick, 0));
+  EXPECT_EQ(node.msUntilNextTimer(100), 0);
+  node.spinOnce(0);
+  ASSERT_EQ(ticks.size(), 4u);
+  EXPECT_EQ(ticks[3], 75 * kMicrosPerMilli);
+  node.spinOnce(0);
+  EXPECT_EQ(ticks.size(), 4u);
+  EXPECT_EQ(node.msUntilNextTimer(100), 20);
+  EXPECT_THROW(node.moveTimer(tick, -1), std::invalid_argument);
+  EXPECT_FALSE(node.moveTimer(tick + 100, 0));
+}
+
+TEST_F(EventLoopTest, ATimerMayMoveItselfAndAnotherFromItsCallback) {
+  const Utime start = clock.monotonicNow();
+  std::vector<Utime> a_ticks, b_ticks;
+  Node::TimerId a = 0, b = 0;
+  // a moves itself 5 ms later each time; b is held back by a whenever a fires.
+  a = node.every(10 * kMicrosPerMilli, [&] {
+    a_ticks.push_back(clock.monotonicNow() - start);
+    EXPECT_TRUE(node.moveTimer(a, 15 * kMicrosPerMilli));
+    EXPECT_TRUE(node.moveTimer(b, 30 * kMicrosPerMilli));
+  });
+  b = node.every(20 * kMicrosPerMilli, [&] { b_ticks.push_back(clock.monotonicNow() - start); });
+  for (int i = 0; i < 60; ++i) {
+    clock.advance(kMicrosPerMilli);
+    node.spinOnce(0);
+  }
+  EXPECT_EQ(a_ticks, (std::vector<Utime>{10'000, 25'000, 40'000, 55'000}));
+  EXPECT_TRUE(b_ticks.empty());
+  // A one-shot that fired is gone.
+  const Node::TimerId once = node.after(0, [] {});
+  node.spinOnce(0);
+  EXPECT_FALSE(node.moveTimer(once, 10));
+}
+
+TEST_F(EventLoopTest, ACancelledTimerNeverFiresAgain) {
+  int a_ticks = 0, b_ticks = 0, c_ticks = 0;
+  Node::TimerId b = 0;
+  // a and b are due in the same round; a cancels b first; c is cancelled from outside.
+  node.every(10 * kMicrosPerMilli, [&] {
+    ++a_ticks;
+    node.cancelTimer(b);
+  });
+  b = node.every(10 * kMicrosPerMilli, [&] { ++b_ticks; });
+  const Node::TimerId c = node.after(5 * kMicrosPerMilli, [&] { ++c_ticks; });
+  EXPECT_EQ(node.msUntilNextTimer(100), 5);
+  EXPECT_TRUE(node.cancelTimer(c));
+  EXPECT_FALSE(node.cancelTimer(c));
+  EXPECT_EQ(node.msUntilNextTimer(100), 10);
+  for (int i = 0; i < 35; ++i) {
+    clock.advance(kMicrosPerMilli);
+    node.spinOnce(0);
+  }
+  EXPECT_EQ(a_ticks, 3);
+  EXPECT_EQ(b_ticks, 0);
+  EXPECT_EQ(c_ticks, 0);
+  EXPECT_FALSE(node.cancelTimer(b));
+  EXPECT_FALSE(node.moveTimer(b, 0));
+}
+
 // Real time whose wall reading can be stepped, like a robot's clock under time sync; its
 // monotonic reading is the machine's steady clock.
 class SteppableSystemClock final : public Clock {

@@ -16,6 +16,7 @@
 #include <functional>
 #include <memory>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -533,6 +534,15 @@ TEST_F(UdpmBus, ADeferredChannelWakesNoOneAndIsHandledBeforeTheNextTimer) {
   spinUntil({&pilot}, [&] { return odometry_at_command > 0; });
   EXPECT_EQ(odometry_at_command, 5u);
   // Its waited-on socket read the command alone.
+  EXPECT_EQ(pilot.busDatagrams(), 1);
+  // handleDeferred(): a callback that acts on the newest (the motor bridge's command written at
+  // the controller's sample) has them handled now, without a spin.
+  publishOdometry(2);
+  for (int i = 0; i < 200 && odometry.size() < 7; ++i) {
+    pilot.handleDeferred();
+    if (odometry.size() < 7) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  EXPECT_EQ(odometry, (std::vector<std::int64_t>{0, 1, 2, 3, 4, 5, 6}));
   EXPECT_EQ(pilot.busDatagrams(), 1);
 }
 

@@ -59,6 +59,38 @@ class BridgeNodeTest : public ::testing::Test {
     return out;
   }
 
+  // The controller's side: answers the bridge's Hello (odometry period 20 ms, the command
+  // period) and waits until the bridge has it.
+  void answerHello(BridgeNode& bridge) {
+    std::vector<std::uint8_t> bytes;
+    ASSERT_TRUE(spinUntil([&] {
+      pty->read(bytes);
+      return !bytes.empty();
+    }));
+    std::vector<std::uint8_t> reply;
+    firmware.receive(bytes, 0.0, reply);
+    pty->write(reply);
+    ASSERT_TRUE(spinUntil([&] { return bridge.core().controllerHello().has_value(); }));
+    ASSERT_EQ(bridge.core().controllerHello()->odometry_period_us, 20'000u);
+  }
+  // The controller's next sample on the line.
+  void writeSample() {
+    std::vector<std::uint8_t> frame;
+    firmware.sample(static_cast<double>(samples_sent++) * 0.02, {0, 0, 0}, frame);
+    pty->write(frame);
+  }
+  // Velocity commands on the line after a few spins at the same clock time (bytes in flight
+  // arrive; no timer that is not due yet fires).
+  std::vector<serial::VelocityCommand> framesNow() {
+    std::vector<serial::VelocityCommand> frames;
+    for (int i = 0; i < 5; ++i) {
+      bridge_node.spinOnce(2);
+      for (const auto& m : readLine())
+        if (const auto* v = std::get_if<serial::VelocityCommand>(&m)) frames.push_back(*v);
+    }
+    return frames;
+  }
+
   std::filesystem::path dir;
   BridgeConfig config;
   std::unique_ptr<world_sim::PseudoTerminal> pty;
@@ -69,6 +101,8 @@ class BridgeNodeTest : public ::testing::Test {
       {.process = "motor_bridge", .robot_id = 2, .status_period_us = 0}, clock, memq};
   bus::Node listener{{.process = "listener", .robot_id = 2, .status_period_us = 0}, clock, memq};
   robot::RobotParams params = robot::loadRobotPreset("fu2004");
+  world_sim::FirmwareEmulator firmware{params, 5'000'000};
+  int samples_sent = 0;
 };
 
 TEST_F(BridgeNodeTest, CommandsGoOutOnTheLineAndOdometryComesBackStamped) {
@@ -121,6 +155,101 @@ TEST_F(BridgeNodeTest, CommandsGoOutOnTheLineAndOdometryComesBackStamped) {
   EXPECT_EQ(odometry[1].ticks[0], 100);
   EXPECT_GT(std::abs(odometry[1].dx) + std::abs(odometry[1].dy) + std::abs(odometry[1].dphi), 0.0);
   EXPECT_EQ(odometry[1].header.robot_id, 2);
+}
+
+// Issue 32: when the controller samples at the command rate, each sample brings the frame in
+// the same wake-up (the tick moved away, only the deadline); a burst brings one; and over a run
+// whose samples start at another phase than the tick, some late, one frame per period all the
+// same, 0.5 to 1.5 periods apart, nearly all with their samples once the schedule followed them.
+TEST_F(BridgeNodeTest, TheFrameGoesOutWithTheControllersSampleAtTheCommandRate) {
+  BridgeNode bridge(bridge_node, params, config);  // its tick due at 20 ms
+  bridge.start();
+  ASSERT_TRUE(bridge.link().connected());
+  answerHello(bridge);
+  readLine();
+  motion_command_t command{};
+  command.header.utime = clock.now();
+  command.vx = 0.5;
+  command.deadline_utime = clock.now() + 500'000;
+  command.source = motion_command_t::SOURCE_PILOT;
+  listener.publish(bus::channels::kMotionCommand, command);
+  EXPECT_TRUE(framesNow().empty());
+
+  clock.advance(10'000);  // 10 ms: a sample, and the frame with it, before the tick
+  writeSample();
+  auto frames = framesNow();
+  ASSERT_EQ(frames.size(), 1u);
+  EXPECT_EQ(frames[0].vx_q15, serial::toQ15(0.5));
+  clock.advance(10'000);  // 20 ms: the tick moved away
+  EXPECT_TRUE(framesNow().empty());
+  clock.advance(1'000);  // 21 ms: a sample too early for the next frame brings none
+  writeSample();
+  EXPECT_TRUE(framesNow().empty());
+
+  // 2 s of samples every 20 ms from 31 ms on (11 ms after the tick's old phase), every fifth
+  // 12 ms late; frames counted per millisecond of the clock.
+  std::vector<Utime> frame_times;
+  std::vector<bool> with_sample;
+  int last_sample_ms = -100;
+  for (int ms = 22; ms <= 2030; ++ms) {
+    clock.advance(1'000);
+    const bool sample =
+        ms >= 31 && ((ms - 31) % 20 == 0 ? (ms - 31) / 20 % 5 != 4
+                                         : (ms - 31) % 20 == 12 && (ms - 31) / 20 % 5 == 4);
+    if (sample) {
+      writeSample();
+      last_sample_ms = ms;
+    }
+    for (int i = 0; i < (sample ? 3 : 1); ++i)
+      bridge_node.spinOnce(sample ? 2 : 0);
+    for (const auto& m : readLine()) {
+      if (std::holds_alternative<serial::VelocityCommand>(m)) {
+        frame_times.push_back(ms);
+        // The pty hands bytes on from a kernel worker: on a loaded machine a sample may be read
+        // a simulated millisecond or two after it was written.
+        with_sample.push_back(ms - last_sample_ms <= 2);
+      }
+    }
+  }
+  // One a period: 2010 ms from the frame at 10 ms on.
+  EXPECT_GE(frame_times.size(), 100u);
+  EXPECT_LE(frame_times.size(), 101u);
+  std::size_t late_half_with_sample = 0;
+  for (std::size_t i = 1; i < frame_times.size(); ++i) {
+    EXPECT_GE(frame_times[i] - frame_times[i - 1], 10) << "frame " << i;
+    EXPECT_LE(frame_times[i] - frame_times[i - 1], 31) << "frame " << i;
+    if (i >= frame_times.size() / 2 && with_sample[i]) ++late_half_with_sample;
+  }
+  // The on-time samples (four in five) bring their frames once the schedule followed them.
+  EXPECT_GE(late_half_with_sample, frame_times.size() / 2 * 3 / 4);
+
+  // No more samples: the deadline within 1.5 periods, then every period.
+  const Utime last = frame_times.back();
+  std::vector<Utime> after;
+  for (int ms = 2031; ms <= 2100; ++ms) {
+    clock.advance(1'000);
+    bridge_node.spinOnce(0);
+    for (const auto& m : readLine())
+      if (std::holds_alternative<serial::VelocityCommand>(m)) after.push_back(ms);
+  }
+  ASSERT_GE(after.size(), 3u);
+  EXPECT_LE(after[0] - last, 31);
+  EXPECT_EQ(after[1] - after[0], 20);
+  EXPECT_EQ(after[2] - after[1], 20);
+}
+
+// A controller that samples at another rate than the command rate: frames on the tick alone.
+TEST_F(BridgeNodeTest, SamplesAtAnotherRateLeaveTheTickAlone) {
+  config.command_rate = 40.0;  // 25 ms; the controller samples every 20 ms
+  BridgeNode bridge(bridge_node, params, config);
+  bridge.start();
+  answerHello(bridge);
+  readLine();
+  clock.advance(10'000);
+  writeSample();
+  EXPECT_TRUE(framesNow().empty());
+  clock.advance(15'000);
+  EXPECT_EQ(framesNow().size(), 1u);
 }
 
 TEST_F(BridgeNodeTest, LostLineIsAnErrorAndTheNewLineIsWatched) {
@@ -213,6 +342,68 @@ TEST(BridgeNodeUdpm, ACommandWakesNothingAndGoesOutAtTheNextTick) {
     }
     ASSERT_TRUE(sent.has_value());
     EXPECT_EQ(sent->vx_q15, serial::toQ15(0.5));
+  }
+  pty.reset();
+  std::filesystem::remove_all(dir);
+}
+
+// Issue 32: the controller's sample brings the frame with the newest command, which waited in
+// its socket without waking the bridge (read at the sample, the clock not at the tick).
+TEST(BridgeNodeUdpm, TheSampleBringsTheNewestCommandWithoutAWakeUpForIt) {
+  if (!test::enterPrivateMulticastNetwork()) {
+    GTEST_FAIL() << "needs a private network namespace (root, as scripts/test runs)";
+  }
+  const std::string url = "udpm://239.255.76.67:7804?ttl=0";
+  const auto dir = std::filesystem::temp_directory_path() /
+                   ("fieldline-bridge-udpm-sample-" + std::to_string(::getpid()));
+  BridgeConfig config;
+  config.device = (dir / "robot2.tty").string();
+  config.command_rate = 50.0;
+  auto pty = std::make_unique<world_sim::PseudoTerminal>(config.device);
+  const auto params = robot::loadRobotPreset("fu2004");
+  world_sim::FirmwareEmulator firmware(params, 5'000'000);
+  SimulatedClock clock{1'800'000'000'000'000};
+  bus::Node bridge_node{{.process = "motor_bridge", .robot_id = 2, .url = url}, clock};
+  bus::Node pilot{{.process = "pilot", .robot_id = 2, .url = url, .status_period_us = 0}, clock};
+  {
+    BridgeNode bridge(bridge_node, params, config);
+    bridge.start();
+    ASSERT_TRUE(bridge.link().connected());
+    std::vector<std::uint8_t> bytes;
+    for (int i = 0; i < 100 && bytes.empty(); ++i) {
+      bridge_node.spinOnce(2);
+      pty->read(bytes);
+    }
+    std::vector<std::uint8_t> reply;
+    firmware.receive(bytes, 0.0, reply);
+    pty->write(reply);
+    for (int i = 0; i < 100 && !bridge.core().controllerHello(); ++i)
+      bridge_node.spinOnce(2);
+    ASSERT_TRUE(bridge.core().controllerHello().has_value());
+    motion_command_t command{};
+    command.header.utime = clock.now();
+    command.vx = 0.5;
+    command.deadline_utime = clock.now() + 200'000;
+    command.source = motion_command_t::SOURCE_PILOT;
+    pilot.publish(bus::channels::kMotionCommand, command);
+    clock.advance(10'000);  // the tick is due at 20 ms
+    std::vector<std::uint8_t> frame;
+    firmware.sample(0.0, {0, 0, 0}, frame);
+    pty->write(frame);
+    serial::Decoder decoder;
+    std::optional<serial::VelocityCommand> sent;
+    for (int i = 0; i < 100 && !sent; ++i) {
+      bridge_node.spinOnce(2);
+      bytes.clear();
+      pty->read(bytes);
+      std::vector<serial::Message> out;
+      decoder.feed(bytes, out);
+      for (const auto& m : out)
+        if (const auto* v = std::get_if<serial::VelocityCommand>(&m)) sent = *v;
+    }
+    ASSERT_TRUE(sent.has_value());
+    EXPECT_EQ(sent->vx_q15, serial::toQ15(0.5));
+    EXPECT_EQ(bridge_node.busDatagrams(), 0);
   }
   pty.reset();
   std::filesystem::remove_all(dir);
