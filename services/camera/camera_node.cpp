@@ -22,6 +22,18 @@ namespace {
 constexpr std::size_t kPendingSlots = 16;
 // SIM_WORLD older than this is not rendered from: the simulator stalled or its clock differs.
 constexpr double kMaxWorldAge = 0.5;
+// A frame is exposed this long before its render tick (at most the pipeline latency): SIM_WORLD
+// comes every 10 ms (in a loaded match received 1.5 ms after its time, p99 9 ms; 1 % of the
+// intervals 20 ms), so by then the state at or after the exposure is in and the frame is
+// rendered between the two around it instead of carrying the newest up to 10 ms on (issue 34).
+constexpr Utime kRenderDelay = 25 * kMicrosPerMilli;
+// SIM_WORLDs kept: those of the last render delay and one before.
+constexpr std::size_t kWorldHistory = 6;
+// States further apart than this are not interpolated between (the simulator stalled).
+constexpr Utime kMaxInterpolationSpan = 50 * kMicrosPerMilli;
+// No body moves this far (m) or turns this much (rad) between two states: a teleport.
+constexpr double kJumpDistance = 1.0;
+constexpr double kJumpAngle = 1.0;
 
 double millisSince(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
@@ -83,6 +95,72 @@ bool sceneFromWorld(const world_state_t& world, int robot_id, Utime when, double
   return true;
 }
 
+namespace {
+
+int indexOfRobot(const world_state_t& world, int robot_id) {
+  for (int k = 0; k < world.num_robots; ++k) {
+    if (world.robot_id[k] == robot_id) return k;
+  }
+  return -1;
+}
+
+// `a` + f (`b` - `a`) into `out` unless `a` and `b` are a jump apart.
+bool between(Vec2 a, Vec2 b, double f, Vec2& out) {
+  if ((b - a).norm() > kJumpDistance) return false;
+  out = a + f * (b - a);
+  return true;
+}
+
+}  // namespace
+
+ScenePose sceneBetweenWorlds(const world_state_t& before, const world_state_t& after, int robot_id,
+                             Utime when, double exposure, SimScene& scene) {
+  if (!sceneFromWorld(before, robot_id, when, exposure, scene)) return ScenePose::kMissing;
+  const Utime t0 = before.header.utime;
+  const Utime span = after.header.utime - t0;
+  if (when < t0 || when > after.header.utime || span > kMaxInterpolationSpan) {
+    return ScenePose::kExtrapolated;
+  }
+  const double f = span > 0 ? static_cast<double>(when - t0) / static_cast<double>(span) : 0.0;
+  const int i0 = indexOfRobot(before, robot_id);
+  const int i1 = indexOfRobot(after, robot_id);
+  if (i1 < 0 || after.robot_kidnaps[i1] != before.robot_kidnaps[i0]) {
+    return ScenePose::kExtrapolated;
+  }
+  const double turn = geometry::angleDiff(after.robot_phi[i1], before.robot_phi[i0]);
+  Vec2 position;
+  if (std::abs(turn) > kJumpAngle ||
+      !between({before.robot_x[i0], before.robot_y[i0]}, {after.robot_x[i1], after.robot_y[i1]}, f,
+               position)) {
+    return ScenePose::kExtrapolated;
+  }
+  scene.robot = {position.x(), position.y(),
+                 geometry::normalizeAngle(before.robot_phi[i0] + f * turn)};
+  scene.velocity = {after.robot_vx[i1], after.robot_vy[i1]};
+  scene.omega = after.robot_omega[i1];
+  // The other bodies in sceneFromWorld's order: teammates, then opponents.
+  std::size_t j = 0;
+  for (int k = 0; k < before.num_robots; ++k) {
+    if (before.robot_id[k] == robot_id) continue;
+    const int m = indexOfRobot(after, before.robot_id[k]);
+    if (m >= 0 && after.robot_kidnaps[m] == before.robot_kidnaps[k]) {
+      between({before.robot_x[k], before.robot_y[k]}, {after.robot_x[m], after.robot_y[m]}, f,
+              scene.robots[j].position);
+    }
+    ++j;
+  }
+  if (after.num_opponents == before.num_opponents) {
+    for (int k = 0; k < before.num_opponents; ++k, ++j) {
+      between({before.opponent_x[k], before.opponent_y[k]},
+              {after.opponent_x[k], after.opponent_y[k]}, f, scene.robots[j].position);
+    }
+  }
+  if (scene.ball && after.ball_radius > 0.0f) {
+    between({before.ball_x, before.ball_y}, {after.ball_x, after.ball_y}, f, scene.ball->position);
+  }
+  return ScenePose::kInterpolated;
+}
+
 // --- SimCameraNode ---
 
 SimCameraNode::SimCameraNode(bus::Node& node, bus::BusId sim_bus, CameraConfig config,
@@ -92,13 +170,15 @@ SimCameraNode::SimCameraNode(bus::Node& node, bus::BusId sim_bus, CameraConfig c
       field_preset_(std::move(field_preset)),
       raster_cache_dir_(std::move(raster_cache_dir)),
       pending_(kPendingSlots) {
+  render_delay_ =
+      std::min(kRenderDelay, static_cast<Utime>(std::llround(config_.pipeline.latency * 1e6)));
   if (!field_preset_.empty()) {
     field_name_ = field_preset_;
     makeRenderer(field_preset_);
   }
-  // Only the newest world matters at the next frame tick: SIM_WORLD (100 Hz) does not wake the
-  // camera, its messages are handled just before the frame timer (issue 32: 100 wake-ups a
-  // second fewer per camera).
+  // SIM_WORLD (100 Hz) does not wake the camera: its messages are handled just before the frame
+  // timer (issue 32: 100 wake-ups a second fewer per camera), which renders the frame exposed
+  // render_delay_ earlier between the states around it.
   node_.subscribeDeferred(
       bus::channels::kSimWorld, [this](const world_state_t& w) { onWorld(w); }, sim_bus);
   const auto period =
@@ -146,7 +226,7 @@ void SimCameraNode::onWorld(const world_state_t& world) {
     // Rendering another field than the simulator's would feed the robot wrong lines.
     node_.reportError("field_mismatch", "SIM_WORLD is on field '" + world.field +
                                             "' but this camera renders '" + field_preset_ + "'");
-    world_.reset();
+    worlds_.clear();
     return;
   }
   if (field_preset_.empty() && world.field != field_name_) {
@@ -157,30 +237,48 @@ void SimCameraNode::onWorld(const world_state_t& world) {
       spdlog::info("rendering the '{}' field", field_name_);
       // Building took a while: this state is old now, wait for the next one (and never render
       // the old field's world with the new field's renderer).
-      world_.reset();
+      worlds_.clear();
       return;
     } catch (const std::exception& e) {
       node_.reportError("field", "cannot load field '" + world.field + "': " + e.what());
       return;
     }
   }
-  world_ = world;
+  // A state not after the newest: the simulator restarted; the older ones are another world.
+  if (!worlds_.empty() && world.header.utime <= worlds_.back().header.utime) worlds_.clear();
+  if (worlds_.size() == kWorldHistory) worlds_.pop_front();
+  worlds_.push_back(world);
 }
 
 void SimCameraNode::onFrameTick() {
-  if (!renderer_ || !world_) return;  // waiting for the simulator
+  if (!renderer_ || worlds_.empty()) return;  // waiting for the simulator
   // The frame is stamped on the robot's clock; the simulator's world is on the true time.
-  const Utime exposure_time = node_.now();
+  const Utime exposure_time = node_.now() - render_delay_;
   const Utime exposure_truth = toTruth(node_.clock(), exposure_time);
-  if (std::abs(static_cast<double>(exposure_truth - world_->header.utime)) * 1e-6 > kMaxWorldAge) {
-    node_.reportError("stale_world", "SIM_WORLD is " +
-                                         std::to_string((exposure_truth - world_->header.utime) /
-                                                        kMicrosPerMilli) +
-                                         " ms away from the exposure time");
+  const Utime newest = worlds_.back().header.utime;
+  if (std::abs(static_cast<double>(exposure_truth - newest)) * 1e-6 > kMaxWorldAge) {
+    node_.reportError("stale_world",
+                      "SIM_WORLD is " +
+                          std::to_string((exposure_truth - newest) / kMicrosPerMilli) +
+                          " ms away from the exposure time");
     return;
   }
-  if (!sceneFromWorld(*world_, node_.robotId(), exposure_truth, config_.pipeline.exposure,
-                      scene_)) {
+  // The newest state at or before the exposure and the first at or after it.
+  const world_state_t* before = nullptr;
+  const world_state_t* after = nullptr;
+  for (const world_state_t& w : worlds_) {
+    if (w.header.utime <= exposure_truth) before = &w;
+    if (w.header.utime >= exposure_truth && after == nullptr) after = &w;
+  }
+  ScenePose pose = ScenePose::kMissing;
+  if (before != nullptr && after != nullptr) {
+    pose = sceneBetweenWorlds(*before, *after, node_.robotId(), exposure_truth,
+                              config_.pipeline.exposure, scene_);
+  } else if (sceneFromWorld(before != nullptr ? *before : worlds_.front(), node_.robotId(),
+                            exposure_truth, config_.pipeline.exposure, scene_)) {
+    pose = ScenePose::kExtrapolated;  // none after the exposure yet, or none before it
+  }
+  if (pose == ScenePose::kMissing) {
     node_.reportError("no_pose",
                       "robot " + std::to_string(node_.robotId()) + " is not in SIM_WORLD");
     return;
@@ -190,6 +288,10 @@ void SimCameraNode::onFrameTick() {
   if (slot_it == pending_.end()) {
     node_.reportError("pipeline_full", "more frames in flight than slots; frame dropped");
     return;
+  }
+  if (pose == ScenePose::kExtrapolated) {
+    ++frames_extrapolated_;
+    ++extrapolated_in_period_;
   }
   scene_.frame_number = static_cast<std::uint64_t>(frames_rendered_);
   const auto start = std::chrono::steady_clock::now();
@@ -234,7 +336,11 @@ void SimCameraNode::reportRates() {
   node_.setMetric("frame_rate_hz", static_cast<double>(frames_in_period_) / seconds);
   node_.setMetric("render_ms",
                   frames_in_period_ > 0 ? render_ms_in_period_ / frames_in_period_ : 0.0);
+  // Frames of the last period rendered at a pose carried from the newest state (no later one
+  // in time, or across a jump): 0 while the simulator keeps up.
+  node_.setMetric("frames_extrapolated", static_cast<double>(extrapolated_in_period_));
   frames_in_period_ = 0;
+  extrapolated_in_period_ = 0;
   render_ms_in_period_ = 0.0;
   period_start_ = now;
 }

@@ -1,8 +1,9 @@
 // The camera process's bus side: turns sources into CAMERA_IMAGE messages.
 //
 //   sim:   SimCameraNode subscribes SIM_WORLD on the simulator's bus, renders its robot's view
-//          at the configured frame rate, stamps utime with the exposure time (the tick) and
-//          publishes each frame `latency` later, as a real camera delivers it.
+//          at the configured frame rate, stamps utime with the exposure time (a render delay
+//          before the tick, so the SIM_WORLD after it has come) and publishes each frame
+//          `latency` after the exposure, as a real camera delivers it.
 //   real:  runFrameSource() reads a FrameSource (camera, video, GStreamer, folder, log) and
 //          publishes every frame at once with utime = receive time - latency.
 // Both publish frames in the layout they have (YUYV from the renderer, BGR or YUYV from real
@@ -10,6 +11,7 @@
 #pragma once
 
 #include <cstdint>
+#include <deque>
 #include <functional>
 #include <memory>
 #include <optional>
@@ -34,6 +36,22 @@ namespace fieldline::camera {
 bool sceneFromWorld(const world_state_t& world, int robot_id, Utime when, double exposure,
                     SimScene& scene);
 
+enum class ScenePose {
+  kMissing,       // the robot is not in the state
+  kInterpolated,  // its pose interpolated between two states around `when`
+  kExtrapolated,  // carried from `before` with its velocities (sceneFromWorld)
+};
+
+// Fills `scene` at `when` from the two states around it (before.utime <= when <= after.utime,
+// at most 50 ms apart): every pose interpolated between them, positions linearly and the own
+// robot's heading along the shorter arc, velocities `after`'s (SIM_WORLD's are the mean since
+// the previous state). Not across a jump: a body kidnapped in between (robot_kidnaps) or moved
+// by more than no body moves in that time (1 m or 1 rad) is carried from `before` as
+// sceneFromWorld does, and so is everything when the states do not bracket `when`.
+// Returns kInterpolated when the own robot's pose was interpolated.
+ScenePose sceneBetweenWorlds(const world_state_t& before, const world_state_t& after, int robot_id,
+                             Utime when, double exposure, SimScene& scene);
+
 class SimCameraNode {
  public:
   // `field_preset` empty: build the renderer for the field SIM_WORLD names (on its first
@@ -44,6 +62,11 @@ class SimCameraNode {
 
   std::int64_t framesRendered() const { return frames_rendered_; }
   std::int64_t framesPublished() const { return frames_published_; }
+  // Frames rendered at a pose carried from the newest SIM_WORLD because none at or after the
+  // exposure had come by the render (the simulator stalled or late) or it was across a jump.
+  std::int64_t framesExtrapolated() const { return frames_extrapolated_; }
+  // What the newest frame was rendered from (its robot's pose, the other bodies).
+  const SimScene& lastScene() const { return scene_; }
 
   // Hands each frame, when it is due (exposure + latency), to `deliver` instead of publishing
   // it as CAMERA_IMAGE: a stand-in camera device (--to-pipe).
@@ -79,12 +102,17 @@ class SimCameraNode {
   Delivery deliver_;
   bus::BusId frames_bus_ = bus::kPrimaryBus;
   PreviewPublisher* preview_ = nullptr;
-  std::optional<world_state_t> world_;
+  // The newest SIM_WORLDs, oldest first (a few: the frame's exposure lies between two of them).
+  std::deque<world_state_t> worlds_;
+  // How long before the tick the frame is exposed (µs): so the SIM_WORLD after it is in.
+  Utime render_delay_ = 0;
   std::vector<Pending> pending_;
   std::vector<std::uint8_t> frame_buffer_;
   SimScene scene_;
   std::int64_t frames_rendered_ = 0;
   std::int64_t frames_published_ = 0;
+  std::int64_t frames_extrapolated_ = 0;
+  std::int64_t extrapolated_in_period_ = 0;
   std::int64_t frames_in_period_ = 0;
   double render_ms_in_period_ = 0.0;
   Utime period_start_ = 0;

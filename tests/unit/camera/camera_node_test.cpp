@@ -68,9 +68,144 @@ TEST(SceneFromWorld, ExtrapolatesToTheExposureTime) {
   EXPECT_FALSE(sceneFromWorld(w, 4, 1'100'000, 0.008, scene));
 }
 
+TEST(SceneBetweenWorlds, InterpolatesAlongTheShorterArcAndNotAcrossAJump) {
+  world_state_t a = makeWorld(1'000'000);
+  world_state_t b = makeWorld(1'010'000);
+  // Robot 2 turns through +-pi: 3.0 to -3.1 is 0.183 rad counter-clockwise. `a` carried on with
+  // its own turn rate (4 rad/s) would miss the pose 4 ms later by 0.057 rad.
+  const double turn = 2.0 * M_PI - 6.1;
+  a.robot_phi = {3.0, 0.0};
+  a.robot_omega = {4.0, 0.0};
+  b.robot_phi = {-3.1, 0.0};
+  b.robot_omega = {turn / 0.01, 0.0};
+  b.robot_x = {1.02, -3.0};
+  b.robot_y = {0.49, 2.03};  // the teammate moves too
+  b.opponent_x = {3.98};
+  b.ball_x = 2.53;
+  SimScene scene;
+  ASSERT_EQ(sceneBetweenWorlds(a, b, 2, 1'004'000, 0.008, scene), ScenePose::kInterpolated);
+  EXPECT_NEAR(geometry::angleDiff(scene.robot.phi, 3.0 + 0.4 * turn), 0.0, 1e-6);
+  EXPECT_GT(std::abs(geometry::angleDiff(scene.robot.phi, 3.0 + 4.0 * 0.004)), 0.05);
+  EXPECT_NEAR(scene.robot.x, 1.0 + 0.4 * 0.02, 1e-9);
+  EXPECT_NEAR(scene.robot.y, 0.5 - 0.4 * 0.01, 1e-9);
+  EXPECT_NEAR(scene.omega, turn / 0.01, 1e-9);
+  ASSERT_EQ(scene.robots.size(), 2u);
+  EXPECT_NEAR(scene.robots[0].position.y(), 2.0 + 0.4 * 0.03, 1e-9);
+  EXPECT_NEAR(scene.robots[1].position.x(), 4.0 - 0.4 * 0.02, 1e-9);
+  ASSERT_TRUE(scene.ball);
+  EXPECT_NEAR(scene.ball->position.x(), 2.5 + 0.4 * 0.03, 1e-9);
+
+  // Kidnapped in between: carried from `a` (its pose and turn rate), as without `b`.
+  b.robot_kidnaps = {1, 0};
+  b.robot_x = {-2.0, -3.0};
+  ASSERT_EQ(sceneBetweenWorlds(a, b, 2, 1'004'000, 0.008, scene), ScenePose::kExtrapolated);
+  EXPECT_NEAR(scene.robot.x, 1.0 + 0.5 * 0.004, 1e-9);
+  EXPECT_NEAR(scene.robot.phi, 3.0 + 4.0 * 0.004, 1e-9);
+  // Teleported without a kidnap count (a jump of 3 m, or of more than 1 rad): the same.
+  b.robot_kidnaps = {0, 0};
+  ASSERT_EQ(sceneBetweenWorlds(a, b, 2, 1'004'000, 0.008, scene), ScenePose::kExtrapolated);
+  b.robot_x = {1.02, -3.0};
+  b.robot_phi = {1.5, 0.0};
+  ASSERT_EQ(sceneBetweenWorlds(a, b, 2, 1'004'000, 0.008, scene), ScenePose::kExtrapolated);
+  EXPECT_NEAR(scene.robot.phi, 3.0 + 4.0 * 0.004, 1e-9);
+  // The ball placed elsewhere: the robot interpolated, the ball where `a` has it.
+  b.robot_phi = {-3.1, 0.0};
+  b.ball_x = -1.0;
+  ASSERT_EQ(sceneBetweenWorlds(a, b, 2, 1'004'000, 0.008, scene), ScenePose::kInterpolated);
+  EXPECT_NEAR(scene.ball->position.x(), 2.5, 1e-12);
+  // States that do not bracket the time, or too far apart: carried from `a`.
+  EXPECT_EQ(sceneBetweenWorlds(a, b, 2, 1'012'000, 0.008, scene), ScenePose::kExtrapolated);
+  b.header.utime = 1'060'000;
+  EXPECT_EQ(sceneBetweenWorlds(a, b, 2, 1'004'000, 0.008, scene), ScenePose::kExtrapolated);
+  EXPECT_EQ(sceneBetweenWorlds(a, b, 4, 1'004'000, 0.008, scene), ScenePose::kMissing);
+}
+
 struct Received {
   std::vector<image_t> images;
 };
+
+// A robot turning faster and faster: heading 0.3 + 2 s + 10 s^2 at s seconds after `start`,
+// published with the mean turn rate since the previous state 10 ms earlier (as world_sim does).
+world_state_t turningWorld(Utime start, Utime utime) {
+  const auto phi = [start](Utime t) {
+    const double s = static_cast<double>(t - start) * 1e-6;
+    return 0.3 + 2.0 * s + 10.0 * s * s;
+  };
+  world_state_t w = makeWorld(utime);
+  w.robot_vx = {0.0, 0.0};
+  w.robot_phi = {geometry::normalizeAngle(phi(utime)), 0.0};
+  w.robot_omega = {(phi(utime) - phi(utime - 10'000)) / 0.01, 0.0};
+  return w;
+}
+
+TEST(SimCameraNode, RendersEachFrameBetweenTheWorldStatesAroundItsExposure) {
+  SimulatedClock clock;
+  const auto memq = bus::Connection::open("memq://");
+  bus::Node camera_node{{.process = "camera", .robot_id = 2, .status_period_us = 0}, clock, memq};
+  const bus::BusId sim_bus = camera_node.addBus(memq);
+  bus::Node harness{{.process = "harness", .robot_id = 0, .status_period_us = 0}, clock, memq};
+  Received got;
+  harness.subscribe(bus::channels::kCameraImage,
+                    [&](const image_t& m) { got.images.push_back(m); });
+  const CameraConfig config = loadCameraConfigPreset("omni_sim");
+  SimCameraNode sim(camera_node, sim_bus, config, "msl");
+  const Utime start = clock.now();
+  // Each frame's scene, by frame number, taken when it was rendered.
+  std::vector<SimScene> scenes;
+  // 500 ms in steps of 1 ms (the frames' exposures fall between the states), SIM_WORLD every 10.
+  for (int step = 0; step < 500; ++step) {
+    if (step % 10 == 0) {
+      world_state_t w = turningWorld(start, clock.now());
+      harness.publish(bus::channels::kSimWorld, w);
+    }
+    clock.advance(kMicrosPerMilli);
+    camera_node.spinOnce(0);
+    if (sim.framesRendered() > static_cast<std::int64_t>(scenes.size())) {
+      scenes.push_back(sim.lastScene());
+    }
+    harness.spinOnce(0);
+  }
+  ASSERT_GE(got.images.size(), 12u);
+  EXPECT_EQ(sim.framesExtrapolated(), 0);
+  for (const image_t& img : got.images) {
+    ASSERT_LT(static_cast<std::size_t>(img.frame_number), scenes.size());
+    const SimScene& scene = scenes[static_cast<std::size_t>(img.frame_number)];
+    // The states at the 10 ms steps before and after the exposure.
+    const Utime t = img.header.utime;
+    const Utime t0 = start + (t - start) / 10'000 * 10'000;
+    ASSERT_LT(t0, t);  // strictly between: the test means interpolation
+    const world_state_t before = turningWorld(start, t0);
+    const world_state_t after = turningWorld(start, t0 + 10'000);
+    const double f = static_cast<double>(t - t0) / 10'000.0;
+    const double turn = geometry::angleDiff(after.robot_phi[0], before.robot_phi[0]);
+    const double interpolated = before.robot_phi[0] + f * turn;
+    // What it was before: `before` carried on with its turn rate (the mean of the 10 ms before).
+    const double carried = before.robot_phi[0] + before.robot_omega[0] * (t - t0) * 1e-6;
+    ASSERT_GT(std::abs(geometry::angleDiff(interpolated, carried)), 1e-4);
+    EXPECT_NEAR(geometry::angleDiff(scene.robot.phi, interpolated), 0.0, 1e-6)
+        << "frame " << img.frame_number << " at " << t - start;
+    EXPECT_NEAR(scene.omega, after.robot_omega[0], 1e-9);
+    EXPECT_NEAR(scene.robot.x, 1.0, 1e-12);
+  }
+}
+
+TEST(SimCameraNode, WithoutALaterWorldStateCarriesTheNewestAndCountsIt) {
+  SimulatedClock clock;
+  const auto memq = bus::Connection::open("memq://");
+  bus::Node camera_node{{.process = "camera", .robot_id = 2, .status_period_us = 0}, clock, memq};
+  const bus::BusId sim_bus = camera_node.addBus(memq);
+  bus::Node harness{{.process = "harness", .robot_id = 0, .status_period_us = 0}, clock, memq};
+  SimCameraNode sim(camera_node, sim_bus, loadCameraConfigPreset("omni_sim"), "msl");
+  world_state_t w = makeWorld(clock.now());
+  harness.publish(bus::channels::kSimWorld, w);  // then the simulator stalls
+  for (int step = 0; step < 40; ++step) {        // 200 ms: 6 frames, none with a state after it
+    clock.advance(5 * kMicrosPerMilli);
+    camera_node.spinOnce(0);
+  }
+  EXPECT_GE(sim.framesRendered(), 5);
+  EXPECT_EQ(sim.framesExtrapolated(), sim.framesRendered());
+  EXPECT_EQ(camera_node.status().errorCount("stale_world"), 0);
+}
 
 TEST(SimCameraNode, PublishesRenderedFramesAfterTheLatencyStampedWithTheExposure) {
   SimulatedClock clock;
