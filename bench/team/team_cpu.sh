@@ -17,11 +17,15 @@ root=$(cd "$(dirname "$0")/../.." && pwd)
 [ -f "$launch" ] && launch=$(realpath "$launch")
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
-ns="unshare -n"
-unshare -n true 2>/dev/null || ns="unshare -rn"
+# A private mount namespace too: the simulator's pseudo-terminals, its snapshot and fusion's pose
+# files live in /tmp/fieldline, which every team on the machine would share otherwise (a second
+# team's motor bridges writing into this team's serial lines).
+ns="unshare -n -m --propagation private"
+$ns true 2>/dev/null || ns="unshare -r -n -m --propagation private"
 $ns bash -c "
   set -eu
   ip link set lo up; ip link set lo multicast on; ip route add 224.0.0.0/4 dev lo
+  mkdir -p /tmp/fieldline && mount -t tmpfs tmpfs /tmp/fieldline
   export FIELDLINE_ROOT='$root'
   # The launcher's own end is only a safety net (the script stops it after the window): under load
   # its start-up checks and the snapshots took long enough that seconds + 20 ended it first.
