@@ -80,7 +80,8 @@ struct RenderParams {
   // Relative amplitude of coarse noise, fine noise and per-cell grain of the carpet brightness.
   std::array<double, 3> carpet_texture{0.06, 0.04, 0.03};
   Lighting lighting;
-  // Noise standard deviation, 8-bit levels (the shipped configs' level, config/camera/omni_sim.yaml).
+  // Noise standard deviation, 8-bit levels (the shipped configs' level,
+  // config/camera/omni_sim.yaml).
   double noise_luma = 2.7;
   double noise_chroma = 1.7;
   std::uint32_t noise_seed = 1;

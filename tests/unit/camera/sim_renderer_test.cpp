@@ -325,8 +325,8 @@ NoiseStatistics measureNoise(RenderSetup& noisy, RenderSetup& clean) {
 }
 
 // The generator may change (a faster one, issue 32), the distribution not: mean 0, the standard
-// deviation the config asks per channel (luma 2.7 and chroma 1.7 levels in omni_sim; within 2 %: six
-// frames measure it to about 0.3 %), no correlation between neighbouring pixels or consecutive
+// deviation the config asks per channel (luma 2.7 and chroma 1.7 levels in omni_sim; within 2 %:
+// six frames measure it to about 0.3 %), no correlation between neighbouring pixels or consecutive
 // frames. Until 2026-12-07 the table was truncated to whole levels: sigma 2.715 and 1.732, 0.905
 // and 0.866 of the asked (this test's tolerance then was around those figures).
 TEST(SimRenderer, SensorNoiseKeepsItsStatistics) {
