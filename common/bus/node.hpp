@@ -185,7 +185,7 @@ class Node {
   bool publishEncoded(std::string_view channel, const void* data, int size,
                       BusId bus = kPrimaryBus);
 
-  using TimerId = int;
+  using TimerId = std::int64_t;
   // Calls `fn` every `period_us` of elapsed (monotonic) time, first one period from now.
   TimerId every(Utime period_us, std::function<void()> fn);
   // Calls `fn` once, when clock time `when` is reached; the delay is taken when the timer is

@@ -7,6 +7,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cctype>
 #include <cerrno>
 #include <cstdio>
@@ -15,6 +16,7 @@
 #include <fstream>
 #include <sstream>
 #include <stdexcept>
+#include <string_view>
 #include <utility>
 
 namespace fieldline::process {
@@ -61,10 +63,17 @@ bool namedBy(int fd, const std::string& name) {
 // through. Throws std::runtime_error naming the file.
 int openLockedTemporary(const std::string& tmp) {
   for (int attempt = 0;; ++attempt) {
-    const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_CLOEXEC | O_NOFOLLOW, 0666);
+    // O_NONBLOCK: a FIFO put at the name must not hang the writer until a reader comes.
+    const int fd =
+        ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_CLOEXEC | O_NOFOLLOW | O_NONBLOCK, 0666);
     if (fd < 0) {
       const std::string why = std::strerror(errno);
       throw std::runtime_error("cannot write " + tmp + ": " + why);
+    }
+    struct stat kind {};
+    if (::fstat(fd, &kind) != 0 || !S_ISREG(kind.st_mode)) {
+      ::close(fd);
+      throw std::runtime_error("cannot write " + tmp + ": not a regular file");
     }
     if (::flock(fd, LOCK_EX | LOCK_NB) == 0) {
       if (namedBy(fd, tmp)) return fd;
@@ -98,11 +107,19 @@ int writeWhole(int fd, const std::string& text) {
   return error;
 }
 
+// A temporary file name of its own for each writer: `path`.tmp.PID.N. Per process, so that two
+// runs sharing the folder never rename each other's half-written file, and per writer (N counts
+// in the process), so that two writers of one file in one process never wait for each other's
+// lock (a flock taken through another open() holds against the same process too).
+std::string temporaryName(const std::string& path) {
+  static std::atomic<unsigned> next{0};
+  return path + ".tmp." + std::to_string(::getpid()) + "." + std::to_string(next++);
+}
+
 }  // namespace
 
 void writeStateFile(const std::string& path, const std::string& text) {
-  // Per process: two runs sharing the folder must not rename each other's half-written file.
-  const std::string tmp = path + ".tmp." + std::to_string(::getpid());
+  const std::string tmp = temporaryName(path);
   const int fd = openLockedTemporary(tmp);
   const int error = writeWhole(fd, text);
   if (error != 0) {
@@ -123,13 +140,20 @@ void writeStateFile(const std::string& path, const std::string& text) {
 
 namespace {
 
-// `name` is `base`.tmp.PID (a temporary file of a writer of `base`).
+// `name` is `base`.tmp.PID.N, or `base`.tmp.PID of older builds (a temporary file of a writer of
+// `base`).
 bool temporaryOf(const std::string& name, const std::string& base) {
   const std::string prefix = base + ".tmp.";
   if (name.size() <= prefix.size() || name.compare(0, prefix.size(), prefix) != 0) return false;
-  const std::string digits = name.substr(prefix.size());
-  return digits.size() <= 9 &&
-         std::all_of(digits.begin(), digits.end(), [](unsigned char c) { return std::isdigit(c); });
+  const auto number = [](std::string_view digits) {
+    return !digits.empty() && digits.size() <= 10 &&
+           std::all_of(digits.begin(), digits.end(),
+                       [](unsigned char c) { return std::isdigit(c); });
+  };
+  const std::string_view rest = std::string_view(name).substr(prefix.size());
+  const std::size_t dot = rest.find('.');
+  if (dot == std::string_view::npos) return number(rest);
+  return number(rest.substr(0, dot)) && number(rest.substr(dot + 1));
 }
 
 // Removes the temporary file `file` when its lock can be taken: no writer holds it, whichever
@@ -149,7 +173,7 @@ void removeIfStale(const std::string& file) {
 }  // namespace
 
 StateFileWriter::StateFileWriter(std::string path)
-    : path_(std::move(path)), tmp_(path_ + ".tmp." + std::to_string(::getpid())) {
+    : path_(std::move(path)), tmp_(temporaryName(path_)) {
   // Errors here only leave stale files where they were.
   namespace fs = std::filesystem;
   const fs::path file(path_);

@@ -22,7 +22,7 @@ std::optional<std::string> readStateFile(const std::string& path);
 // and swapped in, so the file system neither creates nor deletes a file per save (on ext4 that
 // was most of a save's cost, docs/performance.md). A reader sees the old file or the new one as
 // with writeStateFile, unless it holds the file open across the next save but one (it reads the
-// inode that save writes over). The temporary file (`path`.tmp.PID) stays beside the file while
+// inode that save writes over). The temporary file (`path`.tmp.PID.N) stays beside the file while
 // the writer lives, held open with its flock taken; the destructor removes it, and the
 // constructor removes the temporaries of `path` whose lock it can take: their writer no longer
 // runs (a crash, SIGKILL). The lock, not the PID in the name, says so: a PID means nothing in

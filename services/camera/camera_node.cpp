@@ -27,8 +27,6 @@ constexpr double kMaxWorldAge = 0.5;
 // intervals 20 ms), so by then the state at or after the exposure is in and the frame is
 // rendered between the two around it instead of carrying the newest up to 10 ms on (issue 34).
 constexpr Utime kRenderDelay = 25 * kMicrosPerMilli;
-// SIM_WORLDs kept: those of the last render delay and one before.
-constexpr std::size_t kWorldHistory = 6;
 // States further apart than this are not interpolated between (the simulator stalled).
 constexpr Utime kMaxInterpolationSpan = 50 * kMicrosPerMilli;
 // No body moves this far (m) or turns this much (rad) between two states: a teleport.
@@ -244,10 +242,13 @@ void SimCameraNode::onWorld(const world_state_t& world) {
       return;
     }
   }
-  // A state not after the newest: the simulator restarted; the older ones are another world.
-  if (!worlds_.empty() && world.header.utime <= worlds_.back().header.utime) worlds_.clear();
-  if (worlds_.size() == kWorldHistory) worlds_.pop_front();
-  worlds_.push_back(world);
+  if (!worlds_.empty()) {
+    // The same state again (a duplicate datagram) adds nothing; an older one means the simulator
+    // restarted, and the states before are another world.
+    if (world.header.utime == worlds_.newest().header.utime) return;
+    if (world.header.utime < worlds_.newest().header.utime) worlds_.clear();
+  }
+  worlds_.push(world);
 }
 
 void SimCameraNode::onFrameTick() {
@@ -255,7 +256,7 @@ void SimCameraNode::onFrameTick() {
   // The frame is stamped on the robot's clock; the simulator's world is on the true time.
   const Utime exposure_time = node_.now() - render_delay_;
   const Utime exposure_truth = toTruth(node_.clock(), exposure_time);
-  const Utime newest = worlds_.back().header.utime;
+  const Utime newest = worlds_.newest().header.utime;
   if (std::abs(static_cast<double>(exposure_truth - newest)) * 1e-6 > kMaxWorldAge) {
     node_.reportError("stale_world",
                       "SIM_WORLD is " +
@@ -266,7 +267,8 @@ void SimCameraNode::onFrameTick() {
   // The newest state at or before the exposure and the first at or after it.
   const world_state_t* before = nullptr;
   const world_state_t* after = nullptr;
-  for (const world_state_t& w : worlds_) {
+  for (std::size_t i = 0; i < worlds_.size(); ++i) {
+    const world_state_t& w = worlds_[i];
     if (w.header.utime <= exposure_truth) before = &w;
     if (w.header.utime >= exposure_truth && after == nullptr) after = &w;
   }
@@ -274,7 +276,7 @@ void SimCameraNode::onFrameTick() {
   if (before != nullptr && after != nullptr) {
     pose = sceneBetweenWorlds(*before, *after, node_.robotId(), exposure_truth,
                               config_.pipeline.exposure, scene_);
-  } else if (sceneFromWorld(before != nullptr ? *before : worlds_.front(), node_.robotId(),
+  } else if (sceneFromWorld(before != nullptr ? *before : worlds_[0], node_.robotId(),
                             exposure_truth, config_.pipeline.exposure, scene_)) {
     pose = ScenePose::kExtrapolated;  // none after the exposure yet, or none before it
   }

@@ -10,8 +10,8 @@
 // sources) and report frame_rate_hz and render_ms / capture_ms in SERVICE_STATUS.
 #pragma once
 
+#include <array>
 #include <cstdint>
-#include <deque>
 #include <functional>
 #include <memory>
 #include <optional>
@@ -102,8 +102,33 @@ class SimCameraNode {
   Delivery deliver_;
   bus::BusId frames_bus_ = bus::kPrimaryBus;
   PreviewPublisher* preview_ = nullptr;
-  // The newest SIM_WORLDs, oldest first (a few: the frame's exposure lies between two of them).
-  std::deque<world_state_t> worlds_;
+  // The newest SIM_WORLDs, oldest first, in slots written over in place (SIM_WORLD comes 100
+  // times a second; copying into a kept slot reuses its vectors).
+  class WorldHistory {
+   public:
+    // 16: the render delay's states at up to 560 SIM_WORLDs a second, and one before.
+    static constexpr std::size_t kSlots = 16;
+    void clear() { size_ = 0; }
+    bool empty() const { return size_ == 0; }
+    std::size_t size() const { return size_; }
+    // 0 is the oldest.
+    const world_state_t& operator[](std::size_t i) const { return slots_[(oldest_ + i) % kSlots]; }
+    const world_state_t& newest() const { return (*this)[size_ - 1]; }
+    void push(const world_state_t& world) {
+      if (size_ < kSlots) {
+        slots_[(oldest_ + size_++) % kSlots] = world;
+      } else {
+        slots_[oldest_] = world;
+        oldest_ = (oldest_ + 1) % kSlots;
+      }
+    }
+
+   private:
+    std::array<world_state_t, kSlots> slots_{};
+    std::size_t oldest_ = 0;
+    std::size_t size_ = 0;
+  };
+  WorldHistory worlds_;
   // How long before the tick the frame is exposed (µs): so the SIM_WORLD after it is in.
   Utime render_delay_ = 0;
   std::vector<Pending> pending_;

@@ -62,6 +62,8 @@ std::vector<std::uint8_t> BridgeCore::helloFrame() const {
 }
 
 void BridgeCore::onConnected() {
+  // Another controller may answer on the new line: its samples pace nothing until its Hello.
+  controller_hello_.reset();
   decoder_.reset();
   last_sample_.reset();
   resync_ = true;

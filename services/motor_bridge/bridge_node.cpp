@@ -27,7 +27,8 @@ BridgeNode::BridgeNode(bus::Node& node, const robot::RobotParams& params, Bridge
                           [this](const motion_command_t& m) { onCommand(m); });
   command_period_us_ = static_cast<Utime>(1e6 / config_.command_rate);
   command_tick_ = node_.every(command_period_us_, [this] { onTick(); });
-  frame_due_us_ = node_.clock().monotonicNow() + command_period_us_ - command_period_us_ / 4;
+  last_frame_us_ = node_.clock().monotonicNow();
+  frame_due_us_ = last_frame_us_ + command_period_us_ - command_period_us_ / 4;
   node_.every(kMicrosPerSecond, [this] { publishMetrics(); });
   // An open serial line is not enough: the controller's samples must flow (a reader stealing the
   // pty's bytes, a stopped simulator).
@@ -82,9 +83,12 @@ void BridgeNode::onSample() {
   const Utime now = node_.clock().monotonicNow();
   const Utime period = command_period_us_;
   const Utime window = period / 4;
-  // The schedule toward the sample's phase (the nearest due time), by at most 1/40 period.
+  // The schedule toward the sample's phase (the nearest due time), by at most 1/40 period; never
+  // later than a period and 1/40 after the last frame, so that samples coming faster than their
+  // Hello says cannot push the frames (and the deadline) back without end.
   const Utime phase = ((now - frame_due_us_ + period / 2) % period + period) % period - period / 2;
-  frame_due_us_ += std::clamp(phase, -period / 40, period / 40);
+  frame_due_us_ = std::min(frame_due_us_ + std::clamp(phase, -period / 40, period / 40),
+                           std::max(frame_due_us_, last_frame_us_ + period + period / 40));
   if (now >= frame_due_us_ - window) {
     // The MOTION_COMMANDs that waited in their socket first: the frame carries the newest.
     node_.handleDeferred();
@@ -136,6 +140,7 @@ void BridgeNode::onTick() {
 }
 
 void BridgeNode::sendCommand() {
+  last_frame_us_ = node_.clock().monotonicNow();
   link_.send(core_.commandFrame(node_.now()));
   // Reopens the line when a retry is due, writes what the device did not take before.
   link_.poll();

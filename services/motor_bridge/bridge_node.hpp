@@ -83,6 +83,8 @@ class BridgeNode {
   bus::Node::TimerId command_tick_ = 0;
   // Monotonic time the next command frame is due (the schedule the samples pull).
   Utime frame_due_us_ = 0;
+  // When the last command frame went out (monotonic): bounds how far samples move the schedule.
+  Utime last_frame_us_ = 0;
 };
 
 }  // namespace fieldline::motor_bridge

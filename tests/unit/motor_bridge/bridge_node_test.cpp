@@ -245,11 +245,38 @@ TEST_F(BridgeNodeTest, SamplesAtAnotherRateLeaveTheTickAlone) {
   bridge.start();
   answerHello(bridge);
   readLine();
-  clock.advance(10'000);
+  // 14 ms: inside the window a sample at the command rate would open (the frame due at 18.75 ms,
+  // a quarter period before it), so only the rate check keeps this sample from sending.
+  clock.advance(14'000);
   writeSample();
   EXPECT_TRUE(framesNow().empty());
-  clock.advance(15'000);
+  clock.advance(11'000);
   EXPECT_EQ(framesNow().size(), 1u);
+}
+
+// A controller whose samples come far faster than its Hello's period (a pty has no baud limit):
+// the samples move the schedule by at most 1/40 period each and never past a period and 1/40
+// after the last frame, so frames keep coming at most 1.5 periods apart (review of session 12:
+// before, samples every 0.5 ms held the frames back for good and the firmware's watchdog
+// stopped the robot).
+TEST_F(BridgeNodeTest, SamplesFasterThanTheirPeriodDoNotHoldTheFramesBack) {
+  BridgeNode bridge(bridge_node, params, config);  // 50 Hz, the Hello says 20 ms
+  bridge.start();
+  ASSERT_TRUE(bridge.link().connected());
+  answerHello(bridge);
+  readLine();
+  std::vector<Utime> frame_times;
+  for (int step = 1; step <= 1000; ++step) {  // 0.5 s, a sample every 0.5 ms
+    clock.advance(500);
+    writeSample();
+    bridge_node.spinOnce(2);
+    for (const auto& m : readLine())
+      if (std::holds_alternative<serial::VelocityCommand>(m)) frame_times.push_back(step * 500);
+  }
+  ASSERT_GE(frame_times.size(), 17u);  // 25 periods at most 1.5 periods apart
+  EXPECT_LE(frame_times.front(), 30'000);
+  for (std::size_t i = 1; i < frame_times.size(); ++i)
+    EXPECT_LE(frame_times[i] - frame_times[i - 1], 30'000) << "frame " << i;
 }
 
 TEST_F(BridgeNodeTest, LostLineIsAnErrorAndTheNewLineIsWatched) {
