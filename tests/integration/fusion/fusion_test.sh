@@ -24,10 +24,13 @@ if [ -n "$share" ]; then
   mkdir -p "$share"
   record="--record '$share/rec'"
 fi
-ns="unshare -n"
-unshare -n true 2>/dev/null || ns="unshare -rn"
+# Private network and mount namespaces: its own buses and its own /tmp/fieldline (the
+# simulator's serial lines and snapshot, fusion's pose files), not a running demo's.
+ns="unshare -n -m --propagation private"
+$ns true 2>/dev/null || ns="unshare -r -n -m --propagation private"
 $ns bash -c "
   ip link set lo up; ip link set lo multicast on; ip route add 224.0.0.0/4 dev lo
+  mkdir -p /tmp/fieldline && mount -t tmpfs tmpfs /tmp/fieldline
   export FIELDLINE_ROOT='$root'
   '$bin/fieldline-eval' --scenario default --robots 6 --duration 25 --out '$out' $record > '$out/eval.txt' 2> '$out/eval.err'
   echo \$? > '$out/eval.rc'

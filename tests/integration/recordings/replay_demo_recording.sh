@@ -31,10 +31,13 @@ if [ "$seconds" = "--recording" ]; then
   cp "$share/live/eval.txt" "$out/live.txt"
   : > "$out/live.err"
 else
-  ns="unshare -n"
-  unshare -n true 2>/dev/null || ns="unshare -rn"
+  # Private network and mount namespaces: its own buses and its own /tmp/fieldline (the
+  # simulator's serial lines and snapshot, fusion's pose files), not a running demo's.
+  ns="unshare -n -m --propagation private"
+  $ns true 2>/dev/null || ns="unshare -r -n -m --propagation private"
   $ns bash -c "
     ip link set lo up; ip link set lo multicast on; ip route add 224.0.0.0/4 dev lo
+    mkdir -p /tmp/fieldline && mount -t tmpfs tmpfs /tmp/fieldline
     '$bin/fieldline-eval' --scenario default --robots 6 --duration $seconds --record '$out/rec' \
         --out '$out/live' > '$out/live.txt' 2> '$out/live.err'
   " || true

@@ -38,10 +38,13 @@ work=$(mktemp -d)
 [ -n "${KEEP:-}" ] && echo "work: $work" || trap 'rm -rf "$work"' EXIT
 export FIELDLINE_ROOT="$root"
 
-ns="unshare -n"
-unshare -n true 2>/dev/null || ns="unshare -rn"
+# Private network and mount namespaces: its own buses and its own /tmp/fieldline (the
+# simulator's serial lines and snapshot, fusion's pose files), not a running demo's.
+ns="unshare -n -m --propagation private"
+$ns true 2>/dev/null || ns="unshare -r -n -m --propagation private"
 $ns bash -c "
   ip link set lo up; ip link set lo multicast on; ip route add 224.0.0.0/4 dev lo
+  mkdir -p /tmp/fieldline && mount -t tmpfs tmpfs /tmp/fieldline
   sim='udpm://239.255.76.67:7667?ttl=0&recv_buf_size=4194304'
   robot='udpm://239.255.76.67:7668?ttl=0&recv_buf_size=4194304'
   mkfifo '$work/camera.fifo'

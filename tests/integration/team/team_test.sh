@@ -28,11 +28,14 @@ echo "--- expected to report ok: $(echo $expect | wc -w) processes"
 skipped=$(sed -n 's/^# \[[a-z0-9]* \([a-z_0-9]*\)\].*NOT BUILT.*/\1/p' "$out/plan.txt" | sort -u)
 [ -z "$skipped" ] || echo "--- not built, so neither started nor checked:" $skipped
 
-ns="unshare -n"
-unshare -n true 2>/dev/null || ns="unshare -rn"
+# Private network and mount namespaces: its own buses and its own /tmp/fieldline (the
+# simulator's serial lines and snapshot, fusion's pose files), not a running demo's.
+ns="unshare -n -m --propagation private"
+$ns true 2>/dev/null || ns="unshare -r -n -m --propagation private"
 start=$(date +%s)
 $ns bash -c "
   ip link set lo up; ip link set lo multicast on; ip route add 224.0.0.0/4 dev lo
+  mkdir -p /tmp/fieldline && mount -t tmpfs tmpfs /tmp/fieldline
   '$bin/fieldline-launch' sim_team --duration $((READY_TIMEOUT_S + LISTEN_S + 40)) --no-table \
     --status-period 5 > '$out/launch.log' 2>&1 &
   launcher=\$!

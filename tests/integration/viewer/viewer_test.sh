@@ -9,11 +9,14 @@ publisher=$2
 here=$(cd "$(dirname "$0")" && pwd)
 out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT
-ns="unshare -n"
-unshare -n true 2>/dev/null || ns="unshare -rn"
+# Private network and mount namespaces: its own buses and its own /tmp/fieldline (the
+# simulator's serial lines and snapshot, fusion's pose files), not a running demo's.
+ns="unshare -n -m --propagation private"
+$ns true 2>/dev/null || ns="unshare -r -n -m --propagation private"
 port=18080
 $ns bash -c "
   ip link set lo up; ip link set lo multicast on; ip route add 224.0.0.0/4 dev lo
+  mkdir -p /tmp/fieldline && mount -t tmpfs tmpfs /tmp/fieldline
   '$viewer' --port $port > '$out/viewer.log' 2>&1 &
   viewer_pid=\$!
   '$publisher' --robot 3 --duration 20 > '$out/published.json' 2> '$out/publisher.log' &
