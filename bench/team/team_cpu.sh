@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # CPU use of the simulated team per executable, summed over its robots: CPU seconds per second of
-# wall time over SECONDS (default 30) after a 10 s warm-up, in a private network namespace.
+# wall time over SECONDS (default 30) after a 10 s warm-up, in private network and mount namespaces.
 #
 #   bench/team/team_cpu.sh [LAUNCH] [SECONDS] [BIN_DIR]
 #   bench/team/team_cpu.sh sim_team 30 build/bin
