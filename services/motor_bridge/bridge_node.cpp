@@ -24,12 +24,14 @@ BridgeNode::BridgeNode(bus::Node& node, const robot::RobotParams& params, Bridge
   // A command goes out on the line at the next tick of the command timer: its messages do not
   // wake the bridge, they are handled just before that tick (issue 32: a wake-up less each).
   node_.subscribeDeferred(bus::channels::kMotionCommand,
-                          [this](const motion_command_t& m) { onCommand(m); });
+                          [this, alive = alive_](const motion_command_t& m) {
+                            if (*alive) onCommand(m);
+                          });
   command_period_us_ = static_cast<Utime>(1e6 / config_.command_rate);
   command_tick_ = node_.every(command_period_us_, [this] { onTick(); });
   last_frame_us_ = node_.clock().monotonicNow();
   frame_due_us_ = last_frame_us_ + command_period_us_ - command_period_us_ / 4;
-  node_.every(kMicrosPerSecond, [this] { publishMetrics(); });
+  metrics_tick_ = node_.every(kMicrosPerSecond, [this] { publishMetrics(); });
   // An open serial line is not enough: the controller's samples must flow (a reader stealing the
   // pty's bytes, a stopped simulator).
   node_.requireOutput(
@@ -48,6 +50,12 @@ bus::ProcessIo bridgeIo(const std::string& device) {
 
 BridgeNode::~BridgeNode() {
   stop();
+  if (line_watch_) node_.unwatchFd(*line_watch_);
+  // The node outlives this bridge (a process that rebuilds its bridge, a test): nothing it keeps
+  // may call into it.
+  node_.cancelTimer(command_tick_);
+  node_.cancelTimer(metrics_tick_);
+  *alive_ = false;
 }
 
 void BridgeNode::start() {

@@ -19,6 +19,7 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <span>
 #include <vector>
@@ -43,7 +44,9 @@ class BridgeNode {
   // Subscribes MOTION_COMMAND and sets the timers on `node`; opens the line with start().
   // Throws std::invalid_argument for a command rate that is not positive.
   BridgeNode(bus::Node& node, const robot::RobotParams& params, BridgeConfig config);
-  // Sends a stop frame and closes the line (stop()).
+  // Sends a stop frame and closes the line (stop()), and cancels its timers: the node may spin on
+  // without it. Its MOTION_COMMAND subscription stays on the node (bus::Node cannot remove one)
+  // but calls nothing once the bridge is gone.
   ~BridgeNode();
   BridgeNode(const BridgeNode&) = delete;
   BridgeNode& operator=(const BridgeNode&) = delete;
@@ -81,6 +84,9 @@ class BridgeNode {
   bool stopped_ = false;
   Utime command_period_us_ = 0;
   bus::Node::TimerId command_tick_ = 0;
+  bus::Node::TimerId metrics_tick_ = 0;
+  // Whether this bridge still exists, for the subscription the node keeps after it.
+  std::shared_ptr<bool> alive_ = std::make_shared<bool>(true);
   // Monotonic time the next command frame is due (the schedule the samples pull).
   Utime frame_due_us_ = 0;
   // When the last command frame went out (monotonic): bounds how far samples move the schedule.

@@ -323,6 +323,36 @@ TEST_F(BridgeNodeTest, StopLeavesTheRobotStanding) {
   EXPECT_EQ(last->vx_q15, 0);
 }
 
+// The node outlives the bridge (session 12 review): the bridge's timers are cancelled and its fd
+// watch removed with it, and MOTION_COMMAND, whose subscription the node keeps, reaches nothing;
+// the node spins on for 2 s of ticks and reports without calling into the bridge that is gone.
+TEST_F(BridgeNodeTest, TheNodeSpinsOnAfterTheBridgeIsGone) {
+  const bus::Node::TimerId before = bridge_node.after(100 * kMicrosPerSecond, [] {});
+  auto bridge = std::make_unique<BridgeNode>(bridge_node, params, config);
+  bridge->start();
+  ASSERT_TRUE(bridge->link().connected());
+  const bus::Node::TimerId after = bridge_node.after(100 * kMicrosPerSecond, [] {});
+  ASSERT_GE(after - before, 3);  // the command tick and the metrics report at least
+  bridge.reset();
+  EXPECT_EQ(bridge_node.watchedFdCount(), 0u);
+  // Timer ids are handed out in order: none of those the bridge set is still set.
+  for (bus::Node::TimerId id = before + 1; id < after; ++id)
+    EXPECT_FALSE(bridge_node.cancelTimer(id)) << "timer " << id << " outlived the bridge";
+  readLine();  // the stop frame
+  motion_command_t command{};
+  command.header.utime = clock.now();
+  command.header.robot_id = 3;  // another robot's: the bridge, were it called, would say so
+  command.vx = 0.5;
+  command.deadline_utime = clock.now() + 500'000;
+  listener.publish(bus::channels::kMotionCommand, command);
+  for (int k = 0; k < 200; ++k) {
+    clock.advance(10'000);
+    bridge_node.spinOnce(0);
+  }
+  EXPECT_EQ(bridge_node.status().errorCount("command_other_robot"), 0);
+  EXPECT_TRUE(readLine().empty());
+}
+
 // Issue 32: over a real udpm bus the bridge does not wake for MOTION_COMMAND (its socket for
 // waking reads nothing); the command is read just before the next tick and goes out then.
 TEST(BridgeNodeUdpm, ACommandWakesNothingAndGoesOutAtTheNextTick) {
