@@ -172,6 +172,24 @@ class SimCameraNodeTest : public ::testing::Test {
     if (deliver) harness.spinOnce(0);
   }
 
+  // The turning robot (turningWorld from now) for `ms` milliseconds in steps of 1 ms (the frames'
+  // exposures fall between the states), SIM_WORLD every 10; returns each frame's scene, by frame
+  // number, taken when it was rendered.
+  std::vector<SimScene> runTurningRobot(int ms) {
+    const Utime start = clock.now();
+    std::vector<SimScene> scenes;
+    for (int step_ms = 0; step_ms < ms; ++step_ms) {
+      if (step_ms % 10 == 0) publishWorld(turningWorld(start, clock.now()));
+      clock.advance(kMicrosPerMilli);
+      camera_node->spinOnce(0);
+      if (sim->framesRendered() > static_cast<std::int64_t>(scenes.size())) {
+        scenes.push_back(sim->lastScene());
+      }
+      harness.spinOnce(0);
+    }
+    return scenes;
+  }
+
   // The ball's pixel in a frame is orange where robot 2 at `world`'s pose expects it.
   void expectBallWhereTheRobotSeesIt(const image_t& img, const world_state_t& world, Utime when) {
     SimScene scene;
@@ -225,18 +243,7 @@ class SimCameraNodeTest : public ::testing::Test {
 TEST_F(SimCameraNodeTest, RendersEachFrameBetweenTheWorldStatesAroundItsExposure) {
   startCamera();
   const Utime start = clock.now();
-  // Each frame's scene, by frame number, taken when it was rendered.
-  std::vector<SimScene> scenes;
-  // 500 ms in steps of 1 ms (the frames' exposures fall between the states), SIM_WORLD every 10.
-  for (int step_ms = 0; step_ms < 500; ++step_ms) {
-    if (step_ms % 10 == 0) publishWorld(turningWorld(start, clock.now()));
-    clock.advance(kMicrosPerMilli);
-    camera_node->spinOnce(0);
-    if (sim->framesRendered() > static_cast<std::int64_t>(scenes.size())) {
-      scenes.push_back(sim->lastScene());
-    }
-    harness.spinOnce(0);
-  }
+  const std::vector<SimScene> scenes = runTurningRobot(500);
   ASSERT_GE(images.size(), 12u);
   EXPECT_EQ(sim->framesExtrapolated(), 0);
   for (const image_t& img : images) {
@@ -268,16 +275,7 @@ TEST_P(SimCameraNodeOffsetTest, StampsOnTheRobotClockAndInterpolatesAtTheTrueExp
   const OffsetClock robot_clock(clock, error);
   startCamera(2, &robot_clock);
   const Utime start = clock.now();
-  std::vector<SimScene> scenes;
-  for (int step_ms = 0; step_ms < 400; ++step_ms) {
-    if (step_ms % 10 == 0) publishWorld(turningWorld(start, clock.now()));
-    clock.advance(kMicrosPerMilli);
-    camera_node->spinOnce(0);
-    if (sim->framesRendered() > static_cast<std::int64_t>(scenes.size())) {
-      scenes.push_back(sim->lastScene());
-    }
-    harness.spinOnce(0);
-  }
+  const std::vector<SimScene> scenes = runTurningRobot(400);
   EXPECT_EQ(camera_node->status().errorCount("stale_world"), 0);
   EXPECT_EQ(sim->framesExtrapolated(), 0);
   ASSERT_GE(images.size(), 9u);
