@@ -353,117 +353,112 @@ TEST_F(BridgeNodeTest, TheNodeSpinsOnAfterTheBridgeIsGone) {
   EXPECT_TRUE(readLine().empty());
 }
 
-// Issue 32: over a real udpm bus the bridge does not wake for MOTION_COMMAND (its socket for
-// waking reads nothing); the command is read just before the next tick and goes out then.
-TEST(BridgeNodeUdpm, ACommandWakesNothingAndGoesOutAtTheNextTick) {
-  // This test's process only (every case runs in a process of its own).
-  if (!test::enterPrivateMulticastNetwork()) {
-    GTEST_FAIL() << "needs a private network namespace (root, as scripts/test runs)";
+// A bridge's node and a pilot's on a real udpm bus in this test's own network namespace (every
+// case runs in a process of its own), the device a pseudo-terminal.
+class BridgeNodeUdpmTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    if (!test::enterPrivateMulticastNetwork()) {
+      GTEST_FAIL() << "needs a private network namespace (root, as scripts/test runs)";
+    }
+    dir = std::filesystem::temp_directory_path() /
+          ("fieldline-bridge-udpm-" + std::to_string(::getpid()));
+    config.device = (dir / "robot2.tty").string();
+    config.command_rate = 50.0;
+    pty = std::make_unique<world_sim::PseudoTerminal>(config.device);
+    const std::string url = "udpm://239.255.76.67:7803?ttl=0";
+    bridge_node.emplace(bus::NodeOptions{.process = "motor_bridge", .robot_id = 2, .url = url},
+                        clock);
+    pilot.emplace(
+        bus::NodeOptions{.process = "pilot", .robot_id = 2, .url = url, .status_period_us = 0},
+        clock);
   }
-  const std::string url = "udpm://239.255.76.67:7803?ttl=0";
-  const auto dir = std::filesystem::temp_directory_path() /
-                   ("fieldline-bridge-udpm-" + std::to_string(::getpid()));
-  BridgeConfig config;
-  config.device = (dir / "robot2.tty").string();
-  config.command_rate = 50.0;
-  auto pty = std::make_unique<world_sim::PseudoTerminal>(config.device);
-  SimulatedClock clock{1'800'000'000'000'000};
-  bus::Node bridge_node{{.process = "motor_bridge", .robot_id = 2, .url = url}, clock};
-  bus::Node pilot{{.process = "pilot", .robot_id = 2, .url = url, .status_period_us = 0}, clock};
-  {
-    BridgeNode bridge(bridge_node, robot::loadRobotPreset("fu2004"), config);
-    bridge.start();
-    ASSERT_TRUE(bridge.link().connected());
+  void TearDown() override {
+    pilot.reset();
+    bridge_node.reset();
+    pty.reset();
+    std::filesystem::remove_all(dir);
+  }
+
+  // The pilot's command: 0.5 m/s ahead for 200 ms.
+  void publishCommand() {
     motion_command_t command{};
     command.header.utime = clock.now();
     command.vx = 0.5;
     command.deadline_utime = clock.now() + 200'000;
     command.source = motion_command_t::SOURCE_PILOT;
-    pilot.publish(bus::channels::kMotionCommand, command);
-    bridge_node.spinOnce(50);  // nothing due: asleep, the command waits
-    EXPECT_EQ(bridge_node.busDatagrams(), 0);
-    clock.advance(20'000);
-    bridge_node.spinOnce(0);
-    serial::Decoder decoder;
-    std::optional<serial::VelocityCommand> sent;
-    for (int i = 0; i < 100 && !sent; ++i) {
-      bridge_node.spinOnce(2);
+    pilot->publish(bus::channels::kMotionCommand, command);
+  }
+  // The first velocity command on the line (with `moving`, the first that is not a stop) within
+  // 100 spins of the bridge's node.
+  std::optional<serial::VelocityCommand> commandOnTheLine(bool moving) {
+    for (int i = 0; i < 100; ++i) {
+      bridge_node->spinOnce(2);
       std::vector<std::uint8_t> bytes;
       pty->read(bytes);
       std::vector<serial::Message> out;
       decoder.feed(bytes, out);
       for (const auto& m : out) {
-        if (const auto* v = std::get_if<serial::VelocityCommand>(&m); v && v->vx_q15 != 0)
-          sent = *v;
+        if (const auto* v = std::get_if<serial::VelocityCommand>(&m); v && (!moving || v->vx_q15))
+          return *v;
       }
     }
-    ASSERT_TRUE(sent.has_value());
-    EXPECT_EQ(sent->vx_q15, serial::toQ15(0.5));
+    return std::nullopt;
   }
-  pty.reset();
-  std::filesystem::remove_all(dir);
+
+  std::filesystem::path dir;
+  BridgeConfig config;
+  std::unique_ptr<world_sim::PseudoTerminal> pty;
+  serial::Decoder decoder;
+  SimulatedClock clock{1'800'000'000'000'000};
+  std::optional<bus::Node> bridge_node;
+  std::optional<bus::Node> pilot;
+  robot::RobotParams params = robot::loadRobotPreset("fu2004");
+};
+
+// Issue 32: over a real udpm bus the bridge does not wake for MOTION_COMMAND (its socket for
+// waking reads nothing); the command is read just before the next tick and goes out then.
+TEST_F(BridgeNodeUdpmTest, ACommandWakesNothingAndGoesOutAtTheNextTick) {
+  BridgeNode bridge(*bridge_node, params, config);
+  bridge.start();
+  ASSERT_TRUE(bridge.link().connected());
+  publishCommand();
+  bridge_node->spinOnce(50);  // nothing due: asleep, the command waits
+  EXPECT_EQ(bridge_node->busDatagrams(), 0);
+  clock.advance(20'000);
+  bridge_node->spinOnce(0);
+  const std::optional<serial::VelocityCommand> sent = commandOnTheLine(true);
+  ASSERT_TRUE(sent.has_value());
+  EXPECT_EQ(sent->vx_q15, serial::toQ15(0.5));
 }
 
 // Issue 32: the controller's sample brings the frame with the newest command, which waited in
 // its socket without waking the bridge (read at the sample, the clock not at the tick).
-TEST(BridgeNodeUdpm, TheSampleBringsTheNewestCommandWithoutAWakeUpForIt) {
-  if (!test::enterPrivateMulticastNetwork()) {
-    GTEST_FAIL() << "needs a private network namespace (root, as scripts/test runs)";
-  }
-  const std::string url = "udpm://239.255.76.67:7804?ttl=0";
-  const auto dir = std::filesystem::temp_directory_path() /
-                   ("fieldline-bridge-udpm-sample-" + std::to_string(::getpid()));
-  BridgeConfig config;
-  config.device = (dir / "robot2.tty").string();
-  config.command_rate = 50.0;
-  auto pty = std::make_unique<world_sim::PseudoTerminal>(config.device);
-  const auto params = robot::loadRobotPreset("fu2004");
+TEST_F(BridgeNodeUdpmTest, TheSampleBringsTheNewestCommandWithoutAWakeUpForIt) {
   world_sim::FirmwareEmulator firmware(params, 5'000'000);
-  SimulatedClock clock{1'800'000'000'000'000};
-  bus::Node bridge_node{{.process = "motor_bridge", .robot_id = 2, .url = url}, clock};
-  bus::Node pilot{{.process = "pilot", .robot_id = 2, .url = url, .status_period_us = 0}, clock};
-  {
-    BridgeNode bridge(bridge_node, params, config);
-    bridge.start();
-    ASSERT_TRUE(bridge.link().connected());
-    std::vector<std::uint8_t> bytes;
-    for (int i = 0; i < 100 && bytes.empty(); ++i) {
-      bridge_node.spinOnce(2);
-      pty->read(bytes);
-    }
-    std::vector<std::uint8_t> reply;
-    firmware.receive(bytes, 0.0, reply);
-    pty->write(reply);
-    for (int i = 0; i < 100 && !bridge.core().controllerHello(); ++i)
-      bridge_node.spinOnce(2);
-    ASSERT_TRUE(bridge.core().controllerHello().has_value());
-    motion_command_t command{};
-    command.header.utime = clock.now();
-    command.vx = 0.5;
-    command.deadline_utime = clock.now() + 200'000;
-    command.source = motion_command_t::SOURCE_PILOT;
-    pilot.publish(bus::channels::kMotionCommand, command);
-    clock.advance(10'000);  // the tick is due at 20 ms
-    std::vector<std::uint8_t> frame;
-    firmware.sample(0.0, {0, 0, 0}, frame);
-    pty->write(frame);
-    serial::Decoder decoder;
-    std::optional<serial::VelocityCommand> sent;
-    for (int i = 0; i < 100 && !sent; ++i) {
-      bridge_node.spinOnce(2);
-      bytes.clear();
-      pty->read(bytes);
-      std::vector<serial::Message> out;
-      decoder.feed(bytes, out);
-      for (const auto& m : out)
-        if (const auto* v = std::get_if<serial::VelocityCommand>(&m)) sent = *v;
-    }
-    ASSERT_TRUE(sent.has_value());
-    EXPECT_EQ(sent->vx_q15, serial::toQ15(0.5));
-    EXPECT_EQ(bridge_node.busDatagrams(), 0);
+  BridgeNode bridge(*bridge_node, params, config);
+  bridge.start();
+  ASSERT_TRUE(bridge.link().connected());
+  std::vector<std::uint8_t> bytes;
+  for (int i = 0; i < 100 && bytes.empty(); ++i) {
+    bridge_node->spinOnce(2);
+    pty->read(bytes);
   }
-  pty.reset();
-  std::filesystem::remove_all(dir);
+  std::vector<std::uint8_t> reply;
+  firmware.receive(bytes, 0.0, reply);
+  pty->write(reply);
+  for (int i = 0; i < 100 && !bridge.core().controllerHello(); ++i)
+    bridge_node->spinOnce(2);
+  ASSERT_TRUE(bridge.core().controllerHello().has_value());
+  publishCommand();
+  clock.advance(10'000);  // the tick is due at 20 ms
+  std::vector<std::uint8_t> frame;
+  firmware.sample(0.0, {0, 0, 0}, frame);
+  pty->write(frame);
+  const std::optional<serial::VelocityCommand> sent = commandOnTheLine(false);
+  ASSERT_TRUE(sent.has_value());
+  EXPECT_EQ(sent->vx_q15, serial::toQ15(0.5));
+  EXPECT_EQ(bridge_node->busDatagrams(), 0);
 }
 
 }  // namespace bridge_node_test
