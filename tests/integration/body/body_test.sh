@@ -2,19 +2,11 @@
 # The simulated body end to end, in a private network namespace: world_sim with its firmware
 # emulator on a pty, motor_bridge on that pty, pilot driving robot 1; body_probe watches and
 # checks (driving 1 m, ODOMETRY at 50 Hz, stop after the pilot dies, reconnect after the serial
-# line is pulled). Usage: body_test.sh <bin dir>
+# line is pulled). In a private mount namespace too, with its own /tmp/fieldline (lib/private_ns.sh).
+# Usage: body_test.sh <bin dir>
 set -u
 bin=$(cd "$1" && pwd)
-if [ -z "${FIELDLINE_IN_NETNS:-}" ]; then
-  if [ "$(id -u)" = 0 ]; then
-    exec unshare -n env FIELDLINE_IN_NETNS=1 "$0" "$@"
-  else
-    exec unshare -rn env FIELDLINE_IN_NETNS=1 "$0" "$@"
-  fi
-fi
-ip link set lo up
-ip link set lo multicast on
-ip route add 224.0.0.0/4 dev lo
+. "$(dirname "$0")/../lib/private_ns.sh" "$@"
 
 work=$(mktemp -d /tmp/fieldline-body.XXXXXX)
 pids=()

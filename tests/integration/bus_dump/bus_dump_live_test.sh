@@ -1,7 +1,7 @@
 #!/bin/sh
 # fieldline-bus-dump on a live bus: lcm-logplayer plays the fixture log (write_fixture.cpp) onto
-# a bus in a private network namespace; the dump prints every good message with its receive
-# time and reports the garbage and NaN events.
+# a bus in a private network namespace (and mount namespace, with its own /tmp/fieldline); the
+# dump prints every good message with its receive time and reports the garbage and NaN events.
 # usage: bus_dump_live_test.sh FIELDLINE_BUS_DUMP WRITE_FIXTURE CHECK_PY
 set -eu
 dump=$1
@@ -12,10 +12,11 @@ trap 'rm -rf "$dir"' EXIT
 "$write_fixture" "$dir/fixture.lcmlog"
 "$write_fixture" "$dir/probe.lcmlog" --probe
 
-ns="unshare -n"
-unshare -n true 2>/dev/null || ns="unshare -rn"
+ns="unshare -n -m --propagation private"
+$ns true 2>/dev/null || ns="unshare -r -n -m --propagation private"
 $ns sh -c "
   set -eu
+  mkdir -p /tmp/fieldline && mount -t tmpfs tmpfs /tmp/fieldline
   ip link set lo up; ip link set lo multicast on; ip route add 224.0.0.0/4 dev lo
   url='udpm://239.255.76.67:7667?ttl=0'
   '$dump' --url \"\$url\" --follow >'$dir/out.jsonl' 2>'$dir/err.txt' &

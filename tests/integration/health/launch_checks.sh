@@ -20,19 +20,8 @@ bin=$1
 root=$2
 export FIELDLINE_ROOT="$root"
 
-if [[ -z "${FIELDLINE_HEALTH_NETNS:-}" ]]; then
-  export FIELDLINE_HEALTH_NETNS=1
-  if unshare -n true 2>/dev/null; then
-    exec unshare -n bash "$0" "$@"
-  elif unshare -rn true 2>/dev/null; then
-    exec unshare -rn bash "$0" "$@"
-  fi
-  echo "FAIL: cannot create a network namespace"
-  exit 1
-fi
-ip link set lo up
-ip link set lo multicast on
-ip route add 224.0.0.0/4 dev lo
+# Private network and mount namespaces: its own buses and its own /tmp/fieldline.
+. "$(dirname "$0")/../lib/private_ns.sh" "$@"
 
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT

@@ -7,25 +7,14 @@
 #  3. SIGTERM to the launcher stops everything, the launcher exits 0 and no node is left;
 #  4. a node that ignores SIGTERM is killed after the grace period;
 #  5. the launcher killed with SIGKILL takes its nodes down (PR_SET_PDEATHSIG).
+# In private network and mount namespaces (lib/private_ns.sh: its own buses and /tmp/fieldline).
 # Usage: launch_test.sh PATH/TO/fieldline-launch PATH/TO/fieldline-launch-test-node
 set -euo pipefail
 
 launcher=$1
 test_node=$2
 
-if [[ -z "${FIELDLINE_LAUNCH_TEST_NETNS:-}" ]]; then
-  export FIELDLINE_LAUNCH_TEST_NETNS=1
-  if unshare -n true 2>/dev/null; then
-    exec unshare -n bash "$0" "$@"
-  elif unshare -rn true 2>/dev/null; then
-    exec unshare -rn bash "$0" "$@"
-  fi
-  echo "FAIL: cannot create a network namespace (run as root, or allow unprivileged user namespaces)"
-  exit 1
-fi
-ip link set lo up
-ip link set lo multicast on
-ip route add 224.0.0.0/4 dev lo
+. "$(dirname "$0")/../lib/private_ns.sh" "$@"
 
 if [[ "$(dirname "$launcher")" != "$(dirname "$test_node")" ]]; then
   echo "FAIL: $test_node must be next to $launcher (both in the build's bin/)"

@@ -20,10 +20,13 @@ fi
 out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT
 [ -n "$screenshot" ] && screenshot=$(realpath -m "$screenshot")
-ns="unshare -n"
-unshare -n true 2>/dev/null || ns="unshare -rn"
+# Private network and mount namespaces: its own buses and its own /tmp/fieldline (the
+# simulator's serial lines and snapshot, fusion's pose files), not a running demo's.
+ns="unshare -n -m --propagation private"
+$ns true 2>/dev/null || ns="unshare -r -n -m --propagation private"
 $ns bash -c "
   ip link set lo up; ip link set lo multicast on; ip route add 224.0.0.0/4 dev lo
+  mkdir -p /tmp/fieldline && mount -t tmpfs tmpfs /tmp/fieldline
   export FIELDLINE_ROOT='$root'
   '$bin/fieldline-launch' sim_team --duration 90 --no-table > '$out/launch.log' 2>&1 &
   launcher=\$!

@@ -36,10 +36,12 @@ if [ -n "$share" ]; then
   cat "$share/live/record.log" 2> /dev/null | grep -v '^\[' | tail -n 4
   robots=$(ls "$out/rec/" | sed -n 's/^robot\([0-9]\)\.lcm$/\1/p' | tr '\n' ' ')
 else
-  ns="unshare -n"
-  unshare -n true 2>/dev/null || ns="unshare -rn"
+  # Private network and mount namespaces: its own buses and its own /tmp/fieldline.
+  ns="unshare -n -m --propagation private"
+  $ns true 2>/dev/null || ns="unshare -r -n -m --propagation private"
   $ns bash -c "
     ip link set lo up; ip link set lo multicast on; ip route add 224.0.0.0/4 dev lo
+    mkdir -p /tmp/fieldline && mount -t tmpfs tmpfs /tmp/fieldline
     export FIELDLINE_CLOCK_REFERENCE_US=\$(date +%s%6N)
     '$bin/fieldline-record' --team --robots 1,2,3 -o '$out/rec' > '$out/record.log' 2>&1 &
     recorder=\$!
