@@ -10,8 +10,18 @@
 # SERVICE_STATUS, the camera view from the reduced CAMERA_PREVIEW, and no CAMERA_IMAGE: the
 # frames stay on each robot.
 #
+# In a private mount namespace with its own /tmp/fieldline (the robots' fusion writes its pose file
+# there by default): `ip netns exec` copies it into each machine's namespace, so the robots share
+# it with each other as before, never with a demo running on the host.
+#
 # Usage: laptop_test.sh BUILD/bin SOURCE_ROOT
 set -u
+if [ -z "${FIELDLINE_PRIVATE_MNT:-}" ]; then
+  export FIELDLINE_PRIVATE_MNT=1
+  exec unshare -m --propagation private bash "$0" "$@"
+fi
+mkdir -p /tmp/fieldline && mount -t tmpfs tmpfs /tmp/fieldline ||
+  { echo "FAIL: cannot mount a private /tmp/fieldline"; exit 1; }
 source "$(dirname "$0")/../lib/team_net.sh"
 bin=$1
 root=$2
