@@ -266,7 +266,7 @@ TEST(teamcomm_picture, TheStampTermOfARollingBallCountsOnce) {
 // The stamp term is common to the reporters and says nothing about who sees the ball better: a
 // near robot (1 cm) and a far one (5 cm, 4 cm off) of a ball rolling at 3 m/s are weighed by
 // their own parts. Weighed with the stamp term (9 cm along the velocity with 0.03 s) the far one
-// pulled the team ball a third of the way to it along the velocity.
+// pulled the team ball 1.7 cm of the 4 towards it.
 TEST(teamcomm_picture, ARollingBallIsWeighedWithoutTheCommonStampTerm) {
   PictureOptions options;
   options.ball_stamp_sigma_s = 0.03;
