@@ -28,25 +28,43 @@ double mahalanobis2(const BallCandidate& a, const BallCandidate& b) {
   return mahalanobis2(a.position, a.covariance, b.position, b.covariance);
 }
 
-// Covariance-weighted mean of `members` (information form).
-TeamBallResult fuse(const std::vector<const BallCandidate*>& members) {
+// The part of a candidate's covariance that is its own: without the stamp term that every
+// BALL_STATE carries (fusion's ball.stamp_sigma_s times the velocity, along it), which is common
+// to the reporters. Its smallest variance is kept at `min_variance`.
+Eigen::Matrix2d ownPart(const BallCandidate& c, double stamp2, double min_variance) {
+  const Eigen::Matrix2d own = c.covariance - stamp2 * c.velocity * c.velocity.transpose();
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(0.5 * (own + own.transpose()));
+  const Eigen::Vector2d values = eig.eigenvalues().cwiseMax(min_variance);
+  return eig.eigenvectors() * values.asDiagonal() * eig.eigenvectors().transpose();
+}
+
+// Covariance-weighted mean of `members` (information form), weighted by their own parts
+// (ownPart): the stamp term is common to them, so it neither shrinks by fusing nor says which
+// reporter sees the ball better (a rolling ball's 6 cm along its velocity at 2 m/s made a robot
+// 1-2 m away, 1-2 cm off, weigh as much as one 4-5 m away, 5 cm off). The fused covariance holds
+// the stamp term once, at the fused velocity.
+TeamBallResult fuse(const std::vector<const BallCandidate*>& members, double stamp_sigma_s,
+                    double min_variance) {
   TeamBallResult r;
+  const double stamp2 = stamp_sigma_s * stamp_sigma_s;
   Eigen::Matrix2d information = Eigen::Matrix2d::Zero();
   Eigen::Vector2d weighted = Eigen::Vector2d::Zero();
   Eigen::Vector2d weighted_velocity = Eigen::Vector2d::Zero();
   double velocity_weight = 0.0;
   for (const BallCandidate* c : members) {
-    const Eigen::Matrix2d inv = c->covariance.inverse();
+    const Eigen::Matrix2d own = ownPart(*c, stamp2, min_variance);
+    const Eigen::Matrix2d inv = own.inverse();
     information += inv;
     weighted += inv * c->position;
-    const double w = 1.0 / c->covariance.trace();
+    const double w = 1.0 / own.trace();
     weighted_velocity += w * c->velocity;
     velocity_weight += w;
     r.used.push_back(c->robot_id);
   }
-  r.covariance = information.inverse();
-  r.position = r.covariance * weighted;
+  const Eigen::Matrix2d fused = information.inverse();
+  r.position = fused * weighted;
   r.velocity = weighted_velocity / velocity_weight;
+  r.covariance = fused + stamp2 * r.velocity * r.velocity.transpose();
   r.valid = true;
   return r;
 }
@@ -269,7 +287,7 @@ TeamPicture::Choice TeamPicture::largestConsistentGroup(
         ambiguous += other.twin_ambiguous ? 1 : 0;
       }
     }
-    TeamBallResult fused = fuse(members);
+    TeamBallResult fused = fuse(members, options_.ball_stamp_sigma_s, options_.min_ball_variance);
     const bool continues = agreesWithTrack(fused);
     const auto rank = std::make_tuple(members.size(), continues, -ambiguous);
     const auto best_rank = std::make_tuple(best.size, best.continues, -best_ambiguous);
@@ -331,13 +349,6 @@ perception::TeamState TeamPicture::picture(Utime now, TeamBallResult* team_ball)
   rejectTheOthers(choice, candidates, track, superseded);
   TeamBallResult& best = choice.ball;
   if (best.valid) {
-    // The reporters' stamp errors are common to them: fusing does not shrink that part. Each
-    // BALL_STATE carries it once (fusion's ball.stamp_sigma_s), fusing n of them leaves 1/n of
-    // it: the rest is added back, so that it counts once (it was added whole until 2026-12-06,
-    // twice for a lone reporter: base-match's replay NEES in band 0.767 -> 0.786).
-    const double st2 = options_.ball_stamp_sigma_s * options_.ball_stamp_sigma_s;
-    const double n = static_cast<double>(best.used.size());
-    best.covariance += (1.0 - 1.0 / n) * st2 * best.velocity * best.velocity.transpose();
     std::vector<int> sources = carryTrack(now, best);
     track_ = Track{now, best.position, best.velocity, best.covariance, std::move(sources)};
     s.team_ball_valid = true;

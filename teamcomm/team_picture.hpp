@@ -40,13 +40,11 @@ struct PictureOptions {
   // error (kidnap, hidden_ball: NEES below its band a quarter of the time). m/s.
   double ball_rest_speed_sigma_mps = 0.03;
   double ball_rest_speed_mps = 0.15;
-  // The fused team ball's covariance grows by this squared times its velocity's outer product:
-  // the reporters' stamp errors are common to all of them (fusion's ball.stamp_sigma_s; live
-  // match at 2-3 m/s: the team ball 9 cm off like each own ball), so fusing does not shrink
-  // that part (each reporter's BALL_STATE carries the same term: counted about 1 + 1/n times
-  // for n reporters, a first cut while the match's team ball is still too confident at speed).
-  // 0: off, s.
-  double ball_stamp_sigma_s = 0.03;
+  // Every BALL_STATE's covariance holds this squared times its velocity's outer product (fusion's
+  // ball.stamp_sigma_s, which this must equal): the stamps' error, taken as common to the
+  // reporters. The team ball weighs its reporters without it (it says nothing about who sees
+  // the ball better) and holds it once (fusing does not shrink it). 0: off, s.
+  double ball_stamp_sigma_s = 0.01;
   // Floor of a ball's sigma along its reporter's line of sight: this times the range squared,
   // m per m^2 (a pixel's footprint on the floor grows with the range squared). Fusion's filter
   // shrinks a ball's covariance with every frame as if each frame's error were new, but a robot

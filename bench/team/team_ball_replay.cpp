@@ -138,6 +138,10 @@ struct ReplayOptions {
     app.add_option("--min-ball-variance", picture.min_ball_variance,
                    "Floor of a ball's position variance, m^2")
         ->capture_default_str();
+    app.add_option("--stamp-sigma", picture.ball_stamp_sigma_s,
+                   "The stamp term every BALL_STATE carries, common to the reporters (fusion's "
+                   "ball.stamp_sigma_s), s")
+        ->capture_default_str();
     app.add_option("--carry-track", picture.carry_track,
                    "Combine the previous team ball with each picture's (covariance intersection)")
         ->capture_default_str();

@@ -40,9 +40,14 @@ struct BallFilterParams {
   bool rest_holds_place = true;
   // The reported covariance (not the filter's) grows by this squared times the velocity's outer
   // product: a rolling ball's place at a stamp is uncertain by its speed times the stamps'
-  // uncertainty (exposure, the pose's time, the bus). Rolling at 2-3 m/s the sightings were 9 cm
-  // off against a 3 cm sigma (live match). 0: off, s.
-  double stamp_sigma_s = 0.03;
+  // uncertainty (exposure, the pose's time, the bus). 10 ms: the same frames' stamps are 8 ms
+  // uncertain for the line corrections (localizer correction_stamp_sigma_s), a camera stamped
+  // on receipt jitters by the host's load, and the match's rolling balls seen from under 3 m are
+  // off by 3-8 ms times their speed (median; docs/log/2026-12-07-session13-teamball.md). 30 ms
+  // until 2026-12-07 came from the simulator's frames rendered at a stale pose (9 cm at 2-3 m/s);
+  // with them fixed it was 3-5 times the rolling balls' errors (team NEES 12-24 % below the
+  // band). 0: off, s.
+  double stamp_sigma_s = 0.01;
   // The estimate is invalid after this long without a sighting, s.
   double max_age_s = 0.5;
   // Squared Mahalanobis distance (2 dof) beyond which a sighting is an outlier.

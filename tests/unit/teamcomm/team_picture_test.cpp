@@ -149,7 +149,11 @@ TEST(teamcomm_picture, ARestingBallIsPredictedWithTheRestingModel) {
   ASSERT_TRUE(s.team_ball_valid);
   const double grown = 0.03 * 0.2;
   const double one = 0.005 * 0.005 + grown * grown;
-  EXPECT_NEAR(s.team_ball_covariance(0, 0), 0.5 * one + 0.5 * 0.0009 * 0.05 * 0.05, 1e-12);
+  // Each report's covariance is taken to hold the stamp term (st v)^2 along the velocity: the
+  // own parts are fused, the term is held once.
+  const double st = PictureOptions{}.ball_stamp_sigma_s;
+  const double stamp = st * st * 0.05 * 0.05;
+  EXPECT_NEAR(s.team_ball_covariance(0, 0), 0.5 * (one - stamp) + stamp, 1e-12);
   EXPECT_NEAR(s.team_ball_covariance(1, 1), 0.5 * one, 1e-12);
   // Rolling at 0.5 m/s the same report grows by 0.3 m/s.
   for (int id = 2; id <= 3; ++id) {
@@ -257,6 +261,35 @@ TEST(teamcomm_picture, TheStampTermOfARollingBallCountsOnce) {
   const double fused_independent = 0.5 * 0.01 * 0.01;
   EXPECT_NEAR(ball.covariance(0, 0), fused_independent + stamp(0, 0), 0.05 * stamp(0, 0));
   EXPECT_NEAR(ball.covariance(1, 1), fused_independent, 1e-6);
+}
+
+// The stamp term is common to the reporters and says nothing about who sees the ball better: a
+// near robot (1 cm) and a far one (5 cm, 4 cm off) of a ball rolling at 3 m/s are weighed by
+// their own parts. Weighed with the stamp term (9 cm along the velocity with 0.03 s) the far one
+// pulled the team ball 1.7 cm of the 4 towards it.
+TEST(teamcomm_picture, ARollingBallIsWeighedWithoutTheCommonStampTerm) {
+  PictureOptions options;
+  options.ball_stamp_sigma_s = 0.03;
+  const Eigen::Vector2d v(3.0, 0.0);
+  const Eigen::Matrix2d stamp = 0.03 * 0.03 * v * v.transpose();
+  const auto rolling = [&](double robot_x, double ball_x, double sigma) {
+    Report r = report(robot_x, 0.0, kT0);
+    r.robot.vx = 1.0;  // moving: no static view
+    seeBall(r, ball_x, 0.0, sigma, v.x(), v.y());
+    r.ball.covariance += stamp;
+    return r;
+  };
+  TeamPicture picture(1, options);
+  picture.setReport(1, rolling(1.0, 2.0, 0.01));
+  picture.setReport(2, rolling(6.0, 2.04, 0.05));
+  TeamBallResult ball;
+  picture.picture(kT0, &ball);
+  ASSERT_TRUE(ball.valid);
+  ASSERT_EQ(ball.used.size(), 2u);
+  // Own parts 1 cm and 5 cm: weights 25 to 1, 1.5 mm towards the far one.
+  EXPECT_NEAR(ball.position.x(), 2.0 + 0.04 / 26.0, 1e-4);
+  // The fused own part plus the stamp term once.
+  EXPECT_NEAR(ball.covariance(0, 0), 1.0 / (1.0 / 1e-4 + 1.0 / 25e-4) + stamp(0, 0), 1e-6);
 }
 
 // twin_kidnap (config/scenarios): robot 3 is carried onto its symmetric twin, keeps its pose by
