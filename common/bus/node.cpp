@@ -259,6 +259,22 @@ void Node::subscribeRaw(const std::string& channel, BusId bus, RawHandler handle
   subscriptions_.push_back(std::move(sub));
 }
 
+void Node::subscribeImage(Channel<image_t> channel, std::function<void(const ImageView&)> handler,
+                          BusId bus) {
+  const std::string name(channel.name);
+  checkDeclaredInput(name);
+  subscribeRaw(name, bus,
+               [this, name, handler = std::move(handler), view = ImageView{}, slot = -1](
+                   const void* data, int size) mutable {
+                 if (auto rejection = decodeCheckedView(view, data, size)) {
+                   reject(name, rejection->kind, rejection->text);
+                   return;
+                 }
+                 if (!acceptHeader(name, slot, view.fields.header)) return;
+                 timed([&] { handler(view); });
+               });
+}
+
 void Node::deferLastSubscription() {
   Subscription& sub = *subscriptions_.back();
   auto& impl = *sub.connection->impl_;
