@@ -26,30 +26,33 @@ template <typename Msg>
 struct Channel {
   using Message = Msg;
   std::string_view name;
+  // Its place in kAllChannelNames below (-1: a name outside the table): the node finds its
+  // sequence numbers and statistics by it, without comparing names per message.
+  int index = -1;
 };
 
 namespace channels {
 // Robot bus (one per robot).
-inline constexpr Channel<image_t> kCameraImage{"CAMERA_IMAGE"};
+inline constexpr Channel<image_t> kCameraImage{"CAMERA_IMAGE", 0};
 // The camera's reduced stream for a viewer on another machine (every kCameraPreviewScale-th pixel
 // of every kCameraPreviewScale-th row, a few frames a second): CAMERA_IMAGE never leaves the
 // robot, this does when the bus has a ttl (docs/launch.md, "Watching from a laptop").
-inline constexpr Channel<image_t> kCameraPreview{"CAMERA_PREVIEW"};
-inline constexpr Channel<line_contours_t> kVisionLines{"VISION_LINES"};
-inline constexpr Channel<ball_observation_t> kVisionBall{"VISION_BALL"};
-inline constexpr Channel<obstacle_observations_t> kVisionObstacles{"VISION_OBSTACLES"};
-inline constexpr Channel<field_features_t> kFieldFeatures{"FIELD_FEATURES"};
-inline constexpr Channel<odometry_t> kOdometry{"ODOMETRY"};
-inline constexpr Channel<motion_command_t> kMotionCommand{"MOTION_COMMAND"};
-inline constexpr Channel<robot_state_t> kRobotState{"ROBOT_STATE"};
-inline constexpr Channel<ball_state_t> kBallState{"BALL_STATE"};
-inline constexpr Channel<team_state_t> kTeamState{"TEAM_STATE"};
+inline constexpr Channel<image_t> kCameraPreview{"CAMERA_PREVIEW", 13};
+inline constexpr Channel<line_contours_t> kVisionLines{"VISION_LINES", 1};
+inline constexpr Channel<ball_observation_t> kVisionBall{"VISION_BALL", 2};
+inline constexpr Channel<obstacle_observations_t> kVisionObstacles{"VISION_OBSTACLES", 3};
+inline constexpr Channel<field_features_t> kFieldFeatures{"FIELD_FEATURES", 4};
+inline constexpr Channel<odometry_t> kOdometry{"ODOMETRY", 5};
+inline constexpr Channel<motion_command_t> kMotionCommand{"MOTION_COMMAND", 6};
+inline constexpr Channel<robot_state_t> kRobotState{"ROBOT_STATE", 7};
+inline constexpr Channel<ball_state_t> kBallState{"BALL_STATE", 8};
+inline constexpr Channel<team_state_t> kTeamState{"TEAM_STATE", 9};
 // Every bus, from every process.
-inline constexpr Channel<service_status_t> kServiceStatus{"SERVICE_STATUS"};
+inline constexpr Channel<service_status_t> kServiceStatus{"SERVICE_STATUS", 10};
 // Simulator bus only: ground truth.
-inline constexpr Channel<world_state_t> kSimWorld{"SIM_WORLD"};
+inline constexpr Channel<world_state_t> kSimWorld{"SIM_WORLD", 11};
 // Recordings only (never on a bus): what fieldline-record writes into each file about it.
-inline constexpr Channel<recording_info_t> kRecordingInfo{"RECORDING_INFO"};
+inline constexpr Channel<recording_info_t> kRecordingInfo{"RECORDING_INFO", 12};
 }  // namespace channels
 
 // CAMERA_PREVIEW's width and height are CAMERA_IMAGE's divided by this.
@@ -63,6 +66,27 @@ inline constexpr std::array<std::string_view, 14> kAllChannelNames{
     channels::kMotionCommand.name,   channels::kRobotState.name,    channels::kBallState.name,
     channels::kTeamState.name,       channels::kServiceStatus.name, channels::kSimWorld.name,
     channels::kRecordingInfo.name,   channels::kCameraPreview.name};
+
+// The place of `name` in kAllChannelNames, or -1.
+constexpr int channelIndex(std::string_view name) {
+  for (std::size_t i = 0; i < kAllChannelNames.size(); ++i)
+    if (kAllChannelNames[i] == name) return static_cast<int>(i);
+  return -1;
+}
+static_assert(channelIndex(channels::kCameraImage.name) == channels::kCameraImage.index &&
+              channelIndex(channels::kVisionLines.name) == channels::kVisionLines.index &&
+              channelIndex(channels::kVisionBall.name) == channels::kVisionBall.index &&
+              channelIndex(channels::kVisionObstacles.name) == channels::kVisionObstacles.index &&
+              channelIndex(channels::kFieldFeatures.name) == channels::kFieldFeatures.index &&
+              channelIndex(channels::kOdometry.name) == channels::kOdometry.index &&
+              channelIndex(channels::kMotionCommand.name) == channels::kMotionCommand.index &&
+              channelIndex(channels::kRobotState.name) == channels::kRobotState.index &&
+              channelIndex(channels::kBallState.name) == channels::kBallState.index &&
+              channelIndex(channels::kTeamState.name) == channels::kTeamState.index &&
+              channelIndex(channels::kServiceStatus.name) == channels::kServiceStatus.index &&
+              channelIndex(channels::kSimWorld.name) == channels::kSimWorld.index &&
+              channelIndex(channels::kRecordingInfo.name) == channels::kRecordingInfo.index &&
+              channelIndex(channels::kCameraPreview.name) == channels::kCameraPreview.index);
 
 // The rate each channel is published at in normal operation (docs: the channel table), Hz; 0 for
 // channels without a fixed rate. A process requires its inputs at a fraction of this

@@ -77,6 +77,44 @@ std::string_view typeWithFingerprint(std::int64_t fingerprint) {
 
 }  // namespace detail
 
+std::optional<Rejection> decodeCheckedView(ImageView& out, const void* data, int size) {
+  // What image_t::decode reads, in its order (lcmtypes/image_t.lcm), but the pixels: a change of
+  // the type changes its fingerprint, and this then refuses every message to the decoder below.
+  image_t& m = out.fields;
+  const int n = size;
+  int pos = 0;
+  const auto read = [&](int used) {
+    if (used < 0) return false;
+    pos += used;
+    return true;
+  };
+  std::int64_t hash = 0;
+  const bool fast = n >= 0 && read(__int64_t_decode_array(data, 0, n, &hash, 1)) &&
+                    hash == image_t::getHash() &&
+                    read(m.header._decodeNoHash(data, pos, n - pos)) &&
+                    read(__int32_t_decode_array(data, pos, n - pos, &m.width, 1)) &&
+                    read(__int32_t_decode_array(data, pos, n - pos, &m.height, 1)) &&
+                    read(__int32_t_decode_array(data, pos, n - pos, &m.stride, 1)) &&
+                    read(__int8_t_decode_array(data, pos, n - pos, &m.format, 1)) &&
+                    read(__int8_t_decode_array(data, pos, n - pos, &m.source, 1)) &&
+                    read(__int64_t_decode_array(data, pos, n - pos, &m.frame_number, 1)) &&
+                    read(__int32_t_decode_array(data, pos, n - pos, &m.exposure_us, 1)) &&
+                    read(__int32_t_decode_array(data, pos, n - pos, &m.size, 1)) && m.size >= 0 &&
+                    m.size == n - pos;
+  if (!fast) {
+    // Not a whole image_t: the decoder's own verdict, kind and text (or, should it read one,
+    // the message as it reads it).
+    if (auto rejection = decodeChecked(m, data, size)) return rejection;
+    out.data = std::span<const std::uint8_t>(m.data);
+    return std::nullopt;
+  }
+  m.data.clear();
+  if (auto problem = validateImageFields(m)) return Rejection{"invalid", *problem};
+  out.data = std::span<const std::uint8_t>(static_cast<const std::uint8_t*>(data) + pos,
+                                           static_cast<std::size_t>(m.size));
+  return std::nullopt;
+}
+
 std::optional<Rejection> checkNotFromFuture(const header_t& header, Utime now, Utime tolerance) {
   // In long double: a log's stamp or a header may be near INT64_MAX, where now + tolerance and
   // utime - now overflow (a log stamp of INT64_MAX read as "-9221575747911036 ms in the future").

@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <exception>
 #include <optional>
+#include <span>
 #include <string>
 #include <string_view>
 
@@ -54,6 +55,18 @@ std::optional<Rejection> decodeChecked(Msg& msg, const void* data, int size) {
   if (auto problem = validate(msg)) return Rejection{"invalid", *problem};
   return std::nullopt;
 }
+
+// CAMERA_IMAGE without its pixels copied: every field of the message but `data`, and a view of
+// the pixel bytes where they arrived (the receive buffer, valid while the handler runs).
+struct ImageView {
+  // `data` is left empty (unless the message could only be read by image_t's own decoder).
+  image_t fields;
+  std::span<const std::uint8_t> data;
+};
+
+// decodeChecked() for an image_t into an ImageView: the same checks with the same outcome (a
+// rejection is decodeChecked's, with its kind and text), but the pixels are not copied.
+std::optional<Rejection> decodeCheckedView(ImageView& out, const void* data, int size);
 
 // A message stamped more than `tolerance` after `now` describes something that has not happened.
 std::optional<Rejection> checkNotFromFuture(const header_t& header, Utime now, Utime tolerance);

@@ -183,6 +183,7 @@ Node::Node(NodeOptions options, const Clock& clock, std::shared_ptr<Connection> 
       clock_(clock),
       status_(options_.process, options_.robot_id, clock.now()),
       next_status_(clock.monotonicNow() + options_.status_period_us) {
+  outlet_by_index_.fill(-1);
   if (options_.url.empty()) options_.url = primary->url();
   buses_.push_back(std::move(primary));
   status_.setRateGrace(options_.input_grace_us);
@@ -258,6 +259,22 @@ void Node::subscribeRaw(const std::string& channel, BusId bus, RawHandler handle
   subscriptions_.push_back(std::move(sub));
 }
 
+void Node::subscribeImage(Channel<image_t> channel, std::function<void(const ImageView&)> handler,
+                          BusId bus) {
+  const std::string name(channel.name);
+  checkDeclaredInput(name);
+  subscribeRaw(name, bus,
+               [this, name, handler = std::move(handler), view = ImageView{}, slot = -1](
+                   const void* data, int size) mutable {
+                 if (auto rejection = decodeCheckedView(view, data, size)) {
+                   reject(name, rejection->kind, rejection->text);
+                   return;
+                 }
+                 if (!acceptHeader(name, slot, view.fields.header)) return;
+                 timed([&] { handler(view); });
+               });
+}
+
 void Node::deferLastSubscription() {
   Subscription& sub = *subscriptions_.back();
   auto& impl = *sub.connection->impl_;
@@ -272,6 +289,14 @@ void Node::deferLastSubscription() {
 }
 
 void Node::drainDeferred() {
+  // Not again from inside a deferred handler (handleDeferred() there): the inner read would
+  // reuse the buffers of the batch being handled and hand newer messages on before its rest.
+  if (draining_deferred_) return;
+  draining_deferred_ = true;
+  struct Done {
+    bool& flag;
+    ~Done() { flag = false; }
+  } done{draining_deferred_};
   for (std::size_t i = 0; i < buses_.size(); ++i) {
     Connection::Impl& impl = *buses_[i]->impl_;
     if (!impl.deferred_receiver || impl.deferred_receiver->fd() < 0) continue;
@@ -293,10 +318,30 @@ void Node::checkDeclaredInput(const std::string& channel) const {
   }
 }
 
-bool Node::declaredOutput(const std::string& channel) {
-  if (!io_ || io_->writesChannel(channel)) return true;
+Node::Outlet& Node::outlet(std::string_view channel, int index) {
+  const bool indexed = index >= 0 && static_cast<std::size_t>(index) < outlet_by_index_.size();
+  if (indexed && outlet_by_index_[static_cast<std::size_t>(index)] >= 0) {
+    return outlets_[static_cast<std::size_t>(outlet_by_index_[static_cast<std::size_t>(index)])];
+  }
+  auto it = std::find_if(outlets_.begin(), outlets_.end(),
+                         [&](const Outlet& o) { return o.name == channel; });
+  if (it == outlets_.end()) {
+    outlets_.push_back(Outlet{.name = std::string(channel)});
+    it = outlets_.end() - 1;
+  }
+  if (indexed)
+    outlet_by_index_[static_cast<std::size_t>(index)] = static_cast<int>(it - outlets_.begin());
+  return *it;
+}
+
+bool Node::declaredOutput(Outlet& out) {
+  if (out.declared_for != io_count_) {
+    out.declared = !io_ || io_->writesChannel(out.name);
+    out.declared_for = io_count_;
+  }
+  if (out.declared) return true;
   reportError("undeclared_output",
-              channel + ": not among the outputs of " + options_.process + "'s declaration");
+              out.name + ": not among the outputs of " + options_.process + "'s declaration");
   return false;
 }
 
@@ -320,6 +365,7 @@ void Node::declareIo(ProcessIo io) {
     }
   }
   io_ = std::move(io);
+  ++io_count_;
 }
 
 void Node::subscribeAllRaw(
@@ -328,31 +374,22 @@ void Node::subscribeAllRaw(
   subscribeRaw(".*", bus, nullptr, std::move(handler));
 }
 
-std::int64_t& Node::nextSeq(const std::string& channel) {
-  auto it = std::find_if(next_seq_.begin(), next_seq_.end(),
-                         [&](const auto& p) { return p.first == channel; });
-  if (it == next_seq_.end()) {
-    next_seq_.emplace_back(channel, 0);
-    it = next_seq_.end() - 1;
-  }
-  return it->second;
-}
-
-void Node::stampHeader(const std::string& channel, header_t& header) {
-  header.seq = nextSeq(channel);
+void Node::stampHeader(const Outlet& out, header_t& header) {
+  header.seq = out.next_seq;
   header.robot_id = static_cast<std::int8_t>(options_.robot_id);
   header.publisher_id = publisher_id_;
   header.utime_published = clock_.now();
 }
 
-bool Node::publishRaw(const std::string& channel, const header_t& header, BusId bus) {
-  const int rc = connection(bus).impl_->lcm.publish(channel, encode_buffer_.data(),
+bool Node::publishRaw(Outlet& out, const header_t& header, BusId bus) {
+  const int rc = connection(bus).impl_->lcm.publish(out.name, encode_buffer_.data(),
                                                     static_cast<unsigned>(encode_buffer_.size()));
   if (rc != 0) {
-    reportError("publish", channel + ": LCM publish failed (" + std::to_string(rc) + ")");
+    reportError("publish", out.name + ": LCM publish failed (" + std::to_string(rc) + ")");
     return false;
   }
-  status_.onPublished(channel, header.utime, header.utime_published);
+  if (out.status_slot < 0) out.status_slot = status_.slot(out.name, Direction::kOut);
+  status_.onPublishedAt(out.status_slot, header.utime, header.utime_published);
   return true;
 }
 
@@ -363,7 +400,7 @@ bool Node::publishEncoded(std::string_view channel, const void* data, int size, 
   return rc == 0;
 }
 
-bool Node::acceptHeader(const std::string& channel, const header_t& header) {
+bool Node::acceptHeader(const std::string& channel, int& slot, const header_t& header) {
   const Utime now = clock_.now();
   // Differences of untrusted int64 stamps can overflow: compare in long double.
   const auto ms = [](long double us) { return static_cast<double>(us / 1000.0L); };
@@ -410,7 +447,8 @@ bool Node::acceptHeader(const std::string& channel, const header_t& header) {
                           .utime = header.utime,
                           .utime_published = header.utime_published};
   if (one_publisher) {
-    status_.onReceived(channel, received, receiver_now, true);
+    if (slot < 0) slot = status_.slot(channel, Direction::kIn);
+    status_.onReceivedAt(slot, received, receiver_now, true);
   } else {
     status_.onReceived(channel, header.robot_id, header.seq, header.utime, header.utime_published,
                        false);
@@ -577,15 +615,15 @@ int Node::spinOnce(int timeout_ms) {
   int handled = 0;
   const int ready = ::poll(fds.data(), fds.size(), std::max(0, timeout_ms));
   if (ready > 0) {
-    bool drained = false;
+    // What was deferred came first: the deferred sockets are read after each batch of a bus's
+    // datagrams is read and before it is handled, so every deferred message that arrived before
+    // one of the batch is handled before it. (Read once before the bus, as until session 13, a
+    // deferred message that came between the two reads went after the batch's newer messages,
+    // and a watch callback's handleDeferred() then handled it after them.)
+    const UdpmReceiver::BatchFn drain = [this] { drainDeferred(); };
     for (std::size_t i = 0; i < buses_.size(); ++i) {
       if (!(fds[i].revents & POLLIN)) continue;
       Connection::Impl& impl = *buses_[i]->impl_;
-      // What was deferred came first: its handlers run before this bus's newer messages.
-      if (!drained && impl.deferred_receiver) {
-        drainDeferred();
-        drained = true;
-      }
       // Drain what is queued on this bus, bounded so timers and status still run under a flood.
       if (impl.receiver) {
         handled += impl.receiver->receive(
@@ -595,7 +633,8 @@ int Node::spinOnce(int timeout_ms) {
             },
             [this, i](const char* kind, const std::string& text) {
               onBusProblem(static_cast<BusId>(i), kind, text);
-            });
+            },
+            impl.deferred_receiver ? &drain : nullptr);
         continue;
       }
       for (int n = 0; n < kMaxMessagesPerSpin && impl.lcm.handleTimeout(0) > 0; ++n) {

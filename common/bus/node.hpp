@@ -25,6 +25,7 @@
 #pragma once
 
 #include <poll.h>
+#include <array>
 #include <atomic>
 #include <cstdint>
 #include <functional>
@@ -124,27 +125,35 @@ class Node {
     const std::string name(channel.name);
     checkDeclaredInput(name);
     // The message object is reused, so big messages (images) decode without allocating; the
-    // generated decoders are hardened to resize every array (cmake/harden_lcm_decode.py).
+    // generated decoders are hardened to resize every array (cmake/harden_lcm_decode.py). The
+    // channel's statistics are found once (`slot`), not by name per message.
     subscribeRaw(name, bus,
-                 [this, name, handler = std::move(handler), msg = Msg{}](const void* data,
-                                                                         int size) mutable {
+                 [this, name, handler = std::move(handler), msg = Msg{}, slot = -1](
+                     const void* data, int size) mutable {
                    // The same checks as a log's events get (checked_decode.hpp).
                    if (auto rejection = decodeChecked(msg, data, size)) {
                      reject(name, rejection->kind, rejection->text);
                      return;
                    }
-                   if (!acceptHeader(name, msg.header)) return;
+                   if (!acceptHeader(name, slot, msg.header)) return;
                    timed([&] { handler(msg); });
                  });
   }
 
+  // As subscribe(), for images whose pixels the handler reads only while it runs: the same checks,
+  // statuses and rejections, but the pixels are not copied out of the receive buffer (ImageView,
+  // checked_decode.hpp). Region tracking's CAMERA_IMAGE: a copy of 150 KB a frame less (issue 32).
+  void subscribeImage(Channel<image_t> channel, std::function<void(const ImageView&)> handler,
+                      BusId bus = kPrimaryBus);
+
   // As subscribe(), but the node does not wake for the channel: on a udpm bus its messages wait
   // in a socket of their own and are handled, in their order, before the node's next timer or
-  // status and before its next message of another channel on that bus (other buses' messages and
-  // watched fds do not wait for them). For an input only the newest of which matters when the
-  // node next acts (the pilot's pose at its next command): a wake-up less per message (issue 32).
-  // Its header checks and status stamps use the time it is handled. Other providers (memq://):
-  // the same as subscribe().
+  // status and before every message of another channel on that bus that arrived after them (the
+  // deferred socket is read after each batch of the bus's datagrams, before the batch is
+  // handled; other buses' messages and watched fds do not wait for them). For an input only the
+  // newest of which matters when the node next acts (the pilot's pose at its next command): a
+  // wake-up less per message (issue 32). Its header checks and status stamps use the time it is
+  // handled. Other providers (memq://): the same as subscribe().
   template <typename Msg>
   void subscribeDeferred(Channel<Msg> channel,
                          std::type_identity_t<std::function<void(const Msg&)>> handler,
@@ -163,22 +172,24 @@ class Node {
   // An invalid message (NaN, bad sizes) is counted as an error and not sent; returns false then.
   template <typename Msg>
   bool publish(Channel<Msg> channel, Msg& msg, BusId bus = kPrimaryBus) {
-    const std::string name(channel.name);
-    if (!declaredOutput(name)) return false;
-    stampHeader(name, msg.header);
+    // Found by the channel's index (or, for a name outside the table, by name): no string is
+    // made or compared per message (issue 32).
+    Outlet& out = outlet(channel.name, channel.index);
+    if (!declaredOutput(out)) return false;
+    stampHeader(out, msg.header);
     if (auto problem = validate(msg)) {
-      reportError("invalid_output", name + ": " + *problem);
+      reportError("invalid_output", out.name + ": " + *problem);
       return false;
     }
     // Only a message that goes out uses up its seq number: receivers count gaps as losses.
-    ++nextSeq(name);
+    ++out.next_seq;
     const int size = msg.getEncodedSize();
     encode_buffer_.resize(static_cast<std::size_t>(size));
     if (msg.encode(encode_buffer_.data(), 0, size) != size) {
-      reportError("encode", name + ": encoding failed");
+      reportError("encode", out.name + ": encoding failed");
       return false;
     }
-    return publishRaw(name, msg.header, bus);
+    return publishRaw(out, msg.header, bus);
   }
 
   // Publishes already-encoded bytes unchanged (log replay, forwarding, tests of bad input).
@@ -204,7 +215,9 @@ class Node {
   // Safe from inside any callback; false for an id that is no longer set.
   bool cancelTimer(TimerId id);
   // Handles now what waits for the deferred subscriptions (subscribeDeferred), as the loop does
-  // before a timer: for a watched fd's callback that acts on their newest messages.
+  // before a timer: for a watched fd's callback that acts on their newest messages. What it
+  // handles arrived after every message the node has handled on that bus; from inside a deferred
+  // handler it does nothing (the batch being handled comes first).
   void handleDeferred() { drainDeferred(); }
 
   using WatchId = int;
@@ -295,13 +308,25 @@ class Node {
   void deferLastSubscription();
   // Handles what waits in the buses' deferred sockets.
   void drainDeferred();
+  // A channel this node publishes: its name (made once), next seq, statistics' slot and whether
+  // the declaration lists it.
+  struct Outlet {
+    std::string name;
+    std::int64_t next_seq = 0;
+    // StatusCollector::slot, made at the first message that goes out (-1 before).
+    int status_slot = -1;
+    // declareIo's count when `declared` was found (-1: never).
+    int declared_for = -1;
+    bool declared = true;
+  };
+  Outlet& outlet(std::string_view channel, int index);
   void checkDeclaredInput(const std::string& channel) const;
-  bool declaredOutput(const std::string& channel);
-  bool publishRaw(const std::string& channel, const header_t& header, BusId bus);
+  bool declaredOutput(Outlet& out);
+  bool publishRaw(Outlet& out, const header_t& header, BusId bus);
   // Fills seq (without using it up), robot_id and utime_published.
-  void stampHeader(const std::string& channel, header_t& header);
-  std::int64_t& nextSeq(const std::string& channel);
-  bool acceptHeader(const std::string& channel, const header_t& header);
+  void stampHeader(const Outlet& out, header_t& header);
+  // `slot`: the channel's StatusCollector::slot, found at its first accepted message (-1 before).
+  bool acceptHeader(const std::string& channel, int& slot, const header_t& header);
   void reject(const std::string& channel, const std::string& kind, const std::string& text);
   void timed(const std::function<void()>& fn);
   void fireTimers();
@@ -322,7 +347,13 @@ class Node {
   WatchId next_watch_id_ = 1;
   std::vector<pollfd> poll_fds_;
   std::vector<WatchId> poll_watch_ids_;
-  std::vector<std::pair<std::string, std::int64_t>> next_seq_;
+  // In the order first published; by a channel's index in kAllChannelNames (-1: none yet).
+  std::vector<Outlet> outlets_;
+  std::array<int, kAllChannelNames.size()> outlet_by_index_;
+  // Declarations made (declareIo).
+  int io_count_ = 0;
+  // drainDeferred() is running.
+  bool draining_deferred_ = false;
   std::vector<std::uint8_t> encode_buffer_;
   StatusCollector status_;
   // Monotonic time of the next SERVICE_STATUS.

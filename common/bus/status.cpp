@@ -27,15 +27,15 @@ Percentiles percentiles(std::vector<float>& s) {
 StatusCollector::StatusCollector(std::string process, int robot_id, Utime start)
     : process_(std::move(process)), robot_id_(robot_id), start_(start), period_start_(start) {}
 
-ChannelStats& StatusCollector::stats(const std::string& name, Direction d) {
-  for (auto& c : channels_) {
-    if (c.name == name && c.direction == d) return c;
+int StatusCollector::slot(std::string_view name, Direction d) {
+  for (std::size_t i = 0; i < channels_.size(); ++i) {
+    if (channels_[i].name == name && channels_[i].direction == d) return static_cast<int>(i);
   }
   ChannelStats c;
-  c.name = name;
+  c.name = std::string(name);
   c.direction = d;
   channels_.push_back(std::move(c));
-  return channels_.back();
+  return static_cast<int>(channels_.size() - 1);
 }
 
 const ChannelStats* StatusCollector::channel(const std::string& name, Direction d) const {
@@ -86,7 +86,12 @@ std::string suspiciousText(const std::string& channel, const PublisherTrack& p,
 
 void StatusCollector::onReceived(const std::string& channel, const Received& m, Utime now,
                                  bool single_publisher) {
-  ChannelStats& c = stats(channel, Direction::kIn);
+  onReceivedAt(slot(channel, Direction::kIn), m, now, single_publisher);
+}
+
+void StatusCollector::onReceivedAt(int slot, const Received& m, Utime now, bool single_publisher) {
+  ChannelStats& c = channels_[static_cast<std::size_t>(slot)];
+  const std::string& channel = c.name;
   ++c.total;
   ++c.in_period;
   c.last_message = now;
@@ -158,7 +163,11 @@ void StatusCollector::onRejected(const std::string& channel) {
 }
 
 void StatusCollector::onPublished(const std::string& channel, Utime utime, Utime utime_published) {
-  ChannelStats& c = stats(channel, Direction::kOut);
+  onPublishedAt(slot(channel, Direction::kOut), utime, utime_published);
+}
+
+void StatusCollector::onPublishedAt(int slot, Utime utime, Utime utime_published) {
+  ChannelStats& c = channels_[static_cast<std::size_t>(slot)];
   ++c.total;
   ++c.in_period;
   c.latency_ms.push_back(static_cast<float>(utime_published - utime) / 1000.0f);

@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <map>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include <fieldline/service_status_t.hpp>
@@ -91,6 +92,11 @@ class StatusCollector {
   // at the same time puts the process into STATE_ERROR naming both.
   void onReceived(const std::string& channel, const Received& message, Utime now,
                   bool single_publisher);
+  // The place of a channel's statistics in one direction, made on first use as every function
+  // here makes it: a caller that keeps it counts each message by it (onReceivedAt,
+  // onPublishedAt) without looking the channel up by name (bus::Node, issue 32).
+  int slot(std::string_view channel, Direction d);
+  void onReceivedAt(int slot, const Received& message, Utime now, bool single_publisher);
   // Declares that the process needs `channel` (an input, or an output for a flow the process
   // produces from a device) at `min_rate_hz` or more; below it for longer than `grace_us` the
   // state is STATE_WARN with the reason.
@@ -105,6 +111,7 @@ class StatusCollector {
   void onRejected(const std::string& channel);
   // A published message.
   void onPublished(const std::string& channel, Utime utime, Utime utime_published);
+  void onPublishedAt(int slot, Utime utime, Utime utime_published);
   void onProcessing(double ms);
   void onError(const std::string& kind, const std::string& text, Utime when);
   void setMetric(const std::string& name, double value);
@@ -123,7 +130,9 @@ class StatusCollector {
   const std::string& lastError() const { return last_error_; }
 
  private:
-  ChannelStats& stats(const std::string& name, Direction d);
+  ChannelStats& stats(std::string_view name, Direction d) {
+    return channels_[static_cast<std::size_t>(slot(name, d))];
+  }
 
   std::string process_;
   int robot_id_;

@@ -259,7 +259,7 @@ int UdpmReceiver::handle(const std::uint8_t* data, std::size_t size, const socka
 }
 
 int UdpmReceiver::receive(int max_datagrams, std::int64_t now_us, const MessageFn& on_message,
-                          const ProblemFn& on_problem) {
+                          const ProblemFn& on_problem, const BatchFn* before_batch) {
   if (fd_ < 0) return 0;
   now_us_ = now_us;
   expireSenders(on_problem);
@@ -288,6 +288,7 @@ int UdpmReceiver::receive(int max_datagrams, std::int64_t now_us, const MessageF
     }
     ++batches_;
     read += got;
+    if (before_batch) (*before_batch)();
     for (int i = 0; i < got; ++i) {
       handed_on += handle(static_cast<const std::uint8_t*>(vectors[i].iov_base), headers[i].msg_len,
                           senders[i], on_message, on_problem);

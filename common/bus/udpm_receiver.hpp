@@ -70,11 +70,17 @@ class UdpmReceiver {
   // The socket to wait on, or -1 while nothing is subscribed (publish-only: no socket at all).
   int fd() const { return fd_; }
 
+  // Called after a batch of datagrams is read and before any of it is handled.
+  using BatchFn = std::function<void()>;
+
   // Reads up to `max_datagrams` waiting datagrams without blocking and hands every complete
   // message of a channel it reads to `on_message`. Returns the number of messages handed on.
   // `now_us` is a monotonic time (Clock::monotonicNow): when the senders below were last seen.
+  // `before_batch` (if given) runs after each read that returned datagrams, before they are
+  // handled: bus::Node handles its deferred socket there, so that a deferred message that
+  // arrived before one of the batch is handled before it.
   int receive(int max_datagrams, std::int64_t now_us, const MessageFn& on_message,
-              const ProblemFn& on_problem);
+              const ProblemFn& on_problem, const BatchFn* before_batch = nullptr);
 
   // Datagrams read from the socket since it was opened (what the process woke for).
   std::int64_t datagrams() const { return datagrams_; }

@@ -82,6 +82,11 @@ std::optional<std::string> validate(const header_t& h) {
 }
 
 std::optional<std::string> validate(const image_t& m) {
+  if (auto p = validateImageFields(m)) return p;
+  return Sized("size", m.size)("data", m.data).result();
+}
+
+std::optional<std::string> validateImageFields(const image_t& m) {
   if (auto p = validate(m.header)) return p;
   if (m.width <= 0 || m.height <= 0 || m.width > 8192 || m.height > 8192) {
     return fmt::format("image size {}x{} is not plausible", m.width, m.height);
@@ -107,7 +112,7 @@ std::optional<std::string> validate(const image_t& m) {
   if (static_cast<std::int64_t>(m.size) != static_cast<std::int64_t>(m.stride) * m.height) {
     return fmt::format("size {} != stride {} * height {}", m.size, m.stride, m.height);
   }
-  return Sized("size", m.size)("data", m.data).result();
+  return {};
 }
 
 std::optional<std::string> validate(const line_contours_t& m) {

@@ -11,6 +11,9 @@ namespace fieldline::bus {
 
 std::optional<std::string> validate(const header_t& m);
 std::optional<std::string> validate(const image_t& m);
+// validate(image_t) but the check that `data` holds `size` bytes (bus::ImageView's pixels are not
+// in `data`).
+std::optional<std::string> validateImageFields(const image_t& m);
 std::optional<std::string> validate(const line_contours_t& m);
 std::optional<std::string> validate(const ball_observation_t& m);
 std::optional<std::string> validate(const obstacle_observations_t& m);

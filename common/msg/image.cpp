@@ -21,11 +21,15 @@ std::int8_t formatCode(camera::PixelFormat format) {
 }
 
 std::optional<camera::FrameView> fromMessage(const image_t& m) {
+  return fromMessage(m, std::span<const std::uint8_t>(m.data));
+}
+
+std::optional<camera::FrameView> fromMessage(const image_t& m, std::span<const std::uint8_t> data) {
   const auto format = pixelFormatOf(m.format);
   if (!format) return std::nullopt;
-  const camera::FrameView view{m.data.data(), m.width, m.height, m.stride, *format};
+  const camera::FrameView view{data.data(), m.width, m.height, m.stride, *format};
   if (!view.valid() ||
-      m.data.size() < static_cast<std::size_t>(m.stride) * static_cast<std::size_t>(m.height)) {
+      data.size() < static_cast<std::size_t>(m.stride) * static_cast<std::size_t>(m.height)) {
     return std::nullopt;
   }
   return view;

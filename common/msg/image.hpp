@@ -5,6 +5,7 @@
 
 #include <cstdint>
 #include <optional>
+#include <span>
 
 #include <fieldline/image_t.hpp>
 
@@ -21,6 +22,9 @@ std::int8_t formatCode(camera::PixelFormat format);
 // A view of the message's pixels (valid while `m` is unchanged); nullopt if the format is not
 // YUYV or BGR or the sizes do not describe the data.
 std::optional<camera::FrameView> fromMessage(const image_t& m);
+// The same for a message's fields with its pixels elsewhere (bus::ImageView: in the receive
+// buffer); `m.data` is not looked at.
+std::optional<camera::FrameView> fromMessage(const image_t& m, std::span<const std::uint8_t> data);
 
 // Writes `frame`'s size, stride, format and pixels into `m`. A frame that views m.data itself (a
 // buffer swapped into the message) is not copied; any other is copied row by row with the

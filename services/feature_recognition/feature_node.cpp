@@ -11,7 +11,17 @@ namespace fieldline::feature_recognition {
 
 namespace {
 constexpr std::int64_t kRateWindowUs = 1'000'000;
-}
+// The status's keys, made once: set after every message, those longer than the small-string
+// buffer would each be allocated and freed every time (issue 32).
+const std::string kRecognitionMs = "recognition_ms";
+const std::string kDroppedSequencesTotal = "dropped_sequences_total";
+const std::string kRejectedTotal = "model_check_rejected_total";
+const std::string kRejectedCircleTotal = "model_check_rejected_circle_total";
+const std::string kRejectedCornerTotal = "model_check_rejected_corner_total";
+const std::string kCirclesPerS = "circles_per_s";
+const std::string kCornersPerS = "corners_per_s";
+const std::string kOtherFeaturesPerS = "other_features_per_s";
+}  // namespace
 
 FeatureNode::FeatureNode(bus::Node& node, const field::FieldModel& field, RecognitionParams params)
     : node_(node), recognizer_(field, params) {
@@ -44,7 +54,7 @@ void FeatureNode::onLines(const line_contours_t& m) {
   msg::toMessage(features_, out_);
   node_.publish(bus::channels::kFieldFeatures, out_);
   updateRates(m.header.utime, features_);
-  node_.setMetric("recognition_ms", processing_ms);
+  node_.setMetric(kRecognitionMs, processing_ms);
 }
 
 void FeatureNode::countInputErrors(const InputCheck& check) {
@@ -57,7 +67,7 @@ void FeatureNode::countInputErrors(const InputCheck& check) {
   if (check.out_of_range > 0) node_.reportError("sequences_out_of_range", text);
   if (check.overlapping > 0) node_.reportError("overlapping_sequences", text);
   dropped_sequences_ += check.non_finite + check.out_of_range + check.overlapping;
-  node_.setMetric("dropped_sequences_total", static_cast<double>(dropped_sequences_));
+  node_.setMetric(kDroppedSequencesTotal, static_cast<double>(dropped_sequences_));
 }
 
 void FeatureNode::countModelCheck() {
@@ -69,10 +79,9 @@ void FeatureNode::countModelCheck() {
       ++rejected_corners_;
     }
   }
-  node_.setMetric("model_check_rejected_total",
-                  static_cast<double>(rejected_circles_ + rejected_corners_));
-  node_.setMetric("model_check_rejected_circle_total", static_cast<double>(rejected_circles_));
-  node_.setMetric("model_check_rejected_corner_total", static_cast<double>(rejected_corners_));
+  node_.setMetric(kRejectedTotal, static_cast<double>(rejected_circles_ + rejected_corners_));
+  node_.setMetric(kRejectedCircleTotal, static_cast<double>(rejected_circles_));
+  node_.setMetric(kRejectedCornerTotal, static_cast<double>(rejected_corners_));
 }
 
 void FeatureNode::updateRates(std::int64_t utime, const perception::FieldFeatures& features) {
@@ -98,9 +107,9 @@ void FeatureNode::updateRates(std::int64_t utime, const perception::FieldFeature
     others += s.others;
   }
   // Counts over the last second of exposure time = features per second.
-  node_.setMetric("circles_per_s", circles);
-  node_.setMetric("corners_per_s", corners);
-  node_.setMetric("other_features_per_s", others);
+  node_.setMetric(kCirclesPerS, circles);
+  node_.setMetric(kCornersPerS, corners);
+  node_.setMetric(kOtherFeaturesPerS, others);
 }
 
 }  // namespace fieldline::feature_recognition

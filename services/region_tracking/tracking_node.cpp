@@ -41,7 +41,9 @@ TrackingNode::TrackingNode(bus::Node& node, TrackingNodeOptions options)
   if (options_.adaptation.enabled) {
     adaptation_ = std::make_unique<ColourAdaptation>(options_.colours, options_.adaptation);
   }
-  node_.subscribe(bus::channels::kCameraImage, [this](const image_t& image) { onImage(image); });
+  // The pixels are read where they arrived, not copied (issue 32).
+  node_.subscribeImage(bus::channels::kCameraImage,
+                       [this](const bus::ImageView& image) { onImage(image); });
   // Optional: without fusion the field checks and the ball's field check say nothing. Only the
   // newest state matters at the next frame: read deferred, it does not wake the process (50 Hz;
   // the waiting states are handled before the next frame, issue 32).
@@ -114,7 +116,8 @@ bool TrackingNode::prepareFor(int width, int height) {
   return true;
 }
 
-void TrackingNode::onImage(const image_t& image) {
+void TrackingNode::onImage(const bus::ImageView& frame) {
+  const image_t& image = frame.fields;
   ++frames_received_;
   if (!msg::pixelFormatOf(image.format)) {
     ++frames_rejected_;
@@ -122,7 +125,7 @@ void TrackingNode::onImage(const image_t& image) {
                                           " is not YUYV or BGR");
     return;
   }
-  const std::optional<camera::FrameView> view = msg::fromMessage(image);
+  const std::optional<camera::FrameView> view = msg::fromMessage(image, frame.data);
   if (!view || !prepareFor(image.width, image.height)) {
     ++frames_rejected_;
     if (!view) node_.reportError("image_layout", "CAMERA_IMAGE with an unusable layout");

@@ -79,7 +79,7 @@ class TrackingNode {
   std::optional<FramePose> poseAt(std::int64_t utime) const;
 
  private:
-  void onImage(const image_t& image);
+  void onImage(const bus::ImageView& frame);
   void onRobotState(const robot_state_t& state);
   bool prepareFor(int width, int height);
   void publishLines(const image_t& image, const VisionResult& result, std::int32_t processingUs);

@@ -546,6 +546,70 @@ TEST_F(UdpmBus, ADeferredChannelWakesNoOneAndIsHandledBeforeTheNextTimer) {
   EXPECT_EQ(pilot.busDatagrams(), 1);
 }
 
+// A deferred message that arrived before a message of another channel is handled before it, also
+// when that message is read in a later batch of the same wake-up; so a watch callback's
+// handleDeferred() (the motor bridge's at the controller's sample) finds none older than what was
+// handled. Until session 13 the deferred socket was read once before the bus: a sample that came
+// while the first batch was handled went after the next batch's newer command.
+TEST_F(UdpmBus, ADeferredMessageGoesBeforeEveryLaterMessageOfTheWakeUp) {
+  Node sender{{.process = "sender", .robot_id = 1, .url = kUrl, .status_period_us = 0}, clock};
+  Node seer{{.process = "seer", .robot_id = 1, .url = kUrl, .status_period_us = 0}, clock};
+  Node bridge{{.process = "bridge", .robot_id = 1, .url = kUrl, .status_period_us = 0}, clock};
+  std::int64_t seen_by_seer = -1;
+  seer.subscribe(channels::kMotionCommand,
+                 [&](const motion_command_t& m) { seen_by_seer = m.header.seq; });
+  // A datagram is queued on every socket of the bus in one pass: once the seer has a command, the
+  // bridge's socket has it (and what the sender sent before it) too.
+  const auto arrived = [&](std::int64_t seq) {
+    spinUntil({&seer}, [&] { return seen_by_seer >= seq; });
+    ASSERT_GE(seen_by_seer, seq);
+  };
+  const auto command = [&] {
+    motion_command_t cmd{};
+    cmd.header.utime = clock.now();
+    cmd.deadline_utime = clock.now() + 100'000;
+    cmd.source = motion_command_t::SOURCE_PILOT;
+    ASSERT_TRUE(sender.publish(channels::kMotionCommand, cmd));
+  };
+  std::vector<std::string> order;
+  bridge.subscribeDeferred(channels::kOdometry, [&](const odometry_t& m) {
+    order.push_back("odometry " + std::to_string(m.header.seq));
+  });
+  bool sent_more = false;
+  bridge.subscribe(channels::kMotionCommand, [&](const motion_command_t& m) {
+    order.push_back("command " + std::to_string(m.header.seq));
+    if (sent_more) return;
+    sent_more = true;
+    // While the first batch is handled: a sample, then a command that the next batch reads.
+    odometry_t odo{};
+    odo.header.utime = clock.now();
+    ASSERT_TRUE(sender.publish(channels::kOdometry, odo));
+    command();
+    arrived(UdpmReceiver::kBatch);
+  });
+  int pipe_fds[2];
+  ASSERT_EQ(::pipe(pipe_fds), 0);
+  bridge.watchFd(pipe_fds[0], [&] {
+    char c = 0;
+    EXPECT_EQ(::read(pipe_fds[0], &c, 1), 1);
+    bridge.handleDeferred();
+    order.push_back("watch");
+  });
+  // A full first batch waits, and the watched fd is readable: one wake-up for all.
+  for (int i = 0; i < UdpmReceiver::kBatch; ++i)
+    command();
+  arrived(UdpmReceiver::kBatch - 1);
+  ASSERT_EQ(::write(pipe_fds[1], "x", 1), 1);
+  bridge.spinOnce(1000);
+  std::vector<std::string> expected;
+  for (int i = 0; i < UdpmReceiver::kBatch; ++i)
+    expected.push_back("command " + std::to_string(i));
+  expected.insert(expected.end(), {"odometry 0", "command 8", "watch"});
+  EXPECT_EQ(order, expected);
+  ::close(pipe_fds[0]);
+  ::close(pipe_fds[1]);
+}
+
 TEST_F(UdpmBus, WhatLcmItselfPublishesArrivesAndWhatTheNodePublishesLcmReads) {
   Node node{{.process = "node", .robot_id = 1, .url = kUrl, .status_period_us = 0}, clock};
   std::vector<std::int64_t> frames;
