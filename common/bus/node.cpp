@@ -29,6 +29,12 @@ constexpr Utime kOtherClockTolerance_us = 1'500'000;
 std::atomic<bool> g_stop_signal{false};
 constexpr int kMaxMessagesPerSpin = 200;
 
+// Sets a flag back to false when the scope ends, however it ends.
+struct ClearOnExit {
+  bool& flag;
+  ~ClearOnExit() { flag = false; }
+};
+
 extern "C" void onStopSignal(int) {
   g_stop_signal = true;
 }
@@ -293,21 +299,22 @@ void Node::drainDeferred() {
   // reuse the buffers of the batch being handled and hand newer messages on before its rest.
   if (draining_deferred_) return;
   draining_deferred_ = true;
-  struct Done {
-    bool& flag;
-    ~Done() { flag = false; }
-  } done{draining_deferred_};
-  for (std::size_t i = 0; i < buses_.size(); ++i) {
+  const ClearOnExit done{draining_deferred_};
+  // Outside a spin (handleDeferred() between spins) a call has a whole budget of its own.
+  if (!spinning_) deferred_budget_ = kMaxMessagesPerSpin;
+  for (std::size_t i = 0; i < buses_.size() && deferred_budget_ > 0; ++i) {
     Connection::Impl& impl = *buses_[i]->impl_;
     if (!impl.deferred_receiver || impl.deferred_receiver->fd() < 0) continue;
+    const std::int64_t read_before = impl.deferred_receiver->datagrams();
     impl.deferred_receiver->receive(
-        kMaxMessagesPerSpin, clock_.monotonicNow(),
+        deferred_budget_, clock_.monotonicNow(),
         [&impl](std::string_view channel, const void* data, int size) {
           impl.dispatch(channel, data, size, true);
         },
         [this, i](const char* kind, const std::string& text) {
           onBusProblem(static_cast<BusId>(i), kind, text);
         });
+    deferred_budget_ -= static_cast<int>(impl.deferred_receiver->datagrams() - read_before);
   }
 }
 
@@ -319,7 +326,10 @@ void Node::checkDeclaredInput(const std::string& channel) const {
 }
 
 Node::Outlet& Node::outlet(std::string_view channel, int index) {
-  const bool indexed = index >= 0 && static_cast<std::size_t>(index) < outlet_by_index_.size();
+  // The index is trusted only for the name the table has there (a Channel made by hand with a
+  // wrong index must not publish under another channel's seq and statistics).
+  const bool indexed = index >= 0 && static_cast<std::size_t>(index) < outlet_by_index_.size() &&
+                       kAllChannelNames[static_cast<std::size_t>(index)] == channel;
   if (indexed && outlet_by_index_[static_cast<std::size_t>(index)] >= 0) {
     return outlets_[static_cast<std::size_t>(outlet_by_index_[static_cast<std::size_t>(index)])];
   }
@@ -599,6 +609,9 @@ void Node::publishStatus() {
 }
 
 int Node::spinOnce(int timeout_ms) {
+  spinning_ = true;
+  const ClearOnExit done{spinning_};
+  deferred_budget_ = kMaxMessagesPerSpin;
   // Buses first, then the watched fds, each remembered by id: a callback may unwatch any. The
   // vectors are members, reused: a spin allocates nothing.
   std::vector<pollfd>& fds = poll_fds_;
@@ -617,9 +630,8 @@ int Node::spinOnce(int timeout_ms) {
   if (ready > 0) {
     // What was deferred came first: the deferred sockets are read after each batch of a bus's
     // datagrams is read and before it is handled, so every deferred message that arrived before
-    // one of the batch is handled before it. (Read once before the bus, as until session 13, a
-    // deferred message that came between the two reads went after the batch's newer messages,
-    // and a watch callback's handleDeferred() then handled it after them.)
+    // one of the batch is handled before it (read once before the bus, a deferred message that
+    // came between the two reads would go after the batch's newer messages).
     const UdpmReceiver::BatchFn drain = [this] { drainDeferred(); };
     for (std::size_t i = 0; i < buses_.size(); ++i) {
       if (!(fds[i].revents & POLLIN)) continue;

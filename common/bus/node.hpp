@@ -354,6 +354,11 @@ class Node {
   int io_count_ = 0;
   // drainDeferred() is running.
   bool draining_deferred_ = false;
+  // Datagrams the deferred sockets may still be read for in this spin: one budget a spin, as
+  // each bus has, so a flood on a deferred channel cannot hold the timers and the status up.
+  int deferred_budget_ = 0;
+  // spinOnce() is running.
+  bool spinning_ = false;
   std::vector<std::uint8_t> encode_buffer_;
   StatusCollector status_;
   // Monotonic time of the next SERVICE_STATUS.

@@ -90,7 +90,7 @@ void StatusCollector::onReceived(const std::string& channel, const Received& m, 
 }
 
 void StatusCollector::onReceivedAt(int slot, const Received& m, Utime now, bool single_publisher) {
-  ChannelStats& c = channels_[static_cast<std::size_t>(slot)];
+  ChannelStats& c = channels_.at(static_cast<std::size_t>(slot));  // checked: public
   const std::string& channel = c.name;
   ++c.total;
   ++c.in_period;
@@ -167,7 +167,7 @@ void StatusCollector::onPublished(const std::string& channel, Utime utime, Utime
 }
 
 void StatusCollector::onPublishedAt(int slot, Utime utime, Utime utime_published) {
-  ChannelStats& c = channels_[static_cast<std::size_t>(slot)];
+  ChannelStats& c = channels_.at(static_cast<std::size_t>(slot));  // checked: public
   ++c.total;
   ++c.in_period;
   c.latency_ms.push_back(static_cast<float>(utime_published - utime) / 1000.0f);

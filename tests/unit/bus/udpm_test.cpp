@@ -549,8 +549,8 @@ TEST_F(UdpmBus, ADeferredChannelWakesNoOneAndIsHandledBeforeTheNextTimer) {
 // A deferred message that arrived before a message of another channel is handled before it, also
 // when that message is read in a later batch of the same wake-up; so a watch callback's
 // handleDeferred() (the motor bridge's at the controller's sample) finds none older than what was
-// handled. Until session 13 the deferred socket was read once before the bus: a sample that came
-// while the first batch was handled went after the next batch's newer command.
+// handled. (Read once before the bus, a sample that came while the first batch was handled would
+// go after the next batch's newer command.)
 TEST_F(UdpmBus, ADeferredMessageGoesBeforeEveryLaterMessageOfTheWakeUp) {
   Node sender{{.process = "sender", .robot_id = 1, .url = kUrl, .status_period_us = 0}, clock};
   Node seer{{.process = "seer", .robot_id = 1, .url = kUrl, .status_period_us = 0}, clock};
@@ -604,10 +604,50 @@ TEST_F(UdpmBus, ADeferredMessageGoesBeforeEveryLaterMessageOfTheWakeUp) {
   std::vector<std::string> expected;
   for (int i = 0; i < UdpmReceiver::kBatch; ++i)
     expected.push_back("command " + std::to_string(i));
-  expected.insert(expected.end(), {"odometry 0", "command 8", "watch"});
+  expected.insert(expected.end(),
+                  {"odometry 0", "command " + std::to_string(UdpmReceiver::kBatch), "watch"});
   EXPECT_EQ(order, expected);
   ::close(pipe_fds[0]);
   ::close(pipe_fds[1]);
+}
+
+// Review 13: the deferred socket is read before every batch of the bus; a flood on a deferred
+// channel must still stop at one spin's budget, so timers and the status run between spins.
+TEST_F(UdpmBus, AFloodOnADeferredChannelIsBoundedPerSpin) {
+  Node sender{{.process = "sender", .robot_id = 1, .url = kUrl, .status_period_us = 0}, clock};
+  Node seer{{.process = "seer", .robot_id = 1, .url = kUrl, .status_period_us = 0}, clock};
+  Node bridge{{.process = "bridge", .robot_id = 1, .url = kUrl, .status_period_us = 0}, clock};
+  int odometry_seen = 0, commands_seen = 0;
+  std::int64_t seen_by_seer = -1;
+  seer.subscribe(channels::kMotionCommand,
+                 [&](const motion_command_t& m) { seen_by_seer = m.header.seq; });
+  bridge.subscribeDeferred(channels::kOdometry, [&](const odometry_t&) { ++odometry_seen; });
+  bridge.subscribe(channels::kMotionCommand, [&](const motion_command_t&) { ++commands_seen; });
+  constexpr int kFlood = 500;
+  for (int i = 0; i < kFlood; ++i) {
+    odometry_t odo{};
+    odo.header.utime = clock.now();
+    ASSERT_TRUE(sender.publish(channels::kOdometry, odo));
+  }
+  // Several batches of commands after the flood: each batch's read comes with a deferred read.
+  constexpr int kCommands = 4 * UdpmReceiver::kBatch;
+  for (int i = 0; i < kCommands; ++i) {
+    motion_command_t cmd{};
+    cmd.header.utime = clock.now();
+    cmd.deadline_utime = clock.now() + 100'000;
+    cmd.source = motion_command_t::SOURCE_PILOT;
+    ASSERT_TRUE(sender.publish(channels::kMotionCommand, cmd));
+  }
+  spinUntil({&seer}, [&] { return seen_by_seer >= kCommands - 1; });
+  ASSERT_EQ(seen_by_seer, kCommands - 1);
+  bridge.spinOnce(1000);
+  EXPECT_EQ(commands_seen, kCommands);
+  EXPECT_GT(odometry_seen, 0);
+  EXPECT_LE(odometry_seen, 200);  // the 200 datagrams a spin reads of a bus
+  // The rest waits for the next reads, none lost.
+  for (int spins = 0; spins < 10 && odometry_seen < kFlood; ++spins)
+    bridge.handleDeferred();
+  EXPECT_EQ(odometry_seen, kFlood);
 }
 
 TEST_F(UdpmBus, WhatLcmItselfPublishesArrivesAndWhatTheNodePublishesLcmReads) {
