@@ -137,10 +137,12 @@ struct ReplayOptions {
         ->capture_default_str();
     app.add_option("--min-ball-variance", picture.min_ball_variance,
                    "Floor of a ball's position variance, m^2")
+        ->check(cli::PositiveNumber)
         ->capture_default_str();
     app.add_option("--stamp-sigma", picture.ball_stamp_sigma_s,
                    "The stamp term every BALL_STATE carries, common to the reporters (fusion's "
                    "ball.stamp_sigma_s), s")
+        ->check(cli::Range(0.0, 1.0))
         ->capture_default_str();
     app.add_option("--carry-track", picture.carry_track,
                    "Combine the previous team ball with each picture's (covariance intersection)")

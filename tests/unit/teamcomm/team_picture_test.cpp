@@ -6,8 +6,11 @@
 #include <array>
 #include <random>
 
+#include "common/config/config.hpp"
 #include "common/msg/team_state.hpp"
+#include "services/fusion/ball_filter.hpp"
 #include "teamcomm/team_picture.hpp"
+#include "teamcomm/teamcomm_config.hpp"
 
 namespace fieldline::teamcomm {
 namespace team_picture_test {
@@ -251,7 +254,7 @@ TEST(teamcomm_picture, TheStampTermOfARollingBallCountsOnce) {
   alone.setReport(1, rolling(0.0));
   TeamBallResult ball;
   alone.picture(kT0, &ball);
-  // Lone: the reporter's own covariance (9 cm along the velocity), not 13 cm.
+  // Lone: the reporter's own covariance (its stamp term held once), not the term again.
   EXPECT_NEAR(ball.covariance(0, 0), 0.01 * 0.01 + stamp(0, 0), 1e-6);
   // Two alike: the independent part halves, the common part stays whole.
   TeamPicture two(1);
@@ -570,6 +573,20 @@ TEST(teamcomm_team_state, MessageCarriesEveryField) {
   const perception::TeamState cut = msg::fromMessage(m);
   EXPECT_TRUE(cut.robots[0].present);
   EXPECT_FALSE(cut.robots[2].present);
+}
+
+// The team picture takes fusion's stamp term out of every BALL_STATE: a value unlike fusion's
+// weighs the reporters wrong, and the clamp at min_ball_variance would hide it (review 13).
+TEST(TeamPictureSettings, TheStampSigmaIsFusionsBallStampSigma) {
+  EXPECT_EQ(PictureOptions{}.ball_stamp_sigma_s, fusion::BallFilterParams{}.stamp_sigma_s);
+  const double fusion_shipped = config::Node::loadFile(config::resolvePreset("fusion", "default"))
+                                    .child("ball")
+                                    .get<double>("stamp_sigma_s");
+  const TeamcommConfig team =
+      loadTeamcommConfig(config::Node::loadFile(config::resolvePreset("team", "sim_team")));
+  EXPECT_EQ(team.node.picture.ball_stamp_sigma_s, fusion_shipped)
+      << "config/team/sim_team.yaml's team.picture.ball_stamp_sigma_s differs from "
+         "config/fusion/default.yaml's ball.stamp_sigma_s";
 }
 
 }  // namespace team_picture_test
