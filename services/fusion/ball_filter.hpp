@@ -43,10 +43,7 @@ struct BallFilterParams {
   // uncertainty (exposure, the pose's time, the bus). 10 ms: the same frames' stamps are 8 ms
   // uncertain for the line corrections (localizer correction_stamp_sigma_s), a camera stamped
   // on receipt jitters by the host's load, and the match's rolling balls seen from under 3 m are
-  // off by 3-8 ms times their speed (median; docs/log/2026-12-07-session13-teamball.md). 30 ms
-  // until 2026-12-07 came from the simulator's frames rendered at a stale pose (9 cm at 2-3 m/s);
-  // with them fixed it was 3-5 times the rolling balls' errors (team NEES 12-24 % below the
-  // band). 0: off, s.
+  // off by 3-8 ms times their speed (median; docs/teamcomm.md "Team ball"). 0: off, s.
   double stamp_sigma_s = 0.01;
   // The estimate is invalid after this long without a sighting, s.
   double max_age_s = 0.5;

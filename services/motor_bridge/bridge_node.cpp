@@ -49,10 +49,10 @@ bus::ProcessIo bridgeIo(const std::string& device) {
 }
 
 BridgeNode::~BridgeNode() {
-  stop();
-  if (line_watch_) node_.unwatchFd(*line_watch_);
+  stop();  // unwatches the line
   // The node outlives this bridge (a process that rebuilds its bridge, a test): nothing it keeps
-  // may call into it.
+  // may call into it. What the bridge declared on it (ODOMETRY's rate, its inputs and outputs)
+  // stays: a node that spins on without a bridge reports ODOMETRY below its rate, as it should.
   node_.cancelTimer(command_tick_);
   node_.cancelTimer(metrics_tick_);
   *alive_ = false;

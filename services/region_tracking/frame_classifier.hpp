@@ -38,7 +38,8 @@ class FrameCellClassifier final : public CellClassifier {
   FrameCellClassifier(const camera::ColourTable& table, int cell_size,
                       const BlockClassifierParams& params = {});
 
-  // The frame the next classify() calls read; it must outlive them.
+  // The frame the next classify() calls read; it must outlive them (FrameProcessor::process
+  // sets it for the call and clears it at the end).
   void setFrame(const camera::FrameView& frame) { frame_ = frame; }
 
   ClassId classify(int x, int y) const override;

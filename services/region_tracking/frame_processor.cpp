@@ -160,6 +160,12 @@ void FrameProcessor::process(const camera::FrameView& frame, bool detectLines, V
                                 std::to_string(mirror_.height()));
   }
   classifier_.setFrame(frame);
+  // The frame may point into a receive buffer that is reused after this call: let go of it
+  // however the call ends.
+  struct LetGo {
+    FrameCellClassifier& classifier;
+    ~LetGo() { classifier.setFrame(camera::FrameView{}); }
+  } let_go{classifier_};
   out.tracking = tracker_.track(classifier_);
   out.lines_detected = detectLines;
   if (detectLines) {

@@ -32,8 +32,7 @@ namespace camera_node_test {
 
 // Every field set: a world_state_t's numbers are not initialised by its constructor (lcm-gen), and
 // robot_radius left to the stack's garbage made the teammate's size differ between a state the
-// harness published and the same state built again in the test (session 12's "two renderers
-// differ" in 1 run of 4; SimRenderer.TwoRenderersGiveTheSameBytesForTheSameScene).
+// harness published and the same state built again in the test.
 world_state_t makeWorld(Utime utime) {
   world_state_t w{};
   w.header.utime = utime;
@@ -233,6 +232,8 @@ class SimCameraNodeTest : public ::testing::Test {
   bus::Node harness{{.process = "harness", .robot_id = 0, .status_period_us = 0}, clock, memq};
   const CameraConfig config = loadCameraConfigPreset("omni_sim");
   const ColourTable colours = loadColourTablePreset(config.model.colour_table);
+  // A robot clock the node reads, declared before the node so that it outlives it.
+  std::optional<OffsetClock> robot_clock;
   std::optional<bus::Node> camera_node;
   std::unique_ptr<SimCameraNode> sim;
   std::vector<image_t> images;
@@ -272,8 +273,8 @@ class SimCameraNodeOffsetTest : public SimCameraNodeTest,
 
 TEST_P(SimCameraNodeOffsetTest, StampsOnTheRobotClockAndInterpolatesAtTheTrueExposure) {
   const ClockError error{GetParam().offset_us, GetParam().drift_ppm, clock.now()};
-  const OffsetClock robot_clock(clock, error);
-  startCamera(2, &robot_clock);
+  robot_clock.emplace(clock, error);
+  startCamera(2, &*robot_clock);
   const Utime start = clock.now();
   const std::vector<SimScene> scenes = runTurningRobot(400);
   EXPECT_EQ(camera_node->status().errorCount("stale_world"), 0);
@@ -281,7 +282,7 @@ TEST_P(SimCameraNodeOffsetTest, StampsOnTheRobotClockAndInterpolatesAtTheTrueExp
   ASSERT_GE(images.size(), 9u);
   for (std::size_t k = 0; k < images.size(); ++k) {
     const image_t& img = images[k];
-    const Utime exposure_truth = robot_clock.toTruth(img.header.utime);
+    const Utime exposure_truth = robot_clock->toTruth(img.header.utime);
     // The stamp is the robot clock's reading at the exposure (to its rounding).
     EXPECT_NEAR(static_cast<double>(img.header.utime - truthToOwn(error, exposure_truth)), 0.0,
                 1.0);
@@ -359,8 +360,8 @@ TEST_F(SimCameraNodeTest, OnARobotClockRendersTheTruthOfTheExposure) {
   // Robot 2's clock runs 0.7 s behind the simulator's truth (more than the 0.5 s a world state may
   // be away from the exposure) and 30 ppm fast: frames are stamped
   // on the robot's clock, and show the world at the true time of their exposure.
-  OffsetClock robot_clock(clock, -700'000, 30.0, clock.now());
-  startCamera(2, &robot_clock);
+  robot_clock.emplace(clock, -700'000, 30.0, clock.now());
+  startCamera(2, &*robot_clock);
   for (int k = 0; k < 100; ++k) {
     if (k % 2 == 0) publishWorld(makeWorld(clock.now()));
     step(5 * kMicrosPerMilli);
@@ -368,7 +369,7 @@ TEST_F(SimCameraNodeTest, OnARobotClockRendersTheTruthOfTheExposure) {
   EXPECT_EQ(camera_node->status().errorCount("stale_world"), 0);
   ASSERT_GE(images.size(), 12u);
   for (const image_t& img : images) {
-    const Utime exposure_truth = robot_clock.toTruth(img.header.utime);
+    const Utime exposure_truth = robot_clock->toTruth(img.header.utime);
     EXPECT_NEAR(static_cast<double>(img.header.utime - exposure_truth), -700'000.0, 100.0);
     expectBallWhereTheRobotSeesIt(img, makeWorld(exposure_truth), exposure_truth);
   }

@@ -414,12 +414,10 @@ TEST(SimRenderer, ScalarNoiseGivesTheSameBytes) {
 }
 
 // Two renderers made from the same inputs render the same scene to the same bytes, whatever was
-// rendered before, in which order, and wherever the heap put their tables (session 12: in one
-// run of four a camera node's frames and a second renderer's in camera_test differed in 130-240
-// of 153,600 bytes; session 13 traced it to the test's SIM_WORLD, whose robot_radius was never
-// set, not to the renderer: camera_node_test.cpp). A twin is made after allocations of odd sizes
-// (other alignments of its buffers), renders the scenes in reverse order into a buffer that held
-// another frame; the last twin maps its floor raster from a cache file instead of building it.
+// rendered before, in which order, and wherever the heap put their tables. A twin is made after
+// allocations of odd sizes (other alignments of its buffers), renders the scenes in reverse order
+// into a buffer that held another frame; the last twin maps its floor raster from a cache file
+// instead of building it.
 TEST(SimRenderer, TwoRenderersGiveTheSameBytesForTheSameScene) {
   const auto cache_dir = std::filesystem::temp_directory_path() /
                          ("fieldline-twin-raster-" + std::to_string(::getpid()));
