@@ -26,7 +26,7 @@ ns="unshare -n -m --propagation private"
 $ns true 2>/dev/null || ns="unshare -r -n -m --propagation private"
 $ns bash -c "
   ip link set lo up; ip link set lo multicast on; ip route add 224.0.0.0/4 dev lo
-  mkdir -p /tmp/fieldline && mount -t tmpfs tmpfs /tmp/fieldline
+  mkdir -p /tmp/fieldline && mount -t tmpfs tmpfs /tmp/fieldline || { echo \"FAIL: cannot mount a private /tmp/fieldline\"; exit 1; }
   export FIELDLINE_ROOT='$root'
   '$bin/fieldline-launch' sim_team --duration 90 --no-table > '$out/launch.log' 2>&1 &
   launcher=\$!

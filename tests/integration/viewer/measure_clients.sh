@@ -6,16 +6,15 @@
 #
 #   tests/integration/viewer/measure_clients.sh build/bin [SECONDS]     # writes to stdout
 set -eu
+# Its own buses and /tmp/fieldline: never a running demo's serial lines, snapshot or pose files.
+. "$(dirname "$0")/../lib/private_ns.sh" "$@"
 bin=$(realpath "$1")
 seconds=${2:-15}
 here=$(cd "$(dirname "$0")" && pwd)
 root=$(cd "$here/../../.." && pwd)
 out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT
-ns="unshare -n"
-unshare -n true 2>/dev/null || ns="unshare -rn"
-$ns bash -c "
-  ip link set lo up; ip link set lo multicast on; ip route add 224.0.0.0/4 dev lo
+bash -c "
   export FIELDLINE_ROOT='$root'
   '$bin/fieldline-launch' sim_team --duration $((seconds * 2 + 40)) --no-table \
       > '$out/launch.log' 2>&1 &

@@ -41,7 +41,7 @@ else
   $ns true 2>/dev/null || ns="unshare -r -n -m --propagation private"
   $ns bash -c "
     ip link set lo up; ip link set lo multicast on; ip route add 224.0.0.0/4 dev lo
-    mkdir -p /tmp/fieldline && mount -t tmpfs tmpfs /tmp/fieldline
+    mkdir -p /tmp/fieldline && mount -t tmpfs tmpfs /tmp/fieldline || { echo \"FAIL: cannot mount a private /tmp/fieldline\"; exit 1; }
     export FIELDLINE_CLOCK_REFERENCE_US=\$(date +%s%6N)
     '$bin/fieldline-record' --team --robots 1,2,3 -o '$out/rec' > '$out/record.log' 2>&1 &
     recorder=\$!

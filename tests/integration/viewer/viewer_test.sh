@@ -16,7 +16,7 @@ $ns true 2>/dev/null || ns="unshare -r -n -m --propagation private"
 port=18080
 $ns bash -c "
   ip link set lo up; ip link set lo multicast on; ip route add 224.0.0.0/4 dev lo
-  mkdir -p /tmp/fieldline && mount -t tmpfs tmpfs /tmp/fieldline
+  mkdir -p /tmp/fieldline && mount -t tmpfs tmpfs /tmp/fieldline || { echo \"FAIL: cannot mount a private /tmp/fieldline\"; exit 1; }
   '$viewer' --port $port > '$out/viewer.log' 2>&1 &
   viewer_pid=\$!
   '$publisher' --robot 3 --duration 20 > '$out/published.json' 2> '$out/publisher.log' &
