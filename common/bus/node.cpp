@@ -295,11 +295,9 @@ void Node::deferLastSubscription() {
 }
 
 void Node::drainDeferred() {
-  // Not again from inside a deferred handler (handleDeferred() there): the inner read would
-  // reuse the buffers of the batch being handled and hand newer messages on before its rest.
-  if (draining_deferred_) return;
-  draining_deferred_ = true;
-  const ClearOnExit done{draining_deferred_};
+  // From inside a deferred handler (handleDeferred() there, by this node or another node on the
+  // same connection) the receiver being read reads nothing (UdpmReceiver::receive): the guard is
+  // the receiver's, whose buffers the batch being handled is in.
   // Outside a spin (handleDeferred() between spins) a call has a whole budget of its own.
   if (!spinning_) deferred_budget_ = kMaxMessagesPerSpin;
   for (std::size_t i = 0; i < buses_.size() && deferred_budget_ > 0; ++i) {

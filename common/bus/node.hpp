@@ -217,7 +217,8 @@ class Node {
   // Handles now what waits for the deferred subscriptions (subscribeDeferred), as the loop does
   // before a timer: for a watched fd's callback that acts on their newest messages. What it
   // handles arrived after every message the node has handled on that bus; from inside a deferred
-  // handler it does nothing (the batch being handled comes first).
+  // handler it reads nothing more of that connection's deferred socket, whichever node calls it
+  // (the batch being handled comes first; the guard is the socket's, UdpmReceiver::receive).
   void handleDeferred() { drainDeferred(); }
 
   using WatchId = int;
@@ -352,8 +353,6 @@ class Node {
   std::array<int, kAllChannelNames.size()> outlet_by_index_;
   // Declarations made (declareIo).
   int io_count_ = 0;
-  // drainDeferred() is running.
-  bool draining_deferred_ = false;
   // Datagrams the deferred sockets may still be read for in this spin: one budget a spin, as
   // each bus has, so a flood on a deferred channel cannot hold the timers and the status up.
   int deferred_budget_ = 0;

@@ -260,7 +260,12 @@ int UdpmReceiver::handle(const std::uint8_t* data, std::size_t size, const socka
 
 int UdpmReceiver::receive(int max_datagrams, std::int64_t now_us, const MessageFn& on_message,
                           const ProblemFn& on_problem, const BatchFn* before_batch) {
-  if (fd_ < 0) return 0;
+  if (fd_ < 0 || receiving_) return 0;
+  receiving_ = true;
+  struct Done {
+    bool& flag;
+    ~Done() { flag = false; }
+  } const done{receiving_};
   now_us_ = now_us;
   expireSenders(on_problem);
   std::array<mmsghdr, kBatch> headers{};

@@ -79,6 +79,10 @@ class UdpmReceiver {
   // `before_batch` (if given) runs after each read that returned datagrams, before they are
   // handled: bus::Node handles its deferred socket there, so that a deferred message that
   // arrived before one of the batch is handled before it.
+  // Not re-entered: called again from inside its own on_message or before_batch (a handler of
+  // any node sharing the connection that calls Node::handleDeferred or spins), it reads nothing
+  // and returns 0. Reading there would reuse the buffers of the batch being handled and hand
+  // newer messages on before the rest of that batch.
   int receive(int max_datagrams, std::int64_t now_us, const MessageFn& on_message,
               const ProblemFn& on_problem, const BatchFn* before_batch = nullptr);
 
@@ -128,6 +132,8 @@ class UdpmReceiver {
   std::vector<std::uint16_t> forgotten_;
   // The time receive() was given.
   std::int64_t now_us_ = 0;
+  // receive() is running (the guard against reading inside its own handlers).
+  bool receiving_ = false;
   // kBatch buffers of kMaxDatagramBytes, allocated uninitialized (pages never written are never
   // touched).
   std::unique_ptr<std::uint8_t[]> buffers_;

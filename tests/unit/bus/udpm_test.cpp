@@ -15,6 +15,7 @@
 #include <cstring>
 #include <functional>
 #include <memory>
+#include <numeric>
 #include <string>
 #include <thread>
 #include <vector>
@@ -648,6 +649,51 @@ TEST_F(UdpmBus, AFloodOnADeferredChannelIsBoundedPerSpin) {
   for (int spins = 0; spins < 10 && odometry_seen < kFlood; ++spins)
     bridge.handleDeferred();
   EXPECT_EQ(odometry_seen, kFlood);
+}
+
+// Review 13: the guard against a nested read belongs to the receiver, whose buffers hold the batch
+// being handled, not to a node: nodes may share a connection (and its deferred socket). A deferred
+// handler that has another node on the same connection, or its own node, handle the deferred
+// messages again still sees the rest of its batch, each message once, in order. (With the guard a
+// node's, the other node's read took the messages after the batch into the batch's buffers: they
+// came before the batch's rest, and twice.)
+TEST_F(UdpmBus, ANestedDeferredReadOnASharedConnectionLeavesTheBatchWhole) {
+  Node sender{{.process = "sender", .robot_id = 1, .url = kUrl, .status_period_us = 0}, clock};
+  Node seer{{.process = "seer", .robot_id = 1, .url = kUrl, .status_period_us = 0}, clock};
+  const std::shared_ptr<Connection> shared = Connection::open(kUrl);
+  Node first{
+      {.process = "first", .robot_id = 1, .url = kUrl, .status_period_us = 0}, clock, shared};
+  Node second{
+      {.process = "second", .robot_id = 1, .url = kUrl, .status_period_us = 0}, clock, shared};
+  std::int64_t seen_by_seer = -1;
+  seer.subscribe(channels::kOdometry, [&](const odometry_t& m) { seen_by_seer = m.header.seq; });
+  std::vector<std::int64_t> seen;
+  Node* nested = nullptr;
+  first.subscribeDeferred(channels::kOdometry, [&](const odometry_t& m) {
+    seen.push_back(m.header.seq);
+    nested->handleDeferred();
+  });
+  // More than a batch: the rest waits on the socket while the first batch is handled.
+  constexpr int kCount = UdpmReceiver::kBatch + 2;
+  std::int64_t next = 0;
+  for (Node* node : {&second, &first}) {
+    SCOPED_TRACE(node == &second ? "the other node on the connection" : "the same node");
+    nested = node;
+    seen.clear();
+    for (int i = 0; i < kCount; ++i) {
+      odometry_t odo{};
+      odo.header.utime = clock.now();
+      ASSERT_TRUE(sender.publish(channels::kOdometry, odo));
+    }
+    // A datagram is queued on every socket of the bus in one pass.
+    spinUntil({&seer}, [&] { return seen_by_seer >= next + kCount - 1; });
+    ASSERT_EQ(seen_by_seer, next + kCount - 1);
+    first.handleDeferred();
+    std::vector<std::int64_t> expected(kCount);
+    std::iota(expected.begin(), expected.end(), next);
+    EXPECT_EQ(seen, expected);
+    next += kCount;
+  }
 }
 
 TEST_F(UdpmBus, WhatLcmItselfPublishesArrivesAndWhatTheNodePublishesLcmReads) {
