@@ -21,51 +21,12 @@
 
 namespace fieldline::bus {
 
-// A channel name bound to its message type.
-template <typename Msg>
-struct Channel {
-  using Message = Msg;
-  std::string_view name;
-  // Its place in kAllChannelNames below (-1: a name outside the table): the node finds its
-  // sequence numbers and statistics by it, without comparing names per message.
-  int index = -1;
-};
-
-namespace channels {
-// Robot bus (one per robot).
-inline constexpr Channel<image_t> kCameraImage{"CAMERA_IMAGE", 0};
-// The camera's reduced stream for a viewer on another machine (every kCameraPreviewScale-th pixel
-// of every kCameraPreviewScale-th row, a few frames a second): CAMERA_IMAGE never leaves the
-// robot, this does when the bus has a ttl (docs/launch.md, "Watching from a laptop").
-inline constexpr Channel<image_t> kCameraPreview{"CAMERA_PREVIEW", 13};
-inline constexpr Channel<line_contours_t> kVisionLines{"VISION_LINES", 1};
-inline constexpr Channel<ball_observation_t> kVisionBall{"VISION_BALL", 2};
-inline constexpr Channel<obstacle_observations_t> kVisionObstacles{"VISION_OBSTACLES", 3};
-inline constexpr Channel<field_features_t> kFieldFeatures{"FIELD_FEATURES", 4};
-inline constexpr Channel<odometry_t> kOdometry{"ODOMETRY", 5};
-inline constexpr Channel<motion_command_t> kMotionCommand{"MOTION_COMMAND", 6};
-inline constexpr Channel<robot_state_t> kRobotState{"ROBOT_STATE", 7};
-inline constexpr Channel<ball_state_t> kBallState{"BALL_STATE", 8};
-inline constexpr Channel<team_state_t> kTeamState{"TEAM_STATE", 9};
-// Every bus, from every process.
-inline constexpr Channel<service_status_t> kServiceStatus{"SERVICE_STATUS", 10};
-// Simulator bus only: ground truth.
-inline constexpr Channel<world_state_t> kSimWorld{"SIM_WORLD", 11};
-// Recordings only (never on a bus): what fieldline-record writes into each file about it.
-inline constexpr Channel<recording_info_t> kRecordingInfo{"RECORDING_INFO", 12};
-}  // namespace channels
-
-// CAMERA_PREVIEW's width and height are CAMERA_IMAGE's divided by this.
-inline constexpr int kCameraPreviewScale = 4;
-
-// Every channel name, for tools that list or record them.
+// Every channel name, for tools that list or record them; a channel's place here is its index.
 // New channels go at the end: the fuzz corpus picks a channel by its index here.
 inline constexpr std::array<std::string_view, 14> kAllChannelNames{
-    channels::kCameraImage.name,     channels::kVisionLines.name,   channels::kVisionBall.name,
-    channels::kVisionObstacles.name, channels::kFieldFeatures.name, channels::kOdometry.name,
-    channels::kMotionCommand.name,   channels::kRobotState.name,    channels::kBallState.name,
-    channels::kTeamState.name,       channels::kServiceStatus.name, channels::kSimWorld.name,
-    channels::kRecordingInfo.name,   channels::kCameraPreview.name};
+    "CAMERA_IMAGE",   "VISION_LINES",   "VISION_BALL",    "VISION_OBSTACLES", "FIELD_FEATURES",
+    "ODOMETRY",       "MOTION_COMMAND", "ROBOT_STATE",    "BALL_STATE",       "TEAM_STATE",
+    "SERVICE_STATUS", "SIM_WORLD",      "RECORDING_INFO", "CAMERA_PREVIEW"};
 
 // The place of `name` in kAllChannelNames, or -1.
 constexpr int channelIndex(std::string_view name) {
@@ -73,20 +34,54 @@ constexpr int channelIndex(std::string_view name) {
     if (kAllChannelNames[i] == name) return static_cast<int>(i);
   return -1;
 }
-static_assert(channelIndex(channels::kCameraImage.name) == channels::kCameraImage.index &&
-              channelIndex(channels::kVisionLines.name) == channels::kVisionLines.index &&
-              channelIndex(channels::kVisionBall.name) == channels::kVisionBall.index &&
-              channelIndex(channels::kVisionObstacles.name) == channels::kVisionObstacles.index &&
-              channelIndex(channels::kFieldFeatures.name) == channels::kFieldFeatures.index &&
-              channelIndex(channels::kOdometry.name) == channels::kOdometry.index &&
-              channelIndex(channels::kMotionCommand.name) == channels::kMotionCommand.index &&
-              channelIndex(channels::kRobotState.name) == channels::kRobotState.index &&
-              channelIndex(channels::kBallState.name) == channels::kBallState.index &&
-              channelIndex(channels::kTeamState.name) == channels::kTeamState.index &&
-              channelIndex(channels::kServiceStatus.name) == channels::kServiceStatus.index &&
-              channelIndex(channels::kSimWorld.name) == channels::kSimWorld.index &&
-              channelIndex(channels::kRecordingInfo.name) == channels::kRecordingInfo.index &&
-              channelIndex(channels::kCameraPreview.name) == channels::kCameraPreview.index);
+
+// A channel name bound to its message type.
+template <typename Msg>
+struct Channel {
+  using Message = Msg;
+  std::string_view name;
+  // Its place in kAllChannelNames (-1: a name outside the table): the node finds its sequence
+  // numbers and statistics by it, without comparing names per message. The constants below take
+  // it from the name (tableChannel<Msg>(name)); a Channel made by hand is trusted only where the
+  // table has its name at that place (Node::outlet).
+  int index = -1;
+};
+
+// The channel of the table named `name`, its index found at compile time: a name the table does
+// not hold does not compile.
+template <typename Msg>
+consteval Channel<Msg> tableChannel(std::string_view name) {
+  const int index = channelIndex(name);
+  if (index < 0) throw "a channel constant needs its name in kAllChannelNames";
+  return Channel<Msg>{name, index};
+}
+
+namespace channels {
+// Robot bus (one per robot).
+inline constexpr auto kCameraImage = tableChannel<image_t>("CAMERA_IMAGE");
+// The camera's reduced stream for a viewer on another machine (every kCameraPreviewScale-th pixel
+// of every kCameraPreviewScale-th row, a few frames a second): CAMERA_IMAGE never leaves the
+// robot, this does when the bus has a ttl (docs/launch.md, "Watching from a laptop").
+inline constexpr auto kCameraPreview = tableChannel<image_t>("CAMERA_PREVIEW");
+inline constexpr auto kVisionLines = tableChannel<line_contours_t>("VISION_LINES");
+inline constexpr auto kVisionBall = tableChannel<ball_observation_t>("VISION_BALL");
+inline constexpr auto kVisionObstacles = tableChannel<obstacle_observations_t>("VISION_OBSTACLES");
+inline constexpr auto kFieldFeatures = tableChannel<field_features_t>("FIELD_FEATURES");
+inline constexpr auto kOdometry = tableChannel<odometry_t>("ODOMETRY");
+inline constexpr auto kMotionCommand = tableChannel<motion_command_t>("MOTION_COMMAND");
+inline constexpr auto kRobotState = tableChannel<robot_state_t>("ROBOT_STATE");
+inline constexpr auto kBallState = tableChannel<ball_state_t>("BALL_STATE");
+inline constexpr auto kTeamState = tableChannel<team_state_t>("TEAM_STATE");
+// Every bus, from every process.
+inline constexpr auto kServiceStatus = tableChannel<service_status_t>("SERVICE_STATUS");
+// Simulator bus only: ground truth.
+inline constexpr auto kSimWorld = tableChannel<world_state_t>("SIM_WORLD");
+// Recordings only (never on a bus): what fieldline-record writes into each file about it.
+inline constexpr auto kRecordingInfo = tableChannel<recording_info_t>("RECORDING_INFO");
+}  // namespace channels
+
+// CAMERA_PREVIEW's width and height are CAMERA_IMAGE's divided by this.
+inline constexpr int kCameraPreviewScale = 4;
 
 // The rate each channel is published at in normal operation (docs: the channel table), Hz; 0 for
 // channels without a fixed rate. A process requires its inputs at a fraction of this
