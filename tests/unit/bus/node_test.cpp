@@ -76,6 +76,32 @@ TEST_F(BusTest, SeqIsPerChannel) {
   EXPECT_EQ(seqs, (std::vector<std::int64_t>{0, 1}));
 }
 
+// The constants take their index from the table (channels.hpp); a Channel made by hand with
+// another channel's index still publishes under its own name: its seq and statistics, not the
+// other channel's.
+TEST_F(BusTest, AChannelMadeByHandWithAWrongIndexKeepsItsOwnSeq) {
+  static_assert(kAllChannelNames[channels::kBallState.index] == channels::kBallState.name);
+  std::vector<std::int64_t> balls, commands;
+  receiver.subscribe(channels::kBallState,
+                     [&](const ball_state_t& m) { balls.push_back(m.header.seq); });
+  receiver.subscribe(channels::kMotionCommand,
+                     [&](const motion_command_t& m) { commands.push_back(m.header.seq); });
+  const Channel<ball_state_t> wrong{channels::kBallState.name, channels::kMotionCommand.index};
+  auto cmd = command(clock.now(), 0);
+  ball_state_t b{};
+  b.header.utime = clock.now();
+  ASSERT_TRUE(sender.publish(channels::kMotionCommand, cmd));
+  ASSERT_TRUE(sender.publish(wrong, b));
+  ASSERT_TRUE(sender.publish(channels::kBallState, b));
+  ASSERT_TRUE(sender.publish(channels::kMotionCommand, cmd));
+  spin();
+  EXPECT_EQ(balls, (std::vector<std::int64_t>{0, 1}));
+  EXPECT_EQ(commands, (std::vector<std::int64_t>{0, 1}));
+  const ChannelStats* out = sender.status().channel("BALL_STATE", Direction::kOut);
+  ASSERT_NE(out, nullptr);
+  EXPECT_EQ(out->total, 2);
+}
+
 TEST_F(BusTest, SeqGapIsCountedAsDrops) {
   int handled = 0;
   receiver.subscribe(channels::kOdometry, [&](const odometry_t&) { ++handled; });
