@@ -9,21 +9,22 @@
 #
 #   redteam_clock_step.sh BIN_DIR SOURCE_DIR
 set -u
+if [ -z "${FIELDLINE_PRIVATE_NS:-}" ] && ! unshare -n -m --propagation private true 2>/dev/null &&
+  ! unshare -r -n -m --propagation private true 2>/dev/null; then
+  echo "SKIP: needs private network and mount namespaces (root or unprivileged user namespaces)"
+  exit 77
+fi
+# Its own buses and its own /tmp/fieldline, as every test that starts processes: a parallel run or
+# a running demo shares no file with it.
+. "$(dirname "$0")/../lib/private_ns.sh" "$@"
 bin=$(realpath "$1")
 root=$(realpath "$2")
 out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT
-ns="unshare -n"
-[ "$(id -u)" = 0 ] || ns="unshare -rn"
-if ! $ns true 2>/dev/null; then
-  echo "SKIP: needs a private network namespace (root or unprivileged user namespaces)"
-  exit 77
-fi
 
-$ns bash -s "$bin" "$root" "$out" <<'EOF'
+bash -s "$bin" "$root" "$out" <<'EOF'
 set -u
 bin=$1 root=$2 out=$3
-ip link set lo up; ip link set lo multicast on; ip route add 224.0.0.0/4 dev lo
 export FIELDLINE_ROOT="$root" FIELDLINE_CLOCK_REFERENCE_US=$(date +%s%6N)
 # start ROBOT OFFSET_US TAG SECONDS X: teamcomm and the probe of one robot on that clock, the robot
 # at (X, 1.5) (each of robot 1's processes at its own x, so the pictures tell them apart).

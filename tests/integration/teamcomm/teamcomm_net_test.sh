@@ -20,6 +20,9 @@
 # kept there for drill_team_partition, which judges this run's partition as its drill
 # (drills/partition_drill.sh ... --from RUN) instead of running a team link of its own.
 set -u
+# Its own /tmp/fieldline (and buses), as every test that starts processes: a parallel run or a
+# running demo shares no file with it. The robots' namespaces below (ip netns exec) see this tmpfs.
+. "$(dirname "$0")/../lib/private_ns.sh" "$@"
 source "$(dirname "$0")/../lib/team_net.sh"
 bin=$1
 root=$2
