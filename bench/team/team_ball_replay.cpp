@@ -50,6 +50,7 @@ struct Timed {
 struct RobotLog {
   std::vector<Timed> robots;  // ROBOT_STATE in arrival order
   std::vector<Timed> balls;   // BALL_STATE in arrival order
+  std::vector<Utime> seen;    // stamps of the VISION_BALLs that saw a ball (truth clock)
 };
 
 // The newest entry received at or before `t` (nullptr: none).
@@ -96,13 +97,14 @@ struct Score {
 struct ReplayOptions {
   std::string dir;
   double settle_s = 5.0;
+  double remember_s = 0.0;
   bool publish_on_ball = false;
   double send_rate_hz = 20.0, publish_rate_hz = 10.0, delay_ms = 1.5, fresh_s = 0.3;
   double max_send_rate_hz = 30.0;
   teamcomm::PictureOptions picture;
   double max_prediction_s = 0.5;
   double superseded_after_s = 0.09;  // config/team/sim_team.yaml
-  std::string csv_path, sightings_path, pictures_path, reporters_path;
+  std::string csv_path, sightings_path, pictures_path, reporters_path, others_path;
 
   void addTo(cli::App& app) {
     app.add_option("recording", dir, "Recording directory (sim.lcm, robot1.lcm ...)")->required();
@@ -144,6 +146,9 @@ struct ReplayOptions {
                    "ball.stamp_sigma_s), s")
         ->check(cli::Range(0.0, 1.0))
         ->capture_default_str();
+    app.add_option("--remember", remember_s,
+                   "A robot's last resting ball joins a resting team ball this long after it was "
+                   "seen, s (0: off)");
     app.add_option("--carry-track", picture.carry_track,
                    "Combine the previous team ball with each picture's (covariance intersection)")
         ->capture_default_str();
@@ -165,6 +170,13 @@ struct ReplayOptions {
     app.add_option("--pictures", pictures_path,
                    "Write every scored team picture (observer, t, team ball error and sigma, each "
                    "robot's ball error and range) here");
+    app.add_option(
+        "--others", others_path,
+        "Write every robot the team ball did not use in every scored team picture (why: "
+        "unheard, absent, not tracking, no valid ball in its packet, timed out, "
+        "superseded, gate; its true range, the time since its camera last saw a ball, "
+        "and its own newest valid BALL_STATE held to the picture's time; how near a body comes to "
+        "hiding the ball from it, with --sightings) here");
     app.add_option("--reporters", reporters_path,
                    "Write every reporter's ball in every scored team picture (its BALL_STATE's "
                    "age, its error at its own stamp, predicted to the picture's time and held "
@@ -227,12 +239,13 @@ std::map<int, RobotLog> readRobotLogs(const std::string& dir,
         perception::RobotEstimate robot = msg::fromMessage(m);
         robot.utime = ownToTruth(clock, robot.utime);
         r.robots.push_back({e.timestamp, robot, {}});
-      } else if (sightings && e.channel == bus::channels::kVisionBall.name) {
+      } else if (e.channel == bus::channels::kVisionBall.name) {
         ball_observation_t m;
         if (m.decode(e.data.data(), 0, size) != size) continue;
         perception::BallSighting sighting = msg::fromMessage(m);
         sighting.utime = ownToTruth(clock, sighting.utime);
-        sightings->write(truth, id, sighting, stateNear(r.robots, sighting.utime));
+        if (sighting.visible) r.seen.push_back(sighting.utime);
+        if (sightings) sightings->write(truth, id, sighting, stateNear(r.robots, sighting.utime));
       } else if (e.channel == bus::channels::kBallState.name) {
         ball_state_t m;
         if (m.decode(e.data.data(), 0, size) != size) continue;
@@ -503,10 +516,74 @@ void writeReporterRows(std::FILE* reporters_csv, const std::vector<eval::TruthSa
   }
 }
 
+// Why a robot's ball is not in a scored team picture (--others).
+const char* leftOutBecause(const teamcomm::TeamPicture& picture,
+                           const teamcomm::TeamBallResult& result,
+                           const perception::TeammateState& m, int id, Utime now,
+                           const teamcomm::PictureOptions& options) {
+  const auto has = [](const std::vector<int>& v, int x) {
+    return std::find(v.begin(), v.end(), x) != v.end();
+  };
+  const teamcomm::Report* report = picture.report(id);
+  if (!report) return "unheard";
+  if (!m.present) return "absent";
+  if (report->robot.status != perception::LocalizationStatus::kTracking) return "not_tracking";
+  if (!report->ball.valid) return "no_ball";
+  if (now - report->ball.last_seen_utime > options.ball_timeout_us) return "timed_out";
+  if (has(result.superseded, id)) return "superseded";
+  if (has(result.mirrored, id)) return "mirrored";
+  return "gate";
+}
+
+// Every robot the team ball did not use in a scored picture, for --others: why, where it is, when
+// its camera last saw a ball and how good its own newest valid estimate (held to now) is.
+void writeOtherRows(std::FILE* others_csv, const std::vector<eval::TruthSample>& truth,
+                    const std::map<int, RobotLog>& logs, int observer, Utime now, Utime start,
+                    const Eigen::Vector2d& t, const teamcomm::TeamBallResult& result,
+                    const perception::TeamState& state, const teamcomm::TeamPicture& picture,
+                    const teamcomm::PictureOptions& options,
+                    const team_bench::SightingRows& bodies) {
+  for (const auto& [id, r] : logs) {
+    if (std::find(result.used.begin(), result.used.end(), id) != result.used.end()) continue;
+    const perception::TeammateState& m = state.robots[static_cast<std::size_t>(id - 1)];
+    eval::TruthRobot tr;
+    double bx = 0, by = 0;
+    if (!eval::truthAt(truth, now, id, tr, &bx, &by)) continue;
+    const auto seen = std::upper_bound(r.seen.begin(), r.seen.end(), now);
+    const double since_seen_ms =
+        seen == r.seen.begin() ? -1.0 : static_cast<double>(now - *std::prev(seen)) / 1e3;
+    // Its newest valid BALL_STATE that had arrived by now (on its own bus), held to now.
+    const Timed* held = nullptr;
+    for (auto it = r.balls.rbegin(); it != r.balls.rend(); ++it) {
+      if (it->received <= now && it->ball.valid) {
+        held = &*it;
+        break;
+      }
+    }
+    const Timed* newest = newestAt(r.balls, now);
+    std::fprintf(others_csv, "%d,%.3f,%d,%s,%.3f,%.3f,%.3f,%.3f,%.4f,%.1f,%d", observer,
+                 static_cast<double>(now - start) / 1e6, id,
+                 leftOutBecause(picture, result, m, id, now, options), t.x(), t.y(),
+                 std::hypot(t.x() - tr.x, t.y() - tr.y),
+                 geometry::normalizeAngle(std::atan2(t.y() - tr.y, t.x() - tr.x) - tr.phi),
+                 bodies.occlusionGap(now, id, tr, t.x(), t.y()), since_seen_ms,
+                 newest && newest->ball.valid ? 1 : 0);
+    if (held) {
+      const perception::BallEstimate& b = held->ball;
+      std::fprintf(others_csv, ",%.1f,%.3f,%.4f,%.4f\n",
+                   static_cast<double>(now - b.last_seen_utime) / 1e3, std::hypot(b.vx, b.vy),
+                   std::hypot(b.x - t.x(), b.y - t.y()), std::sqrt(0.5 * b.covariance.trace()));
+    } else {
+      std::fprintf(others_csv, ",,,,\n");
+    }
+  }
+}
+
 // Each robot's team picture at the publish rate, scored against the truth.
 TeamTally replayTeamBall(const ReplayOptions& o, const std::map<int, RobotLog>& logs,
                          const std::vector<eval::TruthSample>& truth, const Span& span,
-                         std::FILE* pictures_csv, std::FILE* reporters_csv) {
+                         std::FILE* pictures_csv, std::FILE* reporters_csv, std::FILE* others_csv,
+                         const team_bench::SightingRows& bodies) {
   const LinkTiming link = linkTiming(o, logs);
   const std::map<int, std::vector<Utime>> sends = sendTimes(o, logs, link, span);
   TeamTally tally;
@@ -544,6 +621,9 @@ TeamTally replayTeamBall(const ReplayOptions& o, const std::map<int, RobotLog>& 
       if (reporters_csv)
         writeReporterRows(reporters_csv, truth, observer, now, span.start, t, result, state,
                           replay.picture());
+      if (others_csv)
+        writeOtherRows(others_csv, truth, logs, observer, now, span.start, t, result, state,
+                       replay.picture(), o.picture, bodies);
     }
   }
   return tally;
@@ -599,6 +679,7 @@ int main(int argc, char** argv) {
   try {
     o.picture.max_prediction_us = static_cast<Utime>(o.max_prediction_s * 1e6);
     o.picture.superseded_after_us = static_cast<Utime>(o.superseded_after_s * 1e6);
+    o.picture.remember_us = static_cast<Utime>(o.remember_s * 1e6);
     team_bench::SightingRows sightings(o.sightings_path);
     const std::vector<eval::TruthSample> truth = readTruth(o.dir, sightings);
     if (truth.empty()) {
@@ -607,7 +688,6 @@ int main(int argc, char** argv) {
     }
     const std::map<int, RobotLog> logs =
         readRobotLogs(o.dir, truth, sightings.open() ? &sightings : nullptr);
-    sightings.close();
     if (logs.empty()) {
       std::fprintf(stderr, "no robotN.lcm in %s\n", o.dir.c_str());
       return 1;
@@ -624,7 +704,15 @@ int main(int argc, char** argv) {
         openCsv(o.reporters_path,
                 "observer,t,robot,used,age_ms,since_seen_ms,speed_est,err_at_stamp,err_predicted,"
                 "err_held,sigma,range\n");
-    const TeamTally tally = replayTeamBall(o, logs, truth, span, pictures_csv, reporters_csv);
+    std::FILE* others_csv =
+        openCsv(o.others_path,
+                "observer,t,robot,reason,ball_x,ball_y,true_range,true_bearing,occlusion_gap,since_"
+                "sighting_ms,own_valid,held_since_seen_ms,"
+                "held_speed,held_err,held_sigma\n");
+    const TeamTally tally =
+        replayTeamBall(o, logs, truth, span, pictures_csv, reporters_csv, others_csv, sightings);
+    if (others_csv) std::fclose(others_csv);
+    sightings.close();
     if (pictures_csv) std::fclose(pictures_csv);
     if (reporters_csv) std::fclose(reporters_csv);
     printScores(own, tally);
