@@ -21,6 +21,8 @@
 #include <fmt/format.h>
 #include <Eigen/LU>
 
+#include "bench/team/other_rows.hpp"
+#include "bench/team/robot_log.hpp"
 #include "bench/team/sighting_rows.hpp"
 #include "common/bus/log_file.hpp"
 #include "common/cli/cli.hpp"
@@ -34,31 +36,15 @@
 #include "tools/recording/clock_model.hpp"
 
 using namespace fieldline;
+using team_bench::newestAt;
+using team_bench::RobotLog;
+using team_bench::Timed;
 
 namespace {
 
 // Chi-square with 2 degrees of freedom: the central 95 % of single-sample NEES values.
 constexpr double kNees2Low = 0.0506;
 constexpr double kNees2High = 7.3778;
-
-struct Timed {
-  Utime received = 0;  // log time of arrival
-  perception::RobotEstimate robot;
-  perception::BallEstimate ball;
-};
-
-struct RobotLog {
-  std::vector<Timed> robots;  // ROBOT_STATE in arrival order
-  std::vector<Timed> balls;   // BALL_STATE in arrival order
-  std::vector<Utime> seen;    // stamps of the VISION_BALLs that saw a ball (truth clock)
-};
-
-// The newest entry received at or before `t` (nullptr: none).
-const Timed* newestAt(const std::vector<Timed>& v, Utime t) {
-  const auto it = std::upper_bound(v.begin(), v.end(), t,
-                                   [](Utime x, const Timed& e) { return x < e.received; });
-  return it == v.begin() ? nullptr : &*std::prev(it);
-}
 
 struct Score {
   double sum = 0.0;
@@ -516,69 +502,6 @@ void writeReporterRows(std::FILE* reporters_csv, const std::vector<eval::TruthSa
   }
 }
 
-// Why a robot's ball is not in a scored team picture (--others).
-const char* leftOutBecause(const teamcomm::TeamPicture& picture,
-                           const teamcomm::TeamBallResult& result,
-                           const perception::TeammateState& m, int id, Utime now,
-                           const teamcomm::PictureOptions& options) {
-  const auto has = [](const std::vector<int>& v, int x) {
-    return std::find(v.begin(), v.end(), x) != v.end();
-  };
-  const teamcomm::Report* report = picture.report(id);
-  if (!report) return "unheard";
-  if (!m.present) return "absent";
-  if (report->robot.status != perception::LocalizationStatus::kTracking) return "not_tracking";
-  if (!report->ball.valid) return "no_ball";
-  if (now - report->ball.last_seen_utime > options.ball_timeout_us) return "timed_out";
-  if (has(result.superseded, id)) return "superseded";
-  if (has(result.mirrored, id)) return "mirrored";
-  return "gate";
-}
-
-// Every robot the team ball did not use in a scored picture, for --others: why, where it is, when
-// its camera last saw a ball and how good its own newest valid estimate (held to now) is.
-void writeOtherRows(std::FILE* others_csv, const std::vector<eval::TruthSample>& truth,
-                    const std::map<int, RobotLog>& logs, int observer, Utime now, Utime start,
-                    const Eigen::Vector2d& t, const teamcomm::TeamBallResult& result,
-                    const perception::TeamState& state, const teamcomm::TeamPicture& picture,
-                    const teamcomm::PictureOptions& options,
-                    const team_bench::SightingRows& bodies) {
-  for (const auto& [id, r] : logs) {
-    if (std::find(result.used.begin(), result.used.end(), id) != result.used.end()) continue;
-    const perception::TeammateState& m = state.robots[static_cast<std::size_t>(id - 1)];
-    eval::TruthRobot tr;
-    double bx = 0, by = 0;
-    if (!eval::truthAt(truth, now, id, tr, &bx, &by)) continue;
-    const auto seen = std::upper_bound(r.seen.begin(), r.seen.end(), now);
-    const double since_seen_ms =
-        seen == r.seen.begin() ? -1.0 : static_cast<double>(now - *std::prev(seen)) / 1e3;
-    // Its newest valid BALL_STATE that had arrived by now (on its own bus), held to now.
-    const Timed* held = nullptr;
-    for (auto it = r.balls.rbegin(); it != r.balls.rend(); ++it) {
-      if (it->received <= now && it->ball.valid) {
-        held = &*it;
-        break;
-      }
-    }
-    const Timed* newest = newestAt(r.balls, now);
-    std::fprintf(others_csv, "%d,%.3f,%d,%s,%.3f,%.3f,%.3f,%.3f,%.4f,%.1f,%d", observer,
-                 static_cast<double>(now - start) / 1e6, id,
-                 leftOutBecause(picture, result, m, id, now, options), t.x(), t.y(),
-                 std::hypot(t.x() - tr.x, t.y() - tr.y),
-                 geometry::normalizeAngle(std::atan2(t.y() - tr.y, t.x() - tr.x) - tr.phi),
-                 bodies.occlusionGap(now, id, tr, t.x(), t.y()), since_seen_ms,
-                 newest && newest->ball.valid ? 1 : 0);
-    if (held) {
-      const perception::BallEstimate& b = held->ball;
-      std::fprintf(others_csv, ",%.1f,%.3f,%.4f,%.4f\n",
-                   static_cast<double>(now - b.last_seen_utime) / 1e3, std::hypot(b.vx, b.vy),
-                   std::hypot(b.x - t.x(), b.y - t.y()), std::sqrt(0.5 * b.covariance.trace()));
-    } else {
-      std::fprintf(others_csv, ",,,,\n");
-    }
-  }
-}
-
 // Each robot's team picture at the publish rate, scored against the truth.
 TeamTally replayTeamBall(const ReplayOptions& o, const std::map<int, RobotLog>& logs,
                          const std::vector<eval::TruthSample>& truth, const Span& span,
@@ -622,8 +545,8 @@ TeamTally replayTeamBall(const ReplayOptions& o, const std::map<int, RobotLog>& 
         writeReporterRows(reporters_csv, truth, observer, now, span.start, t, result, state,
                           replay.picture());
       if (others_csv)
-        writeOtherRows(others_csv, truth, logs, observer, now, span.start, t, result, state,
-                       replay.picture(), o.picture, bodies);
+        team_bench::writeOtherRows(others_csv, truth, logs, observer, now, span.start, t, result,
+                                   state, replay.picture(), o.picture, bodies);
     }
   }
   return tally;
@@ -704,11 +627,7 @@ int main(int argc, char** argv) {
         openCsv(o.reporters_path,
                 "observer,t,robot,used,age_ms,since_seen_ms,speed_est,err_at_stamp,err_predicted,"
                 "err_held,sigma,range\n");
-    std::FILE* others_csv =
-        openCsv(o.others_path,
-                "observer,t,robot,reason,ball_x,ball_y,true_range,true_bearing,occlusion_gap,since_"
-                "sighting_ms,own_valid,held_since_seen_ms,"
-                "held_speed,held_err,held_sigma\n");
+    std::FILE* others_csv = openCsv(o.others_path, team_bench::otherRowsHeader());
     const TeamTally tally =
         replayTeamBall(o, logs, truth, span, pictures_csv, reporters_csv, others_csv, sightings);
     if (others_csv) std::fclose(others_csv);
