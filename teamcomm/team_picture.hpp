@@ -5,8 +5,9 @@
 // mislocalized teammate's ball (confidently in the wrong place) is left out rather than averaged
 // in. Among groups of equal size the one that continues the previous team ball wins, and a lone
 // group whose ball is the previous team ball's mirror image through the centre spot (its reporters
-// sit on their symmetric twin) is left out. Plain library: every time is on this robot's clock and
-// comes in as an argument.
+// sit on their symmetric twin) is left out. A robot's last resting ball is remembered for a while
+// after it lost it and joins a resting team ball it agrees with. Plain library: every time is on
+// this robot's clock and comes in as an argument.
 #pragma once
 
 #include <array>
