@@ -367,7 +367,10 @@ void TeamPicture::joinRemembered(Utime now, const std::vector<BallCandidate>& cu
       m.reset();
     }
   }
-  if (!best.valid || best.velocity.norm() >= options_.ball_rest_speed_mps || old.empty()) return;
+  if (!best.valid || old.empty()) return;
+  // Joined only while the team ball rests (a rolling one's place lags a kick); forgotten as soon
+  // as the team ball, resting or rolling, lies outside the gate of it (the ball has moved).
+  const bool resting = best.velocity.norm() < options_.ball_rest_speed_mps;
   std::vector<const BallCandidate*> members;
   for (const BallCandidate& c : current) {
     if (std::find(best.used.begin(), best.used.end(), c.robot_id) != best.used.end())
@@ -377,7 +380,7 @@ void TeamPicture::joinRemembered(Utime now, const std::vector<BallCandidate>& cu
   for (const BallCandidate& c : old) {
     if (mahalanobis2(c.position, c.covariance, best.position, best.covariance) <=
         options_.gate_chi2) {
-      members.push_back(&c);
+      if (resting) members.push_back(&c);
     } else {
       remembered_[static_cast<std::size_t>(c.robot_id - 1)].reset();
     }

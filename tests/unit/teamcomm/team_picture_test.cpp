@@ -548,11 +548,12 @@ TEST(teamcomm_picture, ARestingBallSeenNearIsRememberedAfterItsRobotLostIt) {
 }
 
 // A remembered ball never makes or outvotes a team ball; one a sighting contradicts (the ball
-// was moved) is forgotten for good; a rolling team ball takes none.
+// was moved: a resting or rolling team ball outside its gate) is forgotten for good; a rolling
+// team ball within its gate takes none but leaves it remembered.
 TEST(teamcomm_picture, ARememberedBallJoinsOnlyARestingBallItAgreesWith) {
   PictureOptions options;
   options.carry_track = false;
-  for (const int variant : {0, 1, 2}) {
+  for (const int variant : {0, 1, 2, 3}) {
     TeamPicture picture(1, options);
     Report near = report(1.0, 1.0, kT0);
     seeBall(near, 2.0, 1.0, 0.01);
@@ -569,24 +570,25 @@ TEST(teamcomm_picture, ARememberedBallJoinsOnlyARestingBallItAgreesWith) {
     }
     Report far = report(-3.0, 1.0, now);
     if (variant == 1) {
-      seeBall(far, 2.5, 1.0, 0.05);
-    } else {
+      seeBall(far, 2.5, 1.0, 0.05);  // resting elsewhere
+    } else if (variant == 2) {
       seeBall(far, 2.06, 1.0, 0.05, 0.5, 0.0);  // rolling, within the gate of the memory
+    } else {
+      seeBall(far, 3.0, 1.0, 0.05, 0.5, 0.0);  // rolling, away from it
     }
     picture.setReport(5, far);
     picture.picture(now, &ball);
     EXPECT_EQ(ball.used, (std::vector<int>{5})) << variant;
-    if (variant == 1) {
-      // Contradicted at 2.5: forgotten, so it does not come back when the far robot sees 2.06.
-      now += 100'000;
-      far = report(-3.0, 1.0, now);
-      seeBall(far, 2.06, 1.0, 0.05);
-      picture.setReport(5, far);
-      near = report(-1.0, 1.0, now);
-      picture.setReport(2, near);
-      picture.picture(now, &ball);
-      EXPECT_EQ(ball.used, (std::vector<int>{5})) << "forgotten";
-    }
+    // Then the far robot sees a resting ball at 2.06: only the memory within the gate is back.
+    now += 100'000;
+    far = report(-3.0, 1.0, now);
+    seeBall(far, 2.06, 1.0, 0.05);
+    picture.setReport(5, far);
+    near = report(-1.0, 1.0, now);
+    picture.setReport(2, near);
+    picture.picture(now, &ball);
+    EXPECT_EQ(ball.used, variant == 2 ? (std::vector<int>{2, 5}) : (std::vector<int>{5}))
+        << variant;
   }
 }
 
