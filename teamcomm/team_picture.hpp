@@ -99,7 +99,8 @@ struct PictureOptions {
   // (0: off). While the robot reports no ball (it drove out of the camera's reach, turned the
   // ball into the image's clipped side, or its filter dropped it), the remembered one joins a
   // resting winning group it agrees with (gate_chi2); it never forms a group, decides one or
-  // makes a team ball valid, and one outside the gate, or a robot's rolling ball, is forgotten.
+  // makes a team ball valid, and one outside the gate of the team ball (resting or rolling), or a
+  // robot's rolling ball, is forgotten.
   // Its covariance grows by ball_rest_speed_sigma_mps per second since it was remembered. In the
   // match 63-75 % of the pictures have one reporter, 4-6 m away; in 84-92 % of those the other
   // robots are beyond the camera's reach. Replays of 16 recordings: team ball 0-1.3 mm better in
