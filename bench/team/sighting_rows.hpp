@@ -33,17 +33,16 @@ class SightingRows {
   // the robot's ROBOT_STATE nearest the stamp (on the truth's clock), or null.
   void write(const std::vector<eval::TruthSample>& truth, int id, const perception::BallSighting& b,
              const perception::RobotEstimate* pose_near);
+  // The angular gap (rad) between the silhouette of the body in front of the ball nearest its
+  // line of sight from robot `id` and the ball's, negative when they overlap (the ball partly
+  // hidden); +inf without a body in front (or without output: no bodies are kept then).
+  double occlusionGap(Utime t, int id, const eval::TruthRobot& robot, double bx, double by) const;
 
  private:
   struct Body {
     int id;  // robot id, or 0 for an opponent
     double x, y, radius;
   };
-  // The angular gap (rad) between the silhouette of the body in front of the ball nearest its
-  // line of sight from robot `id` and the ball's, negative when they overlap (the ball partly
-  // hidden); +inf without a body in front.
-  double occlusionGap(Utime t, int id, const eval::TruthRobot& robot, double bx, double by) const;
-
   std::FILE* file_ = nullptr;
   std::map<Utime, std::vector<Body>> bodies_;  // by SIM_WORLD utime
 };

@@ -21,6 +21,8 @@
 #include <fmt/format.h>
 #include <Eigen/LU>
 
+#include "bench/team/other_rows.hpp"
+#include "bench/team/robot_log.hpp"
 #include "bench/team/sighting_rows.hpp"
 #include "common/bus/log_file.hpp"
 #include "common/cli/cli.hpp"
@@ -34,30 +36,15 @@
 #include "tools/recording/clock_model.hpp"
 
 using namespace fieldline;
+using team_bench::newestAt;
+using team_bench::RobotLog;
+using team_bench::Timed;
 
 namespace {
 
 // Chi-square with 2 degrees of freedom: the central 95 % of single-sample NEES values.
 constexpr double kNees2Low = 0.0506;
 constexpr double kNees2High = 7.3778;
-
-struct Timed {
-  Utime received = 0;  // log time of arrival
-  perception::RobotEstimate robot;
-  perception::BallEstimate ball;
-};
-
-struct RobotLog {
-  std::vector<Timed> robots;  // ROBOT_STATE in arrival order
-  std::vector<Timed> balls;   // BALL_STATE in arrival order
-};
-
-// The newest entry received at or before `t` (nullptr: none).
-const Timed* newestAt(const std::vector<Timed>& v, Utime t) {
-  const auto it = std::upper_bound(v.begin(), v.end(), t,
-                                   [](Utime x, const Timed& e) { return x < e.received; });
-  return it == v.begin() ? nullptr : &*std::prev(it);
-}
 
 struct Score {
   double sum = 0.0;
@@ -96,13 +83,14 @@ struct Score {
 struct ReplayOptions {
   std::string dir;
   double settle_s = 5.0;
+  double remember_s = 0.0;
   bool publish_on_ball = false;
   double send_rate_hz = 20.0, publish_rate_hz = 10.0, delay_ms = 1.5, fresh_s = 0.3;
   double max_send_rate_hz = 30.0;
   teamcomm::PictureOptions picture;
   double max_prediction_s = 0.5;
   double superseded_after_s = 0.09;  // config/team/sim_team.yaml
-  std::string csv_path, sightings_path, pictures_path, reporters_path;
+  std::string csv_path, sightings_path, pictures_path, reporters_path, others_path;
 
   void addTo(cli::App& app) {
     app.add_option("recording", dir, "Recording directory (sim.lcm, robot1.lcm ...)")->required();
@@ -144,6 +132,9 @@ struct ReplayOptions {
                    "ball.stamp_sigma_s), s")
         ->check(cli::Range(0.0, 1.0))
         ->capture_default_str();
+    app.add_option("--remember", remember_s,
+                   "A robot's last resting ball joins a resting team ball this long after it was "
+                   "seen, s (0: off)");
     app.add_option("--carry-track", picture.carry_track,
                    "Combine the previous team ball with each picture's (covariance intersection)")
         ->capture_default_str();
@@ -165,6 +156,13 @@ struct ReplayOptions {
     app.add_option("--pictures", pictures_path,
                    "Write every scored team picture (observer, t, team ball error and sigma, each "
                    "robot's ball error and range) here");
+    app.add_option(
+        "--others", others_path,
+        "Write every robot the team ball did not use in every scored team picture (why: "
+        "unheard, absent, not tracking, no valid ball in its packet, timed out, "
+        "superseded, gate; its true range, the time since its camera last saw a ball, "
+        "and its own newest valid BALL_STATE held to the picture's time; how near a body comes to "
+        "hiding the ball from it, with --sightings) here");
     app.add_option("--reporters", reporters_path,
                    "Write every reporter's ball in every scored team picture (its BALL_STATE's "
                    "age, its error at its own stamp, predicted to the picture's time and held "
@@ -227,12 +225,13 @@ std::map<int, RobotLog> readRobotLogs(const std::string& dir,
         perception::RobotEstimate robot = msg::fromMessage(m);
         robot.utime = ownToTruth(clock, robot.utime);
         r.robots.push_back({e.timestamp, robot, {}});
-      } else if (sightings && e.channel == bus::channels::kVisionBall.name) {
+      } else if (e.channel == bus::channels::kVisionBall.name) {
         ball_observation_t m;
         if (m.decode(e.data.data(), 0, size) != size) continue;
         perception::BallSighting sighting = msg::fromMessage(m);
         sighting.utime = ownToTruth(clock, sighting.utime);
-        sightings->write(truth, id, sighting, stateNear(r.robots, sighting.utime));
+        if (sighting.visible) r.seen.push_back(sighting.utime);
+        if (sightings) sightings->write(truth, id, sighting, stateNear(r.robots, sighting.utime));
       } else if (e.channel == bus::channels::kBallState.name) {
         ball_state_t m;
         if (m.decode(e.data.data(), 0, size) != size) continue;
@@ -506,7 +505,8 @@ void writeReporterRows(std::FILE* reporters_csv, const std::vector<eval::TruthSa
 // Each robot's team picture at the publish rate, scored against the truth.
 TeamTally replayTeamBall(const ReplayOptions& o, const std::map<int, RobotLog>& logs,
                          const std::vector<eval::TruthSample>& truth, const Span& span,
-                         std::FILE* pictures_csv, std::FILE* reporters_csv) {
+                         std::FILE* pictures_csv, std::FILE* reporters_csv, std::FILE* others_csv,
+                         const team_bench::SightingRows& bodies) {
   const LinkTiming link = linkTiming(o, logs);
   const std::map<int, std::vector<Utime>> sends = sendTimes(o, logs, link, span);
   TeamTally tally;
@@ -544,6 +544,9 @@ TeamTally replayTeamBall(const ReplayOptions& o, const std::map<int, RobotLog>& 
       if (reporters_csv)
         writeReporterRows(reporters_csv, truth, observer, now, span.start, t, result, state,
                           replay.picture());
+      if (others_csv)
+        team_bench::writeOtherRows(others_csv, truth, logs, observer, now, span.start, t, result,
+                                   state, replay.picture(), o.picture, bodies);
     }
   }
   return tally;
@@ -599,6 +602,7 @@ int main(int argc, char** argv) {
   try {
     o.picture.max_prediction_us = static_cast<Utime>(o.max_prediction_s * 1e6);
     o.picture.superseded_after_us = static_cast<Utime>(o.superseded_after_s * 1e6);
+    o.picture.remember_us = static_cast<Utime>(o.remember_s * 1e6);
     team_bench::SightingRows sightings(o.sightings_path);
     const std::vector<eval::TruthSample> truth = readTruth(o.dir, sightings);
     if (truth.empty()) {
@@ -607,7 +611,6 @@ int main(int argc, char** argv) {
     }
     const std::map<int, RobotLog> logs =
         readRobotLogs(o.dir, truth, sightings.open() ? &sightings : nullptr);
-    sightings.close();
     if (logs.empty()) {
       std::fprintf(stderr, "no robotN.lcm in %s\n", o.dir.c_str());
       return 1;
@@ -624,7 +627,11 @@ int main(int argc, char** argv) {
         openCsv(o.reporters_path,
                 "observer,t,robot,used,age_ms,since_seen_ms,speed_est,err_at_stamp,err_predicted,"
                 "err_held,sigma,range\n");
-    const TeamTally tally = replayTeamBall(o, logs, truth, span, pictures_csv, reporters_csv);
+    std::FILE* others_csv = openCsv(o.others_path, team_bench::otherRowsHeader());
+    const TeamTally tally =
+        replayTeamBall(o, logs, truth, span, pictures_csv, reporters_csv, others_csv, sightings);
+    if (others_csv) std::fclose(others_csv);
+    sightings.close();
     if (pictures_csv) std::fclose(pictures_csv);
     if (reporters_csv) std::fclose(reporters_csv);
     printScores(own, tally);
