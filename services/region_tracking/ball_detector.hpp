@@ -102,6 +102,19 @@ class BallDetector {
   bool expectedExtent(double horizontal, double bearing, double& radialPx,
                       double& tangentialPx) const;
 
+  // How far inside the ball's silhouette its outermost ball-coloured pixels lie, px, on average:
+  // at the near edge (toward the mirror centre) and the far edge, for a ball whose centre is
+  // `horizontal` m away at `bearing`. Two things put them there: the pixels are sampled at their
+  // centres (a curved edge's outermost pixel centre lies less than half a pixel in, a straight
+  // one's half a pixel), and in a YUYV frame two neighbouring pixels share one chroma sample, so
+  // an edge pixel whose pair partner is off the ball has the carpet's chroma mixed in and is not
+  // ball-coloured. Derived from the mirror model at construction (silhouettes of spheres at many
+  // places and sub-pixel shifts), not measured on frames.
+  struct EdgeInsets {
+    double near_px = 0.5, far_px = 0.5;
+  };
+  EdgeInsets edgeInsets(double horizontal, double bearing, bool yuyv) const;
+
  private:
   // The steps of evaluate(), in order; each returns kNone or why the candidate is refused.
   // The candidate's box of pixels: its cells' box widened by a pixel, inside the frame.
@@ -130,7 +143,19 @@ class BallDetector {
     // The far edge was cut by the useful radius: the centre comes from the near edge alone.
     bool far_edge_cut = false;
   };
-  BallReject place(const BallPixels& pixels, const BallRegion* region, BallPlace& out) const;
+  BallReject place(const BallPixels& pixels, const BallRegion* region, bool yuyv,
+                   BallPlace& out) const;
+  // The depression angle (from the reference point R, rad) of the ray to the ball's centre, from
+  // the outermost pixels' radii moved out to the silhouette's edges by `insets`; with `farCut`,
+  // from the near edge alone.
+  double centreAngle(const BallPixels& pixels, double bearing, const EdgeInsets& insets,
+                     bool farCut) const;
+  // The table edgeInsets() reads (see there).
+  void buildEdgeInsets();
+  // One sphere at `horizontal`, `bearing` (axis frame): its outermost pixel centres' insets
+  // from the silhouette, with pixels alone and with YUYV pairs; false where the near edge is not
+  // imaged. `far` is NaN where the far edge is beyond the distance function.
+  bool sampleInsets(double horizontal, double bearing, EdgeInsets& plain, EdgeInsets& pairs) const;
   // Size and shape against a ball at that place.
   struct BallShape {
     double expected_radial = 0, expected_tangential = 0;
@@ -150,6 +175,12 @@ class BallDetector {
   // Regions whose bounding box is larger than this (px) are no ball anywhere in the image.
   double max_extent_px_ = 0;
   bool has_colour_ = false;
+  // edgeInsets() table: [yuyv][angle bin][distance knot] of {near, far}, px; knots from
+  // inset_first_m_ every kInsetStepM; the angle bin is the radial direction's angle to the image
+  // rows folded into [0, pi/2] (a YUYV pair lies along a row).
+  std::vector<EdgeInsets> insets_;
+  double inset_first_m_ = 0;
+  int inset_knots_ = 0;
 };
 
 }  // namespace fieldline::region_tracking
