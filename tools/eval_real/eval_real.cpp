@@ -380,9 +380,13 @@ void judgeMirror(const venue::VenueCase& spec, const venue::RenderedVenue& v,
     poseCm = std::max(poseCm, 100.0 * std::min((mirror.frames[i].pose.position() - t).norm(),
                                                (mirror.frames[i].twin.position() - t).norm()));
   }
-  r.figures = fmt::format("mirror: distance 1-5 m {:.2f} %, poses {:.1f} cm, offset {:.1f} cm{}",
-                          e.distance_percent, poseCm, 100 * e.offset_m,
-                          weak.empty() ? "" : " (would refuse: " + weak.front() + ")");
+  r.figures = fmt::format(
+      "mirror: distance 1-5 m {:.2f} %, poses {:.1f} cm, offset {:.1f} cm{}{}", e.distance_percent,
+      poseCm, 100 * e.offset_m,
+      mirror.search.non_finite_points > 0
+          ? fmt::format(" ({} non-finite points refused)", mirror.search.non_finite_points)
+          : std::string(),
+      weak.empty() ? "" : " (would refuse: " + weak.front() + ")");
   bound(r, spec.expect, "max_distance_percent", e.distance_percent, true);
   bound(r, spec.expect, "max_pose_cm", poseCm, true);
   bound(r, spec.expect, "max_offset_cm", 100 * e.offset_m, true);
@@ -490,15 +494,24 @@ CaseResult runCase(const std::string& manifest) {
   CaseResult r;
   const config::Node root = config::Node::loadFile(manifest);
   r.name = fs::path(manifest).stem().string();
-  if (root.has("spots")) {
-    r.kind = "venue";
-    runVenue(manifest, r);
-  } else {
-    r.kind = root.getChoice("kind", {"rings", "line_points", "field_points"});
-    r.name = root.getOr<std::string>("name", r.name);
-    if (r.kind == "rings") runRings(root, r);
-    if (r.kind == "line_points") runLinePoints(root, r);
-    if (r.kind == "field_points") runFieldPoints(root, r);
+  try {
+    if (root.has("spots")) {
+      r.kind = "venue";
+      runVenue(manifest, r);
+    } else {
+      r.kind = root.getChoice("kind", {"rings", "line_points", "field_points"});
+      r.name = root.getOr<std::string>("name", r.name);
+      if (r.kind == "rings") runRings(root, r);
+      if (r.kind == "line_points") runLinePoints(root, r);
+      if (r.kind == "field_points") runFieldPoints(root, r);
+    }
+  } catch (const config::Error&) {
+    throw;  // the manifest's error: the run stops with exit 2
+  } catch (const std::exception& e) {
+    // Anything else a tool or the case's data throws is this case's failure, with its reason;
+    // the other cases still run.
+    r.figures += std::string(r.figures.empty() ? "" : "; ") + "stopped: " + e.what();
+    r.failed.push_back(std::string("the case ran to its end (it stopped: ") + e.what() + ")");
   }
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return r;

@@ -41,7 +41,8 @@ struct CaseResult {
 };
 
 // Runs one manifest (real or venue: a venue manifest has `spots:`). Never throws for what the
-// case's data does (a tool's refusal is a figure); throws config::Error for a bad manifest.
+// case's data does: a tool's refusal is a figure, any other exception the case's failure with
+// its reason; throws config::Error for a bad manifest.
 CaseResult runCase(const std::string& manifest);
 
 // The manifests of a folder, sorted by name.

@@ -214,6 +214,10 @@ void printPoseFreeReport(const PoseFreeCalibration& c) {
       c.table_end_m, c.mirror.useful_radius, c.used, c.rms_px, c.rms_cm, 100 * c.on_lines);
   fmt::print("line width: {:.2f} times the field's (median over {} near line pixels)\n",
              c.line_width_ratio, c.width_samples);
+  if (c.search.non_finite_points > 0) {
+    fmt::print("{} robot-frame points refused as not finite (never measured against the field)\n",
+               c.search.non_finite_points);
+  }
 }
 
 // Writes the camera preset only after reading it back through the camera service's loader and

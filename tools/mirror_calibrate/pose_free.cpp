@@ -245,6 +245,7 @@ PoseFreeCalibration calibrateAtUnknownPose(const std::vector<UnposedFrame>& fram
   s.fitSectors();
   s.writeTable();
   s.measure();
+  s.out.search.non_finite_points = s.non_finite_points;
   return std::move(s.out);
 }
 

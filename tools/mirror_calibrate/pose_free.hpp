@@ -124,6 +124,9 @@ struct SearchReport {
   double score = 0.0;      // mean truncated cost of the winner (0 perfect, 1 nothing fits)
   double runner_up = 0.0;  // of the best other candidate
   int candidates = 0;
+  // Robot-frame points the search refused as not finite (a pixel without a floor distance or
+  // bearing): counted, never measured against the field.
+  int non_finite_points = 0;
 };
 
 struct PoseFreeCalibration {

@@ -397,16 +397,13 @@ std::vector<Vec2> Solver::robotPoints(int f, std::size_t limit) const {
     const double b = axisBearing(p.pixel, ctr, base.heading_angle, base.mirrored);
     pts.push_back(offset + d * Vec2(std::cos(b), std::sin(b)));
   }
-  if (pts.size() <= limit) return pts;
-  std::vector<Vec2> some;
-  for (std::size_t i = 0; i < limit; ++i)
-    some.push_back(pts[i * pts.size() / limit]);
-  return some;
+  return evenlySpread(finitePoints(pts, non_finite_points), limit);
 }
 
 // A frame turned on a spot: its heading scanned at the spot's position (1 degree steps).
 double Solver::headingAt(int f, const Vec2& at) const {
   const std::vector<Vec2> pts = robotPoints(f, 400);
+  if (!at.allFinite()) return 0.0;  // nowhere to scan from (poseCost would refuse every phi)
   double bestCost = 2.0, bestPhi = 0.0;
   for (int deg = 0; deg < 360; ++deg) {
     const double phi = deg * kPi / 180.0;
@@ -435,9 +432,9 @@ void Solver::placeWaitingFrames() {
       const std::size_t want = static_cast<std::size_t>(2 * params.search_points);
       for (std::size_t i = 0; i < want && !pts.empty(); ++i)
         coarse.push_back(pts[i * pts.size() / want]);
-      std::vector<Vec2> dense;
-      for (std::size_t i = 0; i < 600 && !pts.empty(); ++i)
-        dense.push_back(pts[i * pts.size() / std::min<std::size_t>(600, pts.size())]);
+      // At most 600, evenly spread (a frame with fewer keeps its own: indexing 600 of them
+      // read past the end of a shorter list, garbage points that stopped the calibration).
+      const std::vector<Vec2> dense = evenlySpread(pts, 600);
       found[static_cast<std::size_t>(f)] =
           searchPoses(coarse, dense, *raster, *grid, field, params, 4);
     }

@@ -17,10 +17,14 @@ namespace fieldline::calibration::posefree {
 
 namespace {
 
+bool finitePose(const Pose2& p) {
+  return std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.phi);
+}
+
 // Iteratively reweighted Gauss-Newton on the pose (Geman-McClure weights, scale tau).
 Pose2 refinePose(const std::vector<Vec2>& pts, Pose2 pose, const field::DistanceGrid& grid,
                  double tau, int iterations) {
-  for (int it = 0; it < iterations; ++it) {
+  for (int it = 0; it < iterations && finitePose(pose); ++it) {
     Eigen::Matrix3d a = Eigen::Matrix3d::Zero();
     Eigen::Vector3d g = Eigen::Vector3d::Zero();
     const double c = std::cos(pose.phi), s = std::sin(pose.phi);
@@ -90,7 +94,7 @@ CostRaster::CostRaster(const field::FieldModel& field, double truncation, double
 // Geman-McClure cost of points seen from `pose` (field frame), mean over points.
 double poseCost(const std::vector<Vec2>& pts, const Pose2& pose, const field::DistanceGrid& grid,
                 double tau) {
-  if (pts.empty()) return 1.0;
+  if (pts.empty() || !finitePose(pose)) return 1.0;
   double sum = 0.0;
   const double c = std::cos(pose.phi), s = std::sin(pose.phi);
   for (const Vec2& p : pts) {
@@ -99,6 +103,27 @@ double poseCost(const std::vector<Vec2>& pts, const Pose2& pose, const field::Di
     sum += d * d / (d * d + tau * tau);
   }
   return sum / static_cast<double>(pts.size());
+}
+
+std::vector<Vec2> evenlySpread(const std::vector<Vec2>& pts, std::size_t limit) {
+  if (pts.size() <= limit) return pts;
+  std::vector<Vec2> some;
+  for (std::size_t i = 0; i < limit; ++i)
+    some.push_back(pts[i * pts.size() / limit]);
+  return some;
+}
+
+std::vector<Vec2> finitePoints(const std::vector<Vec2>& pts, int& refused) {
+  std::vector<Vec2> out;
+  out.reserve(pts.size());
+  for (const Vec2& p : pts) {
+    if (p.allFinite()) {
+      out.push_back(p);
+    } else {
+      ++refused;
+    }
+  }
+  return out;
 }
 
 Pose2 twinOf(const Pose2& p) {
@@ -150,6 +175,7 @@ std::vector<ScoredPose> searchPoses(const std::vector<Vec2>& pts, const std::vec
   for (const ScoredPose& l : lattice) {
     Pose2 p = refinePose(dense, l.pose, grid, 0.4, 8);
     p = refinePose(dense, p, grid, 0.15, 8);
+    if (!finitePose(p)) continue;
     refined.push_back({p, poseCost(dense, p, grid, 0.15)});
   }
   std::sort(refined.begin(), refined.end(),
@@ -287,11 +313,13 @@ double Solver::scoreCandidate(const Candidate& c, const std::vector<int>& use, i
                               std::vector<std::vector<ScoredPose>>* poses) const {
   double total = 0.0;
   for (int f : use) {
-    const std::vector<Vec2> coarse =
+    const std::vector<Vec2> coarse = finitePoints(
         candidatePoints(pixels, f, c, base, search_radius, 4.0 * params.search_max_distance,
-                        static_cast<std::size_t>(params.search_points));
-    const std::vector<Vec2> dense =
-        candidatePoints(pixels, f, c, base, search_radius, 4.0 * params.search_max_distance, 400);
+                        static_cast<std::size_t>(params.search_points)),
+        non_finite_points);
+    const std::vector<Vec2> dense = finitePoints(
+        candidatePoints(pixels, f, c, base, search_radius, 4.0 * params.search_max_distance, 400),
+        non_finite_points);
     std::vector<ScoredPose> found = searchPoses(coarse, dense, *raster, *grid, field, params, keep);
     total += found.empty() ? 1.0 : found.front().cost;
     if (poses) (*poses)[static_cast<std::size_t>(f)] = std::move(found);

@@ -66,6 +66,13 @@ double poseCost(const std::vector<Vec2>& pts, const Pose2& pose, const field::Di
 
 Pose2 twinOf(const Pose2& p);
 
+// At most `limit` of `pts`, evenly spread (all of them when there are no more than `limit`).
+std::vector<Vec2> evenlySpread(const std::vector<Vec2>& pts, std::size_t limit);
+
+// `pts` without its non-finite points, `refused` counting them: a point the distance grid
+// cannot measure never reaches it.
+std::vector<Vec2> finitePoints(const std::vector<Vec2>& pts, int& refused);
+
 struct Candidate {
   double k = 1.0;  // radius scale
   double s = 1.0;  // distance scale
@@ -195,6 +202,8 @@ struct Solver {
   RidgeParams rp;
   std::vector<LinePx> pixels;
   std::vector<int> per_frame;
+  // Robot-frame points refused before the pose search or cost because they were not finite.
+  mutable int non_finite_points = 0;
   // Stage 3.
   std::optional<field::DistanceGrid> grid;
   std::optional<CostRaster> raster;

@@ -144,5 +144,21 @@ TEST_F(EvalReal, MissingDataIsSkippedAndABrokenManifestIsAnError) {
   EXPECT_THROW((void)runCase(write("kind.yaml", "kind: pictures\n")), config::Error);
 }
 
+// Session 14 (venue): anything a case's tools or data throw (a DistanceGrid's "non-finite point",
+// a points file the reader cannot read) is that case's failure with its reason, not the end of
+// the run (runCase threw it out to fieldline-eval-real's main: exit 2, the cases after it
+// never ran).
+TEST_F(EvalReal, WhatACaseThrowsIsThatCasesFailureWithItsReason) {
+  write("broken.txt", "1.0 2.0\nnan 0.5\n");
+  CaseResult r;
+  ASSERT_NO_THROW(r = runCase(write("broken.yaml",
+                                    "kind: field_points\npoints: broken.txt\nfield: msl\n"
+                                    "expect:\n  max_median_cm: 2\n")));
+  EXPECT_FALSE(r.skipped);
+  ASSERT_EQ(r.failed.size(), 1u) << r.figures;
+  EXPECT_NE(r.failed[0].find("expected two numbers"), std::string::npos) << r.failed[0];
+  EXPECT_NE(r.figures.find("stopped: "), std::string::npos) << r.figures;
+}
+
 }  // namespace
 }  // namespace fieldline::evalreal

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <numbers>
 #include <random>
 
@@ -12,6 +13,7 @@
 
 #include "common/config/config.hpp"
 #include "services/camera/camera_config.hpp"
+#include "tools/mirror_calibrate/pose_free_solver.hpp"
 
 namespace fieldline::calibration {
 namespace mirror_calibration_test {
@@ -252,6 +254,47 @@ TEST(MirrorCalibrationFiles, WrittenPresetLoadsWithoutARenderSection) {
     EXPECT_NE(std::string(e.what()).find("render"), std::string::npos) << e.what();
     EXPECT_NE(std::string(e.what()).find("fieldline_mirror_written.yaml"), std::string::npos);
   }
+}
+
+// Session 14 (venue): a frame placed after the search with fewer than 600 robot-frame points had
+// its 600 "dense" points indexed past the end of its list (garbage read: a NaN point that stopped
+// fieldline-eval-real with "DistanceGrid::distance: non-finite point", depending on what lay
+// beyond the list). The spread keeps a short list as it is and takes a long one evenly.
+TEST(PoseFreeSearch, AnEvenSpreadOfAShortListIsTheListItself) {
+  std::vector<Vec2> pts;
+  for (int i = 0; i < 300; ++i)
+    pts.emplace_back(0.01 * i, -0.02 * i);
+  const std::vector<Vec2> some = posefree::evenlySpread(pts, 600);
+  ASSERT_EQ(some.size(), pts.size());
+  for (std::size_t i = 0; i < pts.size(); ++i)
+    EXPECT_EQ(some[i], pts[i]);
+  for (int i = 300; i < 1000; ++i)
+    pts.emplace_back(0.01 * i, -0.02 * i);
+  const std::vector<Vec2> spread = posefree::evenlySpread(pts, 600);
+  ASSERT_EQ(spread.size(), 600u);
+  for (std::size_t i = 0; i < spread.size(); ++i) {
+    EXPECT_EQ(spread[i], pts[i * 1000 / 600]);
+  }
+}
+
+// A point the distance grid cannot measure is refused and counted before the search or a cost
+// sees it (the grid throws for one: that ended a whole fieldline-eval-real run).
+TEST(PoseFreeSearch, NonFinitePointsAreRefusedAndCountedNotMeasured) {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const double inf = std::numeric_limits<double>::infinity();
+  const std::vector<Vec2> pts = {Vec2(1.0, 0.5), Vec2(nan, 3e-321), Vec2(2.0, -1.0), Vec2(inf, 0)};
+  int refused = 0;
+  const std::vector<Vec2> kept = posefree::finitePoints(pts, refused);
+  EXPECT_EQ(refused, 2);
+  ASSERT_EQ(kept.size(), 2u);
+  EXPECT_EQ(kept[0], pts[0]);
+  EXPECT_EQ(kept[1], pts[2]);
+  const field::FieldModel msl = field::loadFieldPreset("msl");
+  const field::DistanceGrid grid(msl, 0.05, 1.0);
+  EXPECT_THROW((void)grid.distance(pts[1]), std::invalid_argument);
+  // A pose that is not finite costs "nothing fits" instead of throwing.
+  EXPECT_DOUBLE_EQ(posefree::poseCost(kept, geometry::Pose2{nan, 0.0, 0.0}, grid, 0.15), 1.0);
+  EXPECT_LT(posefree::poseCost(kept, geometry::Pose2{0.0, 0.0, 0.0}, grid, 0.15), 1.0);
 }
 
 }  // namespace mirror_calibration_test
