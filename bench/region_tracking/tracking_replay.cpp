@@ -110,6 +110,7 @@ void printSummary(const char* what, std::vector<double> v) {
 
 }  // namespace
 
+// long: options, frames and the timed rounds in one place, as the other benchmarks' mains.
 int main(int argc, char** argv) {
   cli::App app{"Region tracking's per-frame work on recorded or rendered frames, warm or cold"};
   std::string log;

@@ -1,6 +1,21 @@
 #include "services/region_tracking/class_lookup.hpp"
 
+#include <algorithm>
+
 namespace fieldline::region_tracking {
+
+ClassLookup::ClassLookup(const ClassLookup& other) {
+  *this = other;
+}
+
+ClassLookup& ClassLookup::operator=(const ClassLookup& other) {
+  if (this == &other) return *this;
+  storage_.assign(other.storage_.size(), camera::ColourClass::kUnknown);
+  if (!storage_.empty()) {
+    std::copy_n(other.data(), camera::ColourTable::kCells, aligned(storage_.data()));
+  }
+  return *this;
+}
 
 void ClassLookup::rebuild(const camera::ColourTable& table) {
   storage_.assign(camera::ColourTable::kCells + 63, camera::ColourClass::kUnknown);

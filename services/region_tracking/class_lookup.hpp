@@ -38,6 +38,12 @@ inline constexpr Parts kParts = makeParts();
 class ClassLookup {
  public:
   explicit ClassLookup(const camera::ColourTable& table) { rebuild(table); }
+  // A copy's storage may start elsewhere in a cache line: the cells are copied to its own
+  // aligned start (a moved storage keeps its place).
+  ClassLookup(const ClassLookup& other);
+  ClassLookup& operator=(const ClassLookup& other);
+  ClassLookup(ClassLookup&&) = default;
+  ClassLookup& operator=(ClassLookup&&) = default;
   // The classes of `table` (after it changed).
   void rebuild(const camera::ColourTable& table);
 
@@ -61,7 +67,7 @@ class ClassLookup {
     return p + ((64u - misalignment) & 63u);
   }
   static_assert(camera::ColourTable::kIndexBits == 6, "4x4x4 blocks of 64 levels per channel");
-  // kCells and room to start at a line (copies stay right: data() aligns in its own storage).
+  // kCells and room to start at a line.
   std::vector<camera::ColourClass> storage_;
 };
 

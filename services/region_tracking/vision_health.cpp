@@ -395,9 +395,8 @@ double VisionHealth::searchFraction() const {
   return static_cast<double>(searched) / static_cast<double>(filled_);
 }
 
-void VisionHealth::update(const camera::FrameView& frame, const VisionResult& result,
-                          const std::optional<FramePose>& pose) {
-  int green = 0, orange = 0, counted = 0;
+void VisionHealth::classifySamples(const camera::FrameView& frame, int& green, int& orange,
+                                   int& counted) {
   const ClassLookup* lookup = frame.format == camera::PixelFormat::kYuyv ? lookup_ : nullptr;
   for (std::size_t i = 0; i < samples_.size(); ++i) {
     const SamplePixel& s = samples_[i];
@@ -417,6 +416,12 @@ void VisionHealth::update(const camera::FrameView& frame, const VisionResult& re
     orange += c == camera::ColourClass::kOrange ? 1 : 0;
     ++counted;
   }
+}
+
+void VisionHealth::update(const camera::FrameView& frame, const VisionResult& result,
+                          const std::optional<FramePose>& pose) {
+  int green = 0, orange = 0, counted = 0;
+  classifySamples(frame, green, orange, counted);
   FrameFacts& facts = window_[next_];
   facts.green = counted > 0 ? static_cast<float>(green) / static_cast<float>(counted) : 0.0f;
   facts.orange = counted > 0 ? static_cast<float>(orange) / static_cast<float>(counted) : 0.0f;

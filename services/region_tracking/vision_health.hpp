@@ -164,6 +164,9 @@ class VisionHealth {
     double in_view_m = 0.0, covered_m = 0.0;
   };
   double mean(float FrameFacts::*field) const;
+  // This frame's class of every sample (sample_classes_) and the counts of green, orange and
+  // samples inside the frame.
+  void classifySamples(const camera::FrameView& frame, int& green, int& orange, int& counted);
   // Non-const: fills the reused buffers below.
   FieldFacts fieldFacts(const VisionResult& result, const FramePose& pose);
   // The model's line in view at `pose` and the part of it with a line point nearby (fieldFacts).
