@@ -4,6 +4,7 @@
 
 #include <array>
 #include <cstdint>
+#include <memory>
 #include <span>
 #include <vector>
 
@@ -11,6 +12,7 @@
 #include "common/camera/frame.hpp"
 #include "common/camera/mirror_model.hpp"
 #include "services/region_tracking/cell_grid.hpp"
+#include "services/region_tracking/class_lookup.hpp"
 
 namespace fieldline::region_tracking {
 
@@ -37,6 +39,9 @@ class FrameCellClassifier final : public CellClassifier {
  public:
   FrameCellClassifier(const camera::ColourTable& table, int cell_size,
                       const BlockClassifierParams& params = {});
+  // YUYV frames classified with `lookup` (the classes of `table`; it must outlive this).
+  FrameCellClassifier(const camera::ColourTable& table, const ClassLookup& lookup, int cell_size,
+                      const BlockClassifierParams& params = {});
 
   // The frame the next classify() calls read; it must outlive them (FrameProcessor::process
   // sets it for the call and clears it at the end).
@@ -59,7 +64,10 @@ class FrameCellClassifier final : public CellClassifier {
   // its first pixel.
   ClassId decide(std::uint64_t votes, int pixels, ClassId first) const;
   ClassId classifyBlock(int x, int y) const;
+  FrameCellClassifier(const camera::ColourTable& table, std::shared_ptr<const ClassLookup> lookup,
+                      int cell_size, const BlockClassifierParams& params);
   const camera::ColourTable& table_;
+  std::shared_ptr<const ClassLookup> lookup_;  // owned when made from the table alone
   int cell_size_;
   std::vector<Claim> claims_;
   camera::FrameView frame_;

@@ -142,12 +142,14 @@ VisionParams loadVisionParams(const config::Node& node) {
 FrameProcessor::FrameProcessor(const camera::MirrorModel& mirror, const camera::ColourTable& table,
                                const VisionParams& params)
     : mirror_(mirror),
+      table_(table),
+      lookup_(table),
       grid_(CellGrid::forImage(mirror.width(), mirror.height(), params.tracker.cell_size)),
       dont_touch_(dontTouchCells(mirror, grid_)),
       floor_(mirror),
-      classifier_(table, grid_.cell_size, params.blocks),
+      classifier_(table, lookup_, grid_.cell_size, params.blocks),
       tracker_(grid_, params.tracker, dont_touch_),
-      lines_(table, floor_, params.lines, grid_.cell_size),
+      lines_(lookup_, floor_, params.lines, grid_.cell_size),
       ball_(table, mirror, params.ball),
       obstacles_(mirror, params.obstacles) {}
 

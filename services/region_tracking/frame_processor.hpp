@@ -50,9 +50,13 @@ struct VisionResult {
 class FrameProcessor {
  public:
   // `mirror` and `table` must outlive the processor. Frames must have the mirror model's size.
+  // The tracker and the line detector classify with a copy of the table's classes: after a
+  // change of the table, call coloursChanged().
   FrameProcessor(const camera::MirrorModel& mirror, const camera::ColourTable& table,
                  const VisionParams& params);
 
+  // The colour table changed (the colour adaptation rebuilt it): the classes are taken anew.
+  void coloursChanged() { lookup_.rebuild(table_); }
   // Throws std::invalid_argument for an invalid view or a frame of another size.
   void process(const camera::FrameView& frame, bool detectLines, VisionResult& out);
   // Where a ball can be for the following frames (fusion's pose on the field); nullopt: the
@@ -62,6 +66,7 @@ class FrameProcessor {
   const RegionTracker& tracker() const { return tracker_; }
   RegionTracker& tracker() { return tracker_; }
   const CellGrid& grid() const { return grid_; }
+  const ClassLookup& classLookup() const { return lookup_; }
   const std::vector<std::uint8_t>& dontTouch() const { return dont_touch_; }
   const FloorLookup& floor() const { return floor_; }
   FrameCellClassifier& classifier() { return classifier_; }
@@ -71,6 +76,9 @@ class FrameProcessor {
 
  private:
   const camera::MirrorModel& mirror_;
+  const camera::ColourTable& table_;
+  // The table's classes for the classifier and the line detector (class_lookup.hpp).
+  ClassLookup lookup_;
   CellGrid grid_;
   std::vector<std::uint8_t> dont_touch_;
   FloorLookup floor_;

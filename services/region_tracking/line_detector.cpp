@@ -72,7 +72,7 @@ bool LineDetector::scan(const camera::FrameView& frame, float originU, float ori
   // than a table of byte offsets per walk step, which would crowd the cache).
   const std::ptrdiff_t stride = frame.stride;
   const std::uint8_t* originRow = frame.data + static_cast<std::ptrdiff_t>(ov) * stride;
-  const camera::ColourClass* lookup = table_.yuvLookup().data();
+  const camera::ColourClass* lookup = lookup_->data();
   // On the stack, so that storing a brightness cannot alias the colour table's pointer (which
   // would be reloaded for every pixel). Walks have at most 255 steps (8-bit offsets).
   std::array<std::uint8_t, kMaxWalk> luma;
@@ -96,7 +96,7 @@ bool LineDetector::scan(const camera::FrameView& frame, float originU, float ori
       yuv = camera::yuvFromBgr({pixel[0], pixel[1], pixel[2]});
     }
     luma[i] = yuv.y;
-    return lookup[camera::ColourTable::index(yuv.y, yuv.u, yuv.v)];
+    return lookup[ClassLookup::yPart(yuv.y) | ClassLookup::uvPart(yuv.u, yuv.v)];
   };
   const camera::ColourClass field_colour = params_.field_colour;
   const camera::ColourClass line_colour = params_.line_colour;

@@ -10,12 +10,14 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <utility>
 #include <vector>
 
 #include "common/camera/colour.hpp"
 #include "common/camera/frame.hpp"
 #include "common/perception/line_points.hpp"
+#include "services/region_tracking/class_lookup.hpp"
 #include "services/region_tracking/contours.hpp"
 #include "services/region_tracking/floor_lookup.hpp"
 
@@ -109,6 +111,9 @@ class LineDetector {
  public:
   LineDetector(const camera::ColourTable& table, const FloorLookup& floor,
                const LineDetectorParams& params, int cell_size);
+  // With the classes of `lookup` (which must outlive this), shared with the cell classifier.
+  LineDetector(const ClassLookup& lookup, const FloorLookup& floor,
+               const LineDetectorParams& params, int cell_size);
 
   // Searches along the outward normals of every field-coloured contour in `contours` for
   // field -> line -> field transitions; appends nothing, `out` is cleared first. Throws
@@ -163,7 +168,10 @@ class LineDetector {
   // with any kernel (smoothContour sums the default one in integers).
   void smoothedPoint(int i, float& u, float& v) const;
 
-  const camera::ColourTable& table_;
+  LineDetector(std::shared_ptr<const ClassLookup> lookup, const FloorLookup& floor,
+               const LineDetectorParams& params, int cell_size);
+
+  std::shared_ptr<const ClassLookup> lookup_;  // owned when made from a table
   const FloorLookup& floor_;
   LineDetectorParams params_;
   int cell_size_;

@@ -37,7 +37,18 @@ void checkParams(const LineDetectorParams& p, int cell_size) {
 
 LineDetector::LineDetector(const camera::ColourTable& table, const FloorLookup& floor,
                            const LineDetectorParams& params, int cell_size)
-    : table_(table),
+    : LineDetector(std::make_shared<const ClassLookup>(table), floor, params, cell_size) {}
+
+LineDetector::LineDetector(const ClassLookup& lookup, const FloorLookup& floor,
+                           const LineDetectorParams& params, int cell_size)
+    // Not owned: the aliasing constructor with no owner.
+    : LineDetector(
+          std::shared_ptr<const ClassLookup>(std::shared_ptr<const ClassLookup>(), &lookup), floor,
+          params, cell_size) {}
+
+LineDetector::LineDetector(std::shared_ptr<const ClassLookup> lookup, const FloorLookup& floor,
+                           const LineDetectorParams& params, int cell_size)
+    : lookup_(std::move(lookup)),
       floor_(floor),
       params_(params),
       cell_size_(cell_size),

@@ -104,7 +104,7 @@ bool TrackingNode::prepareFor(int width, int height) {
     mirror = std::make_unique<camera::MirrorModel>(options_.mirror.scaledTo(width, height));
     processor = std::make_unique<FrameProcessor>(*mirror, options_.colours, options_.vision);
     health = std::make_unique<VisionHealth>(*mirror, options_.colours, options_.health,
-                                            options_.field.get());
+                                            options_.field.get(), &processor->classLookup());
   } catch (const std::invalid_argument& e) {
     node_.reportError("frame_size",
                       std::to_string(width) + "x" + std::to_string(height) + ": " + e.what());
@@ -159,6 +159,7 @@ void TrackingNode::onImage(const bus::ImageView& frame) {
   if (colour_reset_requested_.exchange(false)) {
     if (adaptation_) {
       adaptation_->reset(options_.colours);
+      processor_->coloursChanged();
       ++colour_resets_;
       node_.setMetric(kColourResets, static_cast<double>(colour_resets_));
       spdlog::info("colour adaptation reset on demand: back to the calibrated table ({} so far)",
@@ -168,7 +169,9 @@ void TrackingNode::onImage(const bus::ImageView& frame) {
     }
   }
   if (adaptation_) {
-    adaptation_->observe(*view, processor_->tracker(), options_.colours);
+    if (adaptation_->observe(*view, processor_->tracker(), options_.colours)) {
+      processor_->coloursChanged();
+    }
     node_.setMetric(kLightGain, adaptation_->appliedGain());
   }
   health_->update(*view, result_, pose);

@@ -58,8 +58,9 @@ VisionHealthParams loadVisionHealthParams(const config::Node& n) {
 }
 
 VisionHealth::VisionHealth(const camera::MirrorModel& mirror, const camera::ColourTable& table,
-                           const VisionHealthParams& params, const field::FieldModel* field)
-    : table_(table), mirror_(mirror), field_(field), params_(params) {
+                           const VisionHealthParams& params, const field::FieldModel* field,
+                           const ClassLookup* lookup)
+    : table_(table), lookup_(lookup), mirror_(mirror), field_(field), params_(params) {
   if (params_.window_frames < 1 || params_.sample_stride < 1 ||
       params_.max_line_frames_without_points < 1 || params_.field_window_frames < 1) {
     throw std::invalid_argument(
@@ -71,22 +72,25 @@ VisionHealth::VisionHealth(const camera::MirrorModel& mirror, const camera::Colo
   }
   const int s = params_.sample_stride;
   const float nan = std::numeric_limits<float>::quiet_NaN();
+  if (mirror.width() > 65536 || mirror.height() > 65536) {
+    throw std::invalid_argument("vision health: images up to 65536 px a side");
+  }
   for (int v = s / 2; v < mirror.height(); v += s) {
     for (int u = s / 2; u < mirror.width(); u += s) {
       if (mirror.dontTouch(u, v)) continue;
       const auto floor = mirror.imageToRobot(camera::Vec2(u, v));
-      samples_.push_back({u, v, floor ? static_cast<float>(floor->x()) : nan,
-                          floor ? static_cast<float>(floor->y()) : nan});
+      // The floor point the pixel sees, robot frame (NaN: none).
+      const float x = floor ? static_cast<float>(floor->x()) : nan;
+      const float y = floor ? static_cast<float>(floor->y()) : nan;
+      const geometry::Vec2 robot(x, y);
+      if (robot.allFinite() && !(robot.norm() > params_.field_range_m)) {
+        in_range_samples_.push_back({x, y, static_cast<std::uint32_t>(samples_.size())});
+      }
+      samples_.push_back({static_cast<std::uint16_t>(u), static_cast<std::uint16_t>(v)});
     }
   }
   if (samples_.empty()) throw std::invalid_argument("vision health: no floor pixel to sample");
   sample_classes_.resize(samples_.size(), camera::ColourClass::kUnknown);
-  for (std::size_t i = 0; i < samples_.size(); ++i) {
-    const geometry::Vec2 robot(samples_[i].x, samples_[i].y);
-    if (robot.allFinite() && !(robot.norm() > params_.field_range_m)) {
-      in_range_samples_.push_back(i);
-    }
-  }
   window_.resize(static_cast<std::size_t>(params_.window_frames));
   field_window_.resize(static_cast<std::size_t>(params_.field_window_frames));
   // The coverage bins: a sample within range lies in a bin within ceil(range / cell) of the
@@ -213,13 +217,13 @@ VisionHealth::FieldFacts VisionHealth::fieldFacts(const VisionResult& result, co
   // Floor samples that see the hall floor beyond the carpet (clear of it by the margin), of
   // those within range.
   const geometry::Vec2 carpet = field_->carpetHalfExtent();
-  for (const std::size_t i : in_range_samples_) {
-    const geometry::Vec2 p = pose.toField(geometry::Vec2(samples_[i].x, samples_[i].y));
+  for (const InRangeSample& s : in_range_samples_) {
+    const geometry::Vec2 p = pose.toField(geometry::Vec2(s.x, s.y));
     if (std::abs(p.x()) < carpet.x() + off_line && std::abs(p.y()) < carpet.y() + off_line) {
       continue;
     }
     ++f.beyond;
-    if (sample_classes_[i] == camera::ColourClass::kGreen) ++f.green_beyond;
+    if (sample_classes_[s.index] == camera::ColourClass::kGreen) ++f.green_beyond;
   }
   lineCoverageFacts(result, at.pose, f);
   return f;
@@ -391,19 +395,33 @@ double VisionHealth::searchFraction() const {
   return static_cast<double>(searched) / static_cast<double>(filled_);
 }
 
-void VisionHealth::update(const camera::FrameView& frame, const VisionResult& result,
-                          const std::optional<FramePose>& pose) {
-  int green = 0, orange = 0, counted = 0;
+void VisionHealth::classifySamples(const camera::FrameView& frame, int& green, int& orange,
+                                   int& counted) {
+  const ClassLookup* lookup = frame.format == camera::PixelFormat::kYuyv ? lookup_ : nullptr;
   for (std::size_t i = 0; i < samples_.size(); ++i) {
-    const Sample& s = samples_[i];
+    const SamplePixel& s = samples_[i];
     sample_classes_[i] = camera::ColourClass::kUnknown;
     if (!frame.contains(s.u, s.v)) continue;
-    const camera::ColourClass c = table_.classifyPixel(frame, s.u, s.v);
+    camera::ColourClass c;
+    if (lookup) {
+      // ColourTable::classifyPixel's YUYV case, with the lookup's classes.
+      const std::uint8_t* pair = frame.data + static_cast<std::ptrdiff_t>(s.v) * frame.stride +
+                                 static_cast<std::ptrdiff_t>(s.u >> 1) * 4;
+      c = lookup->classifyYuv(pair[(s.u & 1) * 2], pair[1], pair[3]);
+    } else {
+      c = table_.classifyPixel(frame, s.u, s.v);
+    }
     sample_classes_[i] = c;
     green += c == camera::ColourClass::kGreen ? 1 : 0;
     orange += c == camera::ColourClass::kOrange ? 1 : 0;
     ++counted;
   }
+}
+
+void VisionHealth::update(const camera::FrameView& frame, const VisionResult& result,
+                          const std::optional<FramePose>& pose) {
+  int green = 0, orange = 0, counted = 0;
+  classifySamples(frame, green, orange, counted);
   FrameFacts& facts = window_[next_];
   facts.green = counted > 0 ? static_cast<float>(green) / static_cast<float>(counted) : 0.0f;
   facts.orange = counted > 0 ? static_cast<float>(orange) / static_cast<float>(counted) : 0.0f;

@@ -42,6 +42,7 @@
 #include "common/config/config.hpp"
 #include "common/field/field_model.hpp"
 #include "common/geometry/geometry.hpp"
+#include "services/region_tracking/class_lookup.hpp"
 #include "services/region_tracking/frame_processor.hpp"
 
 namespace fieldline::region_tracking {
@@ -107,8 +108,11 @@ class VisionHealth {
  public:
   // `mirror`, `table` and `field` (may be null: no field checks) must outlive this. Throws
   // std::invalid_argument for bad parameters (a coverage grid over the bound among them).
+  // With `lookup` (the classes of `table`, e.g. the FrameProcessor's, which then stays warm in the
+  // cache for both; it must outlive this) YUYV samples are classified there.
   VisionHealth(const camera::MirrorModel& mirror, const camera::ColourTable& table,
-               const VisionHealthParams& params, const field::FieldModel* field = nullptr);
+               const VisionHealthParams& params, const field::FieldModel* field = nullptr,
+               const ClassLookup* lookup = nullptr);
 
   // One processed frame and what the tracker made of it; `pose`: fusion's pose at the frame's
   // time, when known (the field checks use it on line frames).
@@ -136,10 +140,17 @@ class VisionHealth {
   int posedLineFrames() const;
 
  private:
-  struct Sample {
-    int u, v;
-    // The floor point the pixel sees, robot frame (NaN: none).
+  // A sample pixel, 4 bytes: every frame reads all of them, usually from memory the other
+  // processes have taken the cache from (issue 32: cache lines, not instructions, are what a frame
+  // costs in the team).
+  struct SamplePixel {
+    std::uint16_t u, v;
+  };
+  // A sample that sees a floor point within field_range_m: that point (robot frame) and the
+  // sample's index, side by side for fieldFacts' pass over them.
+  struct InRangeSample {
     float x, y;
+    std::uint32_t index;
   };
   struct FrameFacts {
     float green = 0, orange = 0;
@@ -153,6 +164,9 @@ class VisionHealth {
     double in_view_m = 0.0, covered_m = 0.0;
   };
   double mean(float FrameFacts::*field) const;
+  // This frame's class of every sample (sample_classes_) and the counts of green, orange and
+  // samples inside the frame.
+  void classifySamples(const camera::FrameView& frame, int& green, int& orange, int& counted);
   // Non-const: fills the reused buffers below.
   FieldFacts fieldFacts(const VisionResult& result, const FramePose& pose);
   // The model's line in view at `pose` and the part of it with a line point nearby (fieldFacts).
@@ -171,15 +185,16 @@ class VisionHealth {
   bool nearPoint(int bx, int by) const;
 
   const camera::ColourTable& table_;
+  const ClassLookup* lookup_;
   const camera::MirrorModel& mirror_;
   const field::FieldModel* field_;
   VisionHealthParams params_;
-  std::vector<Sample> samples_;
+  std::vector<SamplePixel> samples_;
   // This frame's class of each sample.
   std::vector<camera::ColourClass> sample_classes_;
   // The samples that see a floor point within field_range_m (fixed in the robot frame), in
   // their order: the only ones the field checks look at.
-  std::vector<std::size_t> in_range_samples_;
+  std::vector<InRangeSample> in_range_samples_;
   // The model's lines, sampled every line_sample_m (field frame), grouped by the square of
   // line_bucket_m_ they lie in (line_buckets_: [begin, end) into line_samples_ per square, row
   // by row from line_origin_): a frame looks only at the squares near its pose.

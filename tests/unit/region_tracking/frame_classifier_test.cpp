@@ -2,6 +2,7 @@
 // table, then the claims in order, then the majority (ties to the lower class number).
 #include "services/region_tracking/frame_classifier.hpp"
 
+#include <cstdint>
 #include <random>
 #include <vector>
 
@@ -119,4 +120,50 @@ TEST(FrameCellClassifier, RejectsUnsupportedCellSizes) {
 }
 
 }  // namespace frame_classifier_test
+}  // namespace fieldline::region_tracking
+
+namespace fieldline::region_tracking {
+namespace class_lookup_test {
+
+using camera::ColourClass;
+
+// Every (Y, U, V) of the 2^24, against the table it was made from.
+int cellsDiffering(const ClassLookup& lookup, const camera::ColourTable& table) {
+  int differing = 0;
+  for (int y = 0; y < 256; ++y) {
+    for (int u = 0; u < 256; ++u) {
+      for (int v = 0; v < 256; ++v) {
+        const auto cy = static_cast<std::uint8_t>(y), cu = static_cast<std::uint8_t>(u),
+                   cv = static_cast<std::uint8_t>(v);
+        differing += lookup.classifyYuv(cy, cu, cv) != table.classifyYuv(cy, cu, cv) ? 1 : 0;
+      }
+    }
+  }
+  return differing;
+}
+
+// A table with a different class in nearly every 4x4x4 block, so that a wrong block or place in
+// the lookup shows.
+camera::ColourTable checkerTable() {
+  std::vector<ColourClass> cells(camera::ColourTable::kCells);
+  for (std::size_t i = 0; i < cells.size(); ++i)
+    cells[i] = static_cast<ColourClass>((i * 7 + i / 64 + i / 4096) % 6);
+  return camera::ColourTable::fromLookup(std::move(cells));
+}
+
+TEST(ClassLookup, GivesTheTablesClassForEveryYuvAndFollowsARebuild) {
+  const camera::ColourTable boxes = frame_classifier_test::testTable();
+  const camera::ColourTable checker = checkerTable();
+  ClassLookup lookup(boxes);
+  EXPECT_EQ(cellsDiffering(lookup, boxes), 0);
+  EXPECT_GT(cellsDiffering(lookup, checker), 1000000);
+  lookup.rebuild(checker);
+  EXPECT_EQ(cellsDiffering(lookup, checker), 0);
+  // A copy reads its own cells, at a cache line's start.
+  const ClassLookup copy = lookup;
+  EXPECT_EQ(cellsDiffering(copy, checker), 0);
+  EXPECT_EQ(reinterpret_cast<std::uintptr_t>(copy.data()) % 64, 0u);
+}
+
+}  // namespace class_lookup_test
 }  // namespace fieldline::region_tracking
