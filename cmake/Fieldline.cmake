@@ -92,8 +92,27 @@ endfunction()
 # camera's floor raster (~0.7 s to build), which would otherwise be rebuilt by every case's process.
 # A folder puts all its files whose cases are registered alike (the same LABELS and TEST_PREFIX,
 # not ONE_PROCESS) in one executable.
+#
+# GROUP g: the files go into the test executable g that fieldline_test_groups() adds (after every
+# folder of tests/unit) instead of an executable NAME of their own; the ctest names of the cases
+# are the same (Suite.Case), each still a process of its own. For small test executables of one
+# or two files: each costs a unit that parses GoogleTest, Eigen and the standard library again
+# (about 3 CPU-s) and a link (docs/build.md). Only with the default label, no TEST_PREFIX and not
+# ONE_PROCESS, so a group's cases are registered exactly as its members' were; the members' files
+# obey the unity rule across folders (file-local names in a namespace named after the file).
 function(fieldline_test name)
-  cmake_parse_arguments(ARG "ONE_PROCESS" "TEST_PREFIX" "SOURCES;LIBS;LABELS" ${ARGN})
+  cmake_parse_arguments(ARG "ONE_PROCESS" "TEST_PREFIX;GROUP" "SOURCES;LIBS;LABELS" ${ARGN})
+  if(ARG_GROUP)
+    if(ARG_ONE_PROCESS OR ARG_TEST_PREFIX OR ARG_LABELS)
+      message(FATAL_ERROR "fieldline_test(${name}): GROUP only without ONE_PROCESS, TEST_PREFIX and LABELS")
+    endif()
+    list(TRANSFORM ARG_SOURCES PREPEND ${CMAKE_CURRENT_SOURCE_DIR}/)
+    set_property(GLOBAL APPEND PROPERTY FIELDLINE_TEST_GROUPS ${ARG_GROUP})
+    set_property(GLOBAL APPEND PROPERTY FIELDLINE_TEST_GROUP_${ARG_GROUP}_SOURCES ${ARG_SOURCES})
+    set_property(GLOBAL APPEND PROPERTY FIELDLINE_TEST_GROUP_${ARG_GROUP}_LIBS ${ARG_LIBS})
+    set_property(GLOBAL APPEND PROPERTY FIELDLINE_TEST_GROUP_${ARG_GROUP}_MEMBERS ${name})
+    return()
+  endif()
   add_executable(${name} ${ARG_SOURCES})
   target_link_libraries(${name} PRIVATE ${ARG_LIBS} GTest::gtest GTest::gtest_main fieldline_root)
   fieldline_use_test_precompiled_header(${name})
@@ -125,6 +144,19 @@ function(fieldline_test name)
     PROPERTIES LABELS "${ARG_LABELS}" ENVIRONMENT "FIELDLINE_ROOT=${PROJECT_SOURCE_DIR}"
                SKIP_REGULAR_EXPRESSION "\\[  SKIPPED \\]"
     DISCOVERY_TIMEOUT 60)
+endfunction()
+
+# The executables of fieldline_test(... GROUP g): one per group, with every member's files and
+# libraries (in the order the folders were added: name order).
+function(fieldline_test_groups)
+  get_property(groups GLOBAL PROPERTY FIELDLINE_TEST_GROUPS)
+  list(REMOVE_DUPLICATES groups)
+  foreach(group ${groups})
+    get_property(sources GLOBAL PROPERTY FIELDLINE_TEST_GROUP_${group}_SOURCES)
+    get_property(libs GLOBAL PROPERTY FIELDLINE_TEST_GROUP_${group}_LIBS)
+    list(REMOVE_DUPLICATES libs)
+    fieldline_test(${group} SOURCES ${sources} LIBS ${libs})
+  endforeach()
 endfunction()
 
 # Installation (docs/robot-install.md). Executables go to <prefix>/bin, data to
