@@ -64,7 +64,7 @@ option(FIELDLINE_TEST_UNITY "Test executables as unity builds (cmake/Fieldline.c
 # 16 (8 before session 14): the largest test executable (fusion_test, 14 files) is one unit, and
 # a group (fieldline_test GROUP) of 28 files two: fusion_test 47.5 -> 40.0 CPU-s, feature
 # recognition's 11 files 17.7 -> 13.5 (docs/log/2026-12-07-session14-build.md); a changed test
-# file recompiles up to 16 files (fusion_test's unit about 40 s).
+# file recompiles up to 16 files (fusion_test's one unit: 40 CPU-s at load 12-16).
 set(FIELDLINE_TEST_UNITY_BATCH 16 CACHE STRING "Test files per unity unit (cmake/Fieldline.cmake)")
 # The test files' own code is compiled at FIELDLINE_TEST_OPT_LEVEL (the libraries they link keep
 # the build type's -O2): it is mostly set-up and checks. -Og compiled two units alone about a fifth
