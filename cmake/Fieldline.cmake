@@ -61,7 +61,11 @@ endfunction()
 # local helpers live in a namespace named after the file. FIELDLINE_TEST_UNITY=OFF compiles every
 # file alone (e.g. to check that each test file includes what it uses).
 option(FIELDLINE_TEST_UNITY "Test executables as unity builds (cmake/Fieldline.cmake)" ON)
-set(FIELDLINE_TEST_UNITY_BATCH 8 CACHE STRING "Test files per unity unit (cmake/Fieldline.cmake)")
+# 16 (8 before session 14): the largest test executable (fusion_test, 14 files) is one unit, and
+# a group (fieldline_test GROUP) of 28 files two: fusion_test 47.5 -> 40.0 CPU-s, feature
+# recognition's 11 files 17.7 -> 13.5 (docs/log/2026-12-07-session14-build.md); a changed test
+# file recompiles up to 16 files (fusion_test's one unit: 40 CPU-s at load 12-16).
+set(FIELDLINE_TEST_UNITY_BATCH 16 CACHE STRING "Test files per unity unit (cmake/Fieldline.cmake)")
 # The test files' own code is compiled at FIELDLINE_TEST_OPT_LEVEL (the libraries they link keep
 # the build type's -O2): it is mostly set-up and checks. -Og compiled two units alone about a fifth
 # faster than -O1, but a whole build's test units took the same (396 against 398 job-s, back to
@@ -92,8 +96,27 @@ endfunction()
 # camera's floor raster (~0.7 s to build), which would otherwise be rebuilt by every case's process.
 # A folder puts all its files whose cases are registered alike (the same LABELS and TEST_PREFIX,
 # not ONE_PROCESS) in one executable.
+#
+# GROUP g: the files go into the test executable g that fieldline_test_groups() adds (after every
+# folder of tests/unit) instead of an executable NAME of their own; the ctest names of the cases
+# are the same (Suite.Case), each still a process of its own. For small test executables of one
+# or two files: each costs a unit that parses GoogleTest, Eigen and the standard library again
+# (about 3 CPU-s) and a link (docs/build.md). Only with the default label, no TEST_PREFIX and not
+# ONE_PROCESS, so a group's cases are registered exactly as its members' were; the members' files
+# obey the unity rule across folders (file-local names in a namespace named after the file).
 function(fieldline_test name)
-  cmake_parse_arguments(ARG "ONE_PROCESS" "TEST_PREFIX" "SOURCES;LIBS;LABELS" ${ARGN})
+  cmake_parse_arguments(ARG "ONE_PROCESS" "TEST_PREFIX;GROUP" "SOURCES;LIBS;LABELS" ${ARGN})
+  if(ARG_GROUP)
+    if(ARG_ONE_PROCESS OR ARG_TEST_PREFIX OR ARG_LABELS)
+      message(FATAL_ERROR "fieldline_test(${name}): GROUP only without ONE_PROCESS, TEST_PREFIX and LABELS")
+    endif()
+    list(TRANSFORM ARG_SOURCES PREPEND ${CMAKE_CURRENT_SOURCE_DIR}/)
+    set_property(GLOBAL APPEND PROPERTY FIELDLINE_TEST_GROUPS ${ARG_GROUP})
+    set_property(GLOBAL APPEND PROPERTY FIELDLINE_TEST_GROUP_${ARG_GROUP}_SOURCES ${ARG_SOURCES})
+    set_property(GLOBAL APPEND PROPERTY FIELDLINE_TEST_GROUP_${ARG_GROUP}_LIBS ${ARG_LIBS})
+    set_property(GLOBAL APPEND PROPERTY FIELDLINE_TEST_GROUP_${ARG_GROUP}_MEMBERS ${name})
+    return()
+  endif()
   add_executable(${name} ${ARG_SOURCES})
   target_link_libraries(${name} PRIVATE ${ARG_LIBS} GTest::gtest GTest::gtest_main fieldline_root)
   fieldline_use_test_precompiled_header(${name})
@@ -125,6 +148,19 @@ function(fieldline_test name)
     PROPERTIES LABELS "${ARG_LABELS}" ENVIRONMENT "FIELDLINE_ROOT=${PROJECT_SOURCE_DIR}"
                SKIP_REGULAR_EXPRESSION "\\[  SKIPPED \\]"
     DISCOVERY_TIMEOUT 60)
+endfunction()
+
+# The executables of fieldline_test(... GROUP g): one per group, with every member's files and
+# libraries (in the order the folders were added: name order).
+function(fieldline_test_groups)
+  get_property(groups GLOBAL PROPERTY FIELDLINE_TEST_GROUPS)
+  list(REMOVE_DUPLICATES groups)
+  foreach(group ${groups})
+    get_property(sources GLOBAL PROPERTY FIELDLINE_TEST_GROUP_${group}_SOURCES)
+    get_property(libs GLOBAL PROPERTY FIELDLINE_TEST_GROUP_${group}_LIBS)
+    list(REMOVE_DUPLICATES libs)
+    fieldline_test(${group} SOURCES ${sources} LIBS ${libs})
+  endforeach()
 endfunction()
 
 # Installation (docs/robot-install.md). Executables go to <prefix>/bin, data to
