@@ -86,7 +86,6 @@ void TeamPicture::setReport(int robot_id, const Report& report) {
 void TeamPicture::clear(int robot_id) {
   if (robot_id < 1 || robot_id > perception::kTeamSize) return;
   reports_[static_cast<std::size_t>(robot_id - 1)].reset();
-  remembered_[static_cast<std::size_t>(robot_id - 1)].reset();
 }
 
 const Report* TeamPicture::report(int robot_id) const {
@@ -332,68 +331,6 @@ void TeamPicture::rejectTheOthers(Choice& choice, const std::vector<BallCandidat
   }
 }
 
-std::vector<BallCandidate> TeamPicture::rememberedAt(Utime now,
-                                                     const std::vector<BallCandidate>& current) {
-  std::vector<BallCandidate> out;
-  for (int id = 1; id <= perception::kTeamSize; ++id) {
-    auto& m = remembered_[static_cast<std::size_t>(id - 1)];
-    if (!m) continue;
-    const bool has_current = std::any_of(current.begin(), current.end(),
-                                         [&](const BallCandidate& c) { return c.robot_id == id; });
-    if (has_current || now < m->utime || now - m->ball.last_seen > options_.remember_us) {
-      if (!has_current) m.reset();
-      continue;
-    }
-    BallCandidate c = m->ball;
-    const double dt = seconds(now - m->utime);
-    const double grown = options_.ball_rest_speed_sigma_mps * dt;
-    c.covariance += Eigen::Matrix2d::Identity() * (grown * grown);
-    out.push_back(c);
-  }
-  return out;
-}
-
-void TeamPicture::joinRemembered(Utime now, const std::vector<BallCandidate>& current,
-                                 Choice& choice) {
-  if (options_.remember_us <= 0) return;
-  TeamBallResult& best = choice.ball;
-  const std::vector<BallCandidate> old = rememberedAt(now, current);
-  // Remember the resting balls of this picture's candidates.
-  for (const BallCandidate& c : current) {
-    auto& m = remembered_[static_cast<std::size_t>(c.robot_id - 1)];
-    if (c.velocity.norm() < options_.ball_rest_speed_mps) {
-      m = Remembered{now, c};
-    } else {
-      m.reset();
-    }
-  }
-  if (!best.valid || old.empty()) return;
-  // Joined only while the team ball rests (a rolling one's place lags a kick); forgotten as soon
-  // as the team ball, resting or rolling, lies outside the gate of it (the ball has moved).
-  const bool resting = best.velocity.norm() < options_.ball_rest_speed_mps;
-  std::vector<const BallCandidate*> members;
-  for (const BallCandidate& c : current) {
-    if (std::find(best.used.begin(), best.used.end(), c.robot_id) != best.used.end())
-      members.push_back(&c);
-  }
-  const std::size_t size = members.size();
-  for (const BallCandidate& c : old) {
-    if (mahalanobis2(c.position, c.covariance, best.position, best.covariance) <=
-        options_.gate_chi2) {
-      if (resting) members.push_back(&c);
-    } else {
-      remembered_[static_cast<std::size_t>(c.robot_id - 1)].reset();
-    }
-  }
-  if (members.size() == size) return;
-  TeamBallResult fused = fuse(members, options_.ball_stamp_sigma_s, options_.min_ball_variance);
-  std::sort(fused.used.begin(), fused.used.end());
-  fused.rejected = std::move(best.rejected);
-  fused.mirrored = std::move(best.mirrored);
-  fused.superseded = std::move(best.superseded);
-  best = std::move(fused);
-}
-
 perception::TeamState TeamPicture::picture(Utime now, TeamBallResult* team_ball) {
   perception::TeamState s;
   s.utime = now;
@@ -410,7 +347,6 @@ perception::TeamState TeamPicture::picture(Utime now, TeamBallResult* team_ball)
   const std::optional<BallCandidate> track = trackAt(now);
   Choice choice = largestConsistentGroup(candidates, track);
   rejectTheOthers(choice, candidates, track, superseded);
-  joinRemembered(now, candidates, choice);
   TeamBallResult& best = choice.ball;
   if (best.valid) {
     std::vector<int> sources = carryTrack(now, best);

@@ -5,9 +5,8 @@
 // mislocalized teammate's ball (confidently in the wrong place) is left out rather than averaged
 // in. Among groups of equal size the one that continues the previous team ball wins, and a lone
 // group whose ball is the previous team ball's mirror image through the centre spot (its reporters
-// sit on their symmetric twin) is left out. A robot's last resting ball is remembered for a while
-// after it lost it and joins a resting team ball it agrees with. Plain library: every time is on
-// this robot's clock and comes in as an argument.
+// sit on their symmetric twin) is left out. Plain library: every time is on this robot's clock and
+// comes in as an argument.
 #pragma once
 
 #include <array>
@@ -95,17 +94,6 @@ struct PictureOptions {
   // robot's, wider than its error).
   bool carry_track = true;
   double carry_speed_sigma_mps = 0.1;
-  // A robot's last resting ball is remembered for this long after its reporter last saw it, µs
-  // (0: off). While the robot reports no ball (it drove out of the camera's reach, turned the
-  // ball into the image's clipped side, or its filter dropped it), the remembered one joins a
-  // resting winning group it agrees with (gate_chi2); it never forms a group, decides one or
-  // makes a team ball valid, and one outside the gate of the team ball (resting or rolling), or a
-  // robot's rolling ball, is forgotten.
-  // Its covariance grows by ball_rest_speed_sigma_mps per second since it was remembered. In the
-  // match 63-75 % of the pictures have one reporter, 4-6 m away; in 84-92 % of those the other
-  // robots are beyond the camera's reach. Replays of 16 recordings: team ball 0-1.3 mm better in
-  // each (kidnap 13 %), NEES in band -0.017..+0.024 (docs/teamcomm.md "Team ball").
-  Utime remember_us = 2'000'000;
 };
 
 // A robot's ball, predicted to the picture's time, as the team ball's fusion sees it.
@@ -148,7 +136,7 @@ class TeamPicture {
 
   // Our own estimates (from ROBOT_STATE / BALL_STATE) and a teammate's (from a packet).
   void setReport(int robot_id, const Report& report);
-  // Forgets a robot (e.g. its clock offset was reset), and its remembered ball.
+  // Forgets a robot (e.g. its clock offset was reset).
   void clear(int robot_id);
   // The robot's latest report, or null.
   const Report* report(int robot_id) const;
@@ -178,16 +166,6 @@ class TeamPicture {
     std::size_t size = 0;
     bool continues = false;
   };
-  // Each robot's last resting ball candidate (remember_us), as it was at its picture's time.
-  struct Remembered {
-    Utime utime = 0;
-    BallCandidate ball;
-  };
-  std::array<std::optional<Remembered>, perception::kTeamSize> remembered_{};
-  // The remembered balls of robots without a candidate now, aged to `now`.
-  std::vector<BallCandidate> rememberedAt(Utime now, const std::vector<BallCandidate>& current);
-  // Adds the remembered balls that agree with a resting winning group; forgets the others.
-  void joinRemembered(Utime now, const std::vector<BallCandidate>& current, Choice& choice);
   // The teammate's pose (and ball) at `now` into `out`; its ball as a candidate when usable.
   std::optional<BallCandidate> updateTeammate(const Report& report, Utime now,
                                               perception::TeammateState& out) const;

@@ -76,7 +76,6 @@ void loadPictureOptions(const config::Node& p, PictureOptions& picture) {
   picture.carry_track = p.getOr<bool>("carry_track", true);
   picture.carry_speed_sigma_mps = p.getOr<double>("carry_speed_sigma_mps", 0.1, 0.0, 10.0);
   picture.ball_stamp_sigma_s = p.getOr<double>("ball_stamp_sigma_s", 0.01, 0.0, 1.0);
-  picture.remember_us = seconds(p.getOr<double>("ball_remember_s", 2.0, 0.0, 10.0));
   p.rejectUnknownKeys();
 }
 

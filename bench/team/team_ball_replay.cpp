@@ -83,7 +83,6 @@ struct Score {
 struct ReplayOptions {
   std::string dir;
   double settle_s = 5.0;
-  double remember_s = 0.0;
   bool publish_on_ball = false;
   double send_rate_hz = 20.0, publish_rate_hz = 10.0, delay_ms = 1.5, fresh_s = 0.3;
   double max_send_rate_hz = 30.0;
@@ -132,9 +131,6 @@ struct ReplayOptions {
                    "ball.stamp_sigma_s), s")
         ->check(cli::Range(0.0, 1.0))
         ->capture_default_str();
-    app.add_option("--remember", remember_s,
-                   "A robot's last resting ball joins a resting team ball this long after it was "
-                   "seen, s (0: off)");
     app.add_option("--carry-track", picture.carry_track,
                    "Combine the previous team ball with each picture's (covariance intersection)")
         ->capture_default_str();
@@ -602,7 +598,6 @@ int main(int argc, char** argv) {
   try {
     o.picture.max_prediction_us = static_cast<Utime>(o.max_prediction_s * 1e6);
     o.picture.superseded_after_us = static_cast<Utime>(o.superseded_after_s * 1e6);
-    o.picture.remember_us = static_cast<Utime>(o.remember_s * 1e6);
     team_bench::SightingRows sightings(o.sightings_path);
     const std::vector<eval::TruthSample> truth = readTruth(o.dir, sightings);
     if (truth.empty()) {

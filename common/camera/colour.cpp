@@ -57,6 +57,11 @@ Bgr displayColour(ColourClass colour) {
   return {128, 128, 128};
 }
 
+std::uint64_t ColourTable::nextGeneration() {
+  static std::atomic<std::uint64_t> last{0};
+  return ++last;
+}
+
 ColourTable::ColourTable()
     : yuv_(static_cast<std::size_t>(kCells), ColourClass::kUnknown),
       bgr_(static_cast<std::size_t>(kCells), ColourClass::kUnknown) {}

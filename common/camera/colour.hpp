@@ -110,6 +110,10 @@ class ColourTable {
   bool fromLookupTable() const { return from_lookup_; }
   // The YUV lookup table (kCells entries).
   const std::vector<ColourClass>& yuvLookup() const { return yuv_; }
+  // Which classes the table holds: a table made anew (constructed, read, adapted) gets a number
+  // no other table had; a copy keeps its source's. Users that keep a copy of the classes in
+  // another layout (region tracking's ClassLookup) compare it to know when to take them again.
+  std::uint64_t generation() const { return generation_; }
 
   // Index of a (Y, U, V) or (B, G, R) triple into the lookup tables.
   static int index(std::uint8_t a, std::uint8_t b, std::uint8_t c) {
@@ -125,6 +129,8 @@ class ColourTable {
   bool from_lookup_ = false;
   std::vector<ColourClass> yuv_;
   std::vector<ColourClass> bgr_;
+  std::uint64_t generation_ = nextGeneration();
+  static std::uint64_t nextGeneration();
 };
 
 // The lookup table file (`.lut`), compact and exact: a text header of four lines

@@ -90,6 +90,8 @@ constexpr double kFarEdgeReachPx = 3.0;
 constexpr double kInsetStepM = 0.2;
 constexpr int kInsetAngleBins = 4;
 constexpr int kInsetSamples = 128;
+// No ball is placed farther than this (m; an MSL field's diagonal is about 22 m).
+constexpr double kInsetMaxM = 25.0;
 int insetAngleBin(const camera::Vec2& direction) {
   const double folded = std::atan2(std::abs(direction.y()), std::abs(direction.x()));
   return std::min(kInsetAngleBins - 1,
@@ -303,7 +305,12 @@ void BallDetector::buildEdgeInsets() {
     last = std::max(last, mp.distance.floorDistance(
                               std::min(mp.useful_radius, mp.distance.maxRadius()), k * 0.785));
   }
-  inset_knots_ = static_cast<int>(std::ceil((last + 0.5 - inset_first_m_) / kInsetStepM)) + 1;
+  // A mirror that images the horizon has no far end: a ball beyond the field's diagonal is never
+  // placed, so the table stops there (and at two knots at least, for the interpolation).
+  if (!std::isfinite(last) || last > kInsetMaxM) last = kInsetMaxM;
+  if (!std::isfinite(inset_first_m_) || inset_first_m_ > last) inset_first_m_ = 0.0;
+  inset_knots_ =
+      std::max(2, static_cast<int>(std::ceil((last + 0.5 - inset_first_m_) / kInsetStepM)) + 1);
   struct Sum {
     double near = 0, far = 0;
     int near_n = 0, far_n = 0;
@@ -350,6 +357,7 @@ void BallDetector::buildEdgeInsets() {
 
 BallDetector::EdgeInsets BallDetector::edgeInsets(double horizontal, double bearing,
                                                   bool yuyv) const {
+  if (!std::isfinite(horizontal) || !std::isfinite(bearing)) return EdgeInsets{};
   const double x = std::clamp((horizontal - inset_first_m_) / kInsetStepM, 0.0,
                               static_cast<double>(inset_knots_ - 1));
   const int k0 = std::min(static_cast<int>(x), inset_knots_ - 2);

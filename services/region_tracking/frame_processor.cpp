@@ -144,6 +144,7 @@ FrameProcessor::FrameProcessor(const camera::MirrorModel& mirror, const camera::
     : mirror_(mirror),
       table_(table),
       lookup_(table),
+      lookup_generation_(table.generation()),
       grid_(CellGrid::forImage(mirror.width(), mirror.height(), params.tracker.cell_size)),
       dont_touch_(dontTouchCells(mirror, grid_)),
       floor_(mirror),
@@ -161,6 +162,8 @@ void FrameProcessor::process(const camera::FrameView& frame, bool detectLines, V
                                 std::to_string(mirror_.width()) + "x" +
                                 std::to_string(mirror_.height()));
   }
+  // A table adapted or replaced since the last frame (by whoever holds it): take its classes.
+  if (lookup_generation_ != table_.generation()) coloursChanged();
   classifier_.setFrame(frame);
   // The frame may point into a receive buffer that is reused after this call: let go of it
   // however the call ends.

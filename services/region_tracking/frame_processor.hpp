@@ -50,13 +50,17 @@ struct VisionResult {
 class FrameProcessor {
  public:
   // `mirror` and `table` must outlive the processor. Frames must have the mirror model's size.
-  // The tracker and the line detector classify with a copy of the table's classes: after a
-  // change of the table, call coloursChanged().
+  // The tracker and the line detector classify with a copy of the table's classes, taken anew
+  // at the next frame when the table changed (ColourTable::generation), or at once by
+  // coloursChanged().
   FrameProcessor(const camera::MirrorModel& mirror, const camera::ColourTable& table,
                  const VisionParams& params);
 
   // The colour table changed (the colour adaptation rebuilt it): the classes are taken anew.
-  void coloursChanged() { lookup_.rebuild(table_); }
+  void coloursChanged() {
+    lookup_.rebuild(table_);
+    lookup_generation_ = table_.generation();
+  }
   // Throws std::invalid_argument for an invalid view or a frame of another size.
   void process(const camera::FrameView& frame, bool detectLines, VisionResult& out);
   // Where a ball can be for the following frames (fusion's pose on the field); nullopt: the
@@ -79,6 +83,7 @@ class FrameProcessor {
   const camera::ColourTable& table_;
   // The table's classes for the classifier and the line detector (class_lookup.hpp).
   ClassLookup lookup_;
+  std::uint64_t lookup_generation_ = 0;  // the table's generation lookup_ holds
   CellGrid grid_;
   std::vector<std::uint8_t> dont_touch_;
   FloorLookup floor_;

@@ -189,6 +189,36 @@ TEST_F(RenderedFrames, BallKeepsBeingTrackedWhileItRolls) {
   }
 }
 
+// The classifier and the line detector read a copy of the table's classes (ClassLookup): a
+// table replaced by whoever holds it (the colour adaptation of the node or of
+// fieldline-colour-calibrate --adapt) is taken at the next frame without being told.
+TEST_F(RenderedFrames, AReplacedColourTableIsTakenAtTheNextFrame) {
+  camera::ColourTable table = sim_->table;
+  FrameProcessor processor(sim_->mirror, table, defaultVisionParams());
+  camera::SimScene scene;
+  scene.robot = {0.0, 0.0, 0.0};
+  VisionResult result;
+  processor.process(sim_->render(scene), true, result);
+  ASSERT_GT(result.lines.points.size(), 0u);
+  const auto differing = [&] {
+    int n = 0;
+    for (int y = 0; y < 256; y += 3)
+      for (int u = 0; u < 256; u += 3)
+        for (int v = 0; v < 256; v += 3) {
+          const auto cy = static_cast<std::uint8_t>(y), cu = static_cast<std::uint8_t>(u),
+                     cv = static_cast<std::uint8_t>(v);
+          n += processor.classLookup().classifyYuv(cy, cu, cv) != table.classifyYuv(cy, cu, cv);
+        }
+    return n;
+  };
+  EXPECT_EQ(differing(), 0);
+  table = camera::ColourTable();  // everything unknown: no green, no lines
+  EXPECT_GT(differing(), 1000);
+  processor.process(sim_->render(scene), true, result);
+  EXPECT_EQ(differing(), 0);
+  EXPECT_EQ(result.lines.points.size(), 0u);
+}
+
 TEST_F(RenderedFrames, ObstaclesHaveBearingDistanceAndWidth) {
   const geometry::Pose2 pose{-1.0, 0.5, -0.4};
   const std::vector<Vec2> obstacles = {{1.5, 0.8}, {-2.0, -1.5}};

@@ -314,11 +314,10 @@ TEST(teamcomm_picture, ATieGoesToTheBallThatContinuesTheTeamBall) {
   TeamBallResult ball;
   const perception::TeamState s = picture.picture(kT0 + 100'000, &ball);
   ASSERT_TRUE(s.team_ball_valid);
-  // Robot 1's resting ball, seen 0.1 s ago, is remembered (remember_us) and joins robot 2's.
-  EXPECT_EQ(ball.used, (std::vector<int>{1, 2}));
+  EXPECT_EQ(ball.used, std::vector<int>{2});
   EXPECT_EQ(ball.rejected, std::vector<int>{3});
   EXPECT_EQ(ball.mirrored, std::vector<int>{3});
-  // Robots 1 and 2, or the resting team ball of three robots carried (carry_track).
+  // Robot 2's ball, or the resting team ball of three robots carried (carry_track).
   EXPECT_NEAR(s.team_ball_x, -1.51, 0.011);
 }
 
@@ -510,86 +509,6 @@ TEST(teamcomm_picture, ARobotsOwnEarlierBallIsNotCarriedOverItsNewerOne) {
   seeBall(far, 2.0, 1.0, 0.04);
   picture.setReport(5, far);
   EXPECT_NEAR(picture.picture(now).team_ball_x, 2.0, 1e-9);
-}
-
-// The match: a robot that saw a resting ball from 1 m drives out of the camera's reach (its
-// BALL_STATE becomes invalid), and only a robot 5 m away, 6 cm off, still sees it. The near
-// robot's last ball, remembered and grown by the resting model, is fused with the far one.
-TEST(teamcomm_picture, ARestingBallSeenNearIsRememberedAfterItsRobotLostIt) {
-  PictureOptions options;
-  options.carry_track = false;  // the memory alone
-  TeamPicture picture(1, options);
-  Report near = report(1.0, 1.0, kT0);
-  seeBall(near, 2.0, 1.0, 0.01);
-  picture.setReport(2, near);
-  ASSERT_TRUE(picture.picture(kT0).team_ball_valid);
-  const Utime now = kT0 + 500'000;
-  near = report(-1.0, 1.0, now);  // present, tracking, no ball
-  picture.setReport(2, near);
-  Report far = report(-3.0, 1.0, now);
-  seeBall(far, 2.06, 1.0, 0.05);
-  picture.setReport(5, far);
-  TeamBallResult ball;
-  const perception::TeamState s = picture.picture(now, &ball);
-  ASSERT_TRUE(s.team_ball_valid);
-  EXPECT_EQ(ball.used, (std::vector<int>{2, 5}));
-  // 1 cm grown by 0.03 m/s over 0.5 s: 1.8 cm against the far robot's 5 cm.
-  EXPECT_NEAR(s.team_ball_x, 2.0 + 0.06 * 0.000325 / (0.000325 + 0.0025), 1e-6);
-  EXPECT_NEAR(s.team_ball_covariance(0, 0), 1.0 / (1.0 / 0.000325 + 1.0 / 0.0025), 1e-9);
-  // Past remember_us since the near robot saw it: the far robot alone.
-  const Utime later = kT0 + 2'100'000;
-  far = report(-3.0, 1.0, later);
-  seeBall(far, 2.06, 1.0, 0.05);
-  picture.setReport(5, far);
-  near = report(-1.0, 1.0, later);
-  picture.setReport(2, near);
-  picture.picture(later, &ball);
-  EXPECT_EQ(ball.used, (std::vector<int>{5}));
-}
-
-// A remembered ball never makes or outvotes a team ball; one a sighting contradicts (the ball
-// was moved: a resting or rolling team ball outside its gate) is forgotten for good; a rolling
-// team ball within its gate takes none but leaves it remembered.
-TEST(teamcomm_picture, ARememberedBallJoinsOnlyARestingBallItAgreesWith) {
-  PictureOptions options;
-  options.carry_track = false;
-  for (const int variant : {0, 1, 2, 3}) {
-    TeamPicture picture(1, options);
-    Report near = report(1.0, 1.0, kT0);
-    seeBall(near, 2.0, 1.0, 0.01);
-    picture.setReport(2, near);
-    ASSERT_TRUE(picture.picture(kT0).team_ball_valid);
-    Utime now = kT0 + 200'000;
-    near = report(-1.0, 1.0, now);
-    picture.setReport(2, near);
-    TeamBallResult ball;
-    if (variant == 0) {
-      // Nobody sees it now: the memory alone claims no team ball.
-      EXPECT_FALSE(picture.picture(now, &ball).team_ball_valid) << "alone";
-      continue;
-    }
-    Report far = report(-3.0, 1.0, now);
-    if (variant == 1) {
-      seeBall(far, 2.5, 1.0, 0.05);  // resting elsewhere
-    } else if (variant == 2) {
-      seeBall(far, 2.06, 1.0, 0.05, 0.5, 0.0);  // rolling, within the gate of the memory
-    } else {
-      seeBall(far, 3.0, 1.0, 0.05, 0.5, 0.0);  // rolling, away from it
-    }
-    picture.setReport(5, far);
-    picture.picture(now, &ball);
-    EXPECT_EQ(ball.used, (std::vector<int>{5})) << variant;
-    // Then the far robot sees a resting ball at 2.06: only the memory within the gate is back.
-    now += 100'000;
-    far = report(-3.0, 1.0, now);
-    seeBall(far, 2.06, 1.0, 0.05);
-    picture.setReport(5, far);
-    near = report(-1.0, 1.0, now);
-    picture.setReport(2, near);
-    picture.picture(now, &ball);
-    EXPECT_EQ(ball.used, variant == 2 ? (std::vector<int>{2, 5}) : (std::vector<int>{5}))
-        << variant;
-  }
 }
 
 TEST(teamcomm_team_state, MessageCarriesEveryField) {
