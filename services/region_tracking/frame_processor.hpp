@@ -55,6 +55,9 @@ class FrameProcessor {
   // coloursChanged().
   FrameProcessor(const camera::MirrorModel& mirror, const camera::ColourTable& table,
                  const VisionParams& params);
+  // The classifier and the line detector point into this object (its lookup, its floor).
+  FrameProcessor(const FrameProcessor&) = delete;
+  FrameProcessor& operator=(const FrameProcessor&) = delete;
 
   // The colour table changed (the colour adaptation rebuilt it): the classes are taken anew.
   void coloursChanged() {

@@ -384,7 +384,7 @@ void judgeMirror(const venue::VenueCase& spec, const venue::RenderedVenue& v,
       "mirror: distance 1-5 m {:.2f} %, poses {:.1f} cm, offset {:.1f} cm{}{}", e.distance_percent,
       poseCm, 100 * e.offset_m,
       mirror.search.non_finite_points > 0
-          ? fmt::format(" ({} non-finite points refused)", mirror.search.non_finite_points)
+          ? fmt::format(" ({} refusals of non-finite points)", mirror.search.non_finite_points)
           : std::string(),
       weak.empty() ? "" : " (would refuse: " + weak.front() + ")");
   bound(r, spec.expect, "max_distance_percent", e.distance_percent, true);

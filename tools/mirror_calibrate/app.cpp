@@ -215,7 +215,7 @@ void printPoseFreeReport(const PoseFreeCalibration& c) {
   fmt::print("line width: {:.2f} times the field's (median over {} near line pixels)\n",
              c.line_width_ratio, c.width_samples);
   if (c.search.non_finite_points > 0) {
-    fmt::print("{} robot-frame points refused as not finite (never measured against the field)\n",
+    fmt::print("{} refusals of non-finite robot-frame points (never measured against the field)\n",
                c.search.non_finite_points);
   }
 }

@@ -124,8 +124,9 @@ struct SearchReport {
   double score = 0.0;      // mean truncated cost of the winner (0 perfect, 1 nothing fits)
   double runner_up = 0.0;  // of the best other candidate
   int candidates = 0;
-  // Robot-frame points the search refused as not finite (a pixel without a floor distance or
-  // bearing): counted, never measured against the field.
+  // Refusals of non-finite robot-frame points (a pixel without a floor distance or bearing),
+  // never measured against the field: counted at each use, so a point used by several steps of
+  // the search counts once per step.
   int non_finite_points = 0;
 };
 

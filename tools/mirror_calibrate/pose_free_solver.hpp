@@ -202,7 +202,7 @@ struct Solver {
   RidgeParams rp;
   std::vector<LinePx> pixels;
   std::vector<int> per_frame;
-  // Robot-frame points refused before the pose search or cost because they were not finite.
+  // Refusals of non-finite robot-frame points before the pose search or cost (at each use).
   mutable int non_finite_points = 0;
   // Stage 3.
   std::optional<field::DistanceGrid> grid;
