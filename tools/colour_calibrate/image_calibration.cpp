@@ -264,6 +264,10 @@ void FromImages::measureLines() {
   }
   wu = out.white_point[0];
   wv = out.white_point[1];
+  std::vector<double> lc;
+  for (const Yuv& c : out.samples.line)
+    lc.push_back(chromaDistance(c, wu, wv));
+  line_chroma = percentileOf(lc, 95.0) + 2.0;
 }
 
 void FromImages::buildTable() {
