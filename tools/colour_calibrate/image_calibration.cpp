@@ -264,6 +264,10 @@ void FromImages::measureLines() {
   }
   wu = out.white_point[0];
   wv = out.white_point[1];
+  std::vector<double> lc;
+  for (const Yuv& c : out.samples.line)
+    lc.push_back(chromaDistance(c, wu, wv));
+  line_chroma = percentileOf(lc, 95.0) + 2.0;
 }
 
 void FromImages::buildTable() {
@@ -283,9 +287,29 @@ void FromImages::buildTable() {
   // A line is brighter than the floor beside it: nothing darker than the brightest floor is white
   // (a grey floor beyond the carpet, a grey wall), whatever its chroma.
   whiteCone.y_lo = std::max(whiteCone.y_lo, floorTop + 2.0);
+  // Where a line's edge meets the carpet, pixels mix the two: chroma on the way from the white
+  // point to the floor's, at any luma from the floor's to the line's (in YUYV two neighbouring
+  // pixels share one chroma, so an edge pixel may carry one side's luma and the mixed chroma).
+  // Those colours are no ball's: neither its samples (a ball lying on a line joins the line's
+  // pixels beside it to its blob) nor its cells, or a ball on a line grows along the line's edge.
+  const Vec2 whitePoint(wu, wv);
+  const Vec2 floorEnd = whitePoint + floorCone.y_hi * Vec2(floorCone.ru, floorCone.rv);
+  const auto floorOrLine = [&](double y, double u, double v) {
+    if (floorCone.contains(y, u, v, wu, wv) || whiteCone.contains(y, u, v, wu, wv)) return true;
+    if (y < floorCone.y_lo) return false;
+    const Vec2 seg = floorEnd - whitePoint, c = Vec2(u, v) - whitePoint;
+    const double t = std::clamp(c.dot(seg) / std::max(1e-9, seg.squaredNorm()), 0.0, 1.0);
+    return (c - t * seg).norm() <= floorCone.radius;
+  };
   std::optional<Cone> ballCone;
+  std::vector<Yuv> ballSamples;
   if (out.ball_found) {
-    ballCone = coneOf(out.samples.ball, wu, wv, light, 5.0, 1.0, 99.0);
+    for (const Yuv& c : out.samples.ball) {
+      if (!floorOrLine(c.y, c.u, c.v)) ballSamples.push_back(c);
+    }
+    if (ballSamples.size() >= 5) {
+      ballCone = coneOf(ballSamples, wu, wv, light, 5.0, 1.0, 99.0);
+    }
   }
   std::optional<Cone> blackCone;
   if (!out.samples.robot.empty() && out.samples.robot.size() >= 20) {
@@ -314,7 +338,7 @@ void FromImages::buildTable() {
           c = ColourClass::kGreen;
         } else if (inWhite) {
           c = ColourClass::kWhite;
-        } else if (ballCone && ballCone->contains(y, u, v, wu, wv)) {
+        } else if (ballCone && ballCone->contains(y, u, v, wu, wv) && !floorOrLine(y, u, v)) {
           c = ColourClass::kOrange;
         } else if (blackCone && blackCone->contains(y, u, v, wu, wv)) {
           c = ColourClass::kBlack;

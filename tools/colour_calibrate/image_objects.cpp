@@ -88,6 +88,9 @@ std::vector<std::uint8_t> FromImages::otherMask(std::size_t f) const {
     const Yuv& c = planes[f][i];
     if (isFloor(c)) continue;        // floor
     if (ridge_mask[f][i]) continue;  // a line
+    // A line's colour: where a ball lies on a line, the line's ridge beside it has no floor on
+    // that flank and is not masked; its pixels would join the ball's blob.
+    if (c.y >= out.line_luma[0] && chromaDistance(c, wu, wv) <= line_chroma) continue;
     other[i] = 1;
   }
   return other;

@@ -89,6 +89,7 @@ struct FromImages {
   std::vector<double> floor_luma_near;  // the flank of every line ridge
   std::vector<double> fy, ly;           // the floor's and the lines' luma samples
   double wu = 0.0, wv = 0.0;            // the white point
+  double line_chroma = 0.0;             // p95 of the line samples' distance from it, + 2
 };
 
 }  // namespace fieldline::calibration::imagefit
