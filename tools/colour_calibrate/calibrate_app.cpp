@@ -294,8 +294,15 @@ int calibrateFromFrames(const AppOptions& o, const camera::MirrorModel& mirror,
   } else if (c.ball_found) {
     fmt::print(
         "ball: found in {} of the {} frames that fitted the field, at field ({:.2f}, "
-        "{:.2f}), {} samples -> orange\n",
-        c.ball_frames, localized, c.ball_field.x(), c.ball_field.y(), c.samples.ball.size());
+        "{:.2f}), {} samples -> orange ({} left out as the carpet's or the lines' colours)\n",
+        c.ball_frames, localized, c.ball_field.x(), c.ball_field.y(), c.samples.ball.size(),
+        c.ball_samples_refused);
+  } else if (c.ball_samples_refused > 0) {
+    fmt::print(
+        "ball: its blobs' colours are the carpet's or the lines' ({} samples left out, {} kept): "
+        "the table has no ball (orange) class; put the ball 1-3 m from the robot off the lines "
+        "and calibrate again\n",
+        c.ball_samples_refused, c.samples.ball.size());
   } else {
     fmt::print(
         "ball: none found in the frames: the table has no ball (orange) class; put a "

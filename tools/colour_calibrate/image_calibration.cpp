@@ -302,14 +302,17 @@ void FromImages::buildTable() {
     return (c - t * seg).norm() <= floorCone.radius;
   };
   std::optional<Cone> ballCone;
-  std::vector<Yuv> ballSamples;
   if (out.ball_found) {
+    // The samples the ball class is learned from are the ones reported; the others counted.
+    std::vector<Yuv> kept;
     for (const Yuv& c : out.samples.ball) {
-      if (!floorOrLine(c.y, c.u, c.v)) ballSamples.push_back(c);
+      if (!floorOrLine(c.y, c.u, c.v)) kept.push_back(c);
     }
-    if (ballSamples.size() >= 5) {
-      ballCone = coneOf(ballSamples, wu, wv, light, 5.0, 1.0, 99.0);
-    }
+    out.ball_samples_refused = static_cast<int>(out.samples.ball.size() - kept.size());
+    out.samples.ball = std::move(kept);
+    // As when too few ball pixels were found: no ball class rather than one from a handful.
+    if (out.samples.ball.size() < 5) out.ball_found = false;
+    if (out.ball_found) ballCone = coneOf(out.samples.ball, wu, wv, light, 5.0, 1.0, 99.0);
   }
   std::optional<Cone> blackCone;
   if (!out.samples.robot.empty() && out.samples.robot.size() >= 20) {

@@ -79,6 +79,9 @@ struct ImageCalibration {
   int ridges = 0;       // ridge crossings found
   int line_ridges = 0;  // of them accepted as lines
   bool ball_found = false;
+  // Pixels of the ball's blobs left out of its class as the carpet's or the lines' colours
+  // (a ball lying on a line); samples.ball holds the others.
+  int ball_samples_refused = 0;
   geometry::Vec2 ball_field = geometry::Vec2::Zero();  // where the ball lies, field frame
   int ball_frames = 0;
   bool robots_found = false;

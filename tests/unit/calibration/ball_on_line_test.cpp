@@ -32,6 +32,9 @@ TEST(BallOnALine, TheBallClassKeepsOutTheMixturesOfCarpetAndLineUnderACast) {
     views.push_back(v.view(i));
   const FramesCalibration c = calibrateColours(v.mirror, v.field, views, ImageFitParams{});
   ASSERT_TRUE(c.calibration.ball_found);
+  // The line's pixels beside the ball joined its blobs: left out of its class, and counted.
+  EXPECT_GT(c.calibration.ball_samples_refused, 0);
+  EXPECT_GE(c.calibration.samples.ball.size(), 5u);
   const camera::ColourTable& table = c.calibration.table;
 
   // The ball's own image stays ball class: the pixel at its centre in every frame that shows it.
