@@ -267,6 +267,30 @@ void refuseOnProblems(const cal::TableCheck& check) {
   throw Refusal("the table fails its check:" + why);
 }
 
+// What the calibration says of the ball: found (its samples, those left out), or why not.
+void printBall(const cal::ImageCalibration& c, int localized) {
+  const bool posed = localized > 0;
+  if (!posed) {
+    fmt::print("ball and robots: not searched (no frame fitted the field with the first table)\n");
+  } else if (c.ball_found) {
+    fmt::print(
+        "ball: found in {} of the {} frames that fitted the field, at field ({:.2f}, "
+        "{:.2f}), {} samples -> orange ({} left out as the carpet's or the lines' colours)\n",
+        c.ball_frames, localized, c.ball_field.x(), c.ball_field.y(), c.samples.ball.size(),
+        c.ball_samples_refused);
+  } else if (c.ball_samples_refused > 0) {
+    fmt::print(
+        "ball: its blobs' colours are the carpet's or the lines' ({} samples left out, {} kept): "
+        "the table has no ball (orange) class; put the ball 1-3 m from the robot off the lines "
+        "and calibrate again\n",
+        c.ball_samples_refused, c.samples.ball.size());
+  } else {
+    fmt::print(
+        "ball: none found in the frames: the table has no ball (orange) class; put a "
+        "ball 1-3 m from the robot and calibrate again for its colour\n");
+  }
+}
+
 // The procedure from the frames alone (no pose): floor, lines, a first check that finds the
 // poses, ball and robots, the table and its check.
 int calibrateFromFrames(const AppOptions& o, const camera::MirrorModel& mirror,
@@ -289,25 +313,7 @@ int calibrateFromFrames(const AppOptions& o, const camera::MirrorModel& mirror,
       "white from {:.0f}\n",
       c.line_ridges, c.ridges, c.samples.line.size(), c.line_luma[0], c.line_luma[1],
       c.white_point[0], c.white_point[1], c.luma_boundary, c.white_from);
-  if (!posed) {
-    fmt::print("ball and robots: not searched (no frame fitted the field with the first table)\n");
-  } else if (c.ball_found) {
-    fmt::print(
-        "ball: found in {} of the {} frames that fitted the field, at field ({:.2f}, "
-        "{:.2f}), {} samples -> orange ({} left out as the carpet's or the lines' colours)\n",
-        c.ball_frames, localized, c.ball_field.x(), c.ball_field.y(), c.samples.ball.size(),
-        c.ball_samples_refused);
-  } else if (c.ball_samples_refused > 0) {
-    fmt::print(
-        "ball: its blobs' colours are the carpet's or the lines' ({} samples left out, {} kept): "
-        "the table has no ball (orange) class; put the ball 1-3 m from the robot off the lines "
-        "and calibrate again\n",
-        c.ball_samples_refused, c.samples.ball.size());
-  } else {
-    fmt::print(
-        "ball: none found in the frames: the table has no ball (orange) class; put a "
-        "ball 1-3 m from the robot and calibrate again for its colour\n");
-  }
+  printBall(c, localized);
   if (posed) {
     fmt::print("robots: {}\n", c.robots_found
                                    ? fmt::format("{} dark samples -> black", c.samples.robot.size())

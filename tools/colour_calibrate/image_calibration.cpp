@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <deque>
+#include <functional>
 #include <limits>
 #include <numbers>
 #include <numeric>
@@ -270,6 +271,18 @@ void FromImages::measureLines() {
   line_chroma = percentileOf(lc, 95.0) + 2.0;
 }
 
+void FromImages::keepBallSamples(const std::function<bool(double, double, double)>& floorOrLine) {
+  // The samples the ball class is learned from are the ones reported; the others counted.
+  std::vector<Yuv> kept;
+  for (const Yuv& c : out.samples.ball) {
+    if (!floorOrLine(c.y, c.u, c.v)) kept.push_back(c);
+  }
+  out.ball_samples_refused = static_cast<int>(out.samples.ball.size() - kept.size());
+  out.samples.ball = std::move(kept);
+  // As when too few ball pixels were found: no ball class rather than one from a handful.
+  if (out.samples.ball.size() < 5) out.ball_found = false;
+}
+
 void FromImages::buildTable() {
   const std::array<double, 2> light = params.light_range;
   Cone floorCone = coneOf(out.samples.floor, wu, wv, light, 4.0, 0.5, 99.5);
@@ -303,15 +316,7 @@ void FromImages::buildTable() {
   };
   std::optional<Cone> ballCone;
   if (out.ball_found) {
-    // The samples the ball class is learned from are the ones reported; the others counted.
-    std::vector<Yuv> kept;
-    for (const Yuv& c : out.samples.ball) {
-      if (!floorOrLine(c.y, c.u, c.v)) kept.push_back(c);
-    }
-    out.ball_samples_refused = static_cast<int>(out.samples.ball.size() - kept.size());
-    out.samples.ball = std::move(kept);
-    // As when too few ball pixels were found: no ball class rather than one from a handful.
-    if (out.samples.ball.size() < 5) out.ball_found = false;
+    keepBallSamples(floorOrLine);
     if (out.ball_found) ballCone = coneOf(out.samples.ball, wu, wv, light, 5.0, 1.0, 99.0);
   }
   std::optional<Cone> blackCone;

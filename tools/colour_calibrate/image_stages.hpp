@@ -6,6 +6,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <optional>
 #include <vector>
 
@@ -70,6 +71,9 @@ struct FromImages {
   void chooseBall(const std::vector<Blob>& balls);
   // The lookup table from the classes' cones.
   void buildTable();
+  // Leaves the ball samples `floorOrLine` (y, u, v) calls the carpet's or the lines' out of
+  // out.samples.ball, counts them, and drops the ball when fewer than 5 are left.
+  void keepBallSamples(const std::function<bool(double, double, double)>& floorOrLine);
 
   bool hasPose(std::size_t f) const { return !poses.empty() && poses[f].has_value(); }
   bool isFloor(const Yuv& c) const { return floor_colour.contains(c); }
