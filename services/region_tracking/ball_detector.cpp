@@ -37,7 +37,7 @@ BallDetector::BallDetector(const camera::ColourTable& table, const camera::Mirro
     }
   }
   if (max_extent_px_ <= 0) throw std::invalid_argument("ball detector: no ball is visible");
-  buildEdgeInsets();
+  insets_ = edgeInsetTableFor(mirror_, params_.centre_height);
   const std::vector<camera::ColourClass>& cells = table_.yuvLookup();
   has_colour_ = std::find(cells.begin(), cells.end(), params_.colour) != cells.end();
 }
@@ -85,18 +85,6 @@ namespace {
 // An outermost orange pixel this close to the useful radius (px; the tracked regions end in
 // whole cells) may be where the measured zone ends, not the ball.
 constexpr double kFarEdgeReachPx = 3.0;
-// edgeInsets() table: distance knots this far apart (m), bins of the radial direction's angle to
-// the image rows, spheres sampled per knot.
-constexpr double kInsetStepM = 0.2;
-constexpr int kInsetAngleBins = 4;
-constexpr int kInsetSamples = 128;
-// No ball is placed farther than this (m; an MSL field's diagonal is about 22 m).
-constexpr double kInsetMaxM = 25.0;
-int insetAngleBin(const camera::Vec2& direction) {
-  const double folded = std::atan2(std::abs(direction.y()), std::abs(direction.x()));
-  return std::min(kInsetAngleBins - 1,
-                  static_cast<int>(folded / (0.5 * std::numbers::pi) * kInsetAngleBins));
-}
 // The depression angle of the ray from R to the centre of a ball (centre `height` up, R at
 // `H`) whose near grazing ray has depression `nearAngle`: asin(radius / distance to the centre)
 // above it.
@@ -226,160 +214,6 @@ double BallDetector::centreAngle(const BallPixels& pixels, double bearing, const
   const double farAngle =
       std::atan2(H, distance.floorDistance(pixels.far_radius + insets.far_px, bearing));
   return 0.5 * (nearAngle + farAngle);
-}
-
-bool BallDetector::sampleInsets(double horizontal, double bearing, EdgeInsets& plain,
-                                EdgeInsets& pairs) const {
-  const camera::MirrorParams& mp = mirror_.params();
-  const double H = mp.reference_height, r = params_.centre_height;
-  // The grazing rays from R in the vertical plane through the centre: depression alpha +- beta.
-  const double alpha = std::atan2(H - r, horizontal);
-  const double beta = std::asin(std::min(1.0, r / std::hypot(horizontal, H - r)));
-  const double nearR = mp.distance.imageRadius(H / std::tan(alpha + beta), bearing);
-  const double farR = alpha > beta ? mp.distance.imageRadius(H / std::tan(alpha - beta), bearing)
-                                   : std::numeric_limits<double>::quiet_NaN();
-  if (!std::isfinite(nearR) || nearR < mp.self_radius) return false;
-  const bool hasFar = std::isfinite(farR);
-  // The outermost pixel centres lie within kBand of an edge: only pixels there are tested.
-  constexpr double kBand = 4.0;
-  const double halfSpan = std::asin(std::min(1.0, r / horizontal)) + 2.0 / nearR;
-  const camera::Vec3 centre(horizontal * std::cos(bearing), horizontal * std::sin(bearing), r);
-  const camera::Vec3 w0 = camera::Vec3(0, 0, H) - centre;
-  // Does the ray through pixel (u, v)'s centre meet the sphere (what a pixel shows)?
-  const auto hits = [&](int u, int v) {
-    const camera::Vec2 pixel(u, v);
-    const double b = mirror_.bearingOf(pixel);
-    const double floor = mp.distance.floorDistance(mirror_.radiusOf(pixel), b);
-    if (!std::isfinite(floor)) return false;
-    const camera::Vec3 dir(floor * std::cos(b), floor * std::sin(b), -H);
-    const double bh = dir.dot(w0);
-    return bh * bh - dir.squaredNorm() * (w0.squaredNorm() - r * r) >= 0.0;
-  };
-  double nearPlain = std::numeric_limits<double>::infinity(), nearPair = nearPlain;
-  double farPlain = -1, farPair = -1;
-  // Each band's pixels: the box of the band across the bearings the ball spans.
-  for (int band = 0; band < (hasFar ? 2 : 1); ++band) {
-    const double inner = band == 0 ? nearR - 1.5 : farR - kBand;
-    const double outer = band == 0 ? nearR + kBand : farR + 1.5;
-    double minU = 1e9, maxU = -1e9, minV = 1e9, maxV = -1e9;
-    for (const double radius : {inner, outer}) {
-      for (const double b : {bearing - halfSpan, bearing, bearing + halfSpan}) {
-        const camera::Vec2 p = mp.centre + radius * mirror_.imageDirection(b);
-        minU = std::min(minU, p.x());
-        maxU = std::max(maxU, p.x());
-        minV = std::min(minV, p.y());
-        maxV = std::max(maxV, p.y());
-      }
-    }
-    for (int v = static_cast<int>(std::floor(minV)) - 1; v <= static_cast<int>(maxV) + 1; ++v) {
-      for (int u = static_cast<int>(std::floor(minU)) - 1; u <= static_cast<int>(maxU) + 1; ++u) {
-        const double radius = mirror_.radiusOf(camera::Vec2(u, v));
-        if (radius < inner || radius > outer || !hits(u, v)) continue;
-        nearPlain = std::min(nearPlain, radius);
-        farPlain = std::max(farPlain, radius);
-        // The pixel sharing this one's chroma in a YUYV frame (columns 2k and 2k + 1), looked
-        // at only where it could move an extreme.
-        if ((radius < nearPair || radius > farPair) && hits(u % 2 == 0 ? u + 1 : u - 1, v)) {
-          nearPair = std::min(nearPair, radius);
-          farPair = std::max(farPair, radius);
-        }
-      }
-    }
-  }
-  if (!std::isfinite(nearPair)) return false;
-  constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-  plain = {nearPlain - nearR, hasFar ? farR - farPlain : kNaN};
-  pairs = {nearPair - nearR, hasFar ? farR - farPair : kNaN};
-  return true;
-}
-
-void BallDetector::buildEdgeInsets() {
-  // Knots from the nearest ball the mirror shows to one whose near edge is beyond the useful
-  // radius; at each, spheres at kInsetSamples bearings (all around, so every angle to the image
-  // rows) and distances spread over the knot's step (sub-pixel shifts), averaged per angle bin.
-  const camera::MirrorParams& mp = mirror_.params();
-  inset_first_m_ =
-      std::max(mp.distance.floorDistance(mp.self_radius, 0.0), 0.0) + params_.centre_height;
-  double last = inset_first_m_;
-  for (int k = 0; k < 8; ++k) {
-    last = std::max(last, mp.distance.floorDistance(
-                              std::min(mp.useful_radius, mp.distance.maxRadius()), k * 0.785));
-  }
-  // A mirror that images the horizon has no far end: a ball beyond the field's diagonal is never
-  // placed, so the table stops there (and at two knots at least, for the interpolation).
-  if (!std::isfinite(last) || last > kInsetMaxM) last = kInsetMaxM;
-  if (!std::isfinite(inset_first_m_) || inset_first_m_ > last) inset_first_m_ = 0.0;
-  inset_knots_ =
-      std::max(2, static_cast<int>(std::ceil((last + 0.5 - inset_first_m_) / kInsetStepM)) + 1);
-  struct Sum {
-    double near = 0, far = 0;
-    int near_n = 0, far_n = 0;
-  };
-  std::vector<Sum> sums(2 * kInsetAngleBins * inset_knots_);
-  for (int knot = 0; knot < inset_knots_; ++knot) {
-    for (int j = 0; j < kInsetSamples; ++j) {
-      const double bearing = 2 * std::numbers::pi * (j + 0.5) / kInsetSamples + 0.1;
-      const double jitter = j * 0.6180339887 - std::floor(j * 0.6180339887) - 0.5;
-      EdgeInsets plain, pairs;
-      if (!sampleInsets(inset_first_m_ + (knot + jitter) * kInsetStepM, bearing, plain, pairs)) {
-        continue;
-      }
-      const int bin = insetAngleBin(mirror_.imageDirection(bearing));
-      for (int yuyv = 0; yuyv < 2; ++yuyv) {
-        const EdgeInsets& e = yuyv ? pairs : plain;
-        Sum& sum = sums[(yuyv * kInsetAngleBins + bin) * inset_knots_ + knot];
-        sum.near += e.near_px;
-        ++sum.near_n;
-        if (std::isfinite(e.far_px)) {
-          sum.far += e.far_px;
-          ++sum.far_n;
-        }
-      }
-    }
-  }
-  // Knots without samples (nearer than the nearest ball, far edges beyond the distance
-  // function) take their neighbour's value, or half a pixel.
-  insets_.assign(sums.size(), EdgeInsets{});
-  for (int row = 0; row < 2 * kInsetAngleBins; ++row) {
-    EdgeInsets carry;
-    for (int pass = 0; pass < 2; ++pass) {
-      for (int i = 0; i < inset_knots_; ++i) {
-        const int knot = pass == 0 ? inset_knots_ - 1 - i : i;
-        const Sum& sum = sums[row * inset_knots_ + knot];
-        EdgeInsets& out = insets_[row * inset_knots_ + knot];
-        if (sum.near_n > 0) carry.near_px = sum.near / sum.near_n;
-        if (sum.far_n > 0) carry.far_px = sum.far / sum.far_n;
-        out = carry;
-      }
-    }
-  }
-}
-
-BallDetector::EdgeInsets BallDetector::edgeInsets(double horizontal, double bearing,
-                                                  bool yuyv) const {
-  if (!std::isfinite(horizontal) || !std::isfinite(bearing)) return EdgeInsets{};
-  const double x = std::clamp((horizontal - inset_first_m_) / kInsetStepM, 0.0,
-                              static_cast<double>(inset_knots_ - 1));
-  const int k0 = std::min(static_cast<int>(x), inset_knots_ - 2);
-  const double fk = x - k0;
-  const camera::Vec2 dir = mirror_.imageDirection(bearing);
-  const double a = std::clamp(std::atan2(std::abs(dir.y()), std::abs(dir.x())) /
-                                      (0.5 * std::numbers::pi) * kInsetAngleBins -
-                                  0.5,
-                              0.0, kInsetAngleBins - 1.0);
-  const int a0 = std::min(static_cast<int>(a), kInsetAngleBins - 2);
-  const double fa = a - a0;
-  EdgeInsets out{0, 0};
-  for (int da = 0; da < 2; ++da) {
-    for (int dk = 0; dk < 2; ++dk) {
-      const double w = (da ? fa : 1 - fa) * (dk ? fk : 1 - fk);
-      const EdgeInsets& e =
-          insets_[((yuyv ? 1 : 0) * kInsetAngleBins + a0 + da) * inset_knots_ + k0 + dk];
-      out.near_px += w * e.near_px;
-      out.far_px += w * e.far_px;
-    }
-  }
-  return out;
 }
 
 BallReject BallDetector::checkShape(const camera::FrameView& frame, const PixelBox& box,

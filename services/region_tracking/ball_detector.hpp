@@ -3,11 +3,14 @@
 // pose, on the field.
 #pragma once
 
+#include <memory>
+
 #include "common/camera/colour.hpp"
 #include "common/camera/frame.hpp"
 #include "common/camera/mirror_model.hpp"
 #include "common/field/field_model.hpp"
 #include "common/geometry/geometry.hpp"
+#include "services/region_tracking/ball_detector_insets.hpp"
 #include "services/region_tracking/contours.hpp"
 
 namespace fieldline::region_tracking {
@@ -108,12 +111,14 @@ class BallDetector {
   // centres (a curved edge's outermost pixel centre lies less than half a pixel in, a straight
   // one's half a pixel), and in a YUYV frame two neighbouring pixels share one chroma sample, so
   // an edge pixel whose pair partner is off the ball has the carpet's chroma mixed in and is not
-  // ball-coloured. Derived from the mirror model at construction (silhouettes of spheres at many
-  // places and sub-pixel shifts), not measured on frames.
-  struct EdgeInsets {
-    double near_px = 0.5, far_px = 0.5;
-  };
-  EdgeInsets edgeInsets(double horizontal, double bearing, bool yuyv) const;
+  // ball-coloured. Derived from the mirror model (silhouettes of spheres at many places and
+  // sub-pixel shifts), not measured on frames: ball_detector_insets.hpp, sampled where a ball is
+  // first placed and shared by the detectors of the process.
+  using EdgeInsets = region_tracking::EdgeInsets;
+  EdgeInsets edgeInsets(double horizontal, double bearing, bool yuyv) const {
+    return insets_->at(horizontal, bearing, yuyv);
+  }
+  const EdgeInsetTable& edgeInsetTable() const { return *insets_; }
 
  private:
   // The steps of evaluate(), in order; each returns kNone or why the candidate is refused.
@@ -150,12 +155,6 @@ class BallDetector {
   // from the near edge alone.
   double centreAngle(const BallPixels& pixels, double bearing, const EdgeInsets& insets,
                      bool farCut) const;
-  // The table edgeInsets() reads (see there).
-  void buildEdgeInsets();
-  // One sphere at `horizontal`, `bearing` (axis frame): its outermost pixel centres' insets
-  // from the silhouette, with pixels alone and with YUYV pairs; false where the near edge is not
-  // imaged. `far` is NaN where the far edge is beyond the distance function.
-  bool sampleInsets(double horizontal, double bearing, EdgeInsets& plain, EdgeInsets& pairs) const;
   // Size and shape against a ball at that place.
   struct BallShape {
     double expected_radial = 0, expected_tangential = 0;
@@ -175,12 +174,8 @@ class BallDetector {
   // Regions whose bounding box is larger than this (px) are no ball anywhere in the image.
   double max_extent_px_ = 0;
   bool has_colour_ = false;
-  // edgeInsets() table: [yuyv][angle bin][distance knot] of {near, far}, px; knots from
-  // inset_first_m_ every kInsetStepM; the angle bin is the radial direction's angle to the image
-  // rows folded into [0, pi/2] (a YUYV pair lies along a row).
-  std::vector<EdgeInsets> insets_;
-  double inset_first_m_ = 0;
-  int inset_knots_ = 0;
+  // edgeInsets()'s table (shared: edgeInsetTableFor).
+  std::shared_ptr<const EdgeInsetTable> insets_;
 };
 
 }  // namespace fieldline::region_tracking
