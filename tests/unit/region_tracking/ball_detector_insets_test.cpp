@@ -18,7 +18,9 @@
 
 #include <gtest/gtest.h>
 
+#include "common/camera/colour.hpp"
 #include "common/camera/mirror_model.hpp"
+#include "services/region_tracking/ball_detector.hpp"
 
 namespace fieldline::region_tracking {
 namespace ball_detector_insets_test {
@@ -222,6 +224,22 @@ TEST(BallEdgeInsets, TheLazyTableIsTheEagerOneForACalibrationTableWithEmptyFarKn
   // The robot's measured mirror (8 sectors; the distance ends at the useful radius, so the far
   // knots have no far edge and take a nearer knot's), at 320x240 to keep the test short.
   expectEqualToTheEagerTable(presetMirror("robot_640", 320));
+}
+
+TEST(BallEdgeInsets, ADetectorSamplesNothingUntilABallIsPlaced) {
+  // The node builds its detector on its first frame and on every change of frame size, on the
+  // frame thread: building it must not sample the table (before: 36 knots x 128 spheres).
+  const camera::MirrorModel mirror = presetMirror("omni_sim_640", 640);
+  const camera::ColourTable colours = camera::loadColourTablePreset("colours_sim");
+  const BallDetector detector(colours, mirror, BallParams{});
+  EXPECT_EQ(detector.edgeInsetTable().cellsSampled(), 0);
+  const EdgeInsets insets = detector.edgeInsets(4.6, 0.4, true);
+  EXPECT_EQ(detector.edgeInsetTable().cellsSampled(), 4) << "2 knots x 2 angle bins";
+  EXPECT_GT(insets.near_px, 0.5) << "a far ball's near edge lies more than half a pixel out";
+  // A second detector of the same camera shares the table and its sampled cells.
+  const BallDetector again(colours, mirror, BallParams{});
+  EXPECT_EQ(&again.edgeInsetTable(), &detector.edgeInsetTable());
+  EXPECT_EQ(again.edgeInsets(4.6, 0.4, true).near_px, insets.near_px);
 }
 
 TEST(BallEdgeInsets, OneTablePerMirrorAndBallHeightIsSharedAndThreadSafe) {
