@@ -15,6 +15,7 @@
 #include "services/region_tracking/frame_processor.hpp"
 #include "tools/calibration_common/floor_colour.hpp"
 #include "tools/calibration_common/grey_image.hpp"
+#include "tools/calibration_common/percentile.hpp"
 #include "tools/calibration_common/ridges.hpp"
 #include "tools/calibration_common/staged_output.hpp"
 
@@ -22,13 +23,6 @@
 
 namespace fieldline::calibration {
 namespace imagefit {
-
-double percentileOf(std::vector<double> v, double p) {
-  if (v.empty()) return std::numeric_limits<double>::quiet_NaN();
-  std::sort(v.begin(), v.end());
-  const double pos = std::clamp(p / 100.0, 0.0, 1.0) * static_cast<double>(v.size() - 1);
-  return v[static_cast<std::size_t>(std::lround(pos))];
-}
 
 double chromaDistance(const Yuv& c, double u, double v) {
   return std::hypot(c.u - u, c.v - v);
@@ -63,7 +57,6 @@ namespace {
 using camera::ColourClass;
 using camera::Vec2;
 using camera::Yuv;
-using imagefit::percentileOf;
 
 // A class as a cone through the white point: chroma (c - w) / Y near `ratio`, within `radius`
 // levels at luma `ref_y` (growing with luma above it, noise below), luma in [y_lo, y_hi].

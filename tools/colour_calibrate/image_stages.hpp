@@ -24,7 +24,6 @@ namespace fieldline::calibration::imagefit {
 using camera::Vec2;
 using camera::Yuv;
 
-double percentileOf(std::vector<double> v, double p);
 double chromaDistance(const Yuv& c, double u, double v);
 
 // Per pixel of the image: where it looks on the floor.
