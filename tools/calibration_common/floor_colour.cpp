@@ -4,17 +4,9 @@
 #include <cmath>
 #include <limits>
 
+#include "tools/calibration_common/percentile.hpp"
+
 namespace fieldline::calibration {
-namespace {
-
-double percentileOf(std::vector<double> v, double p) {
-  if (v.empty()) return std::numeric_limits<double>::quiet_NaN();
-  std::sort(v.begin(), v.end());
-  const double pos = std::clamp(p / 100.0, 0.0, 1.0) * static_cast<double>(v.size() - 1);
-  return v[static_cast<std::size_t>(std::lround(pos))];
-}
-
-}  // namespace
 
 bool FloorColour::chromaMatches(const camera::Yuv& c) const {
   return std::hypot(c.u - u, c.v - v) <= chroma_reach;

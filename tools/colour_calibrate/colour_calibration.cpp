@@ -7,6 +7,8 @@
 
 #include <fmt/format.h>
 
+#include "tools/calibration_common/percentile.hpp"
+
 namespace fieldline::calibration {
 namespace {
 
@@ -21,11 +23,9 @@ double elementWidth(const field::FieldModel& field, const field::FieldModel::Clo
                   : field.segments()[static_cast<std::size_t>(c.element)].width;
 }
 
-// Value at percentile p (0..100) of sorted values.
+// Value at percentile p (0..100) of sorted values; 0 when there are none.
 int percentile(const std::vector<std::uint8_t>& sorted, double p) {
-  if (sorted.empty()) return 0;
-  const double pos = std::clamp(p / 100.0, 0.0, 1.0) * static_cast<double>(sorted.size() - 1);
-  return sorted[static_cast<std::size_t>(std::lround(pos))];
+  return sorted.empty() ? 0 : percentileOfSorted(sorted, p);
 }
 
 std::array<std::uint8_t, 2> range(int lo, int hi, int margin) {
@@ -76,13 +76,8 @@ std::vector<YuvBox> coneBoxes(ColourClass colour, const std::vector<Yuv>& sample
     cv.push_back((s.v - 128.0) / s.y);
   }
   if (cu.empty()) throw std::runtime_error("colour calibration: no usable samples");
-  auto pct = [](std::vector<double>& values, double p) {
-    std::sort(values.begin(), values.end());
-    const double pos = std::clamp(p / 100.0, 0.0, 1.0) * static_cast<double>(values.size() - 1);
-    return values[static_cast<std::size_t>(std::lround(pos))];
-  };
-  const double cuLo = pct(cu, low), cuHi = pct(cu, high);
-  const double cvLo = pct(cv, low), cvHi = pct(cv, high);
+  const double cuLo = percentileOf(cu, low), cuHi = percentileOf(cu, high);
+  const double cvLo = percentileOf(cv, low), cvHi = percentileOf(cv, high);
   const int chromaMargin = params.margin_levels;
   const double yLo = std::max(1.0, percentileOfLuma(samples, low) * glo - params.margin_levels);
   const double yHi =

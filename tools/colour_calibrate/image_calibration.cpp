@@ -15,6 +15,7 @@
 #include "services/region_tracking/frame_processor.hpp"
 #include "tools/calibration_common/floor_colour.hpp"
 #include "tools/calibration_common/grey_image.hpp"
+#include "tools/calibration_common/percentile.hpp"
 #include "tools/calibration_common/ridges.hpp"
 #include "tools/calibration_common/staged_output.hpp"
 
@@ -23,15 +24,35 @@
 namespace fieldline::calibration {
 namespace imagefit {
 
-double percentileOf(std::vector<double> v, double p) {
-  if (v.empty()) return std::numeric_limits<double>::quiet_NaN();
-  std::sort(v.begin(), v.end());
-  const double pos = std::clamp(p / 100.0, 0.0, 1.0) * static_cast<double>(v.size() - 1);
-  return v[static_cast<std::size_t>(std::lround(pos))];
-}
-
 double chromaDistance(const Yuv& c, double u, double v) {
   return std::hypot(c.u - u, c.v - v);
+}
+
+Cone coneOf(const std::vector<Yuv>& s, double wu, double wv, const std::array<double, 2>& light,
+            double min_radius, double low_pct, double high_pct) {
+  std::vector<double> ys, qu, qv;
+  for (const Yuv& c : s)
+    ys.push_back(c.y);
+  const double ymed = percentileOf(ys, 50.0);
+  for (const Yuv& c : s) {
+    if (c.y < ymed || c.y < 8) continue;  // the brighter half: noise dominates dark ratios
+    qu.push_back((c.u - wu) / c.y);
+    qv.push_back((c.v - wv) / c.y);
+  }
+  Cone cone;
+  cone.ru = percentileOf(qu, 50.0);
+  cone.rv = percentileOf(qv, 50.0);
+  cone.ref_y = ymed;
+  std::vector<double> dist;
+  for (const Yuv& c : s) {
+    dist.push_back(std::hypot(c.u - (wu + cone.ru * c.y), c.v - (wv + cone.rv * c.y)) /
+                   std::max(1.0, c.y / ymed));
+  }
+  // + 2: a cell of the lookup table spans 4 levels.
+  cone.radius = std::max(min_radius, percentileOf(dist, 99.0) + 2.0);
+  cone.y_lo = std::max(0.0, percentileOf(ys, low_pct) * light[0] - 2.0);
+  cone.y_hi = std::min(255.0, percentileOf(ys, high_pct) * light[1] + 2.0);
+  return cone;
 }
 
 PixelGeometry geometryOf(const camera::MirrorModel& mirror) {
@@ -63,48 +84,6 @@ namespace {
 using camera::ColourClass;
 using camera::Vec2;
 using camera::Yuv;
-using imagefit::percentileOf;
-
-// A class as a cone through the white point: chroma (c - w) / Y near `ratio`, within `radius`
-// levels at luma `ref_y` (growing with luma above it, noise below), luma in [y_lo, y_hi].
-struct Cone {
-  double ru = 0.0, rv = 0.0;
-  double radius = 0.0;
-  double ref_y = 1.0;
-  double y_lo = 0.0, y_hi = 255.0;
-  bool contains(double y, double u, double v, double wu, double wv) const {
-    if (y < y_lo || y > y_hi) return false;
-    const double pu = wu + ru * y, pv = wv + rv * y;
-    return std::hypot(u - pu, v - pv) <= radius * std::max(1.0, y / ref_y);
-  }
-};
-
-Cone coneOf(const std::vector<Yuv>& s, double wu, double wv, const std::array<double, 2>& light,
-            double min_radius, double low_pct, double high_pct) {
-  std::vector<double> ys, qu, qv;
-  for (const Yuv& c : s)
-    ys.push_back(c.y);
-  const double ymed = percentileOf(ys, 50.0);
-  for (const Yuv& c : s) {
-    if (c.y < ymed || c.y < 8) continue;  // the brighter half: noise dominates dark ratios
-    qu.push_back((c.u - wu) / c.y);
-    qv.push_back((c.v - wv) / c.y);
-  }
-  Cone cone;
-  cone.ru = percentileOf(qu, 50.0);
-  cone.rv = percentileOf(qv, 50.0);
-  cone.ref_y = ymed;
-  std::vector<double> dist;
-  for (const Yuv& c : s) {
-    dist.push_back(std::hypot(c.u - (wu + cone.ru * c.y), c.v - (wv + cone.rv * c.y)) /
-                   std::max(1.0, c.y / ymed));
-  }
-  // + 2: a cell of the lookup table spans 4 levels.
-  cone.radius = std::max(min_radius, percentileOf(dist, 99.0) + 2.0);
-  cone.y_lo = std::max(0.0, percentileOf(ys, low_pct) * light[0] - 2.0);
-  cone.y_hi = std::min(255.0, percentileOf(ys, high_pct) * light[1] + 2.0);
-  return cone;
-}
 
 }  // namespace
 
@@ -283,9 +262,13 @@ void FromImages::keepBallSamples(const std::function<bool(double, double, double
   if (out.samples.ball.size() < 5) out.ball_found = false;
 }
 
+void FromImages::fitFloorCone() {
+  floor_cone = coneOf(out.samples.floor, wu, wv, params.light_range, 4.0, 0.5, 99.5);
+}
+
 void FromImages::buildTable() {
   const std::array<double, 2> light = params.light_range;
-  Cone floorCone = coneOf(out.samples.floor, wu, wv, light, 4.0, 0.5, 99.5);
+  const Cone& floorCone = floor_cone;
   Cone whiteCone = coneOf(out.samples.line, wu, wv, {light[0], 10.0}, 6.0, 2.0, 100.0);
   whiteCone.y_hi = 255.0;
   // Where floor and white share chroma (a grey carpet, a washed-out camera), luma decides: floor
@@ -392,6 +375,7 @@ ImageCalibration calibrateFromImages(const camera::MirrorModel& mirror,
   s.findLines();
   s.sampleFloor();
   s.measureLines();
+  s.fitFloorCone();
   s.findBallAndRobots();
   s.buildTable();
   return std::move(s.out);

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <deque>
 #include <numbers>
+#include <utility>
 
 #include "tools/colour_calibrate/image_stages.hpp"
 
@@ -63,18 +64,31 @@ void FromImages::findBallAndRobots() {
     if (!hasPose(f)) continue;
     for (const Blob& b : blobsOf(f, otherMask(f))) {
       // Dark blobs standing in the field: robots.
-      if (b.mean_y < 0.75 * out.floor.median[0] && b.pixels.size() >= 30) {
+      if (isRobot(b)) {
         out.robots_found = true;
         for (int p : b.pixels) {
           const Yuv& c = planes[f][static_cast<std::size_t>(p)];
           if (c.y < 0.8 * out.floor.luma[0]) out.samples.robot.push_back(c);
         }
-        continue;
       }
-      if (looksLikeABall(b)) balls.push_back(b);
     }
+    for (Blob& b : ballBlobs(f))
+      balls.push_back(std::move(b));
   }
   chooseBall(balls);
+}
+
+std::vector<Blob> FromImages::ballBlobs(std::size_t f) const {
+  std::vector<std::uint8_t> mask = otherMask(f);
+  for (std::size_t i = 0; i < n; ++i) {
+    const Yuv& c = planes[f][i];
+    if (mask[i] && floor_cone.contains(c.y, c.u, c.v, wu, wv)) mask[i] = 0;
+  }
+  std::vector<Blob> balls;
+  for (Blob& b : blobsOf(f, mask)) {
+    if (!isRobot(b) && looksLikeABall(b)) balls.push_back(std::move(b));
+  }
+  return balls;
 }
 
 // Pixels of frame f that are neither floor nor line, inside the field (and within 6 m).

@@ -4,6 +4,9 @@
 // Internal to the colour calibration library.
 #pragma once
 
+#include <algorithm>
+#include <array>
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <functional>
@@ -24,7 +27,6 @@ namespace fieldline::calibration::imagefit {
 using camera::Vec2;
 using camera::Yuv;
 
-double percentileOf(std::vector<double> v, double p);
 double chromaDistance(const Yuv& c, double u, double v);
 
 // Per pixel of the image: where it looks on the floor.
@@ -35,6 +37,26 @@ struct PixelGeometry {
 };
 
 PixelGeometry geometryOf(const camera::MirrorModel& mirror);
+
+// A class as a cone through the white point: chroma (c - w) / Y near `ratio`, within `radius`
+// levels at luma `ref_y` (growing with luma above it, noise below), luma in [y_lo, y_hi].
+struct Cone {
+  double ru = 0.0, rv = 0.0;
+  double radius = 0.0;
+  double ref_y = 1.0;
+  double y_lo = 0.0, y_hi = 255.0;
+  bool contains(double y, double u, double v, double wu, double wv) const {
+    if (y < y_lo || y > y_hi) return false;
+    const double pu = wu + ru * y, pv = wv + rv * y;
+    return std::hypot(u - pu, v - pv) <= radius * std::max(1.0, y / ref_y);
+  }
+};
+
+// The cone of samples `s`: the median chroma ratio of their brighter half, the radius their 99th
+// percentile from it (at least min_radius), luma from their low_pct to high_pct percentiles
+// widened by the light range.
+Cone coneOf(const std::vector<Yuv>& s, double wu, double wv, const std::array<double, 2>& light,
+            double min_radius, double low_pct, double high_pct);
 
 struct Blob {
   std::vector<int> pixels;
@@ -63,11 +85,22 @@ struct FromImages {
   void sampleFloor();
   // The lines' luma and the white point; Refusal when they are not brighter than the floor.
   void measureLines();
+  // The floor's cone: the carpet's colour under every light of the fit (its chroma moves with
+  // the light under a colour cast, away from the white point as it brightens).
+  void fitFloorCone();
   // The ball and the robots: what is neither, inside the field (needs the poses).
   void findBallAndRobots();
   std::vector<std::uint8_t> otherMask(std::size_t f) const;
+  // The blobs of frame f that look like a ball: made of pixels that are neither floor, line,
+  // nor of the floor's cone (otherwise the carpet's brighter or noisier pixels, beyond the
+  // floor's chroma reach, join a ball's blob and make it too large, or form blobs of a ball's
+  // size that pass for one).
+  std::vector<Blob> ballBlobs(std::size_t f) const;
   std::vector<Blob> blobsOf(std::size_t f, const std::vector<std::uint8_t>& other) const;
   bool looksLikeABall(const Blob& b) const;
+  bool isRobot(const Blob& b) const {
+    return b.mean_y < 0.75 * out.floor.median[0] && b.pixels.size() >= 30;
+  }
   void chooseBall(const std::vector<Blob>& balls);
   // The lookup table from the classes' cones.
   void buildTable();
@@ -94,6 +127,7 @@ struct FromImages {
   std::vector<double> fy, ly;           // the floor's and the lines' luma samples
   double wu = 0.0, wv = 0.0;            // the white point
   double line_chroma = 0.0;             // p95 of the line samples' distance from it, + 2
+  Cone floor_cone;
 };
 
 }  // namespace fieldline::calibration::imagefit

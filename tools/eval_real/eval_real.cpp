@@ -18,6 +18,7 @@
 #include "services/fusion/line_matcher.hpp"
 #include "services/region_tracking/frame_processor.hpp"
 #include "tools/calibration_common/floor_colour.hpp"
+#include "tools/calibration_common/percentile.hpp"
 #include "tools/calibration_common/staged_output.hpp"
 #include "tools/colour_calibrate/colour_calibration.hpp"
 #include "tools/colour_calibrate/evaluation.hpp"
@@ -86,12 +87,6 @@ std::vector<Vec2> readPoints(const std::string& path, double scale) {
 double scaleOf(const config::Node& root) {
   const std::string unit = root.has("unit") ? root.getChoice("unit", {"mm", "m"}) : "m";
   return unit == "mm" ? 0.001 : 1.0;
-}
-
-double median(std::vector<double> v) {
-  if (v.empty()) return std::numeric_limits<double>::quiet_NaN();
-  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
-  return v[v.size() / 2];
 }
 
 void runRings(const config::Node& root, CaseResult& r) {
@@ -180,8 +175,8 @@ std::vector<Fit> fitFields(const std::vector<std::string>& fields,
         d.push_back(e);
         near += e <= 0.15 ? 1 : 0;
       }
-      fits.push_back(
-          {model->name(), c.pose, static_cast<double>(near) / pts.size(), 100.0 * median(d)});
+      fits.push_back({model->name(), c.pose, static_cast<double>(near) / pts.size(),
+                      100.0 * cal::upperMedian(d)});
     }
   }
   return fits;
@@ -301,9 +296,9 @@ void runFieldPoints(const config::Node& root, CaseResult& r) {
   r.figures = fmt::format(
       "{} points in the field frame against field {}: median {:.1f} cm from "
       "its lines, {:.0f} % within 10 cm",
-      pts.size(), model->name(), 100 * median(d),
+      pts.size(), model->name(), 100 * cal::upperMedian(d),
       100.0 * near / std::max<std::size_t>(1, pts.size()));
-  bound(r, expect, "max_median_cm", 100 * median(d), true);
+  bound(r, expect, "max_median_cm", 100 * cal::upperMedian(d), true);
 }
 
 // The ball detector of region tracking on a venue's frames, with the calibrated mirror and colour

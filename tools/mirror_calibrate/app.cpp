@@ -16,6 +16,7 @@
 #include "common/config/config.hpp"
 #include "common/field/field_model.hpp"
 #include "services/camera/camera_config.hpp"
+#include "tools/calibration_common/percentile.hpp"
 #include "tools/calibration_common/staged_output.hpp"
 #include "tools/colour_calibrate/evaluation.hpp"
 #include "tools/eval_real/venue_cases.hpp"
@@ -267,10 +268,6 @@ std::vector<RingCheck> checkRings(const RingCalibration& c, int sectors) {
         sectors - 1);
     bySector[static_cast<std::size_t>(p.ring)][static_cast<std::size_t>(s)].push_back(e);
   }
-  auto med = [](std::vector<double> v) {
-    std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
-    return v[v.size() / 2];
-  };
   // Each inner ring left out: the curve through (0, 0) and the other rings' radii, read at its
   // radius.
   for (std::size_t k = 0; k + 1 < c.distances.size(); ++k) {
@@ -287,10 +284,11 @@ std::vector<RingCheck> checkRings(const RingCalibration& c, int sectors) {
     out[k].distance = c.distances[k];
     out[k].points = static_cast<int>(all[k].size());
     if (all[k].empty()) continue;
-    out[k].median_percent = std::abs(med(all[k]));
+    out[k].median_percent = std::abs(upperMedian(all[k]));
     for (const auto& v : bySector[k]) {
       if (v.size() >= 5) {
-        out[k].worst_sector_percent = std::max(out[k].worst_sector_percent, std::abs(med(v)));
+        out[k].worst_sector_percent =
+            std::max(out[k].worst_sector_percent, std::abs(upperMedian(v)));
       }
     }
   }

@@ -427,16 +427,8 @@ void Solver::placeWaitingFrames() {
   if (!waiting.empty()) {
     std::vector<std::vector<ScoredPose>> found(static_cast<std::size_t>(nf));
     for (int f : waiting) {
-      const std::vector<Vec2> pts = robotPoints(f, 100000);
-      std::vector<Vec2> coarse;
-      const std::size_t want = static_cast<std::size_t>(2 * params.search_points);
-      for (std::size_t i = 0; i < want && !pts.empty(); ++i)
-        coarse.push_back(pts[i * pts.size() / want]);
-      // At most 600, evenly spread (a frame with fewer keeps its own: indexing 600 of them
-      // read past the end of a shorter list, garbage points that stopped the calibration).
-      const std::vector<Vec2> dense = evenlySpread(pts, 600);
       found[static_cast<std::size_t>(f)] =
-          searchPoses(coarse, dense, *raster, *grid, field, params, 4);
+          placeFrame(robotPoints(f, 100000), *raster, *grid, field, params, 4);
     }
     for (const std::vector<int>& g : groups) {
       if (active[static_cast<std::size_t>(g[0])]) continue;

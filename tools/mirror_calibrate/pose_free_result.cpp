@@ -6,10 +6,12 @@
 #include <cstddef>
 #include <numbers>
 #include <set>
+#include <utility>
 
 #include <fmt/core.h>
 #include <Eigen/Dense>
 
+#include "tools/calibration_common/percentile.hpp"
 #include "tools/calibration_common/staged_output.hpp"
 #include "tools/mirror_calibrate/numbers.hpp"
 #include "tools/mirror_calibrate/pose_free_solver.hpp"
@@ -305,9 +307,7 @@ void Solver::measureLineWidth(const camera::MirrorModel& model) {
   }
   out.width_samples = static_cast<int>(ratios.size());
   if (ratios.size() >= 30) {
-    std::nth_element(ratios.begin(),
-                     ratios.begin() + static_cast<std::ptrdiff_t>(ratios.size() / 2), ratios.end());
-    out.line_width_ratio = ratios[ratios.size() / 2];
+    out.line_width_ratio = upperMedian(std::move(ratios));
   }
 }
 

@@ -113,6 +113,24 @@ std::vector<Vec2> evenlySpread(const std::vector<Vec2>& pts, std::size_t limit) 
   return some;
 }
 
+PlacingPoints placingPoints(const std::vector<Vec2>& pts, const PoseFreeParams& params) {
+  PlacingPoints out;
+  const std::size_t want = static_cast<std::size_t>(2 * params.search_points);
+  for (std::size_t i = 0; i < want && !pts.empty(); ++i)
+    out.coarse.push_back(pts[i * pts.size() / want]);
+  // At most 600, evenly spread (a frame with fewer keeps its own: indexing 600 of them read past
+  // the end of a shorter list, garbage points that stopped the calibration).
+  out.dense = evenlySpread(pts, 600);
+  return out;
+}
+
+std::vector<ScoredPose> placeFrame(const std::vector<Vec2>& pts, const CostRaster& raster,
+                                   const field::DistanceGrid& grid, const field::FieldModel& field,
+                                   const PoseFreeParams& params, int keep) {
+  const PlacingPoints use = placingPoints(pts, params);
+  return searchPoses(use.coarse, use.dense, raster, grid, field, params, keep);
+}
+
 std::vector<Vec2> finitePoints(const std::vector<Vec2>& pts, int& refused) {
   std::vector<Vec2> out;
   out.reserve(pts.size());

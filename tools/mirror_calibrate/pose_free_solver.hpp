@@ -89,6 +89,19 @@ std::vector<ScoredPose> searchPoses(const std::vector<Vec2>& pts, const std::vec
                                     const field::FieldModel& field, const PoseFreeParams& params,
                                     int keep);
 
+// A frame placed after the search (its place was ambiguous under the search's rough mirror),
+// from its robot-frame points under the fitted mirror: the lattice is scored with
+// 2 x search_points of them taken evenly (a short list gives some twice), the best poses refined
+// with at most 600, evenly spread (a frame with fewer keeps its own).
+struct PlacingPoints {
+  std::vector<Vec2> coarse, dense;
+};
+PlacingPoints placingPoints(const std::vector<Vec2>& pts, const PoseFreeParams& params);
+// The best distinct poses of such a frame (searchPoses with placingPoints' lists).
+std::vector<ScoredPose> placeFrame(const std::vector<Vec2>& pts, const CostRaster& raster,
+                                   const field::DistanceGrid& grid, const field::FieldModel& field,
+                                   const PoseFreeParams& params, int keep);
+
 // The curve D(r) through (0, 0) and (radii[k], distances[k]).
 MonotoneCurve curveOf(const std::vector<double>& radii, const std::vector<double>& d);
 

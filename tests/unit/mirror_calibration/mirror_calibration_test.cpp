@@ -297,5 +297,62 @@ TEST(PoseFreeSearch, NonFinitePointsAreRefusedAndCountedNotMeasured) {
   EXPECT_LT(posefree::poseCost(kept, geometry::Pose2{0.0, 0.0, 0.0}, grid, 0.15), 1.0);
 }
 
+// The field's line centres within `reach` of `pose`, `step` apart, in the robot frame.
+std::vector<Vec2> linesSeenFrom(const field::FieldModel& field, const geometry::Pose2& pose,
+                                double reach, double step) {
+  std::vector<Vec2> out;
+  const double c = std::cos(pose.phi), s = std::sin(pose.phi);
+  for (const Vec2& p : field.sampleLines(step)) {
+    const Vec2 d = p - pose.position();
+    if (d.norm() > reach) continue;
+    out.emplace_back(c * d.x() + s * d.y(), -s * d.x() + c * d.y());
+  }
+  return out;
+}
+
+// Session 15 (review 14, L9): the frames placed after the search, where session 14's read past
+// the end was. A frame with fewer than 600 points is refined with its own points and no others
+// (the old loop took 600, past the end of the list), the lattice with 2 x search_points of them
+// taken evenly over the whole list; one with more with 600 evenly spread; and the frame comes
+// back at the pose its points were seen from (or its twin: the field is symmetric).
+TEST(PoseFreeSearch, AFramePlacedAfterTheSearchUsesItsOwnPointsAndComesBackAtItsPose) {
+  const field::FieldModel msl = field::loadFieldPreset("msl");
+  const PoseFreeParams params;
+  const field::DistanceGrid grid(msl, 0.02, 3.0);
+  const posefree::CostRaster raster(msl, params.search_truncation, 0.05, 4.0);
+  const geometry::Pose2 truth{8.0, 2.0, 0.7};
+  const std::size_t want = static_cast<std::size_t>(2 * params.search_points);
+  for (const double step : {0.06, 0.01}) {
+    SCOPED_TRACE(step);
+    const std::vector<Vec2> pts = linesSeenFrom(msl, truth, 3.5, step);
+    const posefree::PlacingPoints use = posefree::placingPoints(pts, params);
+    if (step > 0.05) {
+      ASSERT_LT(pts.size(), 600u);
+      ASSERT_GT(pts.size(), want);
+      ASSERT_EQ(use.dense.size(), pts.size());
+      for (std::size_t i = 0; i < pts.size(); ++i)
+        EXPECT_EQ(use.dense[i], pts[i]);
+    } else {
+      ASSERT_GT(pts.size(), 600u);
+      ASSERT_EQ(use.dense.size(), 600u);
+      for (std::size_t i = 0; i < use.dense.size(); ++i)
+        EXPECT_EQ(use.dense[i], pts[i * pts.size() / 600]);
+    }
+    ASSERT_EQ(use.coarse.size(), want);
+    for (std::size_t i = 0; i < want; ++i)
+      EXPECT_EQ(use.coarse[i], pts[i * pts.size() / want]);
+
+    const std::vector<posefree::ScoredPose> found =
+        posefree::placeFrame(pts, raster, grid, msl, params, 4);
+    ASSERT_FALSE(found.empty());
+    geometry::Pose2 best = found.front().pose;
+    if (best.x < 0.0) best = posefree::twinOf(best);
+    EXPECT_NEAR(best.x, truth.x, 0.03);
+    EXPECT_NEAR(best.y, truth.y, 0.03);
+    EXPECT_NEAR(geometry::angleDiff(best.phi, truth.phi), 0.0, 0.01);
+    EXPECT_LT(found.front().cost, 0.01);
+  }
+}
+
 }  // namespace mirror_calibration_test
 }  // namespace fieldline::calibration

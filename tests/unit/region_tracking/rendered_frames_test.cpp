@@ -43,6 +43,21 @@ double median(std::vector<double> values) {
   return values[values.size() / 2];
 }
 
+// A rendered (YUYV) frame as BGR, its pixels in `pixels`.
+camera::FrameView bgrOf(const camera::FrameView& frame, std::vector<std::uint8_t>& pixels) {
+  pixels.resize(static_cast<std::size_t>(frame.width) * frame.height * 3);
+  for (int v = 0; v < frame.height; ++v) {
+    for (int u = 0; u < frame.width; ++u) {
+      const camera::Bgr c = camera::bgrFromYuv(camera::readYuv(frame, u, v));
+      std::uint8_t* out = &pixels[(static_cast<std::size_t>(v) * frame.width + u) * 3];
+      out[0] = c.b;
+      out[1] = c.g;
+      out[2] = c.r;
+    }
+  }
+  return {pixels.data(), frame.width, frame.height, frame.width * 3, camera::PixelFormat::kBgr};
+}
+
 double distanceToSegment(const Vec2& p, const Vec2& a, const Vec2& b) {
   const Vec2 ab = b - a;
   const double t =
@@ -110,20 +125,8 @@ TEST_F(RenderedFrames, LinePointsFromBgrFramesMatchThoseFromYuyv) {
   for (int i = 0; i < 3; ++i) {
     scene.frame_number = static_cast<std::uint64_t>(i);
     const camera::FrameView frame = sim_->render(scene);
-    bgrPixels.resize(static_cast<std::size_t>(frame.width) * frame.height * 3);
-    for (int v = 0; v < frame.height; ++v) {
-      for (int u = 0; u < frame.width; ++u) {
-        const camera::Bgr c = camera::bgrFromYuv(camera::readYuv(frame, u, v));
-        std::uint8_t* out = &bgrPixels[(static_cast<std::size_t>(v) * frame.width + u) * 3];
-        out[0] = c.b;
-        out[1] = c.g;
-        out[2] = c.r;
-      }
-    }
     yuyvProcessor.process(frame, true, yuyv);
-    bgrProcessor.process(
-        {bgrPixels.data(), frame.width, frame.height, frame.width * 3, camera::PixelFormat::kBgr},
-        true, bgr);
+    bgrProcessor.process(bgrOf(frame, bgrPixels), true, bgr);
   }
   auto errors = [&](const LinePoints& lines) {
     std::vector<double> result;
@@ -216,6 +219,41 @@ TEST_F(RenderedFrames, AReplacedColourTableIsTakenAtTheNextFrame) {
   EXPECT_GT(differing(), 1000);
   processor.process(sim_->render(scene), true, result);
   EXPECT_EQ(differing(), 0);
+  EXPECT_EQ(result.lines.points.size(), 0u);
+}
+
+// Review 14, L12: for BGR frames the cell classifier reads the table itself, the line detector
+// the processor's copy of its classes (ClassLookup). A replaced table reaches both at the next
+// frame, so the two never work from different tables: from an empty table to the simulator's,
+// the classifier's green and the line points come with the first frame, and both go with the
+// first frame after the table is emptied again.
+TEST_F(RenderedFrames, ForBgrFramesTheClassifierAndTheLineDetectorTakeAReplacedTableTogether) {
+  camera::ColourTable table;  // everything unknown
+  FrameProcessor processor(sim_->mirror, table, defaultVisionParams());
+  camera::SimScene scene;
+  scene.robot = {-2.0, -1.5, 2.0};
+  std::vector<std::uint8_t> pixels;
+  const camera::FrameView bgr = bgrOf(sim_->render(scene), pixels);
+  const auto greenCells = [&] {
+    processor.classifier().setFrame(bgr);
+    int n = 0;
+    for (int y = 0; y < processor.grid().height; ++y) {
+      for (int x = 0; x < processor.grid().width; ++x)
+        n += processor.classifier().classify(x, y) == classIdOf(camera::ColourClass::kGreen);
+    }
+    return n;
+  };
+  VisionResult result;
+  processor.process(bgr, true, result);
+  EXPECT_EQ(greenCells(), 0);
+  EXPECT_EQ(result.lines.points.size(), 0u);
+  table = sim_->table;
+  processor.process(bgr, true, result);
+  EXPECT_GT(greenCells(), 1000);
+  EXPECT_GT(result.lines.points.size(), 20u);
+  table = camera::ColourTable();
+  processor.process(bgr, true, result);
+  EXPECT_EQ(greenCells(), 0);
   EXPECT_EQ(result.lines.points.size(), 0u);
 }
 
