@@ -295,9 +295,15 @@ void Node::deferLastSubscription() {
 }
 
 void Node::drainDeferred() {
-  // From inside a deferred handler (handleDeferred() there, by this node or another node on the
-  // same connection) the receiver being read reads nothing (UdpmReceiver::receive): the guard is
-  // the receiver's, whose buffers the batch being handled is in.
+  // Two guards. This node's: from inside one of its own deferred handlers (or anything called
+  // while it reads its deferred sockets) handleDeferred() reads nothing, of no bus: a handler of
+  // another bus does not run inside a deferred handler (review 14, L10), and the nested call
+  // does not renew the budget below. The receiver's: from inside a deferred handler of another
+  // node on the same connection, the receiver being read reads nothing (UdpmReceiver::receive):
+  // the batch being handled is in its buffers.
+  if (draining_) return;
+  draining_ = true;
+  const ClearOnExit done{draining_};
   // Outside a spin (handleDeferred() between spins) a call has a whole budget of its own.
   if (!spinning_) deferred_budget_ = kMaxMessagesPerSpin;
   for (std::size_t i = 0; i < buses_.size() && deferred_budget_ > 0; ++i) {
