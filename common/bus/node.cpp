@@ -295,12 +295,10 @@ void Node::deferLastSubscription() {
 }
 
 void Node::drainDeferred() {
-  // Two guards. This node's: from inside one of its own deferred handlers (or anything called
-  // while it reads its deferred sockets) handleDeferred() reads nothing, of no bus: a handler of
-  // another bus does not run inside a deferred handler (review 14, L10), and the nested call
-  // does not renew the budget below. The receiver's: from inside a deferred handler of another
-  // node on the same connection, the receiver being read reads nothing (UdpmReceiver::receive):
-  // the batch being handled is in its buffers.
+  // Two guards. This node's: nested in its own deferred handlers, handleDeferred() reads no bus
+  // (no handler of another bus runs inside one, review 14 L10) and renews no budget. The
+  // receiver's: nested in a deferred handler of another node on the same connection, that
+  // receiver reads nothing (UdpmReceiver::receive): its buffers hold the batch being handled.
   if (draining_) return;
   draining_ = true;
   const ClearOnExit done{draining_};
