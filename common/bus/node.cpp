@@ -295,9 +295,13 @@ void Node::deferLastSubscription() {
 }
 
 void Node::drainDeferred() {
-  // From inside a deferred handler (handleDeferred() there, by this node or another node on the
-  // same connection) the receiver being read reads nothing (UdpmReceiver::receive): the guard is
-  // the receiver's, whose buffers the batch being handled is in.
+  // Two guards. This node's: nested in its own deferred handlers, handleDeferred() reads no bus
+  // (no handler of another bus runs inside one, review 14 L10) and renews no budget. The
+  // receiver's: nested in a deferred handler of another node on the same connection, that
+  // receiver reads nothing (UdpmReceiver::receive): its buffers hold the batch being handled.
+  if (draining_) return;
+  draining_ = true;
+  const ClearOnExit done{draining_};
   // Outside a spin (handleDeferred() between spins) a call has a whole budget of its own.
   if (!spinning_) deferred_budget_ = kMaxMessagesPerSpin;
   for (std::size_t i = 0; i < buses_.size() && deferred_budget_ > 0; ++i) {

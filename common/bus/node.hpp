@@ -216,9 +216,11 @@ class Node {
   bool cancelTimer(TimerId id);
   // Handles now what waits for the deferred subscriptions (subscribeDeferred), as the loop does
   // before a timer: for a watched fd's callback that acts on their newest messages. What it
-  // handles arrived after every message the node has handled on that bus; from inside a deferred
-  // handler it reads nothing more of that connection's deferred socket, whichever node calls it
-  // (the batch being handled comes first; the guard is the socket's, UdpmReceiver::receive).
+  // handles arrived after every message the node has handled on that bus. From inside this
+  // node's deferred handlers it reads nothing, of any bus (no handler of another bus runs inside
+  // one); from inside a deferred handler of another node on the same connection it reads nothing
+  // more of that connection's deferred socket (the batch being handled comes first; that guard
+  // is the socket's, UdpmReceiver::receive).
   void handleDeferred() { drainDeferred(); }
 
   using WatchId = int;
@@ -358,6 +360,8 @@ class Node {
   int deferred_budget_ = 0;
   // spinOnce() is running.
   bool spinning_ = false;
+  // drainDeferred() is running (the guard against a nested handleDeferred()).
+  bool draining_ = false;
   std::vector<std::uint8_t> encode_buffer_;
   StatusCollector status_;
   // Monotonic time of the next SERVICE_STATUS.

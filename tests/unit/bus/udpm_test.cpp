@@ -696,6 +696,57 @@ TEST_F(UdpmBus, ANestedDeferredReadOnASharedConnectionLeavesTheBatchWhole) {
   }
 }
 
+// Review 14, L10: the guard of the deferred reads is also the node's. A handleDeferred() from
+// inside one of the node's deferred handlers reads nothing of any bus: no handler of another bus
+// runs inside it. (With the receiver's guard alone, the nested call read the other bus's
+// deferred socket and ran its handlers inside the first bus's handler.)
+TEST_F(UdpmBus, ANestedDeferredReadRunsNoHandlerOfAnotherBus) {
+  static constexpr const char* kOtherUrl = "udpm://239.255.76.67:7802?ttl=0&recv_buf_size=4194304";
+  Node sender{{.process = "sender", .robot_id = 1, .url = kUrl, .status_period_us = 0}, clock};
+  Node other_sender{
+      {.process = "other_sender", .robot_id = 1, .url = kOtherUrl, .status_period_us = 0}, clock};
+  Node seer{{.process = "seer", .robot_id = 1, .url = kUrl, .status_period_us = 0}, clock};
+  const BusId seer_other = seer.addBus(kOtherUrl);
+  Node node{{.process = "node", .robot_id = 1, .url = kUrl, .status_period_us = 0}, clock};
+  const BusId other = node.addBus(kOtherUrl);
+  std::int64_t seen_by_seer = -1, seen_by_seer_other = -1;
+  seer.subscribe(channels::kOdometry, [&](const odometry_t& m) { seen_by_seer = m.header.seq; });
+  seer.subscribe(
+      channels::kOdometry, [&](const odometry_t& m) { seen_by_seer_other = m.header.seq; },
+      seer_other);
+  std::vector<std::string> order;
+  bool inside = false;
+  node.subscribeDeferred(channels::kOdometry, [&](const odometry_t& m) {
+    order.push_back("first " + std::to_string(m.header.seq));
+    inside = true;
+    node.handleDeferred();
+    inside = false;
+  });
+  int nested_runs = 0;
+  node.subscribeDeferred(
+      channels::kOdometry,
+      [&](const odometry_t& m) {
+        if (inside) ++nested_runs;
+        order.push_back("other " + std::to_string(m.header.seq));
+      },
+      other);
+  constexpr int kCount = 3;
+  for (int i = 0; i < kCount; ++i) {
+    odometry_t odo{};
+    odo.header.utime = clock.now();
+    ASSERT_TRUE(sender.publish(channels::kOdometry, odo));
+    ASSERT_TRUE(other_sender.publish(channels::kOdometry, odo));
+  }
+  // A datagram is queued on every socket of the bus in one pass.
+  spinUntil({&seer},
+            [&] { return seen_by_seer == kCount - 1 && seen_by_seer_other == kCount - 1; });
+  ASSERT_EQ(seen_by_seer_other, kCount - 1);
+  node.handleDeferred();
+  EXPECT_EQ(nested_runs, 0);
+  EXPECT_EQ(order, (std::vector<std::string>{"first 0", "first 1", "first 2", "other 0", "other 1",
+                                             "other 2"}));
+}
+
 TEST_F(UdpmBus, WhatLcmItselfPublishesArrivesAndWhatTheNodePublishesLcmReads) {
   Node node{{.process = "node", .robot_id = 1, .url = kUrl, .status_period_us = 0}, clock};
   std::vector<std::int64_t> frames;
