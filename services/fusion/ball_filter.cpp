@@ -109,7 +109,8 @@ BallRejection BallFilter::update(const perception::BallSighting& s, const EkfSta
   const Eigen::Matrix2d r =
       fieldCovariance(s, pose, z, robot.p.topLeftCorner<3, 3>(), params_.sighting_floor_m);
 
-  if (!initialized_) {
+  // An expired estimate is started again at the sighting (BallFilterParams::restart_when_expired).
+  if (!initialized_ || (params_.restart_when_expired && expiredAt(s.utime))) {
     if (!confirmed) return BallRejection::kPoseUnconfirmed;
     restart(s.utime, z, r);
     return BallRejection::kNone;
@@ -164,6 +165,10 @@ BallRejection BallFilter::update(const perception::BallSighting& s, const EkfSta
   // The model for what comes next: at rest while slow and its sightings agree closely.
   resting_ = x_.tail<2>().norm() < params_.rest_speed_mps && m2 <= params_.rest_max_nis;
   return BallRejection::kNone;
+}
+
+bool BallFilter::expiredAt(Utime t) const {
+  return static_cast<double>(t - last_seen_) * 1e-6 > params_.max_age_s;
 }
 
 bool BallFilter::poseConfirmed(Utime t, const EkfState& robot) const {
