@@ -108,11 +108,12 @@ BallRejection BallFilter::update(const perception::BallSighting& s, const EkfSta
   const Eigen::Vector2d z = geometry::pointRobotToField(pose, local);
   const Eigen::Matrix2d r =
       fieldCovariance(s, pose, z, robot.p.topLeftCorner<3, 3>(), params_.sighting_floor_m);
-
-  // An expired estimate is started again at the sighting (BallFilterParams::restart_when_expired).
-  if (!initialized_ || (params_.restart_when_expired && expiredAt(s.utime))) {
+  // An expired estimate starts again here, valid once a sighting agrees (restart_when_expired).
+  const bool expired = initialized_ && params_.restart_when_expired && expiredAt(s.utime);
+  if (!initialized_ || expired) {
     if (!confirmed) return BallRejection::kPoseUnconfirmed;
     restart(s.utime, z, r);
+    contradicted_ = expired;
     return BallRejection::kNone;
   }
   Eigen::Vector4d x = x_;

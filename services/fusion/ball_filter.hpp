@@ -51,10 +51,11 @@ struct BallFilterParams {
   // again at it (at rest, as the first one does) instead of updating the expired state, whose
   // covariance, grown over the gap, takes nearly any sighting through the gate and gives the
   // distance to its stale prediction to the velocity: far robots re-acquiring a resting ball
-  // reported it rolling at 0.3-2 m/s and 10-30 cm off for up to half a second. Off by default:
-  // in replays of ten live matches the team ball gained 3-11 mm in nine, but in one a single
-  // false sighting after a gap started a valid estimate 1.3-3.2 m off (a stale filter refuses it
-  // as an outlier); docs/log/2026-12-08-session15-teamball.md.
+  // reported it rolling at 0.3-2 m/s and 10-30 cm off for up to half a second. The restarted
+  // estimate is valid once a next sighting agrees. Off by default: in replays of ten live
+  // matches the team ball gained 3-11 mm in nine, but in one a robot whose heading was 0.2-0.8
+  // rad off (a collision) re-acquired the ball 1.3-3.2 m off, which the expired filter had refused
+  // as outliers; docs/log/2026-12-08-session15-teamball.md.
   bool restart_when_expired = false;
   // Squared Mahalanobis distance (2 dof) beyond which a sighting is an outlier.
   double gate2 = 13.8;

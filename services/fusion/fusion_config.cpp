@@ -401,9 +401,10 @@ void declareBall(SettingsTable<FC>& t) {
       "usually left the constant-velocity model",
       &BP::max_age_s);
   t.addBool("ball.restart_when_expired",
-            "A sighting after the estimate expired (max_age_s) starts the filter again instead of "
-            "updating the expired state (on: a single false sighting after a gap starts a valid "
-            "estimate at once; off by default, docs/teamcomm.md)",
+            "A sighting after the estimate expired (max_age_s) starts the filter again, valid once "
+            "a next sighting agrees, instead of updating the expired state (on: a robot whose "
+            "heading is off re-acquires the ball where the expired state refused it; off by "
+            "default, docs/teamcomm.md)",
             &FC::ball, &BP::restart_when_expired);
   num("gate_chi2", 0.1, 1e6, "1", "Outlier gate (chi^2, 2 dof)", &BP::gate2);
   num("restart_after_outliers", 1, 1000, "1", "Restart after this many outliers in a row",

@@ -155,8 +155,12 @@ TEST(BallFilter, ABallSeenAgainAfterItsEstimateExpiredStartsAfresh) {
   params.restart_when_expired = true;
   const auto speed = [](const perception::BallEstimate& e) { return std::hypot(e.vx, e.vy); };
   const auto error = [](const perception::BallEstimate& e) { return std::hypot(e.x, e.y - 1.0); };
-  // Started afresh: at rest at the first sighting, and after ten at rest near the ball.
-  EXPECT_LT(speed(reacquiredRestingBall(params, 1)), 0.01);
+  // Started afresh: at rest at the first sighting (not valid until a second one agrees), and
+  // after ten at rest near the ball.
+  const perception::BallEstimate first = reacquiredRestingBall(params, 1);
+  EXPECT_LT(speed(first), 0.01);
+  EXPECT_FALSE(first.valid);
+  EXPECT_TRUE(reacquiredRestingBall(params, 2).valid);
   const perception::BallEstimate fresh = reacquiredRestingBall(params, 10);
   EXPECT_TRUE(fresh.valid);
   EXPECT_LT(error(fresh), 0.025);
