@@ -33,6 +33,7 @@
 #include "tools/eval/evaluation.hpp"
 #include "tools/eval/sim_truth.hpp"
 #include "tools/eval/team_ball.hpp"
+#include "tools/eval/team_ball_budget.hpp"
 #include "tools/recording/clock_model.hpp"
 
 using namespace fieldline;
@@ -90,6 +91,7 @@ struct ReplayOptions {
   double max_prediction_s = 0.5;
   double superseded_after_s = 0.09;  // config/team/sim_team.yaml
   std::string csv_path, sightings_path, pictures_path, reporters_path, others_path;
+  bool budget = false;
 
   void addTo(cli::App& app) {
     app.add_option("recording", dir, "Recording directory (sim.lcm, robot1.lcm ...)")->required();
@@ -149,6 +151,9 @@ struct ReplayOptions {
                    "and tangential error, the detector's sigmas, turn rate, the ball's bearing "
                    "rate, how near a body in front comes to hiding it, fusion's heading error "
                    "at the stamp) here");
+    app.add_flag("--budget", budget,
+                 "Print the team ball's error by class of picture (the ball resting or rolling; "
+                 "one reporter near or far, or more; a resting ball its reporters say rolls)");
     app.add_option("--pictures", pictures_path,
                    "Write every scored team picture (observer, t, team ball error and sigma, each "
                    "robot's ball error and range) here");
@@ -370,6 +375,8 @@ struct TeamTally {
   std::size_t used_total = 0, rejected_total = 0, valid_pictures = 0, pictures = 0;
   // Every picture as fieldline-eval reads TEAM_STATE (its team-ball line scores them).
   std::vector<eval::TeamSample> samples;
+  // --budget: every valid scored picture.
+  std::vector<eval::BudgetPicture> budget;
 };
 
 // Replays one observer's team link: its picture's reports at `now`.
@@ -498,6 +505,29 @@ void writeReporterRows(std::FILE* reporters_csv, const std::vector<eval::TruthSa
   }
 }
 
+// A valid scored picture for --budget: the true ball's speed, the used reporters' balls.
+eval::BudgetPicture budgetPicture(const std::vector<eval::TruthSample>& truth, Utime now,
+                                  const Eigen::Vector2d& t, const teamcomm::TeamBallResult& result,
+                                  const perception::TeamState& state,
+                                  const teamcomm::TeamPicture& picture) {
+  eval::BudgetPicture p{now, (result.position - t).norm(), 0.0, {}};
+  Eigen::Vector2d later, at_stamp;
+  if (ballAt(truth, now + 50'000, later)) p.true_speed_mps = (later - t).norm() / 0.05;
+  for (const int id : result.used) {
+    const perception::TeammateState& m = state.robots[static_cast<std::size_t>(id - 1)];
+    const teamcomm::Report* report = picture.report(id);
+    if (!report) continue;
+    const perception::BallEstimate& b = report->ball;
+    // Without the truth at its stamp (a gap in SIM_WORLD): its error there unknown.
+    const double at_stamp_error = ballAt(truth, b.utime, at_stamp)
+                                      ? (Eigen::Vector2d(b.x, b.y) - at_stamp).norm()
+                                      : std::numeric_limits<double>::quiet_NaN();
+    p.used.push_back(
+        {std::hypot(m.ball_x - m.x, m.ball_y - m.y), std::hypot(b.vx, b.vy), at_stamp_error});
+  }
+  return p;
+}
+
 // Each robot's team picture at the publish rate, scored against the truth.
 TeamTally replayTeamBall(const ReplayOptions& o, const std::map<int, RobotLog>& logs,
                          const std::vector<eval::TruthSample>& truth, const Span& span,
@@ -535,6 +565,8 @@ TeamTally replayTeamBall(const ReplayOptions& o, const std::map<int, RobotLog>& 
       tally.team.add(result.position - t, result.covariance);
       tally.used_total += result.used.size();
       tally.rejected_total += result.rejected.size();
+      if (o.budget)
+        tally.budget.push_back(budgetPicture(truth, now, t, result, state, replay.picture()));
       if (pictures_csv)
         writePictureRow(pictures_csv, truth, observer, now, span.start, t, result, state);
       if (reporters_csv)
@@ -638,6 +670,8 @@ int main(int argc, char** argv) {
     }
     std::printf("fieldline-eval: %s\n",
                 eval::teamBallLine(eval::evaluateTeamBall(truth, balls, tally.samples)).c_str());
+    if (o.budget)
+      std::fputs(eval::budgetTable(eval::teamBallBudget(tally.budget, truth)).c_str(), stdout);
     return 0;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "fieldline-team-ball-replay: %s\n", e.what());

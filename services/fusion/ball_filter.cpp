@@ -108,10 +108,12 @@ BallRejection BallFilter::update(const perception::BallSighting& s, const EkfSta
   const Eigen::Vector2d z = geometry::pointRobotToField(pose, local);
   const Eigen::Matrix2d r =
       fieldCovariance(s, pose, z, robot.p.topLeftCorner<3, 3>(), params_.sighting_floor_m);
-
-  if (!initialized_) {
+  // An expired estimate starts again here, valid once a sighting agrees (restart_when_expired).
+  const bool expired = initialized_ && params_.restart_when_expired && expiredAt(s.utime);
+  if (!initialized_ || expired) {
     if (!confirmed) return BallRejection::kPoseUnconfirmed;
     restart(s.utime, z, r);
+    contradicted_ = expired;
     return BallRejection::kNone;
   }
   Eigen::Vector4d x = x_;
@@ -164,6 +166,10 @@ BallRejection BallFilter::update(const perception::BallSighting& s, const EkfSta
   // The model for what comes next: at rest while slow and its sightings agree closely.
   resting_ = x_.tail<2>().norm() < params_.rest_speed_mps && m2 <= params_.rest_max_nis;
   return BallRejection::kNone;
+}
+
+bool BallFilter::expiredAt(Utime t) const {
+  return static_cast<double>(t - last_seen_) * 1e-6 > params_.max_age_s;
 }
 
 bool BallFilter::poseConfirmed(Utime t, const EkfState& robot) const {

@@ -47,6 +47,16 @@ struct BallFilterParams {
   double stamp_sigma_s = 0.01;
   // The estimate is invalid after this long without a sighting, s.
   double max_age_s = 0.5;
+  // A sighting after the estimate expired (unseen for longer than max_age_s) starts the filter
+  // again at it (at rest, as the first one does) instead of updating the expired state, whose
+  // covariance, grown over the gap, takes nearly any sighting through the gate and gives the
+  // distance to its stale prediction to the velocity: far robots re-acquiring a resting ball
+  // reported it rolling at 0.3-2 m/s and 10-30 cm off for up to half a second. The restarted
+  // estimate is valid once a next sighting agrees. Off by default: in replays of ten live
+  // matches the team ball gained 3-11 mm in nine, but in one a robot whose heading was 0.2-0.8
+  // rad off (a collision) re-acquired the ball 1.3-3.2 m off, which the expired filter had refused
+  // as outliers; docs/log/2026-12-08-session15-teamball.md.
+  bool restart_when_expired = false;
   // Squared Mahalanobis distance (2 dof) beyond which a sighting is an outlier.
   double gate2 = 13.8;
   // After this many outliers in a row the ball has moved for real (kicked, put back): restart.
@@ -129,6 +139,8 @@ class BallFilter {
   BallRejection missed(Utime t, const EkfState& robot);
   // Whether the robot's pose at `t` was confirmed recently enough (pose_max_unconfirmed_s).
   bool poseConfirmed(Utime t, const EkfState& robot) const;
+  // Unseen at `t` for longer than max_age_s.
+  bool expiredAt(Utime t) const;
   // Times the estimate was made invalid by frames that should have seen it.
   std::uint64_t unseenInvalidations() const { return unseen_invalidations_; }
   // The estimate at `t` (moved on with friction); valid only within max_age of the last sighting.

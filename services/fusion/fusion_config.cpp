@@ -400,6 +400,12 @@ void declareBall(SettingsTable<FC>& t) {
       "Invalid after this long unseen: a ball unseen for 15 frames within a few metres has "
       "usually left the constant-velocity model",
       &BP::max_age_s);
+  t.addBool("ball.restart_when_expired",
+            "A sighting after the estimate expired (max_age_s) starts the filter again, valid once "
+            "a next sighting agrees, instead of updating the expired state (on: a robot whose "
+            "heading is off re-acquires the ball where the expired state refused it; off by "
+            "default, docs/teamcomm.md)",
+            &FC::ball, &BP::restart_when_expired);
   num("gate_chi2", 0.1, 1e6, "1", "Outlier gate (chi^2, 2 dof)", &BP::gate2);
   num("restart_after_outliers", 1, 1000, "1", "Restart after this many outliers in a row",
       &BP::restart_after_outliers);

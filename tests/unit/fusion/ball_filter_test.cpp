@@ -126,6 +126,54 @@ TEST(BallFilter, RefusesBadSightingsAndAgesOut) {
   EXPECT_EQ(e.last_seen_utime, kStart);
 }
 
+// Runs `params` over a ball followed rolling at 1.5 m/s, lost for 4 s, then seen resting where it
+// stopped, about 2 m short of where the expired estimate rolled on (inside the gate of its grown
+// covariance); the estimate at the last of `frames` frames of the resting ball.
+perception::BallEstimate reacquiredRestingBall(const BallFilterParams& params, int frames) {
+  BallFilter filter(params);
+  std::mt19937 rng(5);
+  const geometry::Pose2 robot{-3.5, 0.0, 0.0};
+  Utime t = kStart;
+  for (int k = 0; k < 10; ++k, t += 33'333) {
+    const geometry::Vec2 ball(0.0, 1.5 * 0.033333 * k);
+    filter.update(sightingOf(ball, robot, t, rng), robotAt(robot, t));
+  }
+  t += 4'000'000;
+  for (int k = 0; k < frames; ++k, t += 33'333)
+    filter.update(sightingOf({0.0, 1.0}, robot, t, rng), robotAt(robot, t));
+  return filter.estimate(t - 33'333);
+}
+
+TEST(BallFilter, ABallSeenAgainAfterItsEstimateExpiredStartsAfresh) {
+  // Session 15 (teamball): far robots re-acquiring a resting ball reported it rolling at
+  // 0.3-2 m/s and 10-30 cm off: the expired estimate's grown covariance took the new sightings
+  // through the gate and turned the distance to its stale prediction into velocity.
+  BallFilterParams params = test::bareBall();
+  params.acceleration_density = 0.3;
+  params.rest_acceleration_density = 0.02;
+  params.max_age_s = 0.5;
+  params.restart_when_expired = true;
+  const auto speed = [](const perception::BallEstimate& e) { return std::hypot(e.vx, e.vy); };
+  const auto error = [](const perception::BallEstimate& e) { return std::hypot(e.x, e.y - 1.0); };
+  // Started afresh: at rest at the first sighting (not valid until a second one agrees), and
+  // after ten at rest near the ball.
+  const perception::BallEstimate first = reacquiredRestingBall(params, 1);
+  EXPECT_LT(speed(first), 0.01);
+  EXPECT_FALSE(first.valid);
+  EXPECT_TRUE(reacquiredRestingBall(params, 2).valid);
+  const perception::BallEstimate fresh = reacquiredRestingBall(params, 10);
+  EXPECT_TRUE(fresh.valid);
+  EXPECT_LT(error(fresh), 0.025);
+  EXPECT_LT(speed(fresh), 0.15);  // at rest by the team's rest speed
+  // The expired estimate updated instead (the default): 0.93 m/s at the first
+  // sighting, still rolling (0.22 m/s) and 3.4 cm off after ten.
+  params.restart_when_expired = false;
+  EXPECT_GT(speed(reacquiredRestingBall(params, 1)), 0.5);
+  const perception::BallEstimate updated = reacquiredRestingBall(params, 10);
+  EXPECT_GT(speed(updated), 0.15);
+  EXPECT_GT(error(updated), 0.025);
+}
+
 TEST(BallFilter, RestartsWhenTheBallReallyMoved) {
   BallFilter filter(test::bareBall());
   std::mt19937 rng(3);
