@@ -49,7 +49,7 @@ int main(int argc, char** argv) {
       ->check(cli::Range(1, 100))
       ->capture_default_str();
   app.add_option("--frames", frames, "frames each processor tracks (the same rendered frame)")
-      ->check(cli::Range(2, 1000))
+      ->check(cli::Range(3, 1000))
       ->capture_default_str();
   FIELDLINE_CLI_PARSE(app, argc, argv);
 

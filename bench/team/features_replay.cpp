@@ -69,16 +69,24 @@ int main(int argc, char** argv) {
   app.add_option("--log", log, "recording with VISION_LINES (a robot's bus)")->required();
   app.add_option("--field", fieldName, "field preset or YAML file")->capture_default_str();
   app.add_option("--rounds", rounds, "rounds; a frame's time is its fastest")
+      ->check(cli::Range(1, 1000))
       ->capture_default_str();
-  app.add_option("--frames", maxFrames, "at most this many frames")->capture_default_str();
-  app.add_option("--evict-mb", evictMb, "write this many MB before every frame (0: warm)");
+  app.add_option("--frames", maxFrames, "at most this many frames")
+      ->check(cli::Range(2, 1000000))
+      ->capture_default_str();
+  app.add_option("--evict-mb", evictMb, "write this many MB before every frame (0: warm)")
+      ->check(cli::Range(0.0, 4096.0));
   FIELDLINE_CLI_PARSE(app, argc, argv);
 
   const fieldline::field::FieldModel field = fieldline::field::loadFieldPreset(fieldName);
   const fr::RecognitionParams params = fr::loadRecognitionPreset("default");
   const std::vector<perception::LinePoints> frames = readLog(log, maxFrames);
   std::printf("%zu line frames, %d rounds, evict %.0f MB\n", frames.size(), rounds, evictMb);
-  if (frames.size() < 2) return 1;
+  if (frames.size() < 2) {
+    std::fprintf(stderr, "fieldline-replay-features: %s holds %zu VISION_LINES frames, 2 needed\n",
+                 log.c_str(), frames.size());
+    return 1;
+  }
   std::vector<std::uint8_t> evict(static_cast<std::size_t>(evictMb * 1e6));
   std::vector<double> fastest(frames.size(), 1e30);
   for (int r = 0; r < rounds; ++r) {

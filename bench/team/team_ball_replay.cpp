@@ -514,9 +514,9 @@ eval::BudgetPicture budgetPicture(const std::vector<eval::TruthSample>& truth, U
   Eigen::Vector2d later, at_stamp;
   if (ballAt(truth, now + 50'000, later)) p.true_speed_mps = (later - t).norm() / 0.05;
   for (const int id : result.used) {
-    const perception::TeammateState& m = state.robots[static_cast<std::size_t>(id - 1)];
     const teamcomm::Report* report = picture.report(id);
-    if (!report) continue;
+    if (!report || id < 1 || static_cast<std::size_t>(id) > state.robots.size()) continue;
+    const perception::TeammateState& m = state.robots[static_cast<std::size_t>(id - 1)];
     const perception::BallEstimate& b = report->ball;
     // Without the truth at its stamp (a gap in SIM_WORLD): its error there unknown.
     const double at_stamp_error = ballAt(truth, b.utime, at_stamp)

@@ -48,7 +48,7 @@ $ns bash -c "
   for exe in $exes; do
     pids=\$(awk -v e=\$exe '\$1 == e {print \$2}' '$out/before' | paste -sd,)
     [ -n \"\$pids\" ] || { echo \"team_profile: no fieldline-\$exe running\" >&2; exit 1; }
-    perf record -q -F 999 -g -p \$pids -o '$out/'\$exe.perf.data -- sleep $seconds > /dev/null 2>&1 &
+    perf record -q -F 999 -g -p \$pids -o '$out/'\$exe.perf.data -- sleep $seconds > /dev/null &
     perfs+=(\$!)
   done
   wait \${perfs[@]}
@@ -59,7 +59,8 @@ for exe in $exes; do
   python3 "$root/bench/team/perf_categories.py" "$out/$exe.perf.data" > "$out/$exe.txt"
 done
 echo "$(date -u +%T) load $(cut -d' ' -f1-3 /proc/loadavg); per process of each executable (its robots' mean):"
-join -j 2 <(sort -k2 "$out/before") <(sort -k2 "$out/after") |
+# join needs both sides sorted on the pid field alone, bytewise (a locale's order drops rows).
+LC_ALL=C join -j 2 <(LC_ALL=C sort -k2,2 "$out/before") <(LC_ALL=C sort -k2,2 "$out/after") |
   awk -v s="$seconds" -v hz="$(getconf CLK_TCK)" '
     # After the join: pid, then executable, user, system, wake-ups before and after.
     { n[$2]++; u[$2] += ($7 - $3) / hz / s; k[$2] += ($8 - $4) / hz / s; w[$2] += ($9 - $5) / s }

@@ -125,7 +125,7 @@ BallRejection BallFilter::update(const perception::BallSighting& s, const EkfSta
   if (!(m2 <= params_.gate2)) {
     if (!confirmed) {
       // Withholding the estimate is safe whichever is wrong, moving it is not.
-      contradicted_ = params_.invalid_after_outlier;
+      contradicted_ = contradicted_ || params_.invalid_after_outlier;
       return BallRejection::kPoseUnconfirmed;
     }
     const bool confident = s.sigma_radial <= params_.restart_max_sigma_m &&
@@ -137,7 +137,7 @@ BallRejection BallFilter::update(const perception::BallSighting& s, const EkfSta
       restart(s.utime, z, r);
       return BallRejection::kNone;
     }
-    contradicted_ = params_.invalid_after_outlier;
+    contradicted_ = contradicted_ || params_.invalid_after_outlier;
     outliers_.push_back(Outlier{s.utime, z, r});
     return BallRejection::kOutlier;
   }

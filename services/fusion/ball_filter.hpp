@@ -177,8 +177,9 @@ class BallFilter {
   int outliers_in_row_ = 0;
   int missed_in_row_ = 0;
   std::uint64_t unseen_invalidations_ = 0;
-  // The newest sighting was an outlier: the estimate is contradicted until a sighting agrees or
-  // the filter restarts, and not reported valid meanwhile.
+  // The estimate is contradicted (an outlier sighting, frames that should have shown the ball
+  // and did not, or a restart after it expired awaiting a sighting that agrees): not reported
+  // valid until a sighting agrees or the filter restarts. An outlier never clears it.
   bool contradicted_ = false;
   // The resting model (rest_acceleration_density) is in use.
   bool resting_ = false;

@@ -96,6 +96,8 @@ void EdgeInsetTable::resolve(int bin, int knot) const {
   for (int yuyv = 0; yuyv < 2; ++yuyv) {
     for (const bool nearEdge : {true, false}) {
       const auto from = [&](int k, double& out) {
+        // A knot none of whose spheres can show a far edge adds none: not scanned for it.
+        if (!nearEdge && !mayShowFarEdge(bin, k)) return false;
         const Sum& s = sampled(bin, k).sums[yuyv];
         const int n = nearEdge ? s.near_n : s.far_n;
         if (n > 0) out = (nearEdge ? s.near : s.far) / n;
@@ -150,17 +152,37 @@ EdgeInsets EdgeInsetTable::at(double horizontal, double bearing, bool yuyv) cons
   return out;
 }
 
-// long: the sphere's grazing rays, the pixel test and the two edge bands' scan belong together
-bool EdgeInsetTable::sampleInsets(double horizontal, double bearing, EdgeInsets& plain,
-                                  EdgeInsets& pairs) const {
+EdgeInsetTable::EdgeRadii EdgeInsetTable::edgeRadii(double horizontal, double bearing) const {
   const camera::MirrorParams& mp = mirror_.params();
   const double H = mp.reference_height, r = centre_height_;
   // The grazing rays from R in the vertical plane through the centre: depression alpha +- beta.
   const double alpha = std::atan2(H - r, horizontal);
   const double beta = std::asin(std::min(1.0, r / std::hypot(horizontal, H - r)));
-  const double nearR = mp.distance.imageRadius(H / std::tan(alpha + beta), bearing);
-  const double farR = alpha > beta ? mp.distance.imageRadius(H / std::tan(alpha - beta), bearing)
-                                   : std::numeric_limits<double>::quiet_NaN();
+  return {mp.distance.imageRadius(H / std::tan(alpha + beta), bearing),
+          alpha > beta ? mp.distance.imageRadius(H / std::tan(alpha - beta), bearing)
+                       : std::numeric_limits<double>::quiet_NaN()};
+}
+
+bool EdgeInsetTable::mayShowFarEdge(int bin, int knot) const {
+  // sampleInsets gives a far inset exactly where the near edge is imaged and the far edge is
+  // within the distance function: the same test without the pixel scan.
+  for (int j = 0; j < kSamples; ++j) {
+    if (sample_bins_[j] != bin) continue;
+    const EdgeRadii e = edgeRadii(first_m_ + (knot + sampleOffset(j)) * kStepM, sampleBearing(j));
+    if (std::isfinite(e.near) && e.near >= mirror_.params().self_radius && std::isfinite(e.far)) {
+      return true;
+    }
+  }
+  return false;
+}
+
+// long: the pixel test and the two edge bands' scan belong together
+bool EdgeInsetTable::sampleInsets(double horizontal, double bearing, EdgeInsets& plain,
+                                  EdgeInsets& pairs) const {
+  const camera::MirrorParams& mp = mirror_.params();
+  const double H = mp.reference_height, r = centre_height_;
+  const EdgeRadii radii = edgeRadii(horizontal, bearing);
+  const double nearR = radii.near, farR = radii.far;
   if (!std::isfinite(nearR) || nearR < mp.self_radius) return false;
   const bool hasFar = std::isfinite(farR);
   const double halfSpan = std::asin(std::min(1.0, r / horizontal)) + 2.0 / nearR;

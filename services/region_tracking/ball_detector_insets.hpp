@@ -3,8 +3,8 @@
 // radial direction, in YUYV frames or not, from spheres projected through the mirror model (no
 // frames, no renderer). A cell of the table (one distance knot in one angle bin) is sampled the
 // first time a lookup needs it, and the table of a mirror and ball height is shared by every
-// detector of the process (edgeInsetTableFor): building one used to cost about 150 ms at 320x240
-// (image area times more for larger frames) in every detector's constructor.
+// detector of the process (edgeInsetTableFor): built whole in every detector's constructor it cost
+// 79-83 ms of thread CPU at 320x240 and more with the image's area (docs/region_tracking.md).
 #pragma once
 
 #include <array>
@@ -73,6 +73,14 @@ class EdgeInsetTable {
     std::array<Sum, 2> sums;            // [yuyv]
     std::array<EdgeInsets, 2> value;    // [yuyv]
   };
+  // The image radii of a sphere's near and far silhouette edges (far NaN where it is not
+  // imaged: beyond the distance function or above the horizon).
+  struct EdgeRadii {
+    double near, far;
+  };
+  EdgeRadii edgeRadii(double horizontal, double bearing) const;
+  // False where no sphere of the cell can show a far edge (known without scanning pixels).
+  bool mayShowFarEdge(int bin, int knot) const;
   const Cell& resolved(int bin, int knot) const;
   // With mutex_ held.
   const Cell& sampled(int bin, int knot) const;

@@ -264,9 +264,17 @@ void FromImages::keepBallSamples(const std::function<bool(double, double, double
 
 void FromImages::fitFloorCone() {
   floor_cone = coneOf(out.samples.floor, wu, wv, params.light_range, 4.0, 0.5, 99.5);
+  floor_cone_fitted = true;
+}
+
+void FromImages::requireFloorCone(const char* stage) const {
+  if (!floor_cone_fitted) {
+    throw std::logic_error(fmt::format("colour calibration: {} before fitFloorCone", stage));
+  }
 }
 
 void FromImages::buildTable() {
+  requireFloorCone("buildTable");
   const std::array<double, 2> light = params.light_range;
   const Cone& floorCone = floor_cone;
   Cone whiteCone = coneOf(out.samples.line, wu, wv, {light[0], 10.0}, 6.0, 2.0, 100.0);

@@ -79,6 +79,7 @@ void FromImages::findBallAndRobots() {
 }
 
 std::vector<Blob> FromImages::ballBlobs(std::size_t f) const {
+  requireFloorCone("ballBlobs");
   std::vector<std::uint8_t> mask = otherMask(f);
   for (std::size_t i = 0; i < n; ++i) {
     const Yuv& c = planes[f][i];

@@ -128,6 +128,9 @@ struct FromImages {
   double wu = 0.0, wv = 0.0;            // the white point
   double line_chroma = 0.0;             // p95 of the line samples' distance from it, + 2
   Cone floor_cone;
+  bool floor_cone_fitted = false;  // fitFloorCone ran (ballBlobs and buildTable read the cone)
+  // Throws std::logic_error naming `stage` when fitFloorCone has not run.
+  void requireFloorCone(const char* stage) const;
 };
 
 }  // namespace fieldline::calibration::imagefit

@@ -89,6 +89,19 @@ bool isPutBack(const TruthSample& a, const TruthSample& b) {
   return std::hypot(b.ball_x - a.ball_x, b.ball_y - a.ball_y) > kMaxBallSpeedMps * seconds;
 }
 
+std::vector<Utime> putBackTimes(const std::vector<TruthSample>& truth) {
+  std::vector<Utime> times;
+  for (std::size_t i = 1; i < truth.size(); ++i) {
+    if (isPutBack(truth[i - 1], truth[i])) times.push_back(truth[i].utime);
+  }
+  return times;
+}
+
+bool justAfterPutBack(const std::vector<Utime>& put_backs, Utime t, Utime blind_us) {
+  return std::any_of(put_backs.begin(), put_backs.end(),
+                     [&](Utime p) { return t >= p && t - p < blind_us; });
+}
+
 namespace {
 
 // Per robot: scoring starts settle_s after its first estimate, or at its first TRACKING if that

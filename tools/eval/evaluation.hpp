@@ -115,6 +115,10 @@ bool truthAt(const std::vector<TruthSample>& truth, Utime t, int robot, TruthRob
 // Whether the ball jumped from `a` to `b` (consecutive truth samples) faster than any kick: a
 // put-back (the scenario placed it elsewhere).
 bool isPutBack(const TruthSample& a, const TruthSample& b);
+// When the truth shows each put-back (the first sample with the ball at its new place), and
+// whether `t` lies in the blind time `blind_us` after one (TeamBallOptions::put_back_blind_us).
+std::vector<Utime> putBackTimes(const std::vector<TruthSample>& truth);
+bool justAfterPutBack(const std::vector<Utime>& put_backs, Utime t, Utime blind_us);
 
 // `first_lines` (optional): per robot, the utime of its first VISION_LINES frame, from which
 // tracking_after_vision_s is measured.

@@ -33,21 +33,6 @@ bool ballAt(const std::vector<TruthSample>& truth, Utime t, double& x, double& y
   return truthAt(truth, t, truth.front().robots.begin()->first, unused, &x, &y);
 }
 
-// When the truth shows each put-back (the first sample with the ball at its new place).
-std::vector<Utime> putBackTimes(const std::vector<TruthSample>& truth) {
-  std::vector<Utime> times;
-  for (std::size_t i = 1; i < truth.size(); ++i) {
-    if (isPutBack(truth[i - 1], truth[i])) times.push_back(truth[i].utime);
-  }
-  return times;
-}
-
-// Whether `t` lies in the blind time after a put-back (TeamBallOptions::put_back_blind_us).
-bool justAfterPutBack(const std::vector<Utime>& put_backs, Utime t, Utime blind_us) {
-  return std::any_of(put_backs.begin(), put_backs.end(),
-                     [&](Utime p) { return t >= p && t - p < blind_us; });
-}
-
 // Every robot's TEAM_STATEs (sorted, valid team ball, after `start`) paired with its newest own
 // BALL_STATE at most pair_window_us before: both errors on the same instants (TeamBallSummary
 // `paired`), and the verdict against every robot with enough pairs.

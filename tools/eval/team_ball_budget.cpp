@@ -59,16 +59,10 @@ double TeamBallBudget::mean() const {
 
 TeamBallBudget teamBallBudget(const std::vector<BudgetPicture>& pictures,
                               const std::vector<TruthSample>& truth, const BudgetOptions& options) {
-  std::vector<Utime> put_backs;
-  for (std::size_t i = 1; i < truth.size(); ++i) {
-    if (isPutBack(truth[i - 1], truth[i])) put_backs.push_back(truth[i].utime);
-  }
+  const std::vector<Utime> put_backs = putBackTimes(truth);
   TeamBallBudget b;
   for (const BudgetPicture& p : pictures) {
-    const bool blind = std::any_of(put_backs.begin(), put_backs.end(), [&](Utime t) {
-      return p.utime >= t && p.utime - t < options.put_back_blind_us;
-    });
-    if (blind || p.used.empty()) {
+    if (justAfterPutBack(put_backs, p.utime, options.put_back_blind_us) || p.used.empty()) {
       ++b.left_out;
       continue;
     }

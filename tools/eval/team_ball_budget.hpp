@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "tools/eval/evaluation.hpp"
+#include "tools/eval/team_ball.hpp"
 
 namespace fieldline::eval {
 
@@ -21,8 +22,8 @@ struct BudgetOptions {
   double far_m = 3.5;
   // Pictures off by more than this are counted apart within their class, m.
   double large_error_m = 0.1;
-  // Pictures stamped less than this after a put-back are not scored (TeamBallOptions), µs.
-  Utime put_back_blind_us = 150'000;
+  // Pictures stamped less than this after a put-back are not scored, µs.
+  Utime put_back_blind_us = TeamBallOptions{}.put_back_blind_us;
 };
 
 // One reporter the team ball used.

@@ -5,6 +5,7 @@
 // one chroma), and the ball detector refused a ball on a line for the long blob those pixels made.
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -129,6 +130,61 @@ TEST(BallOnALine, EveryBallBlobIsTheBallNotTheCarpetBesideIt) {
     }
   }
   EXPECT_EQ(shown, 4);
+}
+
+// The guard behind the blobs (session 14): ball samples of the carpet's or the lines' colours,
+// or of their mixtures, never reach the ball class; they are counted, and a ball left with fewer
+// than 5 samples has no class. Since session 15 the blobs hold none, so they are put in here.
+TEST(BallOnALine, BallSamplesOfTheCarpetsOrTheLinesColoursAreLeftOutAndCounted) {
+  const venue::RenderedVenue& v = colourCast();
+  const std::vector<camera::FrameView> views = viewsOf(v);
+  std::vector<std::optional<geometry::Pose2>> poses;
+  for (const auto& f : v.frames)
+    poses.emplace_back(f.pose);
+  const ImageFitParams params;
+  const auto stagesUpToTheBall = [&](imagefit::FromImages& s) {
+    s.findFloor();
+    s.findLines();
+    s.sampleFloor();
+    s.measureLines();
+    s.fitFloorCone();
+    s.findBallAndRobots();
+  };
+  imagefit::FromImages s(v.mirror, v.field, views, poses, params);
+  stagesUpToTheBall(s);
+  ASSERT_TRUE(s.out.ball_found);
+  const std::size_t ballSamples = s.out.samples.ball.size();
+  const auto& floor = s.out.floor.median;
+  const double wu = s.out.white_point[0], wv = s.out.white_point[1];
+  const double lineY = s.out.line_luma[1];
+  std::vector<camera::Yuv> foreign;
+  for (int i = 0; i < 10; ++i) {
+    foreign.push_back({level(floor[0]), level(floor[1]), level(floor[2])});
+    foreign.push_back({level(lineY), level(wu), level(wv)});
+    // Half carpet, half line.
+    foreign.push_back({level(0.5 * (floor[0] + lineY)), level(0.5 * (floor[1] + wu)),
+                       level(0.5 * (floor[2] + wv))});
+  }
+  s.out.samples.ball.insert(s.out.samples.ball.end(), foreign.begin(), foreign.end());
+  s.buildTable();
+  EXPECT_EQ(s.out.ball_samples_refused, static_cast<int>(foreign.size()));
+  EXPECT_EQ(s.out.samples.ball.size(), ballSamples);
+  EXPECT_TRUE(s.out.ball_found);
+  for (const camera::Yuv& c : foreign)
+    EXPECT_NE(s.out.table.classifyYuv(c.y, c.u, c.v), ColourClass::kOrange);
+
+  // Nothing but carpet and line: no ball class, rather than one of their colours.
+  imagefit::FromImages onlyForeign(v.mirror, v.field, views, poses, params);
+  stagesUpToTheBall(onlyForeign);
+  onlyForeign.out.samples.ball = foreign;
+  onlyForeign.buildTable();
+  EXPECT_EQ(onlyForeign.out.ball_samples_refused, static_cast<int>(foreign.size()));
+  EXPECT_FALSE(onlyForeign.out.ball_found);
+
+  // Out of order, the floor's cone would be empty and exclude nothing: refused.
+  imagefit::FromImages early(v.mirror, v.field, views, poses, params);
+  EXPECT_THROW(early.ballBlobs(0), std::logic_error);
+  EXPECT_THROW(early.buildTable(), std::logic_error);
 }
 
 }  // namespace

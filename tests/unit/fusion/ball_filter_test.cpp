@@ -174,6 +174,34 @@ TEST(BallFilter, ABallSeenAgainAfterItsEstimateExpiredStartsAfresh) {
   EXPECT_GT(error(updated), 0.025);
 }
 
+TEST(BallFilter, ARestartAfterExpiryStaysInvalidThroughAnOutlier) {
+  // The restart waits for a sighting that agrees; one that disagrees must not make it valid,
+  // whether or not an outlier alone invalidates the estimate (review 15).
+  BallFilterParams params = test::bareBall();
+  params.max_age_s = 0.5;
+  params.restart_when_expired = true;
+  params.restart_after_outliers = 100;
+  params.restart_distance_m = 0.0;
+  BallFilter filter(params);
+  std::mt19937 rng(9);
+  const geometry::Pose2 robot{-2.0, 0.0, 0.0};
+  Utime t = kStart;
+  for (int k = 0; k < 5; ++k, t += 33'333)
+    filter.update(sightingOf({0.0, 1.0}, robot, t, rng), robotAt(robot, t));
+  t += 2'000'000;  // expired
+  EXPECT_EQ(filter.update(sightingOf({0.0, 1.0}, robot, t, rng), robotAt(robot, t)),
+            BallRejection::kNone);
+  EXPECT_FALSE(filter.estimate(t).valid) << "restarted, awaiting a sighting that agrees";
+  t += 33'333;
+  EXPECT_EQ(filter.update(sightingOf({0.0, 2.5}, robot, t, rng), robotAt(robot, t)),
+            BallRejection::kOutlier);
+  EXPECT_FALSE(filter.estimate(t).valid) << "an outlier is no agreement";
+  t += 33'333;
+  EXPECT_EQ(filter.update(sightingOf({0.0, 1.0}, robot, t, rng), robotAt(robot, t)),
+            BallRejection::kNone);
+  EXPECT_TRUE(filter.estimate(t).valid);
+}
+
 TEST(BallFilter, RestartsWhenTheBallReallyMoved) {
   BallFilter filter(test::bareBall());
   std::mt19937 rng(3);
