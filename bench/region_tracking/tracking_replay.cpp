@@ -22,6 +22,7 @@
 #include <Eigen/LU>
 
 #include "bench/region_tracking/bench_sequence.hpp"
+#include "bench/replay_summary.hpp"
 #include "common/bus/channels.hpp"
 #include "common/bus/checked_decode.hpp"
 #include "common/bus/log_file.hpp"
@@ -96,16 +97,6 @@ struct Times {
 
 double micros(Clock::duration d) {
   return std::chrono::duration<double, std::micro>(d).count();
-}
-
-void printSummary(const char* what, std::vector<double> v) {
-  if (v.empty()) return;
-  std::sort(v.begin(), v.end());
-  double sum = 0;
-  for (double x : v)
-    sum += x;
-  std::printf("  %-8s median %7.1f us  mean %7.1f us  p90 %7.1f us\n", what, v[v.size() / 2],
-              sum / static_cast<double>(v.size()), v[v.size() * 9 / 10]);
 }
 
 }  // namespace
@@ -212,12 +203,12 @@ int main(int argc, char** argv) {
   fastest.health.erase(fastest.health.begin());
   for (std::vector<double>* v : {&fastest.track, &fastest.lines, &fastest.ball})
     if (!v->empty()) v->erase(v->begin());
-  printSummary("process", fastest.process);
+  fieldline::bench::printReplaySummary("process", fastest.process);
   if (stages) {
-    printSummary("track", fastest.track);
-    printSummary("lines", fastest.lines);
-    printSummary("ball+obs", fastest.ball);
+    fieldline::bench::printReplaySummary("track", fastest.track);
+    fieldline::bench::printReplaySummary("lines", fastest.lines);
+    fieldline::bench::printReplaySummary("ball+obs", fastest.ball);
   }
-  printSummary("health", fastest.health);
+  fieldline::bench::printReplaySummary("health", fastest.health);
   return 0;
 }

@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "bench/replay_summary.hpp"
 #include "common/bus/channels.hpp"
 #include "common/bus/checked_decode.hpp"
 #include "common/bus/log_file.hpp"
@@ -45,16 +46,6 @@ std::vector<perception::LinePoints> readLog(const std::string& path, int maxFram
     frames.push_back(std::move(points));
   }
   return frames;
-}
-
-void printSummary(const char* what, std::vector<double> v) {
-  if (v.empty()) return;
-  std::sort(v.begin(), v.end());
-  double sum = 0;
-  for (double x : v)
-    sum += x;
-  std::printf("  %-10s median %7.1f us  mean %7.1f us  p90 %7.1f us\n", what, v[v.size() / 2],
-              sum / static_cast<double>(v.size()), v[v.size() * 9 / 10]);
 }
 
 }  // namespace
@@ -103,6 +94,6 @@ int main(int argc, char** argv) {
     }
   }
   fastest.erase(fastest.begin());
-  printSummary("recognize", fastest);
+  fieldline::bench::printReplaySummary("recognize", fastest);
   return 0;
 }
